@@ -1,0 +1,556 @@
+//! DBC signal decoding, compiled from the `can-dbc` AST.
+//!
+//! A [`DbcDatabase`] is built once from one or more DBC files; every signal
+//! becomes a [`SignalCodec`] holding a precompiled [`BitField`], so decoding a
+//! frame is an id lookup plus a few shifts per signal. Values follow
+//! cantools' rules (checked against its golden vectors in `tests/golden/`):
+//! identity and integer scaling stay exact integers, anything else is
+//! `raw * factor + offset` in `f64`; float32 signals are widened to `f64`.
+
+use std::fmt::Write as _;
+use std::sync::Arc;
+
+use can_dbc::{
+    Dbc, MessageId, MultiplexIndicator, SignalExtendedValueType, ValueType,
+};
+use rustc_hash::FxHashMap;
+
+use crate::bits::{BitField, ByteOrder};
+use crate::frame::{CanId, MAX_STANDARD_ID};
+
+/// A physical value as cantools would give it: an exact integer when the
+/// scaling is integral, a float otherwise.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PhysicalValue {
+    Integer(i128),
+    Float(f64),
+}
+
+impl PhysicalValue {
+    #[inline]
+    pub fn as_f64(self) -> f64 {
+        match self {
+            PhysicalValue::Integer(v) => v as f64,
+            PhysicalValue::Float(v) => v,
+        }
+    }
+
+    /// Appends the value in shortest round-trip form (`42`, `116.88999938964844`,
+    /// `1e-7`, `NaN`, `inf`); integral floats drop the `.0`.
+    #[inline]
+    pub fn push_shortest(self, out: &mut Vec<u8>) {
+        match self {
+            PhysicalValue::Integer(v) => out.extend_from_slice(itoa::Buffer::new().format(v).as_bytes()),
+            PhysicalValue::Float(v) => push_shortest_f64(out, v),
+        }
+    }
+}
+
+/// Appends `value` in shortest round-trip form, without a trailing `.0`.
+#[inline]
+pub fn push_shortest_f64(out: &mut Vec<u8>, value: f64) {
+    let mut buffer = ryu::Buffer::new();
+    let text = buffer.format(value).as_bytes();
+    out.extend_from_slice(text.strip_suffix(b".0").unwrap_or(text));
+}
+
+/// How the raw bits are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding {
+    Unsigned,
+    Signed,
+    Float32,
+    Float64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Scaling {
+    Identity,
+    Integer { factor: i128, offset: i128 },
+    Linear { factor: f64, offset: f64 },
+}
+
+/// One signal, ready to decode.
+#[derive(Clone, Debug)]
+pub struct SignalCodec {
+    pub name: String,
+    pub unit: String,
+    pub field: BitField,
+    pub encoding: Encoding,
+    pub factor: f64,
+    pub offset: f64,
+    scaling: Scaling,
+    /// `Some(v)`: only present when the message's multiplexor has raw value `v`.
+    pub multiplexer_value: Option<u64>,
+    /// Value-table labels by raw value, sorted.
+    labels: Vec<(i64, String)>,
+}
+
+impl SignalCodec {
+    /// The raw value read from the payload, as a signed integer for
+    /// integer signals (label lookups and multiplexing use it).
+    #[inline]
+    fn raw_integer(&self, raw: u64) -> i128 {
+        match self.encoding {
+            Encoding::Signed => i128::from(self.field.sign_extend(raw)),
+            _ => i128::from(raw),
+        }
+    }
+
+    /// Decodes the signal from a payload; `None` if the payload is too short.
+    #[inline]
+    pub fn decode(&self, payload: &[u8]) -> Option<PhysicalValue> {
+        let raw = self.field.extract(payload)?;
+        Some(self.scale(raw))
+    }
+
+    #[inline]
+    fn scale(&self, raw: u64) -> PhysicalValue {
+        let float = match self.encoding {
+            Encoding::Float32 => Some(f64::from(f32::from_bits(raw as u32))),
+            Encoding::Float64 => Some(f64::from_bits(raw)),
+            _ => None,
+        };
+        match (float, self.scaling) {
+            (Some(x), Scaling::Identity) => PhysicalValue::Float(x),
+            (Some(x), _) => PhysicalValue::Float(x * self.factor + self.offset),
+            (None, Scaling::Identity) => PhysicalValue::Integer(self.raw_integer(raw)),
+            (None, Scaling::Integer { factor, offset }) => {
+                PhysicalValue::Integer(self.raw_integer(raw) * factor + offset)
+            }
+            (None, Scaling::Linear { factor, offset }) => {
+                PhysicalValue::Float(self.raw_integer(raw) as f64 * factor + offset)
+            }
+        }
+    }
+
+    /// The value-table label of the raw value in `payload`, if any.
+    pub fn label(&self, payload: &[u8]) -> Option<&str> {
+        if self.labels.is_empty() || matches!(self.encoding, Encoding::Float32 | Encoding::Float64) {
+            return None;
+        }
+        let raw = i64::try_from(self.raw_integer(self.field.extract(payload)?)).ok()?;
+        self.labels
+            .binary_search_by_key(&raw, |(value, _)| *value)
+            .ok()
+            .map(|i| self.labels[i].1.as_str())
+    }
+
+    pub fn labels(&self) -> &[(i64, String)] {
+        &self.labels
+    }
+}
+
+/// One message and its signals.
+#[derive(Clone, Debug)]
+pub struct MessageCodec {
+    pub id: CanId,
+    pub name: String,
+    /// Payload length declared in the DBC, bytes.
+    pub size: usize,
+    pub signals: Vec<SignalCodec>,
+    multiplexor: Option<usize>,
+    /// The DBC file this message came from.
+    pub source: Arc<str>,
+}
+
+/// A frame shorter than its DBC message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("frame has {got} bytes, the DBC message needs {needed}")]
+pub struct ShortFrame {
+    pub got: usize,
+    pub needed: usize,
+}
+
+impl MessageCodec {
+    /// Calls `emit(signal_index, value)` for every signal present in the
+    /// payload: all plain signals, and multiplexed ones only when the
+    /// multiplexor selects them. A frame shorter than the message is refused
+    /// whole, as cantools does.
+    #[inline]
+    pub fn decode(
+        &self,
+        payload: &[u8],
+        mut emit: impl FnMut(usize, PhysicalValue),
+    ) -> Result<(), ShortFrame> {
+        if payload.len() < self.size {
+            return Err(ShortFrame {
+                got: payload.len(),
+                needed: self.size,
+            });
+        }
+        let selector = self
+            .multiplexor
+            .and_then(|i| self.signals[i].field.extract(payload));
+        for (index, signal) in self.signals.iter().enumerate() {
+            if let Some(wanted) = signal.multiplexer_value {
+                if selector != Some(wanted) {
+                    continue;
+                }
+            }
+            if let Some(raw) = signal.field.extract(payload) {
+                emit(index, signal.scale(raw));
+            }
+        }
+        Ok(())
+    }
+
+    pub fn signal(&self, name: &str) -> Option<(usize, &SignalCodec)> {
+        self.signals.iter().enumerate().find(|(_, s)| s.name == name)
+    }
+}
+
+/// A DBC could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum DbcError {
+    #[error("{source_name}: not a valid DBC file: {detail}")]
+    Syntax { source_name: String, detail: String },
+    #[error("{source_name}: message {message} (id {id}): signal {signal}: {detail}")]
+    Signal {
+        source_name: String,
+        message: String,
+        id: CanId,
+        signal: String,
+        detail: String,
+    },
+    #[error("{source_name}: message {message}: id 0x{raw:X} is not a valid CAN id")]
+    BadId {
+        source_name: String,
+        message: String,
+        raw: u32,
+    },
+    #[error("message id {id} is defined twice: {first_message} in {first_source} and {second_message} in {second_source}")]
+    Duplicate {
+        id: CanId,
+        first_message: String,
+        first_source: String,
+        second_message: String,
+        second_source: String,
+    },
+}
+
+/// Something in a DBC that was skipped; loading went on.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DbcWarning(pub String);
+
+/// All messages of one or more DBC files, indexed by CAN id.
+#[derive(Clone, Debug, Default)]
+pub struct DbcDatabase {
+    messages: Vec<MessageCodec>,
+    /// Index into `messages` by 11-bit id (`u32::MAX` = none); a flat table
+    /// because standard ids are the common case and a lookup must be cheap.
+    standard: Vec<u32>,
+    extended: FxHashMap<u32, u32>,
+}
+
+const NO_MESSAGE: u32 = u32::MAX;
+
+impl DbcDatabase {
+    pub fn new() -> Self {
+        DbcDatabase {
+            messages: Vec::new(),
+            standard: vec![NO_MESSAGE; usize::from(MAX_STANDARD_ID) + 1],
+            extended: FxHashMap::default(),
+        }
+    }
+
+    /// Parses DBC text; `source_name` names it in errors. Messages that use
+    /// what this decoder does not support (extended multiplexing) are skipped
+    /// with a warning rather than failing the whole file.
+    pub fn parse(text: &str, source_name: &str) -> Result<(Self, Vec<DbcWarning>), DbcError> {
+        let dbc = Dbc::try_from(text).map_err(|e| DbcError::Syntax {
+            source_name: source_name.to_string(),
+            detail: e.to_string(),
+        })?;
+        let mut database = DbcDatabase::new();
+        let mut warnings = Vec::new();
+        let source: Arc<str> = Arc::from(source_name);
+        for message in &dbc.messages {
+            match compile_message(&dbc, message, &source)? {
+                Ok(codec) => database.add(codec)?,
+                Err(warning) => warnings.push(warning),
+            }
+        }
+        Ok((database, warnings))
+    }
+
+    /// Adds a message; an id defined twice is an error naming both sources.
+    pub fn add(&mut self, codec: MessageCodec) -> Result<(), DbcError> {
+        if let Some(existing) = self.message(codec.id) {
+            return Err(DbcError::Duplicate {
+                id: codec.id,
+                first_message: existing.name.clone(),
+                first_source: existing.source.to_string(),
+                second_message: codec.name,
+                second_source: codec.source.to_string(),
+            });
+        }
+        let index = self.messages.len() as u32;
+        match codec.id {
+            CanId::Standard(id) => self.standard[usize::from(id)] = index,
+            CanId::Extended(id) => {
+                self.extended.insert(id, index);
+            }
+        }
+        self.messages.push(codec);
+        Ok(())
+    }
+
+    /// Merges another database (another DBC file) into this one.
+    pub fn merge(&mut self, other: DbcDatabase) -> Result<(), DbcError> {
+        other.messages.into_iter().try_for_each(|m| self.add(m))
+    }
+
+    /// The message with this id, if any.
+    #[inline]
+    pub fn message(&self, id: CanId) -> Option<&MessageCodec> {
+        self.message_index(id).map(|i| &self.messages[i])
+    }
+
+    /// Index of the message with this id (stable for the database's life).
+    #[inline]
+    pub fn message_index(&self, id: CanId) -> Option<usize> {
+        let index = match id {
+            CanId::Standard(id) => *self.standard.get(usize::from(id))?,
+            CanId::Extended(id) => *self.extended.get(&id)?,
+        };
+        (index != NO_MESSAGE).then_some(index as usize)
+    }
+
+    pub fn messages(&self) -> &[MessageCodec] {
+        &self.messages
+    }
+
+    pub fn message_by_name(&self, name: &str) -> Option<&MessageCodec> {
+        self.messages.iter().find(|m| m.name == name)
+    }
+}
+
+fn compile_message(
+    dbc: &Dbc,
+    message: &can_dbc::Message,
+    source: &Arc<str>,
+) -> Result<Result<MessageCodec, DbcWarning>, DbcError> {
+    let id = match message.id {
+        MessageId::Standard(id) => CanId::standard(id),
+        MessageId::Extended(id) => CanId::extended(id),
+    }
+    .ok_or_else(|| DbcError::BadId {
+        source_name: source.to_string(),
+        message: message.name.clone(),
+        raw: message.id.raw(),
+    })?;
+    let signal_error = |signal: &str, detail: String| DbcError::Signal {
+        source_name: source.to_string(),
+        message: message.name.clone(),
+        id,
+        signal: signal.to_string(),
+        detail,
+    };
+
+    let mut signals = Vec::with_capacity(message.signals.len());
+    let mut multiplexor = None;
+    for (index, signal) in message.signals.iter().enumerate() {
+        let multiplexer_value = match signal.multiplexer_indicator {
+            MultiplexIndicator::Plain => None,
+            MultiplexIndicator::Multiplexor => {
+                if multiplexor.replace(index).is_some() {
+                    return Ok(Err(DbcWarning(format!(
+                        "{source}: message {} ({id}) skipped: more than one multiplexor signal (extended multiplexing is not supported)",
+                        message.name
+                    ))));
+                }
+                None
+            }
+            MultiplexIndicator::MultiplexedSignal(v) => Some(v),
+            MultiplexIndicator::MultiplexorAndMultiplexedSignal(_) => {
+                return Ok(Err(DbcWarning(format!(
+                    "{source}: message {} ({id}) skipped: signal {} is both multiplexed and a multiplexor (extended multiplexing is not supported)",
+                    message.name, signal.name
+                ))));
+            }
+        };
+        let order = match signal.byte_order {
+            can_dbc::ByteOrder::LittleEndian => ByteOrder::LittleEndian,
+            can_dbc::ByteOrder::BigEndian => ByteOrder::BigEndian,
+        };
+        let field = BitField::new(order, signal.start_bit, signal.size)
+            .map_err(|e| signal_error(&signal.name, e.to_string()))?;
+        if field.end_byte() > message.size as usize {
+            return Err(signal_error(
+                &signal.name,
+                format!(
+                    "needs {} bytes but the message is declared with {}",
+                    field.end_byte(),
+                    message.size
+                ),
+            ));
+        }
+        let encoding = match dbc.extended_value_type_for_signal(message.id, &signal.name) {
+            Some(SignalExtendedValueType::IEEEfloat32Bit) => Encoding::Float32,
+            Some(SignalExtendedValueType::IEEEdouble64bit) => Encoding::Float64,
+            _ => match signal.value_type {
+                ValueType::Signed => Encoding::Signed,
+                ValueType::Unsigned => Encoding::Unsigned,
+            },
+        };
+        let needed_bits = match encoding {
+            Encoding::Float32 => Some(32),
+            Encoding::Float64 => Some(64),
+            _ => None,
+        };
+        if let Some(bits) = needed_bits {
+            if signal.size != bits {
+                return Err(signal_error(
+                    &signal.name,
+                    format!("declared as a {bits}-bit float but {} bits long", signal.size),
+                ));
+            }
+        }
+        let mut labels: Vec<(i64, String)> = dbc
+            .value_descriptions_for_signal(message.id, &signal.name)
+            .unwrap_or_default()
+            .iter()
+            .map(|d| (d.id, d.description.clone()))
+            .collect();
+        labels.sort_by_key(|(value, _)| *value);
+        signals.push(SignalCodec {
+            name: signal.name.clone(),
+            unit: signal.unit.clone(),
+            field,
+            encoding,
+            factor: signal.factor,
+            offset: signal.offset,
+            scaling: scaling(signal.factor, signal.offset),
+            multiplexer_value,
+            labels,
+        });
+    }
+    if multiplexor.is_none() && signals.iter().any(|s| s.multiplexer_value.is_some()) {
+        return Ok(Err(DbcWarning(format!(
+            "{source}: message {} ({id}) skipped: multiplexed signals but no multiplexor",
+            message.name
+        ))));
+    }
+    Ok(Ok(MessageCodec {
+        id,
+        name: message.name.clone(),
+        size: message.size as usize,
+        signals,
+        multiplexor,
+        source: Arc::clone(source),
+    }))
+}
+
+fn scaling(factor: f64, offset: f64) -> Scaling {
+    // cantools keeps integers exact when factor and offset are integers.
+    const EXACT: f64 = 9_007_199_254_740_992.0; // 2^53
+    let integral = |x: f64| x.fract() == 0.0 && x.abs() < EXACT;
+    if factor == 1.0 && offset == 0.0 {
+        Scaling::Identity
+    } else if integral(factor) && integral(offset) {
+        Scaling::Integer {
+            factor: factor as i128,
+            offset: offset as i128,
+        }
+    } else {
+        Scaling::Linear { factor, offset }
+    }
+}
+
+/// A one-line description of every message, for `--list` style output.
+pub fn describe(database: &DbcDatabase) -> String {
+    let mut text = String::new();
+    for m in database.messages() {
+        let _ = writeln!(text, "{} {} ({} bytes, {} signals)", m.id, m.name, m.size, m.signals.len());
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const DBC: &str = r#"VERSION ""
+
+NS_ :
+
+BS_:
+
+BU_: DAQ
+
+BO_ 768 Force: 8 DAQ
+ SG_ TipForce : 0|32@1- (1,0) [-100|100] "kN" Vector__XXX
+ SG_ Status : 32|8@1+ (1,0) [0|3] "" Vector__XXX
+
+BO_ 2566848513 Temps: 8 DAQ
+ SG_ Oil : 7|16@0+ (0.1,-40) [-40|200] "degC" Vector__XXX
+ SG_ Mode M : 16|8@1+ (1,0) [0|255] "" Vector__XXX
+ SG_ A m0 : 24|8@1+ (2,-100) [0|0] "" Vector__XXX
+ SG_ B m1 : 24|16@1- (1,0) [0|0] "" Vector__XXX
+
+SIG_VALTYPE_ 768 TipForce : 1;
+VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
+"#;
+
+    #[test]
+    fn decodes_floats_scaling_labels_and_multiplexing() {
+        let (db, warnings) = DbcDatabase::parse(DBC, "inline.dbc").unwrap();
+        assert!(warnings.is_empty());
+        let force = db.message(CanId::Standard(0x300)).unwrap();
+        let mut payload = [0u8; 8];
+        payload[..4].copy_from_slice(&40.6f32.to_le_bytes());
+        payload[4] = 1;
+        let mut values = Vec::new();
+        force.decode(&payload, |i, v| values.push((i, v))).unwrap();
+        assert_eq!(values, vec![
+            (0, PhysicalValue::Float(f64::from(40.6f32))),
+            (1, PhysicalValue::Integer(1)),
+        ]);
+        assert_eq!(force.signals[1].label(&payload), Some("overload"));
+
+        let temps = db.message(CanId::Extended(0x18FF_0001)).unwrap();
+        // Oil raw 0x0312 = 786 -> 38.6 degC; mode 0 selects A: 7*2-100 = -86.
+        let payload = [0x03, 0x12, 0x00, 0x07, 0xFF, 0xFF, 0, 0];
+        let mut values = Vec::new();
+        temps.decode(&payload, |i, v| values.push((temps.signals[i].name.as_str(), v))).unwrap();
+        assert_eq!(values, vec![
+            ("Oil", PhysicalValue::Float(786.0 * 0.1 - 40.0)),
+            ("Mode", PhysicalValue::Integer(0)),
+            ("A", PhysicalValue::Integer(-86)),
+        ]);
+        let payload = [0x03, 0x12, 0x01, 0xFE, 0xFF, 0, 0, 0];
+        let mut names = Vec::new();
+        temps.decode(&payload, |i, v| names.push((temps.signals[i].name.as_str(), v))).unwrap();
+        assert_eq!(names[2], ("B", PhysicalValue::Integer(-2)));
+        assert!(temps.decode(&payload[..7], |_, _| {}).is_err());
+    }
+
+    #[test]
+    fn shortest_form() {
+        let text = |v: PhysicalValue| {
+            let mut out = Vec::new();
+            v.push_shortest(&mut out);
+            String::from_utf8(out).unwrap()
+        };
+        assert_eq!(text(PhysicalValue::Float(100.0)), "100");
+        assert_eq!(text(PhysicalValue::Float(0.1)), "0.1");
+        assert_eq!(text(PhysicalValue::Float(f64::from(116.89f32))), "116.88999938964844");
+        assert_eq!(text(PhysicalValue::Integer(-170141183460469231731687303715884105728)), "-170141183460469231731687303715884105728");
+        assert_eq!(text(PhysicalValue::Float(-0.0)), "-0");
+    }
+
+    #[test]
+    fn duplicate_ids_across_files_name_both() {
+        let (mut first, _) = DbcDatabase::parse(DBC, "a.dbc").unwrap();
+        let (second, _) = DbcDatabase::parse(DBC, "b.dbc").unwrap();
+        let error = first.merge(second).unwrap_err().to_string();
+        assert!(error.contains("a.dbc") && error.contains("b.dbc"), "{error}");
+    }
+
+    #[test]
+    fn bad_dbc_is_a_syntax_error_naming_the_file() {
+        let error = DbcDatabase::parse("BO_ x", "broken.dbc").unwrap_err().to_string();
+        assert!(error.starts_with("broken.dbc: not a valid DBC file"), "{error}");
+    }
+}

@@ -1,0 +1,24 @@
+//! The driver layer of `acq`: from bytes on a CAN bus to engineering values.
+//!
+//! Pure decoding with no I/O runtime (no tokio, no sockets), so everything
+//! here runs the same on a live bus, on a log file and under a fuzzer.
+//!
+//! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface.
+//! - [`log`], [`candump`], [`asc`]: log records and formats (can-utils `candump -L`, Vector ASC).
+//! - [`bits`]: bit fields in both byte orders, shared by all protocols.
+//! - [`dbc`]: DBC signals, compiled from the `can-dbc` AST.
+//! - [`canopen`], [`j1939`]: the two device protocols on the rigs.
+//! - [`profiles`]: sensor physics (pressure, force, strain, inclination, displacement).
+//! - [`rig`]: the rig file: buses and sensors, validated.
+//! - [`sensors`]: frames -> samples through a rig.
+
+pub mod asc;
+pub mod bits;
+pub mod candump;
+pub mod dbc;
+pub mod frame;
+mod hex;
+pub mod log;
+
+pub use frame::{CanId, Direction, Frame, FrameKind, IfaceName};
+pub use log::{LogFormat, LogReader, LogRecord, ParseError, ReadError};

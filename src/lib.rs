@@ -1,0 +1,17 @@
+//! `acq`: acquisition bridge and calibration core for test engineers who
+//! validate finite-element digital twins against measurements.
+//!
+//! The binary is thin glue over this library, and this library over the
+//! driver crate `acq_drivers` (frames, logs, protocols, sensors). Data flows
+//! one way: bus -> frames -> decoded samples -> aligned table -> measured
+//! values -> loss -> calibration -> report; no module reaches back up.
+//!
+//! - [`cli`]: argument definitions and dispatch.
+//! - [`decode`]: `acq decode`, logs to CSV through DBC files or a rig.
+//! - [`input`], [`output`]: opening logs and writing results; [`error`]: exit codes.
+
+pub mod cli;
+pub mod decode;
+pub mod error;
+pub mod input;
+pub mod output;

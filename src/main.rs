@@ -1,1 +1,17 @@
-fn main() {}
+//! The `acq` binary: parses the command line and maps errors to exit codes.
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let cli = acq::cli::Cli::parse();
+    match acq::cli::run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) if error.is_broken_pipe() => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("acq: error: {error}");
+            ExitCode::from(error.exit_code())
+        }
+    }
+}

@@ -150,31 +150,34 @@ pub struct MessageCodec {
     pub size: usize,
     pub signals: Vec<SignalCodec>,
     multiplexor: Option<usize>,
+    /// The multiplexer values that select signals, sorted.
+    multiplexer_values: Vec<u64>,
     /// The DBC file this message came from.
     pub source: Arc<str>,
 }
 
-/// A frame shorter than its DBC message.
+/// A frame its DBC message cannot decode (cantools refuses the same ones).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("frame has {got} bytes, the DBC message needs {needed}")]
-pub struct ShortFrame {
-    pub got: usize,
-    pub needed: usize,
+pub enum FrameDecodeError {
+    #[error("frame has {got} bytes, the DBC message needs {needed}")]
+    Short { got: usize, needed: usize },
+    #[error("multiplexer value {0} selects no signals in the DBC")]
+    UnknownMultiplexerValue(u64),
 }
 
 impl MessageCodec {
     /// Calls `emit(signal_index, value)` for every signal present in the
     /// payload: all plain signals, and multiplexed ones only when the
-    /// multiplexor selects them. A frame shorter than the message is refused
-    /// whole, as cantools does.
+    /// multiplexor selects them. A frame shorter than the message, or whose
+    /// multiplexer value selects nothing, is refused whole, as cantools does.
     #[inline]
     pub fn decode(
         &self,
         payload: &[u8],
         mut emit: impl FnMut(usize, PhysicalValue),
-    ) -> Result<(), ShortFrame> {
+    ) -> Result<(), FrameDecodeError> {
         if payload.len() < self.size {
-            return Err(ShortFrame {
+            return Err(FrameDecodeError::Short {
                 got: payload.len(),
                 needed: self.size,
             });
@@ -182,6 +185,11 @@ impl MessageCodec {
         let selector = self
             .multiplexor
             .and_then(|i| self.signals[i].field.extract(payload));
+        if let Some(value) = selector {
+            if self.multiplexer_values.binary_search(&value).is_err() {
+                return Err(FrameDecodeError::UnknownMultiplexerValue(value));
+            }
+        }
         for (index, signal) in self.signals.iter().enumerate() {
             if let Some(wanted) = signal.multiplexer_value {
                 if selector != Some(wanted) {
@@ -195,6 +203,33 @@ impl MessageCodec {
         Ok(())
     }
 
+    /// Decodes one signal: `Ok(None)` when the multiplexer does not select it.
+    #[inline]
+    pub fn decode_signal(
+        &self,
+        payload: &[u8],
+        index: usize,
+    ) -> Result<Option<PhysicalValue>, FrameDecodeError> {
+        if payload.len() < self.size {
+            return Err(FrameDecodeError::Short {
+                got: payload.len(),
+                needed: self.size,
+            });
+        }
+        let Some(signal) = self.signals.get(index) else {
+            return Ok(None);
+        };
+        if let Some(wanted) = signal.multiplexer_value {
+            let selector = self
+                .multiplexor
+                .and_then(|i| self.signals[i].field.extract(payload));
+            if selector != Some(wanted) {
+                return Ok(None);
+            }
+        }
+        Ok(signal.decode(payload))
+    }
+
     pub fn signal(&self, name: &str) -> Option<(usize, &SignalCodec)> {
         self.signals.iter().enumerate().find(|(_, s)| s.name == name)
     }
@@ -203,6 +238,8 @@ impl MessageCodec {
 /// A DBC could not be used.
 #[derive(Debug, thiserror::Error)]
 pub enum DbcError {
+    #[error("cannot read DBC file {source_name}: {detail}")]
+    Unreadable { source_name: String, detail: String },
     #[error("{source_name}: not a valid DBC file: {detail}")]
     Syntax { source_name: String, detail: String },
     #[error("{source_name}: message {message} (id {id}): signal {signal}: {detail}")]
@@ -270,6 +307,34 @@ impl DbcDatabase {
                 Ok(codec) => database.add(codec)?,
                 Err(warning) => warnings.push(warning),
             }
+        }
+        Ok((database, warnings))
+    }
+
+    /// Reads and parses one DBC file (UTF-8, or Latin-1 as Windows tools
+    /// often write it).
+    pub fn load(path: &std::path::Path) -> Result<(Self, Vec<DbcWarning>), DbcError> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| DbcError::Unreadable {
+            source_name: name.clone(),
+            detail: e.to_string(),
+        })?;
+        let text = match String::from_utf8(bytes) {
+            Ok(text) => text,
+            // Latin-1 maps each byte to the code point of the same value.
+            Err(e) => e.into_bytes().iter().map(|&b| char::from(b)).collect(),
+        };
+        Self::parse(&text, &name)
+    }
+
+    /// Loads several files into one database; an id in two files is an error.
+    pub fn load_all(paths: &[std::path::PathBuf]) -> Result<(Self, Vec<DbcWarning>), DbcError> {
+        let mut database = DbcDatabase::new();
+        let mut warnings = Vec::new();
+        for path in paths {
+            let (one, mut more) = Self::load(path)?;
+            database.merge(one)?;
+            warnings.append(&mut more);
         }
         Ok((database, warnings))
     }
@@ -432,12 +497,17 @@ fn compile_message(
             message.name
         ))));
     }
+    let mut multiplexer_values: Vec<u64> =
+        signals.iter().filter_map(|s| s.multiplexer_value).collect();
+    multiplexer_values.sort_unstable();
+    multiplexer_values.dedup();
     Ok(Ok(MessageCodec {
         id,
         name: message.name.clone(),
         size: message.size as usize,
         signals,
         multiplexor,
+        multiplexer_values,
         source: Arc::clone(source),
     }))
 }
@@ -524,6 +594,11 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         temps.decode(&payload, |i, v| names.push((temps.signals[i].name.as_str(), v))).unwrap();
         assert_eq!(names[2], ("B", PhysicalValue::Integer(-2)));
         assert!(temps.decode(&payload[..7], |_, _| {}).is_err());
+        let unknown_page = [0x03, 0x12, 0x02, 0, 0, 0, 0, 0];
+        assert_eq!(
+            temps.decode(&unknown_page, |_, _| {}),
+            Err(FrameDecodeError::UnknownMultiplexerValue(2))
+        );
     }
 
     #[test]

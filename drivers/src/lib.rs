@@ -15,10 +15,15 @@
 pub mod asc;
 pub mod bits;
 pub mod candump;
+pub mod canopen;
 pub mod dbc;
 pub mod frame;
+pub mod j1939;
 mod hex;
 pub mod log;
+pub mod profiles;
+pub mod rig;
+pub mod sensors;
 
 pub use frame::{CanId, Direction, Frame, FrameKind, IfaceName};
 pub use log::{LogFormat, LogReader, LogRecord, ParseError, ReadError};

@@ -1,0 +1,665 @@
+//! The rig file: which buses a test uses and, per sensor, what it measures,
+//! how it is addressed on the bus and how its value is scaled.
+//!
+//! ```toml
+//! [rig]
+//! name = "DX55 front attachment"
+//!
+//! [[bus]]
+//! name = "machine"
+//! iface = "can0"
+//! bitrate = 250000
+//! dbc = ["../dbc/daq.dbc"]        # relative to this file
+//!
+//! [[sensor]]
+//! name = "boom_head_pressure"
+//! kind = "pressure"                # pressure | force | strain | inclination | displacement
+//! rate_hz = 100                    # expected rate; silence past 3 periods is a gap
+//! canopen = { node_id = 0x25, pdo = 1, byte = 0, type = "int32", decimal_digits = 2, heartbeat_ms = 1000 }
+//! ```
+//!
+//! Exactly one of `dbc = { message, signal }`, `canopen = {...}` or
+//! `j1939 = { pgn, source_address, start_bit, length_bits, resolution, offset }`
+//! says where the value is. `unit` is the unit the channel is sent in
+//! (default: the DBC signal's unit, else the kind's own unit); the output is
+//! always in the kind's unit (bar, kN, MPa, deg, mm). Optional `scale` and
+//! `offset` apply the sensor's calibration in the channel's unit first.
+//! Loading collects every problem in the file, each with its line.
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::bits::BitField;
+use crate::canopen::{self, PdoMapping, PdoType};
+use crate::dbc::DbcDatabase;
+use crate::frame::{CanId, IfaceName};
+use crate::j1939::Spn;
+use crate::profiles::{
+    displacement, force, inclination, pressure, strain, Linear, ProfileError, SensorKind,
+};
+
+// ---- The file as written ----------------------------------------------------
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigFile {
+    rig: Option<RigMetaFile>,
+    #[serde(default, rename = "bus")]
+    buses: Vec<Spanned<BusFile>>,
+    #[serde(default, rename = "sensor")]
+    sensors: Vec<Spanned<SensorFile>>,
+    #[serde(default, rename = "cylinder")]
+    cylinders: Vec<Spanned<CylinderFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigMetaFile {
+    name: Option<String>,
+    description: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BusFile {
+    name: String,
+    iface: String,
+    bitrate: Option<u32>,
+    #[serde(default)]
+    dbc: Vec<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SensorFile {
+    name: String,
+    kind: SensorKind,
+    bus: Option<String>,
+    unit: Option<String>,
+    rate_hz: f64,
+    scale: Option<f64>,
+    offset: Option<f64>,
+    dbc: Option<DbcAddress>,
+    canopen: Option<CanopenAddress>,
+    j1939: Option<J1939Address>,
+    // Profile constants.
+    gauge_factor: Option<f64>,
+    bridge: Option<strain::Bridge>,
+    youngs_modulus_gpa: Option<f64>,
+    mm_per_mv_per_v: Option<f64>,
+    /// Gauge or measuring-point number on the structure.
+    location: Option<u32>,
+    description: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DbcAddress {
+    message: String,
+    signal: String,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CanopenAddress {
+    node_id: u8,
+    pdo: u8,
+    byte: usize,
+    #[serde(rename = "type")]
+    data_type: PdoType,
+    #[serde(default)]
+    decimal_digits: u8,
+    heartbeat_ms: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct J1939Address {
+    pgn: u32,
+    source_address: Option<u8>,
+    spn: Option<u32>,
+    start_bit: u64,
+    length_bits: u64,
+    resolution: f64,
+    offset: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CylinderFile {
+    name: String,
+    bore_mm: f64,
+    rod_mm: f64,
+    head_sensor: String,
+    rod_sensor: String,
+}
+
+// ---- The validated rig ------------------------------------------------------
+
+/// One CAN bus of the rig.
+#[derive(Clone, Debug)]
+pub struct Bus {
+    pub name: String,
+    pub iface: IfaceName,
+    pub bitrate: Option<u32>,
+    /// DBC files as resolved paths.
+    pub dbc_files: Vec<PathBuf>,
+    /// All messages of this bus's DBC files.
+    pub dbc: DbcDatabase,
+}
+
+/// Where a sensor's value is on the bus.
+#[derive(Clone, Debug)]
+pub enum SensorSource {
+    Dbc {
+        id: CanId,
+        message: String,
+        signal: String,
+        signal_index: usize,
+    },
+    Canopen {
+        node_id: u8,
+        pdo: u8,
+        cob_id: CanId,
+        mapping: PdoMapping,
+        /// Heartbeat producer period, if the node sends one.
+        heartbeat_ms: Option<f64>,
+    },
+    J1939 {
+        pgn: u32,
+        /// `None`: accept any sender.
+        source_address: Option<u8>,
+        spn_number: Option<u32>,
+        spn: Spn,
+    },
+}
+
+impl SensorSource {
+    pub fn protocol(&self) -> &'static str {
+        match self {
+            SensorSource::Dbc { .. } => "dbc",
+            SensorSource::Canopen { .. } => "canopen",
+            SensorSource::J1939 { .. } => "j1939",
+        }
+    }
+}
+
+/// One sensor, ready to decode.
+#[derive(Clone, Debug)]
+pub struct Sensor {
+    pub name: String,
+    pub kind: SensorKind,
+    /// Index into [`Rig::buses`].
+    pub bus: usize,
+    pub source: SensorSource,
+    /// Unit the channel is sent in.
+    pub channel_unit: String,
+    /// Expected sample rate.
+    pub rate_hz: f64,
+    /// Channel value -> output (calibration, then the kind's physics).
+    pub conversion: Linear,
+    pub location: Option<u32>,
+    pub description: Option<String>,
+    /// 1-based line of the sensor in the rig file.
+    pub line: usize,
+}
+
+impl Sensor {
+    /// The unit of this sensor's output.
+    pub fn unit(&self) -> &'static str {
+        self.kind.output_unit()
+    }
+
+    /// Expected period between samples, ns.
+    pub fn period_ns(&self) -> i64 {
+        (1e9 / self.rate_hz).round() as i64
+    }
+}
+
+/// A hydraulic cylinder with a transducer on each chamber.
+#[derive(Clone, Debug)]
+pub struct Cylinder {
+    pub name: String,
+    pub bore: pressure::CylinderBore,
+    /// Sensor indices.
+    pub head_sensor: usize,
+    pub rod_sensor: usize,
+}
+
+/// A validated rig.
+#[derive(Clone, Debug)]
+pub struct Rig {
+    pub name: String,
+    pub description: Option<String>,
+    pub path: PathBuf,
+    pub buses: Vec<Bus>,
+    pub sensors: Vec<Sensor>,
+    pub cylinders: Vec<Cylinder>,
+    /// Non-fatal remarks (skipped DBC messages and the like).
+    pub warnings: Vec<String>,
+}
+
+/// One thing wrong in a rig file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RigProblem {
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+/// A rig file that cannot be used, with every problem found.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RigError {
+    pub path: PathBuf,
+    pub problems: Vec<RigProblem>,
+}
+
+impl std::fmt::Display for RigError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let count = self.problems.len();
+        write!(f, "{} has {count} problem{}:", self.path.display(), if count == 1 { "" } else { "s" })?;
+        for problem in &self.problems {
+            match problem.line {
+                Some(line) => write!(f, "\n  {}:{line}: {}", self.path.display(), problem.message)?,
+                None => write!(f, "\n  {}: {}", self.path.display(), problem.message)?,
+            }
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for RigError {}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+impl Rig {
+    /// Reads, parses and validates a rig file (and the DBC files it names).
+    pub fn load(path: &Path) -> Result<Rig, RigError> {
+        let fail = |message: String| RigError {
+            path: path.to_path_buf(),
+            problems: vec![RigProblem { line: None, message }],
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read the rig file: {e}")))?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::parse(&text, path, base)
+    }
+
+    /// Parses rig text; DBC paths are resolved against `base`.
+    pub fn parse(text: &str, path: &Path, base: &Path) -> Result<Rig, RigError> {
+        let file: RigFile = toml::from_str(text).map_err(|e| RigError {
+            path: path.to_path_buf(),
+            problems: vec![RigProblem {
+                line: e.span().map(|s| line_of(text, s.start)),
+                message: e.message().trim().to_string(),
+            }],
+        })?;
+        let mut problems = Vec::new();
+        let mut warnings = Vec::new();
+        let mut report = |line: usize, message: String| problems.push(RigProblem { line: Some(line), message });
+
+        if file.sensors.is_empty() {
+            report(1, "no [[sensor]] defined: a rig needs at least one".into());
+        }
+        if file.buses.is_empty() {
+            report(1, "no [[bus]] defined: add one with name, iface (e.g. can0) and its dbc files".into());
+        }
+
+        // Buses and their DBC files.
+        let mut buses: Vec<Bus> = Vec::new();
+        for spanned in &file.buses {
+            let line = line_of(text, spanned.span().start);
+            let bus = spanned.get_ref();
+            if buses.iter().any(|b| b.name == bus.name) {
+                report(line, format!("bus '{}' is defined twice", bus.name));
+                continue;
+            }
+            let Some(iface) = IfaceName::new(&bus.iface) else {
+                report(line, format!("bus '{}': iface '{}' is not an interface name (1-15 characters, no spaces)", bus.name, bus.iface));
+                continue;
+            };
+            let mut database = DbcDatabase::new();
+            let mut dbc_files = Vec::new();
+            for relative in &bus.dbc {
+                let dbc_path = base.join(relative);
+                if !dbc_path.is_file() {
+                    report(line, format!("bus '{}': DBC file {} not found (paths are relative to the rig file)", bus.name, dbc_path.display()));
+                    continue;
+                }
+                match DbcDatabase::load(&dbc_path).and_then(|(one, skipped)| {
+                    database.merge(one)?;
+                    Ok(skipped)
+                }) {
+                    Ok(skipped) => warnings.extend(skipped.into_iter().map(|w| w.0)),
+                    Err(e) => report(line, format!("bus '{}': {e}", bus.name)),
+                }
+                dbc_files.push(dbc_path);
+            }
+            buses.push(Bus {
+                name: bus.name.clone(),
+                iface,
+                bitrate: bus.bitrate,
+                dbc_files,
+                dbc: database,
+            });
+        }
+
+        // Sensors.
+        let mut sensors: Vec<Sensor> = Vec::new();
+        let mut names: HashMap<String, usize> = HashMap::new();
+        for spanned in &file.sensors {
+            let line = line_of(text, spanned.span().start);
+            let sensor = spanned.get_ref();
+            let name = &sensor.name;
+            if let Some(first) = names.insert(name.clone(), line) {
+                report(line, format!("sensor '{name}' is defined twice (first on line {first})"));
+                continue;
+            }
+            if name.is_empty() || name.contains([',', '"', '\n']) {
+                report(line, format!("sensor name '{name}' must be non-empty without commas or quotes (it is a CSV column)"));
+                continue;
+            }
+            if !(sensor.rate_hz > 0.0 && sensor.rate_hz.is_finite()) {
+                report(line, format!("sensor '{name}': rate_hz must be a positive number of samples per second, got {}", sensor.rate_hz));
+            }
+            let bus = match (&sensor.bus, buses.len()) {
+                (Some(bus_name), _) => match buses.iter().position(|b| &b.name == bus_name) {
+                    Some(i) => i,
+                    None => {
+                        let known: Vec<&str> = buses.iter().map(|b| b.name.as_str()).collect();
+                        report(line, format!("sensor '{name}': unknown bus '{bus_name}' (buses: {})", known.join(", ")));
+                        continue;
+                    }
+                },
+                (None, 1) => 0,
+                (None, 0) => continue,
+                (None, _) => {
+                    report(line, format!("sensor '{name}': the rig has several buses; say which with bus = \"...\""));
+                    continue;
+                }
+            };
+            let addresses = [sensor.dbc.is_some(), sensor.canopen.is_some(), sensor.j1939.is_some()];
+            if addresses.iter().filter(|&&a| a).count() != 1 {
+                report(line, format!("sensor '{name}': give exactly one of dbc = {{ message, signal }}, canopen = {{ node_id, pdo, byte, type }} or j1939 = {{ pgn, start_bit, length_bits, resolution, offset }}"));
+                continue;
+            }
+            let (source, default_unit) = match compile_source(sensor, &buses[bus]) {
+                Ok(compiled) => compiled,
+                Err(message) => {
+                    report(line, format!("sensor '{name}': {message}"));
+                    continue;
+                }
+            };
+            let channel_unit = sensor.unit.clone().or(default_unit).unwrap_or_else(|| sensor.kind.output_unit().to_string());
+            let physics = match profile_conversion(sensor, &channel_unit) {
+                Ok(physics) => physics,
+                Err(e) => {
+                    report(line, format!("sensor '{name}': {e}"));
+                    continue;
+                }
+            };
+            let calibration = Linear {
+                gain: sensor.scale.unwrap_or(1.0),
+                offset: sensor.offset.unwrap_or(0.0),
+            };
+            if !(calibration.gain.is_finite() && calibration.gain != 0.0 && calibration.offset.is_finite()) {
+                report(line, format!("sensor '{name}': scale must be a non-zero number and offset a number"));
+                continue;
+            }
+            sensors.push(Sensor {
+                name: name.clone(),
+                kind: sensor.kind,
+                bus,
+                source,
+                channel_unit,
+                rate_hz: sensor.rate_hz,
+                conversion: physics.after(calibration),
+                location: sensor.location,
+                description: sensor.description.clone(),
+                line,
+            });
+        }
+        check_overlaps(&sensors, &buses, &mut report);
+
+        // Cylinders.
+        let mut cylinders = Vec::new();
+        for spanned in &file.cylinders {
+            let line = line_of(text, spanned.span().start);
+            let cylinder = spanned.get_ref();
+            let find = |sensor_name: &str, chamber: &str| match sensors.iter().position(|s| s.name == sensor_name) {
+                Some(i) if sensors[i].kind == SensorKind::Pressure => Ok(i),
+                Some(_) => Err(format!("cylinder '{}': {chamber} sensor '{sensor_name}' is not a pressure sensor", cylinder.name)),
+                None => Err(format!("cylinder '{}': no sensor named '{sensor_name}' for the {chamber} chamber", cylinder.name)),
+            };
+            let bore = pressure::CylinderBore::new(cylinder.bore_mm, cylinder.rod_mm)
+                .map_err(|e| format!("cylinder '{}': {e}", cylinder.name));
+            match (find(&cylinder.head_sensor, "head"), find(&cylinder.rod_sensor, "rod"), bore) {
+                (Ok(head_sensor), Ok(rod_sensor), Ok(bore)) => cylinders.push(Cylinder {
+                    name: cylinder.name.clone(),
+                    bore,
+                    head_sensor,
+                    rod_sensor,
+                }),
+                (head, rod, bore) => {
+                    for message in [head.err(), rod.err(), bore.err()].into_iter().flatten() {
+                        report(line, message);
+                    }
+                }
+            }
+        }
+
+        if !problems.is_empty() {
+            return Err(RigError {
+                path: path.to_path_buf(),
+                problems,
+            });
+        }
+        let meta = file.rig.unwrap_or(RigMetaFile { name: None, description: None });
+        Ok(Rig {
+            name: meta.name.unwrap_or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()),
+            description: meta.description,
+            path: path.to_path_buf(),
+            buses,
+            sensors,
+            cylinders,
+            warnings,
+        })
+    }
+
+    pub fn sensor(&self, name: &str) -> Option<(usize, &Sensor)> {
+        self.sensors.iter().enumerate().find(|(_, s)| s.name == name)
+    }
+
+    /// A plain-text account of the rig: what `acq check-rig` prints.
+    pub fn explain(&self) -> String {
+        let mut text = String::new();
+        let _ = writeln!(text, "rig '{}' ({}): OK", self.name, self.path.display());
+        if let Some(description) = &self.description {
+            let _ = writeln!(text, "  {description}");
+        }
+        for bus in &self.buses {
+            let bitrate = bus.bitrate.map(|b| format!(", {} kbit/s", b / 1000)).unwrap_or_default();
+            let _ = writeln!(text, "bus '{}' on {}{bitrate}: {} DBC messages from {} file(s)", bus.name, bus.iface, bus.dbc.messages().len(), bus.dbc_files.len());
+        }
+        let _ = writeln!(text, "{} sensors:", self.sensors.len());
+        for sensor in &self.sensors {
+            let address = match &sensor.source {
+                SensorSource::Dbc { id, message, signal, .. } => format!("DBC {message}.{signal} (id {id})"),
+                SensorSource::Canopen { node_id, pdo, cob_id, mapping, heartbeat_ms } => format!(
+                    "CANopen node {node_id} TPDO{pdo} (COB-ID {cob_id}) {:?} at byte {}, {} decimal digits{}",
+                    mapping.data_type,
+                    mapping.field.end_byte() - mapping.data_type.size_bytes(),
+                    mapping.decimal_digits,
+                    heartbeat_ms.map(|h| format!(", heartbeat {h} ms")).unwrap_or_default()
+                ),
+                SensorSource::J1939 { pgn, source_address, spn_number, spn } => format!(
+                    "J1939 PGN {pgn}{} from {}, {} bits x {} + {}",
+                    spn_number.map(|n| format!(" SPN {n}")).unwrap_or_default(),
+                    source_address.map(|a| format!("SA 0x{a:02X}")).unwrap_or_else(|| "any SA".into()),
+                    spn.field.length_bits(),
+                    spn.resolution,
+                    spn.offset
+                ),
+            };
+            let _ = writeln!(
+                text,
+                "  {:<24} {:<12} {:>7} Hz  {} -> {}  {}",
+                sensor.name,
+                sensor.kind.name(),
+                sensor.rate_hz,
+                sensor.channel_unit,
+                sensor.unit(),
+                address
+            );
+        }
+        for cylinder in &self.cylinders {
+            let _ = writeln!(
+                text,
+                "cylinder '{}': bore {} mm, rod {} mm, head {} / rod {}",
+                cylinder.name,
+                cylinder.bore.bore_diameter_mm,
+                cylinder.bore.rod_diameter_mm,
+                self.sensors[cylinder.head_sensor].name,
+                self.sensors[cylinder.rod_sensor].name
+            );
+        }
+        for warning in &self.warnings {
+            let _ = writeln!(text, "warning: {warning}");
+        }
+        text
+    }
+}
+
+/// Protocol addressing -> compiled source, plus the channel unit the
+/// protocol itself declares (a DBC signal's unit).
+fn compile_source(sensor: &SensorFile, bus: &Bus) -> Result<(SensorSource, Option<String>), String> {
+    if let Some(address) = &sensor.dbc {
+        let Some(message) = bus.dbc.message_by_name(&address.message) else {
+            let known: Vec<&str> = bus.dbc.messages().iter().map(|m| m.name.as_str()).take(20).collect();
+            return Err(if bus.dbc_files.is_empty() {
+                format!("DBC message '{}' but bus '{}' has no dbc files", address.message, bus.name)
+            } else {
+                format!("unknown DBC message '{}' on bus '{}' (messages: {})", address.message, bus.name, known.join(", "))
+            });
+        };
+        let Some((signal_index, signal)) = message.signal(&address.signal) else {
+            let known: Vec<&str> = message.signals.iter().map(|s| s.name.as_str()).collect();
+            return Err(format!("unknown signal '{}' in DBC message '{}' (signals: {})", address.signal, message.name, known.join(", ")));
+        };
+        let unit = (!signal.unit.is_empty()).then(|| signal.unit.clone());
+        return Ok((
+            SensorSource::Dbc {
+                id: message.id,
+                message: message.name.clone(),
+                signal: signal.name.clone(),
+                signal_index,
+            },
+            unit,
+        ));
+    }
+    if let Some(address) = &sensor.canopen {
+        let cob_id = canopen::tpdo_cob_id(address.pdo, address.node_id).ok_or_else(|| {
+            format!("canopen node_id must be 1..=127 and pdo 1..=4 (TPDO1-4), got node_id {} pdo {}", address.node_id, address.pdo)
+        })?;
+        let mapping = PdoMapping::new(address.byte, address.data_type, address.decimal_digits).map_err(|e| format!("canopen mapping: {e}"))?;
+        if let Some(period) = address.heartbeat_ms {
+            if !(period > 0.0 && period.is_finite()) {
+                return Err(format!("canopen heartbeat_ms must be positive, got {period}"));
+            }
+        }
+        return Ok((
+            SensorSource::Canopen {
+                node_id: address.node_id,
+                pdo: address.pdo,
+                cob_id,
+                mapping,
+                heartbeat_ms: address.heartbeat_ms,
+            },
+            None,
+        ));
+    }
+    let address = sensor.j1939.as_ref().ok_or("no address")?;
+    if address.pgn > 0x3_FFFF {
+        return Err(format!("j1939 pgn {} is larger than 18 bits", address.pgn));
+    }
+    let field = BitField::new(crate::bits::ByteOrder::LittleEndian, address.start_bit, address.length_bits)
+        .ok()
+        .filter(|f| f.end_byte() <= 8)
+        .ok_or_else(|| format!("j1939 field of {} bits at bit {} does not fit in 8 bytes", address.length_bits, address.start_bit))?;
+    if !(address.resolution.is_finite() && address.resolution != 0.0 && address.offset.is_finite()) {
+        return Err("j1939 resolution must be a non-zero number and offset a number".into());
+    }
+    Ok((
+        SensorSource::J1939 {
+            pgn: address.pgn,
+            source_address: address.source_address,
+            spn_number: address.spn,
+            spn: Spn {
+                field,
+                resolution: address.resolution,
+                offset: address.offset,
+            },
+        },
+        None,
+    ))
+}
+
+fn profile_conversion(sensor: &SensorFile, unit: &str) -> Result<Linear, ProfileError> {
+    match sensor.kind {
+        SensorKind::Pressure => pressure::to_bar(unit),
+        SensorKind::Force => force::to_kilonewton(unit),
+        SensorKind::Inclination => inclination::to_degrees(unit),
+        SensorKind::Displacement => displacement::to_millimetres(unit, sensor.mm_per_mv_per_v),
+        SensorKind::Strain => strain::to_stress_mpa(
+            unit,
+            strain::StrainChannel {
+                youngs_modulus_gpa: sensor.youngs_modulus_gpa.ok_or_else(|| {
+                    ProfileError::Invalid("a strain sensor needs youngs_modulus_gpa (SWS490A steel: 210)".into())
+                })?,
+                gauge_factor: sensor.gauge_factor,
+                bridge: sensor.bridge,
+            },
+        ),
+    }
+}
+
+/// Two sensors reading the same bits, or a CANopen COB-ID that a DBC message
+/// on the same bus also claims, would silently mix values: refuse both.
+fn check_overlaps(sensors: &[Sensor], buses: &[Bus], report: &mut impl FnMut(usize, String)) {
+    for (i, a) in sensors.iter().enumerate() {
+        for b in &sensors[..i] {
+            if a.bus != b.bus {
+                continue;
+            }
+            let same = match (&a.source, &b.source) {
+                (SensorSource::Dbc { id: ia, signal: sa, .. }, SensorSource::Dbc { id: ib, signal: sb, .. }) => ia == ib && sa == sb,
+                (SensorSource::Canopen { cob_id: ca, mapping: ma, .. }, SensorSource::Canopen { cob_id: cb, mapping: mb, .. }) => {
+                    let range = |m: &PdoMapping| (m.field.end_byte() - m.data_type.size_bytes())..m.field.end_byte();
+                    let (ra, rb) = (range(ma), range(mb));
+                    ca == cb && ra.start < rb.end && rb.start < ra.end
+                }
+                (SensorSource::J1939 { pgn: pa, source_address: xa, spn: na, .. }, SensorSource::J1939 { pgn: pb, source_address: xb, spn: nb, .. }) => {
+                    pa == pb && (xa == xb || xa.is_none() || xb.is_none()) && na.field == nb.field
+                }
+                _ => false,
+            };
+            if same {
+                report(a.line, format!("sensor '{}' reads the same value as sensor '{}' (line {}): duplicate id/address", a.name, b.name, b.line));
+            }
+        }
+        if let SensorSource::Canopen { cob_id, .. } = &a.source {
+            if let Some(message) = buses[a.bus].dbc.message(*cob_id) {
+                report(a.line, format!("sensor '{}': COB-ID {cob_id} is also DBC message '{}' on bus '{}': duplicate id", a.name, message.name, buses[a.bus].name));
+            }
+        }
+    }
+}

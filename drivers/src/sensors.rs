@@ -1,0 +1,196 @@
+//! Frames -> samples, through a rig: each sensor decoded in its own protocol
+//! and converted to its engineering unit.
+//!
+//! Frames are matched to a bus by interface name; a rig with a single bus
+//! takes frames from any interface (so a log recorded on `can0` decodes the
+//! same after a replay on `vcan0`).
+
+use rustc_hash::FxHashMap;
+
+use crate::canopen::{HeartbeatEvent, HeartbeatMonitor};
+use crate::frame::{Frame, FrameKind};
+use crate::j1939::J1939Id;
+use crate::rig::{Rig, SensorSource};
+
+/// One value of one sensor at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    pub time_ns: i64,
+    /// Index into [`Rig::sensors`].
+    pub sensor: usize,
+    /// `None`: the device sent "error" or "not available" (J1939), or a
+    /// value that is not a finite number. A missing sample, never a number.
+    pub value: Option<f64>,
+}
+
+/// What decoding a frame produced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SensorEvent {
+    Sample(Sample),
+    /// A CANopen node's heartbeat changed state or timed out; `sensors`
+    /// lists the rig's sensors on that node via [`SensorDecoder::node_sensors`].
+    Heartbeat { bus: usize, event: HeartbeatEvent },
+}
+
+/// What a frame was to the rig.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameUse {
+    /// At least one sensor value came from it.
+    Decoded,
+    /// A heartbeat or other protocol frame the rig follows.
+    Protocol,
+    /// No sensor of the rig is on this id.
+    Unknown,
+    /// A known id whose frame was too short or did not match its message.
+    Undecodable,
+    /// An error or remote frame.
+    NotData,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct J1939Entry {
+    source_address: Option<u8>,
+    sensor: usize,
+}
+
+/// Decodes frames into sensor samples for one rig.
+pub struct SensorDecoder<'r> {
+    rig: &'r Rig,
+    /// Sensors by (bus, CAN id key) for DBC and CANopen sources.
+    by_id: FxHashMap<(usize, u32), Vec<usize>>,
+    /// J1939 sensors by (bus, PGN).
+    by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>>,
+    heartbeats: Vec<HeartbeatMonitor>,
+}
+
+/// A heartbeat lost after this many producer periods.
+pub const HEARTBEAT_TIMEOUT_PERIODS: f64 = 3.0;
+
+impl<'r> SensorDecoder<'r> {
+    pub fn new(rig: &'r Rig) -> Self {
+        let mut by_id: FxHashMap<(usize, u32), Vec<usize>> = FxHashMap::default();
+        let mut by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>> = FxHashMap::default();
+        let mut heartbeats = vec![HeartbeatMonitor::default(); rig.buses.len()];
+        for (index, sensor) in rig.sensors.iter().enumerate() {
+            match &sensor.source {
+                SensorSource::Dbc { id, .. } => by_id.entry((sensor.bus, id.key())).or_default().push(index),
+                SensorSource::Canopen { cob_id, node_id, heartbeat_ms, .. } => {
+                    by_id.entry((sensor.bus, cob_id.key())).or_default().push(index);
+                    if let Some(period_ms) = heartbeat_ms {
+                        let timeout_ns = (period_ms * 1e6 * HEARTBEAT_TIMEOUT_PERIODS).round() as i64;
+                        heartbeats[sensor.bus].watch(*node_id, timeout_ns);
+                    }
+                }
+                SensorSource::J1939 { pgn, source_address, .. } => by_pgn.entry((sensor.bus, *pgn)).or_default().push(J1939Entry {
+                    source_address: *source_address,
+                    sensor: index,
+                }),
+            }
+        }
+        SensorDecoder { rig, by_id, by_pgn, heartbeats }
+    }
+
+    /// The bus a frame belongs to.
+    #[inline]
+    pub fn bus_of(&self, frame: &Frame) -> Option<usize> {
+        if self.rig.buses.len() == 1 {
+            return Some(0);
+        }
+        self.rig.buses.iter().position(|b| b.iface == frame.iface)
+    }
+
+    /// Decodes one frame, emitting samples and heartbeat events in order.
+    pub fn decode(&mut self, frame: &Frame, mut emit: impl FnMut(SensorEvent)) -> FrameUse {
+        let Some(bus) = self.bus_of(frame) else {
+            return FrameUse::Unknown;
+        };
+        let mut protocol = false;
+        self.heartbeats[bus].on_frame(frame, |event| {
+            protocol = true;
+            emit(SensorEvent::Heartbeat { bus, event });
+        });
+        self.heartbeats[bus].check(frame.timestamp_ns, |event| emit(SensorEvent::Heartbeat { bus, event }));
+        if !matches!(frame.kind, FrameKind::Data { .. } | FrameKind::Fd { .. }) {
+            return FrameUse::NotData;
+        }
+        let payload = frame.payload();
+        let time_ns = frame.timestamp_ns;
+        let mut decoded = false;
+        let mut undecodable = false;
+        if let Some(sensors) = self.by_id.get(&(bus, frame.id.key())) {
+            for &index in sensors {
+                let sensor = &self.rig.sensors[index];
+                let channel = match &sensor.source {
+                    SensorSource::Dbc { signal_index, .. } => {
+                        let Some(message) = self.rig.buses[bus].dbc.message(frame.id) else { continue };
+                        match message.decode_signal(payload, *signal_index) {
+                            Ok(Some(value)) => Some(value.as_f64()),
+                            Ok(None) => continue, // not selected by the multiplexer
+                            Err(_) => {
+                                undecodable = true;
+                                continue;
+                            }
+                        }
+                    }
+                    SensorSource::Canopen { mapping, .. } => match mapping.process_value(payload) {
+                        Some(value) => Some(value),
+                        None => {
+                            undecodable = true;
+                            continue;
+                        }
+                    },
+                    SensorSource::J1939 { .. } => continue,
+                };
+                decoded = true;
+                emit(SensorEvent::Sample(Sample {
+                    time_ns,
+                    sensor: index,
+                    value: channel.map(|v| sensor.conversion.apply(v)).filter(|v| v.is_finite()),
+                }));
+            }
+        }
+        if let Some(id) = J1939Id::from_can_id(frame.id) {
+            if let Some(entries) = self.by_pgn.get(&(bus, id.pgn)) {
+                for entry in entries {
+                    if entry.source_address.is_some_and(|sa| sa != id.source_address) {
+                        continue;
+                    }
+                    let sensor = &self.rig.sensors[entry.sensor];
+                    let SensorSource::J1939 { spn, .. } = &sensor.source else { continue };
+                    if spn.field.end_byte() > payload.len() {
+                        undecodable = true;
+                        continue;
+                    }
+                    decoded = true;
+                    emit(SensorEvent::Sample(Sample {
+                        time_ns,
+                        sensor: entry.sensor,
+                        value: spn.value(payload).map(|v| sensor.conversion.apply(v)).filter(|v| v.is_finite()),
+                    }));
+                }
+            }
+        }
+        match (decoded, undecodable, protocol) {
+            (true, _, _) => FrameUse::Decoded,
+            (false, true, _) => FrameUse::Undecodable,
+            (false, false, true) => FrameUse::Protocol,
+            (false, false, false) => FrameUse::Unknown,
+        }
+    }
+
+    /// Checks heartbeat timeouts at `now_ns` without a frame (end of a log,
+    /// or a live clock tick).
+    pub fn check_heartbeats(&mut self, now_ns: i64, mut emit: impl FnMut(SensorEvent)) {
+        for (bus, monitor) in self.heartbeats.iter_mut().enumerate() {
+            monitor.check(now_ns, |event| emit(SensorEvent::Heartbeat { bus, event }));
+        }
+    }
+
+    /// The sensors of the rig on CANopen node `node` of bus `bus`.
+    pub fn node_sensors(&self, bus: usize, node: u8) -> impl Iterator<Item = usize> + '_ {
+        self.rig.sensors.iter().enumerate().filter_map(move |(i, s)| match s.source {
+            SensorSource::Canopen { node_id, .. } if s.bus == bus && node_id == node => Some(i),
+            _ => None,
+        })
+    }
+}

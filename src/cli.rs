@@ -1,0 +1,123 @@
+//! The `acq` command line: argument definitions and dispatch to the library.
+
+use std::path::PathBuf;
+
+use acq_drivers::dbc::DbcDatabase;
+use acq_drivers::rig::Rig;
+use clap::{Args, Parser, Subcommand};
+
+use crate::decode::{self, DbcDecodeOptions};
+use crate::error::{AcqError, Result};
+use crate::input::{open_logs, BadLines};
+use crate::output::Output;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "acq",
+    version,
+    about = "Sensor-data acquisition bridge and calibration core for digital-twin validation",
+    after_help = "Exit codes: 0 success, 1 I/O failure, 2 usage or configuration error, 3 malformed input."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Decode CAN logs (candump -L or Vector ASC) to CSV, through DBC files or a rig.
+    Decode(DecodeArgs),
+    /// Validate a rig file and explain every problem found.
+    CheckRig(CheckRigArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct DecodeArgs {
+    /// Log files to decode, in order; `-` reads stdin.
+    #[arg(required = true, value_name = "LOG")]
+    pub logs: Vec<PathBuf>,
+    /// DBC file(s); output: time_s,iface,can_id,message,signal,value,unit.
+    #[arg(long = "dbc", value_name = "FILE", required_unless_present = "rig", conflicts_with = "rig")]
+    pub dbc: Vec<PathBuf>,
+    /// Rig file; output: time_s,sensor,value,unit.
+    #[arg(long, value_name = "RIG.toml")]
+    pub rig: Option<PathBuf>,
+    /// Output CSV file; `-` or absent writes to stdout.
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Count malformed lines and go on instead of stopping at the first.
+    #[arg(long)]
+    pub skip_bad: bool,
+    /// Add a `label` column with the DBC value-table label of each value.
+    #[arg(long, conflicts_with = "rig")]
+    pub labels: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CheckRigArgs {
+    /// The rig file to check.
+    #[arg(value_name = "RIG.toml")]
+    pub rig: PathBuf,
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Decode(args) => run_decode(args),
+        Command::CheckRig(args) => run_check_rig(args),
+    }
+}
+
+fn bad_lines(skip_bad: bool) -> BadLines {
+    if skip_bad {
+        BadLines::Skip
+    } else {
+        BadLines::Stop
+    }
+}
+
+fn run_decode(args: DecodeArgs) -> Result<()> {
+    let mut inputs = open_logs(&args.logs)?;
+    if let Some(rig_path) = &args.rig {
+        let rig = load_rig(rig_path)?;
+        let mut output = Output::create(args.output.as_deref())?;
+        let summary = decode::decode_with_rig(&mut inputs, &rig, bad_lines(args.skip_bad), &mut output);
+        return finish(summary, output);
+    }
+    let (database, warnings) = DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+    for warning in warnings {
+        eprintln!("acq: warning: {}", warning.0);
+    }
+    let mut output = Output::create(args.output.as_deref())?;
+    let options = DbcDecodeOptions {
+        bad_lines: bad_lines(args.skip_bad),
+        labels: args.labels,
+    };
+    let summary = decode::decode_with_dbc(&mut inputs, &database, options, &mut output);
+    finish(summary, output)
+}
+
+/// Flushes what was decoded even when decoding stopped at a bad line, then
+/// reports the summary.
+fn finish(summary: Result<decode::DecodeSummary>, output: Output) -> Result<()> {
+    let flushed = output.finish();
+    let summary = summary?;
+    flushed?;
+    decode::report(&summary);
+    Ok(())
+}
+
+fn run_check_rig(args: CheckRigArgs) -> Result<()> {
+    let rig = load_rig(&args.rig)?;
+    print!("{}", rig.explain());
+    Ok(())
+}
+
+/// Loads a rig; every problem in it is a configuration error (exit 2).
+pub fn load_rig(path: &std::path::Path) -> Result<Rig> {
+    let rig = Rig::load(path).map_err(|e| AcqError::Config(e.to_string()))?;
+    for warning in &rig.warnings {
+        eprintln!("acq: warning: {warning}");
+    }
+    Ok(rig)
+}

@@ -1,0 +1,100 @@
+//! Opening the logs named on a command line (`-` is stdin) and walking
+//! their records with the bad-line policy every command shares.
+
+use std::fs::File;
+use std::io::{self, BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+use acq_drivers::{LogReader, LogRecord, ReadError};
+
+use crate::error::{AcqError, Result};
+
+const READ_BUFFER_BYTES: usize = 256 * 1024;
+
+/// One opened log.
+pub struct LogInput {
+    /// The name used in messages: the path, or `<stdin>`.
+    pub name: String,
+    reader: LogReader<Box<dyn BufRead>>,
+}
+
+/// Opens every log up front, so a missing file fails before any output.
+pub fn open_logs(paths: &[PathBuf]) -> Result<Vec<LogInput>> {
+    if paths.iter().filter(|p| p.as_os_str() == "-").count() > 1 {
+        return Err(AcqError::Config("stdin ('-') can be given only once".into()));
+    }
+    paths.iter().map(|p| open_log(p)).collect()
+}
+
+pub fn open_log(path: &Path) -> Result<LogInput> {
+    let (name, raw): (String, Box<dyn BufRead>) = if path.as_os_str() == "-" {
+        (
+            "<stdin>".into(),
+            Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, io::stdin())),
+        )
+    } else {
+        let file = File::open(path).map_err(|e| AcqError::open(path, e))?;
+        (
+            path.display().to_string(),
+            Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
+        )
+    };
+    let (reader, _format) =
+        LogReader::detect(raw).map_err(|e| AcqError::io(format!("reading {name}"), e))?;
+    Ok(LogInput { name, reader })
+}
+
+/// What to do with a malformed line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BadLines {
+    /// Stop with `file:line: expected ...` (exit 3).
+    Stop,
+    /// Count it and go on (`--skip-bad`).
+    Skip,
+}
+
+/// Counts of the walk over the logs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScanCounts {
+    pub frames: u64,
+    pub malformed_lines: u64,
+}
+
+/// How many malformed lines are reported one by one before only counting.
+const REPORTED_BAD_LINES: u64 = 10;
+
+/// Calls `on_record` for every frame of every log, in order.
+pub fn for_each_record(
+    inputs: &mut [LogInput],
+    bad_lines: BadLines,
+    counts: &mut ScanCounts,
+    mut on_record: impl FnMut(&str, &LogRecord<'_>) -> Result<()>,
+) -> Result<()> {
+    for input in inputs.iter_mut() {
+        loop {
+            match input.reader.next_record() {
+                Ok(Some(record)) => {
+                    counts.frames += 1;
+                    on_record(&input.name, &record)?;
+                }
+                Ok(None) => break,
+                Err(ReadError::Parse(error)) => {
+                    let message = format!("{}:{}: expected {}", input.name, error.line, error.expected);
+                    match bad_lines {
+                        BadLines::Stop => return Err(AcqError::Malformed(message)),
+                        BadLines::Skip => {
+                            counts.malformed_lines += 1;
+                            if counts.malformed_lines <= REPORTED_BAD_LINES {
+                                eprintln!("acq: skipped {message}");
+                            }
+                        }
+                    }
+                }
+                Err(ReadError::Io(error)) => {
+                    return Err(AcqError::io(format!("reading {}", input.name), error))
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,86 @@
+//! Where command output goes (`-` is stdout), with a large buffer written
+//! out in chunks: the decode hot path appends bytes to a `Vec` and never
+//! calls `write` per field.
+
+use std::borrow::Cow;
+use std::fs::File;
+use std::io::{self, Write};
+use std::path::Path;
+
+use crate::error::{AcqError, Result};
+
+const FLUSH_AT_BYTES: usize = 256 * 1024;
+
+pub struct Output {
+    name: String,
+    sink: Box<dyn Write>,
+    /// Pending bytes; commands append here directly.
+    pub buffer: Vec<u8>,
+}
+
+impl Output {
+    /// Creates the output file (or stdout for `-` / `None`).
+    pub fn create(path: Option<&Path>) -> Result<Self> {
+        let (name, sink): (String, Box<dyn Write>) = match path {
+            None => ("<stdout>".into(), Box::new(io::stdout().lock())),
+            Some(p) if p.as_os_str() == "-" => ("<stdout>".into(), Box::new(io::stdout().lock())),
+            Some(p) => (
+                p.display().to_string(),
+                Box::new(File::create(p).map_err(|e| {
+                    AcqError::Config(format!("cannot create {}: {e}", p.display()))
+                })?),
+            ),
+        };
+        Ok(Output {
+            name,
+            sink,
+            buffer: Vec::with_capacity(FLUSH_AT_BYTES + 4096),
+        })
+    }
+
+    /// Writes the buffer out once it is large; call after each record.
+    #[inline]
+    pub fn maybe_flush(&mut self) -> Result<()> {
+        if self.buffer.len() >= FLUSH_AT_BYTES {
+            self.write_buffer()?;
+        }
+        Ok(())
+    }
+
+    fn write_buffer(&mut self) -> Result<()> {
+        self.sink
+            .write_all(&self.buffer)
+            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
+        self.buffer.clear();
+        Ok(())
+    }
+
+    /// Writes everything out and flushes the sink.
+    pub fn finish(mut self) -> Result<()> {
+        self.write_buffer()?;
+        self.sink
+            .flush()
+            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))
+    }
+}
+
+/// A CSV field, quoted only when it must be (RFC 4180).
+pub fn csv_field(text: &str) -> Cow<'_, str> {
+    if text.contains([',', '"', '\n', '\r']) {
+        Cow::Owned(format!("\"{}\"", text.replace('"', "\"\"")))
+    } else {
+        Cow::Borrowed(text)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::csv_field;
+
+    #[test]
+    fn quotes_only_when_needed() {
+        assert_eq!(csv_field("kN"), "kN");
+        assert_eq!(csv_field("N,m"), "\"N,m\"");
+        assert_eq!(csv_field("a\"b"), "\"a\"\"b\"");
+    }
+}

@@ -245,10 +245,10 @@ fn describe_heartbeat(rig: &Rig, bus: usize, event: HeartbeatEvent) -> String {
     let seconds = |ns: i64| ns as f64 / 1e9;
     match event {
         HeartbeatEvent::StateChanged { node, state, time_ns } => {
-            format!("{:.6}: CANopen node {node} ({}) is {state:?}", seconds(time_ns), sensors_on(node))
+            format!("{:.6}: CANopen node 0x{node:02X} ({}) is {state:?}", seconds(time_ns), sensors_on(node))
         }
         HeartbeatEvent::Lost { node, last_seen_ns, time_ns } => format!(
-            "{:.6}: CANopen node {node} ({}) LOST: no heartbeat since {}",
+            "{:.6}: CANopen node 0x{node:02X} ({}) LOST: no heartbeat since {}",
             seconds(time_ns),
             sensors_on(node),
             last_seen_ns.map(|t| format!("{:.6}", seconds(t))).unwrap_or_else(|| "the start".into())

@@ -85,6 +85,19 @@ pub enum PdoType {
 }
 
 impl PdoType {
+    /// The name used in rig files.
+    pub fn name(self) -> &'static str {
+        match self {
+            PdoType::Int8 => "int8",
+            PdoType::Uint8 => "uint8",
+            PdoType::Int16 => "int16",
+            PdoType::Uint16 => "uint16",
+            PdoType::Int32 => "int32",
+            PdoType::Uint32 => "uint32",
+            PdoType::Real32 => "real32",
+        }
+    }
+
     pub fn size_bytes(self) -> usize {
         match self {
             PdoType::Int8 | PdoType::Uint8 => 1,

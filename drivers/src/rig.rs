@@ -495,8 +495,8 @@ impl Rig {
             let address = match &sensor.source {
                 SensorSource::Dbc { id, message, signal, .. } => format!("DBC {message}.{signal} (id {id})"),
                 SensorSource::Canopen { node_id, pdo, cob_id, mapping, heartbeat_ms } => format!(
-                    "CANopen node {node_id} TPDO{pdo} (COB-ID {cob_id}) {:?} at byte {}, {} decimal digits{}",
-                    mapping.data_type,
+                    "CANopen node 0x{node_id:02X} TPDO{pdo} (COB-ID {cob_id}) {} at byte {}, {} decimal digits{}",
+                    mapping.data_type.name(),
                     mapping.field.end_byte() - mapping.data_type.size_bytes(),
                     mapping.decimal_digits,
                     heartbeat_ms.map(|h| format!(", heartbeat {h} ms")).unwrap_or_default()

@@ -37,7 +37,12 @@ pub struct DecodeArgs {
     #[arg(required = true, value_name = "LOG")]
     pub logs: Vec<PathBuf>,
     /// DBC file(s); output: time_s,iface,can_id,message,signal,value,unit.
-    #[arg(long = "dbc", value_name = "FILE", required_unless_present = "rig", conflicts_with = "rig")]
+    #[arg(
+        long = "dbc",
+        value_name = "FILE",
+        required_unless_present = "rig",
+        conflicts_with = "rig"
+    )]
     pub dbc: Vec<PathBuf>,
     /// Rig file; output: time_s,sensor,value,unit.
     #[arg(long, value_name = "RIG.toml")]
@@ -81,10 +86,12 @@ fn run_decode(args: DecodeArgs) -> Result<()> {
     if let Some(rig_path) = &args.rig {
         let rig = load_rig(rig_path)?;
         let mut output = Output::create(args.output.as_deref())?;
-        let summary = decode::decode_with_rig(&mut inputs, &rig, bad_lines(args.skip_bad), &mut output);
+        let summary =
+            decode::decode_with_rig(&mut inputs, &rig, bad_lines(args.skip_bad), &mut output);
         return finish(summary, output);
     }
-    let (database, warnings) = DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+    let (database, warnings) =
+        DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
     for warning in warnings {
         eprintln!("acq: warning: {}", warning.0);
     }

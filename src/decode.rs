@@ -150,7 +150,10 @@ pub fn decode_with_dbc(
                         summary.rows += written;
                     }
                     // Refused before anything was written.
-                    Err(FrameDecodeError::Short { .. } | FrameDecodeError::UnknownMultiplexerValue(_)) => {
+                    Err(
+                        FrameDecodeError::Short { .. }
+                        | FrameDecodeError::UnknownMultiplexerValue(_),
+                    ) => {
                         summary.undecodable += 1;
                     }
                 }
@@ -184,7 +187,12 @@ pub fn decode_with_rig(
     let rows: Vec<(Vec<u8>, Vec<u8>)> = rig
         .sensors
         .iter()
-        .map(|s| (format!(",{},", s.name).into_bytes(), format!(",{}\n", s.unit()).into_bytes()))
+        .map(|s| {
+            (
+                format!(",{},", s.name).into_bytes(),
+                format!(",{}\n", s.unit()).into_bytes(),
+            )
+        })
         .collect();
     output.buffer.extend_from_slice(RIG_HEADER.as_bytes());
     output.buffer.push(b'\n');
@@ -205,7 +213,9 @@ pub fn decode_with_rig(
                 buffer.extend_from_slice(tail);
                 summary.rows += 1;
             }
-            SensorEvent::Heartbeat { bus, event } => heartbeat_notes.push(describe_heartbeat(rig, bus, event)),
+            SensorEvent::Heartbeat { bus, event } => {
+                heartbeat_notes.push(describe_heartbeat(rig, bus, event))
+            }
         });
         match used {
             FrameUse::Decoded => summary.decoded += 1,
@@ -237,21 +247,38 @@ fn describe_heartbeat(rig: &Rig, bus: usize, event: HeartbeatEvent) -> String {
         let names: Vec<&str> = rig
             .sensors
             .iter()
-            .filter(|s| s.bus == bus && matches!(s.source, SensorSource::Canopen { node_id, .. } if node_id == node))
+            .filter(|s| {
+                s.bus == bus
+                    && matches!(s.source, SensorSource::Canopen { node_id, .. } if node_id == node)
+            })
             .map(|s| s.name.as_str())
             .collect();
         names.join(", ")
     };
     let seconds = |ns: i64| ns as f64 / 1e9;
     match event {
-        HeartbeatEvent::StateChanged { node, state, time_ns } => {
-            format!("{:.6}: CANopen node 0x{node:02X} ({}) is {state:?}", seconds(time_ns), sensors_on(node))
+        HeartbeatEvent::StateChanged {
+            node,
+            state,
+            time_ns,
+        } => {
+            format!(
+                "{:.6}: CANopen node 0x{node:02X} ({}) is {state:?}",
+                seconds(time_ns),
+                sensors_on(node)
+            )
         }
-        HeartbeatEvent::Lost { node, last_seen_ns, time_ns } => format!(
+        HeartbeatEvent::Lost {
+            node,
+            last_seen_ns,
+            time_ns,
+        } => format!(
             "{:.6}: CANopen node 0x{node:02X} ({}) LOST: no heartbeat since {}",
             seconds(time_ns),
             sensors_on(node),
-            last_seen_ns.map(|t| format!("{:.6}", seconds(t))).unwrap_or_else(|| "the start".into())
+            last_seen_ns
+                .map(|t| format!("{:.6}", seconds(t)))
+                .unwrap_or_else(|| "the start".into())
         ),
     }
 }

@@ -21,9 +21,19 @@ pub struct LogInput {
 /// Opens every log up front, so a missing file fails before any output.
 pub fn open_logs(paths: &[PathBuf]) -> Result<Vec<LogInput>> {
     if paths.iter().filter(|p| p.as_os_str() == "-").count() > 1 {
-        return Err(AcqError::Config("stdin ('-') can be given only once".into()));
+        return Err(AcqError::Config(
+            "stdin ('-') can be given only once".into(),
+        ));
     }
     paths.iter().map(|p| open_log(p)).collect()
+}
+
+/// A log read from any buffered reader (tests, benchmarks, pipes).
+pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result<LogInput> {
+    let name = name.into();
+    let (reader, _format) =
+        LogReader::detect(raw).map_err(|e| AcqError::io(format!("reading {name}"), e))?;
+    Ok(LogInput { name, reader })
 }
 
 pub fn open_log(path: &Path) -> Result<LogInput> {
@@ -39,9 +49,7 @@ pub fn open_log(path: &Path) -> Result<LogInput> {
             Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
         )
     };
-    let (reader, _format) =
-        LogReader::detect(raw).map_err(|e| AcqError::io(format!("reading {name}"), e))?;
-    Ok(LogInput { name, reader })
+    log_from_reader(name, raw)
 }
 
 /// What to do with a malformed line.
@@ -79,7 +87,8 @@ pub fn for_each_record(
                 }
                 Ok(None) => break,
                 Err(ReadError::Parse(error)) => {
-                    let message = format!("{}:{}: expected {}", input.name, error.line, error.expected);
+                    let message =
+                        format!("{}:{}: expected {}", input.name, error.line, error.expected);
                     match bad_lines {
                         BadLines::Stop => return Err(AcqError::Malformed(message)),
                         BadLines::Skip => {

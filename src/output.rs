@@ -31,11 +31,16 @@ impl Output {
                 })?),
             ),
         };
-        Ok(Output {
-            name,
+        Ok(Output::to_writer(name, sink))
+    }
+
+    /// Output to any writer (tests, benchmarks).
+    pub fn to_writer(name: impl Into<String>, sink: Box<dyn Write>) -> Self {
+        Output {
+            name: name.into(),
             sink,
             buffer: Vec::with_capacity(FLUSH_AT_BYTES + 4096),
-        })
+        }
     }
 
     /// Writes the buffer out once it is large; call after each record.

@@ -1,9 +1,9 @@
 //! `acq decode` and `acq check-rig` driven as a user drives them: the real
 //! binary, the shipped fixtures, exit codes and messages.
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::io::Write;
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -14,7 +14,11 @@ fn fixture(path: &str) -> PathBuf {
 }
 
 fn acq(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_acq")).args(args).current_dir(root()).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
 }
 
 fn stdout(output: &Output) -> String {
@@ -36,31 +40,59 @@ fn sensor_rows(csv: &str, sensor: &str) -> Vec<(String, String)> {
 }
 
 fn assert_close(actual: &str, expected: f64, tolerance: f64, what: &str) {
-    let value: f64 = actual.parse().unwrap_or_else(|_| panic!("{what}: '{actual}' is not a number"));
-    assert!((value - expected).abs() <= tolerance, "{what}: {value} vs {expected} (tolerance {tolerance})");
+    let value: f64 = actual
+        .parse()
+        .unwrap_or_else(|_| panic!("{what}: '{actual}' is not a number"));
+    assert!(
+        (value - expected).abs() <= tolerance,
+        "{what}: {value} vs {expected} (tolerance {tolerance})"
+    );
 }
 
 #[test]
 fn dbc_route_has_the_fixed_header_and_columns() {
-    let output = acq(&["decode", "fixtures/logs/excavator_case1.log", "--dbc", "fixtures/dbc/somat_excavator.dbc"]);
+    let output = acq(&[
+        "decode",
+        "fixtures/logs/excavator_case1.log",
+        "--dbc",
+        "fixtures/dbc/somat_excavator.dbc",
+    ]);
     assert!(output.status.success(), "{}", stderr(&output));
     let csv = stdout(&output);
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("time_s,iface,can_id,message,signal,value,unit"));
+    assert_eq!(
+        lines.next(),
+        Some("time_s,iface,can_id,message,signal,value,unit")
+    );
     let first = lines.next().unwrap();
-    assert_eq!(first, "1763719200.001050,can1,0x300,DAQ_Force,TipForce,40.599998474121094,kN");
-    assert!(csv.contains("\n1763719200.001050,can1,0x300,DAQ_Force,ForceStatus,0,\n"), "{csv}");
+    assert_eq!(
+        first,
+        "1763719200.001050,can1,0x300,DAQ_Force,TipForce,40.599998474121094,kN"
+    );
+    assert!(
+        csv.contains("\n1763719200.001050,can1,0x300,DAQ_Force,ForceStatus,0,\n"),
+        "{csv}"
+    );
     assert!(csv.contains(",can1,0x314,DAQ_SG_09_10,SG09,491.3333435058594,um/m\n"));
     // 3 cycles x (2 + 18) signals.
     assert_eq!(csv.lines().count(), 1 + 3 * 20);
     let summary = stderr(&output);
-    assert!(summary.contains("frames read 60, decoded 30, unknown 29, bad 0"), "{summary}");
+    assert!(
+        summary.contains("frames read 60, decoded 30, unknown 29, bad 0"),
+        "{summary}"
+    );
     assert!(summary.contains("error frames 1"), "{summary}");
 }
 
 #[test]
 fn labels_column_on_request() {
-    let output = acq(&["decode", "fixtures/logs/excavator_case1.log", "--dbc", "fixtures/dbc/somat_excavator.dbc", "--labels"]);
+    let output = acq(&[
+        "decode",
+        "fixtures/logs/excavator_case1.log",
+        "--dbc",
+        "fixtures/dbc/somat_excavator.dbc",
+        "--labels",
+    ]);
     let csv = stdout(&output);
     assert!(csv.starts_with("time_s,iface,can_id,message,signal,value,unit,label\n"));
     assert!(csv.contains(",ForceStatus,0,,ok\n"), "{csv}");
@@ -68,24 +100,43 @@ fn labels_column_on_request() {
 
 #[test]
 fn rig_route_gives_hand_checked_engineering_values() {
-    let output = acq(&["decode", "fixtures/logs/excavator_case1.log", "--rig", "fixtures/rigs/excavator.toml"]);
+    let output = acq(&[
+        "decode",
+        "fixtures/logs/excavator_case1.log",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+    ]);
     assert!(output.status.success(), "{}", stderr(&output));
     let csv = stdout(&output);
     assert!(csv.starts_with("time_s,sensor,value,unit\n"));
     // Case-1 measured pressures (bar), sent with 0.01 bar resolution: exact.
-    for (sensor, bar) in [("bucket_head_pressure", "116.89"), ("arm_head_pressure", "193.46"), ("boom_head_pressure", "73.35")] {
+    for (sensor, bar) in [
+        ("bucket_head_pressure", "116.89"),
+        ("arm_head_pressure", "193.46"),
+        ("boom_head_pressure", "73.35"),
+    ] {
         let rows = sensor_rows(&csv, sensor);
         assert_eq!(rows.len(), 3, "{sensor}");
         assert!(rows.iter().all(|(_, v)| v == bar), "{sensor}: {rows:?}");
         assert!(csv.contains(&format!(",{sensor},{bar},bar\n")));
     }
     // Tooth load 40.6 kN and gauge stresses, sent as float32 (7 digits).
-    assert_close(&sensor_rows(&csv, "tip_force")[0].1, 40.6, 1e-5, "tip_force");
+    assert_close(
+        &sensor_rows(&csv, "tip_force")[0].1,
+        40.6,
+        1e-5,
+        "tip_force",
+    );
     assert_close(&sensor_rows(&csv, "sg09")[0].1, 103.18, 1e-4, "sg09 MPa");
     assert_close(&sensor_rows(&csv, "sg03")[0].1, 17.83, 1e-4, "sg03 MPa");
     assert_close(&sensor_rows(&csv, "sg04")[0].1, 75.46, 1e-4, "sg04 MPa");
     // Inclinometers: 1/32768 deg resolution.
-    assert_close(&sensor_rows(&csv, "boom_inclination")[0].1, 12.03, 1.0 / 32768.0, "boom");
+    assert_close(
+        &sensor_rows(&csv, "boom_inclination")[0].1,
+        12.03,
+        1.0 / 32768.0,
+        "boom",
+    );
     assert_eq!(sensor_rows(&csv, "bucket_inclination")[0].1, "-74.25");
     // The arm slope sensor's "not available" is an empty value, never a number.
     let arm = sensor_rows(&csv, "arm_inclination");
@@ -94,23 +145,47 @@ fn rig_route_gives_hand_checked_engineering_values() {
     assert_eq!(arm[1], ("1763719200.021700".to_string(), String::new()));
     assert!(csv.contains("\n1763719200.021700,arm_inclination,,deg\n"));
     let notes = stderr(&output);
-    assert!(notes.contains("CANopen node 0x25 (boom_head_pressure) is Operational"), "{notes}");
-    assert!(notes.contains("unknown 1"), "the SYNC frame is not a sensor: {notes}");
+    assert!(
+        notes.contains("CANopen node 0x25 (boom_head_pressure) is Operational"),
+        "{notes}"
+    );
+    assert!(
+        notes.contains("unknown 1"),
+        "the SYNC frame is not a sensor: {notes}"
+    );
 }
 
 #[test]
 fn tensile_fixture_decodes_to_the_p91_curve_start() {
-    let output = acq(&["decode", "fixtures/logs/tensile_p91_start.log", "--rig", "fixtures/rigs/tensile.toml"]);
+    let output = acq(&[
+        "decode",
+        "fixtures/logs/tensile_p91_start.log",
+        "--rig",
+        "fixtures/rigs/tensile.toml",
+    ]);
     assert!(output.status.success(), "{}", stderr(&output));
     let csv = stdout(&output);
     let load = sensor_rows(&csv, "load");
     let extension = sensor_rows(&csv, "extension");
     // First rows of P91_20_2_DF_SS.csv, at the controller's resolution (10 N, 1.25 nm).
-    for (i, (mm, kn)) in [(0.0, 0.0), (0.01352, 3.048853771), (0.014603333, 3.38232208), (0.01677, 4.054363011)].iter().enumerate() {
+    for (i, (mm, kn)) in [
+        (0.0, 0.0),
+        (0.01352, 3.048853771),
+        (0.014603333, 3.38232208),
+        (0.01677, 4.054363011),
+    ]
+    .iter()
+    .enumerate()
+    {
         assert_close(&load[i].1, *kn, 0.5e-5, "load kN");
         assert_close(&extension[i].1, *mm, 1e-6, "extension mm");
     }
-    assert_close(&sensor_rows(&csv, "crosshead")[1].1, 0.027, 1e-12, "crosshead mm");
+    assert_close(
+        &sensor_rows(&csv, "crosshead")[1].1,
+        0.027,
+        1e-12,
+        "crosshead mm",
+    );
 }
 
 #[test]
@@ -118,18 +193,36 @@ fn stdin_and_output_file() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.csv");
     let mut child = Command::new(env!("CARGO_BIN_EXE_acq"))
-        .args(["decode", "-", "--dbc", "fixtures/dbc/tensile_frame.dbc", "-o", out.to_str().unwrap()])
+        .args([
+            "decode",
+            "-",
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+            "-o",
+            out.to_str().unwrap(),
+        ])
         .current_dir(root())
         .stdin(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    child.stdin.take().unwrap().write_all(&std::fs::read(fixture("logs/tensile_p91_start.log")).unwrap()).unwrap();
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(&std::fs::read(fixture("logs/tensile_p91_start.log")).unwrap())
+        .unwrap();
     let output = child.wait_with_output().unwrap();
     assert!(output.status.success(), "{}", stderr(&output));
     let csv = std::fs::read_to_string(out).unwrap();
-    assert!(csv.contains("1763719200.020000,can0,0x200,LoadFrame,LoadCell,3.0488500000000003,kN\n"), "{csv}");
-    assert!(csv.contains("1763719200.020000,can0,0x200,LoadFrame,Extensometer,0.010816,mV/V\n"), "{csv}");
+    assert!(
+        csv.contains("1763719200.020000,can0,0x200,LoadFrame,LoadCell,3.0488500000000003,kN\n"),
+        "{csv}"
+    );
+    assert!(
+        csv.contains("1763719200.020000,can0,0x200,LoadFrame,Extensometer,0.010816,mV/V\n"),
+        "{csv}"
+    );
 }
 
 #[test]
@@ -141,37 +234,82 @@ fn malformed_line_stops_with_file_line_and_exit_3_unless_skipped() {
     let output = acq(&["decode", log, "--dbc", "fixtures/dbc/tensile_frame.dbc"]);
     assert_eq!(output.status.code(), Some(3));
     let message = stderr(&output);
-    assert!(message.contains(&format!("{log}:2: expected an even number of hex digits")), "{message}");
+    assert!(
+        message.contains(&format!("{log}:2: expected an even number of hex digits")),
+        "{message}"
+    );
     // What came before the bad line is still written.
     assert!(stdout(&output).contains("1.000000,can0,0x200,LoadFrame,LoadCell,0,kN"));
 
-    let output = acq(&["decode", log, "--dbc", "fixtures/dbc/tensile_frame.dbc", "--skip-bad"]);
+    let output = acq(&[
+        "decode",
+        log,
+        "--dbc",
+        "fixtures/dbc/tensile_frame.dbc",
+        "--skip-bad",
+    ]);
     assert_eq!(output.status.code(), Some(0), "{}", stderr(&output));
     assert!(stdout(&output).contains("3.000000,can0,0x200"));
-    assert!(stderr(&output).contains("bad 1 (1 malformed lines"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("bad 1 (1 malformed lines"),
+        "{}",
+        stderr(&output)
+    );
 }
 
 #[test]
 fn configuration_errors_exit_2_and_say_what_to_fix() {
-    let output = acq(&["decode", "fixtures/logs/tensile_p91_start.log", "--dbc", "no/such.dbc"]);
+    let output = acq(&[
+        "decode",
+        "fixtures/logs/tensile_p91_start.log",
+        "--dbc",
+        "no/such.dbc",
+    ]);
     assert_eq!(output.status.code(), Some(2));
-    assert!(stderr(&output).contains("no/such.dbc"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("no/such.dbc"),
+        "{}",
+        stderr(&output)
+    );
 
-    let output = acq(&["decode", "no/such.log", "--dbc", "fixtures/dbc/tensile_frame.dbc"]);
+    let output = acq(&[
+        "decode",
+        "no/such.log",
+        "--dbc",
+        "fixtures/dbc/tensile_frame.dbc",
+    ]);
     assert_eq!(output.status.code(), Some(2));
-    assert!(stderr(&output).contains("cannot open no/such.log"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("cannot open no/such.log"),
+        "{}",
+        stderr(&output)
+    );
 
     let output = acq(&["decode", "fixtures/logs/tensile_p91_start.log"]);
-    assert_eq!(output.status.code(), Some(2), "neither --dbc nor --rig is a usage error");
+    assert_eq!(
+        output.status.code(),
+        Some(2),
+        "neither --dbc nor --rig is a usage error"
+    );
 
-    let output = acq(&["decode", "-", "-", "--dbc", "fixtures/dbc/tensile_frame.dbc"]);
+    let output = acq(&[
+        "decode",
+        "-",
+        "-",
+        "--dbc",
+        "fixtures/dbc/tensile_frame.dbc",
+    ]);
     assert_eq!(output.status.code(), Some(2));
 }
 
 #[test]
 fn check_rig_explains_every_problem_with_its_line() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::copy(fixture("dbc/tensile_frame.dbc"), dir.path().join("frame.dbc")).unwrap();
+    std::fs::copy(
+        fixture("dbc/tensile_frame.dbc"),
+        dir.path().join("frame.dbc"),
+    )
+    .unwrap();
     let rig = dir.path().join("bad.toml");
     std::fs::write(
         &rig,
@@ -222,10 +360,18 @@ dbc = { message = "LoadFrame", signal = "Extensometer" }
         assert!(message.contains(needle), "missing '{needle}' in:\n{message}");
     }
 
-    std::fs::write(&rig, "[[sensor]]\nname = \"x\"\nkind = \"presure\"\nrate_hz = 1\n").unwrap();
+    std::fs::write(
+        &rig,
+        "[[sensor]]\nname = \"x\"\nkind = \"presure\"\nrate_hz = 1\n",
+    )
+    .unwrap();
     let output = acq(&["check-rig", rig.to_str().unwrap()]);
     assert_eq!(output.status.code(), Some(2));
-    assert!(stderr(&output).contains("bad.toml:3: unknown variant `presure`"), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("bad.toml:3: unknown variant `presure`"),
+        "{}",
+        stderr(&output)
+    );
 
     let output = acq(&["check-rig", "fixtures/rigs/excavator.toml"]);
     assert!(output.status.success(), "{}", stderr(&output));

@@ -8,8 +8,12 @@ use acq_drivers::dbc::{DbcDatabase, PhysicalValue};
 use acq_drivers::CanId;
 
 fn golden(name: &str) -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(name))
-        .unwrap_or_else(|e| panic!("tests/golden/{name}: {e}"))
+    std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/golden")
+            .join(name),
+    )
+    .unwrap_or_else(|e| panic!("tests/golden/{name}: {e}"))
 }
 
 fn database() -> DbcDatabase {
@@ -28,7 +32,10 @@ fn can_id(hex: &str, extended: &str) -> CanId {
 }
 
 fn payload(hex: &str) -> Vec<u8> {
-    (0..hex.len()).step_by(2).map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap()).collect()
+    (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+        .collect()
 }
 
 /// True when our value is the value Python's `repr` printed.
@@ -43,7 +50,8 @@ fn same_value(ours: PhysicalValue, theirs: &str) -> bool {
                 "-inf" => f64::NEG_INFINITY,
                 text => text.parse().unwrap(),
             };
-            !is_python_int && (v.to_bits() == expected.to_bits() || (v.is_nan() && expected.is_nan()))
+            !is_python_int
+                && (v.to_bits() == expected.to_bits() || (v.is_nan() && expected.is_nan()))
         }
     }
 }
@@ -65,7 +73,9 @@ fn every_value_equals_cantools() {
     assert!(frames.len() > 500, "only {} golden frames", frames.len());
     let mut compared = 0;
     for ((id, data), expected) in &frames {
-        let message = database.message(*id).unwrap_or_else(|| panic!("no message {id}"));
+        let message = database
+            .message(*id)
+            .unwrap_or_else(|| panic!("no message {id}"));
         let mut ours = BTreeMap::new();
         message
             .decode(&payload(data), |i, v| {
@@ -76,7 +86,11 @@ fn every_value_equals_cantools() {
         let their_names: Vec<&String> = expected.keys().collect();
         assert_eq!(our_names, their_names, "signals of {id} {data}");
         for (signal, value) in expected {
-            assert!(same_value(ours[signal], value), "{id} {data} {signal}: ours {:?}, cantools {value}", ours[signal]);
+            assert!(
+                same_value(ours[signal], value),
+                "{id} {data} {signal}: ours {:?}, cantools {value}",
+                ours[signal]
+            );
             compared += 1;
         }
     }
@@ -94,7 +108,12 @@ fn frames_cantools_refuses_are_refused() {
         let fields: Vec<&str> = line.split(',').collect();
         let id = can_id(fields[column("can_id")], fields[column("extended")]);
         let message = database.message(id).unwrap();
-        assert!(message.decode(&payload(fields[column("data")]), |_, _| {}).is_err(), "{line}");
+        assert!(
+            message
+                .decode(&payload(fields[column("data")]), |_, _| {})
+                .is_err(),
+            "{line}"
+        );
         refused += 1;
     }
     assert!(refused > 0);
@@ -115,7 +134,11 @@ fn value_table_labels_equal_cantools() {
             .find(|m| m.id.raw() == raw)
             .unwrap_or_else(|| panic!("no message 0x{raw:X}"));
         let (_, signal) = message.signal(fields[2]).unwrap();
-        assert_eq!(signal.label(&payload(fields[1])), Some(fields[3].trim_matches('"')), "{line}");
+        assert_eq!(
+            signal.label(&payload(fields[1])),
+            Some(fields[3].trim_matches('"')),
+            "{line}"
+        );
         checked += 1;
     }
     assert!(checked > 100);

@@ -102,7 +102,9 @@ impl BitField {
                 .iter()
                 .rev()
                 .fold(0u128, |acc, &b| (acc << 8) | u128::from(b)),
-            ByteOrder::BigEndian => bytes.iter().fold(0u128, |acc, &b| (acc << 8) | u128::from(b)),
+            ByteOrder::BigEndian => bytes
+                .iter()
+                .fold(0u128, |acc, &b| (acc << 8) | u128::from(b)),
         };
         let mask = if self.length_bits == 64 {
             u64::MAX
@@ -164,7 +166,11 @@ mod tests {
                 let mut position = start;
                 for _ in 0..length {
                     value = (value << 1) | u64::from(bit(position));
-                    position = if position % 8 == 0 { position + 15 } else { position - 1 };
+                    position = if position % 8 == 0 {
+                        position + 15
+                    } else {
+                        position - 1
+                    };
                 }
             }
         }

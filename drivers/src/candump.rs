@@ -17,7 +17,8 @@
 use std::io::{self, BufRead, Write};
 
 use crate::frame::{
-    CanId, Direction, Frame, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN, FD_MAX_LEN, MAX_EXTENDED_ID, MAX_STANDARD_ID,
+    CanId, Direction, Frame, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN, FD_MAX_LEN,
+    MAX_EXTENDED_ID, MAX_STANDARD_ID,
 };
 use crate::hex;
 use crate::log::{LogRecord, ParseError, ReadError};
@@ -98,9 +99,11 @@ pub fn parse_line(line: &[u8]) -> Result<((usize, usize), Frame), &'static str> 
     let iface = fields
         .next()
         .ok_or("an interface name after the timestamp")?;
-    let iface = IfaceName::from_bytes(iface)
-        .ok_or("an interface name of 1-15 printable characters")?;
-    let frame_text = fields.next().ok_or("a frame 'ID#DATA' after the interface")?;
+    let iface =
+        IfaceName::from_bytes(iface).ok_or("an interface name of 1-15 printable characters")?;
+    let frame_text = fields
+        .next()
+        .ok_or("a frame 'ID#DATA' after the interface")?;
     let mut frame = parse_frame(frame_text, timestamp_ns, iface)?;
     match fields.next() {
         None => {}
@@ -140,7 +143,11 @@ fn parse_timestamp(text: &[u8]) -> Option<i64> {
 }
 
 /// Parses `ID#DATA` (the frame field of a log line, also `cansend` syntax).
-pub fn parse_frame(text: &[u8], timestamp_ns: i64, iface: IfaceName) -> Result<Frame, &'static str> {
+pub fn parse_frame(
+    text: &[u8],
+    timestamp_ns: i64,
+    iface: IfaceName,
+) -> Result<Frame, &'static str> {
     const ID: &str = "an id of 3 hex digits (11-bit) or 8 hex digits (29-bit) before '#'";
     let hash = memchr::memchr(b'#', text).ok_or(ID)?;
     let id_value = hex::parse_u32(&text[..hash]).ok_or(ID)?;
@@ -200,7 +207,12 @@ pub fn parse_frame(text: &[u8], timestamp_ns: i64, iface: IfaceName) -> Result<F
     }
 }
 
-fn parse_remote(rest: &[u8], timestamp_ns: i64, iface: IfaceName, id: CanId) -> Result<Frame, &'static str> {
+fn parse_remote(
+    rest: &[u8],
+    timestamp_ns: i64,
+    iface: IfaceName,
+    id: CanId,
+) -> Result<Frame, &'static str> {
     const DLC: &str = "nothing, or a DLC 0-8 (and '_<raw dlc>' after 8), after 'R'";
     let (requested, len8) = match rest {
         [] => (0, None),
@@ -217,7 +229,10 @@ fn parse_remote(rest: &[u8], timestamp_ns: i64, iface: IfaceName, id: CanId) -> 
 
 /// Hex byte pairs, optionally separated by '.', at most `max` bytes, then an
 /// optional `_<raw dlc>`. Returns (buffer, raw dlc, length).
-fn parse_data(text: &[u8], max: usize) -> Result<([u8; FD_MAX_LEN], Option<u8>, usize), &'static str> {
+fn parse_data(
+    text: &[u8],
+    max: usize,
+) -> Result<([u8; FD_MAX_LEN], Option<u8>, usize), &'static str> {
     const DATA: &str = "data as pairs of hex digits after '#'";
     let mut data = [0u8; FD_MAX_LEN];
     let mut len = 0;
@@ -309,7 +324,10 @@ pub fn push_line(out: &mut Vec<u8>, frame: &Frame) -> Result<(), NegativeTimesta
     out.push(b'(');
     let mut digits = itoa::Buffer::new();
     let seconds_text = digits.format(seconds).as_bytes();
-    out.extend(std::iter::repeat_n(b'0', 10usize.saturating_sub(seconds_text.len())));
+    out.extend(std::iter::repeat_n(
+        b'0',
+        10usize.saturating_sub(seconds_text.len()),
+    ));
     out.extend_from_slice(seconds_text);
     out.push(b'.');
     let micros_text = digits.format(micros).as_bytes();
@@ -390,9 +408,21 @@ mod tests {
         assert_eq!(frame.kind, FrameKind::Data { len8_dlc: Some(12) });
 
         let frame = round_trip("(1700000000.000000) can0 123#R");
-        assert_eq!(frame.kind, FrameKind::Remote { requested_len: 0, len8_dlc: None });
+        assert_eq!(
+            frame.kind,
+            FrameKind::Remote {
+                requested_len: 0,
+                len8_dlc: None
+            }
+        );
         let frame = round_trip("(1700000000.000000) can0 123#R4");
-        assert_eq!(frame.kind, FrameKind::Remote { requested_len: 4, len8_dlc: None });
+        assert_eq!(
+            frame.kind,
+            FrameKind::Remote {
+                requested_len: 4,
+                len8_dlc: None
+            }
+        );
         round_trip("(1700000000.000000) can0 123#R8_9");
 
         let frame = round_trip("(1700000000.000000) can0 123##5112233");
@@ -442,7 +472,10 @@ mod tests {
         ];
         for (line, needle) in cases {
             let err = parse_line(line.as_bytes()).unwrap_err();
-            assert!(err.contains(needle), "{line}: got '{err}', wanted '{needle}'");
+            assert!(
+                err.contains(needle),
+                "{line}: got '{err}', wanted '{needle}'"
+            );
         }
     }
 

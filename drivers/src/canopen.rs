@@ -128,7 +128,11 @@ pub enum MappingError {
 
 impl PdoMapping {
     /// A value of `data_type` at byte `offset` of the PDO (CANopen is little-endian).
-    pub fn new(offset: usize, data_type: PdoType, decimal_digits: u8) -> Result<Self, MappingError> {
+    pub fn new(
+        offset: usize,
+        data_type: PdoType,
+        decimal_digits: u8,
+    ) -> Result<Self, MappingError> {
         let size = data_type.size_bytes();
         if offset + size > 8 {
             return Err(MappingError::OutsidePdo { offset, size });
@@ -174,10 +178,18 @@ impl PdoMapping {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HeartbeatEvent {
     /// A node sent a state different from the last one it sent.
-    StateChanged { node: u8, state: NmtState, time_ns: i64 },
+    StateChanged {
+        node: u8,
+        state: NmtState,
+        time_ns: i64,
+    },
     /// No heartbeat from `node` within its timeout; `last_seen_ns` is when
     /// the last one came (`None`: never).
-    Lost { node: u8, last_seen_ns: Option<i64>, time_ns: i64 },
+    Lost {
+        node: u8,
+        last_seen_ns: Option<i64>,
+        time_ns: i64,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -265,7 +277,10 @@ impl HeartbeatMonitor {
     }
 
     pub fn state(&self, node: u8) -> Option<NmtState> {
-        self.nodes.iter().find(|n| n.node == node).and_then(|n| n.state)
+        self.nodes
+            .iter()
+            .find(|n| n.node == node)
+            .and_then(|n| n.state)
     }
 }
 
@@ -287,7 +302,10 @@ mod tests {
         assert_eq!(heartbeat_node(CanId::Standard(0x700)), None);
         assert_eq!(heartbeat_node(CanId::Extended(0x721)), None);
         let nmt = nmt_start_frame(iface(), 0x21);
-        assert_eq!((nmt.id, nmt.payload()), (CanId::Standard(0), &[0x01, 0x21][..]));
+        assert_eq!(
+            (nmt.id, nmt.payload()),
+            (CanId::Standard(0), &[0x01, 0x21][..])
+        );
     }
 
     #[test]
@@ -322,7 +340,11 @@ mod tests {
         monitor.check(3_500_000_000, |e| events.push(e));
         assert_eq!(
             events[1],
-            HeartbeatEvent::Lost { node: 0x21, last_seen_ns: Some(0), time_ns: 3_500_000_000 }
+            HeartbeatEvent::Lost {
+                node: 0x21,
+                last_seen_ns: Some(0),
+                time_ns: 3_500_000_000
+            }
         );
         assert!(!monitor.is_alive(0x21));
         monitor.check(4_000_000_000, |e| events.push(e));
@@ -340,6 +362,13 @@ mod tests {
         monitor.on_frame(&other, |_| {});
         let mut events = Vec::new();
         monitor.check(2_000, |e| events.push(e));
-        assert!(matches!(events[0], HeartbeatEvent::Lost { node: 5, last_seen_ns: None, .. }));
+        assert!(matches!(
+            events[0],
+            HeartbeatEvent::Lost {
+                node: 5,
+                last_seen_ns: None,
+                ..
+            }
+        ));
     }
 }

@@ -10,9 +10,7 @@
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use can_dbc::{
-    Dbc, MessageId, MultiplexIndicator, SignalExtendedValueType, ValueType,
-};
+use can_dbc::{Dbc, MessageId, MultiplexIndicator, SignalExtendedValueType, ValueType};
 use rustc_hash::FxHashMap;
 
 use crate::bits::{BitField, ByteOrder};
@@ -40,7 +38,9 @@ impl PhysicalValue {
     #[inline]
     pub fn push_shortest(self, out: &mut Vec<u8>) {
         match self {
-            PhysicalValue::Integer(v) => out.extend_from_slice(itoa::Buffer::new().format(v).as_bytes()),
+            PhysicalValue::Integer(v) => {
+                out.extend_from_slice(itoa::Buffer::new().format(v).as_bytes())
+            }
             PhysicalValue::Float(v) => push_shortest_f64(out, v),
         }
     }
@@ -126,7 +126,8 @@ impl SignalCodec {
 
     /// The value-table label of the raw value in `payload`, if any.
     pub fn label(&self, payload: &[u8]) -> Option<&str> {
-        if self.labels.is_empty() || matches!(self.encoding, Encoding::Float32 | Encoding::Float64) {
+        if self.labels.is_empty() || matches!(self.encoding, Encoding::Float32 | Encoding::Float64)
+        {
             return None;
         }
         let raw = i64::try_from(self.raw_integer(self.field.extract(payload)?)).ok()?;
@@ -231,7 +232,10 @@ impl MessageCodec {
     }
 
     pub fn signal(&self, name: &str) -> Option<(usize, &SignalCodec)> {
-        self.signals.iter().enumerate().find(|(_, s)| s.name == name)
+        self.signals
+            .iter()
+            .enumerate()
+            .find(|(_, s)| s.name == name)
     }
 }
 
@@ -468,7 +472,10 @@ fn compile_message(
             if signal.size != bits {
                 return Err(signal_error(
                     &signal.name,
-                    format!("declared as a {bits}-bit float but {} bits long", signal.size),
+                    format!(
+                        "declared as a {bits}-bit float but {} bits long",
+                        signal.size
+                    ),
                 ));
             }
         }
@@ -532,7 +539,14 @@ fn scaling(factor: f64, offset: f64) -> Scaling {
 pub fn describe(database: &DbcDatabase) -> String {
     let mut text = String::new();
     for m in database.messages() {
-        let _ = writeln!(text, "{} {} ({} bytes, {} signals)", m.id, m.name, m.size, m.signals.len());
+        let _ = writeln!(
+            text,
+            "{} {} ({} bytes, {} signals)",
+            m.id,
+            m.name,
+            m.size,
+            m.signals.len()
+        );
     }
     text
 }
@@ -573,25 +587,39 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         payload[4] = 1;
         let mut values = Vec::new();
         force.decode(&payload, |i, v| values.push((i, v))).unwrap();
-        assert_eq!(values, vec![
-            (0, PhysicalValue::Float(f64::from(40.6f32))),
-            (1, PhysicalValue::Integer(1)),
-        ]);
+        assert_eq!(
+            values,
+            vec![
+                (0, PhysicalValue::Float(f64::from(40.6f32))),
+                (1, PhysicalValue::Integer(1)),
+            ]
+        );
         assert_eq!(force.signals[1].label(&payload), Some("overload"));
 
         let temps = db.message(CanId::Extended(0x18FF_0001)).unwrap();
         // Oil raw 0x0312 = 786 -> 38.6 degC; mode 0 selects A: 7*2-100 = -86.
         let payload = [0x03, 0x12, 0x00, 0x07, 0xFF, 0xFF, 0, 0];
         let mut values = Vec::new();
-        temps.decode(&payload, |i, v| values.push((temps.signals[i].name.as_str(), v))).unwrap();
-        assert_eq!(values, vec![
-            ("Oil", PhysicalValue::Float(786.0 * 0.1 - 40.0)),
-            ("Mode", PhysicalValue::Integer(0)),
-            ("A", PhysicalValue::Integer(-86)),
-        ]);
+        temps
+            .decode(&payload, |i, v| {
+                values.push((temps.signals[i].name.as_str(), v))
+            })
+            .unwrap();
+        assert_eq!(
+            values,
+            vec![
+                ("Oil", PhysicalValue::Float(786.0 * 0.1 - 40.0)),
+                ("Mode", PhysicalValue::Integer(0)),
+                ("A", PhysicalValue::Integer(-86)),
+            ]
+        );
         let payload = [0x03, 0x12, 0x01, 0xFE, 0xFF, 0, 0, 0];
         let mut names = Vec::new();
-        temps.decode(&payload, |i, v| names.push((temps.signals[i].name.as_str(), v))).unwrap();
+        temps
+            .decode(&payload, |i, v| {
+                names.push((temps.signals[i].name.as_str(), v))
+            })
+            .unwrap();
         assert_eq!(names[2], ("B", PhysicalValue::Integer(-2)));
         assert!(temps.decode(&payload[..7], |_, _| {}).is_err());
         let unknown_page = [0x03, 0x12, 0x02, 0, 0, 0, 0, 0];
@@ -610,8 +638,16 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         };
         assert_eq!(text(PhysicalValue::Float(100.0)), "100");
         assert_eq!(text(PhysicalValue::Float(0.1)), "0.1");
-        assert_eq!(text(PhysicalValue::Float(f64::from(116.89f32))), "116.88999938964844");
-        assert_eq!(text(PhysicalValue::Integer(-170141183460469231731687303715884105728)), "-170141183460469231731687303715884105728");
+        assert_eq!(
+            text(PhysicalValue::Float(f64::from(116.89f32))),
+            "116.88999938964844"
+        );
+        assert_eq!(
+            text(PhysicalValue::Integer(
+                -170141183460469231731687303715884105728
+            )),
+            "-170141183460469231731687303715884105728"
+        );
         assert_eq!(text(PhysicalValue::Float(-0.0)), "-0");
     }
 
@@ -620,12 +656,20 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         let (mut first, _) = DbcDatabase::parse(DBC, "a.dbc").unwrap();
         let (second, _) = DbcDatabase::parse(DBC, "b.dbc").unwrap();
         let error = first.merge(second).unwrap_err().to_string();
-        assert!(error.contains("a.dbc") && error.contains("b.dbc"), "{error}");
+        assert!(
+            error.contains("a.dbc") && error.contains("b.dbc"),
+            "{error}"
+        );
     }
 
     #[test]
     fn bad_dbc_is_a_syntax_error_naming_the_file() {
-        let error = DbcDatabase::parse("BO_ x", "broken.dbc").unwrap_err().to_string();
-        assert!(error.starts_with("broken.dbc: not a valid DBC file"), "{error}");
+        let error = DbcDatabase::parse("BO_ x", "broken.dbc")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.starts_with("broken.dbc: not a valid DBC file"),
+            "{error}"
+        );
     }
 }

@@ -101,7 +101,10 @@ pub enum FrameKind {
     /// send with an 8-byte payload (the candump `_<dlc>` escape), else `None`.
     Data { len8_dlc: Option<u8> },
     /// Classic remote frame: no payload, only a requested length.
-    Remote { requested_len: u8, len8_dlc: Option<u8> },
+    Remote {
+        requested_len: u8,
+        len8_dlc: Option<u8>,
+    },
     /// CAN FD data frame; `flags` holds the BRS/ESI/FDF nibble exactly as
     /// received, so a log written back is byte-identical.
     Fd { flags: u8 },
@@ -237,7 +240,15 @@ impl Frame {
         payload: &[u8],
     ) -> Result<Self, FrameError> {
         let kind = FrameKind::Data { len8_dlc: None };
-        Self::with_payload(timestamp_ns, iface, id, kind, payload, CLASSIC_MAX_LEN, "classic CAN")
+        Self::with_payload(
+            timestamp_ns,
+            iface,
+            id,
+            kind,
+            payload,
+            CLASSIC_MAX_LEN,
+            "classic CAN",
+        )
     }
 
     /// CAN FD frame, 0-64 bytes; `flags` as in `canfd_frame.flags`.
@@ -248,7 +259,9 @@ impl Frame {
         flags: u8,
         payload: &[u8],
     ) -> Result<Self, FrameError> {
-        let kind = FrameKind::Fd { flags: flags & 0x0F };
+        let kind = FrameKind::Fd {
+            flags: flags & 0x0F,
+        };
         Self::with_payload(timestamp_ns, iface, id, kind, payload, FD_MAX_LEN, "CAN FD")
     }
 

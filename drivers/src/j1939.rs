@@ -38,7 +38,10 @@ impl J1939Id {
         let (pgn, destination_address) = if pdu_format < 240 {
             ((data_pages << 16) | (pdu_format << 8), pdu_specific)
         } else {
-            ((data_pages << 16) | (pdu_format << 8) | u32::from(pdu_specific), GLOBAL_ADDRESS)
+            (
+                (data_pages << 16) | (pdu_format << 8) | u32::from(pdu_specific),
+                GLOBAL_ADDRESS,
+            )
         };
         Some(J1939Id {
             priority,
@@ -150,14 +153,26 @@ mod tests {
         let eec1 = J1939Id::from_can_id(CanId::Extended(0x0CF0_0400)).unwrap();
         assert_eq!(
             eec1,
-            J1939Id { priority: 3, pgn: 61444, source_address: 0, destination_address: 0xFF }
+            J1939Id {
+                priority: 3,
+                pgn: 61444,
+                source_address: 0,
+                destination_address: 0xFF
+            }
         );
         // Slope sensor information 2 (PGN 61481) from SA 0xE2.
         let ssi2 = J1939Id::from_can_id(CanId::Extended(0x18F0_29E2)).unwrap();
         assert_eq!((ssi2.pgn, ssi2.source_address), (61481, 0xE2));
         // PDU1: request (PGN 59904) to 0x21 from 0xF9.
         let request = J1939Id::from_can_id(CanId::Extended(0x18EA_21F9)).unwrap();
-        assert_eq!((request.pgn, request.destination_address, request.source_address), (59904, 0x21, 0xF9));
+        assert_eq!(
+            (
+                request.pgn,
+                request.destination_address,
+                request.source_address
+            ),
+            (59904, 0x21, 0xF9)
+        );
         assert_eq!(request.to_can_id(), Some(CanId::Extended(0x18EA_21F9)));
         assert_eq!(ssi2.to_can_id(), Some(CanId::Extended(0x18F0_29E2)));
         assert_eq!(J1939Id::from_can_id(CanId::Standard(0x123)), None);

@@ -67,7 +67,10 @@ impl<R: BufRead> LogReader<R> {
             first.is_none_or(|&b| b == b'(' || b == b'#')
         };
         Ok(if looks_candump {
-            (LogReader::Candump(CandumpReader::new(input)), LogFormat::Candump)
+            (
+                LogReader::Candump(CandumpReader::new(input)),
+                LogFormat::Candump,
+            )
         } else {
             (LogReader::Asc(AscReader::new(input)), LogFormat::Asc)
         })

@@ -261,7 +261,12 @@ pub struct RigError {
 impl std::fmt::Display for RigError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let count = self.problems.len();
-        write!(f, "{} has {count} problem{}:", self.path.display(), if count == 1 { "" } else { "s" })?;
+        write!(
+            f,
+            "{} has {count} problem{}:",
+            self.path.display(),
+            if count == 1 { "" } else { "s" }
+        )?;
         for problem in &self.problems {
             match problem.line {
                 Some(line) => write!(f, "\n  {}:{line}: {}", self.path.display(), problem.message)?,
@@ -287,9 +292,13 @@ impl Rig {
     pub fn load(path: &Path) -> Result<Rig, RigError> {
         let fail = |message: String| RigError {
             path: path.to_path_buf(),
-            problems: vec![RigProblem { line: None, message }],
+            problems: vec![RigProblem {
+                line: None,
+                message,
+            }],
         };
-        let text = std::fs::read_to_string(path).map_err(|e| fail(format!("cannot read the rig file: {e}")))?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| fail(format!("cannot read the rig file: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::parse(&text, path, base)
     }
@@ -305,13 +314,21 @@ impl Rig {
         })?;
         let mut problems = Vec::new();
         let mut warnings = Vec::new();
-        let mut report = |line: usize, message: String| problems.push(RigProblem { line: Some(line), message });
+        let mut report = |line: usize, message: String| {
+            problems.push(RigProblem {
+                line: Some(line),
+                message,
+            })
+        };
 
         if file.sensors.is_empty() {
             report(1, "no [[sensor]] defined: a rig needs at least one".into());
         }
         if file.buses.is_empty() {
-            report(1, "no [[bus]] defined: add one with name, iface (e.g. can0) and its dbc files".into());
+            report(
+                1,
+                "no [[bus]] defined: add one with name, iface (e.g. can0) and its dbc files".into(),
+            );
         }
 
         // Buses and their DBC files.
@@ -332,7 +349,14 @@ impl Rig {
             for relative in &bus.dbc {
                 let dbc_path = base.join(relative);
                 if !dbc_path.is_file() {
-                    report(line, format!("bus '{}': DBC file {} not found (paths are relative to the rig file)", bus.name, dbc_path.display()));
+                    report(
+                        line,
+                        format!(
+                            "bus '{}': DBC file {} not found (paths are relative to the rig file)",
+                            bus.name,
+                            dbc_path.display()
+                        ),
+                    );
                     continue;
                 }
                 match DbcDatabase::load(&dbc_path).and_then(|(one, skipped)| {
@@ -361,7 +385,10 @@ impl Rig {
             let sensor = spanned.get_ref();
             let name = &sensor.name;
             if let Some(first) = names.insert(name.clone(), line) {
-                report(line, format!("sensor '{name}' is defined twice (first on line {first})"));
+                report(
+                    line,
+                    format!("sensor '{name}' is defined twice (first on line {first})"),
+                );
                 continue;
             }
             if name.is_empty() || name.contains([',', '"', '\n']) {
@@ -376,7 +403,13 @@ impl Rig {
                     Some(i) => i,
                     None => {
                         let known: Vec<&str> = buses.iter().map(|b| b.name.as_str()).collect();
-                        report(line, format!("sensor '{name}': unknown bus '{bus_name}' (buses: {})", known.join(", ")));
+                        report(
+                            line,
+                            format!(
+                                "sensor '{name}': unknown bus '{bus_name}' (buses: {})",
+                                known.join(", ")
+                            ),
+                        );
                         continue;
                     }
                 },
@@ -387,7 +420,11 @@ impl Rig {
                     continue;
                 }
             };
-            let addresses = [sensor.dbc.is_some(), sensor.canopen.is_some(), sensor.j1939.is_some()];
+            let addresses = [
+                sensor.dbc.is_some(),
+                sensor.canopen.is_some(),
+                sensor.j1939.is_some(),
+            ];
             if addresses.iter().filter(|&&a| a).count() != 1 {
                 report(line, format!("sensor '{name}': give exactly one of dbc = {{ message, signal }}, canopen = {{ node_id, pdo, byte, type }} or j1939 = {{ pgn, start_bit, length_bits, resolution, offset }}"));
                 continue;
@@ -399,7 +436,11 @@ impl Rig {
                     continue;
                 }
             };
-            let channel_unit = sensor.unit.clone().or(default_unit).unwrap_or_else(|| sensor.kind.output_unit().to_string());
+            let channel_unit = sensor
+                .unit
+                .clone()
+                .or(default_unit)
+                .unwrap_or_else(|| sensor.kind.output_unit().to_string());
             let physics = match profile_conversion(sensor, &channel_unit) {
                 Ok(physics) => physics,
                 Err(e) => {
@@ -411,8 +452,14 @@ impl Rig {
                 gain: sensor.scale.unwrap_or(1.0),
                 offset: sensor.offset.unwrap_or(0.0),
             };
-            if !(calibration.gain.is_finite() && calibration.gain != 0.0 && calibration.offset.is_finite()) {
-                report(line, format!("sensor '{name}': scale must be a non-zero number and offset a number"));
+            if !(calibration.gain.is_finite()
+                && calibration.gain != 0.0
+                && calibration.offset.is_finite())
+            {
+                report(
+                    line,
+                    format!("sensor '{name}': scale must be a non-zero number and offset a number"),
+                );
                 continue;
             }
             sensors.push(Sensor {
@@ -435,14 +482,27 @@ impl Rig {
         for spanned in &file.cylinders {
             let line = line_of(text, spanned.span().start);
             let cylinder = spanned.get_ref();
-            let find = |sensor_name: &str, chamber: &str| match sensors.iter().position(|s| s.name == sensor_name) {
+            let find = |sensor_name: &str, chamber: &str| match sensors
+                .iter()
+                .position(|s| s.name == sensor_name)
+            {
                 Some(i) if sensors[i].kind == SensorKind::Pressure => Ok(i),
-                Some(_) => Err(format!("cylinder '{}': {chamber} sensor '{sensor_name}' is not a pressure sensor", cylinder.name)),
-                None => Err(format!("cylinder '{}': no sensor named '{sensor_name}' for the {chamber} chamber", cylinder.name)),
+                Some(_) => Err(format!(
+                    "cylinder '{}': {chamber} sensor '{sensor_name}' is not a pressure sensor",
+                    cylinder.name
+                )),
+                None => Err(format!(
+                    "cylinder '{}': no sensor named '{sensor_name}' for the {chamber} chamber",
+                    cylinder.name
+                )),
             };
             let bore = pressure::CylinderBore::new(cylinder.bore_mm, cylinder.rod_mm)
                 .map_err(|e| format!("cylinder '{}': {e}", cylinder.name));
-            match (find(&cylinder.head_sensor, "head"), find(&cylinder.rod_sensor, "rod"), bore) {
+            match (
+                find(&cylinder.head_sensor, "head"),
+                find(&cylinder.rod_sensor, "rod"),
+                bore,
+            ) {
                 (Ok(head_sensor), Ok(rod_sensor), Ok(bore)) => cylinders.push(Cylinder {
                     name: cylinder.name.clone(),
                     bore,
@@ -463,9 +523,16 @@ impl Rig {
                 problems,
             });
         }
-        let meta = file.rig.unwrap_or(RigMetaFile { name: None, description: None });
+        let meta = file.rig.unwrap_or(RigMetaFile {
+            name: None,
+            description: None,
+        });
         Ok(Rig {
-            name: meta.name.unwrap_or_else(|| path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()),
+            name: meta.name.unwrap_or_else(|| {
+                path.file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            }),
             description: meta.description,
             path: path.to_path_buf(),
             buses,
@@ -476,7 +543,10 @@ impl Rig {
     }
 
     pub fn sensor(&self, name: &str) -> Option<(usize, &Sensor)> {
-        self.sensors.iter().enumerate().find(|(_, s)| s.name == name)
+        self.sensors
+            .iter()
+            .enumerate()
+            .find(|(_, s)| s.name == name)
     }
 
     /// A plain-text account of the rig: what `acq check-rig` prints.
@@ -487,8 +557,18 @@ impl Rig {
             let _ = writeln!(text, "  {description}");
         }
         for bus in &self.buses {
-            let bitrate = bus.bitrate.map(|b| format!(", {} kbit/s", b / 1000)).unwrap_or_default();
-            let _ = writeln!(text, "bus '{}' on {}{bitrate}: {} DBC messages from {} file(s)", bus.name, bus.iface, bus.dbc.messages().len(), bus.dbc_files.len());
+            let bitrate = bus
+                .bitrate
+                .map(|b| format!(", {} kbit/s", b / 1000))
+                .unwrap_or_default();
+            let _ = writeln!(
+                text,
+                "bus '{}' on {}{bitrate}: {} DBC messages from {} file(s)",
+                bus.name,
+                bus.iface,
+                bus.dbc.messages().len(),
+                bus.dbc_files.len()
+            );
         }
         let _ = writeln!(text, "{} sensors:", self.sensors.len());
         for sensor in &self.sensors {
@@ -541,19 +621,41 @@ impl Rig {
 
 /// Protocol addressing -> compiled source, plus the channel unit the
 /// protocol itself declares (a DBC signal's unit).
-fn compile_source(sensor: &SensorFile, bus: &Bus) -> Result<(SensorSource, Option<String>), String> {
+fn compile_source(
+    sensor: &SensorFile,
+    bus: &Bus,
+) -> Result<(SensorSource, Option<String>), String> {
     if let Some(address) = &sensor.dbc {
         let Some(message) = bus.dbc.message_by_name(&address.message) else {
-            let known: Vec<&str> = bus.dbc.messages().iter().map(|m| m.name.as_str()).take(20).collect();
+            let known: Vec<&str> = bus
+                .dbc
+                .messages()
+                .iter()
+                .map(|m| m.name.as_str())
+                .take(20)
+                .collect();
             return Err(if bus.dbc_files.is_empty() {
-                format!("DBC message '{}' but bus '{}' has no dbc files", address.message, bus.name)
+                format!(
+                    "DBC message '{}' but bus '{}' has no dbc files",
+                    address.message, bus.name
+                )
             } else {
-                format!("unknown DBC message '{}' on bus '{}' (messages: {})", address.message, bus.name, known.join(", "))
+                format!(
+                    "unknown DBC message '{}' on bus '{}' (messages: {})",
+                    address.message,
+                    bus.name,
+                    known.join(", ")
+                )
             });
         };
         let Some((signal_index, signal)) = message.signal(&address.signal) else {
             let known: Vec<&str> = message.signals.iter().map(|s| s.name.as_str()).collect();
-            return Err(format!("unknown signal '{}' in DBC message '{}' (signals: {})", address.signal, message.name, known.join(", ")));
+            return Err(format!(
+                "unknown signal '{}' in DBC message '{}' (signals: {})",
+                address.signal,
+                message.name,
+                known.join(", ")
+            ));
         };
         let unit = (!signal.unit.is_empty()).then(|| signal.unit.clone());
         return Ok((
@@ -568,12 +670,18 @@ fn compile_source(sensor: &SensorFile, bus: &Bus) -> Result<(SensorSource, Optio
     }
     if let Some(address) = &sensor.canopen {
         let cob_id = canopen::tpdo_cob_id(address.pdo, address.node_id).ok_or_else(|| {
-            format!("canopen node_id must be 1..=127 and pdo 1..=4 (TPDO1-4), got node_id {} pdo {}", address.node_id, address.pdo)
+            format!(
+                "canopen node_id must be 1..=127 and pdo 1..=4 (TPDO1-4), got node_id {} pdo {}",
+                address.node_id, address.pdo
+            )
         })?;
-        let mapping = PdoMapping::new(address.byte, address.data_type, address.decimal_digits).map_err(|e| format!("canopen mapping: {e}"))?;
+        let mapping = PdoMapping::new(address.byte, address.data_type, address.decimal_digits)
+            .map_err(|e| format!("canopen mapping: {e}"))?;
         if let Some(period) = address.heartbeat_ms {
             if !(period > 0.0 && period.is_finite()) {
-                return Err(format!("canopen heartbeat_ms must be positive, got {period}"));
+                return Err(format!(
+                    "canopen heartbeat_ms must be positive, got {period}"
+                ));
             }
         }
         return Ok((
@@ -591,11 +699,21 @@ fn compile_source(sensor: &SensorFile, bus: &Bus) -> Result<(SensorSource, Optio
     if address.pgn > 0x3_FFFF {
         return Err(format!("j1939 pgn {} is larger than 18 bits", address.pgn));
     }
-    let field = BitField::new(crate::bits::ByteOrder::LittleEndian, address.start_bit, address.length_bits)
-        .ok()
-        .filter(|f| f.end_byte() <= 8)
-        .ok_or_else(|| format!("j1939 field of {} bits at bit {} does not fit in 8 bytes", address.length_bits, address.start_bit))?;
-    if !(address.resolution.is_finite() && address.resolution != 0.0 && address.offset.is_finite()) {
+    let field = BitField::new(
+        crate::bits::ByteOrder::LittleEndian,
+        address.start_bit,
+        address.length_bits,
+    )
+    .ok()
+    .filter(|f| f.end_byte() <= 8)
+    .ok_or_else(|| {
+        format!(
+            "j1939 field of {} bits at bit {} does not fit in 8 bytes",
+            address.length_bits, address.start_bit
+        )
+    })?;
+    if !(address.resolution.is_finite() && address.resolution != 0.0 && address.offset.is_finite())
+    {
         return Err("j1939 resolution must be a non-zero number and offset a number".into());
     }
     Ok((
@@ -623,7 +741,9 @@ fn profile_conversion(sensor: &SensorFile, unit: &str) -> Result<Linear, Profile
             unit,
             strain::StrainChannel {
                 youngs_modulus_gpa: sensor.youngs_modulus_gpa.ok_or_else(|| {
-                    ProfileError::Invalid("a strain sensor needs youngs_modulus_gpa (SWS490A steel: 210)".into())
+                    ProfileError::Invalid(
+                        "a strain sensor needs youngs_modulus_gpa (SWS490A steel: 210)".into(),
+                    )
                 })?,
                 gauge_factor: sensor.gauge_factor,
                 bridge: sensor.bridge,
@@ -641,15 +761,46 @@ fn check_overlaps(sensors: &[Sensor], buses: &[Bus], report: &mut impl FnMut(usi
                 continue;
             }
             let same = match (&a.source, &b.source) {
-                (SensorSource::Dbc { id: ia, signal: sa, .. }, SensorSource::Dbc { id: ib, signal: sb, .. }) => ia == ib && sa == sb,
-                (SensorSource::Canopen { cob_id: ca, mapping: ma, .. }, SensorSource::Canopen { cob_id: cb, mapping: mb, .. }) => {
-                    let range = |m: &PdoMapping| (m.field.end_byte() - m.data_type.size_bytes())..m.field.end_byte();
+                (
+                    SensorSource::Dbc {
+                        id: ia, signal: sa, ..
+                    },
+                    SensorSource::Dbc {
+                        id: ib, signal: sb, ..
+                    },
+                ) => ia == ib && sa == sb,
+                (
+                    SensorSource::Canopen {
+                        cob_id: ca,
+                        mapping: ma,
+                        ..
+                    },
+                    SensorSource::Canopen {
+                        cob_id: cb,
+                        mapping: mb,
+                        ..
+                    },
+                ) => {
+                    let range = |m: &PdoMapping| {
+                        (m.field.end_byte() - m.data_type.size_bytes())..m.field.end_byte()
+                    };
                     let (ra, rb) = (range(ma), range(mb));
                     ca == cb && ra.start < rb.end && rb.start < ra.end
                 }
-                (SensorSource::J1939 { pgn: pa, source_address: xa, spn: na, .. }, SensorSource::J1939 { pgn: pb, source_address: xb, spn: nb, .. }) => {
-                    pa == pb && (xa == xb || xa.is_none() || xb.is_none()) && na.field == nb.field
-                }
+                (
+                    SensorSource::J1939 {
+                        pgn: pa,
+                        source_address: xa,
+                        spn: na,
+                        ..
+                    },
+                    SensorSource::J1939 {
+                        pgn: pb,
+                        source_address: xb,
+                        spn: nb,
+                        ..
+                    },
+                ) => pa == pb && (xa == xb || xa.is_none() || xb.is_none()) && na.field == nb.field,
                 _ => false,
             };
             if same {

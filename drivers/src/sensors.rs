@@ -29,7 +29,10 @@ pub enum SensorEvent {
     Sample(Sample),
     /// A CANopen node's heartbeat changed state or timed out; `sensors`
     /// lists the rig's sensors on that node via [`SensorDecoder::node_sensors`].
-    Heartbeat { bus: usize, event: HeartbeatEvent },
+    Heartbeat {
+        bus: usize,
+        event: HeartbeatEvent,
+    },
 }
 
 /// What a frame was to the rig.
@@ -73,21 +76,44 @@ impl<'r> SensorDecoder<'r> {
         let mut heartbeats = vec![HeartbeatMonitor::default(); rig.buses.len()];
         for (index, sensor) in rig.sensors.iter().enumerate() {
             match &sensor.source {
-                SensorSource::Dbc { id, .. } => by_id.entry((sensor.bus, id.key())).or_default().push(index),
-                SensorSource::Canopen { cob_id, node_id, heartbeat_ms, .. } => {
-                    by_id.entry((sensor.bus, cob_id.key())).or_default().push(index);
+                SensorSource::Dbc { id, .. } => {
+                    by_id.entry((sensor.bus, id.key())).or_default().push(index)
+                }
+                SensorSource::Canopen {
+                    cob_id,
+                    node_id,
+                    heartbeat_ms,
+                    ..
+                } => {
+                    by_id
+                        .entry((sensor.bus, cob_id.key()))
+                        .or_default()
+                        .push(index);
                     if let Some(period_ms) = heartbeat_ms {
-                        let timeout_ns = (period_ms * 1e6 * HEARTBEAT_TIMEOUT_PERIODS).round() as i64;
+                        let timeout_ns =
+                            (period_ms * 1e6 * HEARTBEAT_TIMEOUT_PERIODS).round() as i64;
                         heartbeats[sensor.bus].watch(*node_id, timeout_ns);
                     }
                 }
-                SensorSource::J1939 { pgn, source_address, .. } => by_pgn.entry((sensor.bus, *pgn)).or_default().push(J1939Entry {
-                    source_address: *source_address,
-                    sensor: index,
-                }),
+                SensorSource::J1939 {
+                    pgn,
+                    source_address,
+                    ..
+                } => by_pgn
+                    .entry((sensor.bus, *pgn))
+                    .or_default()
+                    .push(J1939Entry {
+                        source_address: *source_address,
+                        sensor: index,
+                    }),
             }
         }
-        SensorDecoder { rig, by_id, by_pgn, heartbeats }
+        SensorDecoder {
+            rig,
+            by_id,
+            by_pgn,
+            heartbeats,
+        }
     }
 
     /// The bus a frame belongs to.
@@ -109,7 +135,9 @@ impl<'r> SensorDecoder<'r> {
             protocol = true;
             emit(SensorEvent::Heartbeat { bus, event });
         });
-        self.heartbeats[bus].check(frame.timestamp_ns, |event| emit(SensorEvent::Heartbeat { bus, event }));
+        self.heartbeats[bus].check(frame.timestamp_ns, |event| {
+            emit(SensorEvent::Heartbeat { bus, event })
+        });
         if !matches!(frame.kind, FrameKind::Data { .. } | FrameKind::Fd { .. }) {
             return FrameUse::NotData;
         }
@@ -122,7 +150,9 @@ impl<'r> SensorDecoder<'r> {
                 let sensor = &self.rig.sensors[index];
                 let channel = match &sensor.source {
                     SensorSource::Dbc { signal_index, .. } => {
-                        let Some(message) = self.rig.buses[bus].dbc.message(frame.id) else { continue };
+                        let Some(message) = self.rig.buses[bus].dbc.message(frame.id) else {
+                            continue;
+                        };
                         match message.decode_signal(payload, *signal_index) {
                             Ok(Some(value)) => Some(value.as_f64()),
                             Ok(None) => continue, // not selected by the multiplexer
@@ -145,18 +175,25 @@ impl<'r> SensorDecoder<'r> {
                 emit(SensorEvent::Sample(Sample {
                     time_ns,
                     sensor: index,
-                    value: channel.map(|v| sensor.conversion.apply(v)).filter(|v| v.is_finite()),
+                    value: channel
+                        .map(|v| sensor.conversion.apply(v))
+                        .filter(|v| v.is_finite()),
                 }));
             }
         }
         if let Some(id) = J1939Id::from_can_id(frame.id) {
             if let Some(entries) = self.by_pgn.get(&(bus, id.pgn)) {
                 for entry in entries {
-                    if entry.source_address.is_some_and(|sa| sa != id.source_address) {
+                    if entry
+                        .source_address
+                        .is_some_and(|sa| sa != id.source_address)
+                    {
                         continue;
                     }
                     let sensor = &self.rig.sensors[entry.sensor];
-                    let SensorSource::J1939 { spn, .. } = &sensor.source else { continue };
+                    let SensorSource::J1939 { spn, .. } = &sensor.source else {
+                        continue;
+                    };
                     if spn.field.end_byte() > payload.len() {
                         undecodable = true;
                         continue;
@@ -165,7 +202,10 @@ impl<'r> SensorDecoder<'r> {
                     emit(SensorEvent::Sample(Sample {
                         time_ns,
                         sensor: entry.sensor,
-                        value: spn.value(payload).map(|v| sensor.conversion.apply(v)).filter(|v| v.is_finite()),
+                        value: spn
+                            .value(payload)
+                            .map(|v| sensor.conversion.apply(v))
+                            .filter(|v| v.is_finite()),
                     }));
                 }
             }
@@ -188,9 +228,13 @@ impl<'r> SensorDecoder<'r> {
 
     /// The sensors of the rig on CANopen node `node` of bus `bus`.
     pub fn node_sensors(&self, bus: usize, node: u8) -> impl Iterator<Item = usize> + '_ {
-        self.rig.sensors.iter().enumerate().filter_map(move |(i, s)| match s.source {
-            SensorSource::Canopen { node_id, .. } if s.bus == bus && node_id == node => Some(i),
-            _ => None,
-        })
+        self.rig
+            .sensors
+            .iter()
+            .enumerate()
+            .filter_map(move |(i, s)| match s.source {
+                SensorSource::Canopen { node_id, .. } if s.bus == bus && node_id == node => Some(i),
+                _ => None,
+            })
     }
 }

@@ -18,7 +18,8 @@ pub fn to_millimetres(unit: &str, mm_per_mv_per_v: Option<f64>) -> Result<Linear
         "mV/V" => {
             let sensitivity = mm_per_mv_per_v.ok_or_else(|| {
                 ProfileError::Invalid(
-                    "an extensometer in mV/V needs mm_per_mv_per_v from its calibration sheet".into(),
+                    "an extensometer in mV/V needs mm_per_mv_per_v from its calibration sheet"
+                        .into(),
                 )
             })?;
             if !(sensitivity.is_finite() && sensitivity != 0.0) {
@@ -38,8 +39,16 @@ mod tests {
     #[test]
     fn extensometer_bridge_output() {
         // 2.5 mm travel at 2 mV/V full scale: 1.25 mm per mV/V.
-        assert_eq!(super::to_millimetres("mV/V", Some(1.25)).unwrap().apply(0.8), 1.0);
+        assert_eq!(
+            super::to_millimetres("mV/V", Some(1.25))
+                .unwrap()
+                .apply(0.8),
+            1.0
+        );
         assert!(super::to_millimetres("mV/V", None).is_err());
-        assert_eq!(super::to_millimetres("um", None).unwrap().apply(250.0), 0.25);
+        assert_eq!(
+            super::to_millimetres("um", None).unwrap().apply(250.0),
+            0.25
+        );
     }
 }

@@ -20,7 +20,9 @@ pub fn to_degrees(unit: &str) -> Result<Linear, ProfileError> {
 mod tests {
     #[test]
     fn radians_to_degrees() {
-        let degrees = super::to_degrees("rad").unwrap().apply(std::f64::consts::FRAC_PI_2);
+        let degrees = super::to_degrees("rad")
+            .unwrap()
+            .apply(std::f64::consts::FRAC_PI_2);
         assert!((degrees - 90.0).abs() < 1e-12);
         assert!(super::to_degrees("grad").is_err());
     }

@@ -134,8 +134,14 @@ mod tests {
 
     #[test]
     fn composition_and_inverse() {
-        let first = Linear { gain: 2.0, offset: 1.0 };
-        let second = Linear { gain: 10.0, offset: -3.0 };
+        let first = Linear {
+            gain: 2.0,
+            offset: 1.0,
+        };
+        let second = Linear {
+            gain: 10.0,
+            offset: -3.0,
+        };
         let both = second.after(first);
         assert_eq!(both.apply(4.0), second.apply(first.apply(4.0)));
         assert_eq!(both.invert(both.apply(4.0)), Some(4.0));

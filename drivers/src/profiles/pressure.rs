@@ -69,7 +69,8 @@ impl CylinderBore {
     /// `p_head * A_head - p_rod * A_annulus`.
     pub fn net_force_kn(&self, head_pressure_bar: f64, rod_pressure_bar: f64) -> f64 {
         // 1 bar = 0.1 N/mm^2; N -> kN.
-        (head_pressure_bar * self.head_area_mm2() - rod_pressure_bar * self.annulus_area_mm2()) * 0.1
+        (head_pressure_bar * self.head_area_mm2() - rod_pressure_bar * self.annulus_area_mm2())
+            * 0.1
             / 1000.0
     }
 
@@ -77,9 +78,15 @@ impl CylinderBore {
     /// (head side when pushing, rod side when pulling), bar, with the chamber.
     pub fn loaded_chamber_pressure_bar(&self, force_kn: f64) -> (Chamber, f64) {
         if force_kn >= 0.0 {
-            (Chamber::Head, force_kn * 1000.0 / self.head_area_mm2() / 0.1)
+            (
+                Chamber::Head,
+                force_kn * 1000.0 / self.head_area_mm2() / 0.1,
+            )
         } else {
-            (Chamber::Rod, -force_kn * 1000.0 / self.annulus_area_mm2() / 0.1)
+            (
+                Chamber::Rod,
+                -force_kn * 1000.0 / self.annulus_area_mm2() / 0.1,
+            )
         }
     }
 }

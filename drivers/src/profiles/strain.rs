@@ -68,7 +68,9 @@ pub fn to_stress_mpa(unit: &str, channel: StrainChannel) -> Result<Linear, Profi
         "m/m" => 1.0,
         "mV/V" => {
             let gauge_factor = channel.gauge_factor.ok_or_else(|| {
-                ProfileError::Invalid("a mV/V channel needs gauge_factor (foil gauges: about 2.0)".into())
+                ProfileError::Invalid(
+                    "a mV/V channel needs gauge_factor (foil gauges: about 2.0)".into(),
+                )
             })?;
             if !(gauge_factor > 0.0 && gauge_factor.is_finite()) {
                 return Err(ProfileError::Invalid(format!(
@@ -76,13 +78,18 @@ pub fn to_stress_mpa(unit: &str, channel: StrainChannel) -> Result<Linear, Profi
                 )));
             }
             let bridge = channel.bridge.ok_or_else(|| {
-                ProfileError::Invalid("a mV/V channel needs bridge = \"quarter\", \"half\" or \"full\"".into())
+                ProfileError::Invalid(
+                    "a mV/V channel needs bridge = \"quarter\", \"half\" or \"full\"".into(),
+                )
             })?;
             strain_from_bridge_output(1.0, gauge_factor, bridge)
         }
         _ => return Err(unknown_unit(unit, SensorKind::Strain)),
     };
-    Ok(Linear::scale(uniaxial_stress_mpa(strain_per_unit, channel.youngs_modulus_gpa)))
+    Ok(Linear::scale(uniaxial_stress_mpa(
+        strain_per_unit,
+        channel.youngs_modulus_gpa,
+    )))
 }
 
 #[cfg(test)]
@@ -90,13 +97,19 @@ mod tests {
     use super::*;
 
     fn steel(gauge_factor: Option<f64>, bridge: Option<Bridge>) -> StrainChannel {
-        StrainChannel { youngs_modulus_gpa: 210.0, gauge_factor, bridge }
+        StrainChannel {
+            youngs_modulus_gpa: 210.0,
+            gauge_factor,
+            bridge,
+        }
     }
 
     #[test]
     fn microstrain_to_stress() {
         // 491.33 um/m on SWS490A (E = 210 GPa) is 103.18 MPa (gauge 9, Case 1).
-        let stress = to_stress_mpa("um/m", steel(None, None)).unwrap().apply(491.333_333);
+        let stress = to_stress_mpa("um/m", steel(None, None))
+            .unwrap()
+            .apply(491.333_333);
         assert!((stress - 103.18).abs() < 1e-4, "{stress}");
     }
 

@@ -377,3 +377,31 @@ dbc = { message = "LoadFrame", signal = "Extensometer" }
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stdout(&output).contains("28 sensors"));
 }
+
+#[test]
+fn asc_log_decodes_to_the_same_samples_as_the_candump_log() {
+    let decode = |log: &str| {
+        let output = acq(&["decode", log, "--rig", "fixtures/rigs/excavator.toml"]);
+        assert!(output.status.success(), "{log}: {}", stderr(&output));
+        stdout(&output)
+    };
+    let candump = decode("fixtures/logs/excavator_case1.log");
+    let asc = decode("fixtures/logs/excavator_case1.asc");
+    let rows = |csv: &str| -> Vec<(f64, String)> {
+        csv.lines()
+            .skip(1)
+            .map(|l| {
+                let (time, rest) = l.split_once(',').unwrap();
+                (time.parse().unwrap(), rest.to_string())
+            })
+            .collect()
+    };
+    let (candump, asc) = (rows(&candump), rows(&asc));
+    assert_eq!(candump.len(), 79);
+    assert_eq!(candump.len(), asc.len());
+    for (c, a) in candump.iter().zip(&asc) {
+        assert_eq!(c.1, a.1);
+        // ASC times count from the `date` header, 2025-11-21 10:00:00.
+        assert!((c.0 - 1_763_719_200.0 - a.0).abs() < 1e-6, "{c:?} vs {a:?}");
+    }
+}

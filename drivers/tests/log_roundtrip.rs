@@ -126,8 +126,11 @@ fn candump_like() -> impl Strategy<Value = String> {
         |choices: &'static [&'static str]| prop::sample::select(choices).prop_map(str::to_owned);
     let start = prop_oneof![4 => piece(CANDUMP_STARTS), 1 => pieces(CANDUMP_PIECES, 6)];
     let id = prop_oneof![4 => piece(CANDUMP_IDS), 1 => pieces(CANDUMP_PIECES, 3)];
-    let data =
-        prop::collection::vec(prop::sample::select(CANDUMP_DATA), 0..8).prop_map(|p| p.concat());
+    let byte = prop_oneof![
+        8 => prop::sample::select(CANDUMP_BYTES),
+        1 => prop::sample::select(CANDUMP_DATA),
+    ];
+    let data = prop::collection::vec(byte, 0..8).prop_map(|p| p.concat());
     let junk = prop_oneof![4 => Just(String::new()), 1 => pieces(CANDUMP_PIECES, 4)];
     (
         start,
@@ -158,6 +161,9 @@ const CANDUMP_IDS: &[&str] = &[
 const CANDUMP_SEPARATORS: &[&str] = &[
     "#", "#", "##0", "##5", "##F", "##", "#R", "#r", "#R8_9",
 ];
+
+#[rustfmt::skip]
+const CANDUMP_BYTES: &[&str] = &["11", "AB", "00", "ff", "7e", "0011223344556677"];
 
 #[rustfmt::skip]
 const CANDUMP_DATA: &[&str] = &[
@@ -192,6 +198,8 @@ const ASC_STARTS: &[&str] = &[
     "", "date Tue Mar 4 09:15:02.512 am 2025", "base hex timestamps absolute", "base dec",
     "timestamps relative", "Begin Triggerblock", "// c", "0.000000", "1.000000 1", "2.5 2",
     "3.25 CANFD 1 Rx", "4.0 CANFD 2 Tx", "9223372036.854775807 1", "\u{feff}date",
+    "1.000000 1 123 Rx d 2", "0.5 2 18FEF100x Tx r", "5.0 1 7FF Rx d 8", "6.0 1 ErrorFrame",
+    "3.25 CANFD 1 Rx 123 1 0 8 8", "4.0 CANFD 2 Tx 7FFx Name 1 1 9 12", "7.0 CANFD 3 Rx 5x 0 0 5 0",
 ];
 
 #[rustfmt::skip]
@@ -228,6 +236,21 @@ proptest! {
     }
 
     #[test]
+    fn asc_reader_never_panics_on_bytes(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
+        drain_asc(&bytes);
+    }
+
+    #[test]
+    fn asc_reader_never_panics_on_log_like_text(text in asc_like()) {
+        drain_asc(text.as_bytes());
+    }
+}
+
+proptest! {
+    // About one line in ten parses: run many.
+    #![proptest_config(ProptestConfig::with_cases(4096))]
+
+    #[test]
     fn candump_lines_that_parse_write_back_and_reparse(line in candump_like()) {
         if let Ok((_, frame)) = candump::parse_line(line.as_bytes()) {
             let mut written = Vec::new();
@@ -241,24 +264,23 @@ proptest! {
             prop_assert_eq!(again, expected, "{:?}", line);
         }
     }
-
-    #[test]
-    fn asc_reader_never_panics_on_bytes(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
-        drain_asc(&bytes);
-    }
-
-    #[test]
-    fn asc_reader_never_panics_on_log_like_text(text in asc_like()) {
-        drain_asc(text.as_bytes());
-    }
 }
 
 #[test]
-fn the_asc_pieces_do_make_frames() {
-    // Guards the generator above: its pieces can form real frame lines.
-    let text = [
-        "1.000000", " ", "1", " ", "123", " ", "Rx", " ", "d", " ", "0", "\n",
-    ]
-    .concat();
-    assert_eq!(drain_asc(text.as_bytes()), 1);
+fn the_asc_generator_makes_frames() {
+    // Guards the generator above: its pieces do form frame lines.
+    use proptest::strategy::ValueTree;
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let frames: usize = (0..200)
+        .map(|_| {
+            drain_asc(
+                asc_like()
+                    .new_tree(&mut runner)
+                    .unwrap()
+                    .current()
+                    .as_bytes(),
+            )
+        })
+        .sum();
+    assert!(frames > 20, "only {frames} frames in 200 texts");
 }

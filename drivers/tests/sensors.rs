@@ -1,0 +1,81 @@
+//! The rig route on arbitrary traffic: no panic, no non-finite value, and
+//! frames matched to buses by interface.
+
+use std::path::Path;
+
+use acq_drivers::rig::Rig;
+use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
+use acq_drivers::{CanId, Frame, IfaceName};
+use proptest::prelude::*;
+
+fn excavator() -> Rig {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    Rig::load(&root.join("fixtures/rigs/excavator.toml")).unwrap()
+}
+
+fn iface(name: &str) -> IfaceName {
+    IfaceName::new(name).unwrap()
+}
+
+#[test]
+fn frames_match_buses_by_interface() {
+    let rig = excavator();
+    let mut decoder = SensorDecoder::new(&rig);
+    let pressure = Frame::data(0, iface("can0"), CanId::Standard(0x1A5), &7335i32.to_le_bytes()).unwrap();
+    let mut samples = Vec::new();
+    let used = decoder.decode(&pressure, |e| samples.push(e));
+    assert_eq!(used, FrameUse::Decoded);
+    let SensorEvent::Sample(sample) = samples[0] else { panic!("{samples:?}") };
+    assert_eq!((rig.sensors[sample.sensor].name.as_str(), sample.value), ("boom_head_pressure", Some(73.35)));
+    // The same id on the DAQ bus, or on a bus the rig does not have, is no sensor.
+    for other in ["can1", "can7"] {
+        let frame = Frame::data(0, iface(other), CanId::Standard(0x1A5), &[0; 8]).unwrap();
+        assert_eq!(decoder.decode(&frame, |_| {}), FrameUse::Unknown, "{other}");
+    }
+    // A PDO too short for its mapping is undecodable, not a value.
+    let short = Frame::data(0, iface("can0"), CanId::Standard(0x1A5), &[1, 2]).unwrap();
+    assert_eq!(decoder.decode(&short, |_| {}), FrameUse::Undecodable);
+}
+
+#[test]
+fn heartbeat_loss_is_reported_once_per_silence() {
+    let rig = excavator();
+    let mut decoder = SensorDecoder::new(&rig);
+    let beat = |t: i64| Frame::data(t, iface("can0"), CanId::Standard(0x725), &[0x05]).unwrap();
+    let mut events = Vec::new();
+    decoder.decode(&beat(0), |e| events.push(e));
+    decoder.check_heartbeats(2_000_000_000, |e| events.push(e));
+    let losses = |events: &[SensorEvent]| {
+        events
+            .iter()
+            .filter(|e| matches!(e, SensorEvent::Heartbeat { event: acq_drivers::canopen::HeartbeatEvent::Lost { node: 0x25, .. }, .. }))
+            .count()
+    };
+    assert_eq!(losses(&events), 0, "within 3 periods");
+    decoder.check_heartbeats(3_100_000_000, |e| events.push(e));
+    decoder.check_heartbeats(4_000_000_000, |e| events.push(e));
+    assert_eq!(losses(&events), 1);
+}
+
+proptest! {
+    #[test]
+    fn arbitrary_frames_never_panic_or_give_non_finite_values(
+        frames in proptest::collection::vec(
+            (0u8..3, any::<bool>(), any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=8), any::<i64>()),
+            1..200,
+        )
+    ) {
+        let rig = excavator();
+        let mut decoder = SensorDecoder::new(&rig);
+        for (bus, extended, raw_id, payload, time) in frames {
+            let id = if extended { CanId::Extended(raw_id & 0x1FFF_FFFF) } else { CanId::Standard((raw_id & 0x7FF) as u16) };
+            let frame = Frame::data(time, iface(["can0", "can1", "vcan9"][usize::from(bus)]), id, &payload).unwrap();
+            decoder.decode(&frame, |event| {
+                if let SensorEvent::Sample(sample) = event {
+                    assert!(sample.value.is_none_or(f64::is_finite), "{sample:?}");
+                }
+            });
+            decoder.check_heartbeats(time, |_| {});
+        }
+    }
+}

@@ -21,12 +21,23 @@ fn iface(name: &str) -> IfaceName {
 fn frames_match_buses_by_interface() {
     let rig = excavator();
     let mut decoder = SensorDecoder::new(&rig);
-    let pressure = Frame::data(0, iface("can0"), CanId::Standard(0x1A5), &7335i32.to_le_bytes()).unwrap();
+    let pressure = Frame::data(
+        0,
+        iface("can0"),
+        CanId::Standard(0x1A5),
+        &7335i32.to_le_bytes(),
+    )
+    .unwrap();
     let mut samples = Vec::new();
     let used = decoder.decode(&pressure, |e| samples.push(e));
     assert_eq!(used, FrameUse::Decoded);
-    let SensorEvent::Sample(sample) = samples[0] else { panic!("{samples:?}") };
-    assert_eq!((rig.sensors[sample.sensor].name.as_str(), sample.value), ("boom_head_pressure", Some(73.35)));
+    let SensorEvent::Sample(sample) = samples[0] else {
+        panic!("{samples:?}")
+    };
+    assert_eq!(
+        (rig.sensors[sample.sensor].name.as_str(), sample.value),
+        ("boom_head_pressure", Some(73.35))
+    );
     // The same id on the DAQ bus, or on a bus the rig does not have, is no sensor.
     for other in ["can1", "can7"] {
         let frame = Frame::data(0, iface(other), CanId::Standard(0x1A5), &[0; 8]).unwrap();
@@ -48,7 +59,15 @@ fn heartbeat_loss_is_reported_once_per_silence() {
     let losses = |events: &[SensorEvent]| {
         events
             .iter()
-            .filter(|e| matches!(e, SensorEvent::Heartbeat { event: acq_drivers::canopen::HeartbeatEvent::Lost { node: 0x25, .. }, .. }))
+            .filter(|e| {
+                matches!(
+                    e,
+                    SensorEvent::Heartbeat {
+                        event: acq_drivers::canopen::HeartbeatEvent::Lost { node: 0x25, .. },
+                        ..
+                    }
+                )
+            })
             .count()
     };
     assert_eq!(losses(&events), 0, "within 3 periods");

@@ -10,7 +10,7 @@ use std::io::Write;
 
 use acq_drivers::canopen::HeartbeatEvent;
 use acq_drivers::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError};
-use acq_drivers::rig::{Rig, SensorSource};
+use acq_drivers::rig::Rig;
 use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
 use acq_drivers::FrameKind;
 
@@ -198,7 +198,7 @@ pub fn decode_with_rig(
     output.buffer.push(b'\n');
     let mut summary = DecodeSummary::default();
     let mut last_time_ns = None;
-    let mut heartbeat_notes: Vec<String> = Vec::new();
+    let mut heartbeats: Vec<(usize, HeartbeatEvent)> = Vec::new();
     for_each_record(inputs, bad_lines, &mut summary.scan, |_, record| {
         let buffer = &mut output.buffer;
         last_time_ns = Some(record.frame.timestamp_ns);
@@ -213,9 +213,7 @@ pub fn decode_with_rig(
                 buffer.extend_from_slice(tail);
                 summary.rows += 1;
             }
-            SensorEvent::Heartbeat { bus, event } => {
-                heartbeat_notes.push(describe_heartbeat(rig, bus, event))
-            }
+            SensorEvent::Heartbeat { bus, event } => heartbeats.push((bus, event)),
         });
         match used {
             FrameUse::Decoded => summary.decoded += 1,
@@ -232,26 +230,29 @@ pub fn decode_with_rig(
     if let Some(end) = last_time_ns {
         decoder.check_heartbeats(end, |event| {
             if let SensorEvent::Heartbeat { bus, event } = event {
-                heartbeat_notes.push(describe_heartbeat(rig, bus, event));
+                heartbeats.push((bus, event));
             }
         });
     }
-    for note in heartbeat_notes {
-        eprintln!("acq decode: {note}");
+    for (bus, event) in heartbeats {
+        eprintln!(
+            "acq decode: {}",
+            describe_heartbeat(rig, &decoder, bus, event)
+        );
     }
     Ok(summary)
 }
 
-fn describe_heartbeat(rig: &Rig, bus: usize, event: HeartbeatEvent) -> String {
+fn describe_heartbeat(
+    rig: &Rig,
+    decoder: &SensorDecoder<'_>,
+    bus: usize,
+    event: HeartbeatEvent,
+) -> String {
     let sensors_on = |node: u8| {
-        let names: Vec<&str> = rig
-            .sensors
-            .iter()
-            .filter(|s| {
-                s.bus == bus
-                    && matches!(s.source, SensorSource::Canopen { node_id, .. } if node_id == node)
-            })
-            .map(|s| s.name.as_str())
+        let names: Vec<&str> = decoder
+            .node_sensors(bus, node)
+            .map(|i| rig.sensors[i].name.as_str())
             .collect();
         names.join(", ")
     };

@@ -49,13 +49,14 @@ impl<R: BufRead> CandumpReader<R> {
                 return Ok(None);
             }
             self.line += 1;
-            let text = trim_line_end(&self.buffer);
-            if text.is_empty() || text[0] == b'#' {
+            // A length, not a slice: a borrow held across the `continue`
+            // would outlive the loop (the borrow checker's NLL limit).
+            let len = trim_line_end(&self.buffer).len();
+            if len == 0 || self.buffer[0] == b'#' {
                 continue;
             }
             let line = self.line;
-            // Re-borrow after the loop's mutation of the buffer.
-            let text = trim_line_end(&self.buffer);
+            let text = &self.buffer[..len];
             return match parse_line(text) {
                 Ok((timestamp, frame)) => Ok(Some(LogRecord {
                     line,
@@ -75,7 +76,7 @@ impl<R: BufRead> CandumpReader<R> {
     }
 }
 
-pub(crate) fn trim_line_end(line: &[u8]) -> &[u8] {
+fn trim_line_end(line: &[u8]) -> &[u8] {
     let mut end = line.len();
     while end > 0 && matches!(line[end - 1], b'\n' | b'\r' | b' ' | b'\t') {
         end -= 1;

@@ -7,7 +7,6 @@
 //! identity and integer scaling stay exact integers, anything else is
 //! `raw * factor + offset` in `f64`; float32 signals are widened to `f64`.
 
-use std::fmt::Write as _;
 use std::sync::Arc;
 
 use can_dbc::{Dbc, MessageId, MultiplexIndicator, SignalExtendedValueType, ValueType};
@@ -97,6 +96,13 @@ impl SignalCodec {
         }
     }
 
+    /// Whether the multiplexor's value `selector` puts this signal in the frame.
+    #[inline]
+    fn is_selected(&self, selector: Option<u64>) -> bool {
+        self.multiplexer_value
+            .is_none_or(|wanted| selector == Some(wanted))
+    }
+
     /// Decodes the signal from a payload; `None` if the payload is too short.
     #[inline]
     pub fn decode(&self, payload: &[u8]) -> Option<PhysicalValue> {
@@ -177,25 +183,15 @@ impl MessageCodec {
         payload: &[u8],
         mut emit: impl FnMut(usize, PhysicalValue),
     ) -> Result<(), FrameDecodeError> {
-        if payload.len() < self.size {
-            return Err(FrameDecodeError::Short {
-                got: payload.len(),
-                needed: self.size,
-            });
-        }
-        let selector = self
-            .multiplexor
-            .and_then(|i| self.signals[i].field.extract(payload));
+        let selector = self.selector(payload)?;
         if let Some(value) = selector {
             if self.multiplexer_values.binary_search(&value).is_err() {
                 return Err(FrameDecodeError::UnknownMultiplexerValue(value));
             }
         }
         for (index, signal) in self.signals.iter().enumerate() {
-            if let Some(wanted) = signal.multiplexer_value {
-                if selector != Some(wanted) {
-                    continue;
-                }
+            if !signal.is_selected(selector) {
+                continue;
             }
             if let Some(raw) = signal.field.extract(payload) {
                 emit(index, signal.scale(raw));
@@ -211,24 +207,27 @@ impl MessageCodec {
         payload: &[u8],
         index: usize,
     ) -> Result<Option<PhysicalValue>, FrameDecodeError> {
+        let selector = self.selector(payload)?;
+        Ok(self
+            .signals
+            .get(index)
+            .filter(|signal| signal.is_selected(selector))
+            .and_then(|signal| signal.decode(payload)))
+    }
+
+    /// Refuses a frame shorter than the message; returns the multiplexor's
+    /// raw value, if the message has one.
+    #[inline]
+    fn selector(&self, payload: &[u8]) -> Result<Option<u64>, FrameDecodeError> {
         if payload.len() < self.size {
             return Err(FrameDecodeError::Short {
                 got: payload.len(),
                 needed: self.size,
             });
         }
-        let Some(signal) = self.signals.get(index) else {
-            return Ok(None);
-        };
-        if let Some(wanted) = signal.multiplexer_value {
-            let selector = self
-                .multiplexor
-                .and_then(|i| self.signals[i].field.extract(payload));
-            if selector != Some(wanted) {
-                return Ok(None);
-            }
-        }
-        Ok(signal.decode(payload))
+        Ok(self
+            .multiplexor
+            .and_then(|i| self.signals[i].field.extract(payload)))
     }
 
     pub fn signal(&self, name: &str) -> Option<(usize, &SignalCodec)> {
@@ -533,22 +532,6 @@ fn scaling(factor: f64, offset: f64) -> Scaling {
     } else {
         Scaling::Linear { factor, offset }
     }
-}
-
-/// A one-line description of every message, for `--list` style output.
-pub fn describe(database: &DbcDatabase) -> String {
-    let mut text = String::new();
-    for m in database.messages() {
-        let _ = writeln!(
-            text,
-            "{} {} ({} bytes, {} signals)",
-            m.id,
-            m.name,
-            m.size,
-            m.signals.len()
-        );
-    }
-    text
 }
 
 #[cfg(test)]

@@ -29,6 +29,15 @@ pub enum Command {
     Decode(DecodeArgs),
     /// Validate a rig file and explain every problem found.
     CheckRig(CheckRigArgs),
+    /// Record CAN interfaces into a session directory, with live status.
+    Record(crate::live_cli::RecordArgs),
+    /// Play a log back onto CAN interfaces with its original timing.
+    Replay(crate::live_cli::ReplayArgs),
+    /// Put a rig's simulated sensors on CAN interfaces, or into a log.
+    Simulate(crate::live_cli::SimulateArgs),
+    /// Work on recorded session directories.
+    #[command(subcommand)]
+    Session(crate::live_cli::SessionCommand),
 }
 
 #[derive(Args, Debug)]
@@ -70,6 +79,10 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Decode(args) => run_decode(args),
         Command::CheckRig(args) => run_check_rig(args),
+        Command::Record(args) => crate::live_cli::run_record(args),
+        Command::Replay(args) => crate::live_cli::run_replay(args),
+        Command::Simulate(args) => crate::live_cli::run_simulate(args),
+        Command::Session(command) => crate::live_cli::run_session(command),
     }
 }
 

@@ -10,8 +10,14 @@
 //! - [`decode`]: `acq decode`, logs to CSV through DBC files or a rig.
 //! - [`input`], [`output`]: opening logs and writing results; [`error`]: exit codes.
 
+pub mod bus;
 pub mod cli;
 pub mod decode;
 pub mod error;
 pub mod input;
+pub mod live_cli;
 pub mod output;
+pub mod record;
+pub mod replay;
+pub mod session;
+pub mod simulate;

@@ -130,6 +130,41 @@ impl SignalCodec {
         }
     }
 
+    /// Writes the physical `value` into the payload: the inverse of
+    /// [`SignalCodec::decode`] (rounded to the nearest raw step, saturated
+    /// at the field's range). Used by the simulator to put a sensor on the wire.
+    pub fn encode(&self, value: f64, payload: &mut [u8]) -> Option<()> {
+        let raw = match self.encoding {
+            Encoding::Float32 => {
+                u64::from((((value - self.offset) / self.factor) as f32).to_bits())
+            }
+            Encoding::Float64 => ((value - self.offset) / self.factor).to_bits(),
+            Encoding::Unsigned | Encoding::Signed => {
+                let steps = ((value - self.offset) / self.factor).round();
+                let bits = self.field.length_bits();
+                let (low, high) = if self.encoding == Encoding::Signed {
+                    (
+                        -(2f64.powi(bits as i32 - 1)),
+                        2f64.powi(bits as i32 - 1) - 1.0,
+                    )
+                } else {
+                    (0.0, 2f64.powi(bits as i32) - 1.0)
+                };
+                let clamped = if steps.is_nan() {
+                    0.0
+                } else {
+                    steps.clamp(low, high)
+                };
+                if self.encoding == Encoding::Signed {
+                    (clamped as i64) as u64
+                } else {
+                    clamped as u64
+                }
+            }
+        };
+        self.field.insert(payload, raw)
+    }
+
     /// The value-table label of the raw value in `payload`, if any.
     pub fn label(&self, payload: &[u8]) -> Option<&str> {
         if self.labels.is_empty() || matches!(self.encoding, Encoding::Float32 | Encoding::Float64)

@@ -5,6 +5,7 @@
 //!
 //! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface.
 //! - [`log`], [`candump`], [`asc`]: log records and formats (can-utils `candump -L`, Vector ASC).
+//! - [`kernel`]: the SocketCAN `can_frame`/`canfd_frame` byte layout; [`bus_error`]: error frames.
 //! - [`bits`]: bit fields in both byte orders, shared by all protocols.
 //! - [`dbc`]: DBC signals, compiled from the `can-dbc` AST.
 //! - [`canopen`], [`j1939`]: the two device protocols on the rigs.
@@ -14,12 +15,14 @@
 
 pub mod asc;
 pub mod bits;
+pub mod bus_error;
 pub mod candump;
 pub mod canopen;
 pub mod dbc;
 pub mod frame;
 mod hex;
 pub mod j1939;
+pub mod kernel;
 pub mod log;
 pub mod profiles;
 pub mod rig;

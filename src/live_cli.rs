@@ -185,7 +185,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         None => None,
         Some(path) => {
             let mut rig = crate::cli::load_rig(path)?;
-            assign_rig_buses(&mut rig, &interfaces, &mut notes)?;
+            record::assign_rig_buses(&mut rig, &interfaces, &mut notes)?;
             Some(rig)
         }
     };
@@ -233,40 +233,6 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         )),
         _ => Ok(()),
     }
-}
-
-/// Points the rig's buses at the recorded interfaces when the names differ
-/// (a rig written for can0/can1 recorded on vcan0/vcan1): by order.
-fn assign_rig_buses(
-    rig: &mut acq_drivers::rig::Rig,
-    interfaces: &[IfaceName],
-    notes: &mut Vec<String>,
-) -> Result<()> {
-    if rig.buses.len() == 1 || rig.buses.iter().all(|b| interfaces.contains(&b.iface)) {
-        return Ok(());
-    }
-    if rig.buses.len() != interfaces.len() {
-        let names: Vec<String> = rig
-            .buses
-            .iter()
-            .map(|b| format!("{} ({})", b.name, b.iface))
-            .collect();
-        return Err(AcqError::Config(format!(
-            "the rig has buses {} but {} interface(s) were given; give one --iface per rig bus, in order",
-            names.join(", "),
-            interfaces.len()
-        )));
-    }
-    for (bus, iface) in rig.buses.iter_mut().zip(interfaces) {
-        if bus.iface != *iface {
-            notes.push(format!(
-                "rig bus {} ({}) recorded on {iface}",
-                bus.name, bus.iface
-            ));
-            bus.iface = *iface;
-        }
-    }
-    Ok(())
 }
 
 /// Reads a log pass by pass for the player.

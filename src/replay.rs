@@ -75,6 +75,12 @@ impl TimingStats {
         percentiles(&self.interval_error_ns)
     }
 
+    /// The earliest send relative to its deadline, ns (never negative:
+    /// the player waits until the deadline has passed).
+    pub fn earliest_send_ns(&self) -> Option<i64> {
+        self.lateness_ns.iter().copied().min()
+    }
+
     /// (median, 99th percentile, maximum) of send lateness, µs.
     pub fn lateness_us(&self) -> Option<(f64, f64, f64)> {
         percentiles(&self.lateness_ns)

@@ -284,7 +284,9 @@ pub fn repair(dir: &Path) -> Result<RepairReport> {
             if n == 0 {
                 break;
             }
-            match parse_line(&line) {
+            let text = line.strip_suffix(b"\n").unwrap_or(&line);
+            let text = text.strip_suffix(b"\r").unwrap_or(text);
+            match parse_line(text) {
                 Ok((_, frame)) => {
                     let name = frame.iface.to_string();
                     let record = interfaces.entry(name.clone()).or_insert_with(|| {

@@ -405,3 +405,115 @@ fn asc_log_decodes_to_the_same_samples_as_the_candump_log() {
         assert!((c.0 - 1_763_719_200.0 - a.0).abs() < 1e-6, "{c:?} vs {a:?}");
     }
 }
+
+#[test]
+fn record_on_a_missing_interface_says_how_to_create_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("session");
+    let output = acq(&[
+        "record",
+        "--iface",
+        "vcan97",
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "1s",
+    ]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    let message = stderr(&output);
+    assert!(message.contains("vcan97 does not exist"), "{message}");
+    assert!(
+        message.contains("sudo ip link add dev vcan97 type vcan"),
+        "{message}"
+    );
+    assert!(!out.exists(), "a failed start leaves no session directory");
+}
+
+#[test]
+fn record_and_replay_refuse_bad_arguments() {
+    let output = acq(&["record", "--iface", "vcan0", "--max-file-size", "lots"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("not a size like 1GiB"),
+        "{}",
+        stderr(&output)
+    );
+    let output = acq(&["replay", "missing.log", "--iface", "vcan0"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("cannot open missing.log"),
+        "{}",
+        stderr(&output)
+    );
+    let output = acq(&[
+        "replay",
+        "fixtures/logs/excavator_case1.log",
+        "--map",
+        "can0",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("expected LOG_IFACE=BUS_IFACE"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn simulate_to_a_log_is_deterministic_and_decodes_to_the_scenario() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, seed: &str| {
+        let path = dir.path().join(name);
+        let output = acq(&[
+            "simulate",
+            "--rig",
+            "fixtures/rigs/excavator.toml",
+            "--scenario",
+            "fixtures/scenarios/excavator_case1.toml",
+            "-o",
+            path.to_str().unwrap(),
+            "--seed",
+            seed,
+            "--start",
+            "1763719200",
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        std::fs::read_to_string(path).unwrap()
+    };
+    let first = run("a.log", "5");
+    assert_eq!(first, run("b.log", "5"), "same seed, same traffic");
+    assert_ne!(first, run("c.log", "6"), "another seed, other noise");
+    // Boot-up then heartbeats from each CANopen node.
+    assert!(first.contains(" can0 721#00\n") && first.contains(" can0 721#05\n"));
+    let decoded = acq(&[
+        "decode",
+        dir.path().join("a.log").to_str().unwrap(),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+    ]);
+    assert!(decoded.status.success(), "{}", stderr(&decoded));
+    let csv = stdout(&decoded);
+    // The hold is 3..11 s after the start: its mean is the scenario's value
+    // within 4 standard errors (noise 0.4 bar, about 800 samples).
+    for (sensor, hold, noise) in [
+        ("arm_head_pressure", 193.46, 0.4),
+        ("sg09", 103.18, 0.15),
+        ("tip_force", 40.6, 0.08),
+    ] {
+        let values: Vec<f64> = sensor_rows(&csv, sensor)
+            .iter()
+            .filter(|(t, _)| {
+                let t: f64 = t.parse::<f64>().unwrap() - 1763719200.0;
+                (3.2..10.8).contains(&t)
+            })
+            .map(|(_, v)| v.parse().unwrap())
+            .collect();
+        assert!(values.len() > 700, "{sensor}: {} samples", values.len());
+        let mean = values.iter().sum::<f64>() / values.len() as f64;
+        let tolerance = 4.0 * noise / (values.len() as f64).sqrt();
+        assert!(
+            (mean - hold).abs() < tolerance,
+            "{sensor}: mean {mean} vs {hold} +- {tolerance}"
+        );
+    }
+}

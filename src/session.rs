@@ -46,6 +46,10 @@ pub struct SessionInfo {
     pub command: String,
     pub started_utc: String,
     pub started_unix_ns: i64,
+    /// When the stop was asked for (signal, duration): frames the kernel
+    /// stamped up to this instant are in the raw files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_requested_unix_ns: Option<i64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stopped_utc: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

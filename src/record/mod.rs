@@ -200,7 +200,9 @@ pub async fn record<B: Bus>(
         tokio::select! {
             biased;
             reason = &mut stop, if stop_reason.is_none() => {
-                let _ = stop_tx.send(Some(now_ns()));
+                let at_ns = now_ns();
+                let _ = stop_tx.send(Some(at_ns));
+                session.session.stop_requested_unix_ns = Some(at_ns);
                 stop_reason = Some(reason);
             }
             event = events.recv() => {

@@ -1,0 +1,77 @@
+#!/bin/sh
+# The vcan checks of `acq record` / `acq replay` / `acq simulate` against
+# can-utils, run inside the VM by tests/vcan.rs (or natively on a host that
+# has vcan0..vcan3: OUT=dir IN=dir sh acq-checks.sh). It only produces
+# files in $OUT; tests/vcan.rs compares them and decides pass or fail.
+#
+# Inputs in $IN: variety.log (2000 frames of every kind, candump -L, on
+# can0), rigs/, dbc/, scenarios/short.toml.
+set -eu
+OUT=${OUT:-/out}
+IN=${IN:-/in}
+say() { echo "acq-checks: $*"; }
+
+# Wait until a recorder has opened its sockets (it writes session.toml then).
+wait_for_session() {
+    i=0
+    while [ ! -f "$1/session.toml" ]; do
+        i=$((i + 1))
+        [ $i -lt 300 ] || { say "recorder did not start: $1"; exit 1; }
+        sleep 0.1
+    done
+}
+
+# vcan0 and vcan1 carry CAN FD frames; can0/can1 are vcans named like the rig's buses.
+for dev in vcan0 vcan1; do
+    ip link set "$dev" down
+    ip link set "$dev" mtu 72
+    ip link set "$dev" up
+done
+for dev in can0 can1; do
+    ip link add dev "$dev" type vcan 2>/dev/null || true
+    ip link set up "$dev"
+done
+
+say "1: canplayer -> acq record"
+acq record --iface vcan0 --out "$OUT/c1" --quiet &
+rec=$!
+wait_for_session "$OUT/c1"
+canplayer -I "$IN/variety.log" vcan0=can0
+sleep 0.5
+kill -INT $rec
+wait $rec && echo "c1 exit 0" > "$OUT/c1.exit" || echo "c1 exit $?" > "$OUT/c1.exit"
+
+say "2: acq replay -> candump -L"
+candump -L vcan1 > "$OUT/c2_candump.log" &
+dump=$!
+sleep 0.5
+acq replay "$IN/variety.log" --iface vcan1 2> "$OUT/c2_replay.txt"
+sleep 0.5
+kill $dump; wait $dump || true
+
+say "3: acq simulate -> acq record --rig"
+acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c3" --status-json > "$OUT/c3_status.jsonl" &
+rec=$!
+wait_for_session "$OUT/c3"
+acq simulate --rig "$IN/rigs/excavator.toml" --scenario "$IN/scenarios/short.toml" --iface can0 --iface can1 --seed 11 2> "$OUT/c3_simulate.txt"
+sleep 0.3
+kill -INT $rec
+wait $rec
+
+say "4: Ctrl-C during a flood"
+candump -L vcan2 > "$OUT/c4_candump.log" &
+dump=$!
+acq record --iface vcan2 --out "$OUT/c4" --quiet &
+rec=$!
+wait_for_session "$OUT/c4"
+cangen vcan2 -g 0 -I i -L 8 -D i -n 400000 &
+gen=$!
+sleep 1.5
+kill -INT $rec
+wait $rec
+sleep 0.3
+kill $gen 2>/dev/null || true
+wait $gen 2>/dev/null || true
+sleep 0.3
+kill $dump; wait $dump || true
+say "done"

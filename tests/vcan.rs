@@ -1,0 +1,283 @@
+//! `acq record`, `acq replay` and `acq simulate` on a real vcan, against
+//! can-utils as the peer. The host kernels here have no CAN, so the checks
+//! run in a small VM (tests/vcan-vm); on a host with vcan0..vcan3 they run
+//! natively. tests/vcan-vm/acq-checks.sh produces the captures; this test
+//! compares them. It never skips: when the VM cannot run, it fails.
+
+use std::collections::HashSet;
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use acq::session;
+use acq_drivers::candump::{parse_line, CandumpWriter};
+use acq_drivers::frame::{FD_FLAG_BRS, FD_FLAG_ESI, FD_FLAG_FDF};
+use acq_drivers::{CanId, Frame, FrameKind, IfaceName};
+
+const T0_NS: i64 = 1_763_719_200_000_000_000;
+const VARIETY_FRAMES: usize = 2000;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// 2000 frames, 1 ms apart, of every kind the wire carries.
+fn variety_log() -> Vec<Frame> {
+    let can0 = IfaceName::new("can0").unwrap();
+    (0..VARIETY_FRAMES)
+        .map(|i| {
+            let t = T0_NS + i as i64 * 1_000_000;
+            let n = i as u32;
+            let bytes: Vec<u8> = (0..64)
+                .map(|k| (n as u8).wrapping_mul(31).wrapping_add(k))
+                .collect();
+            let standard = CanId::Standard((0x100 + n % 0x600) as u16);
+            let extended = CanId::Extended(0x1800_0000 | (n * 7919) % 0x0100_0000);
+            match i % 10 {
+                0 => Frame::data(t, can0, extended, &bytes[..8]),
+                1 => Frame::data(t, can0, standard, &[]),
+                2 => Frame::remote(t, can0, standard, (n % 9) as u8),
+                3 => Frame::fd(t, can0, standard, FD_FLAG_FDF | FD_FLAG_BRS, &bytes[..12]),
+                4 => Frame::fd(t, can0, extended, FD_FLAG_FDF, &bytes[..64]),
+                5 => Frame::remote(t, can0, extended, 0),
+                6 => Frame::fd(
+                    t,
+                    can0,
+                    standard,
+                    FD_FLAG_FDF | FD_FLAG_BRS | FD_FLAG_ESI,
+                    &bytes[..48],
+                ),
+                _ => Frame::data(t, can0, standard, &bytes[..(n % 9) as usize]),
+            }
+            .unwrap()
+        })
+        .collect()
+}
+
+/// A frame as the wire knows it: id, kind (with FD flags) and bytes.
+fn wire(frame: &Frame) -> (CanId, FrameKind, Vec<u8>) {
+    (frame.id, frame.kind, frame.payload().to_vec())
+}
+
+fn read_log(path: &Path) -> Vec<Frame> {
+    let text = fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            parse_line(l.as_bytes())
+                .unwrap_or_else(|e| panic!("{}: {l:?}: {e}", path.display()))
+                .1
+        })
+        .collect()
+}
+
+fn read_session_frames(dir: &Path) -> Vec<Frame> {
+    session::raw_files(dir)
+        .unwrap()
+        .iter()
+        .flat_map(|p| read_log(p))
+        .collect()
+}
+
+fn prepare_inputs(dir: &Path) {
+    let mut writer = CandumpWriter::new(fs::File::create(dir.join("variety.log")).unwrap());
+    for frame in variety_log() {
+        writer.write_frame(&frame).unwrap();
+    }
+    writer.flush().unwrap();
+    for sub in ["rigs", "dbc", "scenarios"] {
+        fs::create_dir_all(dir.join(sub)).unwrap();
+    }
+    fs::copy(
+        root().join("fixtures/rigs/excavator.toml"),
+        dir.join("rigs/excavator.toml"),
+    )
+    .unwrap();
+    fs::copy(
+        root().join("fixtures/dbc/somat_excavator.dbc"),
+        dir.join("dbc/somat_excavator.dbc"),
+    )
+    .unwrap();
+    let mut scenario = fs::File::create(dir.join("scenarios/short.toml")).unwrap();
+    writeln!(
+        scenario,
+        "name = \"short\"\n[timeline]\nidle_s = 0.5\nbuild_up_s = 0.5\nhold_s = 2.0\nrelease_s = 0.5\nafter_s = 0.5\n\
+         [sensor.arm_head_pressure]\nidle = 10.0\nhold = 193.46\n[sensor.tip_force]\nidle = 0.0\nhold = 40.6"
+    )
+    .unwrap();
+}
+
+/// Runs the checks natively when this host has vcan, else in the VM.
+fn run_checks(inputs: &Path, out: &Path) {
+    let acq = PathBuf::from(env!("CARGO_BIN_EXE_acq"));
+    let script = root().join("tests/vcan-vm/acq-checks.sh");
+    let native = Path::new("/sys/class/net/vcan0").exists();
+    let status = if native {
+        let path = format!(
+            "{}:{}",
+            acq.parent().unwrap().display(),
+            std::env::var("PATH").unwrap_or_default()
+        );
+        Command::new("sh")
+            .arg(&script)
+            .env("OUT", out)
+            .env("IN", inputs)
+            .env("PATH", path)
+            .status()
+    } else {
+        Command::new(root().join("tests/vcan-vm/run"))
+            .arg("--script")
+            .arg(&script)
+            .arg("--bin")
+            .arg(&acq)
+            .arg("--file")
+            .arg(format!("{}:/in", inputs.display()))
+            .arg("--out")
+            .arg(out)
+            .args(["--timeout", "900"])
+            .status()
+    }
+    .expect("could not start the vcan checks");
+    assert!(
+        status.success(),
+        "the vcan checks failed ({status}); on a host without CAN they need qemu (tests/vcan-vm/README.md)"
+    );
+}
+
+#[test]
+fn record_replay_and_simulate_on_a_real_vcan() {
+    let work = tempfile::tempdir().unwrap();
+    let inputs = work.path().join("in");
+    let out = work.path().join("out");
+    fs::create_dir_all(&inputs).unwrap();
+    prepare_inputs(&inputs);
+    run_checks(&inputs, &out);
+    let sent = variety_log();
+
+    // 1. canplayer -> acq record: the same frames, in order, none missing.
+    let c1 = out.join("c1");
+    let recorded = read_session_frames(&c1);
+    assert_eq!(
+        recorded.len(),
+        VARIETY_FRAMES,
+        "acq recorded every frame canplayer sent"
+    );
+    let want: Vec<_> = sent.iter().map(wire).collect();
+    let got: Vec<_> = recorded.iter().map(wire).collect();
+    assert_eq!(got, want, "identical ids, flags, data and order");
+    assert_eq!(
+        fs::read_to_string(out.join("c1.exit")).unwrap().trim(),
+        "c1 exit 0"
+    );
+    let c1_session = session::read(&c1).unwrap();
+    assert_eq!(c1_session.session.ended, "signal SIGINT");
+    assert_eq!(c1_session.interface[0].timestamp_source, "kernel");
+    assert_eq!(c1_session.session.frames as usize, VARIETY_FRAMES);
+
+    // 2. acq replay -> candump -L: the same frames, and the timing held.
+    let captured = read_log(&out.join("c2_candump.log"));
+    assert_eq!(
+        captured.len(),
+        VARIETY_FRAMES,
+        "candump saw every frame acq replayed"
+    );
+    let got: Vec<_> = captured.iter().map(wire).collect();
+    assert_eq!(got, want);
+    let mut errors_us: Vec<f64> = captured
+        .windows(2)
+        .zip(sent.windows(2))
+        .map(|(c, s)| {
+            let actual = c[1].timestamp_ns - c[0].timestamp_ns;
+            let logged = s[1].timestamp_ns - s[0].timestamp_ns;
+            (actual - logged).abs() as f64 / 1e3
+        })
+        .collect();
+    errors_us.sort_by(f64::total_cmp);
+    let median = errors_us[errors_us.len() / 2];
+    let p99 = errors_us[errors_us.len() * 99 / 100];
+    let span_error_us = ((captured.last().unwrap().timestamp_ns - captured[0].timestamp_ns)
+        - (sent.last().unwrap().timestamp_ns - sent[0].timestamp_ns))
+        .abs() as f64
+        / 1e3;
+    eprintln!(
+        "vcan replay timing (candump's kernel timestamps): inter-frame |error| median {median:.1} us, p99 {p99:.1} us; drift over {:.1} s: {span_error_us:.1} us",
+        (sent.len() - 1) as f64 * 1e-3
+    );
+    eprintln!(
+        "{}",
+        fs::read_to_string(out.join("c2_replay.txt"))
+            .unwrap_or_default()
+            .trim()
+    );
+    // Loose bounds: the VM emulates its CPU; the 100 us target is measured
+    // on the host (BENCHMARKS.md). An absolute schedule cannot drift.
+    assert!(median < 2000.0, "median inter-frame error {median} us");
+    assert!(
+        span_error_us < 20_000.0,
+        "the replay drifted {span_error_us} us over 2 s"
+    );
+
+    // 3. acq simulate -> acq record --rig: every sensor at its rate.
+    let c3 = session::read(&out.join("c3")).unwrap();
+    assert_eq!(c3.sensor.len(), 28);
+    for sensor in &c3.sensor {
+        let ratio = sensor.observed_rate_hz / sensor.expected_rate_hz;
+        assert!(
+            (0.9..1.1).contains(&ratio),
+            "{}: {} Hz observed, {} Hz expected ({} samples)",
+            sensor.name,
+            sensor.observed_rate_hz,
+            sensor.expected_rate_hz,
+            sensor.samples
+        );
+    }
+    let arm = c3
+        .sensor
+        .iter()
+        .find(|s| s.name == "arm_head_pressure")
+        .unwrap();
+    assert!(
+        arm.last_value.is_some_and(|v| (v - 10.0).abs() < 1.0),
+        "idle at the end: {:?}",
+        arm.last_value
+    );
+    let status_lines = fs::read_to_string(out.join("c3_status.jsonl")).unwrap();
+    let last: serde_json::Value =
+        serde_json::from_str(status_lines.lines().last().unwrap()).unwrap();
+    assert_eq!(last["sensors"].as_array().unwrap().len(), 28);
+    assert!(c3.rig.is_some());
+
+    // 4. Ctrl-C during a flood: what candump saw up to the signal is in raw.log.
+    let c4 = session::read(&out.join("c4")).unwrap();
+    let stop_ns = c4
+        .session
+        .stop_requested_unix_ns
+        .expect("the stop time is recorded");
+    let seen = read_log(&out.join("c4_candump.log"));
+    let before: Vec<&Frame> = seen.iter().filter(|f| f.timestamp_ns <= stop_ns).collect();
+    let recorded: HashSet<(i64, CanId, Vec<u8>)> = read_session_frames(&out.join("c4"))
+        .iter()
+        .map(|f| (f.timestamp_ns, f.id, f.payload().to_vec()))
+        .collect();
+    let missing = before
+        .iter()
+        .filter(|f| !recorded.contains(&(f.timestamp_ns, f.id, f.payload().to_vec())))
+        .count() as u64;
+    eprintln!(
+        "flood: candump saw {} frames before the signal; acq recorded {}, reported {} kernel drops, missing {missing}",
+        before.len(),
+        recorded.len(),
+        c4.session.dropped_by_kernel
+    );
+    assert!(
+        before.len() > 1000,
+        "the flood reached the bus: {} frames",
+        before.len()
+    );
+    assert!(
+        missing <= c4.session.dropped_by_kernel,
+        "{missing} frames candump saw before the signal are not in raw.log, and only {} drops were reported",
+        c4.session.dropped_by_kernel
+    );
+}

@@ -4,7 +4,7 @@
 //! Frame i is due at `start + (t_i - t_0) / speed`; each wait is computed
 //! from that deadline, never from the previous send, so sleep overshoot
 //! does not accumulate over an hour of replay. The wait sleeps to just
-//! before the deadline and spins the last few microseconds; the timing
+//! before the deadline and polls the clock the last few microseconds; the timing
 //! error of every frame is measured and reported.
 
 use std::collections::HashMap;
@@ -97,7 +97,7 @@ fn percentiles(values_ns: &[i64]) -> Option<(f64, f64, f64)> {
     Some((at(0.5), at(0.99), at(1.0)))
 }
 
-/// Waits until `deadline` precisely: sleeps to just before it, then spins.
+/// Waits until `deadline` precisely: sleeps to just before it, then polls.
 ///
 /// Blocks the thread on purpose: the player runs alone on its runtime, and
 /// a tokio timer (1 ms granularity) could not hold 100 µs.
@@ -112,7 +112,9 @@ fn wait_until(deadline: Instant) {
         if remaining > SPIN {
             std::thread::sleep(remaining - SPIN);
         } else {
-            std::hint::spin_loop();
+            // Yield rather than spin: on a one-CPU machine the process we
+            // feed (a recorder, candump) must get to run between frames.
+            std::thread::yield_now();
         }
     }
 }

@@ -33,7 +33,7 @@ fn variety_log() -> Vec<Frame> {
                 .map(|k| (n as u8).wrapping_mul(31).wrapping_add(k))
                 .collect();
             let standard = CanId::Standard((0x100 + n % 0x600) as u16);
-            let extended = CanId::Extended(0x1800_0000 | (n * 7919) % 0x0100_0000);
+            let extended = CanId::Extended(0x1800_0000 | ((n * 7919) % 0x0100_0000));
             match i % 10 {
                 0 => Frame::data(t, can0, extended, &bytes[..8]),
                 1 => Frame::data(t, can0, standard, &[]),

@@ -8,8 +8,8 @@
 //! detail bytes, so a frame recorded is the frame written to `raw.log`.
 
 use crate::frame::{
-    CanId, Frame, FrameKind, IfaceName, CAN_EFF_FLAG, CAN_ERR_FLAG, CAN_RTR_FLAG, FD_FLAG_FDF,
-    MAX_EXTENDED_ID, MAX_STANDARD_ID,
+    CanId, Frame, FrameKind, IfaceName, CAN_EFF_FLAG, CAN_ERR_FLAG, CAN_RTR_FLAG, MAX_EXTENDED_ID,
+    MAX_STANDARD_ID,
 };
 
 /// `sizeof(struct can_frame)`.
@@ -96,8 +96,9 @@ pub fn encode(frame: &Frame) -> ([u8; CANFD_MTU], usize) {
             CAN_MTU
         }
         FrameKind::Fd { flags } => {
-            // FDF marks the frame as FD even when BRS/ESI are clear (kernel >= 6.2).
-            bytes[5] = flags | FD_FLAG_FDF;
+            // As received: a 72-byte write is FD by its size, and kernels
+            // from 6.2 add the FDF flag themselves.
+            bytes[5] = flags;
             CANFD_MTU
         }
         FrameKind::Error { class } => {
@@ -116,7 +117,7 @@ pub fn encode(frame: &Frame) -> ([u8; CANFD_MTU], usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::FD_FLAG_BRS;
+    use crate::frame::{FD_FLAG_BRS, FD_FLAG_FDF};
 
     fn vcan0() -> IfaceName {
         IfaceName::new("vcan0").unwrap()
@@ -140,20 +141,13 @@ mod tests {
     }
 
     #[test]
-    fn fd_frames_keep_the_fdf_flag_off_the_log() {
-        let frame = Frame::fd(5, vcan0(), CanId::Standard(0x10), FD_FLAG_BRS, &[7; 12]).unwrap();
-        let (bytes, size) = encode(&frame);
-        assert_eq!(size, CANFD_MTU);
-        assert_eq!(bytes[5], FD_FLAG_BRS | FD_FLAG_FDF);
-        // The kernel hands FDF back; the log keeps the flags as received.
-        let back = parse(&bytes[..size], vcan0(), 5).unwrap();
-        assert_eq!(
-            back.kind,
-            FrameKind::Fd {
-                flags: FD_FLAG_BRS | FD_FLAG_FDF
-            }
-        );
-        assert_eq!(back.payload(), frame.payload());
+    fn fd_flags_go_out_as_received() {
+        for flags in [FD_FLAG_BRS, FD_FLAG_BRS | FD_FLAG_FDF, 0x08] {
+            let frame = Frame::fd(5, vcan0(), CanId::Standard(0x10), flags, &[7; 12]).unwrap();
+            let (bytes, size) = encode(&frame);
+            assert_eq!((size, bytes[5]), (CANFD_MTU, flags));
+            assert_eq!(parse(&bytes[..size], vcan0(), 5).unwrap(), frame);
+        }
     }
 
     #[test]

@@ -153,6 +153,16 @@ pub async fn play<B: Bus>(
             last_in_pass = Some(frame.timestamp_ns);
             // Passes follow each other without a gap, keeping each pass's own timing.
             let log_ns = frame.timestamp_ns - first_in_pass.unwrap_or(0) + pass_offset_ns;
+            // Opened before the wait: opening a socket must not make its first frame late.
+            let sink = match sinks.get_mut(&out) {
+                Some(sink) => sink,
+                None => {
+                    let sink = bus
+                        .open_sink(out)
+                        .map_err(|e| AcqError::Config(e.to_string()))?;
+                    sinks.entry(out).or_insert(sink)
+                }
+            };
             if let Pacing::Timed { speed } = pacing {
                 let (start, origin_ns) = *origin.get_or_insert((Instant::now(), log_ns));
                 let offset_ns = ((log_ns - origin_ns).max(0) as f64 / speed).round() as u64;
@@ -170,15 +180,6 @@ pub async fn play<B: Bus>(
                 }
                 previous = Some((sent_at, offset_ns as i64));
             }
-            let sink = match sinks.get_mut(&out) {
-                Some(sink) => sink,
-                None => {
-                    let sink = bus
-                        .open_sink(out)
-                        .map_err(|e| AcqError::Config(e.to_string()))?;
-                    sinks.entry(out).or_insert(sink)
-                }
-            };
             sink.send(&frame).await.map_err(|e| match e {
                 BusError::Io { iface, source } => {
                     AcqError::io(format!("sending on {iface}"), source)

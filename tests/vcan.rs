@@ -196,13 +196,28 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     errors_us.sort_by(f64::total_cmp);
     let median = errors_us[errors_us.len() / 2];
     let p99 = errors_us[errors_us.len() * 99 / 100];
-    let span_error_us = ((captured.last().unwrap().timestamp_ns - captured[0].timestamp_ns)
-        - (sent.last().unwrap().timestamp_ns - sent[0].timestamp_ns))
-        .abs() as f64
-        / 1e3;
+    // Each frame's offset from the first, against the log's. A constant
+    // shift (a slow first send) is harmless; drift spreads the errors out,
+    // so the spread around their median is what an absolute schedule bounds.
+    let mut offset_errors_us: Vec<f64> = captured
+        .iter()
+        .zip(&sent)
+        .map(|(c, s)| {
+            ((c.timestamp_ns - captured[0].timestamp_ns) - (s.timestamp_ns - sent[0].timestamp_ns))
+                as f64
+                / 1e3
+        })
+        .collect();
+    offset_errors_us.sort_by(f64::total_cmp);
+    let center = offset_errors_us[offset_errors_us.len() / 2];
+    let mut spread: Vec<f64> = offset_errors_us
+        .iter()
+        .map(|e| (e - center).abs())
+        .collect();
+    spread.sort_by(f64::total_cmp);
+    let median_offset_us = spread[spread.len() / 2];
     eprintln!(
-        "vcan replay timing (candump's kernel timestamps): inter-frame |error| median {median:.1} us, p99 {p99:.1} us; drift over {:.1} s: {span_error_us:.1} us",
-        (sent.len() - 1) as f64 * 1e-3
+        "vcan replay timing (candump's kernel timestamps): inter-frame |error| median {median:.1} us, p99 {p99:.1} us; offset error spread (median |e - median e|) {median_offset_us:.1} us"
     );
     eprintln!(
         "{}",
@@ -214,8 +229,8 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     // on the host (BENCHMARKS.md). An absolute schedule cannot drift.
     assert!(median < 2000.0, "median inter-frame error {median} us");
     assert!(
-        span_error_us < 20_000.0,
-        "the replay drifted {span_error_us} us over 2 s"
+        median_offset_us < 5000.0,
+        "the replay drifted: offset error spread {median_offset_us} us"
     );
 
     // 3. acq simulate -> acq record --rig: every sensor at its rate.
@@ -279,5 +294,62 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         missing <= c4.session.dropped_by_kernel,
         "{missing} frames candump saw before the signal are not in raw.log, and only {} drops were reported",
         c4.session.dropped_by_kernel
+    );
+
+    // 5. The interface disappears and comes back: reported, recording resumes.
+    let c5 = session::read(&out.join("c5")).unwrap();
+    let ids: Vec<CanId> = read_session_frames(&out.join("c5"))
+        .iter()
+        .map(|f| f.id)
+        .collect();
+    assert_eq!(
+        ids.iter()
+            .filter(|&&id| id == CanId::Standard(0x123))
+            .count(),
+        50,
+        "frames before the outage"
+    );
+    assert_eq!(
+        ids.iter()
+            .filter(|&&id| id == CanId::Standard(0x124))
+            .count(),
+        50,
+        "frames after it"
+    );
+    let outages = &c5.interface[0].outage;
+    assert_eq!(outages.len(), 1, "{outages:?}");
+    assert!(
+        outages[0].up_unix_ns.is_some(),
+        "the interface came back: {outages:?}"
+    );
+
+    // 6. A full disk stops the recording cleanly: exit 1, whole lines only, session.toml written.
+    let code = fs::read_to_string(out.join("c6.exit")).unwrap();
+    assert_eq!(
+        code.trim(),
+        "1",
+        "{}",
+        fs::read_to_string(out.join("c6_stderr.txt")).unwrap_or_default()
+    );
+    let c6 = session::read(&out.join("c6")).unwrap();
+    assert!(
+        c6.session.ended.starts_with("write failed"),
+        "{}",
+        c6.session.ended
+    );
+    let raw = fs::read(out.join("c6/raw.log")).unwrap();
+    let stderr6 = fs::read_to_string(out.join("c6_stderr.txt")).unwrap_or_default();
+    assert!(
+        raw.ends_with(b"\n"),
+        "the raw log ({} bytes) ends with a whole line: ...{:?}; {}; stderr: {stderr6}",
+        raw.len(),
+        String::from_utf8_lossy(&raw[raw.len().saturating_sub(80)..]),
+        c6.session.ended
+    );
+    let frames = read_session_frames(&out.join("c6"));
+    assert!(
+        frames.len() > 1000,
+        "{} frames before the disk filled",
+        frames.len()
     );
 }

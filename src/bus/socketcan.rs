@@ -20,6 +20,7 @@ use nix::sys::socket::{
 };
 use socketcan::{CanFdSocket, Socket, SocketOptions};
 use tokio::io::unix::AsyncFd;
+use tokio::io::Interest;
 
 use super::{now_ns, Bus, BusError, FrameSink, FrameSource, OpenError, RxInfo, MAX_BATCH};
 
@@ -95,7 +96,10 @@ fn register(socket: CanFdSocket) -> io::Result<AsyncFd<CanFdSocket>> {
     // OwnedFd) from `open` until it is dropped, which happens only with the
     // AsyncFd: nothing here calls `into_inner` or `into_raw_fd`, and its
     // `as_raw_fd` returns that one descriptor on every call.
-    Ok(unsafe { AsyncFd::register(socket) }?)
+    // ERROR too: an interface that goes down or away reports ENETDOWN /
+    // ENODEV as a socket error (EPOLLERR), not as readable data.
+    let interest = Interest::READABLE | Interest::WRITABLE | Interest::ERROR;
+    Ok(unsafe { AsyncFd::register_with_interest(socket, interest) }?)
 }
 
 fn errno_io(errno: Errno) -> io::Error {
@@ -229,7 +233,7 @@ impl FrameSource for SocketCanSource {
             let state = &mut self.state;
             let mut ready = self
                 .socket
-                .readable()
+                .ready(Interest::READABLE | Interest::ERROR)
                 .await
                 .map_err(|e| state.bus_error(e))?;
             let start = out.len();

@@ -43,6 +43,9 @@ const SESSION_REFRESH_FLUSHES: u32 = 50;
 /// second instead of one per frame; a full batch is read again at once.
 const COALESCE: Duration = Duration::from_millis(5);
 const REOPEN_PERIOD: Duration = Duration::from_millis(250);
+/// The file that holds disk space for the final `session.toml`.
+const SPACE_RESERVE: &str = ".space-reserve";
+const SPACE_RESERVE_BYTES: usize = 256 << 10;
 /// After a stop, a reader that sees no frame for this long is drained.
 const DRAIN_QUIET: Duration = Duration::from_millis(50);
 
@@ -151,6 +154,11 @@ pub async fn record<B: Bus>(
             .transpose()?,
         sensor: Vec::new(),
     };
+    // Room kept for the final session.toml: freed at the end, so a full
+    // disk still gets a complete description of what was recorded.
+    let reserve = dir.join(SPACE_RESERVE);
+    fs::write(&reserve, vec![0u8; SPACE_RESERVE_BYTES])
+        .map_err(|e| AcqError::io(format!("creating {}", reserve.display()), e))?;
     let mut raw = RawLog::create(dir, options.max_file_bytes).map_err(|e| {
         AcqError::io(
             format!("creating {}", dir.join(rawlog::SINGLE_NAME).display()),
@@ -198,53 +206,14 @@ pub async fn record<B: Bus>(
 
     loop {
         tokio::select! {
+            // Timers before frames: under a flood the flush (every 100 ms)
+            // and the status must still run.
             biased;
             reason = &mut stop, if stop_reason.is_none() => {
                 let at_ns = now_ns();
                 let _ = stop_tx.send(Some(at_ns));
                 session.session.stop_requested_unix_ns = Some(at_ns);
                 stop_reason = Some(reason);
-            }
-            event = events.recv() => {
-                let Some(event) = event else { break };
-                match event {
-                    Event::Frames { bus, frames, info } => {
-                        let arrival_ns = now_ns();
-                        let record = &mut session.interface[bus];
-                        for frame in &frames {
-                            if let Some(report) = record.count(frame) {
-                                last_error[bus] = Some(report.describe());
-                            }
-                            if let Some(live) = liveness.as_mut() {
-                                live.on_frame(frame, arrival_ns);
-                            }
-                            raw.push(frame);
-                        }
-                        if let Some(total) = info.dropped_total {
-                            dropped[bus] = total;
-                        }
-                    }
-                    Event::Down { bus, at_ns, reason } => {
-                        up[bus] = false;
-                        session.interface[bus].outage.push(Outage { down_unix_ns: at_ns, up_unix_ns: None, reason: reason.clone() });
-                        display.message(&format!("{}: {reason}; recording goes on and resumes when it returns", options.interfaces[bus]));
-                        write_session(dir, &snapshot(&session, &raw, &dropped, &liveness))?;
-                    }
-                    Event::Up { bus, at_ns } => {
-                        up[bus] = true;
-                        if let Some(outage) = session.interface[bus].outage.last_mut() {
-                            outage.up_unix_ns = Some(at_ns);
-                        }
-                        display.message(&format!("{}: back up, recording resumed", options.interfaces[bus]));
-                    }
-                    Event::Failed { bus, error } => {
-                        display.message(&format!("{}: reader stopped: {error}", options.interfaces[bus]));
-                        session.session.notes.push(format!("{}: reader stopped: {error}", options.interfaces[bus]));
-                    }
-                }
-                if raw.pending_bytes() > 4 << 20 {
-                    flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
-                }
             }
             _ = flush_tick.tick() => {
                 flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
@@ -292,6 +261,47 @@ pub async fn record<B: Bus>(
                 };
                 display.show(&status);
             }
+            event = events.recv() => {
+                let Some(event) = event else { break };
+                match event {
+                    Event::Frames { bus, frames, info } => {
+                        let arrival_ns = now_ns();
+                        let record = &mut session.interface[bus];
+                        for frame in &frames {
+                            if let Some(report) = record.count(frame) {
+                                last_error[bus] = Some(report.describe());
+                            }
+                            if let Some(live) = liveness.as_mut() {
+                                live.on_frame(frame, arrival_ns);
+                            }
+                            raw.push(frame);
+                        }
+                        if let Some(total) = info.dropped_total {
+                            dropped[bus] = total;
+                        }
+                    }
+                    Event::Down { bus, at_ns, reason } => {
+                        up[bus] = false;
+                        session.interface[bus].outage.push(Outage { down_unix_ns: at_ns, up_unix_ns: None, reason: reason.clone() });
+                        display.message(&format!("{}: {reason}; recording goes on and resumes when it returns", options.interfaces[bus]));
+                        write_session(dir, &snapshot(&session, &raw, &dropped, &liveness))?;
+                    }
+                    Event::Up { bus, at_ns } => {
+                        up[bus] = true;
+                        if let Some(outage) = session.interface[bus].outage.last_mut() {
+                            outage.up_unix_ns = Some(at_ns);
+                        }
+                        display.message(&format!("{}: back up, recording resumed", options.interfaces[bus]));
+                    }
+                    Event::Failed { bus, error } => {
+                        display.message(&format!("{}: reader stopped: {error}", options.interfaces[bus]));
+                        session.session.notes.push(format!("{}: reader stopped: {error}", options.interfaces[bus]));
+                    }
+                }
+                if raw.pending_bytes() > 4 << 20 {
+                    flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
+                }
+            }
         }
     }
 
@@ -320,6 +330,7 @@ pub async fn record<B: Bus>(
             raw.clamped_timestamps
         ));
     }
+    let _ = fs::remove_file(&reserve);
     write_session(dir, &finished)?;
     Ok(RecordSummary {
         session_dir: dir.clone(),

@@ -74,4 +74,34 @@ kill $gen 2>/dev/null || true
 wait $gen 2>/dev/null || true
 sleep 0.3
 kill $dump; wait $dump || true
+say "5: the interface disappears and comes back"
+acq record --iface vcan3 --out "$OUT/c5" --quiet &
+rec=$!
+wait_for_session "$OUT/c5"
+cangen vcan3 -g 2 -I 123 -L 8 -D i -n 50
+ip link del dev vcan3
+sleep 1
+ip link add dev vcan3 type vcan
+ip link set up vcan3
+sleep 1.5
+cangen vcan3 -g 2 -I 124 -L 8 -D i -n 50
+sleep 0.3
+kill -INT $rec
+wait $rec
+
+say "6: the disk fills up during a recording"
+mkdir -p /mnt/small
+mount -t tmpfs -o size=2m tmpfs /mnt/small
+acq record --iface vcan2 --out /mnt/small/c6 --quiet 2> "$OUT/c6_stderr.txt" &
+rec=$!
+wait_for_session /mnt/small/c6
+cangen vcan2 -g 0 -I i -L 8 -D i -n 100000 &
+gen=$!
+code=0
+wait $rec || code=$?
+echo "$code" > "$OUT/c6.exit"
+kill $gen 2>/dev/null || true
+wait $gen 2>/dev/null || true
+cp -r /mnt/small/c6 "$OUT/c6"
+umount /mnt/small
 say "done"

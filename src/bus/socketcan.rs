@@ -89,6 +89,22 @@ fn open_socket(iface: IfaceName) -> Result<CanFdSocket, OpenError> {
     Ok(socket)
 }
 
+/// ENETDOWN / ENODEV mean the interface went down or away (it may come
+/// back); anything else is an I/O error.
+fn bus_error(iface: IfaceName, source: io::Error) -> BusError {
+    match source.raw_os_error() {
+        Some(code) if code == Errno::ENETDOWN as i32 || code == Errno::ENODEV as i32 => {
+            BusError::Down {
+                iface: iface.to_string(),
+            }
+        }
+        _ => BusError::Io {
+            iface: iface.to_string(),
+            source,
+        },
+    }
+}
+
 /// Hands the socket to tokio's reactor.
 fn register(socket: CanFdSocket) -> io::Result<AsyncFd<CanFdSocket>> {
     // SAFETY: `register` needs the descriptor to stay open and the same for
@@ -160,17 +176,7 @@ impl Bus for SocketCanBus {
 
 impl ReceiveState {
     fn bus_error(&self, source: io::Error) -> BusError {
-        match source.raw_os_error() {
-            Some(code) if code == Errno::ENETDOWN as i32 || code == Errno::ENODEV as i32 => {
-                BusError::Down {
-                    iface: self.iface.to_string(),
-                }
-            }
-            _ => BusError::Io {
-                iface: self.iface.to_string(),
-                source,
-            },
-        }
+        bus_error(self.iface, source)
     }
 
     /// One non-blocking `recvmsg`: `Ok(None)` when the queue is empty.
@@ -267,17 +273,7 @@ impl FrameSink for SocketCanSink {
     async fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
         let (bytes, size) = kernel::encode(frame);
         let iface = self.iface;
-        let fail = |source: io::Error| match source.raw_os_error() {
-            Some(code) if code == Errno::ENETDOWN as i32 || code == Errno::ENODEV as i32 => {
-                BusError::Down {
-                    iface: iface.to_string(),
-                }
-            }
-            _ => BusError::Io {
-                iface: iface.to_string(),
-                source,
-            },
-        };
+        let fail = |source: io::Error| bus_error(iface, source);
         loop {
             let mut ready = self.socket.writable().await.map_err(fail)?;
             match ready.try_io(|socket| {

@@ -52,6 +52,17 @@ pub fn open_log(path: &Path) -> Result<LogInput> {
     log_from_reader(name, raw)
 }
 
+impl LogInput {
+    /// The next frame; a malformed line stops with `file:line: expected ...`.
+    pub fn next_frame(&mut self) -> Result<Option<acq_drivers::Frame>> {
+        match self.reader.next_record() {
+            Ok(record) => Ok(record.map(|r| r.frame)),
+            Err(ReadError::Parse(error)) => Err(AcqError::Malformed(error.in_file(&self.name))),
+            Err(ReadError::Io(error)) => Err(AcqError::io(format!("reading {}", self.name), error)),
+        }
+    }
+}
+
 /// What to do with a malformed line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BadLines {
@@ -87,8 +98,7 @@ pub fn for_each_record(
                 }
                 Ok(None) => break,
                 Err(ReadError::Parse(error)) => {
-                    let message =
-                        format!("{}:{}: expected {}", input.name, error.line, error.expected);
+                    let message = error.in_file(&input.name);
                     match bad_lines {
                         BadLines::Stop => return Err(AcqError::Malformed(message)),
                         BadLines::Skip => {

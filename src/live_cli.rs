@@ -5,13 +5,14 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
-use acq_drivers::{IfaceName, LogReader, ReadError};
+use acq_drivers::IfaceName;
 use clap::{Args, Subcommand};
 
 use crate::bus::logfile::LogFileBus;
 use crate::bus::now_ns;
 use crate::bus::socketcan::SocketCanBus;
 use crate::error::{AcqError, Result};
+use crate::input::{open_log, LogInput};
 use crate::record::status::StatusMode;
 use crate::record::{self, RecordOptions, StopReason};
 use crate::replay::{self, Pacing, PlaySummary, Routing};
@@ -235,38 +236,20 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     }
 }
 
-/// Reads a log pass by pass for the player.
+/// Reads a log pass by pass for the player: reopened at each new pass.
 struct LogPasses {
     path: PathBuf,
-    pass: Option<usize>,
-    reader: Option<LogReader<std::io::BufReader<std::fs::File>>>,
+    current: Option<(usize, LogInput)>,
 }
 
 impl LogPasses {
     fn next(&mut self, pass: usize) -> Result<Option<acq_drivers::Frame>> {
-        if self.pass != Some(pass) {
-            let file =
-                std::fs::File::open(&self.path).map_err(|e| AcqError::open(&self.path, e))?;
-            let (reader, _) = LogReader::detect(std::io::BufReader::new(file))
-                .map_err(|e| AcqError::io(format!("reading {}", self.path.display()), e))?;
-            self.reader = Some(reader);
-            self.pass = Some(pass);
+        if self.current.as_ref().is_none_or(|(p, _)| *p != pass) {
+            self.current = Some((pass, open_log(&self.path)?));
         }
-        let Some(reader) = self.reader.as_mut() else {
-            return Ok(None);
-        };
-        match reader.next_record() {
-            Ok(Some(record)) => Ok(Some(record.frame)),
-            Ok(None) => Ok(None),
-            Err(ReadError::Parse(e)) => Err(AcqError::Malformed(format!(
-                "{}:{}: expected {}",
-                self.path.display(),
-                e.line,
-                e.expected
-            ))),
-            Err(ReadError::Io(e)) => {
-                Err(AcqError::io(format!("reading {}", self.path.display()), e))
-            }
+        match self.current.as_mut() {
+            Some((_, log)) => log.next_frame(),
+            None => Ok(None),
         }
     }
 }
@@ -292,14 +275,11 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
     } else {
         Pacing::Timed { speed: args.speed }
     };
+    // Opened up front so a missing file fails before anything is sent.
     let mut log = LogPasses {
         path: args.log.clone(),
-        pass: None,
-        reader: None,
+        current: Some((0, open_log(&args.log)?)),
     };
-    // Opened once up front so a missing file fails before anything is sent.
-    log.next(0)?;
-    log.pass = None;
     let summary = runtime(1)?.block_on(replay::play(
         &SocketCanBus,
         |pass| log.next(pass),

@@ -175,18 +175,40 @@ fn test_frame(i: u32) -> Frame {
     .unwrap()
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_interface_that_vanishes_is_reported_and_recording_resumes() {
-    let bus = MemoryBus::new(4096);
-    bus.add(iface("vcan0"));
-    let dir = tempfile::tempdir().unwrap();
-    let (stop, recording) = start_recording(&bus, options(&["vcan0"], None, dir.path()));
-    tokio::time::sleep(Duration::from_millis(50)).await;
+/// Sends `test_frame(i)` for every i on vcan0.
+async fn send_test_frames(bus: &MemoryBus, range: std::ops::Range<u32>) {
     let mut sink = bus.open_sink(iface("vcan0")).unwrap();
-    for i in 0..10 {
+    for i in range {
         sink.send(&test_frame(i)).await.unwrap();
     }
+}
+
+/// An in-process vcan0 with a recorder started on it (given time to open).
+async fn recording_on_vcan0(
+    capacity: usize,
+    max_file_bytes: u64,
+) -> (
+    MemoryBus,
+    tempfile::TempDir,
+    oneshot::Sender<()>,
+    tokio::task::JoinHandle<RecordSummary>,
+) {
+    let bus = MemoryBus::new(capacity);
+    bus.add(iface("vcan0"));
+    let dir = tempfile::tempdir().unwrap();
+    let mut opts = options(&["vcan0"], None, dir.path());
+    opts.max_file_bytes = max_file_bytes;
+    let (stop, recording) = start_recording(&bus, opts);
     tokio::time::sleep(Duration::from_millis(50)).await;
+    (bus, dir, stop, recording)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_interface_that_vanishes_is_reported_and_recording_resumes() {
+    let (bus, dir, stop, recording) = recording_on_vcan0(4096, 1 << 30).await;
+    send_test_frames(&bus, 0..10).await;
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    let mut sink = bus.open_sink(iface("vcan0")).unwrap();
     bus.remove(iface("vcan0"));
     assert!(
         sink.send(&test_frame(99)).await.is_err(),
@@ -196,10 +218,7 @@ async fn an_interface_that_vanishes_is_reported_and_recording_resumes() {
     bus.add(iface("vcan0"));
     // The recorder reopens within its reopen period.
     tokio::time::sleep(Duration::from_millis(700)).await;
-    let mut sink = bus.open_sink(iface("vcan0")).unwrap();
-    for i in 10..20 {
-        sink.send(&test_frame(i)).await.unwrap();
-    }
+    send_test_frames(&bus, 10..20).await;
     tokio::time::sleep(Duration::from_millis(100)).await;
     stop.send(()).unwrap();
     let summary = recording.await.unwrap();
@@ -215,15 +234,8 @@ async fn an_interface_that_vanishes_is_reported_and_recording_resumes() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_stop_writes_everything_already_received() {
-    let bus = MemoryBus::new(1 << 16);
-    bus.add(iface("vcan0"));
-    let dir = tempfile::tempdir().unwrap();
-    let (stop, recording) = start_recording(&bus, options(&["vcan0"], None, dir.path()));
-    tokio::time::sleep(Duration::from_millis(50)).await;
-    let mut sink = bus.open_sink(iface("vcan0")).unwrap();
-    for i in 0..20_000 {
-        sink.send(&test_frame(i)).await.unwrap();
-    }
+    let (bus, dir, stop, recording) = recording_on_vcan0(1 << 16, 1 << 30).await;
+    send_test_frames(&bus, 0..20_000).await;
     // Stop at once: the frames still queued were received before the stop.
     stop.send(()).unwrap();
     let summary = recording.await.unwrap();
@@ -236,15 +248,8 @@ async fn a_stop_writes_everything_already_received() {
 async fn a_slow_reader_reports_its_drops() {
     // A queue of 64 frames and a burst of 5000 with the reader asleep
     // between batches: the loss is counted, like SO_RXQ_OVFL.
-    let bus = MemoryBus::new(64);
-    bus.add(iface("vcan0"));
-    let dir = tempfile::tempdir().unwrap();
-    let (stop, recording) = start_recording(&bus, options(&["vcan0"], None, dir.path()));
-    tokio::time::sleep(Duration::from_millis(50)).await;
-    let mut sink = bus.open_sink(iface("vcan0")).unwrap();
-    for i in 0..5000 {
-        sink.send(&test_frame(i)).await.unwrap();
-    }
+    let (bus, _dir, stop, recording) = recording_on_vcan0(64, 1 << 30).await;
+    send_test_frames(&bus, 0..5000).await;
     tokio::time::sleep(Duration::from_millis(100)).await;
     stop.send(()).unwrap();
     let summary = recording.await.unwrap();
@@ -259,13 +264,7 @@ async fn a_slow_reader_reports_its_drops() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn rotation_splits_the_raw_log_without_losing_a_line() {
-    let bus = MemoryBus::new(1 << 16);
-    bus.add(iface("vcan0"));
-    let dir = tempfile::tempdir().unwrap();
-    let mut opts = options(&["vcan0"], None, dir.path());
-    opts.max_file_bytes = 20_000;
-    let (stop, recording) = start_recording(&bus, opts);
-    tokio::time::sleep(Duration::from_millis(50)).await;
+    let (bus, dir, stop, recording) = recording_on_vcan0(1 << 16, 20_000).await;
     let mut sink = bus.open_sink(iface("vcan0")).unwrap();
     for i in 0..3000 {
         sink.send(&test_frame(i)).await.unwrap();
@@ -286,15 +285,8 @@ async fn rotation_splits_the_raw_log_without_losing_a_line() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn repair_rebuilds_a_killed_session() {
-    let bus = MemoryBus::new(1 << 16);
-    bus.add(iface("vcan0"));
-    let dir = tempfile::tempdir().unwrap();
-    let (stop, recording) = start_recording(&bus, options(&["vcan0"], None, dir.path()));
-    tokio::time::sleep(Duration::from_millis(50)).await;
-    let mut sink = bus.open_sink(iface("vcan0")).unwrap();
-    for i in 0..100 {
-        sink.send(&test_frame(i)).await.unwrap();
-    }
+    let (bus, dir, stop, recording) = recording_on_vcan0(1 << 16, 1 << 30).await;
+    send_test_frames(&bus, 0..100).await;
     tokio::time::sleep(Duration::from_millis(200)).await;
     stop.send(()).unwrap();
     let summary = recording.await.unwrap();

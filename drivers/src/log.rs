@@ -31,6 +31,13 @@ pub struct ParseError {
     pub expected: &'static str,
 }
 
+impl ParseError {
+    /// `file:line: expected ...`, the form every command reports.
+    pub fn in_file(&self, name: &str) -> String {
+        format!("{name}:{}: expected {}", self.line, self.expected)
+    }
+}
+
 /// Reading a log failed: the file could not be read, or a line is malformed.
 /// After a `Parse` error the reader can go on with the next line.
 #[derive(Debug, thiserror::Error)]

@@ -111,8 +111,7 @@ impl FrameSource for LogFileSource {
                 Ok(None) if out.len() > start => break,
                 Ok(None) => return Err(BusError::Closed),
                 Err(ReadError::Parse(error)) => {
-                    let detail =
-                        format!("{}:{}: expected {}", self.name, error.line, error.expected);
+                    let detail = error.in_file(&self.name);
                     return Err(BusError::Io {
                         iface: self.iface.to_string(),
                         source: io::Error::new(io::ErrorKind::InvalidData, detail),

@@ -10,6 +10,7 @@
 //! - [`decode`]: `acq decode`, logs to CSV through DBC files or a rig.
 //! - [`input`], [`output`]: opening logs and writing results; [`error`]: exit codes.
 
+pub mod align;
 pub mod bus;
 pub mod cli;
 pub mod decode;
@@ -18,6 +19,7 @@ pub mod input;
 pub mod live_cli;
 pub mod output;
 pub mod record;
+pub mod recording;
 pub mod replay;
 pub mod session;
 pub mod simulate;

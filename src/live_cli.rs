@@ -186,7 +186,10 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         None => None,
         Some(path) => {
             let mut rig = crate::cli::load_rig(path)?;
-            record::assign_rig_buses(&mut rig, &interfaces, &mut notes)?;
+            notes.extend(
+                rig.assign_interfaces(&interfaces)
+                    .map_err(AcqError::Config)?,
+            );
             Some(rig)
         }
     };

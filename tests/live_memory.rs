@@ -86,7 +86,7 @@ async fn a_simulated_rig_is_recorded_frame_for_frame() {
     let mut recording_rig = rig("excavator.toml");
     let mut notes = Vec::new();
     let interfaces = [iface("vcan0"), iface("vcan1")];
-    record::assign_rig_buses(&mut recording_rig, &interfaces, &mut notes).unwrap();
+    notes.extend(recording_rig.assign_interfaces(&interfaces).unwrap());
     assert_eq!(notes.len(), 2, "{notes:?}");
     let mut opts = options(&["vcan0", "vcan1"], Some(recording_rig), &session_dir);
     opts.notes = notes;

@@ -18,6 +18,16 @@
 //! canopen = { node_id = 0x25, pdo = 1, byte = 0, type = "int32", decimal_digits = 2, heartbeat_ms = 1000 }
 //! ```
 //!
+//! Optional per sensor: `interpolation = "linear" | "hold" | "nearest"`
+//! (how alignment reads between samples: linear for continuous values,
+//! the default; hold for states), `range = [lo, hi]` (full scale in the
+//! output unit, for saturation checks). Per bus: `clock_offset_ms` (this
+//! bus's clock minus the reference clock) or `clock_sync = { signal,
+//! reference }` (estimate it by cross-correlating a sensor of this bus with
+//! one on another bus that sees the same event). `[[pair]] sensors = ["sg03",
+//! "sg04"]` declares gauges that should read alike (symmetric points);
+//! `[specimen] diameter_mm, gauge_length_mm` describes a tensile bar.
+//!
 //! Exactly one of `dbc = { message, signal }`, `canopen = {...}` or
 //! `j1939 = { pgn, source_address, start_bit, length_bits, resolution, offset }`
 //! says where the value is. `unit` is the unit the channel is sent in
@@ -54,6 +64,24 @@ struct RigFile {
     sensors: Vec<Spanned<SensorFile>>,
     #[serde(default, rename = "cylinder")]
     cylinders: Vec<Spanned<CylinderFile>>,
+    #[serde(default, rename = "pair")]
+    pairs: Vec<Spanned<PairFile>>,
+    specimen: Option<Spanned<Specimen>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PairFile {
+    sensors: [String; 2],
+    tolerance_pct: Option<f64>,
+    tolerance: Option<f64>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ClockSyncFile {
+    signal: String,
+    reference: String,
 }
 
 #[derive(Deserialize)]
@@ -71,6 +99,8 @@ struct BusFile {
     bitrate: Option<u32>,
     #[serde(default)]
     dbc: Vec<String>,
+    clock_offset_ms: Option<f64>,
+    clock_sync: Option<ClockSyncFile>,
 }
 
 #[derive(Deserialize)]
@@ -94,6 +124,8 @@ struct SensorFile {
     /// Gauge or measuring-point number on the structure.
     location: Option<u32>,
     description: Option<String>,
+    interpolation: Option<Interpolation>,
+    range: Option<[f64; 2]>,
 }
 
 #[derive(Deserialize)]
@@ -150,6 +182,74 @@ pub struct Bus {
     pub dbc_files: Vec<PathBuf>,
     /// All messages of this bus's DBC files.
     pub dbc: DbcDatabase,
+    pub clock: BusClock,
+}
+
+/// How a bus's timestamps relate to the rig's reference clock.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum BusClock {
+    /// Same clock as the reference (one recorder stamps every bus).
+    #[default]
+    Reference,
+    /// This bus's clock minus the reference clock, ms.
+    OffsetMs(f64),
+    /// Estimate the offset by cross-correlating `signal` (a sensor of this
+    /// bus) with `reference` (a sensor on another bus): sensor indices.
+    Estimate { signal: usize, reference: usize },
+}
+
+/// How to read a sensor between two of its samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Interpolation {
+    /// Straight line between neighbours: continuous quantities.
+    #[default]
+    Linear,
+    /// The last value until the next: states, counters, set points.
+    Hold,
+    /// The closer neighbour.
+    Nearest,
+}
+
+impl Interpolation {
+    pub fn name(self) -> &'static str {
+        match self {
+            Interpolation::Linear => "linear",
+            Interpolation::Hold => "hold",
+            Interpolation::Nearest => "nearest",
+        }
+    }
+}
+
+/// Two sensors that should read alike (gauges at symmetric points).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SensorPair {
+    /// Sensor indices.
+    pub sensors: [usize; 2],
+    /// Allowed difference relative to the larger magnitude, %.
+    pub tolerance_pct: f64,
+    /// Differences below this (output unit) are always accepted: two
+    /// near-zero readings can differ by 100 % and still agree.
+    pub tolerance: f64,
+    pub line: usize,
+}
+
+/// Default pair tolerance, % of the larger reading.
+pub const PAIR_TOLERANCE_PCT: f64 = 25.0;
+
+/// A round tensile bar.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Specimen {
+    pub diameter_mm: f64,
+    /// Length the displacement is measured over (engineering strain = u / L).
+    pub gauge_length_mm: f64,
+}
+
+impl Specimen {
+    pub fn area_mm2(&self) -> f64 {
+        std::f64::consts::PI * 0.25 * self.diameter_mm * self.diameter_mm
+    }
 }
 
 /// Where a sensor's value is on the bus.
@@ -204,6 +304,9 @@ pub struct Sensor {
     pub conversion: Linear,
     pub location: Option<u32>,
     pub description: Option<String>,
+    pub interpolation: Interpolation,
+    /// Full scale `[lo, hi]` in the output unit, if declared.
+    pub range: Option<[f64; 2]>,
     /// 1-based line of the sensor in the rig file.
     pub line: usize,
 }
@@ -239,6 +342,8 @@ pub struct Rig {
     pub buses: Vec<Bus>,
     pub sensors: Vec<Sensor>,
     pub cylinders: Vec<Cylinder>,
+    pub pairs: Vec<SensorPair>,
+    pub specimen: Option<Specimen>,
     /// Non-fatal remarks (skipped DBC messages and the like).
     pub warnings: Vec<String>,
 }
@@ -368,12 +473,38 @@ impl Rig {
                 }
                 dbc_files.push(dbc_path);
             }
+            let clock = match (bus.clock_offset_ms, &bus.clock_sync) {
+                (Some(_), Some(_)) => {
+                    report(
+                        line,
+                        format!(
+                            "bus '{}': give clock_offset_ms or clock_sync, not both",
+                            bus.name
+                        ),
+                    );
+                    BusClock::Reference
+                }
+                (Some(ms), None) if !ms.is_finite() => {
+                    report(
+                        line,
+                        format!(
+                            "bus '{}': clock_offset_ms must be a number of milliseconds",
+                            bus.name
+                        ),
+                    );
+                    BusClock::Reference
+                }
+                (Some(ms), None) => BusClock::OffsetMs(ms),
+                // Sensor names are resolved once every sensor is known.
+                (None, _) => BusClock::Reference,
+            };
             buses.push(Bus {
                 name: bus.name.clone(),
                 iface,
                 bitrate: bus.bitrate,
                 dbc_files,
                 dbc: database,
+                clock,
             });
         }
 
@@ -462,6 +593,12 @@ impl Rig {
                 );
                 continue;
             }
+            if let Some([lo, hi]) = sensor.range {
+                if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                    report(line, format!("sensor '{name}': range must be [low, high] with low < high in {}, got [{lo}, {hi}]", sensor.kind.output_unit()));
+                    continue;
+                }
+            }
             sensors.push(Sensor {
                 name: name.clone(),
                 kind: sensor.kind,
@@ -472,6 +609,8 @@ impl Rig {
                 conversion: physics.after(calibration),
                 location: sensor.location,
                 description: sensor.description.clone(),
+                interpolation: sensor.interpolation.unwrap_or_default(),
+                range: sensor.range,
                 line,
             });
         }
@@ -517,6 +656,115 @@ impl Rig {
             }
         }
 
+        // Clock synchronisation signals.
+        for spanned in &file.buses {
+            let line = line_of(text, spanned.span().start);
+            let bus = spanned.get_ref();
+            let (Some(sync), Some(bus_index)) = (
+                &bus.clock_sync,
+                buses.iter().position(|b| b.name == bus.name),
+            ) else {
+                continue;
+            };
+            let find = |name: &str| sensors.iter().position(|s| s.name == name);
+            match (find(&sync.signal), find(&sync.reference)) {
+                (Some(signal), Some(reference)) => {
+                    if sensors[signal].bus != bus_index {
+                        report(
+                            line,
+                            format!(
+                                "bus '{}': clock_sync signal '{}' is on bus '{}', not on this bus",
+                                bus.name, sync.signal, buses[sensors[signal].bus].name
+                            ),
+                        );
+                    } else if sensors[reference].bus == bus_index {
+                        report(line, format!("bus '{}': clock_sync reference '{}' must be on another bus (it gives the reference clock)", bus.name, sync.reference));
+                    } else {
+                        buses[bus_index].clock = BusClock::Estimate { signal, reference };
+                    }
+                }
+                (signal, reference) => {
+                    for (found, name) in [(signal, &sync.signal), (reference, &sync.reference)] {
+                        if found.is_none() {
+                            report(
+                                line,
+                                format!("bus '{}': clock_sync names no sensor '{name}'", bus.name),
+                            );
+                        }
+                    }
+                }
+            }
+        }
+
+        // Pairs of sensors that should read alike.
+        let mut pairs = Vec::new();
+        for spanned in &file.pairs {
+            let line = line_of(text, spanned.span().start);
+            let pair = spanned.get_ref();
+            let found: Vec<Option<usize>> = pair
+                .sensors
+                .iter()
+                .map(|name| sensors.iter().position(|s| &s.name == name))
+                .collect();
+            let tolerance_pct = pair.tolerance_pct.unwrap_or(PAIR_TOLERANCE_PCT);
+            let tolerance = pair.tolerance.unwrap_or(0.0);
+            if !(tolerance_pct.is_finite()
+                && tolerance_pct >= 0.0
+                && tolerance.is_finite()
+                && tolerance >= 0.0)
+            {
+                report(
+                    line,
+                    "pair: tolerance_pct and tolerance must be numbers >= 0".into(),
+                );
+                continue;
+            }
+            match (found[0], found[1]) {
+                (Some(a), Some(b)) if a == b => report(
+                    line,
+                    format!("pair: '{}' is paired with itself", pair.sensors[0]),
+                ),
+                (Some(a), Some(b)) if sensors[a].kind != sensors[b].kind => report(
+                    line,
+                    format!(
+                    "pair: '{}' measures {} but '{}' measures {}; a pair compares like with like",
+                    pair.sensors[0], sensors[a].kind.name(), pair.sensors[1], sensors[b].kind.name()
+                ),
+                ),
+                (Some(a), Some(b)) => pairs.push(SensorPair {
+                    sensors: [a, b],
+                    tolerance_pct,
+                    tolerance,
+                    line,
+                }),
+                _ => {
+                    for (found, name) in found.iter().zip(&pair.sensors) {
+                        if found.is_none() {
+                            report(line, format!("pair: no sensor named '{name}'"));
+                        }
+                    }
+                }
+            }
+        }
+
+        let specimen = file.specimen.as_ref().and_then(|spanned| {
+            let specimen = *spanned.get_ref();
+            if specimen.diameter_mm > 0.0
+                && specimen.gauge_length_mm > 0.0
+                && specimen.diameter_mm.is_finite()
+                && specimen.gauge_length_mm.is_finite()
+            {
+                Some(specimen)
+            } else {
+                report(
+                    line_of(text, spanned.span().start),
+                    "specimen: diameter_mm and gauge_length_mm must be positive lengths in mm"
+                        .into(),
+                );
+                None
+            }
+        });
+
         if !problems.is_empty() {
             return Err(RigError {
                 path: path.to_path_buf(),
@@ -538,8 +786,43 @@ impl Rig {
             buses,
             sensors,
             cylinders,
+            pairs,
+            specimen,
             warnings,
         })
+    }
+
+    /// Points the rig's buses at the interfaces a recording used: unchanged
+    /// when every bus's interface is among them (or the rig has one bus),
+    /// else bus by bus in order. Returns a note per remapped bus, or why the
+    /// interfaces cannot be matched.
+    pub fn assign_interfaces(&mut self, interfaces: &[IfaceName]) -> Result<Vec<String>, String> {
+        if self.buses.len() == 1 || self.buses.iter().all(|b| interfaces.contains(&b.iface)) {
+            return Ok(Vec::new());
+        }
+        if self.buses.len() != interfaces.len() {
+            let names: Vec<String> = self
+                .buses
+                .iter()
+                .map(|b| format!("{} ({})", b.name, b.iface))
+                .collect();
+            return Err(format!(
+                "the rig has buses {} but {} interface(s) were used; give one interface per rig bus, in order",
+                names.join(", "),
+                interfaces.len()
+            ));
+        }
+        let mut notes = Vec::new();
+        for (bus, iface) in self.buses.iter_mut().zip(interfaces) {
+            if bus.iface != *iface {
+                notes.push(format!(
+                    "rig bus {} ({}) recorded on {iface}",
+                    bus.name, bus.iface
+                ));
+                bus.iface = *iface;
+            }
+        }
+        Ok(notes)
     }
 
     pub fn sensor(&self, name: &str) -> Option<(usize, &Sensor)> {
@@ -610,6 +893,46 @@ impl Rig {
                 cylinder.bore.rod_diameter_mm,
                 self.sensors[cylinder.head_sensor].name,
                 self.sensors[cylinder.rod_sensor].name
+            );
+        }
+        for pair in &self.pairs {
+            let [a, b] = pair.sensors;
+            let _ = writeln!(
+                text,
+                "pair {} / {}: should agree within {} % (or {} {})",
+                self.sensors[a].name,
+                self.sensors[b].name,
+                pair.tolerance_pct,
+                pair.tolerance,
+                self.sensors[a].unit()
+            );
+        }
+        for bus in &self.buses {
+            match bus.clock {
+                BusClock::Reference => {}
+                BusClock::OffsetMs(ms) => {
+                    let _ = writeln!(
+                        text,
+                        "bus '{}' clock: {ms} ms ahead of the reference",
+                        bus.name
+                    );
+                }
+                BusClock::Estimate { signal, reference } => {
+                    let _ = writeln!(
+                        text,
+                        "bus '{}' clock: offset estimated from {} against {}",
+                        bus.name, self.sensors[signal].name, self.sensors[reference].name
+                    );
+                }
+            }
+        }
+        if let Some(specimen) = &self.specimen {
+            let _ = writeln!(
+                text,
+                "specimen: diameter {} mm ({:.4} mm^2), gauge length {} mm",
+                specimen.diameter_mm,
+                specimen.area_mm2(),
+                specimen.gauge_length_mm
             );
         }
         for warning in &self.warnings {

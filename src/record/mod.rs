@@ -485,40 +485,6 @@ async fn read_interface<B: Bus>(
     }
 }
 
-/// Points the rig's buses at the recorded interfaces when the names differ
-/// (a rig written for can0/can1 recorded on vcan0/vcan1): by order.
-pub fn assign_rig_buses(
-    rig: &mut Rig,
-    interfaces: &[IfaceName],
-    notes: &mut Vec<String>,
-) -> Result<()> {
-    if rig.buses.len() == 1 || rig.buses.iter().all(|b| interfaces.contains(&b.iface)) {
-        return Ok(());
-    }
-    if rig.buses.len() != interfaces.len() {
-        let names: Vec<String> = rig
-            .buses
-            .iter()
-            .map(|b| format!("{} ({})", b.name, b.iface))
-            .collect();
-        return Err(AcqError::Config(format!(
-            "the rig has buses {} but {} interface(s) were given; give one --iface per rig bus, in order",
-            names.join(", "),
-            interfaces.len()
-        )));
-    }
-    for (bus, iface) in rig.buses.iter_mut().zip(interfaces) {
-        if bus.iface != *iface {
-            notes.push(format!(
-                "rig bus {} ({}) recorded on {iface}",
-                bus.name, bus.iface
-            ));
-            bus.iface = *iface;
-        }
-    }
-    Ok(())
-}
-
 /// NMT "start all nodes" on every bus that has CANopen sensors (every
 /// interface when there is no rig).
 async fn send_nmt_start<B: Bus>(bus: &B, options: &RecordOptions, display: &mut StatusDisplay) {

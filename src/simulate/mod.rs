@@ -71,8 +71,16 @@ impl Stream {
 /// What a sensor reads over time.
 #[derive(Clone, Debug)]
 enum Profile {
-    Levels { idle: f64, hold: f64 },
-    Column(String),
+    Levels {
+        idle: f64,
+        hold: f64,
+    },
+    /// Follows a curve column; after the curve's end, `after_end` if given
+    /// (a load that drops at fracture), else the last value.
+    Column {
+        column: String,
+        after_end: Option<f64>,
+    },
 }
 
 /// The traffic of a rig under a scenario, frame by frame in time order.
@@ -120,9 +128,10 @@ impl<'r> Simulation<'r> {
         for sensor in &rig.sensors {
             let spec = scenario.sensor.get(&sensor.name);
             let profile = match spec {
-                Some(s) if s.column.is_some() => {
-                    Profile::Column(s.column.clone().unwrap_or_default())
-                }
+                Some(s) if s.column.is_some() => Profile::Column {
+                    column: s.column.clone().unwrap_or_default(),
+                    after_end: s.after_end,
+                },
                 Some(s) => Profile::Levels {
                     idle: s.idle.unwrap_or(0.0),
                     hold: s.hold.or(s.idle).unwrap_or(0.0),
@@ -137,7 +146,7 @@ impl<'r> Simulation<'r> {
             };
             let scale = match &profile {
                 Profile::Levels { idle, hold } => idle.abs().max(hold.abs()),
-                Profile::Column(column) => curve
+                Profile::Column { column, .. } => curve
                     .as_ref()
                     .and_then(|c| c.columns.get(column))
                     .map_or(0.0, |values| {
@@ -197,11 +206,15 @@ impl<'r> Simulation<'r> {
             Profile::Levels { idle, hold } => {
                 idle + (hold - idle) * self.scenario.timeline.load_fraction(t_s)
             }
-            Profile::Column(column) => self
-                .curve
-                .as_ref()
-                .and_then(|c| c.value(column, t_s))
-                .unwrap_or(0.0),
+            Profile::Column { column, after_end } => {
+                let Some(curve) = self.curve.as_ref() else {
+                    return 0.0;
+                };
+                match after_end {
+                    Some(value) if curve.is_past_end(t_s) => *value,
+                    _ => curve.value(column, t_s).unwrap_or(0.0),
+                }
+            }
         }
     }
 

@@ -21,7 +21,8 @@
 //! ```
 //! A measured test can drive sensors instead (`[curve]`: a CSV whose
 //! `x_column` advances at `x_per_s` from `start_s`; a sensor with
-//! `column = "FORCE"` follows that column, interpolated in x).
+//! `column = "FORCE"` follows that column, interpolated in x; after the
+//! last point it keeps the last value, or reads `after_end` when given).
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -138,6 +139,9 @@ pub struct SensorScenario {
     pub idle: Option<f64>,
     pub hold: Option<f64>,
     pub column: Option<String>,
+    /// Curve mode: the value after the curve's last point (0 for a load
+    /// that drops at fracture); default: the last value.
+    pub after_end: Option<f64>,
     pub noise: Option<f64>,
 }
 
@@ -174,6 +178,12 @@ impl Curve {
         let (x0, x1) = (self.x[i], self.x[i + 1]);
         let f = if x1 > x0 { (x - x0) / (x1 - x0) } else { 0.0 };
         Some(y[i] + f * (y[i + 1] - y[i]))
+    }
+
+    /// Whether `t_s` lies after the curve's last point.
+    pub fn is_past_end(&self, t_s: f64) -> bool {
+        let last = self.x.last().copied().unwrap_or(0.0);
+        (t_s - self.start_s) * self.x_per_s > last
     }
 
     pub fn duration_s(&self) -> f64 {

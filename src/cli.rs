@@ -35,6 +35,8 @@ pub enum Command {
     Replay(crate::live_cli::ReplayArgs),
     /// Put a rig's simulated sensors on CAN interfaces, or into a log.
     Simulate(crate::live_cli::SimulateArgs),
+    /// Put every sensor of a session (or log) on one time base, gaps flagged.
+    Align(crate::offline_cli::AlignArgs),
     /// Work on recorded session directories.
     #[command(subcommand)]
     Session(crate::live_cli::SessionCommand),
@@ -78,6 +80,7 @@ pub struct CheckRigArgs {
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Decode(args) => run_decode(args),
+        Command::Align(args) => crate::offline_cli::run_align(args),
         Command::CheckRig(args) => run_check_rig(args),
         Command::Record(args) => crate::live_cli::run_record(args),
         Command::Replay(args) => crate::live_cli::run_replay(args),

@@ -17,6 +17,7 @@ pub mod decode;
 pub mod error;
 pub mod input;
 pub mod live_cli;
+pub mod offline_cli;
 pub mod output;
 pub mod record;
 pub mod recording;

@@ -5,7 +5,7 @@
 use std::borrow::Cow;
 use std::fs::File;
 use std::io::{self, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{AcqError, Result};
 
@@ -16,6 +16,8 @@ pub struct Output {
     sink: Box<dyn Write>,
     /// Pending bytes; commands append here directly.
     pub buffer: Vec<u8>,
+    /// Written to `.0`, renamed to `.1` once complete.
+    rename: Option<(PathBuf, PathBuf)>,
 }
 
 impl Output {
@@ -34,12 +36,29 @@ impl Output {
         Ok(Output::to_writer(name, sink))
     }
 
+    /// A file that appears under its name only once complete: written as
+    /// `NAME.partial`, renamed by [`Output::finish`]. A crash or an error
+    /// leaves no file that looks finished. `-` is stdout.
+    pub fn create_complete_only(path: &Path) -> Result<Self> {
+        if path.as_os_str() == "-" {
+            return Output::create(None);
+        }
+        let mut partial = path.as_os_str().to_owned();
+        partial.push(".partial");
+        let partial = PathBuf::from(partial);
+        let mut output = Output::create(Some(&partial))?;
+        output.name = path.display().to_string();
+        output.rename = Some((partial, path.to_path_buf()));
+        Ok(output)
+    }
+
     /// Output to any writer (tests, benchmarks).
     pub fn to_writer(name: impl Into<String>, sink: Box<dyn Write>) -> Self {
         Output {
             name: name.into(),
             sink,
             buffer: Vec::with_capacity(FLUSH_AT_BYTES + 4096),
+            rename: None,
         }
     }
 
@@ -65,7 +84,13 @@ impl Output {
         self.write_buffer()?;
         self.sink
             .flush()
-            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))
+            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
+        if let Some((partial, complete)) = self.rename.take() {
+            drop(self.sink);
+            std::fs::rename(&partial, &complete)
+                .map_err(|e| AcqError::io(format!("renaming {} to {}", partial.display(), complete.display()), e))?;
+        }
+        Ok(())
     }
 }
 

@@ -19,6 +19,7 @@
 
 pub mod filter;
 pub mod offset;
+pub mod run;
 pub mod table;
 
 use std::collections::VecDeque;
@@ -34,6 +35,16 @@ pub trait RowSink {
     /// After the last row.
     fn finish(&mut self) -> Result<(), Self::Error> {
         Ok(())
+    }
+}
+
+impl<S: RowSink + ?Sized> RowSink for Box<S> {
+    type Error = S::Error;
+    fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), Self::Error> {
+        (**self).row(row, values)
+    }
+    fn finish(&mut self) -> Result<(), Self::Error> {
+        (**self).finish()
     }
 }
 

@@ -17,7 +17,8 @@ pub struct Column {
 
 /// Writes aligned rows as CSV.
 pub struct CsvTable {
-    out: Output,
+    /// `None` once finished.
+    out: Option<Output>,
     rate_hz: f64,
     pub rows: u64,
 }
@@ -48,22 +49,22 @@ impl CsvTable {
         }
         out.buffer.push(b'\n');
         Ok(CsvTable {
-            out,
+            out: Some(out),
             rate_hz,
             rows: 0,
         })
     }
 
-    pub fn into_output(self) -> Output {
-        self.out
-    }
 }
 
 impl RowSink for CsvTable {
     type Error = AcqError;
 
     fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), AcqError> {
-        let buffer = &mut self.out.buffer;
+        let Some(out) = self.out.as_mut() else {
+            return Ok(());
+        };
+        let buffer = &mut out.buffer;
         push_shortest_f64(buffer, row as f64 / self.rate_hz);
         for value in values {
             buffer.push(b',');
@@ -77,6 +78,14 @@ impl RowSink for CsvTable {
         }
         buffer.push(b'\n');
         self.rows += 1;
-        self.out.maybe_flush()
+        out.maybe_flush()
+    }
+
+    /// Writes everything out (and gives a `.partial` file its name).
+    fn finish(&mut self) -> Result<(), AcqError> {
+        match self.out.take() {
+            Some(out) => out.finish(),
+            None => Ok(()),
+        }
     }
 }

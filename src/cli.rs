@@ -37,6 +37,8 @@ pub enum Command {
     Simulate(crate::live_cli::SimulateArgs),
     /// Put every sensor of a session (or log) on one time base, gaps flagged.
     Align(crate::offline_cli::AlignArgs),
+    /// Measured values per steady hold (or a tensile curve) from a session.
+    Extract(crate::offline_cli::ExtractArgs),
     /// Work on recorded session directories.
     #[command(subcommand)]
     Session(crate::live_cli::SessionCommand),
@@ -81,6 +83,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Decode(args) => run_decode(args),
         Command::Align(args) => crate::offline_cli::run_align(args),
+        Command::Extract(args) => crate::offline_cli::run_extract(args),
         Command::CheckRig(args) => run_check_rig(args),
         Command::Record(args) => crate::live_cli::run_record(args),
         Command::Replay(args) => crate::live_cli::run_replay(args),

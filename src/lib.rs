@@ -15,6 +15,7 @@ pub mod bus;
 pub mod cli;
 pub mod decode;
 pub mod error;
+pub mod extract;
 pub mod input;
 pub mod live_cli;
 pub mod offline_cli;

@@ -87,8 +87,12 @@ impl Output {
             .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
         if let Some((partial, complete)) = self.rename.take() {
             drop(self.sink);
-            std::fs::rename(&partial, &complete)
-                .map_err(|e| AcqError::io(format!("renaming {} to {}", partial.display(), complete.display()), e))?;
+            std::fs::rename(&partial, &complete).map_err(|e| {
+                AcqError::io(
+                    format!("renaming {} to {}", partial.display(), complete.display()),
+                    e,
+                )
+            })?;
         }
         Ok(())
     }

@@ -224,7 +224,9 @@ pub fn resolve_clock_offsets(
     recording.for_each_sample(&base, &mut counts, |sample| {
         if wanted.contains(&sample.sensor) {
             let list = &mut series[sample.sensor];
-            let within = list.first().is_none_or(|(t0, _)| sample.time_ns - t0 <= horizon);
+            let within = list
+                .first()
+                .is_none_or(|(t0, _)| sample.time_ns - t0 <= horizon);
             if let (Some(v), true) = (sample.value, within) {
                 list.push((sample.time_ns, v));
             }
@@ -235,7 +237,8 @@ pub fn resolve_clock_offsets(
         for list in [signal, reference] {
             series[list].sort_by_key(|(t, _)| *t);
         }
-        let (signal_name, reference_name) = (&rig.sensors[signal].name, &rig.sensors[reference].name);
+        let (signal_name, reference_name) =
+            (&rig.sensors[signal].name, &rig.sensors[reference].name);
         let estimate = estimate_offset(&series[signal], &series[reference], DEFAULT_MAX_LAG_NS)
             .map_err(|e| {
                 AcqError::Config(format!(
@@ -254,7 +257,11 @@ pub fn resolve_clock_offsets(
 }
 
 /// How every sensor is read, from the rig and the options.
-pub fn channel_specs(rig: &Rig, method: Option<Interpolation>, max_gap: GapTolerance) -> Vec<ChannelSpec> {
+pub fn channel_specs(
+    rig: &Rig,
+    method: Option<Interpolation>,
+    max_gap: GapTolerance,
+) -> Vec<ChannelSpec> {
     rig.sensors
         .iter()
         .map(|sensor| ChannelSpec {
@@ -327,7 +334,11 @@ impl std::fmt::Display for AlignSummary {
 }
 
 /// Aligns `recording` into `output` as CSV.
-pub fn align_recording(recording: &Recording, options: &AlignOptions, output: Output) -> Result<AlignSummary> {
+pub fn align_recording(
+    recording: &Recording,
+    options: &AlignOptions,
+    output: Output,
+) -> Result<AlignSummary> {
     if !(options.rate_hz > 0.0 && options.rate_hz.is_finite() && options.rate_hz <= 1e6) {
         return Err(AcqError::Config(format!(
             "--rate must be a positive number of rows per second up to 1e6, got {}",
@@ -354,7 +365,9 @@ pub fn align_recording(recording: &Recording, options: &AlignOptions, output: Ou
     let mut output = Some(output);
     let session_start = recording.session_start_unix_ns();
     let mut t0 = None;
-    let build = |t0_ns: i64, output: Output| -> Result<Aligner<Box<dyn RowSink<Error = AcqError>>>> {
+    let build = |t0_ns: i64,
+                 output: Output|
+     -> Result<Aligner<Box<dyn RowSink<Error = AcqError>>>> {
         let from = options.from.map(|p| p.offset_from(t0_ns));
         let to = options.to.map(|p| p.offset_from(t0_ns));
         if let (Some(from), Some(to)) = (from, to) {
@@ -378,7 +391,11 @@ pub fn align_recording(recording: &Recording, options: &AlignOptions, output: Ou
         }
         if let Some(to) = to {
             let after = grid.row_at_or_after(t0_ns + to.max(0));
-            grid.last_row = Some(if grid.time_ns(after) == t0_ns + to.max(0) { after } else { after.saturating_sub(1) });
+            grid.last_row = Some(if grid.time_ns(after) == t0_ns + to.max(0) {
+                after
+            } else {
+                after.saturating_sub(1)
+            });
         }
         let comments = header_comments(recording, options, &clocks, t0_ns, session_start.is_some());
         let table = CsvTable::new(output, &comments, &columns, options.rate_hz)?;
@@ -412,7 +429,9 @@ pub fn align_recording(recording: &Recording, options: &AlignOptions, output: Ou
         )));
     };
     let (sink, channels) = engine.finish()?;
-    let rows = channels.first().map_or(0, |c| c.rows_with_value + c.rows_without_value);
+    let rows = channels
+        .first()
+        .map_or(0, |c| c.rows_with_value + c.rows_without_value);
     drop(sink);
     Ok(AlignSummary {
         counts,
@@ -433,7 +452,11 @@ fn header_comments(
     is_session: bool,
 ) -> Vec<String> {
     let mut lines = Vec::new();
-    let origin = if is_session { "session start" } else { "first sample" };
+    let origin = if is_session {
+        "session start"
+    } else {
+        "first sample"
+    };
     lines.push(format!(
         "acq align {} ({} {}, unix ns {t0_ns})",
         recording.label,

@@ -54,7 +54,6 @@ impl CsvTable {
             rows: 0,
         })
     }
-
 }
 
 impl RowSink for CsvTable {

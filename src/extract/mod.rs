@@ -1,0 +1,17 @@
+//! Aligned samples -> the numbers a calibration consumes: per steady hold
+//! the mean of every sensor with its spread and plausibility flags, or a
+//! tensile test's force-displacement curve.
+//!
+//! - [`holds`]: where the load is held (rolling standard deviation).
+//! - [`stats`]: mean, std, effective n, 95 % interval of one window.
+//! - [`plausibility`]: stuck, saturated, noisy, partner disagreement.
+//! - [`measured`]: the measured-values CSV (written here, read by calibrate).
+//! - [`tensile`]: force-displacement curve, zeroed and cut at fracture.
+//! - [`run`]: both workflows over a recording.
+
+pub mod holds;
+pub mod measured;
+pub mod plausibility;
+pub mod run;
+pub mod stats;
+pub mod tensile;

@@ -212,7 +212,10 @@ mod tests {
             }
         }
         let mean_autocorrelation = sum_autocorrelation / trials as f64;
-        assert!((mean_autocorrelation - phi).abs() < 0.01, "{mean_autocorrelation}");
+        assert!(
+            (mean_autocorrelation - phi).abs() < 0.01,
+            "{mean_autocorrelation}"
+        );
         let rate = covered as f64 / trials as f64;
         let naive = naive_covered as f64 / trials as f64;
         assert!((rate - 0.95).abs() < 0.03, "coverage {rate}");

@@ -1,0 +1,762 @@
+//! `acq align` and `acq extract` on the recorded fixture sessions (real
+//! `acq record` sessions of simulated traffic on a vcan) and on logs made
+//! bad on purpose: the real binary, its files, exit codes and messages.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn acq(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+fn path_str(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// An aligned CSV: header and rows of cells, comments apart.
+struct Table {
+    comments: Vec<String>,
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Table {
+        let text = std::fs::read_to_string(path).unwrap();
+        assert!(
+            !text.contains("NaN") && !text.contains("inf"),
+            "NaN or inf in {}",
+            path.display()
+        );
+        let mut lines = text.lines();
+        let mut comments = Vec::new();
+        let header = loop {
+            let line = lines.next().expect("header");
+            match line.strip_prefix("# ") {
+                Some(comment) => comments.push(comment.to_string()),
+                None => break line.split(',').map(str::to_string).collect::<Vec<_>>(),
+            }
+        };
+        let rows = lines
+            .map(|l| l.split(',').map(str::to_string).collect())
+            .collect();
+        Table {
+            comments,
+            header,
+            rows,
+        }
+    }
+
+    fn column(&self, name: &str) -> usize {
+        self.header
+            .iter()
+            .position(|h| h == name)
+            .unwrap_or_else(|| panic!("no column {name} in {:?}", self.header))
+    }
+
+    /// Values of `sensor` (its `name [unit]` column) with `time_s` in [from, to].
+    fn values(&self, heading: &str, from_s: f64, to_s: f64) -> Vec<f64> {
+        let (t, c) = (self.column("time_s"), self.column(heading));
+        self.rows
+            .iter()
+            .filter(|r| {
+                let time: f64 = r[t].parse().unwrap();
+                (from_s..=to_s).contains(&time)
+            })
+            .filter(|r| !r[c].is_empty())
+            .map(|r| r[c].parse().unwrap())
+            .collect()
+    }
+}
+
+/// The scenario's hold value of every sensor.
+fn scenario_holds(name: &str) -> BTreeMap<String, f64> {
+    let text = std::fs::read_to_string(
+        root()
+            .join("fixtures/scenarios")
+            .join(format!("{name}.toml")),
+    )
+    .unwrap();
+    let scenario: toml::Table = text.parse().unwrap();
+    scenario["sensor"]
+        .as_table()
+        .unwrap()
+        .iter()
+        .map(|(k, v)| (k.clone(), v["hold"].as_float().unwrap()))
+        .collect()
+}
+
+fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len() as f64
+}
+
+/// measured.csv as (window, quantity) -> fields by header name.
+fn measured(path: &Path) -> BTreeMap<(String, String), BTreeMap<String, String>> {
+    let mut reader = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = reader
+        .headers()
+        .unwrap()
+        .iter()
+        .map(str::to_string)
+        .collect();
+    reader
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            let fields: BTreeMap<String, String> = header
+                .iter()
+                .cloned()
+                .zip(r.iter().map(str::to_string))
+                .collect();
+            (
+                (fields["window"].clone(), fields["quantity"].clone()),
+                fields,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn aligned_holds_equal_the_scenario_values_within_the_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    for case in ["excavator_case1", "excavator_case2"] {
+        let out = dir.path().join(format!("{case}.csv"));
+        let session = format!("fixtures/sessions/{case}");
+        let output = acq(&[
+            "align",
+            &session,
+            "--rig",
+            "fixtures/rigs/excavator.toml",
+            "-o",
+            path_str(&out),
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        assert!(
+            stderr(&output).contains("rows written"),
+            "{}",
+            stderr(&output)
+        );
+        let table = Table::read(&out);
+        assert!(
+            table.comments[0].contains("unix ns"),
+            "{:?}",
+            table.comments
+        );
+        assert!(table.comments.iter().any(|c| c.starts_with("gaps:")));
+        // 100 Hz from the session start: time_s = row / 100.
+        for (i, row) in table.rows.iter().take(50).enumerate() {
+            assert_eq!(row[0].parse::<f64>().unwrap(), i as f64 / 100.0);
+        }
+        // The hold is 3..11 s after the sensors start (scenario timeline);
+        // the sensors start about 0.2 s after the session.
+        for (sensor, hold) in scenario_holds(case) {
+            let unit_column = table
+                .header
+                .iter()
+                .find(|h| h.starts_with(&format!("{sensor} [")))
+                .unwrap()
+                .clone();
+            let values = table.values(&unit_column, 4.5, 10.5);
+            assert!(values.len() >= 590, "{sensor}: {} values", values.len());
+            let m = mean(&values);
+            // Noise std <= 0.4 (scenario): the mean of 600 values is within
+            // 0.05 of the truth, plus 0.01 for the transducers' resolution.
+            assert!((m - hold).abs() < 0.06, "{case} {sensor}: {m} vs {hold}");
+            let gap = table.column(&format!("{sensor}_gap"));
+            assert!(table.rows.iter().any(|r| r[gap] == "0"));
+        }
+    }
+}
+
+#[test]
+fn extracted_means_match_the_scenario_and_the_faulty_gauge_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    for case in ["excavator_case1", "excavator_case2"] {
+        let out = dir.path().join(format!("{case}.csv"));
+        let session = format!("fixtures/sessions/{case}");
+        let output = acq(&[
+            "extract",
+            &session,
+            "--rig",
+            "fixtures/rigs/excavator.toml",
+            "-o",
+            path_str(&out),
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let values = measured(&out);
+        let windows: std::collections::BTreeSet<&String> = values.keys().map(|(w, _)| w).collect();
+        assert_eq!(windows.len(), 1, "one hold per case: {windows:?}");
+        for (sensor, hold) in scenario_holds(case) {
+            let row = &values[&("hold1".to_string(), sensor.clone())];
+            let m: f64 = row["mean"].parse().unwrap();
+            let low: f64 = row["ci95_low"].parse().unwrap();
+            let high: f64 = row["ci95_high"].parse().unwrap();
+            let std: f64 = row["std"].parse().unwrap();
+            let n: u64 = row["n"].parse().unwrap();
+            // 6.4 s of hold at 100 Hz (10 Hz for the inclinometers).
+            let rate = if sensor.ends_with("inclination") {
+                10.0
+            } else {
+                100.0
+            };
+            assert!(n as f64 >= 0.95 * 6.4 * rate, "{case} {sensor}: n = {n}");
+            assert!(low < m && m < high);
+            // The truth lies within the interval widened by the transducer's
+            // resolution (0.01 bar pressure steps) and 2 extra half-widths
+            // (about 1 in 10^5 for a correct 95 % interval).
+            let half = 0.5 * (high - low);
+            assert!(
+                (m - hold).abs() < 3.0 * half + 0.006,
+                "{case} {sensor}: {m} +- {half} vs {hold} (std {std})"
+            );
+        }
+        let flags = |q: &str| values[&("hold1".to_string(), q.to_string())]["flags"].clone();
+        if case == "excavator_case2" {
+            // Published: point 3 read 17.83 MPa while its twin, point 4, read 75.46.
+            assert_eq!(flags("sg03"), "pair:sg04");
+            assert_eq!(flags("sg04"), "pair:sg03");
+            assert!(
+                stderr(&output).contains("flagged hold1 sg03"),
+                "{}",
+                stderr(&output)
+            );
+        } else {
+            assert!(
+                values.values().all(|v| v["flags"].is_empty()),
+                "no flag in Case 1"
+            );
+        }
+        // Loaded-chamber pressures: the published measured values.
+        let expected = match case {
+            "excavator_case1" => [("bucket", 116.89), ("arm", 193.46), ("boom", 73.35)],
+            _ => [("bucket", 195.04), ("arm", 207.54), ("boom", 216.66)],
+        };
+        for (cylinder, bar) in expected {
+            let row = &values[&("hold1".to_string(), format!("{cylinder}_loaded_pressure"))];
+            let m: f64 = row["mean"].parse().unwrap();
+            assert!((m - bar).abs() < 0.1, "{case} {cylinder}: {m} vs {bar}");
+            assert_eq!(row["unit"], "bar");
+            assert!(row["note"].starts_with("head side"), "{row:?}");
+        }
+    }
+}
+
+#[test]
+fn tensile_curve_reproduces_the_test_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("curve.csv");
+    let output = acq(&[
+        "extract",
+        "--tensile",
+        "fixtures/sessions/tensile_p91_20c",
+        "--rig",
+        "fixtures/rigs/tensile.toml",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("fracture at"),
+        "{}",
+        stderr(&output)
+    );
+    let reference_path = root().join("data/tensile/P91_20_2_DF_SS.csv");
+    let header_of = |p: &Path| {
+        std::fs::read_to_string(p)
+            .unwrap()
+            .lines()
+            .next()
+            .unwrap()
+            .to_string()
+    };
+    assert_eq!(
+        header_of(&out),
+        header_of(&reference_path),
+        "columns identical to the test file"
+    );
+    let read = |p: &Path| -> Vec<Vec<String>> {
+        let mut reader = csv::Reader::from_path(p).unwrap();
+        reader
+            .records()
+            .map(|r| r.unwrap().iter().map(str::to_string).collect())
+            .collect()
+    };
+    let curve = read(&out);
+    let reference = read(&reference_path);
+    let number = |s: &str| s.parse::<f64>().unwrap();
+    let (ref_u, ref_f): (Vec<f64>, Vec<f64>) = reference
+        .iter()
+        .map(|r| (number(&r[0]), number(&r[1])))
+        .unzip();
+    assert_eq!(curve[0][..2], ["0.0", "0.0"], "starts at the origin");
+    // Every point lies on the measured curve, within the simulated noise
+    // (force 0.004 kN, extension 0.0005 mm) and the slope times that.
+    let interpolate = |u: f64| {
+        let i = ref_u
+            .windows(2)
+            .position(|w| w[0] <= u && u <= w[1])
+            .unwrap_or(ref_u.len() - 2);
+        let f = (u - ref_u[i]) / (ref_u[i + 1] - ref_u[i]);
+        ref_f[i] + f * (ref_f[i + 1] - ref_f[i])
+    };
+    let mut worst: f64 = 0.0;
+    for row in curve.iter().skip(1) {
+        let (u, f) = (number(&row[0]), number(&row[1]));
+        if u > 0.03 {
+            worst = worst.max((f - interpolate(u)).abs());
+        }
+    }
+    assert!(worst < 0.03, "largest force difference {worst} kN");
+    // Maximum: 7.4597 kN at 1.32067 mm, not flattened (noise may add ~0.01).
+    let max = curve.iter().map(|r| number(&r[1])).fold(0.0, f64::max);
+    assert!((max - 7.4597).abs() < 0.02, "max {max}");
+    // Trimmed at fracture: the last point is the test's last (2.607 mm, 4.989 kN).
+    let last = curve.last().unwrap();
+    assert!((number(&last[0]) - 2.607).abs() < 0.005, "{last:?}");
+    assert!((number(&last[1]) - 4.989).abs() < 0.03, "{last:?}");
+    // True values stop at the maximum, as in the test file.
+    let max_row = curve.iter().position(|r| number(&r[1]) == max).unwrap();
+    assert!(curve[max_row][4].parse::<f64>().is_ok());
+    assert!(curve[max_row + 1][4].is_empty());
+    // STRESS = F / (pi 2^2) in MPa; STRAIN = u / 12.5.
+    let row = &curve[max_row];
+    assert!(
+        (number(&row[3]) - number(&row[1]) * 1000.0 / (std::f64::consts::PI * 4.0)).abs() < 1e-9
+    );
+    assert!((number(&row[2]) - number(&row[0]) / 12.5).abs() < 1e-12);
+}
+
+/// The raw log of a fixture session, line by line.
+fn session_lines(case: &str) -> Vec<String> {
+    std::fs::read_to_string(root().join("fixtures/sessions").join(case).join("raw.log"))
+        .unwrap()
+        .lines()
+        .map(str::to_string)
+        .collect()
+}
+
+fn line_time(line: &str) -> f64 {
+    line[1..line.find(')').unwrap()].parse().unwrap()
+}
+
+fn with_time(line: &str, time: f64) -> String {
+    format!("({time:.6}){}", &line[line.find(')').unwrap() + 1..])
+}
+
+#[test]
+fn a_silent_sensor_is_flagged_not_interpolated() {
+    let dir = tempfile::tempdir().unwrap();
+    let lines = session_lines("excavator_case1");
+    let start = line_time(&lines[0]);
+    // Node 0x23 (arm head pressure, COB-ID 1A3) silent from 6 s to 7.5 s.
+    let log = dir.path().join("gap.log");
+    let kept: Vec<&String> = lines
+        .iter()
+        .filter(|l| {
+            let t = line_time(l) - start;
+            !(l.contains(" 1A3#") && (6.0..7.5).contains(&t))
+        })
+        .collect();
+    std::fs::write(
+        &log,
+        kept.iter().map(|l| format!("{l}\n")).collect::<String>(),
+    )
+    .unwrap();
+    let out = dir.path().join("aligned.csv");
+    let output = acq(&[
+        "align",
+        path_str(&log),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let message = stderr(&output);
+    assert!(
+        message.contains("arm_head_pressure: 1 silence(s) longer than the gap tolerance"),
+        "{message}"
+    );
+    let table = Table::read(&out);
+    let (t, v, g) = (
+        table.column("time_s"),
+        table.column("arm_head_pressure [bar]"),
+        table.column("arm_head_pressure_gap"),
+    );
+    // time_s counts from the log's first sample here, a few ms before
+    // the first arm pressure sample: the edges are flagged too.
+    let mut flagged = 0;
+    for row in &table.rows {
+        let time: f64 = row[t].parse::<f64>().unwrap();
+        if row[g] == "1" {
+            assert!(row[v].is_empty());
+            if (1.0..13.0).contains(&time) {
+                flagged += 1;
+            }
+        } else {
+            assert!(!row[v].is_empty(), "value without flag at {time}");
+        }
+    }
+    // 1.5 s of silence at 100 rows/s, give or take the edge rows.
+    assert!((145..=152).contains(&flagged), "{flagged} flagged rows");
+}
+
+#[test]
+fn a_log_merged_from_two_recordings_is_reported_and_never_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let lines = session_lines("excavator_case1");
+    // The same recording twice (time jumps back 14 s), plus duplicated lines.
+    let mut merged: Vec<String> = lines.clone();
+    merged.extend(lines.iter().take(200).cloned());
+    merged.extend(lines.iter().cloned());
+    let log = dir.path().join("merged.log");
+    std::fs::write(
+        &log,
+        merged.iter().map(|l| format!("{l}\n")).collect::<String>(),
+    )
+    .unwrap();
+    let out = dir.path().join("aligned.csv");
+    let output = acq(&[
+        "align",
+        path_str(&log),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let message = stderr(&output);
+    assert!(message.contains("went back in time"), "{message}");
+    assert!(
+        message.contains("a log merged from two recordings?"),
+        "{message}"
+    );
+    let table = Table::read(&out);
+    assert!(table.rows.len() > 1000);
+    // Extract on the merged log still finds the one hold (the second copy's
+    // samples are dropped as going back in time, so they do not count twice).
+    let measured_path = dir.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        path_str(&log),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        path_str(&measured_path),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+}
+
+#[test]
+fn a_sensor_never_seen_and_an_empty_window_are_said_and_left_empty() {
+    let dir = tempfile::tempdir().unwrap();
+    // The hydraulics bus only: every DAQ sensor (can1) is missing.
+    let lines = session_lines("excavator_case1");
+    let log = dir.path().join("can0.log");
+    let kept: String = lines
+        .iter()
+        .filter(|l| l.contains(" can0 "))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&log, kept).unwrap();
+    let out = dir.path().join("aligned.csv");
+    let output = acq(&[
+        "align",
+        path_str(&log),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("sg09: never seen in the recording"),
+        "{}",
+        stderr(&output)
+    );
+    let table = Table::read(&out);
+    let g = table.column("sg09_gap");
+    assert!(table.rows.iter().all(|r| r[g] == "1"));
+
+    // A window after the end of the recording, and one inside it.
+    let windows = dir.path().join("windows.csv");
+    std::fs::write(&windows, "name,start_s,end_s\nlate,100,110\npose,5,9\n").unwrap();
+    let measured_path = dir.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        "fixtures/sessions/excavator_case1",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "--windows",
+        path_str(&windows),
+        "-o",
+        path_str(&measured_path),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let values = measured(&measured_path);
+    let late = &values[&("late".to_string(), "tip_force".to_string())];
+    assert_eq!(late["n"], "0");
+    assert_eq!(late["mean"], "");
+    assert_eq!(late["flags"], "no_samples");
+    let pose = &values[&("pose".to_string(), "tip_force".to_string())];
+    assert!((pose["mean"].parse::<f64>().unwrap() - 40.6).abs() < 0.05);
+    let text = std::fs::read_to_string(&measured_path).unwrap();
+    assert!(!text.contains("NaN"));
+}
+
+#[test]
+fn clock_offset_between_buses_is_estimated_and_removed() {
+    let dir = tempfile::tempdir().unwrap();
+    // The DAQ bus (can1) stamped by a clock 137.4 ms ahead.
+    let lines = session_lines("excavator_case1");
+    let shifted: String = lines
+        .iter()
+        .map(|l| {
+            if l.contains(" can1 ") {
+                with_time(l, line_time(l) + 0.1374)
+            } else {
+                l.clone()
+            }
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let log = dir.path().join("offset.log");
+    std::fs::write(&log, shifted).unwrap();
+    let rig_text = std::fs::read_to_string(root().join("fixtures/rigs/excavator.toml"))
+        .unwrap()
+        .replace("bitrate = 500000\n", "bitrate = 500000\nclock_sync = { signal = \"tip_force\", reference = \"arm_head_pressure\" }\n")
+        .replace("\"../dbc/", &format!("\"{}/fixtures/dbc/", root().display()));
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(&rig, rig_text).unwrap();
+    let out = dir.path().join("aligned.csv");
+    let output = acq(&[
+        "align",
+        path_str(&log),
+        "--rig",
+        path_str(&rig),
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let message = stderr(&output);
+    let estimate: f64 = message
+        .split("clock offset ")
+        .nth(1)
+        .and_then(|rest| rest.split(" ms").next())
+        .unwrap_or_else(|| panic!("no estimate in: {message}"))
+        .parse()
+        .unwrap();
+    assert!(
+        (estimate - 137.4).abs() < 2.0,
+        "estimated {estimate} ms; {message}"
+    );
+    assert!(message.contains("confidence high"), "{message}");
+    let table = Table::read(&out);
+    assert!(table
+        .comments
+        .iter()
+        .any(|c| c.contains("estimated from tip_force against arm_head_pressure")));
+
+    // Given on the command line instead: no estimate, the offset is used.
+    let output = acq(&[
+        "align",
+        path_str(&log),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "--clock-offset",
+        "daq=137.4",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("+137.400 ms (given)"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
+fn a_filtered_alignment_keeps_the_hold_level() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("filtered.csv");
+    let output = acq(&[
+        "align",
+        "fixtures/sessions/excavator_case1",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "--filter",
+        "2",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let table = Table::read(&out);
+    assert!(table
+        .comments
+        .iter()
+        .any(|c| c.contains("zero-phase Gaussian") && c.contains("169.8 ms")));
+    let values = table.values("tip_force [kN]", 5.0, 10.0);
+    let spread = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - values.iter().cloned().fold(f64::INFINITY, f64::min);
+    // Raw noise 0.08 kN std; at 2 Hz of 100 the filtered spread is far smaller.
+    assert!(spread < 0.1, "filtered spread {spread}");
+    assert!((mean(&values) - 40.6).abs() < 0.02);
+}
+
+#[test]
+fn bad_input_gives_file_line_and_exit_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let windows = dir.path().join("windows.csv");
+    std::fs::write(&windows, "name,start_s,end_s\nhold,5,9\nbad,x,3\n").unwrap();
+    let output = acq(&[
+        "extract",
+        "fixtures/sessions/excavator_case1",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "--windows",
+        path_str(&windows),
+    ]);
+    assert_eq!(output.status.code(), Some(3), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("windows.csv:3: expected start_s in seconds, found 'x'"),
+        "{}",
+        stderr(&output)
+    );
+
+    let output = acq(&[
+        "align",
+        "fixtures/sessions/excavator_case1",
+        "--from",
+        "9",
+        "--to",
+        "3",
+        "-o",
+        "-",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("lies before --from"),
+        "{}",
+        stderr(&output)
+    );
+
+    let output = acq(&[
+        "extract",
+        "fixtures/sessions/excavator_case1",
+        "--load",
+        "nothing",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("no sensor 'nothing'"),
+        "{}",
+        stderr(&output)
+    );
+
+    let output = acq(&[
+        "align",
+        "fixtures/sessions/tensile_p91_20c",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        "-",
+    ]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+
+    let output = acq(&["align", "no/such/dir", "-o", "-"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("no such session directory or log file"));
+
+    let output = acq(&[
+        "align",
+        "fixtures/sessions/excavator_case1",
+        "--max-gap",
+        "0.5x",
+        "-o",
+        "-",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+
+    // A failed run leaves no output file that looks complete.
+    let out = dir.path().join("never.csv");
+    let output = acq(&[
+        "align",
+        "fixtures/sessions/excavator_case1",
+        "--from",
+        "9",
+        "--to",
+        "3",
+        "-o",
+        path_str(&out),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(!out.exists());
+}
+
+#[test]
+fn stuck_and_saturated_channels_are_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    // A rig whose sg05 has a declared range it reaches, and a scenario in
+    // which sg06 reads without any noise: a float32 that never changes.
+    let rig_text = std::fs::read_to_string(root().join("fixtures/rigs/excavator.toml"))
+        .unwrap()
+        .replace("location = 5\n", "location = 5\nrange = [-24.15, 24.15]\n")
+        .replace(
+            "\"../dbc/",
+            &format!("\"{}/fixtures/dbc/", root().display()),
+        );
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(&rig, rig_text).unwrap();
+    let scenario_text =
+        std::fs::read_to_string(root().join("fixtures/scenarios/excavator_case1.toml"))
+            .unwrap()
+            .replace(
+                "[sensor.sg06]  # MPa, chosen\nidle = 3.80\nhold = 27.3\nnoise = 0.15",
+                "[sensor.sg06]\nidle = 3.80\nhold = 27.3\nnoise = 0.0",
+            )
+            .replace("relative_noise = 0.002", "relative_noise = 0.0");
+    let scenario = dir.path().join("scenario.toml");
+    std::fs::write(&scenario, scenario_text).unwrap();
+    let log = dir.path().join("sim.log");
+    let output = acq(&[
+        "simulate",
+        "--rig",
+        path_str(&rig),
+        "--scenario",
+        path_str(&scenario),
+        "-o",
+        path_str(&log),
+        "--start",
+        "1000",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let measured_path = dir.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        path_str(&log),
+        "--rig",
+        path_str(&rig),
+        "-o",
+        path_str(&measured_path),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let values = measured(&measured_path);
+    let flags = |q: &str| values[&("hold1".to_string(), q.to_string())]["flags"].clone();
+    assert_eq!(flags("sg06"), "stuck");
+    assert!(flags("sg05").contains("saturated"), "{}", flags("sg05"));
+    assert_eq!(flags("sg07"), "");
+}

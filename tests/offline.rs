@@ -760,3 +760,43 @@ fn stuck_and_saturated_channels_are_flagged() {
     assert!(flags("sg05").contains("saturated"), "{}", flags("sg05"));
     assert_eq!(flags("sg07"), "");
 }
+
+#[test]
+fn a_session_is_read_with_its_own_copy_of_the_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let measured_path = dir.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        "fixtures/sessions/excavator_case2",
+        "-o",
+        path_str(&measured_path),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let values = measured(&measured_path);
+    assert_eq!(
+        values[&("hold1".to_string(), "sg03".to_string())]["flags"],
+        "pair:sg04"
+    );
+    let curve = dir.path().join("curve.csv");
+    let output = acq(&[
+        "extract",
+        "--tensile",
+        "fixtures/sessions/tensile_p91_20c",
+        "-o",
+        path_str(&curve),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    // A log has no rig of its own.
+    let output = acq(&[
+        "align",
+        "fixtures/sessions/excavator_case1/raw.log",
+        "-o",
+        "-",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("give one with --rig"),
+        "{}",
+        stderr(&output)
+    );
+}

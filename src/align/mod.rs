@@ -528,6 +528,55 @@ mod tests {
         assert_eq!(values, [1., 1., 1., 1., 1., 1., 2., 2., 2., 2., 2.]);
     }
 
+    proptest::proptest! {
+        /// Any stream (gaps, jitter, channels out of step with each other
+        /// within the lateness, as buses interleaved by a recorder) gives
+        /// consecutive rows, finite values inside each channel's own range,
+        /// and the same rows as the same samples in time order.
+        #[test]
+        fn any_stream_gives_consecutive_rows_of_finite_bounded_values(
+            steps in proptest::collection::vec((0usize..3, 1i64..40, -1000.0f64..1000.0), 1..400),
+            delays_ms in proptest::array::uniform3(0i64..30),
+            rate in 10.0f64..500.0,
+        ) {
+            let mut clock = [0i64; 3];
+            let mut samples = Vec::new();
+            for (channel, step_ms, value) in steps {
+                clock[channel] += step_ms * MS;
+                samples.push((channel, clock[channel], value, clock[channel] + delays_ms[channel] * MS));
+            }
+            let run = |order: &[(usize, i64, f64, i64)]| {
+                let mut aligner = Aligner::new(
+                    GridSpec { lateness_ns: 40 * MS, ..grid(rate) },
+                    &[spec(Interpolation::Linear, 25), spec(Interpolation::Hold, 25), spec(Interpolation::Nearest, 25)],
+                    Collect::default(),
+                );
+                for &(c, t, v, _) in order {
+                    aligner.push(c, t, Some(v)).unwrap();
+                }
+                aligner.finish().unwrap().0 .0
+            };
+            let mut in_order = samples.clone();
+            in_order.sort_by_key(|s| s.1);
+            let mut arrival = samples.clone();
+            arrival.sort_by_key(|s| s.3);
+            let rows = run(&arrival);
+            proptest::prop_assert_eq!(&rows, &run(&in_order));
+            for (i, (row, _)) in rows.iter().enumerate() {
+                proptest::prop_assert_eq!(*row, i as u64);
+            }
+            for channel in 0..3 {
+                let inputs: Vec<f64> = samples.iter().filter(|s| s.0 == channel).map(|s| s.2).collect();
+                let (lo, hi) = inputs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+                for (_, values) in &rows {
+                    if let Some(v) = values[channel] {
+                        proptest::prop_assert!(v.is_finite() && v >= lo - 1e-9 && v <= hi + 1e-9);
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn row_at_or_after_is_exact_for_awkward_rates() {
         let grid = GridSpec {

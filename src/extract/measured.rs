@@ -224,6 +224,25 @@ mod tests {
         assert!(!text.contains("NaN"));
     }
 
+    proptest::proptest! {
+        /// Whatever follows the header, reading returns values or an error
+        /// naming the file; it never panics and never yields a NaN.
+        #[test]
+        fn any_text_reads_or_fails_cleanly(body in "[a-z0-9,.;\"\\n -]{0,300}") {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("m.csv");
+            std::fs::write(&path, format!("{MEASURED_HEADER}\n{body}")).unwrap();
+            match read_measured(&path) {
+                Ok(values) => {
+                    for v in values {
+                        proptest::prop_assert!(v.stats.mean.is_none_or(f64::is_finite));
+                    }
+                }
+                Err(e) => proptest::prop_assert!(e.to_string().contains("m.csv")),
+            }
+        }
+    }
+
     #[test]
     fn a_bad_number_names_file_and_line() {
         let dir = tempfile::tempdir().unwrap();

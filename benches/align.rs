@@ -10,8 +10,15 @@
 //! 0.25, 1 and 2 hours run in turn; peak RSS after each shows whether
 //! memory grows with the length.
 //!
-//! Decoding the frames is measured by `cargo bench --bench decode`.
+//! Part 2 (`ACQ_BENCH_E2E=1`, writes a 1.3 GB log to a temporary
+//! directory) times the real binary end to end: `acq align LOG --rig RIG`
+//! on one hour of those 25 channels as a DAQ sends them, float32 signals in
+//! two CAN FD frames per millisecond (16 + 9 channels), candump `-L` text.
+//! That includes reading the text and decoding every frame.
 
+use std::io::Write;
+use std::path::Path;
+use std::process::Command;
 use std::time::Instant;
 
 use acq::align::table::{Column, CsvTable};
@@ -50,8 +57,93 @@ fn peak_rss_kib() -> i64 {
         .unwrap_or(-1)
 }
 
+/// One hour of DAQ traffic as candump -L, with its DBC and rig.
+fn write_fd_session(dir: &Path, seconds: u64) {
+    let mut dbc = String::from("VERSION \"\"\n\nNS_ :\n\tSIG_VALTYPE_\n\nBS_:\n\nBU_: DAQ\n\n");
+    let mut valtypes = String::new();
+    let mut rig = String::from("[[bus]]\nname = \"daq\"\niface = \"can0\"\ndbc = [\"daq_fd.dbc\"]\n\n");
+    for (id, name, first, count, bytes) in [(1792, "DAQ_FD_A", 1, 16, 64), (1793, "DAQ_FD_B", 17, 9, 48)] {
+        dbc.push_str(&format!("BO_ {id} {name}: {bytes} DAQ\n"));
+        for k in 0..count {
+            let channel = first + k;
+            dbc.push_str(&format!(" SG_ CH{channel:02} : {}|32@1- (1,0) [0|0] \"bar\" Vector__XXX\n", 32 * k));
+            valtypes.push_str(&format!("SIG_VALTYPE_ {id} CH{channel:02} : 1;\n"));
+            rig.push_str(&format!(
+                "[[sensor]]\nname = \"channel{channel:02}\"\nkind = \"pressure\"\nrate_hz = 1000\ndbc = {{ message = \"{name}\", signal = \"CH{channel:02}\" }}\n\n"
+            ));
+        }
+        dbc.push('\n');
+    }
+    dbc.push_str(&valtypes);
+    std::fs::write(dir.join("daq_fd.dbc"), dbc).unwrap();
+    std::fs::write(dir.join("rig.toml"), rig).unwrap();
+    let mut out = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(dir.join("fd.log")).unwrap());
+    let mut state = 0x2545_F491_4F6C_DD1Du64;
+    let hex = b"0123456789ABCDEF";
+    let mut line = Vec::with_capacity(200);
+    for tick in 0..seconds * 1000 {
+        let t_us = 1_795_000_000_000_000u64 + tick * 1000;
+        for (id, count, bytes) in [(0x700, 16, 64), (0x701, 9, 48)] {
+            line.clear();
+            let _ = write!(line, "({}.{:06}) can0 {:03X}##1", t_us / 1_000_000, t_us % 1_000_000, id);
+            let mut payload = [0u8; 64];
+            for k in 0..count {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let value = 100.0f32 + k as f32 + (state >> 44) as f32 * 1e-6;
+                payload[4 * k..4 * k + 4].copy_from_slice(&value.to_le_bytes());
+            }
+            for b in &payload[..bytes] {
+                line.push(hex[(b >> 4) as usize]);
+                line.push(hex[(b & 15) as usize]);
+            }
+            line.push(b'\n');
+            out.write_all(&line).unwrap();
+        }
+    }
+    out.flush().unwrap();
+}
+
+fn end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let seconds = 3600;
+    let started = Instant::now();
+    write_fd_session(dir.path(), seconds);
+    let log = dir.path().join("fd.log");
+    let size = std::fs::metadata(&log).unwrap().len();
+    println!(
+        "end to end: wrote {:.2} GB of candump -L (1 h, 25 float32 channels at 1 kHz in 2 CAN FD frames/ms) in {:.1} s",
+        size as f64 / 1e9,
+        started.elapsed().as_secs_f64()
+    );
+    let binary = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/acq");
+    let started = Instant::now();
+    let output = Command::new(&binary)
+        .arg("align")
+        .arg(&log)
+        .arg("--rig")
+        .arg(dir.path().join("rig.toml"))
+        .arg("-o")
+        .arg(dir.path().join("aligned.csv"))
+        .output()
+        .expect("build the binary first: cargo build --release");
+    let wall_s = started.elapsed().as_secs_f64();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let rss = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN)
+        .map(|u| u.max_rss())
+        .unwrap_or(-1);
+    println!(
+        "end to end: acq align (read + decode + align + write 100 Hz CSV) of 90 M samples: {wall_s:.2} s, peak RSS {rss} KiB; {}",
+        String::from_utf8_lossy(&output.stderr).trim()
+    );
+}
+
 fn main() {
-    // `cargo bench` passes --bench; nothing else to parse.
+    if std::env::var_os("ACQ_BENCH_E2E").is_some() {
+        end_to_end();
+        return;
+    }
     let hours_list = [0.25, 1.0, 2.0];
     println!("align benchmark: {CHANNELS} channels at {RATE_HZ} Hz -> 100 Hz grid, CSV to a discarding sink");
     for hours in hours_list {

@@ -61,12 +61,18 @@ fn peak_rss_kib() -> i64 {
 fn write_fd_session(dir: &Path, seconds: u64) {
     let mut dbc = String::from("VERSION \"\"\n\nNS_ :\n\tSIG_VALTYPE_\n\nBS_:\n\nBU_: DAQ\n\n");
     let mut valtypes = String::new();
-    let mut rig = String::from("[[bus]]\nname = \"daq\"\niface = \"can0\"\ndbc = [\"daq_fd.dbc\"]\n\n");
-    for (id, name, first, count, bytes) in [(1792, "DAQ_FD_A", 1, 16, 64), (1793, "DAQ_FD_B", 17, 9, 48)] {
+    let mut rig =
+        String::from("[[bus]]\nname = \"daq\"\niface = \"can0\"\ndbc = [\"daq_fd.dbc\"]\n\n");
+    for (id, name, first, count, bytes) in
+        [(1792, "DAQ_FD_A", 1, 16, 64), (1793, "DAQ_FD_B", 17, 9, 48)]
+    {
         dbc.push_str(&format!("BO_ {id} {name}: {bytes} DAQ\n"));
         for k in 0..count {
             let channel = first + k;
-            dbc.push_str(&format!(" SG_ CH{channel:02} : {}|32@1- (1,0) [0|0] \"bar\" Vector__XXX\n", 32 * k));
+            dbc.push_str(&format!(
+                " SG_ CH{channel:02} : {}|32@1- (1,0) [0|0] \"bar\" Vector__XXX\n",
+                32 * k
+            ));
             valtypes.push_str(&format!("SIG_VALTYPE_ {id} CH{channel:02} : 1;\n"));
             rig.push_str(&format!(
                 "[[sensor]]\nname = \"channel{channel:02}\"\nkind = \"pressure\"\nrate_hz = 1000\ndbc = {{ message = \"{name}\", signal = \"CH{channel:02}\" }}\n\n"
@@ -77,7 +83,10 @@ fn write_fd_session(dir: &Path, seconds: u64) {
     dbc.push_str(&valtypes);
     std::fs::write(dir.join("daq_fd.dbc"), dbc).unwrap();
     std::fs::write(dir.join("rig.toml"), rig).unwrap();
-    let mut out = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(dir.join("fd.log")).unwrap());
+    let mut out = std::io::BufWriter::with_capacity(
+        1 << 20,
+        std::fs::File::create(dir.join("fd.log")).unwrap(),
+    );
     let mut state = 0x2545_F491_4F6C_DD1Du64;
     let hex = b"0123456789ABCDEF";
     let mut line = Vec::with_capacity(200);
@@ -85,7 +94,13 @@ fn write_fd_session(dir: &Path, seconds: u64) {
         let t_us = 1_795_000_000_000_000u64 + tick * 1000;
         for (id, count, bytes) in [(0x700, 16, 64), (0x701, 9, 48)] {
             line.clear();
-            let _ = write!(line, "({}.{:06}) can0 {:03X}##1", t_us / 1_000_000, t_us % 1_000_000, id);
+            let _ = write!(
+                line,
+                "({}.{:06}) can0 {:03X}##1",
+                t_us / 1_000_000,
+                t_us % 1_000_000,
+                id
+            );
             let mut payload = [0u8; 64];
             for k in 0..count {
                 state ^= state << 13;
@@ -129,7 +144,11 @@ fn end_to_end() {
         .output()
         .expect("build the binary first: cargo build --release");
     let wall_s = started.elapsed().as_secs_f64();
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     let rss = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN)
         .map(|u| u.max_rss())
         .unwrap_or(-1);

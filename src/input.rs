@@ -117,3 +117,38 @@ pub fn for_each_record(
     }
     Ok(())
 }
+
+/// Reads a small CSV file whose header must be `expected` (cells trimmed):
+/// its records with their 1-based line numbers. Errors name the file and
+/// line and say what was expected.
+pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv::StringRecord)>> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| AcqError::Config(format!("cannot open {}: {e}", path.display())))?;
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(|e| AcqError::Malformed(format!("{}:1: {e}", path.display())))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if header != expected {
+        return Err(AcqError::Malformed(format!(
+            "{}:1: expected the header {}, found {}",
+            path.display(),
+            expected.join(","),
+            header.join(",")
+        )));
+    }
+    reader
+        .records()
+        .map(|record| {
+            let record = record.map_err(|e| {
+                let line = e.position().map_or(0, |p| p.line());
+                AcqError::Malformed(format!("{}:{line}: {e}", path.display()))
+            })?;
+            Ok((record.position().map_or(0, |p| p.line()), record))
+        })
+        .collect()
+}

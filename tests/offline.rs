@@ -348,6 +348,24 @@ fn session_lines(case: &str) -> Vec<String> {
         .collect()
 }
 
+/// Writes `lines` as a log and aligns it with the excavator rig.
+fn align_lines<S: AsRef<str>>(dir: &Path, name: &str, lines: &[S]) -> (Output, std::path::PathBuf) {
+    let log = dir.join(name);
+    let text: String = lines.iter().map(|l| format!("{}\n", l.as_ref())).collect();
+    std::fs::write(&log, text).unwrap();
+    let out = dir.join(format!("{name}.csv"));
+    let output = acq(&[
+        "align",
+        path_str(&log),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        path_str(&out),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    (output, out)
+}
+
 fn line_time(line: &str) -> f64 {
     line[1..line.find(')').unwrap()].parse().unwrap()
 }
@@ -362,7 +380,6 @@ fn a_silent_sensor_is_flagged_not_interpolated() {
     let lines = session_lines("excavator_case1");
     let start = line_time(&lines[0]);
     // Node 0x23 (arm head pressure, COB-ID 1A3) silent from 6 s to 7.5 s.
-    let log = dir.path().join("gap.log");
     let kept: Vec<&String> = lines
         .iter()
         .filter(|l| {
@@ -370,21 +387,7 @@ fn a_silent_sensor_is_flagged_not_interpolated() {
             !(l.contains(" 1A3#") && (6.0..7.5).contains(&t))
         })
         .collect();
-    std::fs::write(
-        &log,
-        kept.iter().map(|l| format!("{l}\n")).collect::<String>(),
-    )
-    .unwrap();
-    let out = dir.path().join("aligned.csv");
-    let output = acq(&[
-        "align",
-        path_str(&log),
-        "--rig",
-        "fixtures/rigs/excavator.toml",
-        "-o",
-        path_str(&out),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
+    let (output, out) = align_lines(dir.path(), "gap.log", &kept);
     let message = stderr(&output);
     assert!(
         message.contains("arm_head_pressure: 1 silence(s) longer than the gap tolerance"),
@@ -422,22 +425,8 @@ fn a_log_merged_from_two_recordings_is_reported_and_never_panics() {
     let mut merged: Vec<String> = lines.clone();
     merged.extend(lines.iter().take(200).cloned());
     merged.extend(lines.iter().cloned());
+    let (output, out) = align_lines(dir.path(), "merged.log", &merged);
     let log = dir.path().join("merged.log");
-    std::fs::write(
-        &log,
-        merged.iter().map(|l| format!("{l}\n")).collect::<String>(),
-    )
-    .unwrap();
-    let out = dir.path().join("aligned.csv");
-    let output = acq(&[
-        "align",
-        path_str(&log),
-        "--rig",
-        "fixtures/rigs/excavator.toml",
-        "-o",
-        path_str(&out),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
     let message = stderr(&output);
     assert!(message.contains("went back in time"), "{message}");
     assert!(
@@ -465,23 +454,8 @@ fn a_sensor_never_seen_and_an_empty_window_are_said_and_left_empty() {
     let dir = tempfile::tempdir().unwrap();
     // The hydraulics bus only: every DAQ sensor (can1) is missing.
     let lines = session_lines("excavator_case1");
-    let log = dir.path().join("can0.log");
-    let kept: String = lines
-        .iter()
-        .filter(|l| l.contains(" can0 "))
-        .map(|l| format!("{l}\n"))
-        .collect();
-    std::fs::write(&log, kept).unwrap();
-    let out = dir.path().join("aligned.csv");
-    let output = acq(&[
-        "align",
-        path_str(&log),
-        "--rig",
-        "fixtures/rigs/excavator.toml",
-        "-o",
-        path_str(&out),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
+    let can0: Vec<&String> = lines.iter().filter(|l| l.contains(" can0 ")).collect();
+    let (output, out) = align_lines(dir.path(), "can0.log", &can0);
     assert!(
         stderr(&output).contains("sg09: never seen in the recording"),
         "{}",
@@ -617,93 +591,86 @@ fn a_filtered_alignment_keeps_the_hold_level() {
     assert!((mean(&values) - 40.6).abs() < 0.02);
 }
 
+/// Runs acq, expecting exit `code` and `message` in stderr.
+fn fails_with(args: &[&str], code: i32, message: &str) {
+    let output = acq(args);
+    assert_eq!(
+        output.status.code(),
+        Some(code),
+        "{args:?}: {}",
+        stderr(&output)
+    );
+    assert!(
+        stderr(&output).contains(message),
+        "{args:?}: {}",
+        stderr(&output)
+    );
+}
+
 #[test]
 fn bad_input_gives_file_line_and_exit_code() {
     let dir = tempfile::tempdir().unwrap();
     let windows = dir.path().join("windows.csv");
     std::fs::write(&windows, "name,start_s,end_s\nhold,5,9\nbad,x,3\n").unwrap();
-    let output = acq(&[
-        "extract",
-        "fixtures/sessions/excavator_case1",
-        "--rig",
-        "fixtures/rigs/excavator.toml",
-        "--windows",
-        path_str(&windows),
-    ]);
-    assert_eq!(output.status.code(), Some(3), "{}", stderr(&output));
-    assert!(
-        stderr(&output).contains("windows.csv:3: expected start_s in seconds, found 'x'"),
-        "{}",
-        stderr(&output)
+    let session = "fixtures/sessions/excavator_case1";
+    fails_with(
+        &["extract", session, "--windows", path_str(&windows)],
+        3,
+        "windows.csv:3: expected start_s in seconds, found 'x'",
     );
-
-    let output = acq(&[
-        "align",
-        "fixtures/sessions/excavator_case1",
-        "--from",
-        "9",
-        "--to",
-        "3",
-        "-o",
-        "-",
-    ]);
-    assert_eq!(output.status.code(), Some(2));
-    assert!(
-        stderr(&output).contains("lies before --from"),
-        "{}",
-        stderr(&output)
+    fails_with(
+        &["align", session, "--from", "9", "--to", "3", "-o", "-"],
+        2,
+        "lies before --from",
     );
-
-    let output = acq(&[
-        "extract",
-        "fixtures/sessions/excavator_case1",
-        "--load",
-        "nothing",
-    ]);
-    assert_eq!(output.status.code(), Some(2));
-    assert!(
-        stderr(&output).contains("no sensor 'nothing'"),
-        "{}",
-        stderr(&output)
+    fails_with(
+        &["extract", session, "--load", "nothing"],
+        2,
+        "no sensor 'nothing'",
     );
-
-    let output = acq(&[
-        "align",
-        "fixtures/sessions/tensile_p91_20c",
-        "--rig",
-        "fixtures/rigs/excavator.toml",
-        "-o",
-        "-",
-    ]);
-    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
-
-    let output = acq(&["align", "no/such/dir", "-o", "-"]);
-    assert_eq!(output.status.code(), Some(2));
-    assert!(stderr(&output).contains("no such session directory or log file"));
-
-    let output = acq(&[
-        "align",
-        "fixtures/sessions/excavator_case1",
-        "--max-gap",
-        "0.5x",
-        "-o",
-        "-",
-    ]);
-    assert_eq!(output.status.code(), Some(2));
-
+    fails_with(
+        &[
+            "align",
+            "fixtures/sessions/tensile_p91_20c",
+            "--rig",
+            "fixtures/rigs/excavator.toml",
+            "-o",
+            "-",
+        ],
+        2,
+        "give one interface per rig bus",
+    );
+    fails_with(
+        &["align", "no/such/dir", "-o", "-"],
+        2,
+        "no such session directory or log file",
+    );
+    fails_with(
+        &["align", session, "--max-gap", "0.5x", "-o", "-"],
+        2,
+        "a number >= 1 followed by x",
+    );
+    fails_with(
+        &["align", session, "--filter", "60", "-o", "-"],
+        2,
+        "below half of --rate",
+    );
     // A failed run leaves no output file that looks complete.
     let out = dir.path().join("never.csv");
-    let output = acq(&[
-        "align",
-        "fixtures/sessions/excavator_case1",
-        "--from",
-        "9",
+    fails_with(
+        &[
+            "align",
+            session,
+            "--from",
+            "9",
+            "--to",
+            "3",
+            "-o",
+            path_str(&out),
+        ],
+        2,
         "--to",
-        "3",
-        "-o",
-        path_str(&out),
-    ]);
-    assert_eq!(output.status.code(), Some(2));
+    );
     assert!(!out.exists());
 }
 

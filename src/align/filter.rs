@@ -144,16 +144,7 @@ impl<S: RowSink> RowSink for GaussianFilter<S> {
 mod tests {
     use super::*;
 
-    #[derive(Default)]
-    struct Collect(Vec<(u64, Vec<Option<f64>>)>);
-
-    impl RowSink for Collect {
-        type Error = std::convert::Infallible;
-        fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), Self::Error> {
-            self.0.push((row, values.to_vec()));
-            Ok(())
-        }
-    }
+    use crate::align::CollectRows as Collect;
 
     /// Standard normal CDF by the Abramowitz-Stegun 7.1.26 erf (|error| < 1.5e-7).
     fn phi(x: f64) -> f64 {

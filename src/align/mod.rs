@@ -359,20 +359,25 @@ fn read_between(
     }
 }
 
+/// Test sink: keeps every row.
+#[cfg(test)]
+#[derive(Default)]
+pub(crate) struct CollectRows(pub Vec<(u64, Vec<Option<f64>>)>);
+
+#[cfg(test)]
+impl RowSink for CollectRows {
+    type Error = std::convert::Infallible;
+    fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), Self::Error> {
+        self.0.push((row, values.to_vec()));
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[derive(Default)]
-    struct Collect(Vec<(u64, Vec<Option<f64>>)>);
-
-    impl RowSink for Collect {
-        type Error = std::convert::Infallible;
-        fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), Self::Error> {
-            self.0.push((row, values.to_vec()));
-            Ok(())
-        }
-    }
+    use crate::align::CollectRows as Collect;
 
     const MS: i64 = 1_000_000;
 

@@ -24,6 +24,7 @@ use std::path::Path;
 
 use crate::error::{AcqError, Result};
 use crate::extract::stats::WindowStats;
+use crate::input::read_csv_records;
 use crate::output::{csv_field, Output};
 
 /// The header of the measured-values file.
@@ -99,29 +100,9 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
 
 /// Reads a measured-values file; errors name the file and line.
 pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .from_path(path)
-        .map_err(|e| AcqError::Config(format!("cannot open {}: {e}", path.display())))?;
-    let header = reader
-        .headers()
-        .map_err(|e| AcqError::Malformed(format!("{}:1: {e}", path.display())))?
-        .iter()
-        .collect::<Vec<_>>()
-        .join(",");
-    if header != MEASURED_HEADER {
-        return Err(AcqError::Malformed(format!(
-            "{}:1: expected the header {MEASURED_HEADER}, found {header}",
-            path.display()
-        )));
-    }
+    let columns: Vec<&str> = MEASURED_HEADER.split(',').collect();
     let mut values = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            AcqError::Malformed(format!("{}:{line}: {e}", path.display()))
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
+    for (line, record) in read_csv_records(path, &columns)? {
         let bad = |what: &str, text: &str| {
             AcqError::Malformed(format!(
                 "{}:{line}: expected {what}, found '{text}'",

@@ -14,6 +14,7 @@ use super::stats::{WindowAccumulator, WindowStats};
 use super::tensile::{extract_curve, TensileCurve};
 use crate::align::run::{resolve_clock_offsets, BusOffset};
 use crate::error::{AcqError, Result};
+use crate::input::read_csv_records;
 use crate::recording::{Recording, SampleCounts};
 
 /// Which windows to summarise.
@@ -67,31 +68,9 @@ pub fn load_sensor(recording: &Recording, name: Option<&str>) -> Result<usize> {
 
 /// Reads a windows file: `name,start_s,end_s` with a header.
 pub fn read_windows(path: &Path, t0_ns: i64) -> Result<Vec<Window>> {
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| AcqError::Config(format!("cannot open {}: {e}", path.display())))?;
-    let header: Vec<String> = reader
-        .headers()
-        .map_err(|e| AcqError::Malformed(format!("{}:1: {e}", path.display())))?
-        .iter()
-        .map(str::to_string)
-        .collect();
-    if header != ["name", "start_s", "end_s"] {
-        return Err(AcqError::Malformed(format!(
-            "{}:1: expected the header name,start_s,end_s (seconds from the session start), found {}",
-            path.display(),
-            header.join(",")
-        )));
-    }
+    let header = ["name", "start_s", "end_s"];
     let mut windows = Vec::new();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let line = e.position().map_or(0, |p| p.line());
-            AcqError::Malformed(format!("{}:{line}: {e}", path.display()))
-        })?;
-        let line = record.position().map_or(0, |p| p.line());
+    for (line, record) in read_csv_records(path, &header)? {
         let seconds = |i: usize| -> Result<f64> {
             record[i]
                 .parse::<f64>()

@@ -107,13 +107,7 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
 }
 
 fn parse_duration_ns(text: &str) -> std::result::Result<i64, String> {
-    let text = text.trim();
-    let seconds = match text.strip_suffix('s').and_then(|n| n.parse::<f64>().ok()) {
-        Some(s) => s,
-        None => humantime::parse_duration(text)
-            .map_err(|_| format!("'{text}': give a duration such as 3s, 500ms or 1.5s"))?
-            .as_secs_f64(),
-    };
+    let seconds = crate::align::run::parse_duration_s(text)?;
     if seconds >= 0.0 && seconds.is_finite() {
         Ok((seconds * 1e9).round() as i64)
     } else {

@@ -15,6 +15,17 @@ use crate::output::Output;
 use crate::recording::{Recording, SampleCounts};
 use crate::session::utc_text;
 
+/// A duration in seconds: `0.2s`, `1.5s`, or what humantime reads (`50ms`, `2min`).
+pub fn parse_duration_s(text: &str) -> std::result::Result<f64, String> {
+    let text = text.trim();
+    match text.strip_suffix('s').and_then(|n| n.parse::<f64>().ok()) {
+        Some(seconds) => Ok(seconds),
+        None => humantime::parse_duration(text)
+            .map(|d| d.as_secs_f64())
+            .map_err(|_| format!("'{text}': give a duration such as 3s, 500ms or 1.5s")),
+    }
+}
+
 /// How long a sensor may be silent before the silence is a gap.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum GapTolerance {
@@ -36,12 +47,7 @@ impl GapTolerance {
                 )),
             };
         }
-        let seconds = match text.strip_suffix('s').and_then(|n| n.parse::<f64>().ok()) {
-            Some(s) => s,
-            None => humantime::parse_duration(text)
-                .map_err(|_| format!("'{text}': give the gap tolerance as 3x (periods) or a duration such as 50ms or 0.2s"))?
-                .as_secs_f64(),
-        };
+        let seconds = parse_duration_s(text)?;
         if seconds > 0.0 && seconds.is_finite() {
             Ok(GapTolerance::Fixed((seconds * 1e9).round() as i64))
         } else {

@@ -1,32 +1,14 @@
 //! `acq decode` and `acq check-rig` driven as a user drives them: the real
 //! binary, the shipped fixtures, exit codes and messages.
 
+mod common;
+use common::{acq, root, stderr, stdout};
 use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
 
 fn fixture(path: &str) -> PathBuf {
     root().join("fixtures").join(path)
-}
-
-fn acq(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_acq"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap()
-}
-
-fn stdout(output: &Output) -> String {
-    String::from_utf8(output.stdout.clone()).unwrap()
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8(output.stderr.clone()).unwrap()
 }
 
 /// Rows of `time_s,sensor,value,unit` for one sensor: (time text, value text).

@@ -2,25 +2,11 @@
 //! `acq record` sessions of simulated traffic on a vcan) and on logs made
 //! bad on purpose: the real binary, its files, exit codes and messages.
 
+mod common;
+use common::{acq, root, stderr};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn acq(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_acq"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .unwrap()
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
+use std::process::Output;
 
 fn path_str(path: &Path) -> &str {
     path.to_str().unwrap()

@@ -1,0 +1,27 @@
+//! Helpers shared by the integration tests that drive the real binary.
+// Each test crate uses a different subset of these.
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs the acq binary from the repository root.
+pub fn acq(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(args)
+        .current_dir(root())
+        .output()
+        .unwrap()
+}
+
+pub fn stdout(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+pub fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}

@@ -38,10 +38,15 @@ impl Output {
 
     /// A file that appears under its name only once complete: written as
     /// `NAME.partial`, renamed by [`Output::finish`]. A crash or an error
-    /// leaves no file that looks finished. `-` is stdout.
+    /// leaves no file that looks finished. `-` is stdout. A path that
+    /// exists and is not a regular file (`/dev/null`, a FIFO) is written in
+    /// place: renaming over it would replace the device with a file.
     pub fn create_complete_only(path: &Path) -> Result<Self> {
         if path.as_os_str() == "-" {
             return Output::create(None);
+        }
+        if std::fs::metadata(path).is_ok_and(|meta| !meta.is_file()) {
+            return Output::create(Some(path));
         }
         let mut partial = path.as_os_str().to_owned();
         partial.push(".partial");
@@ -109,7 +114,31 @@ pub fn csv_field(text: &str) -> Cow<'_, str> {
 
 #[cfg(test)]
 mod tests {
-    use super::csv_field;
+    use super::{csv_field, Output};
+    use std::io::Read;
+    use std::os::unix::fs::FileTypeExt;
+
+    #[test]
+    fn a_fifo_is_written_in_place_not_replaced_by_a_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("out.fifo");
+        nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+        let reader_path = fifo.clone();
+        let reader = std::thread::spawn(move || {
+            let mut text = String::new();
+            std::fs::File::open(reader_path)
+                .unwrap()
+                .read_to_string(&mut text)
+                .unwrap();
+            text
+        });
+        let mut output = Output::create_complete_only(&fifo).unwrap();
+        output.buffer.extend_from_slice(b"a,b\n");
+        output.finish().unwrap();
+        assert_eq!(reader.join().unwrap(), "a,b\n");
+        assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+        assert!(!dir.path().join("out.fifo.partial").exists());
+    }
 
     #[test]
     fn quotes_only_when_needed() {

@@ -20,6 +20,7 @@ pub mod input;
 pub mod live_cli;
 pub mod offline_cli;
 pub mod output;
+pub mod plot;
 pub mod record;
 pub mod recording;
 pub mod replay;

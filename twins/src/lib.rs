@@ -1,0 +1,9 @@
+//! The digital twins `acq` calibrates, as plain numerical models.
+//!
+//! They take physical inputs (strokes in mm, loads in kN) and return physical
+//! outputs (pressures in bar, stresses in MPa). They know nothing of CAN,
+//! recordings or calibration; the calibration engine drives them.
+//!
+//! - [`frame`]: planar Euler-Bernoulli frame finite elements.
+
+pub mod frame;

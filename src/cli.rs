@@ -42,6 +42,12 @@ pub enum Command {
     /// Work on recorded session directories.
     #[command(subcommand)]
     Session(crate::live_cli::SessionCommand),
+    /// Run a digital twin once at a case's inputs (or overrides).
+    #[command(subcommand)]
+    Twin(crate::twin_cli::TwinCommand),
+    /// One-at-a-time sensitivity of a twin's outputs to its uncertain inputs.
+    #[command(subcommand)]
+    Sensitivity(crate::twin_cli::SensitivityCommand),
 }
 
 #[derive(Args, Debug)]
@@ -89,6 +95,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Replay(args) => crate::live_cli::run_replay(args),
         Command::Simulate(args) => crate::live_cli::run_simulate(args),
         Command::Session(command) => crate::live_cli::run_session(command),
+        Command::Twin(command) => crate::twin_cli::run_twin(command),
+        Command::Sensitivity(command) => crate::twin_cli::run_sensitivity(command),
     }
 }
 

@@ -24,5 +24,7 @@ pub mod plot;
 pub mod record;
 pub mod recording;
 pub mod replay;
+pub mod sensitivity;
 pub mod session;
 pub mod simulate;
+pub mod twin_cli;

@@ -5,5 +5,7 @@
 //! recordings or calibration; the calibration engine drives them.
 //!
 //! - [`frame`]: planar Euler-Bernoulli frame finite elements.
+//! - [`excavator`]: the DX55-class front attachment (statics + frame FE).
 
+pub mod excavator;
 pub mod frame;

@@ -1,0 +1,397 @@
+//! The excavator front-attachment twin: a DX55-class boom, arm and bucket
+//! with their linkage and cylinders.
+//!
+//! One evaluation: strokes -> pose ([`kinematics`]) -> every joint force
+//! ([`statics`]) -> loaded-chamber pressures, and the boom and arm frame
+//! models ([`structure`]) -> stresses at the strain gauges and the largest
+//! von Mises stress. The geometry comes from a file ([`geometry`]); test
+//! cases and their uncertain inputs from case files ([`case`]).
+
+pub mod case;
+pub mod geometry;
+pub mod kinematics;
+pub mod statics;
+pub mod structure;
+
+use std::fmt;
+
+use geometry::{Cylinder, Geometry, Member};
+use kinematics::{vec2, Pose, Vec2};
+use nalgebra::Rotation2;
+use statics::{Body, Pin, PointLoad, Reactions};
+use structure::{BodyStresses, FlexibleBody};
+
+/// The three hydraulic cylinders.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum CylinderName {
+    Bucket,
+    Arm,
+    Boom,
+}
+
+impl CylinderName {
+    pub const ALL: [CylinderName; 3] =
+        [CylinderName::Bucket, CylinderName::Arm, CylinderName::Boom];
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CylinderName::Bucket => "bucket",
+            CylinderName::Arm => "arm",
+            CylinderName::Boom => "boom",
+        }
+    }
+}
+
+impl fmt::Display for CylinderName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// Cylinder strokes, mm (extension from fully retracted).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Strokes {
+    pub bucket_mm: f64,
+    pub arm_mm: f64,
+    pub boom_mm: f64,
+}
+
+impl Strokes {
+    pub fn get(&self, name: CylinderName) -> f64 {
+        match name {
+            CylinderName::Bucket => self.bucket_mm,
+            CylinderName::Arm => self.arm_mm,
+            CylinderName::Boom => self.boom_mm,
+        }
+    }
+
+    pub fn set(&mut self, name: CylinderName, stroke_mm: f64) {
+        match name {
+            CylinderName::Bucket => self.bucket_mm = stroke_mm,
+            CylinderName::Arm => self.arm_mm = stroke_mm,
+            CylinderName::Boom => self.boom_mm = stroke_mm,
+        }
+    }
+}
+
+/// The model's inputs: strokes and the external load on the bucket tip.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs {
+    pub strokes: Strokes,
+    /// Magnitude of the force the bucket tip receives, kN.
+    pub tip_force_kn: f64,
+    /// Its direction, degrees from +Y (forward) toward +Z (up).
+    pub tip_force_angle_deg: f64,
+}
+
+impl Inputs {
+    pub fn tip_force_n(&self) -> Vec2 {
+        let angle = self.tip_force_angle_deg.to_radians();
+        Vec2::new(angle.cos(), angle.sin()) * (self.tip_force_kn * 1e3)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum TwinError {
+    StrokeOutOfRange {
+        cylinder: CylinderName,
+        stroke_mm: f64,
+        range_mm: [f64; 2],
+    },
+    /// The linkage cannot close, or closes at (or near) a dead centre.
+    DeadCentre {
+        cylinder: CylinderName,
+        stroke_mm: f64,
+    },
+    InvalidInput(String),
+    Geometry(String),
+}
+
+impl fmt::Display for TwinError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TwinError::StrokeOutOfRange { cylinder, stroke_mm, range_mm } => write!(
+                f,
+                "{cylinder} cylinder stroke {stroke_mm} mm is outside its range {} to {} mm",
+                range_mm[0], range_mm[1]
+            ),
+            TwinError::DeadCentre { cylinder, stroke_mm } => write!(
+                f,
+                "{cylinder} cylinder stroke {stroke_mm} mm: the linkage cannot be assembled there, or only at a dead centre; \
+                 choose a stroke away from it"
+            ),
+            TwinError::InvalidInput(message) | TwinError::Geometry(message) => f.write_str(message),
+        }
+    }
+}
+
+impl std::error::Error for TwinError {}
+
+/// Which chamber carries the load.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Chamber {
+    /// Piston side: the cylinder pushes.
+    Head,
+    /// Annulus side: the cylinder pulls.
+    Rod,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CylinderResult {
+    /// Oil force along the axis, kN; positive pushes.
+    pub axial_force_kn: f64,
+    pub loaded_chamber: Chamber,
+    /// The pressure that alone balances the axial force, bar.
+    pub loaded_chamber_pressure_bar: f64,
+    pub length_m: f64,
+}
+
+/// Everything one evaluation gives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Evaluation {
+    pub pose: Pose,
+    pub reactions: Reactions,
+    /// In [`CylinderName::ALL`] order.
+    pub cylinders: [CylinderResult; 3],
+    /// (measuring point, stress along the member, MPa, tension positive), by point.
+    pub gauge_stress_mpa: Vec<(u32, f64)>,
+    pub boom: BodyStresses,
+    pub arm: BodyStresses,
+}
+
+impl Evaluation {
+    pub fn cylinder(&self, name: CylinderName) -> &CylinderResult {
+        &self.cylinders[name.index()]
+    }
+}
+
+/// The boom's pins in frame-model order: A (pin support) first, B (roller).
+const BOOM_PINS: [Pin; 4] = [Pin::A, Pin::B, Pin::D, Pin::E];
+/// The arm's: B (pin support) first, G (roller).
+const ARM_PINS: [Pin; 5] = [Pin::B, Pin::G, Pin::F, Pin::H, Pin::I];
+
+/// A built twin: geometry plus factored boom and arm frame models.
+#[derive(Debug)]
+pub struct Excavator {
+    geometry: Geometry,
+    boom: FlexibleBody,
+    arm: FlexibleBody,
+}
+
+impl Excavator {
+    pub fn new(geometry: Geometry) -> Result<Excavator, TwinError> {
+        let e = geometry.youngs_modulus_pa();
+        let rho = geometry.material.density_kg_m3;
+        let gauges_on = |member: Member| {
+            geometry
+                .gauges
+                .iter()
+                .filter(|g| g.member == member)
+                .collect::<Vec<_>>()
+        };
+        let boom_pins = [
+            [0.0, 0.0],
+            geometry.boom.arm_pin_m,
+            geometry.boom.boom_cylinder_pin_m,
+            geometry.boom.arm_cylinder_pin_m,
+        ];
+        let boom = FlexibleBody::build(
+            &geometry.boom.structure,
+            &boom_pins,
+            1,
+            &gauges_on(Member::Boom),
+            e,
+            rho,
+        )
+        .map_err(|m| TwinError::Geometry(format!("boom: {m}")))?;
+        let arm_pins = [
+            [0.0, 0.0],
+            geometry.arm.bucket_pin_m,
+            geometry.arm.arm_cylinder_pin_m,
+            geometry.arm.bucket_cylinder_pin_m,
+            geometry.arm.side_link_pin_m,
+        ];
+        let arm = FlexibleBody::build(
+            &geometry.arm.structure,
+            &arm_pins,
+            1,
+            &gauges_on(Member::Arm),
+            e,
+            rho,
+        )
+        .map_err(|m| TwinError::Geometry(format!("arm: {m}")))?;
+        Ok(Excavator {
+            geometry,
+            boom,
+            arm,
+        })
+    }
+
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// Mass of the boom and the arm as their frame models carry it, kg.
+    pub fn structure_masses_kg(&self) -> (f64, f64) {
+        (self.boom.mass_kg(), self.arm.mass_kg())
+    }
+
+    /// Gravity and the tip load as point loads on the bodies, for a pose.
+    pub fn loads(&self, pose: &Pose, inputs: &Inputs) -> Vec<PointLoad> {
+        let g = &self.geometry;
+        let weight = |mass_kg: f64| Vec2::new(0.0, -g.material.gravity_m_s2 * mass_kg);
+        let on_boom = |local: Vec2| pose.a + Rotation2::new(pose.boom_angle_rad) * local;
+        let on_arm = |local: Vec2| pose.b + Rotation2::new(pose.arm_angle_rad) * local;
+        let on_bucket = |local: Vec2| pose.g + Rotation2::new(pose.bucket_angle_rad) * local;
+        let mut loads = vec![
+            PointLoad {
+                body: Body::Boom,
+                at_m: on_boom(self.boom.centre_of_mass_m()),
+                force_n: weight(self.boom.mass_kg()),
+            },
+            PointLoad {
+                body: Body::Arm,
+                at_m: on_arm(self.arm.centre_of_mass_m()),
+                force_n: weight(self.arm.mass_kg()),
+            },
+            PointLoad {
+                body: Body::Bucket,
+                at_m: on_bucket(vec2(g.bucket.centre_of_mass_m)),
+                force_n: weight(g.bucket.mass_kg),
+            },
+            PointLoad {
+                body: Body::Bucket,
+                at_m: pose.j,
+                force_n: inputs.tip_force_n(),
+            },
+            PointLoad {
+                body: Body::SideLink,
+                at_m: (pose.i + pose.k) * 0.5,
+                force_n: weight(g.side_link.mass_kg),
+            },
+            PointLoad {
+                body: Body::ConnectingLink,
+                at_m: (pose.k + pose.l) * 0.5,
+                force_n: weight(g.connecting_link.mass_kg),
+            },
+        ];
+        for name in CylinderName::ALL {
+            let cylinder = self.cylinder(name);
+            let (barrel_pin, rod_pin) = pose.cylinder_pins(name);
+            let axis = (rod_pin - barrel_pin).normalize();
+            loads.push(PointLoad {
+                body: Body::Barrel(name),
+                at_m: barrel_pin + axis * cylinder.barrel_centre_from_pin_m,
+                force_n: weight(cylinder.barrel_mass_kg),
+            });
+            loads.push(PointLoad {
+                body: Body::Rod(name),
+                at_m: rod_pin - axis * cylinder.rod_centre_from_pin_m,
+                force_n: weight(cylinder.rod_mass_kg),
+            });
+        }
+        loads
+    }
+
+    fn cylinder(&self, name: CylinderName) -> &Cylinder {
+        self.geometry.cylinder(name)
+    }
+
+    /// Pose only (cheap): for pose checks and sweeps.
+    pub fn pose(&self, strokes: &Strokes) -> Result<Pose, TwinError> {
+        Pose::solve(&self.geometry, strokes)
+    }
+
+    /// One full evaluation.
+    pub fn evaluate(&self, inputs: &Inputs) -> Result<Evaluation, TwinError> {
+        for (name, value) in [
+            ("bucket stroke", inputs.strokes.bucket_mm),
+            ("arm stroke", inputs.strokes.arm_mm),
+            ("boom stroke", inputs.strokes.boom_mm),
+            ("tip force", inputs.tip_force_kn),
+            ("tip force angle", inputs.tip_force_angle_deg),
+        ] {
+            if !value.is_finite() {
+                return Err(TwinError::InvalidInput(format!(
+                    "{name} must be a finite number, got {value}"
+                )));
+            }
+        }
+        let pose = Pose::solve(&self.geometry, &inputs.strokes)?;
+        let loads = self.loads(&pose, inputs);
+        let reactions = statics::solve(&pose, &loads).ok_or_else(|| {
+            TwinError::InvalidInput("the statics are singular at this pose (a dead centre)".into())
+        })?;
+
+        let cylinders = CylinderName::ALL.map(|name| {
+            let cylinder = self.cylinder(name);
+            let joint = reactions.cylinder(name);
+            let (barrel_pin, rod_pin) = pose.cylinder_pins(name);
+            let (loaded_chamber, area_m2) = if joint.axial_force_n >= 0.0 {
+                (Chamber::Head, cylinder.head_area_m2())
+            } else {
+                (Chamber::Rod, cylinder.annulus_area_m2())
+            };
+            CylinderResult {
+                axial_force_kn: joint.axial_force_n * 1e-3,
+                loaded_chamber,
+                loaded_chamber_pressure_bar: joint.axial_force_n.abs() / area_m2 * 1e-5,
+                length_m: (rod_pin - barrel_pin).norm(),
+            }
+        });
+
+        let gravity = Vec2::new(0.0, -self.geometry.material.gravity_m_s2);
+        let into_frame = |angle_rad: f64, v: Vec2| Rotation2::new(-angle_rad) * v;
+        // The force each flexible body receives at each of its pins.
+        let on_body = |body: Body, pins: &[Pin], angle_rad: f64| -> Vec<Vec2> {
+            pins.iter()
+                .map(|&pin| {
+                    let hinge = statics::HINGES
+                        .iter()
+                        .find(|h| h.pin == pin)
+                        .expect("pin is a hinge");
+                    let force = reactions.hinge(pin);
+                    let force = if hinge.on == body { force } else { -force };
+                    into_frame(angle_rad, force)
+                })
+                .collect()
+        };
+        let boom = self.boom.stresses(
+            &on_body(Body::Boom, &BOOM_PINS, pose.boom_angle_rad),
+            into_frame(pose.boom_angle_rad, gravity),
+        );
+        let arm = self.arm.stresses(
+            &on_body(Body::Arm, &ARM_PINS, pose.arm_angle_rad),
+            into_frame(pose.arm_angle_rad, gravity),
+        );
+        let mut gauge_stress_mpa: Vec<(u32, f64)> = boom
+            .gauge_stress_mpa
+            .iter()
+            .chain(&arm.gauge_stress_mpa)
+            .copied()
+            .collect();
+        gauge_stress_mpa.sort_by_key(|&(point, _)| point);
+        Ok(Evaluation {
+            pose,
+            reactions,
+            cylinders,
+            gauge_stress_mpa,
+            boom,
+            arm,
+        })
+    }
+}
+
+impl Geometry {
+    pub fn cylinder(&self, name: CylinderName) -> &Cylinder {
+        match name {
+            CylinderName::Bucket => &self.cylinder.bucket,
+            CylinderName::Arm => &self.cylinder.arm,
+            CylinderName::Boom => &self.cylinder.boom,
+        }
+    }
+}

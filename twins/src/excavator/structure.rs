@@ -1,0 +1,345 @@
+//! Boom and arm as box-section frame models: meshing the centreline, the
+//! loads from the statics, and stresses at gauges and the von Mises maximum.
+//!
+//! Each body is a free body in equilibrium; the frame model is held by a pin
+//! at its first pin and a roller at its last only to remove rigid motion, so
+//! the support reactions are ~0 and the internal forces are those of statics.
+//! Pins off the centreline (cylinder lugs) hang on massless bracket elements
+//! from the nearest centreline point. The stiffness is factored once when
+//! the body is built; an evaluation is one back-substitution.
+
+use crate::frame::{
+    BoxSection, ElementId, FrameBuilder, FrameLoads, FrameModel, FrameSolution, NodeId,
+};
+
+use super::geometry::{Face, Gauge, PointM, Structure};
+use super::kinematics::{cross, vec2, Vec2};
+
+/// Two stations closer than this are one node, m: a gauge written to the
+/// millimetre at a knee must not make a sliver element.
+const SAME_STATION_M: f64 = 1e-4;
+
+#[derive(Debug, Clone, Copy)]
+struct BoxElement {
+    element: ElementId,
+    start_station_m: f64,
+    end_station_m: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct GaugeProbe {
+    point: u32,
+    element: ElementId,
+    xi: f64,
+    section: BoxSection,
+    /// Signed distance from the section centre toward the element's local +y, m.
+    fibre_m: f64,
+}
+
+/// A flexible body ready to evaluate.
+#[derive(Debug)]
+pub struct FlexibleBody {
+    model: FrameModel,
+    structure: Structure,
+    box_elements: Vec<BoxElement>,
+    pin_nodes: Vec<NodeId>,
+    /// Attached masses as (node, offset from node, kg).
+    attached: Vec<(NodeId, Vec2, f64)>,
+    gauges: Vec<GaugeProbe>,
+    mass_kg: f64,
+    centre_of_mass_m: Vec2,
+}
+
+/// Stresses of one load case, MPa.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BodyStresses {
+    /// (measuring point, axial stress: tension positive).
+    pub gauge_stress_mpa: Vec<(u32, f64)>,
+    pub max_von_mises_mpa: f64,
+    /// Largest support reaction relative to the largest pin force: ~0 when
+    /// the loads balance (a check on the statics).
+    pub support_reaction_ratio: f64,
+}
+
+impl FlexibleBody {
+    /// Meshes `structure`. `pins` are body-frame points: those on the
+    /// centreline become its nodes, the others hang on brackets. The first
+    /// pin gets the pin support, `roller_pin` the roller.
+    pub fn build(
+        structure: &Structure,
+        pins: &[PointM],
+        roller_pin: usize,
+        gauges: &[&Gauge],
+        youngs_modulus_pa: f64,
+        density_kg_m3: f64,
+    ) -> Result<FlexibleBody, String> {
+        let vertices: Vec<Vec2> = structure.centreline_m.iter().map(|&p| vec2(p)).collect();
+        let vertex_stations = cumulative_lengths(&vertices);
+
+        let projections: Vec<(f64, Vec2)> = pins
+            .iter()
+            .map(|&p| project(&vertices, &vertex_stations, vec2(p)))
+            .collect();
+        // Vertices keep their exact stations; other stations near one snap to it.
+        let mut stations: Vec<f64> = vertex_stations.clone();
+        let extra = projections
+            .iter()
+            .map(|&(s, _)| s)
+            .chain(gauges.iter().map(|g| g.station_m));
+        stations.extend(extra.filter(|s| {
+            vertex_stations
+                .iter()
+                .all(|v| (v - s).abs() >= SAME_STATION_M)
+        }));
+        stations.sort_by(f64::total_cmp);
+        stations.dedup_by(|b, a| (*b - *a).abs() < SAME_STATION_M);
+        let mut refined = vec![stations[0]];
+        for pair in stations.windows(2) {
+            let parts = ((pair[1] - pair[0]) / structure.element_length_m)
+                .ceil()
+                .max(1.0) as usize;
+            for k in 1..=parts {
+                refined.push(pair[0] + (pair[1] - pair[0]) * k as f64 / parts as f64);
+            }
+        }
+
+        let mut builder = FrameBuilder::new(youngs_modulus_pa);
+        builder.density(density_kg_m3);
+        let centreline_nodes: Vec<(f64, NodeId)> = refined
+            .iter()
+            .map(|&s| {
+                let p = point_at(&vertices, &vertex_stations, s);
+                (s, builder.node([p.x, p.y]))
+            })
+            .collect();
+        let node_at = |station: f64| -> NodeId {
+            let k = centreline_nodes.partition_point(|&(s, _)| s < station - SAME_STATION_M);
+            centreline_nodes[k.min(centreline_nodes.len() - 1)].1
+        };
+        let mut box_elements = Vec::new();
+        for pair in centreline_nodes.windows(2) {
+            let (start, a) = pair[0];
+            let (end, b) = pair[1];
+            let section = structure.section_at(0.5 * (start + end));
+            let element = builder.element(a, b, section.properties());
+            box_elements.push(BoxElement {
+                element,
+                start_station_m: start,
+                end_station_m: end,
+            });
+        }
+
+        let mut pin_nodes = Vec::new();
+        for (&pin, &(station, foot)) in pins.iter().zip(&projections) {
+            let on_line = node_at(station);
+            if (vec2(pin) - foot).norm() < 1e-6 {
+                pin_nodes.push(on_line);
+            } else {
+                let lug = builder.node(pin);
+                let bracket =
+                    builder.element(on_line, lug, structure.section_at(station).properties());
+                builder.element_linear_density(bracket, 0.0);
+                pin_nodes.push(lug);
+            }
+        }
+        builder.pin_support(pin_nodes[0]);
+        let span = vec2(pins[roller_pin]) - vec2(pins[0]);
+        builder.roller_support(pin_nodes[roller_pin], [-span.y, span.x]);
+
+        // Attached masses go to the nearest node with their transfer moment.
+        let node_positions: Vec<(NodeId, Vec2)> = centreline_nodes
+            .iter()
+            .map(|&(s, n)| (n, point_at(&vertices, &vertex_stations, s)))
+            .chain(pin_nodes.iter().zip(pins).map(|(&n, &p)| (n, vec2(p))))
+            .collect();
+        let attached = structure
+            .attached_mass
+            .iter()
+            .map(|mass| {
+                let at = vec2(mass.at_m);
+                let (node, position) = node_positions
+                    .iter()
+                    .min_by(|x, y| (x.1 - at).norm().total_cmp(&(y.1 - at).norm()))
+                    .expect("nodes exist");
+                (*node, at - position, mass.mass_kg)
+            })
+            .collect::<Vec<_>>();
+
+        let mut mass_kg = 0.0;
+        let mut first_moment = Vec2::zeros();
+        for element in &box_elements {
+            let middle = 0.5 * (element.start_station_m + element.end_station_m);
+            let section = structure.section_at(middle);
+            let m = density_kg_m3
+                * section.area_m2()
+                * (element.end_station_m - element.start_station_m);
+            mass_kg += m;
+            first_moment += point_at(&vertices, &vertex_stations, middle) * m;
+        }
+        for mass in &structure.attached_mass {
+            mass_kg += mass.mass_kg;
+            first_moment += vec2(mass.at_m) * mass.mass_kg;
+        }
+
+        let probes = gauges
+            .iter()
+            .map(|gauge| {
+                let k = box_elements
+                    .iter()
+                    .position(|e| gauge.station_m < e.end_station_m - SAME_STATION_M)
+                    .unwrap_or(box_elements.len() - 1);
+                let element = box_elements[k];
+                let xi = ((gauge.station_m - element.start_station_m)
+                    / (element.end_station_m - element.start_station_m))
+                    .clamp(0.0, 1.0);
+                let section = structure.section_at(gauge.station_m);
+                let fibre_m = match gauge.face {
+                    Face::Top => 0.5 * section.height_m,
+                    Face::Bottom => -0.5 * section.height_m,
+                    Face::LeftSide | Face::RightSide => gauge.offset_m,
+                };
+                GaugeProbe {
+                    point: gauge.point,
+                    element: element.element,
+                    xi,
+                    section,
+                    fibre_m,
+                }
+            })
+            .collect();
+
+        let model = builder.build().map_err(|e| format!("frame model: {e}"))?;
+        Ok(FlexibleBody {
+            model,
+            structure: structure.clone(),
+            box_elements,
+            pin_nodes,
+            attached,
+            gauges: probes,
+            mass_kg,
+            centre_of_mass_m: first_moment / mass_kg,
+        })
+    }
+
+    pub fn mass_kg(&self) -> f64 {
+        self.mass_kg
+    }
+
+    /// Centre of mass in the body frame, m.
+    pub fn centre_of_mass_m(&self) -> Vec2 {
+        self.centre_of_mass_m
+    }
+
+    /// Solves the frame for pin forces (N, body frame, in `pins` order) and
+    /// gravity (m/s^2, body frame).
+    pub fn solve(&self, pin_forces_n: &[Vec2], gravity_m_s2: Vec2) -> FrameSolution {
+        let mut loads = FrameLoads {
+            nodal: Vec::with_capacity(pin_forces_n.len() + self.attached.len()),
+            body_acceleration_m_s2: [gravity_m_s2.x, gravity_m_s2.y],
+            distributed: Vec::new(),
+        };
+        for (&node, force) in self.pin_nodes.iter().zip(pin_forces_n) {
+            loads.nodal.push((node, [force.x, force.y, 0.0]));
+        }
+        for &(node, offset, mass_kg) in &self.attached {
+            let weight = gravity_m_s2 * mass_kg;
+            loads
+                .nodal
+                .push((node, [weight.x, weight.y, cross(&offset, &weight)]));
+        }
+        self.model.solve(&loads)
+    }
+
+    /// Gauge stresses, von Mises maximum and the support check for one load case.
+    pub fn stresses(&self, pin_forces_n: &[Vec2], gravity_m_s2: Vec2) -> BodyStresses {
+        let solution = self.solve(pin_forces_n, gravity_m_s2);
+        let gauge_stress_mpa = self
+            .gauges
+            .iter()
+            .map(|probe| {
+                let forces = solution.internal_forces(probe.element, probe.xi);
+                let stress_pa = forces.axial_n / probe.section.area_m2()
+                    - forces.moment_nm * probe.fibre_m / probe.section.second_moment_m4();
+                (probe.point, stress_pa * 1e-6)
+            })
+            .collect();
+        let mut max_von_mises_pa: f64 = 0.0;
+        for element in &self.box_elements {
+            for xi in [0.0, 0.5, 1.0] {
+                let station = element.start_station_m
+                    + xi * (element.end_station_m - element.start_station_m);
+                let section = self.structure.section_at(station);
+                let forces = solution.internal_forces(element.element, xi);
+                max_von_mises_pa = max_von_mises_pa.max(section_von_mises_pa(
+                    &section,
+                    forces.axial_n,
+                    forces.shear_n,
+                    forces.moment_nm,
+                ));
+            }
+        }
+        let largest_pin_force = pin_forces_n.iter().map(|f| f.norm()).fold(0.0, f64::max);
+        let largest_reaction = self
+            .pin_nodes
+            .iter()
+            .map(|&n| {
+                let r = solution.reaction(n);
+                r[0].hypot(r[1])
+            })
+            .fold(0.0, f64::max);
+        BodyStresses {
+            gauge_stress_mpa,
+            max_von_mises_mpa: max_von_mises_pa * 1e-6,
+            support_reaction_ratio: largest_reaction / largest_pin_force.max(f64::MIN_POSITIVE),
+        }
+    }
+}
+
+/// Largest von Mises stress on a box section: the flanges' outer fibres
+/// (bending + axial, no shear at a free surface) and the webs at the neutral
+/// axis (axial + the largest shear).
+pub fn section_von_mises_pa(
+    section: &BoxSection,
+    axial_n: f64,
+    shear_n: f64,
+    moment_nm: f64,
+) -> f64 {
+    let axial_pa = axial_n / section.area_m2();
+    let bending_pa = moment_nm.abs() * 0.5 * section.height_m / section.second_moment_m4();
+    let shear_pa = section.shear_stress_at_neutral_axis_pa(shear_n);
+    let fibres = axial_pa.abs() + bending_pa;
+    let neutral_axis = (axial_pa * axial_pa + 3.0 * shear_pa * shear_pa).sqrt();
+    fibres.max(neutral_axis)
+}
+
+fn cumulative_lengths(vertices: &[Vec2]) -> Vec<f64> {
+    let mut stations = vec![0.0];
+    for pair in vertices.windows(2) {
+        stations.push(stations.last().copied().unwrap_or(0.0) + (pair[1] - pair[0]).norm());
+    }
+    stations
+}
+
+/// The point at an arc-length station on the polyline.
+fn point_at(vertices: &[Vec2], stations: &[f64], station: f64) -> Vec2 {
+    let k = stations
+        .partition_point(|&s| s <= station)
+        .clamp(1, vertices.len() - 1);
+    let t = (station - stations[k - 1]) / (stations[k] - stations[k - 1]);
+    vertices[k - 1] + (vertices[k] - vertices[k - 1]) * t.clamp(0.0, 1.0)
+}
+
+/// Closest point of the polyline to `p`: (station, foot).
+fn project(vertices: &[Vec2], stations: &[f64], p: Vec2) -> (f64, Vec2) {
+    let mut best = (f64::INFINITY, 0.0, vertices[0]);
+    for (k, pair) in vertices.windows(2).enumerate() {
+        let segment = pair[1] - pair[0];
+        let t = ((p - pair[0]).dot(&segment) / segment.norm_squared()).clamp(0.0, 1.0);
+        let foot = pair[0] + segment * t;
+        let distance = (p - foot).norm();
+        if distance < best.0 - 1e-12 {
+            best = (distance, stations[k] + t * segment.norm(), foot);
+        }
+    }
+    (best.1, best.2)
+}

@@ -5,7 +5,10 @@ use std::path::PathBuf;
 
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::Geometry;
-use acq_twins::excavator::Excavator;
+use acq_twins::excavator::kinematics::Vec2;
+use acq_twins::excavator::statics::Body;
+use acq_twins::excavator::{Chamber, CylinderName, Excavator, Inputs, Strokes, TwinError};
+use proptest::prelude::*;
 
 fn data(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -17,24 +20,284 @@ fn twin() -> Excavator {
     Excavator::new(Geometry::load(&data("dx55.toml")).unwrap()).unwrap()
 }
 
+fn inputs(bucket_mm: f64, arm_mm: f64, boom_mm: f64, force_kn: f64, angle_deg: f64) -> Inputs {
+    Inputs {
+        strokes: Strokes {
+            bucket_mm,
+            arm_mm,
+            boom_mm,
+        },
+        tip_force_kn: force_kn,
+        tip_force_angle_deg: angle_deg,
+    }
+}
+
 #[test]
-fn print_cases() {
+fn mid_range_strokes_reproduce_the_published_pose_within_5_mm() {
     let twin = twin();
     for file in ["case1.toml", "case2.toml"] {
         let case = CaseFile::load(&data(file)).unwrap();
-        let e = twin.evaluate(&case.nominal()).unwrap();
-        println!("{file}: B {:?} G {:?} J {:?}", e.pose.b, e.pose.g, e.pose.j);
-        for c in &e.cylinders {
-            println!("  {:?}", c);
+        let measured = case
+            .measured_points
+            .expect("the shipped cases carry the pose");
+        let pose = twin.pose(&case.nominal().strokes).unwrap();
+        for (name, model, [y, z]) in [
+            ("B", pose.b, measured.B),
+            ("G", pose.g, measured.G),
+            ("J", pose.j, measured.J),
+        ] {
+            let error_mm = (model - Vec2::new(y, z)).norm() * 1e3;
+            assert!(
+                error_mm < 5.0,
+                "{file} {name}: {error_mm:.2} mm from the published point"
+            );
         }
-        println!("  gauges {:?}", e.gauge_stress_mpa);
-        println!(
-            "  boom vm {} arm vm {} reac {} {}",
-            e.boom.max_von_mises_mpa,
-            e.arm.max_von_mises_mpa,
-            e.boom.support_reaction_ratio,
-            e.arm.support_reaction_ratio
-        );
-        println!("  masses {:?}", twin.structure_masses_kg());
     }
+}
+
+#[test]
+fn the_whole_published_stroke_range_evaluates() {
+    let twin = twin();
+    let steps = |low: f64, high: f64, n: usize| {
+        (0..=n).map(move |k| low + (high - low) * k as f64 / n as f64)
+    };
+    let mut evaluated = 0;
+    for boom in steps(250.0, 650.0, 8) {
+        for arm in steps(0.0, 550.0, 11) {
+            for bucket in steps(100.0, 400.0, 6) {
+                for angle in [-110.0, -10.0, 0.0] {
+                    let e = twin
+                        .evaluate(&inputs(bucket, arm, boom, 40.6, angle))
+                        .unwrap_or_else(|err| {
+                            panic!("boom {boom} arm {arm} bucket {bucket}: {err}")
+                        });
+                    assert!(e
+                        .cylinders
+                        .iter()
+                        .all(|c| c.loaded_chamber_pressure_bar.is_finite()));
+                    assert!(e.gauge_stress_mpa.iter().all(|(_, s)| s.is_finite()));
+                    evaluated += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(evaluated, 9 * 12 * 7 * 3);
+}
+
+#[test]
+fn strokes_out_of_range_and_bad_numbers_are_errors_naming_the_cylinder() {
+    let twin = twin();
+    let err = twin
+        .evaluate(&inputs(121.0, 210.0, 900.0, 40.6, -10.0))
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            TwinError::StrokeOutOfRange {
+                cylinder: CylinderName::Boom,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(
+        err.to_string().contains("boom cylinder stroke 900 mm"),
+        "{err}"
+    );
+    let err = twin
+        .evaluate(&inputs(-5.0, 210.0, 467.0, 40.6, -10.0))
+        .unwrap_err();
+    assert!(err.to_string().starts_with("bucket cylinder"), "{err}");
+    let err = twin
+        .evaluate(&inputs(121.0, f64::NAN, 467.0, 40.6, -10.0))
+        .unwrap_err();
+    assert!(matches!(err, TwinError::InvalidInput(_)), "{err:?}");
+}
+
+#[test]
+fn a_stroke_at_a_dead_centre_is_refused_with_the_cylinder_named() {
+    // Widen the boom cylinder's range past the linkage: near 108 mm A, C
+    // and D line up (found by the closed form; see dx55.toml).
+    let mut geometry = Geometry::dx55();
+    geometry.cylinder.boom.stroke_range_mm = [0.0, 1200.0];
+    let twin = Excavator::new(geometry).unwrap();
+    for stroke in [50.0, 105.0, 1100.0] {
+        let err = twin
+            .evaluate(&inputs(121.0, 210.0, stroke, 40.6, -10.0))
+            .unwrap_err();
+        assert_eq!(
+            err,
+            TwinError::DeadCentre {
+                cylinder: CylinderName::Boom,
+                stroke_mm: stroke
+            }
+        );
+    }
+    assert!(twin
+        .evaluate(&inputs(121.0, 210.0, 120.0, 40.6, -10.0))
+        .is_ok());
+}
+
+/// Work of the external loads (gravity, tip) per metre of one cylinder's
+/// stroke, by a fourth-order central difference of the load points.
+fn external_work_per_metre(twin: &Excavator, base: &Inputs, cylinder: CylinderName) -> f64 {
+    let h_mm = 0.01;
+    let positions = |offset_mm: f64| {
+        let mut moved = *base;
+        moved
+            .strokes
+            .set(cylinder, base.strokes.get(cylinder) + offset_mm);
+        let pose = twin.pose(&moved.strokes).unwrap();
+        twin.loads(&pose, &moved)
+    };
+    let (p2, p1, m1, m2) = (
+        positions(2.0 * h_mm),
+        positions(h_mm),
+        positions(-h_mm),
+        positions(-2.0 * h_mm),
+    );
+    let h_m = h_mm * 1e-3;
+    let mut work = 0.0;
+    for k in 0..p1.len() {
+        let velocity =
+            (-p2[k].at_m + p1[k].at_m * 8.0 - m1[k].at_m * 8.0 + m2[k].at_m) / (12.0 * h_m);
+        work += p1[k].force_n.dot(&velocity);
+    }
+    work
+}
+
+#[test]
+fn virtual_work_of_each_cylinder_balances_the_loads_to_1e_9() {
+    let twin = twin();
+    for case in ["case1.toml", "case2.toml"] {
+        let base = CaseFile::load(&data(case)).unwrap().nominal();
+        let evaluation = twin.evaluate(&base).unwrap();
+        for cylinder in CylinderName::ALL {
+            // A stroke increase dS under the oil force F does F dS of work;
+            // in equilibrium the loads do the opposite.
+            let oil_n = evaluation.cylinder(cylinder).axial_force_kn * 1e3;
+            let loads = external_work_per_metre(&twin, &base, cylinder);
+            let relative = (oil_n + loads).abs() / oil_n.abs();
+            assert!(
+                relative < 1e-9,
+                "{case} {cylinder}: oil {oil_n} N vs loads {loads} N/m, relative {relative:e}"
+            );
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn every_body_is_in_equilibrium_and_the_frame_models_balance(
+        bucket in 100.0..400.0f64,
+        arm in 0.0..550.0f64,
+        boom in 250.0..650.0f64,
+        force in 0.0..80.0f64,
+        angle in -180.0..180.0f64,
+    ) {
+        let twin = twin();
+        let inputs = inputs(bucket, arm, boom, force, angle);
+        let e = twin.evaluate(&inputs).unwrap();
+        let loads = twin.loads(&e.pose, &inputs);
+        let scale = e.reactions.hinge_force_n.iter().map(|f| f.norm()).fold(1.0, f64::max);
+        for body in Body::ALL {
+            let (force, moment) = e.reactions.resultant(&e.pose, &loads, body);
+            prop_assert!(force.norm() < 1e-9 * scale, "{body:?}: net force {force:?} N");
+            // Moments about the origin: arms up to ~6 m.
+            prop_assert!(moment.abs() < 1e-9 * scale * 6.0, "{body:?}: net moment {moment} N m");
+        }
+        // The frame models carry exactly the loads the statics put on them:
+        // the pin and roller that hold them react nothing.
+        prop_assert!(e.boom.support_reaction_ratio < 1e-9, "boom {}", e.boom.support_reaction_ratio);
+        prop_assert!(e.arm.support_reaction_ratio < 1e-9, "arm {}", e.arm.support_reaction_ratio);
+        // The loaded chamber follows the force's sign.
+        for c in &e.cylinders {
+            let expected = if c.axial_force_kn >= 0.0 { Chamber::Head } else { Chamber::Rod };
+            prop_assert_eq!(c.loaded_chamber, expected);
+        }
+    }
+}
+
+#[test]
+fn pressure_is_the_axial_force_over_the_loaded_area() {
+    let twin = twin();
+    let e = twin
+        .evaluate(&CaseFile::load(&data("case2.toml")).unwrap().nominal())
+        .unwrap();
+    let boom = e.cylinder(CylinderName::Boom);
+    assert_eq!(
+        boom.loaded_chamber,
+        Chamber::Rod,
+        "Case 2 pulls the boom cylinder"
+    );
+    let annulus_mm2 = std::f64::consts::PI / 4.0 * (100.0f64.powi(2) - 60.0f64.powi(2));
+    let expected_bar = boom.axial_force_kn.abs() * 1e3 / annulus_mm2 * 10.0;
+    assert!((boom.loaded_chamber_pressure_bar - expected_bar).abs() < 1e-9 * expected_bar);
+    let arm = e.cylinder(CylinderName::Arm);
+    let head_mm2 = std::f64::consts::PI / 4.0 * 90.0f64.powi(2);
+    assert_eq!(arm.loaded_chamber, Chamber::Head);
+    assert!(
+        (arm.loaded_chamber_pressure_bar - arm.axial_force_kn * 1e3 / head_mm2 * 10.0).abs() < 1e-9
+    );
+}
+
+#[test]
+fn symmetric_side_gauges_read_the_same_and_the_tip_load_moves_the_stresses() {
+    let twin = twin();
+    let case = CaseFile::load(&data("case1.toml")).unwrap();
+    let loaded = twin.evaluate(&case.nominal()).unwrap();
+    let stress = |e: &acq_twins::excavator::Evaluation, point: u32| {
+        e.gauge_stress_mpa
+            .iter()
+            .find(|(p, _)| *p == point)
+            .unwrap()
+            .1
+    };
+    assert_eq!(loaded.gauge_stress_mpa.len(), 18);
+    assert_eq!(stress(&loaded, 3), stress(&loaded, 4));
+    let mut unloaded_inputs = case.nominal();
+    unloaded_inputs.tip_force_kn = 0.0;
+    let unloaded = twin.evaluate(&unloaded_inputs).unwrap();
+    assert!(loaded.arm.max_von_mises_mpa > 2.0 * unloaded.arm.max_von_mises_mpa);
+    assert!(loaded.arm.max_von_mises_mpa < twin.geometry().material.yield_strength_mpa);
+}
+
+#[test]
+fn the_frame_models_weigh_what_the_file_says() {
+    // Box plates by hand from the file's sections (trapezoid rule on the
+    // area, which is quadratic along the taper, so only close) plus the
+    // attached masses.
+    let (boom_kg, arm_kg) = twin().structure_masses_kg();
+    assert!((boom_kg - 315.0).abs() < 5.0, "boom {boom_kg} kg");
+    assert!((arm_kg - 160.0).abs() < 5.0, "arm {arm_kg} kg");
+}
+
+#[test]
+fn geometry_and_case_errors_name_the_problem() {
+    let bad = Geometry::parse(
+        &acq_twins::excavator::geometry::DX55_TOML.replace("bore_mm = 100.0", "bore_mm = -1.0"),
+    )
+    .unwrap_err();
+    assert!(
+        bad.contains("cylinder.boom.bore_mm must be positive"),
+        "{bad}"
+    );
+    let typo = Geometry::parse(
+        &acq_twins::excavator::geometry::DX55_TOML
+            .replace("rod_mm = 60.0", "rod_diameter_mm = 60.0"),
+    )
+    .unwrap_err();
+    assert!(
+        typo.contains("rod_diameter_mm") && typo.contains("line"),
+        "{typo}"
+    );
+    let case = std::fs::read_to_string(data("case1.toml")).unwrap();
+    let err =
+        CaseFile::parse(&case.replace("arm_stroke_mm = [205, 215]", "arm_stroke_mm = [215, 205]"))
+            .unwrap_err();
+    assert!(err.contains("bounds.arm_stroke_mm"), "{err}");
+    let err = CaseFile::parse(&case.replace("force_kN = 40.6", "force_kn = 40.6")).unwrap_err();
+    assert!(err.contains("force_kn"), "{err}");
 }

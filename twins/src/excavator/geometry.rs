@@ -357,7 +357,7 @@ impl Structure {
                 "{name}.structure.centreline_m needs at least 2 points"
             ));
         }
-        if !(self.element_length_m > 0.0) {
+        if !(self.element_length_m.is_finite() && self.element_length_m > 0.0) {
             return Err(format!(
                 "{name}.structure.element_length_m must be positive"
             ));

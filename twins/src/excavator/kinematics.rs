@@ -76,7 +76,7 @@ fn apex(p: Vec2, q: Vec2, from_p: f64, from_q: f64, side: Side, margin_rad: f64)
     let along =
         (from_p * from_p - from_q * from_q + base_length * base_length) / (2.0 * base_length);
     let height_squared = from_p * from_p - along * along;
-    if !(height_squared > 0.0) {
+    if height_squared.is_nan() || height_squared <= 0.0 {
         return None;
     }
     let height = height_squared.sqrt();

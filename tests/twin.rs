@@ -1,0 +1,177 @@
+//! `acq twin excavator` and `acq sensitivity excavator` from the outside,
+//! exactly as the issue fixes them.
+
+mod common;
+
+use common::{acq, stderr, stdout};
+
+#[test]
+fn twin_json_has_the_fixed_shape_and_reproduces_the_pose() {
+    let output = acq(&[
+        "twin",
+        "excavator",
+        "--case",
+        "data/excavator/case1.toml",
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let value: serde_json::Value = serde_json::from_str(&stdout(&output)).unwrap();
+    let keys: Vec<&str> = value
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(|k| k.as_str())
+        .collect();
+    assert_eq!(
+        keys,
+        [
+            "cylinder_force_kN",
+            "gauge_stress_MPa",
+            "max_von_mises_MPa",
+            "points",
+            "pressure_bar"
+        ]
+    );
+    for point in ["A", "B", "G", "J"] {
+        assert_eq!(value["points"][point].as_array().unwrap().len(), 2);
+    }
+    let b = &value["points"]["B"];
+    assert!(
+        (b[0].as_f64().unwrap() - 2.937).abs() < 0.005
+            && (b[1].as_f64().unwrap() - 0.626).abs() < 0.005
+    );
+    for cylinder in ["bucket", "arm", "boom"] {
+        assert!(value["pressure_bar"][cylinder].as_f64().unwrap() > 0.0);
+        assert!(value["cylinder_force_kN"][cylinder].is_f64());
+    }
+    assert_eq!(value["gauge_stress_MPa"].as_array().unwrap().len(), 18);
+    assert!(value["max_von_mises_MPa"]["boom"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn flags_override_the_case_nominal() {
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "twin",
+            "excavator",
+            "--case",
+            "data/excavator/case1.toml",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let output = acq(&args);
+        assert!(output.status.success(), "{}", stderr(&output));
+        serde_json::from_str::<serde_json::Value>(&stdout(&output)).unwrap()
+    };
+    let nominal = run(&[]);
+    let explicit = run(&[
+        "--bucket-stroke",
+        "121",
+        "--arm-stroke",
+        "210",
+        "--boom-stroke",
+        "467",
+        "--force",
+        "40.6",
+        "--angle",
+        "-10",
+    ]);
+    assert_eq!(
+        nominal, explicit,
+        "the case's nominal is the middle of each bound"
+    );
+    let unloaded = run(&["--force", "0"]);
+    assert!(unloaded["pressure_bar"]["arm"].as_f64() < nominal["pressure_bar"]["arm"].as_f64());
+    let raised = run(&["--boom-stroke", "600"]);
+    assert!(raised["points"]["B"][1].as_f64() > nominal["points"]["B"][1].as_f64());
+}
+
+#[test]
+fn unreachable_strokes_and_bad_case_files_exit_2_with_the_reason() {
+    let output = acq(&[
+        "twin",
+        "excavator",
+        "--case",
+        "data/excavator/case1.toml",
+        "--arm-stroke",
+        "2000",
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("arm cylinder stroke 2000 mm is outside its range"),
+        "{}",
+        stderr(&output)
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "name = \"x\"\nforce_kN = \"forty\"\n").unwrap();
+    let output = acq(&["twin", "excavator", "--case", bad.to_str().unwrap()]);
+    assert_eq!(output.status.code(), Some(2));
+    let message = stderr(&output);
+    assert!(
+        message.contains("bad.toml") && message.contains("line 2"),
+        "{message}"
+    );
+}
+
+#[test]
+fn the_human_report_compares_with_the_measurements() {
+    let output = acq(&["twin", "excavator", "--case", "data/excavator/case2.toml"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stdout(&output);
+    assert!(
+        text.contains("measured bar") && text.contains("195.04"),
+        "{text}"
+    );
+    assert!(text.contains("max von Mises"), "{text}");
+}
+
+#[test]
+fn sensitivity_writes_the_table_and_the_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("case1.csv");
+    let output = acq(&[
+        "sensitivity",
+        "excavator",
+        "--case",
+        "data/excavator/case1.toml",
+        "--points",
+        "5",
+        "-o",
+        csv.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let table = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = table.lines();
+    let header = lines.next().unwrap();
+    assert!(header.starts_with(
+        "factor,factor_unit,value,bucket_pressure_bar,arm_pressure_bar,boom_pressure_bar"
+    ));
+    assert_eq!(header.split(',').count(), 3 + 5 + 18 + 1);
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 4 * 5);
+    assert!(
+        rows[0].starts_with("bucket_stroke_mm,mm,116,"),
+        "{}",
+        rows[0]
+    );
+    assert!(
+        rows[19].starts_with("force_angle_deg,deg,-5,"),
+        "{}",
+        rows[19]
+    );
+    assert!(rows.iter().all(|r| r.ends_with(',')), "no run failed");
+    let svg = std::fs::read_to_string(csv.with_extension("svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("measured 193.46 bar"));
+    // The printed summary: the tip-load angle moves the arm pressure most.
+    let summary = stdout(&output);
+    let swing = |input: &str| -> f64 {
+        let line = summary.lines().find(|l| l.starts_with(input)).unwrap();
+        line.split_whitespace().nth(2).unwrap().parse().unwrap()
+    };
+    assert!(
+        swing("force_angle_deg") > swing("arm_stroke_mm"),
+        "{summary}"
+    );
+}

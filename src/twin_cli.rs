@@ -193,6 +193,26 @@ fn evaluation_report(
         }
         text.push('\n');
     }
+    let _ = writeln!(
+        text,
+        "\npin                 force on       from           Y kN      Z kN      |F| kN"
+    );
+    for (hinge, force) in acq_twins::excavator::statics::HINGES
+        .iter()
+        .zip(&evaluation.reactions.hinge_force_n)
+    {
+        let from = hinge.from.map_or("base".to_string(), |body| body.label());
+        let _ = writeln!(
+            text,
+            "{:<19} {:<14} {:<14} {:<9.2} {:<9.2} {:.2}",
+            hinge.pin.label(),
+            hinge.on.label(),
+            from,
+            force.x * 1e-3,
+            force.y * 1e-3,
+            force.norm() * 1e-3
+        );
+    }
     let _ = writeln!(text, "\npoint  stress MPa (along the member, tension +)");
     for &(point, stress) in &evaluation.gauge_stress_mpa {
         let _ = writeln!(text, "{point:<6} {stress:.2}");

@@ -43,6 +43,18 @@ impl Body {
         Body::Rod(CylinderName::Bucket),
     ];
 
+    pub fn label(self) -> String {
+        match self {
+            Body::Boom => "boom".into(),
+            Body::Arm => "arm".into(),
+            Body::Bucket => "bucket".into(),
+            Body::SideLink => "side link".into(),
+            Body::ConnectingLink => "conn. link".into(),
+            Body::Barrel(name) => format!("{name} barrel"),
+            Body::Rod(name) => format!("{name} rod"),
+        }
+    }
+
     fn index(self) -> usize {
         Body::ALL
             .iter()

@@ -119,39 +119,38 @@ const PARALLEL_ROLLER_SIN: f64 = 1e-9;
 /// to rounding.
 const ZERO_LENGTH_RATIO: f64 = 1e-12;
 
-/// Index of a node in the [`FrameBuilder`] that created it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct NodeId(usize);
+/// An index handed out by a [`FrameBuilder`], in creation order from 0.
+macro_rules! builder_id {
+    ($(#[$doc:meta])* $name:ident, $label:literal) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+        pub struct $name(usize);
 
-impl NodeId {
-    /// Position of the node in creation order, from 0.
-    pub fn index(self) -> usize {
-        self.0
-    }
+        impl $name {
+            /// Position in creation order, from 0.
+            pub fn index(self) -> usize {
+                self.0
+            }
+        }
+
+        impl fmt::Display for $name {
+            fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                write!(f, concat!($label, " {}"), self.0)
+            }
+        }
+    };
 }
 
-impl fmt::Display for NodeId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "node {}", self.0)
-    }
-}
-
-/// Index of an element in the [`FrameBuilder`] that created it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct ElementId(usize);
-
-impl ElementId {
-    /// Position of the element in creation order, from 0.
-    pub fn index(self) -> usize {
-        self.0
-    }
-}
-
-impl fmt::Display for ElementId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "element {}", self.0)
-    }
-}
+builder_id!(
+    /// Index of a node in the [`FrameBuilder`] that created it.
+    NodeId,
+    "node"
+);
+builder_id!(
+    /// Index of an element in the [`FrameBuilder`] that created it.
+    ElementId,
+    "element"
+);
 
 /// One nodal degree of freedom, as named in [`FrameError::Mechanism`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -193,37 +193,34 @@ impl Excavator {
                 .filter(|g| g.member == member)
                 .collect::<Vec<_>>()
         };
-        let boom_pins = [
-            [0.0, 0.0],
-            geometry.boom.arm_pin_m,
-            geometry.boom.boom_cylinder_pin_m,
-            geometry.boom.arm_cylinder_pin_m,
-        ];
-        let boom = FlexibleBody::build(
+        let build = |name: &str, structure, pins: &[[f64; 2]], member| {
+            FlexibleBody::build(structure, pins, 1, &gauges_on(member), e, rho)
+                .map_err(|m| TwinError::Geometry(format!("{name}: {m}")))
+        };
+        // Pin support first, roller second (index 1): A and B, then B and G.
+        let boom = build(
+            "boom",
             &geometry.boom.structure,
-            &boom_pins,
-            1,
-            &gauges_on(Member::Boom),
-            e,
-            rho,
-        )
-        .map_err(|m| TwinError::Geometry(format!("boom: {m}")))?;
-        let arm_pins = [
-            [0.0, 0.0],
-            geometry.arm.bucket_pin_m,
-            geometry.arm.arm_cylinder_pin_m,
-            geometry.arm.bucket_cylinder_pin_m,
-            geometry.arm.side_link_pin_m,
-        ];
-        let arm = FlexibleBody::build(
+            &[
+                [0.0, 0.0],
+                geometry.boom.arm_pin_m,
+                geometry.boom.boom_cylinder_pin_m,
+                geometry.boom.arm_cylinder_pin_m,
+            ],
+            Member::Boom,
+        )?;
+        let arm = build(
+            "arm",
             &geometry.arm.structure,
-            &arm_pins,
-            1,
-            &gauges_on(Member::Arm),
-            e,
-            rho,
-        )
-        .map_err(|m| TwinError::Geometry(format!("arm: {m}")))?;
+            &[
+                [0.0, 0.0],
+                geometry.arm.bucket_pin_m,
+                geometry.arm.arm_cylinder_pin_m,
+                geometry.arm.bucket_cylinder_pin_m,
+                geometry.arm.side_link_pin_m,
+            ],
+            Member::Arm,
+        )?;
         Ok(Excavator {
             geometry,
             boom,

@@ -24,7 +24,12 @@ struct BoxElement {
     element: ElementId,
     start_station_m: f64,
     end_station_m: f64,
+    /// Sections at the von Mises check points `VON_MISES_XI`, blended once at build.
+    check_sections: [BoxSection; 3],
 }
+
+/// Where along each element the von Mises stress is checked.
+const VON_MISES_XI: [f64; 3] = [0.0, 0.5, 1.0];
 
 #[derive(Debug, Clone, Copy)]
 struct GaugeProbe {
@@ -40,7 +45,6 @@ struct GaugeProbe {
 #[derive(Debug)]
 pub struct FlexibleBody {
     model: FrameModel,
-    structure: Structure,
     box_elements: Vec<BoxElement>,
     pin_nodes: Vec<NodeId>,
     /// Attached masses as (node, offset from node, kg).
@@ -122,10 +126,13 @@ impl FlexibleBody {
             let (end, b) = pair[1];
             let section = structure.section_at(0.5 * (start + end));
             let element = builder.element(a, b, section.properties());
+            let check_sections =
+                VON_MISES_XI.map(|xi| structure.section_at(start + xi * (end - start)));
             box_elements.push(BoxElement {
                 element,
                 start_station_m: start,
                 end_station_m: end,
+                check_sections,
             });
         }
 
@@ -211,7 +218,6 @@ impl FlexibleBody {
         let model = builder.build().map_err(|e| format!("frame model: {e}"))?;
         Ok(FlexibleBody {
             model,
-            structure: structure.clone(),
             box_elements,
             pin_nodes,
             attached,
@@ -265,13 +271,10 @@ impl FlexibleBody {
             .collect();
         let mut max_von_mises_pa: f64 = 0.0;
         for element in &self.box_elements {
-            for xi in [0.0, 0.5, 1.0] {
-                let station = element.start_station_m
-                    + xi * (element.end_station_m - element.start_station_m);
-                let section = self.structure.section_at(station);
+            for (xi, section) in VON_MISES_XI.into_iter().zip(&element.check_sections) {
                 let forces = solution.internal_forces(element.element, xi);
                 max_von_mises_pa = max_von_mises_pa.max(section_von_mises_pa(
-                    &section,
+                    section,
                     forces.axial_n,
                     forces.shear_n,
                     forces.moment_nm,

@@ -124,7 +124,7 @@ pub fn evaluation_json(evaluation: &Evaluation) -> serde_json::Value {
         "points": {"A": point(&pose.a), "B": point(&pose.b), "G": point(&pose.g), "J": point(&pose.j)},
         "pressure_bar": per_cylinder(&|name| evaluation.cylinder(name).loaded_chamber_pressure_bar),
         "cylinder_force_kN": per_cylinder(&|name| evaluation.cylinder(name).axial_force_kn),
-        "gauge_stress_MPa": evaluation.gauge_stress_mpa.iter().map(|&(_, s)| s).collect::<Vec<_>>(),
+        "gauge_stress_MPa": evaluation.gauges.iter().map(|g| g.stress_mpa).collect::<Vec<_>>(),
         "max_von_mises_MPa": {"boom": evaluation.boom.max_von_mises_mpa, "arm": evaluation.arm.max_von_mises_mpa},
     })
 }
@@ -213,9 +213,16 @@ fn evaluation_report(
             force.norm() * 1e-3
         );
     }
-    let _ = writeln!(text, "\npoint  stress MPa (along the member, tension +)");
-    for &(point, stress) in &evaluation.gauge_stress_mpa {
-        let _ = writeln!(text, "{point:<6} {stress:.2}");
+    let _ = writeln!(
+        text,
+        "\npoint  axial kN   moment kN m  stress MPa  (tension +; moment + compresses the top)"
+    );
+    for g in &evaluation.gauges {
+        let _ = writeln!(
+            text,
+            "{:<6} {:<10.2} {:<12.3} {:.2}",
+            g.point, g.axial_force_kn, g.bending_moment_knm, g.stress_mpa
+        );
     }
     let yield_mpa = twin.geometry().material.yield_strength_mpa;
     let _ = writeln!(
@@ -272,7 +279,7 @@ pub fn run_sensitivity(command: SensitivityCommand) -> Result<()> {
             .collect();
         outputs.push(evaluation.boom.max_von_mises_mpa);
         outputs.push(evaluation.arm.max_von_mises_mpa);
-        outputs.extend(evaluation.gauge_stress_mpa.iter().map(|&(_, s)| s));
+        outputs.extend(evaluation.gauges.iter().map(|g| g.stress_mpa));
         Ok(outputs)
     });
 

@@ -75,7 +75,7 @@ fn the_whole_published_stroke_range_evaluates() {
                         .cylinders
                         .iter()
                         .all(|c| c.loaded_chamber_pressure_bar.is_finite()));
-                    assert!(e.gauge_stress_mpa.iter().all(|(_, s)| s.is_finite()));
+                    assert!(e.gauges.iter().all(|g| g.stress_mpa.is_finite()));
                     evaluated += 1;
                 }
             }
@@ -249,13 +249,13 @@ fn symmetric_side_gauges_read_the_same_and_the_tip_load_moves_the_stresses() {
     let case = CaseFile::load(&data("case1.toml")).unwrap();
     let loaded = twin.evaluate(&case.nominal()).unwrap();
     let stress = |e: &acq_twins::excavator::Evaluation, point: u32| {
-        e.gauge_stress_mpa
+        e.gauges
             .iter()
-            .find(|(p, _)| *p == point)
+            .find(|g| g.point == point)
             .unwrap()
-            .1
+            .stress_mpa
     };
-    assert_eq!(loaded.gauge_stress_mpa.len(), 18);
+    assert_eq!(loaded.gauges.len(), 18);
     assert_eq!(stress(&loaded, 3), stress(&loaded, 4));
     let mut unloaded_inputs = case.nominal();
     unloaded_inputs.tip_force_kn = 0.0;

@@ -19,7 +19,7 @@ use geometry::{Cylinder, Geometry, Member};
 use kinematics::{vec2, Pose, Vec2};
 use nalgebra::Rotation2;
 use statics::{Body, Pin, PointLoad, Reactions};
-use structure::{BodyStresses, FlexibleBody};
+use structure::{BodyStresses, FlexibleBody, GaugeReading};
 
 /// The three hydraulic cylinders.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -157,8 +157,8 @@ pub struct Evaluation {
     pub reactions: Reactions,
     /// In [`CylinderName::ALL`] order.
     pub cylinders: [CylinderResult; 3],
-    /// (measuring point, stress along the member, MPa, tension positive), by point.
-    pub gauge_stress_mpa: Vec<(u32, f64)>,
+    /// Every gauge of boom and arm, by measuring point.
+    pub gauges: Vec<GaugeReading>,
     pub boom: BodyStresses,
     pub arm: BodyStresses,
 }
@@ -365,18 +365,14 @@ impl Excavator {
             &on_body(Body::Arm, &ARM_PINS, pose.arm_angle_rad),
             into_frame(pose.arm_angle_rad, gravity),
         );
-        let mut gauge_stress_mpa: Vec<(u32, f64)> = boom
-            .gauge_stress_mpa
-            .iter()
-            .chain(&arm.gauge_stress_mpa)
-            .copied()
-            .collect();
-        gauge_stress_mpa.sort_by_key(|&(point, _)| point);
+        let mut gauges: Vec<GaugeReading> =
+            boom.gauges.iter().chain(&arm.gauges).copied().collect();
+        gauges.sort_by_key(|g| g.point);
         Ok(Evaluation {
             pose,
             reactions,
             cylinders,
-            gauge_stress_mpa,
+            gauges,
             boom,
             arm,
         })

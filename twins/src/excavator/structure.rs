@@ -54,11 +54,23 @@ pub struct FlexibleBody {
     centre_of_mass_m: Vec2,
 }
 
+/// What the section at one gauge carries.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GaugeReading {
+    /// Measuring point number.
+    pub point: u32,
+    /// Axial force, kN; tension positive.
+    pub axial_force_kn: f64,
+    /// Bending moment, kN m; positive compresses the body's +y (top) side.
+    pub bending_moment_knm: f64,
+    /// Stress along the member at the gauge, MPa; tension positive.
+    pub stress_mpa: f64,
+}
+
 /// Stresses of one load case, MPa.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodyStresses {
-    /// (measuring point, axial stress: tension positive).
-    pub gauge_stress_mpa: Vec<(u32, f64)>,
+    pub gauges: Vec<GaugeReading>,
     pub max_von_mises_mpa: f64,
     /// Largest support reaction relative to the largest pin force: ~0 when
     /// the loads balance (a check on the statics).
@@ -259,14 +271,19 @@ impl FlexibleBody {
     /// Gauge stresses, von Mises maximum and the support check for one load case.
     pub fn stresses(&self, pin_forces_n: &[Vec2], gravity_m_s2: Vec2) -> BodyStresses {
         let solution = self.solve(pin_forces_n, gravity_m_s2);
-        let gauge_stress_mpa = self
+        let gauges = self
             .gauges
             .iter()
             .map(|probe| {
                 let forces = solution.internal_forces(probe.element, probe.xi);
                 let stress_pa = forces.axial_n / probe.section.area_m2()
                     - forces.moment_nm * probe.fibre_m / probe.section.second_moment_m4();
-                (probe.point, stress_pa * 1e-6)
+                GaugeReading {
+                    point: probe.point,
+                    axial_force_kn: forces.axial_n * 1e-3,
+                    bending_moment_knm: forces.moment_nm * 1e-3,
+                    stress_mpa: stress_pa * 1e-6,
+                }
             })
             .collect();
         let mut max_von_mises_pa: f64 = 0.0;
@@ -291,7 +308,7 @@ impl FlexibleBody {
             })
             .fold(0.0, f64::max);
         BodyStresses {
-            gauge_stress_mpa,
+            gauges,
             max_von_mises_mpa: max_von_mises_pa * 1e-6,
             support_reaction_ratio: largest_reaction / largest_pin_force.max(f64::MIN_POSITIVE),
         }

@@ -12,6 +12,13 @@ fn path_str(path: &Path) -> &str {
     path.to_str().unwrap()
 }
 
+/// `acq COMMAND INPUT --rig RIG -o OUT EXTRA...`
+fn run_with_rig(command: &str, input: &str, rig: &str, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![command, input, "--rig", rig, "-o", path_str(out)];
+    args.extend_from_slice(extra);
+    acq(&args)
+}
+
 /// An aligned CSV: header and rows of cells, comments apart.
 struct Table {
     comments: Vec<String>,
@@ -121,14 +128,7 @@ fn aligned_holds_equal_the_scenario_values_within_the_noise() {
     for case in ["excavator_case1", "excavator_case2"] {
         let out = dir.path().join(format!("{case}.csv"));
         let session = format!("fixtures/sessions/{case}");
-        let output = acq(&[
-            "align",
-            &session,
-            "--rig",
-            "fixtures/rigs/excavator.toml",
-            "-o",
-            path_str(&out),
-        ]);
+        let output = run_with_rig("align", &session, "fixtures/rigs/excavator.toml", &out, &[]);
         assert!(output.status.success(), "{}", stderr(&output));
         assert!(
             stderr(&output).contains("rows written"),
@@ -173,14 +173,13 @@ fn extracted_means_match_the_scenario_and_the_faulty_gauge_is_flagged() {
     for case in ["excavator_case1", "excavator_case2"] {
         let out = dir.path().join(format!("{case}.csv"));
         let session = format!("fixtures/sessions/{case}");
-        let output = acq(&[
+        let output = run_with_rig(
             "extract",
             &session,
-            "--rig",
             "fixtures/rigs/excavator.toml",
-            "-o",
-            path_str(&out),
-        ]);
+            &out,
+            &[],
+        );
         assert!(output.status.success(), "{}", stderr(&output));
         let values = measured(&out);
         let windows: std::collections::BTreeSet<&String> = values.keys().map(|(w, _)| w).collect();
@@ -340,14 +339,13 @@ fn align_lines<S: AsRef<str>>(dir: &Path, name: &str, lines: &[S]) -> (Output, s
     let text: String = lines.iter().map(|l| format!("{}\n", l.as_ref())).collect();
     std::fs::write(&log, text).unwrap();
     let out = dir.join(format!("{name}.csv"));
-    let output = acq(&[
+    let output = run_with_rig(
         "align",
         path_str(&log),
-        "--rig",
         "fixtures/rigs/excavator.toml",
-        "-o",
-        path_str(&out),
-    ]);
+        &out,
+        &[],
+    );
     assert!(output.status.success(), "{}", stderr(&output));
     (output, out)
 }
@@ -424,14 +422,13 @@ fn a_log_merged_from_two_recordings_is_reported_and_never_panics() {
     // Extract on the merged log still finds the one hold (the second copy's
     // samples are dropped as going back in time, so they do not count twice).
     let measured_path = dir.path().join("measured.csv");
-    let output = acq(&[
+    let output = run_with_rig(
         "extract",
         path_str(&log),
-        "--rig",
         "fixtures/rigs/excavator.toml",
-        "-o",
-        path_str(&measured_path),
-    ]);
+        &measured_path,
+        &[],
+    );
     assert!(output.status.success(), "{}", stderr(&output));
 }
 

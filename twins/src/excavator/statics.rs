@@ -35,12 +35,13 @@ impl Body {
         Body::Bucket,
         Body::SideLink,
         Body::ConnectingLink,
-        Body::Barrel(CylinderName::Boom),
-        Body::Rod(CylinderName::Boom),
-        Body::Barrel(CylinderName::Arm),
-        Body::Rod(CylinderName::Arm),
+        // Cylinders in `CylinderName::ALL` order, as `index` counts them.
         Body::Barrel(CylinderName::Bucket),
         Body::Rod(CylinderName::Bucket),
+        Body::Barrel(CylinderName::Arm),
+        Body::Rod(CylinderName::Arm),
+        Body::Barrel(CylinderName::Boom),
+        Body::Rod(CylinderName::Boom),
     ];
 
     pub fn label(self) -> String {
@@ -55,11 +56,17 @@ impl Body {
         }
     }
 
+    /// Position in [`Body::ALL`]: the body's equations are rows 3i..3i+3.
     fn index(self) -> usize {
-        Body::ALL
-            .iter()
-            .position(|&b| b == self)
-            .expect("every body is in ALL")
+        match self {
+            Body::Boom => 0,
+            Body::Arm => 1,
+            Body::Bucket => 2,
+            Body::SideLink => 3,
+            Body::ConnectingLink => 4,
+            Body::Barrel(name) => 5 + 2 * name.index(),
+            Body::Rod(name) => 6 + 2 * name.index(),
+        }
     }
 }
 
@@ -358,4 +365,16 @@ pub fn solve(pose: &Pose, loads: &[PointLoad]) -> Option<Reactions> {
         hinge_force_n,
         cylinders,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Body;
+
+    #[test]
+    fn index_is_the_position_in_all() {
+        for (position, body) in Body::ALL.into_iter().enumerate() {
+            assert_eq!(body.index(), position, "{body:?}");
+        }
+    }
 }

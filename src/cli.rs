@@ -48,6 +48,8 @@ pub enum Command {
     /// One-at-a-time sensitivity of a twin's outputs to its uncertain inputs.
     #[command(subcommand)]
     Sensitivity(crate::twin_cli::SensitivityCommand),
+    /// Young's modulus, yield, UTS, flow curve and post-UTS slope bounds of a tensile test.
+    TensileProps(crate::tensile_cli::TensilePropsArgs),
 }
 
 #[derive(Args, Debug)]
@@ -97,6 +99,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Session(command) => crate::live_cli::run_session(command),
         Command::Twin(command) => crate::twin_cli::run_twin(command),
         Command::Sensitivity(command) => crate::twin_cli::run_sensitivity(command),
+        Command::TensileProps(args) => crate::tensile_cli::run_tensile_props(args),
     }
 }
 

@@ -9,6 +9,9 @@
 //! - [`cli`]: argument definitions and dispatch.
 //! - [`decode`]: `acq decode`, logs to CSV through DBC files or a rig.
 //! - [`input`], [`output`]: opening logs and writing results; [`error`]: exit codes.
+//! - [`interp`]: not-a-knot cubic spline through measured or simulated curves.
+//! - [`loss`]: measured vs simulated -> one number (curve MAPE).
+//! - [`tensile_cli`]: `acq tensile-props`, material properties of a tensile test.
 
 pub mod align;
 pub mod bus;
@@ -17,7 +20,9 @@ pub mod decode;
 pub mod error;
 pub mod extract;
 pub mod input;
+pub mod interp;
 pub mod live_cli;
+pub mod loss;
 pub mod offline_cli;
 pub mod output;
 pub mod plot;
@@ -27,4 +32,6 @@ pub mod replay;
 pub mod sensitivity;
 pub mod session;
 pub mod simulate;
+pub mod tensile_cli;
+pub mod tensile_model;
 pub mod twin_cli;

@@ -18,6 +18,8 @@ use crate::sensitivity::{one_at_a_time, Factor, Response};
 pub enum TwinCommand {
     /// The excavator front attachment: pose, cylinder pressures, gauge stresses.
     Excavator(TwinExcavatorArgs),
+    /// The round tensile bar with GTN damage: curve and MAPE against a test.
+    Gtn(crate::tensile_cli::TwinGtnArgs),
 }
 
 #[derive(Args, Debug)]
@@ -87,7 +89,10 @@ fn load_model(args: &ExcavatorModelArgs) -> Result<(CaseFile, Excavator)> {
 }
 
 pub fn run_twin(command: TwinCommand) -> Result<()> {
-    let TwinCommand::Excavator(args) = command;
+    let args = match command {
+        TwinCommand::Excavator(args) => args,
+        TwinCommand::Gtn(args) => return crate::tensile_cli::run_twin_gtn(args),
+    };
     let (case, twin) = load_model(&args.model)?;
     let mut inputs = case.nominal();
     let overrides = [

@@ -7,6 +7,7 @@
 //! - [`plausibility`]: stuck, saturated, noisy, partner disagreement.
 //! - [`measured`]: the measured-values CSV (written here, read by calibrate).
 //! - [`tensile`]: force-displacement curve, zeroed and cut at fracture.
+//! - [`tensile_props`]: E, Rp0.2, UTS, flow curve and post-UTS slope bounds of a test curve.
 //! - [`run`]: both workflows over a recording.
 
 pub mod holds;
@@ -15,3 +16,4 @@ pub mod plausibility;
 pub mod run;
 pub mod stats;
 pub mod tensile;
+pub mod tensile_props;

@@ -6,6 +6,8 @@
 //!
 //! - [`frame`]: planar Euler-Bernoulli frame finite elements.
 //! - [`excavator`]: the DX55-class front attachment (statics + frame FE).
+//! - [`tensile`]: the round tensile bar with GTN ductile damage (axisymmetric FE).
 
 pub mod excavator;
 pub mod frame;
+pub mod tensile;

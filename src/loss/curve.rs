@@ -1,0 +1,512 @@
+//! Curve MAPE: the loss of the published tensile/GTN calibration,
+//!
+//! ```text
+//! MAPE = 100 / n * sum |(F_test(u) - F_sim(u)) / F_test(u)|   [%]
+//! ```
+//!
+//! over a common displacement grid, with every choice the publication left
+//! open made explicit:
+//!
+//! 1. **Points.** Each curve is `(displacement_mm, force_kn)` in test order.
+//!    Displacement must not decrease (an error names the curve and the
+//!    index). A run of equal displacements keeps only its **last** point
+//!    (the published code kept the first; the last is the latest reading
+//!    at that displacement). Each curve needs 2 distinct displacements.
+//! 2. **Interpolation.** Both curves through the not-a-knot cubic spline
+//!    of [`crate::interp`] (scipy's `interp1d(kind='cubic')` /
+//!    `CubicSpline`); fewer than 4 points give a parabola or a line.
+//! 3. **Step.** The smallest positive displacement increment found in
+//!    either curve, not rounded (the published code rounded it to 6
+//!    decimals). A grid of more than [`MAX_GRID_POINTS`] points is an
+//!    error rather than a long wait.
+//! 4. **Grid.** From the first test point whose force is not tiny (the
+//!    origin row `0, 0` would divide by zero; the published code skipped
+//!    the first rows) in steps of the step up to the test's last
+//!    displacement, that end included when it falls on the grid (within
+//!    1e-9 of a step; the published `np.arange` left it out).
+//! 5. **Tiny forces.** A grid point where the interpolated test force is
+//!    at most [`TINY_FORCE_FRACTION`] (1e-6) of the test's largest absolute
+//!    force is left out of the mean and counted in `excluded_points`.
+//! 6. **Simulation shorter than the test.** Past the simulation's last
+//!    displacement (by more than 1e-9 of a step) its force is 0, as the
+//!    published code padded it: each such point adds 100 % to the sum
+//!    (`padded_points`). With
+//!    [`CurveMapeOptions::truncate_at_simulation_end`] the grid ends at the
+//!    simulation's end instead. A simulation longer than the test is
+//!    compared over the test's range only.
+//! 7. **Simulation starting late.** A simulation whose first displacement
+//!    lies after the grid's start is an error (its spline would
+//!    extrapolate); FE results normally start at 0.
+//!
+//! Nothing here panics: empty, non-finite and decreasing input are
+//! [`CurveLossError`]s.
+
+use std::fmt;
+
+use crate::interp::{CubicSpline, InterpError};
+
+/// Test forces at most this fraction of the test's largest absolute force
+/// are left out of the mean.
+pub const TINY_FORCE_FRACTION: f64 = 1e-6;
+/// Largest grid the loss computes.
+pub const MAX_GRID_POINTS: usize = 1_000_000;
+/// Tolerance, in steps, for "on the grid" and "past the simulation's end".
+const GRID_TOLERANCE_STEPS: f64 = 1e-9;
+
+/// How the loss treats a simulation that ends before the test does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CurveMapeOptions {
+    /// `false` (default, as published): force 0 past the simulation's end,
+    /// 100 % error per grid point there. `true`: the grid ends at the
+    /// simulation's end.
+    pub truncate_at_simulation_end: bool,
+}
+
+/// The loss and how it was computed.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CurveMape {
+    /// Mean absolute percentage error over the grid points in the mean.
+    pub mape_percent: f64,
+    /// Points on the common displacement grid.
+    pub grid_points: usize,
+    /// Grid points left out because the test force there is tiny; the mean
+    /// is over `grid_points - excluded_points`.
+    pub excluded_points: usize,
+    /// Grid step: the smallest displacement increment of either curve.
+    pub step_mm: f64,
+    /// First and last grid displacement.
+    pub grid_start_mm: f64,
+    pub grid_end_mm: f64,
+    /// Grid points in the mean past the simulation's end (force 0 there).
+    pub padded_points: usize,
+}
+
+/// Which curve a problem is in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CurveName {
+    Test,
+    Simulation,
+}
+
+impl fmt::Display for CurveName {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            CurveName::Test => "test",
+            CurveName::Simulation => "simulation",
+        })
+    }
+}
+
+/// Why a curve MAPE cannot be computed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CurveLossError {
+    #[error("the {curve} curve has {points} distinct displacement(s); at least 2 are needed")]
+    TooFewPoints { curve: CurveName, points: usize },
+    #[error("the {curve} curve's point {index} is not finite (displacement {displacement_mm}, force {force_kn})")]
+    NotFinite {
+        curve: CurveName,
+        index: usize,
+        displacement_mm: f64,
+        force_kn: f64,
+    },
+    #[error("the {curve} curve's displacement decreases at point {index}: {displacement_mm} mm after {previous_mm} mm")]
+    Decreasing {
+        curve: CurveName,
+        index: usize,
+        previous_mm: f64,
+        displacement_mm: f64,
+    },
+    #[error("the test curve carries no force (every force is 0)")]
+    NoTestForce,
+    #[error("the simulation starts at {simulation_start_mm} mm, after the grid's start at {grid_start_mm} mm (the test's first loaded point); it would have to be extrapolated")]
+    SimulationStartsLate {
+        simulation_start_mm: f64,
+        grid_start_mm: f64,
+    },
+    #[error("a step of {step_mm} mm over {span_mm} mm would make a grid of more than {MAX_GRID_POINTS} points; are two displacements nearly equal?")]
+    GridTooLarge { step_mm: f64, span_mm: f64 },
+    #[error("no grid point to compare: {0}")]
+    NothingToCompare(String),
+    #[error("the {curve} curve cannot be interpolated: {source}")]
+    Spline {
+        curve: CurveName,
+        #[source]
+        source: InterpError,
+    },
+}
+
+/// The curve MAPE of `simulation` against `test`, both as
+/// `(displacement_mm, force_kn)` points; see the module documentation for
+/// the exact definition.
+pub fn curve_mape(
+    test: &[(f64, f64)],
+    simulation: &[(f64, f64)],
+    options: CurveMapeOptions,
+) -> Result<CurveMape, CurveLossError> {
+    let test = prepare(test, CurveName::Test)?;
+    let simulation = prepare(simulation, CurveName::Simulation)?;
+    let step_mm = test
+        .displacement
+        .windows(2)
+        .chain(simulation.displacement.windows(2))
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+
+    let max_force = test.force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+    if max_force == 0.0 {
+        return Err(CurveLossError::NoTestForce);
+    }
+    let tiny = TINY_FORCE_FRACTION * max_force;
+    let first_loaded = test.force.iter().position(|f| f.abs() > tiny).unwrap_or(0);
+    let start = test.displacement[first_loaded];
+    let simulation_start = simulation.displacement[0];
+    let simulation_end = simulation.displacement[simulation.displacement.len() - 1];
+    let mut end = test.displacement[test.displacement.len() - 1];
+    if options.truncate_at_simulation_end {
+        end = end.min(simulation_end);
+    }
+    if simulation_start > start {
+        return Err(CurveLossError::SimulationStartsLate {
+            simulation_start_mm: simulation_start,
+            grid_start_mm: start,
+        });
+    }
+    if end < start {
+        return Err(CurveLossError::NothingToCompare(format!(
+            "the simulation ends at {simulation_end} mm, before the test's first loaded point at {start} mm"
+        )));
+    }
+    let span = end - start;
+    let intervals = span / step_mm + GRID_TOLERANCE_STEPS;
+    if !intervals.is_finite() || intervals >= MAX_GRID_POINTS as f64 {
+        return Err(CurveLossError::GridTooLarge {
+            step_mm,
+            span_mm: span,
+        });
+    }
+    let grid_points = intervals.floor() as usize + 1;
+
+    let test_spline = test.spline(CurveName::Test)?;
+    let simulation_spline = simulation.spline(CurveName::Simulation)?;
+    let past_simulation = simulation_end + GRID_TOLERANCE_STEPS * step_mm;
+    let mut sum = 0.0;
+    let mut excluded_points = 0;
+    let mut padded_points = 0;
+    let mut last = start;
+    for i in 0..grid_points {
+        let x = (start + i as f64 * step_mm).min(end);
+        last = x;
+        let test_force = test_spline.eval(x);
+        if test_force.is_nan() || test_force.abs() <= tiny {
+            excluded_points += 1;
+            continue;
+        }
+        let simulated_force = if x > past_simulation {
+            padded_points += 1;
+            0.0
+        } else {
+            simulation_spline.eval(x.min(simulation_end))
+        };
+        sum += ((test_force - simulated_force) / test_force).abs();
+    }
+    let compared = grid_points - excluded_points;
+    if compared == 0 {
+        return Err(CurveLossError::NothingToCompare(format!(
+            "the test force is tiny at all {grid_points} grid points"
+        )));
+    }
+    Ok(CurveMape {
+        mape_percent: 100.0 * sum / compared as f64,
+        grid_points,
+        excluded_points,
+        step_mm,
+        grid_start_mm: start,
+        grid_end_mm: last,
+        padded_points,
+    })
+}
+
+/// A checked curve with runs of equal displacement reduced to their last
+/// point.
+struct Prepared {
+    displacement: Vec<f64>,
+    force: Vec<f64>,
+}
+
+impl Prepared {
+    fn spline(&self, curve: CurveName) -> Result<CubicSpline, CurveLossError> {
+        CubicSpline::new(&self.displacement, &self.force)
+            .map_err(|source| CurveLossError::Spline { curve, source })
+    }
+}
+
+fn prepare(points: &[(f64, f64)], curve: CurveName) -> Result<Prepared, CurveLossError> {
+    let mut displacement: Vec<f64> = Vec::with_capacity(points.len());
+    let mut force: Vec<f64> = Vec::with_capacity(points.len());
+    for (index, &(u, f)) in points.iter().enumerate() {
+        if !u.is_finite() || !f.is_finite() {
+            return Err(CurveLossError::NotFinite {
+                curve,
+                index,
+                displacement_mm: u,
+                force_kn: f,
+            });
+        }
+        match displacement.last() {
+            Some(&previous) if u < previous => {
+                return Err(CurveLossError::Decreasing {
+                    curve,
+                    index,
+                    previous_mm: previous,
+                    displacement_mm: u,
+                })
+            }
+            Some(&previous) if u == previous => {
+                if let Some(last) = force.last_mut() {
+                    *last = f;
+                }
+            }
+            _ => {
+                displacement.push(u);
+                force.push(f);
+            }
+        }
+    }
+    if displacement.len() < 2 {
+        return Err(CurveLossError::TooFewPoints {
+            curve,
+            points: displacement.len(),
+        });
+    }
+    Ok(Prepared {
+        displacement,
+        force,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// A hardening curve from the origin, points 0.1 mm apart.
+    fn test_curve() -> Vec<(f64, f64)> {
+        (0..=20)
+            .map(|i| {
+                let u = 0.1 * i as f64;
+                (u, 5.0 * (1.0 - (-3.0 * u).exp()) + 0.4 * u)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn identical_curves_give_zero() {
+        let curve = test_curve();
+        let loss = curve_mape(&curve, &curve, CurveMapeOptions::default()).unwrap();
+        assert_eq!(loss.mape_percent, 0.0);
+        assert_eq!(loss.padded_points, 0);
+        assert_eq!(loss.excluded_points, 0);
+        // From the first loaded point (0.1) to 2.0 in steps of 0.1, end included.
+        assert_eq!(loss.grid_points, 20);
+        assert!((loss.step_mm - 0.1).abs() < 1e-12);
+        assert_eq!(loss.grid_start_mm, 0.1);
+        assert!((loss.grid_end_mm - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_simulation_at_ninety_percent_is_ten_percent_off() {
+        let curve = test_curve();
+        let simulation: Vec<(f64, f64)> = curve.iter().map(|&(u, f)| (u, 0.9 * f)).collect();
+        let loss = curve_mape(&curve, &simulation, CurveMapeOptions::default()).unwrap();
+        assert!((loss.mape_percent - 10.0).abs() < 1e-12, "{loss:?}");
+    }
+
+    #[test]
+    fn a_simulation_that_stops_halfway_is_padded_with_zero_force() {
+        // Test: F = u on 0..10 mm (grid 1..=10, 10 points); the simulation
+        // matches it up to 5 mm and stops: grid points 6..=10 have force 0,
+        // 100 % each, so MAPE = (5 * 0 + 5 * 100) / 10 = 50 %.
+        let test: Vec<(f64, f64)> = (0..=10).map(|i| (i as f64, i as f64)).collect();
+        let simulation = &test[..=5];
+        let loss = curve_mape(&test, simulation, CurveMapeOptions::default()).unwrap();
+        assert_eq!(loss.grid_points, 10);
+        assert_eq!(loss.padded_points, 5);
+        assert!((loss.mape_percent - 50.0).abs() < 1e-12, "{loss:?}");
+
+        let truncated = curve_mape(
+            &test,
+            simulation,
+            CurveMapeOptions {
+                truncate_at_simulation_end: true,
+            },
+        )
+        .unwrap();
+        assert_eq!(truncated.grid_points, 5);
+        assert_eq!(truncated.padded_points, 0);
+        assert_eq!(truncated.grid_end_mm, 5.0);
+        assert!(truncated.mape_percent.abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_step_is_the_smallest_increment_of_either_curve() {
+        // Test increments 0.5 and 0.3; the simulation has one of 0.125.
+        let test = [(0.0, 0.0), (0.5, 1.0), (1.0, 2.0), (1.3, 2.6), (2.0, 4.0)];
+        let simulation = [(0.0, 0.0), (0.125, 0.25), (1.0, 2.0), (2.5, 5.0)];
+        let loss = curve_mape(&test, &simulation, CurveMapeOptions::default()).unwrap();
+        assert_eq!(loss.step_mm, 0.125);
+        // 0.5 ..= 2.0 in steps of 0.125: 13 points.
+        assert_eq!(loss.grid_points, 13);
+        assert_eq!(loss.grid_end_mm, 2.0);
+        assert!(loss.mape_percent.abs() < 1e-12);
+    }
+
+    /// Golden values computed independently with scipy 1.17.1:
+    /// python3 -c "
+    /// import numpy as np; from scipy.interpolate import CubicSpline as C
+    /// tx=[0,0.1,0.25,0.4,0.6,0.75,1.0]; tf=[0,2.0,3.1,3.6,3.8,3.7,3.2]
+    /// sx=[0,0.05,0.2,0.35,0.5,0.7,0.8]; sf=[0,1.2,2.9,3.5,3.75,3.65,3.4]
+    /// step=min(np.diff(tx).min(),np.diff(sx).min()); n=int(np.floor((tx[-1]-tx[1])/step+1e-9))+1
+    /// g=tx[1]+np.arange(n)*step; ft=C(tx,tf)(g); fs=np.where(g>sx[-1]+1e-9*step,0.0,C(sx,sf)(np.minimum(g,sx[-1])))
+    /// print(n, repr(100*np.mean(np.abs((ft-fs)/ft))), int((g>sx[-1]+1e-9*step).sum()))"
+    /// -> 19 22.32923287656055 4
+    /// and truncated (grid 0.1..=0.8, n = 15): 1.6170283103100247.
+    #[test]
+    fn matches_an_independent_scipy_computation() {
+        let test = [
+            (0.0, 0.0),
+            (0.1, 2.0),
+            (0.25, 3.1),
+            (0.4, 3.6),
+            (0.6, 3.8),
+            (0.75, 3.7),
+            (1.0, 3.2),
+        ];
+        let simulation = [
+            (0.0, 0.0),
+            (0.05, 1.2),
+            (0.2, 2.9),
+            (0.35, 3.5),
+            (0.5, 3.75),
+            (0.7, 3.65),
+            (0.8, 3.4),
+        ];
+        let loss = curve_mape(&test, &simulation, CurveMapeOptions::default()).unwrap();
+        assert_eq!(loss.grid_points, 19);
+        assert_eq!(loss.padded_points, 4);
+        assert!(
+            (loss.mape_percent - 22.32923287656055).abs() < 1e-10,
+            "{loss:?}"
+        );
+        let truncated = curve_mape(
+            &test,
+            &simulation,
+            CurveMapeOptions {
+                truncate_at_simulation_end: true,
+            },
+        )
+        .unwrap();
+        assert_eq!(truncated.grid_points, 15);
+        assert!((truncated.mape_percent - 1.6170283103100247).abs() < 1e-10);
+    }
+
+    #[test]
+    fn duplicate_displacements_keep_the_last_point() {
+        let test = [(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (3.0, 3.0)];
+        let simulation = [(0.0, 0.0), (1.0, 7.0), (1.0, 1.0), (2.0, 2.0), (3.0, 3.0)];
+        let loss = curve_mape(&test, &simulation, CurveMapeOptions::default()).unwrap();
+        assert!(loss.mape_percent.abs() < 1e-12);
+        assert_eq!(loss.step_mm, 1.0);
+    }
+
+    #[test]
+    fn bad_curves_are_errors_not_panics() {
+        let good = test_curve();
+        let options = CurveMapeOptions::default();
+        assert!(matches!(
+            curve_mape(&[], &good, options),
+            Err(CurveLossError::TooFewPoints {
+                curve: CurveName::Test,
+                points: 0
+            })
+        ));
+        assert!(matches!(
+            curve_mape(&good, &[(1.0, 1.0), (1.0, 2.0)], options),
+            Err(CurveLossError::TooFewPoints {
+                curve: CurveName::Simulation,
+                points: 1
+            })
+        ));
+        let mut nan = good.clone();
+        nan[3].1 = f64::NAN;
+        assert!(matches!(
+            curve_mape(&nan, &good, options),
+            Err(CurveLossError::NotFinite { index: 3, .. })
+        ));
+        let mut backwards = good.clone();
+        backwards[5].0 = 0.2;
+        let error = curve_mape(&backwards, &good, options).unwrap_err();
+        assert!(matches!(
+            error,
+            CurveLossError::Decreasing {
+                curve: CurveName::Test,
+                index: 5,
+                ..
+            }
+        ));
+        assert!(error.to_string().contains("test curve"), "{error}");
+        let zero: Vec<(f64, f64)> = good.iter().map(|&(u, _)| (u, 0.0)).collect();
+        assert_eq!(
+            curve_mape(&zero, &good, options),
+            Err(CurveLossError::NoTestForce)
+        );
+        let late: Vec<(f64, f64)> = good[3..].to_vec();
+        assert!(matches!(
+            curve_mape(&good, &late, options),
+            Err(CurveLossError::SimulationStartsLate { .. })
+        ));
+        let crowded = [(0.0, 0.0), (1e-9, 1e-9), (1.0, 1.0), (2.0, 2.0)];
+        let error = curve_mape(&good, &crowded, options).unwrap_err();
+        assert!(matches!(error, CurveLossError::GridTooLarge { .. }));
+        assert!(error.to_string().contains("1000000 points"), "{error}");
+    }
+
+    fn any_curve() -> impl Strategy<Value = Vec<(f64, f64)>> {
+        proptest::collection::vec(
+            (
+                prop_oneof![
+                    4 => 0.0..2.0f64,
+                    1 => Just(0.0),
+                    1 => Just(f64::NAN),
+                    1 => -1.0..0.0f64,
+                ],
+                prop_oneof![
+                    4 => -10.0..10.0f64,
+                    1 => Just(0.0),
+                    1 => Just(f64::INFINITY),
+                ],
+            ),
+            0..12,
+        )
+        .prop_map(|steps| {
+            let mut u = 0.0;
+            steps
+                .into_iter()
+                .map(|(step, f)| {
+                    u += step;
+                    (u, f)
+                })
+                .collect()
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn never_panics(test in any_curve(), simulation in any_curve(), truncate in any::<bool>()) {
+            let options = CurveMapeOptions { truncate_at_simulation_end: truncate };
+            if let Ok(loss) = curve_mape(&test, &simulation, options) {
+                prop_assert!(loss.mape_percent >= 0.0);
+                prop_assert!(loss.grid_points >= 1 && loss.grid_points <= MAX_GRID_POINTS);
+            }
+        }
+    }
+}

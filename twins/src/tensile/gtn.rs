@@ -1,0 +1,1141 @@
+//! Gurson-Tvergaard-Needleman (GTN) porous plasticity at one material point:
+//! the implicit (backward-Euler) stress update of Aravas (1987) and its
+//! consistent tangent, in small-strain form. The tensile twin calls it in
+//! logarithmic-strain space (rotated frame), where the same algebra holds.
+//!
+//! # Notation
+//!
+//! Symmetric tensors are 6-vectors in **Mandel notation**
+//! `[11, 22, 33, √2·23, √2·13, √2·12]` ([`Mandel`]), so `A:B` is a plain dot
+//! product and a fourth-order tensor with minor symmetries is a plain 6×6
+//! matrix ([`MandelTangent`]). Stress is positive in tension. Mean stress
+//! `p = tr(σ)/3`, deviator `s = σ - p I`, von Mises stress `q = √(3/2 s:s)`.
+//!
+//! # Model
+//!
+//! - Isotropic elasticity: `σ = K tr(ε_e) I + 2G dev(ε_e)`.
+//! - Yield function (f* the effective porosity, σ_y the matrix flow stress
+//!   from [`FlowCurve`]):
+//!   `Φ = (q/σ_y)² + 2 q1 f* cosh(3 q2 p / (2 σ_y)) - 1 - q3 f*² = 0`.
+//! - Normality: `Δε_p = Δλ ∂Φ/∂σ = Δε_p^vol I/3 + Δε_q n`, `n = 3/2 s/q`.
+//! - Matrix plastic work equivalence: `(1 - f) σ_y Δε_m = σ : Δε_p`.
+//! - Porosity: growth plus strain-controlled nucleation,
+//!   `Δf = (1 - f) tr(Δε_p) + A(ε_m) Δε_m`,
+//!   `A = fN / (sN √(2π)) exp(-½ ((ε_m - εN)/sN)²)`.
+//! - Coalescence (optional, Tvergaard-Needleman): `f* = f` below `f_c`,
+//!   `f* = f_c + κ (f - f_c)` above, `κ = (f_u* - f_c)/(f_F - f_c)`.
+//!
+//! Void growth follows the sign of the mean stress (normality makes
+//! `tr(Δε_p)` have the sign of `p`): voids grow under tension and close under
+//! compression. Closure is self-limiting: the volumetric flow is proportional to
+//! f*, so the implicit update keeps `f > 0`; iterates are also kept in
+//! `[0, failure)`, and a porosity below [`NEGLIGIBLE_POROSITY`] is set to 0.
+//! Nucleation needs `Δε_m > 0`, which the work equivalence guarantees.
+//!
+//! # Algorithm ([`GtnMaterial::update`])
+//!
+//! Elastic predictor `σ_tr = C : ε_tr`; if `Φ(p_tr, q_tr, σ_y(ε_m,n), f_n) <= tol`
+//! the step is elastic. Otherwise the flow direction `n = 3/2 s_tr/q_tr` is
+//! kept (it is exact for this yield function) and, with `p = p_tr - K Δε_p`,
+//! `q = q_tr - 3G Δε_q`, Newton's method solves the four equations
+//!
+//! ```text
+//! R1 = Δε_p ∂Φ/∂q - Δε_q ∂Φ/∂p                        = 0  (normality; times σ_y)
+//! R2 = Φ(p, q, σ_y(ε_m), f*(f))                        = 0  (consistency)
+//! R3 = (1 - f)(ε_m - ε_m,n) - (p Δε_p + q Δε_q)/σ_y    = 0  (work equivalence / σ_y)
+//! R4 = f - f_n - (1 - f) Δε_p - A(ε_m)(ε_m - ε_m,n)    = 0  (porosity)
+//! ```
+//!
+//! simultaneously for `(Δε_p, Δε_q, Δε_m, Δf)` (increments, not totals, so a
+//! relative tolerance is meaningful for tiny steps) with the analytic Jacobian.
+//! Everything, including the nucleation intensity `A`, is evaluated at `t_{n+1}`
+//! (fully implicit); `dA/dε_m` is in the Jacobian. The start is a radial return
+//! onto the yield surface of the state at `t_n`; a projected Newton step
+//! (`Δε_q ∈ [0, q_tr/3G]`, `Δε_m >= 0`, `f ∈ [0, failure)`) with backtracking on
+//! the residual norm globalises it.
+//!
+//! # Consistent tangent
+//!
+//! At convergence `R(x; p_tr, q_tr) = 0`, so `J dx = -∂R/∂p_tr dp_tr - ∂R/∂q_tr dq_tr`.
+//! With `dp_tr = K I:dε`, `dq_tr = 2G n:dε` and `σ = p I + (2/3) q n`:
+//!
+//! ```text
+//! D = I ⊗ dp/dε + (2/3) n ⊗ dq/dε + 2G (q/q_tr)(I_dev - (2/3) n ⊗ n)
+//! ```
+//!
+//! D is symmetric only in the J2 limit; it is returned as is.
+//!
+//! # Failure
+//!
+//! A point fails when its porosity reaches [`FAILURE_FRACTION`] of
+//! [`GtnParameters::failure_porosity`] (or the update would push it beyond):
+//! it then carries no stress and has zero tangent for good; the caller adds a
+//! residual stiffness.
+
+use nalgebra::{Matrix3, Matrix4, SMatrix, SVector, Vector4};
+use serde::{Deserialize, Serialize};
+
+use super::flow_curve::FlowCurve;
+
+/// A symmetric second-order tensor in Mandel notation
+/// `[11, 22, 33, √2·23, √2·13, √2·12]`.
+pub type Mandel = SVector<f64, 6>;
+
+/// A fourth-order tensor with minor symmetries in Mandel notation.
+pub type MandelTangent = SMatrix<f64, 6, 6>;
+
+/// A point fails once its porosity reaches this fraction of the failure
+/// porosity: the remaining strength is then about 1 % of the matrix's and the
+/// return mapping becomes ill-conditioned.
+pub const FAILURE_FRACTION: f64 = 0.99;
+
+/// A trial state with `Φ` at or below this (Φ is dimensionless, ~ relative
+/// stress error × 2) is elastic.
+pub const YIELD_TOLERANCE: f64 = 1e-10;
+
+/// Newton stops when every residual, scaled to the size of the increments, is
+/// below this; one more full Newton step then polishes to rounding.
+pub const RESIDUAL_TOLERANCE: f64 = 1e-10;
+
+/// A scaled residual this small is accepted when the Newton step no longer
+/// changes any unknown beyond rounding (see `solve_return_mapping`).
+const ROUNDING_FLOOR_RESIDUAL: f64 = 1e-6;
+
+/// A porosity below this is zero. Voids that compression has closed to this
+/// level mean nothing physically, yet their cosh term still yields at
+/// |p| ~ 20-60 σ_y where the local equations lose all precision.
+pub const NEGLIGIBLE_POROSITY: f64 = 1e-12;
+
+/// A Newton step below this fraction of the increments is at rounding level.
+const ROUNDING_STEP: f64 = 1e-13;
+
+/// Newton iteration limit of the return mapping.
+pub const MAX_ITERATIONS: usize = 50;
+
+/// Strain increments below this are rounding, not plastic flow.
+pub const NEGLIGIBLE_STRAIN: f64 = 1e-13;
+
+/// Backtracking halvings tried per Newton step.
+const MAX_LINE_SEARCH_HALVINGS: usize = 12;
+
+/// `|3 q2 p / (2 σ_y)|` is clamped here so cosh cannot overflow (and products
+/// of cosh values in the Jacobian stay finite); real solutions sit far below.
+const COSH_ARGUMENT_LIMIT: f64 = 300.0;
+
+/// A von Mises trial stress below this fraction of the flow stress is
+/// hydrostatic: the flow direction is then undefined and taken as zero.
+const HYDROSTATIC_RATIO: f64 = 1e-12;
+
+/// Iterates of the porosity stay below this fraction of the failure porosity
+/// (the yield function degenerates at the failure porosity itself).
+const POROSITY_CAP_FRACTION: f64 = 1.0 - 1e-9;
+
+const SQRT_2: f64 = std::f64::consts::SQRT_2;
+
+/// Mandel vector of a second-order tensor (its symmetric part).
+pub fn mandel_from_tensor(tensor: &Matrix3<f64>) -> Mandel {
+    let sym = |i: usize, j: usize| 0.5 * (tensor[(i, j)] + tensor[(j, i)]);
+    Mandel::new(
+        tensor[(0, 0)],
+        tensor[(1, 1)],
+        tensor[(2, 2)],
+        SQRT_2 * sym(1, 2),
+        SQRT_2 * sym(0, 2),
+        SQRT_2 * sym(0, 1),
+    )
+}
+
+/// Symmetric tensor of a Mandel vector.
+pub fn tensor_from_mandel(mandel: &Mandel) -> Matrix3<f64> {
+    let t23 = mandel[3] / SQRT_2;
+    let t13 = mandel[4] / SQRT_2;
+    let t12 = mandel[5] / SQRT_2;
+    Matrix3::new(
+        mandel[0], t12, t13, //
+        t12, mandel[1], t23, //
+        t13, t23, mandel[2],
+    )
+}
+
+/// The second-order identity in Mandel notation.
+pub fn identity_mandel() -> Mandel {
+    Mandel::new(1.0, 1.0, 1.0, 0.0, 0.0, 0.0)
+}
+
+/// The deviatoric projector `I_dev = I_sym - (1/3) I ⊗ I` in Mandel notation.
+pub fn deviatoric_projector() -> MandelTangent {
+    let identity = identity_mandel();
+    MandelTangent::identity() - identity * identity.transpose() / 3.0
+}
+
+/// Mean stress `p = tr(σ)/3` (MPa).
+pub fn mean_stress_mpa(stress_mpa: &Mandel) -> f64 {
+    (stress_mpa[0] + stress_mpa[1] + stress_mpa[2]) / 3.0
+}
+
+/// Deviator `s = σ - p I`.
+pub fn deviator(tensor: &Mandel) -> Mandel {
+    tensor - identity_mandel() * mean_stress_mpa(tensor)
+}
+
+/// Von Mises stress `q = √(3/2 s:s)` (MPa).
+pub fn von_mises_stress_mpa(stress_mpa: &Mandel) -> f64 {
+    (1.5 * deviator(stress_mpa).norm_squared()).sqrt()
+}
+
+/// The GTN yield function
+/// `Φ = (q/σ_y)² + 2 q1 f* cosh(3 q2 p/(2 σ_y)) - 1 - q3 f*²` (dimensionless;
+/// negative inside the yield surface). The cosh argument is clamped at ±300 so
+/// the value stays finite.
+pub fn yield_function(
+    parameters: &GtnParameters,
+    mean_stress_mpa: f64,
+    von_mises_stress_mpa: f64,
+    flow_stress_mpa: f64,
+    effective_porosity: f64,
+) -> f64 {
+    let beta = cosh_argument(parameters.q2, mean_stress_mpa, flow_stress_mpa);
+    let ratio = von_mises_stress_mpa / flow_stress_mpa;
+    ratio * ratio + 2.0 * parameters.q1 * effective_porosity * beta.cosh()
+        - 1.0
+        - parameters.q3 * effective_porosity * effective_porosity
+}
+
+fn cosh_argument(q2: f64, mean_stress_mpa: f64, flow_stress_mpa: f64) -> f64 {
+    (1.5 * q2 * mean_stress_mpa / flow_stress_mpa).clamp(-COSH_ARGUMENT_LIMIT, COSH_ARGUMENT_LIMIT)
+}
+
+/// Why a material parameter was rejected; each message names the parameter.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ParameterError {
+    /// Young's modulus not finite or not positive.
+    #[error("Young's modulus must be finite and > 0 MPa, got {0}")]
+    YoungsModulus(f64),
+    /// Poisson's ratio outside (-1, 0.5).
+    #[error("Poisson ratio must be in (-1, 0.5) for a stable isotropic solid, got {0}")]
+    PoissonRatio(f64),
+    /// q1 not finite or not positive.
+    #[error("GTN q1 must be finite and > 0, got {0}")]
+    Q1(f64),
+    /// q2 not finite or not positive.
+    #[error("GTN q2 must be finite and > 0, got {0}")]
+    Q2(f64),
+    /// q3 not finite or negative.
+    #[error("GTN q3 must be finite and >= 0, got {0}")]
+    Q3(f64),
+    /// epsN not finite.
+    #[error("nucleation mean strain epsN must be finite, got {0}")]
+    NucleationMeanStrain(f64),
+    /// sN not finite or not positive.
+    #[error("nucleation strain standard deviation sN must be finite and > 0, got {0}")]
+    NucleationStdStrain(f64),
+    /// fN not finite or negative.
+    #[error("nucleated void volume fraction fN must be finite and >= 0, got {0}")]
+    NucleatedVoidFraction(f64),
+    /// f0 not finite, negative, or at/above the failure porosity.
+    #[error(
+        "initial porosity f0 must be finite, >= 0 and below the failure porosity {failure_porosity}, got {value}"
+    )]
+    InitialPorosity {
+        /// The f0 given.
+        value: f64,
+        /// The failure porosity of the parameter set.
+        failure_porosity: f64,
+    },
+    /// f_c not finite, not positive, or not below the ultimate effective porosity.
+    #[error(
+        "coalescence critical porosity f_c must be finite, > 0 and below the ultimate effective porosity f_u* = {ultimate_effective_porosity}, got {value}"
+    )]
+    CriticalPorosity {
+        /// The f_c given.
+        value: f64,
+        /// f_u* of the parameter set.
+        ultimate_effective_porosity: f64,
+    },
+    /// f_F not finite, not above f_c, or not below 1.
+    #[error(
+        "coalescence failure porosity f_F must be finite, > f_c = {critical_porosity} and < 1, got {value}"
+    )]
+    CoalescenceFailurePorosity {
+        /// The f_F given.
+        value: f64,
+        /// The f_c given.
+        critical_porosity: f64,
+    },
+}
+
+/// Why a stress update failed. The update never returns NaN and never panics.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum GtnError {
+    /// The material parameters are out of range.
+    #[error("invalid material: {0}")]
+    InvalidParameters(#[from] ParameterError),
+    /// A trial strain component is NaN or infinite.
+    #[error("trial elastic strain component {component} is not finite ({value})")]
+    NonFiniteTrialStrain {
+        /// Mandel index of the component.
+        component: usize,
+        /// Its value.
+        value: f64,
+    },
+    /// The state at `t_n` is not a state the model can reach.
+    #[error(
+        "material state must have a finite matrix plastic strain >= 0 and a porosity in [0, 1), got {matrix_plastic_strain} and {porosity}"
+    )]
+    InvalidState {
+        /// Its matrix plastic strain.
+        matrix_plastic_strain: f64,
+        /// Its porosity.
+        porosity: f64,
+    },
+    /// Newton's method did not reach the tolerance; cut the step.
+    #[error(
+        "GTN return mapping did not converge in {iterations} iterations (scaled residual {residual:e}); cut the load step"
+    )]
+    NotConverged {
+        /// Iterations done.
+        iterations: usize,
+        /// Scaled residual norm at the last iterate.
+        residual: f64,
+    },
+}
+
+/// Isotropic linear elasticity.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Elasticity {
+    /// Young's modulus E (MPa).
+    pub youngs_modulus_mpa: f64,
+    /// Poisson's ratio ν.
+    pub poisson_ratio: f64,
+}
+
+impl Elasticity {
+    /// Checks `E > 0` and `-1 < ν < 0.5` (positive definite stiffness).
+    ///
+    /// # Errors
+    /// The parameter out of range.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        if !(self.youngs_modulus_mpa.is_finite() && self.youngs_modulus_mpa > 0.0) {
+            return Err(ParameterError::YoungsModulus(self.youngs_modulus_mpa));
+        }
+        if !(self.poisson_ratio > -1.0 && self.poisson_ratio < 0.5) {
+            return Err(ParameterError::PoissonRatio(self.poisson_ratio));
+        }
+        Ok(())
+    }
+
+    /// Bulk modulus `K = E / (3 (1 - 2ν))` (MPa).
+    pub fn bulk_modulus_mpa(&self) -> f64 {
+        self.youngs_modulus_mpa / (3.0 * (1.0 - 2.0 * self.poisson_ratio))
+    }
+
+    /// Shear modulus `G = E / (2 (1 + ν))` (MPa).
+    pub fn shear_modulus_mpa(&self) -> f64 {
+        self.youngs_modulus_mpa / (2.0 * (1.0 + self.poisson_ratio))
+    }
+
+    /// Stiffness `C = 3K I_vol + 2G I_dev` in Mandel notation (MPa).
+    pub fn stiffness_mpa(&self) -> MandelTangent {
+        let identity = identity_mandel();
+        let volumetric = identity * identity.transpose() / 3.0;
+        volumetric * (3.0 * self.bulk_modulus_mpa())
+            + deviatoric_projector() * (2.0 * self.shear_modulus_mpa())
+    }
+}
+
+/// Tvergaard-Needleman coalescence: accelerated effective porosity above f_c.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Coalescence {
+    /// Critical porosity f_c where coalescence starts.
+    pub critical_porosity: f64,
+    /// Porosity f_F at which the effective porosity reaches f_u* (failure).
+    pub failure_porosity: f64,
+}
+
+/// GTN parameters: yield-surface fitting constants, nucleation, initial
+/// porosity, optional coalescence.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GtnParameters {
+    /// q1: porosity weight of the cosh term.
+    pub q1: f64,
+    /// q2: pressure sensitivity inside the cosh.
+    pub q2: f64,
+    /// q3: porosity-squared term (q1² in the original model; calibrated freely
+    /// in the P91 study, where q3 > q1²).
+    pub q3: f64,
+    /// εN: mean matrix plastic strain of nucleation.
+    pub nucleation_mean_strain: f64,
+    /// sN: standard deviation of the nucleation strain.
+    pub nucleation_std_strain: f64,
+    /// fN: total volume fraction of nucleated voids.
+    pub nucleated_void_fraction: f64,
+    /// f0: initial porosity.
+    pub initial_porosity: f64,
+    /// Tvergaard-Needleman coalescence, if modelled.
+    pub coalescence: Option<Coalescence>,
+}
+
+impl GtnParameters {
+    /// A parameter set that reduces GTN to von Mises (J2) plasticity:
+    /// `f0 = fN = 0`, no coalescence (q's = 1, nucleation constants arbitrary).
+    pub fn von_mises() -> Self {
+        Self {
+            q1: 1.0,
+            q2: 1.0,
+            q3: 1.0,
+            nucleation_mean_strain: 0.3,
+            nucleation_std_strain: 0.1,
+            nucleated_void_fraction: 0.0,
+            initial_porosity: 0.0,
+            coalescence: None,
+        }
+    }
+
+    /// Physical-range check.
+    ///
+    /// `q3 > q1²` is allowed (the P91 calibration has it): the yield surface
+    /// then never shrinks to a point and, without coalescence, the failure
+    /// porosity is 1.
+    ///
+    /// # Errors
+    /// The first parameter out of range: q1 <= 0, q2 <= 0, q3 < 0, εN not
+    /// finite, sN <= 0, fN < 0, f0 < 0 or f0 >= failure porosity, coalescence
+    /// with f_c <= 0 or f_c >= f_u*, f_F <= f_c or f_F >= 1; any non-finite value.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        if !(self.q1.is_finite() && self.q1 > 0.0) {
+            return Err(ParameterError::Q1(self.q1));
+        }
+        if !(self.q2.is_finite() && self.q2 > 0.0) {
+            return Err(ParameterError::Q2(self.q2));
+        }
+        if !(self.q3.is_finite() && self.q3 >= 0.0) {
+            return Err(ParameterError::Q3(self.q3));
+        }
+        if !self.nucleation_mean_strain.is_finite() {
+            return Err(ParameterError::NucleationMeanStrain(
+                self.nucleation_mean_strain,
+            ));
+        }
+        if !(self.nucleation_std_strain.is_finite() && self.nucleation_std_strain > 0.0) {
+            return Err(ParameterError::NucleationStdStrain(
+                self.nucleation_std_strain,
+            ));
+        }
+        if !(self.nucleated_void_fraction.is_finite() && self.nucleated_void_fraction >= 0.0) {
+            return Err(ParameterError::NucleatedVoidFraction(
+                self.nucleated_void_fraction,
+            ));
+        }
+        if let Some(coalescence) = self.coalescence {
+            let ultimate = self.ultimate_effective_porosity();
+            let critical = coalescence.critical_porosity;
+            if !(critical.is_finite() && critical > 0.0 && critical < ultimate) {
+                return Err(ParameterError::CriticalPorosity {
+                    value: critical,
+                    ultimate_effective_porosity: ultimate,
+                });
+            }
+            let failure = coalescence.failure_porosity;
+            if !(failure.is_finite() && failure > critical && failure < 1.0) {
+                return Err(ParameterError::CoalescenceFailurePorosity {
+                    value: failure,
+                    critical_porosity: critical,
+                });
+            }
+        }
+        let failure_porosity = self.failure_porosity();
+        let f0 = self.initial_porosity;
+        if !(f0.is_finite() && f0 >= 0.0 && f0 < failure_porosity) {
+            return Err(ParameterError::InitialPorosity {
+                value: f0,
+                failure_porosity,
+            });
+        }
+        Ok(())
+    }
+
+    /// The effective porosity `f_u*` at which the yield surface shrinks to a
+    /// point: the smaller root of `1 - 2 q1 f + q3 f² = 0` (`1/q1` when
+    /// `q3 = q1²`, `1/(2 q1)` when `q3 = 0`). When `q3 > q1²` there is no real
+    /// root and the Tvergaard-Needleman value `1/q1` is used.
+    pub fn ultimate_effective_porosity(&self) -> f64 {
+        let discriminant = self.q1 * self.q1 - self.q3;
+        if discriminant >= 0.0 {
+            // Rationalised root: no cancellation when q3 -> 0.
+            1.0 / (self.q1 + discriminant.sqrt())
+        } else {
+            1.0 / self.q1
+        }
+    }
+
+    /// `(f*, df*/df)`: the effective porosity of porosity `f`. Without
+    /// coalescence `f* = f`; with it, `f* = f_c + κ (f - f_c)` for `f >= f_c`,
+    /// `κ = (f_u* - f_c)/(f_F - f_c)`.
+    pub fn effective_porosity(&self, porosity: f64) -> (f64, f64) {
+        match self.coalescence {
+            Some(coalescence) if porosity >= coalescence.critical_porosity => {
+                let critical = coalescence.critical_porosity;
+                let acceleration = (self.ultimate_effective_porosity() - critical)
+                    / (coalescence.failure_porosity - critical);
+                (
+                    critical + acceleration * (porosity - critical),
+                    acceleration,
+                )
+            }
+            _ => (porosity, 1.0),
+        }
+    }
+
+    /// The porosity at which the material fails: `f_F` with coalescence;
+    /// without, the porosity where the yield surface shrinks to a point (see
+    /// [`Self::ultimate_effective_porosity`]), capped at 1, and 1 when
+    /// `q3 > q1²` (the surface never vanishes; the matrix is used up at f = 1).
+    pub fn failure_porosity(&self) -> f64 {
+        match self.coalescence {
+            Some(coalescence) => coalescence.failure_porosity,
+            None if self.q1 * self.q1 >= self.q3 => self.ultimate_effective_porosity().min(1.0),
+            None => 1.0,
+        }
+    }
+
+    /// `(A, dA/dε_m)`: the strain-controlled nucleation intensity
+    /// `A = fN/(sN √(2π)) exp(-½ ((ε_m - εN)/sN)²)` and its slope.
+    pub fn nucleation_intensity(&self, matrix_plastic_strain: f64) -> (f64, f64) {
+        let std = self.nucleation_std_strain;
+        let z = (matrix_plastic_strain - self.nucleation_mean_strain) / std;
+        let intensity = self.nucleated_void_fraction / (std * (2.0 * std::f64::consts::PI).sqrt())
+            * (-0.5 * z * z).exp();
+        (intensity, -intensity * z / std)
+    }
+}
+
+/// Internal variables of a material point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MaterialState {
+    /// Equivalent plastic strain of the matrix ε_m.
+    pub matrix_plastic_strain: f64,
+    /// Void volume fraction f.
+    pub porosity: f64,
+    /// The point has failed: it carries no stress any more.
+    pub failed: bool,
+}
+
+impl MaterialState {
+    /// The virgin state: no plastic strain, porosity f0.
+    pub fn initial(parameters: &GtnParameters) -> Self {
+        Self {
+            matrix_plastic_strain: 0.0,
+            porosity: parameters.initial_porosity,
+            failed: false,
+        }
+    }
+}
+
+/// Result of one stress update.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StressUpdate {
+    /// Stress σ_{n+1} (MPa).
+    pub stress_mpa: Mandel,
+    /// Elastic strain ε_e,{n+1} = ε_tr - Δε_p (zero for a failed point).
+    pub elastic_strain: Mandel,
+    /// Consistent (algorithmic) tangent dσ_{n+1}/dε_tr (MPa); zero for a
+    /// failed point.
+    pub tangent_mpa: MandelTangent,
+    /// Internal variables at t_{n+1}.
+    pub state: MaterialState,
+    /// Plastic flow happened in this step (including the step that failed the
+    /// point; not for a point that had failed before).
+    pub plastic: bool,
+}
+
+/// A GTN material: elasticity, porous-plasticity parameters, matrix flow curve.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GtnMaterial {
+    /// Isotropic elasticity.
+    pub elasticity: Elasticity,
+    /// GTN parameters.
+    pub parameters: GtnParameters,
+    /// Matrix flow stress.
+    pub flow: FlowCurve,
+}
+
+/// The return-mapping unknowns `(Δε_p, Δε_q, Δε_m, Δf)`.
+type Unknowns = Vector4<f64>;
+
+/// Residual, Jacobian and the partials the tangent needs, at one iterate.
+struct LocalEvaluation {
+    residual: Vector4<f64>,
+    jacobian: Matrix4<f64>,
+    d_residual_d_trial_mean: Vector4<f64>,
+    d_residual_d_trial_von_mises: Vector4<f64>,
+    mean_stress_mpa: f64,
+    von_mises_mpa: f64,
+    flow_stress_mpa: f64,
+    /// ∂Φ/∂p · σ_y = 3 q1 q2 f* sinh(β), for the hydrostatic tangent limit.
+    scaled_d_phi_d_mean: f64,
+}
+
+/// The local problem of one plastic step: everything fixed during Newton.
+struct ReturnMapping<'a> {
+    parameters: &'a GtnParameters,
+    flow: &'a FlowCurve,
+    bulk_mpa: f64,
+    three_shear_mpa: f64,
+    trial_mean_mpa: f64,
+    trial_von_mises_mpa: f64,
+    matrix_plastic_strain_n: f64,
+    porosity_n: f64,
+    porosity_cap: f64,
+    /// No voids at t_n and no nucleation: von Mises plasticity exactly.
+    void_free: bool,
+}
+
+impl ReturnMapping<'_> {
+    fn evaluate(&self, x: &Unknowns) -> LocalEvaluation {
+        let params = self.parameters;
+        let (q1, q2, q3) = (params.q1, params.q2, params.q3);
+        let (d_vol, d_dev, d_matrix, d_porosity) = (x[0], x[1], x[2], x[3]);
+        let bulk = self.bulk_mpa;
+        let three_shear = self.three_shear_mpa;
+
+        let p = self.trial_mean_mpa - bulk * d_vol;
+        let q = self.trial_von_mises_mpa - three_shear * d_dev;
+        let matrix_strain = self.matrix_plastic_strain_n + d_matrix;
+        let porosity = self.porosity_n + d_porosity;
+        let (sy, hardening) = self.flow.flow_stress_mpa(matrix_strain);
+        let (f_star, d_f_star) = params.effective_porosity(porosity);
+        let (nucleation, d_nucleation) = params.nucleation_intensity(matrix_strain);
+
+        let beta = cosh_argument(q2, p, sy);
+        let (sinh_beta, cosh_beta) = (beta.sinh(), beta.cosh());
+
+        // a = σ_y ∂Φ/∂q, b = σ_y ∂Φ/∂p: the normality residual times σ_y is
+        // dimensionless-per-strain and stays O(1) per unit increment.
+        let a = 2.0 * q / sy;
+        let b = 3.0 * q1 * q2 * f_star * sinh_beta;
+        let da_dq = 2.0 / sy;
+        let da_dsy = -a / sy;
+        let db_dp = 3.0 * q1 * q2 * f_star * cosh_beta * 1.5 * q2 / sy;
+        let db_dsy = -3.0 * q1 * q2 * f_star * cosh_beta * beta / sy;
+        let db_df_star = 3.0 * q1 * q2 * sinh_beta;
+
+        let phi = (q / sy) * (q / sy) + 2.0 * q1 * f_star * cosh_beta - 1.0 - q3 * f_star * f_star;
+        let phi_p = b / sy;
+        let phi_q = a / sy;
+        let phi_sy = -2.0 * q * q / (sy * sy * sy) - 2.0 * q1 * f_star * sinh_beta * beta / sy;
+        let phi_f_star = 2.0 * q1 * cosh_beta - 2.0 * q3 * f_star;
+
+        let work_per_sy = (p * d_vol + q * d_dev) / sy;
+        let matrix_fraction = 1.0 - porosity;
+
+        let residual = Vector4::new(
+            d_vol * a - d_dev * b,
+            phi,
+            matrix_fraction * d_matrix - work_per_sy,
+            d_porosity - matrix_fraction * d_vol - nucleation * d_matrix,
+        );
+        #[rustfmt::skip]
+        let jacobian = Matrix4::new(
+            a + bulk * d_dev * db_dp,
+            -three_shear * d_vol * da_dq - b,
+            hardening * (d_vol * da_dsy - d_dev * db_dsy),
+            -d_dev * db_df_star * d_f_star,
+            //
+            -bulk * phi_p,
+            -three_shear * phi_q,
+            hardening * phi_sy,
+            d_f_star * phi_f_star,
+            //
+            -(p - bulk * d_vol) / sy,
+            -(q - three_shear * d_dev) / sy,
+            matrix_fraction + work_per_sy * hardening / sy,
+            -d_matrix,
+            //
+            -matrix_fraction,
+            0.0,
+            -(d_nucleation * d_matrix + nucleation),
+            1.0 + d_vol,
+        );
+        LocalEvaluation {
+            residual,
+            jacobian,
+            d_residual_d_trial_mean: Vector4::new(-d_dev * db_dp, phi_p, -d_vol / sy, 0.0),
+            d_residual_d_trial_von_mises: Vector4::new(d_vol * da_dq, phi_q, -d_dev / sy, 0.0),
+            mean_stress_mpa: p,
+            von_mises_mpa: q,
+            flow_stress_mpa: sy,
+            scaled_d_phi_d_mean: b,
+        }
+    }
+
+    /// Keeps an iterate physical: `0 <= Δε_q <= q_tr/3G` (q >= 0),
+    /// `Δε_m >= 0`, `0 <= f < failure`.
+    fn project(&self, x: &Unknowns) -> Unknowns {
+        let max_dev = self.trial_von_mises_mpa / self.three_shear_mpa;
+        if self.void_free {
+            // f = 0 and no nucleation: the exact solution has no volumetric
+            // flow and no porosity; pinning them gives the J2 result exactly.
+            return Unknowns::new(0.0, x[1].clamp(0.0, max_dev), x[2].max(0.0), 0.0);
+        }
+        Unknowns::new(
+            x[0],
+            x[1].clamp(0.0, max_dev),
+            x[2].max(0.0),
+            x[3].clamp(-self.porosity_n, self.porosity_cap - self.porosity_n),
+        )
+    }
+
+    /// Residual norm with R1, R3, R4 (strain-sized) divided by `strain_scale`.
+    fn scaled_norm(residual: &Vector4<f64>, strain_scale: f64) -> f64 {
+        let scale = strain_scale.max(f64::MIN_POSITIVE);
+        (residual[0] / scale)
+            .abs()
+            .max(residual[1].abs())
+            .max((residual[2] / scale).abs())
+            .max((residual[3] / scale).abs())
+    }
+
+    /// Size of the strain increments, at least [`NEGLIGIBLE_STRAIN`]: a trial
+    /// a hair outside the surface starts at x = 0, and dividing residuals by
+    /// a zero scale would make every candidate step look infinitely bad.
+    fn strain_scale(x: &Unknowns) -> f64 {
+        x[0].abs()
+            .max(x[1].abs())
+            .max(x[2].abs())
+            .max(NEGLIGIBLE_STRAIN)
+    }
+
+    fn merit(residual: &Vector4<f64>, strain_scale: f64) -> f64 {
+        let scale = strain_scale.max(f64::MIN_POSITIVE);
+        let scaled = Vector4::new(
+            residual[0] / scale,
+            residual[1],
+            residual[2] / scale,
+            residual[3] / scale,
+        );
+        scaled.norm_squared()
+    }
+
+    /// Start: without voids the J2 radial return; otherwise the radial
+    /// scaling `(p, q) = t (p_tr, q_tr)` onto the yield surface of the state at
+    /// t_n, then work equivalence and porosity evolution explicitly from it.
+    fn initial_guess(&self) -> Unknowns {
+        let params = self.parameters;
+        let (sy, _) = self.flow.flow_stress_mpa(self.matrix_plastic_strain_n);
+        let (f_star, _) = params.effective_porosity(self.porosity_n);
+        let (p_tr, q_tr) = (self.trial_mean_mpa, self.trial_von_mises_mpa);
+        if f_star <= 0.0 {
+            // No voids: the J2 radial return with the current hardening slope,
+            // no volumetric flow (a volumetric start would invent porosity).
+            let (_, hardening) = self.flow.flow_stress_mpa(self.matrix_plastic_strain_n);
+            let d_dev = ((q_tr - sy) / (self.three_shear_mpa + hardening)).max(0.0);
+            let matrix_fraction = 1.0 - self.porosity_n;
+            let d_matrix = (q_tr - self.three_shear_mpa * d_dev) * d_dev / (matrix_fraction * sy);
+            let (nucleation, _) = params.nucleation_intensity(self.matrix_plastic_strain_n);
+            return self.project(&Unknowns::new(0.0, d_dev, d_matrix, nucleation * d_matrix));
+        }
+        let scale = {
+            // Along the ray Φ(t) is convex with Φ(0) < 0, so Newton from a
+            // point with Φ >= 0 descends monotonically onto the root. Starting
+            // at the hydrostatic yield pressure avoids crawling down a huge cosh.
+            let hydrostatic_cosh =
+                ((1.0 + params.q3 * f_star * f_star) / (2.0 * params.q1 * f_star)).max(1.0);
+            let hydrostatic_beta = hydrostatic_cosh.acosh();
+            let trial_beta = 1.5 * params.q2 * p_tr / sy;
+            let mut t = if trial_beta.abs() > hydrostatic_beta {
+                hydrostatic_beta / trial_beta.abs()
+            } else {
+                1.0
+            };
+            for _ in 0..40 {
+                let beta = (t * trial_beta).clamp(-COSH_ARGUMENT_LIMIT, COSH_ARGUMENT_LIMIT);
+                let ratio = t * q_tr / sy;
+                let phi = ratio * ratio + 2.0 * params.q1 * f_star * beta.cosh()
+                    - 1.0
+                    - params.q3 * f_star * f_star;
+                let slope =
+                    2.0 * ratio * q_tr / sy + 2.0 * params.q1 * f_star * trial_beta * beta.sinh();
+                if phi.abs() < 1e-6 || slope.is_nan() || slope <= 0.0 {
+                    break;
+                }
+                t = (t - phi / slope).clamp(0.0, 1.0);
+            }
+            t
+        };
+        let matrix_fraction = 1.0 - self.porosity_n;
+        // Volumetric flow needs voids: compression cannot close more than
+        // f_n, and the implicit closure is gradual, so start at most half way
+        // (a start with the voids fully closed has no pressure dependence).
+        let half_closure = -0.5 * self.porosity_n / matrix_fraction;
+        let d_vol = ((1.0 - scale) * p_tr / self.bulk_mpa).max(half_closure);
+        let d_dev = (1.0 - scale) * q_tr / self.three_shear_mpa;
+        let work = (p_tr - self.bulk_mpa * d_vol) * d_vol + scale * q_tr * d_dev;
+        let d_matrix = (work / (matrix_fraction * sy)).max(0.0);
+        let (nucleation, _) = params.nucleation_intensity(self.matrix_plastic_strain_n);
+        let d_porosity = matrix_fraction * d_vol + nucleation * d_matrix;
+        self.project(&Unknowns::new(d_vol, d_dev, d_matrix, d_porosity))
+    }
+}
+
+/// Outcome of the Newton loop: the converged unknowns with the evaluation
+/// there, or `None` when the porosity was driven to the failure limit.
+type LocalSolution = Option<(Unknowns, LocalEvaluation)>;
+
+impl GtnMaterial {
+    /// A validated material.
+    ///
+    /// # Errors
+    /// The first parameter out of range.
+    pub fn new(
+        elasticity: Elasticity,
+        parameters: GtnParameters,
+        flow: FlowCurve,
+    ) -> Result<Self, ParameterError> {
+        let material = Self {
+            elasticity,
+            parameters,
+            flow,
+        };
+        material.validate()?;
+        Ok(material)
+    }
+
+    /// Checks elasticity and GTN parameters (the flow curve checks itself when
+    /// built).
+    ///
+    /// # Errors
+    /// The first parameter out of range.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        self.elasticity.validate()?;
+        self.parameters.validate()
+    }
+
+    /// Porosity at which a point is declared failed.
+    pub fn failure_trigger_porosity(&self) -> f64 {
+        FAILURE_FRACTION * self.parameters.failure_porosity()
+    }
+
+    /// Yield function of a stress at a state (dimensionless, <= 0 admissible).
+    pub fn yield_function_at(&self, stress_mpa: &Mandel, state: &MaterialState) -> f64 {
+        let (sy, _) = self.flow.flow_stress_mpa(state.matrix_plastic_strain);
+        let (f_star, _) = self.parameters.effective_porosity(state.porosity);
+        yield_function(
+            &self.parameters,
+            mean_stress_mpa(stress_mpa),
+            von_mises_stress_mpa(stress_mpa),
+            sy,
+            f_star,
+        )
+    }
+
+    /// One implicit (backward-Euler) step: given the state at t_n and the
+    /// trial elastic strain `ε_tr = ε_e,n + Δε`, returns the state at t_{n+1},
+    /// the stress, the elastic strain and the consistent tangent.
+    ///
+    /// A failed point (or one whose porosity reaches the failure trigger in
+    /// this step) returns zero stress, zero elastic strain, zero tangent and
+    /// `failed = true`.
+    ///
+    /// # Errors
+    /// Invalid parameters, a non-finite trial strain, an impossible state, or
+    /// a return mapping that did not converge (cut the step).
+    pub fn update(
+        &self,
+        state_n: &MaterialState,
+        trial_elastic_strain: &Mandel,
+    ) -> Result<StressUpdate, GtnError> {
+        self.validate()?;
+        if let Some((component, &value)) = trial_elastic_strain
+            .iter()
+            .enumerate()
+            .find(|(_, value)| !value.is_finite())
+        {
+            return Err(GtnError::NonFiniteTrialStrain { component, value });
+        }
+        let matrix_strain_n = state_n.matrix_plastic_strain;
+        let porosity_n = state_n.porosity;
+        if !(matrix_strain_n.is_finite()
+            && matrix_strain_n >= 0.0
+            && porosity_n.is_finite()
+            && (0.0..1.0).contains(&porosity_n))
+        {
+            return Err(GtnError::InvalidState {
+                matrix_plastic_strain: matrix_strain_n,
+                porosity: porosity_n,
+            });
+        }
+        if state_n.failed || porosity_n >= self.failure_trigger_porosity() {
+            return Ok(failed_update(state_n, false));
+        }
+        let porosity_n = if porosity_n < NEGLIGIBLE_POROSITY {
+            0.0
+        } else {
+            porosity_n
+        };
+
+        let bulk = self.elasticity.bulk_modulus_mpa();
+        let shear = self.elasticity.shear_modulus_mpa();
+        let stiffness = self.elasticity.stiffness_mpa();
+        let trial_stress = stiffness * trial_elastic_strain;
+        let trial_mean = mean_stress_mpa(&trial_stress);
+        let trial_deviator = deviator(&trial_stress);
+        let mut trial_von_mises = (1.5 * trial_deviator.norm_squared()).sqrt();
+
+        let (sy_n, _) = self.flow.flow_stress_mpa(matrix_strain_n);
+        let (f_star_n, _) = self.parameters.effective_porosity(porosity_n);
+        let trial_phi = yield_function(
+            &self.parameters,
+            trial_mean,
+            trial_von_mises,
+            sy_n,
+            f_star_n,
+        );
+        if trial_phi <= YIELD_TOLERANCE {
+            return Ok(StressUpdate {
+                stress_mpa: trial_stress,
+                elastic_strain: *trial_elastic_strain,
+                tangent_mpa: stiffness,
+                state: *state_n,
+                plastic: false,
+            });
+        }
+
+        // n = 3/2 s_tr/q_tr; for a hydrostatic trial it is undefined and the
+        // deviatoric flow is zero.
+        let hydrostatic = trial_von_mises <= HYDROSTATIC_RATIO * sy_n;
+        let flow_direction = if hydrostatic {
+            trial_von_mises = 0.0;
+            Mandel::zeros()
+        } else {
+            trial_deviator * (1.5 / trial_von_mises)
+        };
+
+        let problem = ReturnMapping {
+            parameters: &self.parameters,
+            flow: &self.flow,
+            bulk_mpa: bulk,
+            three_shear_mpa: 3.0 * shear,
+            trial_mean_mpa: trial_mean,
+            trial_von_mises_mpa: trial_von_mises,
+            matrix_plastic_strain_n: matrix_strain_n,
+            porosity_n,
+            porosity_cap: POROSITY_CAP_FRACTION * self.parameters.failure_porosity(),
+            void_free: porosity_n == 0.0 && self.parameters.nucleated_void_fraction == 0.0,
+        };
+        let Some((x, evaluation)) =
+            solve_return_mapping(&problem, self.failure_trigger_porosity())?
+        else {
+            return Ok(failed_update(state_n, true));
+        };
+        let porosity = porosity_n + x[3];
+        let porosity = if porosity < NEGLIGIBLE_POROSITY {
+            0.0
+        } else {
+            porosity
+        };
+        if porosity >= self.failure_trigger_porosity() {
+            return Ok(failed_update(state_n, true));
+        }
+
+        let p = evaluation.mean_stress_mpa;
+        let q = evaluation.von_mises_mpa;
+        // s = (q/q_tr) s_tr. In the hydrostatic limit the ratio follows from
+        // R1 = 0: q/q_tr = 1/(1 + 6G Δε_p/(σ_y b)).
+        let deviator_ratio = if hydrostatic {
+            let b = evaluation.scaled_d_phi_d_mean;
+            let denominator =
+                1.0 + 2.0 * problem.three_shear_mpa * x[0] / (evaluation.flow_stress_mpa * b);
+            if b != 0.0 && denominator.is_finite() && denominator > 0.0 {
+                1.0 / denominator
+            } else {
+                1.0
+            }
+        } else {
+            q / trial_von_mises
+        };
+        let identity = identity_mandel();
+        let stress = identity * p + trial_deviator * deviator_ratio;
+        // ε_e = C⁻¹ σ: consistent with the returned stress by construction.
+        let elastic_strain =
+            identity * (p / (3.0 * bulk)) + trial_deviator * (deviator_ratio / (2.0 * shear));
+
+        let tangent = consistent_tangent(
+            &problem,
+            &evaluation,
+            &flow_direction,
+            shear,
+            deviator_ratio,
+        )
+        .ok_or(GtnError::NotConverged {
+            iterations: MAX_ITERATIONS,
+            residual: f64::INFINITY,
+        })?;
+
+        let update = StressUpdate {
+            stress_mpa: stress,
+            elastic_strain,
+            tangent_mpa: tangent,
+            state: MaterialState {
+                matrix_plastic_strain: matrix_strain_n + x[2],
+                porosity,
+                failed: false,
+            },
+            plastic: true,
+        };
+        let all_finite = update.stress_mpa.iter().all(|v| v.is_finite())
+            && update.elastic_strain.iter().all(|v| v.is_finite())
+            && update.tangent_mpa.iter().all(|v| v.is_finite())
+            && update.state.matrix_plastic_strain.is_finite();
+        if !all_finite {
+            return Err(GtnError::NotConverged {
+                iterations: MAX_ITERATIONS,
+                residual: f64::INFINITY,
+            });
+        }
+        Ok(update)
+    }
+}
+
+fn failed_update(state_n: &MaterialState, plastic: bool) -> StressUpdate {
+    StressUpdate {
+        stress_mpa: Mandel::zeros(),
+        elastic_strain: Mandel::zeros(),
+        tangent_mpa: MandelTangent::zeros(),
+        state: MaterialState {
+            matrix_plastic_strain: state_n.matrix_plastic_strain,
+            porosity: state_n.porosity,
+            failed: true,
+        },
+        plastic,
+    }
+}
+
+/// Projected Newton with backtracking on the scaled residual.
+fn solve_return_mapping(
+    problem: &ReturnMapping<'_>,
+    failure_trigger_porosity: f64,
+) -> Result<LocalSolution, GtnError> {
+    let mut x = problem.initial_guess();
+    let mut evaluation = problem.evaluate(&x);
+    let mut max_porosity = problem.porosity_n + x[3];
+    let mut residual_norm = f64::INFINITY;
+
+    for iteration in 1..=MAX_ITERATIONS {
+        residual_norm =
+            ReturnMapping::scaled_norm(&evaluation.residual, ReturnMapping::strain_scale(&x));
+        let converged = residual_norm <= RESIDUAL_TOLERANCE;
+        let Some(step) = evaluation.jacobian.lu().solve(&-evaluation.residual) else {
+            return if max_porosity >= failure_trigger_porosity {
+                Ok(None)
+            } else {
+                Err(GtnError::NotConverged {
+                    iterations: iteration,
+                    residual: residual_norm,
+                })
+            };
+        };
+        // Rounding floor: when f is tiny (voids closed by compression) it is
+        // the small difference f_n + Δf and Φ cannot be evaluated more
+        // accurately than ~1e-16 f_n / f; a step at rounding level of every
+        // unknown means nothing better exists.
+        let strain_scale = ReturnMapping::strain_scale(&x);
+        let porosity_scale = strain_scale.max(problem.porosity_n);
+        let at_rounding = (0..3).all(|i| step[i].abs() <= ROUNDING_STEP * strain_scale)
+            && step[3].abs() <= ROUNDING_STEP * porosity_scale
+            && residual_norm <= ROUNDING_FLOOR_RESIDUAL;
+        if converged || at_rounding {
+            // Newton converges quadratically here: one more full step takes the
+            // error from ~tolerance to rounding (the tangent check needs it).
+            let polished = problem.project(&(x + step));
+            let polished_evaluation = problem.evaluate(&polished);
+            let polished_norm = ReturnMapping::scaled_norm(
+                &polished_evaluation.residual,
+                ReturnMapping::strain_scale(&polished),
+            );
+            if polished_norm.is_finite() && polished_norm <= residual_norm {
+                return Ok(Some((polished, polished_evaluation)));
+            }
+            return Ok(Some((x, evaluation)));
+        }
+
+        // The merit scales the strain-like residuals by the current
+        // increments, like the convergence test, so rounding in Φ never
+        // dominates it.
+        let merit_scale = strain_scale;
+        let merit = ReturnMapping::merit(&evaluation.residual, merit_scale);
+        let mut fraction = 1.0;
+        let mut best: Option<(f64, Unknowns, LocalEvaluation)> = None;
+        for _ in 0..MAX_LINE_SEARCH_HALVINGS {
+            let candidate = problem.project(&(x + step * fraction));
+            let candidate_evaluation = problem.evaluate(&candidate);
+            let candidate_merit = ReturnMapping::merit(&candidate_evaluation.residual, merit_scale);
+            let finite = candidate_merit.is_finite()
+                && candidate_evaluation.jacobian.iter().all(|v| v.is_finite());
+            if finite {
+                let sufficient = candidate_merit <= (1.0 - 1e-4 * fraction) * merit;
+                if best.as_ref().is_none_or(|(m, _, _)| candidate_merit < *m) {
+                    best = Some((candidate_merit, candidate, candidate_evaluation));
+                }
+                if sufficient {
+                    break;
+                }
+            }
+            fraction *= 0.5;
+        }
+        // Without sufficient decrease take the best step tried, so Newton can
+        // still get past a kink of the piecewise-linear flow curve.
+        let Some((_, next, next_evaluation)) = best else {
+            return Err(GtnError::NotConverged {
+                iterations: iteration,
+                residual: residual_norm,
+            });
+        };
+        x = next;
+        evaluation = next_evaluation;
+        max_porosity = max_porosity.max(problem.porosity_n + x[3]);
+    }
+    if max_porosity >= failure_trigger_porosity {
+        return Ok(None);
+    }
+    Err(GtnError::NotConverged {
+        iterations: MAX_ITERATIONS,
+        residual: residual_norm,
+    })
+}
+
+/// `dσ/dε_tr` by the implicit function theorem on the converged local system.
+fn consistent_tangent(
+    problem: &ReturnMapping<'_>,
+    evaluation: &LocalEvaluation,
+    flow_direction: &Mandel,
+    shear_mpa: f64,
+    deviator_ratio: f64,
+) -> Option<MandelTangent> {
+    let lu = evaluation.jacobian.lu();
+    let dx_d_trial_mean = lu.solve(&-evaluation.d_residual_d_trial_mean)?;
+    let dx_d_trial_von_mises = lu.solve(&-evaluation.d_residual_d_trial_von_mises)?;
+    let bulk = problem.bulk_mpa;
+    let three_shear = problem.three_shear_mpa;
+
+    let dp_d_trial_mean = 1.0 - bulk * dx_d_trial_mean[0];
+    let dp_d_trial_von_mises = -bulk * dx_d_trial_von_mises[0];
+    let dq_d_trial_mean = -three_shear * dx_d_trial_mean[1];
+    let dq_d_trial_von_mises = 1.0 - three_shear * dx_d_trial_von_mises[1];
+
+    // dp_tr/dε = K I, dq_tr/dε = 2G n.
+    let identity = identity_mandel();
+    let two_shear = 2.0 * shear_mpa;
+    let dp_d_strain =
+        identity * (bulk * dp_d_trial_mean) + flow_direction * (two_shear * dp_d_trial_von_mises);
+    let dq_d_strain =
+        identity * (bulk * dq_d_trial_mean) + flow_direction * (two_shear * dq_d_trial_von_mises);
+
+    let direction_change = (deviatoric_projector()
+        - flow_direction * flow_direction.transpose() * (2.0 / 3.0))
+        * (two_shear * deviator_ratio);
+    Some(
+        identity * dp_d_strain.transpose()
+            + flow_direction * dq_d_strain.transpose() * (2.0 / 3.0)
+            + direction_change,
+    )
+}

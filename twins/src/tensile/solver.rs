@@ -1,0 +1,500 @@
+//! Pulling the bar: displacement control, implicit Newton with the exact
+//! tangent, step cutting, and the force-displacement curve.
+//!
+//! Each step prescribes the end displacement and iterates `K du = -f_int`
+//! on the free degrees of freedom until the out-of-balance force is below
+//! `relative_tolerance` of the reaction (and a floor of 1e-6 N). A step
+//! that does not converge in `max_newton_iterations`, or in which a
+//! material point or element fails to evaluate, is halved and retried; a
+//! step that converges quickly lets the next one grow again, up to the
+//! output interval. The curve is written at every output interval exactly
+//! (steps are cut to land on it), so its spacing does not depend on how
+//! hard the solver had to work.
+//!
+//! The run ends at the end displacement, when the force has fallen below a
+//! fraction of its maximum after the maximum (the bar has broken), or when
+//! a step cannot be made to converge even at `min_step_mm`; the last two
+//! are reported with the displacement reached. The tolerance is relative
+//! to the reaction with a floor of 1 N, so the unloaded first iterations
+//! do not chase round-off.
+
+use serde::Serialize;
+
+use super::banded::BandedMatrix;
+use super::element::{evaluate, ElementDisplacement, ElementShape, GaussPointState, PointMaterial};
+use super::mesh::Mesh;
+
+/// A step that converges in this many iterations or fewer lets the next grow.
+const EASY_STEP_ITERATIONS: usize = 6;
+
+/// How the bar is pulled and when the run stops.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LoadingSettings {
+    /// End displacement to reach, mm (the test's last displacement).
+    pub end_displacement_mm: f64,
+    /// Spacing of the output curve, mm; also the largest step.
+    pub output_interval_mm: f64,
+    /// Below this step size a non-converging step ends the run, mm.
+    pub min_step_mm: f64,
+    pub max_newton_iterations: usize,
+    pub relative_tolerance: f64,
+    /// After the maximum, a force below this fraction of it is fracture.
+    pub fracture_force_fraction: f64,
+}
+
+impl LoadingSettings {
+    pub fn to(end_displacement_mm: f64) -> Self {
+        LoadingSettings {
+            end_displacement_mm,
+            output_interval_mm: 0.01,
+            min_step_mm: 1e-6,
+            max_newton_iterations: 16,
+            relative_tolerance: 1e-7,
+            fracture_force_fraction: 0.02,
+        }
+    }
+}
+
+/// One output point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CurvePoint {
+    pub displacement_mm: f64,
+    pub force_kn: f64,
+    /// Current diameter at the mid-gauge plane, mm.
+    pub neck_diameter_mm: f64,
+    /// Gauss points that no longer carry load.
+    pub failed_points: usize,
+}
+
+/// How the run ended.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Outcome {
+    /// The end displacement was reached.
+    ReachedEnd,
+    /// The force fell to `fracture_force_fraction` of its maximum.
+    Fractured { displacement_mm: f64 },
+    /// A step could not be made to converge.
+    NotConverged {
+        displacement_mm: f64,
+        reason: String,
+    },
+}
+
+/// The curve and how it was obtained.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PullResult {
+    pub curve: Vec<CurvePoint>,
+    pub outcome: Outcome,
+    pub steps: usize,
+    pub newton_iterations: usize,
+    pub step_cuts: usize,
+}
+
+impl PullResult {
+    /// Largest force of the curve, kN.
+    pub fn max_force_kn(&self) -> f64 {
+        self.curve.iter().map(|p| p.force_kn).fold(0.0, f64::max)
+    }
+}
+
+/// The meshed bar with its material, ready to be pulled.
+pub struct Bar<M: PointMaterial> {
+    mesh: Mesh,
+    shapes: Vec<ElementShape>,
+    material: M,
+    threads: usize,
+}
+
+const MAX_THREADS: usize = 8;
+/// Fewer elements than this per thread do not pay for the thread.
+const MIN_ELEMENTS_PER_THREAD: usize = 32;
+
+/// Degrees of freedom whose value is prescribed.
+struct Constraints {
+    fixed: Vec<usize>,
+    pulled: Vec<usize>,
+    is_constrained: Vec<bool>,
+}
+
+/// Displacement, assembly at convergence, Newton iterations.
+type ConvergedStep<S> = (Vec<f64>, Assembly<S>, usize);
+
+struct Assembly<S> {
+    stiffness: BandedMatrix,
+    force_n: Vec<f64>,
+    states: Vec<[GaussPointState<S>; 4]>,
+}
+
+impl<M: PointMaterial + Sync> Bar<M>
+where
+    M::State: Send + Sync,
+{
+    pub fn new(mesh: Mesh, material: M) -> Self {
+        let shapes = mesh
+            .elements
+            .iter()
+            .map(|element| ElementShape::new(&element.map(|n| mesh.nodes_mm[n])))
+            .collect();
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(MAX_THREADS);
+        Bar {
+            mesh,
+            shapes,
+            material,
+            threads,
+        }
+    }
+
+    /// Evaluate elements on at most this many threads (default: the cores, up to 8).
+    pub fn with_threads(mut self, threads: usize) -> Self {
+        self.threads = threads.max(1);
+        self
+    }
+
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    pub fn material(&self) -> &M {
+        &self.material
+    }
+
+    fn constraints(&self) -> Constraints {
+        let dofs = 2 * self.mesh.node_count();
+        let fixed: Vec<usize> = self
+            .mesh
+            .axis_nodes()
+            .map(|n| 2 * n)
+            .chain(self.mesh.symmetry_plane_nodes().map(|n| 2 * n + 1))
+            .collect();
+        let pulled: Vec<usize> = self.mesh.end_nodes().map(|n| 2 * n + 1).collect();
+        let mut is_constrained = vec![false; dofs];
+        for &dof in fixed.iter().chain(&pulled) {
+            is_constrained[dof] = true;
+        }
+        Constraints {
+            fixed,
+            pulled,
+            is_constrained,
+        }
+    }
+
+    fn assemble(
+        &self,
+        displacement: &[f64],
+        states: &[[GaussPointState<M::State>; 4]],
+    ) -> Result<Assembly<M::State>, String> {
+        let dofs = displacement.len();
+        let band = self.mesh.half_bandwidth();
+        let mut stiffness = BandedMatrix::zeros(dofs, band, band);
+        let mut force_n = vec![0.0; dofs];
+        let element_dofs = |element: &[usize; 4]| -> [usize; 8] {
+            std::array::from_fn(|k| 2 * element[k / 2] + k % 2)
+        };
+        // Element evaluations are independent: split them over the cores in
+        // contiguous chunks, then scatter serially (the scatter is cheap).
+        let evaluate_range = |range: std::ops::Range<usize>| {
+            range
+                .map(|index| {
+                    let dofs = element_dofs(&self.mesh.elements[index]);
+                    let local = ElementDisplacement::from_fn(|k, _| displacement[dofs[k]]);
+                    evaluate(&self.shapes[index], &self.material, &states[index], &local)
+                        .map_err(|error| format!("element {index}: {error}"))
+                })
+                .collect::<Result<Vec<_>, String>>()
+        };
+        let count = self.mesh.elements.len();
+        let threads = self
+            .threads
+            .min(count.div_ceil(MIN_ELEMENTS_PER_THREAD))
+            .max(1);
+        let chunk = count.div_ceil(threads);
+        let responses: Vec<_> = if threads == 1 {
+            vec![evaluate_range(0..count)]
+        } else {
+            std::thread::scope(|scope| {
+                let handles: Vec<_> = (0..threads)
+                    .map(|t| {
+                        let range = t * chunk..((t + 1) * chunk).min(count);
+                        scope.spawn(move || evaluate_range(range))
+                    })
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|handle| {
+                        handle
+                            .join()
+                            .unwrap_or_else(|_| Err("an element evaluation panicked".into()))
+                    })
+                    .collect()
+            })
+        };
+        let mut new_states = Vec::with_capacity(count);
+        let mut index = 0;
+        for chunk in responses {
+            for response in chunk? {
+                let dofs = element_dofs(&self.mesh.elements[index]);
+                for (a, &row) in dofs.iter().enumerate() {
+                    force_n[row] += response.force_n[a];
+                    for (b, &column) in dofs.iter().enumerate() {
+                        stiffness.add(row, column, response.stiffness_n_per_mm[(a, b)]);
+                    }
+                }
+                new_states.push(response.states);
+                index += 1;
+            }
+        }
+        Ok(Assembly {
+            stiffness,
+            force_n,
+            states: new_states,
+        })
+    }
+
+    fn failed_points(&self, states: &[[GaussPointState<M::State>; 4]]) -> usize {
+        states
+            .iter()
+            .flatten()
+            .filter(|point| self.material.has_failed(&point.material))
+            .count()
+    }
+
+    fn curve_point(
+        &self,
+        displacement_mm: f64,
+        displacement: &[f64],
+        force_n: &[f64],
+        constraints: &Constraints,
+        failed_points: usize,
+    ) -> CurvePoint {
+        let force: f64 = constraints.pulled.iter().map(|&dof| force_n[dof]).sum();
+        let neck = self.mesh.neck_surface_node();
+        CurvePoint {
+            displacement_mm,
+            force_kn: force / 1000.0,
+            neck_diameter_mm: 2.0 * (self.mesh.nodes_mm[neck][0] + displacement[2 * neck]),
+            failed_points,
+        }
+    }
+
+    /// Pulls the bar from rest to `settings.end_displacement_mm`.
+    pub fn pull(&self, settings: &LoadingSettings) -> PullResult {
+        let constraints = self.constraints();
+        let dofs = 2 * self.mesh.node_count();
+        let mut displacement = vec![0.0; dofs];
+        let initial = GaussPointState::new(self.material.initial_state());
+        let mut states = vec![[initial; 4]; self.mesh.elements.len()];
+        let mut curve = vec![CurvePoint {
+            displacement_mm: 0.0,
+            force_kn: 0.0,
+            neck_diameter_mm: 2.0 * self.mesh.nodes_mm[self.mesh.neck_surface_node()][0],
+            failed_points: 0,
+        }];
+        let mut result = PullResult {
+            curve: Vec::new(),
+            outcome: Outcome::ReachedEnd,
+            steps: 0,
+            newton_iterations: 0,
+            step_cuts: 0,
+        };
+        let end = settings.end_displacement_mm;
+        let interval = settings
+            .output_interval_mm
+            .min(end)
+            .max(settings.min_step_mm);
+        let mut pulled_mm = 0.0;
+        let mut step_mm = interval;
+        let mut next_output = interval.min(end);
+        let mut peak_force_kn: f64 = 0.0;
+        // Displacement per mm of end displacement in the last step: the
+        // predictor of the next (it carries the last step's unloading
+        // pattern, so Newton starts on the right elastic/plastic split).
+        let mut rate: Option<Vec<f64>> = None;
+        while pulled_mm < end - 1e-12 * end {
+            let target = (pulled_mm + step_mm).min(next_output);
+            let increment = target - pulled_mm;
+            let predicted: Option<Vec<f64>> = rate.as_ref().map(|rate| {
+                displacement
+                    .iter()
+                    .zip(rate)
+                    .map(|(u, v)| u + v * increment)
+                    .collect()
+            });
+            let start = predicted.as_deref().unwrap_or(&displacement);
+            let jump = if predicted.is_some() { 0.0 } else { increment };
+            match self.converge_step(start, &states, &constraints, jump, settings) {
+                Ok((new_displacement, assembly, iterations)) => {
+                    result.steps += 1;
+                    result.newton_iterations += iterations;
+                    rate = Some(
+                        new_displacement
+                            .iter()
+                            .zip(&displacement)
+                            .map(|(new, old)| (new - old) / increment)
+                            .collect(),
+                    );
+                    displacement = new_displacement;
+                    states = assembly.states;
+                    pulled_mm = target;
+                    if iterations <= EASY_STEP_ITERATIONS {
+                        step_mm = (step_mm * 1.5).min(interval);
+                    }
+                    let reached_output = (target - next_output).abs() <= 1e-12 * end.max(1.0);
+                    if reached_output || target >= end {
+                        let failed = self.failed_points(&states);
+                        let point = self.curve_point(
+                            target,
+                            &displacement,
+                            &assembly.force_n,
+                            &constraints,
+                            failed,
+                        );
+                        curve.push(point);
+                        peak_force_kn = peak_force_kn.max(point.force_kn);
+                        next_output = (next_output + interval).min(end);
+                        if point.force_kn < settings.fracture_force_fraction * peak_force_kn {
+                            result.outcome = Outcome::Fractured {
+                                displacement_mm: target,
+                            };
+                            break;
+                        }
+                    }
+                }
+                Err(reason) => {
+                    result.step_cuts += 1;
+                    step_mm = increment / 2.0;
+                    if step_mm < settings.min_step_mm {
+                        result.outcome = Outcome::NotConverged {
+                            displacement_mm: pulled_mm,
+                            reason,
+                        };
+                        break;
+                    }
+                }
+            }
+        }
+        result.curve = curve;
+        result
+    }
+
+    /// Newton iterations for one step; the displacement, assembly at
+    /// convergence and iteration count, or why it failed. `start` already holds the prescribed end displacement unless
+    /// `increment_mm` (the jump still to apply to the pulled end) is non-zero.
+    fn converge_step(
+        &self,
+        start: &[f64],
+        states: &[[GaussPointState<M::State>; 4]],
+        constraints: &Constraints,
+        increment_mm: f64,
+        settings: &LoadingSettings,
+    ) -> Result<ConvergedStep<M::State>, String> {
+        let mut displacement = start.to_vec();
+        let mut first_residual = f64::NAN;
+        for iteration in 0..=settings.max_newton_iterations {
+            let mut assembly = self.assemble(&displacement, states)?;
+            if iteration > 0 {
+                let (residual, reaction) = norms(&assembly.force_n, &constraints.is_constrained);
+                if !residual.is_finite() {
+                    return Err("the out-of-balance force is not finite".into());
+                }
+                // Relative to the reaction, with a floor of 1 N of reaction.
+                if residual <= settings.relative_tolerance * reaction.max(1.0) {
+                    return Ok((displacement, assembly, iteration));
+                }
+                if iteration == 1 {
+                    first_residual = residual;
+                } else if residual > 1e6 * first_residual {
+                    return Err(format!(
+                        "Newton diverged (out-of-balance force {residual:.3e} N)"
+                    ));
+                }
+                if iteration == settings.max_newton_iterations {
+                    return Err(format!(
+                        "no convergence in {iteration} iterations (out-of-balance force {residual:.3e} N, reaction {reaction:.3e} N)"
+                    ));
+                }
+            }
+            let mut rhs: Vec<f64> = assembly.force_n.iter().map(|f| -f).collect();
+            let pulled_value = if iteration == 0 { increment_mm } else { 0.0 };
+            for &dof in &constraints.fixed {
+                assembly.stiffness.prescribe(dof, 0.0, &mut rhs);
+            }
+            for &dof in &constraints.pulled {
+                assembly.stiffness.prescribe(dof, pulled_value, &mut rhs);
+            }
+            assembly
+                .stiffness
+                .solve_in_place(&mut rhs)
+                .map_err(|error| error.to_string())?;
+            for (u, du) in displacement.iter_mut().zip(&rhs) {
+                *u += du;
+            }
+        }
+        Err("no convergence".into())
+    }
+}
+
+/// Euclidean norms of the free (out-of-balance) and constrained (reaction)
+/// parts of a nodal force vector.
+fn norms(force_n: &[f64], is_constrained: &[bool]) -> (f64, f64) {
+    let (mut free, mut constrained) = (0.0, 0.0);
+    for (f, &c) in force_n.iter().zip(is_constrained) {
+        if c {
+            constrained += f * f;
+        } else {
+            free += f * f;
+        }
+    }
+    (free.sqrt(), constrained.sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tensile::element::Hencky;
+    use crate::tensile::mesh::{BarGeometry, MeshDensity};
+
+    #[test]
+    fn an_elastic_bar_stretches_uniformly_as_the_closed_form_says() {
+        // Hencky: tau_zz = E ln(lambda) under uniaxial stress, so the force
+        // is F = tau_zz / J * A = E ln(lambda) A0 / lambda, exactly.
+        let geometry = BarGeometry {
+            imperfection: 0.0,
+            ..BarGeometry::default()
+        };
+        let mesh = Mesh::new(
+            &geometry,
+            &MeshDensity {
+                radial_elements: 3,
+                axial_elements: 4,
+                axial_grading: 2.0,
+            },
+        )
+        .unwrap();
+        let material = Hencky {
+            youngs_modulus_mpa: 1000.0,
+            poisson_ratio: 0.3,
+        };
+        let bar = Bar::new(mesh, material);
+        let mut settings = LoadingSettings::to(2.5);
+        settings.output_interval_mm = 0.5;
+        let result = bar.pull(&settings);
+        assert_eq!(result.outcome, Outcome::ReachedEnd);
+        assert_eq!(result.curve.len(), 6);
+        for point in &result.curve[1..] {
+            let stretch = 1.0 + point.displacement_mm / geometry.half_length_mm;
+            let expected_kn = 1000.0 * stretch.ln() * geometry.area_mm2() / stretch / 1000.0;
+            assert!(
+                (point.force_kn - expected_kn).abs() < 1e-9 * expected_kn,
+                "{point:?} vs {expected_kn}"
+            );
+            // Lateral log strain -nu ln(lambda).
+            let expected_diameter = geometry.diameter_mm * (-0.3 * stretch.ln()).exp();
+            assert!((point.neck_diameter_mm - expected_diameter).abs() < 1e-9);
+        }
+        // Newton with the exact tangent on a hyperelastic problem: few iterations.
+        assert!(result.newton_iterations <= 4 * result.steps, "{result:?}");
+    }
+}

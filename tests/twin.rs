@@ -1,4 +1,4 @@
-//! `acq twin excavator` and `acq sensitivity excavator` from the outside,
+//! `acq twin excavator`, `acq twin gtn` and `acq sensitivity excavator` from the outside,
 //! exactly as the issue fixes them.
 
 mod common;
@@ -174,4 +174,119 @@ fn sensitivity_writes_the_table_and_the_plot() {
         swing("force_angle_deg") > swing("arm_stroke_mm"),
         "{summary}"
     );
+}
+
+const PUBLISHED_DATASET_1: &str =
+    "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1";
+
+#[test]
+fn gtn_json_has_exactly_the_fixed_keys_and_a_finite_mape() {
+    let output = acq(&[
+        "twin",
+        "gtn",
+        "--test",
+        "data/tensile/P91_20_2_DF_SS.csv",
+        "--param",
+        PUBLISHED_DATASET_1,
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let value: serde_json::Value = serde_json::from_str(stdout(&output).trim()).unwrap();
+    let object = value.as_object().unwrap();
+    let mut keys: Vec<&str> = object.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    assert_eq!(keys, ["failed_early", "mape", "points", "wall_s"]);
+    let mape = object["mape"].as_f64().unwrap();
+    // Not tuned to the published 1.563 %: the bound only says the twin is
+    // the right kind of curve (a wrong one is tens of %).
+    assert!(mape > 0.0 && mape < 15.0, "MAPE {mape}");
+    assert_eq!(object["failed_early"], false);
+    // 0.01 mm output interval to the test's last point, 2.607 mm.
+    assert_eq!(object["points"], 262);
+    assert!(object["wall_s"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn gtn_curve_file_starts_at_the_origin_and_peaks_near_the_test() {
+    let dir = tempfile::tempdir().unwrap();
+    let curve = dir.path().join("curve.csv");
+    let output = acq(&[
+        "twin",
+        "gtn",
+        "--test",
+        "data/tensile/P91_20_2_DF_SS.csv",
+        "--param",
+        PUBLISHED_DATASET_1,
+        "-o",
+        curve.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stdout(&output).contains("MAPE"), "{}", stdout(&output));
+    let text = std::fs::read_to_string(&curve).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("DISPLACEMENT,FORCE,NECK_DIAMETER,FAILED_POINTS")
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows[0][0], 0.0);
+    assert_eq!(rows[0][1], 0.0);
+    let peak = rows.iter().map(|r| r[1]).fold(0.0, f64::max);
+    // The test's maximum is 7.4597 kN; the flow curve comes from the test,
+    // so the twin's peak must be close (damage lowers it a little).
+    assert!((peak - 7.4597).abs() < 0.15, "peak {peak}");
+    // The neck thins monotonically.
+    assert!(rows.windows(2).all(|w| w[1][2] <= w[0][2] + 1e-12));
+}
+
+#[test]
+fn gtn_parameters_out_of_range_exit_2_naming_the_parameter() {
+    for (change, expected) in [
+        (("q1=1.332", "q1=0"), "q1"),
+        (("f0=0.00137", "f0=1"), "f0"),
+        (("sN=0.1671", "sN=0"), "sN"),
+        (("m=534.1", "m=-1"), "m"),
+        (("fN=0.03869", "fN=-0.1"), "fN"),
+        (("q2=0.9952,", ""), "missing parameter(s): q2"),
+        (("m=534.1", "m=534.1,k=2"), "unknown parameter `k`"),
+    ] {
+        let param = PUBLISHED_DATASET_1.replace(change.0, change.1);
+        let output = acq(&[
+            "twin",
+            "gtn",
+            "--test",
+            "data/tensile/P91_20_2_DF_SS.csv",
+            "--param",
+            &param,
+            "--json",
+        ]);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{param}: {}",
+            stderr(&output)
+        );
+        let message = stderr(&output);
+        assert!(message.contains(expected), "{param}: {message}");
+        assert!(stdout(&output).is_empty());
+    }
+}
+
+#[test]
+fn gtn_malformed_test_file_exits_3_with_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let test = dir.path().join("bad.csv");
+    std::fs::write(&test, "DISPLACEMENT,FORCE\n0,0\n0.1,abc\n").unwrap();
+    let output = acq(&[
+        "twin",
+        "gtn",
+        "--test",
+        test.to_str().unwrap(),
+        "--param",
+        PUBLISHED_DATASET_1,
+    ]);
+    assert_eq!(output.status.code(), Some(3), "{}", stderr(&output));
+    assert!(stderr(&output).contains("bad.csv:3"), "{}", stderr(&output));
 }

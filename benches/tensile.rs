@@ -1,0 +1,69 @@
+//! One GTN tensile simulation of the Dataset-1 test (P91, 20 C) to its last
+//! displacement with the published parameters: wall time and peak memory.
+//! Target (issue 6): under 1 s and under 100 MB.
+//!
+//! `cargo bench --bench tensile`
+
+use std::path::Path;
+
+use acq::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
+use acq::tensile_model::{GtnInputs, ModelSettings, TensileModel};
+use acq_twins::tensile::mesh::MeshDensity;
+
+fn peak_rss_mb() -> f64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn main() {
+    let test_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/tensile/P91_20_2_DF_SS.csv");
+    let points = read_test_csv(&test_path).expect("test file");
+    let properties = tensile_properties(&points, SpecimenGeometry::default()).expect("properties");
+    let inputs = GtnInputs::parse(
+        "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1",
+    )
+    .expect("parameters");
+    println!("mesh      threads  runs  median s  min s   steps  iterations  MAPE %");
+    for (radial, axial) in [(6, 30), (8, 40)] {
+        let mesh = MeshDensity {
+            radial_elements: radial,
+            axial_elements: axial,
+            ..Default::default()
+        };
+        let model = TensileModel::new(
+            points.clone(),
+            properties.clone(),
+            ModelSettings {
+                mesh,
+                ..Default::default()
+            },
+        );
+        let mut times = Vec::new();
+        let mut last = None;
+        for _ in 0..5 {
+            let run = model.run(&inputs).expect("run");
+            times.push(run.wall_s);
+            last = Some(run);
+        }
+        times.sort_by(f64::total_cmp);
+        let run = last.expect("at least one run");
+        println!(
+            "{radial}x{axial:<6} {:>7}  {:>4}  {:>8.3}  {:>5.3}  {:>6}  {:>10}  {:>6.3}",
+            std::thread::available_parallelism().map_or(1, |n| n.get()),
+            times.len(),
+            times[times.len() / 2],
+            times[0],
+            run.result.steps,
+            run.result.newton_iterations,
+            run.mape.mape_percent
+        );
+    }
+    println!(
+        "peak resident memory of the whole benchmark: {:.1} MB",
+        peak_rss_mb()
+    );
+}

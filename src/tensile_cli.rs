@@ -335,6 +335,9 @@ pub struct TwinGtnArgs {
     /// Mesh as RADIALxAXIAL elements of the quarter model.
     #[arg(long, value_name = "NRxNZ", default_value = "6x30")]
     pub mesh: String,
+    /// Output interval of the simulated curve, also the largest load step, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.01)]
+    pub step_mm: f64,
     /// Specimen diameter, mm.
     #[arg(long, value_name = "MM", default_value_t = 4.0)]
     pub diameter_mm: f64,
@@ -369,8 +372,15 @@ pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
     use crate::tensile_model::{GtnInputs, ModelSettings, TensileModel};
     let inputs =
         GtnInputs::parse(&args.param).map_err(|e| AcqError::Config(format!("--param: {e}")))?;
+    if !(args.step_mm > 0.0 && args.step_mm <= 1.0) {
+        return Err(AcqError::Config(format!(
+            "--step-mm must be in (0, 1] mm, got {}",
+            args.step_mm
+        )));
+    }
     let mut settings = ModelSettings {
         mesh: parse_mesh(&args.mesh)?,
+        output_interval_mm: args.step_mm,
         ..Default::default()
     };
     settings.geometry.diameter_mm = args.diameter_mm;

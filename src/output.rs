@@ -36,6 +36,14 @@ impl Output {
         Ok(Output::to_writer(name, sink))
     }
 
+    /// Writes `contents` to `path` through [`Output::create_complete_only`]:
+    /// the whole file appears at once, or none.
+    pub fn write_complete(path: &Path, contents: &[u8]) -> Result<()> {
+        let mut output = Self::create_complete_only(path)?;
+        output.buffer.extend_from_slice(contents);
+        output.finish()
+    }
+
     /// A file that appears under its name only once complete: written as
     /// `NAME.partial`, renamed by [`Output::finish`]. A crash or an error
     /// leaves no file that looks finished. `-` is stdout. A path that

@@ -61,19 +61,17 @@ pub fn run_tensile_props(args: TensilePropsArgs) -> Result<()> {
         .map_err(|e| AcqError::Malformed(format!("{}: {e}", args.test.display())))?;
 
     if let Some(path) = &args.output {
-        let mut output = Output::create_complete_only(path)?;
-        output
-            .buffer
-            .extend_from_slice(flow_curve_csv(&properties.flow_curve.points).as_bytes());
-        output.finish()?;
+        Output::write_complete(
+            path,
+            flow_curve_csv(&properties.flow_curve.points).as_bytes(),
+        )?;
     }
     if let Some(path) = &args.svg {
-        let mut output = Output::create_complete_only(path)?;
         let title = format!("{}: tensile properties", file_name(&args.test));
-        output
-            .buffer
-            .extend_from_slice(properties_svg(&title, &points, &properties).as_bytes());
-        output.finish()?;
+        Output::write_complete(
+            path,
+            properties_svg(&title, &points, &properties).as_bytes(),
+        )?;
     }
     // Through Output, so `acq tensile-props ... | head` ends quietly.
     let mut stdout = Output::create(None)?;
@@ -397,10 +395,10 @@ pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
     let properties = tensile_properties(&points, geometry)
         .map_err(|e| AcqError::Malformed(format!("{}: {e}", args.test.display())))?;
     let model = TensileModel::new(points, properties, settings);
-    let twin = model
+    // Parameters out of range are a usage error (exit 2), before any work.
+    model
         .twin(&inputs)
         .map_err(|e| AcqError::Config(format!("--param: {e}")))?;
-    drop(twin);
     let run = model
         .run(&inputs)
         .map_err(|e| AcqError::Config(e.to_string()))?;
@@ -414,23 +412,18 @@ pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
         );
     }
     if let Some(path) = &args.output {
-        let mut output = Output::create_complete_only(path)?;
-        output
-            .buffer
-            .extend_from_slice(simulated_curve_csv(&run.result.curve).as_bytes());
-        output.finish()?;
+        Output::write_complete(path, simulated_curve_csv(&run.result.curve).as_bytes())?;
     }
     if let Some(path) = &args.svg {
-        let mut output = Output::create_complete_only(path)?;
         let title = format!(
             "{}: GTN twin vs test (MAPE {:.3} %)",
             file_name(&args.test),
             run.mape.mape_percent
         );
-        output
-            .buffer
-            .extend_from_slice(comparison_svg(&title, &model.test, &run.result.curve).as_bytes());
-        output.finish()?;
+        Output::write_complete(
+            path,
+            comparison_svg(&title, &model.test, &run.result.curve).as_bytes(),
+        )?;
     }
     let mut stdout = Output::create(None)?;
     let text = if args.json {

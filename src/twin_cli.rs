@@ -292,9 +292,7 @@ pub fn run_sensitivity(command: SensitivityCommand) -> Result<()> {
         .output
         .unwrap_or_else(|| PathBuf::from(format!("{}-sensitivity.csv", case.name)));
     let svg_path = args.svg.unwrap_or_else(|| csv_path.with_extension("svg"));
-    let mut table = Output::create_complete_only(&csv_path)?;
-    table.buffer.extend_from_slice(sweep.to_csv().as_bytes());
-    table.finish()?;
+    Output::write_complete(&csv_path, sweep.to_csv().as_bytes())?;
     let measured = case.measured;
     let charts = sweep.charts(&[0, 1, 2, 3, 4], |r| {
         let name = *CylinderName::ALL.get(r)?;
@@ -304,10 +302,10 @@ pub fn run_sensitivity(command: SensitivityCommand) -> Result<()> {
         "{}: one-at-a-time sensitivity ({} values per input, others nominal)",
         case.name, args.points
     );
-    let mut plot = Output::create_complete_only(&svg_path)?;
-    plot.buffer
-        .extend_from_slice(grid_svg(&title, &charts, 3, 420.0, 300.0).as_bytes());
-    plot.finish()?;
+    Output::write_complete(
+        &svg_path,
+        grid_svg(&title, &charts, 3, 420.0, 300.0).as_bytes(),
+    )?;
 
     // The swing of each headline output over each input's range.
     let swings = sweep.swings();

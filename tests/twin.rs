@@ -176,20 +176,20 @@ fn sensitivity_writes_the_table_and_the_plot() {
     );
 }
 
+const DATASET_1: &str = "data/tensile/P91_20_2_DF_SS.csv";
 const PUBLISHED_DATASET_1: &str =
     "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1";
 
+/// `acq twin gtn --test TEST --param PARAM` plus `extra`.
+fn gtn(test: &str, param: &str, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["twin", "gtn", "--test", test, "--param", param];
+    args.extend_from_slice(extra);
+    acq(&args)
+}
+
 #[test]
 fn gtn_json_has_exactly_the_fixed_keys_and_a_finite_mape() {
-    let output = acq(&[
-        "twin",
-        "gtn",
-        "--test",
-        "data/tensile/P91_20_2_DF_SS.csv",
-        "--param",
-        PUBLISHED_DATASET_1,
-        "--json",
-    ]);
+    let output = gtn(DATASET_1, PUBLISHED_DATASET_1, &["--json"]);
     assert!(output.status.success(), "{}", stderr(&output));
     let value: serde_json::Value = serde_json::from_str(stdout(&output).trim()).unwrap();
     let object = value.as_object().unwrap();
@@ -210,16 +210,11 @@ fn gtn_json_has_exactly_the_fixed_keys_and_a_finite_mape() {
 fn gtn_curve_file_starts_at_the_origin_and_peaks_near_the_test() {
     let dir = tempfile::tempdir().unwrap();
     let curve = dir.path().join("curve.csv");
-    let output = acq(&[
-        "twin",
-        "gtn",
-        "--test",
-        "data/tensile/P91_20_2_DF_SS.csv",
-        "--param",
+    let output = gtn(
+        DATASET_1,
         PUBLISHED_DATASET_1,
-        "-o",
-        curve.to_str().unwrap(),
-    ]);
+        &["-o", curve.to_str().unwrap()],
+    );
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stdout(&output).contains("MAPE"), "{}", stdout(&output));
     let text = std::fs::read_to_string(&curve).unwrap();
@@ -253,15 +248,7 @@ fn gtn_parameters_out_of_range_exit_2_naming_the_parameter() {
         (("m=534.1", "m=534.1,k=2"), "unknown parameter `k`"),
     ] {
         let param = PUBLISHED_DATASET_1.replace(change.0, change.1);
-        let output = acq(&[
-            "twin",
-            "gtn",
-            "--test",
-            "data/tensile/P91_20_2_DF_SS.csv",
-            "--param",
-            &param,
-            "--json",
-        ]);
+        let output = gtn(DATASET_1, &param, &["--json"]);
         assert_eq!(
             output.status.code(),
             Some(2),
@@ -279,14 +266,7 @@ fn gtn_malformed_test_file_exits_3_with_the_line() {
     let dir = tempfile::tempdir().unwrap();
     let test = dir.path().join("bad.csv");
     std::fs::write(&test, "DISPLACEMENT,FORCE\n0,0\n0.1,abc\n").unwrap();
-    let output = acq(&[
-        "twin",
-        "gtn",
-        "--test",
-        test.to_str().unwrap(),
-        "--param",
-        PUBLISHED_DATASET_1,
-    ]);
+    let output = gtn(test.to_str().unwrap(), PUBLISHED_DATASET_1, &[]);
     assert_eq!(output.status.code(), Some(3), "{}", stderr(&output));
     assert!(stderr(&output).contains("bad.csv:3"), "{}", stderr(&output));
 }

@@ -499,14 +499,13 @@ fn twin_report(
         "  model: quarter bar {} x {} elements (F-bar, finite strain), imperfection {} of the radius",
         mesh.radial_elements, mesh.axial_elements, model.settings.geometry.imperfection
     );
-    let (peak_index, peak) = result
+    // The curve always holds the origin, so there is a largest point.
+    let peak = result
         .curve
         .iter()
-        .enumerate()
-        .max_by(|a, b| a.1.force_kn.total_cmp(&b.1.force_kn))
-        .map(|(i, p)| (i, *p))
-        .unwrap_or((0, result.curve[0]));
-    let _ = peak_index;
+        .copied()
+        .max_by(|a, b| a.force_kn.total_cmp(&b.force_kn))
+        .unwrap_or(result.curve[0]);
     let _ = writeln!(text);
     let _ = writeln!(text, "                 test        twin");
     let _ = writeln!(

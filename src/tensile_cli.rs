@@ -159,10 +159,10 @@ pub fn report(name: &str, p: &TensileProperties) -> String {
     );
     let _ = writeln!(
         out,
-        "flow curve          {} rows from Rp0.2 to the UTS (plastic strain shifted by {:.6}); dropped {} negative, {} non-increasing",
+        "flow curve          {} rows from the onset of plasticity (strain {:.5}, after point {}) to the UTS, plastic strain unshifted; dropped {} non-increasing",
         flow.points.len(),
-        flow.plastic_strain_shift,
-        flow.dropped_negative,
+        flow.onset_strain,
+        flow.onset_after_point,
         flow.dropped_non_increasing
     );
     let _ = writeln!(
@@ -268,14 +268,13 @@ pub fn properties_svg(
         .map(|q| strain(q.displacement_mm).ln_1p())
         .unwrap_or(p.uts.true_strain)
         .max(1.5 * p.uts.true_strain);
-    let shift = p.flow_curve.plastic_strain_shift;
     let extension = |m: f64| -> Vec<(f64, f64)> {
         (0..=20)
             .map(|k| {
                 let true_strain =
                     p.uts.true_strain + (last_true_strain - p.uts.true_strain) * k as f64 / 20.0;
                 let true_stress = p.uts.true_stress_mpa + m * (true_strain - p.uts.true_strain);
-                (true_strain - true_stress / e - shift, true_stress)
+                (true_strain - true_stress / e, true_stress)
             })
             .collect()
     };

@@ -22,8 +22,8 @@ fn number(value: &Value, pointer: &str) -> f64 {
         .unwrap_or_else(|| panic!("{pointer} missing or not a number in {value}"))
 }
 
-/// The flow curve starts at 0 and its plastic strain strictly increases;
-/// the stress never falls below the yield stress.
+/// The flow curve starts at 0 below Rp0.2 and its plastic strain strictly
+/// increases; the stress never falls below its first row.
 fn check_flow_curve(value: &Value) -> usize {
     let rows = value["flow_curve"]["points"].as_array().unwrap();
     assert!(rows.len() >= 10, "{} rows", rows.len());
@@ -33,10 +33,11 @@ fn check_flow_curve(value: &Value) -> usize {
         .map(|r| r["plastic_strain"].as_f64().unwrap())
         .collect();
     assert!(strains.windows(2).all(|w| w[1] > w[0]), "{strains:?}");
-    let yield_true = number(value, "/yield_point/true_stress_mpa");
+    let first = rows[0]["true_stress_mpa"].as_f64().unwrap();
+    assert!(first < number(value, "/yield_point/true_stress_mpa"));
     assert!(rows
         .iter()
-        .all(|r| r["true_stress_mpa"].as_f64().unwrap() >= yield_true - 1e-9));
+        .all(|r| r["true_stress_mpa"].as_f64().unwrap() >= first));
     let last_stress = rows[rows.len() - 1]["true_stress_mpa"].as_f64().unwrap();
     assert_eq!(last_stress, number(value, "/uts/true_stress_mpa"));
     rows.len()
@@ -80,7 +81,14 @@ fn dataset_1_has_sensible_properties() {
         [2, 3, 4, 5, 6]
     );
     assert!((number(slope, "/max_slope_mpa") - 799.0).abs() < 0.05);
-    assert_eq!(check_flow_curve(&value), 124);
+    assert_eq!(check_flow_curve(&value), 129);
+    // The flow curve starts where the plastic strain turns positive, just
+    // above the last point E is fitted to (point 4, 347.0 MPa engineering).
+    let onset = value["flow_curve"]["points"][0]["true_stress_mpa"]
+        .as_f64()
+        .unwrap();
+    assert!((onset - 348.71).abs() < 0.01, "{onset}");
+    assert_eq!(value["flow_curve"]["onset_after_point"].as_u64(), Some(4));
 }
 
 #[test]
@@ -121,7 +129,7 @@ fn the_report_flow_csv_and_svg_agree_with_the_json() {
         "yield Rp0.2         438.0 MPa",
         "7.459653576 kN at u = 1.32067 mm",
         "bounds 0 .. 800 MPa",
-        "124 rows",
+        "129 rows from the onset of plasticity",
     ] {
         assert!(report.contains(needle), "{needle:?} not in\n{report}");
     }

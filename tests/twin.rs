@@ -197,9 +197,11 @@ fn gtn_json_has_exactly_the_fixed_keys_and_a_finite_mape() {
     keys.sort_unstable();
     assert_eq!(keys, ["failed_early", "mape", "points", "wall_s"]);
     let mape = object["mape"].as_f64().unwrap();
-    // Not tuned to the published 1.563 %: the bound only says the twin is
-    // the right kind of curve (a wrong one is tens of %).
-    assert!(mape > 0.0 && mape < 15.0, "MAPE {mape}");
+    // Not tuned to the published 1.563 %. 2.72 % with the Cauchy stress in
+    // the yield function and the unshifted flow curve; the Kirchhoff stress
+    // gave 3.2 % and a flow curve shifted to start at Rp0.2 6.1 %, so the
+    // bound catches either mistake.
+    assert!(mape > 0.0 && mape < 3.0, "MAPE {mape}");
     assert_eq!(object["failed_early"], false);
     // 0.01 mm output interval to the test's last point, 2.607 mm.
     assert_eq!(object["points"], 262);

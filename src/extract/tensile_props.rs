@@ -40,14 +40,19 @@
 //!    the curve, read linearly between measured points, first falls below
 //!    the line `s = E (e - 0.002)`. It must come before the UTS.
 //! 4. **Flow curve** (true stress vs plastic strain, the table an FE
-//!    plasticity model takes): first row at the Rp0.2 point, then every
-//!    measured point after it up to and including the UTS. Plastic strain
-//!    `ln(1 + e) - s (1 + e) / E`, shifted so the first row is exactly 0
-//!    (the 0.2 % offset itself is dropped: the yield stress is the stress
-//!    at zero plastic strain, the usual FE convention). Points whose
-//!    shifted plastic strain is negative are dropped, then points that do
-//!    not increase it (strictly increasing is what FE codes require); both
-//!    counts are reported.
+//!    plasticity model takes): plastic strain `ln(1 + e) - s (1 + e) / E`,
+//!    *not shifted*. The first row (plastic strain 0) is the onset of
+//!    plasticity: where the plastic strain turns positive for the last
+//!    time before Rp0.2 (read linearly between the two points around the
+//!    crossing; points of the elastic range that scatter above zero are
+//!    ignored). Then every measured point after it up to and including the
+//!    UTS. Unshifted, a model stretched uniformly with this table and E
+//!    retraces the measured curve up to the UTS; shifting the table to
+//!    start at Rp0.2 (the other common convention) would put the model's
+//!    curve 0.2 % strain (0.025 mm here) ahead of the test and its knee
+//!    several per cent above it. Points whose plastic strain does not
+//!    increase are dropped (strictly increasing is what FE codes require)
+//!    and counted.
 //! 5. **Post-UTS slope m**: least-squares lines (with intercept) of true
 //!    stress on true strain through the last 2, 3, 4, 5 and 6 measured
 //!    points up to and including the UTS. Lower bound 0; upper bound the
@@ -65,7 +70,7 @@
 //! | UTS | 7.4597 kN at 1.32067 mm, 593.6 MPa | 6.2530 kN at 0.53542 mm, 497.6 MPa |
 //! | m fits (2..6 points) | 753.4, 799.0, 703.0, 674.2, 703.7 | 623.9, 677.7, 726.0, 747.6, 755.2 |
 //! | m bounds | 0..800 MPa (published 800) | 0..800 MPa (published 800) |
-//! | flow curve rows (none dropped) | 124 | 30 |
+//! | flow curve rows (none dropped) | 129 | 34 |
 //!
 //! Our E is 12 % (Dataset 1) and 20 % (Dataset 3) above the published
 //! values. The published E came from a linear fit (with intercept, on the
@@ -83,7 +88,9 @@
 //! Dataset 1 over fit limits of 50-70 % UTS) and lies 34 and 28 MPa above
 //! the published yields, which mark the onset of the knee rather than
 //! 0.2 % plastic strain. The published flow table started at the measured
-//! point nearest its yield stress; ours starts at Rp0.2.
+//! point nearest its yield stress; ours starts where the plastic strain
+//! turns positive (true stress 348.7 MPa for Dataset 1, 320.5 MPa for
+//! Dataset 3: the knee begins just above the points E is fitted to).
 
 use std::path::Path;
 
@@ -200,14 +207,15 @@ pub struct FlowPoint {
     pub true_stress_mpa: f64,
 }
 
-/// True stress vs plastic strain from Rp0.2 to the UTS.
+/// True stress vs plastic strain from the onset of plasticity to the UTS.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FlowCurve {
     pub points: Vec<FlowPoint>,
-    /// Plastic strain subtracted so the first row is 0 (that of the Rp0.2
-    /// point, about the 0.2 % offset).
-    pub plastic_strain_shift: f64,
-    pub dropped_negative: usize,
+    /// The measured point after which the plastic strain stays positive
+    /// (the first row lies between it and the next).
+    pub onset_after_point: usize,
+    /// Engineering strain at the first row.
+    pub onset_strain: f64,
     pub dropped_non_increasing: usize,
 }
 
@@ -555,18 +563,34 @@ pub fn tensile_properties(
         after_point,
     };
 
-    // Flow curve from Rp0.2 to the UTS.
-    let shift = yield_derived.plastic_strain(modulus);
+    // Flow curve from the onset of plasticity (the last zero crossing of
+    // the plastic strain before Rp0.2) to the UTS, unshifted.
+    let onset_point = (0..=after_point)
+        .rev()
+        .find(|&i| curve[i].plastic_strain(modulus) <= 0.0)
+        .unwrap_or(0);
+    let (below, above) = (curve[onset_point], curve[onset_point + 1]);
+    let (plastic_below, plastic_above) = (
+        below.plastic_strain(modulus).min(0.0),
+        above.plastic_strain(modulus),
+    );
+    let onset_fraction = if plastic_above > plastic_below {
+        -plastic_below / (plastic_above - plastic_below)
+    } else {
+        0.0
+    };
+    let onset = Derived {
+        strain: below.strain + onset_fraction * (above.strain - below.strain),
+        stress_mpa: below.stress_mpa + onset_fraction * (above.stress_mpa - below.stress_mpa),
+    };
     let mut flow = vec![FlowPoint {
         plastic_strain: 0.0,
-        true_stress_mpa: yield_derived.true_stress_mpa(),
+        true_stress_mpa: onset.true_stress_mpa(),
     }];
-    let (mut dropped_negative, mut dropped_non_increasing) = (0, 0);
-    for point in &curve[after_point + 1..=uts_point] {
-        let plastic_strain = point.plastic_strain(modulus) - shift;
-        if plastic_strain < 0.0 {
-            dropped_negative += 1;
-        } else if plastic_strain <= flow[flow.len() - 1].plastic_strain {
+    let mut dropped_non_increasing = 0;
+    for point in &curve[onset_point + 1..=uts_point] {
+        let plastic_strain = point.plastic_strain(modulus);
+        if plastic_strain <= flow[flow.len() - 1].plastic_strain {
             dropped_non_increasing += 1;
         } else {
             flow.push(FlowPoint {
@@ -575,9 +599,9 @@ pub fn tensile_properties(
             });
         }
     }
-    if dropped_negative + dropped_non_increasing > 0 {
+    if dropped_non_increasing > 0 {
         notes.push(format!(
-            "flow curve: dropped {dropped_negative} point(s) with negative and {dropped_non_increasing} with non-increasing plastic strain"
+            "flow curve: dropped {dropped_non_increasing} point(s) whose plastic strain does not increase"
         ));
     }
 
@@ -618,8 +642,8 @@ pub fn tensile_properties(
         },
         flow_curve: FlowCurve {
             points: flow,
-            plastic_strain_shift: shift,
-            dropped_negative,
+            onset_after_point: onset_point,
+            onset_strain: onset.strain,
             dropped_non_increasing,
         },
         post_uts_slope,
@@ -714,7 +738,20 @@ mod tests {
         assert!(flow
             .windows(2)
             .all(|w| w[1].plastic_strain > w[0].plastic_strain));
-        assert_eq!(flow.len(), 1 + 150 - 20);
+        // Plasticity starts at the kink (strain 0.002, point 10): the first
+        // row is there, at the true stress 400 (1.002), then points 11..=150.
+        assert_eq!(properties.flow_curve.onset_after_point, 10);
+        assert!((properties.flow_curve.onset_strain - 0.002).abs() < 1e-4);
+        assert!((flow[0].true_stress_mpa - 400.0 * 1.002).abs() < 0.1);
+        assert_eq!(flow.len(), 1 + 150 - 10);
+        // Unshifted: plastic + elastic true strain is the measured true
+        // strain, so a uniform model retraces the test.
+        let last = flow[flow.len() - 1];
+        let uts_true_strain = properties.uts.true_strain;
+        assert!(
+            (last.plastic_strain + last.true_stress_mpa / 200_000.0 - uts_true_strain).abs()
+                < 1e-12
+        );
         let hardening: Vec<f64> = properties
             .post_uts_slope
             .fits

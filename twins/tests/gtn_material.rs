@@ -528,6 +528,102 @@ fn consistent_tangent_matches_central_differences() {
     );
 }
 
+/// At finite strain the return mapping solves for the Kirchhoff stress τ
+/// while the yield function and the work equivalence of the reference hold
+/// for the Cauchy stress τ/J: check both conditions directly with the public
+/// yield function, and `∂τ/∂J` against central differences in J.
+#[test]
+fn volume_ratio_puts_the_cauchy_stress_on_the_yield_surface() {
+    let mut rng = Rng(0x5EED_0007);
+    let material = p91_material();
+    let mut checked = 0;
+    let mut worst_sensitivity = 0.0_f64;
+    for sample in 0..300 {
+        let state = MaterialState {
+            matrix_plastic_strain: rng.uniform(0.0, 0.5),
+            porosity: rng.uniform(0.001, 0.08),
+            failed: false,
+        };
+        let volume_ratio = rng.uniform(0.98, 1.12);
+        let magnitude = rng.uniform(0.003, 0.02);
+        let strain = random_trial_strain(&mut rng, magnitude);
+        let update = material
+            .update_at_volume_ratio(&state, &strain, volume_ratio)
+            .unwrap();
+        if !update.plastic || update.state.failed {
+            continue;
+        }
+        let cauchy = update.stress_mpa / volume_ratio;
+        let mean = (cauchy[0] + cauchy[1] + cauchy[2]) / 3.0;
+        let (flow_stress, _) = material
+            .flow
+            .flow_stress_mpa(update.state.matrix_plastic_strain);
+        let phi = yield_function(
+            &material.parameters,
+            mean,
+            von_mises(&cauchy),
+            flow_stress,
+            update.state.porosity,
+        );
+        assert!(phi.abs() < 1e-8, "sample {sample}: Φ(τ/J) = {phi:e}");
+        // (1 - f) σ_y Δε_m = σ : Δε_p, Δε_p = ε_tr - ε_e.
+        let plastic_increment = strain - update.elastic_strain;
+        let matrix_increment = update.state.matrix_plastic_strain - state.matrix_plastic_strain;
+        let work = cauchy.dot(&plastic_increment);
+        let matrix_work = (1.0 - update.state.porosity) * flow_stress * matrix_increment;
+        assert!(
+            (work - matrix_work).abs() <= 1e-8 * work.abs().max(1e-6),
+            "sample {sample}: σ:Δε_p = {work:e}, (1-f) σ_y Δε_m = {matrix_work:e}"
+        );
+
+        let step = 1e-6;
+        let up = material
+            .update_at_volume_ratio(&state, &strain, volume_ratio + step)
+            .unwrap();
+        let down = material
+            .update_at_volume_ratio(&state, &strain, volume_ratio - step)
+            .unwrap();
+        if !(up.plastic && down.plastic) || up.state.failed || down.state.failed {
+            continue;
+        }
+        let numerical = (up.stress_mpa - down.stress_mpa) / (2.0 * step);
+        let error = (numerical - update.stress_by_volume_ratio_mpa).norm()
+            / update.stress_by_volume_ratio_mpa.norm().max(1.0);
+        assert!(
+            error < 1e-5,
+            "sample {sample}: ∂τ/∂J {:?} vs differences {numerical:?}",
+            update.stress_by_volume_ratio_mpa
+        );
+        worst_sensitivity = worst_sensitivity.max(error);
+        checked += 1;
+    }
+    println!("∂τ/∂J: {checked} plastic states, worst relative error {worst_sensitivity:.2e}");
+    assert!(checked >= 150, "only {checked} plastic samples");
+}
+
+#[test]
+fn volume_ratio_one_is_the_small_strain_update() {
+    let material = p91_material();
+    let state = MaterialState {
+        matrix_plastic_strain: 0.1,
+        porosity: 0.01,
+        failed: false,
+    };
+    let strain = diagonal(0.01, -0.002, -0.002);
+    let small = material.update(&state, &strain).unwrap();
+    let finite = material
+        .update_at_volume_ratio(&state, &strain, 1.0)
+        .unwrap();
+    assert_eq!(small, finite);
+    assert!(small.stress_by_volume_ratio_mpa.norm() > 0.0);
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(matches!(
+            material.update_at_volume_ratio(&state, &strain, bad),
+            Err(GtnError::InvalidVolumeRatio { .. })
+        ));
+    }
+}
+
 #[test]
 fn hydrostatic_trial_tangent_matches_central_differences() {
     // q_tr = 0: the flow direction is undefined; the deviatoric tangent is the

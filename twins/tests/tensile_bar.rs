@@ -54,27 +54,33 @@ fn j2_twin(
     }
 }
 
-/// Force of a bar stretched uniformly, from the 1-D closed form: the
-/// Kirchhoff stress tau solves `tau = sigma_y(eps - tau / E)` (the axial
-/// log strain splits into plastic and elastic parts), and the force is
-/// `tau A0 exp(-eps)` (the Cauchy stress tau / J on the current area).
+/// Force of a bar stretched uniformly, from the 1-D closed form. The axial
+/// log strain splits into plastic and elastic parts, the elastic part is
+/// Hencky (`tau = E eps_e`, lateral `-nu eps_e`), so the volume ratio is
+/// `J = exp((1 - 2 nu) tau / E)` (plastic flow is isochoric); the yield
+/// condition holds for the Cauchy stress, `tau / J = sigma_y(eps - tau / E)`,
+/// and the force is `sigma A = tau A0 exp(-eps)`.
 fn uniform_force_kn(
     axial_log_strain: f64,
     youngs_modulus_mpa: f64,
+    poisson_ratio: f64,
     area_mm2: f64,
     flow: &FlowCurve,
 ) -> f64 {
+    let volume_ratio = |tau: f64| ((1.0 - 2.0 * poisson_ratio) * tau / youngs_modulus_mpa).exp();
     let yield_strain = flow.initial_yield_mpa() / youngs_modulus_mpa;
     let tau = if axial_log_strain <= yield_strain {
         youngs_modulus_mpa * axial_log_strain
     } else {
-        // Newton on g(tau) = tau - sigma_y(eps - tau/E); g is monotone.
+        // Newton on g(tau) = tau - J(tau) sigma_y(eps - tau/E).
         let mut tau = flow.initial_yield_mpa();
         for _ in 0..100 {
             let plastic = axial_log_strain - tau / youngs_modulus_mpa;
             let (stress, slope) = flow.flow_stress_mpa(plastic);
-            let g = tau - stress;
-            let dg = 1.0 + slope / youngs_modulus_mpa;
+            let ratio = volume_ratio(tau);
+            let g = tau - ratio * stress;
+            let dg = 1.0 - ratio * (1.0 - 2.0 * poisson_ratio) / youngs_modulus_mpa * stress
+                + ratio * slope / youngs_modulus_mpa;
             tau -= g / dg;
             if g.abs() < 1e-12 * tau {
                 break;
@@ -114,7 +120,7 @@ fn a_perfect_bar_follows_the_uniform_closed_form_through_large_strain() {
     let mut worst: f64 = 0.0;
     for point in &result.curve[1..] {
         let strain = (1.0 + point.displacement_mm / geometry.half_length_mm).ln();
-        let expected = uniform_force_kn(strain, 206_900.0, geometry.area_mm2(), &flow);
+        let expected = uniform_force_kn(strain, 206_900.0, 0.29, geometry.area_mm2(), &flow);
         worst = worst.max((point.force_kn - expected).abs() / expected);
     }
     assert!(worst < 1e-6, "largest relative force error {worst:e}");

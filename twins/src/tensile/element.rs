@@ -45,11 +45,16 @@ pub struct PointResponse<S> {
     pub elastic_strain: Mandel,
     /// d stress / d trial elastic strain (the consistent tangent), MPa.
     pub tangent_mpa: MandelTangent,
+    /// ∂ stress / ∂ volume ratio at fixed trial strain, MPa (zero for a
+    /// material whose Kirchhoff stress depends on the strain only).
+    pub stress_by_volume_ratio_mpa: Mandel,
     pub state: S,
 }
 
 /// A material in logarithmic-strain space: a small-strain return mapping
-/// driven by the trial elastic logarithmic strain.
+/// driven by the trial elastic logarithmic strain, returning the Kirchhoff
+/// stress. The volume ratio J = det F_bar is handed over for materials whose
+/// yield condition is written in the Cauchy stress τ/J (GTN).
 pub trait PointMaterial {
     type State: Copy + std::fmt::Debug;
     fn initial_state(&self) -> Self::State;
@@ -57,6 +62,7 @@ pub trait PointMaterial {
         &self,
         state: &Self::State,
         trial_elastic_strain: &Mandel,
+        volume_ratio: f64,
     ) -> Result<PointResponse<Self::State>, String>;
     /// Whether the point no longer carries load.
     fn has_failed(&self, state: &Self::State) -> bool;
@@ -261,7 +267,11 @@ pub fn evaluate<M: PointMaterial>(
         let (trial_strain, log_derivative) =
             log_strain(&trial_stretch).ok_or(ElementError::InsideOut { volume_ratio })?;
         let response = material
-            .update(&states[k].material, &mandel_from_symmetric(&trial_strain))
+            .update(
+                &states[k].material,
+                &mandel_from_symmetric(&trial_strain),
+                centre_volume_ratio,
+            )
             .map_err(ElementError::Material)?;
         let kirchhoff = symmetric_from_mandel(&response.stress_mpa);
         // d tau / d F_bar (4 x 5).
@@ -282,8 +292,14 @@ pub fn evaluate<M: PointMaterial>(
                 * (identity - modified_column * sensitivity.transpose() / (3.0 * scale))
             + by_gradient)
             * ratio;
+        // det F_bar = J0: the material's dependence on the volume ratio goes
+        // through the centre, dJ0/dF_centre = J0 centre_sensitivity.
+        let stress_by_volume_ratio = symmetric_from_mandel(&response.stress_by_volume_ratio_mpa);
         let by_centre = (-nominal * centre_sensitivity.transpose()
-            + through_modified * modified_column * centre_sensitivity.transpose() / 3.0)
+            + through_modified * modified_column * centre_sensitivity.transpose() / 3.0
+            + by_stress
+                * stress_by_volume_ratio
+                * (centre_volume_ratio * centre_sensitivity.transpose()))
             * ratio;
 
         let weight = shape.weights_mm3[k];
@@ -335,12 +351,18 @@ impl Hencky {
 impl PointMaterial for Hencky {
     type State = ();
     fn initial_state(&self) {}
-    fn update(&self, _: &(), trial_elastic_strain: &Mandel) -> Result<PointResponse<()>, String> {
+    fn update(
+        &self,
+        _: &(),
+        trial_elastic_strain: &Mandel,
+        _volume_ratio: f64,
+    ) -> Result<PointResponse<()>, String> {
         let tangent = self.tangent();
         Ok(PointResponse {
             stress_mpa: tangent * trial_elastic_strain,
             elastic_strain: *trial_elastic_strain,
             tangent_mpa: tangent,
+            stress_by_volume_ratio_mpa: Mandel::zeros(),
             state: (),
         })
     }
@@ -372,7 +394,12 @@ mod tests {
         fn initial_state(&self) -> f64 {
             0.0
         }
-        fn update(&self, plastic: &f64, trial: &Mandel) -> Result<PointResponse<f64>, String> {
+        fn update(
+            &self,
+            plastic: &f64,
+            trial: &Mandel,
+            _volume_ratio: f64,
+        ) -> Result<PointResponse<f64>, String> {
             let c = self.elastic.tangent();
             let shear = c[(3, 3)] / 2.0;
             let stress = c * trial;
@@ -388,6 +415,7 @@ mod tests {
                     stress_mpa: stress,
                     elastic_strain: *trial,
                     tangent_mpa: c,
+                    stress_by_volume_ratio_mpa: Mandel::zeros(),
                     state: *plastic,
                 });
             }
@@ -415,6 +443,7 @@ mod tests {
                 stress_mpa: new_stress,
                 elastic_strain: *trial - direction * increment,
                 tangent_mpa: tangent,
+                stress_by_volume_ratio_mpa: Mandel::zeros(),
                 state: plastic + increment,
             })
         }
@@ -472,6 +501,48 @@ mod tests {
             hardening_mpa: 1000.0,
         };
         let states = [GaussPointState::new(0.01); 4];
+        check_tangent(&material, states);
+    }
+
+    /// GTN with porosity: the stress depends on the volume ratio (Cauchy
+    /// stress in the yield function), which adds a term through the centre.
+    #[test]
+    fn tangent_is_the_derivative_of_the_force_gtn() {
+        use crate::tensile::flow_curve::FlowCurve;
+        use crate::tensile::gtn::{Elasticity, GtnMaterial, GtnParameters, MaterialState};
+        let material = GtnMaterial::new(
+            Elasticity {
+                youngs_modulus_mpa: 207_000.0,
+                poisson_ratio: 0.3,
+            },
+            GtnParameters {
+                q1: 1.5,
+                q2: 1.0,
+                q3: 2.25,
+                nucleation_mean_strain: 0.3,
+                nucleation_std_strain: 0.1,
+                nucleated_void_fraction: 0.04,
+                initial_porosity: 0.002,
+                coalescence: None,
+            },
+            FlowCurve::new(vec![0.0, 0.05, 0.1], vec![400.0, 520.0, 600.0], 500.0).unwrap(),
+        )
+        .unwrap();
+        let mut states = [GaussPointState::new(MaterialState {
+            matrix_plastic_strain: 0.2,
+            porosity: 0.03,
+            failed: false,
+        }); 4];
+        for (k, state) in states.iter_mut().enumerate() {
+            state.plastic_metric = Symmetric::new(1.02 + 0.01 * k as f64, 0.97, 1.01, 0.015);
+        }
+        let shape = ElementShape::new(&NODES);
+        let response = evaluate(&shape, &material, &states, &displacement()).unwrap();
+        assert!(
+            response.states.iter().all(|s| s.material.porosity > 0.03),
+            "the check needs plastic, dilating points: {:?}",
+            response.states
+        );
         check_tangent(&material, states);
     }
 

@@ -65,6 +65,20 @@
 //!
 //! D is symmetric only in the J2 limit; it is returned as is.
 //!
+//! # Kirchhoff stress in, Cauchy stress in the yield function
+//!
+//! At finite strain the element hands over the Kirchhoff stress `τ = J σ`
+//! (the exponential-map integrator works in τ). The yield function and the
+//! work equivalence of the reference are written in the Cauchy stress σ, and
+//! a porous material changes volume (J = 1.05 at f = 5 %), so the difference
+//! is not negligible after the peak. Φ is homogeneous of degree zero in
+//! (σ, σ_y) and the work equivalence of degree one, so `Φ(τ/J, σ_y) =
+//! Φ(τ, J σ_y)` and `σ : Δε_p = (1-f) σ_y Δε_m` becomes `τ : Δε_p = (1-f) J σ_y
+//! Δε_m`: [`GtnMaterial::update_at_volume_ratio`] runs the same return mapping
+//! with the flow stress (and its slope) scaled by the volume ratio J, and
+//! returns `∂τ/∂J` for the element's tangent. [`GtnMaterial::update`] is the
+//! small-strain case J = 1.
+//!
 //! # Failure
 //!
 //! A point fails when its porosity reaches [`FAILURE_FRACTION`] of
@@ -287,6 +301,12 @@ pub enum GtnError {
         matrix_plastic_strain: f64,
         /// Its porosity.
         porosity: f64,
+    },
+    /// The volume ratio handed over is not a volume ratio.
+    #[error("volume ratio J must be finite and positive, got {volume_ratio}")]
+    InvalidVolumeRatio {
+        /// The value received.
+        volume_ratio: f64,
     },
     /// Newton's method did not reach the tolerance; cut the step.
     #[error(
@@ -541,6 +561,9 @@ pub struct StressUpdate {
     /// Consistent (algorithmic) tangent dσ_{n+1}/dε_tr (MPa); zero for a
     /// failed point.
     pub tangent_mpa: MandelTangent,
+    /// `∂σ_{n+1}/∂J` at fixed trial strain (MPa), from the volume ratio's
+    /// scaling of the flow stress; zero for an elastic or failed point.
+    pub stress_by_volume_ratio_mpa: Mandel,
     /// Internal variables at t_{n+1}.
     pub state: MaterialState,
     /// Plastic flow happened in this step (including the step that failed the
@@ -573,6 +596,8 @@ struct LocalEvaluation {
     flow_stress_mpa: f64,
     /// ∂Φ/∂p · σ_y = 3 q1 q2 f* sinh(β), for the hydrostatic tangent limit.
     scaled_d_phi_d_mean: f64,
+    /// ∂R/∂σ_y at fixed unknowns (for the volume-ratio sensitivity).
+    d_residual_d_flow_stress: Vector4<f64>,
 }
 
 /// The local problem of one plastic step: everything fixed during Newton.
@@ -588,9 +613,21 @@ struct ReturnMapping<'a> {
     porosity_cap: f64,
     /// No voids at t_n and no nucleation: von Mises plasticity exactly.
     void_free: bool,
+    /// The volume ratio J that scales the matrix flow stress (see the module
+    /// doc: Cauchy stress in the yield function, Kirchhoff stress solved for).
+    volume_ratio: f64,
 }
 
 impl ReturnMapping<'_> {
+    /// `(J σ_y, J dσ_y/dε_m)` at a matrix plastic strain.
+    fn flow_stress_mpa(&self, matrix_plastic_strain: f64) -> (f64, f64) {
+        let (flow_stress, hardening) = self.flow.flow_stress_mpa(matrix_plastic_strain);
+        (
+            self.volume_ratio * flow_stress,
+            self.volume_ratio * hardening,
+        )
+    }
+
     fn evaluate(&self, x: &Unknowns) -> LocalEvaluation {
         let params = self.parameters;
         let (q1, q2, q3) = (params.q1, params.q2, params.q3);
@@ -602,7 +639,7 @@ impl ReturnMapping<'_> {
         let q = self.trial_von_mises_mpa - three_shear * d_dev;
         let matrix_strain = self.matrix_plastic_strain_n + d_matrix;
         let porosity = self.porosity_n + d_porosity;
-        let (sy, hardening) = self.flow.flow_stress_mpa(matrix_strain);
+        let (sy, hardening) = self.flow_stress_mpa(matrix_strain);
         let (f_star, d_f_star) = params.effective_porosity(porosity);
         let (nucleation, d_nucleation) = params.nucleation_intensity(matrix_strain);
 
@@ -665,6 +702,12 @@ impl ReturnMapping<'_> {
             von_mises_mpa: q,
             flow_stress_mpa: sy,
             scaled_d_phi_d_mean: b,
+            d_residual_d_flow_stress: Vector4::new(
+                d_vol * da_dsy - d_dev * db_dsy,
+                phi_sy,
+                work_per_sy / sy,
+                0.0,
+            ),
         }
     }
 
@@ -721,13 +764,13 @@ impl ReturnMapping<'_> {
     /// t_n, then work equivalence and porosity evolution explicitly from it.
     fn initial_guess(&self) -> Unknowns {
         let params = self.parameters;
-        let (sy, _) = self.flow.flow_stress_mpa(self.matrix_plastic_strain_n);
+        let (sy, _) = self.flow_stress_mpa(self.matrix_plastic_strain_n);
         let (f_star, _) = params.effective_porosity(self.porosity_n);
         let (p_tr, q_tr) = (self.trial_mean_mpa, self.trial_von_mises_mpa);
         if f_star <= 0.0 {
             // No voids: the J2 radial return with the current hardening slope,
             // no volumetric flow (a volumetric start would invent porosity).
-            let (_, hardening) = self.flow.flow_stress_mpa(self.matrix_plastic_strain_n);
+            let (_, hardening) = self.flow_stress_mpa(self.matrix_plastic_strain_n);
             let d_dev = ((q_tr - sy) / (self.three_shear_mpa + hardening)).max(0.0);
             let matrix_fraction = 1.0 - self.porosity_n;
             let d_matrix = (q_tr - self.three_shear_mpa * d_dev) * d_dev / (matrix_fraction * sy);
@@ -844,7 +887,26 @@ impl GtnMaterial {
         state_n: &MaterialState,
         trial_elastic_strain: &Mandel,
     ) -> Result<StressUpdate, GtnError> {
+        self.update_at_volume_ratio(state_n, trial_elastic_strain, 1.0)
+    }
+
+    /// [`GtnMaterial::update`] at finite strain: the stress solved for is the
+    /// Kirchhoff stress τ of a point whose volume ratio is `volume_ratio`
+    /// (J = det F), the yield function sees the Cauchy stress τ/J (see the
+    /// module doc).
+    ///
+    /// # Errors
+    /// As [`GtnMaterial::update`], and a volume ratio that is not positive.
+    pub fn update_at_volume_ratio(
+        &self,
+        state_n: &MaterialState,
+        trial_elastic_strain: &Mandel,
+        volume_ratio: f64,
+    ) -> Result<StressUpdate, GtnError> {
         self.validate()?;
+        if !(volume_ratio.is_finite() && volume_ratio > 0.0) {
+            return Err(GtnError::InvalidVolumeRatio { volume_ratio });
+        }
         if let Some((component, &value)) = trial_elastic_strain
             .iter()
             .enumerate()
@@ -882,6 +944,7 @@ impl GtnMaterial {
         let mut trial_von_mises = (1.5 * trial_deviator.norm_squared()).sqrt();
 
         let (sy_n, _) = self.flow.flow_stress_mpa(matrix_strain_n);
+        let sy_n = volume_ratio * sy_n;
         let (f_star_n, _) = self.parameters.effective_porosity(porosity_n);
         let trial_phi = yield_function(
             &self.parameters,
@@ -895,6 +958,7 @@ impl GtnMaterial {
                 stress_mpa: trial_stress,
                 elastic_strain: *trial_elastic_strain,
                 tangent_mpa: stiffness,
+                stress_by_volume_ratio_mpa: Mandel::zeros(),
                 state: *state_n,
                 plastic: false,
             });
@@ -921,6 +985,7 @@ impl GtnMaterial {
             porosity_n,
             porosity_cap: POROSITY_CAP_FRACTION * self.parameters.failure_porosity(),
             void_free: porosity_n == 0.0 && self.parameters.nucleated_void_fraction == 0.0,
+            volume_ratio,
         };
         let Some((x, evaluation)) =
             solve_return_mapping(&problem, self.failure_trigger_porosity())?
@@ -959,6 +1024,10 @@ impl GtnMaterial {
         let elastic_strain =
             identity * (p / (3.0 * bulk)) + trial_deviator * (deviator_ratio / (2.0 * shear));
 
+        let not_converged = GtnError::NotConverged {
+            iterations: MAX_ITERATIONS,
+            residual: f64::INFINITY,
+        };
         let tangent = consistent_tangent(
             &problem,
             &evaluation,
@@ -966,15 +1035,16 @@ impl GtnMaterial {
             shear,
             deviator_ratio,
         )
-        .ok_or(GtnError::NotConverged {
-            iterations: MAX_ITERATIONS,
-            residual: f64::INFINITY,
-        })?;
+        .ok_or(not_converged.clone())?;
+        let stress_by_volume_ratio =
+            volume_ratio_sensitivity(&problem, &evaluation, &flow_direction)
+                .ok_or(not_converged)?;
 
         let update = StressUpdate {
             stress_mpa: stress,
             elastic_strain,
             tangent_mpa: tangent,
+            stress_by_volume_ratio_mpa: stress_by_volume_ratio,
             state: MaterialState {
                 matrix_plastic_strain: matrix_strain_n + x[2],
                 porosity,
@@ -985,6 +1055,10 @@ impl GtnMaterial {
         let all_finite = update.stress_mpa.iter().all(|v| v.is_finite())
             && update.elastic_strain.iter().all(|v| v.is_finite())
             && update.tangent_mpa.iter().all(|v| v.is_finite())
+            && update
+                .stress_by_volume_ratio_mpa
+                .iter()
+                .all(|v| v.is_finite())
             && update.state.matrix_plastic_strain.is_finite();
         if !all_finite {
             return Err(GtnError::NotConverged {
@@ -1001,6 +1075,7 @@ fn failed_update(state_n: &MaterialState, plastic: bool) -> StressUpdate {
         stress_mpa: Mandel::zeros(),
         elastic_strain: Mandel::zeros(),
         tangent_mpa: MandelTangent::zeros(),
+        stress_by_volume_ratio_mpa: Mandel::zeros(),
         state: MaterialState {
             matrix_plastic_strain: state_n.matrix_plastic_strain,
             porosity: state_n.porosity,
@@ -1101,6 +1176,26 @@ fn solve_return_mapping(
         iterations: MAX_ITERATIONS,
         residual: residual_norm,
     })
+}
+
+/// `∂σ/∂J` at fixed trial strain: J scales σ_y (and its slope) only, so
+/// `J dx/dJ = -∂R/∂σ_y σ_y` with σ_y the scaled flow stress, and
+/// `dσ = -K dΔε_p I - (2/3) 3G dΔε_q n`.
+fn volume_ratio_sensitivity(
+    problem: &ReturnMapping<'_>,
+    evaluation: &LocalEvaluation,
+    flow_direction: &Mandel,
+) -> Option<Mandel> {
+    let d_residual_d_volume_ratio =
+        evaluation.d_residual_d_flow_stress * (evaluation.flow_stress_mpa / problem.volume_ratio);
+    let dx = evaluation
+        .jacobian
+        .lu()
+        .solve(&-d_residual_d_volume_ratio)?;
+    Some(
+        identity_mandel() * (-problem.bulk_mpa * dx[0])
+            + flow_direction * (-(2.0 / 3.0) * problem.three_shear_mpa * dx[1]),
+    )
 }
 
 /// `dσ/dε_tr` by the implicit function theorem on the converged local system.

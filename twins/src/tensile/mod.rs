@@ -48,9 +48,11 @@ impl PointMaterial for GtnMaterial {
         &self,
         state: &MaterialState,
         trial_elastic_strain: &Mandel,
+        volume_ratio: f64,
     ) -> Result<PointResponse<MaterialState>, String> {
-        let update =
-            GtnMaterial::update(self, state, trial_elastic_strain).map_err(|e| e.to_string())?;
+        let update = self
+            .update_at_volume_ratio(state, trial_elastic_strain, volume_ratio)
+            .map_err(|e| e.to_string())?;
         let tangent_mpa = if update.state.failed {
             self.elasticity.stiffness_mpa() * FAILED_POINT_STIFFNESS_FRACTION
         } else {
@@ -60,6 +62,7 @@ impl PointMaterial for GtnMaterial {
             stress_mpa: update.stress_mpa,
             elastic_strain: update.elastic_strain,
             tangent_mpa,
+            stress_by_volume_ratio_mpa: update.stress_by_volume_ratio_mpa,
             state: update.state,
         })
     }

@@ -1,6 +1,7 @@
 //! One GTN tensile simulation of the Dataset-1 test (P91, 20 C) to its last
-//! displacement with the published parameters: wall time and peak memory.
-//! Target (issue 6): under 1 s and under 100 MB.
+//! displacement with the published parameters, and one to fracture (the
+//! same with coalescence, fc = 0.02, fF = 0.15, which breaks at 1.75 mm):
+//! wall time and peak memory. Target (issue 6): under 1 s and under 100 MB.
 //!
 //! `cargo bench --bench tensile`
 
@@ -27,8 +28,16 @@ fn main() {
         "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1",
     )
     .expect("parameters");
-    println!("mesh      threads  runs  median s  min s   steps  iterations  MAPE %");
-    for (radial, axial) in [(6, 30), (8, 40)] {
+    let fracture = GtnInputs::parse(
+        "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1,fc=0.02,fF=0.15",
+    )
+    .expect("parameters");
+    println!("run        mesh      threads  runs  median s  min s   steps  iterations  MAPE %");
+    for (label, inputs, radial, axial) in [
+        ("published", &inputs, 6, 30),
+        ("published", &inputs, 8, 40),
+        ("fracture", &fracture, 6, 30),
+    ] {
         let mesh = MeshDensity {
             radial_elements: radial,
             axial_elements: axial,
@@ -45,14 +54,14 @@ fn main() {
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..5 {
-            let run = model.run(&inputs).expect("run");
+            let run = model.run(inputs).expect("run");
             times.push(run.wall_s);
             last = Some(run);
         }
         times.sort_by(f64::total_cmp);
         let run = last.expect("at least one run");
         println!(
-            "{radial}x{axial:<6} {:>7}  {:>4}  {:>8.3}  {:>5.3}  {:>6}  {:>10}  {:>6.3}",
+            "{label:<10} {radial}x{axial:<6} {:>7}  {:>4}  {:>8.3}  {:>5.3}  {:>6}  {:>10}  {:>6.3}",
             std::thread::available_parallelism().map_or(1, |n| n.get()),
             times.len(),
             times[times.len() / 2],

@@ -560,6 +560,17 @@ fn twin_report(
             String::new()
         }
     );
+    if let Some(split) = &run.mape.split {
+        let _ = writeln!(
+            text,
+            "       {:.3} % up to the test's maximum force at {} mm ({} points), {:.3} % after it ({} points)",
+            split.before_percent,
+            split.split_at_mm,
+            split.before_points,
+            split.after_percent,
+            split.after_points
+        );
+    }
     text
 }
 

@@ -231,8 +231,11 @@ impl TensileModel {
             .iter()
             .map(|p| (p.displacement_mm, p.force_kn))
             .collect();
-        let mape = curve_mape(&test, &simulation, CurveMapeOptions::default())
-            .map_err(|e| e.to_string())?;
+        let options = CurveMapeOptions {
+            split_at_mm: Some(self.properties.uts.displacement_mm),
+            ..CurveMapeOptions::default()
+        };
+        let mape = curve_mape(&test, &simulation, options).map_err(|e| e.to_string())?;
         let failed_early = match &result.outcome {
             Outcome::ReachedEnd => false,
             Outcome::Fractured { displacement_mm }

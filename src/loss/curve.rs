@@ -38,6 +38,12 @@
 //!    lies after the grid's start is an error (its spline would
 //!    extrapolate); FE results normally start at 0.
 //!
+//! 8. **Split (the published per-part variant).** With
+//!    [`CurveMapeOptions::split_at_mm`] (normally the test's UTS
+//!    displacement) the same terms are also averaged separately over the
+//!    grid points at or before the split and after it ([`SplitMape`]); the
+//!    overall MAPE is unchanged.
+//!
 //! Nothing here panics: empty, non-finite and decreasing input are
 //! [`CurveLossError`]s.
 
@@ -54,12 +60,26 @@ pub const MAX_GRID_POINTS: usize = 1_000_000;
 const GRID_TOLERANCE_STEPS: f64 = 1e-9;
 
 /// How the loss treats a simulation that ends before the test does.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CurveMapeOptions {
     /// `false` (default, as published): force 0 past the simulation's end,
     /// 100 % error per grid point there. `true`: the grid ends at the
     /// simulation's end.
     pub truncate_at_simulation_end: bool,
+    /// Also report the MAPE before and after this displacement (mm).
+    pub split_at_mm: Option<f64>,
+}
+
+/// The MAPE on either side of a split displacement.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct SplitMape {
+    pub split_at_mm: f64,
+    /// Over the grid points at or before the split (NaN if there are none).
+    pub before_percent: f64,
+    pub before_points: usize,
+    /// Over the grid points after the split (NaN if there are none).
+    pub after_percent: f64,
+    pub after_points: usize,
 }
 
 /// The loss and how it was computed.
@@ -79,6 +99,8 @@ pub struct CurveMape {
     pub grid_end_mm: f64,
     /// Grid points in the mean past the simulation's end (force 0 there).
     pub padded_points: usize,
+    /// The per-part MAPE, when a split was asked for.
+    pub split: Option<SplitMape>,
 }
 
 /// Which curve a problem is in.
@@ -190,6 +212,8 @@ pub fn curve_mape(
     let simulation_spline = simulation.spline(CurveName::Simulation)?;
     let past_simulation = simulation_end + GRID_TOLERANCE_STEPS * step_mm;
     let mut sum = 0.0;
+    // (sum, points) at or before the split.
+    let mut before = (0.0, 0usize);
     let mut excluded_points = 0;
     let mut padded_points = 0;
     let mut last = start;
@@ -207,7 +231,12 @@ pub fn curve_mape(
         } else {
             simulation_spline.eval(x.min(simulation_end))
         };
-        sum += ((test_force - simulated_force) / test_force).abs();
+        let term = ((test_force - simulated_force) / test_force).abs();
+        sum += term;
+        if options.split_at_mm.is_some_and(|split| x <= split) {
+            before.0 += term;
+            before.1 += 1;
+        }
     }
     let compared = grid_points - excluded_points;
     if compared == 0 {
@@ -215,8 +244,26 @@ pub fn curve_mape(
             "the test force is tiny at all {grid_points} grid points"
         )));
     }
+    let split = options.split_at_mm.map(|split_at_mm| {
+        let after_points = compared - before.1;
+        let mean = |total: f64, points: usize| {
+            if points == 0 {
+                f64::NAN
+            } else {
+                100.0 * total / points as f64
+            }
+        };
+        SplitMape {
+            split_at_mm,
+            before_percent: mean(before.0, before.1),
+            before_points: before.1,
+            after_percent: mean(sum - before.0, after_points),
+            after_points,
+        }
+    });
     Ok(CurveMape {
         mape_percent: 100.0 * sum / compared as f64,
+        split,
         grid_points,
         excluded_points,
         step_mm,
@@ -338,6 +385,7 @@ mod tests {
             simulation,
             CurveMapeOptions {
                 truncate_at_simulation_end: true,
+                ..Default::default()
             },
         )
         .unwrap();
@@ -345,6 +393,33 @@ mod tests {
         assert_eq!(truncated.padded_points, 0);
         assert_eq!(truncated.grid_end_mm, 5.0);
         assert!(truncated.mape_percent.abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_split_averages_each_side_and_leaves_the_total_alone() {
+        // The not-a-knot spline reproduces polynomials up to cubics exactly.
+        // Test F = u, simulation F = u + 0.1 u^2: the error at u is 10 u %.
+        let test: Vec<(f64, f64)> = (1..=10).map(|i| (i as f64, i as f64)).collect();
+        let simulation: Vec<(f64, f64)> = (0..=10)
+            .map(|i| {
+                let u = i as f64;
+                (u, u + 0.1 * u * u)
+            })
+            .collect();
+        let options = CurveMapeOptions {
+            split_at_mm: Some(4.0),
+            ..Default::default()
+        };
+        let whole = curve_mape(&test, &test, CurveMapeOptions::default()).unwrap();
+        assert!(whole.split.is_none());
+        // Grid: u = 1..10 in steps of 1 (the smallest increment).
+        let loss = curve_mape(&test, &simulation, options).unwrap();
+        let split = loss.split.unwrap();
+        assert_eq!((split.before_points, split.after_points), (4, 6));
+        // Before: mean of 10, 20, 30, 40; after: of 50..100; all: of 10..100.
+        assert!((split.before_percent - 25.0).abs() < 1e-9, "{split:?}");
+        assert!((split.after_percent - 75.0).abs() < 1e-9, "{split:?}");
+        assert!((loss.mape_percent - 55.0).abs() < 1e-9, "{loss:?}");
     }
 
     #[test]
@@ -402,6 +477,7 @@ mod tests {
             &simulation,
             CurveMapeOptions {
                 truncate_at_simulation_end: true,
+                ..Default::default()
             },
         )
         .unwrap();
@@ -502,10 +578,18 @@ mod tests {
     proptest! {
         #[test]
         fn never_panics(test in any_curve(), simulation in any_curve(), truncate in any::<bool>()) {
-            let options = CurveMapeOptions { truncate_at_simulation_end: truncate };
+            let options = CurveMapeOptions {
+                truncate_at_simulation_end: truncate,
+                split_at_mm: Some(1.0),
+            };
             if let Ok(loss) = curve_mape(&test, &simulation, options) {
                 prop_assert!(loss.mape_percent >= 0.0);
                 prop_assert!(loss.grid_points >= 1 && loss.grid_points <= MAX_GRID_POINTS);
+                let split = loss.split.unwrap();
+                prop_assert_eq!(
+                    split.before_points + split.after_points,
+                    loss.grid_points - loss.excluded_points
+                );
             }
         }
     }

@@ -11,4 +11,4 @@
 
 pub mod curve;
 
-pub use curve::{curve_mape, CurveLossError, CurveMape, CurveMapeOptions, CurveName};
+pub use curve::{curve_mape, CurveLossError, CurveMape, CurveMapeOptions, CurveName, SplitMape};

@@ -297,3 +297,71 @@ fn the_pre_peak_curve_is_converged_in_mesh_and_step() {
     assert!(step_difference < 5e-4, "step: {step_difference:e}");
     eprintln!("pre-peak: mesh 4x20 vs 8x40 {mesh_difference:.2e}, step 0.02 vs 0.005 mm {step_difference:.2e} of the peak");
 }
+
+/// With coalescence the voids link up in the neck and the bar breaks: the
+/// run ends as `Fractured` (force below 2 % of the peak), the broken points
+/// are counted, and the fracture comes after the maximum, in the neck.
+#[test]
+fn a_bar_with_coalescence_breaks_in_the_neck() {
+    use acq_twins::tensile::gtn::Coalescence;
+    let flow = FlowCurve::new(
+        vec![0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.09],
+        vec![404.0, 440.0, 468.0, 512.0, 573.0, 615.0, 650.0],
+        534.0,
+    )
+    .unwrap();
+    let material = GtnMaterial::new(
+        Elasticity {
+            youngs_modulus_mpa: 207_011.0,
+            poisson_ratio: 0.3,
+        },
+        GtnParameters {
+            q1: 1.332,
+            q2: 0.9952,
+            q3: 2.295,
+            nucleation_mean_strain: 0.29,
+            nucleation_std_strain: 0.1671,
+            nucleated_void_fraction: 0.03869,
+            initial_porosity: 0.00137,
+            coalescence: Some(Coalescence {
+                critical_porosity: 0.02,
+                failure_porosity: 0.15,
+            }),
+        },
+        flow,
+    )
+    .unwrap();
+    let twin = TensileTwin {
+        geometry: BarGeometry::default(),
+        mesh: MeshDensity::default(),
+        material,
+    };
+    let result = twin.pull(&LoadingSettings::to(4.0)).unwrap();
+    let Outcome::Fractured { displacement_mm } = result.outcome else {
+        panic!("expected fracture, got {:?}", result.outcome);
+    };
+    let peak = result
+        .curve
+        .iter()
+        .max_by(|a, b| a.force_kn.total_cmp(&b.force_kn))
+        .unwrap();
+    let last = result.curve.last().unwrap();
+    println!(
+        "fracture at {displacement_mm:.3} mm (peak {:.3} kN at {:.2} mm), {} failed points, {} steps, {} cuts",
+        peak.force_kn, peak.displacement_mm, last.failed_points, result.steps, result.step_cuts
+    );
+    assert!(displacement_mm > peak.displacement_mm + 0.1 && displacement_mm < 4.0);
+    assert!(last.force_kn < 0.02 * peak.force_kn, "{last:?}");
+    assert!(last.failed_points > 0);
+    // Nothing had failed before the force began to drop.
+    assert!(result
+        .curve
+        .iter()
+        .filter(|p| p.displacement_mm <= peak.displacement_mm)
+        .all(|p| p.failed_points == 0));
+    // The neck had thinned well below the uniform diameter at the peak.
+    assert!(
+        last.neck_diameter_mm < 0.9 * peak.neck_diameter_mm,
+        "{last:?}"
+    );
+}

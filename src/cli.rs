@@ -50,6 +50,14 @@ pub enum Command {
     Sensitivity(crate::twin_cli::SensitivityCommand),
     /// Young's modulus, yield, UTS, flow curve and post-UTS slope bounds of a tensile test.
     TensileProps(crate::tensile_cli::TensilePropsArgs),
+    /// Fit a twin (or your own solver) to measurements: DoE, surrogates, NSGA-II + TOPSIS, BO.
+    #[command(subcommand)]
+    Calibrate(crate::calibrate::CalibrateCommand),
+    /// Gaussian-process regression on a CSV: fit a model, predict with it.
+    #[command(subcommand)]
+    Gp(crate::engine_cli::GpCommand),
+    /// NSGA-II on a built-in benchmark problem (ZDT1-3, DTLZ2): the final front as CSV.
+    Moo(crate::engine_cli::MooArgs),
 }
 
 #[derive(Args, Debug)]
@@ -100,6 +108,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Twin(command) => crate::twin_cli::run_twin(command),
         Command::Sensitivity(command) => crate::twin_cli::run_sensitivity(command),
         Command::TensileProps(args) => crate::tensile_cli::run_tensile_props(args),
+        Command::Calibrate(command) => crate::calibrate::run(command),
+        Command::Gp(command) => crate::engine_cli::run_gp(command),
+        Command::Moo(args) => crate::engine_cli::run_moo(args),
     }
 }
 

@@ -12,11 +12,15 @@
 //! - [`interp`]: not-a-knot cubic spline through measured or simulated curves.
 //! - [`loss`]: measured vs simulated -> one number (curve MAPE).
 //! - [`tensile_cli`]: `acq tensile-props`, material properties of a tensile test.
+//! - [`calibrate`]: `acq calibrate excavator|gtn|external`, the workflows over `acq_calib`.
+//! - [`engine_cli`]: `acq gp fit|predict` and `acq moo`, the engine's blocks on their own.
 
 pub mod align;
 pub mod bus;
+pub mod calibrate;
 pub mod cli;
 pub mod decode;
+pub mod engine_cli;
 pub mod error;
 pub mod extract;
 pub mod input;

@@ -111,6 +111,31 @@ impl GtnInputs {
         })
     }
 
+    /// The eight parameters in [`PARAMETER_NAMES`] order, no coalescence.
+    ///
+    /// # Errors
+    /// Not exactly eight values.
+    pub fn from_values(values: &[f64]) -> Result<Self, String> {
+        let &[q1, q2, q3, eps_n, s_n, f_n, f0, m_mpa] = values else {
+            return Err(format!(
+                "{} values given; the GTN twin takes 8 ({})",
+                values.len(),
+                PARAMETER_NAMES.join(", ")
+            ));
+        };
+        Ok(GtnInputs {
+            q1,
+            q2,
+            q3,
+            eps_n,
+            s_n,
+            f_n,
+            f0,
+            m_mpa,
+            coalescence: None,
+        })
+    }
+
     fn parameters(&self) -> GtnParameters {
         GtnParameters {
             q1: self.q1,

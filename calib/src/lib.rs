@@ -3,15 +3,19 @@
 //! It knows nothing of CAN, recordings or any particular twin: a model is a function from
 //! a parameter vector (inside box bounds) to outputs. One module per concept:
 //!
+//! - `evaluation`: the `Simulator` trait, parallel runs, the evaluation log and resume.
 //! - `doe`: designs of experiments (Latin hypercube, Sobol, two-level orthogonal arrays,
 //!   full factorial, a user CSV).
 //! - `optim`: bounded L-BFGS, the local optimiser under the GP fit and the acquisition.
 //! - `gp`: Gaussian-process regression (SE and Matern kernels, ARD, marginal-likelihood fit).
 //! - `surrogate`: polynomial and RBF surrogates, and the comparison by held-out RMSE.
 //! - `moo`: NSGA-II, hypervolume, the ZDT/DTLZ benchmark problems; `topsis`: the pick.
+//! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches).
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
 
+pub mod bo;
 pub mod doe;
+pub mod evaluation;
 pub mod gp;
 pub mod moo;
 pub mod optim;

@@ -1,0 +1,216 @@
+//! The evaluation log: every evaluation logged as it finishes, failures
+//! never fatal, and a resumed run answered from the log bit for bit.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use acq_calib::evaluation::{EvaluationError, Evaluator, Parameter, Simulator};
+
+/// `y = (a + b, a * b)`; fails for a < 0, panics for a > 100, returns NaN
+/// for b = 7. Counts its calls.
+struct Toy {
+    parameters: Vec<Parameter>,
+    outputs: Vec<String>,
+    calls: AtomicUsize,
+}
+
+impl Toy {
+    fn new() -> Self {
+        Toy {
+            parameters: vec![
+                Parameter::new("a_mm", -10.0, 200.0),
+                Parameter::new("b_deg", 0.0, 10.0),
+            ],
+            outputs: vec!["sum".into(), "product".into()],
+            calls: AtomicUsize::new(0),
+        }
+    }
+}
+
+impl Simulator for Toy {
+    fn parameters(&self) -> &[Parameter] {
+        &self.parameters
+    }
+    fn outputs(&self) -> &[String] {
+        &self.outputs
+    }
+    fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        self.calls.fetch_add(1, Ordering::SeqCst);
+        assert!(x[0] <= 100.0, "a = {} is beyond the model", x[0]);
+        if x[0] < 0.0 {
+            return Err("negative a, \"quoted\",\nand a second line".into());
+        }
+        if x[1] == 7.0 {
+            return Ok(vec![f64::NAN, 1.0]);
+        }
+        Ok(vec![x[0] + x[1], x[0] * x[1]])
+    }
+}
+
+fn points(seed: u64, n: usize) -> Vec<Vec<f64>> {
+    // Awkward decimals, so the log must round-trip them exactly.
+    (0..n)
+        .map(|i| {
+            let t = (seed as f64 + i as f64) * std::f64::consts::PI;
+            vec![t.sin().abs() * 50.0 + 0.1, (t.cos().abs() * 9.0) / 3.0]
+        })
+        .collect()
+}
+
+#[test]
+fn failures_are_logged_with_their_reason_and_never_end_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("evaluations.csv");
+    let toy = Toy::new();
+    let mut evaluator = Evaluator::create(&toy, &path, 3).unwrap();
+    let batch = vec![
+        vec![1.0, 2.0],
+        vec![-1.0, 2.0],
+        vec![150.0, 1.0],
+        vec![3.0, 7.0],
+        vec![4.0, 0.5],
+    ];
+    let results = evaluator.evaluate(&batch).unwrap();
+    assert_eq!(results.len(), 5);
+    assert_eq!(results[0].outcome, Ok(vec![3.0, 2.0]));
+    assert!(results[1]
+        .outcome
+        .as_ref()
+        .unwrap_err()
+        .contains("negative a"));
+    assert!(results[2]
+        .outcome
+        .as_ref()
+        .unwrap_err()
+        .contains("panicked: a = 150 is beyond the model"));
+    assert!(results[3]
+        .outcome
+        .as_ref()
+        .unwrap_err()
+        .contains("output sum is not finite"));
+    assert_eq!(results[4].outcome, Ok(vec![4.5, 2.0]));
+    for (i, r) in results.iter().enumerate() {
+        assert_eq!(r.parameters, batch[i]);
+    }
+    let mut ids: Vec<usize> = results.iter().map(|r| r.id).collect();
+    ids.sort_unstable();
+    assert_eq!(ids, [1, 2, 3, 4, 5]);
+
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "id,status,wall_s,a_mm,b_deg,sum,product,reason");
+    assert_eq!(lines.len(), 6);
+    // The log is in id order, whatever order the workers finished in.
+    for (k, line) in lines[1..].iter().enumerate() {
+        assert!(line.starts_with(&format!("{},", k + 1)), "{line}");
+    }
+    let failed = lines.iter().find(|l| l.contains("negative a")).unwrap();
+    assert!(
+        failed.ends_with(",,,\"negative a, \"\"quoted\"\", and a second line\""),
+        "{failed}"
+    );
+}
+
+#[test]
+fn a_resumed_run_repeats_no_finished_evaluation_and_gives_the_same_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("evaluations.csv");
+    let batches = [points(1, 4), points(10, 3), points(20, 5)];
+
+    // The whole run, uninterrupted, without a log.
+    let reference_toy = Toy::new();
+    let mut reference = Evaluator::in_memory(&reference_toy, 2).unwrap();
+    let mut expected = Vec::new();
+    for batch in &batches {
+        expected.extend(reference.evaluate(batch).unwrap());
+    }
+
+    // Interrupted after two batches...
+    let first = Toy::new();
+    {
+        let mut evaluator = Evaluator::create(&first, &path, 2).unwrap();
+        evaluator.evaluate(&batches[0]).unwrap();
+        evaluator.evaluate(&batches[1]).unwrap();
+    }
+    assert_eq!(first.calls.load(Ordering::SeqCst), 7);
+    // ... and a crash in the middle of writing a line.
+    let mut text = std::fs::read_to_string(&path).unwrap();
+    text.push_str("8,ok,0.1,3.0");
+    std::fs::write(&path, &text).unwrap();
+
+    // Creating over it is refused; resuming continues it.
+    assert!(matches!(
+        Evaluator::create(&Toy::new(), &path, 2),
+        Err(EvaluationError::LogExists { .. })
+    ));
+    let second = Toy::new();
+    let mut evaluator = Evaluator::resume(&second, &path, 2).unwrap();
+    let mut resumed = Vec::new();
+    for batch in &batches {
+        resumed.extend(evaluator.evaluate(batch).unwrap());
+    }
+    assert_eq!(
+        second.calls.load(Ordering::SeqCst),
+        5,
+        "only the third batch runs"
+    );
+    assert_eq!(evaluator.reused(), 7);
+    assert_eq!(resumed.len(), expected.len());
+    for (got, want) in resumed.iter().zip(&expected) {
+        assert_eq!(got.parameters, want.parameters);
+        assert_eq!(got.outcome, want.outcome, "bit for bit");
+    }
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert_eq!(text.lines().count(), 1 + 12);
+    assert!(!text.contains("8,ok,0.1,3.0\n9"), "the cut line is gone");
+    let ids: Vec<&str> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    let expected_ids: Vec<String> = (1..=12).map(|i| i.to_string()).collect();
+    assert_eq!(ids, expected_ids);
+}
+
+#[test]
+fn a_log_of_another_setup_or_a_damaged_log_is_refused_with_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("evaluations.csv");
+    std::fs::write(&path, "id,status,wall_s,x,reason\n").unwrap();
+    let error = Evaluator::resume(&Toy::new(), &path, 1)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        error.contains("evaluations.csv:1: this log is of another setup"),
+        "{error}"
+    );
+
+    std::fs::write(
+        &path,
+        "id,status,wall_s,a_mm,b_deg,sum,product,reason\n1,ok,0.1,1,2,3,x,\n",
+    )
+    .unwrap();
+    let error = Evaluator::resume(&Toy::new(), &path, 1)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        error.contains("evaluations.csv:2: cell 7 (\"x\") is not a number"),
+        "{error}"
+    );
+}
+
+#[test]
+fn bad_parameters_are_setup_errors() {
+    let mut toy = Toy::new();
+    toy.parameters[1] = Parameter::new("a_mm", 0.0, 1.0);
+    let error = Evaluator::in_memory(&toy, 1).err().unwrap().to_string();
+    assert!(error.contains("listed twice"), "{error}");
+    toy.parameters[1] = Parameter::new("b", 2.0, 1.0);
+    let error = Evaluator::in_memory(&toy, 1).err().unwrap().to_string();
+    assert!(error.contains("lower <= upper"), "{error}");
+    let toy = Toy::new();
+    let mut evaluator = Evaluator::in_memory(&toy, 1).unwrap();
+    let error = evaluator.evaluate(&[vec![1.0]]).err().unwrap().to_string();
+    assert!(error.contains("takes 2"), "{error}");
+}

@@ -1,0 +1,92 @@
+//! The progress line of a calibration on stderr: a bar redrawn in place on a
+//! terminal, a plain line every tenth of the budget (and at the end)
+//! otherwise, so CI logs stay short.
+
+use std::io::{IsTerminal, Write};
+use std::sync::Mutex;
+use std::time::Instant;
+
+pub struct Progress {
+    label: String,
+    total: usize,
+    terminal: bool,
+    state: Mutex<State>,
+}
+
+struct State {
+    done: usize,
+    failed: usize,
+    reused: usize,
+    best: Option<f64>,
+    last_plain_decile: usize,
+    start: Instant,
+}
+
+impl Progress {
+    /// `total` is the evaluation budget (the bar's 100 %).
+    pub fn new(label: impl Into<String>, total: usize) -> Self {
+        Progress {
+            label: label.into(),
+            total: total.max(1),
+            terminal: std::io::stderr().is_terminal(),
+            state: Mutex::new(State {
+                done: 0,
+                failed: 0,
+                reused: 0,
+                best: None,
+                last_plain_decile: 0,
+                start: Instant::now(),
+            }),
+        }
+    }
+
+    /// One more evaluation; `loss` is its loss when it has one.
+    pub fn record(&self, loss: Option<f64>, failed: bool, reused: bool) {
+        let Ok(mut state) = self.state.lock() else {
+            return;
+        };
+        state.done += 1;
+        state.failed += usize::from(failed);
+        state.reused += usize::from(reused);
+        if let Some(loss) = loss.filter(|l| l.is_finite()) {
+            state.best = Some(state.best.map_or(loss, |b| b.min(loss)));
+        }
+        let line = self.line(&state);
+        if self.terminal {
+            eprint!("\r{line}\x1b[K");
+            let _ = std::io::stderr().flush();
+        } else {
+            let decile = state.done * 10 / self.total;
+            if decile > state.last_plain_decile {
+                state.last_plain_decile = decile;
+                eprintln!("{line}");
+            }
+        }
+    }
+
+    fn line(&self, state: &State) -> String {
+        const WIDTH: usize = 24;
+        let filled = (state.done * WIDTH / self.total).min(WIDTH);
+        let best = state
+            .best
+            .map_or_else(|| "-".to_string(), |b| format!("{b:.4}"));
+        format!(
+            "{} [{}{}] {}/{} evaluations, best loss {best}, {} failed, {} from the log, {:.0} s",
+            self.label,
+            "#".repeat(filled),
+            " ".repeat(WIDTH - filled),
+            state.done,
+            self.total,
+            state.failed,
+            state.reused,
+            state.start.elapsed().as_secs_f64()
+        )
+    }
+
+    /// Ends the bar's line on a terminal.
+    pub fn finish(&self) {
+        if self.terminal {
+            eprintln!();
+        }
+    }
+}

@@ -18,6 +18,7 @@ use acq_calib::doe::{latin_hypercube, random_uniform};
 use acq_calib::evaluation::{Parameter, Simulator};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_calib::sobol_indices::sobol_indices;
 use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
 use acq_calib::topsis::{topsis, Criterion};
 use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
@@ -448,6 +449,36 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
         args.pareto_fraction,
         pick.closeness[pick.best],
     ));
+    // Variance-based sensitivity of each pressure, on its GP (cheap: 6,144
+    // GP predictions per output instead of twin runs).
+    report.push_str(
+        "\n## Sensitivity: Sobol indices from the GPs (first order / total, 1024 base samples)\n\n",
+    );
+    let mut header = vec!["pressure"];
+    header.extend(parameters.iter().map(|p| p.name.as_str()));
+    let mut table = MarkdownTable::new(&header);
+    for (k, name) in CylinderName::ALL.iter().enumerate() {
+        let gp = &gps[k];
+        let indices = sobol_indices(
+            |u| gp.predict(&from_unit(&parameters, u)).mean,
+            dimensions,
+            1024,
+            args.seed,
+        );
+        let mut cells = vec![name.to_string()];
+        match indices {
+            Ok(indices) => cells.extend(
+                indices
+                    .first_order
+                    .iter()
+                    .zip(&indices.total)
+                    .map(|(first, total)| format!("{first:.3} / {total:.3}")),
+            ),
+            Err(error) => cells.push(error.to_string()),
+        }
+        table.row(cells);
+    }
+    report.push_str(&table.render());
     write_text(&directory.file("report.md"), &report)?;
     println!(
         "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",

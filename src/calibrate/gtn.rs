@@ -45,6 +45,10 @@ pub struct CalibrateGtnArgs {
     /// Acquisition: logei, ei, ucb[:KAPPA] (the published one is ucb:2.5).
     #[arg(long, default_value = "logei")]
     pub acquisition: Acquisition,
+    /// Also stop when this many simulations in a row improved the best MAPE by
+    /// less than 0.1 % (relative).
+    #[arg(long)]
+    pub patience: Option<u32>,
     /// Elements across the radius x along the half length.
     #[arg(long, default_value = "6x30")]
     pub mesh: String,
@@ -166,6 +170,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
         batch: args.batch as usize,
         target_loss: Some(args.target_mape),
         max_evaluations: budget,
+        patience: args.patience.map(|p| p as usize),
         gp: GpSettings {
             kernel: Kernel::Matern52,
             ard: true,
@@ -333,6 +338,13 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
         table.row(cells);
     }
     report.push_str(&table.render());
+    if candidates.len() < 2 {
+        report.push_str(
+            "\nThe run stopped as soon as it reached the target, before it could map the region \
+             of good fits. For that picture, run on with a lower `--target-mape` (0 runs the whole \
+             budget) and `--resume` into the same directory: nothing is repeated.\n",
+        );
+    }
     let mut spread = MarkdownTable::new(&[
         "parameter",
         "min among them",

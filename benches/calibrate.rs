@@ -1,0 +1,123 @@
+//! The excavator calibration workflow end to end (82 twin runs, 15 surrogate
+//! fits, NSGA-II 400 x 100 on the GPs, TOPSIS, reports), and NSGA-II alone on
+//! the three GPs of case 1. Targets (issue 7): the workflow under 2 s per
+//! case, NSGA-II on the GP under 1 s.
+//!
+//! `cargo bench --bench calibrate`
+
+use std::path::Path;
+use std::time::Instant;
+
+use acq::calibrate::excavator::{run, CalibrateExcavatorArgs, ExcavatorSimulator};
+use acq_calib::doe::latin_hypercube;
+use acq_calib::evaluation::Simulator;
+use acq_calib::gp::{Gp, GpSettings, Kernel};
+use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_twins::excavator::case::CaseFile;
+use acq_twins::excavator::geometry::Geometry;
+use acq_twins::excavator::Excavator;
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
+}
+
+fn main() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    println!("excavator workflow (defaults: 40 LHS + 40 test runs, GP SE-ARD, NSGA-II 400 x 100)");
+    for case in ["case1", "case2"] {
+        let mut times = Vec::new();
+        for _ in 0..5 {
+            let dir = tempfile::tempdir().expect("temp dir");
+            let args = CalibrateExcavatorArgs {
+                case: root.join(format!("data/excavator/{case}.toml")),
+                geometry: None,
+                out: dir.path().join("run"),
+                training: 40,
+                test_runs: 40,
+                population: 400,
+                generations: 100,
+                pareto_fraction: 0.5,
+                weights: vec![1.0, 1.0, 1.0],
+                kernel: Kernel::SquaredExponential,
+                seed: 1,
+                resume: false,
+                parallel: None,
+            };
+            let start = Instant::now();
+            run(args).expect("workflow");
+            times.push(start.elapsed().as_secs_f64());
+        }
+        println!(
+            "  {case}: median {:.3} s, min {:.3} s over {} runs",
+            median(times.clone()),
+            times.iter().copied().fold(f64::INFINITY, f64::min),
+            times.len()
+        );
+    }
+
+    // NSGA-II alone on the three GPs of case 1.
+    let case = CaseFile::load(&root.join("data/excavator/case1.toml")).expect("case");
+    let twin = Excavator::new(Geometry::dx55()).expect("twin");
+    let simulator = ExcavatorSimulator::new(&case, twin);
+    let bounds: Vec<(f64, f64)> = simulator
+        .parameters()
+        .iter()
+        .map(|p| (p.lower, p.upper))
+        .collect();
+    let inputs: Vec<Vec<f64>> = latin_hypercube(40, 4, 1)
+        .iter()
+        .map(|u| {
+            u.iter()
+                .zip(&bounds)
+                .map(|(v, (l, h))| l + v * (h - l))
+                .collect()
+        })
+        .collect();
+    let outputs: Vec<Vec<f64>> = inputs
+        .iter()
+        .map(|x| simulator.evaluate(x).expect("twin run"))
+        .collect();
+    let settings = GpSettings {
+        kernel: Kernel::SquaredExponential,
+        input_bounds: Some(bounds.clone()),
+        ..GpSettings::default()
+    };
+    let mut fit_times = Vec::new();
+    let mut gps = Vec::new();
+    for k in 0..3 {
+        let y: Vec<f64> = outputs.iter().map(|o| o[k]).collect();
+        let start = Instant::now();
+        gps.push(Gp::fit(&inputs, &y, &settings).expect("gp"));
+        fit_times.push(start.elapsed().as_secs_f64());
+    }
+    let measured = [116.89, 193.46, 73.35];
+    let mut times = Vec::new();
+    for _ in 0..5 {
+        let start = Instant::now();
+        let result = nsga2(
+            |x| {
+                gps.iter()
+                    .zip(measured)
+                    .map(|(gp, m)| 100.0 * (m - gp.predict(x).mean).abs() / m)
+                    .collect()
+            },
+            &bounds,
+            &Nsga2Settings::default(),
+        )
+        .expect("nsga2");
+        times.push(start.elapsed().as_secs_f64());
+        assert!(!result.front.is_empty());
+    }
+    println!(
+        "GP fit n = 40, d = 4 (twin data, SE-ARD, 5 restarts): {:.2} / {:.2} / {:.2} ms",
+        1e3 * fit_times[0],
+        1e3 * fit_times[1],
+        1e3 * fit_times[2]
+    );
+    println!(
+        "NSGA-II 400 x 100 on the three GP means: median {:.3} s over {} runs",
+        median(times.clone()),
+        times.len()
+    );
+}

@@ -45,19 +45,19 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use acq_calib::bo::{minimise, BoError, BoSettings};
+use acq_calib::bo::BoSettings;
 use acq_calib::doe::{
     full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
     two_level_to_unit,
 };
-use acq_calib::evaluation::{Evaluation, Parameter, Simulator};
+use acq_calib::evaluation::{Parameter, Simulator};
 use clap::Args;
 use serde::Deserialize;
 use serde_json::json;
 
 use super::progress::Progress;
 use super::report::{write_text, MarkdownTable};
-use super::{distinct_best, from_unit, to_unit, RunDirectory};
+use super::{distinct_best, to_unit, RunDirectory};
 use crate::error::{AcqError, Result};
 use crate::plot::{chart_svg, Chart, Series, SeriesStyle};
 
@@ -416,36 +416,17 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         seed: args.seed,
         ..BoSettings::default()
     };
-    let mut log_failure = None;
-    let result = minimise::<BoError>(
+    let result = super::minimise_logged(
+        &mut evaluator,
+        &parameters,
         initial,
-        |batch| {
-            let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(&parameters, u)).collect();
-            match evaluator.evaluate(&values) {
-                Ok(evaluations) => Ok(evaluations
-                    .iter()
-                    .map(|e| e.outcome.as_ref().ok().map(|y| errors_pct(spec, y).1))
-                    .collect()),
-                Err(error) => {
-                    let message = error.to_string();
-                    log_failure = Some(error);
-                    Err(BoError::Settings(message))
-                }
-            }
-        },
+        |y| errors_pct(spec, y).1,
         &settings,
     );
     progress.finish();
-    if let Some(error) = log_failure {
-        return Err(super::evaluation_error(error));
-    }
-    let result = result.map_err(|e| AcqError::Config(e.to_string()))?;
+    let result = result?;
     let wall_s = start.elapsed().as_secs_f64();
-    let scored: Vec<(&Evaluation, f64)> = evaluator
-        .evaluations()
-        .iter()
-        .filter_map(|e| e.outcome.as_ref().ok().map(|y| (e, errors_pct(spec, y).1)))
-        .collect();
+    let scored = super::scored(evaluator.evaluations(), |y| errors_pct(spec, y).1);
     let failed = evaluator
         .evaluations()
         .iter()

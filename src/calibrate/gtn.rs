@@ -9,7 +9,7 @@
 
 use std::path::PathBuf;
 
-use acq_calib::bo::{minimise, Acquisition, BoError, BoSettings};
+use acq_calib::bo::{Acquisition, BoSettings};
 use acq_calib::doe::{orthogonal_array_l12, two_level_to_unit};
 use acq_calib::evaluation::{Evaluation, Parameter, Simulator};
 use acq_calib::gp::{GpSettings, Kernel};
@@ -19,7 +19,7 @@ use serde_json::json;
 
 use super::progress::Progress;
 use super::report::{write_text, MarkdownTable};
-use super::{distinct_best, from_unit, RunDirectory};
+use super::{distinct_best, RunDirectory};
 use crate::error::{AcqError, Result};
 use crate::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
 use crate::plot::{chart_svg, Chart, Series, SeriesStyle};
@@ -181,38 +181,18 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
         seed: args.seed,
         ..BoSettings::default()
     };
-    let mut log_failure = None;
-    let result = minimise::<BoError>(
+    let result = super::minimise_logged(
+        &mut evaluator,
+        &parameters,
         start_design,
-        |batch| {
-            let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(&parameters, u)).collect();
-            match evaluator.evaluate(&values) {
-                Ok(evaluations) => Ok(evaluations
-                    .iter()
-                    .map(|e| e.outcome.as_ref().ok().map(|y| y[0]))
-                    .collect()),
-                Err(error) => {
-                    // Stop the optimisation: the log cannot be written.
-                    let message = error.to_string();
-                    log_failure = Some(error);
-                    Err(BoError::Settings(message))
-                }
-            }
-        },
+        |y| y[0],
         &settings,
     );
     progress.finish();
-    if let Some(error) = log_failure {
-        return Err(super::evaluation_error(error));
-    }
-    let result = result.map_err(|e| AcqError::Config(e.to_string()))?;
+    let result = result?;
     let wall_s = start.elapsed().as_secs_f64();
 
-    let evaluations: Vec<(&Evaluation, f64)> = evaluator
-        .evaluations()
-        .iter()
-        .filter_map(|e| e.outcome.as_ref().ok().map(|y| (e, y[0])))
-        .collect();
+    let evaluations = super::scored(evaluator.evaluations(), |y| y[0]);
     let Some(&(best, best_mape)) = evaluations.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
         return Err(AcqError::Config("no simulation succeeded".into()));
     };

@@ -19,6 +19,7 @@ pub mod report;
 
 use std::path::{Path, PathBuf};
 
+use acq_calib::bo::{minimise, BoError, BoResult, BoSettings};
 use acq_calib::evaluation::{Evaluation, EvaluationError, Evaluator, Parameter, Simulator};
 use clap::Subcommand;
 
@@ -155,4 +156,48 @@ pub fn distinct_best(
         }
     }
     chosen
+}
+
+/// Bayesian optimisation of `loss(outputs)` through a logging evaluator: the
+/// engine's unit-box points are scaled to the parameters, run (in parallel,
+/// logged) and scored; a failed run is a missing loss. A log that cannot be
+/// written stops the run with that error.
+pub fn minimise_logged(
+    evaluator: &mut Evaluator<'_>,
+    parameters: &[Parameter],
+    initial: Vec<Vec<f64>>,
+    loss: impl Fn(&[f64]) -> f64,
+    settings: &BoSettings,
+) -> Result<BoResult> {
+    let mut log_failure = None;
+    let result = minimise::<BoError>(
+        initial,
+        |batch| {
+            let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(parameters, u)).collect();
+            match evaluator.evaluate(&values) {
+                Ok(evaluations) => Ok(evaluations
+                    .iter()
+                    .map(|e| e.outcome.as_ref().ok().map(|y| loss(y)))
+                    .collect()),
+                Err(error) => {
+                    let message = error.to_string();
+                    log_failure = Some(error);
+                    Err(BoError::Settings(message))
+                }
+            }
+        },
+        settings,
+    );
+    if let Some(error) = log_failure {
+        return Err(evaluation_error(error));
+    }
+    result.map_err(|e| AcqError::Config(e.to_string()))
+}
+
+/// The successful evaluations with their loss.
+pub fn scored(evaluations: &[Evaluation], loss: impl Fn(&[f64]) -> f64) -> Vec<(&Evaluation, f64)> {
+    evaluations
+        .iter()
+        .filter_map(|e| e.outcome.as_ref().ok().map(|y| (e, loss(y))))
+        .collect()
 }

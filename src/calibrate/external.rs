@@ -206,13 +206,16 @@ pub struct ExternalSimulator {
 
 impl ExternalSimulator {
     pub fn new(spec: Spec, spec_directory: PathBuf, runs: PathBuf) -> Self {
+        let highest = highest_run_number(&runs);
         let outputs = spec.outputs.iter().map(|o| o.name.clone()).collect();
         ExternalSimulator {
             spec,
             spec_directory,
             runs,
             outputs,
-            counter: AtomicUsize::new(0),
+            // A resumed run numbers on after the directories already there,
+            // so the interrupted run's files are kept.
+            counter: AtomicUsize::new(highest),
         }
     }
 
@@ -258,6 +261,9 @@ impl ExternalSimulator {
             match child.try_wait() {
                 Ok(Some(status)) => break status,
                 Ok(None) if Instant::now() >= deadline => {
+                    // A solver started through a shell or a wrapper has
+                    // children of its own: kill the whole tree, leaves first.
+                    kill_process_tree(child.id());
                     let _ = child.kill();
                     let _ = child.wait();
                     return Err(format!(
@@ -283,6 +289,56 @@ impl ExternalSimulator {
             return Err(format!("the solver exited with {status}: {tail}"));
         }
         read_outputs(&output_path, &self.outputs)
+    }
+}
+
+/// The largest `NNNNNN` among the run directories (0 if none).
+fn highest_run_number(runs: &Path) -> usize {
+    std::fs::read_dir(runs)
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok()?.file_name().to_str()?.parse::<usize>().ok())
+                .max()
+                .unwrap_or(0)
+        })
+        .unwrap_or(0)
+}
+
+/// SIGKILL to every descendant of `root` (found through /proc), deepest
+/// first. The solver stays in acq's process group, so Ctrl-C on the
+/// terminal still reaches it; a timeout has to find its children itself.
+fn kill_process_tree(root: u32) {
+    let parent_of = |pid: u32| -> Option<u32> {
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+        // The command name in parentheses may hold spaces: parse after it.
+        let after = stat.rsplit_once(')')?.1;
+        after.split_whitespace().nth(1)?.parse().ok()
+    };
+    let all: Vec<u32> = std::fs::read_dir("/proc")
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut tree = vec![root];
+    let mut index = 0;
+    while index < tree.len() {
+        let parent = tree[index];
+        tree.extend(
+            all.iter()
+                .copied()
+                .filter(|&pid| parent_of(pid) == Some(parent)),
+        );
+        index += 1;
+    }
+    for &pid in tree.iter().skip(1).rev() {
+        if let Ok(pid) = i32::try_from(pid) {
+            let _ = nix::sys::signal::kill(
+                nix::unistd::Pid::from_raw(pid),
+                nix::sys::signal::Signal::SIGKILL,
+            );
+        }
     }
 }
 

@@ -31,6 +31,20 @@ fn benchmark_flow_curve() -> FlowCurve {
     FlowCurve::new(strains, stresses, 129.24).unwrap()
 }
 
+/// The published Dataset-1 GTN parameters, with optional coalescence.
+fn published_dataset_1(coalescence: Option<acq_twins::tensile::gtn::Coalescence>) -> GtnParameters {
+    GtnParameters {
+        q1: 1.332,
+        q2: 0.9952,
+        q3: 2.295,
+        nucleation_mean_strain: 0.29,
+        nucleation_std_strain: 0.1671,
+        nucleated_void_fraction: 0.03869,
+        initial_porosity: 0.00137,
+        coalescence,
+    }
+}
+
 fn j2_twin(
     geometry: BarGeometry,
     mesh: MeshDensity,
@@ -216,16 +230,7 @@ fn p91_like_twin(mesh: MeshDensity) -> TensileTwin {
         .map(|&e| 440.0 + 260.0 * (1.0 - (-25.0 * e).exp()))
         .collect();
     let flow = FlowCurve::new(strains, stresses, 534.1).unwrap();
-    let parameters = GtnParameters {
-        q1: 1.332,
-        q2: 0.9952,
-        q3: 2.295,
-        nucleation_mean_strain: 0.29,
-        nucleation_std_strain: 0.1671,
-        nucleated_void_fraction: 0.03869,
-        initial_porosity: 0.00137,
-        coalescence: None,
-    };
+    let parameters = published_dataset_1(None);
     let material = GtnMaterial::new(
         Elasticity {
             youngs_modulus_mpa: 207_011.0,
@@ -315,19 +320,10 @@ fn a_bar_with_coalescence_breaks_in_the_neck() {
             youngs_modulus_mpa: 207_011.0,
             poisson_ratio: 0.3,
         },
-        GtnParameters {
-            q1: 1.332,
-            q2: 0.9952,
-            q3: 2.295,
-            nucleation_mean_strain: 0.29,
-            nucleation_std_strain: 0.1671,
-            nucleated_void_fraction: 0.03869,
-            initial_porosity: 0.00137,
-            coalescence: Some(Coalescence {
-                critical_porosity: 0.02,
-                failure_porosity: 0.15,
-            }),
-        },
+        published_dataset_1(Some(Coalescence {
+            critical_porosity: 0.02,
+            failure_porosity: 0.15,
+        })),
         flow,
     )
     .unwrap();

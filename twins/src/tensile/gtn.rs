@@ -585,6 +585,9 @@ pub struct GtnMaterial {
 /// The return-mapping unknowns `(Δε_p, Δε_q, Δε_m, Δf)`.
 type Unknowns = Vector4<f64>;
 
+/// LU factors of the local Jacobian at convergence.
+type JacobianLu = nalgebra::LU<f64, nalgebra::U4, nalgebra::U4>;
+
 /// Residual, Jacobian and the partials the tangent needs, at one iterate.
 struct LocalEvaluation {
     residual: Vector4<f64>,
@@ -1028,16 +1031,19 @@ impl GtnMaterial {
             iterations: MAX_ITERATIONS,
             residual: f64::INFINITY,
         };
+        // One factorisation of the local Jacobian serves both sensitivities.
+        let lu = evaluation.jacobian.lu();
         let tangent = consistent_tangent(
             &problem,
             &evaluation,
+            &lu,
             &flow_direction,
             shear,
             deviator_ratio,
         )
         .ok_or(not_converged.clone())?;
         let stress_by_volume_ratio =
-            volume_ratio_sensitivity(&problem, &evaluation, &flow_direction)
+            volume_ratio_sensitivity(&problem, &evaluation, &lu, &flow_direction)
                 .ok_or(not_converged)?;
 
         let update = StressUpdate {
@@ -1184,14 +1190,12 @@ fn solve_return_mapping(
 fn volume_ratio_sensitivity(
     problem: &ReturnMapping<'_>,
     evaluation: &LocalEvaluation,
+    lu: &JacobianLu,
     flow_direction: &Mandel,
 ) -> Option<Mandel> {
     let d_residual_d_volume_ratio =
         evaluation.d_residual_d_flow_stress * (evaluation.flow_stress_mpa / problem.volume_ratio);
-    let dx = evaluation
-        .jacobian
-        .lu()
-        .solve(&-d_residual_d_volume_ratio)?;
+    let dx = lu.solve(&-d_residual_d_volume_ratio)?;
     Some(
         identity_mandel() * (-problem.bulk_mpa * dx[0])
             + flow_direction * (-(2.0 / 3.0) * problem.three_shear_mpa * dx[1]),
@@ -1202,11 +1206,11 @@ fn volume_ratio_sensitivity(
 fn consistent_tangent(
     problem: &ReturnMapping<'_>,
     evaluation: &LocalEvaluation,
+    lu: &JacobianLu,
     flow_direction: &Mandel,
     shear_mpa: f64,
     deviator_ratio: f64,
 ) -> Option<MandelTangent> {
-    let lu = evaluation.jacobian.lu();
     let dx_d_trial_mean = lu.solve(&-evaluation.d_residual_d_trial_mean)?;
     let dx_d_trial_von_mises = lu.solve(&-evaluation.d_residual_d_trial_von_mises)?;
     let bulk = problem.bulk_mpa;

@@ -56,6 +56,8 @@ pub enum Command {
     /// Gaussian-process regression on a CSV: fit a model, predict with it.
     #[command(subcommand)]
     Gp(crate::engine_cli::GpCommand),
+    /// The whole chain on the shipped sessions: replay, record, align, extract, calibrate, report.
+    Demo(crate::demo::DemoArgs),
     /// NSGA-II on a built-in benchmark problem (ZDT1-3, DTLZ2): the final front as CSV.
     Moo(crate::engine_cli::MooArgs),
 }
@@ -111,6 +113,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Calibrate(command) => crate::calibrate::run(command),
         Command::Gp(command) => crate::engine_cli::run_gp(command),
         Command::Moo(args) => crate::engine_cli::run_moo(args),
+        Command::Demo(args) => crate::demo::run(args),
     }
 }
 

@@ -13,6 +13,9 @@ pub enum AcqError {
     /// Input data that is not what its format says (`file:line: expected ...`).
     #[error("{0}")]
     Malformed(String),
+    /// Stopped by Ctrl-C (or SIGTERM) after leaving its files whole.
+    #[error("{0}")]
+    Interrupted(String),
     /// Reading or writing failed.
     #[error("{context}: {source}")]
     Io {
@@ -26,11 +29,14 @@ impl AcqError {
     pub const EXIT_FAILURE: u8 = 1;
     pub const EXIT_CONFIG: u8 = 2;
     pub const EXIT_MALFORMED: u8 = 3;
+    /// 128 + SIGINT, what a shell reports for a command stopped by Ctrl-C.
+    pub const EXIT_INTERRUPTED: u8 = 130;
 
     pub fn exit_code(&self) -> u8 {
         match self {
             AcqError::Config(_) => Self::EXIT_CONFIG,
             AcqError::Malformed(_) => Self::EXIT_MALFORMED,
+            AcqError::Interrupted(_) => Self::EXIT_INTERRUPTED,
             AcqError::Io { .. } => Self::EXIT_FAILURE,
         }
     }

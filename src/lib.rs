@@ -20,6 +20,8 @@ pub mod bus;
 pub mod calibrate;
 pub mod cli;
 pub mod decode;
+pub mod demo;
+pub mod document;
 pub mod engine_cli;
 pub mod error;
 pub mod extract;

@@ -159,11 +159,12 @@ pub fn report(name: &str, p: &TensileProperties) -> String {
     );
     let _ = writeln!(
         out,
-        "flow curve          {} rows from the onset of plasticity (strain {:.5}, after point {}) to the UTS, plastic strain unshifted; dropped {} non-increasing",
+        "flow curve          {} rows from the onset of plasticity (strain {:.5}, after point {}) to the UTS, plastic strain unshifted; dropped {} non-increasing, pooled {} for a rising stress",
         flow.points.len(),
         flow.onset_strain,
         flow.onset_after_point,
-        flow.dropped_non_increasing
+        flow.dropped_non_increasing,
+        flow.pooled_for_increasing_stress
     );
     let _ = writeln!(
         out,

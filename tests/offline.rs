@@ -3,6 +3,8 @@
 //! bad on purpose: the real binary, its files, exit codes and messages.
 
 mod common;
+
+use common::pipeline::scenario_holds;
 use common::{acq, root, stderr};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -73,23 +75,6 @@ impl Table {
             .map(|r| r[c].parse().unwrap())
             .collect()
     }
-}
-
-/// The scenario's hold value of every sensor.
-fn scenario_holds(name: &str) -> BTreeMap<String, f64> {
-    let text = std::fs::read_to_string(
-        root()
-            .join("fixtures/scenarios")
-            .join(format!("{name}.toml")),
-    )
-    .unwrap();
-    let scenario: toml::Table = text.parse().unwrap();
-    scenario["sensor"]
-        .as_table()
-        .unwrap()
-        .iter()
-        .map(|(k, v)| (k.clone(), v["hold"].as_float().unwrap()))
-        .collect()
 }
 
 fn mean(values: &[f64]) -> f64 {

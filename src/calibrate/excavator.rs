@@ -12,7 +12,7 @@
 //! 4. TOPSIS (equal weights by default, every error a cost) picks one point
 //!    of the front; the twin is re-run there and the real errors reported.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use acq_calib::doe::{latin_hypercube, random_uniform};
 use acq_calib::evaluation::{Parameter, Simulator};
@@ -28,9 +28,11 @@ use clap::Args;
 use serde_json::json;
 
 use super::progress::Progress;
-use super::report::{pareto_svg, write_text, MarkdownTable};
+use super::report::{pareto_svg, write_report, write_text};
 use super::{default_parallelism, from_unit, RunDirectory};
+use crate::document::{Document, Figure, Table};
 use crate::error::{AcqError, Result};
+use crate::extract::measured::read_measured;
 use crate::plot::{chart_svg, Chart, Series, SeriesStyle};
 
 #[derive(Args, Debug)]
@@ -38,6 +40,17 @@ pub struct CalibrateExcavatorArgs {
     /// Case file (TOML) with bounds and measured pressures.
     #[arg(long, value_name = "FILE")]
     pub case: PathBuf,
+    /// Measured values from `acq extract`: the loaded-chamber pressures
+    /// (`<cylinder>_loaded_pressure`) replace the case's [measured], and the
+    /// load (`--load-quantity`) replaces its force.
+    #[arg(long, value_name = "measured.csv")]
+    pub measured: Option<PathBuf>,
+    /// The hold to use from the measured file [default: its only one].
+    #[arg(long, value_name = "NAME", requires = "measured")]
+    pub window: Option<String>,
+    /// The measured quantity that is the force at the bucket tip (kN).
+    #[arg(long, value_name = "QUANTITY", default_value = "tip_force")]
+    pub load_quantity: String,
     /// Geometry file [default: the built-in DX55-class data/excavator/dx55.toml].
     #[arg(long, value_name = "FILE")]
     pub geometry: Option<PathBuf>,
@@ -141,8 +154,124 @@ fn per_cylinder(values: &[f64]) -> serde_json::Value {
     json!({"bucket": values[0], "arm": values[1], "boom": values[2]})
 }
 
-pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
-    let case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
+/// What the calibration found, besides the files it wrote.
+#[derive(Clone, Debug)]
+pub struct ExcavatorCalibration {
+    pub case: String,
+    /// The tip force the twin was loaded with, and where it came from.
+    pub force_kn: f64,
+    pub force_source: String,
+    /// Per cylinder (bucket, arm, boom), bar and %.
+    pub measured_bar: Vec<f64>,
+    pub nominal_bar: Vec<f64>,
+    pub calibrated_bar: Vec<f64>,
+    pub errors_initial_pct: Vec<f64>,
+    pub errors_optimal_pct: Vec<f64>,
+    /// The calibrated inputs, named with their units.
+    pub optimal: Vec<(String, f64)>,
+    pub evaluations: usize,
+    pub wall_s: f64,
+    /// The report (also written as report.md and report.html).
+    pub report: Document,
+}
+
+/// The measured pressures and load of one hold of a measured-values file.
+struct MeasuredHold {
+    window: String,
+    pressures: MeasuredPressures,
+    force_kn: Option<f64>,
+}
+
+fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Result<MeasuredHold> {
+    let values = read_measured(path)?;
+    let mut windows: Vec<&str> = values.iter().map(|v| v.window.as_str()).collect();
+    windows.dedup();
+    let window = match window {
+        Some(w) if windows.contains(&w) => w.to_string(),
+        Some(w) => {
+            return Err(AcqError::Config(format!(
+                "{}: no window '{w}'; it has {}",
+                path.display(),
+                windows.join(", ")
+            )))
+        }
+        None if windows.len() == 1 => windows[0].to_string(),
+        None => {
+            return Err(AcqError::Config(format!(
+                "{}: {} windows ({}); choose one with --window",
+                path.display(),
+                windows.len(),
+                windows.join(", ")
+            )))
+        }
+    };
+    let mean = |quantity: &str, unit: &str| -> Result<Option<f64>> {
+        let Some(value) = values
+            .iter()
+            .find(|v| v.window == window && v.quantity == quantity)
+        else {
+            return Ok(None);
+        };
+        if value.unit != unit {
+            return Err(AcqError::Config(format!(
+                "{}: {quantity} is in {}, expected {unit}",
+                path.display(),
+                value.unit
+            )));
+        }
+        if !value.is_usable() {
+            return Err(AcqError::Config(format!(
+                "{}: {quantity} in {window} is not fit to calibrate against (flags '{}': {}); \
+                 fix the channel or give the value in the case file instead",
+                path.display(),
+                value.flags.join(";"),
+                value.note
+            )));
+        }
+        Ok(value.stats.mean)
+    };
+    let pressure = |cylinder: CylinderName| -> Result<f64> {
+        let quantity = format!("{cylinder}_loaded_pressure");
+        mean(&quantity, "bar")?.ok_or_else(|| {
+            AcqError::Config(format!(
+                "{}: no {quantity} in {window}; the rig needs a [[cylinder]] named {cylinder} \
+                 with its head and rod pressure sensors",
+                path.display()
+            ))
+        })
+    };
+    Ok(MeasuredHold {
+        pressures: MeasuredPressures {
+            bucket_bar: pressure(CylinderName::Bucket)?,
+            arm_bar: pressure(CylinderName::Arm)?,
+            boom_bar: pressure(CylinderName::Boom)?,
+        },
+        force_kn: mean(load_quantity, "kN")?,
+        window,
+    })
+}
+
+pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
+    let mut case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
+    let mut force_source = format!("case file {}", args.case.display());
+    let mut measured_source = force_source.clone();
+    if let Some(path) = &args.measured {
+        let hold = measured_hold(path, args.window.as_deref(), &args.load_quantity)?;
+        measured_source = format!("{} ({})", path.display(), hold.window);
+        case.measured = Some(hold.pressures);
+        match hold.force_kn {
+            Some(force) if force > 0.0 => {
+                case.force_kn = force;
+                force_source = format!("{} mean in {measured_source}", args.load_quantity);
+            }
+            _ => eprintln!(
+                "acq: {} has no usable positive {}; the case's force {} kN is used",
+                path.display(),
+                args.load_quantity,
+                case.force_kn
+            ),
+        }
+    }
     let measured = case.measured.ok_or_else(|| {
         AcqError::Config(format!(
             "{}: the case has no [measured] pressures (bucket_bar, arm_bar, boom_bar) to calibrate against",
@@ -340,18 +469,15 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
 
     // Plots: the Pareto front with the pick, and the error of every run.
     let names = ["bucket error %", "arm error %", "boom error %"];
-    write_text(
-        &directory.file("pareto.svg"),
-        &pareto_svg(
-            &format!(
-                "{}: Pareto front of the GP errors (NSGA-II), TOPSIS pick",
-                case.name
-            ),
-            &names,
-            &matrix,
-            pick.best,
+    let pareto = pareto_svg(
+        &format!(
+            "{}: Pareto front of the GP errors (NSGA-II), TOPSIS pick",
+            case.name
         ),
-    )?;
+        &names,
+        &matrix,
+        pick.best,
+    );
     let worst_error: Vec<(f64, f64)> = evaluator
         .evaluations()
         .iter()
@@ -371,24 +497,22 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
         "largest relative error [%]",
     )
     .with_series(Series::new("twin runs", worst_error).with_style(SeriesStyle::Markers));
-    write_text(
-        &directory.file("loss.svg"),
-        &chart_svg(&loss_chart, 720.0, 420.0),
-    )?;
 
     // The report.
+    let wall_s = start.elapsed().as_secs_f64();
+    let largest = |errors: &[f64]| errors.iter().fold(0.0f64, |a, &b| a.max(b));
     let gp_at_pick = predicted(&optimal);
-    let mut report = format!(
-        "# Calibration of the excavator twin: {}\n\n\
-         {} twin evaluations ({} failed) in {:.2} s; run directory `{}`.\n\n\
-         ## Pressures\n\n",
-        case.name,
-        evaluations,
-        failed_runs,
-        start.elapsed().as_secs_f64(),
-        args.out.display()
-    );
-    let mut table = MarkdownTable::new(&[
+    let mut report = Document::new();
+    report
+        .heading(1, format!("Calibration of the excavator twin: {}", case.name))
+        .paragraph(format!(
+            "{evaluations} twin evaluations ({failed_runs} failed) in {wall_s:.2} s; run directory `{}`. \
+             Measured pressures from {measured_source}; tip force {:.2} kN from {force_source}.",
+            args.out.display(),
+            case.force_kn,
+        ))
+        .heading(2, "Pressures");
+    let mut table = Table::new(&[
         "cylinder",
         "measured [bar]",
         "model at nominal [bar]",
@@ -408,14 +532,16 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
             format!("{:.2}", errors_optimal[k]),
         ]);
     }
-    report.push_str(&table.render());
-    report.push_str(&format!(
-        "\nLargest error: {:.2} % at nominal, {:.2} % calibrated.\n\n## Calibrated inputs (TOPSIS pick, weights {:?})\n\n",
-        errors_initial.iter().fold(0.0f64, |a, &b| a.max(b)),
-        errors_optimal.iter().fold(0.0f64, |a, &b| a.max(b)),
-        args.weights
+    report.table(table).paragraph(format!(
+        "Largest error: {:.2} % at nominal, {:.2} % calibrated.",
+        largest(&errors_initial),
+        largest(&errors_optimal),
     ));
-    let mut table = MarkdownTable::new(&["input", "lower", "upper", "nominal", "calibrated"]);
+    report.heading(
+        2,
+        format!("Calibrated inputs (TOPSIS pick, weights {:?})", args.weights),
+    );
+    let mut table = Table::new(&["input", "lower", "upper", "nominal", "calibrated"]);
     for (p, value) in parameters.iter().zip(&optimal) {
         table.row(vec![
             p.name.clone(),
@@ -425,38 +551,51 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
             format!("{value:.3}"),
         ]);
     }
-    report.push_str(&table.render());
-    report.push_str(&format!(
-        "\n## Surrogates: RMSE on the {} test runs [bar]\n\n",
-        test_x.len()
-    ));
-    let mut table = MarkdownTable::new(&["surrogate", "bucket", "arm", "boom"]);
+    report.table(table).heading(
+        2,
+        format!("Surrogates: RMSE on the {} test runs [bar]", test_x.len()),
+    );
+    let mut table = Table::new(&["surrogate", "bucket", "arm", "boom"]);
     for (name, row) in &rmse_table {
         let mut cells = vec![name.clone()];
         cells.extend(row.iter().map(|v| format!("{v:.3}")));
         table.row(cells);
     }
-    report.push_str(&table.render());
-    report.push_str(&format!(
-        "\nGP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs.\n\
-         \n## Pareto front\n\n{} points (population {}, {} generations, Pareto fraction {}); \
-         the pick has closeness {:.3}. ![Pareto front](pareto.svg) ![errors per run](loss.svg)\n",
-        args.kernel,
-        train_x.len(),
-        moo.front.len(),
-        args.population,
-        args.generations,
-        args.pareto_fraction,
-        pick.closeness[pick.best],
-    ));
+    report
+        .table(table)
+        .paragraph(format!(
+            "GP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs.",
+            args.kernel,
+            train_x.len(),
+        ))
+        .heading(2, "Pareto front")
+        .paragraph(format!(
+            "{} points (population {}, {} generations, Pareto fraction {}); the pick has closeness {:.3}.",
+            moo.front.len(),
+            args.population,
+            args.generations,
+            args.pareto_fraction,
+            pick.closeness[pick.best],
+        ))
+        .figure(Figure {
+            file: "pareto.svg".into(),
+            caption: "Pareto front of the GP errors, TOPSIS pick".into(),
+            svg: pareto,
+        })
+        .figure(Figure {
+            file: "loss.svg".into(),
+            caption: "largest pressure error of each twin run".into(),
+            svg: chart_svg(&loss_chart, 720.0, 420.0),
+        });
     // Variance-based sensitivity of each pressure, on its GP (cheap: 6,144
     // GP predictions per output instead of twin runs).
-    report.push_str(
-        "\n## Sensitivity: Sobol indices from the GPs (first order / total, 1024 base samples)\n\n",
+    report.heading(
+        2,
+        "Sensitivity: Sobol indices from the GPs (first order / total, 1024 base samples)",
     );
     let mut header = vec!["pressure"];
     header.extend(parameters.iter().map(|p| p.name.as_str()));
-    let mut table = MarkdownTable::new(&header);
+    let mut table = Table::new(&header);
     for (k, name) in CylinderName::ALL.iter().enumerate() {
         let gp = &gps[k];
         let indices = sobol_indices(
@@ -478,15 +617,32 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<()> {
         }
         table.row(cells);
     }
-    report.push_str(&table.render());
-    write_text(&directory.file("report.md"), &report)?;
+    report.table(table);
+    write_report(&directory, &report, &format!("Excavator calibration {}", case.name))?;
     println!(
         "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",
         case.name,
-        errors_initial.iter().fold(0.0f64, |a, &b| a.max(b)),
-        errors_optimal.iter().fold(0.0f64, |a, &b| a.max(b)),
+        largest(&errors_initial),
+        largest(&errors_optimal),
         evaluations,
         directory.file("report.md").display()
     );
-    Ok(())
+    Ok(ExcavatorCalibration {
+        case: case.name.clone(),
+        force_kn: case.force_kn,
+        force_source,
+        measured_bar: CylinderName::ALL.iter().map(|c| measured.get(*c)).collect(),
+        nominal_bar,
+        calibrated_bar: optimal_bar,
+        errors_initial_pct: errors_initial,
+        errors_optimal_pct: errors_optimal,
+        optimal: parameters
+            .iter()
+            .map(|p| p.name.clone())
+            .zip(optimal.iter().copied())
+            .collect(),
+        evaluations,
+        wall_s,
+        report,
+    })
 }

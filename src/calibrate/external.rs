@@ -56,8 +56,9 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::progress::Progress;
-use super::report::{write_text, MarkdownTable};
+use super::report::{write_report, write_text};
 use super::{distinct_best, to_unit, RunDirectory};
+use crate::document::{Document, Figure, Table};
 use crate::error::{AcqError, Result};
 use crate::plot::{chart_svg, Chart, Series, SeriesStyle};
 
@@ -522,19 +523,18 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
     let chart = Chart::new("Loss per solver run", "evaluation", "loss [%]")
         .with_series(Series::new("run", each).with_style(SeriesStyle::Markers))
         .with_series(Series::new("best so far", running));
-    write_text(
-        &directory.file("loss.svg"),
-        &chart_svg(&chart, 720.0, 420.0),
-    )?;
 
-    let mut report = format!(
-        "# Calibration with {}\n\nBest loss ({} relative error) {best_loss:.4} % after {} runs ({failed} failed), {wall_s:.1} s; stopped: {:?}.\n\n## Outputs\n\n",
-        args.spec.display(),
-        spec.search.loss,
-        evaluator.evaluations().len(),
-        result.stop
-    );
-    let mut table = MarkdownTable::new(&["output", "measured", "best run", "error [%]"]);
+    let mut report = Document::new();
+    report
+        .heading(1, format!("Calibration with {}", args.spec.display()))
+        .paragraph(format!(
+            "Best loss ({} relative error) {best_loss:.4} % after {} runs ({failed} failed), {wall_s:.1} s; stopped: {:?}.",
+            spec.search.loss,
+            evaluator.evaluations().len(),
+            result.stop
+        ))
+        .heading(2, "Outputs");
+    let mut table = Table::new(&["output", "measured", "best run", "error [%]"]);
     for ((o, y), e) in spec.outputs.iter().zip(&best_outputs).zip(&best_errors) {
         table.row(vec![
             o.name.clone(),
@@ -543,9 +543,8 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
             format!("{e:.3}"),
         ]);
     }
-    report.push_str(&table.render());
-    report.push_str("\n## Parameters\n\n");
-    let mut table = MarkdownTable::new(&["parameter", "lower", "upper", "best"]);
+    report.table(table).heading(2, "Parameters");
+    let mut table = Table::new(&["parameter", "lower", "upper", "best"]);
     for (p, v) in parameters.iter().zip(&best.parameters) {
         table.row(vec![
             p.name.clone(),
@@ -554,21 +553,27 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
             format!("{v:.6}"),
         ]);
     }
-    report.push_str(&table.render());
+    report.table(table);
     let candidates = distinct_best(&parameters, &scored, 5, 0.25);
-    report.push_str("\n## Distinct good parameter sets (at least 0.25 apart in the unit box)\n\n");
+    report.heading(
+        2,
+        "Distinct good parameter sets (at least 0.25 apart in the unit box)",
+    );
     let mut header = vec!["run".to_string(), "loss [%]".to_string()];
     header.extend(parameters.iter().map(|p| p.name.clone()));
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut table = MarkdownTable::new(&header);
+    let mut table = Table::new(&header);
     for c in &candidates {
         let mut cells = vec![c.evaluation_id.to_string(), format!("{:.4}", c.loss)];
         cells.extend(c.parameters.iter().map(|v| format!("{v:.5}")));
         table.row(cells);
     }
-    report.push_str(&table.render());
-    report.push_str("\n![loss per run](loss.svg)\n");
-    write_text(&directory.file("report.md"), &report)?;
+    report.table(table).figure(Figure {
+        file: "loss.svg".into(),
+        caption: "loss per solver run".into(),
+        svg: chart_svg(&chart, 720.0, 420.0),
+    });
+    write_report(&directory, &report, "External calibration")?;
     println!(
         "best loss {best_loss:.4} % after {} runs ({failed} failed); report in {}",
         evaluator.evaluations().len(),

@@ -18,8 +18,9 @@ use clap::Args;
 use serde_json::json;
 
 use super::progress::Progress;
-use super::report::{write_text, MarkdownTable};
+use super::report::{write_report, write_text};
 use super::{distinct_best, RunDirectory};
+use crate::document::{Document, Figure, Table};
 use crate::error::{AcqError, Result};
 use crate::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
 use crate::plot::{chart_svg, Chart, Series, SeriesStyle};
@@ -130,7 +131,21 @@ fn parse_mesh(text: &str) -> Result<MeshDensity> {
     })
 }
 
-pub fn run(args: CalibrateGtnArgs) -> Result<()> {
+/// What the calibration found, besides the files it wrote.
+#[derive(Clone, Debug)]
+pub struct GtnCalibration {
+    pub best_mape_pct: f64,
+    /// MAPE before and after the test's maximum force, %.
+    pub best_split_pct: Option<(f64, f64)>,
+    pub best_params: Vec<(String, f64)>,
+    pub evaluations: usize,
+    pub evaluations_to_target: Option<usize>,
+    pub wall_s: f64,
+    /// The report (also written as report.md and report.html).
+    pub report: Document,
+}
+
+pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
     if !(args.target_mape.is_finite() && args.target_mape >= 0.0) {
         return Err(AcqError::Config(
             "--target-mape must be a number >= 0".into(),
@@ -246,10 +261,6 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
             .map(|p| (p.displacement_mm, p.force_kn))
             .collect(),
     ));
-    write_text(
-        &directory.file("curve.svg"),
-        &chart_svg(&chart, 720.0, 440.0),
-    )?;
     let mut best_so_far = f64::INFINITY;
     let mut running = Vec::new();
     let mut each = Vec::new();
@@ -264,10 +275,6 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
         .with_series(Series::new("simulation", each).with_style(SeriesStyle::Markers))
         .with_series(Series::new("best so far", running))
         .with_reference_line(args.target_mape, format!("target {} %", args.target_mape));
-    write_text(
-        &directory.file("loss.svg"),
-        &chart_svg(&loss_chart, 720.0, 420.0),
-    )?;
 
     // Non-uniqueness: distinct parameter sets near the best.
     let near: Vec<(&Evaluation, f64)> = evaluations
@@ -276,23 +283,28 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
         .filter(|(_, mape)| *mape <= 1.25 * best_mape + 0.25)
         .collect();
     let candidates = distinct_best(&parameters, &near, 5, 0.25);
-    let mut report = format!(
-        "# GTN calibration of {}\n\n\
-         Best MAPE {best_mape:.3} % (before the maximum force {:.3} %, after {:.3} %) after {} simulations; \
-         target {} % {}; {:.1} s. Stopped: {:?}.\n\n## Best parameters\n\n",
-        args.test.display(),
-        best_run.mape.split.map_or(f64::NAN, |s| s.before_percent),
-        best_run.mape.split.map_or(f64::NAN, |s| s.after_percent),
-        evaluator.evaluations().len(),
-        args.target_mape,
-        result
-            .evaluations_to_target
-            .map_or_else(|| "not reached".to_string(), |n| format!("reached at simulation {n}")),
-        wall_s,
-        result.stop,
-    );
-    let mut table =
-        MarkdownTable::new(&["parameter", "lower", "upper", "best", "position in range"]);
+    let split = best_run
+        .mape
+        .split
+        .map(|s| (s.before_percent, s.after_percent));
+    let mut report = Document::new();
+    report
+        .heading(1, format!("GTN calibration of {}", args.test.display()))
+        .paragraph(format!(
+            "Best MAPE {best_mape:.3} % (before the maximum force {:.3} %, after {:.3} %) after {} simulations; \
+             target {} % {}; {:.1} s. Stopped: {:?}.",
+            split.map_or(f64::NAN, |s| s.0),
+            split.map_or(f64::NAN, |s| s.1),
+            evaluator.evaluations().len(),
+            args.target_mape,
+            result
+                .evaluations_to_target
+                .map_or_else(|| "not reached".to_string(), |n| format!("reached at simulation {n}")),
+            wall_s,
+            result.stop,
+        ))
+        .heading(2, "Best parameters");
+    let mut table = Table::new(&["parameter", "lower", "upper", "best", "position in range"]);
     for (p, v) in parameters.iter().zip(&best_values) {
         table.row(vec![
             p.name.clone(),
@@ -302,30 +314,44 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
             format!("{:.0} %", 100.0 * p.to_unit(*v)),
         ]);
     }
-    report.push_str(&table.render());
-    report.push_str(&format!(
-        "\n## Not one answer: distinct parameter sets within 1.25 x best + 0.25 points of MAPE\n\n\
-         {} simulations lie that close; the best {} that are at least 0.25 apart in the unit box:\n\n",
-        near.len(),
-        candidates.len()
-    ));
+    report
+        .table(table)
+        .figure(Figure {
+            file: "curve.svg".into(),
+            caption: "measured vs calibrated force-displacement curve".into(),
+            svg: chart_svg(&chart, 720.0, 440.0),
+        })
+        .figure(Figure {
+            file: "loss.svg".into(),
+            caption: "MAPE per simulation".into(),
+            svg: chart_svg(&loss_chart, 720.0, 420.0),
+        })
+        .heading(
+            2,
+            "Not one answer: distinct parameter sets within 1.25 x best + 0.25 points of MAPE",
+        )
+        .paragraph(format!(
+            "{} simulations lie that close; the best {} that are at least 0.25 apart in the unit box:",
+            near.len(),
+            candidates.len()
+        ));
     let mut header = vec!["simulation", "MAPE [%]"];
     header.extend(PARAMETER_NAMES);
-    let mut table = MarkdownTable::new(&header);
+    let mut table = Table::new(&header);
     for c in &candidates {
         let mut cells = vec![c.evaluation_id.to_string(), format!("{:.3}", c.loss)];
         cells.extend(c.parameters.iter().map(|v| format!("{v:.4}")));
         table.row(cells);
     }
-    report.push_str(&table.render());
+    report.table(table);
     if candidates.len() < 2 {
-        report.push_str(
-            "\nThe run stopped as soon as it reached the target, before it could map the region \
+        report.paragraph(
+            "The run stopped as soon as it reached the target, before it could map the region \
              of good fits. For that picture, run on with a lower `--target-mape` (0 runs the whole \
-             budget) and `--resume` into the same directory: nothing is repeated.\n",
+             budget) and `--resume` into the same directory: nothing is repeated.",
         );
     }
-    let mut spread = MarkdownTable::new(&[
+    let mut spread = Table::new(&[
         "parameter",
         "min among them",
         "max among them",
@@ -345,15 +371,25 @@ pub fn run(args: CalibrateGtnArgs) -> Result<()> {
             format!("{:.0} %", 100.0 * (p.to_unit(high) - p.to_unit(low)).abs()),
         ]);
     }
-    report.push('\n');
-    report.push_str(&spread.render());
-    report.push_str("\n![measured vs calibrated](curve.svg) ![MAPE per simulation](loss.svg)\n");
-    write_text(&directory.file("report.md"), &report)?;
+    report.table(spread);
+    write_report(&directory, &report, "GTN calibration")?;
     println!(
         "best MAPE {best_mape:.3} % after {} simulations ({:.1} s); report in {}",
         evaluator.evaluations().len(),
         wall_s,
         directory.file("report.md").display()
     );
-    Ok(())
+    Ok(GtnCalibration {
+        best_mape_pct: best_mape,
+        best_split_pct: split,
+        best_params: parameters
+            .iter()
+            .map(|p| p.name.clone())
+            .zip(best_values.iter().copied())
+            .collect(),
+        evaluations: evaluator.evaluations().len(),
+        evaluations_to_target: result.evaluations_to_target,
+        wall_s,
+        report,
+    })
 }

@@ -8,7 +8,7 @@
 //! - [`external`]: the same engine on a user's solver run as a command.
 //!
 //! Every workflow writes `evaluations.csv` as it goes (resumable with
-//! `--resume`), then `summary.json` (the fixed interface), `report.md` and
+//! `--resume`), then `summary.json` (the fixed interface), `report.md`, `report.html` and
 //! SVG plots. Progress goes to stderr.
 
 pub mod excavator;
@@ -37,8 +37,8 @@ pub enum CalibrateCommand {
 
 pub fn run(command: CalibrateCommand) -> Result<()> {
     match command {
-        CalibrateCommand::Excavator(args) => excavator::run(args),
-        CalibrateCommand::Gtn(args) => gtn::run(args),
+        CalibrateCommand::Excavator(args) => excavator::run(args).map(drop),
+        CalibrateCommand::Gtn(args) => gtn::run(args).map(drop),
         CalibrateCommand::External(args) => external::run(args),
     }
 }

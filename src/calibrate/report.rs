@@ -1,8 +1,10 @@
-//! What a calibration leaves for its reader: Markdown tables and the plots
-//! (Pareto front with the pick, loss per evaluation).
+//! What a calibration leaves for its reader: the report (Markdown and HTML)
+//! and the plots (Pareto front with the pick, loss per evaluation).
 
 use std::path::Path;
 
+use super::RunDirectory;
+use crate::document::Document;
 use crate::error::Result;
 use crate::output::Output;
 use crate::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
@@ -12,33 +14,14 @@ pub fn write_text(path: &Path, text: &str) -> Result<()> {
     Output::write_complete(path, text.as_bytes())
 }
 
-/// A Markdown table built row by row.
-pub struct MarkdownTable {
-    header: Vec<String>,
-    rows: Vec<Vec<String>>,
-}
-
-impl MarkdownTable {
-    pub fn new(header: &[&str]) -> Self {
-        MarkdownTable {
-            header: header.iter().map(|h| h.to_string()).collect(),
-            rows: Vec::new(),
-        }
+/// Writes a report into its run directory: every figure as its SVG file,
+/// `report.md` (figures linked) and `report.html` (one page, figures inline).
+pub fn write_report(directory: &RunDirectory, report: &Document, title: &str) -> Result<()> {
+    for figure in report.figures() {
+        write_text(&directory.file(&figure.file), &figure.svg)?;
     }
-
-    pub fn row(&mut self, cells: Vec<String>) {
-        self.rows.push(cells);
-    }
-
-    pub fn render(&self) -> String {
-        let line = |cells: &[String]| format!("| {} |\n", cells.join(" | "));
-        let mut text = line(&self.header);
-        text.push_str(&line(&vec!["---".to_string(); self.header.len()]));
-        for row in &self.rows {
-            text.push_str(&line(row));
-        }
-        text
-    }
+    write_text(&directory.file("report.md"), &report.to_markdown())?;
+    write_text(&directory.file("report.html"), &report.to_html(title))
 }
 
 /// The Pareto front as scatter plots of each pair of objectives, the pick

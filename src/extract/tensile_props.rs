@@ -217,6 +217,9 @@ pub struct FlowCurve {
     /// Engineering strain at the first row.
     pub onset_strain: f64,
     pub dropped_non_increasing: usize,
+    /// Measured points pooled because their true stress did not rise (noise
+    /// on a flat stretch of the curve): see [`pool_to_increasing_stress`].
+    pub pooled_for_increasing_stress: usize,
 }
 
 /// One straight-line fit before the UTS.
@@ -604,12 +607,36 @@ pub fn tensile_properties(
             "flow curve: dropped {dropped_non_increasing} point(s) whose plastic strain does not increase"
         ));
     }
+    let measured_rows = flow.len();
+    let mut flow = pool_to_increasing_stress(flow);
+    let pooled_for_increasing_stress = measured_rows - flow.len();
+    if pooled_for_increasing_stress > 0 {
+        // A noisy curve: also average it over plastic-strain bins, so the
+        // hardening slope between rows is not the noise over a sample step.
+        flow = average_over_bins(&flow, NOISY_FLOW_BIN);
+        notes.push(format!(
+            "flow curve: the true stress fell between some of the {measured_rows} measured rows (noise); \
+             pooled so it rises, then averaged over plastic-strain bins of {NOISY_FLOW_BIN}: {} rows \
+             (a falling or jagged table gives the FE model softening and kinks it cannot converge through)",
+            flow.len()
+        ));
+    }
 
     let true_curve: Vec<(f64, f64)> = curve[..=uts_point]
         .iter()
         .map(|d| (d.true_strain(), d.true_stress_mpa()))
         .collect();
-    let post_uts_slope = post_uts_slope_bounds(&true_curve)?;
+    // A noisy curve's last few points give a slope of its noise: fit its
+    // averaged table instead (plastic strain for true strain: past yield
+    // they differ by the elastic strain, whose slope is 1/E of the stress's).
+    let slope_points: Vec<(f64, f64)> = if pooled_for_increasing_stress > 0 {
+        flow.iter()
+            .map(|p| (p.plastic_strain, p.true_stress_mpa))
+            .collect()
+    } else {
+        true_curve
+    };
+    let post_uts_slope = post_uts_slope_bounds(&slope_points)?;
     if post_uts_slope.fits.len() < SLOPE_FIT_MAX_POINTS - 1 {
         notes.push(format!(
             "only {} point(s) up to the UTS: {} slope fit(s) instead of {}",
@@ -645,15 +672,171 @@ pub fn tensile_properties(
             onset_after_point: onset_point,
             onset_strain: onset.strain,
             dropped_non_increasing,
+            pooled_for_increasing_stress,
         },
         post_uts_slope,
         notes,
     })
 }
 
+/// Plastic-strain bin of a noisy flow curve's table (0.2 %: about 50 rows
+/// up to a UTS at 10 % strain; a clean curve's table is kept row by row).
+pub const NOISY_FLOW_BIN: f64 = 0.002;
+
+/// Rows averaged over bins `[k bin, (k+1) bin)` of plastic strain; the
+/// first row (plastic strain 0) stays. Averages of a rising table rise.
+pub fn average_over_bins(flow: &[FlowPoint], bin: f64) -> Vec<FlowPoint> {
+    let Some((&onset, rest)) = flow.split_first() else {
+        return flow.to_vec();
+    };
+    let mut averaged = vec![onset];
+    let mut current: Option<(i64, f64, f64, f64)> = None;
+    let close = |block: (i64, f64, f64, f64), out: &mut Vec<FlowPoint>| {
+        out.push(FlowPoint {
+            plastic_strain: block.1 / block.3,
+            true_stress_mpa: block.2 / block.3,
+        });
+    };
+    for point in rest {
+        let key = (point.plastic_strain / bin).floor() as i64;
+        match &mut current {
+            Some(block) if block.0 == key => {
+                block.1 += point.plastic_strain;
+                block.2 += point.true_stress_mpa;
+                block.3 += 1.0;
+            }
+            _ => {
+                if let Some(block) = current.take() {
+                    close(block, &mut averaged);
+                }
+                current = Some((key, point.plastic_strain, point.true_stress_mpa, 1.0));
+            }
+        }
+    }
+    if let Some(block) = current {
+        close(block, &mut averaged);
+    }
+    averaged
+}
+
+/// The least-squares non-decreasing fit of the stress (pool adjacent
+/// violators), each pooled block then one row at its mean plastic strain
+/// and mean stress, so the stress rises strictly from row to row.
+///
+/// Before the UTS the true stress of a real material rises; where a
+/// measured curve falls locally that is noise, and a table with falling
+/// stretches would give the FE model material softening (it then fails to
+/// converge). On a curve whose stress already rises this is the identity.
+/// The first row (the onset of plasticity, plastic strain 0) stays; a
+/// block that does not rise above it is dropped.
+pub fn pool_to_increasing_stress(flow: Vec<FlowPoint>) -> Vec<FlowPoint> {
+    let Some((&onset, rest)) = flow.split_first() else {
+        return flow;
+    };
+    // (sum of plastic strain, sum of stress, count) per block.
+    let mut blocks: Vec<(f64, f64, f64)> = Vec::with_capacity(rest.len());
+    for point in rest {
+        blocks.push((point.plastic_strain, point.true_stress_mpa, 1.0));
+        while let [.., previous, last] = blocks[..] {
+            if last.1 / last.2 > previous.1 / previous.2 {
+                break;
+            }
+            blocks.pop();
+            let merged = blocks.last_mut().expect("two blocks were there");
+            merged.0 += last.0;
+            merged.1 += last.1;
+            merged.2 += last.2;
+        }
+    }
+    // A first block at or below the onset stress cannot rise above it:
+    // the onset row already says that level.
+    let mut pooled = vec![onset];
+    for (strain_sum, stress_sum, count) in blocks {
+        let stress = stress_sum / count;
+        if stress > pooled[pooled.len() - 1].true_stress_mpa {
+            pooled.push(FlowPoint {
+                plastic_strain: strain_sum / count,
+                true_stress_mpa: stress,
+            });
+        }
+    }
+    pooled
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bins_average_rows_and_keep_the_onset() {
+        let row = |plastic_strain: f64, true_stress_mpa: f64| FlowPoint {
+            plastic_strain,
+            true_stress_mpa,
+        };
+        let flow = vec![
+            row(0.0, 400.0),
+            row(0.0005, 410.0),
+            row(0.0015, 420.0),
+            row(0.0025, 440.0),
+            row(0.0041, 450.0),
+        ];
+        let averaged = average_over_bins(&flow, 0.002);
+        assert_eq!(averaged.len(), 4);
+        assert_eq!(averaged[0], row(0.0, 400.0));
+        assert!((averaged[1].plastic_strain - 0.001).abs() < 1e-15);
+        assert!((averaged[1].true_stress_mpa - 415.0).abs() < 1e-12);
+        assert_eq!(averaged[2], row(0.0025, 440.0));
+        assert_eq!(averaged[3], row(0.0041, 450.0));
+    }
+
+    #[test]
+    fn pooling_keeps_a_rising_curve_and_averages_a_falling_stretch() {
+        let row = |plastic_strain: f64, true_stress_mpa: f64| FlowPoint {
+            plastic_strain,
+            true_stress_mpa,
+        };
+        let rising = vec![row(0.0, 400.0), row(0.01, 450.0), row(0.02, 480.0)];
+        assert_eq!(pool_to_increasing_stress(rising.clone()), rising);
+        // 500, 490 fall: pooled to one row at their means (0.025, 495).
+        let noisy = vec![
+            row(0.0, 400.0),
+            row(0.01, 450.0),
+            row(0.02, 500.0),
+            row(0.03, 490.0),
+            row(0.04, 520.0),
+        ];
+        let pooled = pool_to_increasing_stress(noisy);
+        assert_eq!(
+            pooled,
+            vec![
+                row(0.0, 400.0),
+                row(0.01, 450.0),
+                row(0.025, 495.0),
+                row(0.04, 520.0)
+            ]
+        );
+        // A violation that reaches back two blocks: 500, 460, 430 after 450
+        // pool into one block of mean 460 > 450; then 440 < 460 joins it
+        // (mean 457.5) and the whole block stays above 450.
+        let deep = vec![
+            row(0.0, 400.0),
+            row(0.01, 450.0),
+            row(0.02, 500.0),
+            row(0.03, 460.0),
+            row(0.04, 430.0),
+            row(0.05, 440.0),
+        ];
+        let pooled = pool_to_increasing_stress(deep);
+        assert_eq!(pooled.len(), 3);
+        assert!((pooled[2].true_stress_mpa - 457.5).abs() < 1e-12);
+        assert!((pooled[2].plastic_strain - 0.035).abs() < 1e-12);
+        // Rows below the onset stress are dropped, never put before it.
+        let dip = vec![row(0.0, 400.0), row(0.01, 390.0), row(0.02, 420.0)];
+        assert_eq!(
+            pool_to_increasing_stress(dip),
+            vec![row(0.0, 400.0), row(0.02, 420.0)]
+        );
+    }
 
     #[test]
     fn slope_bounds_match_a_hand_computation() {

@@ -66,6 +66,8 @@ pub struct RecordOptions {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum StopReason {
     Signal(&'static str),
+    /// Stopped by its caller for the reason given (e.g. "replay finished").
+    Requested(&'static str),
     Duration,
     /// Every source ended (log-file sources).
     SourcesEnded,
@@ -77,6 +79,7 @@ impl StopReason {
     fn describe(&self) -> String {
         match self {
             StopReason::Signal(name) => format!("signal {name}"),
+            StopReason::Requested(reason) => reason.to_string(),
             StopReason::Duration => "duration reached".into(),
             StopReason::SourcesEnded => "all sources ended".into(),
             StopReason::WriteFailed(message) => format!("write failed: {message}"),

@@ -23,9 +23,11 @@ wait_for_session() {
 }
 
 # record NAME RIG SCENARIO SEED IFACE...
+# $ONLY (space-separated names), when set, limits the run to those sessions.
 record() {
     name=$1 rig=$2 scenario=$3 seed=$4
     shift 4
+    case " ${ONLY:-$name} " in *" $name "*) ;; *) return 0 ;; esac
     args=""
     for dev in "$@"; do args="$args --iface $dev"; done
     acq record $args --rig "$IN/rigs/$rig" --out "$OUT/$name" --quiet &

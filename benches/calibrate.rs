@@ -35,6 +35,9 @@ fn main() {
             let dir = tempfile::tempdir().expect("temp dir");
             let args = CalibrateExcavatorArgs {
                 case: root.join(format!("data/excavator/{case}.toml")),
+                measured: None,
+                window: None,
+                load_quantity: "tip_force".into(),
                 geometry: None,
                 out: dir.path().join("run"),
                 training: 40,

@@ -69,7 +69,11 @@ impl Table {
         for row in &self.rows {
             out.push_str("<tr>");
             for cell in row {
-                let class = if looks_numeric(cell) { " class=\"num\"" } else { "" };
+                let class = if looks_numeric(cell) {
+                    " class=\"num\""
+                } else {
+                    ""
+                };
                 let _ = write!(out, "<td{class}>{}</td>", escape(cell));
             }
             out.push_str("</tr>\n");
@@ -232,7 +236,8 @@ impl Document {
     }
 }
 
-const STYLE: &str = "body { font-family: 'DejaVu Sans', Arial, sans-serif; color: #222; margin: 0; }
+const STYLE: &str =
+    "body { font-family: 'DejaVu Sans', Arial, sans-serif; color: #222; margin: 0; }
 main { max-width: 1100px; margin: 0 auto; padding: 1em 2em 4em; }
 h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
 h2 { border-bottom: 1px solid #bbb; margin-top: 2em; }
@@ -252,7 +257,9 @@ figcaption { font-size: 13px; color: #555; }
 fn inline_svg(svg: &str) -> &str {
     let text = svg.trim();
     match text.strip_prefix("<?xml") {
-        Some(rest) => rest.split_once("?>").map_or(text, |(_, after)| after.trim_start()),
+        Some(rest) => rest
+            .split_once("?>")
+            .map_or(text, |(_, after)| after.trim_start()),
         None => text,
     }
 }
@@ -347,7 +354,10 @@ mod tests {
         assert!(html.contains("<figure>\n<svg xmlns"));
         assert!(!html.contains("<?xml"));
         assert!(!html.contains("<script"), "no script in a report");
-        assert!(!html.contains("src=") && !html.contains("<link"), "nothing to fetch");
+        assert!(
+            !html.contains("src=") && !html.contains("<link"),
+            "nothing to fetch"
+        );
     }
 
     #[test]

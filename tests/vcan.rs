@@ -405,7 +405,10 @@ fn the_shipped_sessions_replayed_on_a_real_vcan_give_the_expected_calibration() 
     }
     let dumped = frames_per_iface(&out.join("candump_vcan0.log"))
         + frames_per_iface(&out.join("candump_vcan1.log"));
-    assert_eq!(dumped, recorded_total, "candump and acq saw the same frames");
+    assert_eq!(
+        dumped, recorded_total,
+        "candump and acq saw the same frames"
+    );
 
     // Align, extract, calibrate on the host, and check against the
     // scenarios and the expected results.

@@ -539,7 +539,10 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     ));
     report.heading(
         2,
-        format!("Calibrated inputs (TOPSIS pick, weights {:?})", args.weights),
+        format!(
+            "Calibrated inputs (TOPSIS pick, weights {:?})",
+            args.weights
+        ),
     );
     let mut table = Table::new(&["input", "lower", "upper", "nominal", "calibrated"]);
     for (p, value) in parameters.iter().zip(&optimal) {
@@ -618,7 +621,11 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         table.row(cells);
     }
     report.table(table);
-    write_report(&directory, &report, &format!("Excavator calibration {}", case.name))?;
+    write_report(
+        &directory,
+        &report,
+        &format!("Excavator calibration {}", case.name),
+    )?;
     println!(
         "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",
         case.name,

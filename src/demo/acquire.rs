@@ -64,7 +64,11 @@ pub fn session_rig(source: &Path) -> Result<Rig> {
 /// Plays every session onto `bus` while recording it; `together` plays
 /// them all at once (they must use distinct interfaces), else one by one.
 /// Ctrl-C stops the recordings cleanly (files whole) and ends with an error.
-pub fn play_and_record<B: Bus>(bus: B, playbacks: &[Playback], together: bool) -> Result<Vec<Played>> {
+pub fn play_and_record<B: Bus>(
+    bus: B,
+    playbacks: &[Playback],
+    together: bool,
+) -> Result<Vec<Played>> {
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -100,7 +104,10 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
             .assign_interfaces(&playback.interfaces)
             .map_err(AcqError::Config)?;
         routings.push(Routing {
-            map: original.into_iter().zip(playback.interfaces.iter().copied()).collect(),
+            map: original
+                .into_iter()
+                .zip(playback.interfaces.iter().copied())
+                .collect(),
             default: None,
         });
         let options = RecordOptions {
@@ -205,9 +212,9 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
         } else {
             StopReason::Requested("replay finished")
         });
-        let recorded = task
-            .await
-            .map_err(|e| AcqError::Config(format!("the recorder of {} failed: {e}", playback.name)))??;
+        let recorded = task.await.map_err(|e| {
+            AcqError::Config(format!("the recorder of {} failed: {e}", playback.name))
+        })??;
         let info = &recorded.session.session;
         played.push(Played {
             name: playback.name.clone(),

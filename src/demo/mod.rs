@@ -29,7 +29,9 @@ use crate::calibrate::gtn::{CalibrateGtnArgs, GtnCalibration};
 use crate::error::{AcqError, Result};
 use crate::extract::holds::HoldOptions;
 use crate::extract::measured::write_measured;
-use crate::extract::run::{extract_holds, extract_tensile, HoldsReport, TensileReport, WindowChoice};
+use crate::extract::run::{
+    extract_holds, extract_tensile, HoldsReport, TensileReport, WindowChoice,
+};
 use crate::extract::tensile::write_curve;
 use crate::output::Output;
 use crate::recording::Recording;
@@ -157,7 +159,12 @@ fn prepare_out(out: &Path) -> Result<()> {
         }
     }
     std::fs::create_dir_all(out)
-        .and_then(|()| std::fs::write(out.join(MARKER), "written by acq demo; cleared by the next one\n"))
+        .and_then(|()| {
+            std::fs::write(
+                out.join(MARKER),
+                "written by acq demo; cleared by the next one\n",
+            )
+        })
         .map_err(|e| AcqError::io(format!("creating {}", out.display()), e))
 }
 
@@ -200,7 +207,11 @@ pub fn run(args: DemoArgs) -> Result<()> {
 
     // 1. Acquisition: play and record again, or take recorded sessions.
     let (sessions_dir, played, bus_text) = match &args.sessions {
-        Some(dir) => (dir.clone(), Vec::new(), format!("sessions recorded earlier in {}", dir.display())),
+        Some(dir) => (
+            dir.clone(),
+            Vec::new(),
+            format!("sessions recorded earlier in {}", dir.display()),
+        ),
         None => {
             let target = args.out.join("sessions");
             let playbacks: Vec<Playback> = SHIPPED
@@ -215,7 +226,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
                         (Purpose::Excavator { .. }, false) => interfaces.clone(),
                         // In process: interfaces of its own per session, all at once.
                         (Purpose::Tensile, true) => vec![demo_iface(k, 0)],
-                        (Purpose::Excavator { .. }, true) => vec![demo_iface(k, 0), demo_iface(k, 1)],
+                        (Purpose::Excavator { .. }, true) => {
+                            vec![demo_iface(k, 0), demo_iface(k, 1)]
+                        }
                     },
                 })
                 .collect();
@@ -228,7 +241,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
                         bus.add(*iface);
                     }
                 }
-                (play_and_record(bus, &playbacks, true)?, "the in-process bus".to_string())
+                (
+                    play_and_record(bus, &playbacks, true)?,
+                    "the in-process bus".to_string(),
+                )
             } else {
                 let names: Vec<String> = interfaces.iter().map(|i| i.to_string()).collect();
                 say(format!(
@@ -289,7 +305,12 @@ pub fn run(args: DemoArgs) -> Result<()> {
         let step = Instant::now();
         let analysis = match purpose {
             Purpose::Excavator { case_file } => {
-                let holds = extract_holds(&recording, &WindowChoice::Auto(HoldOptions::default()), None, &[])?;
+                let holds = extract_holds(
+                    &recording,
+                    &WindowChoice::Auto(HoldOptions::default()),
+                    None,
+                    &[],
+                )?;
                 let measured = work.join("measured.csv");
                 write_measured(&measured, &holds.values)?;
                 say(format!(
@@ -303,14 +324,15 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     wall_s: step.elapsed().as_secs_f64(),
                 });
                 let step = Instant::now();
-                let calibration = crate::calibrate::excavator::run(parse_args::<CalibrateExcavatorArgs>(&[
-                    "--case",
-                    &root.join(case_file).to_string_lossy(),
-                    "--measured",
-                    &measured.to_string_lossy(),
-                    "--out",
-                    &work.join("calibration").to_string_lossy(),
-                ])?)?;
+                let calibration =
+                    crate::calibrate::excavator::run(parse_args::<CalibrateExcavatorArgs>(&[
+                        "--case",
+                        &root.join(case_file).to_string_lossy(),
+                        "--measured",
+                        &measured.to_string_lossy(),
+                        "--out",
+                        &work.join("calibration").to_string_lossy(),
+                    ])?)?;
                 steps.push(Step {
                     name: format!("{name}: calibrate the excavator twin"),
                     wall_s: step.elapsed().as_secs_f64(),
@@ -320,7 +342,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
             Purpose::Tensile => {
                 let curve = extract_tensile(&recording, None, None, &[])?;
                 let specimen = recording.rig.specimen.ok_or_else(|| {
-                    AcqError::Config(format!("{}: the tensile rig has no [specimen]", dir.display()))
+                    AcqError::Config(format!(
+                        "{}: the tensile rig has no [specimen]",
+                        dir.display()
+                    ))
                 })?;
                 let curve_file = work.join("curve.csv");
                 write_curve(&curve_file, &curve.curve, &specimen)?;
@@ -341,7 +366,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 ];
                 gtn_args.extend(GTN_ARGS.iter().map(|s| s.to_string()));
                 let gtn_args: Vec<&str> = gtn_args.iter().map(String::as_str).collect();
-                let calibration = crate::calibrate::gtn::run(parse_args::<CalibrateGtnArgs>(&gtn_args)?)?;
+                let calibration =
+                    crate::calibrate::gtn::run(parse_args::<CalibrateGtnArgs>(&gtn_args)?)?;
                 steps.push(Step {
                     name: format!("{name}: calibrate the GTN model"),
                     wall_s: step.elapsed().as_secs_f64(),

@@ -37,7 +37,14 @@ pub fn build(
 
     // At a glance.
     doc.heading(2, "Results at a glance");
-    let mut table = Table::new(&["session", "twin", "calibrated against", "before", "after", "model runs"]);
+    let mut table = Table::new(&[
+        "session",
+        "twin",
+        "calibrated against",
+        "before",
+        "after",
+        "model runs",
+    ]);
     for r in results {
         match &r.analysis {
             Analysis::Excavator { calibration, .. } => table.row(vec![
@@ -47,14 +54,23 @@ pub fn build(
                     "3 loaded-chamber pressures, tip force {:.2} kN (measured)",
                     calibration.force_kn
                 ),
-                format!("largest error {:.2} %", largest(&calibration.errors_initial_pct)),
-                format!("largest error {:.2} %", largest(&calibration.errors_optimal_pct)),
+                format!(
+                    "largest error {:.2} %",
+                    largest(&calibration.errors_initial_pct)
+                ),
+                format!(
+                    "largest error {:.2} %",
+                    largest(&calibration.errors_optimal_pct)
+                ),
                 calibration.evaluations.to_string(),
             ]),
             Analysis::Tensile { curve, calibration } => table.row(vec![
                 r.name.clone(),
                 "GTN tensile bar (6x30 elements)".into(),
-                format!("force-displacement curve, {} points", curve.curve.points.len()),
+                format!(
+                    "force-displacement curve, {} points",
+                    curve.curve.points.len()
+                ),
                 "L12 start".into(),
                 format!("MAPE {:.3} %", calibration.best_mape_pct),
                 calibration.evaluations.to_string(),
@@ -88,7 +104,9 @@ pub fn build(
         table.row(vec![
             r.name.clone(),
             optional(duration, 1),
-            r.played.as_ref().map_or_else(String::new, |p| p.frames_sent.to_string()),
+            r.played
+                .as_ref()
+                .map_or_else(String::new, |p| p.frames_sent.to_string()),
             info.frames.to_string(),
             info.dropped_by_kernel.to_string(),
             r.played
@@ -99,7 +117,12 @@ pub fn build(
             r.session
                 .interface
                 .iter()
-                .map(|i| format!("{} ({} frames, {} error frames)", i.name, i.frames, i.error_frames))
+                .map(|i| {
+                    format!(
+                        "{} ({} frames, {} error frames)",
+                        i.name, i.frames, i.error_frames
+                    )
+                })
                 .collect::<Vec<_>>()
                 .join(", "),
         ]);
@@ -124,7 +147,15 @@ pub fn build(
                     r.name
                 ));
                 let mut table = Table::new(&[
-                    "quantity", "unit", "mean", "std", "n", "n_eff", "95 % interval", "flags", "note",
+                    "quantity",
+                    "unit",
+                    "mean",
+                    "std",
+                    "n",
+                    "n_eff",
+                    "95 % interval",
+                    "flags",
+                    "note",
                 ]);
                 for v in holds.values.iter().filter(|v| v.window == window.name) {
                     let s = &v.stats;
@@ -167,7 +198,8 @@ pub fn build(
 /// One session: its sensors with rates, gaps and flags, and a plot.
 fn session_section(doc: &mut Document, r: &SessionResult, out: &Path) -> Result<()> {
     let rig = &r.recording.rig;
-    doc.heading(3, format!("Session {}", r.name)).paragraph(format!(
+    doc.heading(3, format!("Session {}", r.name))
+        .paragraph(format!(
         "Recorded in `{}`; rig {} ({} buses, {} sensors). Aligned on 100 rows per second, a sensor \
          silent for more than 3 of its periods is a gap: `{}/aligned.csv`, {} rows.",
         r.dir.display(),
@@ -215,7 +247,13 @@ fn session_section(doc: &mut Document, r: &SessionResult, out: &Path) -> Result<
                     String::new()
                 }
             }),
-            record.map_or_else(String::new, |s| if s.silent_at_end { "yes".into() } else { "no".into() }),
+            record.map_or_else(String::new, |s| {
+                if s.silent_at_end {
+                    "yes".into()
+                } else {
+                    "no".into()
+                }
+            }),
         ]);
     }
     doc.table(table);
@@ -230,7 +268,15 @@ fn session_section(doc: &mut Document, r: &SessionResult, out: &Path) -> Result<
             .values
             .iter()
             .filter(|v| !v.flags.is_empty())
-            .map(|v| format!("{} in {}: `{}`: {}", v.quantity, v.window, v.flags.join(";"), v.note))
+            .map(|v| {
+                format!(
+                    "{} in {}: `{}`: {}",
+                    v.quantity,
+                    v.window,
+                    v.flags.join(";"),
+                    v.note
+                )
+            })
             .collect();
         if flagged.is_empty() {
             doc.paragraph("Flagged values: none.");
@@ -282,7 +328,11 @@ fn signals_figure(r: &SessionResult, out: &Path) -> Result<Option<Figure>> {
             (
                 "head-chamber pressures",
                 "pressure [bar]",
-                vec!["bucket_head_pressure", "arm_head_pressure", "boom_head_pressure"],
+                vec![
+                    "bucket_head_pressure",
+                    "arm_head_pressure",
+                    "boom_head_pressure",
+                ],
             ),
         ],
         Analysis::Tensile { .. } => vec![

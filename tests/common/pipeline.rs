@@ -90,10 +90,15 @@ pub fn check_demo_output(out: &Path, replayed: bool) {
     // the start.
     for case in ["excavator_case1", "excavator_case2"] {
         let result = &summary["excavator"][case];
-        let limit = expected[case]["largest_error_optimal_pct"].as_float().unwrap();
+        let limit = expected[case]["largest_error_optimal_pct"]
+            .as_float()
+            .unwrap();
         let before = number(&result["largest_error_initial_pct"], case);
         let after = number(&result["largest_error_optimal_pct"], case);
-        assert!(after <= limit, "{case}: largest error {after} % > expected {limit} %");
+        assert!(
+            after <= limit,
+            "{case}: largest error {after} % > expected {limit} %"
+        );
         assert!(after < before, "{case}: {before} % -> {after} %");
         let force = number(&result["force_kN"], case);
         let scenario_force = scenario_holds(case)["tip_force"];
@@ -131,7 +136,15 @@ pub fn check_demo_output(out: &Path, replayed: bool) {
         .filter(|t| t.first_header == "quantity")
         .map(|t| t.body_rows)
         .collect();
-    assert_eq!(measured_rows.len(), 2, "a measured table per excavator case");
+    assert_eq!(
+        measured_rows.len(),
+        2,
+        "a measured table per excavator case"
+    );
     assert!(measured_rows.iter().all(|&n| n >= 34), "{measured_rows:?}");
-    assert!(page.visible_svgs >= figures, "{} plots shown", page.visible_svgs);
+    assert!(
+        page.visible_svgs >= figures,
+        "{} plots shown",
+        page.visible_svgs
+    );
 }

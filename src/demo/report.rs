@@ -220,7 +220,6 @@ fn session_section(doc: &mut Document, r: &SessionResult, out: &Path) -> Result<
         "samples",
         "gaps",
         "longest gap [s]",
-        "silent at the end",
     ]);
     for sensor in &rig.sensors {
         let record = r.session.sensor.iter().find(|s| s.name == sensor.name);
@@ -245,13 +244,6 @@ fn session_section(doc: &mut Document, r: &SessionResult, out: &Path) -> Result<
                     format!("{:.3}", s.longest_gap_ns as f64 / 1e9)
                 } else {
                     String::new()
-                }
-            }),
-            record.map_or_else(String::new, |s| {
-                if s.silent_at_end {
-                    "yes".into()
-                } else {
-                    "no".into()
                 }
             }),
         ]);

@@ -46,7 +46,6 @@ pub struct Played {
     pub dropped_by_kernel: u64,
     /// (median, p99, max) of the inter-frame timing error, µs.
     pub timing_error_us: Option<(f64, f64, f64)>,
-    pub duration_s: f64,
 }
 
 /// The session's own copy of its rig (`rig/<name>.toml`).
@@ -222,7 +221,6 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
             frames_recorded: info.frames,
             dropped_by_kernel: info.dropped_by_kernel,
             timing_error_us: summary.timing.interval_error_us(),
-            duration_s: summary.elapsed.as_secs_f64(),
         });
     }
     if interrupted {

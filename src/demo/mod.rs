@@ -94,7 +94,6 @@ const GTN_ARGS: [&str; 6] = ["--max-evals", "30", "--batch", "2", "--target-mape
 /// One session, from its recording to its results.
 pub struct SessionResult {
     pub name: String,
-    pub purpose: Purpose,
     pub dir: PathBuf,
     pub session: SessionFile,
     pub recording: Recording,
@@ -377,7 +376,6 @@ pub fn run(args: DemoArgs) -> Result<()> {
         };
         results.push(SessionResult {
             name: name.to_string(),
-            purpose,
             played: played.iter().find(|p| p.name == name).cloned(),
             dir,
             session,

@@ -21,10 +21,10 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use acq::align::table::{Column, CsvTable};
-use acq::align::{Aligner, ChannelSpec, GridSpec};
-use acq::output::Output;
+use acq_analysis::align::table::{Column, CsvTable};
+use acq_analysis::align::{Aligner, ChannelSpec, GridSpec};
 use acq_drivers::rig::Interpolation;
+use acq_io::output::Output;
 
 const CHANNELS: usize = 25;
 const RATE_HZ: f64 = 1000.0;

@@ -10,8 +10,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use acq::calibrate::excavator::{run, CalibrateExcavatorArgs, ExcavatorSimulator};
-use acq::calibrate::gtn::CalibrateGtnArgs;
 use acq_calib::bo::Acquisition;
 use acq_calib::doe::latin_hypercube;
 use acq_calib::evaluation::Simulator;
@@ -20,6 +18,8 @@ use acq_calib::moo::{nsga2, Nsga2Settings};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::Excavator;
+use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorArgs, ExcavatorSimulator};
+use acq_workflows::calibrate::gtn::CalibrateGtnArgs;
 
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
@@ -131,7 +131,7 @@ fn main() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("gtn");
     let start = Instant::now();
-    acq::calibrate::gtn::run(CalibrateGtnArgs {
+    acq_workflows::calibrate::gtn::run(CalibrateGtnArgs {
         test: root.join("data/tensile/P91_20_2_DF_SS.csv"),
         out: out.clone(),
         max_evals: 60,

@@ -15,10 +15,10 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::Instant;
 
-use acq::decode::{decode_with_dbc, DbcDecodeOptions};
-use acq::input::{log_from_reader, BadLines};
-use acq::output::Output;
+use acq_analysis::decode::{decode_with_dbc, DbcDecodeOptions};
 use acq_drivers::dbc::DbcDatabase;
+use acq_io::input::{log_from_reader, BadLines};
+use acq_io::output::Output;
 
 const DBC: &str = "fixtures/dbc/somat_excavator.dbc";
 

@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use acq::demo::{run, DemoArgs};
+use acq_demo::{run, DemoArgs};
 
 fn main() {
     let root = env!("CARGO_MANIFEST_DIR");

@@ -7,9 +7,9 @@
 
 use std::path::Path;
 
-use acq::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
-use acq::tensile_model::{GtnInputs, ModelSettings, TensileModel};
+use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
 use acq_twins::tensile::mesh::MeshDensity;
+use acq_workflows::tensile_model::{GtnInputs, ModelSettings, TensileModel};
 
 fn peak_rss_mb() -> f64 {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();

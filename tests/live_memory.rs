@@ -5,17 +5,17 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use acq::bus::memory::MemoryBus;
-use acq::bus::{Bus, FrameSink};
-use acq::record::status::StatusMode;
-use acq::record::{self, RecordOptions, RecordSummary, StopReason};
-use acq::replay::{self, Pacing, Routing};
-use acq::session;
-use acq::simulate::scenario::Scenario;
-use acq::simulate::Simulation;
-use acq_drivers::candump::parse_line;
+use acq_acquire::bus::memory::MemoryBus;
+use acq_acquire::bus::{Bus, FrameSink};
+use acq_acquire::record::status::StatusMode;
+use acq_acquire::record::{self, RecordOptions, RecordSummary, StopReason};
+use acq_acquire::replay::{self, Pacing, Routing};
+use acq_acquire::simulate::scenario::Scenario;
+use acq_acquire::simulate::Simulation;
+use acq_drivers::log::candump::parse_line;
 use acq_drivers::rig::Rig;
 use acq_drivers::{CanId, Frame, IfaceName};
+use acq_io::session;
 use tokio::sync::oneshot;
 
 fn root() -> PathBuf {
@@ -363,7 +363,7 @@ async fn a_timed_replay_never_sends_early_and_holds_its_schedule() {
     );
     let mut received = Vec::new();
     while received.len() < 200 {
-        use acq::bus::FrameSource;
+        use acq_acquire::bus::FrameSource;
         receiver.recv_batch(&mut received).await.unwrap();
     }
     let wire_sent: Vec<_> = log.iter().map(wire).collect();

@@ -12,10 +12,10 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use acq::session;
-use acq_drivers::candump::{parse_line, CandumpWriter};
 use acq_drivers::frame::{FD_FLAG_BRS, FD_FLAG_ESI, FD_FLAG_FDF};
+use acq_drivers::log::candump::{parse_line, CandumpWriter};
 use acq_drivers::{CanId, Frame, FrameKind, IfaceName};
+use acq_io::session;
 
 const T0_NS: i64 = 1_763_719_200_000_000_000;
 const VARIETY_FRAMES: usize = 2000;
@@ -392,7 +392,7 @@ fn the_shipped_sessions_replayed_on_a_real_vcan_give_the_expected_calibration() 
     // Lossless over a real bus: every frame of each fixture is in the new
     // recording, and candump saw as many frames as acq recorded.
     let mut recorded_total = 0;
-    for (name, _) in acq::demo::SHIPPED {
+    for (name, _) in acq_demo::SHIPPED {
         let original = session::read(&root().join("fixtures/sessions").join(name)).unwrap();
         let again = session::read(&out.join("demo/sessions").join(name)).unwrap();
         assert_eq!(

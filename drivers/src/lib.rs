@@ -4,7 +4,8 @@
 //! here runs the same on a live bus, on a log file and under a fuzzer.
 //!
 //! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface.
-//! - [`log`], [`candump`], [`asc`]: log records and formats (can-utils `candump -L`, Vector ASC).
+//! - [`log`]: log files: the record every reader yields, one module per format
+//!   (can-utils `candump -L`, Vector ASC), and the reader that picks the format.
 //! - [`kernel`]: the SocketCAN `can_frame`/`canfd_frame` byte layout; [`bus_error`]: error frames.
 //! - [`bits`]: bit fields in both byte orders, shared by all protocols.
 //! - [`dbc`]: DBC signals, compiled from the `can-dbc` AST.
@@ -13,10 +14,8 @@
 //! - [`rig`]: the rig file: buses and sensors, validated.
 //! - [`sensors`]: frames -> samples through a rig.
 
-pub mod asc;
 pub mod bits;
 pub mod bus_error;
-pub mod candump;
 pub mod canopen;
 pub mod dbc;
 pub mod frame;

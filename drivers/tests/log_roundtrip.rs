@@ -1,8 +1,8 @@
 //! Property tests of the log formats: candump logs round-trip every kind of
 //! frame exactly, and neither reader panics on any input.
 
-use acq_drivers::asc::AscReader;
-use acq_drivers::candump::{self, CandumpReader, CandumpWriter};
+use acq_drivers::log::asc::AscReader;
+use acq_drivers::log::candump::{self, CandumpReader, CandumpWriter};
 use acq_drivers::{CanId, Direction, Frame, IfaceName, ReadError};
 use proptest::prelude::*;
 

@@ -7,7 +7,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::GpError;
+use super::error::GpError;
 
 /// Correlation family. All have k(0) = 1; the signal variance multiplies them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -3,7 +3,7 @@
 //! A strain-gauge extensometer reports its bridge output in mV/V; its
 //! calibration sheet gives the travel per mV/V (`mm_per_mv_per_v`).
 
-use super::{unknown_unit, Linear, ProfileError, SensorKind};
+use super::linear::{unknown_unit, Linear, ProfileError};
 
 pub const OUTPUT_UNIT: &str = "mm";
 pub const INPUT_UNITS: &[&str] = &["mm", "um", "m", "mV/V"];
@@ -29,7 +29,7 @@ pub fn to_millimetres(unit: &str, mm_per_mv_per_v: Option<f64>) -> Result<Linear
             }
             sensitivity
         }
-        _ => return Err(unknown_unit(unit, SensorKind::Displacement)),
+        _ => return Err(unknown_unit(unit, "displacement", INPUT_UNITS)),
     };
     Ok(Linear::scale(gain))
 }

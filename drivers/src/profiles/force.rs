@@ -1,6 +1,6 @@
 //! Force transducer amplifier channels (load cells, the force at the bucket tooth).
 
-use super::{unknown_unit, Linear, ProfileError, SensorKind};
+use super::linear::{unknown_unit, Linear, ProfileError};
 
 pub const OUTPUT_UNIT: &str = "kN";
 pub const INPUT_UNITS: &[&str] = &["kN", "N", "MN", "lbf"];
@@ -13,7 +13,7 @@ pub fn to_kilonewton(unit: &str) -> Result<Linear, ProfileError> {
         "MN" => 1e3,
         // 1 lbf = 4.4482216152605 N (exact by definition).
         "lbf" => 4.448_221_615_260_5e-3,
-        _ => return Err(unknown_unit(unit, SensorKind::Force)),
+        _ => return Err(unknown_unit(unit, "force", INPUT_UNITS)),
     };
     Ok(Linear::scale(gain))
 }

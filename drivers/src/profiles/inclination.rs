@@ -1,6 +1,6 @@
 //! Inclinometers (slope sensors on boom, arm and bucket): angle in degrees.
 
-use super::{unknown_unit, Linear, ProfileError, SensorKind};
+use super::linear::{unknown_unit, Linear, ProfileError};
 
 pub const OUTPUT_UNIT: &str = "deg";
 pub const INPUT_UNITS: &[&str] = &["deg", "rad", "mrad"];
@@ -11,7 +11,7 @@ pub fn to_degrees(unit: &str) -> Result<Linear, ProfileError> {
         "deg" => 1.0,
         "rad" => 180.0 / std::f64::consts::PI,
         "mrad" => 0.18 / std::f64::consts::PI,
-        _ => return Err(unknown_unit(unit, SensorKind::Inclination)),
+        _ => return Err(unknown_unit(unit, "inclination", INPUT_UNITS)),
     };
     Ok(Linear::scale(gain))
 }

@@ -4,14 +4,20 @@
 //! Every conversion here is linear, so each sensor compiles into one
 //! [`Linear`] map applied after protocol decoding and the rig's own
 //! calibration (scale, offset).
+//!
+//! [`linear`] holds what every kind shares (the map and its errors); each kind
+//! module uses only it, and [`SensorKind`] here dispatches to the kinds.
 
 pub mod displacement;
 pub mod force;
 pub mod inclination;
+pub mod linear;
 pub mod pressure;
 pub mod strain;
 
 use serde::{Deserialize, Serialize};
+
+pub use linear::{Linear, ProfileError};
 
 /// What a sensor measures, which fixes the unit of its output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize, Serialize)]
@@ -71,80 +77,25 @@ impl SensorKind {
     }
 }
 
-/// `output = gain * input + offset`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Linear {
-    pub gain: f64,
-    pub offset: f64,
-}
-
-impl Linear {
-    pub const IDENTITY: Linear = Linear {
-        gain: 1.0,
-        offset: 0.0,
-    };
-
-    pub fn scale(gain: f64) -> Self {
-        Linear { gain, offset: 0.0 }
-    }
-
-    #[inline]
-    pub fn apply(self, input: f64) -> f64 {
-        self.gain * input + self.offset
-    }
-
-    /// `self` applied after `first`.
-    pub fn after(self, first: Linear) -> Linear {
-        Linear {
-            gain: self.gain * first.gain,
-            offset: self.gain * first.offset + self.offset,
-        }
-    }
-
-    /// The input that gives `output` (for simulators); `None` if the gain is 0.
-    pub fn invert(self, output: f64) -> Option<f64> {
-        (self.gain != 0.0).then(|| (output - self.offset) / self.gain)
-    }
-}
-
-/// A unit the profile does not know, or a missing constant.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ProfileError {
-    #[error("unit '{unit}' is not a {kind} unit (expected one of: {expected})")]
-    UnknownUnit {
-        unit: String,
-        kind: &'static str,
-        expected: String,
-    },
-    #[error("{0}")]
-    Invalid(String),
-}
-
-pub(crate) fn unknown_unit(unit: &str, kind: SensorKind) -> ProfileError {
-    ProfileError::UnknownUnit {
-        unit: unit.to_string(),
-        kind: kind.name(),
-        expected: kind.input_units().join(", "),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn composition_and_inverse() {
-        let first = Linear {
-            gain: 2.0,
-            offset: 1.0,
-        };
-        let second = Linear {
-            gain: 10.0,
-            offset: -3.0,
-        };
-        let both = second.after(first);
-        assert_eq!(both.apply(4.0), second.apply(first.apply(4.0)));
-        assert_eq!(both.invert(both.apply(4.0)), Some(4.0));
-        assert_eq!(Linear::scale(0.0).invert(1.0), None);
+    fn a_unit_error_names_the_kind_and_its_units() {
+        type Converter = fn(&str) -> Result<Linear, ProfileError>;
+        let converters: [(SensorKind, Converter); 4] = [
+            (SensorKind::Pressure, pressure::to_bar),
+            (SensorKind::Force, force::to_kilonewton),
+            (SensorKind::Inclination, inclination::to_degrees),
+            (SensorKind::Displacement, |unit| {
+                displacement::to_millimetres(unit, None)
+            }),
+        ];
+        for (kind, convert) in converters {
+            let error = convert("furlong").unwrap_err().to_string();
+            assert!(error.contains(kind.name()), "{error}");
+            assert!(error.contains(&kind.input_units().join(", ")), "{error}");
+        }
     }
 }

@@ -1,7 +1,7 @@
 //! Hydraulic pressure transducers on cylinder chambers, and the net force a
 //! cylinder exerts from the pressures in its head and rod chambers.
 
-use super::{unknown_unit, Linear, ProfileError, SensorKind};
+use super::linear::{unknown_unit, Linear, ProfileError};
 
 pub const OUTPUT_UNIT: &str = "bar";
 pub const INPUT_UNITS: &[&str] = &["bar", "mbar", "kPa", "MPa", "psi"];
@@ -15,7 +15,7 @@ pub fn to_bar(unit: &str) -> Result<Linear, ProfileError> {
         "MPa" => 10.0,
         // 1 psi = 6894.757293168 Pa (exact from the inch-pound definitions).
         "psi" => 6894.757293168 / 1e5,
-        _ => return Err(unknown_unit(unit, SensorKind::Pressure)),
+        _ => return Err(unknown_unit(unit, "pressure", INPUT_UNITS)),
     };
     Ok(Linear::scale(gain))
 }

@@ -8,7 +8,7 @@
 //! `k * strain / 2`, 0.1 % at 1000 um/m). A uniaxial gauge on a member in
 //! uniaxial stress gives `stress = E * strain`.
 
-use super::{unknown_unit, Linear, ProfileError, SensorKind};
+use super::linear::{unknown_unit, Linear, ProfileError};
 
 pub const OUTPUT_UNIT: &str = "MPa";
 pub const INPUT_UNITS: &[&str] = &["um/m", "m/m", "mV/V"];
@@ -84,7 +84,7 @@ pub fn to_stress_mpa(unit: &str, channel: StrainChannel) -> Result<Linear, Profi
             })?;
             strain_from_bridge_output(1.0, gauge_factor, bridge)
         }
-        _ => return Err(unknown_unit(unit, SensorKind::Strain)),
+        _ => return Err(unknown_unit(unit, "strain", INPUT_UNITS)),
     };
     Ok(Linear::scale(uniaxial_stress_mpa(
         strain_per_unit,

@@ -24,7 +24,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use super::{CylinderName, Inputs, Strokes};
+use super::inputs::{CylinderName, Inputs, Strokes};
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]

@@ -14,7 +14,7 @@
 use nalgebra::{Rotation2, Vector2};
 
 use super::geometry::{Geometry, PointM};
-use super::{CylinderName, Strokes, TwinError};
+use super::inputs::{CylinderName, Strokes, TwinError};
 
 pub type Vec2 = Vector2<f64>;
 

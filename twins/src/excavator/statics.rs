@@ -10,8 +10,8 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::inputs::CylinderName;
 use super::kinematics::{cross, Pose, Vec2};
-use super::CylinderName;
 
 const BODIES: usize = 11;
 const EQUATIONS: usize = 3 * BODIES;

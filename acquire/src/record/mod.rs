@@ -1,0 +1,621 @@
+//! `acq record`: every frame from one or more interfaces into a session
+//! directory, with live status, until a signal, a duration, or the sources end.
+//!
+//! One tokio task per interface reads batches and hands them over a channel
+//! to the writer loop, which counts, decodes (for the status) and writes
+//! `raw.log`. Nothing received before a stop is lost: on a stop each reader
+//! drains what its queue held up to the moment of the signal, and the writer
+//! writes and syncs everything before `session.toml` is completed.
+
+pub mod live;
+pub mod rawlog;
+pub mod status;
+
+use std::fs;
+use std::future::Future;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use acq_drivers::canopen::nmt_start_frame;
+use acq_drivers::rig::{Rig, SensorSource};
+use acq_drivers::{Frame, IfaceName};
+use tokio::sync::{mpsc, watch};
+use tokio::time::{interval, MissedTickBehavior};
+
+use crate::bus::{now_ns, Bus, BusError, FrameSink, FrameSource, OpenError, RxInfo, MAX_BATCH};
+use acq_io::error::{AcqError, Result};
+use acq_io::session::{
+    self, CopiedFile, InterfaceRecord, Outage, RigCopy, SessionFile, SessionInfo,
+};
+use live::Liveness;
+use rawlog::RawLog;
+use status::{BusStatus, SensorStatus, Status, StatusDisplay, StatusMode};
+
+/// Raw lines reach the operating system at least this often.
+pub const FLUSH_PERIOD: Duration = Duration::from_millis(100);
+/// ... and the disk (fdatasync) this often.
+const SYNC_EVERY_FLUSHES: u32 = 10;
+const STATUS_PERIOD: Duration = Duration::from_millis(500);
+/// `session.toml` is refreshed this often while recording.
+const SESSION_REFRESH_FLUSHES: u32 = 50;
+/// A reader that found fewer than MAX_BATCH / 4 frames waits this long
+/// before reading again, so a steady stream costs a few wake-ups per
+/// second instead of one per frame; a full batch is read again at once.
+const COALESCE: Duration = Duration::from_millis(5);
+const REOPEN_PERIOD: Duration = Duration::from_millis(250);
+/// The file that holds disk space for the final `session.toml`.
+const SPACE_RESERVE: &str = ".space-reserve";
+const SPACE_RESERVE_BYTES: usize = 256 << 10;
+/// After a stop, a reader that sees no frame for this long is drained.
+const DRAIN_QUIET: Duration = Duration::from_millis(50);
+
+/// What `acq record` was asked to do.
+pub struct RecordOptions {
+    pub interfaces: Vec<IfaceName>,
+    pub rig: Option<Rig>,
+    pub session_dir: PathBuf,
+    pub max_file_bytes: u64,
+    pub nmt_start: bool,
+    pub status: StatusMode,
+    pub command_line: String,
+    /// Remarks to keep in `session.toml` (e.g. how rig buses were assigned).
+    pub notes: Vec<String>,
+}
+
+/// Why a recording stopped.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    Signal(&'static str),
+    /// Stopped by its caller for the reason given (e.g. "replay finished").
+    Requested(&'static str),
+    Duration,
+    /// Every source ended (log-file sources).
+    SourcesEnded,
+    /// Writing failed (disk full): the message says what happened.
+    WriteFailed(String),
+}
+
+impl StopReason {
+    fn describe(&self) -> String {
+        match self {
+            StopReason::Signal(name) => format!("signal {name}"),
+            StopReason::Requested(reason) => reason.to_string(),
+            StopReason::Duration => "duration reached".into(),
+            StopReason::SourcesEnded => "all sources ended".into(),
+            StopReason::WriteFailed(message) => format!("write failed: {message}"),
+        }
+    }
+}
+
+/// What a finished recording reports.
+#[derive(Debug)]
+pub struct RecordSummary {
+    pub session_dir: PathBuf,
+    pub session: SessionFile,
+    pub stop: StopReason,
+}
+
+enum Event {
+    Frames {
+        bus: usize,
+        frames: Vec<Frame>,
+        info: RxInfo,
+    },
+    Down {
+        bus: usize,
+        at_ns: i64,
+        reason: String,
+    },
+    Up {
+        bus: usize,
+        at_ns: i64,
+    },
+    Failed {
+        bus: usize,
+        error: String,
+    },
+}
+
+/// Opens every interface, then records until `stop` resolves (or the
+/// sources end, or writing fails).
+pub async fn record<B: Bus>(
+    bus: B,
+    options: RecordOptions,
+    stop: impl Future<Output = StopReason>,
+) -> Result<RecordSummary> {
+    // Open everything first: a missing interface fails before any file exists.
+    let mut sources = Vec::new();
+    for &iface in &options.interfaces {
+        sources.push(bus.open_source(iface).map_err(open_error)?);
+    }
+    let dir = &options.session_dir;
+    prepare_dir(dir)?;
+    let started_ns = now_ns();
+    let mut session = SessionFile {
+        session: SessionInfo {
+            format_version: session::FORMAT_VERSION,
+            software: format!("acq {}", env!("CARGO_PKG_VERSION")),
+            host: session::host_name(),
+            command: options.command_line.clone(),
+            started_utc: session::utc_text(started_ns),
+            started_unix_ns: started_ns,
+            ended: "recording".into(),
+            raw_files: vec![rawlog::SINGLE_NAME.into()],
+            notes: options.notes.clone(),
+            ..Default::default()
+        },
+        interface: options
+            .interfaces
+            .iter()
+            .zip(&sources)
+            .map(|(iface, source)| InterfaceRecord::new(iface.as_str(), source.timestamp_source()))
+            .collect(),
+        rig: options
+            .rig
+            .as_ref()
+            .map(|rig| copy_rig(rig, dir))
+            .transpose()?,
+        sensor: Vec::new(),
+    };
+    // Room kept for the final session.toml: freed at the end, so a full
+    // disk still gets a complete description of what was recorded.
+    let reserve = dir.join(SPACE_RESERVE);
+    fs::write(&reserve, vec![0u8; SPACE_RESERVE_BYTES])
+        .map_err(|e| AcqError::io(format!("creating {}", reserve.display()), e))?;
+    let mut raw = RawLog::create(dir, options.max_file_bytes).map_err(|e| {
+        AcqError::io(
+            format!("creating {}", dir.join(rawlog::SINGLE_NAME).display()),
+            e,
+        )
+    })?;
+    write_session(dir, &session)?;
+
+    let (events_tx, mut events) = mpsc::channel::<Event>(1024);
+    let (stop_tx, stop_rx) = watch::channel::<Option<i64>>(None);
+    for (index, source) in sources.into_iter().enumerate() {
+        let iface = options.interfaces[index];
+        tokio::spawn(read_interface(
+            bus.clone(),
+            iface,
+            index,
+            source,
+            events_tx.clone(),
+            stop_rx.clone(),
+        ));
+    }
+    drop(events_tx);
+
+    let mut display = StatusDisplay::new(options.status);
+    if options.nmt_start {
+        send_nmt_start(&bus, &options, &mut display).await;
+    }
+    let mut liveness = options
+        .rig
+        .as_ref()
+        .map(|rig| Liveness::new(rig, started_ns));
+    let mut up = vec![true; options.interfaces.len()];
+    let mut last_error: Vec<Option<String>> = vec![None; options.interfaces.len()];
+    let mut dropped: Vec<u64> = vec![0; options.interfaces.len()];
+    let mut frames_at_last_status: Vec<u64> = vec![0; options.interfaces.len()];
+    let mut last_status_ns = started_ns;
+
+    let mut flush_tick = interval(FLUSH_PERIOD);
+    flush_tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    let mut status_tick = interval(STATUS_PERIOD);
+    status_tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
+    let mut flushes: u32 = 0;
+    tokio::pin!(stop);
+    let mut stop_reason: Option<StopReason> = None;
+
+    loop {
+        tokio::select! {
+            // Timers before frames: under a flood the flush (every 100 ms)
+            // and the status must still run.
+            biased;
+            reason = &mut stop, if stop_reason.is_none() => {
+                let at_ns = now_ns();
+                let _ = stop_tx.send(Some(at_ns));
+                session.session.stop_requested_unix_ns = Some(at_ns);
+                stop_reason = Some(reason);
+            }
+            _ = flush_tick.tick() => {
+                flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
+                flushes = flushes.wrapping_add(1);
+                if flushes % SYNC_EVERY_FLUSHES == 0 && !matches!(stop_reason, Some(StopReason::WriteFailed(_))) {
+                    let _ = raw.sync();
+                }
+                if flushes % SESSION_REFRESH_FLUSHES == 0 && stop_reason.is_none() {
+                    let _ = session::write(dir, &snapshot(&session, &raw, &dropped, &liveness));
+                }
+            }
+            _ = status_tick.tick() => {
+                let now = now_ns();
+                if let Some(live) = liveness.as_mut() {
+                    live.tick(now);
+                }
+                let interval_s = ((now - last_status_ns) as f64 * 1e-9).max(1e-3);
+                last_status_ns = now;
+                let status = Status {
+                    elapsed_s: (now - started_ns) as f64 * 1e-9,
+                    session_dir: dir.display().to_string(),
+                    frames: raw.frames,
+                    bytes_written: raw.bytes,
+                    buses: session.interface.iter().enumerate().map(|(i, record)| {
+                        let rate = (record.frames - frames_at_last_status[i]) as f64 / interval_s;
+                        frames_at_last_status[i] = record.frames;
+                        BusStatus {
+                            iface: record.name.clone(),
+                            state: if up[i] { "up" } else { "down" },
+                            frames_per_s: (rate * 10.0).round() / 10.0,
+                            frames: record.frames,
+                            dropped_by_kernel: dropped[i],
+                            error_frames: record.error_frames,
+                            last_error: last_error[i].clone(),
+                        }
+                    }).collect(),
+                    sensors: liveness.as_ref().map(|live| live.sensors.iter().map(|s| SensorStatus {
+                        name: s.name.clone(),
+                        value: s.last_value,
+                        unit: s.unit,
+                        age_s: s.age_s(now).map(|a| (a * 1000.0).round() / 1000.0),
+                        silent: s.silent,
+                        reason: s.silent.then(|| s.silence_reason()),
+                    }).collect()).unwrap_or_default(),
+                };
+                display.show(&status);
+            }
+            event = events.recv() => {
+                let Some(event) = event else { break };
+                match event {
+                    Event::Frames { bus, frames, info } => {
+                        let arrival_ns = now_ns();
+                        let record = &mut session.interface[bus];
+                        for frame in &frames {
+                            if let Some(report) = record.count(frame) {
+                                last_error[bus] = Some(report.describe());
+                            }
+                            if let Some(live) = liveness.as_mut() {
+                                live.on_frame(frame, arrival_ns);
+                            }
+                            raw.push(frame);
+                        }
+                        if let Some(total) = info.dropped_total {
+                            dropped[bus] = total;
+                        }
+                    }
+                    Event::Down { bus, at_ns, reason } => {
+                        up[bus] = false;
+                        session.interface[bus].outage.push(Outage { down_unix_ns: at_ns, up_unix_ns: None, reason: reason.clone() });
+                        display.message(&format!("{}: {reason}; recording goes on and resumes when it returns", options.interfaces[bus]));
+                        write_session(dir, &snapshot(&session, &raw, &dropped, &liveness))?;
+                    }
+                    Event::Up { bus, at_ns } => {
+                        up[bus] = true;
+                        if let Some(outage) = session.interface[bus].outage.last_mut() {
+                            outage.up_unix_ns = Some(at_ns);
+                        }
+                        display.message(&format!("{}: back up, recording resumed", options.interfaces[bus]));
+                    }
+                    Event::Failed { bus, error } => {
+                        display.message(&format!("{}: reader stopped: {error}", options.interfaces[bus]));
+                        session.session.notes.push(format!("{}: reader stopped: {error}", options.interfaces[bus]));
+                    }
+                }
+                if raw.pending_bytes() > 4 << 20 {
+                    flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
+                }
+            }
+        }
+    }
+
+    // Every reader has finished: write and sync the rest.
+    let stop = stop_reason.unwrap_or(StopReason::SourcesEnded);
+    let mut final_stop = stop.clone();
+    if !matches!(stop, StopReason::WriteFailed(_)) {
+        if let Err(error) = raw.flush().and_then(|()| raw.sync()) {
+            final_stop = StopReason::WriteFailed(error.to_string());
+        }
+    }
+    if let StopReason::WriteFailed(_) = final_stop {
+        let lost = raw.pending_lines();
+        session.session.notes.push(format!(
+            "{lost} frames received after the write failure could not be written"
+        ));
+    }
+    let stopped_ns = now_ns();
+    let mut finished = snapshot(&session, &raw, &dropped, &liveness);
+    finished.session.stopped_unix_ns = Some(stopped_ns);
+    finished.session.stopped_utc = Some(session::utc_text(stopped_ns));
+    finished.session.ended = final_stop.describe();
+    if raw.clamped_timestamps > 0 {
+        finished.session.notes.push(format!(
+            "{} frames had timestamps before 1970 (a hardware clock counting from power-on) and were written with time 0",
+            raw.clamped_timestamps
+        ));
+    }
+    let _ = fs::remove_file(&reserve);
+    write_session(dir, &finished)?;
+    Ok(RecordSummary {
+        session_dir: dir.clone(),
+        session: finished,
+        stop: final_stop,
+    })
+}
+
+fn flush_or_stop(
+    raw: &mut RawLog,
+    stop_reason: &mut Option<StopReason>,
+    stop_tx: &watch::Sender<Option<i64>>,
+    display: &mut StatusDisplay,
+) {
+    if matches!(stop_reason, Some(StopReason::WriteFailed(_))) {
+        return;
+    }
+    if let Err(error) = raw.flush() {
+        let message = format!(
+            "writing the raw log failed ({error}); stopping, everything written so far is intact"
+        );
+        display.message(&message);
+        *stop_reason = Some(StopReason::WriteFailed(error.to_string()));
+        let _ = stop_tx.send(Some(now_ns()));
+    }
+}
+
+fn snapshot(
+    session: &SessionFile,
+    raw: &RawLog,
+    dropped: &[u64],
+    liveness: &Option<Liveness<'_>>,
+) -> SessionFile {
+    let mut copy = session.clone();
+    copy.session.raw_files = raw.files().to_vec();
+    copy.session.frames = raw.frames;
+    for (record, &count) in copy.interface.iter_mut().zip(dropped) {
+        record.dropped_by_kernel = count;
+    }
+    copy.session.dropped_by_kernel = dropped.iter().sum();
+    copy.sensor = liveness.as_ref().map(|l| l.records()).unwrap_or_default();
+    copy
+}
+
+fn write_session(dir: &Path, session: &SessionFile) -> Result<()> {
+    session::write(dir, session).map_err(|e| {
+        AcqError::io(
+            format!("writing {}", dir.join(session::SESSION_FILE).display()),
+            e,
+        )
+    })
+}
+
+/// One interface's reader: batches to the writer, reopening after the
+/// interface went away, draining its queue after a stop.
+async fn read_interface<B: Bus>(
+    bus: B,
+    iface: IfaceName,
+    index: usize,
+    mut source: B::Source,
+    events: mpsc::Sender<Event>,
+    mut stop: watch::Receiver<Option<i64>>,
+) {
+    loop {
+        let mut frames = Vec::with_capacity(MAX_BATCH);
+        let stopping = *stop.borrow();
+        let received = match stopping {
+            None => tokio::select! {
+                received = source.recv_batch(&mut frames) => received,
+                _ = stop.changed() => continue,
+            },
+            Some(_) => {
+                match tokio::time::timeout(DRAIN_QUIET, source.recv_batch(&mut frames)).await {
+                    Ok(received) => received,
+                    Err(_) => return, // drained
+                }
+            }
+        };
+        match received {
+            Ok(info) => {
+                let full = frames.len() >= MAX_BATCH;
+                let mut done = false;
+                if let Some(stop_ns) = stopping {
+                    // Frames stamped after the stop were not received before it.
+                    if source.timestamp_source() != "hardware" {
+                        let before = frames.len();
+                        frames.retain(|f| f.timestamp_ns <= stop_ns);
+                        done = frames.len() < before;
+                    }
+                }
+                if !frames.is_empty()
+                    && events
+                        .send(Event::Frames {
+                            bus: index,
+                            frames,
+                            info,
+                        })
+                        .await
+                        .is_err()
+                {
+                    return;
+                }
+                if done {
+                    return;
+                }
+                if !full && stopping.is_none() {
+                    tokio::select! {
+                        _ = tokio::time::sleep(COALESCE) => {}
+                        _ = stop.changed() => {}
+                    }
+                }
+            }
+            Err(BusError::Closed) => return,
+            Err(BusError::Down { .. }) => {
+                let _ = events
+                    .send(Event::Down {
+                        bus: index,
+                        at_ns: now_ns(),
+                        reason: "interface went down or disappeared".into(),
+                    })
+                    .await;
+                loop {
+                    if stop.borrow().is_some() {
+                        return;
+                    }
+                    tokio::select! {
+                        _ = tokio::time::sleep(REOPEN_PERIOD) => {}
+                        _ = stop.changed() => return,
+                    }
+                    if let Ok(reopened) = bus.open_source(iface) {
+                        source = reopened;
+                        let _ = events
+                            .send(Event::Up {
+                                bus: index,
+                                at_ns: now_ns(),
+                            })
+                            .await;
+                        break;
+                    }
+                }
+            }
+            Err(error) => {
+                let _ = events
+                    .send(Event::Failed {
+                        bus: index,
+                        error: error.to_string(),
+                    })
+                    .await;
+                return;
+            }
+        }
+    }
+}
+
+/// NMT "start all nodes" on every bus that has CANopen sensors (every
+/// interface when there is no rig).
+async fn send_nmt_start<B: Bus>(bus: &B, options: &RecordOptions, display: &mut StatusDisplay) {
+    let targets: Vec<IfaceName> = match &options.rig {
+        None => options.interfaces.clone(),
+        Some(rig) => options
+            .interfaces
+            .iter()
+            .copied()
+            .filter(|iface| {
+                rig.sensors.iter().any(|s| {
+                    matches!(s.source, SensorSource::Canopen { .. })
+                        && (rig.buses.len() == 1 || rig.buses[s.bus].iface == *iface)
+                })
+            })
+            .collect(),
+    };
+    for iface in targets {
+        let result = match bus.open_sink(iface) {
+            Ok(mut sink) => sink
+                .send(&nmt_start_frame(iface, 0))
+                .await
+                .map_err(|e| e.to_string()),
+            Err(error) => Err(error.to_string()),
+        };
+        match result {
+            Ok(()) => display.message(&format!("{iface}: sent NMT start (all nodes)")),
+            Err(error) => display.message(&format!("{iface}: could not send NMT start: {error}")),
+        }
+    }
+}
+
+fn open_error(error: OpenError) -> AcqError {
+    match error {
+        OpenError::Io { iface, source } => AcqError::io(format!("opening {iface}"), source),
+        other => AcqError::Config(other.to_string()),
+    }
+}
+
+fn prepare_dir(dir: &Path) -> Result<()> {
+    fs::create_dir_all(dir).map_err(|e| AcqError::io(format!("creating {}", dir.display()), e))?;
+    if dir.join(rawlog::SINGLE_NAME).exists() || dir.join("raw.000.log").exists() {
+        return Err(AcqError::Config(format!(
+            "{} already holds a recording; choose another --out directory",
+            dir.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Copies the rig and its DBC files into `DIR/rig/`, rewriting the DBC
+/// paths in the copy so that `--rig DIR/rig/NAME.toml` works on its own.
+fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
+    let rig_dir = dir.join("rig");
+    fs::create_dir_all(&rig_dir)
+        .map_err(|e| AcqError::io(format!("creating {}", rig_dir.display()), e))?;
+    let read = |path: &Path| fs::read(path).map_err(|e| AcqError::open(path, e));
+    let mut dbc = Vec::new();
+    let mut seen = std::collections::BTreeMap::new();
+    for bus in &rig.buses {
+        for path in &bus.dbc_files {
+            let name = path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            if seen.insert(name.clone(), path.clone()).is_some() {
+                continue;
+            }
+            let bytes = read(path)?;
+            let copy = rig_dir.join(&name);
+            fs::write(&copy, &bytes)
+                .map_err(|e| AcqError::io(format!("writing {}", copy.display()), e))?;
+            dbc.push(CopiedFile {
+                source: path.display().to_string(),
+                copy: format!("rig/{name}"),
+                sha256: session::sha256_hex(&bytes),
+            });
+        }
+    }
+    let bytes = read(&rig.path)?;
+    let name = rig
+        .path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "rig.toml".into());
+    let text = String::from_utf8_lossy(&bytes);
+    let rewritten = rewrite_dbc_paths(&text).unwrap_or_else(|| text.into_owned());
+    let copy = rig_dir.join(&name);
+    fs::write(&copy, rewritten)
+        .map_err(|e| AcqError::io(format!("writing {}", copy.display()), e))?;
+    Ok(RigCopy {
+        name: rig.name.clone(),
+        file: CopiedFile {
+            source: rig.path.display().to_string(),
+            copy: format!("rig/{name}"),
+            sha256: session::sha256_hex(&bytes),
+        },
+        dbc,
+    })
+}
+
+/// The rig text with every `[[bus]] dbc` path reduced to its file name.
+fn rewrite_dbc_paths(text: &str) -> Option<String> {
+    let mut document: toml_edit::DocumentMut = text.parse().ok()?;
+    let buses = document.get_mut("bus")?.as_array_of_tables_mut()?;
+    for bus in buses.iter_mut() {
+        let Some(item) = bus.get_mut("dbc") else {
+            continue;
+        };
+        let base = |value: &toml_edit::Value| {
+            value.as_str().map(|p| {
+                Path::new(p)
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            })
+        };
+        if let Some(value) = item.as_value_mut() {
+            if let Some(array) = value.as_array_mut() {
+                for element in array.iter_mut() {
+                    if let Some(name) = base(element) {
+                        *element = toml_edit::Value::from(name);
+                    }
+                }
+            } else if let Some(name) = base(value) {
+                *value = toml_edit::Value::from(name);
+            }
+        }
+    }
+    Some(document.to_string())
+}

@@ -1,0 +1,245 @@
+//! `acq replay`: a log back onto a bus, with the original inter-frame timing
+//! held to an absolute schedule.
+//!
+//! Frame i is due at `start + (t_i - t_0) / speed`; each wait is computed
+//! from that deadline, never from the previous send, so sleep overshoot
+//! does not accumulate over an hour of replay. The wait sleeps to just
+//! before the deadline and polls the clock the last few microseconds; the timing
+//! error of every frame is measured and reported.
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use acq_drivers::{Frame, IfaceName};
+use acq_io::error::{AcqError, Result};
+
+use crate::bus::{Bus, BusError, FrameSink};
+
+/// Which interface each frame goes out on.
+#[derive(Clone, Debug, Default)]
+pub struct Routing {
+    /// `--map LOG_IFACE=BUS_IFACE`.
+    pub map: Vec<(IfaceName, IfaceName)>,
+    /// `--iface`: where frames of unmapped interfaces go. Without it and
+    /// without a map, frames go out on the interface the log names.
+    pub default: Option<IfaceName>,
+}
+
+impl Routing {
+    pub fn route(&self, from: IfaceName) -> Option<IfaceName> {
+        if let Some((_, to)) = self.map.iter().find(|(f, _)| *f == from) {
+            return Some(*to);
+        }
+        match self.default {
+            Some(to) => Some(to),
+            None if self.map.is_empty() => Some(from),
+            None => None,
+        }
+    }
+}
+
+/// When frames go out.
+#[derive(Clone, Copy, Debug)]
+pub enum Pacing {
+    /// The log's timing divided by `speed` (2.0 = twice as fast).
+    Timed { speed: f64 },
+    /// As fast as the bus takes them (`--ignore-timestamps`).
+    AsFast,
+}
+
+/// What a replay did.
+#[derive(Clone, Debug, Default)]
+pub struct PlaySummary {
+    pub frames_sent: u64,
+    pub error_frames_skipped: u64,
+    pub unrouted_skipped: u64,
+    pub timing: TimingStats,
+    pub elapsed: Duration,
+}
+
+/// Timing errors of a timed replay: lateness of each send against its
+/// deadline, and the error of each inter-frame interval against the log's.
+#[derive(Clone, Debug, Default)]
+pub struct TimingStats {
+    lateness_ns: Vec<i64>,
+    interval_error_ns: Vec<i64>,
+}
+
+impl TimingStats {
+    pub fn is_empty(&self) -> bool {
+        self.lateness_ns.is_empty()
+    }
+
+    /// (median, 99th percentile, maximum) of |inter-frame interval error|, µs.
+    pub fn interval_error_us(&self) -> Option<(f64, f64, f64)> {
+        percentiles(&self.interval_error_ns)
+    }
+
+    /// The earliest send relative to its deadline, ns (never negative:
+    /// the player waits until the deadline has passed).
+    pub fn earliest_send_ns(&self) -> Option<i64> {
+        self.lateness_ns.iter().copied().min()
+    }
+
+    /// (median, 99th percentile, maximum) of send lateness, µs.
+    pub fn lateness_us(&self) -> Option<(f64, f64, f64)> {
+        percentiles(&self.lateness_ns)
+    }
+}
+
+fn percentiles(values_ns: &[i64]) -> Option<(f64, f64, f64)> {
+    if values_ns.is_empty() {
+        return None;
+    }
+    let mut sorted: Vec<u64> = values_ns.iter().map(|v| v.unsigned_abs()).collect();
+    sorted.sort_unstable();
+    let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize] as f64 / 1e3;
+    Some((at(0.5), at(0.99), at(1.0)))
+}
+
+/// Waits until `deadline` precisely: sleeps to just before it, then polls.
+///
+/// Blocks the thread on purpose: the player runs alone on its runtime, and
+/// a tokio timer (1 ms granularity) could not hold 100 µs.
+fn wait_until(deadline: Instant) {
+    const SPIN: Duration = Duration::from_micros(60);
+    loop {
+        let now = Instant::now();
+        if now >= deadline {
+            return;
+        }
+        let remaining = deadline - now;
+        if remaining > SPIN {
+            std::thread::sleep(remaining - SPIN);
+        } else {
+            // Yield rather than spin: on a one-CPU machine the process we
+            // feed (a recorder, candump) must get to run between frames.
+            std::thread::yield_now();
+        }
+    }
+}
+
+/// Plays `frames` onto `bus`; `frames` yields `Ok(None)` at the end of one
+/// pass and is asked again for each of `passes` passes.
+pub async fn play<B: Bus>(
+    bus: &B,
+    mut next_frame: impl FnMut(usize) -> Result<Option<Frame>>,
+    routing: &Routing,
+    pacing: Pacing,
+    passes: usize,
+) -> Result<PlaySummary> {
+    // Timer slack 1 µs instead of 50: sleeps end when asked (Linux only; best effort).
+    let _ = nix::sys::prctl::set_timerslack(1_000);
+    let mut sinks: HashMap<IfaceName, B::Sink> = HashMap::new();
+    let mut summary = PlaySummary::default();
+    let started = Instant::now();
+    // The schedule: wall instant of log time `origin_ns`.
+    let mut origin: Option<(Instant, i64)> = None;
+    let mut pass_offset_ns: i64 = 0;
+    let mut previous: Option<(Instant, i64)> = None;
+    for pass in 0..passes.max(1) {
+        let mut last_in_pass: Option<i64> = None;
+        let mut first_in_pass: Option<i64> = None;
+        while let Some(frame) = next_frame(pass)? {
+            if frame.is_error() {
+                summary.error_frames_skipped += 1;
+                continue;
+            }
+            let Some(out) = routing.route(frame.iface) else {
+                summary.unrouted_skipped += 1;
+                continue;
+            };
+            first_in_pass.get_or_insert(frame.timestamp_ns);
+            last_in_pass = Some(frame.timestamp_ns);
+            // Passes follow each other without a gap, keeping each pass's own timing.
+            let log_ns = frame.timestamp_ns - first_in_pass.unwrap_or(0) + pass_offset_ns;
+            // Opened before the wait: opening a socket must not make its first frame late.
+            let sink = match sinks.get_mut(&out) {
+                Some(sink) => sink,
+                None => {
+                    let sink = bus
+                        .open_sink(out)
+                        .map_err(|e| AcqError::Config(e.to_string()))?;
+                    sinks.entry(out).or_insert(sink)
+                }
+            };
+            if let Pacing::Timed { speed } = pacing {
+                let (start, origin_ns) = *origin.get_or_insert((Instant::now(), log_ns));
+                let offset_ns = ((log_ns - origin_ns).max(0) as f64 / speed).round() as u64;
+                let deadline = start + Duration::from_nanos(offset_ns);
+                wait_until(deadline);
+                let sent_at = Instant::now();
+                summary
+                    .timing
+                    .lateness_ns
+                    .push(signed_ns(sent_at, deadline));
+                if let Some((previous_at, previous_deadline_ns)) = previous {
+                    let actual = signed_ns(sent_at, previous_at);
+                    let wanted = offset_ns as i64 - previous_deadline_ns;
+                    summary.timing.interval_error_ns.push(actual - wanted);
+                }
+                previous = Some((sent_at, offset_ns as i64));
+            }
+            sink.send(&frame).await.map_err(|e| match e {
+                BusError::Io { iface, source } => {
+                    AcqError::io(format!("sending on {iface}"), source)
+                }
+                other => AcqError::Config(other.to_string()),
+            })?;
+            summary.frames_sent += 1;
+        }
+        if let (Some(first), Some(last)) = (first_in_pass, last_in_pass) {
+            pass_offset_ns += last - first;
+        }
+    }
+    summary.elapsed = started.elapsed();
+    Ok(summary)
+}
+
+fn signed_ns(a: Instant, b: Instant) -> i64 {
+    if a >= b {
+        (a - b).as_nanos() as i64
+    } else {
+        -((b - a).as_nanos() as i64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn name(s: &str) -> IfaceName {
+        IfaceName::new(s).unwrap()
+    }
+
+    #[test]
+    fn routing_follows_canplayer() {
+        let plain = Routing::default();
+        assert_eq!(plain.route(name("can0")), Some(name("can0")));
+        let mapped = Routing {
+            map: vec![(name("can0"), name("vcan1"))],
+            default: None,
+        };
+        assert_eq!(mapped.route(name("can0")), Some(name("vcan1")));
+        assert_eq!(
+            mapped.route(name("can1")),
+            None,
+            "unassigned interfaces are skipped"
+        );
+        let both = Routing {
+            map: vec![(name("can0"), name("vcan1"))],
+            default: Some(name("vcan0")),
+        };
+        assert_eq!(both.route(name("can1")), Some(name("vcan0")));
+    }
+
+    #[test]
+    fn percentiles_of_absolute_errors() {
+        let stats = TimingStats {
+            lateness_ns: vec![1_000, -3_000, 2_000],
+            interval_error_ns: vec![],
+        };
+        assert_eq!(stats.lateness_us(), Some((2.0, 3.0, 3.0)));
+        assert_eq!(stats.interval_error_us(), None);
+    }
+}

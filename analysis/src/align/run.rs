@@ -1,0 +1,511 @@
+//! `acq align`: a recording through the clock offsets, the aligner and
+//! (optionally) the filter into the aligned CSV, with a summary that names
+//! every problem met.
+
+use std::fmt::Write as _;
+
+use acq_drivers::rig::{BusClock, Interpolation, Rig};
+use acq_io::error::{AcqError, Result};
+use acq_io::output::Output;
+use acq_io::session::utc_text;
+
+use super::filter::{GaussianFilter, RISE_TIME_TIMES_CUTOFF};
+use super::offset::{estimate_offset, OffsetEstimate, DEFAULT_MAX_LAG_NS, MAX_WINDOW_NS};
+use super::table::{Column, CsvTable};
+use super::{Aligner, ChannelSpec, ChannelStats, GridSpec, RowSink};
+use crate::recording::{Recording, SampleCounts};
+
+/// A duration in seconds: `0.2s`, `1.5s`, or what humantime reads (`50ms`, `2min`).
+pub fn parse_duration_s(text: &str) -> std::result::Result<f64, String> {
+    let text = text.trim();
+    match text.strip_suffix('s').and_then(|n| n.parse::<f64>().ok()) {
+        Some(seconds) => Ok(seconds),
+        None => humantime::parse_duration(text)
+            .map(|d| d.as_secs_f64())
+            .map_err(|_| format!("'{text}': give a duration such as 3s, 500ms or 1.5s")),
+    }
+}
+
+/// How long a sensor may be silent before the silence is a gap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GapTolerance {
+    /// Multiples of the sensor's nominal period (the rig's `rate_hz`).
+    Periods(f64),
+    /// One duration for every sensor, ns.
+    Fixed(i64),
+}
+
+impl GapTolerance {
+    /// `3x` (periods) or a duration (`50ms`, `0.2s`).
+    pub fn parse(text: &str) -> std::result::Result<Self, String> {
+        let text = text.trim();
+        if let Some(periods) = text.strip_suffix('x') {
+            return match periods.parse::<f64>() {
+                Ok(p) if p >= 1.0 && p.is_finite() => Ok(GapTolerance::Periods(p)),
+                _ => Err(format!(
+                    "'{text}': a gap tolerance in periods is a number >= 1 followed by x, e.g. 3x"
+                )),
+            };
+        }
+        let seconds = parse_duration_s(text)?;
+        if seconds > 0.0 && seconds.is_finite() {
+            Ok(GapTolerance::Fixed((seconds * 1e9).round() as i64))
+        } else {
+            Err(format!("'{text}': the gap tolerance must be positive"))
+        }
+    }
+
+    pub fn for_rate(&self, rate_hz: f64) -> i64 {
+        match *self {
+            GapTolerance::Periods(p) => (p * 1e9 / rate_hz).round() as i64,
+            GapTolerance::Fixed(ns) => ns,
+        }
+    }
+}
+
+impl Default for GapTolerance {
+    fn default() -> Self {
+        GapTolerance::Periods(3.0)
+    }
+}
+
+/// A point in the recording: seconds from its start, or a UTC time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimePoint {
+    FromStartS(f64),
+    UnixNs(i64),
+}
+
+impl TimePoint {
+    /// `12.5` (seconds from the start) or `2026-11-21T20:33:55Z`.
+    pub fn parse(text: &str) -> std::result::Result<Self, String> {
+        if let Ok(seconds) = text.trim().parse::<f64>() {
+            if seconds.is_finite() {
+                return Ok(TimePoint::FromStartS(seconds));
+            }
+        }
+        let time = humantime::parse_rfc3339_weak(text.trim()).map_err(|_| {
+            format!("'{text}': give seconds from the session start (12.5) or a UTC time (2026-11-21T20:33:55Z)")
+        })?;
+        let ns = time
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_err(|_| format!("'{text}' lies before 1970"))?
+            .as_nanos();
+        Ok(TimePoint::UnixNs(ns as i64))
+    }
+
+    fn offset_from(&self, t0_ns: i64) -> i64 {
+        match *self {
+            TimePoint::FromStartS(s) => (s * 1e9).round() as i64,
+            TimePoint::UnixNs(ns) => ns - t0_ns,
+        }
+    }
+}
+
+/// What `acq align` is asked to do.
+#[derive(Clone, Debug)]
+pub struct AlignOptions {
+    pub rate_hz: f64,
+    /// One interpolation for every sensor instead of each sensor's own.
+    pub method: Option<Interpolation>,
+    pub max_gap: GapTolerance,
+    pub from: Option<TimePoint>,
+    pub to: Option<TimePoint>,
+    /// Zero-phase low-pass cut-off, Hz.
+    pub filter_hz: Option<f64>,
+    /// `(bus name, offset ms)` overriding the rig.
+    pub clock_offsets_ms: Vec<(String, f64)>,
+}
+
+impl Default for AlignOptions {
+    fn default() -> Self {
+        AlignOptions {
+            rate_hz: 100.0,
+            method: None,
+            max_gap: GapTolerance::default(),
+            from: None,
+            to: None,
+            filter_hz: None,
+            clock_offsets_ms: Vec::new(),
+        }
+    }
+}
+
+/// Where a bus's clock offset came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ClockSource {
+    Reference,
+    Given,
+    Estimated {
+        estimate: OffsetEstimate,
+        signal: String,
+        reference: String,
+    },
+}
+
+/// One bus's clock offset.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BusOffset {
+    pub bus: String,
+    pub offset_ns: i64,
+    pub source: ClockSource,
+}
+
+impl std::fmt::Display for BusOffset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let ms = self.offset_ns as f64 / 1e6;
+        match &self.source {
+            ClockSource::Reference => write!(f, "bus {}: reference clock", self.bus),
+            ClockSource::Given => write!(f, "bus {}: clock offset {ms:+.3} ms (given)", self.bus),
+            ClockSource::Estimated { estimate, signal, reference } => write!(
+                f,
+                "bus {}: clock offset {ms:+.3} ms +- {:.3} ms estimated from {signal} against {reference} (peak correlation {:.4}, confidence {}, {} samples)",
+                self.bus,
+                estimate.standard_error_ns / 1e6,
+                estimate.correlation,
+                estimate.confidence(),
+                estimate.samples
+            ),
+        }
+    }
+}
+
+/// Each bus's clock offset: given on the command line, in the rig, or
+/// estimated (one extra pass over the recording's first ten minutes).
+pub fn resolve_clock_offsets(
+    recording: &Recording,
+    overrides_ms: &[(String, f64)],
+) -> Result<Vec<BusOffset>> {
+    let rig = &recording.rig;
+    for (name, _) in overrides_ms {
+        if !rig.buses.iter().any(|b| &b.name == name) {
+            let names: Vec<&str> = rig.buses.iter().map(|b| b.name.as_str()).collect();
+            return Err(AcqError::Config(format!(
+                "--clock-offset names bus '{name}', but the rig's buses are {}",
+                names.join(", ")
+            )));
+        }
+    }
+    let mut offsets: Vec<BusOffset> = rig
+        .buses
+        .iter()
+        .map(|bus| {
+            let given = overrides_ms
+                .iter()
+                .find(|(name, _)| name == &bus.name)
+                .map(|(_, ms)| *ms);
+            let (offset_ns, source) = match (given, &bus.clock) {
+                (Some(ms), _) | (None, &BusClock::OffsetMs(ms)) => {
+                    ((ms * 1e6).round() as i64, ClockSource::Given)
+                }
+                _ => (0, ClockSource::Reference),
+            };
+            BusOffset {
+                bus: bus.name.clone(),
+                offset_ns,
+                source,
+            }
+        })
+        .collect();
+    let to_estimate: Vec<(usize, usize, usize)> = rig
+        .buses
+        .iter()
+        .enumerate()
+        .filter_map(|(i, bus)| match bus.clock {
+            BusClock::Estimate { signal, reference } if offsets[i].source != ClockSource::Given => {
+                Some((i, signal, reference))
+            }
+            _ => None,
+        })
+        .collect();
+    if to_estimate.is_empty() {
+        return Ok(offsets);
+    }
+    // Reference signals are read with their own bus's (given) offset.
+    let base: Vec<i64> = offsets.iter().map(|o| o.offset_ns).collect();
+    let mut series: Vec<Vec<(i64, f64)>> = vec![Vec::new(); rig.sensors.len()];
+    let wanted: Vec<usize> = to_estimate.iter().flat_map(|&(_, s, r)| [s, r]).collect();
+    let horizon = MAX_WINDOW_NS + 2 * DEFAULT_MAX_LAG_NS;
+    let mut counts = SampleCounts::default();
+    recording.for_each_sample(&base, &mut counts, |sample| {
+        if wanted.contains(&sample.sensor) {
+            let list = &mut series[sample.sensor];
+            let within = list
+                .first()
+                .is_none_or(|(t0, _)| sample.time_ns - t0 <= horizon);
+            if let (Some(v), true) = (sample.value, within) {
+                list.push((sample.time_ns, v));
+            }
+        }
+        Ok(())
+    })?;
+    for (bus, signal, reference) in to_estimate {
+        for list in [signal, reference] {
+            series[list].sort_by_key(|(t, _)| *t);
+        }
+        let (signal_name, reference_name) =
+            (&rig.sensors[signal].name, &rig.sensors[reference].name);
+        let estimate = estimate_offset(&series[signal], &series[reference], DEFAULT_MAX_LAG_NS)
+            .map_err(|e| {
+                AcqError::Config(format!(
+                    "bus {}: cannot estimate the clock offset from {signal_name} against {reference_name}: {e}; give clock_offset_ms in the rig or --clock-offset {}=MS",
+                    rig.buses[bus].name, rig.buses[bus].name
+                ))
+            })?;
+        offsets[bus].offset_ns = estimate.offset_ns.round() as i64;
+        offsets[bus].source = ClockSource::Estimated {
+            estimate,
+            signal: signal_name.clone(),
+            reference: reference_name.clone(),
+        };
+    }
+    Ok(offsets)
+}
+
+/// How every sensor is read, from the rig and the options.
+pub fn channel_specs(
+    rig: &Rig,
+    method: Option<Interpolation>,
+    max_gap: GapTolerance,
+) -> Vec<ChannelSpec> {
+    rig.sensors
+        .iter()
+        .map(|sensor| ChannelSpec {
+            interpolation: method.unwrap_or(sensor.interpolation),
+            max_gap_ns: max_gap.for_rate(sensor.rate_hz),
+        })
+        .collect()
+}
+
+/// What an align run saw.
+#[derive(Clone, Debug)]
+pub struct AlignSummary {
+    pub counts: SampleCounts,
+    pub sensors: Vec<String>,
+    pub channels: Vec<ChannelStats>,
+    pub clocks: Vec<BusOffset>,
+    pub rows: u64,
+    /// Time of `time_s = 0`, unix ns.
+    pub t0_unix_ns: Option<i64>,
+    pub notes: Vec<String>,
+}
+
+impl AlignSummary {
+    /// One line per problem, in words.
+    pub fn problems(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        for (name, stats) in self.sensors.iter().zip(&self.channels) {
+            if stats.samples == 0 {
+                lines.push(format!("{name}: never seen in the recording; its column is empty and flagged (is the sensor wired and in the rig as sent?)"));
+                continue;
+            }
+            if stats.backwards > 0 {
+                lines.push(format!(
+                    "{name}: {} sample(s) went back in time (by up to {:.3} s) and were dropped; a log merged from two recordings? Sort it by time or align the parts separately",
+                    stats.backwards,
+                    stats.largest_step_back_ns as f64 / 1e9
+                ));
+            }
+            if stats.duplicates > 0 {
+                lines.push(format!("{name}: {} sample(s) with the same time as the one before were dropped (duplicated frames?)", stats.duplicates));
+            }
+            if stats.late > 0 {
+                lines.push(format!("{name}: {} sample(s) arrived after their rows were written (more than the lateness out of order); they filled only later rows", stats.late));
+            }
+            if stats.gaps > 0 {
+                lines.push(format!(
+                    "{name}: {} silence(s) longer than the gap tolerance (longest {:.3} s); flagged, not interpolated",
+                    stats.gaps,
+                    stats.longest_gap_ns as f64 / 1e9
+                ));
+            }
+        }
+        lines
+    }
+}
+
+impl std::fmt::Display for AlignSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}; {} rows written", self.counts, self.rows)?;
+        for clock in &self.clocks {
+            if clock.source != ClockSource::Reference {
+                write!(f, "\n  {clock}")?;
+            }
+        }
+        for problem in self.problems() {
+            write!(f, "\n  {problem}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Aligns `recording` into `output` as CSV.
+pub fn align_recording(
+    recording: &Recording,
+    options: &AlignOptions,
+    output: Output,
+) -> Result<AlignSummary> {
+    if !(options.rate_hz > 0.0 && options.rate_hz.is_finite() && options.rate_hz <= 1e6) {
+        return Err(AcqError::Config(format!(
+            "--rate must be a positive number of rows per second up to 1e6, got {}",
+            options.rate_hz
+        )));
+    }
+    let rig = &recording.rig;
+    let clocks = resolve_clock_offsets(recording, &options.clock_offsets_ms)?;
+    let offsets: Vec<i64> = clocks.iter().map(|c| c.offset_ns).collect();
+    let specs = channel_specs(rig, options.method, options.max_gap);
+    let largest_offset = offsets.iter().map(|o| o.abs()).max().unwrap_or(0);
+    let columns: Vec<Column> = rig
+        .sensors
+        .iter()
+        .map(|s| Column {
+            name: s.name.clone(),
+            unit: s.unit().to_string(),
+        })
+        .collect();
+
+    // The grid starts at the session's start, or at a log's first sample.
+    let mut counts = SampleCounts::default();
+    let mut aligner: Option<Aligner<Box<dyn RowSink<Error = AcqError>>>> = None;
+    let mut output = Some(output);
+    let session_start = recording.session_start_unix_ns();
+    let mut t0 = None;
+    let build = |t0_ns: i64,
+                 output: Output|
+     -> Result<Aligner<Box<dyn RowSink<Error = AcqError>>>> {
+        let from = options.from.map(|p| p.offset_from(t0_ns));
+        let to = options.to.map(|p| p.offset_from(t0_ns));
+        if let (Some(from), Some(to)) = (from, to) {
+            if to < from {
+                return Err(AcqError::Config(format!(
+                    "--to ({:.3} s) lies before --from ({:.3} s)",
+                    to as f64 / 1e9,
+                    from as f64 / 1e9
+                )));
+            }
+        }
+        let mut grid = GridSpec {
+            t0_ns,
+            rate_hz: options.rate_hz,
+            first_row: 0,
+            last_row: None,
+            lateness_ns: 500_000_000 + 2 * largest_offset,
+        };
+        if let Some(from) = from {
+            grid.first_row = grid.row_at_or_after(t0_ns + from.max(0));
+        }
+        if let Some(to) = to {
+            let after = grid.row_at_or_after(t0_ns + to.max(0));
+            grid.last_row = Some(if grid.time_ns(after) == t0_ns + to.max(0) {
+                after
+            } else {
+                after.saturating_sub(1)
+            });
+        }
+        let comments = header_comments(recording, options, &clocks, t0_ns, session_start.is_some());
+        let table = CsvTable::new(output, &comments, &columns, options.rate_hz)?;
+        let sink: Box<dyn RowSink<Error = AcqError>> = match options.filter_hz {
+            Some(cutoff) => Box::new(
+                GaussianFilter::new(table, cutoff, options.rate_hz).map_err(AcqError::Config)?,
+            ),
+            None => Box::new(table),
+        };
+        Ok(Aligner::new(grid, &specs, sink))
+    };
+    if let Some(start) = session_start {
+        aligner = Some(build(start, output.take().expect("output"))?);
+        t0 = Some(start);
+    }
+    recording.for_each_sample(&offsets, &mut counts, |sample| {
+        let engine = match &mut aligner {
+            Some(engine) => engine,
+            None => {
+                t0 = Some(sample.time_ns);
+                aligner.insert(build(sample.time_ns, output.take().expect("output"))?)
+            }
+        };
+        engine.push(sample.sensor, sample.time_ns, sample.value)
+    })?;
+    let Some(engine) = aligner else {
+        return Err(AcqError::Config(format!(
+            "{}: no sample of any rig sensor in the recording; is it the right rig ({})?",
+            recording.label,
+            rig.path.display()
+        )));
+    };
+    let (sink, channels) = engine.finish()?;
+    let rows = channels
+        .first()
+        .map_or(0, |c| c.rows_with_value + c.rows_without_value);
+    drop(sink);
+    Ok(AlignSummary {
+        counts,
+        sensors: rig.sensors.iter().map(|s| s.name.clone()).collect(),
+        channels,
+        clocks,
+        rows,
+        t0_unix_ns: t0,
+        notes: recording.notes.clone(),
+    })
+}
+
+fn header_comments(
+    recording: &Recording,
+    options: &AlignOptions,
+    clocks: &[BusOffset],
+    t0_ns: i64,
+    is_session: bool,
+) -> Vec<String> {
+    let mut lines = Vec::new();
+    let origin = if is_session {
+        "session start"
+    } else {
+        "first sample"
+    };
+    lines.push(format!(
+        "acq align {} ({} {}, unix ns {t0_ns})",
+        recording.label,
+        origin,
+        utc_text(t0_ns)
+    ));
+    lines.push(format!(
+        "rig: {} ({})",
+        recording.rig.name,
+        recording.rig.path.display()
+    ));
+    lines.push(format!(
+        "time_s: seconds from the {origin} on the reference clock; grid {} Hz",
+        options.rate_hz
+    ));
+    let method = match options.method {
+        Some(m) => format!("{} for every sensor", m.name()),
+        None => "each sensor's own (rig `interpolation`, default linear)".into(),
+    };
+    lines.push(format!("interpolation: {method}"));
+    let gap = match options.max_gap {
+        GapTolerance::Periods(p) => format!("{p} sample periods"),
+        GapTolerance::Fixed(ns) => format!("{} s", ns as f64 / 1e9),
+    };
+    lines.push(format!("gaps: a sensor silent longer than {gap} has no value there (empty cell, <sensor>_gap = 1); nothing before its first sample or after its last"));
+    for clock in clocks {
+        lines.push(format!("clock: {clock}"));
+    }
+    match options.filter_hz {
+        None => lines.push("filter: none".into()),
+        Some(fc) => {
+            let mut text = String::new();
+            let _ = write!(
+                text,
+                "filter: zero-phase Gaussian low-pass, -3 dB at {fc} Hz; a step rises 10-90 % in {:.1} ms, starting {:.1} ms before it, without overshoot",
+                RISE_TIME_TIMES_CUTOFF / fc * 1e3,
+                RISE_TIME_TIMES_CUTOFF / fc * 1e3 / 2.0
+            );
+            lines.push(text);
+        }
+    }
+    for note in &recording.notes {
+        lines.push(format!("note: {note}"));
+    }
+    lines
+}

@@ -1,0 +1,90 @@
+//! The aligned table as CSV: `#` comment lines (session, start, grid,
+//! clock offsets), then `time_s` and per channel `name [unit]` and
+//! `name_gap` (1 where the channel has no value: the cell is empty).
+
+use acq_drivers::dbc::push_shortest_f64;
+use acq_io::error::AcqError;
+use acq_io::output::{csv_field, Output};
+
+use super::RowSink;
+
+/// One column of the table.
+#[derive(Clone, Debug)]
+pub struct Column {
+    pub name: String,
+    pub unit: String,
+}
+
+/// Writes aligned rows as CSV.
+pub struct CsvTable {
+    /// `None` once finished.
+    out: Option<Output>,
+    rate_hz: f64,
+    pub rows: u64,
+}
+
+impl CsvTable {
+    /// Writes the comment lines and the header.
+    pub fn new(
+        mut out: Output,
+        comments: &[String],
+        columns: &[Column],
+        rate_hz: f64,
+    ) -> Result<Self, AcqError> {
+        for comment in comments {
+            for line in comment.lines() {
+                out.buffer.extend_from_slice(b"# ");
+                out.buffer.extend_from_slice(line.as_bytes());
+                out.buffer.push(b'\n');
+            }
+        }
+        out.buffer.extend_from_slice(b"time_s");
+        for column in columns {
+            let heading = format!("{} [{}]", column.name, column.unit);
+            out.buffer.push(b',');
+            out.buffer.extend_from_slice(csv_field(&heading).as_bytes());
+            out.buffer.push(b',');
+            out.buffer
+                .extend_from_slice(csv_field(&format!("{}_gap", column.name)).as_bytes());
+        }
+        out.buffer.push(b'\n');
+        Ok(CsvTable {
+            out: Some(out),
+            rate_hz,
+            rows: 0,
+        })
+    }
+}
+
+impl RowSink for CsvTable {
+    type Error = AcqError;
+
+    fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), AcqError> {
+        let Some(out) = self.out.as_mut() else {
+            return Ok(());
+        };
+        let buffer = &mut out.buffer;
+        push_shortest_f64(buffer, row as f64 / self.rate_hz);
+        for value in values {
+            buffer.push(b',');
+            match value {
+                Some(v) => {
+                    push_shortest_f64(buffer, *v);
+                    buffer.extend_from_slice(b",0");
+                }
+                None => buffer.extend_from_slice(b",1"),
+            }
+        }
+        buffer.push(b'\n');
+        self.rows += 1;
+        out.maybe_flush()
+    }
+
+    /// Writes everything out (and gives a `.partial` file its name).
+    fn finish(&mut self) -> Result<(), AcqError> {
+        match self.out.take() {
+            Some(out) => out.finish(),
+            None => Ok(()),
+        }
+    }
+}

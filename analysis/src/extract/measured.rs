@@ -1,0 +1,241 @@
+//! The measured-values file: what `acq extract` writes and `acq calibrate`
+//! reads. One CSV row per window and quantity:
+//!
+//! ```text
+//! window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,flags,note
+//! hold1,4.5,11.5,bucket_head_pressure,bar,116.893,0.301,700,700,116.871,116.915,,
+//! hold1,4.5,11.5,sg03,MPa,17.83,0.15,700,700,17.82,17.84,pair:sg04,"differs from sg04 (75.46 MPa) by 76 %"
+//! hold1,4.5,11.5,bucket_loaded_pressure,bar,116.893,0.301,700,700,116.871,116.915,,head side (cylinder pushes)
+//! ```
+//!
+//! - `start_s`, `end_s`: seconds from the session start (reference clock).
+//! - `quantity`: a rig sensor, or a derived quantity of a rig cylinder:
+//!   `<cylinder>_net_force` (kN, head area x head pressure - annulus area x
+//!   rod pressure) and `<cylinder>_loaded_pressure` (bar: the head chamber
+//!   when the cylinder pushes, the rod chamber when it pulls).
+//! - `std`: sample standard deviation; `n`: samples; `n_eff`: n corrected
+//!   for lag-1 autocorrelation; `ci95_*`: Student-t 95 % interval of the
+//!   mean with n_eff - 1 degrees of freedom. Empty when undefined (n < 2).
+//! - `flags`: empty when the value is fit to use, else `;`-separated codes:
+//!   `no_samples`, `few_samples` (n_eff < 2), `stuck`, `saturated`, `noisy`,
+//!   `pair:<partner>`. `note` says why in words.
+
+use std::path::Path;
+
+use acq_io::error::{AcqError, Result};
+use acq_io::input::read_csv_records;
+use acq_io::output::{csv_field, Output};
+
+use crate::extract::stats::WindowStats;
+
+/// The header of the measured-values file.
+pub const MEASURED_HEADER: &str =
+    "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,flags,note";
+
+/// One quantity in one window.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeasuredValue {
+    pub window: String,
+    pub start_s: f64,
+    pub end_s: f64,
+    pub quantity: String,
+    pub unit: String,
+    pub stats: WindowStats,
+    pub flags: Vec<String>,
+    pub note: String,
+}
+
+impl MeasuredValue {
+    /// Fit to be used: a mean and no flag.
+    pub fn is_usable(&self) -> bool {
+        self.stats.mean.is_some() && self.flags.is_empty()
+    }
+}
+
+fn number(out: &mut String, value: Option<f64>) {
+    if let Some(v) = value.filter(|v| v.is_finite()) {
+        let mut buffer = ryu::Buffer::new();
+        out.push_str(buffer.format(v));
+    }
+}
+
+/// Writes the file (complete-only: a crash leaves no half file).
+pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
+    let mut output = Output::create_complete_only(path)?;
+    let mut text = String::with_capacity(128 * (values.len() + 1));
+    text.push_str(MEASURED_HEADER);
+    text.push('\n');
+    for v in values {
+        let s = &v.stats;
+        text.push_str(&csv_field(&v.window));
+        text.push(',');
+        number(&mut text, Some(v.start_s));
+        text.push(',');
+        number(&mut text, Some(v.end_s));
+        text.push(',');
+        text.push_str(&csv_field(&v.quantity));
+        text.push(',');
+        text.push_str(&csv_field(&v.unit));
+        text.push(',');
+        number(&mut text, s.mean);
+        text.push(',');
+        number(&mut text, s.std);
+        text.push(',');
+        text.push_str(&s.n.to_string());
+        text.push(',');
+        number(&mut text, (s.n > 0).then_some(s.n_eff));
+        let half = s.ci95_half_width;
+        text.push(',');
+        number(&mut text, s.mean.zip(half).map(|(m, h)| m - h));
+        text.push(',');
+        number(&mut text, s.mean.zip(half).map(|(m, h)| m + h));
+        text.push(',');
+        text.push_str(&csv_field(&v.flags.join(";")));
+        text.push(',');
+        text.push_str(&csv_field(&v.note));
+        text.push('\n');
+    }
+    output.buffer.extend_from_slice(text.as_bytes());
+    output.finish()
+}
+
+/// Reads a measured-values file; errors name the file and line.
+pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
+    let columns: Vec<&str> = MEASURED_HEADER.split(',').collect();
+    let mut values = Vec::new();
+    for (line, record) in read_csv_records(path, &columns)? {
+        let bad = |what: &str, text: &str| {
+            AcqError::Malformed(format!(
+                "{}:{line}: expected {what}, found '{text}'",
+                path.display()
+            ))
+        };
+        let optional = |index: usize, what: &str| -> Result<Option<f64>> {
+            let text = &record[index];
+            if text.is_empty() {
+                return Ok(None);
+            }
+            text.parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .map(Some)
+                .ok_or_else(|| bad(what, text))
+        };
+        let required = |index: usize, what: &str| -> Result<f64> {
+            optional(index, what)?.ok_or_else(|| bad(what, &record[index]))
+        };
+        let mean = optional(5, "the mean (a number or empty)")?;
+        let low = optional(9, "ci95_low (a number or empty)")?;
+        let high = optional(10, "ci95_high (a number or empty)")?;
+        let n = record[7]
+            .parse::<u64>()
+            .map_err(|_| bad("n, a count", &record[7]))?;
+        values.push(MeasuredValue {
+            window: record[0].to_string(),
+            start_s: required(1, "start_s in seconds")?,
+            end_s: required(2, "end_s in seconds")?,
+            quantity: record[3].to_string(),
+            unit: record[4].to_string(),
+            stats: WindowStats {
+                n,
+                mean,
+                std: optional(6, "std (a number or empty)")?,
+                n_eff: optional(8, "n_eff (a number or empty)")?.unwrap_or(0.0),
+                lag1_autocorrelation: 0.0,
+                ci95_half_width: low.zip(high).map(|(l, h)| 0.5 * (h - l)),
+            },
+            flags: record[11]
+                .split(';')
+                .filter(|f| !f.is_empty())
+                .map(str::to_string)
+                .collect(),
+            note: record[12].to_string(),
+        });
+    }
+    Ok(values)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_keeps_every_field() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("measured.csv");
+        let values = vec![
+            MeasuredValue {
+                window: "hold1".into(),
+                start_s: 4.5,
+                end_s: 11.5,
+                quantity: "sg03".into(),
+                unit: "MPa".into(),
+                stats: WindowStats {
+                    n: 700,
+                    mean: Some(17.83),
+                    std: Some(0.15),
+                    n_eff: 650.5,
+                    lag1_autocorrelation: 0.0,
+                    ci95_half_width: Some(0.0115),
+                },
+                flags: vec!["pair:sg04".into(), "noisy".into()],
+                note: "differs from sg04, by 76 %".into(),
+            },
+            MeasuredValue {
+                window: "hold1".into(),
+                start_s: 4.5,
+                end_s: 11.5,
+                quantity: "dead".into(),
+                unit: "bar".into(),
+                stats: WindowStats::default(),
+                flags: vec!["no_samples".into()],
+                note: String::new(),
+            },
+        ];
+        write_measured(&path, &values).unwrap();
+        assert!(!dir.path().join("measured.csv.partial").exists());
+        let back = read_measured(&path).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!(back[0].flags, values[0].flags);
+        assert_eq!(back[0].note, values[0].note);
+        assert_eq!(back[0].stats.mean, Some(17.83));
+        assert!((back[0].stats.ci95_half_width.unwrap() - 0.0115).abs() < 1e-12);
+        assert_eq!(back[1].stats.mean, None);
+        assert!(!back[1].is_usable());
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(!text.contains("NaN"));
+    }
+
+    proptest::proptest! {
+        /// Whatever follows the header, reading returns values or an error
+        /// naming the file; it never panics and never yields a NaN.
+        #[test]
+        fn any_text_reads_or_fails_cleanly(body in "[a-z0-9,.;\"\\n -]{0,300}") {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("m.csv");
+            std::fs::write(&path, format!("{MEASURED_HEADER}\n{body}")).unwrap();
+            match read_measured(&path) {
+                Ok(values) => {
+                    for v in values {
+                        proptest::prop_assert!(v.stats.mean.is_none_or(f64::is_finite));
+                    }
+                }
+                Err(e) => proptest::prop_assert!(e.to_string().contains("m.csv")),
+            }
+        }
+    }
+
+    #[test]
+    fn a_bad_number_names_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("m.csv");
+        std::fs::write(
+            &path,
+            format!("{MEASURED_HEADER}\nhold1,1,2,p,bar,1.0,0.1,10,10,0.9,1.1,,\nhold1,1,2,q,bar,abc,0.1,10,10,,,,\n"),
+        )
+        .unwrap();
+        let error = read_measured(&path).unwrap_err().to_string();
+        assert!(error.contains("m.csv:3"), "{error}");
+        assert!(error.contains("'abc'"), "{error}");
+    }
+}

@@ -1,0 +1,364 @@
+//! `acq extract` over a recording: one pass finds the holds (or reads the
+//! windows file) and the time origin, a second accumulates every sensor in
+//! every window; or, for a tensile test, collects force and displacement.
+
+use std::path::Path;
+
+use acq_drivers::profiles::SensorKind;
+use acq_drivers::rig::Rig;
+use acq_io::error::{AcqError, Result};
+use acq_io::input::read_csv_records;
+
+use super::holds::{Detection, HoldDetector, HoldOptions, Window};
+use super::measured::MeasuredValue;
+use super::plausibility::check_window;
+use super::stats::{WindowAccumulator, WindowStats};
+use super::tensile::{extract_curve, TensileCurve};
+use crate::align::run::{resolve_clock_offsets, BusOffset};
+use crate::recording::{Recording, SampleCounts};
+
+/// Which windows to summarise.
+#[derive(Clone, Debug)]
+pub enum WindowChoice {
+    /// Find the steady holds of the load.
+    Auto(HoldOptions),
+    /// `name,start_s,end_s` rows (seconds from the session start).
+    File(std::path::PathBuf),
+}
+
+/// What `acq extract` (holds) produced.
+#[derive(Clone, Debug)]
+pub struct HoldsReport {
+    pub values: Vec<MeasuredValue>,
+    pub windows: Vec<Window>,
+    /// The load sensor and what detection found (auto windows only).
+    pub load_sensor: String,
+    pub detection: Option<Detection>,
+    pub t0_ns: i64,
+    pub counts: SampleCounts,
+    pub clocks: Vec<BusOffset>,
+    /// Sensors without a single sample in the whole recording.
+    pub never_seen: Vec<String>,
+}
+
+/// The rig's load sensor: `name`, else its only force sensor.
+pub fn load_sensor(recording: &Recording, name: Option<&str>) -> Result<usize> {
+    if let Some(name) = name {
+        return recording.sensor_index(name);
+    }
+    let forces: Vec<usize> = (0..recording.rig.sensors.len())
+        .filter(|&i| recording.rig.sensors[i].kind == SensorKind::Force)
+        .collect();
+    match forces.as_slice() {
+        [one] => Ok(*one),
+        [] => Err(AcqError::Config(
+            "the rig has no force sensor to find the holds with; name the load with --load SENSOR or give --windows FILE".into(),
+        )),
+        several => Err(AcqError::Config(format!(
+            "the rig has {} force sensors ({}); say which is the load with --load SENSOR",
+            several.len(),
+            several
+                .iter()
+                .map(|&i| recording.rig.sensors[i].name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+    }
+}
+
+/// Reads a windows file: `name,start_s,end_s` with a header.
+pub fn read_windows(path: &Path, t0_ns: i64) -> Result<Vec<Window>> {
+    let header = ["name", "start_s", "end_s"];
+    let mut windows = Vec::new();
+    for (line, record) in read_csv_records(path, &header)? {
+        let seconds = |i: usize| -> Result<f64> {
+            record[i]
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    AcqError::Malformed(format!(
+                        "{}:{line}: expected {} in seconds, found '{}'",
+                        path.display(),
+                        header[i],
+                        &record[i]
+                    ))
+                })
+        };
+        let (start, end) = (seconds(1)?, seconds(2)?);
+        if end <= start {
+            return Err(AcqError::Malformed(format!(
+                "{}:{line}: window '{}' ends ({end} s) before it starts ({start} s)",
+                path.display(),
+                &record[0]
+            )));
+        }
+        windows.push(Window {
+            name: record[0].to_string(),
+            start_ns: t0_ns + (start * 1e9).round() as i64,
+            end_ns: t0_ns + (end * 1e9).round() as i64,
+        });
+    }
+    if windows.is_empty() {
+        return Err(AcqError::Config(format!(
+            "{}: no window in the file",
+            path.display()
+        )));
+    }
+    Ok(windows)
+}
+
+/// Summarises every sensor in every window (the holds, or the file's).
+pub fn extract_holds(
+    recording: &Recording,
+    choice: &WindowChoice,
+    load: Option<&str>,
+    clock_overrides_ms: &[(String, f64)],
+) -> Result<HoldsReport> {
+    let rig = &recording.rig;
+    let clocks = resolve_clock_offsets(recording, clock_overrides_ms)?;
+    let offsets: Vec<i64> = clocks.iter().map(|c| c.offset_ns).collect();
+    let load_index = match choice {
+        WindowChoice::Auto(_) => Some(load_sensor(recording, load)?),
+        WindowChoice::File(_) => load.map(|n| recording.sensor_index(n)).transpose()?,
+    };
+
+    // Pass 1: the time origin and the load's blocks.
+    let mut detector = HoldDetector::default();
+    let mut first_ns = None;
+    let mut counts = SampleCounts::default();
+    recording.for_each_sample(&offsets, &mut counts, |sample| {
+        first_ns.get_or_insert(sample.time_ns);
+        if Some(sample.sensor) == load_index {
+            if let Some(value) = sample.value {
+                detector.push(sample.time_ns, value);
+            }
+        }
+        Ok(())
+    })?;
+    let Some(first_ns) = first_ns else {
+        return Err(AcqError::Config(format!(
+            "{}: no sample of any rig sensor in the recording; is it the right rig ({})?",
+            recording.label,
+            rig.path.display()
+        )));
+    };
+    let t0_ns = recording.session_start_unix_ns().unwrap_or(first_ns);
+    let (windows, detection) = match choice {
+        WindowChoice::Auto(options) => {
+            let detection = detector.detect(options);
+            if detection.holds.is_empty() {
+                let name = &rig.sensors[load_index.unwrap_or(0)].name;
+                return Err(AcqError::Config(format!(
+                    "no steady hold of {name} found (range {:.4} {unit}, steady below a std of {:.4} {unit} for {:.1} s after trimming {:.1} s at each end); loosen --steady-std / --min-hold, or give --windows FILE",
+                    detection.load_range,
+                    detection.steady_std,
+                    options.min_hold_ns as f64 / 1e9,
+                    options.settle_ns as f64 / 1e9,
+                    unit = rig.sensors[load_index.unwrap_or(0)].unit()
+                )));
+            }
+            (detection.holds.clone(), Some(detection))
+        }
+        WindowChoice::File(path) => (read_windows(path, t0_ns)?, None),
+    };
+
+    // Pass 2: every sensor in every window.
+    let width = rig.sensors.len();
+    let mut accumulators: Vec<WindowAccumulator> = windows
+        .iter()
+        .flat_map(|_| rig.sensors.iter().map(|s| WindowAccumulator::new(s.range)))
+        .collect();
+    let mut seen = vec![false; width];
+    let mut second_counts = SampleCounts::default();
+    recording.for_each_sample(&offsets, &mut second_counts, |sample| {
+        seen[sample.sensor] = true;
+        let Some(value) = sample.value else {
+            return Ok(());
+        };
+        for (w, window) in windows.iter().enumerate() {
+            if (window.start_ns..=window.end_ns).contains(&sample.time_ns) {
+                accumulators[w * width + sample.sensor].push(sample.time_ns, value);
+            }
+        }
+        Ok(())
+    })?;
+
+    let mut values = Vec::new();
+    for (w, window) in windows.iter().enumerate() {
+        let accs = &accumulators[w * width..(w + 1) * width];
+        let stats: Vec<WindowStats> = accs.iter().map(|a| a.summary()).collect();
+        let flags = check_window(rig, accs, &stats);
+        let start_s = (window.start_ns - t0_ns) as f64 / 1e9;
+        let end_s = (window.end_ns - t0_ns) as f64 / 1e9;
+        for (i, sensor) in rig.sensors.iter().enumerate() {
+            values.push(MeasuredValue {
+                window: window.name.clone(),
+                start_s,
+                end_s,
+                quantity: sensor.name.clone(),
+                unit: sensor.unit().to_string(),
+                stats: stats[i],
+                flags: flags[i].iter().map(|f| f.code.clone()).collect(),
+                note: flags[i]
+                    .iter()
+                    .map(|f| f.note.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            });
+        }
+        values.extend(cylinder_values(
+            rig,
+            &window.name,
+            start_s,
+            end_s,
+            &stats,
+            &flags,
+        ));
+    }
+    let never_seen = rig
+        .sensors
+        .iter()
+        .zip(&seen)
+        .filter(|(_, seen)| !**seen)
+        .map(|(s, _)| s.name.clone())
+        .collect();
+    Ok(HoldsReport {
+        values,
+        windows,
+        load_sensor: load_index
+            .map(|i| rig.sensors[i].name.clone())
+            .unwrap_or_default(),
+        detection,
+        t0_ns,
+        counts,
+        clocks,
+        never_seen,
+    })
+}
+
+/// Net force and loaded-chamber pressure of each rig cylinder in a window.
+fn cylinder_values(
+    rig: &Rig,
+    window: &str,
+    start_s: f64,
+    end_s: f64,
+    stats: &[WindowStats],
+    flags: &[Vec<super::plausibility::Flag>],
+) -> Vec<MeasuredValue> {
+    let mut values = Vec::new();
+    for cylinder in &rig.cylinders {
+        let (head, rod) = (&stats[cylinder.head_sensor], &stats[cylinder.rod_sensor]);
+        let inherited: Vec<String> = [cylinder.head_sensor, cylinder.rod_sensor]
+            .iter()
+            .flat_map(|&i| {
+                flags[i]
+                    .iter()
+                    .map(move |f| format!("{}:{}", rig.sensors[i].name, f.code))
+            })
+            .collect();
+        let bore = &cylinder.bore;
+        // kN per bar of each chamber.
+        let head_kn_per_bar = bore.head_area_mm2() * 0.1 / 1000.0;
+        let rod_kn_per_bar = bore.annulus_area_mm2() * 0.1 / 1000.0;
+        let net = head
+            .mean
+            .zip(rod.mean)
+            .map(|(h, r)| bore.net_force_kn(h, r));
+        let quadrature = |a: Option<f64>, b: Option<f64>| {
+            a.zip(b)
+                .map(|(a, b)| ((head_kn_per_bar * a).powi(2) + (rod_kn_per_bar * b).powi(2)).sqrt())
+        };
+        let n = head.n.min(rod.n);
+        values.push(MeasuredValue {
+            window: window.to_string(),
+            start_s,
+            end_s,
+            quantity: format!("{}_net_force", cylinder.name),
+            unit: "kN".into(),
+            stats: WindowStats {
+                n,
+                mean: net,
+                std: quadrature(head.std, rod.std),
+                n_eff: head.n_eff.min(rod.n_eff),
+                lag1_autocorrelation: 0.0,
+                ci95_half_width: quadrature(head.ci95_half_width, rod.ci95_half_width),
+            },
+            flags: inherited.clone(),
+            note: "head area x head pressure - annulus area x rod pressure".into(),
+        });
+        let (loaded, chamber, sensor) = match net {
+            Some(force) if force < 0.0 => (*rod, "rod side (cylinder pulls)", cylinder.rod_sensor),
+            _ => (*head, "head side (cylinder pushes)", cylinder.head_sensor),
+        };
+        values.push(MeasuredValue {
+            window: window.to_string(),
+            start_s,
+            end_s,
+            quantity: format!("{}_loaded_pressure", cylinder.name),
+            unit: "bar".into(),
+            stats: loaded,
+            flags: flags[sensor].iter().map(|f| f.code.clone()).collect(),
+            note: format!("{chamber}: {}", rig.sensors[sensor].name),
+        });
+    }
+    values
+}
+
+/// What `acq extract --tensile` produced.
+#[derive(Clone, Debug)]
+pub struct TensileReport {
+    pub curve: TensileCurve,
+    pub force_sensor: String,
+    pub displacement_sensor: String,
+    pub counts: SampleCounts,
+}
+
+/// The force-displacement curve of a tensile test.
+pub fn extract_tensile(
+    recording: &Recording,
+    force_name: Option<&str>,
+    displacement_name: Option<&str>,
+    clock_overrides_ms: &[(String, f64)],
+) -> Result<TensileReport> {
+    let rig = &recording.rig;
+    let force = load_sensor(recording, force_name)?;
+    let displacement = match displacement_name {
+        Some(name) => recording.sensor_index(name)?,
+        None => rig
+            .sensors
+            .iter()
+            .position(|s| s.kind == SensorKind::Displacement)
+            .ok_or_else(|| {
+                AcqError::Config("the rig has no displacement sensor (extensometer); name it with --displacement SENSOR".into())
+            })?,
+    };
+    let clocks = resolve_clock_offsets(recording, clock_overrides_ms)?;
+    let offsets: Vec<i64> = clocks.iter().map(|c| c.offset_ns).collect();
+    let mut force_samples = Vec::new();
+    let mut displacement_samples = Vec::new();
+    let mut counts = SampleCounts::default();
+    recording.for_each_sample(&offsets, &mut counts, |sample| {
+        if let Some(value) = sample.value {
+            if sample.sensor == force {
+                force_samples.push((sample.time_ns, value));
+            } else if sample.sensor == displacement {
+                displacement_samples.push((sample.time_ns, value));
+            }
+        }
+        Ok(())
+    })?;
+    for series in [&mut force_samples, &mut displacement_samples] {
+        series.sort_by_key(|(t, _)| *t);
+        series.dedup_by_key(|(t, _)| *t);
+    }
+    let max_gap_ns = 3 * rig.sensors[displacement].period_ns();
+    let curve = extract_curve(&force_samples, &displacement_samples, max_gap_ns)
+        .map_err(|e| AcqError::Config(format!("{}: {e}", recording.label)))?;
+    Ok(TensileReport {
+        curve,
+        force_sensor: rig.sensors[force].name.clone(),
+        displacement_sensor: rig.sensors[displacement].name.clone(),
+        counts,
+    })
+}

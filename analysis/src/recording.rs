@@ -1,0 +1,172 @@
+//! A recording as the rig's samples: a session directory (its raw files in
+//! order, its start time, its copy of the rig) or a log file, decoded frame
+//! by frame through the rig, each bus's clock offset removed so every sample
+//! is on the reference clock.
+//!
+//! This is where the chain turns from frames into samples; everything
+//! downstream (align, extract) sees only [`Sample`]s.
+
+use std::path::{Path, PathBuf};
+
+use acq_drivers::rig::Rig;
+use acq_drivers::sensors::{Sample, SensorDecoder, SensorEvent};
+use acq_drivers::IfaceName;
+use acq_io::error::{AcqError, Result};
+use acq_io::input::{for_each_record, open_log, BadLines, ScanCounts};
+use acq_io::session::{self, SessionFile};
+
+/// A session directory or a log, with the rig that decodes it.
+pub struct Recording {
+    /// The path as given, for messages.
+    pub label: String,
+    pub logs: Vec<PathBuf>,
+    pub session: Option<SessionFile>,
+    pub rig: Rig,
+    /// How the rig was matched to the recording (remapped interfaces).
+    pub notes: Vec<String>,
+}
+
+impl Recording {
+    /// Opens `path` (a session directory or a log). The rig is `rig_path`,
+    /// else the session's own copy of the rig it was recorded with.
+    pub fn open(path: &Path, rig_path: Option<&Path>) -> Result<Recording> {
+        let label = path.display().to_string();
+        let (logs, session) = if path.is_dir() {
+            let session = session::read(path).map_err(|e| {
+                AcqError::Config(format!(
+                    "{label} is a directory but not a session ({e}); give a session directory written by acq record, or a log file"
+                ))
+            })?;
+            let logs = session::raw_files(path)?;
+            if logs.is_empty() {
+                return Err(AcqError::Config(format!(
+                    "session {label} has no raw.log; nothing to read"
+                )));
+            }
+            (logs, Some(session))
+        } else if path.is_file() || path.as_os_str() == "-" {
+            (vec![path.to_path_buf()], None)
+        } else {
+            return Err(AcqError::Config(format!(
+                "{label}: no such session directory or log file"
+            )));
+        };
+        let rig_file = match (rig_path, &session) {
+            (Some(rig), _) => rig.to_path_buf(),
+            (None, Some(session)) => match &session.rig {
+                Some(copy) => path.join(&copy.file.copy),
+                None => {
+                    return Err(AcqError::Config(format!(
+                        "session {label} was recorded without a rig; give one with --rig RIG.toml"
+                    )))
+                }
+            },
+            (None, None) => {
+                return Err(AcqError::Config(
+                    "a log carries no rig; give one with --rig RIG.toml".into(),
+                ))
+            }
+        };
+        let mut rig = Rig::load(&rig_file).map_err(|e| AcqError::Config(e.to_string()))?;
+        let mut notes = Vec::new();
+        if let Some(session) = &session {
+            let interfaces: Vec<IfaceName> = session
+                .interface
+                .iter()
+                .filter_map(|i| IfaceName::new(&i.name))
+                .collect();
+            if !interfaces.is_empty() {
+                notes = rig
+                    .assign_interfaces(&interfaces)
+                    .map_err(|e| AcqError::Config(format!("{}: {e}", rig_file.display())))?;
+            }
+        }
+        Ok(Recording {
+            label,
+            logs,
+            session,
+            rig,
+            notes,
+        })
+    }
+
+    /// The session's start, unix ns, when the recording is a session.
+    pub fn session_start_unix_ns(&self) -> Option<i64> {
+        self.session.as_ref().map(|s| s.session.started_unix_ns)
+    }
+
+    /// Index of the rig sensor called `name`, or a message listing them.
+    pub fn sensor_index(&self, name: &str) -> Result<usize> {
+        self.rig.sensor(name).map(|(i, _)| i).ok_or_else(|| {
+            let names: Vec<&str> = self.rig.sensors.iter().map(|s| s.name.as_str()).collect();
+            AcqError::Config(format!(
+                "the rig has no sensor '{name}' (sensors: {})",
+                names.join(", ")
+            ))
+        })
+    }
+
+    /// Decodes every frame and calls `on_sample` with each sample, its time
+    /// moved onto the reference clock: `t - clock_offset_ns[bus]`.
+    pub fn for_each_sample(
+        &self,
+        clock_offset_ns: &[i64],
+        counts: &mut SampleCounts,
+        mut on_sample: impl FnMut(Sample) -> Result<()>,
+    ) -> Result<()> {
+        let mut inputs = self
+            .logs
+            .iter()
+            .map(|p| open_log(p))
+            .collect::<Result<Vec<_>>>()?;
+        let mut decoder = SensorDecoder::new(&self.rig);
+        let mut scan = ScanCounts::default();
+        let mut failure = None;
+        // A recording cut by a crash can end in half a line: count, go on.
+        for_each_record(&mut inputs, BadLines::Skip, &mut scan, |_, record| {
+            decoder.decode(&record.frame, |event| {
+                if failure.is_some() {
+                    return;
+                }
+                if let SensorEvent::Sample(mut sample) = event {
+                    let bus = self.rig.sensors[sample.sensor].bus;
+                    sample.time_ns -= clock_offset_ns.get(bus).copied().unwrap_or(0);
+                    counts.samples += 1;
+                    if sample.value.is_none() {
+                        counts.missing_values += 1;
+                    }
+                    if let Err(e) = on_sample(sample) {
+                        failure = Some(e);
+                    }
+                }
+            });
+            match failure.take() {
+                Some(e) => Err(e),
+                None => Ok(()),
+            }
+        })?;
+        counts.frames = scan.frames;
+        counts.malformed_lines = scan.malformed_lines;
+        Ok(())
+    }
+}
+
+/// What reading a recording saw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleCounts {
+    pub frames: u64,
+    pub malformed_lines: u64,
+    pub samples: u64,
+    /// Samples the device marked as error / not available.
+    pub missing_values: u64,
+}
+
+impl std::fmt::Display for SampleCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} frames, {} samples ({} marked missing by their device), {} malformed lines skipped",
+            self.frames, self.samples, self.missing_values, self.malformed_lines
+        )
+    }
+}

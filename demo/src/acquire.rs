@@ -1,0 +1,231 @@
+//! The demo's acquisition: recorded sessions played back onto a bus in real
+//! time and recorded again from it, exactly as `acq replay` and `acq record`
+//! do at a machine.
+//!
+//! On the in-process bus every session gets interfaces of its own, so all of
+//! them play at once; on SocketCAN they share the interfaces given and play
+//! one after another.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use acq_acquire::bus::Bus;
+use acq_acquire::record::status::StatusMode;
+use acq_acquire::record::{self, RecordOptions, StopReason};
+use acq_acquire::replay::{self, Pacing, PlaySummary, Routing};
+use acq_drivers::rig::Rig;
+use acq_drivers::IfaceName;
+use acq_io::error::{AcqError, Result};
+use acq_io::input::open_log;
+use acq_io::session;
+
+/// Frames still in flight when the player ends are drained this long
+/// before the recorder stops.
+const DRAIN: Duration = Duration::from_millis(300);
+
+/// One session to play and record again.
+#[derive(Clone, Debug)]
+pub struct Playback {
+    pub name: String,
+    /// The recorded session that is played.
+    pub source: PathBuf,
+    /// Where the new recording goes.
+    pub target: PathBuf,
+    /// The interface each of the rig's buses is played and recorded on, in
+    /// the rig's bus order.
+    pub interfaces: Vec<IfaceName>,
+}
+
+/// What one playback did.
+#[derive(Clone, Debug)]
+pub struct Played {
+    pub name: String,
+    pub frames_sent: u64,
+    pub frames_recorded: u64,
+    pub dropped_by_kernel: u64,
+    /// (median, p99, max) of the inter-frame timing error, µs.
+    pub timing_error_us: Option<(f64, f64, f64)>,
+}
+
+/// The session's own copy of its rig (`rig/<name>.toml`).
+pub fn session_rig(source: &Path) -> Result<Rig> {
+    let recorded = session::read(source)?;
+    let copy = recorded.rig.ok_or_else(|| {
+        AcqError::Config(format!(
+            "{}: the session was recorded without a rig; the demo needs one",
+            source.display()
+        ))
+    })?;
+    acq_io::input::load_rig(&source.join(&copy.file.copy))
+}
+
+/// Plays every session onto `bus` while recording it; `together` plays
+/// them all at once (they must use distinct interfaces), else one by one.
+/// Ctrl-C stops the recordings cleanly (files whole) and ends with an error.
+pub fn play_and_record<B: Bus>(
+    bus: B,
+    playbacks: &[Playback],
+    together: bool,
+) -> Result<Vec<Played>> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| AcqError::io("starting the async runtime", e))?;
+    if together {
+        runtime.block_on(play_all(bus, playbacks))
+    } else {
+        let mut played = Vec::new();
+        for playback in playbacks {
+            played.extend(runtime.block_on(play_all(bus.clone(), std::slice::from_ref(playback)))?);
+        }
+        Ok(played)
+    }
+}
+
+async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>> {
+    // 1. Every recorder listening before any frame is sent.
+    let mut recorders = Vec::new();
+    let mut routings = Vec::new();
+    for playback in playbacks {
+        let mut rig = session_rig(&playback.source)?;
+        let original: Vec<IfaceName> = rig.buses.iter().map(|b| b.iface).collect();
+        if original.len() != playback.interfaces.len() {
+            return Err(AcqError::Config(format!(
+                "{}: its rig has {} bus(es) but {} interface(s) were given; give one per bus",
+                playback.name,
+                original.len(),
+                playback.interfaces.len()
+            )));
+        }
+        let notes = rig
+            .assign_interfaces(&playback.interfaces)
+            .map_err(AcqError::Config)?;
+        routings.push(Routing {
+            map: original
+                .into_iter()
+                .zip(playback.interfaces.iter().copied())
+                .collect(),
+            default: None,
+        });
+        let options = RecordOptions {
+            interfaces: playback.interfaces.clone(),
+            rig: Some(rig),
+            session_dir: playback.target.clone(),
+            max_file_bytes: 1 << 30,
+            nmt_start: false,
+            status: StatusMode::Quiet,
+            command_line: format!("acq demo (replay of {})", playback.source.display()),
+            notes,
+        };
+        let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<StopReason>();
+        let recorder_bus = bus.clone();
+        let task = tokio::spawn(async move {
+            let stop = async move { stop_rx.await.unwrap_or(StopReason::Signal("SIGINT")) };
+            record::record(recorder_bus, options, stop).await
+        });
+        recorders.push((task, stop_tx));
+    }
+    for playback in playbacks {
+        // The recorder writes session.toml once its interfaces are open.
+        let started = std::time::Instant::now();
+        while !playback.target.join("session.toml").exists() {
+            if started.elapsed() > Duration::from_secs(10) {
+                return Err(AcqError::Config(format!(
+                    "the recorder of {} did not start within 10 s",
+                    playback.name
+                )));
+            }
+            tokio::time::sleep(Duration::from_millis(10)).await;
+        }
+    }
+
+    // 2. The players, each on a thread of its own: they wait on the wall
+    // clock with blocking sleeps, and the recorders must never wait behind them.
+    let (interrupt_tx, interrupt_rx) = tokio::sync::watch::channel(false);
+    let mut players = Vec::new();
+    for (playback, routing) in playbacks.iter().zip(routings) {
+        let mut raw_files = session::raw_files(&playback.source)?.into_iter();
+        let Some(first) = raw_files.next() else {
+            return Err(AcqError::Config(format!(
+                "{}: no raw log to play",
+                playback.source.display()
+            )));
+        };
+        let player_bus = bus.clone();
+        let interrupted = interrupt_rx.clone();
+        players.push(std::thread::spawn(move || -> Result<PlaySummary> {
+            let mut log = open_log(&first)?;
+            let runtime = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+                .map_err(|e| AcqError::io("starting the player's runtime", e))?;
+            let next = |_pass: usize| -> Result<Option<acq_drivers::Frame>> {
+                if *interrupted.borrow() {
+                    return Ok(None);
+                }
+                loop {
+                    if let Some(frame) = log.next_frame()? {
+                        return Ok(Some(frame));
+                    }
+                    match raw_files.next() {
+                        Some(path) => log = open_log(&path)?,
+                        None => return Ok(None),
+                    }
+                }
+            };
+            runtime.block_on(replay::play(
+                &player_bus,
+                next,
+                &routing,
+                Pacing::Timed { speed: 1.0 },
+                1,
+            ))
+        }));
+    }
+    // Ctrl-C: the players stop sending and the recordings end as after a
+    // normal end, every file whole.
+    let signal_watch = tokio::spawn(async move {
+        if tokio::signal::ctrl_c().await.is_ok() {
+            let _ = interrupt_tx.send(true);
+        }
+    });
+    let mut summaries = Vec::new();
+    for player in players {
+        let summary = tokio::task::spawn_blocking(move || player.join())
+            .await
+            .map_err(|e| AcqError::Config(format!("the player failed: {e}")))?
+            .map_err(|_| AcqError::Config("the player panicked".into()))??;
+        summaries.push(summary);
+    }
+    signal_watch.abort();
+    let interrupted = *interrupt_rx.borrow();
+    tokio::time::sleep(DRAIN).await;
+
+    // 3. The recorders stop and complete their sessions.
+    let mut played = Vec::new();
+    for ((playback, (task, stop)), summary) in playbacks.iter().zip(recorders).zip(summaries) {
+        let _ = stop.send(if interrupted {
+            StopReason::Signal("SIGINT")
+        } else {
+            StopReason::Requested("replay finished")
+        });
+        let recorded = task.await.map_err(|e| {
+            AcqError::Config(format!("the recorder of {} failed: {e}", playback.name))
+        })??;
+        let info = &recorded.session.session;
+        played.push(Played {
+            name: playback.name.clone(),
+            frames_sent: summary.frames_sent,
+            frames_recorded: info.frames,
+            dropped_by_kernel: info.dropped_by_kernel,
+            timing_error_us: summary.timing.interval_error_us(),
+        });
+    }
+    if interrupted {
+        return Err(AcqError::Interrupted(
+            "interrupted during the replay; the sessions recorded so far are whole".into(),
+        ));
+    }
+    Ok(played)
+}

@@ -1,0 +1,513 @@
+//! `acq demo`: the whole chain on the shipped data, in one command.
+//!
+//! The three recorded sessions of `fixtures/sessions/` (two excavator load
+//! cases and a P91 tensile test) are played back onto a bus in real time and
+//! recorded again, as at the machine ([`acquire`]). Each new session is then
+//! aligned and extracted; the excavator holds calibrate the excavator twin
+//! (their loaded-chamber pressures and tip force), the tensile curve the GTN
+//! model. One report directory holds everything ([`report`]).
+//!
+//! The demo is glue over the commands a user runs one by one (`acq record`,
+//! `acq align`, `acq extract`, `acq calibrate`): it calls the same library
+//! functions with the same defaults.
+
+pub mod acquire;
+pub mod report;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use acq_drivers::IfaceName;
+use clap::{Args, Parser};
+use serde_json::json;
+
+use acq_acquire::bus::memory::MemoryBus;
+use acq_acquire::bus::socketcan::SocketCanBus;
+use acq_analysis::align::run::{align_recording, AlignOptions, AlignSummary, GapTolerance};
+use acq_analysis::extract::holds::HoldOptions;
+use acq_analysis::extract::measured::write_measured;
+use acq_analysis::extract::run::{
+    extract_holds, extract_tensile, HoldsReport, TensileReport, WindowChoice,
+};
+use acq_analysis::extract::tensile::write_curve;
+use acq_analysis::recording::Recording;
+use acq_io::error::{AcqError, Result};
+use acq_io::output::Output;
+use acq_io::session::{self, SessionFile};
+use acq_workflows::calibrate::excavator::{CalibrateExcavatorArgs, ExcavatorCalibration};
+use acq_workflows::calibrate::gtn::{CalibrateGtnArgs, GtnCalibration};
+use acquire::{play_and_record, Playback, Played};
+
+#[derive(Args, Debug)]
+pub struct DemoArgs {
+    /// Report directory (a previous demo's output there is replaced).
+    #[arg(long, value_name = "DIR", default_value = "acq-demo")]
+    pub out: PathBuf,
+    /// Replay on these SocketCAN interfaces (e.g. vcan0 vcan1: one per bus of
+    /// the excavator rig) instead of the in-process bus; sessions then play
+    /// one after another.
+    #[arg(long = "iface", value_name = "IFACE")]
+    pub interfaces: Vec<String>,
+    /// Analyse the sessions already recorded in DIR (named as the shipped
+    /// ones, e.g. by an earlier `--acquire-only`) instead of replaying.
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["interfaces", "acquire_only"])]
+    pub sessions: Option<PathBuf>,
+    /// Stop once the sessions are recorded (analyse them later with --sessions).
+    #[arg(long)]
+    pub acquire_only: bool,
+    /// Where fixtures/ and data/ are [default: the current directory when it
+    /// has them, else the source tree acq was built from].
+    #[arg(long, value_name = "DIR")]
+    pub data: Option<PathBuf>,
+}
+
+/// What a shipped session is for.
+#[derive(Clone, Copy, Debug)]
+pub enum Purpose {
+    /// A steady hold of the excavator; the case file gives the twin's bounds.
+    Excavator { case_file: &'static str },
+    /// A tensile test to the bar's fracture.
+    Tensile,
+}
+
+/// The sessions the demo plays, in `fixtures/sessions/`.
+pub const SHIPPED: [(&str, Purpose); 3] = [
+    (
+        "excavator_case1",
+        Purpose::Excavator {
+            case_file: "data/excavator/case1.toml",
+        },
+    ),
+    (
+        "excavator_case2",
+        Purpose::Excavator {
+            case_file: "data/excavator/case2.toml",
+        },
+    ),
+    ("tensile_p91_20c", Purpose::Tensile),
+];
+
+/// The GTN search of the demo: the defaults of `acq calibrate gtn`, with a
+/// budget that keeps the demo within its minute (2 simulations at a time).
+const GTN_ARGS: [&str; 6] = ["--max-evals", "30", "--batch", "2", "--target-mape", "2"];
+
+/// One session, from its recording to its results.
+pub struct SessionResult {
+    pub name: String,
+    pub dir: PathBuf,
+    pub session: SessionFile,
+    pub recording: Recording,
+    pub played: Option<Played>,
+    pub aligned: AlignSummary,
+    pub analysis: Analysis,
+}
+
+pub enum Analysis {
+    Excavator {
+        holds: HoldsReport,
+        calibration: ExcavatorCalibration,
+    },
+    Tensile {
+        curve: TensileReport,
+        calibration: GtnCalibration,
+    },
+}
+
+/// Wall time of each step, for the report.
+pub struct Step {
+    pub name: String,
+    pub wall_s: f64,
+}
+
+fn data_root(args: &DemoArgs) -> Result<PathBuf> {
+    let has_data = |dir: &Path| dir.join("fixtures/sessions").is_dir() && dir.join("data").is_dir();
+    let root = match &args.data {
+        Some(dir) => dir.clone(),
+        None if has_data(Path::new(".")) => PathBuf::from("."),
+        // This crate sits one level below the workspace root, which holds the data.
+        None => Path::new(env!("CARGO_MANIFEST_DIR"))
+            .parent()
+            .map_or_else(|| PathBuf::from("."), Path::to_path_buf),
+    };
+    if !has_data(&root) {
+        return Err(AcqError::Config(format!(
+            "{}: no fixtures/sessions and data/ here; run the demo from the acq source tree or give --data DIR",
+            root.display()
+        )));
+    }
+    Ok(root)
+}
+
+/// Marks a directory as the demo's own, so a later demo may clear it.
+const MARKER: &str = ".acq-demo";
+
+/// Makes `out` empty: a directory a previous demo wrote (its marker is
+/// there) is cleared; any other non-empty directory is left alone.
+fn prepare_out(out: &Path) -> Result<()> {
+    if out.exists() {
+        let is_empty = std::fs::read_dir(out)
+            .map_err(|e| AcqError::io(format!("reading {}", out.display()), e))?
+            .next()
+            .is_none();
+        if !is_empty {
+            if !out.join(MARKER).exists() {
+                return Err(AcqError::Config(format!(
+                    "{} exists and is not a previous demo's output; give another --out",
+                    out.display()
+                )));
+            }
+            std::fs::remove_dir_all(out)
+                .map_err(|e| AcqError::io(format!("clearing {}", out.display()), e))?;
+        }
+    }
+    std::fs::create_dir_all(out)
+        .and_then(|()| {
+            std::fs::write(
+                out.join(MARKER),
+                "written by acq demo; cleared by the next one\n",
+            )
+        })
+        .map_err(|e| AcqError::io(format!("creating {}", out.display()), e))
+}
+
+fn say(text: impl AsRef<str>) {
+    eprintln!("acq demo: {}", text.as_ref());
+}
+
+pub fn run(args: DemoArgs) -> Result<()> {
+    let root = data_root(&args)?;
+    let interfaces: Vec<IfaceName> = args
+        .interfaces
+        .iter()
+        .map(|name| {
+            IfaceName::new(name).ok_or_else(|| {
+                AcqError::Config(format!(
+                    "--iface {name:?}: not an interface name (1-15 characters, no spaces or '/')"
+                ))
+            })
+        })
+        .collect::<Result<_>>()?;
+    if !interfaces.is_empty() && interfaces.len() != 2 {
+        return Err(AcqError::Config(format!(
+            "--iface: give two interfaces (the excavator rig has two buses; the tensile rig uses the first), got {}",
+            interfaces.len()
+        )));
+    }
+    if let Some(sessions) = &args.sessions {
+        let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        if absolute(sessions).starts_with(absolute(&args.out)) {
+            return Err(AcqError::Config(format!(
+                "--sessions {} lies inside --out {}, which the demo clears first; move the sessions or give another --out",
+                sessions.display(),
+                args.out.display()
+            )));
+        }
+    }
+    let started = Instant::now();
+    let mut steps = Vec::new();
+    prepare_out(&args.out)?;
+
+    // 1. Acquisition: play and record again, or take recorded sessions.
+    let (sessions_dir, played, bus_text) = match &args.sessions {
+        Some(dir) => (
+            dir.clone(),
+            Vec::new(),
+            format!("sessions recorded earlier in {}", dir.display()),
+        ),
+        None => {
+            let target = args.out.join("sessions");
+            let playbacks: Vec<Playback> = SHIPPED
+                .iter()
+                .enumerate()
+                .map(|(k, (name, purpose))| Playback {
+                    name: name.to_string(),
+                    source: root.join("fixtures/sessions").join(name),
+                    target: target.join(name),
+                    interfaces: match (purpose, interfaces.is_empty()) {
+                        (Purpose::Tensile, false) => vec![interfaces[0]],
+                        (Purpose::Excavator { .. }, false) => interfaces.clone(),
+                        // In process: interfaces of its own per session, all at once.
+                        (Purpose::Tensile, true) => vec![demo_iface(k, 0)],
+                        (Purpose::Excavator { .. }, true) => {
+                            vec![demo_iface(k, 0), demo_iface(k, 1)]
+                        }
+                    },
+                })
+                .collect();
+            let step = Instant::now();
+            let (played, bus_text) = if interfaces.is_empty() {
+                say("replaying the 3 shipped sessions on the in-process bus in real time and recording them again (about 17 s)");
+                let bus = MemoryBus::new(1 << 16);
+                for playback in &playbacks {
+                    for iface in &playback.interfaces {
+                        bus.add(*iface);
+                    }
+                }
+                (
+                    play_and_record(bus, &playbacks, true)?,
+                    "the in-process bus".to_string(),
+                )
+            } else {
+                let names: Vec<String> = interfaces.iter().map(|i| i.to_string()).collect();
+                say(format!(
+                    "replaying the 3 shipped sessions on {} one after another and recording them again (about 50 s)",
+                    names.join(", ")
+                ));
+                (
+                    play_and_record(SocketCanBus, &playbacks, false)?,
+                    format!("SocketCAN {}", names.join(", ")),
+                )
+            };
+            for p in &played {
+                say(format!(
+                    "  {}: {} frames sent, {} recorded, {} dropped by the kernel",
+                    p.name, p.frames_sent, p.frames_recorded, p.dropped_by_kernel
+                ));
+            }
+            steps.push(Step {
+                name: format!("replay and record on {bus_text}"),
+                wall_s: step.elapsed().as_secs_f64(),
+            });
+            (target, played, bus_text)
+        }
+    };
+    if args.acquire_only {
+        say(format!("sessions recorded in {}", sessions_dir.display()));
+        return Ok(());
+    }
+
+    // 2-4. Per session: align, extract, calibrate.
+    let mut results = Vec::new();
+    for (name, purpose) in SHIPPED {
+        let dir = sessions_dir.join(name);
+        let work = args.out.join(name);
+        std::fs::create_dir_all(&work)
+            .map_err(|e| AcqError::io(format!("creating {}", work.display()), e))?;
+        let session = session::read(&dir)?;
+        let recording = Recording::open(&dir, None)?;
+
+        let step = Instant::now();
+        let aligned = align_recording(
+            &recording,
+            &AlignOptions {
+                rate_hz: 100.0,
+                method: None,
+                max_gap: GapTolerance::Periods(3.0),
+                from: None,
+                to: None,
+                filter_hz: None,
+                clock_offsets_ms: Vec::new(),
+            },
+            Output::create_complete_only(&work.join("aligned.csv"))?,
+        )?;
+        steps.push(Step {
+            name: format!("{name}: align (100 Hz)"),
+            wall_s: step.elapsed().as_secs_f64(),
+        });
+        let step = Instant::now();
+        let analysis = match purpose {
+            Purpose::Excavator { case_file } => {
+                let holds = extract_holds(
+                    &recording,
+                    &WindowChoice::Auto(HoldOptions::default()),
+                    None,
+                    &[],
+                )?;
+                let measured = work.join("measured.csv");
+                write_measured(&measured, &holds.values)?;
+                say(format!(
+                    "{name}: {} hold(s), {} values, {} flagged",
+                    holds.windows.len(),
+                    holds.values.len(),
+                    holds.values.iter().filter(|v| !v.flags.is_empty()).count()
+                ));
+                steps.push(Step {
+                    name: format!("{name}: extract the holds"),
+                    wall_s: step.elapsed().as_secs_f64(),
+                });
+                let step = Instant::now();
+                let calibration = acq_workflows::calibrate::excavator::run(parse_args::<
+                    CalibrateExcavatorArgs,
+                >(&[
+                    "--case",
+                    &root.join(case_file).to_string_lossy(),
+                    "--measured",
+                    &measured.to_string_lossy(),
+                    "--out",
+                    &work.join("calibration").to_string_lossy(),
+                ])?)?;
+                steps.push(Step {
+                    name: format!("{name}: calibrate the excavator twin"),
+                    wall_s: step.elapsed().as_secs_f64(),
+                });
+                Analysis::Excavator { holds, calibration }
+            }
+            Purpose::Tensile => {
+                let curve = extract_tensile(&recording, None, None, &[])?;
+                let specimen = recording.rig.specimen.ok_or_else(|| {
+                    AcqError::Config(format!(
+                        "{}: the tensile rig has no [specimen]",
+                        dir.display()
+                    ))
+                })?;
+                let curve_file = work.join("curve.csv");
+                write_curve(&curve_file, &curve.curve, &specimen)?;
+                steps.push(Step {
+                    name: format!("{name}: extract the force-displacement curve"),
+                    wall_s: step.elapsed().as_secs_f64(),
+                });
+                say(format!(
+                    "{name}: curve of {} points; calibrating the GTN model (about 30 s)",
+                    curve.curve.points.len()
+                ));
+                let step = Instant::now();
+                let mut gtn_args = vec![
+                    "--test".to_string(),
+                    curve_file.to_string_lossy().into_owned(),
+                    "--out".to_string(),
+                    work.join("calibration").to_string_lossy().into_owned(),
+                ];
+                gtn_args.extend(GTN_ARGS.iter().map(|s| s.to_string()));
+                let gtn_args: Vec<&str> = gtn_args.iter().map(String::as_str).collect();
+                let calibration =
+                    acq_workflows::calibrate::gtn::run(parse_args::<CalibrateGtnArgs>(&gtn_args)?)?;
+                steps.push(Step {
+                    name: format!("{name}: calibrate the GTN model"),
+                    wall_s: step.elapsed().as_secs_f64(),
+                });
+                Analysis::Tensile { curve, calibration }
+            }
+        };
+        results.push(SessionResult {
+            name: name.to_string(),
+            played: played.iter().find(|p| p.name == name).cloned(),
+            dir,
+            session,
+            recording,
+            aligned,
+            analysis,
+        });
+    }
+
+    // 5. The report.
+    let wall_s = started.elapsed().as_secs_f64();
+    let document = report::build(&results, &steps, &bus_text, wall_s, &args.out)?;
+    report::write(&args.out, &document)?;
+    write_summary(&args.out, &results, &bus_text, wall_s)?;
+    let html = args.out.join("report.html");
+    say(format!("done in {wall_s:.1} s"));
+    println!("report: {}", html.display());
+    Ok(())
+}
+
+/// The in-process interface of bus `bus` of session `session`.
+fn demo_iface(session: usize, bus: usize) -> IfaceName {
+    IfaceName::new(&format!("demo{session}can{bus}")).expect("a short interface name")
+}
+
+/// A command's arguments parsed with its own defaults, as on the command line.
+fn parse_args<T: Args>(args: &[&str]) -> Result<T> {
+    #[derive(Parser)]
+    struct Command<T: Args> {
+        #[command(flatten)]
+        args: T,
+    }
+    let mut argv = vec!["acq"];
+    argv.extend_from_slice(args);
+    Command::<T>::try_parse_from(argv)
+        .map(|c| c.args)
+        .map_err(|e| AcqError::Config(format!("demo: {e}")))
+}
+
+/// `demo.json`: the numbers a script or CI compares, with fixed keys.
+fn write_summary(out: &Path, results: &[SessionResult], bus: &str, wall_s: f64) -> Result<()> {
+    let per_cylinder = |v: &[f64]| json!({"bucket": v[0], "arm": v[1], "boom": v[2]});
+    let largest = |v: &[f64]| v.iter().fold(0.0f64, |a, &b| a.max(b));
+    let mut sessions = serde_json::Map::new();
+    let mut measured = serde_json::Map::new();
+    let mut excavator = serde_json::Map::new();
+    let mut gtn = serde_json::Value::Null;
+    let mut tensile_curve = serde_json::Value::Null;
+    for r in results {
+        sessions.insert(
+            r.name.clone(),
+            json!({
+                "dir": r.dir,
+                "frames_recorded": r.session.session.frames,
+                "frames_sent": r.played.as_ref().map(|p| p.frames_sent),
+                "dropped_by_kernel": r.session.session.dropped_by_kernel,
+                "aligned_rows": r.aligned.rows,
+            }),
+        );
+        match &r.analysis {
+            Analysis::Excavator { holds, calibration } => {
+                let mut windows = serde_json::Map::new();
+                for window in &holds.windows {
+                    let mut values = serde_json::Map::new();
+                    for v in holds.values.iter().filter(|v| v.window == window.name) {
+                        values.insert(
+                            v.quantity.clone(),
+                            json!({
+                                "unit": v.unit,
+                                "mean": v.stats.mean,
+                                "std": v.stats.std,
+                                "n": v.stats.n,
+                                "ci95_half_width": v.stats.ci95_half_width,
+                                "flags": v.flags.join(";"),
+                            }),
+                        );
+                    }
+                    windows.insert(
+                        window.name.clone(),
+                        json!({
+                            "start_s": (window.start_ns - holds.t0_ns) as f64 / 1e9,
+                            "end_s": (window.end_ns - holds.t0_ns) as f64 / 1e9,
+                            "values": values,
+                        }),
+                    );
+                }
+                measured.insert(r.name.clone(), serde_json::Value::Object(windows));
+                excavator.insert(
+                    r.name.clone(),
+                    json!({
+                        "case": calibration.case,
+                        "force_kN": calibration.force_kn,
+                        "measured_bar": per_cylinder(&calibration.measured_bar),
+                        "errors_initial_pct": per_cylinder(&calibration.errors_initial_pct),
+                        "errors_optimal_pct": per_cylinder(&calibration.errors_optimal_pct),
+                        "largest_error_initial_pct": largest(&calibration.errors_initial_pct),
+                        "largest_error_optimal_pct": largest(&calibration.errors_optimal_pct),
+                        "evaluations": calibration.evaluations,
+                    }),
+                );
+            }
+            Analysis::Tensile { curve, calibration } => {
+                let c = &curve.curve;
+                let max = c.points[c.max_index];
+                tensile_curve = json!({
+                    "points": c.points.len(),
+                    "max_force_kN": max.force_kn,
+                    "max_at_mm": max.displacement_mm,
+                    "fracture_mm": c.fracture_displacement_mm,
+                });
+                gtn = json!({
+                    "best_mape": calibration.best_mape_pct,
+                    "evaluations": calibration.evaluations,
+                    "evaluations_to_target": calibration.evaluations_to_target,
+                    "best_params": calibration.best_params.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
+                });
+            }
+        }
+    }
+    let summary = json!({
+        "bus": bus,
+        "wall_s": wall_s,
+        "sessions": sessions,
+        "measured": measured,
+        "tensile_curve": tensile_curve,
+        "excavator": excavator,
+        "gtn": gtn,
+        "report": "report.html",
+    });
+    acq_workflows::calibrate::report::write_text(&out.join("demo.json"), &format!("{summary:#}\n"))
+}

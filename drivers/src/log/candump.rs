@@ -1,0 +1,498 @@
+//! The candump log format: what `candump -L` writes and `canplayer` reads.
+//!
+//! ```text
+//! (1700000000.123456) can0 123#11223344            classic, 11-bit id
+//! (1700000000.123457) can0 18FEF100#0102030405060708_C   29-bit id, raw DLC 12
+//! (1700000000.123458) can0 123#R4                  remote frame, DLC 4
+//! (1700000000.123459) can0 123##5112233            CAN FD, flags BRS|FDF
+//! (1700000000.123460) can0 20000004#0000040000000000     error frame
+//! (1700000000.123461) can0 123#1122 R              direction (candump -x)
+//! ```
+//!
+//! Reader and writer follow can-utils' `lib.c` (`parse_canframe`,
+//! `snprintf_canframe`) so that a log written here replays with
+//! `canplayer` and a log from `candump -L` reads back byte-for-byte.
+//! Reading is streaming: one reused line buffer, constant memory.
+
+use std::io::{self, BufRead, Write};
+
+use super::record::{LogRecord, ParseError, ReadError};
+use crate::frame::{
+    CanId, Direction, Frame, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN, FD_MAX_LEN,
+    MAX_EXTENDED_ID, MAX_STANDARD_ID,
+};
+use crate::hex;
+
+/// Streaming reader of candump logs.
+pub struct CandumpReader<R> {
+    input: R,
+    buffer: Vec<u8>,
+    line: u64,
+}
+
+impl<R: BufRead> CandumpReader<R> {
+    pub fn new(input: R) -> Self {
+        CandumpReader {
+            input,
+            buffer: Vec::with_capacity(256),
+            line: 0,
+        }
+    }
+
+    /// The next record; blank lines and `#` comment lines are skipped.
+    /// `Ok(None)` at the end of the log. After an `Err(Parse)` the reader
+    /// can go on with the next line.
+    pub fn next_record(&mut self) -> Result<Option<LogRecord<'_>>, ReadError> {
+        loop {
+            self.buffer.clear();
+            if self.input.read_until(b'\n', &mut self.buffer)? == 0 {
+                return Ok(None);
+            }
+            self.line += 1;
+            // A length, not a slice: a borrow held across the `continue`
+            // would outlive the loop (the borrow checker's NLL limit).
+            let len = trim_line_end(&self.buffer).len();
+            if len == 0 || self.buffer[0] == b'#' {
+                continue;
+            }
+            let line = self.line;
+            let text = &self.buffer[..len];
+            return match parse_line(text) {
+                Ok((timestamp, frame)) => Ok(Some(LogRecord {
+                    line,
+                    // The timestamp was checked to be ASCII digits and a dot.
+                    timestamp_text: std::str::from_utf8(&text[timestamp.0..timestamp.1])
+                        .unwrap_or_default(),
+                    frame,
+                })),
+                Err(expected) => Err(ReadError::Parse(ParseError { line, expected })),
+            };
+        }
+    }
+
+    /// Lines read so far.
+    pub fn line(&self) -> u64 {
+        self.line
+    }
+}
+
+fn trim_line_end(line: &[u8]) -> &[u8] {
+    let mut end = line.len();
+    while end > 0 && matches!(line[end - 1], b'\n' | b'\r' | b' ' | b'\t') {
+        end -= 1;
+    }
+    &line[..end]
+}
+
+/// Parses one log line (without its newline). Returns the byte range of the
+/// timestamp text and the frame, or what was expected where parsing stopped.
+pub fn parse_line(line: &[u8]) -> Result<((usize, usize), Frame), &'static str> {
+    const TIMESTAMP: &str = "a timestamp '(seconds.microseconds)' at the start of the line";
+    if line.first() != Some(&b'(') {
+        return Err(TIMESTAMP);
+    }
+    let close = memchr::memchr(b')', line).ok_or(TIMESTAMP)?;
+    let timestamp_ns = parse_timestamp(&line[1..close]).ok_or(TIMESTAMP)?;
+
+    let mut fields = line[close + 1..]
+        .split(|&b| b == b' ' || b == b'\t')
+        .filter(|f| !f.is_empty());
+    let iface = fields
+        .next()
+        .ok_or("an interface name after the timestamp")?;
+    let iface =
+        IfaceName::from_bytes(iface).ok_or("an interface name of 1-15 printable characters")?;
+    let frame_text = fields
+        .next()
+        .ok_or("a frame 'ID#DATA' after the interface")?;
+    let mut frame = parse_frame(frame_text, timestamp_ns, iface)?;
+    match fields.next() {
+        None => {}
+        Some(b"R") => frame.direction = Some(Direction::Received),
+        Some(b"T") => frame.direction = Some(Direction::Transmitted),
+        Some(_) => return Err("the end of the line or a direction 'R'/'T' after the frame"),
+    }
+    if fields.next().is_some() {
+        return Err("the end of the line after the direction");
+    }
+    Ok(((1, close), frame))
+}
+
+/// `seconds.fraction` (1-9 fraction digits) -> ns since the epoch.
+fn parse_timestamp(text: &[u8]) -> Option<i64> {
+    let dot = memchr::memchr(b'.', text)?;
+    let (seconds, fraction) = (&text[..dot], &text[dot + 1..]);
+    if seconds.is_empty() || seconds.len() > 12 || fraction.is_empty() || fraction.len() > 9 {
+        return None;
+    }
+    let mut whole: i64 = 0;
+    for &d in seconds {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        whole = whole * 10 + i64::from(d - b'0');
+    }
+    let mut nanos: i64 = 0;
+    for &d in fraction {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        nanos = nanos * 10 + i64::from(d - b'0');
+    }
+    nanos *= 10i64.pow(9 - fraction.len() as u32);
+    whole.checked_mul(1_000_000_000)?.checked_add(nanos)
+}
+
+/// Parses `ID#DATA` (the frame field of a log line, also `cansend` syntax).
+pub fn parse_frame(
+    text: &[u8],
+    timestamp_ns: i64,
+    iface: IfaceName,
+) -> Result<Frame, &'static str> {
+    const ID: &str = "an id of 3 hex digits (11-bit) or 8 hex digits (29-bit) before '#'";
+    let hash = memchr::memchr(b'#', text).ok_or(ID)?;
+    let id_value = hex::parse_u32(&text[..hash]).ok_or(ID)?;
+    let rest = &text[hash + 1..];
+    let id = match hash {
+        3 => CanId::Standard(
+            u16::try_from(id_value)
+                .ok()
+                .filter(|&v| v <= MAX_STANDARD_ID)
+                .ok_or("an 11-bit id (at most 7FF)")?,
+        ),
+        8 if id_value & CAN_ERR_FLAG != 0 => {
+            let class = id_value & !CAN_ERR_FLAG;
+            if class > MAX_EXTENDED_ID {
+                return Err("an error-frame id of at most 3FFFFFFF");
+            }
+            let details = parse_data(rest, CLASSIC_MAX_LEN)?;
+            if details.1.is_some() {
+                return Err("no '_<dlc>' escape on an error frame");
+            }
+            return Frame::error(timestamp_ns, iface, class, &details.0[..details.2])
+                .map_err(|_| "at most 8 data bytes in an error frame");
+        }
+        8 => CanId::Extended(
+            Some(id_value)
+                .filter(|&v| v <= MAX_EXTENDED_ID)
+                .ok_or("a 29-bit id (at most 1FFFFFFF) or an error frame (20000000 set)")?,
+        ),
+        _ => return Err(ID),
+    };
+
+    match rest.first() {
+        Some(b'R' | b'r') => parse_remote(&rest[1..], timestamp_ns, iface, id),
+        Some(b'#') => {
+            let flags = rest
+                .get(1)
+                .and_then(|&d| hex::nibble(d))
+                .ok_or("one hex digit of CAN FD flags after '##'")?;
+            let (data, len8, len) = parse_data(&rest[2..], FD_MAX_LEN)?;
+            if len8.is_some() {
+                return Err("no '_<dlc>' escape on a CAN FD frame");
+            }
+            Frame::fd(timestamp_ns, iface, id, flags, &data[..len])
+                .map_err(|_| "at most 64 data bytes in a CAN FD frame")
+        }
+        _ => {
+            let (data, len8, len) = parse_data(rest, CLASSIC_MAX_LEN)?;
+            let mut frame = Frame::data(timestamp_ns, iface, id, &data[..len])
+                .map_err(|_| "at most 8 data bytes in a classic CAN frame")?;
+            if let Some(dlc) = len8 {
+                frame
+                    .set_len8_dlc(dlc)
+                    .map_err(|_| "a raw DLC 9-F after '_', only with 8 data bytes")?;
+            }
+            Ok(frame)
+        }
+    }
+}
+
+fn parse_remote(
+    rest: &[u8],
+    timestamp_ns: i64,
+    iface: IfaceName,
+    id: CanId,
+) -> Result<Frame, &'static str> {
+    const DLC: &str = "nothing, or a DLC 0-8 (and '_<raw dlc>' after 8), after 'R'";
+    let (requested, len8) = match rest {
+        [] => (0, None),
+        [d] => (hex::nibble(*d).filter(|&v| v <= 8).ok_or(DLC)?, None),
+        [b'8', b'_', raw] => (8, Some(hex::nibble(*raw).ok_or(DLC)?)),
+        _ => return Err(DLC),
+    };
+    let mut frame = Frame::remote(timestamp_ns, iface, id, requested).map_err(|_| DLC)?;
+    if let Some(dlc) = len8 {
+        frame.set_len8_dlc(dlc).map_err(|_| DLC)?;
+    }
+    Ok(frame)
+}
+
+/// Hex byte pairs, optionally separated by '.', at most `max` bytes, then an
+/// optional `_<raw dlc>`. Returns (buffer, raw dlc, length).
+fn parse_data(
+    text: &[u8],
+    max: usize,
+) -> Result<([u8; FD_MAX_LEN], Option<u8>, usize), &'static str> {
+    const DATA: &str = "data as pairs of hex digits after '#'";
+    let mut data = [0u8; FD_MAX_LEN];
+    let mut len = 0;
+    let mut i = 0;
+    while i < text.len() {
+        match text[i] {
+            b'.' => i += 1,
+            b'_' => {
+                let dlc = match &text[i + 1..] {
+                    [d] => hex::nibble(*d).ok_or("a hex raw DLC after '_'")?,
+                    _ => return Err("exactly one hex digit (the raw DLC) after '_'"),
+                };
+                if len != CLASSIC_MAX_LEN {
+                    return Err("'_<dlc>' only after exactly 8 data bytes");
+                }
+                return Ok((data, Some(dlc), len));
+            }
+            high => {
+                let high = hex::nibble(high).ok_or(DATA)?;
+                let low = text
+                    .get(i + 1)
+                    .and_then(|&d| hex::nibble(d))
+                    .ok_or("an even number of hex digits in the data")?;
+                if len == max {
+                    return Err(if max == CLASSIC_MAX_LEN {
+                        "at most 8 data bytes in a classic CAN frame"
+                    } else {
+                        "at most 64 data bytes in a CAN FD frame"
+                    });
+                }
+                data[len] = (high << 4) | low;
+                len += 1;
+                i += 2;
+            }
+        }
+    }
+    Ok((data, None, len))
+}
+
+/// Appends the frame field (`ID#DATA`) exactly as can-utils prints it.
+pub fn push_frame(out: &mut Vec<u8>, frame: &Frame) {
+    match frame.kind {
+        FrameKind::Error { class } => hex::push_fixed(out, class | CAN_ERR_FLAG, 8),
+        _ => match frame.id {
+            CanId::Standard(id) => hex::push_fixed(out, u32::from(id), 3),
+            CanId::Extended(id) => hex::push_fixed(out, id, 8),
+        },
+    }
+    out.push(b'#');
+    let push_dlc_escape = |out: &mut Vec<u8>, len8: Option<u8>| {
+        if let Some(dlc) = len8 {
+            out.push(b'_');
+            out.push(hex::upper_digit(dlc));
+        }
+    };
+    match frame.kind {
+        FrameKind::Remote {
+            requested_len,
+            len8_dlc,
+        } => {
+            out.push(b'R');
+            if requested_len > 0 {
+                out.push(hex::upper_digit(requested_len));
+                push_dlc_escape(out, len8_dlc);
+            }
+        }
+        FrameKind::Fd { flags } => {
+            out.push(b'#');
+            out.push(hex::upper_digit(flags));
+            frame.payload().iter().for_each(|&b| hex::push_byte(out, b));
+        }
+        FrameKind::Data { len8_dlc } => {
+            frame.payload().iter().for_each(|&b| hex::push_byte(out, b));
+            push_dlc_escape(out, len8_dlc);
+        }
+        FrameKind::Error { .. } => frame.payload().iter().for_each(|&b| hex::push_byte(out, b)),
+    }
+}
+
+/// Appends one full log line (with newline) in `candump -L` form.
+/// Timestamps are written in microseconds (the format's resolution);
+/// a negative timestamp cannot be written and is an error.
+pub fn push_line(out: &mut Vec<u8>, frame: &Frame) -> Result<(), NegativeTimestamp> {
+    if frame.timestamp_ns < 0 {
+        return Err(NegativeTimestamp(frame.timestamp_ns));
+    }
+    let seconds = frame.timestamp_ns / 1_000_000_000;
+    let micros = (frame.timestamp_ns % 1_000_000_000) / 1_000;
+    out.push(b'(');
+    let mut digits = itoa::Buffer::new();
+    let seconds_text = digits.format(seconds).as_bytes();
+    out.extend(std::iter::repeat_n(
+        b'0',
+        10usize.saturating_sub(seconds_text.len()),
+    ));
+    out.extend_from_slice(seconds_text);
+    out.push(b'.');
+    let micros_text = digits.format(micros).as_bytes();
+    out.extend(std::iter::repeat_n(b'0', 6 - micros_text.len()));
+    out.extend_from_slice(micros_text);
+    out.extend_from_slice(b") ");
+    out.extend_from_slice(frame.iface.as_str().as_bytes());
+    out.push(b' ');
+    push_frame(out, frame);
+    match frame.direction {
+        Some(Direction::Received) => out.extend_from_slice(b" R"),
+        Some(Direction::Transmitted) => out.extend_from_slice(b" T"),
+        None => {}
+    }
+    out.push(b'\n');
+    Ok(())
+}
+
+/// A frame stamped before 1970 cannot be written in candump format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("timestamp {0} ns is before 1970; candump logs cannot hold it")]
+pub struct NegativeTimestamp(pub i64);
+
+/// Buffered candump log writer.
+pub struct CandumpWriter<W: Write> {
+    output: W,
+    line: Vec<u8>,
+}
+
+impl<W: Write> CandumpWriter<W> {
+    pub fn new(output: W) -> Self {
+        CandumpWriter {
+            output,
+            line: Vec::with_capacity(192),
+        }
+    }
+
+    pub fn write_frame(&mut self, frame: &Frame) -> io::Result<()> {
+        self.line.clear();
+        push_line(&mut self.line, frame)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        self.output.write_all(&self.line)
+    }
+
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.output.flush()
+    }
+
+    pub fn into_inner(self) -> W {
+        self.output
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn round_trip(line: &str) -> Frame {
+        let (_, frame) = parse_line(line.as_bytes()).unwrap_or_else(|e| panic!("{line}: {e}"));
+        let mut out = Vec::new();
+        push_line(&mut out, &frame).unwrap();
+        assert_eq!(String::from_utf8(out).unwrap(), format!("{line}\n"));
+        frame
+    }
+
+    #[test]
+    fn every_kind_of_line_round_trips_byte_for_byte() {
+        let frame = round_trip("(1700000000.123456) can0 123#11223344");
+        assert_eq!(frame.id, CanId::Standard(0x123));
+        assert_eq!(frame.payload(), &[0x11, 0x22, 0x33, 0x44]);
+        assert_eq!(frame.timestamp_ns, 1_700_000_000_123_456_000);
+
+        let frame = round_trip("(0000000001.000001) vcan0 00000123#");
+        assert_eq!(frame.id, CanId::Extended(0x123));
+        assert!(frame.payload().is_empty());
+
+        let frame = round_trip("(1700000000.000000) can1 18FEF100#0102030405060708_C");
+        assert_eq!(frame.kind, FrameKind::Data { len8_dlc: Some(12) });
+
+        let frame = round_trip("(1700000000.000000) can0 123#R");
+        assert_eq!(
+            frame.kind,
+            FrameKind::Remote {
+                requested_len: 0,
+                len8_dlc: None
+            }
+        );
+        let frame = round_trip("(1700000000.000000) can0 123#R4");
+        assert_eq!(
+            frame.kind,
+            FrameKind::Remote {
+                requested_len: 4,
+                len8_dlc: None
+            }
+        );
+        round_trip("(1700000000.000000) can0 123#R8_9");
+
+        let frame = round_trip("(1700000000.000000) can0 123##5112233");
+        assert_eq!(frame.kind, FrameKind::Fd { flags: 5 });
+        round_trip("(1700000000.000000) can0 00000456##0");
+        let long = "AB".repeat(64);
+        round_trip(&format!("(1700000000.000000) can0 7FF##4{long}"));
+
+        let frame = round_trip("(1700000000.000000) can0 20000004#0000040000000000");
+        assert_eq!(frame.kind, FrameKind::Error { class: 4 });
+
+        let frame = round_trip("(1700000000.000000) can0 123#1122 T");
+        assert_eq!(frame.direction, Some(Direction::Transmitted));
+        round_trip("(1700000000.000000) can0 123#1122 R");
+    }
+
+    #[test]
+    fn tolerated_variants_read_like_can_utils() {
+        let (_, frame) = parse_line(b"(1.5) can0 123#11.22.33").unwrap();
+        assert_eq!(frame.timestamp_ns, 1_500_000_000);
+        assert_eq!(frame.payload(), &[0x11, 0x22, 0x33]);
+        let (_, frame) = parse_line(b"(1.000000)   can0   1ab#r").unwrap();
+        assert_eq!(frame.id, CanId::Standard(0x1AB));
+        let (range, _) = parse_line(b"(1699999999.000001) can0 123#").unwrap();
+        assert_eq!(range, (1, 18));
+    }
+
+    #[test]
+    fn malformed_lines_say_what_was_expected() {
+        let cases: &[(&str, &str)] = &[
+            ("1.0 can0 123#", "timestamp"),
+            ("(1.x) can0 123#", "timestamp"),
+            ("(1.0)", "interface"),
+            ("(1.0) can0", "frame"),
+            ("(1.0) can0 12#00", "3 hex digits"),
+            ("(1.0) can0 800#00", "11-bit"),
+            ("(1.0) can0 123#001", "even number"),
+            ("(1.0) can0 123#001122334455667788", "at most 8"),
+            ("(1.0) can0 123#0011_9", "exactly 8"),
+            ("(1.0) can0 123#0011223344556677_3", "9-F"),
+            ("(1.0) can0 123#R9", "DLC 0-8"),
+            ("(1.0) can0 123##", "flags"),
+            ("(1.0) can0 123#00 X", "direction"),
+            ("(1.0) can0 60000000#00", "error-frame id"),
+            ("(1.0) can0 40000000#00", "29-bit id"),
+            ("(1.0) can0 123#zz", "hex"),
+        ];
+        for (line, needle) in cases {
+            let err = parse_line(line.as_bytes()).unwrap_err();
+            assert!(
+                err.contains(needle),
+                "{line}: got '{err}', wanted '{needle}'"
+            );
+        }
+    }
+
+    #[test]
+    fn reader_streams_and_numbers_lines() {
+        let log = "(1.000000) can0 123#01\n\n# comment\n(2.000000) can0 124#02\r\nbad line\n(3.000000) can0 125#03\n";
+        let mut reader = CandumpReader::new(log.as_bytes());
+        let first = reader.next_record().unwrap().unwrap();
+        assert_eq!((first.line, first.timestamp_text), (1, "1.000000"));
+        let second = reader.next_record().unwrap().unwrap();
+        assert_eq!((second.line, second.frame.payload()), (4, &[2u8][..]));
+        match reader.next_record() {
+            Err(ReadError::Parse(e)) => assert_eq!(e.line, 5),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+        assert_eq!(reader.next_record().unwrap().unwrap().line, 6);
+        assert!(reader.next_record().unwrap().is_none());
+    }
+}

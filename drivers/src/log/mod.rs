@@ -1,0 +1,77 @@
+//! CAN log files: one module per format, the record type they all yield, and
+//! the choice of reader for an input.
+//!
+//! - [`record`]: [`LogRecord`], [`ParseError`], [`ReadError`]; what every
+//!   reader yields. It depends on no reader.
+//! - [`candump`], [`asc`]: the readers (and the candump writer); each depends
+//!   only on [`record`] and the frame types.
+//! - this module: [`LogFormat`] and [`LogReader`], which detects the format
+//!   and dispatches. A new format is a new module beside the readers and one
+//!   arm here.
+//!
+//! Readers are streaming "lending" readers: a [`LogRecord`] borrows the
+//! reader's line buffer so the timestamp can be passed on exactly as written
+//! without allocating, and memory stays constant whatever the log's size.
+
+pub mod asc;
+pub mod candump;
+pub mod record;
+
+use std::io::{self, BufRead};
+
+pub use record::{LogRecord, ParseError, ReadError};
+
+use asc::AscReader;
+use candump::CandumpReader;
+
+/// The log formats `acq` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LogFormat {
+    /// can-utils `candump -L` / `canplayer` format.
+    Candump,
+    /// Vector ASCII log (`.asc`).
+    Asc,
+}
+
+/// A reader of either format.
+pub enum LogReader<R> {
+    Candump(CandumpReader<R>),
+    Asc(AscReader<R>),
+}
+
+impl<R: BufRead> LogReader<R> {
+    /// Guesses the format from the first bytes of the input without
+    /// consuming them: a candump log starts with `(`, anything else is
+    /// taken for ASC (whose header starts with `date` or `base`).
+    pub fn detect(mut input: R) -> io::Result<(Self, LogFormat)> {
+        let looks_candump = {
+            let head = input.fill_buf()?;
+            let first = head.iter().find(|b| !b.is_ascii_whitespace());
+            first.is_none_or(|&b| b == b'(' || b == b'#')
+        };
+        Ok(if looks_candump {
+            (
+                LogReader::Candump(CandumpReader::new(input)),
+                LogFormat::Candump,
+            )
+        } else {
+            (LogReader::Asc(AscReader::new(input)), LogFormat::Asc)
+        })
+    }
+
+    pub fn with_format(input: R, format: LogFormat) -> Self {
+        match format {
+            LogFormat::Candump => LogReader::Candump(CandumpReader::new(input)),
+            LogFormat::Asc => LogReader::Asc(AscReader::new(input)),
+        }
+    }
+
+    /// The next frame; `Ok(None)` at the end of the log.
+    #[inline]
+    pub fn next_record(&mut self) -> Result<Option<LogRecord<'_>>, ReadError> {
+        match self {
+            LogReader::Candump(reader) => reader.next_record(),
+            LogReader::Asc(reader) => reader.next_record(),
+        }
+    }
+}

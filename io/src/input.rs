@@ -1,0 +1,164 @@
+//! Opening the logs named on a command line (`-` is stdin) and walking
+//! their records with the bad-line policy every command shares.
+
+use std::fs::File;
+use std::io::{self, BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+use acq_drivers::rig::Rig;
+use acq_drivers::{LogReader, LogRecord, ReadError};
+
+use crate::error::{AcqError, Result};
+
+const READ_BUFFER_BYTES: usize = 256 * 1024;
+
+/// One opened log.
+pub struct LogInput {
+    /// The name used in messages: the path, or `<stdin>`.
+    pub name: String,
+    reader: LogReader<Box<dyn BufRead>>,
+}
+
+/// Opens every log up front, so a missing file fails before any output.
+pub fn open_logs(paths: &[PathBuf]) -> Result<Vec<LogInput>> {
+    if paths.iter().filter(|p| p.as_os_str() == "-").count() > 1 {
+        return Err(AcqError::Config(
+            "stdin ('-') can be given only once".into(),
+        ));
+    }
+    paths.iter().map(|p| open_log(p)).collect()
+}
+
+/// A log read from any buffered reader (tests, benchmarks, pipes).
+pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result<LogInput> {
+    let name = name.into();
+    let (reader, _format) =
+        LogReader::detect(raw).map_err(|e| AcqError::io(format!("reading {name}"), e))?;
+    Ok(LogInput { name, reader })
+}
+
+pub fn open_log(path: &Path) -> Result<LogInput> {
+    let (name, raw): (String, Box<dyn BufRead>) = if path.as_os_str() == "-" {
+        (
+            "<stdin>".into(),
+            Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, io::stdin())),
+        )
+    } else {
+        let file = File::open(path).map_err(|e| AcqError::open(path, e))?;
+        (
+            path.display().to_string(),
+            Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
+        )
+    };
+    log_from_reader(name, raw)
+}
+
+impl LogInput {
+    /// The next frame; a malformed line stops with `file:line: expected ...`.
+    pub fn next_frame(&mut self) -> Result<Option<acq_drivers::Frame>> {
+        match self.reader.next_record() {
+            Ok(record) => Ok(record.map(|r| r.frame)),
+            Err(ReadError::Parse(error)) => Err(AcqError::Malformed(error.in_file(&self.name))),
+            Err(ReadError::Io(error)) => Err(AcqError::io(format!("reading {}", self.name), error)),
+        }
+    }
+}
+
+/// What to do with a malformed line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BadLines {
+    /// Stop with `file:line: expected ...` (exit 3).
+    Stop,
+    /// Count it and go on (`--skip-bad`).
+    Skip,
+}
+
+/// Counts of the walk over the logs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScanCounts {
+    pub frames: u64,
+    pub malformed_lines: u64,
+}
+
+/// How many malformed lines are reported one by one before only counting.
+const REPORTED_BAD_LINES: u64 = 10;
+
+/// Calls `on_record` for every frame of every log, in order.
+pub fn for_each_record(
+    inputs: &mut [LogInput],
+    bad_lines: BadLines,
+    counts: &mut ScanCounts,
+    mut on_record: impl FnMut(&str, &LogRecord<'_>) -> Result<()>,
+) -> Result<()> {
+    for input in inputs.iter_mut() {
+        loop {
+            match input.reader.next_record() {
+                Ok(Some(record)) => {
+                    counts.frames += 1;
+                    on_record(&input.name, &record)?;
+                }
+                Ok(None) => break,
+                Err(ReadError::Parse(error)) => {
+                    let message = error.in_file(&input.name);
+                    match bad_lines {
+                        BadLines::Stop => return Err(AcqError::Malformed(message)),
+                        BadLines::Skip => {
+                            counts.malformed_lines += 1;
+                            if counts.malformed_lines <= REPORTED_BAD_LINES {
+                                eprintln!("acq: skipped {message}");
+                            }
+                        }
+                    }
+                }
+                Err(ReadError::Io(error)) => {
+                    return Err(AcqError::io(format!("reading {}", input.name), error))
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Reads a small CSV file whose header must be `expected` (cells trimmed):
+/// its records with their 1-based line numbers. Errors name the file and
+/// line and say what was expected.
+pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv::StringRecord)>> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| AcqError::Config(format!("cannot open {}: {e}", path.display())))?;
+    let header: Vec<String> = reader
+        .headers()
+        .map_err(|e| AcqError::Malformed(format!("{}:1: {e}", path.display())))?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    if header != expected {
+        return Err(AcqError::Malformed(format!(
+            "{}:1: expected the header {}, found {}",
+            path.display(),
+            expected.join(","),
+            header.join(",")
+        )));
+    }
+    reader
+        .records()
+        .map(|record| {
+            let record = record.map_err(|e| {
+                let line = e.position().map_or(0, |p| p.line());
+                AcqError::Malformed(format!("{}:{line}: {e}", path.display()))
+            })?;
+            Ok((record.position().map_or(0, |p| p.line()), record))
+        })
+        .collect()
+}
+
+/// Loads a rig; every problem in it is a configuration error (exit 2).
+pub fn load_rig(path: &Path) -> Result<Rig> {
+    let rig = Rig::load(path).map_err(|e| AcqError::Config(e.to_string()))?;
+    for warning in &rig.warnings {
+        eprintln!("acq: warning: {warning}");
+    }
+    Ok(rig)
+}

@@ -1,0 +1,17 @@
+//! Files in and out, the ground floor every other `acq` stage stands on.
+//!
+//! - [`error`]: [`error::AcqError`], the one error of the commands, and its exit codes.
+//! - [`input`]: logs and rig files opened by name (`-` is stdin), the bad-line
+//!   policy, small CSV tables read with file and line in every message.
+//! - [`output`]: where results go; a file appears under its name only when
+//!   complete (`NAME.partial`, renamed at the end).
+//! - [`session`]: the session directory a recording leaves (`session.toml`,
+//!   raw logs), read by the offline analysis and written by the recorder.
+//!
+//! Depends only on `acq-drivers` (log and rig formats); never on acquisition,
+//! analysis, twins, calibration or reports.
+
+pub mod error;
+pub mod input;
+pub mod output;
+pub mod session;

@@ -1,0 +1,93 @@
+//! `acq decode` and `acq check-rig`: logs to CSV through DBC files or a rig,
+//! and a rig file explained. Glue over [`acq_analysis::decode`] and
+//! [`acq_drivers::rig`].
+
+use std::path::PathBuf;
+
+use acq_analysis::decode::{self, DbcDecodeOptions};
+use acq_drivers::dbc::DbcDatabase;
+use acq_io::error::{AcqError, Result};
+use acq_io::input::{load_rig, open_logs, BadLines};
+use acq_io::output::Output;
+use clap::Args;
+
+#[derive(Args, Debug)]
+pub struct DecodeArgs {
+    /// Log files to decode, in order; `-` reads stdin.
+    #[arg(required = true, value_name = "LOG")]
+    pub logs: Vec<PathBuf>,
+    /// DBC file(s); output: time_s,iface,can_id,message,signal,value,unit.
+    #[arg(
+        long = "dbc",
+        value_name = "FILE",
+        required_unless_present = "rig",
+        conflicts_with = "rig"
+    )]
+    pub dbc: Vec<PathBuf>,
+    /// Rig file; output: time_s,sensor,value,unit.
+    #[arg(long, value_name = "RIG.toml")]
+    pub rig: Option<PathBuf>,
+    /// Output CSV file; `-` or absent writes to stdout.
+    #[arg(short = 'o', long = "output", value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Count malformed lines and go on instead of stopping at the first.
+    #[arg(long)]
+    pub skip_bad: bool,
+    /// Add a `label` column with the DBC value-table label of each value.
+    #[arg(long, conflicts_with = "rig")]
+    pub labels: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CheckRigArgs {
+    /// The rig file to check.
+    #[arg(value_name = "RIG.toml")]
+    pub rig: PathBuf,
+}
+
+fn bad_lines(skip_bad: bool) -> BadLines {
+    if skip_bad {
+        BadLines::Skip
+    } else {
+        BadLines::Stop
+    }
+}
+
+pub fn run_decode(args: DecodeArgs) -> Result<()> {
+    let mut inputs = open_logs(&args.logs)?;
+    if let Some(rig_path) = &args.rig {
+        let rig = load_rig(rig_path)?;
+        let mut output = Output::create(args.output.as_deref())?;
+        let summary =
+            decode::decode_with_rig(&mut inputs, &rig, bad_lines(args.skip_bad), &mut output);
+        return finish(summary, output);
+    }
+    let (database, warnings) =
+        DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+    for warning in warnings {
+        eprintln!("acq: warning: {}", warning.0);
+    }
+    let mut output = Output::create(args.output.as_deref())?;
+    let options = DbcDecodeOptions {
+        bad_lines: bad_lines(args.skip_bad),
+        labels: args.labels,
+    };
+    let summary = decode::decode_with_dbc(&mut inputs, &database, options, &mut output);
+    finish(summary, output)
+}
+
+/// Flushes what was decoded even when decoding stopped at a bad line, then
+/// reports the summary.
+fn finish(summary: Result<decode::DecodeSummary>, output: Output) -> Result<()> {
+    let flushed = output.finish();
+    let summary = summary?;
+    flushed?;
+    decode::report(&summary);
+    Ok(())
+}
+
+pub fn run_check_rig(args: CheckRigArgs) -> Result<()> {
+    let rig = load_rig(&args.rig)?;
+    print!("{}", rig.explain());
+    Ok(())
+}

@@ -1,0 +1,418 @@
+//! The command-line glue of the live commands: `record`, `replay`,
+//! `simulate` and `session repair`. Each builds its runtime, wires the
+//! SocketCAN (or log-file) bus into the library and reports.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
+
+use acq_acquire::bus::logfile::LogFileBus;
+use acq_acquire::bus::now_ns;
+use acq_acquire::bus::socketcan::SocketCanBus;
+use acq_acquire::record::status::StatusMode;
+use acq_acquire::record::{self, RecordOptions, StopReason};
+use acq_acquire::replay::{self, Pacing, PlaySummary, Routing};
+use acq_acquire::simulate::scenario::Scenario;
+use acq_acquire::simulate::Simulation;
+use acq_drivers::IfaceName;
+use acq_io::error::{AcqError, Result};
+use acq_io::input::{open_log, LogInput};
+use acq_io::session;
+use clap::{Args, Subcommand};
+
+#[derive(Args, Debug)]
+pub struct RecordArgs {
+    /// CAN interface to record (repeat for several buses).
+    #[arg(long = "iface", required = true, value_name = "IFACE")]
+    pub interfaces: Vec<String>,
+    /// Rig file: decode live for the status, copy it into the session.
+    #[arg(long, value_name = "RIG.toml")]
+    pub rig: Option<PathBuf>,
+    /// Session directory [default: sessions/<UTC start time>].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Stop after this long (`10s`, `5min`, `1h 30min`).
+    #[arg(long, value_parser = humantime::parse_duration)]
+    pub duration: Option<Duration>,
+    /// Start a new raw file past this size (`1GiB`, `500MB`).
+    #[arg(long, default_value = "1GiB", value_parser = parse_size)]
+    pub max_file_size: u64,
+    /// Send CANopen NMT "start all nodes" on the buses with CANopen sensors.
+    #[arg(long)]
+    pub nmt_start: bool,
+    /// No live status (errors and warnings still go to stderr).
+    #[arg(long, conflicts_with = "status_json")]
+    pub quiet: bool,
+    /// Live status as one JSON object per line on stdout.
+    #[arg(long)]
+    pub status_json: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// The log to play (candump -L or Vector ASC).
+    #[arg(value_name = "LOG")]
+    pub log: PathBuf,
+    /// Interface to send on; without it frames go out on the interfaces the log names.
+    #[arg(long, value_name = "IFACE")]
+    pub iface: Option<String>,
+    /// Playback speed factor (2.0 = twice as fast).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// Play the log N times.
+    #[arg(long = "loop", default_value_t = 1, value_name = "N")]
+    pub passes: usize,
+    /// Send as fast as possible, ignoring the log's timing.
+    #[arg(long)]
+    pub ignore_timestamps: bool,
+    /// Send frames logged on LOG_IFACE on BUS_IFACE (repeatable), e.g. can0=vcan0.
+    #[arg(long = "map", value_name = "LOG_IFACE=BUS_IFACE", value_parser = parse_mapping)]
+    pub map: Vec<(IfaceName, IfaceName)>,
+}
+
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    /// The rig whose sensors are simulated.
+    #[arg(long, value_name = "RIG.toml")]
+    pub rig: PathBuf,
+    /// What the sensors read over time.
+    #[arg(long, value_name = "SCENARIO.toml")]
+    pub scenario: PathBuf,
+    /// Send on these interfaces, in real time: one for all buses, or one per rig bus in order.
+    #[arg(
+        long = "iface",
+        value_name = "IFACE",
+        required_unless_present = "output",
+        conflicts_with = "output"
+    )]
+    pub interfaces: Vec<String>,
+    /// Write a candump log instead of sending.
+    #[arg(short = 'o', long = "output", value_name = "LOG")]
+    pub output: Option<PathBuf>,
+    /// Random seed: the same seed gives the same traffic.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Start time of a written log, Unix seconds [default: now].
+    #[arg(long, value_name = "UNIX_S")]
+    pub start: Option<f64>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum SessionCommand {
+    /// Rebuild session.toml from the raw files after a crash or kill.
+    Repair {
+        #[arg(value_name = "DIR")]
+        dir: PathBuf,
+    },
+}
+
+/// `1GiB`, `500MB`, `4096`.
+fn parse_size(text: &str) -> std::result::Result<u64, String> {
+    text.trim()
+        .parse::<bytesize::ByteSize>()
+        .map(|size| size.as_u64())
+        .map_err(|e| format!("{text:?} is not a size like 1GiB or 500MB: {e}"))
+        .and_then(|size| {
+            if size == 0 {
+                Err("the size must be > 0".into())
+            } else {
+                Ok(size)
+            }
+        })
+}
+
+fn parse_iface(text: &str) -> std::result::Result<IfaceName, String> {
+    IfaceName::new(text).ok_or_else(|| {
+        format!("{text:?} is not an interface name (1-15 characters, no spaces or '/')")
+    })
+}
+
+fn parse_mapping(text: &str) -> std::result::Result<(IfaceName, IfaceName), String> {
+    let (from, to) = text
+        .split_once('=')
+        .ok_or_else(|| format!("{text:?}: expected LOG_IFACE=BUS_IFACE, e.g. can0=vcan0"))?;
+    Ok((parse_iface(from)?, parse_iface(to)?))
+}
+
+fn ifaces(names: &[String]) -> Result<Vec<IfaceName>> {
+    names
+        .iter()
+        .map(|n| parse_iface(n).map_err(AcqError::Config))
+        .collect()
+}
+
+fn runtime(threads: usize) -> Result<tokio::runtime::Runtime> {
+    let mut builder = if threads > 1 {
+        let mut b = tokio::runtime::Builder::new_multi_thread();
+        b.worker_threads(threads);
+        b
+    } else {
+        tokio::runtime::Builder::new_current_thread()
+    };
+    builder
+        .enable_all()
+        .build()
+        .map_err(|e| AcqError::io("starting the async runtime", e))
+}
+
+/// Resolves when SIGINT or SIGTERM arrives, or the duration is reached.
+async fn stop_signal(duration: Option<Duration>) -> StopReason {
+    use tokio::signal::unix::{signal, SignalKind};
+    let (Ok(mut interrupt), Ok(mut terminate)) = (
+        signal(SignalKind::interrupt()),
+        signal(SignalKind::terminate()),
+    ) else {
+        // Without signal handlers Ctrl-C would kill us mid-write; refuse instead of risking it.
+        std::future::pending::<()>().await;
+        unreachable!()
+    };
+    let timeout = async {
+        match duration {
+            Some(d) => tokio::time::sleep(d).await,
+            None => std::future::pending().await,
+        }
+    };
+    tokio::select! {
+        _ = interrupt.recv() => StopReason::Signal("SIGINT"),
+        _ = terminate.recv() => StopReason::Signal("SIGTERM"),
+        _ = timeout => StopReason::Duration,
+    }
+}
+
+pub fn run_record(args: RecordArgs) -> Result<()> {
+    let interfaces = ifaces(&args.interfaces)?;
+    let mut notes = Vec::new();
+    let rig = match &args.rig {
+        None => None,
+        Some(path) => {
+            let mut rig = acq_io::input::load_rig(path)?;
+            notes.extend(
+                rig.assign_interfaces(&interfaces)
+                    .map_err(AcqError::Config)?,
+            );
+            Some(rig)
+        }
+    };
+    let session_dir = args.out.clone().unwrap_or_else(|| {
+        Path::new("sessions").join(session::default_dir_name(SystemTime::now()))
+    });
+    let status = if args.quiet {
+        StatusMode::Quiet
+    } else if args.status_json {
+        StatusMode::Json
+    } else {
+        StatusMode::Human
+    };
+    let options = RecordOptions {
+        interfaces,
+        rig,
+        session_dir,
+        max_file_bytes: args.max_file_size,
+        nmt_start: args.nmt_start,
+        status,
+        command_line: std::env::args().collect::<Vec<_>>().join(" "),
+        notes,
+    };
+    // Two workers: the readers never wait behind a disk write of the writer loop.
+    let summary = runtime(2)?.block_on(record::record(
+        SocketCanBus,
+        options,
+        stop_signal(args.duration),
+    ))?;
+    let info = &summary.session.session;
+    if status != StatusMode::Quiet {
+        eprintln!(
+            "acq: session {}: {} frames in {}, {} dropped by the kernel, ended: {}",
+            summary.session_dir.display(),
+            info.frames,
+            info.raw_files.join(", "),
+            info.dropped_by_kernel,
+            info.ended
+        );
+    }
+    match summary.stop {
+        StopReason::WriteFailed(message) => Err(AcqError::io(
+            format!("recording to {}", summary.session_dir.display()),
+            std::io::Error::other(message),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Reads a log pass by pass for the player: reopened at each new pass.
+struct LogPasses {
+    path: PathBuf,
+    current: Option<(usize, LogInput)>,
+}
+
+impl LogPasses {
+    fn next(&mut self, pass: usize) -> Result<Option<acq_drivers::Frame>> {
+        if self.current.as_ref().is_none_or(|(p, _)| *p != pass) {
+            self.current = Some((pass, open_log(&self.path)?));
+        }
+        match self.current.as_mut() {
+            Some((_, log)) => log.next_frame(),
+            None => Ok(None),
+        }
+    }
+}
+
+pub fn run_replay(args: ReplayArgs) -> Result<()> {
+    if !(args.speed.is_finite() && args.speed > 0.0) {
+        return Err(AcqError::Config(format!(
+            "--speed {}: expected a number > 0",
+            args.speed
+        )));
+    }
+    let routing = Routing {
+        map: args.map.clone(),
+        default: args
+            .iface
+            .as_deref()
+            .map(parse_iface)
+            .transpose()
+            .map_err(AcqError::Config)?,
+    };
+    let pacing = if args.ignore_timestamps {
+        Pacing::AsFast
+    } else {
+        Pacing::Timed { speed: args.speed }
+    };
+    // Opened up front so a missing file fails before anything is sent.
+    let mut log = LogPasses {
+        path: args.log.clone(),
+        current: Some((0, open_log(&args.log)?)),
+    };
+    let summary = runtime(1)?.block_on(replay::play(
+        &SocketCanBus,
+        |pass| log.next(pass),
+        &routing,
+        pacing,
+        args.passes,
+    ))?;
+    report_play(&summary, &args.log.display().to_string());
+    Ok(())
+}
+
+fn report_play(summary: &PlaySummary, what: &str) {
+    eprint!(
+        "acq: played {what}: {} frames in {:.3} s",
+        summary.frames_sent,
+        summary.elapsed.as_secs_f64()
+    );
+    if summary.error_frames_skipped > 0 {
+        eprint!(", {} error frames skipped", summary.error_frames_skipped);
+    }
+    if summary.unrouted_skipped > 0 {
+        eprint!(
+            ", {} frames of unmapped interfaces skipped",
+            summary.unrouted_skipped
+        );
+    }
+    eprintln!();
+    if let (Some((median, p99, max)), Some((late_median, late_p99, _))) = (
+        summary.timing.interval_error_us(),
+        summary.timing.lateness_us(),
+    ) {
+        eprintln!(
+            "acq: inter-frame timing error |actual - logged|: median {median:.1} us, p99 {p99:.1} us, max {max:.1} us; send lateness median {late_median:.1} us, p99 {late_p99:.1} us"
+        );
+    }
+}
+
+pub fn run_simulate(args: SimulateArgs) -> Result<()> {
+    let rig = acq_io::input::load_rig(&args.rig)?;
+    let (scenario, curve) = Scenario::load(&args.scenario)?;
+    let start_ns = match args.start {
+        Some(seconds) if seconds.is_finite() && seconds >= 0.0 => (seconds * 1e9).round() as i64,
+        Some(seconds) => {
+            return Err(AcqError::Config(format!(
+                "--start {seconds}: expected Unix seconds >= 0"
+            )))
+        }
+        None => now_ns(),
+    };
+    let mut simulation = Simulation::new(&rig, scenario, curve, args.seed, start_ns)?;
+    if !simulation.unspecified_sensors.is_empty() {
+        eprintln!(
+            "acq: warning: the scenario gives no values for {}; they send 0",
+            simulation.unspecified_sensors.join(", ")
+        );
+    }
+    let runtime = runtime(1)?;
+    let summary = if let Some(path) = &args.output {
+        let bus = LogFileBus::writing(path)
+            .map_err(|e| AcqError::io(format!("creating {}", path.display()), e))?;
+        let summary = runtime.block_on(replay::play(
+            &bus,
+            |_| Ok(simulation.next_frame()),
+            &Routing::default(),
+            Pacing::AsFast,
+            1,
+        ))?;
+        bus.flush()
+            .map_err(|e| AcqError::io(format!("writing {}", path.display()), e))?;
+        summary
+    } else {
+        let interfaces = ifaces(&args.interfaces)?;
+        let routing = simulate_routing(&rig, &interfaces)?;
+        runtime.block_on(replay::play(
+            &SocketCanBus,
+            |_| Ok(simulation.next_frame()),
+            &routing,
+            Pacing::Timed { speed: 1.0 },
+            1,
+        ))?
+    };
+    report_play(&summary, "the simulated rig");
+    eprintln!(
+        "acq: {} frames lost on purpose (devices' drop probability)",
+        simulation.frames_dropped
+    );
+    Ok(())
+}
+
+/// Rig buses onto the given interfaces: all onto one, or one each in order.
+fn simulate_routing(rig: &acq_drivers::rig::Rig, interfaces: &[IfaceName]) -> Result<Routing> {
+    match interfaces.len() {
+        1 => Ok(Routing {
+            map: Vec::new(),
+            default: Some(interfaces[0]),
+        }),
+        n if n == rig.buses.len() => Ok(Routing {
+            map: rig
+                .buses
+                .iter()
+                .map(|b| b.iface)
+                .zip(interfaces.iter().copied())
+                .collect(),
+            default: None,
+        }),
+        n => Err(AcqError::Config(format!(
+            "{n} interfaces given for a rig with {} buses: give one, or one per bus in order",
+            rig.buses.len()
+        ))),
+    }
+}
+
+pub fn run_session(command: SessionCommand) -> Result<()> {
+    match command {
+        SessionCommand::Repair { dir } => {
+            let report = session::repair(&dir)?;
+            eprintln!(
+                "acq: rebuilt {}: {} frames in {} file(s){}",
+                dir.join(session::SESSION_FILE).display(),
+                report.frames,
+                report.files,
+                if report.truncated_bytes > 0 {
+                    format!(
+                        ", cut {} bytes of an unfinished last line",
+                        report.truncated_bytes
+                    )
+                } else {
+                    String::new()
+                }
+            );
+            Ok(())
+        }
+    }
+}

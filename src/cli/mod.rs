@@ -1,0 +1,85 @@
+//! The `acq` command line: argument definitions and dispatch to the libraries.
+//! One file per command group; each command is glue over a library call.
+
+use clap::{Parser, Subcommand};
+
+mod decode;
+mod engine;
+mod live;
+mod offline;
+mod tensile;
+mod twin;
+
+use acq_io::error::Result;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "acq",
+    version,
+    about = "Sensor-data acquisition bridge and calibration core for digital-twin validation",
+    after_help = "Exit codes: 0 success, 1 I/O failure, 2 usage or configuration error, 3 malformed input."
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Decode CAN logs (candump -L or Vector ASC) to CSV, through DBC files or a rig.
+    Decode(decode::DecodeArgs),
+    /// Validate a rig file and explain every problem found.
+    CheckRig(decode::CheckRigArgs),
+    /// Record CAN interfaces into a session directory, with live status.
+    Record(live::RecordArgs),
+    /// Play a log back onto CAN interfaces with its original timing.
+    Replay(live::ReplayArgs),
+    /// Put a rig's simulated sensors on CAN interfaces, or into a log.
+    Simulate(live::SimulateArgs),
+    /// Put every sensor of a session (or log) on one time base, gaps flagged.
+    Align(offline::AlignArgs),
+    /// Measured values per steady hold (or a tensile curve) from a session.
+    Extract(offline::ExtractArgs),
+    /// Work on recorded session directories.
+    #[command(subcommand)]
+    Session(live::SessionCommand),
+    /// Run a digital twin once at a case's inputs (or overrides).
+    #[command(subcommand)]
+    Twin(twin::TwinCommand),
+    /// One-at-a-time sensitivity of a twin's outputs to its uncertain inputs.
+    #[command(subcommand)]
+    Sensitivity(twin::SensitivityCommand),
+    /// Young's modulus, yield, UTS, flow curve and post-UTS slope bounds of a tensile test.
+    TensileProps(tensile::TensilePropsArgs),
+    /// Fit a twin (or your own solver) to measurements: DoE, surrogates, NSGA-II + TOPSIS, BO.
+    #[command(subcommand)]
+    Calibrate(acq_workflows::calibrate::CalibrateCommand),
+    /// Gaussian-process regression on a CSV: fit a model, predict with it.
+    #[command(subcommand)]
+    Gp(engine::GpCommand),
+    /// The whole chain on the shipped sessions: replay, record, align, extract, calibrate, report.
+    Demo(acq_demo::DemoArgs),
+    /// NSGA-II on a built-in benchmark problem (ZDT1-3, DTLZ2): the final front as CSV.
+    Moo(engine::MooArgs),
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Decode(args) => decode::run_decode(args),
+        Command::Align(args) => offline::run_align(args),
+        Command::Extract(args) => offline::run_extract(args),
+        Command::CheckRig(args) => decode::run_check_rig(args),
+        Command::Record(args) => live::run_record(args),
+        Command::Replay(args) => live::run_replay(args),
+        Command::Simulate(args) => live::run_simulate(args),
+        Command::Session(command) => live::run_session(command),
+        Command::Twin(command) => twin::run_twin(command),
+        Command::Sensitivity(command) => twin::run_sensitivity(command),
+        Command::TensileProps(args) => tensile::run_tensile_props(args),
+        Command::Calibrate(command) => acq_workflows::calibrate::run(command),
+        Command::Gp(command) => engine::run_gp(command),
+        Command::Moo(args) => engine::run_moo(args),
+        Command::Demo(args) => acq_demo::run(args),
+    }
+}

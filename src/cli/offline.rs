@@ -1,0 +1,318 @@
+//! Arguments and runners of the offline commands: `acq align`, `acq extract`.
+
+use std::path::PathBuf;
+
+use acq_analysis::align::run::{align_recording, AlignOptions, GapTolerance, TimePoint};
+use acq_analysis::recording::Recording;
+use acq_drivers::rig::Interpolation;
+use acq_io::error::{AcqError, Result};
+use acq_io::output::Output;
+use clap::{Args, ValueEnum};
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum MethodArg {
+    Linear,
+    Hold,
+    Nearest,
+}
+
+impl From<MethodArg> for Interpolation {
+    fn from(method: MethodArg) -> Self {
+        match method {
+            MethodArg::Linear => Interpolation::Linear,
+            MethodArg::Hold => Interpolation::Hold,
+            MethodArg::Nearest => Interpolation::Nearest,
+        }
+    }
+}
+
+/// `BUS=MS`.
+fn parse_clock_offset(text: &str) -> std::result::Result<(String, f64), String> {
+    let (bus, ms) = text
+        .split_once('=')
+        .ok_or_else(|| format!("'{text}': give BUS=MS, e.g. daq=12.5"))?;
+    let ms: f64 = ms
+        .trim_end_matches("ms")
+        .parse()
+        .map_err(|_| format!("'{text}': the offset after '=' is a number of milliseconds"))?;
+    if !ms.is_finite() {
+        return Err(format!("'{text}': the offset must be finite"));
+    }
+    Ok((bus.to_string(), ms))
+}
+
+#[derive(Args, Debug)]
+pub struct AlignArgs {
+    /// A session directory (acq record) or a log file (candump -L, ASC).
+    #[arg(value_name = "SESSION_DIR|LOG")]
+    pub input: PathBuf,
+    /// Rig file [default: the session's own copy of its rig].
+    #[arg(long, value_name = "RIG.toml")]
+    pub rig: Option<PathBuf>,
+    /// Rows per second of the common time base.
+    #[arg(long, default_value_t = 100.0)]
+    pub rate: f64,
+    /// Interpolation for every sensor [default: each sensor's own from the
+    /// rig: linear for continuous values, hold for states].
+    #[arg(long, value_enum)]
+    pub method: Option<MethodArg>,
+    /// Silence that counts as a gap: `3x` sample periods, or `50ms`, `0.2s`.
+    #[arg(long, default_value = "3x", value_parser = GapTolerance::parse)]
+    pub max_gap: GapTolerance,
+    /// First row: seconds from the session start, or a UTC time.
+    #[arg(long, value_parser = TimePoint::parse)]
+    pub from: Option<TimePoint>,
+    /// Last row: seconds from the session start, or a UTC time.
+    #[arg(long, value_parser = TimePoint::parse)]
+    pub to: Option<TimePoint>,
+    /// Zero-phase Gaussian low-pass with this -3 dB cut-off, Hz (a step then
+    /// rises 10-90 % in 0.34 / cutoff seconds, without overshoot).
+    #[arg(long, value_name = "HZ")]
+    pub filter: Option<f64>,
+    /// A bus's clock minus the reference clock (overrides the rig): BUS=MS.
+    #[arg(long = "clock-offset", value_name = "BUS=MS", value_parser = parse_clock_offset)]
+    pub clock_offsets: Vec<(String, f64)>,
+    /// Output CSV; `-` writes to stdout.
+    #[arg(short = 'o', long = "output", value_name = "aligned.csv")]
+    pub output: PathBuf,
+}
+
+pub fn run_align(args: AlignArgs) -> Result<()> {
+    let recording = Recording::open(&args.input, args.rig.as_deref())?;
+    for warning in &recording.rig.warnings {
+        eprintln!("acq: warning: {warning}");
+    }
+    let options = AlignOptions {
+        rate_hz: args.rate,
+        method: args.method.map(Into::into),
+        max_gap: args.max_gap,
+        from: args.from,
+        to: args.to,
+        filter_hz: args.filter,
+        clock_offsets_ms: args.clock_offsets,
+    };
+    if let Some(cutoff) = options.filter_hz {
+        if !(cutoff > 0.0 && cutoff < options.rate_hz / 2.0) {
+            return Err(AcqError::Config(format!(
+                "--filter {cutoff}: the cut-off must be above 0 and below half of --rate ({} Hz)",
+                options.rate_hz / 2.0
+            )));
+        }
+    }
+    let output = Output::create_complete_only(&args.output)?;
+    let summary = align_recording(&recording, &options, output)?;
+    eprintln!("acq: aligned {}: {summary}", recording.label);
+    Ok(())
+}
+
+fn parse_duration_ns(text: &str) -> std::result::Result<i64, String> {
+    let seconds = acq_analysis::align::run::parse_duration_s(text)?;
+    if seconds >= 0.0 && seconds.is_finite() {
+        Ok((seconds * 1e9).round() as i64)
+    } else {
+        Err(format!("'{text}': a duration is positive"))
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct ExtractArgs {
+    /// A session directory (acq record) or a log file.
+    #[arg(value_name = "SESSION_DIR|LOG")]
+    pub input: PathBuf,
+    /// Rig file [default: the session's own copy of its rig].
+    #[arg(long, value_name = "RIG.toml")]
+    pub rig: Option<PathBuf>,
+    /// A tensile test: write the force-displacement curve instead of holds.
+    #[arg(long)]
+    pub tensile: bool,
+    /// Windows to summarise: `auto` (the steady holds of the load) or a CSV
+    /// file with `name,start_s,end_s` (seconds from the session start).
+    #[arg(
+        long,
+        default_value = "auto",
+        value_name = "auto|FILE",
+        conflicts_with = "tensile"
+    )]
+    pub windows: String,
+    /// The load sensor [default: the rig's only force sensor].
+    #[arg(long, value_name = "SENSOR")]
+    pub load: Option<String>,
+    /// Steady: the load's std over the rolling window is at most this, in
+    /// the load's unit [default: 1 % of the load's range].
+    #[arg(long, value_name = "VALUE")]
+    pub steady_std: Option<f64>,
+    /// Rolling window of the steadiness test.
+    #[arg(long, default_value = "1s", value_parser = parse_duration_ns)]
+    pub steady_window: i64,
+    /// Shortest hold kept (after trimming).
+    #[arg(long, default_value = "3s", value_parser = parse_duration_ns)]
+    pub min_hold: i64,
+    /// Trimmed from both ends of a hold.
+    #[arg(long, default_value = "0.5s", value_parser = parse_duration_ns)]
+    pub settle: i64,
+    /// Smallest mean load of a hold, as a fraction of the load's range.
+    #[arg(long, default_value_t = 0.1)]
+    pub min_load: f64,
+    /// Tensile: the force sensor [default: the rig's only force sensor].
+    #[arg(long, value_name = "SENSOR", requires = "tensile")]
+    pub force: Option<String>,
+    /// Tensile: the extensometer [default: the rig's first displacement sensor].
+    #[arg(long, value_name = "SENSOR", requires = "tensile")]
+    pub displacement: Option<String>,
+    /// Tensile: bar diameter [default: the rig's [specimen]].
+    #[arg(long, value_name = "MM", requires = "tensile")]
+    pub diameter_mm: Option<f64>,
+    /// Tensile: length the displacement is measured over [default: the rig's [specimen]].
+    #[arg(long, value_name = "MM", requires = "tensile")]
+    pub gauge_length_mm: Option<f64>,
+    /// A bus's clock minus the reference clock (overrides the rig): BUS=MS.
+    #[arg(long = "clock-offset", value_name = "BUS=MS", value_parser = parse_clock_offset)]
+    pub clock_offsets: Vec<(String, f64)>,
+    /// Output CSV (measured values, or the curve with --tensile); `-` is stdout.
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "OUT.csv",
+        default_value = "-"
+    )]
+    pub output: PathBuf,
+}
+
+pub fn run_extract(args: ExtractArgs) -> Result<()> {
+    use acq_analysis::extract::holds::HoldOptions;
+    use acq_analysis::extract::measured::write_measured;
+    use acq_analysis::extract::run::{extract_holds, extract_tensile, WindowChoice};
+    use acq_analysis::extract::tensile::write_curve;
+
+    let recording = Recording::open(&args.input, args.rig.as_deref())?;
+    for warning in &recording.rig.warnings {
+        eprintln!("acq: warning: {warning}");
+    }
+    if args.tensile {
+        let specimen = match (recording.rig.specimen, args.diameter_mm, args.gauge_length_mm) {
+            (_, Some(d), Some(l)) => acq_drivers::rig::Specimen { diameter_mm: d, gauge_length_mm: l },
+            (Some(s), d, l) => acq_drivers::rig::Specimen {
+                diameter_mm: d.unwrap_or(s.diameter_mm),
+                gauge_length_mm: l.unwrap_or(s.gauge_length_mm),
+            },
+            (None, _, _) => {
+                return Err(AcqError::Config(format!(
+                    "the rig {} has no [specimen]; add one (diameter_mm, gauge_length_mm) or give --diameter-mm and --gauge-length-mm",
+                    recording.rig.path.display()
+                )))
+            }
+        };
+        if !(specimen.diameter_mm > 0.0 && specimen.gauge_length_mm > 0.0) {
+            return Err(AcqError::Config(
+                "--diameter-mm and --gauge-length-mm must be positive".into(),
+            ));
+        }
+        let report = extract_tensile(
+            &recording,
+            args.force.as_deref(),
+            args.displacement.as_deref(),
+            &args.clock_offsets,
+        )?;
+        write_curve(&args.output, &report.curve, &specimen)?;
+        let curve = &report.curve;
+        let max = curve.points[curve.max_index];
+        eprintln!(
+            "acq: tensile curve of {} from {} and {}: {} points; zero {:.4} kN / {:.4} mm; max {:.4} kN at {:.5} mm; {}; {}",
+            recording.label,
+            report.force_sensor,
+            report.displacement_sensor,
+            curve.points.len(),
+            curve.force_zero_kn,
+            curve.displacement_zero_mm,
+            max.force_kn,
+            max.displacement_mm,
+            match curve.fracture_displacement_mm {
+                Some(u) => format!("fracture at {u:.5} mm ({} points after it dropped)", curve.after_fracture),
+                None => "no fracture found".into(),
+            },
+            report.counts
+        );
+        for note in &curve.notes {
+            eprintln!("acq: note: {note}");
+        }
+        return Ok(());
+    }
+    if !(0.0..1.0).contains(&args.min_load) {
+        return Err(AcqError::Config(format!(
+            "--min-load is a fraction of the load's range in [0, 1), got {}",
+            args.min_load
+        )));
+    }
+    if args.steady_std.is_some_and(|s| !(s > 0.0 && s.is_finite())) {
+        return Err(AcqError::Config(
+            "--steady-std must be a positive number in the load's unit".into(),
+        ));
+    }
+    let choice = if args.windows == "auto" {
+        WindowChoice::Auto(HoldOptions {
+            window_ns: args.steady_window.max(1),
+            steady_std: args.steady_std,
+            min_hold_ns: args.min_hold,
+            settle_ns: args.settle,
+            min_load_fraction: args.min_load,
+        })
+    } else {
+        WindowChoice::File(PathBuf::from(&args.windows))
+    };
+    let report = extract_holds(
+        &recording,
+        &choice,
+        args.load.as_deref(),
+        &args.clock_offsets,
+    )?;
+    write_measured(&args.output, &report.values)?;
+    eprintln!("acq: extracted {}: {}", recording.label, report.counts);
+    if let Some(detection) = &report.detection {
+        eprintln!(
+            "acq: load {}: range {:.4}, steady below a std of {:.4}; {} hold(s)",
+            report.load_sensor,
+            detection.load_range,
+            detection.steady_std,
+            report.windows.len()
+        );
+    }
+    for window in &report.windows {
+        eprintln!(
+            "acq:   {}: {:.2} .. {:.2} s",
+            window.name,
+            (window.start_ns - report.t0_ns) as f64 / 1e9,
+            (window.end_ns - report.t0_ns) as f64 / 1e9
+        );
+    }
+    for clock in &report.clocks {
+        if clock.source != acq_analysis::align::run::ClockSource::Reference {
+            eprintln!("acq: {clock}");
+        }
+    }
+    for name in &report.never_seen {
+        eprintln!(
+            "acq: {name}: never seen in the recording; its values are empty and flagged no_samples"
+        );
+    }
+    let flagged: Vec<_> = report
+        .values
+        .iter()
+        .filter(|v| !v.flags.is_empty())
+        .collect();
+    for value in &flagged {
+        eprintln!(
+            "acq: flagged {} {}: {} ({})",
+            value.window,
+            value.quantity,
+            value.flags.join(";"),
+            value.note
+        );
+    }
+    eprintln!(
+        "acq: {} values in {} window(s), {} flagged",
+        report.values.len(),
+        report.windows.len(),
+        flagged.len()
+    );
+    Ok(())
+}

@@ -1,0 +1,501 @@
+//! The workspace's shape, checked: which crate may depend on which (the data
+//! flow runs one way), and no import cycle between the modules of any crate.
+//! ARCHITECTURE.md states the same rules in prose; this test fails when the
+//! code and that page part ways.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// Each workspace crate and the workspace crates it may depend on (normal or
+/// build dependencies; tests and benchmarks may use anything). Read it as
+/// the data flow: a crate sees only the stages before it and the leaves.
+const ALLOWED: &[(&str, &[&str])] = &[
+    // Leaves: one job each, nothing of the rest of acq.
+    ("acq-drivers", &[]),
+    ("acq-twins", &[]),
+    ("acq-calib", &[]),
+    ("acq-report", &[]),
+    // Files in and out, on top of the log and rig formats.
+    ("acq-io", &["acq-drivers"]),
+    // Live buses; knows nothing of analysis.
+    ("acq-acquire", &["acq-drivers", "acq-io"]),
+    // Offline analysis; knows nothing of live buses.
+    ("acq-analysis", &["acq-drivers", "acq-io"]),
+    // Studies: measured values in, twins and the engine run, reports out; no CAN.
+    (
+        "acq-workflows",
+        &[
+            "acq-io",
+            "acq-analysis",
+            "acq-report",
+            "acq-twins",
+            "acq-calib",
+        ],
+    ),
+    // The demo composes the whole chain.
+    (
+        "acq-demo",
+        &[
+            "acq-drivers",
+            "acq-io",
+            "acq-acquire",
+            "acq-analysis",
+            "acq-report",
+            "acq-workflows",
+        ],
+    ),
+    // The binary is glue over all of them.
+    (
+        "acq",
+        &[
+            "acq-drivers",
+            "acq-twins",
+            "acq-calib",
+            "acq-io",
+            "acq-acquire",
+            "acq-analysis",
+            "acq-report",
+            "acq-workflows",
+            "acq-demo",
+        ],
+    ),
+];
+
+fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+struct Package {
+    name: String,
+    src_dir: PathBuf,
+    /// Workspace crates it depends on, outside dev-dependencies.
+    workspace_deps: BTreeSet<String>,
+}
+
+fn workspace_packages() -> Vec<Package> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let output = Command::new(cargo)
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
+        .current_dir(workspace_root())
+        .output()
+        .expect("cargo metadata runs");
+    assert!(
+        output.status.success(),
+        "cargo metadata failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let metadata: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let packages = metadata["packages"].as_array().unwrap();
+    let names: BTreeSet<String> = packages
+        .iter()
+        .map(|p| p["name"].as_str().unwrap().to_string())
+        .collect();
+    packages
+        .iter()
+        .map(|p| {
+            let manifest = PathBuf::from(p["manifest_path"].as_str().unwrap());
+            let workspace_deps = p["dependencies"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .filter(|d| d["kind"].as_str() != Some("dev"))
+                .map(|d| d["name"].as_str().unwrap().to_string())
+                .filter(|name| names.contains(name))
+                .collect();
+            Package {
+                name: p["name"].as_str().unwrap().to_string(),
+                src_dir: manifest.parent().unwrap().join("src"),
+                workspace_deps,
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn every_crate_depends_only_on_the_stages_before_it() {
+    let allowed: BTreeMap<&str, &[&str]> = ALLOWED.iter().copied().collect();
+    let packages = workspace_packages();
+    let mut problems = Vec::new();
+    for package in &packages {
+        let Some(may_use) = allowed.get(package.name.as_str()) else {
+            problems.push(format!(
+                "{} is not in tests/architecture.rs ALLOWED: add it with the crates it may use, and a row in ARCHITECTURE.md",
+                package.name
+            ));
+            continue;
+        };
+        for dep in &package.workspace_deps {
+            if !may_use.contains(&dep.as_str()) {
+                problems.push(format!(
+                    "{} depends on {dep}, against the data flow (ARCHITECTURE.md, Invariants)",
+                    package.name
+                ));
+            }
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    // The table names no crate that is gone.
+    let names: BTreeSet<&str> = packages.iter().map(|p| p.name.as_str()).collect();
+    for (name, _) in ALLOWED {
+        assert!(
+            names.contains(name),
+            "ALLOWED names {name}, not in the workspace"
+        );
+    }
+}
+
+#[test]
+fn no_crate_has_an_import_cycle_between_its_modules() {
+    let mut problems = Vec::new();
+    for package in workspace_packages() {
+        let graph = ModuleGraph::read(&package.src_dir);
+        assert!(
+            graph.modules.len() > 1 || package.name == "acq-report",
+            "{}: found no modules in {}",
+            package.name,
+            package.src_dir.display()
+        );
+        for cycle in graph.cycles() {
+            problems.push(format!("{}: {}", package.name, cycle.join(" -> ")));
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "import cycles (move the shared types into a module both sides use):\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn the_cycle_check_sees_a_cycle() {
+    // The check itself: a parent that uses its child, which uses the parent.
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path();
+    std::fs::create_dir_all(src.join("log")).unwrap();
+    std::fs::write(src.join("lib.rs"), "pub mod log;\n").unwrap();
+    std::fs::write(
+        src.join("log/mod.rs"),
+        "pub mod asc;\nuse asc::AscReader;\npub struct Record;\n",
+    )
+    .unwrap();
+    std::fs::write(
+        src.join("log/asc.rs"),
+        "use super::Record;\npub struct AscReader;\n",
+    )
+    .unwrap();
+    let cycle = ModuleGraph::read(src).find_cycle().expect("a cycle");
+    assert!(cycle.contains(&"log".to_string()) && cycle.contains(&"log::asc".to_string()));
+    // Moving the shared type into a sibling breaks it.
+    std::fs::write(
+        src.join("log/mod.rs"),
+        "pub mod asc;\npub mod record;\nuse asc::AscReader;\n",
+    )
+    .unwrap();
+    std::fs::write(src.join("log/record.rs"), "pub struct Record;\n").unwrap();
+    std::fs::write(
+        src.join("log/asc.rs"),
+        "use super::record::Record;\npub struct AscReader;\n",
+    )
+    .unwrap();
+    assert_eq!(ModuleGraph::read(src).find_cycle(), None);
+    // Siblings through a crate path, two levels down, are seen too.
+    std::fs::write(src.join("lib.rs"), "pub mod log;\npub mod cli;\n").unwrap();
+    std::fs::write(src.join("cli.rs"), "use crate::{log::asc, self as me};\n").unwrap();
+    std::fs::write(
+        src.join("log/record.rs"),
+        "pub struct Record(crate::cli::X);\n",
+    )
+    .unwrap();
+    let cycle = ModuleGraph::read(src).find_cycle().expect("a cycle");
+    assert!(cycle.contains(&"cli".to_string()), "{cycle:?}");
+}
+
+/// The modules of one crate (by file: `a.rs` or `a/mod.rs` is `a`) and
+/// which uses which. An edge between two modules in different subtrees is
+/// also counted between the subtrees' roots under their common parent, so a
+/// cycle through several files shows at the level where it closes. The crate
+/// root is left out (see [`ModuleGraph::add_edge`]).
+struct ModuleGraph {
+    modules: BTreeSet<String>,
+    edges: BTreeMap<String, BTreeSet<String>>,
+}
+
+impl ModuleGraph {
+    fn read(src_dir: &Path) -> Self {
+        let mut files = Vec::new();
+        collect_rs_files(src_dir, &mut files);
+        let mut modules = BTreeSet::new();
+        let mut sources = Vec::new();
+        for file in files {
+            let relative = file.strip_prefix(src_dir).unwrap();
+            let module = module_of(relative);
+            modules.insert(module.clone());
+            sources.push((module, std::fs::read_to_string(&file).unwrap()));
+        }
+        let mut graph = ModuleGraph {
+            modules,
+            edges: BTreeMap::new(),
+        };
+        for (module, text) in &sources {
+            // Unit tests (at the end of a file) may use anything of their module.
+            let code = text.split("#[cfg(test)]").next().unwrap();
+            for target in graph.references(module, code) {
+                graph.add_edge(module, &target);
+            }
+        }
+        graph
+    }
+
+    /// The modules `code`, written in `module`, names: through `crate::`,
+    /// `super::`, `self::` or a child module's name.
+    fn references(&self, module: &str, code: &str) -> BTreeSet<String> {
+        let code = strip_comments(code);
+        let mut found = BTreeSet::new();
+        for (start, _) in code.match_indices("::") {
+            // The whole path this `::` belongs to, from its first segment.
+            let before = &code[..start];
+            let head_start = before
+                .rfind(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
+                .map_or(0, |i| i + 1);
+            if code[head_start..].starts_with("::") || start != path_first_sep(&code, head_start) {
+                continue;
+            }
+            let path_text = &code[head_start..];
+            for path in expand_path(path_text) {
+                if let Some(target) = self.resolve(module, &path) {
+                    found.insert(target);
+                }
+            }
+        }
+        found
+    }
+
+    /// The module a path names, relative to `module`, or `None` for a path
+    /// outside the crate.
+    fn resolve(&self, module: &str, path: &[String]) -> Option<String> {
+        let mut base: Vec<String> = split_module(module);
+        let mut segments = path.iter().peekable();
+        match segments.peek().map(|s| s.as_str()) {
+            Some("crate") => {
+                base.clear();
+                segments.next();
+            }
+            Some("super") => {
+                while segments.peek().map(|s| s.as_str()) == Some("super") {
+                    base.pop();
+                    segments.next();
+                }
+            }
+            Some("self") => {
+                segments.next();
+            }
+            Some(first) => {
+                let mut child = base.clone();
+                child.push(first.to_string());
+                if !self.modules.contains(&child.join("::")) {
+                    return None;
+                }
+            }
+            None => return None,
+        }
+        let mut resolved = base.join("::");
+        for segment in segments {
+            let mut next = split_module(&resolved);
+            next.push(segment.clone());
+            let candidate = next.join("::");
+            if self.modules.contains(&candidate) {
+                resolved = candidate;
+            } else {
+                break;
+            }
+        }
+        Some(resolved)
+    }
+
+    /// The crate root (`lib.rs`, `main.rs`) is the table of contents: it
+    /// declares and re-exports every module, so edges to or from it say
+    /// nothing about layering and are left out.
+    fn add_edge(&mut self, from: &str, to: &str) {
+        if from.is_empty() || to.is_empty() {
+            return;
+        }
+        let from_path = split_module(from);
+        let to_path = split_module(to);
+        let common = from_path
+            .iter()
+            .zip(&to_path)
+            .take_while(|(a, b)| a == b)
+            .count();
+        let from_top = from_path[..(common + 1).min(from_path.len())].join("::");
+        let to_top = to_path[..(common + 1).min(to_path.len())].join("::");
+        for (a, b) in [(from.to_string(), to.to_string()), (from_top, to_top)] {
+            if a != b {
+                self.edges.entry(a).or_default().insert(b);
+            }
+        }
+    }
+
+    /// One cycle, as the modules around it, if there is any.
+    fn find_cycle(&self) -> Option<Vec<String>> {
+        self.cycles().into_iter().next()
+    }
+
+    /// A cycle through each group of modules that reach each other.
+    fn cycles(&self) -> Vec<Vec<String>> {
+        let mut cycles = Vec::new();
+        let mut seen = BTreeSet::new();
+        for start in self.edges.keys() {
+            if seen.contains(start) {
+                continue;
+            }
+            // The shortest way back to `start` (breadth first), if any.
+            let mut previous: BTreeMap<&str, &str> = BTreeMap::new();
+            let mut queue = std::collections::VecDeque::from([start.as_str()]);
+            let mut closing = None;
+            while let Some(node) = queue.pop_front() {
+                for next in self.edges.get(node).into_iter().flatten() {
+                    if next == start {
+                        closing = Some(node);
+                        break;
+                    }
+                    if !previous.contains_key(next.as_str()) {
+                        previous.insert(next, node);
+                        queue.push_back(next);
+                    }
+                }
+                if closing.is_some() {
+                    break;
+                }
+            }
+            if let Some(closing) = closing {
+                let mut way_back = Vec::new();
+                let mut node = closing;
+                while node != start {
+                    way_back.push(node.to_string());
+                    node = previous[node];
+                }
+                way_back.reverse();
+                let mut cycle = vec![start.clone()];
+                cycle.extend(way_back);
+                cycle.push(start.clone());
+                seen.extend(cycle.iter().cloned());
+                cycles.push(cycle);
+            }
+        }
+        cycles
+    }
+}
+
+fn split_module(module: &str) -> Vec<String> {
+    if module.is_empty() {
+        Vec::new()
+    } else {
+        module.split("::").map(str::to_string).collect()
+    }
+}
+
+/// Where the first `::` of the path starting at `start` is.
+fn path_first_sep(code: &str, start: usize) -> usize {
+    code[start..].find("::").map_or(usize::MAX, |i| start + i)
+}
+
+/// `a::b::{c, d::e}` -> [a, b, c], [a, b, d, e]: the paths one `use` or
+/// expression names (only the first level of braces, which is all this
+/// code base writes).
+fn expand_path(text: &str) -> Vec<Vec<String>> {
+    let mut prefix = Vec::new();
+    let mut rest = text;
+    loop {
+        let end = rest
+            .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .unwrap_or(rest.len());
+        let segment = &rest[..end];
+        if segment.is_empty() {
+            break;
+        }
+        prefix.push(segment.to_string());
+        rest = &rest[end..];
+        if let Some(after) = rest.strip_prefix("::") {
+            rest = after;
+            if let Some(group) = rest.strip_prefix('{') {
+                let close = group.find('}').unwrap_or(group.len());
+                return group[..close]
+                    .split(',')
+                    .map(str::trim)
+                    .filter(|item| !item.is_empty())
+                    .map(|item| {
+                        let mut path = prefix.clone();
+                        path.extend(
+                            item.split("::")
+                                .map(|s| s.split_whitespace().next().unwrap_or("").to_string())
+                                .filter(|s| !s.is_empty() && s != "self" && s != "*"),
+                        );
+                        path
+                    })
+                    .collect();
+            }
+        } else {
+            break;
+        }
+    }
+    vec![prefix]
+}
+
+/// The code without comments and without re-exports: `pub use child::X`
+/// in a parent names the child's item for the parent's users, it is no use
+/// of the child by the parent.
+fn strip_comments(code: &str) -> String {
+    let mut in_reexport = false;
+    code.lines()
+        .map(|line| {
+            let trimmed = line.trim_start();
+            if trimmed.starts_with("pub use ") || trimmed.starts_with("pub(crate) use ") {
+                in_reexport = true;
+            }
+            if in_reexport {
+                in_reexport = !line.trim_end().ends_with(';');
+                return "";
+            }
+            match line.find("//") {
+                Some(i) => &line[..i],
+                None => line,
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+fn module_of(relative: &Path) -> String {
+    let mut parts: Vec<String> = relative
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    let file = parts.pop().unwrap();
+    let stem = file.trim_end_matches(".rs");
+    if !matches!(stem, "mod" | "lib" | "main") {
+        parts.push(stem.to_string());
+    }
+    parts.join("::")
+}
+
+fn collect_rs_files(dir: &Path, files: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            collect_rs_files(&path, files);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            files.push(path);
+        }
+    }
+    files.sort();
+}

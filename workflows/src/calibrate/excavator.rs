@@ -1,0 +1,654 @@
+//! `acq calibrate excavator`: the published workflow for the excavator twin.
+//!
+//! 1. The twin at the case's nominal inputs (the initial errors), 40 maximin
+//!    Latin-hypercube training runs and 40 random test runs over the case's
+//!    bounds, all logged in `evaluations.csv`.
+//! 2. One GP per cylinder pressure (squared-exponential, one length scale per
+//!    input), and for comparison polynomials of degree 1-3 and a radial
+//!    basis function interpolant; each scored by its RMSE on the test runs.
+//! 3. NSGA-II on the GP means over the three relative errors
+//!    `|measured - model| / |measured|` (population 400, 100 generations,
+//!    Pareto fraction 0.5).
+//! 4. TOPSIS (equal weights by default, every error a cost) picks one point
+//!    of the front; the twin is re-run there and the real errors reported.
+
+use std::path::{Path, PathBuf};
+
+use acq_analysis::extract::measured::read_measured;
+use acq_calib::doe::{latin_hypercube, random_uniform};
+use acq_calib::evaluation::{Parameter, Simulator};
+use acq_calib::gp::{Gp, GpSettings, Kernel};
+use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_calib::sobol_indices::sobol_indices;
+use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
+use acq_calib::topsis::{topsis, Criterion};
+use acq_io::error::{AcqError, Result};
+use acq_report::document::{Document, Figure, Table};
+use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
+use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
+use acq_twins::excavator::geometry::Geometry;
+use acq_twins::excavator::{CylinderName, Excavator, Inputs};
+use clap::Args;
+use serde_json::json;
+
+use super::progress::Progress;
+use super::report::{pareto_svg, write_report, write_text};
+use super::run_directory::{default_parallelism, evaluation_error, RunDirectory};
+use super::search::from_unit;
+
+#[derive(Args, Debug)]
+pub struct CalibrateExcavatorArgs {
+    /// Case file (TOML) with bounds and measured pressures.
+    #[arg(long, value_name = "FILE")]
+    pub case: PathBuf,
+    /// Measured values from `acq extract`: the loaded-chamber pressures
+    /// (`<cylinder>_loaded_pressure`) replace the case's [measured], and the
+    /// load (`--load-quantity`) replaces its force.
+    #[arg(long, value_name = "measured.csv")]
+    pub measured: Option<PathBuf>,
+    /// The hold to use from the measured file [default: its only one].
+    #[arg(long, value_name = "NAME", requires = "measured")]
+    pub window: Option<String>,
+    /// The measured quantity that is the force at the bucket tip (kN).
+    #[arg(long, value_name = "QUANTITY", default_value = "tip_force")]
+    pub load_quantity: String,
+    /// Geometry file [default: the built-in DX55-class data/excavator/dx55.toml].
+    #[arg(long, value_name = "FILE")]
+    pub geometry: Option<PathBuf>,
+    /// Run directory: evaluations.csv, summary.json, report.md, plots.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Latin-hypercube training runs of the twin.
+    #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(5..=100_000))]
+    pub training: u32,
+    /// Random test runs for the surrogate comparison.
+    #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub test_runs: u32,
+    /// NSGA-II population.
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(4..=1_000_000))]
+    pub population: u32,
+    /// NSGA-II generations.
+    #[arg(long, default_value_t = 100)]
+    pub generations: u32,
+    /// Largest share of the population on the first front.
+    #[arg(long, default_value_t = 0.5)]
+    pub pareto_fraction: f64,
+    /// TOPSIS weights of the bucket, arm and boom errors.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [1.0, 1.0, 1.0])]
+    pub weights: Vec<f64>,
+    /// GP kernel: se, matern12, matern32, matern52.
+    #[arg(long, default_value = "se")]
+    pub kernel: Kernel,
+    /// Seed of the designs, the GP fits and NSGA-II.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Continue the run in DIR: evaluations already in its log are not repeated.
+    #[arg(long)]
+    pub resume: bool,
+    /// Twin evaluations at once [default: the number of cores].
+    #[arg(long)]
+    pub parallel: Option<usize>,
+}
+
+/// The twin as the engine sees it: four uncertain inputs in, the three
+/// loaded-chamber pressures (bar) out.
+pub struct ExcavatorSimulator {
+    twin: Excavator,
+    nominal: Inputs,
+    parameters: Vec<Parameter>,
+    outputs: Vec<String>,
+}
+
+impl ExcavatorSimulator {
+    pub fn new(case: &CaseFile, twin: Excavator) -> Self {
+        ExcavatorSimulator {
+            twin,
+            nominal: case.nominal(),
+            parameters: UncertainInput::ALL
+                .iter()
+                .map(|&input| {
+                    let [lower, upper] = case.bounds.get(input);
+                    Parameter::new(input.name(), lower, upper)
+                })
+                .collect(),
+            outputs: CylinderName::ALL
+                .iter()
+                .map(|name| format!("{name}_pressure_bar"))
+                .collect(),
+        }
+    }
+}
+
+impl Simulator for ExcavatorSimulator {
+    fn parameters(&self) -> &[Parameter] {
+        &self.parameters
+    }
+    fn outputs(&self) -> &[String] {
+        &self.outputs
+    }
+    fn evaluate(&self, values: &[f64]) -> std::result::Result<Vec<f64>, String> {
+        let mut inputs = self.nominal;
+        for (input, &value) in UncertainInput::ALL.iter().zip(values) {
+            input.apply(&mut inputs, value);
+        }
+        let evaluation = self.twin.evaluate(&inputs).map_err(|e| e.to_string())?;
+        Ok(CylinderName::ALL
+            .iter()
+            .map(|&name| evaluation.cylinder(name).loaded_chamber_pressure_bar)
+            .collect())
+    }
+}
+
+/// `|measured - model| / |measured|` in %, per cylinder.
+fn relative_errors_pct(measured: &MeasuredPressures, model_bar: &[f64]) -> Vec<f64> {
+    CylinderName::ALL
+        .iter()
+        .zip(model_bar)
+        .map(|(&name, &model)| {
+            let m = measured.get(name);
+            100.0 * (m - model).abs() / m.abs()
+        })
+        .collect()
+}
+
+fn per_cylinder(values: &[f64]) -> serde_json::Value {
+    json!({"bucket": values[0], "arm": values[1], "boom": values[2]})
+}
+
+/// What the calibration found, besides the files it wrote.
+#[derive(Clone, Debug)]
+pub struct ExcavatorCalibration {
+    pub case: String,
+    /// The tip force the twin was loaded with, and where it came from.
+    pub force_kn: f64,
+    pub force_source: String,
+    /// Per cylinder (bucket, arm, boom), bar and %.
+    pub measured_bar: Vec<f64>,
+    pub nominal_bar: Vec<f64>,
+    pub calibrated_bar: Vec<f64>,
+    pub errors_initial_pct: Vec<f64>,
+    pub errors_optimal_pct: Vec<f64>,
+    /// The calibrated inputs, named with their units.
+    pub optimal: Vec<(String, f64)>,
+    pub evaluations: usize,
+    pub wall_s: f64,
+    /// The report (also written as report.md and report.html).
+    pub report: Document,
+}
+
+/// The measured pressures and load of one hold of a measured-values file.
+struct MeasuredHold {
+    window: String,
+    pressures: MeasuredPressures,
+    force_kn: Option<f64>,
+}
+
+fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Result<MeasuredHold> {
+    let values = read_measured(path)?;
+    let mut windows: Vec<&str> = values.iter().map(|v| v.window.as_str()).collect();
+    windows.dedup();
+    let window = match window {
+        Some(w) if windows.contains(&w) => w.to_string(),
+        Some(w) => {
+            return Err(AcqError::Config(format!(
+                "{}: no window '{w}'; it has {}",
+                path.display(),
+                windows.join(", ")
+            )))
+        }
+        None if windows.len() == 1 => windows[0].to_string(),
+        None => {
+            return Err(AcqError::Config(format!(
+                "{}: {} windows ({}); choose one with --window",
+                path.display(),
+                windows.len(),
+                windows.join(", ")
+            )))
+        }
+    };
+    let mean = |quantity: &str, unit: &str| -> Result<Option<f64>> {
+        let Some(value) = values
+            .iter()
+            .find(|v| v.window == window && v.quantity == quantity)
+        else {
+            return Ok(None);
+        };
+        if value.unit != unit {
+            return Err(AcqError::Config(format!(
+                "{}: {quantity} is in {}, expected {unit}",
+                path.display(),
+                value.unit
+            )));
+        }
+        if !value.is_usable() {
+            return Err(AcqError::Config(format!(
+                "{}: {quantity} in {window} is not fit to calibrate against (flags '{}': {}); \
+                 fix the channel or give the value in the case file instead",
+                path.display(),
+                value.flags.join(";"),
+                value.note
+            )));
+        }
+        Ok(value.stats.mean)
+    };
+    let pressure = |cylinder: CylinderName| -> Result<f64> {
+        let quantity = format!("{cylinder}_loaded_pressure");
+        mean(&quantity, "bar")?.ok_or_else(|| {
+            AcqError::Config(format!(
+                "{}: no {quantity} in {window}; the rig needs a [[cylinder]] named {cylinder} \
+                 with its head and rod pressure sensors",
+                path.display()
+            ))
+        })
+    };
+    Ok(MeasuredHold {
+        pressures: MeasuredPressures {
+            bucket_bar: pressure(CylinderName::Bucket)?,
+            arm_bar: pressure(CylinderName::Arm)?,
+            boom_bar: pressure(CylinderName::Boom)?,
+        },
+        force_kn: mean(load_quantity, "kN")?,
+        window,
+    })
+}
+
+pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
+    let mut case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
+    let mut force_source = format!("case file {}", args.case.display());
+    let mut measured_source = force_source.clone();
+    if let Some(path) = &args.measured {
+        let hold = measured_hold(path, args.window.as_deref(), &args.load_quantity)?;
+        measured_source = format!("{} ({})", path.display(), hold.window);
+        case.measured = Some(hold.pressures);
+        match hold.force_kn {
+            Some(force) if force > 0.0 => {
+                case.force_kn = force;
+                force_source = format!("{} mean in {measured_source}", args.load_quantity);
+            }
+            _ => eprintln!(
+                "acq: {} has no usable positive {}; the case's force {} kN is used",
+                path.display(),
+                args.load_quantity,
+                case.force_kn
+            ),
+        }
+    }
+    let measured = case.measured.ok_or_else(|| {
+        AcqError::Config(format!(
+            "{}: the case has no [measured] pressures (bucket_bar, arm_bar, boom_bar) to calibrate against",
+            args.case.display()
+        ))
+    })?;
+    if args.weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
+        || args.weights.iter().sum::<f64>() <= 0.0
+    {
+        return Err(AcqError::Config(
+            "--weights: three non-negative numbers, not all zero".into(),
+        ));
+    }
+    if !(args.pareto_fraction > 0.0 && args.pareto_fraction <= 1.0) {
+        return Err(AcqError::Config(
+            "--pareto-fraction must lie in (0, 1]".into(),
+        ));
+    }
+    let geometry = match &args.geometry {
+        Some(path) => Geometry::load(path).map_err(AcqError::Config)?,
+        None => Geometry::dx55(),
+    };
+    let twin = Excavator::new(geometry).map_err(|e| AcqError::Config(e.to_string()))?;
+    let simulator = ExcavatorSimulator::new(&case, twin);
+    let parameters = simulator.parameters().to_vec();
+    let bounds: Vec<(f64, f64)> = parameters.iter().map(|p| (p.lower, p.upper)).collect();
+    let dimensions = parameters.len();
+    let directory = RunDirectory::create(&args.out)?;
+    let start = std::time::Instant::now();
+
+    // 1. The twin: nominal, training and test runs.
+    let nominal: Vec<f64> = parameters.iter().map(Parameter::midpoint).collect();
+    let training_points: Vec<Vec<f64>> =
+        latin_hypercube(args.training as usize, dimensions, args.seed)
+            .iter()
+            .map(|u| from_unit(&parameters, u))
+            .collect();
+    let test_points: Vec<Vec<f64>> = random_uniform(
+        args.test_runs as usize,
+        dimensions,
+        args.seed.wrapping_add(1),
+    )
+    .iter()
+    .map(|u| from_unit(&parameters, u))
+    .collect();
+    let total = 1 + training_points.len() + test_points.len() + 1;
+    let progress = Progress::new(format!("calibrate {}", case.name), total);
+    let mut evaluator = directory
+        .evaluator(
+            &simulator,
+            args.parallel.unwrap_or_else(default_parallelism),
+            args.resume,
+        )?
+        .with_progress(|e| {
+            let loss = e.outcome.as_ref().ok().map(|p| {
+                relative_errors_pct(&measured, p)
+                    .into_iter()
+                    .fold(0.0, f64::max)
+            });
+            progress.record(loss, e.outcome.is_err(), e.from_log);
+        });
+    let mut batch = vec![nominal.clone()];
+    batch.extend(training_points.iter().cloned());
+    batch.extend(test_points.iter().cloned());
+    let results = evaluator.evaluate(&batch).map_err(evaluation_error)?;
+    let nominal_bar = results[0].outcome.clone().map_err(|reason| {
+        AcqError::Config(format!(
+            "{}: the twin fails at the nominal inputs: {reason}",
+            case.name
+        ))
+    })?;
+    let successful = |range: std::ops::Range<usize>| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+        results[range]
+            .iter()
+            .filter_map(|e| {
+                e.outcome
+                    .as_ref()
+                    .ok()
+                    .map(|y| (e.parameters.clone(), y.clone()))
+            })
+            .unzip()
+    };
+    let (train_x, train_y) = successful(1..1 + training_points.len());
+    let (test_x, test_y) = successful(1 + training_points.len()..results.len());
+    let failed_runs = results.iter().filter(|e| e.outcome.is_err()).count();
+    if train_x.len() < dimensions + 2 {
+        return Err(AcqError::Config(format!(
+            "only {} of {} training runs of the twin succeeded; check the case's bounds",
+            train_x.len(),
+            training_points.len()
+        )));
+    }
+
+    // 2. Surrogates per output, scored on the test runs.
+    let gp_settings = GpSettings {
+        kernel: args.kernel,
+        ard: true,
+        restarts: 5,
+        seed: args.seed,
+        input_bounds: Some(bounds.clone()),
+        ..GpSettings::default()
+    };
+    let column = |rows: &[Vec<f64>], k: usize| -> Vec<f64> { rows.iter().map(|r| r[k]).collect() };
+    let mut gps = Vec::new();
+    let mut rmse_table: Vec<(String, Vec<f64>)> = Vec::new();
+    let surrogate_names = ["gp", "poly1", "poly2", "poly3", "rbf"];
+    let mut rows: Vec<Vec<f64>> = vec![Vec::new(); surrogate_names.len()];
+    for k in 0..CylinderName::ALL.len() {
+        let y = column(&train_y, k);
+        let truth = column(&test_y, k);
+        let gp = Gp::fit(&train_x, &y, &gp_settings)
+            .map_err(|e| AcqError::Config(format!("GP of output {k}: {e}")))?;
+        let mut candidates: Vec<Option<Box<dyn Surrogate>>> = vec![Some(Box::new(gp.clone()))];
+        for degree in 1..=3 {
+            candidates.push(
+                Polynomial::fit(&train_x, &y, degree, Some(&bounds))
+                    .ok()
+                    .map(|p| Box::new(p) as Box<dyn Surrogate>),
+            );
+        }
+        candidates.push(
+            RadialBasis::fit(&train_x, &y, Some(&bounds))
+                .ok()
+                .map(|r| Box::new(r) as Box<dyn Surrogate>),
+        );
+        for (row, candidate) in rows.iter_mut().zip(&candidates) {
+            row.push(match candidate {
+                Some(s) if !test_x.is_empty() => rmse(s.as_ref(), &test_x, &truth),
+                _ => f64::NAN,
+            });
+        }
+        gps.push(gp);
+    }
+    for (name, row) in surrogate_names.iter().zip(rows) {
+        rmse_table.push((name.to_string(), row));
+    }
+
+    // 3. NSGA-II on the GP means.
+    let nsga_settings = Nsga2Settings {
+        population: args.population as usize,
+        generations: args.generations as usize,
+        pareto_fraction: args.pareto_fraction,
+        seed: args.seed,
+        ..Nsga2Settings::default()
+    };
+    let predicted = |x: &[f64]| -> Vec<f64> { gps.iter().map(|gp| gp.predict(x).mean).collect() };
+    let moo = nsga2(
+        |x| relative_errors_pct(&measured, &predicted(x)),
+        &bounds,
+        &nsga_settings,
+    )
+    .map_err(|e| AcqError::Config(e.to_string()))?;
+    if moo.front.is_empty() {
+        return Err(AcqError::Config(
+            "NSGA-II found no finite Pareto point".into(),
+        ));
+    }
+
+    // 4. TOPSIS, and the pick re-run on the twin.
+    let matrix: Vec<Vec<f64>> = moo.front.iter().map(|i| i.objectives.clone()).collect();
+    let pick = topsis(&matrix, &args.weights, &[Criterion::Cost; 3])
+        .map_err(|e| AcqError::Config(e.to_string()))?;
+    let optimal = moo.front[pick.best].x.clone();
+    let rerun = evaluator
+        .evaluate(std::slice::from_ref(&optimal))
+        .map_err(evaluation_error)?;
+    progress.finish();
+    let optimal_bar = rerun[0].outcome.clone().map_err(|reason| {
+        AcqError::Config(format!("the twin fails at the calibrated inputs: {reason}"))
+    })?;
+    let errors_initial = relative_errors_pct(&measured, &nominal_bar);
+    let errors_optimal = relative_errors_pct(&measured, &optimal_bar);
+    let evaluations = evaluator.evaluations().len();
+
+    // The fixed summary.
+    let mut rmse_json = serde_json::Map::new();
+    for (name, row) in &rmse_table {
+        rmse_json.insert(name.clone(), per_cylinder(row));
+    }
+    let summary = json!({
+        "errors_initial_pct": per_cylinder(&errors_initial),
+        "errors_optimal_pct": per_cylinder(&errors_optimal),
+        "optimal": {
+            "bucket_stroke_mm": optimal[0],
+            "arm_stroke_mm": optimal[1],
+            "boom_stroke_mm": optimal[2],
+            "force_angle_deg": optimal[3],
+        },
+        "surrogate_rmse_bar": rmse_json,
+        "evaluations": evaluations,
+    });
+    write_text(&directory.file("summary.json"), &format!("{summary:#}\n"))?;
+
+    // Plots: the Pareto front with the pick, and the error of every run.
+    let names = ["bucket error %", "arm error %", "boom error %"];
+    let pareto = pareto_svg(
+        &format!(
+            "{}: Pareto front of the GP errors (NSGA-II), TOPSIS pick",
+            case.name
+        ),
+        &names,
+        &matrix,
+        pick.best,
+    );
+    let worst_error: Vec<(f64, f64)> = evaluator
+        .evaluations()
+        .iter()
+        .filter_map(|e| {
+            let y = e.outcome.as_ref().ok()?;
+            Some((
+                e.id as f64,
+                relative_errors_pct(&measured, y)
+                    .into_iter()
+                    .fold(0.0, f64::max),
+            ))
+        })
+        .collect();
+    let loss_chart = Chart::new(
+        format!("{}: largest pressure error of each twin run", case.name),
+        "evaluation",
+        "largest relative error [%]",
+    )
+    .with_series(Series::new("twin runs", worst_error).with_style(SeriesStyle::Markers));
+
+    // The report.
+    let wall_s = start.elapsed().as_secs_f64();
+    let largest = |errors: &[f64]| errors.iter().fold(0.0f64, |a, &b| a.max(b));
+    let gp_at_pick = predicted(&optimal);
+    let mut report = Document::new();
+    report
+        .heading(1, format!("Calibration of the excavator twin: {}", case.name))
+        .paragraph(format!(
+            "{evaluations} twin evaluations ({failed_runs} failed) in {wall_s:.2} s; run directory `{}`. \
+             Measured pressures from {measured_source}; tip force {:.2} kN from {force_source}.",
+            args.out.display(),
+            case.force_kn,
+        ))
+        .heading(2, "Pressures");
+    let mut table = Table::new(&[
+        "cylinder",
+        "measured [bar]",
+        "model at nominal [bar]",
+        "model at calibrated [bar]",
+        "GP at calibrated [bar]",
+        "error nominal [%]",
+        "error calibrated [%]",
+    ]);
+    for (k, name) in CylinderName::ALL.iter().enumerate() {
+        table.row(vec![
+            name.to_string(),
+            format!("{:.2}", measured.get(*name)),
+            format!("{:.2}", nominal_bar[k]),
+            format!("{:.2}", optimal_bar[k]),
+            format!("{:.2}", gp_at_pick[k]),
+            format!("{:.2}", errors_initial[k]),
+            format!("{:.2}", errors_optimal[k]),
+        ]);
+    }
+    report.table(table).paragraph(format!(
+        "Largest error: {:.2} % at nominal, {:.2} % calibrated.",
+        largest(&errors_initial),
+        largest(&errors_optimal),
+    ));
+    report.heading(
+        2,
+        format!(
+            "Calibrated inputs (TOPSIS pick, weights {:?})",
+            args.weights
+        ),
+    );
+    let mut table = Table::new(&["input", "lower", "upper", "nominal", "calibrated"]);
+    for (p, value) in parameters.iter().zip(&optimal) {
+        table.row(vec![
+            p.name.clone(),
+            format!("{}", p.lower),
+            format!("{}", p.upper),
+            format!("{}", p.midpoint()),
+            format!("{value:.3}"),
+        ]);
+    }
+    report.table(table).heading(
+        2,
+        format!("Surrogates: RMSE on the {} test runs [bar]", test_x.len()),
+    );
+    let mut table = Table::new(&["surrogate", "bucket", "arm", "boom"]);
+    for (name, row) in &rmse_table {
+        let mut cells = vec![name.clone()];
+        cells.extend(row.iter().map(|v| format!("{v:.3}")));
+        table.row(cells);
+    }
+    report
+        .table(table)
+        .paragraph(format!(
+            "GP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs.",
+            args.kernel,
+            train_x.len(),
+        ))
+        .heading(2, "Pareto front")
+        .paragraph(format!(
+            "{} points (population {}, {} generations, Pareto fraction {}); the pick has closeness {:.3}.",
+            moo.front.len(),
+            args.population,
+            args.generations,
+            args.pareto_fraction,
+            pick.closeness[pick.best],
+        ))
+        .figure(Figure {
+            file: "pareto.svg".into(),
+            caption: "Pareto front of the GP errors, TOPSIS pick".into(),
+            svg: pareto,
+        })
+        .figure(Figure {
+            file: "loss.svg".into(),
+            caption: "largest pressure error of each twin run".into(),
+            svg: chart_svg(&loss_chart, 720.0, 420.0),
+        });
+    // Variance-based sensitivity of each pressure, on its GP (cheap: 6,144
+    // GP predictions per output instead of twin runs).
+    report.heading(
+        2,
+        "Sensitivity: Sobol indices from the GPs (first order / total, 1024 base samples)",
+    );
+    let mut header = vec!["pressure"];
+    header.extend(parameters.iter().map(|p| p.name.as_str()));
+    let mut table = Table::new(&header);
+    for (k, name) in CylinderName::ALL.iter().enumerate() {
+        let gp = &gps[k];
+        let indices = sobol_indices(
+            |u| gp.predict(&from_unit(&parameters, u)).mean,
+            dimensions,
+            1024,
+            args.seed,
+        );
+        let mut cells = vec![name.to_string()];
+        match indices {
+            Ok(indices) => cells.extend(
+                indices
+                    .first_order
+                    .iter()
+                    .zip(&indices.total)
+                    .map(|(first, total)| format!("{first:.3} / {total:.3}")),
+            ),
+            Err(error) => cells.push(error.to_string()),
+        }
+        table.row(cells);
+    }
+    report.table(table);
+    write_report(
+        &directory,
+        &report,
+        &format!("Excavator calibration {}", case.name),
+    )?;
+    println!(
+        "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",
+        case.name,
+        largest(&errors_initial),
+        largest(&errors_optimal),
+        evaluations,
+        directory.file("report.md").display()
+    );
+    Ok(ExcavatorCalibration {
+        case: case.name.clone(),
+        force_kn: case.force_kn,
+        force_source,
+        measured_bar: CylinderName::ALL.iter().map(|c| measured.get(*c)).collect(),
+        nominal_bar,
+        calibrated_bar: optimal_bar,
+        errors_initial_pct: errors_initial,
+        errors_optimal_pct: errors_optimal,
+        optimal: parameters
+            .iter()
+            .map(|p| p.name.clone())
+            .zip(optimal.iter().copied())
+            .collect(),
+        evaluations,
+        wall_s,
+        report,
+    })
+}

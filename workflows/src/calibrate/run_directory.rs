@@ -1,0 +1,58 @@
+//! A calibration's run directory and the evaluator that logs into it.
+
+use std::path::{Path, PathBuf};
+
+use acq_calib::evaluation::{EvaluationError, Evaluator, Simulator};
+use acq_io::error::{AcqError, Result};
+
+/// The run directory: created if missing; `evaluations.csv` in it must be
+/// new unless the run resumes.
+pub struct RunDirectory {
+    pub path: PathBuf,
+}
+
+impl RunDirectory {
+    pub fn create(path: &Path) -> Result<Self> {
+        std::fs::create_dir_all(path)
+            .map_err(|e| AcqError::io(format!("creating {}", path.display()), e))?;
+        Ok(RunDirectory {
+            path: path.to_path_buf(),
+        })
+    }
+
+    pub fn file(&self, name: &str) -> PathBuf {
+        self.path.join(name)
+    }
+
+    /// The evaluator logging to `evaluations.csv` here.
+    pub fn evaluator<'a>(
+        &self,
+        simulator: &'a dyn Simulator,
+        parallel: usize,
+        resume: bool,
+    ) -> Result<Evaluator<'a>> {
+        let log = self.file("evaluations.csv");
+        let evaluator = if resume {
+            Evaluator::resume(simulator, &log, parallel)
+        } else {
+            Evaluator::create(simulator, &log, parallel)
+        };
+        evaluator.map_err(evaluation_error)
+    }
+}
+
+/// An engine error as the CLI reports it: a bad log or setup is a
+/// configuration problem (exit 2), a failed write an I/O failure.
+pub fn evaluation_error(error: EvaluationError) -> AcqError {
+    match error {
+        EvaluationError::Io { path, source } => {
+            AcqError::io(format!("writing {}", path.display()), source)
+        }
+        other => AcqError::Config(other.to_string()),
+    }
+}
+
+/// Cores to use for parallel evaluations by default.
+pub fn default_parallelism() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}

@@ -1,0 +1,116 @@
+//! The search steps the workflows share: parameters to and from the engine's
+//! unit box, Bayesian optimisation through the logging evaluator, and the
+//! best distinct parameter sets of a run.
+
+use acq_calib::bo::{minimise, BoError, BoResult, BoSettings};
+use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_io::error::{AcqError, Result};
+
+use super::run_directory::evaluation_error;
+
+/// Parameter values of a unit-box point.
+pub fn from_unit(parameters: &[Parameter], unit: &[f64]) -> Vec<f64> {
+    parameters
+        .iter()
+        .zip(unit)
+        .map(|(p, &u)| p.from_unit(u.clamp(0.0, 1.0)))
+        .collect()
+}
+
+/// A unit-box point of parameter values.
+pub fn to_unit(parameters: &[Parameter], values: &[f64]) -> Vec<f64> {
+    parameters
+        .iter()
+        .zip(values)
+        .map(|(p, &v)| p.to_unit(v))
+        .collect()
+}
+
+/// One of the best distinct parameter sets of a run.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Candidate {
+    pub evaluation_id: usize,
+    pub loss: f64,
+    pub parameters: Vec<f64>,
+}
+
+/// Non-uniqueness: the best `count` evaluations that are at least
+/// `min_distance` apart in the unit box (so near-copies of the best do not
+/// crowd out a different answer), best first.
+pub fn distinct_best(
+    parameters: &[Parameter],
+    evaluations: &[(&Evaluation, f64)],
+    count: usize,
+    min_distance: f64,
+) -> Vec<Candidate> {
+    let mut sorted: Vec<&(&Evaluation, f64)> = evaluations.iter().collect();
+    sorted.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut chosen: Vec<Candidate> = Vec::new();
+    for (evaluation, loss) in sorted {
+        let unit = to_unit(parameters, &evaluation.parameters);
+        let far = chosen.iter().all(|c| {
+            let other = to_unit(parameters, &c.parameters);
+            unit.iter()
+                .zip(&other)
+                .map(|(a, b)| (a - b).powi(2))
+                .sum::<f64>()
+                .sqrt()
+                >= min_distance
+        });
+        if far {
+            chosen.push(Candidate {
+                evaluation_id: evaluation.id,
+                loss: *loss,
+                parameters: evaluation.parameters.clone(),
+            });
+            if chosen.len() == count {
+                break;
+            }
+        }
+    }
+    chosen
+}
+
+/// Bayesian optimisation of `loss(outputs)` through a logging evaluator: the
+/// engine's unit-box points are scaled to the parameters, run (in parallel,
+/// logged) and scored; a failed run is a missing loss. A log that cannot be
+/// written stops the run with that error.
+pub fn minimise_logged(
+    evaluator: &mut Evaluator<'_>,
+    parameters: &[Parameter],
+    initial: Vec<Vec<f64>>,
+    loss: impl Fn(&[f64]) -> f64,
+    settings: &BoSettings,
+) -> Result<BoResult> {
+    let mut log_failure = None;
+    let result = minimise::<BoError>(
+        initial,
+        |batch| {
+            let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(parameters, u)).collect();
+            match evaluator.evaluate(&values) {
+                Ok(evaluations) => Ok(evaluations
+                    .iter()
+                    .map(|e| e.outcome.as_ref().ok().map(|y| loss(y)))
+                    .collect()),
+                Err(error) => {
+                    let message = error.to_string();
+                    log_failure = Some(error);
+                    Err(BoError::Settings(message))
+                }
+            }
+        },
+        settings,
+    );
+    if let Some(error) = log_failure {
+        return Err(evaluation_error(error));
+    }
+    result.map_err(|e| AcqError::Config(e.to_string()))
+}
+
+/// The successful evaluations with their loss.
+pub fn scored(evaluations: &[Evaluation], loss: impl Fn(&[f64]) -> f64) -> Vec<(&Evaluation, f64)> {
+    evaluations
+        .iter()
+        .filter_map(|e| e.outcome.as_ref().ok().map(|y| (e, loss(y))))
+        .collect()
+}

@@ -1,0 +1,21 @@
+//! The studies a test engineer runs on measured values and models, each
+//! writing its files and its report.
+//!
+//! - [`calibrate`]: `acq calibrate excavator|gtn|external`, the engine of
+//!   `acq-calib` on a twin or on a user's solver run as a command.
+//! - [`sensitivity`]: one-at-a-time sweeps of a model's outputs (model-agnostic).
+//! - [`tensile_model`]: the GTN twin set up from a test and scored on it.
+//! - [`tensile_report`]: the reports of `acq tensile-props` and `acq twin gtn`.
+//! - [`excavator_report`]: the report of `acq twin excavator`.
+//!
+//! Sits at the end of the data flow: it reads measured values (`acq-analysis`),
+//! runs twins (`acq-twins`) and the engine (`acq-calib`) and writes reports
+//! (`acq-report`). It knows nothing of CAN or live buses. The option structs
+//! of its commands derive `clap::Args`, so the demo takes the same defaults
+//! from the same definitions.
+
+pub mod calibrate;
+pub mod excavator_report;
+pub mod sensitivity;
+pub mod tensile_model;
+pub mod tensile_report;

@@ -981,32 +981,7 @@ fn external_spec_errors_exit_2_naming_the_file() {
 
 // ---- acq gp fit / predict -------------------------------------------------------------
 
-/// The data set of `calib/tests/gp.rs` and `calib/tests/golden/gp_sklearn.py`.
-const TRAIN_X: [[f64; 2]; 12] = [
-    [0.10, 0.70],
-    [0.35, 0.20],
-    [0.80, 0.90],
-    [0.55, 0.45],
-    [0.95, 0.15],
-    [0.20, 0.30],
-    [0.65, 0.75],
-    [0.40, 0.95],
-    [0.05, 0.05],
-    [0.75, 0.35],
-    [0.30, 0.60],
-    [0.90, 0.55],
-];
-const QUERY_X: [[f64; 2]; 5] = [
-    [0.50, 0.50],
-    [0.35, 0.20],
-    [0.00, 1.00],
-    [1.30, -0.20],
-    [0.62, 0.33],
-];
-
-fn smooth(x: &[f64; 2]) -> f64 {
-    (3.0 * x[0]).sin() + (2.0 * x[1]).cos() + x[0] * x[1]
-}
+include!("../calib/tests/golden/gp_data.rs");
 
 /// scikit-learn 1.9.1: GaussianProcessRegressor(ConstantKernel(1.7, "fixed") * K,
 /// alpha=1e-3, optimizer=None, normalize_y=False); its std is the latent one, as acq's.

@@ -48,7 +48,7 @@ fn dataset_1_has_sensible_properties() {
     let value = properties(DATASET_1);
     // Published run: E = 207,011 MPa, yield 403.7 MPa. Ours (through-origin
     // fit below min(60 % UTS, 80 % Rp0.2), 0.2 % offset yield) is
-    // 232,738 MPa and Rp0.2 = 438.0 MPa: see src/extract/tensile_props.rs
+    // 232,738 MPa and Rp0.2 = 438.0 MPa: see analysis/src/extract/tensile_props.rs
     // for why they differ.
     let modulus = number(&value, "/youngs_modulus_mpa");
     assert!((150_000.0..=260_000.0).contains(&modulus), "E = {modulus}");

@@ -8,10 +8,14 @@
 //! error of every frame is measured and reported.
 
 use std::collections::HashMap;
+use std::fmt;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use acq_drivers::rig::Rig;
 use acq_drivers::{Frame, IfaceName};
 use acq_io::error::{AcqError, Result};
+use acq_io::input::{open_log, LogInput};
 
 use crate::bus::{Bus, BusError, FrameSink};
 
@@ -26,6 +30,30 @@ pub struct Routing {
 }
 
 impl Routing {
+    /// A rig's buses onto `interfaces`: all onto one, or one each in the
+    /// rig's order.
+    pub fn for_rig(rig: &Rig, interfaces: &[IfaceName]) -> Result<Routing> {
+        match interfaces.len() {
+            1 => Ok(Routing {
+                map: Vec::new(),
+                default: Some(interfaces[0]),
+            }),
+            n if n == rig.buses.len() => Ok(Routing {
+                map: rig
+                    .buses
+                    .iter()
+                    .map(|b| b.iface)
+                    .zip(interfaces.iter().copied())
+                    .collect(),
+                default: None,
+            }),
+            n => Err(AcqError::Config(format!(
+                "{n} interfaces given for a rig with {} buses: give one, or one per bus in order",
+                rig.buses.len()
+            ))),
+        }
+    }
+
     pub fn route(&self, from: IfaceName) -> Option<IfaceName> {
         if let Some((_, to)) = self.map.iter().find(|(f, _)| *f == from) {
             return Some(*to);
@@ -55,6 +83,81 @@ pub struct PlaySummary {
     pub unrouted_skipped: u64,
     pub timing: TimingStats,
     pub elapsed: Duration,
+}
+
+impl fmt::Display for PlaySummary {
+    /// One line of counts, and one of timing errors when the replay was timed.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} frames in {:.3} s",
+            self.frames_sent,
+            self.elapsed.as_secs_f64()
+        )?;
+        if self.error_frames_skipped > 0 {
+            write!(f, ", {} error frames skipped", self.error_frames_skipped)?;
+        }
+        if self.unrouted_skipped > 0 {
+            write!(
+                f,
+                ", {} frames of unmapped interfaces skipped",
+                self.unrouted_skipped
+            )?;
+        }
+        if let (Some((median, p99, max)), Some((late_median, late_p99, _))) =
+            (self.timing.interval_error_us(), self.timing.lateness_us())
+        {
+            write!(
+                f,
+                "\ninter-frame timing error |actual - logged|: median {median:.1} us, p99 {p99:.1} us, max {max:.1} us; send lateness median {late_median:.1} us, p99 {late_p99:.1} us"
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Logs played as one stream, file after file (a session's raw files), from
+/// the first file again at each new pass. Every file is opened when its turn
+/// comes; the first at once, so a missing log fails before anything is sent.
+pub struct LogFiles {
+    paths: Vec<PathBuf>,
+    pass: usize,
+    index: usize,
+    current: LogInput,
+}
+
+impl LogFiles {
+    pub fn open(paths: Vec<PathBuf>) -> Result<Self> {
+        let first = paths
+            .first()
+            .ok_or_else(|| AcqError::Config("no log to play".into()))?;
+        let current = open_log(first)?;
+        Ok(LogFiles {
+            paths,
+            pass: 0,
+            index: 0,
+            current,
+        })
+    }
+
+    /// The next frame of `pass` (0-based); `None` at the end of the pass.
+    pub fn next_frame(&mut self, pass: usize) -> Result<Option<Frame>> {
+        if pass != self.pass {
+            self.pass = pass;
+            self.index = 0;
+            self.current = open_log(&self.paths[0])?;
+        }
+        loop {
+            if let Some(frame) = self.current.next_frame()? {
+                return Ok(Some(frame));
+            }
+            if self.index + 1 >= self.paths.len() {
+                return Ok(None);
+            }
+            self.index += 1;
+            self.current = open_log(&self.paths[self.index])?;
+        }
+    }
 }
 
 /// Timing errors of a timed replay: lateness of each send against its

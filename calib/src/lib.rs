@@ -12,6 +12,7 @@
 //! - `moo`: NSGA-II, hypervolume, the ZDT/DTLZ benchmark problems; `topsis`: the pick.
 //! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches).
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
+//! - `training_data`: the shape and finiteness check every fitted model runs first.
 
 pub mod bo;
 pub mod doe;
@@ -22,3 +23,4 @@ pub mod optim;
 pub mod sobol_indices;
 pub mod surrogate;
 pub mod topsis;
+pub mod training_data;

@@ -6,6 +6,8 @@ use faer::prelude::*;
 use faer::Mat;
 use thiserror::Error;
 
+use crate::training_data::DataError;
+
 use crate::gp::Gp;
 
 /// A fitted model of one output over a box of inputs.
@@ -45,21 +47,8 @@ pub fn rmse(surrogate: &dyn Surrogate, inputs: &[Vec<f64>], outputs: &[f64]) -> 
 /// Why a surrogate could not be fitted. Each message says what to do.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum SurrogateError {
-    #[error("{inputs} input rows but {outputs} outputs: give exactly one output per input row")]
-    LengthMismatch { inputs: usize, outputs: usize },
-    #[error("no training points, or rows without inputs: give at least one input per row")]
-    NoData,
-    #[error(
-        "input row {row} has {found} values but row 0 has {expected}: give every row the same \
-         number of inputs"
-    )]
-    RaggedInputs {
-        row: usize,
-        expected: usize,
-        found: usize,
-    },
-    #[error("a value at row {row} is not finite: remove or repair rows with NaN or infinities")]
-    NonFiniteData { row: usize },
+    #[error(transparent)]
+    Data(#[from] DataError),
     #[error(
         "{points} points for {terms} unknowns: add points or lower the degree (a polynomial of \
          degree p in d inputs has (d+p)!/(d! p!) terms)"
@@ -82,33 +71,6 @@ pub enum SurrogateError {
          values at one point; average or drop duplicates"
     )]
     DuplicatePoints { first: usize, second: usize },
-}
-
-/// Checks shapes and finiteness; returns the number of inputs.
-fn validate(inputs: &[Vec<f64>], outputs: &[f64]) -> Result<usize, SurrogateError> {
-    if inputs.len() != outputs.len() {
-        return Err(SurrogateError::LengthMismatch {
-            inputs: inputs.len(),
-            outputs: outputs.len(),
-        });
-    }
-    let d = inputs.first().map_or(0, Vec::len);
-    if d == 0 {
-        return Err(SurrogateError::NoData);
-    }
-    for (row, x) in inputs.iter().enumerate() {
-        if x.len() != d {
-            return Err(SurrogateError::RaggedInputs {
-                row,
-                expected: d,
-                found: x.len(),
-            });
-        }
-        if !outputs[row].is_finite() || x.iter().any(|v| !v.is_finite()) {
-            return Err(SurrogateError::NonFiniteData { row });
-        }
-    }
-    Ok(d)
 }
 
 /// Per-input affine map of the data's bounding box onto the unit box.
@@ -149,26 +111,10 @@ impl BoxScaling {
         })
     }
 
+    /// The data's bounding box; a constant input keeps width 1 (the rank
+    /// check then reports it).
     fn from_data(inputs: &[Vec<f64>], d: usize) -> Self {
-        let (low, width) = (0..d)
-            .map(|k| {
-                let (lo, hi) = inputs
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-                        (lo.min(x[k]), hi.max(x[k]))
-                    });
-                let width = hi - lo;
-                // A constant input keeps width 1 (the rank check then reports it).
-                (
-                    lo,
-                    if width > 0.0 && width.is_finite() {
-                        width
-                    } else {
-                        1.0
-                    },
-                )
-            })
-            .unzip();
+        let (low, width) = crate::training_data::data_box(inputs, d);
         Self { low, width }
     }
 
@@ -263,7 +209,7 @@ impl Polynomial {
         if !(1..=3).contains(&degree) {
             return Err(SurrogateError::InvalidDegree(degree));
         }
-        let d = validate(inputs, outputs)?;
+        let d = crate::training_data::check(inputs, outputs)?;
         let exponents = monomial_exponents(d, degree);
         let (n, terms) = (outputs.len(), exponents.len());
         if n < terms {
@@ -362,7 +308,7 @@ impl RadialBasis {
         outputs: &[f64],
         input_bounds: Option<&[(f64, f64)]>,
     ) -> Result<RadialBasis, SurrogateError> {
-        let d = validate(inputs, outputs)?;
+        let d = crate::training_data::check(inputs, outputs)?;
         let n = outputs.len();
         if n < d + 1 {
             return Err(SurrogateError::TooFewPoints {

@@ -6,6 +6,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use acq_calib::gp::{FixedHyperparameters, Gp, GpError, GpSettings, Kernel};
+use acq_calib::training_data::DataError;
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -19,34 +20,10 @@ const KERNELS: [Kernel; 4] = [
 
 // ---- the small fixed-hyperparameter data set shared with gp_sklearn.py --------------------
 
-const TRAIN_X: [[f64; 2]; 12] = [
-    [0.10, 0.70],
-    [0.35, 0.20],
-    [0.80, 0.90],
-    [0.55, 0.45],
-    [0.95, 0.15],
-    [0.20, 0.30],
-    [0.65, 0.75],
-    [0.40, 0.95],
-    [0.05, 0.05],
-    [0.75, 0.35],
-    [0.30, 0.60],
-    [0.90, 0.55],
-];
-/// Includes a training point (row 1), a corner and a point outside the data's box.
-const QUERY_X: [[f64; 2]; 5] = [
-    [0.50, 0.50],
-    [0.35, 0.20],
-    [0.00, 1.00],
-    [1.30, -0.20],
-    [0.62, 0.33],
-];
+include!("golden/gp_data.rs");
+
 const SIGNAL: f64 = 1.7;
 const NOISE: f64 = 1e-3;
-
-fn smooth(x: &[f64]) -> f64 {
-    (3.0 * x[0]).sin() + (2.0 * x[1]).cos() + x[0] * x[1]
-}
 
 fn small_data() -> (Vec<Vec<f64>>, Vec<f64>) {
     let inputs: Vec<Vec<f64>> = TRAIN_X.iter().map(|x| x.to_vec()).collect();
@@ -809,23 +786,23 @@ fn degenerate_data_and_settings_are_errors() {
     );
     assert!(matches!(
         Gp::fit(&[vec![0.0], vec![1.0]], &[1.0], &settings),
-        Err(GpError::LengthMismatch { .. })
+        Err(GpError::Data(DataError::LengthMismatch { .. }))
     ));
     assert!(matches!(
         Gp::fit(&[vec![], vec![]], &[1.0, 2.0], &settings),
-        Err(GpError::NoInputs)
+        Err(GpError::Data(DataError::NoInputs))
     ));
     assert!(matches!(
         Gp::fit(&[vec![0.0, 1.0], vec![1.0]], &[1.0, 2.0], &settings),
-        Err(GpError::RaggedInputs { row: 1, .. })
+        Err(GpError::Data(DataError::RaggedInputs { row: 1, .. }))
     ));
     assert!(matches!(
         Gp::fit(&[vec![0.0], vec![f64::NAN]], &[1.0, 2.0], &settings),
-        Err(GpError::NonFiniteData { row: 1, .. })
+        Err(GpError::Data(DataError::NonFiniteData { row: 1, .. }))
     ));
     assert!(matches!(
         Gp::fit(&[vec![0.0], vec![1.0]], &[1.0, f64::INFINITY], &settings),
-        Err(GpError::NonFiniteData { row: 1, .. })
+        Err(GpError::Data(DataError::NonFiniteData { row: 1, .. }))
     ));
     assert!(matches!(
         Gp::fit(

@@ -12,11 +12,10 @@ use std::time::Duration;
 use acq_acquire::bus::Bus;
 use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{self, RecordOptions, StopReason};
-use acq_acquire::replay::{self, Pacing, PlaySummary, Routing};
+use acq_acquire::replay::{self, LogFiles, Pacing, PlaySummary, Routing};
 use acq_drivers::rig::Rig;
 use acq_drivers::IfaceName;
 use acq_io::error::{AcqError, Result};
-use acq_io::input::open_log;
 use acq_io::session;
 
 /// Frames still in flight when the player ends are drained this long
@@ -67,11 +66,7 @@ pub fn play_and_record<B: Bus>(
     playbacks: &[Playback],
     together: bool,
 ) -> Result<Vec<Played>> {
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .map_err(|e| AcqError::io("starting the async runtime", e))?;
+    let runtime = acq_acquire::runtime(2)?;
     if together {
         runtime.block_on(play_all(bus, playbacks))
     } else {
@@ -89,25 +84,18 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
     let mut routings = Vec::new();
     for playback in playbacks {
         let mut rig = session_rig(&playback.source)?;
-        let original: Vec<IfaceName> = rig.buses.iter().map(|b| b.iface).collect();
-        if original.len() != playback.interfaces.len() {
+        if rig.buses.len() != playback.interfaces.len() {
             return Err(AcqError::Config(format!(
                 "{}: its rig has {} bus(es) but {} interface(s) were given; give one per bus",
                 playback.name,
-                original.len(),
+                rig.buses.len(),
                 playback.interfaces.len()
             )));
         }
+        routings.push(Routing::for_rig(&rig, &playback.interfaces)?);
         let notes = rig
             .assign_interfaces(&playback.interfaces)
             .map_err(AcqError::Config)?;
-        routings.push(Routing {
-            map: original
-                .into_iter()
-                .zip(playback.interfaces.iter().copied())
-                .collect(),
-            default: None,
-        });
         let options = RecordOptions {
             interfaces: playback.interfaces.clone(),
             rig: Some(rig),
@@ -145,34 +133,23 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
     let (interrupt_tx, interrupt_rx) = tokio::sync::watch::channel(false);
     let mut players = Vec::new();
     for (playback, routing) in playbacks.iter().zip(routings) {
-        let mut raw_files = session::raw_files(&playback.source)?.into_iter();
-        let Some(first) = raw_files.next() else {
+        let raw_files = session::raw_files(&playback.source)?;
+        if raw_files.is_empty() {
             return Err(AcqError::Config(format!(
                 "{}: no raw log to play",
                 playback.source.display()
             )));
-        };
+        }
         let player_bus = bus.clone();
         let interrupted = interrupt_rx.clone();
         players.push(std::thread::spawn(move || -> Result<PlaySummary> {
-            let mut log = open_log(&first)?;
-            let runtime = tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()
-                .map_err(|e| AcqError::io("starting the player's runtime", e))?;
-            let next = |_pass: usize| -> Result<Option<acq_drivers::Frame>> {
+            let mut log = LogFiles::open(raw_files)?;
+            let runtime = acq_acquire::runtime(1)?;
+            let next = |pass: usize| -> Result<Option<acq_drivers::Frame>> {
                 if *interrupted.borrow() {
                     return Ok(None);
                 }
-                loop {
-                    if let Some(frame) = log.next_frame()? {
-                        return Ok(Some(frame));
-                    }
-                    match raw_files.next() {
-                        Some(path) => log = open_log(&path)?,
-                        None => return Ok(None),
-                    }
-                }
+                log.next_frame(pass)
             };
             runtime.block_on(replay::play(
                 &player_bus,

@@ -10,12 +10,11 @@ use acq_acquire::bus::now_ns;
 use acq_acquire::bus::socketcan::SocketCanBus;
 use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{self, RecordOptions, StopReason};
-use acq_acquire::replay::{self, Pacing, PlaySummary, Routing};
+use acq_acquire::replay::{self, LogFiles, Pacing, Routing};
 use acq_acquire::simulate::scenario::Scenario;
 use acq_acquire::simulate::Simulation;
 use acq_drivers::IfaceName;
 use acq_io::error::{AcqError, Result};
-use acq_io::input::{open_log, LogInput};
 use acq_io::session;
 use clap::{Args, Subcommand};
 
@@ -140,44 +139,6 @@ fn ifaces(names: &[String]) -> Result<Vec<IfaceName>> {
         .collect()
 }
 
-fn runtime(threads: usize) -> Result<tokio::runtime::Runtime> {
-    let mut builder = if threads > 1 {
-        let mut b = tokio::runtime::Builder::new_multi_thread();
-        b.worker_threads(threads);
-        b
-    } else {
-        tokio::runtime::Builder::new_current_thread()
-    };
-    builder
-        .enable_all()
-        .build()
-        .map_err(|e| AcqError::io("starting the async runtime", e))
-}
-
-/// Resolves when SIGINT or SIGTERM arrives, or the duration is reached.
-async fn stop_signal(duration: Option<Duration>) -> StopReason {
-    use tokio::signal::unix::{signal, SignalKind};
-    let (Ok(mut interrupt), Ok(mut terminate)) = (
-        signal(SignalKind::interrupt()),
-        signal(SignalKind::terminate()),
-    ) else {
-        // Without signal handlers Ctrl-C would kill us mid-write; refuse instead of risking it.
-        std::future::pending::<()>().await;
-        unreachable!()
-    };
-    let timeout = async {
-        match duration {
-            Some(d) => tokio::time::sleep(d).await,
-            None => std::future::pending().await,
-        }
-    };
-    tokio::select! {
-        _ = interrupt.recv() => StopReason::Signal("SIGINT"),
-        _ = terminate.recv() => StopReason::Signal("SIGTERM"),
-        _ = timeout => StopReason::Duration,
-    }
-}
-
 pub fn run_record(args: RecordArgs) -> Result<()> {
     let interfaces = ifaces(&args.interfaces)?;
     let mut notes = Vec::new();
@@ -213,10 +174,10 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         notes,
     };
     // Two workers: the readers never wait behind a disk write of the writer loop.
-    let summary = runtime(2)?.block_on(record::record(
+    let summary = acq_acquire::runtime(2)?.block_on(record::record(
         SocketCanBus,
         options,
-        stop_signal(args.duration),
+        record::stop_on_signal_or(args.duration),
     ))?;
     let info = &summary.session.session;
     if status != StatusMode::Quiet {
@@ -235,24 +196,6 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
             std::io::Error::other(message),
         )),
         _ => Ok(()),
-    }
-}
-
-/// Reads a log pass by pass for the player: reopened at each new pass.
-struct LogPasses {
-    path: PathBuf,
-    current: Option<(usize, LogInput)>,
-}
-
-impl LogPasses {
-    fn next(&mut self, pass: usize) -> Result<Option<acq_drivers::Frame>> {
-        if self.current.as_ref().is_none_or(|(p, _)| *p != pass) {
-            self.current = Some((pass, open_log(&self.path)?));
-        }
-        match self.current.as_mut() {
-            Some((_, log)) => log.next_frame(),
-            None => Ok(None),
-        }
     }
 }
 
@@ -278,45 +221,16 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
         Pacing::Timed { speed: args.speed }
     };
     // Opened up front so a missing file fails before anything is sent.
-    let mut log = LogPasses {
-        path: args.log.clone(),
-        current: Some((0, open_log(&args.log)?)),
-    };
-    let summary = runtime(1)?.block_on(replay::play(
+    let mut log = LogFiles::open(vec![args.log.clone()])?;
+    let summary = acq_acquire::runtime(1)?.block_on(replay::play(
         &SocketCanBus,
-        |pass| log.next(pass),
+        |pass| log.next_frame(pass),
         &routing,
         pacing,
         args.passes,
     ))?;
-    report_play(&summary, &args.log.display().to_string());
+    eprintln!("acq: played {}: {summary}", args.log.display());
     Ok(())
-}
-
-fn report_play(summary: &PlaySummary, what: &str) {
-    eprint!(
-        "acq: played {what}: {} frames in {:.3} s",
-        summary.frames_sent,
-        summary.elapsed.as_secs_f64()
-    );
-    if summary.error_frames_skipped > 0 {
-        eprint!(", {} error frames skipped", summary.error_frames_skipped);
-    }
-    if summary.unrouted_skipped > 0 {
-        eprint!(
-            ", {} frames of unmapped interfaces skipped",
-            summary.unrouted_skipped
-        );
-    }
-    eprintln!();
-    if let (Some((median, p99, max)), Some((late_median, late_p99, _))) = (
-        summary.timing.interval_error_us(),
-        summary.timing.lateness_us(),
-    ) {
-        eprintln!(
-            "acq: inter-frame timing error |actual - logged|: median {median:.1} us, p99 {p99:.1} us, max {max:.1} us; send lateness median {late_median:.1} us, p99 {late_p99:.1} us"
-        );
-    }
 }
 
 pub fn run_simulate(args: SimulateArgs) -> Result<()> {
@@ -338,7 +252,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             simulation.unspecified_sensors.join(", ")
         );
     }
-    let runtime = runtime(1)?;
+    let runtime = acq_acquire::runtime(1)?;
     let summary = if let Some(path) = &args.output {
         let bus = LogFileBus::writing(path)
             .map_err(|e| AcqError::io(format!("creating {}", path.display()), e))?;
@@ -354,7 +268,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
         summary
     } else {
         let interfaces = ifaces(&args.interfaces)?;
-        let routing = simulate_routing(&rig, &interfaces)?;
+        let routing = Routing::for_rig(&rig, &interfaces)?;
         runtime.block_on(replay::play(
             &SocketCanBus,
             |_| Ok(simulation.next_frame()),
@@ -363,35 +277,12 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             1,
         ))?
     };
-    report_play(&summary, "the simulated rig");
+    eprintln!("acq: played the simulated rig: {summary}");
     eprintln!(
         "acq: {} frames lost on purpose (devices' drop probability)",
         simulation.frames_dropped
     );
     Ok(())
-}
-
-/// Rig buses onto the given interfaces: all onto one, or one each in order.
-fn simulate_routing(rig: &acq_drivers::rig::Rig, interfaces: &[IfaceName]) -> Result<Routing> {
-    match interfaces.len() {
-        1 => Ok(Routing {
-            map: Vec::new(),
-            default: Some(interfaces[0]),
-        }),
-        n if n == rig.buses.len() => Ok(Routing {
-            map: rig
-                .buses
-                .iter()
-                .map(|b| b.iface)
-                .zip(interfaces.iter().copied())
-                .collect(),
-            default: None,
-        }),
-        n => Err(AcqError::Config(format!(
-            "{n} interfaces given for a rig with {} buses: give one, or one per bus in order",
-            rig.buses.len()
-        ))),
-    }
 }
 
 pub fn run_session(command: SessionCommand) -> Result<()> {

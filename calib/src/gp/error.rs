@@ -3,30 +3,15 @@
 
 use thiserror::Error;
 
+use crate::training_data::DataError;
+
 /// Why a GP could not be fitted, loaded or configured. Each message says what to do.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum GpError {
     #[error("{points} training point(s): a GP needs at least 2, add samples")]
     TooFewPoints { points: usize },
-    #[error("{inputs} input rows but {outputs} outputs: give exactly one output per input row")]
-    LengthMismatch { inputs: usize, outputs: usize },
-    #[error("the inputs have no columns: give at least one input variable per row")]
-    NoInputs,
-    #[error(
-        "input row {row} has {found} values but row 0 has {expected}: give every row the same \
-         number of inputs"
-    )]
-    RaggedInputs {
-        row: usize,
-        expected: usize,
-        found: usize,
-    },
-    #[error("{what} at row {row} is {value}: remove or repair rows with NaN or infinite values")]
-    NonFiniteData {
-        what: &'static str,
-        row: usize,
-        value: f64,
-    },
+    #[error(transparent)]
+    Data(#[from] DataError),
     #[error(
         "all outputs equal {value}: a constant response has nothing to fit; check the output \
          column, or use the constant as the model"

@@ -761,45 +761,13 @@ impl From<Gp> for GpRecord {
     }
 }
 
-/// Checks the shape and finiteness of the training data; returns the number of inputs.
+/// Checks the training data; returns the number of inputs.
 fn validate_data(inputs: &[Vec<f64>], outputs: &[f64]) -> Result<usize, GpError> {
-    if inputs.len() != outputs.len() {
-        return Err(GpError::LengthMismatch {
-            inputs: inputs.len(),
-            outputs: outputs.len(),
-        });
-    }
+    let d = crate::training_data::check(inputs, outputs)?;
     if outputs.len() < 2 {
         return Err(GpError::TooFewPoints {
             points: outputs.len(),
         });
-    }
-    let d = inputs[0].len();
-    if d == 0 {
-        return Err(GpError::NoInputs);
-    }
-    for (row, values) in inputs.iter().enumerate() {
-        if values.len() != d {
-            return Err(GpError::RaggedInputs {
-                row,
-                expected: d,
-                found: values.len(),
-            });
-        }
-        if let Some(value) = values.iter().find(|v| !v.is_finite()) {
-            return Err(GpError::NonFiniteData {
-                what: "an input",
-                row,
-                value: *value,
-            });
-        }
-        if !outputs[row].is_finite() {
-            return Err(GpError::NonFiniteData {
-                what: "the output",
-                row,
-                value: outputs[row],
-            });
-        }
     }
     Ok(d)
 }
@@ -861,26 +829,7 @@ fn input_scaling(inputs: &[Vec<f64>], bounds: Option<&[(f64, f64)]>) -> (Vec<f64
     let d = inputs[0].len();
     match bounds {
         Some(bounds) => bounds.iter().map(|&(lo, hi)| (lo, hi - lo)).unzip(),
-        None => (0..d)
-            .map(|k| {
-                let (lo, hi) = inputs
-                    .iter()
-                    .map(|row| row[k])
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                        (lo.min(v), hi.max(v))
-                    });
-                let width = hi - lo;
-                // A constant input (or a span that overflows) gets width 1.
-                (
-                    lo,
-                    if width > 0.0 && width.is_finite() {
-                        width
-                    } else {
-                        1.0
-                    },
-                )
-            })
-            .unzip(),
+        None => crate::training_data::data_box(inputs, d),
     }
 }
 

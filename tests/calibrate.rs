@@ -1377,3 +1377,79 @@ fn moo_dtlz2_has_three_objectives_and_unknown_problems_exit_2() {
     assert!(stderr(&output).contains("zdt9"), "{}", stderr(&output));
     assert!(!missing.exists());
 }
+
+#[test]
+fn parallel_solver_runs_each_work_in_their_own_directory_with_the_files_they_need() {
+    // A solver as FE solvers are: it reads its input deck from the working
+    // directory and writes a fixed file name there (job.dat) before its result.
+    // Two runs sharing a directory would read each other's job.dat.
+    let dir = tempfile::tempdir().unwrap();
+    let spec_dir = dir.path().join("model");
+    std::fs::create_dir(&spec_dir).unwrap();
+    std::fs::write(spec_dir.join("deck.inp"), "scale 2\n").unwrap();
+    std::fs::write(
+        spec_dir.join("fixed.sh"),
+        r#"read -r word scale < deck.inp
+echo "$1" > job.dat
+sleep 0.3
+v=$(cat job.dat)
+awk -v v="$v" -v s="$scale" 'BEGIN { printf "{\"y\": %.17g}\n", v * s }' > out.json
+"#,
+    )
+    .unwrap();
+    let spec = spec_dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        r#"command = ["sh", "fixed.sh", "{x}"]
+output_file = "out.json"
+link_files = ["deck.inp"]
+timeout_s = 20
+parallel = 2
+
+[[parameter]]
+name = "x"
+lower = 1.0
+upper = 2.0
+
+[[output]]
+name = "y"
+measured = 3.0
+
+[search]
+start = "lhs"
+start_runs = 4
+max_evals = 6
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("run");
+    // From another working directory: the spec's files are found all the same.
+    let output = Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(["calibrate", "external", "--spec"])
+        .arg(&spec)
+        .arg("--out")
+        .arg(&out)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let log = Table::read(&out.join("evaluations.csv"));
+    assert_eq!(log.rows.len(), 6);
+    for row in &log.rows {
+        assert_eq!(log.cell(row, "status"), "ok", "{row:?}");
+        let (x, y) = (log.value(row, "x"), log.value(row, "y"));
+        assert!((y - 2.0 * x).abs() < 1e-9, "run with x = {x} returned {y}");
+    }
+    let runs: Vec<PathBuf> = std::fs::read_dir(out.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(runs.len(), 6);
+    for run in &runs {
+        assert!(run.join("job.dat").is_file(), "{}", run.display());
+        let deck = run.join("deck.inp");
+        assert!(deck.symlink_metadata().unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read_to_string(deck).unwrap(), "scale 2\n");
+    }
+    assert!(!spec_dir.join("job.dat").exists() && !dir.path().join("job.dat").exists());
+}

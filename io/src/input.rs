@@ -1,9 +1,13 @@
 //! Opening the logs named on a command line (`-` is stdin) and walking
-//! their records with the bad-line policy every command shares.
+//! their records with the bad-line policy every command shares; and the
+//! list of every file this command reads ([`note_input`]), which
+//! [`crate::output`] consults so that no output replaces an input.
 
 use std::fs::File;
 use std::io::{self, BufRead, BufReader};
+use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use acq_drivers::rig::Rig;
 use acq_drivers::{LogReader, LogRecord, ReadError};
@@ -11,6 +15,54 @@ use acq_drivers::{LogReader, LogRecord, ReadError};
 use crate::error::{AcqError, Result};
 
 const READ_BUFFER_BYTES: usize = 256 * 1024;
+
+/// A file this command reads: the name it was given by, and its identity.
+struct InputFile {
+    path: PathBuf,
+    canonical: Option<PathBuf>,
+    /// (device, inode): the same file under another name or a hard link.
+    identity: Option<(u64, u64)>,
+}
+
+/// Every input of this process. One list for the whole command, so that
+/// every writer checks against every reader, whichever crate opened it.
+static INPUTS: Mutex<Vec<InputFile>> = Mutex::new(Vec::new());
+
+/// Notes `path` as an input of this command: no output may replace it.
+/// Call it where a file is opened or found for reading; `-` (stdin) and
+/// paths that do not exist are ignored.
+pub fn note_input(path: &Path) {
+    if path.as_os_str() == "-" {
+        return;
+    }
+    let Ok(metadata) = std::fs::metadata(path) else {
+        return;
+    };
+    let file = InputFile {
+        path: path.to_path_buf(),
+        canonical: path.canonicalize().ok(),
+        identity: Some((metadata.dev(), metadata.ino())),
+    };
+    if let Ok(mut inputs) = INPUTS.lock() {
+        inputs.push(file);
+    }
+}
+
+/// The input (as it was named) that `path` would replace, if any: the same
+/// canonical path or the same file (device and inode).
+pub fn input_at(path: &Path) -> Option<PathBuf> {
+    let metadata = std::fs::metadata(path).ok()?;
+    let identity = (metadata.dev(), metadata.ino());
+    let canonical = path.canonicalize().ok();
+    let inputs = INPUTS.lock().ok()?;
+    inputs
+        .iter()
+        .find(|input| {
+            input.identity == Some(identity)
+                || (canonical.is_some() && input.canonical == canonical)
+        })
+        .map(|input| input.path.clone())
+}
 
 /// One opened log.
 pub struct LogInput {
@@ -45,6 +97,7 @@ pub fn open_log(path: &Path) -> Result<LogInput> {
         )
     } else {
         let file = File::open(path).map_err(|e| AcqError::open(path, e))?;
+        note_input(path);
         (
             path.display().to_string(),
             Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
@@ -123,6 +176,7 @@ pub fn for_each_record(
 /// its records with their 1-based line numbers. Errors name the file and
 /// line and say what was expected.
 pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv::StringRecord)>> {
+    note_input(path);
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
@@ -156,6 +210,7 @@ pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv:
 
 /// Loads a rig; every problem in it is a configuration error (exit 2).
 pub fn load_rig(path: &Path) -> Result<Rig> {
+    note_input(path);
     let rig = Rig::load(path).map_err(|e| AcqError::Config(e.to_string()))?;
     for warning in &rig.warnings {
         eprintln!("acq: warning: {warning}");

@@ -1,13 +1,25 @@
 //! Where command output goes (`-` is stdout), with a large buffer written
 //! out in chunks: the decode hot path appends bytes to a `Vec` and never
 //! calls `write` per field.
+//!
+//! The one rule for every output path lives here:
+//! - an output never replaces an input of the same command
+//!   ([`crate::input::note_input`]; compared by canonical path and by file
+//!   identity), checked before anything is created or renamed;
+//! - a file appears under its name only when complete ([`Output::create_complete_only`]),
+//!   and a refused or failed output leaves nothing behind (the `.partial` is
+//!   removed when the output is dropped unfinished);
+//! - a name that comes from a file's contents becomes a plain file name
+//!   ([`file_name_part`]), and a relative path from a file stays inside the
+//!   directory it belongs to ([`inside`]).
 
 use std::borrow::Cow;
 use std::fs::File;
 use std::io::{self, Write};
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 use crate::error::{AcqError, Result};
+use crate::input::input_at;
 
 const FLUSH_AT_BYTES: usize = 256 * 1024;
 
@@ -26,12 +38,7 @@ impl Output {
         let (name, sink): (String, Box<dyn Write>) = match path {
             None => ("<stdout>".into(), Box::new(io::stdout().lock())),
             Some(p) if p.as_os_str() == "-" => ("<stdout>".into(), Box::new(io::stdout().lock())),
-            Some(p) => (
-                p.display().to_string(),
-                Box::new(File::create(p).map_err(|e| {
-                    AcqError::Config(format!("cannot create {}: {e}", p.display()))
-                })?),
-            ),
+            Some(p) => (p.display().to_string(), Box::new(create_file(p)?)),
         };
         Ok(Output::to_writer(name, sink))
     }
@@ -53,6 +60,7 @@ impl Output {
         if path.as_os_str() == "-" {
             return Output::create(None);
         }
+        refuse_input(path)?;
         if std::fs::metadata(path).is_ok_and(|meta| !meta.is_file()) {
             return Output::create(Some(path));
         }
@@ -99,15 +107,112 @@ impl Output {
             .flush()
             .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
         if let Some((partial, complete)) = self.rename.take() {
-            drop(self.sink);
-            std::fs::rename(&partial, &complete).map_err(|e| {
-                AcqError::io(
-                    format!("renaming {} to {}", partial.display(), complete.display()),
-                    e,
-                )
-            })?;
+            // Closes the file before it is renamed.
+            self.sink = Box::new(io::sink());
+            let renamed = refuse_input(&complete).and_then(|()| {
+                std::fs::rename(&partial, &complete).map_err(|e| {
+                    AcqError::io(
+                        format!("renaming {} to {}", partial.display(), complete.display()),
+                        e,
+                    )
+                })
+            });
+            if renamed.is_err() {
+                let _ = std::fs::remove_file(&partial);
+            }
+            renamed?;
         }
         Ok(())
+    }
+}
+
+impl Drop for Output {
+    /// An output dropped before [`Output::finish`] (an error, a refused
+    /// option) leaves no `.partial` behind.
+    fn drop(&mut self) {
+        if let Some((partial, _)) = self.rename.take() {
+            let _ = std::fs::remove_file(partial);
+        }
+    }
+}
+
+/// Refuses an output path that names an input of this command.
+pub fn refuse_input(path: &Path) -> Result<()> {
+    match input_at(path) {
+        Some(input) => Err(AcqError::Config(format!(
+            "refusing to write {}: it is {}, an input of this command; choose another output name",
+            path.display(),
+            input.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Creates (or truncates) an output file that is written in place: never
+/// an input of this command. Every writer that does not go through
+/// [`Output`] creates its files here.
+pub fn create_file(path: &Path) -> Result<File> {
+    refuse_input(path)?;
+    File::create(path).map_err(|e| match std::fs::metadata(path) {
+        Ok(meta) if meta.is_dir() => AcqError::Config(format!(
+            "cannot create {}: it is a directory; give a file name",
+            path.display()
+        )),
+        _ => AcqError::Config(format!("cannot create {}: {e}", path.display())),
+    })
+}
+
+/// Creates an output directory (and its parents) if missing; an existing
+/// file of that name is a usage error that says so.
+pub fn create_dir(path: &Path) -> Result<()> {
+    if std::fs::metadata(path).is_ok_and(|meta| !meta.is_dir()) {
+        return Err(AcqError::Config(format!(
+            "{} exists and is not a directory: give a directory to write into",
+            path.display()
+        )));
+    }
+    std::fs::create_dir_all(path)
+        .map_err(|e| AcqError::io(format!("creating {}", path.display()), e))
+}
+
+/// `relative` (a path a file gave, e.g. a spec's `output_file`) under `dir`,
+/// refused when it would leave `dir`: absolute, or with a `..` component.
+/// `what` names the setting in the message.
+pub fn inside(dir: &Path, relative: &str, what: &str) -> Result<PathBuf> {
+    let path = Path::new(relative);
+    let leaves = relative.is_empty()
+        || path
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
+    if leaves {
+        return Err(AcqError::Config(format!(
+            "{what} = {relative:?}: give a relative path inside {} (no '..', not absolute)",
+            dir.display()
+        )));
+    }
+    Ok(dir.join(path))
+}
+
+/// A name from a file's contents (a case name, a parameter name) as one
+/// plain file-name part: characters other than letters, digits, `-`, `_`
+/// and `.` become `_`, and leading dots go, so it can neither name another
+/// directory nor hide; an empty result is `unnamed`.
+pub fn file_name_part(name: &str) -> String {
+    let safe: String = name
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let safe = safe.trim_start_matches('.');
+    if safe.is_empty() {
+        "unnamed".into()
+    } else {
+        safe.to_string()
     }
 }
 
@@ -122,9 +227,10 @@ pub fn csv_field(text: &str) -> Cow<'_, str> {
 
 #[cfg(test)]
 mod tests {
-    use super::{csv_field, Output};
+    use super::{create_file, csv_field, file_name_part, inside, Output};
     use std::io::Read;
     use std::os::unix::fs::FileTypeExt;
+    use std::path::Path;
 
     #[test]
     fn a_fifo_is_written_in_place_not_replaced_by_a_file() {
@@ -146,6 +252,64 @@ mod tests {
         assert_eq!(reader.join().unwrap(), "a,b\n");
         assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
         assert!(!dir.path().join("out.fifo.partial").exists());
+    }
+
+    #[test]
+    fn an_output_never_replaces_an_input_whatever_its_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("same.log");
+        std::fs::write(&input, "(1.0) can0 123#00\n").unwrap();
+        crate::input::note_input(&input);
+        let link = dir.path().join("link.log");
+        std::fs::hard_link(&input, &link).unwrap();
+        let dotted = dir.path().join(".").join("same.log");
+        for name in [&input, &link, &dotted] {
+            let error = Output::create(Some(name)).err().expect("refused");
+            assert!(
+                error.to_string().contains("an input of this command"),
+                "{error}"
+            );
+            assert!(Output::create_complete_only(name).is_err());
+            assert!(create_file(name).is_err());
+        }
+        assert_eq!(
+            std::fs::read_to_string(&input).unwrap(),
+            "(1.0) can0 123#00\n"
+        );
+        assert!(Output::create(Some(&dir.path().join("other.csv"))).is_ok());
+    }
+
+    #[test]
+    fn an_unfinished_output_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        let mut output = Output::create_complete_only(&path).unwrap();
+        output.buffer.extend_from_slice(b"half");
+        drop(output);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn paths_from_files_stay_inside() {
+        let dir = Path::new("/runs/000001");
+        assert_eq!(
+            inside(dir, "out/result.json", "output_file").unwrap(),
+            dir.join("out/result.json")
+        );
+        for bad in [
+            "",
+            "/etc/passwd",
+            "../../evaluations.csv",
+            "a/../../b",
+            "..",
+        ] {
+            let error = inside(dir, bad, "output_file").unwrap_err().to_string();
+            assert!(error.contains("output_file"), "{error}");
+        }
+        assert_eq!(file_name_part("../../../elsewhere/x"), "_.._.._elsewhere_x");
+        assert_eq!(file_name_part("case 1"), "case_1");
+        assert_eq!(file_name_part("..."), "unnamed");
+        assert_eq!(file_name_part("Fall_2-Ä.b"), "Fall_2-Ä.b");
     }
 
     #[test]

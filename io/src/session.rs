@@ -239,6 +239,10 @@ pub fn raw_files(dir: &Path) -> Result<Vec<PathBuf>> {
     rotated.sort();
     let mut files: Vec<PathBuf> = rotated.into_iter().map(|(_, p)| p).collect();
     files.extend(single);
+    for file in &files {
+        crate::input::note_input(file);
+    }
+    crate::input::note_input(&dir.join(SESSION_FILE));
     Ok(files)
 }
 

@@ -64,6 +64,9 @@ pub fn run_decode(args: DecodeArgs) -> Result<()> {
     }
     let (database, warnings) =
         DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+    for dbc in &args.dbc {
+        acq_io::input::note_input(dbc);
+    }
     for warning in warnings {
         eprintln!("acq: warning: {}", warning.0);
     }

@@ -254,8 +254,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     }
     let runtime = acq_acquire::runtime(1)?;
     let summary = if let Some(path) = &args.output {
-        let bus = LogFileBus::writing(path)
-            .map_err(|e| AcqError::io(format!("creating {}", path.display()), e))?;
+        let bus = LogFileBus::writing(path)?;
         let summary = runtime.block_on(replay::play(
             &bus,
             |_| Ok(simulation.next_frame()),

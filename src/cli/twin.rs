@@ -80,6 +80,7 @@ pub struct SensitivityExcavatorArgs {
 
 fn load_model(args: &ExcavatorModelArgs) -> Result<(CaseFile, Excavator)> {
     let case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
+    acq_io::input::note_input(&args.case);
     let geometry = match &args.geometry {
         Some(path) => Geometry::load(path).map_err(AcqError::Config)?,
         None => Geometry::dx55(),
@@ -170,9 +171,12 @@ pub fn run_sensitivity(command: SensitivityCommand) -> Result<()> {
         Ok(outputs)
     });
 
-    let csv_path = args
-        .output
-        .unwrap_or_else(|| PathBuf::from(format!("{}-sensitivity.csv", case.name)));
+    let csv_path = args.output.unwrap_or_else(|| {
+        PathBuf::from(format!(
+            "{}-sensitivity.csv",
+            acq_io::output::file_name_part(&case.name)
+        ))
+    });
     let svg_path = args.svg.unwrap_or_else(|| csv_path.with_extension("svg"));
     Output::write_complete(&csv_path, sweep.to_csv().as_bytes())?;
     let measured = case.measured;

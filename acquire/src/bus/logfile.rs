@@ -31,9 +31,10 @@ impl LogFileBus {
         }
     }
 
-    /// A bus whose sinks write a new candump log at `path`.
-    pub fn writing(path: &Path) -> io::Result<Self> {
-        let file = File::create(path)?;
+    /// A bus whose sent frames go to a new candump log at `path` (never an
+    /// input of this command: [`acq_io::output::create_file`]).
+    pub fn writing(path: &Path) -> acq_io::error::Result<Self> {
+        let file = acq_io::output::create_file(path)?;
         Ok(LogFileBus {
             input: None,
             output: Some(Arc::new(Mutex::new(CandumpWriter::new(BufWriter::new(

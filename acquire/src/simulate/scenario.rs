@@ -193,6 +193,7 @@ impl Curve {
 
 impl Scenario {
     pub fn load(path: &Path) -> Result<(Scenario, Option<Curve>)> {
+        acq_io::input::note_input(path);
         let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
         let scenario: Scenario = toml::from_str(&text)
             .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?;

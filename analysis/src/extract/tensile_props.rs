@@ -241,6 +241,7 @@ pub struct PostUtsSlope {
 /// `file:line`, a file that cannot be opened [`AcqError::Config`].
 pub fn read_test_csv(path: &Path) -> Result<Vec<TestPoint>> {
     let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+    acq_io::input::note_input(path);
     parse_test_csv(&text, &path.display().to_string()).map_err(AcqError::Malformed)
 }
 

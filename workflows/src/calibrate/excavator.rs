@@ -254,6 +254,7 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
 
 pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     let mut case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
+    acq_io::input::note_input(&args.case);
     let mut force_source = format!("case file {}", args.case.display());
     let mut measured_source = force_source.clone();
     if let Some(path) = &args.measured {

@@ -2,12 +2,17 @@
 //! user's own solver (a COMSOL or Abaqus batch job, a script), run as a
 //! command once per evaluation.
 //!
-//! Each evaluation gets its own directory `DIR/runs/NNNNNN/` holding
-//! `params.json` (`{"name": value, ...}`), the command's `stdout.txt` and
-//! `stderr.txt`, and the output file the command writes: a JSON object
+//! Each evaluation gets its own directory `DIR/runs/NNNNNN/`, which is the
+//! command's working directory (solvers write fixed file names there, so
+//! parallel runs must not share one), holding `params.json`
+//! (`{"name": value, ...}`), the command's `stdout.txt` and `stderr.txt`,
+//! the files of `link_files` (symbolic links) and `copy_files` (copies),
+//! and the output file the command writes: a JSON object
 //! `{"output": value, ...}` or a CSV with a header row and one data row.
 //! The command is an argument list (no shell) in which `{params}`, `{out}`,
-//! `{dir}` and `{NAME}` (a parameter's value) are replaced. A run that
+//! `{dir}` and `{NAME}` (a parameter's value) are replaced; the program or
+//! an argument that names a file next to the spec is that file (resolved
+//! against the spec's directory, whatever the working directory). A run that
 //! exits non-zero, times out (it is killed) or leaves no readable output
 //! is retried `retries` times, then logged as failed with the reason (the
 //! end of its stderr); it never ends the calibration.
@@ -19,9 +24,11 @@
 //! ```toml
 //! command = ["sh", "solver.sh", "{params}", "{out}"]
 //! output_file = "out.json"   # in the run directory
-//! timeout_s = 600
-//! retries = 1
-//! parallel = 2               # solver licences
+//! link_files = ["mesh.inp"]  # next to the spec; linked into each run directory
+//! copy_files = []            # copied instead (for files the solver changes)
+//! timeout_s = 600            # at most 10,000,000 s
+//! retries = 1                # at most 100
+//! parallel = 2               # solver licences, 1 to 256
 //!
 //! [[parameter]]
 //! name = "youngs_modulus_gpa"
@@ -85,6 +92,12 @@ pub struct Spec {
     pub command: Vec<String>,
     /// File the command writes, relative to the run directory (.json or .csv).
     pub output_file: String,
+    /// Files next to the spec each run needs, linked into its directory.
+    #[serde(default)]
+    pub link_files: Vec<String>,
+    /// Files next to the spec each run needs a copy of.
+    #[serde(default)]
+    pub copy_files: Vec<String>,
     #[serde(default = "default_timeout_s")]
     pub timeout_s: f64,
     #[serde(default)]
@@ -153,10 +166,27 @@ fn default_loss() -> String {
     "mean".into()
 }
 
+/// Limits of a spec's numbers: beyond them a value is a typo, and some
+/// (a timeout past `Instant`'s range) would panic.
+const MAX_TIMEOUT_S: f64 = 1e7;
+const MAX_RETRIES: u32 = 100;
+const MAX_PARALLEL: usize = 256;
+const MAX_EVALUATIONS: usize = 100_000;
+/// The built-in start designs of `search.start`.
+const START_DESIGNS: [&str; 4] = ["lhs", "sobol", "l12", "factorial"];
+
+/// The directory a spec's relative paths start from.
+fn spec_directory(spec: &Path) -> PathBuf {
+    spec.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
 impl Spec {
     /// Reads and checks a spec; errors name the file and what to fix.
     pub fn load(path: &Path) -> Result<Spec> {
         let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+        acq_io::input::note_input(path);
         let spec: Spec = toml::from_str(&text)
             .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?;
         let problem = |message: String| AcqError::Config(format!("{}: {message}", path.display()));
@@ -178,8 +208,53 @@ impl Spec {
                 o.name
             )));
         }
-        if !(spec.timeout_s.is_finite() && spec.timeout_s > 0.0) {
-            return Err(problem("timeout_s must be positive".into()));
+        if !(spec.timeout_s.is_finite() && spec.timeout_s > 0.0 && spec.timeout_s <= MAX_TIMEOUT_S)
+        {
+            return Err(problem(format!(
+                "timeout_s = {}: give seconds above 0 and at most {MAX_TIMEOUT_S} (116 days)",
+                spec.timeout_s
+            )));
+        }
+        if spec.retries > MAX_RETRIES {
+            return Err(problem(format!(
+                "retries = {}: at most {MAX_RETRIES}",
+                spec.retries
+            )));
+        }
+        if !(1..=MAX_PARALLEL).contains(&spec.parallel) {
+            return Err(problem(format!(
+                "parallel = {}: give 1 to {MAX_PARALLEL} runs at a time",
+                spec.parallel
+            )));
+        }
+        let any_run = Path::new("runs/000001");
+        acq_io::output::inside(any_run, &spec.output_file, "output_file")
+            .map_err(|e| problem(e.to_string()))?;
+        let spec_directory = spec_directory(path);
+        for (what, files) in [
+            ("link_files", &spec.link_files),
+            ("copy_files", &spec.copy_files),
+        ] {
+            for file in files {
+                acq_io::output::inside(any_run, file, what).map_err(|e| problem(e.to_string()))?;
+                let source = spec_directory.join(file);
+                if !source.exists() {
+                    return Err(problem(format!(
+                        "{what}: {} does not exist (paths are relative to the spec)",
+                        source.display()
+                    )));
+                }
+                acq_io::input::note_input(&source);
+            }
+        }
+        if !START_DESIGNS.contains(&spec.search.start.as_str())
+            && !spec.search.start.ends_with(".csv")
+        {
+            return Err(problem(format!(
+                "search.start = {:?}: use one of {}, or a CSV file of points (name ending in .csv, next to the spec)",
+                spec.search.start,
+                START_DESIGNS.join(", ")
+            )));
         }
         if !matches!(spec.search.loss.as_str(), "mean" | "max") {
             return Err(problem(format!(
@@ -187,8 +262,13 @@ impl Spec {
                 spec.search.loss
             )));
         }
-        if spec.search.max_evals < 3 || spec.search.start_runs < 2 {
-            return Err(problem("search: max_evals >= 3 and start_runs >= 2".into()));
+        if !(3..=MAX_EVALUATIONS).contains(&spec.search.max_evals)
+            || !(2..=MAX_EVALUATIONS).contains(&spec.search.start_runs)
+        {
+            return Err(problem(format!(
+                "search: give max_evals from 3 and start_runs from 2, each at most {MAX_EVALUATIONS} (got {} and {})",
+                spec.search.max_evals, spec.search.start_runs
+            )));
         }
         acq_calib::evaluation::validate_parameters(&spec.parameters)
             .map_err(|e| problem(e.to_string()))?;
@@ -207,9 +287,22 @@ pub struct ExternalSimulator {
 }
 
 impl ExternalSimulator {
-    pub fn new(spec: Spec, spec_directory: PathBuf, runs: PathBuf) -> Self {
+    pub fn new(mut spec: Spec, spec_directory: PathBuf, runs: PathBuf) -> Self {
         let highest = highest_run_number(&runs);
         let outputs = spec.outputs.iter().map(|o| o.name.clone()).collect();
+        // The runs start in their own directories: a program or argument that
+        // names a file next to the spec must still find it.
+        for argument in &mut spec.command {
+            let next_to_spec = spec_directory.join(&*argument);
+            if !argument.contains('{')
+                && Path::new(argument).is_relative()
+                && next_to_spec.is_file()
+            {
+                if let Ok(absolute) = next_to_spec.canonicalize() {
+                    *argument = absolute.display().to_string();
+                }
+            }
+        }
         ExternalSimulator {
             spec,
             spec_directory,
@@ -233,8 +326,10 @@ impl ExternalSimulator {
         let params_path = directory.join("params.json");
         std::fs::write(&params_path, serde_json::Value::Object(params).to_string())
             .map_err(|e| format!("{}: {e}", params_path.display()))?;
-        let output_path = directory.join(&self.spec.output_file);
+        let output_path = acq_io::output::inside(directory, &self.spec.output_file, "output_file")
+            .map_err(|e| e.to_string())?;
         let _ = std::fs::remove_file(&output_path);
+        self.stage_files(directory)?;
         let substitute = |argument: &str| -> String {
             let mut text = argument
                 .replace("{params}", &params_path.display().to_string())
@@ -252,7 +347,7 @@ impl ExternalSimulator {
             std::fs::File::create(directory.join("stderr.txt")).map_err(|e| e.to_string())?;
         let mut child = Command::new(&arguments[0])
             .args(&arguments[1..])
-            .current_dir(&self.spec_directory)
+            .current_dir(directory)
             .stdin(Stdio::null())
             .stdout(stdout)
             .stderr(stderr)
@@ -291,6 +386,45 @@ impl ExternalSimulator {
             return Err(format!("the solver exited with {status}: {tail}"));
         }
         read_outputs(&output_path, &self.outputs)
+    }
+}
+
+impl ExternalSimulator {
+    /// Links (`link_files`) and copies (`copy_files`) the solver's files
+    /// from the spec's directory into a run directory.
+    fn stage_files(&self, directory: &Path) -> std::result::Result<(), String> {
+        let stage = |file: &String, copy: bool| -> std::result::Result<(), String> {
+            let source = self
+                .spec_directory
+                .join(file)
+                .canonicalize()
+                .map_err(|e| format!("{file} (next to the spec): {e}"))?;
+            let target = directory.join(file);
+            if let Some(parent) = target.parent() {
+                std::fs::create_dir_all(parent)
+                    .map_err(|e| format!("{}: {e}", parent.display()))?;
+            }
+            let _ = std::fs::remove_file(&target);
+            let done = if copy {
+                std::fs::copy(&source, &target).map(drop)
+            } else {
+                std::os::unix::fs::symlink(&source, &target)
+            };
+            done.map_err(|e| {
+                format!(
+                    "staging {} in {}: {e}",
+                    source.display(),
+                    directory.display()
+                )
+            })
+        };
+        for file in &self.spec.link_files {
+            stage(file, false)?;
+        }
+        for file in &self.spec.copy_files {
+            stage(file, true)?;
+        }
+        Ok(())
     }
 }
 
@@ -430,6 +564,7 @@ fn start_design(spec: &Spec, spec_directory: &Path, seed: u64) -> Result<Vec<Vec
         file => {
             let path = spec_directory.join(file);
             let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
+            acq_io::input::note_input(&path);
             let names: Vec<&str> = spec.parameters.iter().map(|p| p.name.as_str()).collect();
             let points = read_design_csv(&text, &names)
                 .map_err(|e| AcqError::Malformed(format!("{}: {e}", path.display())))?;
@@ -443,16 +578,14 @@ fn start_design(spec: &Spec, spec_directory: &Path, seed: u64) -> Result<Vec<Vec
 
 pub fn run(args: CalibrateExternalArgs) -> Result<()> {
     let spec = Spec::load(&args.spec)?;
-    let spec_directory = args
-        .spec
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+    let spec_directory = spec_directory(&args.spec);
+    // The start design is read before the run directory exists: a refused
+    // design leaves nothing behind.
+    let initial = start_design(&spec, &spec_directory, args.seed)?;
     let directory = RunDirectory::create(&args.out)?;
     let runs = std::fs::canonicalize(&directory.path)
         .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
         .join("runs");
-    let initial = start_design(&spec, &spec_directory, args.seed)?;
     let parallel = spec.parallel.max(1);
     let budget = spec.search.max_evals;
     let target = spec.search.target_loss_pct;
@@ -482,6 +615,17 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         &settings,
     );
     progress.finish();
+    if evaluator.evaluations().iter().all(|e| e.outcome.is_err()) {
+        if let Some(first) = evaluator.evaluations().first() {
+            let reason = first.outcome.as_ref().err().cloned().unwrap_or_default();
+            return Err(AcqError::Config(format!(
+                "none of the {} solver runs succeeded; the first failed with: {reason}. Each run's stdout.txt and stderr.txt are in {}, every reason in {}",
+                evaluator.evaluations().len(),
+                simulator.runs.display(),
+                directory.file("evaluations.csv").display()
+            )));
+        }
+    }
     let result = result?;
     let wall_s = start.elapsed().as_secs_f64();
     let scored = scored(evaluator.evaluations(), |y| errors_pct(spec, y).1);

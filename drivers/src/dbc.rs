@@ -81,6 +81,9 @@ pub struct SignalCodec {
     scaling: Scaling,
     /// `Some(v)`: only present when the message's multiplexor has raw value `v`.
     pub multiplexer_value: Option<u64>,
+    /// Further multiplexor values that select it, inclusive ranges from the
+    /// DBC's value lists (`SG_MUL_VAL_`).
+    multiplexer_ranges: Vec<(u64, u64)>,
     /// Value-table labels by raw value, sorted.
     labels: Vec<(i64, String)>,
 }
@@ -99,8 +102,34 @@ impl SignalCodec {
     /// Whether the multiplexor's value `selector` puts this signal in the frame.
     #[inline]
     fn is_selected(&self, selector: Option<u64>) -> bool {
-        self.multiplexer_value
-            .is_none_or(|wanted| selector == Some(wanted))
+        if self.multiplexer_value.is_none() && self.multiplexer_ranges.is_empty() {
+            return true;
+        }
+        selector.is_some_and(|value| {
+            self.multiplexer_value == Some(value)
+                || self
+                    .multiplexer_ranges
+                    .iter()
+                    .any(|&(low, high)| (low..=high).contains(&value))
+        })
+    }
+
+    /// Whether this signal and `other` can be in the same frame.
+    fn can_share_a_frame_with(&self, other: &SignalCodec) -> bool {
+        let values = |signal: &SignalCodec| -> Option<Vec<(u64, u64)>> {
+            if signal.multiplexer_value.is_none() && signal.multiplexer_ranges.is_empty() {
+                return None;
+            }
+            let mut ranges = signal.multiplexer_ranges.clone();
+            ranges.extend(signal.multiplexer_value.map(|v| (v, v)));
+            Some(ranges)
+        };
+        match (values(self), values(other)) {
+            (Some(mine), Some(theirs)) => mine
+                .iter()
+                .any(|&(a, b)| theirs.iter().any(|&(c, d)| a <= d && c <= b)),
+            _ => true,
+        }
     }
 
     /// Decodes the signal from a payload; `None` if the payload is too short.
@@ -192,8 +221,8 @@ pub struct MessageCodec {
     pub size: usize,
     pub signals: Vec<SignalCodec>,
     multiplexor: Option<usize>,
-    /// The multiplexer values that select signals, sorted.
-    multiplexer_values: Vec<u64>,
+    /// The multiplexer values that select signals (inclusive ranges).
+    multiplexer_values: Vec<(u64, u64)>,
     /// The DBC file this message came from.
     pub source: Arc<str>,
 }
@@ -220,7 +249,11 @@ impl MessageCodec {
     ) -> Result<(), FrameDecodeError> {
         let selector = self.selector(payload)?;
         if let Some(value) = selector {
-            if self.multiplexer_values.binary_search(&value).is_err() {
+            if !self
+                .multiplexer_values
+                .iter()
+                .any(|&(low, high)| (low..=high).contains(&value))
+            {
                 return Err(FrameDecodeError::UnknownMultiplexerValue(value));
             }
         }
@@ -288,6 +321,15 @@ pub enum DbcError {
         signal: String,
         detail: String,
     },
+    #[error("{source_name}: message {message} (id {id}): {detail}")]
+    Message {
+        source_name: String,
+        message: String,
+        id: CanId,
+        detail: String,
+    },
+    #[error("{source_name}: no messages (BO_ lines): is this a DBC file?")]
+    Empty { source_name: String },
     #[error("{source_name}: message {message}: id 0x{raw:X} is not a valid CAN id")]
     BadId {
         source_name: String,
@@ -329,9 +371,17 @@ impl DbcDatabase {
         }
     }
 
-    /// Parses DBC text; `source_name` names it in errors. Messages that use
-    /// what this decoder does not support (extended multiplexing) are skipped
-    /// with a warning rather than failing the whole file.
+    /// Parses DBC text; `source_name` names it in errors.
+    ///
+    /// What cannot be decoded at all is an error: no messages, a message
+    /// longer than a CAN FD frame, a signal beyond its message or whose
+    /// scaling overflows. What decodes but looks wrong is a warning naming
+    /// the message and signal once: overlapping signals, a signal name used
+    /// twice in a message. Messages that use what this decoder does not
+    /// support (extended multiplexing with several multiplexors) are skipped
+    /// with a warning. Vector's placeholder `VECTOR__INDEPENDENT_SIG_MSG`
+    /// (signals of no message, no frame of its own) is skipped silently, as
+    /// cantools does.
     pub fn parse(text: &str, source_name: &str) -> Result<(Self, Vec<DbcWarning>), DbcError> {
         let dbc = Dbc::try_from(text).map_err(|e| DbcError::Syntax {
             source_name: source_name.to_string(),
@@ -340,11 +390,21 @@ impl DbcDatabase {
         let mut database = DbcDatabase::new();
         let mut warnings = Vec::new();
         let source: Arc<str> = Arc::from(source_name);
+        let mut messages = 0;
         for message in &dbc.messages {
-            match compile_message(&dbc, message, &source)? {
+            if message.name == INDEPENDENT_SIGNALS_MESSAGE {
+                continue;
+            }
+            messages += 1;
+            match compile_message(&dbc, message, &source, &mut warnings)? {
                 Ok(codec) => database.add(codec)?,
                 Err(warning) => warnings.push(warning),
             }
+        }
+        if messages == 0 {
+            return Err(DbcError::Empty {
+                source_name: source_name.to_string(),
+            });
         }
         Ok((database, warnings))
     }
@@ -429,10 +489,19 @@ impl DbcDatabase {
     }
 }
 
+/// Vector's placeholder message for signals that belong to no message.
+const INDEPENDENT_SIGNALS_MESSAGE: &str = "VECTOR__INDEPENDENT_SIG_MSG";
+
+/// The longest payload a CAN frame carries (CAN FD), bytes.
+const MAX_PAYLOAD_BYTES: u64 = 64;
+
+/// Compiles one message: `Ok(Err(warning))` when it is skipped; the
+/// warnings about a message that is kept go to `warnings`.
 fn compile_message(
     dbc: &Dbc,
     message: &can_dbc::Message,
     source: &Arc<str>,
+    warnings: &mut Vec<DbcWarning>,
 ) -> Result<Result<MessageCodec, DbcWarning>, DbcError> {
     let id = match message.id {
         MessageId::Standard(id) => CanId::standard(id),
@@ -443,6 +512,17 @@ fn compile_message(
         message: message.name.clone(),
         raw: message.id.raw(),
     })?;
+    if message.size > MAX_PAYLOAD_BYTES {
+        return Err(DbcError::Message {
+            source_name: source.to_string(),
+            message: message.name.clone(),
+            id,
+            detail: format!(
+                "declared with {} bytes; a CAN frame holds at most {MAX_PAYLOAD_BYTES} (CAN FD)",
+                message.size
+            ),
+        });
+    }
     let signal_error = |signal: &str, detail: String| DbcError::Signal {
         source_name: source.to_string(),
         message: message.name.clone(),
@@ -513,6 +593,8 @@ fn compile_message(
                 ));
             }
         }
+        check_scaling_range(signal.factor, signal.offset, encoding, signal.size)
+            .map_err(|detail| signal_error(&signal.name, detail))?;
         let mut labels: Vec<(i64, String)> = dbc
             .value_descriptions_for_signal(message.id, &signal.name)
             .unwrap_or_default()
@@ -529,17 +611,58 @@ fn compile_message(
             offset: signal.offset,
             scaling: scaling(signal.factor, signal.offset),
             multiplexer_value,
+            multiplexer_ranges: Vec::new(),
             labels,
         });
     }
-    if multiplexor.is_none() && signals.iter().any(|s| s.multiplexer_value.is_some()) {
+    // Multiplexer value lists (SG_MUL_VAL_) on a plainly multiplexed message:
+    // further switch values that select a signal.
+    for list in dbc
+        .extended_multiplex
+        .iter()
+        .filter(|list| list.message_id == message.id)
+    {
+        let switch_matches =
+            multiplexor.is_some_and(|index| signals[index].name == list.multiplexor_signal_name);
+        let Some(signal) = signals.iter_mut().find(|s| s.name == list.signal_name) else {
+            warnings.push(DbcWarning(format!(
+                "{source}: message {} ({id}): the value list (SG_MUL_VAL_) names signal {}, which the message does not have; ignored",
+                message.name, list.signal_name
+            )));
+            continue;
+        };
+        if !switch_matches {
+            return Ok(Err(DbcWarning(format!(
+                "{source}: message {} ({id}) skipped: signal {} is switched by {}, not by the message's multiplexor (extended multiplexing is not supported)",
+                message.name, list.signal_name, list.multiplexor_signal_name
+            ))));
+        }
+        signal.multiplexer_ranges.extend(
+            list.mappings
+                .iter()
+                .map(|m| (m.min_value.min(m.max_value), m.min_value.max(m.max_value))),
+        );
+    }
+    warn_about_suspicious_signals(message, id, source, &signals, warnings);
+    if multiplexor.is_none()
+        && signals
+            .iter()
+            .any(|s| s.multiplexer_value.is_some() || !s.multiplexer_ranges.is_empty())
+    {
         return Ok(Err(DbcWarning(format!(
             "{source}: message {} ({id}) skipped: multiplexed signals but no multiplexor",
             message.name
         ))));
     }
-    let mut multiplexer_values: Vec<u64> =
-        signals.iter().filter_map(|s| s.multiplexer_value).collect();
+    let mut multiplexer_values: Vec<(u64, u64)> = signals
+        .iter()
+        .flat_map(|s| {
+            s.multiplexer_value
+                .map(|v| (v, v))
+                .into_iter()
+                .chain(s.multiplexer_ranges.iter().copied())
+        })
+        .collect();
     multiplexer_values.sort_unstable();
     multiplexer_values.dedup();
     Ok(Ok(MessageCodec {
@@ -551,6 +674,79 @@ fn compile_message(
         multiplexer_values,
         source: Arc::clone(source),
     }))
+}
+
+/// An error when `raw * factor + offset` is not a finite number for some raw
+/// value of the field (a factor of 1e308 on a 16-bit signal, say).
+fn check_scaling_range(
+    factor: f64,
+    offset: f64,
+    encoding: Encoding,
+    size_bits: u64,
+) -> Result<(), String> {
+    if !(factor.is_finite() && offset.is_finite()) {
+        return Err(format!(
+            "factor {factor} and offset {offset} must be finite numbers"
+        ));
+    }
+    let (low, high) = match encoding {
+        // A float field's own range is the float's; only the scaling is checked.
+        Encoding::Float32 => (f64::from(f32::MIN), f64::from(f32::MAX)),
+        Encoding::Float64 => return Ok(()),
+        Encoding::Unsigned => (0.0, 2f64.powi(size_bits as i32) - 1.0),
+        Encoding::Signed => {
+            let half = 2f64.powi(size_bits as i32 - 1);
+            (-half, half - 1.0)
+        }
+    };
+    for raw in [low, high] {
+        let value = raw * factor + offset;
+        if !value.is_finite() {
+            return Err(format!(
+                "factor {factor} and offset {offset} overflow for the raw value {raw} ({value}); give a scaling whose values fit in a 64-bit float"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Warnings, once per pair or name, for what decodes but is likely a
+/// mistake in the DBC: signals that share bits in the same frame, and a
+/// signal name used twice in one message.
+fn warn_about_suspicious_signals(
+    message: &can_dbc::Message,
+    id: CanId,
+    source: &Arc<str>,
+    signals: &[SignalCodec],
+    warnings: &mut Vec<DbcWarning>,
+) {
+    let bits: Vec<Vec<u8>> = signals
+        .iter()
+        .map(|signal| {
+            let mut payload = vec![0u8; message.size as usize];
+            let all_ones = u64::MAX >> (64 - signal.field.length_bits());
+            let _ = signal.field.insert(&mut payload, all_ones);
+            payload
+        })
+        .collect();
+    for (i, first) in signals.iter().enumerate() {
+        for (j, second) in signals.iter().enumerate().skip(i + 1) {
+            if first.name == second.name {
+                warnings.push(DbcWarning(format!(
+                    "{source}: message {} ({id}): signal {} is defined twice; both are decoded, a rig can name only the first",
+                    message.name, first.name
+                )));
+                continue;
+            }
+            let shared = bits[i].iter().zip(&bits[j]).any(|(a, b)| a & b != 0);
+            if shared && first.can_share_a_frame_with(second) {
+                warnings.push(DbcWarning(format!(
+                    "{source}: message {} ({id}): signals {} and {} share bits; each is decoded as declared",
+                    message.name, first.name, second.name
+                )));
+            }
+        }
+    }
 }
 
 fn scaling(factor: f64, offset: f64) -> Scaling {
@@ -688,6 +884,125 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         assert!(
             error.starts_with("broken.dbc: not a valid DBC file"),
             "{error}"
+        );
+    }
+
+    /// A DBC with one message of `size` bytes holding `signals` (SG_ lines),
+    /// plus whatever `tail` adds after the messages.
+    fn dbc_with(size: u32, signals: &str, tail: &str) -> String {
+        format!(
+            "VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: DAQ\n\nBO_ 256 Probe: {size} DAQ\n{signals}\n{tail}\n"
+        )
+    }
+
+    #[test]
+    fn what_cannot_be_decoded_is_an_error_naming_message_and_signal() {
+        let empty = DbcDatabase::parse("", "empty.dbc").unwrap_err().to_string();
+        assert!(empty.contains("empty.dbc"), "{empty}");
+        let no_messages =
+            DbcDatabase::parse("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: DAQ\n", "none.dbc")
+                .unwrap_err()
+                .to_string();
+        assert!(no_messages.contains("no messages"), "{no_messages}");
+        let long = DbcDatabase::parse(
+            &dbc_with(200, " SG_ X : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX", ""),
+            "long.dbc",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            long.contains("Probe") && long.contains("200 bytes") && long.contains("64"),
+            "{long}"
+        );
+        let overflow = DbcDatabase::parse(
+            &dbc_with(
+                8,
+                " SG_ Huge : 0|16@1+ (1e308,0) [0|0] \"\" Vector__XXX",
+                "",
+            ),
+            "huge.dbc",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            overflow.contains("Huge") && overflow.contains("overflow"),
+            "{overflow}"
+        );
+        // The same factor on a 1-bit signal stays finite: decodable, accepted.
+        assert!(DbcDatabase::parse(
+            &dbc_with(8, " SG_ Bit : 0|1@1+ (1e308,0) [0|0] \"\" Vector__XXX", ""),
+            "bit.dbc"
+        )
+        .is_ok());
+    }
+
+    #[test]
+    fn what_decodes_but_looks_wrong_is_one_warning_each() {
+        let text = dbc_with(
+            8,
+            " SG_ Low : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Cross : 4|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Twice : 16|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Twice : 24|8@1+ (1,0) [0|0] \"\" Vector__XXX",
+            "",
+        );
+        let (db, warnings) = DbcDatabase::parse(&text, "odd.dbc").unwrap();
+        let warnings: Vec<&str> = warnings.iter().map(|w| w.0.as_str()).collect();
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
+        assert!(warnings
+            .iter()
+            .any(|w| w.contains("Low and Cross share bits")));
+        assert!(warnings
+            .iter()
+            .any(|w| w.contains("Twice is defined twice")));
+        // Both overlapping signals still decode as declared.
+        let message = db.message(CanId::Standard(256)).unwrap();
+        let mut values = Vec::new();
+        message
+            .decode(&[0xAB, 0xCD, 1, 2, 0, 0, 0, 0], |i, v| values.push((i, v)))
+            .unwrap();
+        assert_eq!(values[0], (0, PhysicalValue::Integer(0xAB)));
+        assert_eq!(values[1], (1, PhysicalValue::Integer(0xDA)));
+    }
+
+    #[test]
+    fn vectors_placeholder_message_is_skipped_as_cantools_skips_it() {
+        let text = dbc_with(
+            8,
+            " SG_ Real : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX",
+            "BO_ 3221225472 VECTOR__INDEPENDENT_SIG_MSG: 0 Vector__XXX\n SG_ Orphan : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX\n",
+        );
+        let (db, warnings) = DbcDatabase::parse(&text, "vector.dbc").unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert_eq!(db.messages().len(), 1);
+        assert_eq!(db.messages()[0].name, "Probe");
+    }
+
+    #[test]
+    fn multiplexer_value_lists_select_signals_for_every_listed_value() {
+        let text = dbc_with(
+            8,
+            " SG_ Switch M : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Listed m0 : 8|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Plain m1 : 8|16@1+ (1,0) [0|0] \"\" Vector__XXX",
+            "SG_MUL_VAL_ 256 Listed Switch 0-0, 3-5;\n",
+        );
+        let (db, warnings) = DbcDatabase::parse(&text, "mux.dbc").unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let message = db.message(CanId::Standard(256)).unwrap();
+        let decoded = |switch: u8| {
+            let mut names = Vec::new();
+            let result = message.decode(&[switch, 7, 0, 0, 0, 0, 0, 0], |i, _| {
+                names.push(message.signals[i].name.clone())
+            });
+            result.map(|()| names)
+        };
+        for switch in [0, 3, 4, 5] {
+            assert_eq!(
+                decoded(switch).unwrap(),
+                ["Switch", "Listed"],
+                "switch {switch}"
+            );
+        }
+        assert_eq!(decoded(1).unwrap(), ["Switch", "Plain"]);
+        assert_eq!(
+            decoded(2).unwrap_err(),
+            FrameDecodeError::UnknownMultiplexerValue(2)
         );
     }
 }

@@ -817,7 +817,7 @@ max_evals = 20
         .current_dir(root())
         .stdin(Stdio::null())
         .stdout(Stdio::null())
-        .stderr(Stdio::null());
+        .stderr(std::fs::File::create(dir.path().join("stderr.txt")).unwrap());
     // Tests started as a background job of a non-interactive shell inherit an ignored
     // SIGINT, and exec keeps it ignored: give acq the default action, as on a terminal.
     // SAFETY: only sigaction (async-signal-safe) runs between fork and exec.
@@ -848,9 +848,15 @@ max_evals = 20
     }
     kill(Pid::from_raw(child.id() as i32), Signal::SIGINT).unwrap();
     let status = child.wait().unwrap();
+    assert_eq!(
+        status.code(),
+        Some(130),
+        "an interrupted run exits 130: {status}"
+    );
+    let said = std::fs::read_to_string(dir.path().join("stderr.txt")).unwrap();
     assert!(
-        !status.success(),
-        "an interrupted run reports failure: {status}"
+        said.contains("interrupted") && said.contains("--resume"),
+        "an interrupted run says how to continue: {said}"
     );
 
     // The solver runs that were in flight finish on their own; wait until every started

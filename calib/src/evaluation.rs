@@ -93,9 +93,9 @@ pub fn validate_parameters(parameters: &[Parameter]) -> Result<(), EvaluationErr
                 p.name
             )));
         }
-        if !(p.lower.is_finite() && p.upper.is_finite() && p.lower <= p.upper) {
+        if !(p.lower.is_finite() && p.upper.is_finite() && p.lower < p.upper) {
             return Err(EvaluationError::Setup(format!(
-                "parameter {:?}: bounds must be finite with lower <= upper, got {} .. {}",
+                "parameter {:?}: bounds must be finite with lower < upper, got {} .. {} (a calibrated parameter needs a range; a fixed value is no parameter)",
                 p.name, p.lower, p.upper
             )));
         }

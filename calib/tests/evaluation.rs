@@ -206,9 +206,11 @@ fn bad_parameters_are_setup_errors() {
     toy.parameters[1] = Parameter::new("a_mm", 0.0, 1.0);
     let error = Evaluator::in_memory(&toy, 1).err().unwrap().to_string();
     assert!(error.contains("listed twice"), "{error}");
-    toy.parameters[1] = Parameter::new("b", 2.0, 1.0);
-    let error = Evaluator::in_memory(&toy, 1).err().unwrap().to_string();
-    assert!(error.contains("lower <= upper"), "{error}");
+    for (lower, upper) in [(2.0, 1.0), (1.0, 1.0), (f64::NAN, 1.0)] {
+        toy.parameters[1] = Parameter::new("b", lower, upper);
+        let error = Evaluator::in_memory(&toy, 1).err().unwrap().to_string();
+        assert!(error.contains("lower < upper"), "{lower}..{upper}: {error}");
+    }
     let toy = Toy::new();
     let mut evaluator = Evaluator::in_memory(&toy, 1).unwrap();
     let error = evaluator.evaluate(&[vec![1.0]]).err().unwrap().to_string();

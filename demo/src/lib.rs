@@ -144,7 +144,7 @@ const MARKER: &str = ".acq-demo";
 /// Makes `out` empty: a directory a previous demo wrote (its marker is
 /// there) is cleared; any other non-empty directory is left alone.
 fn prepare_out(out: &Path) -> Result<()> {
-    if out.exists() {
+    if out.is_dir() {
         let is_empty = std::fs::read_dir(out)
             .map_err(|e| AcqError::io(format!("reading {}", out.display()), e))?
             .next()
@@ -160,14 +160,12 @@ fn prepare_out(out: &Path) -> Result<()> {
                 .map_err(|e| AcqError::io(format!("clearing {}", out.display()), e))?;
         }
     }
-    std::fs::create_dir_all(out)
-        .and_then(|()| {
-            std::fs::write(
-                out.join(MARKER),
-                "written by acq demo; cleared by the next one\n",
-            )
-        })
-        .map_err(|e| AcqError::io(format!("creating {}", out.display()), e))
+    acq_io::output::create_dir(out)?;
+    std::fs::write(
+        out.join(MARKER),
+        "written by acq demo; cleared by the next one\n",
+    )
+    .map_err(|e| AcqError::io(format!("creating {}", out.display()), e))
 }
 
 fn say(text: impl AsRef<str>) {
@@ -200,6 +198,22 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 "--sessions {} lies inside --out {}, which the demo clears first; move the sessions or give another --out",
                 sessions.display(),
                 args.out.display()
+            )));
+        }
+    }
+    if let Some(sessions) = &args.sessions {
+        // Checked before --out is touched: a refused demo leaves nothing.
+        let missing: Vec<&str> = SHIPPED
+            .iter()
+            .map(|(name, _)| *name)
+            .filter(|name| !sessions.join(name).join(session::SESSION_FILE).is_file())
+            .collect();
+        if !missing.is_empty() {
+            return Err(AcqError::Config(format!(
+                "--sessions {}: no recorded session {} there (each a directory with {}); record them with `acq demo --acquire-only --out DIR` and give DIR/sessions",
+                sessions.display(),
+                missing.join(", "),
+                session::SESSION_FILE
             )));
         }
     }

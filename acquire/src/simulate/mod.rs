@@ -167,6 +167,7 @@ impl<'r> Simulation<'r> {
             .map_or(scenario.timeline.total_s(), |c| c.duration_s());
         let mut master = ChaCha8Rng::seed_from_u64(seed);
         let streams = build_streams(rig, &devices, &mut master)?;
+        check_levels_can_be_sent(rig, &streams, &profiles, curve.as_ref())?;
         let mut queue = BinaryHeap::new();
         let mut simulation = Simulation {
             rig,
@@ -232,25 +233,7 @@ impl<'r> Simulation<'r> {
                 for &index in sensors {
                     let value =
                         self.true_value(index, t_s) + self.noise[index].sample(&mut self.noise_rng);
-                    let sensor = &self.rig.sensors[index];
-                    // Engineering value -> the channel value the device sends.
-                    let channel = sensor.conversion.invert(value).unwrap_or(0.0);
-                    let payload = &mut data[..*len];
-                    match &sensor.source {
-                        SensorSource::Dbc {
-                            id, signal_index, ..
-                        } => {
-                            if let Some(message) = self.rig.buses[sensor.bus].dbc.message(*id) {
-                                message.signals[*signal_index].encode(channel, payload);
-                            }
-                        }
-                        SensorSource::Canopen { mapping, .. } => {
-                            mapping.encode(channel, payload);
-                        }
-                        SensorSource::J1939 { spn, .. } => {
-                            spn.encode(channel, payload);
-                        }
-                    }
+                    encode_sensor(self.rig, index, value, &mut data[..*len]);
                 }
                 *len
             }
@@ -441,4 +424,95 @@ fn build_streams(
         ));
     }
     Ok(streams)
+}
+
+/// Writes sensor `index`'s engineering `value` into its frame's payload, as
+/// its device would send it.
+fn encode_sensor(rig: &Rig, index: usize, value: f64, payload: &mut [u8]) {
+    let sensor = &rig.sensors[index];
+    // Engineering value -> the channel value the device sends.
+    let channel = sensor.conversion.invert(value).unwrap_or(0.0);
+    match &sensor.source {
+        SensorSource::Dbc {
+            id, signal_index, ..
+        } => {
+            if let Some(message) = rig.buses[sensor.bus].dbc.message(*id) {
+                message.signals[*signal_index].encode(channel, payload);
+            }
+        }
+        SensorSource::Canopen { mapping, .. } => {
+            mapping.encode(channel, payload);
+        }
+        SensorSource::J1939 { spn, .. } => {
+            spn.encode(channel, payload);
+        }
+    }
+}
+
+/// Refuses a scenario level (idle, hold, or a curve column's extremes) that
+/// its sensor's device cannot send: encoded as the device would and decoded
+/// as acq would, it must come back within 2 % of itself (or of 5 % of the
+/// sensor's largest level, for levels near zero). Out of the field's range a
+/// value saturates or wraps, and the simulation would send another number
+/// than the scenario says.
+fn check_levels_can_be_sent(
+    rig: &Rig,
+    streams: &[Stream],
+    profiles: &[Profile],
+    curve: Option<&Curve>,
+) -> Result<()> {
+    let mut decoder = acq_drivers::sensors::SensorDecoder::new(rig);
+    for stream in streams {
+        let Payload::Sensors { sensors, len, fill } = &stream.payload else {
+            continue;
+        };
+        for &index in sensors {
+            let levels: Vec<(&str, f64)> = match &profiles[index] {
+                Profile::Levels { idle, hold } => vec![("idle", *idle), ("hold", *hold)],
+                Profile::Column { column, after_end } => {
+                    let values = curve.and_then(|c| c.columns.get(column));
+                    let extremes = values.map_or((0.0, 0.0), |v| {
+                        v.iter()
+                            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                                (lo.min(x), hi.max(x))
+                            })
+                    });
+                    let mut levels = vec![
+                        ("the curve's smallest value", extremes.0),
+                        ("the curve's largest value", extremes.1),
+                    ];
+                    levels.extend(after_end.map(|v| ("after_end", v)));
+                    levels
+                }
+            };
+            let scale = levels.iter().fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+            for (what, value) in levels {
+                let mut data = vec![*fill; *len];
+                encode_sensor(rig, index, value, &mut data);
+                let frame = Frame::data(0, stream.iface, stream.id, &data)
+                    .or_else(|_| Frame::fd(0, stream.iface, stream.id, 0, &data));
+                let mut sent = None;
+                if let Ok(frame) = frame {
+                    decoder.decode(&frame, |event| {
+                        if let acq_drivers::sensors::SensorEvent::Sample(sample) = event {
+                            if sample.sensor == index {
+                                sent = sample.value;
+                            }
+                        }
+                    });
+                }
+                let tolerance = 0.02 * value.abs().max(0.05 * scale);
+                if sent.is_none_or(|sent| (sent - value).abs() > tolerance) {
+                    let sensor = &rig.sensors[index];
+                    return Err(AcqError::Config(format!(
+                        "sensor.{}: {what} = {value:?} {} cannot be sent by its device: it arrives as {}; give a value inside the sensor's range",
+                        sensor.name,
+                        sensor.kind.output_unit(),
+                        sent.map_or("no value".to_string(), |v| format!("{v}"))
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
 }

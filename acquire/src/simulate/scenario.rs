@@ -191,6 +191,10 @@ impl Curve {
     }
 }
 
+/// The longest simulation, s: beyond it a timeline is a typo (and `-o`
+/// would fill the disk).
+pub const MAX_DURATION_S: f64 = 86_400.0;
+
 impl Scenario {
     pub fn load(path: &Path) -> Result<(Scenario, Option<Curve>)> {
         acq_io::input::note_input(path);
@@ -214,6 +218,12 @@ impl Scenario {
                 )));
             }
         }
+        let total_s = scenario.timeline.total_s();
+        if total_s > MAX_DURATION_S {
+            return Err(bad(format!(
+                "the timeline lasts {total_s} s; a simulation lasts at most {MAX_DURATION_S} s (a day): split a longer one"
+            )));
+        }
         if !(0.0..1.0).contains(&scenario.devices.drop_probability) {
             return Err(bad("devices.drop_probability: expected 0 <= p < 1".into()));
         }
@@ -230,6 +240,18 @@ impl Scenario {
                     )))
                 }
                 _ => {}
+            }
+            for (what, value) in [
+                ("idle", sensor.idle),
+                ("hold", sensor.hold),
+                ("after_end", sensor.after_end),
+            ] {
+                if value.is_some_and(|v| !v.is_finite()) {
+                    return Err(bad(format!(
+                        "sensor.{name}.{what} = {}: expected a finite number",
+                        value.unwrap_or_default()
+                    )));
+                }
             }
             if sensor.noise.is_some_and(|n| !(n.is_finite() && n >= 0.0)) {
                 return Err(bad(format!(
@@ -317,13 +339,27 @@ fn load_curve(spec: &CurveSpec, path: &Path, scenario: &Scenario) -> Result<Curv
             path.display()
         )));
     }
-    Ok(Curve {
+    let curve = Curve {
         x,
         columns,
         x_per_s: spec.x_per_s,
         start_s: spec.start_s,
         after_s: spec.after_s,
-    })
+    };
+    let duration_s = curve.duration_s();
+    if !(duration_s.is_finite()
+        && duration_s <= MAX_DURATION_S
+        && spec.start_s >= 0.0
+        && spec.after_s >= 0.0)
+    {
+        return Err(AcqError::Config(format!(
+            "{}: the curve plays for {duration_s} s (start_s {}, after_s {}); give start_s, after_s >= 0 and at most {MAX_DURATION_S} s (a day) in all",
+            path.display(),
+            spec.start_s,
+            spec.after_s
+        )));
+    }
+    Ok(curve)
 }
 
 #[cfg(test)]

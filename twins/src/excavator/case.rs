@@ -144,12 +144,7 @@ impl CaseFile {
 
     pub fn parse(text: &str) -> Result<CaseFile, String> {
         let case: CaseFile = toml::from_str(text).map_err(|e| e.to_string())?;
-        if !(case.force_kn.is_finite() && case.force_kn >= 0.0) {
-            return Err(format!(
-                "force_kN must be a finite number >= 0, got {}",
-                case.force_kn
-            ));
-        }
+        super::inputs::check_tip_force_kn(case.force_kn).map_err(|e| format!("force_kN: {e}"))?;
         for input in UncertainInput::ALL {
             let [low, high] = case.bounds.get(input);
             if !(low.is_finite() && high.is_finite() && low <= high) {

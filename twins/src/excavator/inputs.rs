@@ -72,7 +72,41 @@ pub struct Inputs {
     pub tip_force_angle_deg: f64,
 }
 
+/// The largest tip force the twin takes, kN: far beyond any excavator of
+/// this class (a DX55's breakout force is about 40 kN), small enough that the
+/// statics stay finite. A larger number is a unit mistake.
+pub const MAX_TIP_FORCE_KN: f64 = 10_000.0;
+
+/// Checks a tip force: finite, >= 0 (its direction is the angle), at most
+/// [`MAX_TIP_FORCE_KN`]. Shared by case files and single runs.
+pub fn check_tip_force_kn(force_kn: f64) -> Result<(), TwinError> {
+    if force_kn.is_finite() && (0.0..=MAX_TIP_FORCE_KN).contains(&force_kn) {
+        Ok(())
+    } else {
+        Err(TwinError::InvalidInput(format!(
+            "the tip force must be from 0 to {MAX_TIP_FORCE_KN} kN (its direction is the angle), got {force_kn:?}"
+        )))
+    }
+}
+
 impl Inputs {
+    /// Every input finite, the tip force in its range.
+    pub fn check(&self) -> Result<(), TwinError> {
+        for (name, value) in [
+            ("bucket stroke", self.strokes.bucket_mm),
+            ("arm stroke", self.strokes.arm_mm),
+            ("boom stroke", self.strokes.boom_mm),
+            ("tip force angle", self.tip_force_angle_deg),
+        ] {
+            if !value.is_finite() {
+                return Err(TwinError::InvalidInput(format!(
+                    "{name} must be a finite number, got {value}"
+                )));
+            }
+        }
+        check_tip_force_kn(self.tip_force_kn)
+    }
+
     /// The tip force as a vector in the (Y, Z) plane, N.
     pub fn tip_force_n(&self) -> Vector2<f64> {
         let angle = self.tip_force_angle_deg.to_radians();

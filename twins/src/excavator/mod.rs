@@ -197,19 +197,7 @@ impl Excavator {
 
     /// One full evaluation.
     pub fn evaluate(&self, inputs: &Inputs) -> Result<Evaluation, TwinError> {
-        for (name, value) in [
-            ("bucket stroke", inputs.strokes.bucket_mm),
-            ("arm stroke", inputs.strokes.arm_mm),
-            ("boom stroke", inputs.strokes.boom_mm),
-            ("tip force", inputs.tip_force_kn),
-            ("tip force angle", inputs.tip_force_angle_deg),
-        ] {
-            if !value.is_finite() {
-                return Err(TwinError::InvalidInput(format!(
-                    "{name} must be a finite number, got {value}"
-                )));
-            }
-        }
+        inputs.check()?;
         let pose = Pose::solve(&self.geometry, &inputs.strokes)?;
         let loads = self.loads(&pose, inputs);
         let reactions = statics::solve(&pose, &loads).ok_or_else(|| {

@@ -139,6 +139,55 @@ impl Simulator for ExcavatorSimulator {
     }
 }
 
+/// Refuses a study that cannot work, before any model run and before its
+/// run directory exists: measured pressures that are not finite positive
+/// numbers (errors are relative to them), a calibrated input without a
+/// range, and bounds the twin cannot be evaluated at (every corner of the
+/// box is tried: a stroke beyond its cylinder's range fails there).
+fn check_before_the_first_run(
+    case_path: &std::path::Path,
+    measured: &MeasuredPressures,
+    simulator: &ExcavatorSimulator,
+) -> Result<()> {
+    let problem = |what: String| AcqError::Config(format!("{}: {what}", case_path.display()));
+    for name in CylinderName::ALL {
+        let pressure = measured.get(name);
+        if !(pressure.is_finite() && pressure > 0.0) {
+            return Err(problem(format!(
+                "the measured {name} pressure is {pressure} bar; give the loaded chamber's pressure, a finite number above 0 (errors are relative to it)"
+            )));
+        }
+    }
+    let parameters = simulator.parameters();
+    acq_calib::evaluation::validate_parameters(parameters)
+        .map_err(|e| problem(format!("bounds: {e}")))?;
+    for corner in 0..1usize << parameters.len() {
+        let values: Vec<f64> = parameters
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                if corner >> i & 1 == 1 {
+                    p.upper
+                } else {
+                    p.lower
+                }
+            })
+            .collect();
+        if let Err(reason) = simulator.evaluate(&values) {
+            let at: Vec<String> = parameters
+                .iter()
+                .zip(&values)
+                .map(|(p, v)| format!("{} = {v}", p.name))
+                .collect();
+            return Err(problem(format!(
+                "the twin cannot be evaluated at a corner of the bounds ({}): {reason}; narrow the bounds",
+                at.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// `|measured - model| / |measured|` in %, per cylinder.
 fn relative_errors_pct(measured: &MeasuredPressures, model_bar: &[f64]) -> Vec<f64> {
     CylinderName::ALL
@@ -299,6 +348,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     let twin = Excavator::new(geometry).map_err(|e| AcqError::Config(e.to_string()))?;
     let simulator = ExcavatorSimulator::new(&case, twin);
     let parameters = simulator.parameters().to_vec();
+    check_before_the_first_run(&args.case, &measured, &simulator)?;
     let bounds: Vec<(f64, f64)> = parameters.iter().map(|p| (p.lower, p.upper)).collect();
     let dimensions = parameters.len();
     let directory = RunDirectory::create(&args.out)?;

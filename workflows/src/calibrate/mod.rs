@@ -38,6 +38,12 @@ pub enum CalibrateCommand {
 }
 
 pub fn run(command: CalibrateCommand) -> Result<()> {
+    let out = match &command {
+        CalibrateCommand::Excavator(args) => &args.out,
+        CalibrateCommand::Gtn(args) => &args.out,
+        CalibrateCommand::External(args) => &args.out,
+    };
+    run_directory::say_how_to_resume_on_interrupt(out);
     match command {
         CalibrateCommand::Excavator(args) => excavator::run(args).map(drop),
         CalibrateCommand::Gtn(args) => gtn::run(args).map(drop),

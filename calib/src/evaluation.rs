@@ -493,19 +493,25 @@ fn read_log(
     let mut reader = BufReader::new(File::open(path).map_err(io)?);
     let mut records = Vec::new();
     let mut whole_length = 0u64;
-    let mut line = String::new();
+    let mut bytes = Vec::new();
     let mut number = 0;
     let n_parameters = simulator.parameters().len();
     let n_outputs = simulator.outputs().len();
     loop {
-        line.clear();
-        let read = reader.read_line(&mut line).map_err(io)?;
-        if read == 0 || !line.ends_with('\n') {
+        bytes.clear();
+        let read = reader.read_until(b'\n', &mut bytes).map_err(io)?;
+        if read == 0 || bytes.last() != Some(&b'\n') {
             break;
         }
         number += 1;
         whole_length += read as u64;
-        let text = line.trim_end_matches(['\n', '\r']);
+        let text = std::str::from_utf8(&bytes).map_err(|_| {
+            log_error(
+                number,
+                "not text (invalid UTF-8): the log is damaged; repair or delete this line, or start a new run without --resume".into(),
+            )
+        })?;
+        let text = text.trim_end_matches(['\n', '\r']);
         if number == 1 {
             if text != header {
                 return Err(log_error(
@@ -526,12 +532,16 @@ fn read_log(
             ));
         }
         let number_at = |i: usize| -> Result<f64, EvaluationError> {
-            cells[i].parse::<f64>().map_err(|_| {
-                log_error(
-                    number,
-                    format!("cell {} ({:?}) is not a number", i + 1, cells[i]),
-                )
-            })
+            cells[i]
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    log_error(
+                        number,
+                        format!("cell {} ({:?}) is not a number", i + 1, cells[i]),
+                    )
+                })
         };
         let parameters = (3..3 + n_parameters)
             .map(number_at)

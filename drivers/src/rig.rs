@@ -348,6 +348,10 @@ pub struct Rig {
     pub warnings: Vec<String>,
 }
 
+/// The highest sensor rate a rig may declare, Hz: more frames per second
+/// than a CAN bus carries at 8 Mbit/s, so anything above is a typo.
+pub const MAX_RATE_HZ: f64 = 100_000.0;
+
 /// One thing wrong in a rig file.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RigProblem {
@@ -526,8 +530,8 @@ impl Rig {
                 report(line, format!("sensor name '{name}' must be non-empty without commas or quotes (it is a CSV column)"));
                 continue;
             }
-            if !(sensor.rate_hz > 0.0 && sensor.rate_hz.is_finite()) {
-                report(line, format!("sensor '{name}': rate_hz must be a positive number of samples per second, got {}", sensor.rate_hz));
+            if !(sensor.rate_hz > 0.0 && sensor.rate_hz <= MAX_RATE_HZ) {
+                report(line, format!("sensor '{name}': rate_hz must be a number of samples per second above 0 and at most {MAX_RATE_HZ} (a CAN FD bus carries fewer frames), got {}", sensor.rate_hz));
             }
             let bus = match (&sensor.bus, buses.len()) {
                 (Some(bus_name), _) => match buses.iter().position(|b| &b.name == bus_name) {

@@ -217,3 +217,32 @@ pub fn load_rig(path: &Path) -> Result<Rig> {
     }
     Ok(rig)
 }
+
+/// The longest duration any option takes, s (about 31 years): beyond it a
+/// number is a typo, and nanosecond timestamps would overflow.
+pub const MAX_DURATION_S: f64 = 1e9;
+
+/// A duration as a command line or a file gives it: `0.2s`, `1.5s`, or
+/// what humantime reads (`50ms`, `2min`, `1h 30min`). Never negative, never
+/// longer than [`MAX_DURATION_S`]; the message says what was expected.
+pub fn parse_duration(text: &str) -> std::result::Result<std::time::Duration, String> {
+    let trimmed = text.trim();
+    let expected = || {
+        format!(
+            "{text:?}: give a duration such as 3s, 500ms, 1.5s or 1h 30min (0 to {MAX_DURATION_S} s)"
+        )
+    };
+    let seconds = match trimmed
+        .strip_suffix('s')
+        .and_then(|n| n.parse::<f64>().ok())
+    {
+        Some(seconds) => seconds,
+        None => humantime::parse_duration(trimmed)
+            .map_err(|_| expected())?
+            .as_secs_f64(),
+    };
+    if !(0.0..=MAX_DURATION_S).contains(&seconds) {
+        return Err(expected());
+    }
+    Ok(std::time::Duration::from_secs_f64(seconds))
+}

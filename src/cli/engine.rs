@@ -161,12 +161,12 @@ pub struct MooArgs {
     /// zdt1, zdt2, zdt3 or dtlz2.
     #[arg(long)]
     pub problem: Problem,
-    /// Population size.
-    #[arg(long, default_value_t = 100)]
-    pub pop: usize,
-    /// Generations.
-    #[arg(long, default_value_t = 250)]
-    pub gens: usize,
+    /// Population size (4 to 100,000).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(4..=100_000))]
+    pub pop: u32,
+    /// Generations (1 to 1,000,000).
+    #[arg(long, default_value_t = 250, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    pub gens: u32,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Largest share of the population on the first front (1 = textbook NSGA-II, as the
@@ -181,8 +181,8 @@ pub struct MooArgs {
 pub fn run_moo(args: MooArgs) -> Result<()> {
     let problem = args.problem;
     let settings = Nsga2Settings {
-        population: args.pop,
-        generations: args.gens,
+        population: args.pop as usize,
+        generations: args.gens as usize,
         pareto_fraction: args.pareto_fraction,
         seed: args.seed,
         ..Nsga2Settings::default()

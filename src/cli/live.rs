@@ -30,7 +30,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Stop after this long (`10s`, `5min`, `1h 30min`).
-    #[arg(long, value_parser = humantime::parse_duration)]
+    #[arg(long, value_parser = parse_duration)]
     pub duration: Option<Duration>,
     /// Start a new raw file past this size (`1GiB`, `500MB`).
     #[arg(long, default_value = "1GiB", value_parser = parse_size)]
@@ -102,6 +102,15 @@ pub enum SessionCommand {
         #[arg(value_name = "DIR")]
         dir: PathBuf,
     },
+}
+
+/// `10s`, `5min`, `1h 30min`: a positive duration.
+fn parse_duration(text: &str) -> std::result::Result<Duration, String> {
+    let duration = acq_io::input::parse_duration(text)?;
+    if duration.is_zero() {
+        return Err(format!("{text:?}: a recording lasts more than 0 s"));
+    }
+    Ok(duration)
 }
 
 /// `1GiB`, `500MB`, `4096`.

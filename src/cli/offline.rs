@@ -106,12 +106,8 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
 }
 
 fn parse_duration_ns(text: &str) -> std::result::Result<i64, String> {
-    let seconds = acq_analysis::align::run::parse_duration_s(text)?;
-    if seconds >= 0.0 && seconds.is_finite() {
-        Ok((seconds * 1e9).round() as i64)
-    } else {
-        Err(format!("'{text}': a duration is positive"))
-    }
+    // At most MAX_DURATION_S (1e18 ns), so it fits an i64.
+    acq_io::input::parse_duration(text).map(|d| d.as_nanos() as i64)
 }
 
 #[derive(Args, Debug)]

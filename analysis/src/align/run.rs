@@ -15,15 +15,9 @@ use super::table::{Column, CsvTable};
 use super::{Aligner, ChannelSpec, ChannelStats, GridSpec, RowSink};
 use crate::recording::{Recording, SampleCounts};
 
-/// A duration in seconds: `0.2s`, `1.5s`, or what humantime reads (`50ms`, `2min`).
+/// A duration in seconds (see [`acq_io::input::parse_duration`]).
 pub fn parse_duration_s(text: &str) -> std::result::Result<f64, String> {
-    let text = text.trim();
-    match text.strip_suffix('s').and_then(|n| n.parse::<f64>().ok()) {
-        Some(seconds) => Ok(seconds),
-        None => humantime::parse_duration(text)
-            .map(|d| d.as_secs_f64())
-            .map_err(|_| format!("'{text}': give a duration such as 3s, 500ms or 1.5s")),
-    }
+    acq_io::input::parse_duration(text).map(|d| d.as_secs_f64())
 }
 
 /// How long a sensor may be silent before the silence is a gap.

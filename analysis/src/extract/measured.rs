@@ -102,8 +102,19 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
 /// Reads a measured-values file; errors name the file and line.
 pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
     let columns: Vec<&str> = MEASURED_HEADER.split(',').collect();
-    let mut values = Vec::new();
+    let mut values: Vec<MeasuredValue> = Vec::new();
+    // (window, quantity) -> the line it was first given on.
+    let mut seen: std::collections::HashMap<(String, String), u64> = Default::default();
     for (line, record) in read_csv_records(path, &columns)? {
+        let key = (record[0].to_string(), record[3].to_string());
+        if let Some(first) = seen.insert(key.clone(), line) {
+            return Err(AcqError::Malformed(format!(
+                "{}:{line}: {} in window {} is given again (first on line {first}); keep one row per quantity and window",
+                path.display(),
+                key.1,
+                key.0
+            )));
+        }
         let bad = |what: &str, text: &str| {
             AcqError::Malformed(format!(
                 "{}:{line}: expected {what}, found '{text}'",

@@ -23,7 +23,8 @@
 //!   `timestamps absolute|relative` (on the `base` line or its own),
 //!   `[no] internal events logged`, `// comments`, `Begin Triggerblock ...`,
 //!   `End TriggerBlock`. The date has no time zone in the file: it is taken
-//!   as UTC. Without a (parsable) `date` line, times count from 0.
+//!   as UTC. Without a `date` line, times count from 0; a `date` line that
+//!   cannot be read is an error at its line.
 //! - Classic frames `<time> <ch> <id>[x] <Rx|Tx> d <dlc> <bytes...> [Length = ...
 //!   BitCount = ... ID = ...]`; a DLC 9-F carries 8 bytes and is kept as the
 //!   raw DLC ([`FrameKind::Data`](crate::frame::FrameKind::Data)`{ len8_dlc }`).
@@ -84,6 +85,8 @@ const E_LINE: &str =
 const E_TIME: &str =
     "a time 'seconds.fraction' (1-9 fraction digits) at the start of the event line";
 const E_TIME_RANGE: &str = "a time that fits in a 64-bit nanosecond timestamp";
+const E_DATE: &str =
+    "a date header like `date Tue Mar 4 09:15:02.512 am 2025` (or delete the line: times then count from 0)";
 const E_BASE: &str = "'hex' or 'dec' after 'base'";
 const E_TIMESTAMPS: &str = "'absolute' or 'relative' after 'timestamps'";
 const E_CHANNEL: &str = "a channel number of at least 1 (ASC channels are 1-based)";
@@ -211,7 +214,9 @@ impl State {
             token.is_some_and(|t| t.eq_ignore_ascii_case(word.as_bytes()))
         };
         if keyword.eq_ignore_ascii_case(b"date") {
-            self.start_ns = parse_date(tokens).unwrap_or(0);
+            // A date that cannot be read would put the log in 1970 without a
+            // word; the user can fix or delete the line.
+            self.start_ns = parse_date(tokens).ok_or(E_DATE)?;
         } else if keyword.eq_ignore_ascii_case(b"base") {
             self.base = match tokens.next() {
                 Some(t) if t.eq_ignore_ascii_case(b"hex") => Base::Hex,
@@ -1129,9 +1134,16 @@ mod tests {
         assert_eq!(days_from_civil(2000, 3, 1), Some(11_017));
         assert_eq!(days_from_civil(1969, 12, 31), Some(-1));
 
-        // Without a parsable date, times count from 0.
-        let frame = frame_with("date soon\n", "1.25 1 123 Rx d 0");
-        assert_eq!(frame.timestamp_ns, 1_250_000_000);
+        // A date line that cannot be read is an error at its line, not 1970.
+        let results = read_all("date soon\n1.25 1 123 Rx d 0\n");
+        match &results[0] {
+            Err(error) => assert!(
+                error.line == 1 && error.expected.contains("date header"),
+                "{error:?}"
+            ),
+            other => panic!("{other:?}"),
+        }
+        // Without a date line, times count from 0.
         let frame = frame_with("", "1.25 1 123 Rx d 0");
         assert_eq!(frame.timestamp_ns, 1_250_000_000);
     }

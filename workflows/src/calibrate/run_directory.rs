@@ -98,7 +98,7 @@ extern "C" fn on_interrupt(_signal: nix::libc::c_int) {
 pub fn evaluation_error(error: EvaluationError) -> AcqError {
     match error {
         EvaluationError::Io { path, source } => {
-            AcqError::io(format!("writing {}", path.display()), source)
+            AcqError::io(path.display().to_string(), source)
         }
         other => AcqError::Config(other.to_string()),
     }

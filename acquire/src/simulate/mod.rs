@@ -486,7 +486,17 @@ fn check_levels_can_be_sent(
                 }
             };
             let scale = levels.iter().fold(0.0f64, |m, (_, v)| m.max(v.abs()));
+            let sensor = &rig.sensors[index];
             for (what, value) in levels {
+                let (low, high) = sensor.kind.physical_range();
+                if !(low..=high).contains(&value) {
+                    return Err(AcqError::Config(format!(
+                        "sensor.{}: {what} = {value:?} {unit} is no {kind} a sensor reads (from {low} to {high} {unit})",
+                        sensor.name,
+                        unit = sensor.kind.output_unit(),
+                        kind = sensor.kind.name(),
+                    )));
+                }
                 let mut data = vec![*fill; *len];
                 encode_sensor(rig, index, value, &mut data);
                 let frame = Frame::data(0, stream.iface, stream.id, &data)
@@ -503,7 +513,6 @@ fn check_levels_can_be_sent(
                 }
                 let tolerance = 0.02 * value.abs().max(0.05 * scale);
                 if sent.is_none_or(|sent| (sent - value).abs() > tolerance) {
-                    let sensor = &rig.sensors[index];
                     return Err(AcqError::Config(format!(
                         "sensor.{}: {what} = {value:?} {} cannot be sent by its device: it arrives as {}; give a value inside the sensor's range",
                         sensor.name,

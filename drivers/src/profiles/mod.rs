@@ -66,6 +66,20 @@ impl SensorKind {
         }
     }
 
+    /// The values a sensor of this kind can physically read, in its output
+    /// unit: a gauge pressure is at least -1.01325 bar (vacuum); the upper
+    /// limits lie far beyond any test rig, so a value outside is a typo or a
+    /// unit mistake, not a measurement.
+    pub fn physical_range(self) -> (f64, f64) {
+        match self {
+            SensorKind::Pressure => (-1.01325, 10_000.0),
+            SensorKind::Force => (-1e6, 1e6),
+            SensorKind::Strain => (-1e5, 1e5),
+            SensorKind::Inclination => (-360.0, 360.0),
+            SensorKind::Displacement => (-1e6, 1e6),
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             SensorKind::Pressure => "pressure",

@@ -97,9 +97,7 @@ extern "C" fn on_interrupt(_signal: nix::libc::c_int) {
 /// configuration problem (exit 2), a failed write an I/O failure.
 pub fn evaluation_error(error: EvaluationError) -> AcqError {
     match error {
-        EvaluationError::Io { path, source } => {
-            AcqError::io(path.display().to_string(), source)
-        }
+        EvaluationError::Io { path, source } => AcqError::io(path.display().to_string(), source),
         other => AcqError::Config(other.to_string()),
     }
 }

@@ -1,0 +1,658 @@
+//! Careless input, class by class, through the real binary: each test is one
+//! class of defect (an output over an input, a half-made output, a path or
+//! name from a file leaving its directory, a number outside what the
+//! physics or the machine allows, a DBC that cannot be decoded, a study
+//! that cannot work), tried with several inputs, asserting the exit code
+//! and what the message says. The fixes live in one place each
+//! (`acq_io::output`, `acq_io::input::parse_duration`, the DBC compiler,
+//! the twins' input checks, the calibration's check before its first run).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{acq, root, stderr};
+
+fn path_arg(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// Runs acq, expects `code`, and returns stderr.
+fn refused(args: &[&str], code: i32) -> String {
+    let output = acq(args);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(code), "{args:?}: {message}");
+    assert!(!message.contains("panicked"), "{args:?}: {message}");
+    message
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+fn copy_session(name: &str, to: &Path) -> PathBuf {
+    let target = to.join(name);
+    let source = root().join("fixtures/sessions").join(name);
+    std::fs::create_dir_all(target.join("rig")).unwrap();
+    for entry in walk(&source) {
+        let relative = entry.strip_prefix(&source).unwrap();
+        let destination = target.join(relative);
+        std::fs::create_dir_all(destination.parent().unwrap()).unwrap();
+        std::fs::copy(&entry, destination).unwrap();
+    }
+    target
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            files.extend(walk(&path));
+        } else {
+            files.push(path);
+        }
+    }
+    files
+}
+
+// ---- an output never replaces an input ----------------------------------------------------
+
+#[test]
+fn no_output_replaces_an_input_of_the_same_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("same.log");
+    std::fs::copy(root().join("fixtures/logs/excavator_case1.log"), &log).unwrap();
+    let original = std::fs::read(&log).unwrap();
+    let linked = dir.path().join("hard-link.log");
+    std::fs::hard_link(&log, &linked).unwrap();
+    let session = copy_session("excavator_case1", dir.path());
+    let rig = root().join("fixtures/rigs/excavator.toml");
+    let raw = session.join("raw.log");
+    let raw_before = std::fs::read(&raw).unwrap();
+    let scenario = dir.path().join("scenario.toml");
+    std::fs::copy(
+        root().join("fixtures/scenarios/excavator_case1.toml"),
+        &scenario,
+    )
+    .unwrap();
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "decode",
+            path_arg(&log),
+            "--rig",
+            path_arg(&rig),
+            "-o",
+            path_arg(&log),
+        ],
+        // The same file under another name.
+        vec![
+            "decode",
+            path_arg(&log),
+            "--rig",
+            path_arg(&rig),
+            "-o",
+            path_arg(&linked),
+        ],
+        vec!["align", path_arg(&session), "-o", path_arg(&raw)],
+        vec!["extract", path_arg(&session), "-o", path_arg(&raw)],
+        vec![
+            "simulate",
+            "--rig",
+            path_arg(&rig),
+            "--scenario",
+            path_arg(&scenario),
+            "-o",
+            path_arg(&scenario),
+        ],
+    ];
+    for args in &cases {
+        let message = refused(args, 2);
+        assert!(
+            message.contains("an input of this command"),
+            "{args:?}: {message}"
+        );
+    }
+    assert_eq!(std::fs::read(&log).unwrap(), original);
+    assert_eq!(std::fs::read(&raw).unwrap(), raw_before);
+    assert!(std::fs::read_to_string(&scenario)
+        .unwrap()
+        .contains("[timeline]"));
+    // Nothing was left beside them either.
+    assert!(!files_in(dir.path()).iter().any(|n| n.ends_with(".partial")));
+    assert!(!files_in(&session).iter().any(|n| n.ends_with(".partial")));
+}
+
+// ---- a refused command leaves nothing behind ----------------------------------------------
+
+#[test]
+fn a_refused_command_leaves_no_half_made_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = root().join("fixtures/sessions/excavator_case1");
+    let aligned = dir.path().join("aligned.csv");
+    for options in [
+        vec!["--rate", "0"],
+        vec!["--from", "10", "--to", "2"],
+        vec!["--clock-offset", "nosuchbus=5"],
+        vec!["--max-gap", "-5s"],
+    ] {
+        let mut args = vec!["align", path_arg(&session), "-o", path_arg(&aligned)];
+        args.extend(options.iter().copied());
+        refused(&args, 2);
+        assert_eq!(files_in(dir.path()), Vec::<String>::new(), "{options:?}");
+    }
+    // A demo on a directory without sessions makes no output directory.
+    let out = dir.path().join("demo-out");
+    let empty = dir.path().join("no-sessions");
+    std::fs::create_dir(&empty).unwrap();
+    let message = refused(
+        &[
+            "demo",
+            "--sessions",
+            path_arg(&empty),
+            "--out",
+            path_arg(&out),
+        ],
+        2,
+    );
+    assert!(message.contains("excavator_case1"), "{message}");
+    assert!(!out.exists());
+    // An output directory that is a file is said to be one.
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let message = refused(
+        &[
+            "calibrate",
+            "excavator",
+            "--case",
+            "data/excavator/case1.toml",
+            "--out",
+            path_arg(&file),
+        ],
+        2,
+    );
+    assert!(message.contains("not a directory"), "{message}");
+}
+
+// ---- names and paths from files stay where they belong ------------------------------------
+
+fn external_spec(dir: &Path, replace: &[(&str, &str)]) -> PathBuf {
+    let mut text = std::fs::read_to_string(root().join("fixtures/external/spec.toml")).unwrap();
+    for (from, to) in replace {
+        assert!(text.contains(from), "{from}");
+        text = text.replace(from, to);
+    }
+    std::fs::copy(
+        root().join("fixtures/external/solver.sh"),
+        dir.join("solver.sh"),
+    )
+    .unwrap();
+    let spec = dir.join(format!("spec{}.toml", text.len()));
+    std::fs::write(&spec, text).unwrap();
+    spec
+}
+
+#[test]
+fn paths_and_names_from_files_cannot_leave_their_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let victim = dir.path().join("victim.txt");
+    std::fs::write(&victim, "keep me").unwrap();
+    let victim_text = format!("output_file = \"{}\"", victim.display());
+    for output_file in [
+        victim_text.as_str(),
+        "output_file = \"../../evaluations.csv\"",
+        "output_file = \"\"",
+    ] {
+        let spec = external_spec(dir.path(), &[("output_file = \"out.json\"", output_file)]);
+        let out = dir.path().join("run");
+        let message = refused(
+            &[
+                "calibrate",
+                "external",
+                "--spec",
+                path_arg(&spec),
+                "--out",
+                path_arg(&out),
+            ],
+            2,
+        );
+        assert!(message.contains("output_file"), "{message}");
+        assert!(!out.exists(), "{output_file}: a run directory was made");
+    }
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep me");
+
+    // A case name with a path in it names a file here, not elsewhere.
+    let case_text = std::fs::read_to_string(root().join("data/excavator/case1.toml"))
+        .unwrap()
+        .replace("name = \"case1\"", "name = \"../../elsewhere/x\"");
+    let work = dir.path().join("work");
+    std::fs::create_dir(&work).unwrap();
+    std::fs::write(work.join("case.toml"), case_text).unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args([
+            "sensitivity",
+            "excavator",
+            "--case",
+            "case.toml",
+            "--points",
+            "3",
+        ])
+        .current_dir(&work)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let written = files_in(&work);
+    assert!(
+        written.contains(&"_.._elsewhere_x-sensitivity.csv".to_string()),
+        "{written:?}"
+    );
+    assert!(!dir.path().join("elsewhere").exists());
+}
+
+// ---- numbers: finite, in range, with the limit in the message -----------------------------
+
+#[test]
+fn numbers_outside_what_physics_or_the_machine_allows_are_refused_with_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    // External spec numbers (a timeout past Instant's range panicked).
+    for (from, to, said) in [
+        ("timeout_s = 1.0", "timeout_s = 1e19", "10000000"),
+        ("timeout_s = 1.0", "timeout_s = 1e300", "10000000"),
+        ("timeout_s = 1.0", "timeout_s = -1", "10000000"),
+        ("parallel = 2", "parallel = 100000", "256"),
+        ("retries = 0", "retries = 1000000", "100"),
+        ("max_evals = 20", "max_evals = 100000000", "100000"),
+        (
+            "start = \"lhs\"",
+            "start = \"voodoo\"",
+            "lhs, sobol, l12, factorial",
+        ),
+    ] {
+        let spec = external_spec(dir.path(), &[(from, to)]);
+        let out = dir.path().join("run");
+        let message = refused(
+            &[
+                "calibrate",
+                "external",
+                "--spec",
+                path_arg(&spec),
+                "--out",
+                path_arg(&out),
+            ],
+            2,
+        );
+        assert!(message.contains(said), "{to}: {message}");
+        assert!(!out.exists());
+    }
+
+    // Scenario levels and durations.
+    let scenario =
+        std::fs::read_to_string(root().join("fixtures/scenarios/excavator_case1.toml")).unwrap();
+    let rig = root().join("fixtures/rigs/excavator.toml");
+    for (from, to, said) in [
+        ("hold_s = ", "hold_s = 1e12 #", "at most 86400"),
+        ("hold = ", "hold = nan #", "finite"),
+        ("hold = ", "hold = 1e30 #", "no pressure a sensor reads"),
+        ("hold = ", "hold = -1e6 #", "from -1.01325 to 10000 bar"),
+    ] {
+        let text = scenario.replacen(from, to, 1);
+        assert_ne!(text, scenario);
+        let path = dir.path().join("scenario.toml");
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join("sim.log");
+        let message = refused(
+            &[
+                "simulate",
+                "--rig",
+                path_arg(&rig),
+                "--scenario",
+                path_arg(&path),
+                "-o",
+                path_arg(&out),
+            ],
+            2,
+        );
+        assert!(message.contains(said), "{to}: {message}");
+        assert!(!out.exists());
+    }
+
+    // A level inside the physical range but outside what the device sends:
+    // the crosshead's 16-bit signal of 1 um steps ends at 32.767 mm.
+    let path = dir.path().join("crosshead.toml");
+    std::fs::write(
+        &path,
+        "name = \"too far\"\n[sensor.crosshead]\nidle = 0.0\nhold = 100.0\n",
+    )
+    .unwrap();
+    let message = refused(
+        &[
+            "simulate",
+            "--rig",
+            "fixtures/rigs/tensile.toml",
+            "--scenario",
+            path_arg(&path),
+            "-o",
+            path_arg(&dir.path().join("crosshead.log")),
+        ],
+        2,
+    );
+    assert!(
+        message.contains("hold = 100.0 mm cannot be sent") && message.contains("32.767"),
+        "{message}"
+    );
+
+    // A rig rate no bus can carry.
+    let rig_text = std::fs::read_to_string(&rig).unwrap();
+    let fast = rig_text.replacen("rate_hz = 100", "rate_hz = 1e300", 1);
+    assert_ne!(fast, rig_text);
+    let fast_rig = root()
+        .join("fixtures/rigs")
+        .join(format!(".fast-{}.toml", std::process::id()));
+    std::fs::write(&fast_rig, fast).unwrap();
+    let message = refused(&["check-rig", path_arg(&fast_rig)], 2);
+    std::fs::remove_file(&fast_rig).unwrap();
+    assert!(message.contains("100000"), "{message}");
+
+    // Command-line numbers.
+    for (args, said) in [
+        (
+            vec![
+                "moo",
+                "--problem",
+                "zdt1",
+                "--pop",
+                "100000000",
+                "-o",
+                "x.csv",
+            ],
+            "100000",
+        ),
+        (
+            vec![
+                "twin",
+                "excavator",
+                "--case",
+                "data/excavator/case1.toml",
+                "--force=1e308",
+            ],
+            "10000 kN",
+        ),
+        (
+            vec![
+                "twin",
+                "excavator",
+                "--case",
+                "data/excavator/case1.toml",
+                "--force=-5",
+            ],
+            "10000 kN",
+        ),
+        (
+            vec![
+                "twin",
+                "gtn",
+                "--test",
+                "data/tensile/P91_20_2_DF_SS.csv",
+                "--param",
+                "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1",
+                "--mesh",
+                "100000x100000",
+            ],
+            "1 to 64 radial",
+        ),
+        (
+            vec!["record", "--iface", "vcan0", "--duration=-5s"],
+            "duration such as",
+        ),
+    ] {
+        let message = refused(&args, 2);
+        assert!(message.contains(said), "{args:?}: {message}");
+    }
+    assert!(!root().join("x.csv").exists());
+}
+
+// ---- DBC: an error for what cannot be decoded, one warning for what looks wrong ------------
+
+#[test]
+fn a_dbc_that_cannot_be_decoded_is_refused_and_a_suspicious_one_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = root().join("fixtures/logs/excavator_case1.log");
+    let head = "VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: DAQ\n\n";
+    let write = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path
+    };
+    for (name, text, said) in [
+        ("empty.dbc", String::new(), "empty.dbc"),
+        ("nothing.dbc", head.to_string(), "no messages"),
+        (
+            "long.dbc",
+            format!("{head}BO_ 256 Probe: 200 DAQ\n SG_ X : 0|8@1+ (1,0) [0|0] \"\" DAQ\n"),
+            "at most 64",
+        ),
+        (
+            "huge.dbc",
+            format!("{head}BO_ 256 Probe: 8 DAQ\n SG_ X : 0|16@1+ (1e308,0) [0|0] \"\" DAQ\n"),
+            "overflow",
+        ),
+    ] {
+        let dbc = write(name, &text);
+        let message = refused(
+            &["decode", path_arg(&log), "--dbc", path_arg(&dbc), "-o", "-"],
+            2,
+        );
+        assert!(message.contains(said), "{name}: {message}");
+    }
+    let odd = write(
+        "odd.dbc",
+        &format!(
+            "{head}BO_ 256 Probe: 8 DAQ\n SG_ A : 0|8@1+ (1,0) [0|0] \"\" DAQ\n SG_ B : 4|8@1+ (1,0) [0|0] \"\" DAQ\n\
+             BO_ 3221225472 VECTOR__INDEPENDENT_SIG_MSG: 0 Vector__XXX\n SG_ Orphan : 0|8@1+ (1,0) [0|0] \"\" DAQ\n"
+        ),
+    );
+    let output = acq(&["decode", path_arg(&log), "--dbc", path_arg(&odd), "-o", "-"]);
+    let message = stderr(&output);
+    assert!(output.status.success(), "{message}");
+    assert_eq!(
+        message.matches("A and B share bits").count(),
+        1,
+        "{message}"
+    );
+    assert!(
+        !message.contains("VECTOR__INDEPENDENT_SIG_MSG"),
+        "{message}"
+    );
+}
+
+// ---- a study checks its inputs before its first model run ---------------------------------
+
+#[test]
+fn a_study_that_cannot_work_is_refused_before_its_first_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = std::fs::read_to_string(root().join("data/excavator/case1.toml")).unwrap();
+    for (from, to, said) in [
+        (
+            "bucket_stroke_mm = [116, 126]",
+            "bucket_stroke_mm = [121, 121]",
+            "lower < upper",
+        ),
+        ("boom_bar = 73.35", "boom_bar = 0", "measured boom pressure"),
+        (
+            "bucket_stroke_mm = [116, 126]",
+            "bucket_stroke_mm = [116, 5000]",
+            "corner",
+        ),
+    ] {
+        let text = case.replace(from, to);
+        assert_ne!(text, case);
+        let path = dir.path().join("case.toml");
+        std::fs::write(&path, text).unwrap();
+        let out = dir.path().join("calibration");
+        let message = refused(
+            &[
+                "calibrate",
+                "excavator",
+                "--case",
+                path_arg(&path),
+                "--out",
+                path_arg(&out),
+            ],
+            2,
+        );
+        assert!(message.contains(said), "{to}: {message}");
+        assert!(!out.exists(), "{to}: the run directory was made");
+    }
+
+    // Every solver run fails: the first failure is said, and where the rest is.
+    let spec = external_spec(
+        dir.path(),
+        &[(
+            "command = [\"sh\", \"solver.sh\"",
+            "command = [\"sh\", \"-c\", \"echo licence server down >&2; exit 7\", \"solver.sh\"",
+        )],
+    );
+    let out = dir.path().join("failing");
+    let message = refused(
+        &[
+            "calibrate",
+            "external",
+            "--spec",
+            path_arg(&spec),
+            "--out",
+            path_arg(&out),
+        ],
+        2,
+    );
+    assert!(
+        message.contains("licence server down") && message.contains("exit status: 7"),
+        "{message}"
+    );
+    assert!(
+        message.contains("evaluations.csv") && message.contains("runs"),
+        "{message}"
+    );
+}
+
+// ---- files read back: line numbers and what was expected ----------------------------------
+
+#[test]
+fn damaged_or_contradictory_files_name_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    // A measured-values file with one quantity twice in one window.
+    let measured = dir.path().join("measured.csv");
+    let extracted = acq(&[
+        "extract",
+        "fixtures/sessions/excavator_case2",
+        "-o",
+        path_arg(&measured),
+    ]);
+    assert!(extracted.status.success(), "{}", stderr(&extracted));
+    let text = std::fs::read_to_string(&measured).unwrap();
+    let second = text.lines().nth(1).unwrap().to_string();
+    std::fs::write(&measured, format!("{text}{second}\n")).unwrap();
+    let rows = text.lines().count() + 1;
+    let message = refused(
+        &[
+            "calibrate",
+            "excavator",
+            "--case",
+            "data/excavator/case2.toml",
+            "--measured",
+            path_arg(&measured),
+            "--out",
+            path_arg(&dir.path().join("c")),
+        ],
+        3,
+    );
+    assert!(
+        message.contains(&format!("measured.csv:{rows}")) && message.contains("line 2"),
+        "{message}"
+    );
+
+    // An ASC log whose date cannot be read.
+    let asc = dir.path().join("bad-date.asc");
+    std::fs::write(
+        &asc,
+        "date someday\nbase hex  timestamps absolute\n   0.001 1  123  Rx   d 1 00\n",
+    )
+    .unwrap();
+    let message = refused(
+        &[
+            "decode",
+            path_arg(&asc),
+            "--rig",
+            "fixtures/rigs/excavator.toml",
+            "-o",
+            "-",
+        ],
+        3,
+    );
+    assert!(
+        message.contains("bad-date.asc:1") && message.contains("date header"),
+        "{message}"
+    );
+
+    // A damaged evaluation log on --resume.
+    let run = dir.path().join("resume");
+    std::fs::create_dir(&run).unwrap();
+    let first = acq(&[
+        "calibrate",
+        "excavator",
+        "--case",
+        "data/excavator/case1.toml",
+        "--out",
+        path_arg(&run),
+        "--training",
+        "6",
+        "--test-runs",
+        "3",
+    ]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let log = run.join("evaluations.csv");
+    let good = std::fs::read(&log).unwrap();
+    for (damage, said) in [
+        (
+            b"3,ok,0.001,\xff\xfe,1,2,3,4,5,6,7,\n".to_vec(),
+            "invalid UTF-8",
+        ),
+        (b"3,ok,0.001,1,2,3,4,NaN,6,7,\n".to_vec(), "not a number"),
+    ] {
+        let mut bytes = good.clone();
+        let cut = bytes
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| **b == b'\n')
+            .nth(2)
+            .unwrap()
+            .0;
+        bytes.truncate(cut + 1);
+        bytes.extend_from_slice(&damage);
+        std::fs::write(&log, &bytes).unwrap();
+        let message = refused(
+            &[
+                "calibrate",
+                "excavator",
+                "--case",
+                "data/excavator/case1.toml",
+                "--out",
+                path_arg(&run),
+                "--training",
+                "6",
+                "--test-runs",
+                "3",
+                "--resume",
+            ],
+            2,
+        );
+        assert!(
+            message.contains("evaluations.csv:4") && message.contains(said),
+            "{message}"
+        );
+    }
+}

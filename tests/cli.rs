@@ -334,7 +334,7 @@ dbc = { message = "LoadFrame", signal = "Extensometer" }
     for needle in [
         "bad.toml:1: bus 'frame': DBC file",
         "missing.dbc not found",
-        "bad.toml:6: sensor 'load': rate_hz must be a positive number",
+        "bad.toml:6: sensor 'load': rate_hz must be a number of samples per second above 0",
         "bad.toml:6: sensor 'load': unknown signal 'LoadCel' in DBC message 'LoadFrame' (signals: LoadCell, Extensometer)",
         "bad.toml:18: sensor 'p2' reads the same value as sensor 'p1' (line 12)",
         "bad.toml:24: sensor 'gauge': a mV/V channel needs gauge_factor",

@@ -601,7 +601,7 @@ fn damaged_or_contradictory_files_name_the_line() {
     // A damaged evaluation log on --resume.
     let run = dir.path().join("resume");
     std::fs::create_dir(&run).unwrap();
-    let first = acq(&[
+    let small_run = [
         "calibrate",
         "excavator",
         "--case",
@@ -612,7 +612,8 @@ fn damaged_or_contradictory_files_name_the_line() {
         "6",
         "--test-runs",
         "3",
-    ]);
+    ];
+    let first = acq(&small_run);
     assert!(first.status.success(), "{}", stderr(&first));
     let log = run.join("evaluations.csv");
     let good = std::fs::read(&log).unwrap();
@@ -634,22 +635,8 @@ fn damaged_or_contradictory_files_name_the_line() {
         bytes.truncate(cut + 1);
         bytes.extend_from_slice(&damage);
         std::fs::write(&log, &bytes).unwrap();
-        let message = refused(
-            &[
-                "calibrate",
-                "excavator",
-                "--case",
-                "data/excavator/case1.toml",
-                "--out",
-                path_arg(&run),
-                "--training",
-                "6",
-                "--test-runs",
-                "3",
-                "--resume",
-            ],
-            2,
-        );
+        let resumed: Vec<&str> = small_run.iter().copied().chain(["--resume"]).collect();
+        let message = refused(&resumed, 2);
         assert!(
             message.contains("evaluations.csv:4") && message.contains(said),
             "{message}"

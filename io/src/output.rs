@@ -175,6 +175,31 @@ pub fn create_dir(path: &Path) -> Result<()> {
         .map_err(|e| AcqError::io(format!("creating {}", path.display()), e))
 }
 
+/// Refuses to write about `bytes` into the directory of `path` when its
+/// file system has less free space, with both figures: better than a disk
+/// that fills up halfway (and fills it for every other program too).
+pub fn refuse_if_disk_too_small(path: &Path, bytes: u64, what: &str) -> Result<()> {
+    let dir = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    let Ok(stats) = nix::sys::statvfs::statvfs(dir) else {
+        return Ok(()); // unknown: the write itself will tell
+    };
+    // The field types are u64 here but narrower on some 32-bit targets.
+    #[allow(clippy::useless_conversion)]
+    let free = u64::from(stats.blocks_available()).saturating_mul(u64::from(stats.fragment_size()));
+    if bytes > free {
+        return Err(AcqError::Config(format!(
+            "{what} would need about {:.1} GB in {}, which has {:.1} GB free; shorten it or write elsewhere",
+            bytes as f64 / 1e9,
+            dir.display(),
+            free as f64 / 1e9
+        )));
+    }
+    Ok(())
+}
+
 /// `relative` (a path a file gave, e.g. a spec's `output_file`) under `dir`,
 /// refused when it would leave `dir`: absolute, or with a `..` component.
 /// `what` names the setting in the message.
@@ -310,6 +335,21 @@ mod tests {
         assert_eq!(file_name_part("case 1"), "case_1");
         assert_eq!(file_name_part("..."), "unnamed");
         assert_eq!(file_name_part("Fall_2-Ä.b"), "Fall_2-Ä.b");
+    }
+
+    #[test]
+    fn work_larger_than_the_free_disk_is_refused_with_both_figures() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.log");
+        let error = super::refuse_if_disk_too_small(&path, u64::MAX, "the log")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("the log would need about") && error.contains("GB free"),
+            "{error}"
+        );
+        assert!(super::refuse_if_disk_too_small(&path, 1, "the log").is_ok());
+        assert!(!path.exists());
     }
 
     #[test]

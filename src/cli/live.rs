@@ -263,6 +263,9 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     }
     let runtime = acq_acquire::runtime(1)?;
     let summary = if let Some(path) = &args.output {
+        // A candump line of a classic frame is about 40 bytes; FD ones are longer.
+        let bytes = simulation.expected_frames().saturating_mul(64);
+        acq_io::output::refuse_if_disk_too_small(path, bytes, "the simulated log")?;
         let bus = LogFileBus::writing(path)?;
         let summary = runtime.block_on(replay::play(
             &bus,

@@ -13,9 +13,30 @@ use proptest::prelude::*;
 
 /// What careless hands put in a TOML value.
 const NASTY: &[&str] = &[
-    "nan", "inf", "-inf", "1e308", "-1e308", "1e19", "1e300", "-5", "0", "1", "0.5",
-    "18446744073709551615", "\"\"", "\"..\"", "\"../../evaluations.csv\"", "\"/etc/passwd\"",
-    "\"voodoo\"", "\"lhs\"", "[]", "[1, 1]", "[121, 121]", "[5000, -5000]", "[nan, 1]", "true",
+    "nan",
+    "inf",
+    "-inf",
+    "1e308",
+    "-1e308",
+    "1e19",
+    "1e300",
+    "-5",
+    "0",
+    "1",
+    "0.5",
+    "18446744073709551615",
+    "\"\"",
+    "\"..\"",
+    "\"../../evaluations.csv\"",
+    "\"/etc/passwd\"",
+    "\"voodoo\"",
+    "\"lhs\"",
+    "[]",
+    "[1, 1]",
+    "[121, 121]",
+    "[5000, -5000]",
+    "[nan, 1]",
+    "true",
 ];
 
 const SPEC: &str = r#"command = ["sh", "solver.sh", "{x}", "{out}"]
@@ -71,7 +92,10 @@ fn the_unedited_files_load() {
     Spec::load(&path).unwrap();
     // One nasty value at a time: each field is checked (1e19 s is no timeout).
     std::fs::write(&path, with_value(SPEC, 2, "1e19")).unwrap();
-    assert!(Spec::load(&path).unwrap_err().to_string().contains("timeout_s"));
+    assert!(Spec::load(&path)
+        .unwrap_err()
+        .to_string()
+        .contains("timeout_s"));
 }
 
 proptest! {

@@ -192,6 +192,15 @@ impl<'r> Simulation<'r> {
         Ok(simulation)
     }
 
+    /// About how many frames the whole scenario sends (every stream's
+    /// duration over its period).
+    pub fn expected_frames(&self) -> u64 {
+        self.streams
+            .iter()
+            .map(|stream| (self.end_ns as f64 / stream.period_ns.max(1.0)).ceil() as u64 + 1)
+            .sum()
+    }
+
     /// The scenario's steady hold, (start, end) in Unix ns.
     pub fn hold_window_ns(&self) -> (i64, i64) {
         let (a, b) = self.scenario.timeline.hold_window_s();

@@ -125,24 +125,8 @@ pub struct TwinGtnArgs {
 }
 
 fn parse_mesh(text: &str) -> Result<acq_twins::tensile::mesh::MeshDensity> {
-    const MAX_RADIAL: usize = 64;
-    const MAX_AXIAL: usize = 1000;
-    let bad = || {
-        AcqError::Config(format!(
-            "--mesh {text}: expected RADIALxAXIAL element counts, e.g. 6x30, with 1 to {MAX_RADIAL} radial and 1 to {MAX_AXIAL} axial elements"
-        ))
-    };
-    let (radial, axial) = text.split_once('x').ok_or_else(bad)?;
-    let radial: usize = radial.trim().parse().map_err(|_| bad())?;
-    let axial: usize = axial.trim().parse().map_err(|_| bad())?;
-    if !(1..=MAX_RADIAL).contains(&radial) || !(1..=MAX_AXIAL).contains(&axial) {
-        return Err(bad());
-    }
-    Ok(acq_twins::tensile::mesh::MeshDensity {
-        radial_elements: radial,
-        axial_elements: axial,
-        ..Default::default()
-    })
+    acq_twins::tensile::mesh::MeshDensity::parse(text)
+        .map_err(|e| AcqError::Config(format!("--mesh {e}")))
 }
 
 pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {

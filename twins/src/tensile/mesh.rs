@@ -91,6 +91,37 @@ impl Default for MeshDensity {
     }
 }
 
+impl MeshDensity {
+    /// The most radial elements a mesh may have.
+    pub const MAX_RADIAL: usize = 64;
+    /// The most axial elements a mesh may have (with [`Self::MAX_RADIAL`],
+    /// about 64,000 elements: more would take hours per simulation).
+    pub const MAX_AXIAL: usize = 1000;
+
+    /// `RADIALxAXIAL` element counts of the quarter model, e.g. `6x30`, with
+    /// the default grading; the message says what was expected.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let expected = || {
+            format!(
+                "{text}: expected RADIALxAXIAL element counts, e.g. 6x30, with 1 to {} radial and 2 to {} axial elements",
+                Self::MAX_RADIAL,
+                Self::MAX_AXIAL
+            )
+        };
+        let (radial, axial) = text.split_once('x').ok_or_else(expected)?;
+        let radial: usize = radial.trim().parse().map_err(|_| expected())?;
+        let axial: usize = axial.trim().parse().map_err(|_| expected())?;
+        if !(1..=Self::MAX_RADIAL).contains(&radial) || !(2..=Self::MAX_AXIAL).contains(&axial) {
+            return Err(expected());
+        }
+        Ok(MeshDensity {
+            radial_elements: radial,
+            axial_elements: axial,
+            ..MeshDensity::default()
+        })
+    }
+}
+
 /// Nodes (R, Z) in mm and 4-node elements, counter-clockwise.
 #[derive(Clone, Debug)]
 pub struct Mesh {

@@ -117,21 +117,6 @@ impl Simulator for GtnSimulator {
     }
 }
 
-fn parse_mesh(text: &str) -> Result<MeshDensity> {
-    let (radial, axial) = text
-        .split_once('x')
-        .and_then(|(r, a)| Some((r.parse::<usize>().ok()?, a.parse::<usize>().ok()?)))
-        .filter(|&(r, a)| r >= 1 && a >= 2)
-        .ok_or_else(|| {
-            AcqError::Config(format!("--mesh {text}: expected RADIALxAXIAL, e.g. 6x30"))
-        })?;
-    Ok(MeshDensity {
-        radial_elements: radial,
-        axial_elements: axial,
-        ..MeshDensity::default()
-    })
-}
-
 /// What the calibration found, besides the files it wrote.
 #[derive(Clone, Debug)]
 pub struct GtnCalibration {
@@ -152,7 +137,8 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
             "--target-mape must be a number >= 0".into(),
         ));
     }
-    let mesh = parse_mesh(&args.mesh)?;
+    let mesh =
+        MeshDensity::parse(&args.mesh).map_err(|e| AcqError::Config(format!("--mesh {e}")))?;
     let points = read_test_csv(&args.test)?;
     let properties = tensile_properties(&points, SpecimenGeometry::default())
         .map_err(|e| AcqError::Malformed(format!("{}: {e}", args.test.display())))?;

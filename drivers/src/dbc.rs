@@ -975,6 +975,8 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         assert_eq!(db.messages()[0].name, "Probe");
     }
 
+    /// cantools (45.1.0, checked 2026-11-24 on this DBC) decodes switch values
+    /// 0, 3, 4, 5 as Listed, 1 as Plain, and refuses 2 and 6.
     #[test]
     fn multiplexer_value_lists_select_signals_for_every_listed_value() {
         let text = dbc_with(

@@ -99,6 +99,12 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
             )));
         }
     }
+    let to_a_file = args.output.as_os_str() != "-";
+    if let Some(bytes) =
+        acq_analysis::align::run::expected_output_bytes(&recording, args.rate).filter(|_| to_a_file)
+    {
+        acq_io::output::refuse_if_disk_too_small(&args.output, bytes, "the aligned table")?;
+    }
     let output = Output::create_complete_only(&args.output)?;
     let summary = align_recording(&recording, &options, output)?;
     eprintln!("acq: aligned {}: {summary}", recording.label);

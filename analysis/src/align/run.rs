@@ -20,6 +20,18 @@ pub fn parse_duration_s(text: &str) -> std::result::Result<f64, String> {
     acq_io::input::parse_duration(text).map(|d| d.as_secs_f64())
 }
 
+/// About how many bytes the aligned CSV of `recording` takes at `rate_hz`
+/// (one row per grid step over the session's recorded span, each value and
+/// its gap flag about a dozen bytes), when the session says how long it
+/// ran; `None` for a bare log.
+pub fn expected_output_bytes(recording: &Recording, rate_hz: f64) -> Option<u64> {
+    let info = &recording.session.as_ref()?.session;
+    let span_s = (info.stopped_unix_ns? - info.started_unix_ns) as f64 * 1e-9;
+    let columns = recording.rig.sensors.len() as f64;
+    let bytes = span_s.max(0.0) * rate_hz * (16.0 + 12.0 * columns);
+    bytes.is_finite().then_some(bytes as u64)
+}
+
 /// How long a sensor may be silent before the silence is a gap.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum GapTolerance {

@@ -1459,3 +1459,76 @@ max_evals = 6
     }
     assert!(!spec_dir.join("job.dat").exists() && !dir.path().join("job.dat").exists());
 }
+
+#[test]
+fn an_external_solver_can_return_a_curve_scored_by_the_curve_mape() {
+    // The model's curve is y = a x^2 on x = 0.5 .. 5, the measured one 2 x^2 at the
+    // same x. A not-a-knot spline reproduces a parabola exactly, so at every grid point
+    // the relative error is |2 - a| / 2: the curve MAPE is 50 |2 - a| %, a closed form.
+    let dir = tempfile::tempdir().unwrap();
+    let model = dir.path().join("model");
+    std::fs::create_dir(&model).unwrap();
+    let mut measured = String::from("DISPLACEMENT,FORCE\n");
+    for i in 1..=10 {
+        let x = 0.5 * f64::from(i);
+        measured.push_str(&format!("{x},{}\n", 2.0 * x * x));
+    }
+    std::fs::write(model.join("test.csv"), measured).unwrap();
+    std::fs::write(
+        model.join("curve.sh"),
+        "awk -v a=\"$1\" 'BEGIN { print \"u_mm,f_kn\"; for (i = 1; i <= 10; i++) { x = 0.5 * i; printf \"%.17g,%.17g\\n\", x, a * x * x } }' > curve.csv\n",
+    )
+    .unwrap();
+    let spec = model.join("spec.toml");
+    std::fs::write(
+        &spec,
+        r#"command = ["sh", "curve.sh", "{a}"]
+parallel = 2
+
+[[parameter]]
+name = "a"
+lower = 1.0
+upper = 3.0
+
+[[curve]]
+name = "force_displacement"
+file = "curve.csv"
+x = "u_mm"
+y = "f_kn"
+measured_file = "test.csv"
+measured_x = "DISPLACEMENT"
+measured_y = "FORCE"
+
+[search]
+start = "lhs"
+start_runs = 4
+max_evals = 12
+target_loss_pct = 0.5
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("run");
+    let output = calibrate_external(&spec, &out, &[]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let log = Table::read(&out.join("evaluations.csv"));
+    assert_eq!(log.header, ["id", "status", "wall_s", "a", "force_displacement", "reason"]);
+    for row in &log.rows {
+        assert_eq!(log.cell(row, "status"), "ok", "{row:?}");
+        let a = log.value(row, "a");
+        let mape = log.value(row, "force_displacement");
+        assert!(
+            (mape - 50.0 * (2.0 - a).abs()).abs() < 1e-6,
+            "a = {a}: MAPE {mape}, closed form {}",
+            50.0 * (2.0 - a).abs()
+        );
+    }
+    let summary = json(&out.join("summary.json"));
+    let best = summary["best_params"]["a"].as_f64().unwrap();
+    let loss = summary["best_loss_pct"].as_f64().unwrap();
+    assert!((loss - 50.0 * (2.0 - best).abs()).abs() < 1e-6, "{summary}");
+    assert!(loss < 0.5, "BO reached {loss} % (target 0.5 %): {summary}");
+    assert_eq!(
+        summary["best_outputs"]["force_displacement"].as_f64(),
+        Some(loss)
+    );
+}

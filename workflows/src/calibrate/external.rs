@@ -17,9 +17,12 @@
 //! is retried `retries` times, then logged as failed with the reason (the
 //! end of its stderr); it never ends the calibration.
 //!
-//! The loss is the mean (or largest) relative error of the outputs against
-//! their measured values, in %, minimised by Bayesian optimisation from a
-//! space-filling start.
+//! The loss is the mean (or largest) of the errors, in %: each scalar
+//! output's relative error against its measured value, and each curve's
+//! MAPE against its measured curve (`[[curve]]`: the solver writes a CSV in
+//! its run directory; the error is the published curve MAPE of
+//! [`acq_analysis::loss::curve`], the same as the GTN calibration's). It is
+//! minimised by Bayesian optimisation from a space-filling start.
 //!
 //! ```toml
 //! command = ["sh", "solver.sh", "{params}", "{out}"]
@@ -39,6 +42,15 @@
 //! name = "tip_deflection_mm"
 //! measured = 12.5
 //!
+//! [[curve]]                  # optional, any number
+//! name = "force_displacement"
+//! file = "curve.csv"         # written by the solver in its run directory
+//! x = "u_mm"                 # its columns
+//! y = "f_kn"
+//! measured_file = "test.csv" # next to the spec
+//! measured_x = "DISPLACEMENT"
+//! measured_y = "FORCE"
+//!
 //! [search]
 //! start = "lhs"              # lhs, sobol, l12, factorial, or a CSV file of points
 //! start_runs = 10
@@ -52,6 +64,7 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
+use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions};
 use acq_calib::bo::BoSettings;
 use acq_calib::doe::{
     full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
@@ -90,7 +103,9 @@ pub struct CalibrateExternalArgs {
 pub struct Spec {
     /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
     pub command: Vec<String>,
-    /// File the command writes, relative to the run directory (.json or .csv).
+    /// File the command writes, relative to the run directory (.json or
+    /// .csv); needed when there are scalar outputs.
+    #[serde(default)]
     pub output_file: String,
     /// Files next to the spec each run needs, linked into its directory.
     #[serde(default)]
@@ -106,8 +121,10 @@ pub struct Spec {
     pub parallel: usize,
     #[serde(rename = "parameter")]
     pub parameters: Vec<Parameter>,
-    #[serde(rename = "output")]
+    #[serde(rename = "output", default)]
     pub outputs: Vec<MeasuredOutput>,
+    #[serde(rename = "curve", default)]
+    pub curves: Vec<MeasuredCurve>,
     #[serde(default)]
     pub search: Search,
 }
@@ -125,6 +142,33 @@ fn default_parallel() -> usize {
 pub struct MeasuredOutput {
     pub name: String,
     pub measured: f64,
+}
+
+/// A curve the solver writes, compared with a measured one by curve MAPE.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredCurve {
+    pub name: String,
+    /// The CSV the solver writes in its run directory.
+    pub file: String,
+    /// Its x and y column names.
+    pub x: String,
+    pub y: String,
+    /// The measured curve, a CSV next to the spec, and its column names.
+    pub measured_file: String,
+    pub measured_x: String,
+    pub measured_y: String,
+    /// The measured points, read when the spec is loaded.
+    #[serde(skip)]
+    pub measured: Vec<(f64, f64)>,
+}
+
+/// The points of columns `x` and `y` of a CSV with a header row; errors
+/// name the file and line.
+fn read_curve(path: &Path, x: &str, y: &str) -> std::result::Result<Vec<(f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let rows = read_design_csv(&text, &[x, y]).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(rows.iter().map(|row| (row[0], row[1])).collect())
 }
 
 #[derive(Debug, Deserialize)]
@@ -195,8 +239,24 @@ impl Spec {
                 "command is empty; give the program and its arguments".into(),
             ));
         }
-        if spec.outputs.is_empty() {
-            return Err(problem("no [[output]] with a measured value".into()));
+        if spec.outputs.is_empty() && spec.curves.is_empty() {
+            return Err(problem(
+                "no [[output]] with a measured value and no [[curve]] to compare".into(),
+            ));
+        }
+        if !spec.outputs.is_empty() && spec.output_file.is_empty() {
+            return Err(problem(
+                "output_file: name the file the command writes its outputs to".into(),
+            ));
+        }
+        let mut names: Vec<&str> = spec.outputs.iter().map(|o| o.name.as_str()).collect();
+        names.extend(spec.curves.iter().map(|c| c.name.as_str()));
+        for (i, name) in names.iter().enumerate() {
+            if names[..i].contains(name) {
+                return Err(problem(format!(
+                    "the output or curve name {name:?} is given twice"
+                )));
+            }
         }
         if let Some(o) = spec
             .outputs
@@ -228,9 +288,28 @@ impl Spec {
             )));
         }
         let any_run = Path::new("runs/000001");
-        acq_io::output::inside(any_run, &spec.output_file, "output_file")
-            .map_err(|e| problem(e.to_string()))?;
+        if !spec.output_file.is_empty() {
+            acq_io::output::inside(any_run, &spec.output_file, "output_file")
+                .map_err(|e| problem(e.to_string()))?;
+        }
         let spec_directory = spec_directory(path);
+        let mut spec = spec;
+        for curve in &mut spec.curves {
+            acq_io::output::inside(any_run, &curve.file, "curve.file")
+                .map_err(|e| problem(e.to_string()))?;
+            let measured_path = spec_directory.join(&curve.measured_file);
+            acq_io::input::note_input(&measured_path);
+            curve.measured = read_curve(&measured_path, &curve.measured_x, &curve.measured_y)
+                .map_err(|e| AcqError::Malformed(format!("curve {}: {e}", curve.name)))?;
+            if curve.measured.len() < 2 {
+                return Err(AcqError::Malformed(format!(
+                    "curve {}: {} has {} point(s); a measured curve needs at least 2",
+                    curve.name,
+                    measured_path.display(),
+                    curve.measured.len()
+                )));
+            }
+        }
         for (what, files) in [
             ("link_files", &spec.link_files),
             ("copy_files", &spec.copy_files),
@@ -289,7 +368,12 @@ pub struct ExternalSimulator {
 impl ExternalSimulator {
     pub fn new(mut spec: Spec, spec_directory: PathBuf, runs: PathBuf) -> Self {
         let highest = highest_run_number(&runs);
-        let outputs = spec.outputs.iter().map(|o| o.name.clone()).collect();
+        let outputs = spec
+            .outputs
+            .iter()
+            .map(|o| o.name.clone())
+            .chain(spec.curves.iter().map(|c| c.name.clone()))
+            .collect();
         // The runs start in their own directories: a program or argument that
         // names a file next to the spec must still find it.
         for argument in &mut spec.command {
@@ -327,13 +411,29 @@ impl ExternalSimulator {
         std::fs::write(&params_path, serde_json::Value::Object(params).to_string())
             .map_err(|e| format!("{}: {e}", params_path.display()))?;
         let output_path = acq_io::output::inside(directory, &self.spec.output_file, "output_file")
+            .ok()
+            .filter(|_| !self.spec.output_file.is_empty());
+        let curve_paths = self
+            .spec
+            .curves
+            .iter()
+            .map(|c| acq_io::output::inside(directory, &c.file, "curve.file"))
+            .collect::<Result<Vec<_>>>()
             .map_err(|e| e.to_string())?;
-        let _ = std::fs::remove_file(&output_path);
+        // A file left by an earlier attempt must not pass for this one's.
+        for path in output_path.iter().chain(&curve_paths) {
+            let _ = std::fs::remove_file(path);
+        }
         self.stage_files(directory)?;
         let substitute = |argument: &str| -> String {
             let mut text = argument
                 .replace("{params}", &params_path.display().to_string())
-                .replace("{out}", &output_path.display().to_string())
+                .replace(
+                    "{out}",
+                    &output_path
+                        .as_ref()
+                        .map_or_else(String::new, |p| p.display().to_string()),
+                )
                 .replace("{dir}", &directory.display().to_string());
             for (p, v) in self.spec.parameters.iter().zip(values) {
                 text = text.replace(&format!("{{{}}}", p.name), &v.to_string());
@@ -385,7 +485,19 @@ impl ExternalSimulator {
                 .join(" / ");
             return Err(format!("the solver exited with {status}: {tail}"));
         }
-        read_outputs(&output_path, &self.outputs)
+        let scalar_names = &self.outputs[..self.spec.outputs.len()];
+        let mut values = match &output_path {
+            Some(path) => read_outputs(path, scalar_names)?,
+            None => Vec::new(),
+        };
+        for (curve, path) in self.spec.curves.iter().zip(&curve_paths) {
+            let simulated = read_curve(path, &curve.x, &curve.y)
+                .map_err(|e| format!("curve {}: {e}", curve.name))?;
+            let mape = curve_mape(&curve.measured, &simulated, CurveMapeOptions::default())
+                .map_err(|e| format!("curve {}: {e}", curve.name))?;
+            values.push(mape.mape_percent);
+        }
+        Ok(values)
     }
 }
 
@@ -536,13 +648,17 @@ impl Simulator for ExternalSimulator {
     }
 }
 
-/// Relative errors in %, and the loss (their mean or largest).
+/// The errors in %, scalar outputs (relative to their measured values)
+/// then curves (their MAPE, already in %), and the loss: their mean or
+/// largest.
 fn errors_pct(spec: &Spec, outputs: &[f64]) -> (Vec<f64>, f64) {
+    let scalars = spec.outputs.len();
     let errors: Vec<f64> = spec
         .outputs
         .iter()
         .zip(outputs)
         .map(|(o, &y)| 100.0 * (o.measured - y).abs() / o.measured.abs())
+        .chain(outputs.iter().skip(scalars).copied())
         .collect();
     let loss = if spec.search.loss == "max" {
         errors.iter().fold(0.0f64, |a, &b| a.max(b))
@@ -649,7 +765,7 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         "failed": failed,
         "evaluations_to_target": result.evaluations_to_target,
         "best_params": parameters.iter().zip(&best.parameters).map(|(p, v)| (p.name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "best_outputs": spec.outputs.iter().zip(&best_outputs).map(|(o, v)| (o.name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
+        "best_outputs": simulator.outputs.iter().zip(&best_outputs).map(|(name, v)| (name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
         "wall_s": wall_s,
     });
     write_text(&directory.file("summary.json"), &format!("{summary:#}\n"))?;
@@ -686,6 +802,15 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
             format!("{}", o.measured),
             format!("{y:.6}"),
             format!("{e:.3}"),
+        ]);
+    }
+    let scalars = spec.outputs.len();
+    for (c, e) in spec.curves.iter().zip(best_errors.iter().skip(scalars)) {
+        table.row(vec![
+            format!("{} (curve)", c.name),
+            c.measured_file.clone(),
+            format!("{} vs {}", c.file, c.measured_file),
+            format!("{e:.3} (MAPE)"),
         ]);
     }
     report.table(table).heading(2, "Parameters");

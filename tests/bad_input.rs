@@ -26,6 +26,21 @@ fn refused(args: &[&str], code: i32) -> String {
     message
 }
 
+/// Runs `acq calibrate external` on `spec`, expects exit 2, returns stderr.
+fn refused_external(spec: &Path, out: &Path) -> String {
+    refused(
+        &[
+            "calibrate",
+            "external",
+            "--spec",
+            path_arg(spec),
+            "--out",
+            path_arg(out),
+        ],
+        2,
+    )
+}
+
 fn files_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
@@ -210,17 +225,7 @@ fn paths_and_names_from_files_cannot_leave_their_directory() {
     ] {
         let spec = external_spec(dir.path(), &[("output_file = \"out.json\"", output_file)]);
         let out = dir.path().join("run");
-        let message = refused(
-            &[
-                "calibrate",
-                "external",
-                "--spec",
-                path_arg(&spec),
-                "--out",
-                path_arg(&out),
-            ],
-            2,
-        );
+        let message = refused_external(&spec, &out);
         assert!(message.contains("output_file"), "{message}");
         assert!(!out.exists(), "{output_file}: a run directory was made");
     }
@@ -275,17 +280,7 @@ fn numbers_outside_what_physics_or_the_machine_allows_are_refused_with_the_limit
     ] {
         let spec = external_spec(dir.path(), &[(from, to)]);
         let out = dir.path().join("run");
-        let message = refused(
-            &[
-                "calibrate",
-                "external",
-                "--spec",
-                path_arg(&spec),
-                "--out",
-                path_arg(&out),
-            ],
-            2,
-        );
+        let message = refused_external(&spec, &out);
         assert!(message.contains(said), "{to}: {message}");
         assert!(!out.exists());
     }
@@ -517,18 +512,7 @@ fn a_study_that_cannot_work_is_refused_before_its_first_run() {
             "command = [\"sh\", \"-c\", \"echo licence server down >&2; exit 7\", \"solver.sh\"",
         )],
     );
-    let out = dir.path().join("failing");
-    let message = refused(
-        &[
-            "calibrate",
-            "external",
-            "--spec",
-            path_arg(&spec),
-            "--out",
-            path_arg(&out),
-        ],
-        2,
-    );
+    let message = refused_external(&spec, &dir.path().join("failing"));
     assert!(
         message.contains("licence server down") && message.contains("exit status: 7"),
         "{message}"

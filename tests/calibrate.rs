@@ -1511,7 +1511,17 @@ target_loss_pct = 0.5
     let output = calibrate_external(&spec, &out, &[]);
     assert!(output.status.success(), "{}", stderr(&output));
     let log = Table::read(&out.join("evaluations.csv"));
-    assert_eq!(log.header, ["id", "status", "wall_s", "a", "force_displacement", "reason"]);
+    assert_eq!(
+        log.header,
+        [
+            "id",
+            "status",
+            "wall_s",
+            "a",
+            "force_displacement",
+            "reason"
+        ]
+    );
     for row in &log.rows {
         assert_eq!(log.cell(row, "status"), "ok", "{row:?}");
         let a = log.value(row, "a");

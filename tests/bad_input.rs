@@ -11,11 +11,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{acq, root, stderr};
-
-fn path_arg(path: &Path) -> &str {
-    path.to_str().unwrap()
-}
+use common::{acq, path_arg, root, stderr};
 
 /// Runs acq, expects `code`, and returns stderr.
 fn refused(args: &[&str], code: i32) -> String {

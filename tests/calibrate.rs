@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{acq, root, stderr, stdout};
+use common::{acq, path_arg, root, stderr, stdout};
 use serde_json::Value;
 
 // ---- helpers --------------------------------------------------------------------------
@@ -103,10 +103,6 @@ fn largest(value: &Value) -> f64 {
         .iter()
         .map(|k| number(&value[*k]))
         .fold(f64::NEG_INFINITY, f64::max)
-}
-
-fn path_arg(path: &Path) -> &str {
-    path.to_str().unwrap()
 }
 
 /// `(done, from the log)` of a progress line

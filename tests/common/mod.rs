@@ -20,6 +20,11 @@ pub fn acq(args: &[&str]) -> Output {
         .unwrap()
 }
 
+/// A path as a command-line argument (the test paths are UTF-8).
+pub fn path_arg(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
 pub fn stdout(output: &Output) -> String {
     String::from_utf8_lossy(&output.stdout).into_owned()
 }

@@ -25,13 +25,27 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-/// One calibrated input: its name (with its unit, `bucket_stroke_mm`) and
-/// its box bounds.
+/// One calibrated input: its name (with its unit, `bucket_stroke_mm`), its
+/// box bounds, and the scale the search moves it on.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Parameter {
     pub name: String,
     pub lower: f64,
     pub upper: f64,
+    #[serde(default)]
+    pub scale: Scale,
+}
+
+/// How a parameter's range maps onto the search's unit interval.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scale {
+    /// Equal steps in value: most inputs.
+    #[default]
+    Linear,
+    /// Equal steps in ratio: a parameter known to its order of magnitude
+    /// (a void fraction, a stiffness over decades). Needs `lower > 0`.
+    Log,
 }
 
 impl Parameter {
@@ -40,25 +54,42 @@ impl Parameter {
             name: name.into(),
             lower,
             upper,
+            scale: Scale::Linear,
         }
     }
 
-    /// The middle of the range.
+    /// The same parameter searched on a log scale.
+    pub fn with_scale(mut self, scale: Scale) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// The middle of the range on its scale (the geometric mean on a log
+    /// scale).
     pub fn midpoint(&self) -> f64 {
-        0.5 * (self.lower + self.upper)
+        match self.scale {
+            Scale::Linear => 0.5 * (self.lower + self.upper),
+            Scale::Log => self.from_unit(0.5),
+        }
     }
 
     /// `x` mapped from the unit interval onto the range.
     pub fn from_unit(&self, unit: f64) -> f64 {
-        self.lower + unit * (self.upper - self.lower)
+        match self.scale {
+            Scale::Linear => self.lower + unit * (self.upper - self.lower),
+            Scale::Log => self.lower * (self.upper / self.lower).powf(unit),
+        }
     }
 
     /// `x` mapped from the range onto the unit interval.
     pub fn to_unit(&self, value: f64) -> f64 {
-        if self.upper > self.lower {
-            (value - self.lower) / (self.upper - self.lower)
-        } else {
-            0.5
+        // A range that is empty (or NaN) maps to the middle.
+        if self.upper.partial_cmp(&self.lower) != Some(std::cmp::Ordering::Greater) {
+            return 0.5;
+        }
+        match self.scale {
+            Scale::Linear => (value - self.lower) / (self.upper - self.lower),
+            Scale::Log => (value / self.lower).ln() / (self.upper / self.lower).ln(),
         }
     }
 }
@@ -97,6 +128,12 @@ pub fn validate_parameters(parameters: &[Parameter]) -> Result<(), EvaluationErr
             return Err(EvaluationError::Setup(format!(
                 "parameter {:?}: bounds must be finite with lower < upper, got {} .. {} (a calibrated parameter needs a range; a fixed value is no parameter)",
                 p.name, p.lower, p.upper
+            )));
+        }
+        if p.scale == Scale::Log && p.lower <= 0.0 {
+            return Err(EvaluationError::Setup(format!(
+                "parameter {:?}: a log scale needs lower > 0, got {}; use scale = \"linear\" or a positive lower bound",
+                p.name, p.lower
             )));
         }
     }

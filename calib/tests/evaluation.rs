@@ -3,7 +3,9 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use acq_calib::evaluation::{EvaluationError, Evaluator, Parameter, Simulator};
+use acq_calib::evaluation::{
+    validate_parameters, EvaluationError, Evaluator, Parameter, Simulator,
+};
 
 /// `y = (a + b, a * b)`; fails for a < 0, panics for a > 100, returns NaN
 /// for b = 7. Counts its calls.
@@ -215,4 +217,20 @@ fn bad_parameters_are_setup_errors() {
     let mut evaluator = Evaluator::in_memory(&toy, 1).unwrap();
     let error = evaluator.evaluate(&[vec![1.0]]).err().unwrap().to_string();
     assert!(error.contains("takes 2"), "{error}");
+}
+
+#[test]
+fn a_log_scale_parameter_moves_in_equal_ratios() {
+    use acq_calib::evaluation::Scale;
+    let p = Parameter::new("f0", 1e-4, 1e-2).with_scale(Scale::Log);
+    // The middle of 1e-4 .. 1e-2 on a log scale is their geometric mean, 1e-3;
+    // a quarter of the way is 10^-3.5.
+    assert!((p.midpoint() - 1e-3).abs() < 1e-15);
+    assert!((p.from_unit(0.25) - 10f64.powf(-3.5)).abs() < 1e-15);
+    for u in [0.0, 0.1, 0.5, 0.9, 1.0] {
+        assert!((p.to_unit(p.from_unit(u)) - u).abs() < 1e-12, "{u}");
+    }
+    let zero_lower = Parameter::new("x", 0.0, 1.0).with_scale(Scale::Log);
+    let message = validate_parameters(&[zero_lower]).unwrap_err().to_string();
+    assert!(message.contains("log scale needs lower > 0"), "{message}");
 }

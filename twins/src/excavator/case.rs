@@ -10,6 +10,7 @@
 //! arm_stroke_mm = [205, 215]
 //! boom_stroke_mm = [462, 472]
 //! force_angle_deg = [-15, -5]
+//! force_kN = [36, 44]           # optional: the load is uncertain too
 //! [measured]                    # optional: loaded-chamber pressure, bar
 //! bucket_bar = 116.89
 //! arm_bar = 193.46
@@ -45,6 +46,11 @@ pub struct Bounds {
     pub arm_stroke_mm: [f64; 2],
     pub boom_stroke_mm: [f64; 2],
     pub force_angle_deg: [f64; 2],
+    /// When the load magnitude is uncertain (an unweighed bucket, an
+    /// unpublished load): it is then calibrated like the strokes, starting
+    /// from the case's `force_kN`.
+    #[serde(rename = "force_kN")]
+    pub force_kn: Option<[f64; 2]>,
 }
 
 /// The model's uncertain inputs, in the order calibration and sensitivity use.
@@ -151,6 +157,18 @@ impl CaseFile {
                 return Err(format!(
                     "bounds.{} must be [lower, upper] with lower <= upper, got [{low}, {high}]",
                     input.name()
+                ));
+            }
+        }
+        if let Some([low, high]) = case.bounds.force_kn {
+            for force in [low, high] {
+                super::inputs::check_tip_force_kn(force)
+                    .map_err(|e| format!("bounds.force_kN: {e}"))?;
+            }
+            if !(low < high && (low..=high).contains(&case.force_kn)) {
+                return Err(format!(
+                    "bounds.force_kN must be [lower, upper] with lower < upper around force_kN = {}, got [{low}, {high}]",
+                    case.force_kn
                 ));
             }
         }

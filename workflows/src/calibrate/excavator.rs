@@ -15,13 +15,9 @@
 use std::path::{Path, PathBuf};
 
 use acq_analysis::extract::measured::read_measured;
-use acq_calib::doe::{latin_hypercube, random_uniform};
 use acq_calib::evaluation::{Parameter, Simulator};
-use acq_calib::gp::{Gp, GpSettings, Kernel};
-use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_calib::gp::Kernel;
 use acq_calib::sobol_indices::sobol_indices;
-use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
-use acq_calib::topsis::{topsis, Criterion};
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
@@ -33,8 +29,8 @@ use serde_json::json;
 
 use super::progress::Progress;
 use super::report::{pareto_svg, write_report, write_text};
-use super::run_directory::{default_parallelism, evaluation_error, RunDirectory};
-use super::search::from_unit;
+use super::run_directory::{default_parallelism, RunDirectory};
+use super::surrogate_moo::{rounds_sentence, surrogate_moo, SurrogateMoo, SurrogateMooSettings};
 
 #[derive(Args, Debug)]
 pub struct CalibrateExcavatorArgs {
@@ -90,8 +86,11 @@ pub struct CalibrateExcavatorArgs {
     pub parallel: Option<usize>,
 }
 
-/// The twin as the engine sees it: four uncertain inputs in, the three
-/// loaded-chamber pressures (bar) out.
+/// The calibrated load magnitude's name, when the case bounds it.
+const FORCE_PARAMETER: &str = "force_kN";
+
+/// The twin as the engine sees it: four uncertain inputs (five with an
+/// uncertain load) in, the three loaded-chamber pressures (bar) out.
 pub struct ExcavatorSimulator {
     twin: Excavator,
     nominal: Inputs,
@@ -101,16 +100,20 @@ pub struct ExcavatorSimulator {
 
 impl ExcavatorSimulator {
     pub fn new(case: &CaseFile, twin: Excavator) -> Self {
+        let mut parameters: Vec<Parameter> = UncertainInput::ALL
+            .iter()
+            .map(|&input| {
+                let [lower, upper] = case.bounds.get(input);
+                Parameter::new(input.name(), lower, upper)
+            })
+            .collect();
+        if let Some([lower, upper]) = case.bounds.force_kn {
+            parameters.push(Parameter::new(FORCE_PARAMETER, lower, upper));
+        }
         ExcavatorSimulator {
             twin,
             nominal: case.nominal(),
-            parameters: UncertainInput::ALL
-                .iter()
-                .map(|&input| {
-                    let [lower, upper] = case.bounds.get(input);
-                    Parameter::new(input.name(), lower, upper)
-                })
-                .collect(),
+            parameters,
             outputs: CylinderName::ALL
                 .iter()
                 .map(|name| format!("{name}_pressure_bar"))
@@ -130,6 +133,9 @@ impl Simulator for ExcavatorSimulator {
         let mut inputs = self.nominal;
         for (input, &value) in UncertainInput::ALL.iter().zip(values) {
             input.apply(&mut inputs, value);
+        }
+        if let Some(&force_kn) = values.get(UncertainInput::ALL.len()) {
+            inputs.tip_force_kn = force_kn;
         }
         let evaluation = self.twin.evaluate(&inputs).map_err(|e| e.to_string())?;
         Ok(CylinderName::ALL
@@ -349,28 +355,34 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     let simulator = ExcavatorSimulator::new(&case, twin);
     let parameters = simulator.parameters().to_vec();
     check_before_the_first_run(&args.case, &measured, &simulator)?;
-    let bounds: Vec<(f64, f64)> = parameters.iter().map(|p| (p.lower, p.upper)).collect();
-    let dimensions = parameters.len();
     let directory = RunDirectory::create(&args.out)?;
     let start = std::time::Instant::now();
 
-    // 1. The twin: nominal, training and test runs.
-    let nominal: Vec<f64> = parameters.iter().map(Parameter::midpoint).collect();
-    let training_points: Vec<Vec<f64>> =
-        latin_hypercube(args.training as usize, dimensions, args.seed)
-            .iter()
-            .map(|u| from_unit(&parameters, u))
-            .collect();
-    let test_points: Vec<Vec<f64>> = random_uniform(
-        args.test_runs as usize,
-        dimensions,
-        args.seed.wrapping_add(1),
-    )
-    .iter()
-    .map(|u| from_unit(&parameters, u))
-    .collect();
-    let total = 1 + training_points.len() + test_points.len() + 1;
-    let progress = Progress::new(format!("calibrate {}", case.name), total);
+    let settings = SurrogateMooSettings {
+        training_runs: args.training as usize,
+        test_runs: args.test_runs as usize,
+        population: args.population as usize,
+        generations: args.generations as usize,
+        pareto_fraction: args.pareto_fraction,
+        weights: args.weights.clone(),
+        kernel: args.kernel,
+        ..SurrogateMooSettings::published(CylinderName::ALL.len(), args.seed)
+    };
+    // The nominal load is the case's own force_kN, the rest the bounds' middles.
+    let nominal: Vec<f64> = parameters
+        .iter()
+        .map(|p| {
+            if p.name == FORCE_PARAMETER {
+                case.force_kn
+            } else {
+                p.midpoint()
+            }
+        })
+        .collect();
+    let progress = Progress::new(
+        format!("calibrate {}", case.name),
+        settings.budget(parameters.len()),
+    );
     let mut evaluator = directory
         .evaluator(
             &simulator,
@@ -385,115 +397,31 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             });
             progress.record(loss, e.outcome.is_err(), e.from_log);
         });
-    let mut batch = vec![nominal.clone()];
-    batch.extend(training_points.iter().cloned());
-    batch.extend(test_points.iter().cloned());
-    let results = evaluator.evaluate(&batch).map_err(evaluation_error)?;
-    let nominal_bar = results[0].outcome.clone().map_err(|reason| {
-        AcqError::Config(format!(
-            "{}: the twin fails at the nominal inputs: {reason}",
-            case.name
-        ))
-    })?;
-    let successful = |range: std::ops::Range<usize>| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
-        results[range]
-            .iter()
-            .filter_map(|e| {
-                e.outcome
-                    .as_ref()
-                    .ok()
-                    .map(|y| (e.parameters.clone(), y.clone()))
-            })
-            .unzip()
-    };
-    let (train_x, train_y) = successful(1..1 + training_points.len());
-    let (test_x, test_y) = successful(1 + training_points.len()..results.len());
-    let failed_runs = results.iter().filter(|e| e.outcome.is_err()).count();
-    if train_x.len() < dimensions + 2 {
-        return Err(AcqError::Config(format!(
-            "only {} of {} training runs of the twin succeeded; check the case's bounds",
-            train_x.len(),
-            training_points.len()
-        )));
-    }
-
-    // 2. Surrogates per output, scored on the test runs.
-    let gp_settings = GpSettings {
-        kernel: args.kernel,
-        ard: true,
-        restarts: 5,
-        seed: args.seed,
-        input_bounds: Some(bounds.clone()),
-        ..GpSettings::default()
-    };
-    let column = |rows: &[Vec<f64>], k: usize| -> Vec<f64> { rows.iter().map(|r| r[k]).collect() };
-    let mut gps = Vec::new();
-    let mut rmse_table: Vec<(String, Vec<f64>)> = Vec::new();
-    let surrogate_names = ["gp", "poly1", "poly2", "poly3", "rbf"];
-    let mut rows: Vec<Vec<f64>> = vec![Vec::new(); surrogate_names.len()];
-    for k in 0..CylinderName::ALL.len() {
-        let y = column(&train_y, k);
-        let truth = column(&test_y, k);
-        let gp = Gp::fit(&train_x, &y, &gp_settings)
-            .map_err(|e| AcqError::Config(format!("GP of output {k}: {e}")))?;
-        let mut candidates: Vec<Option<Box<dyn Surrogate>>> = vec![Some(Box::new(gp.clone()))];
-        for degree in 1..=3 {
-            candidates.push(
-                Polynomial::fit(&train_x, &y, degree, Some(&bounds))
-                    .ok()
-                    .map(|p| Box::new(p) as Box<dyn Surrogate>),
-            );
-        }
-        candidates.push(
-            RadialBasis::fit(&train_x, &y, Some(&bounds))
-                .ok()
-                .map(|r| Box::new(r) as Box<dyn Surrogate>),
-        );
-        for (row, candidate) in rows.iter_mut().zip(&candidates) {
-            row.push(match candidate {
-                Some(s) if !test_x.is_empty() => rmse(s.as_ref(), &test_x, &truth),
-                _ => f64::NAN,
-            });
-        }
-        gps.push(gp);
-    }
-    for (name, row) in surrogate_names.iter().zip(rows) {
-        rmse_table.push((name.to_string(), row));
-    }
-
-    // 3. NSGA-II on the GP means.
-    let nsga_settings = Nsga2Settings {
-        population: args.population as usize,
-        generations: args.generations as usize,
-        pareto_fraction: args.pareto_fraction,
-        seed: args.seed,
-        ..Nsga2Settings::default()
-    };
-    let predicted = |x: &[f64]| -> Vec<f64> { gps.iter().map(|gp| gp.predict(x).mean).collect() };
-    let moo = nsga2(
-        |x| relative_errors_pct(&measured, &predicted(x)),
-        &bounds,
-        &nsga_settings,
-    )
-    .map_err(|e| AcqError::Config(e.to_string()))?;
-    if moo.front.is_empty() {
-        return Err(AcqError::Config(
-            "NSGA-II found no finite Pareto point".into(),
-        ));
-    }
-
-    // 4. TOPSIS, and the pick re-run on the twin.
-    let matrix: Vec<Vec<f64>> = moo.front.iter().map(|i| i.objectives.clone()).collect();
-    let pick = topsis(&matrix, &args.weights, &[Criterion::Cost; 3])
-        .map_err(|e| AcqError::Config(e.to_string()))?;
-    let optimal = moo.front[pick.best].x.clone();
-    let rerun = evaluator
-        .evaluate(std::slice::from_ref(&optimal))
-        .map_err(evaluation_error)?;
+    let objectives = |pressures: &[f64]| relative_errors_pct(&measured, pressures);
+    let found = surrogate_moo(
+        &mut evaluator,
+        &parameters,
+        &nominal,
+        &objectives,
+        &settings,
+    );
     progress.finish();
-    let optimal_bar = rerun[0].outcome.clone().map_err(|reason| {
-        AcqError::Config(format!("the twin fails at the calibrated inputs: {reason}"))
-    })?;
+    let found = found?;
+    let SurrogateMoo {
+        nominal_outputs: nominal_bar,
+        optimal,
+        optimal_outputs: optimal_bar,
+        surrogate_at_optimal: gp_at_pick,
+        surrogate_rmse: rmse_table,
+        front: matrix,
+        pick,
+        closeness,
+        gps,
+        test_runs,
+        failed_runs,
+        rounds,
+    } = found;
+    let dimensions = parameters.len();
     let errors_initial = relative_errors_pct(&measured, &nominal_bar);
     let errors_optimal = relative_errors_pct(&measured, &optimal_bar);
     let evaluations = evaluator.evaluations().len();
@@ -506,12 +434,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     let summary = json!({
         "errors_initial_pct": per_cylinder(&errors_initial),
         "errors_optimal_pct": per_cylinder(&errors_optimal),
-        "optimal": {
-            "bucket_stroke_mm": optimal[0],
-            "arm_stroke_mm": optimal[1],
-            "boom_stroke_mm": optimal[2],
-            "force_angle_deg": optimal[3],
-        },
+        "optimal": parameters.iter().zip(&optimal).map(|(p, v)| (p.name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
         "surrogate_rmse_bar": rmse_json,
         "evaluations": evaluations,
     });
@@ -526,7 +449,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         ),
         &names,
         &matrix,
-        pick.best,
+        pick,
     );
     let worst_error: Vec<(f64, f64)> = evaluator
         .evaluations()
@@ -551,7 +474,6 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     // The report.
     let wall_s = start.elapsed().as_secs_f64();
     let largest = |errors: &[f64]| errors.iter().fold(0.0f64, |a, &b| a.max(b));
-    let gp_at_pick = predicted(&optimal);
     let mut report = Document::new();
     report
         .heading(1, format!("Calibration of the excavator twin: {}", case.name))
@@ -606,7 +528,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     }
     report.table(table).heading(
         2,
-        format!("Surrogates: RMSE on the {} test runs [bar]", test_x.len()),
+        format!("Surrogates: RMSE on the {test_runs} test runs [bar]"),
     );
     let mut table = Table::new(&["surrogate", "bucket", "arm", "boom"]);
     for (name, row) in &rmse_table {
@@ -617,18 +539,19 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     report
         .table(table)
         .paragraph(format!(
-            "GP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs.",
+            "GP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs. {}",
             args.kernel,
-            train_x.len(),
+            rounds.last().map_or(0, |r| r.training_runs),
+            rounds_sentence(&rounds),
         ))
         .heading(2, "Pareto front")
         .paragraph(format!(
             "{} points (population {}, {} generations, Pareto fraction {}); the pick has closeness {:.3}.",
-            moo.front.len(),
+            matrix.len(),
             args.population,
             args.generations,
             args.pareto_fraction,
-            pick.closeness[pick.best],
+            closeness,
         ))
         .figure(Figure {
             file: "pareto.svg".into(),
@@ -651,12 +574,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     let mut table = Table::new(&header);
     for (k, name) in CylinderName::ALL.iter().enumerate() {
         let gp = &gps[k];
-        let indices = sobol_indices(
-            |u| gp.predict(&from_unit(&parameters, u)).mean,
-            dimensions,
-            1024,
-            args.seed,
-        );
+        let indices = sobol_indices(|u| gp.predict(u).mean, dimensions, 1024, args.seed);
         let mut cells = vec![name.to_string()];
         match indices {
             Ok(indices) => cells.extend(

@@ -1,28 +1,33 @@
-//! `acq calibrate external --spec FILE.toml --out DIR`: the engine on a
+//! `acq calibrate external --spec FILE.toml --out DIR`: a study on a
 //! user's own solver (a COMSOL or Abaqus batch job, a script), run as a
-//! command once per evaluation.
+//! command once per evaluation and load case.
 //!
-//! Each evaluation gets its own directory `DIR/runs/NNNNNN/`, which is the
+//! Each run gets its own directory `DIR/runs/NNNNNN/`, which is the
 //! command's working directory (solvers write fixed file names there, so
 //! parallel runs must not share one), holding `params.json`
-//! (`{"name": value, ...}`), the command's `stdout.txt` and `stderr.txt`,
-//! the files of `link_files` (symbolic links) and `copy_files` (copies),
-//! and the output file the command writes: a JSON object
-//! `{"output": value, ...}` or a CSV with a header row and one data row.
-//! The command is an argument list (no shell) in which `{params}`, `{out}`,
-//! `{dir}` and `{NAME}` (a parameter's value) are replaced; the program or
-//! an argument that names a file next to the spec is that file (resolved
-//! against the spec's directory, whatever the working directory). A run that
-//! exits non-zero, times out (it is killed) or leaves no readable output
-//! is retried `retries` times, then logged as failed with the reason (the
-//! end of its stderr); it never ends the calibration.
+//! (`{"name": value, ...}`: the parameters and the case's fixed inputs),
+//! the command's `stdout.txt` and `stderr.txt`, the files of `link_files`
+//! (symbolic links) and `copy_files` (copies), and what the command
+//! writes: the output file (a JSON object `{"output": value, ...}` or a CSV
+//! with a header row and one data row; nested JSON keys are named by path,
+//! `pressure_bar.boom`, `gauges[0]`) and each curve's CSV. The command is
+//! an argument list (no shell) in which `{params}`, `{out}`, `{dir}` and
+//! `{NAME}` (a parameter's or fixed input's value) are replaced; the
+//! program or an argument that names a file next to the spec is that file.
+//! A run that exits non-zero, times out (it is killed) or leaves no
+//! readable output is retried `retries` times, then logged as failed with
+//! the reason (the end of its stderr); it never ends the study. Where a
+//! run happens is the [`super::executor`]'s business.
 //!
-//! The loss is the mean (or largest) of the errors, in %: each scalar
-//! output's relative error against its measured value, and each curve's
-//! MAPE against its measured curve (`[[curve]]`: the solver writes a CSV in
-//! its run directory; the error is the published curve MAPE of
-//! [`acq_analysis::loss::curve`], the same as the GTN calibration's). It is
-//! minimised by Bayesian optimisation from a space-filling start.
+//! The study ([`super::study`]): parameters shared by all cases or one
+//! case's own; `[[case]]`s with a role (`fit` or `validate`), fixed inputs
+//! and measured values; without `[[case]]`, the `[[output]]`s and
+//! `[[curve]]`s are one fit case's observations. Two methods:
+//! - `bo` (the tensile study's): the loss (weighted mean or largest of the
+//!   errors) minimised by Bayesian optimisation from a space-filling start;
+//! - `surrogate-moo` (the excavator study's): a GP per observation,
+//!   NSGA-II over the errors, TOPSIS, the pick re-run
+//!   ([`super::surrogate_moo`]).
 //!
 //! ```toml
 //! command = ["sh", "solver.sh", "{params}", "{out}"]
@@ -37,55 +42,78 @@
 //! name = "youngs_modulus_gpa"
 //! lower = 180.0
 //! upper = 220.0
+//! scale = "linear"           # or "log"
+//! nominal = 200.0            # optional: where the initial errors are shown
+//! # case = "hot"             # optional: this case's own parameter
 //!
-//! [[output]]
+//! [[output]]                 # without [[case]]: the observations
 //! name = "tip_deflection_mm"
 //! measured = 12.5
+//! uncertainty = 0.05         # optional, standard uncertainty (same unit)
 //!
 //! [[curve]]                  # optional, any number
 //! name = "force_displacement"
 //! file = "curve.csv"         # written by the solver in its run directory
 //! x = "u_mm"                 # its columns
 //! y = "f_kn"
-//! measured_file = "test.csv" # next to the spec
+//! measured_file = "test.csv" # next to the spec (without [[case]])
 //! measured_x = "DISPLACEMENT"
 //! measured_y = "FORCE"
 //!
+//! [[case]]                   # optional, any number
+//! name = "cold"
+//! role = "fit"               # or "validate": never seen by the search
+//! inputs = { temperature_c = 20.0 }
+//! [case.measured]
+//! tip_deflection_mm = 12.5                                 # a value
+//! tip_rotation_deg = { value = 1.2, uncertainty = 0.02 }   # with its uncertainty
+//! boom_bar = { file = "measured.csv", quantity = "boom_loaded_pressure", hold = "hold1", uncertainty = "std" }
+//! force_displacement = { file = "cold.csv", x = "DISPLACEMENT", y = "FORCE" }
+//!
 //! [search]
-//! start = "lhs"              # lhs, sobol, l12, factorial, or a CSV file of points
+//! method = "bo"              # or "surrogate-moo"
+//! residuals = "relative"     # or "normalised": scalars in standard uncertainties
+//! start = "lhs"              # bo: lhs, sobol, l12, factorial, or a CSV file of points
 //! start_runs = 10
 //! max_evals = 60
 //! target_loss_pct = 1.0
 //! loss = "mean"              # or "max"
+//! training_runs = 40         # surrogate-moo, with test_runs, population,
+//! test_runs = 40             # generations, pareto_fraction, kernel,
+//!                            # refine_tolerance, refine_rounds
 //! ```
+//!
+//! A measured value read from an `acq extract` file takes the hold's mean;
+//! its uncertainty is a number, `"std"` (the spread of the readings in the
+//! hold) or `"std_of_mean"` (the standard error of the mean, std over the
+//! square root of the effective sample count). Any observation may have a
+//! `weight` (1 by default) in the loss and in TOPSIS.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions};
-use acq_calib::bo::BoSettings;
-use acq_calib::doe::{
-    full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
-    two_level_to_unit,
-};
-use acq_calib::evaluation::{Parameter, Simulator};
+use acq_analysis::extract::measured::read_measured;
+use acq_calib::bo::Acquisition;
+use acq_calib::doe::read_design_csv;
+use acq_calib::evaluation::{Parameter, Scale};
+use acq_calib::gp::Kernel;
 use acq_io::error::{AcqError, Result};
-use acq_report::document::{Document, Figure, Table};
-use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
 use clap::Args;
 use serde::Deserialize;
 use serde_json::json;
 
-use super::progress::Progress;
-use super::report::{write_report, write_text};
-use super::run_directory::RunDirectory;
-use super::search::{distinct_best, minimise_logged, scored, to_unit};
+use super::executor::{Executor, Job, LocalExecutor};
+use super::study::{
+    Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study, StudyParameter,
+};
+use super::study_runner::{self, Method, RunSettings};
+use super::surrogate_moo::SurrogateMooSettings;
 
 #[derive(Args, Debug)]
 pub struct CalibrateExternalArgs {
-    /// The spec (TOML): command, parameters, outputs with measured values, search.
+    /// The spec (TOML): command, parameters, cases or outputs with measured values, search.
     #[arg(long, value_name = "FILE.toml")]
     pub spec: PathBuf,
     /// Run directory: evaluations.csv, runs/, summary.json, report.md, plots.
@@ -120,13 +148,18 @@ pub struct Spec {
     #[serde(default = "default_parallel")]
     pub parallel: usize,
     #[serde(rename = "parameter")]
-    pub parameters: Vec<Parameter>,
+    pub parameters: Vec<SpecParameter>,
     #[serde(rename = "output", default)]
     pub outputs: Vec<MeasuredOutput>,
     #[serde(rename = "curve", default)]
-    pub curves: Vec<MeasuredCurve>,
+    pub curves: Vec<CurveSpec>,
+    #[serde(rename = "case", default)]
+    pub cases: Vec<CaseSpec>,
     #[serde(default)]
     pub search: Search,
+    /// The study the spec defines, built by [`Spec::load`].
+    #[serde(skip)]
+    study: Option<Study>,
 }
 
 fn default_timeout_s() -> f64 {
@@ -139,41 +172,68 @@ fn default_parallel() -> usize {
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
+pub struct SpecParameter {
+    pub name: String,
+    pub lower: f64,
+    pub upper: f64,
+    #[serde(default)]
+    pub scale: Scale,
+    /// Where the initial errors are reported [default: the middle].
+    pub nominal: Option<f64>,
+    /// The case this parameter belongs to [default: shared by all].
+    pub case: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct MeasuredOutput {
     pub name: String,
     pub measured: f64,
+    pub uncertainty: Option<f64>,
+    pub weight: Option<f64>,
 }
 
 /// A curve the solver writes, compared with a measured one by curve MAPE.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct MeasuredCurve {
+pub struct CurveSpec {
     pub name: String,
     /// The CSV the solver writes in its run directory.
     pub file: String,
     /// Its x and y column names.
     pub x: String,
     pub y: String,
-    /// The measured curve, a CSV next to the spec, and its column names.
-    pub measured_file: String,
-    pub measured_x: String,
-    pub measured_y: String,
-    /// The measured points, read when the spec is loaded.
-    #[serde(skip)]
-    pub measured: Vec<(f64, f64)>,
+    /// Without cases: the measured curve, a CSV next to the spec, and its
+    /// column names.
+    pub measured_file: Option<String>,
+    pub measured_x: Option<String>,
+    pub measured_y: Option<String>,
+    pub weight: Option<f64>,
 }
 
-/// The points of columns `x` and `y` of a CSV with a header row; errors
-/// name the file and line.
-fn read_curve(path: &Path, x: &str, y: &str) -> std::result::Result<Vec<(f64, f64)>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let rows = read_design_csv(&text, &[x, y]).map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(rows.iter().map(|row| (row[0], row[1])).collect())
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseSpec {
+    pub name: String,
+    #[serde(default = "default_role")]
+    pub role: String,
+    #[serde(default)]
+    pub inputs: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub measured: toml::Table,
+}
+
+fn default_role() -> String {
+    "fit".into()
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Search {
+    #[serde(default = "default_method")]
+    pub method: String,
+    #[serde(default = "default_residuals")]
+    pub residuals: String,
     #[serde(default = "default_start")]
     pub start: String,
     #[serde(default = "default_start_runs")]
@@ -183,20 +243,30 @@ pub struct Search {
     pub target_loss_pct: Option<f64>,
     #[serde(default = "default_loss")]
     pub loss: String,
+    pub acquisition: Option<String>,
+    pub patience: Option<usize>,
+    pub training_runs: Option<usize>,
+    pub test_runs: Option<usize>,
+    pub population: Option<usize>,
+    pub generations: Option<usize>,
+    pub pareto_fraction: Option<f64>,
+    pub kernel: Option<String>,
+    pub refine_tolerance: Option<f64>,
+    pub refine_rounds: Option<usize>,
 }
 
 impl Default for Search {
     fn default() -> Self {
-        Search {
-            start: default_start(),
-            start_runs: default_start_runs(),
-            max_evals: default_max_evals(),
-            target_loss_pct: None,
-            loss: default_loss(),
-        }
+        toml::from_str("").expect("every search field has a default")
     }
 }
 
+fn default_method() -> String {
+    "bo".into()
+}
+fn default_residuals() -> String {
+    "relative".into()
+}
 fn default_start() -> String {
     "lhs".into()
 }
@@ -226,27 +296,282 @@ fn spec_directory(spec: &Path) -> PathBuf {
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
+/// The points of columns `x` and `y` of a CSV with a header row; errors
+/// name the file and line.
+fn read_curve(path: &Path, x: &str, y: &str) -> std::result::Result<Vec<(f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let rows = read_design_csv(&text, &[x, y]).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(rows.iter().map(|row| (row[0], row[1])).collect())
+}
+
+/// A measured curve next to the spec, at least two points.
+fn measured_curve(
+    spec_directory: &Path,
+    name: &str,
+    file: &str,
+    x: &str,
+    y: &str,
+) -> Result<Vec<(f64, f64)>> {
+    let path = spec_directory.join(file);
+    acq_io::input::note_input(&path);
+    let points =
+        read_curve(&path, x, y).map_err(|e| AcqError::Malformed(format!("curve {name}: {e}")))?;
+    if points.len() < 2 {
+        return Err(AcqError::Malformed(format!(
+            "curve {name}: {} has {} point(s); a measured curve needs at least 2",
+            path.display(),
+            points.len()
+        )));
+    }
+    Ok(points)
+}
+
+/// The 1-based line of the `index`-th `[[header]]` table in a spec, for
+/// messages about it.
+fn table_line(text: &str, header: &str, index: usize) -> usize {
+    text.lines()
+        .enumerate()
+        .filter(|(_, line)| line.trim() == header)
+        .nth(index)
+        .map_or(1, |(number, _)| number + 1)
+}
+
+fn weight_of(weight: Option<f64>, what: &str) -> std::result::Result<f64, String> {
+    match weight {
+        None => Ok(1.0),
+        Some(w) if (0.0..=1e6).contains(&w) => Ok(w),
+        Some(w) => Err(format!("{what}: weight = {w}; give a number from 0 to 1e6")),
+    }
+}
+
+fn scalar(
+    name: &str,
+    value: f64,
+    uncertainty: Option<f64>,
+    weight: f64,
+    source: String,
+) -> std::result::Result<Observation, String> {
+    if !(value.is_finite() && value != 0.0) {
+        return Err(format!(
+            "{name}: measured must be a finite non-zero number (errors are relative to it), got {value}"
+        ));
+    }
+    if let Some(u) = uncertainty {
+        if !(u.is_finite() && u > 0.0) {
+            return Err(format!(
+                "{name}: uncertainty = {u}; give the standard uncertainty, a finite number above 0, in the value's unit"
+            ));
+        }
+    }
+    Ok(Observation {
+        name: name.to_string(),
+        measured: Measured::Scalar { value, uncertainty },
+        weight,
+        source,
+    })
+}
+
+/// One entry of a case's `measured` table.
+fn case_observation(
+    spec: &Spec,
+    spec_directory: &Path,
+    name: &str,
+    entry: &toml::Value,
+) -> std::result::Result<Observation, String> {
+    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+    if let Some(value) = number(entry) {
+        return scalar(name, value, None, 1.0, "spec".into());
+    }
+    let table = entry.as_table().ok_or_else(|| {
+        format!("{name}: give a number, or a table with value, file (+ quantity), or file (+ x, y) for a curve")
+    })?;
+    let text = |key: &str| -> std::result::Result<Option<String>, String> {
+        match table.get(key) {
+            None => Ok(None),
+            Some(v) => v
+                .as_str()
+                .map(|s| Some(s.to_string()))
+                .ok_or_else(|| format!("{name}: {key} must be a string")),
+        }
+    };
+    let allowed: &[&str] = if table.contains_key("value") {
+        &["value", "uncertainty", "weight"]
+    } else if table.contains_key("quantity") {
+        &["file", "quantity", "hold", "uncertainty", "weight"]
+    } else {
+        &["file", "x", "y", "weight"]
+    };
+    if let Some(key) = table.keys().find(|k| !allowed.contains(&k.as_str())) {
+        return Err(format!(
+            "{name}: unknown key {key:?}; this kind of measured value takes {}",
+            allowed.join(", ")
+        ));
+    }
+    let weight = match table.get("weight") {
+        None => 1.0,
+        Some(v) => weight_of(
+            Some(number(v).ok_or_else(|| format!("{name}: weight must be a number"))?),
+            name,
+        )?,
+    };
+    if let Some(value) = table.get("value") {
+        let value = number(value).ok_or_else(|| format!("{name}: value must be a number"))?;
+        let uncertainty = match table.get("uncertainty") {
+            None => None,
+            Some(u) => Some(number(u).ok_or_else(|| {
+                format!("{name}: uncertainty must be a number (the standard uncertainty)")
+            })?),
+        };
+        return scalar(name, value, uncertainty, weight, "spec".into());
+    }
+    let file = text("file")?.ok_or_else(|| {
+        format!("{name}: give value = ..., or file = ... with quantity (a measured-values file) or x and y (a curve)")
+    })?;
+    let path = spec_directory.join(&file);
+    if let Some(quantity) = text("quantity")? {
+        return measured_value_from_file(
+            name,
+            &path,
+            &quantity,
+            text("hold")?.as_deref(),
+            table.get("uncertainty"),
+            weight,
+        );
+    }
+    let (Some(x), Some(y)) = (text("x")?, text("y")?) else {
+        return Err(format!(
+            "{name}: a measured curve needs x and y (its column names in {file})"
+        ));
+    };
+    if !spec.curves.iter().any(|c| c.name == name) {
+        return Err(format!(
+            "{name}: a measured curve, but no [[curve]] named {name:?} says which file the solver writes it to"
+        ));
+    }
+    let points = measured_curve(spec_directory, name, &file, &x, &y).map_err(|e| e.to_string())?;
+    Ok(Observation {
+        name: name.to_string(),
+        measured: Measured::Curve { points },
+        weight,
+        source: file,
+    })
+}
+
+/// A measured value from an `acq extract` measured-values file.
+fn measured_value_from_file(
+    name: &str,
+    path: &Path,
+    quantity: &str,
+    hold: Option<&str>,
+    uncertainty: Option<&toml::Value>,
+    weight: f64,
+) -> std::result::Result<Observation, String> {
+    let values = read_measured(path).map_err(|e| format!("{name}: {e}"))?;
+    let mut holds: Vec<&str> = values.iter().map(|v| v.window.as_str()).collect();
+    holds.dedup();
+    let hold = match hold {
+        Some(h) => h.to_string(),
+        None if holds.len() == 1 => holds[0].to_string(),
+        None => {
+            return Err(format!(
+                "{name}: {} has {} holds ({}); name one with hold = \"...\"",
+                path.display(),
+                holds.len(),
+                holds.join(", ")
+            ))
+        }
+    };
+    let Some(value) = values
+        .iter()
+        .find(|v| v.window == hold && v.quantity == quantity)
+    else {
+        return Err(if holds.contains(&hold.as_str()) {
+            format!(
+                "{name}: {} has no {quantity} in hold {hold}",
+                path.display()
+            )
+        } else {
+            format!(
+                "{name}: {} has no hold {hold:?}; it has {}",
+                path.display(),
+                holds.join(", ")
+            )
+        });
+    };
+    if !value.is_usable() {
+        return Err(format!(
+            "{name}: {quantity} in {hold} of {} is not fit to calibrate against (flags '{}': {})",
+            path.display(),
+            value.flags.join(";"),
+            value.note
+        ));
+    }
+    let mean = value
+        .stats
+        .mean
+        .ok_or_else(|| format!("{name}: {quantity} in {hold} has no mean"))?;
+    let standard = |what: &str| -> std::result::Result<f64, String> {
+        let std = value.stats.std.ok_or_else(|| {
+            format!("{name}: {quantity} in {hold} has no std (fewer than 2 samples)")
+        })?;
+        Ok(match what {
+            "std" => std,
+            _ => std / value.stats.n_eff.max(1.0).sqrt(),
+        })
+    };
+    let uncertainty = match uncertainty {
+        None => None,
+        Some(toml::Value::String(s)) if s == "std" || s == "std_of_mean" => Some(standard(s)?),
+        Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
+            Some(u) => Some(u),
+            None => {
+                return Err(format!(
+                    "{name}: uncertainty = {v}; give a number, \"std\" or \"std_of_mean\""
+                ))
+            }
+        },
+    };
+    scalar(
+        name,
+        mean,
+        uncertainty,
+        weight,
+        format!("{} ({hold}, {quantity} [{}])", path.display(), value.unit),
+    )
+}
+
 impl Spec {
-    /// Reads and checks a spec; errors name the file and what to fix.
+    /// Reads and checks a spec and the measured files it names; errors
+    /// name the file (and the line of the table at fault) and what to fix.
     pub fn load(path: &Path) -> Result<Spec> {
         let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
         acq_io::input::note_input(path);
-        let spec: Spec = toml::from_str(&text)
+        let mut spec: Spec = toml::from_str(&text)
             .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?;
         let problem = |message: String| AcqError::Config(format!("{}: {message}", path.display()));
+        let at = |header: &str, index: usize, message: String| {
+            AcqError::Config(format!(
+                "{}:{}: {message}",
+                path.display(),
+                table_line(&text, header, index)
+            ))
+        };
         if spec.command.is_empty() {
             return Err(problem(
                 "command is empty; give the program and its arguments".into(),
             ));
         }
-        if spec.outputs.is_empty() && spec.curves.is_empty() {
+        if spec.cases.is_empty() && spec.outputs.is_empty() && spec.curves.is_empty() {
             return Err(problem(
-                "no [[output]] with a measured value and no [[curve]] to compare".into(),
+                "no [[output]] with a measured value, no [[curve]] to compare and no [[case]]"
+                    .into(),
             ));
         }
-        if !spec.outputs.is_empty() && spec.output_file.is_empty() {
-            return Err(problem(
-                "output_file: name the file the command writes its outputs to".into(),
+        if !spec.cases.is_empty() && !spec.outputs.is_empty() {
+            return Err(at(
+                "[[output]]",
+                0,
+                "with [[case]], give each case's measured values in its `measured` table instead of [[output]]".into(),
             ));
         }
         let mut names: Vec<&str> = spec.outputs.iter().map(|o| o.name.as_str()).collect();
@@ -257,16 +582,6 @@ impl Spec {
                     "the output or curve name {name:?} is given twice"
                 )));
             }
-        }
-        if let Some(o) = spec
-            .outputs
-            .iter()
-            .find(|o| !(o.measured.is_finite() && o.measured != 0.0))
-        {
-            return Err(problem(format!(
-                "output {}: measured must be a finite non-zero number (errors are relative to it)",
-                o.name
-            )));
         }
         if !(spec.timeout_s.is_finite() && spec.timeout_s > 0.0 && spec.timeout_s <= MAX_TIMEOUT_S)
         {
@@ -292,24 +607,11 @@ impl Spec {
             acq_io::output::inside(any_run, &spec.output_file, "output_file")
                 .map_err(|e| problem(e.to_string()))?;
         }
-        let spec_directory = spec_directory(path);
-        let mut spec = spec;
-        for curve in &mut spec.curves {
+        for curve in &spec.curves {
             acq_io::output::inside(any_run, &curve.file, "curve.file")
                 .map_err(|e| problem(e.to_string()))?;
-            let measured_path = spec_directory.join(&curve.measured_file);
-            acq_io::input::note_input(&measured_path);
-            curve.measured = read_curve(&measured_path, &curve.measured_x, &curve.measured_y)
-                .map_err(|e| AcqError::Malformed(format!("curve {}: {e}", curve.name)))?;
-            if curve.measured.len() < 2 {
-                return Err(AcqError::Malformed(format!(
-                    "curve {}: {} has {} point(s); a measured curve needs at least 2",
-                    curve.name,
-                    measured_path.display(),
-                    curve.measured.len()
-                )));
-            }
         }
+        let spec_directory = spec_directory(path);
         for (what, files) in [
             ("link_files", &spec.link_files),
             ("copy_files", &spec.copy_files),
@@ -326,54 +628,376 @@ impl Spec {
                 acq_io::input::note_input(&source);
             }
         }
-        if !START_DESIGNS.contains(&spec.search.start.as_str())
-            && !spec.search.start.ends_with(".csv")
-        {
-            return Err(problem(format!(
-                "search.start = {:?}: use one of {}, or a CSV file of points (name ending in .csv, next to the spec)",
-                spec.search.start,
-                START_DESIGNS.join(", ")
-            )));
+        spec.check_search().map_err(problem)?;
+
+        // The cases and their observations.
+        let mut cases = Vec::new();
+        if spec.cases.is_empty() {
+            let mut observations = Vec::new();
+            for (index, o) in spec.outputs.iter().enumerate() {
+                let weight =
+                    weight_of(o.weight, &o.name).map_err(|e| at("[[output]]", index, e))?;
+                observations.push(
+                    scalar(&o.name, o.measured, o.uncertainty, weight, "spec".into())
+                        .map_err(|e| at("[[output]]", index, format!("output {e}")))?,
+                );
+            }
+            for (index, c) in spec.curves.iter().enumerate() {
+                let (Some(file), Some(x), Some(y)) =
+                    (&c.measured_file, &c.measured_x, &c.measured_y)
+                else {
+                    return Err(at(
+                        "[[curve]]",
+                        index,
+                        format!(
+                            "curve {}: give measured_file, measured_x and measured_y (the measured curve to compare with)",
+                            c.name
+                        ),
+                    ));
+                };
+                let weight = weight_of(c.weight, &c.name).map_err(|e| at("[[curve]]", index, e))?;
+                observations.push(Observation {
+                    name: c.name.clone(),
+                    measured: Measured::Curve {
+                        points: measured_curve(&spec_directory, &c.name, file, x, y)?,
+                    },
+                    weight,
+                    source: file.clone(),
+                });
+            }
+            cases.push(Case {
+                name: "the test".into(),
+                role: Role::Fit,
+                inputs: Vec::new(),
+                observations,
+            });
         }
-        if !matches!(spec.search.loss.as_str(), "mean" | "max") {
-            return Err(problem(format!(
-                "search.loss {:?}: use mean or max",
-                spec.search.loss
-            )));
+        for (index, c) in spec.curves.iter().enumerate() {
+            if !spec.cases.is_empty() && c.measured_file.is_some() {
+                return Err(at(
+                    "[[curve]]",
+                    index,
+                    format!("curve {}: with [[case]], the measured curve goes in each case's measured table ({} = {{ file = ..., x = ..., y = ... }})", c.name, c.name),
+                ));
+            }
         }
-        if !(3..=MAX_EVALUATIONS).contains(&spec.search.max_evals)
-            || !(2..=MAX_EVALUATIONS).contains(&spec.search.start_runs)
-        {
-            return Err(problem(format!(
-                "search: give max_evals from 3 and start_runs from 2, each at most {MAX_EVALUATIONS} (got {} and {})",
-                spec.search.max_evals, spec.search.start_runs
-            )));
+        for (index, c) in spec.cases.iter().enumerate() {
+            let here =
+                |message: String| at("[[case]]", index, format!("case {}: {message}", c.name));
+            if c.name.is_empty() || c.name.contains(['/', ',', '"', '\n']) {
+                return Err(here(
+                    "give a name of letters, digits and underscores".into(),
+                ));
+            }
+            if spec.cases[..index].iter().any(|d| d.name == c.name) {
+                return Err(here("the name is given twice".into()));
+            }
+            let role = match c.role.as_str() {
+                "fit" => Role::Fit,
+                "validate" => Role::Validate,
+                other => {
+                    return Err(here(format!(
+                        "role = {other:?}; use \"fit\" or \"validate\""
+                    )))
+                }
+            };
+            if c.measured.is_empty() {
+                return Err(here(format!(
+                    "no measured values; a {} case needs at least one observation",
+                    role.name()
+                )));
+            }
+            for (name, value) in &c.inputs {
+                if !value.is_finite() {
+                    return Err(here(format!(
+                        "input {name} = {value}; give a finite number"
+                    )));
+                }
+                let calibrated_here = |p: &SpecParameter| {
+                    &p.name == name && p.case.as_ref().is_none_or(|case| case == &c.name)
+                };
+                if spec.parameters.iter().any(calibrated_here) {
+                    return Err(here(format!(
+                        "input {name} is also a [[parameter]]; a value is either fixed or calibrated"
+                    )));
+                }
+            }
+            let observations = c
+                .measured
+                .iter()
+                .map(|(name, entry)| case_observation(&spec, &spec_directory, name, entry))
+                .collect::<std::result::Result<Vec<_>, _>>()
+                .map_err(|e| here(format!("measured {e}")))?;
+            if observations
+                .iter()
+                .any(|o| matches!(o.measured, Measured::Scalar { .. }))
+                && spec.output_file.is_empty()
+            {
+                return Err(problem(
+                    "output_file: name the file the command writes its outputs to".into(),
+                ));
+            }
+            cases.push(Case {
+                name: c.name.clone(),
+                role,
+                inputs: c.inputs.iter().map(|(k, v)| (k.clone(), *v)).collect(),
+                observations,
+            });
         }
-        acq_calib::evaluation::validate_parameters(&spec.parameters)
+        if cases.iter().all(|c| c.role != Role::Fit) {
+            return Err(problem(
+                "every case is a validate case; the search needs at least one fit case".into(),
+            ));
+        }
+        if spec.cases.is_empty() && !spec.outputs.is_empty() && spec.output_file.is_empty() {
+            return Err(problem(
+                "output_file: name the file the command writes its outputs to".into(),
+            ));
+        }
+
+        // The parameters: shared, or one fit case's own.
+        let mut parameters = Vec::new();
+        for (index, p) in spec.parameters.iter().enumerate() {
+            let case = match &p.case {
+                None => None,
+                Some(name) => {
+                    let Some(found) = cases.iter().position(|c| &c.name == name) else {
+                        return Err(at(
+                            "[[parameter]]",
+                            index,
+                            format!(
+                                "parameter {}: case = {name:?} names no [[case]]; the cases are {}",
+                                p.name,
+                                cases
+                                    .iter()
+                                    .map(|c| c.name.as_str())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            ),
+                        ));
+                    };
+                    if cases[found].role == Role::Validate {
+                        return Err(at(
+                            "[[parameter]]",
+                            index,
+                            format!(
+                                "parameter {}: case {name} is a validate case, which the search never sees; give its value as a fixed input",
+                                p.name
+                            ),
+                        ));
+                    }
+                    Some(found)
+                }
+            };
+            let search_name = match &p.case {
+                Some(case) => format!("{case}/{}", p.name),
+                None => p.name.clone(),
+            };
+            let search = Parameter::new(search_name, p.lower, p.upper).with_scale(p.scale);
+            let nominal = p.nominal.unwrap_or_else(|| search.midpoint());
+            if !(nominal >= p.lower && nominal <= p.upper) {
+                return Err(at(
+                    "[[parameter]]",
+                    index,
+                    format!(
+                        "parameter {}: nominal = {nominal} lies outside {} .. {}",
+                        p.name, p.lower, p.upper
+                    ),
+                ));
+            }
+            parameters.push(StudyParameter {
+                search,
+                input: p.name.clone(),
+                case,
+                nominal,
+            });
+        }
+        for (index, p) in spec.parameters.iter().enumerate() {
+            let clash = spec.parameters[..index].iter().any(|q| {
+                q.name == p.name && (q.case.is_none() || p.case.is_none() || q.case == p.case)
+            });
+            if clash {
+                return Err(at(
+                    "[[parameter]]",
+                    index,
+                    format!("parameter {} is listed twice for the same case", p.name),
+                ));
+            }
+        }
+        let search_parameters: Vec<Parameter> =
+            parameters.iter().map(|p| p.search.clone()).collect();
+        acq_calib::evaluation::validate_parameters(&search_parameters)
             .map_err(|e| problem(e.to_string()))?;
+        let residuals = match spec.search.residuals.as_str() {
+            "relative" => Residuals::Relative,
+            _ => Residuals::Normalised,
+        };
+        if residuals == Residuals::Normalised {
+            if let Some((case, o)) = cases.iter().find_map(|c| {
+                c.observations
+                    .iter()
+                    .find(|o| {
+                        matches!(
+                            o.measured,
+                            Measured::Scalar {
+                                uncertainty: None,
+                                ..
+                            }
+                        )
+                    })
+                    .map(|o| (c, o))
+            }) {
+                return Err(problem(format!(
+                    "search.residuals = \"normalised\" divides by each value's uncertainty, and {} of {} has none; give it one",
+                    o.name, case.name
+                )));
+            }
+        }
+        spec.study = Some(Study {
+            parameters,
+            named_cases: !spec.cases.is_empty(),
+            cases,
+            residuals,
+            loss: if spec.search.loss == "max" {
+                LossKind::Max
+            } else {
+                LossKind::Mean
+            },
+        });
         Ok(spec)
+    }
+
+    fn check_search(&self) -> std::result::Result<(), String> {
+        let search = &self.search;
+        if !matches!(search.method.as_str(), "bo" | "surrogate-moo") {
+            return Err(format!(
+                "search.method = {:?}: use \"bo\" or \"surrogate-moo\"",
+                search.method
+            ));
+        }
+        if !matches!(search.residuals.as_str(), "relative" | "normalised") {
+            return Err(format!(
+                "search.residuals = {:?}: use \"relative\" or \"normalised\"",
+                search.residuals
+            ));
+        }
+        if !START_DESIGNS.contains(&search.start.as_str()) && !search.start.ends_with(".csv") {
+            return Err(format!(
+                "search.start = {:?}: use one of {}, or a CSV file of points (name ending in .csv, next to the spec)",
+                search.start,
+                START_DESIGNS.join(", ")
+            ));
+        }
+        if !matches!(search.loss.as_str(), "mean" | "max") {
+            return Err(format!("search.loss {:?}: use mean or max", search.loss));
+        }
+        if !(3..=MAX_EVALUATIONS).contains(&search.max_evals)
+            || !(2..=MAX_EVALUATIONS).contains(&search.start_runs)
+        {
+            return Err(format!(
+                "search: give max_evals from 3 and start_runs from 2, each at most {MAX_EVALUATIONS} (got {} and {})",
+                search.max_evals, search.start_runs
+            ));
+        }
+        if let Some(text) = &search.acquisition {
+            text.parse::<Acquisition>()
+                .map_err(|e| format!("search.acquisition = {text:?}: {e}"))?;
+        }
+        if let Some(text) = &search.kernel {
+            text.parse::<Kernel>()
+                .map_err(|e| format!("search.kernel = {text:?}: {e}"))?;
+        }
+        let counts = [
+            ("training_runs", search.training_runs, 3),
+            ("test_runs", search.test_runs, 0),
+            ("population", search.population, 4),
+            ("generations", search.generations, 0),
+            ("refine_rounds", search.refine_rounds, 0),
+            ("patience", search.patience, 1),
+        ];
+        for (name, value, least) in counts {
+            if let Some(value) = value {
+                if !(least..=MAX_EVALUATIONS).contains(&value) {
+                    return Err(format!(
+                        "search.{name} = {value}: give {least} to {MAX_EVALUATIONS}"
+                    ));
+                }
+            }
+        }
+        if let Some(f) = search.pareto_fraction {
+            if !(f > 0.0 && f <= 1.0) {
+                return Err(format!(
+                    "search.pareto_fraction = {f}: give a number in (0, 1]"
+                ));
+            }
+        }
+        if let Some(t) = search.refine_tolerance {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(format!("search.refine_tolerance = {t}: give a number >= 0"));
+            }
+        }
+        if let Some(t) = search.target_loss_pct {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(format!("search.target_loss_pct = {t}: give a number >= 0"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The study this spec defines.
+    pub fn study(&self) -> &Study {
+        self.study.as_ref().expect("Spec::load builds the study")
+    }
+
+    /// The search method with its settings.
+    fn method(&self, seed: u64) -> Method {
+        let search = &self.search;
+        if search.method == "surrogate-moo" {
+            let defaults = SurrogateMooSettings::published(self.study().weights().len(), seed);
+            Method::SurrogateMoo(SurrogateMooSettings {
+                training_runs: search.training_runs.unwrap_or(defaults.training_runs),
+                test_runs: search.test_runs.unwrap_or(defaults.test_runs),
+                population: search.population.unwrap_or(defaults.population),
+                generations: search.generations.unwrap_or(defaults.generations),
+                pareto_fraction: search.pareto_fraction.unwrap_or(defaults.pareto_fraction),
+                weights: self.study().weights(),
+                kernel: search
+                    .kernel
+                    .as_deref()
+                    .and_then(|k| k.parse().ok())
+                    .unwrap_or(defaults.kernel),
+                seed,
+                refine_tolerance: search.refine_tolerance.unwrap_or(defaults.refine_tolerance),
+                refine_rounds: search.refine_rounds.unwrap_or(defaults.refine_rounds),
+            })
+        } else {
+            Method::Bo(study_runner::BoMethod {
+                start: search.start.clone(),
+                start_runs: search.start_runs,
+                max_evals: search.max_evals,
+                target_loss: search.target_loss_pct,
+                acquisition: search.acquisition.as_deref().and_then(|a| a.parse().ok()),
+                patience: search.patience,
+                batch: self.parallel,
+                seed,
+            })
+        }
     }
 }
 
-/// The user's solver as the engine sees it.
-pub struct ExternalSimulator {
+/// The user's solver: a command run once per model run.
+pub struct ExternalModel {
     spec: Spec,
     /// Where relative program and file paths in the spec start.
     spec_directory: PathBuf,
     runs: PathBuf,
-    outputs: Vec<String>,
     counter: AtomicUsize,
+    executor: Box<dyn Executor>,
 }
 
-impl ExternalSimulator {
+impl ExternalModel {
     pub fn new(mut spec: Spec, spec_directory: PathBuf, runs: PathBuf) -> Self {
         let highest = highest_run_number(&runs);
-        let outputs = spec
-            .outputs
-            .iter()
-            .map(|o| o.name.clone())
-            .chain(spec.curves.iter().map(|c| c.name.clone()))
-            .collect();
         // The runs start in their own directories: a program or argument that
         // names a file next to the spec must still find it.
         for argument in &mut spec.command {
@@ -387,25 +1011,28 @@ impl ExternalSimulator {
                 }
             }
         }
-        ExternalSimulator {
+        ExternalModel {
             spec,
             spec_directory,
             runs,
-            outputs,
             // A resumed run numbers on after the directories already there,
             // so the interrupted run's files are kept.
             counter: AtomicUsize::new(highest),
+            executor: Box::new(LocalExecutor),
         }
     }
 
-    fn run_once(&self, values: &[f64], directory: &Path) -> std::result::Result<Vec<f64>, String> {
+    fn run_once(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+        directory: &Path,
+    ) -> std::result::Result<ModelRun, String> {
         std::fs::create_dir_all(directory).map_err(|e| format!("{}: {e}", directory.display()))?;
-        let params: serde_json::Map<String, serde_json::Value> = self
-            .spec
-            .parameters
+        let params: serde_json::Map<String, serde_json::Value> = inputs
             .iter()
-            .zip(values)
-            .map(|(p, v)| (p.name.clone(), json!(v)))
+            .map(|(name, v)| (name.clone(), json!(v)))
             .collect();
         let params_path = directory.join("params.json");
         std::fs::write(&params_path, serde_json::Value::Object(params).to_string())
@@ -413,9 +1040,17 @@ impl ExternalSimulator {
         let output_path = acq_io::output::inside(directory, &self.spec.output_file, "output_file")
             .ok()
             .filter(|_| !self.spec.output_file.is_empty());
-        let curve_paths = self
-            .spec
-            .curves
+        let curve_specs: Vec<&CurveSpec> = curves
+            .iter()
+            .map(|name| {
+                self.spec
+                    .curves
+                    .iter()
+                    .find(|c| c.name == *name)
+                    .ok_or_else(|| format!("no [[curve]] named {name}"))
+            })
+            .collect::<std::result::Result<_, _>>()?;
+        let curve_paths = curve_specs
             .iter()
             .map(|c| acq_io::output::inside(directory, &c.file, "curve.file"))
             .collect::<Result<Vec<_>>>()
@@ -435,73 +1070,54 @@ impl ExternalSimulator {
                         .map_or_else(String::new, |p| p.display().to_string()),
                 )
                 .replace("{dir}", &directory.display().to_string());
-            for (p, v) in self.spec.parameters.iter().zip(values) {
-                text = text.replace(&format!("{{{}}}", p.name), &v.to_string());
+            for (name, v) in inputs {
+                text = text.replace(&format!("{{{name}}}"), &v.to_string());
             }
             text
         };
-        let arguments: Vec<String> = self.spec.command.iter().map(|a| substitute(a)).collect();
-        let stdout =
-            std::fs::File::create(directory.join("stdout.txt")).map_err(|e| e.to_string())?;
-        let stderr =
-            std::fs::File::create(directory.join("stderr.txt")).map_err(|e| e.to_string())?;
-        let mut child = Command::new(&arguments[0])
-            .args(&arguments[1..])
-            .current_dir(directory)
-            .stdin(Stdio::null())
-            .stdout(stdout)
-            .stderr(stderr)
-            .spawn()
-            .map_err(|e| format!("cannot start {:?}: {e}", arguments[0]))?;
-        let deadline = Instant::now() + Duration::from_secs_f64(self.spec.timeout_s);
-        let status = loop {
-            match child.try_wait() {
-                Ok(Some(status)) => break status,
-                Ok(None) if Instant::now() >= deadline => {
-                    // A solver started through a shell or a wrapper has
-                    // children of its own: kill the whole tree, leaves first.
-                    kill_process_tree(child.id());
-                    let _ = child.kill();
-                    let _ = child.wait();
-                    return Err(format!(
-                        "timed out after {} s (killed)",
-                        self.spec.timeout_s
-                    ));
-                }
-                Ok(None) => std::thread::sleep(Duration::from_millis(20)),
-                Err(e) => return Err(format!("waiting for the solver: {e}")),
-            }
+        let argv: Vec<String> = self.spec.command.iter().map(|a| substitute(a)).collect();
+        self.executor.execute(&Job {
+            argv: &argv,
+            directory,
+            timeout: Duration::from_secs_f64(self.spec.timeout_s),
+        })?;
+        let scalars = match (&output_path, scalars.is_empty()) {
+            (_, true) => Vec::new(),
+            (Some(path), false) => read_outputs(path, scalars)?,
+            (None, false) => return Err("the spec names no output_file".into()),
         };
-        if !status.success() {
-            let tail = std::fs::read_to_string(directory.join("stderr.txt")).unwrap_or_default();
-            let tail: String = tail
-                .lines()
-                .rev()
-                .take(3)
-                .collect::<Vec<_>>()
-                .into_iter()
-                .rev()
-                .collect::<Vec<_>>()
-                .join(" / ");
-            return Err(format!("the solver exited with {status}: {tail}"));
-        }
-        let scalar_names = &self.outputs[..self.spec.outputs.len()];
-        let mut values = match &output_path {
-            Some(path) => read_outputs(path, scalar_names)?,
-            None => Vec::new(),
-        };
-        for (curve, path) in self.spec.curves.iter().zip(&curve_paths) {
-            let simulated = read_curve(path, &curve.x, &curve.y)
-                .map_err(|e| format!("curve {}: {e}", curve.name))?;
-            let mape = curve_mape(&curve.measured, &simulated, CurveMapeOptions::default())
-                .map_err(|e| format!("curve {}: {e}", curve.name))?;
-            values.push(mape.mape_percent);
-        }
-        Ok(values)
+        let curves = curve_specs
+            .iter()
+            .zip(&curve_paths)
+            .map(|(c, path)| {
+                read_curve(path, &c.x, &c.y).map_err(|e| format!("curve {}: {e}", c.name))
+            })
+            .collect::<std::result::Result<_, _>>()?;
+        Ok(ModelRun { scalars, curves })
     }
 }
 
-impl ExternalSimulator {
+impl Model for ExternalModel {
+    fn run(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> std::result::Result<ModelRun, String> {
+        let mut reasons = Vec::new();
+        for attempt in 0..=self.spec.retries {
+            let number = self.counter.fetch_add(1, Ordering::SeqCst) + 1;
+            let directory = self.runs.join(format!("{number:06}"));
+            match self.run_once(inputs, scalars, curves, &directory) {
+                Ok(run) => return Ok(run),
+                Err(reason) => reasons.push(format!("attempt {}: {reason}", attempt + 1)),
+            }
+        }
+        Err(reasons.join("; "))
+    }
+}
+
+impl ExternalModel {
     /// Links (`link_files`) and copies (`copy_files`) the solver's files
     /// from the spec's directory into a run directory.
     fn stage_files(&self, directory: &Path) -> std::result::Result<(), String> {
@@ -552,46 +1168,8 @@ fn highest_run_number(runs: &Path) -> usize {
         .unwrap_or(0)
 }
 
-/// SIGKILL to every descendant of `root` (found through /proc), deepest
-/// first. The solver stays in acq's process group, so Ctrl-C on the
-/// terminal still reaches it; a timeout has to find its children itself.
-fn kill_process_tree(root: u32) {
-    let parent_of = |pid: u32| -> Option<u32> {
-        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-        // The command name in parentheses may hold spaces: parse after it.
-        let after = stat.rsplit_once(')')?.1;
-        after.split_whitespace().nth(1)?.parse().ok()
-    };
-    let all: Vec<u32> = std::fs::read_dir("/proc")
-        .map(|entries| {
-            entries
-                .filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
-                .collect()
-        })
-        .unwrap_or_default();
-    let mut tree = vec![root];
-    let mut index = 0;
-    while index < tree.len() {
-        let parent = tree[index];
-        tree.extend(
-            all.iter()
-                .copied()
-                .filter(|&pid| parent_of(pid) == Some(parent)),
-        );
-        index += 1;
-    }
-    for &pid in tree.iter().skip(1).rev() {
-        if let Ok(pid) = i32::try_from(pid) {
-            let _ = nix::sys::signal::kill(
-                nix::unistd::Pid::from_raw(pid),
-                nix::sys::signal::Signal::SIGKILL,
-            );
-        }
-    }
-}
-
 /// The outputs from a JSON object or a one-row CSV, by name.
-fn read_outputs(path: &Path, names: &[String]) -> std::result::Result<Vec<f64>, String> {
+fn read_outputs(path: &Path, names: &[&str]) -> std::result::Result<Vec<f64>, String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("the solver left no output {}: {e}", path.display()))?;
     let is_json = path
@@ -600,12 +1178,15 @@ fn read_outputs(path: &Path, names: &[String]) -> std::result::Result<Vec<f64>, 
     let values: std::collections::HashMap<String, f64> = if is_json {
         let value: serde_json::Value = serde_json::from_str(&text)
             .map_err(|e| format!("{}: not JSON: {e}", path.display()))?;
-        value
-            .as_object()
-            .ok_or_else(|| format!("{}: expected a JSON object of outputs", path.display()))?
-            .iter()
-            .filter_map(|(k, v)| Some((k.clone(), v.as_f64()?)))
-            .collect()
+        if !value.is_object() {
+            return Err(format!(
+                "{}: expected a JSON object of outputs",
+                path.display()
+            ));
+        }
+        let mut flat = std::collections::HashMap::new();
+        flatten_json("", &value, &mut flat);
+        flat
     } else {
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
         let header = lines.next().unwrap_or("");
@@ -627,227 +1208,68 @@ fn read_outputs(path: &Path, names: &[String]) -> std::result::Result<Vec<f64>, 
         .collect()
 }
 
-impl Simulator for ExternalSimulator {
-    fn parameters(&self) -> &[Parameter] {
-        &self.spec.parameters
-    }
-    fn outputs(&self) -> &[String] {
-        &self.outputs
-    }
-    fn evaluate(&self, values: &[f64]) -> std::result::Result<Vec<f64>, String> {
-        let mut reasons = Vec::new();
-        for attempt in 0..=self.spec.retries {
-            let number = self.counter.fetch_add(1, Ordering::SeqCst) + 1;
-            let directory = self.runs.join(format!("{number:06}"));
-            match self.run_once(values, &directory) {
-                Ok(outputs) => return Ok(outputs),
-                Err(reason) => reasons.push(format!("attempt {}: {reason}", attempt + 1)),
+/// The numbers of a JSON object by key path: `{"pressure_bar": {"boom":
+/// 73.4}}` gives `pressure_bar.boom`, array items `name[0]`, so a solver's
+/// nested output needs no rewriting.
+fn flatten_json(
+    prefix: &str,
+    value: &serde_json::Value,
+    into: &mut std::collections::HashMap<String, f64>,
+) {
+    match value {
+        serde_json::Value::Object(map) => {
+            for (key, item) in map {
+                let path = if prefix.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{prefix}.{key}")
+                };
+                flatten_json(&path, item, into);
             }
         }
-        Err(reasons.join("; "))
-    }
-}
-
-/// The errors in %, scalar outputs (relative to their measured values)
-/// then curves (their MAPE, already in %), and the loss: their mean or
-/// largest.
-fn errors_pct(spec: &Spec, outputs: &[f64]) -> (Vec<f64>, f64) {
-    let scalars = spec.outputs.len();
-    let errors: Vec<f64> = spec
-        .outputs
-        .iter()
-        .zip(outputs)
-        .map(|(o, &y)| 100.0 * (o.measured - y).abs() / o.measured.abs())
-        .chain(outputs.iter().skip(scalars).copied())
-        .collect();
-    let loss = if spec.search.loss == "max" {
-        errors.iter().fold(0.0f64, |a, &b| a.max(b))
-    } else {
-        errors.iter().sum::<f64>() / errors.len() as f64
-    };
-    (errors, loss)
-}
-
-fn start_design(spec: &Spec, spec_directory: &Path, seed: u64) -> Result<Vec<Vec<f64>>> {
-    let d = spec.parameters.len();
-    let n = spec.search.start_runs;
-    let config = |e: String| AcqError::Config(format!("search.start: {e}"));
-    Ok(match spec.search.start.as_str() {
-        "lhs" => latin_hypercube(n, d, seed),
-        "sobol" => sobol_points(n, d, Some(seed)).map_err(|e| config(e.to_string()))?,
-        "l12" => two_level_to_unit(&orthogonal_array_l12(d).map_err(|e| config(e.to_string()))?),
-        "factorial" => full_factorial(&vec![2; d]).map_err(|e| config(e.to_string()))?,
-        file => {
-            let path = spec_directory.join(file);
-            let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
-            acq_io::input::note_input(&path);
-            let names: Vec<&str> = spec.parameters.iter().map(|p| p.name.as_str()).collect();
-            let points = read_design_csv(&text, &names)
-                .map_err(|e| AcqError::Malformed(format!("{}: {e}", path.display())))?;
-            points
-                .iter()
-                .map(|p| to_unit(&spec.parameters, p))
-                .collect()
+        serde_json::Value::Array(items) => {
+            for (index, item) in items.iter().enumerate() {
+                flatten_json(&format!("{prefix}[{index}]"), item, into);
+            }
         }
-    })
+        other => {
+            if let Some(number) = other.as_f64() {
+                into.insert(prefix.to_string(), number);
+            }
+        }
+    }
 }
 
 pub fn run(args: CalibrateExternalArgs) -> Result<()> {
     let spec = Spec::load(&args.spec)?;
     let spec_directory = spec_directory(&args.spec);
+    let method = spec.method(args.seed);
+    let study = spec.study().clone();
     // The start design is read before the run directory exists: a refused
     // design leaves nothing behind.
-    let initial = start_design(&spec, &spec_directory, args.seed)?;
-    let directory = RunDirectory::create(&args.out)?;
+    let initial = match &method {
+        Method::Bo(bo) => {
+            study_runner::start_design(&study.search_parameters(), bo, &spec_directory)?
+        }
+        Method::SurrogateMoo(_) => Vec::new(),
+    };
+    let directory = super::run_directory::RunDirectory::create(&args.out)?;
     let runs = std::fs::canonicalize(&directory.path)
         .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
         .join("runs");
     let parallel = spec.parallel.max(1);
-    let budget = spec.search.max_evals;
-    let target = spec.search.target_loss_pct;
-    let simulator = ExternalSimulator::new(spec, spec_directory, runs);
-    let spec = &simulator.spec;
-    let parameters = spec.parameters.clone();
-    let progress = Progress::new("calibrate external", budget);
-    let start = Instant::now();
-    let mut evaluator = directory
-        .evaluator(&simulator, parallel, args.resume)?
-        .with_progress(|e| {
-            let loss = e.outcome.as_ref().ok().map(|y| errors_pct(spec, y).1);
-            progress.record(loss, e.outcome.is_err(), e.from_log);
-        });
-    let settings = BoSettings {
-        batch: parallel,
-        target_loss: target,
-        max_evaluations: budget,
-        seed: args.seed,
-        ..BoSettings::default()
-    };
-    let result = minimise_logged(
-        &mut evaluator,
-        &parameters,
+    let model = ExternalModel::new(spec, spec_directory.clone(), runs);
+    study_runner::run_study(
+        &study,
+        &model,
+        &method,
         initial,
-        |y| errors_pct(spec, y).1,
-        &settings,
-    );
-    progress.finish();
-    if evaluator.evaluations().iter().all(|e| e.outcome.is_err()) {
-        if let Some(first) = evaluator.evaluations().first() {
-            let reason = first.outcome.as_ref().err().cloned().unwrap_or_default();
-            return Err(AcqError::Config(format!(
-                "none of the {} solver runs succeeded; the first failed with: {reason}. Each run's stdout.txt and stderr.txt are in {}, every reason in {}",
-                evaluator.evaluations().len(),
-                simulator.runs.display(),
-                directory.file("evaluations.csv").display()
-            )));
-        }
-    }
-    let result = result?;
-    let wall_s = start.elapsed().as_secs_f64();
-    let scored = scored(evaluator.evaluations(), |y| errors_pct(spec, y).1);
-    let failed = evaluator
-        .evaluations()
-        .iter()
-        .filter(|e| e.outcome.is_err())
-        .count();
-    let Some(&(best, best_loss)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
-        return Err(AcqError::Config(format!(
-            "none of the {} solver runs succeeded; see {}",
-            evaluator.evaluations().len(),
-            directory.file("evaluations.csv").display()
-        )));
-    };
-    let best_outputs = best.outcome.clone().unwrap_or_default();
-    let (best_errors, _) = errors_pct(spec, &best_outputs);
-    let summary = json!({
-        "best_loss_pct": best_loss,
-        "evaluations": evaluator.evaluations().len(),
-        "failed": failed,
-        "evaluations_to_target": result.evaluations_to_target,
-        "best_params": parameters.iter().zip(&best.parameters).map(|(p, v)| (p.name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "best_outputs": simulator.outputs.iter().zip(&best_outputs).map(|(name, v)| (name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "wall_s": wall_s,
-    });
-    write_text(&directory.file("summary.json"), &format!("{summary:#}\n"))?;
-
-    let mut best_so_far = f64::INFINITY;
-    let mut running = Vec::new();
-    let mut each = Vec::new();
-    for e in evaluator.evaluations() {
-        if let Ok(y) = &e.outcome {
-            let loss = errors_pct(spec, y).1;
-            best_so_far = best_so_far.min(loss);
-            each.push((e.id as f64, loss));
-        }
-        running.push((e.id as f64, best_so_far));
-    }
-    let chart = Chart::new("Loss per solver run", "evaluation", "loss [%]")
-        .with_series(Series::new("run", each).with_style(SeriesStyle::Markers))
-        .with_series(Series::new("best so far", running));
-
-    let mut report = Document::new();
-    report
-        .heading(1, format!("Calibration with {}", args.spec.display()))
-        .paragraph(format!(
-            "Best loss ({} relative error) {best_loss:.4} % after {} runs ({failed} failed), {wall_s:.1} s; stopped: {:?}.",
-            spec.search.loss,
-            evaluator.evaluations().len(),
-            result.stop
-        ))
-        .heading(2, "Outputs");
-    let mut table = Table::new(&["output", "measured", "best run", "error [%]"]);
-    for ((o, y), e) in spec.outputs.iter().zip(&best_outputs).zip(&best_errors) {
-        table.row(vec![
-            o.name.clone(),
-            format!("{}", o.measured),
-            format!("{y:.6}"),
-            format!("{e:.3}"),
-        ]);
-    }
-    let scalars = spec.outputs.len();
-    for (c, e) in spec.curves.iter().zip(best_errors.iter().skip(scalars)) {
-        table.row(vec![
-            format!("{} (curve)", c.name),
-            c.measured_file.clone(),
-            format!("{} vs {}", c.file, c.measured_file),
-            format!("{e:.3} (MAPE)"),
-        ]);
-    }
-    report.table(table).heading(2, "Parameters");
-    let mut table = Table::new(&["parameter", "lower", "upper", "best"]);
-    for (p, v) in parameters.iter().zip(&best.parameters) {
-        table.row(vec![
-            p.name.clone(),
-            format!("{}", p.lower),
-            format!("{}", p.upper),
-            format!("{v:.6}"),
-        ]);
-    }
-    report.table(table);
-    let candidates = distinct_best(&parameters, &scored, 5, 0.25);
-    report.heading(
-        2,
-        "Distinct good parameter sets (at least 0.25 apart in the unit box)",
-    );
-    let mut header = vec!["run".to_string(), "loss [%]".to_string()];
-    header.extend(parameters.iter().map(|p| p.name.clone()));
-    let header: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut table = Table::new(&header);
-    for c in &candidates {
-        let mut cells = vec![c.evaluation_id.to_string(), format!("{:.4}", c.loss)];
-        cells.extend(c.parameters.iter().map(|v| format!("{v:.5}")));
-        table.row(cells);
-    }
-    report.table(table).figure(Figure {
-        file: "loss.svg".into(),
-        caption: "loss per solver run".into(),
-        svg: chart_svg(&chart, 720.0, 420.0),
-    });
-    write_report(&directory, &report, "External calibration")?;
-    println!(
-        "best loss {best_loss:.4} % after {} runs ({failed} failed); report in {}",
-        evaluator.evaluations().len(),
-        directory.file("report.md").display()
-    );
-    Ok(())
+        &directory,
+        &RunSettings {
+            title: args.spec.display().to_string(),
+            spec_directory: &spec_directory,
+            parallel,
+            resume: args.resume,
+        },
+    )
 }

@@ -10,10 +10,9 @@
 use std::path::PathBuf;
 
 use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
-use acq_calib::bo::{Acquisition, BoSettings};
+use acq_calib::bo::Acquisition;
 use acq_calib::doe::{orthogonal_array_l12, two_level_to_unit};
 use acq_calib::evaluation::{Evaluation, Parameter, Simulator};
-use acq_calib::gp::{GpSettings, Kernel};
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
@@ -24,7 +23,7 @@ use serde_json::json;
 use super::progress::Progress;
 use super::report::{write_report, write_text};
 use super::run_directory::RunDirectory;
-use super::search::{distinct_best, minimise_logged, scored};
+use super::search::{bo_settings, distinct_best, minimise_logged, scored};
 use crate::tensile_model::{GtnInputs, ModelSettings, TensileModel, PARAMETER_NAMES};
 
 #[derive(Args, Debug)]
@@ -167,22 +166,14 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
     let start_design = two_level_to_unit(
         &orthogonal_array_l12(parameters.len()).map_err(|e| AcqError::Config(e.to_string()))?,
     );
-    let settings = BoSettings {
-        acquisition: args.acquisition,
-        batch: args.batch as usize,
-        target_loss: Some(args.target_mape),
-        max_evaluations: budget,
-        patience: args.patience.map(|p| p as usize),
-        gp: GpSettings {
-            kernel: Kernel::Matern52,
-            ard: true,
-            restarts: 3,
-            seed: args.seed,
-            ..GpSettings::default()
-        },
-        seed: args.seed,
-        ..BoSettings::default()
-    };
+    let settings = bo_settings(
+        args.batch as usize,
+        Some(args.target_mape),
+        budget,
+        args.patience.map(|p| p as usize),
+        Some(args.acquisition),
+        args.seed,
+    );
     let result = minimise_logged(
         &mut evaluator,
         &parameters,

@@ -16,12 +16,17 @@
 //! Bayesian optimisation through the log, the best distinct candidates).
 
 pub mod excavator;
+pub mod executor;
 pub mod external;
 pub mod gtn;
+pub mod identifiability;
 pub mod progress;
 pub mod report;
 pub mod run_directory;
 pub mod search;
+pub mod study;
+pub mod study_runner;
+pub mod surrogate_moo;
 
 use clap::Subcommand;
 

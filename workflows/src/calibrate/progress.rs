@@ -19,6 +19,8 @@ struct State {
     reused: usize,
     best: Option<f64>,
     last_plain_decile: usize,
+    /// `done` when the last plain line was printed.
+    last_plain_done: usize,
     start: Instant,
 }
 
@@ -35,6 +37,7 @@ impl Progress {
                 reused: 0,
                 best: None,
                 last_plain_decile: 0,
+                last_plain_done: 0,
                 start: Instant::now(),
             }),
         }
@@ -59,6 +62,7 @@ impl Progress {
             let decile = state.done * 10 / self.total;
             if decile > state.last_plain_decile {
                 state.last_plain_decile = decile;
+                state.last_plain_done = state.done;
                 eprintln!("{line}");
             }
         }
@@ -83,10 +87,16 @@ impl Progress {
         )
     }
 
-    /// Ends the bar's line on a terminal.
+    /// Ends the bar's line on a terminal; elsewhere prints the final count
+    /// unless it was the last line printed (the total is a budget, which a
+    /// run may end short of).
     pub fn finish(&self) {
         if self.terminal {
             eprintln!();
+        } else if let Ok(state) = self.state.lock() {
+            if state.done > state.last_plain_done {
+                eprintln!("{}", self.line(&state));
+            }
         }
     }
 }

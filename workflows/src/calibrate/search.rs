@@ -2,8 +2,9 @@
 //! unit box, Bayesian optimisation through the logging evaluator, and the
 //! best distinct parameter sets of a run.
 
-use acq_calib::bo::{minimise, BoError, BoResult, BoSettings};
+use acq_calib::bo::{minimise, Acquisition, BoError, BoResult, BoSettings};
 use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_calib::gp::{GpSettings, Kernel};
 use acq_io::error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;
@@ -113,4 +114,35 @@ pub fn scored(evaluations: &[Evaluation], loss: impl Fn(&[f64]) -> f64) -> Vec<(
         .iter()
         .filter_map(|e| e.outcome.as_ref().ok().map(|y| (e, loss(y))))
         .collect()
+}
+
+/// The Bayesian optimisation every study runs (the GTN preset and external
+/// studies alike): a Matern-5/2 GP with one length scale per parameter,
+/// three fits from seeded starts, and the noise left free (the losses of
+/// FE runs are rough at the scale of their convergence tolerances).
+pub fn bo_settings(
+    batch: usize,
+    target_loss: Option<f64>,
+    max_evaluations: usize,
+    patience: Option<usize>,
+    acquisition: Option<Acquisition>,
+    seed: u64,
+) -> BoSettings {
+    let defaults = BoSettings::default();
+    BoSettings {
+        acquisition: acquisition.unwrap_or(defaults.acquisition),
+        batch: batch.max(1),
+        target_loss,
+        max_evaluations,
+        patience,
+        gp: GpSettings {
+            kernel: Kernel::Matern52,
+            ard: true,
+            restarts: 3,
+            seed,
+            ..GpSettings::default()
+        },
+        seed,
+        ..defaults
+    }
 }

@@ -1,0 +1,381 @@
+//! A calibration study on any model: the parameters (shared by all load
+//! cases, or one case's own), the cases (each with fixed inputs,
+//! observations and a role, `fit` or `validate`), and how a model run is
+//! scored against the observations.
+//!
+//! The search sees one simulator: [`StudySimulator`] for the fit cases. Its
+//! parameters are the search vector (shared parameters, then each case's
+//! own, named `case/parameter`); one evaluation runs the model once per
+//! fit case and returns one value per observation: a scalar's model value,
+//! or a curve's MAPE against its measured curve (the published procedure,
+//! [`acq_analysis::loss::curve`]). Those values are what `evaluations.csv`
+//! logs, so a resumed study needs no model output beyond them. Validation
+//! cases are a second simulator over the same search vector, run only at
+//! the calibrated point: the search never sees them.
+//!
+//! Errors: a scalar's relative error `100 |model - measured| / |measured|`
+//! (the excavator study's), a curve's MAPE. With `residuals =
+//! "normalised"`, each scalar's error is `|model - measured| / u` instead
+//! (u its standard uncertainty), so the loss is in standard uncertainties,
+//! and chi-square `sum ((model - measured) / u)^2` says whether the
+//! calibrated model agrees with the measurement within what the
+//! instruments can tell.
+
+use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions};
+use acq_calib::evaluation::{Parameter, Simulator};
+use serde_json::{json, Map, Value};
+
+/// A model a study calibrates: named inputs in, the requested scalar
+/// outputs and curves out. Implemented by a user's solver run as a command
+/// (the external adapter) and by the built-in twins.
+pub trait Model: Sync {
+    /// One run with `inputs` (parameters and a case's fixed inputs, by
+    /// name). Returns `scalars` and `curves` (as `(x, y)` points) in the
+    /// order asked, or why the run failed.
+    fn run(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Result<ModelRun, String>;
+}
+
+/// What one model run gave.
+#[derive(Clone, Debug, Default)]
+pub struct ModelRun {
+    pub scalars: Vec<f64>,
+    pub curves: Vec<Vec<(f64, f64)>>,
+}
+
+/// What a case is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// The search fits the parameters to it.
+    Fit,
+    /// Checked at the calibrated parameters only: the search never sees it.
+    Validate,
+}
+
+impl Role {
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Fit => "fit",
+            Role::Validate => "validate",
+        }
+    }
+}
+
+/// What was measured.
+#[derive(Clone, Debug)]
+pub enum Measured {
+    /// A value with its standard uncertainty, if known (same unit).
+    Scalar {
+        value: f64,
+        uncertainty: Option<f64>,
+    },
+    /// A curve the model's curve of the same name is compared with.
+    Curve { points: Vec<(f64, f64)> },
+}
+
+/// One observation of a case.
+#[derive(Clone, Debug)]
+pub struct Observation {
+    /// The model output (or curve) it is compared with.
+    pub name: String,
+    pub measured: Measured,
+    /// Its weight in the loss and in TOPSIS (1 unless given).
+    pub weight: f64,
+    /// Where the measured value came from, for the report.
+    pub source: String,
+}
+
+/// One load case.
+#[derive(Clone, Debug)]
+pub struct Case {
+    pub name: String,
+    pub role: Role,
+    /// Fixed inputs, passed to the model like parameters.
+    pub inputs: Vec<(String, f64)>,
+    pub observations: Vec<Observation>,
+}
+
+/// One parameter of the study.
+#[derive(Clone, Debug)]
+pub struct StudyParameter {
+    /// In the search vector: `name`, or `case/name` for a case's own.
+    pub search: Parameter,
+    /// The name the model receives.
+    pub input: String,
+    /// The case it belongs to (index into the study's cases); `None` when shared.
+    pub case: Option<usize>,
+    /// The value the initial errors are reported at.
+    pub nominal: f64,
+}
+
+/// How residuals become errors.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Residuals {
+    /// `100 |model - measured| / |measured|`, in %.
+    Relative,
+    /// `|model - measured| / u`, in standard uncertainties.
+    Normalised,
+}
+
+/// How the errors become one loss (Bayesian optimisation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LossKind {
+    /// Their weighted mean.
+    Mean,
+    /// The largest.
+    Max,
+}
+
+/// A whole study.
+#[derive(Clone, Debug)]
+pub struct Study {
+    pub parameters: Vec<StudyParameter>,
+    pub cases: Vec<Case>,
+    /// False for a study without `[[case]]`: one implicit fit case, and
+    /// outputs keyed by their plain names.
+    pub named_cases: bool,
+    pub residuals: Residuals,
+    pub loss: LossKind,
+}
+
+/// The error of one observation at a model run.
+#[derive(Clone, Debug)]
+pub struct ObservationError {
+    pub case: String,
+    pub role: Role,
+    /// `case/name`, or `name` without named cases.
+    pub key: String,
+    pub name: String,
+    pub measured: Option<f64>,
+    pub model: f64,
+    /// Relative error or MAPE, %.
+    pub error_pct: f64,
+    /// `(model - measured) / u`, when the uncertainty is known.
+    pub normalised: Option<f64>,
+}
+
+impl Study {
+    /// The search vector's parameters.
+    pub fn search_parameters(&self) -> Vec<Parameter> {
+        self.parameters.iter().map(|p| p.search.clone()).collect()
+    }
+
+    /// The nominal point of the search vector.
+    pub fn nominal(&self) -> Vec<f64> {
+        self.parameters.iter().map(|p| p.nominal).collect()
+    }
+
+    pub fn cases_with(&self, role: Role) -> impl Iterator<Item = (usize, &Case)> {
+        self.cases
+            .iter()
+            .enumerate()
+            .filter(move |(_, c)| c.role == role)
+    }
+
+    /// The key of an observation in logs and summaries.
+    pub fn key(&self, case: &Case, observation: &Observation) -> String {
+        if self.named_cases {
+            format!("{}/{}", case.name, observation.name)
+        } else {
+            observation.name.clone()
+        }
+    }
+
+    /// The observations of the cases with `role`, in output order.
+    pub fn observations(&self, role: Role) -> Vec<(&Case, &Observation)> {
+        self.cases_with(role)
+            .flat_map(|(_, case)| case.observations.iter().map(move |o| (case, o)))
+            .collect()
+    }
+
+    /// Each observation's error at outputs of the `role` simulator.
+    pub fn errors(&self, role: Role, outputs: &[f64]) -> Vec<ObservationError> {
+        self.observations(role)
+            .into_iter()
+            .zip(outputs)
+            .map(|((case, observation), &model)| {
+                let (measured, error_pct, normalised) = match &observation.measured {
+                    Measured::Scalar { value, uncertainty } => (
+                        Some(*value),
+                        100.0 * (model - value).abs() / value.abs(),
+                        uncertainty.map(|u| (model - value) / u),
+                    ),
+                    // The logged value of a curve is its MAPE already.
+                    Measured::Curve { .. } => (None, model, None),
+                };
+                ObservationError {
+                    case: case.name.clone(),
+                    role: case.role,
+                    key: self.key(case, observation),
+                    name: observation.name.clone(),
+                    measured,
+                    model,
+                    error_pct,
+                    normalised,
+                }
+            })
+            .collect()
+    }
+
+    /// The costs the search minimises, one per fit observation: relative
+    /// errors (%) and MAPEs, or scalars in standard uncertainties.
+    pub fn objectives(&self, outputs: &[f64]) -> Vec<f64> {
+        self.errors(Role::Fit, outputs)
+            .iter()
+            .map(|e| match (self.residuals, e.normalised) {
+                (Residuals::Normalised, Some(z)) => z.abs(),
+                _ => e.error_pct,
+            })
+            .collect()
+    }
+
+    /// The weights of the fit observations.
+    pub fn weights(&self) -> Vec<f64> {
+        self.observations(Role::Fit)
+            .iter()
+            .map(|(_, o)| o.weight)
+            .collect()
+    }
+
+    /// The scalar loss of fit outputs: the weighted mean or the largest objective.
+    pub fn loss(&self, outputs: &[f64]) -> f64 {
+        let objectives = self.objectives(outputs);
+        match self.loss {
+            LossKind::Max => objectives.iter().fold(0.0f64, |a, &b| a.max(b)),
+            LossKind::Mean => {
+                let weights = self.weights();
+                let total: f64 = weights.iter().sum();
+                objectives
+                    .iter()
+                    .zip(&weights)
+                    .map(|(e, w)| e * w)
+                    .sum::<f64>()
+                    / total
+            }
+        }
+    }
+
+    /// The search vector's values as one case's model inputs: the shared
+    /// parameters, the case's own, then its fixed inputs.
+    pub fn inputs_of(&self, case_index: usize, values: &[f64]) -> Vec<(String, f64)> {
+        let case = &self.cases[case_index];
+        self.parameters
+            .iter()
+            .zip(values)
+            .filter(|(p, _)| p.case.is_none() || p.case == Some(case_index))
+            .map(|(p, &v)| (p.input.clone(), v))
+            .chain(case.inputs.iter().cloned())
+            .collect()
+    }
+}
+
+/// Chi-square of the errors with a known uncertainty: `(sum z^2, count)`.
+pub fn chi_square(errors: &[ObservationError]) -> Option<(f64, usize)> {
+    let z: Vec<f64> = errors.iter().filter_map(|e| e.normalised).collect();
+    (!z.is_empty()).then(|| (z.iter().map(|z| z * z).sum(), z.len()))
+}
+
+/// The model over the cases of one role, as the engine sees it.
+pub struct StudySimulator<'a> {
+    study: &'a Study,
+    model: &'a dyn Model,
+    role: Role,
+    parameters: Vec<Parameter>,
+    outputs: Vec<String>,
+}
+
+impl<'a> StudySimulator<'a> {
+    pub fn new(study: &'a Study, model: &'a dyn Model, role: Role) -> Self {
+        StudySimulator {
+            study,
+            model,
+            role,
+            parameters: study.search_parameters(),
+            outputs: study
+                .observations(role)
+                .into_iter()
+                .map(|(case, observation)| study.key(case, observation))
+                .collect(),
+        }
+    }
+}
+
+impl Simulator for StudySimulator<'_> {
+    fn parameters(&self) -> &[Parameter] {
+        &self.parameters
+    }
+    fn outputs(&self) -> &[String] {
+        &self.outputs
+    }
+    fn evaluate(&self, values: &[f64]) -> Result<Vec<f64>, String> {
+        let mut outputs = Vec::with_capacity(self.outputs.len());
+        for (index, case) in self.study.cases_with(self.role) {
+            let scalars: Vec<&str> = case
+                .observations
+                .iter()
+                .filter(|o| matches!(o.measured, Measured::Scalar { .. }))
+                .map(|o| o.name.as_str())
+                .collect();
+            let curves: Vec<&str> = case
+                .observations
+                .iter()
+                .filter(|o| matches!(o.measured, Measured::Curve { .. }))
+                .map(|o| o.name.as_str())
+                .collect();
+            let in_case = |reason: String| {
+                if self.study.named_cases {
+                    format!("case {}: {reason}", case.name)
+                } else {
+                    reason
+                }
+            };
+            let run = self
+                .model
+                .run(&self.study.inputs_of(index, values), &scalars, &curves)
+                .map_err(in_case)?;
+            let (mut scalar, mut curve) = (run.scalars.iter(), run.curves.iter());
+            for observation in &case.observations {
+                outputs.push(match &observation.measured {
+                    Measured::Scalar { .. } => *scalar
+                        .next()
+                        .ok_or_else(|| in_case("the model returned too few outputs".into()))?,
+                    Measured::Curve { points } => {
+                        let simulated = curve
+                            .next()
+                            .ok_or_else(|| in_case("the model returned too few curves".into()))?;
+                        curve_mape(points, simulated, CurveMapeOptions::default())
+                            .map_err(|e| in_case(format!("curve {}: {e}", observation.name)))?
+                            .mape_percent
+                    }
+                });
+            }
+        }
+        Ok(outputs)
+    }
+}
+
+/// `{case: {"role", "errors_pct": {output: %}}}` of the summary.
+pub fn cases_json(errors: &[ObservationError]) -> Value {
+    let mut cases = Map::new();
+    for error in errors {
+        let entry = cases
+            .entry(error.case.clone())
+            .or_insert_with(|| json!({"role": error.role.name(), "errors_pct": {}}));
+        entry["errors_pct"][&error.name] = json!(error.error_pct);
+    }
+    Value::Object(cases)
+}
+
+/// `{key: %}` of the summary.
+pub fn errors_json(errors: &[ObservationError]) -> Value {
+    Value::Object(
+        errors
+            .iter()
+            .map(|e| (e.key.clone(), json!(e.error_pct)))
+            .collect(),
+    )
+}

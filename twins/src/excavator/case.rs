@@ -27,6 +27,10 @@ use serde::Deserialize;
 
 use super::inputs::{CylinderName, Inputs, Strokes};
 
+/// The published Cases 1 and 2 as shipped (`data/excavator/case*.toml`).
+pub const CASE1_TOML: &str = include_str!("../../../data/excavator/case1.toml");
+pub const CASE2_TOML: &str = include_str!("../../../data/excavator/case2.toml");
+
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CaseFile {

@@ -390,3 +390,149 @@ impl Structure {
         Ok(())
     }
 }
+
+impl Geometry {
+    /// Where a pin of the boom or arm moved from `before`, its centreline
+    /// vertex and attached mass (the boss around it) move along: a pin's
+    /// lug goes where the pin goes.
+    pub fn carry_pins(&mut self, before: &Geometry) {
+        fn carry(structure: &mut Structure, pins: &[(PointM, PointM)]) {
+            for &(old, new) in pins {
+                if old == new {
+                    continue;
+                }
+                for vertex in &mut structure.centreline_m {
+                    if *vertex == old {
+                        *vertex = new;
+                    }
+                }
+                for mass in &mut structure.attached_mass {
+                    if mass.at_m == old {
+                        mass.at_m = new;
+                    }
+                }
+            }
+        }
+        let boom_pins = [
+            (before.boom.arm_pin_m, self.boom.arm_pin_m),
+            (
+                before.boom.boom_cylinder_pin_m,
+                self.boom.boom_cylinder_pin_m,
+            ),
+            (before.boom.arm_cylinder_pin_m, self.boom.arm_cylinder_pin_m),
+        ];
+        carry(&mut self.boom.structure, &boom_pins);
+        let arm_pins = [
+            (before.arm.bucket_pin_m, self.arm.bucket_pin_m),
+            (before.arm.arm_cylinder_pin_m, self.arm.arm_cylinder_pin_m),
+            (
+                before.arm.bucket_cylinder_pin_m,
+                self.arm.bucket_cylinder_pin_m,
+            ),
+            (before.arm.side_link_pin_m, self.arm.side_link_pin_m),
+        ];
+        carry(&mut self.arm.structure, &arm_pins);
+    }
+}
+
+/// A geometry file kept as its TOML table, so any of its numbers can be set
+/// by key path: `bucket.mass_kg`, `base.boom_cylinder_pin_m[1]`,
+/// `gauge[2].station_m` (the file's own names; arrays indexed from 0).
+#[derive(Debug, Clone)]
+pub struct GeometryTemplate {
+    table: toml::Table,
+}
+
+/// One step of a key path.
+enum Step<'a> {
+    Key(&'a str),
+    Index(usize),
+}
+
+fn key_path(path: &str) -> Result<Vec<Step<'_>>, String> {
+    let mut steps = Vec::new();
+    for part in path.split('.') {
+        let (key, mut rest) = part.split_once('[').map_or((part, ""), |(k, r)| (k, r));
+        if key.is_empty() {
+            return Err(format!("{path:?}: an empty name in the key path"));
+        }
+        steps.push(Step::Key(key));
+        while !rest.is_empty() {
+            let (index, after) = rest
+                .split_once(']')
+                .ok_or_else(|| format!("{path:?}: a '[' without its ']'"))?;
+            steps.push(Step::Index(
+                index
+                    .parse()
+                    .map_err(|_| format!("{path:?}: [{index}] is no array index"))?,
+            ));
+            rest = after.strip_prefix('[').unwrap_or(after);
+            if !after.is_empty() && !after.starts_with('[') {
+                return Err(format!("{path:?}: unexpected {after:?} after an index"));
+            }
+        }
+    }
+    Ok(steps)
+}
+
+impl GeometryTemplate {
+    /// A geometry file's text; it must itself be a valid geometry.
+    pub fn parse(text: &str) -> Result<GeometryTemplate, String> {
+        Geometry::parse(text)?;
+        let table = toml::from_str(text).map_err(|e| e.to_string())?;
+        Ok(GeometryTemplate { table })
+    }
+
+    /// The shipped DX55-class geometry.
+    pub fn dx55() -> GeometryTemplate {
+        GeometryTemplate::parse(DX55_TOML).expect("the shipped geometry is valid (tested)")
+    }
+
+    fn number_at<'a>(
+        table: &'a mut toml::Table,
+        path: &str,
+    ) -> Result<&'a mut toml::Value, String> {
+        let steps = key_path(path)?;
+        let missing = || format!("the geometry has no number at {path:?}");
+        let Some((Step::Key(first), rest)) = steps.split_first() else {
+            return Err(missing());
+        };
+        let mut value: &mut toml::Value = table.get_mut(*first).ok_or_else(missing)?;
+        for step in rest {
+            value = match (value, step) {
+                (toml::Value::Table(t), Step::Key(key)) => t.get_mut(*key),
+                (toml::Value::Array(a), Step::Index(i)) => a.get_mut(*i),
+                _ => None,
+            }
+            .ok_or_else(missing)?;
+        }
+        match value {
+            v @ (toml::Value::Float(_) | toml::Value::Integer(_)) => Ok(v),
+            _ => Err(missing()),
+        }
+    }
+
+    /// The number at a key path.
+    pub fn value(&self, path: &str) -> Result<f64, String> {
+        let mut table = self.table.clone();
+        let value = Self::number_at(&mut table, path)?;
+        Ok(value
+            .as_float()
+            .or_else(|| value.as_integer().map(|i| i as f64))
+            .unwrap_or(f64::NAN))
+    }
+
+    /// The geometry with the numbers at these key paths replaced; checked
+    /// like a file.
+    pub fn with(&self, values: &[(&str, f64)]) -> Result<Geometry, String> {
+        let mut table = self.table.clone();
+        for &(path, number) in values {
+            *Self::number_at(&mut table, path)? = toml::Value::Float(number);
+        }
+        let geometry: Geometry = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| e.to_string())?;
+        geometry.validate()?;
+        Ok(geometry)
+    }
+}

@@ -13,6 +13,7 @@ pub mod case;
 pub mod geometry;
 pub mod inputs;
 pub mod kinematics;
+pub mod pose_fit;
 pub mod statics;
 pub mod structure;
 
@@ -265,6 +266,14 @@ impl Geometry {
             CylinderName::Bucket => &self.cylinder.bucket,
             CylinderName::Arm => &self.cylinder.arm,
             CylinderName::Boom => &self.cylinder.boom,
+        }
+    }
+
+    pub fn cylinder_mut(&mut self, name: CylinderName) -> &mut Cylinder {
+        match name {
+            CylinderName::Bucket => &mut self.cylinder.bucket,
+            CylinderName::Arm => &mut self.cylinder.arm,
+            CylinderName::Boom => &mut self.cylinder.boom,
         }
     }
 }

@@ -29,6 +29,10 @@
 //!   NSGA-II over the errors, TOPSIS, the pick re-run
 //!   ([`super::surrogate_moo`]).
 //!
+//! Instead of a command, `model = "excavator"` runs the built-in twin
+//! ([`super::builtin`]): its inputs by name, geometry numbers by key path,
+//! its outputs by key path of `acq twin excavator --json`.
+//!
 //! ```toml
 //! command = ["sh", "solver.sh", "{params}", "{out}"]
 //! output_file = "out.json"   # in the run directory
@@ -100,13 +104,16 @@ use acq_calib::doe::read_design_csv;
 use acq_calib::evaluation::{Parameter, Scale};
 use acq_calib::gp::Kernel;
 use acq_io::error::{AcqError, Result};
+use acq_twins::excavator::geometry::GeometryTemplate;
 use clap::Args;
 use serde::Deserialize;
 use serde_json::json;
 
+use super::builtin::ExcavatorModel;
 use super::executor::{Executor, Job, LocalExecutor};
 use super::study::{
-    Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study, StudyParameter,
+    numbers_by_key_path, Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role,
+    Study, StudyParameter,
 };
 use super::study_runner::{self, Method, RunSettings};
 use super::surrogate_moo::SurrogateMooSettings;
@@ -129,7 +136,19 @@ pub struct CalibrateExternalArgs {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Spec {
+    /// `"command"` (a user's solver, the default) or a built-in twin:
+    /// `"excavator"`.
+    #[serde(default = "default_model")]
+    pub model: String,
+    /// The built-in excavator's geometry file, next to the spec [default:
+    /// the shipped DX55-class file].
+    pub geometry: Option<String>,
+    /// Re-fit the excavator's pose numbers to the published poses when a
+    /// geometry number changes.
+    #[serde(default = "default_refit_poses")]
+    pub refit_poses: bool,
     /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
+    #[serde(default)]
     pub command: Vec<String>,
     /// File the command writes, relative to the run directory (.json or
     /// .csv); needed when there are scalar outputs.
@@ -160,6 +179,14 @@ pub struct Spec {
     /// The study the spec defines, built by [`Spec::load`].
     #[serde(skip)]
     study: Option<Study>,
+}
+
+fn default_model() -> String {
+    "command".into()
+}
+
+fn default_refit_poses() -> bool {
+    true
 }
 
 fn default_timeout_s() -> f64 {
@@ -556,10 +583,34 @@ impl Spec {
                 table_line(&text, header, index)
             ))
         };
-        if spec.command.is_empty() {
-            return Err(problem(
-                "command is empty; give the program and its arguments".into(),
-            ));
+        match spec.model.as_str() {
+            "command" if spec.command.is_empty() => {
+                return Err(problem(
+                    "command is empty; give the program and its arguments".into(),
+                ))
+            }
+            "command" if spec.geometry.is_some() => {
+                return Err(problem(
+                    "geometry belongs to model = \"excavator\"; a command reads its own files".into(),
+                ))
+            }
+            "command" => {}
+            "excavator" if !spec.command.is_empty() => {
+                return Err(problem(
+                    "model = \"excavator\" runs the built-in twin; leave out command".into(),
+                ))
+            }
+            "excavator" if !spec.curves.is_empty() => {
+                return Err(problem(
+                    "the excavator twin gives no curves; observe its numbers by key path (pressure_bar.boom)".into(),
+                ))
+            }
+            "excavator" => {}
+            other => {
+                return Err(problem(format!(
+                    "model = {other:?}: use \"command\" (your solver) or \"excavator\" (the built-in twin)"
+                )))
+            }
         }
         if spec.cases.is_empty() && spec.outputs.is_empty() && spec.curves.is_empty() {
             return Err(problem(
@@ -732,6 +783,7 @@ impl Spec {
                 .iter()
                 .any(|o| matches!(o.measured, Measured::Scalar { .. }))
                 && spec.output_file.is_empty()
+                && spec.model == "command"
             {
                 return Err(problem(
                     "output_file: name the file the command writes its outputs to".into(),
@@ -749,7 +801,11 @@ impl Spec {
                 "every case is a validate case; the search needs at least one fit case".into(),
             ));
         }
-        if spec.cases.is_empty() && !spec.outputs.is_empty() && spec.output_file.is_empty() {
+        if spec.cases.is_empty()
+            && !spec.outputs.is_empty()
+            && spec.output_file.is_empty()
+            && spec.model == "command"
+        {
             return Err(problem(
                 "output_file: name the file the command writes its outputs to".into(),
             ));
@@ -1184,9 +1240,7 @@ fn read_outputs(path: &Path, names: &[&str]) -> std::result::Result<Vec<f64>, St
                 path.display()
             ));
         }
-        let mut flat = std::collections::HashMap::new();
-        flatten_json("", &value, &mut flat);
-        flat
+        numbers_by_key_path(&value)
     } else {
         let mut lines = text.lines().filter(|l| !l.trim().is_empty());
         let header = lines.next().unwrap_or("");
@@ -1208,38 +1262,6 @@ fn read_outputs(path: &Path, names: &[&str]) -> std::result::Result<Vec<f64>, St
         .collect()
 }
 
-/// The numbers of a JSON object by key path: `{"pressure_bar": {"boom":
-/// 73.4}}` gives `pressure_bar.boom`, array items `name[0]`, so a solver's
-/// nested output needs no rewriting.
-fn flatten_json(
-    prefix: &str,
-    value: &serde_json::Value,
-    into: &mut std::collections::HashMap<String, f64>,
-) {
-    match value {
-        serde_json::Value::Object(map) => {
-            for (key, item) in map {
-                let path = if prefix.is_empty() {
-                    key.clone()
-                } else {
-                    format!("{prefix}.{key}")
-                };
-                flatten_json(&path, item, into);
-            }
-        }
-        serde_json::Value::Array(items) => {
-            for (index, item) in items.iter().enumerate() {
-                flatten_json(&format!("{prefix}[{index}]"), item, into);
-            }
-        }
-        other => {
-            if let Some(number) = other.as_f64() {
-                into.insert(prefix.to_string(), number);
-            }
-        }
-    }
-}
-
 pub fn run(args: CalibrateExternalArgs) -> Result<()> {
     let spec = Spec::load(&args.spec)?;
     let spec_directory = spec_directory(&args.spec);
@@ -1253,23 +1275,37 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         }
         Method::SurrogateMoo(_) => Vec::new(),
     };
+    let parallel = spec.parallel.max(1);
+    let settings = RunSettings {
+        title: args.spec.display().to_string(),
+        spec_directory: &spec_directory,
+        parallel,
+        resume: args.resume,
+    };
+    if spec.model == "excavator" {
+        let template = match &spec.geometry {
+            Some(file) => {
+                let path = spec_directory.join(file);
+                let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
+                acq_io::input::note_input(&path);
+                GeometryTemplate::parse(&text)
+                    .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?
+            }
+            None => GeometryTemplate::dx55(),
+        };
+        let model = ExcavatorModel::new(template, spec.refit_poses)
+            .map_err(|e| AcqError::Config(format!("{}: geometry: {e}", args.spec.display())))?;
+        // The twin is cheap: every case is tried at the nominal point before
+        // the run directory exists, so a wrong name is refused at once.
+        study_runner::check_at_nominal(&study, &model)
+            .map_err(|e| AcqError::Config(format!("{}: {e}", args.spec.display())))?;
+        let directory = super::run_directory::RunDirectory::create(&args.out)?;
+        return study_runner::run_study(&study, &model, &method, initial, &directory, &settings);
+    }
     let directory = super::run_directory::RunDirectory::create(&args.out)?;
     let runs = std::fs::canonicalize(&directory.path)
         .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
         .join("runs");
-    let parallel = spec.parallel.max(1);
     let model = ExternalModel::new(spec, spec_directory.clone(), runs);
-    study_runner::run_study(
-        &study,
-        &model,
-        &method,
-        initial,
-        &directory,
-        &RunSettings {
-            title: args.spec.display().to_string(),
-            spec_directory: &spec_directory,
-            parallel,
-            resume: args.resume,
-        },
-    )
+    study_runner::run_study(&study, &model, &method, initial, &directory, &settings)
 }

@@ -15,6 +15,7 @@
 //! a run's files go, its logging evaluator) and [`search`] (the unit box,
 //! Bayesian optimisation through the log, the best distinct candidates).
 
+pub mod builtin;
 pub mod excavator;
 pub mod executor;
 pub mod external;

@@ -379,3 +379,37 @@ pub fn errors_json(errors: &[ObservationError]) -> Value {
             .collect(),
     )
 }
+
+/// The numbers of a JSON value by key path: `{"pressure_bar": {"boom":
+/// 73.4}}` gives `pressure_bar.boom`, array items `name[0]`, so a solver's
+/// nested output needs no rewriting.
+pub fn numbers_by_key_path(value: &Value) -> std::collections::HashMap<String, f64> {
+    let mut numbers = std::collections::HashMap::new();
+    flatten_json("", value, &mut numbers);
+    numbers
+}
+
+fn flatten_json(prefix: &str, value: &Value, into: &mut std::collections::HashMap<String, f64>) {
+    match value {
+        Value::Object(map) => {
+            for (key, item) in map {
+                let path = if prefix.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{prefix}.{key}")
+                };
+                flatten_json(&path, item, into);
+            }
+        }
+        Value::Array(items) => {
+            for (index, item) in items.iter().enumerate() {
+                flatten_json(&format!("{prefix}[{index}]"), item, into);
+            }
+        }
+        other => {
+            if let Some(number) = other.as_f64() {
+                into.insert(prefix.to_string(), number);
+            }
+        }
+    }
+}

@@ -92,6 +92,19 @@ pub fn start_design(
     })
 }
 
+/// Runs every case once at the nominal point, fit and validate alike: a
+/// study whose model refuses a name or a value says so before it starts.
+/// For models that cost little to run (the built-in twins).
+pub fn check_at_nominal(study: &Study, model: &dyn Model) -> std::result::Result<(), String> {
+    use acq_calib::evaluation::Simulator;
+    for role in [Role::Fit, Role::Validate] {
+        StudySimulator::new(study, model, role)
+            .evaluate(&study.nominal())
+            .map_err(|e| format!("at the nominal point: {e}"))?;
+    }
+    Ok(())
+}
+
 /// Runs the study; `initial` is the BO start design (ignored by
 /// surrogate-moo). Writes summary.json and the report into `directory`.
 pub fn run_study(

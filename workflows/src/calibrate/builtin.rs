@@ -1,0 +1,136 @@
+//! The built-in excavator twin as a study [`Model`], so a study spec can
+//! calibrate it like a user's solver (`model = "excavator"`): several load
+//! cases, shared and per-case parameters, and any number of the geometry
+//! file as a parameter.
+//!
+//! Inputs, by name: the operating inputs `bucket_stroke_mm`,
+//! `arm_stroke_mm`, `boom_stroke_mm`, `force_angle_deg` and `force_kN` (each
+//! a parameter or a case's fixed input), and geometry numbers by their key
+//! path in the geometry file (`bucket.mass_kg`,
+//! `base.boom_cylinder_pin_m[1]`). When a geometry number changes, the
+//! fitted pose numbers (each cylinder's rod pin angle and retracted length)
+//! are re-fitted to the published poses ([`acq_twins::excavator::pose_fit`]),
+//! so Cases 1 and 2 still stand where they were measured.
+//!
+//! Outputs: any number of `acq twin excavator --json` by key path
+//! (`pressure_bar.boom`, `gauge_stress_MPa[3]`, `cylinder_force_kN.arm`,
+//! `points.J[1]`).
+
+use std::collections::HashMap;
+
+use acq_twins::excavator::geometry::GeometryTemplate;
+use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
+use acq_twins::excavator::{Excavator, Inputs, Strokes};
+
+use super::study::{numbers_by_key_path, Model, ModelRun};
+use crate::excavator_report::evaluation_json;
+
+/// The operating inputs the twin takes by name.
+pub const OPERATING_INPUTS: [&str; 5] = [
+    "bucket_stroke_mm",
+    "arm_stroke_mm",
+    "boom_stroke_mm",
+    "force_angle_deg",
+    "force_kN",
+];
+
+/// The excavator twin behind a study.
+pub struct ExcavatorModel {
+    template: GeometryTemplate,
+    /// The twin of the unchanged geometry (most runs change none).
+    twin: Excavator,
+    /// The poses a changed geometry is re-fitted to; `None`: no re-fit.
+    poses: Option<[ReferencePose; 2]>,
+}
+
+impl ExcavatorModel {
+    /// `refit`: re-fit the pose numbers of a changed geometry to the
+    /// published Cases 1 and 2.
+    pub fn new(template: GeometryTemplate, refit: bool) -> Result<Self, String> {
+        let twin = Excavator::new(template.with(&[])?).map_err(|e| e.to_string())?;
+        Ok(ExcavatorModel {
+            template,
+            twin,
+            poses: refit.then(published_poses),
+        })
+    }
+
+    fn twin_for(&self, geometry: &[(&str, f64)]) -> Result<Option<Excavator>, String> {
+        if geometry.is_empty() {
+            return Ok(None);
+        }
+        let mut changed = self.template.with(geometry)?;
+        if let Some(poses) = &self.poses {
+            refit_poses(&mut changed, poses)?;
+        }
+        Excavator::new(changed).map(Some).map_err(|e| e.to_string())
+    }
+}
+
+impl Model for ExcavatorModel {
+    fn run(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Result<ModelRun, String> {
+        if let Some(curve) = curves.first() {
+            return Err(format!(
+                "the excavator twin gives no curves ({curve:?}); observe numbers of its output by key path"
+            ));
+        }
+        let mut operating: HashMap<&str, f64> = HashMap::new();
+        let mut geometry: Vec<(&str, f64)> = Vec::new();
+        for (name, value) in inputs {
+            if OPERATING_INPUTS.contains(&name.as_str()) {
+                operating.insert(name.as_str(), *value);
+            } else if name.contains(['.', '[']) {
+                geometry.push((name.as_str(), *value));
+            } else {
+                return Err(format!(
+                    "the excavator twin takes no input {name:?}: it takes {} and geometry numbers by key path (bucket.mass_kg)",
+                    OPERATING_INPUTS.join(", ")
+                ));
+            }
+        }
+        let operating_input = |name: &str| -> Result<f64, String> {
+            operating.get(name).copied().ok_or_else(|| {
+                format!("the excavator twin needs {name}: make it a parameter or a case input")
+            })
+        };
+        let inputs = Inputs {
+            strokes: Strokes {
+                bucket_mm: operating_input("bucket_stroke_mm")?,
+                arm_mm: operating_input("arm_stroke_mm")?,
+                boom_mm: operating_input("boom_stroke_mm")?,
+            },
+            tip_force_kn: operating_input("force_kN")?,
+            tip_force_angle_deg: operating_input("force_angle_deg")?,
+        };
+        let changed = self.twin_for(&geometry)?;
+        let twin = changed.as_ref().unwrap_or(&self.twin);
+        let evaluation = twin.evaluate(&inputs).map_err(|e| e.to_string())?;
+        let numbers = numbers_by_key_path(&evaluation_json(&evaluation));
+        let scalars = scalars
+            .iter()
+            .map(|name| {
+                numbers.get(*name).copied().ok_or_else(|| {
+                    let mut known: Vec<&str> = numbers
+                        .keys()
+                        .map(String::as_str)
+                        .filter(|k| k.starts_with("pressure_bar") || k.starts_with("cylinder"))
+                        .collect();
+                    known.sort_unstable();
+                    format!(
+                        "the excavator twin has no output {name:?}; its outputs are key paths of `acq twin excavator --json`, e.g. {}",
+                        known.join(", ")
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(ModelRun {
+            scalars,
+            curves: Vec::new(),
+        })
+    }
+}

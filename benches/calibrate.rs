@@ -16,10 +16,11 @@ use acq_calib::evaluation::Simulator;
 use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_calib::moo::{nsga2, Nsga2Settings};
 use acq_twins::excavator::case::CaseFile;
-use acq_twins::excavator::geometry::Geometry;
-use acq_twins::excavator::Excavator;
-use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorArgs, ExcavatorSimulator};
+use acq_twins::excavator::geometry::GeometryTemplate;
+use acq_workflows::calibrate::builtin::ExcavatorModel;
+use acq_workflows::calibrate::excavator::{case_study, run, CalibrateExcavatorArgs};
 use acq_workflows::calibrate::gtn::CalibrateGtnArgs;
+use acq_workflows::calibrate::study::{Role, StudySimulator};
 
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
@@ -65,8 +66,12 @@ fn main() {
 
     // NSGA-II alone on the three GPs of case 1.
     let case = CaseFile::load(&root.join("data/excavator/case1.toml")).expect("case");
-    let twin = Excavator::new(Geometry::dx55()).expect("twin");
-    let simulator = ExcavatorSimulator::new(&case, twin);
+    let model = ExcavatorModel::new(GeometryTemplate::dx55(), false).expect("twin");
+    let study = case_study(
+        &case,
+        &case.measured.expect("case 1 has measured pressures"),
+    );
+    let simulator = StudySimulator::new(&study, &model, Role::Fit);
     let bounds: Vec<(f64, f64)> = simulator
         .parameters()
         .iter()

@@ -334,6 +334,29 @@ fn a_shared_parameter_is_recovered_from_two_fit_cases_and_checked_on_a_validate_
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("Validation cases"), "{report}");
     assert!(report.contains("about as well"), "{report}");
+
+    // Resumed, the study retraces itself from its logs: no model run again,
+    // the same answer.
+    std::fs::remove_file(out.join("summary.json")).unwrap();
+    let runs_before = std::fs::read_dir(out.join("runs")).unwrap().count();
+    let output = calibrate(
+        "external",
+        &[
+            "--spec",
+            path_arg(&spec),
+            "--out",
+            path_arg(&out),
+            "--resume",
+        ],
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert_eq!(
+        std::fs::read_dir(out.join("runs")).unwrap().count(),
+        runs_before
+    );
+    let again = summary(&out);
+    assert_eq!(again["optimal"], got["optimal"]);
+    assert_eq!(again["cases"], got["cases"]);
 }
 
 #[test]
@@ -462,6 +485,34 @@ max_evals = 60
             agrees,
             "{report}"
         );
+        // Identifiability against weighted linear regression's closed form:
+        // sigma_a = s / sqrt(Sxx), sigma_b = s sqrt(1/n + mean^2 / Sxx),
+        // corr(a, b) = -mean / sqrt(Sxx / n + mean^2), with s the stated
+        // uncertainty. The analysis differentiates GPs fitted to the
+        // logged runs of a plane: within 5 %.
+        let identified: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("identifiability.json")).unwrap(),
+        )
+        .unwrap();
+        let mean = sx / n;
+        let spread_xx = sxx - n * mean * mean;
+        let expected = [
+            ("a", stated_sigma / spread_xx.sqrt()),
+            (
+                "b",
+                stated_sigma * (1.0 / n + mean * mean / spread_xx).sqrt(),
+            ),
+        ];
+        for (name, sigma) in expected {
+            let got_sigma = number(&identified, &["standard_uncertainty", name]);
+            assert!(
+                (got_sigma - sigma).abs() < 0.05 * sigma,
+                "{name}: {got_sigma} vs closed form {sigma}"
+            );
+        }
+        let rho = number(&identified, &["correlation", "a", "b"]);
+        let expected_rho = -mean / (spread_xx / n + mean * mean).sqrt();
+        assert!((rho - expected_rho).abs() < 0.02, "{rho} vs {expected_rho}");
     }
 }
 

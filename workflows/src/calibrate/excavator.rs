@@ -22,15 +22,20 @@ use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
 use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
-use acq_twins::excavator::geometry::Geometry;
-use acq_twins::excavator::{CylinderName, Excavator, Inputs};
+use acq_twins::excavator::geometry::GeometryTemplate;
+use acq_twins::excavator::CylinderName;
 use clap::Args;
 use serde_json::json;
 
-use super::progress::Progress;
+use super::builtin::ExcavatorModel;
+use super::identifiability::write_identifiability;
 use super::report::{pareto_svg, write_report, write_text};
 use super::run_directory::{default_parallelism, RunDirectory};
-use super::surrogate_moo::{rounds_sentence, surrogate_moo, SurrogateMoo, SurrogateMooSettings};
+use super::study::{
+    Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
+};
+use super::study_runner::{calibrate_study, Found, Method, RunSettings};
+use super::surrogate_moo::{rounds_sentence, SurrogateMoo, SurrogateMooSettings};
 
 #[derive(Args, Debug)]
 pub struct CalibrateExcavatorArgs {
@@ -89,59 +94,59 @@ pub struct CalibrateExcavatorArgs {
 /// The calibrated load magnitude's name, when the case bounds it.
 const FORCE_PARAMETER: &str = "force_kN";
 
-/// The twin as the engine sees it: four uncertain inputs (five with an
-/// uncertain load) in, the three loaded-chamber pressures (bar) out.
-pub struct ExcavatorSimulator {
-    twin: Excavator,
-    nominal: Inputs,
-    parameters: Vec<Parameter>,
-    outputs: Vec<String>,
-}
-
-impl ExcavatorSimulator {
-    pub fn new(case: &CaseFile, twin: Excavator) -> Self {
-        let mut parameters: Vec<Parameter> = UncertainInput::ALL
-            .iter()
-            .map(|&input| {
-                let [lower, upper] = case.bounds.get(input);
-                Parameter::new(input.name(), lower, upper)
-            })
-            .collect();
-        if let Some([lower, upper]) = case.bounds.force_kn {
-            parameters.push(Parameter::new(FORCE_PARAMETER, lower, upper));
-        }
-        ExcavatorSimulator {
-            twin,
-            nominal: case.nominal(),
-            parameters,
-            outputs: CylinderName::ALL
+/// A case file as a study of the built-in twin: the uncertain inputs (and
+/// the load, when bounded) as parameters with the bounds' middles (the
+/// case's force) as nominal, and the three loaded-chamber pressures
+/// (`<cylinder>_pressure_bar`) as the observations of one fit case.
+pub fn case_study(case: &CaseFile, measured: &MeasuredPressures) -> Study {
+    let mut parameters: Vec<StudyParameter> = UncertainInput::ALL
+        .iter()
+        .map(|&input| {
+            let [lower, upper] = case.bounds.get(input);
+            let search = Parameter::new(input.name(), lower, upper);
+            StudyParameter {
+                input: input.name().to_string(),
+                case: None,
+                nominal: search.midpoint(),
+                search,
+            }
+        })
+        .collect();
+    let mut inputs = Vec::new();
+    match case.bounds.force_kn {
+        Some([lower, upper]) => parameters.push(StudyParameter {
+            search: Parameter::new(FORCE_PARAMETER, lower, upper),
+            input: FORCE_PARAMETER.to_string(),
+            case: None,
+            nominal: case.force_kn,
+        }),
+        None => inputs.push((FORCE_PARAMETER.to_string(), case.force_kn)),
+    }
+    Study {
+        parameters,
+        cases: vec![Case {
+            name: case.name.clone(),
+            role: Role::Fit,
+            inputs,
+            observations: CylinderName::ALL
                 .iter()
-                .map(|name| format!("{name}_pressure_bar"))
+                .map(|&cylinder| Observation {
+                    // The log's column names of earlier versions.
+                    name: format!("{cylinder}_pressure_bar"),
+                    output: format!("pressure_bar.{cylinder}"),
+                    measured: Measured::Scalar {
+                        value: measured.get(cylinder),
+                        uncertainty: None,
+                    },
+                    weight: 1.0,
+                    source: format!("measured {cylinder} pressure"),
+                })
                 .collect(),
-        }
-    }
-}
-
-impl Simulator for ExcavatorSimulator {
-    fn parameters(&self) -> &[Parameter] {
-        &self.parameters
-    }
-    fn outputs(&self) -> &[String] {
-        &self.outputs
-    }
-    fn evaluate(&self, values: &[f64]) -> std::result::Result<Vec<f64>, String> {
-        let mut inputs = self.nominal;
-        for (input, &value) in UncertainInput::ALL.iter().zip(values) {
-            input.apply(&mut inputs, value);
-        }
-        if let Some(&force_kn) = values.get(UncertainInput::ALL.len()) {
-            inputs.tip_force_kn = force_kn;
-        }
-        let evaluation = self.twin.evaluate(&inputs).map_err(|e| e.to_string())?;
-        Ok(CylinderName::ALL
-            .iter()
-            .map(|&name| evaluation.cylinder(name).loaded_chamber_pressure_bar)
-            .collect())
+        }],
+        named_cases: false,
+        residuals: Residuals::Relative,
+        // The progress line shows the largest pressure error.
+        loss: LossKind::Max,
     }
 }
 
@@ -153,7 +158,7 @@ impl Simulator for ExcavatorSimulator {
 fn check_before_the_first_run(
     case_path: &std::path::Path,
     measured: &MeasuredPressures,
-    simulator: &ExcavatorSimulator,
+    simulator: &StudySimulator<'_>,
 ) -> Result<()> {
     let problem = |what: String| AcqError::Config(format!("{}: {what}", case_path.display()));
     for name in CylinderName::ALL {
@@ -347,18 +352,26 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             "--pareto-fraction must lie in (0, 1]".into(),
         ));
     }
-    let geometry = match &args.geometry {
-        Some(path) => Geometry::load(path).map_err(AcqError::Config)?,
-        None => Geometry::dx55(),
+    let template = match &args.geometry {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+            GeometryTemplate::parse(&text)
+                .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?
+        }
+        None => GeometryTemplate::dx55(),
     };
-    let twin = Excavator::new(geometry).map_err(|e| AcqError::Config(e.to_string()))?;
-    let simulator = ExcavatorSimulator::new(&case, twin);
-    let parameters = simulator.parameters().to_vec();
-    check_before_the_first_run(&args.case, &measured, &simulator)?;
+    // No geometry number is calibrated here, so nothing is re-fitted.
+    let model = ExcavatorModel::new(template, false).map_err(AcqError::Config)?;
+    let study = case_study(&case, &measured);
+    let parameters = study.search_parameters();
+    check_before_the_first_run(
+        &args.case,
+        &measured,
+        &StudySimulator::new(&study, &model, Role::Fit),
+    )?;
     let directory = RunDirectory::create(&args.out)?;
-    let start = std::time::Instant::now();
 
-    let settings = SurrogateMooSettings {
+    let method = Method::SurrogateMoo(SurrogateMooSettings {
         training_runs: args.training as usize,
         test_runs: args.test_runs as usize,
         population: args.population as usize,
@@ -367,46 +380,24 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         weights: args.weights.clone(),
         kernel: args.kernel,
         ..SurrogateMooSettings::published(CylinderName::ALL.len(), args.seed)
+    });
+    let outcome = calibrate_study(
+        &study,
+        &model,
+        &method,
+        Vec::new(),
+        &directory,
+        &RunSettings {
+            label: format!("calibrate {}", case.name),
+            title: args.case.display().to_string(),
+            spec_directory: Path::new("."),
+            parallel: args.parallel.unwrap_or_else(default_parallelism),
+            resume: args.resume,
+        },
+    )?;
+    let Found::Moo(found) = &outcome.found else {
+        unreachable!("the excavator preset runs surrogate-moo");
     };
-    // The nominal load is the case's own force_kN, the rest the bounds' middles.
-    let nominal: Vec<f64> = parameters
-        .iter()
-        .map(|p| {
-            if p.name == FORCE_PARAMETER {
-                case.force_kn
-            } else {
-                p.midpoint()
-            }
-        })
-        .collect();
-    let progress = Progress::new(
-        format!("calibrate {}", case.name),
-        settings.budget(parameters.len()),
-    );
-    let mut evaluator = directory
-        .evaluator(
-            &simulator,
-            args.parallel.unwrap_or_else(default_parallelism),
-            args.resume,
-        )?
-        .with_progress(|e| {
-            let loss = e.outcome.as_ref().ok().map(|p| {
-                relative_errors_pct(&measured, p)
-                    .into_iter()
-                    .fold(0.0, f64::max)
-            });
-            progress.record(loss, e.outcome.is_err(), e.from_log);
-        });
-    let objectives = |pressures: &[f64]| relative_errors_pct(&measured, pressures);
-    let found = surrogate_moo(
-        &mut evaluator,
-        &parameters,
-        &nominal,
-        &objectives,
-        &settings,
-    );
-    progress.finish();
-    let found = found?;
     let SurrogateMoo {
         nominal_outputs: nominal_bar,
         optimal,
@@ -420,11 +411,11 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         test_runs,
         failed_runs,
         rounds,
-    } = found;
+    } = found.as_ref().clone();
     let dimensions = parameters.len();
     let errors_initial = relative_errors_pct(&measured, &nominal_bar);
     let errors_optimal = relative_errors_pct(&measured, &optimal_bar);
-    let evaluations = evaluator.evaluations().len();
+    let evaluations = outcome.evaluations.len();
 
     // The fixed summary.
     let mut rmse_json = serde_json::Map::new();
@@ -451,8 +442,8 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         &matrix,
         pick,
     );
-    let worst_error: Vec<(f64, f64)> = evaluator
-        .evaluations()
+    let worst_error: Vec<(f64, f64)> = outcome
+        .evaluations
         .iter()
         .filter_map(|e| {
             let y = e.outcome.as_ref().ok()?;
@@ -472,7 +463,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     .with_series(Series::new("twin runs", worst_error).with_style(SeriesStyle::Markers));
 
     // The report.
-    let wall_s = start.elapsed().as_secs_f64();
+    let wall_s = outcome.wall_s;
     let largest = |errors: &[f64]| errors.iter().fold(0.0f64, |a, &b| a.max(b));
     let mut report = Document::new();
     report
@@ -589,6 +580,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         table.row(cells);
     }
     report.table(table);
+    write_identifiability(&mut report, &outcome.identifiability, &parameters);
     write_report(
         &directory,
         &report,

@@ -392,6 +392,7 @@ fn scalar(
     }
     Ok(Observation {
         name: name.to_string(),
+        output: name.to_string(),
         measured: Measured::Scalar { value, uncertainty },
         weight,
         source,
@@ -478,6 +479,7 @@ fn case_observation(
     let points = measured_curve(spec_directory, name, &file, &x, &y).map_err(|e| e.to_string())?;
     Ok(Observation {
         name: name.to_string(),
+        output: name.to_string(),
         measured: Measured::Curve { points },
         weight,
         source: file,
@@ -709,6 +711,7 @@ impl Spec {
                 let weight = weight_of(c.weight, &c.name).map_err(|e| at("[[curve]]", index, e))?;
                 observations.push(Observation {
                     name: c.name.clone(),
+                    output: c.name.clone(),
                     measured: Measured::Curve {
                         points: measured_curve(&spec_directory, &c.name, file, x, y)?,
                     },
@@ -1277,6 +1280,7 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
     };
     let parallel = spec.parallel.max(1);
     let settings = RunSettings {
+        label: "calibrate external".into(),
         title: args.spec.display().to_string(),
         spec_directory: &spec_directory,
         parallel,

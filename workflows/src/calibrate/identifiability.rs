@@ -175,6 +175,53 @@ fn fit_gps(parameters: &[Parameter], evaluations: &[Evaluation]) -> Option<Vec<G
         .collect()
 }
 
+/// The analysis for `summary.json`: per parameter its spread as a share of
+/// its range, its standard uncertainty in its own unit when every residual
+/// is in standard uncertainties, and the correlations.
+pub fn identifiability_json(
+    analysis: &Identifiability,
+    parameters: &[Parameter],
+) -> serde_json::Value {
+    use serde_json::{json, Map, Value};
+    let finite = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    let by_name = |values: &mut dyn Iterator<Item = Value>| -> Value {
+        Value::Object(
+            parameters
+                .iter()
+                .map(|p| p.name.clone())
+                .zip(values)
+                .collect(),
+        )
+    };
+    let mut out = Map::new();
+    out.insert(
+        "spread_of_range".into(),
+        by_name(&mut analysis.spread_of_range.iter().map(|&s| finite(s))),
+    );
+    if analysis.in_uncertainties {
+        out.insert(
+            "standard_uncertainty".into(),
+            by_name(
+                &mut analysis
+                    .spread_of_range
+                    .iter()
+                    .zip(parameters)
+                    .map(|(&s, p)| finite(s * (p.upper - p.lower))),
+            ),
+        );
+    }
+    out.insert(
+        "correlation".into(),
+        by_name(
+            &mut analysis
+                .correlation
+                .iter()
+                .map(|row| by_name(&mut row.iter().map(|&r| finite(r)))),
+        ),
+    );
+    Value::Object(out)
+}
+
 /// The report section: the table, the statements in words, the slices.
 pub fn write_identifiability(
     report: &mut Document,
@@ -208,11 +255,19 @@ pub fn write_identifiability(
     let mut sentences = Vec::new();
     for (j, p) in parameters.iter().enumerate() {
         let spread = analysis.spread_of_range[j];
+        let largest = analysis.sensitivity.iter().fold(0.0f64, |a, &b| a.max(b));
         let verdict = if !spread.is_finite() || spread > 0.5 {
-            sentences.push(format!(
-                "{} is not identified: the data change too little when it moves.",
-                p.name
-            ));
+            sentences.push(if analysis.sensitivity[j] <= 1e-3 * largest {
+                format!(
+                    "{} is not identified: the data change too little when it moves.",
+                    p.name
+                )
+            } else {
+                format!(
+                    "{} is not identified on its own: the data see it, but a combination with other parameters leaves them unchanged (more parameters than independent observations, or parameters that act alike).",
+                    p.name
+                )
+            });
             "not identified"
         } else if spread > 0.1 {
             "weakly identified"

@@ -80,8 +80,10 @@ pub enum Measured {
 /// One observation of a case.
 #[derive(Clone, Debug)]
 pub struct Observation {
-    /// The model output (or curve) it is compared with.
+    /// Its name in logs, summaries and reports.
     pub name: String,
+    /// The model output (or curve) it is compared with; usually `name`.
+    pub output: String,
     pub measured: Measured,
     /// Its weight in the loss and in TOPSIS (1 unless given).
     pub weight: f64,
@@ -318,13 +320,13 @@ impl Simulator for StudySimulator<'_> {
                 .observations
                 .iter()
                 .filter(|o| matches!(o.measured, Measured::Scalar { .. }))
-                .map(|o| o.name.as_str())
+                .map(|o| o.output.as_str())
                 .collect();
             let curves: Vec<&str> = case
                 .observations
                 .iter()
                 .filter(|o| matches!(o.measured, Measured::Curve { .. }))
-                .map(|o| o.name.as_str())
+                .map(|o| o.output.as_str())
                 .collect();
             let in_case = |reason: String| {
                 if self.study.named_cases {

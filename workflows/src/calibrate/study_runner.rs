@@ -16,13 +16,15 @@ use acq_calib::doe::{
     full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
     two_level_to_unit,
 };
-use acq_calib::evaluation::{Evaluator, Parameter};
+use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
 use serde_json::{json, Map, Value};
 
-use super::identifiability::{identifiability, write_identifiability};
+use super::identifiability::{
+    identifiability, identifiability_json, write_identifiability, Identifiability,
+};
 use super::progress::Progress;
 use super::report::{pareto_svg, write_report, write_text};
 use super::run_directory::{evaluation_error, RunDirectory};
@@ -57,6 +59,8 @@ pub enum Method {
 
 /// How a study runs, besides its method.
 pub struct RunSettings<'a> {
+    /// The progress line's label.
+    pub label: String,
     /// For messages and the report's title (the spec's path).
     pub title: String,
     /// Where a CSV start design's path starts.
@@ -105,6 +109,21 @@ pub fn check_at_nominal(study: &Study, model: &dyn Model) -> std::result::Result
     Ok(())
 }
 
+/// What a study found.
+pub struct StudyOutcome {
+    pub found: Found,
+    /// The calibrated point (search vector) and the fit outputs there.
+    pub calibrated: Vec<f64>,
+    pub calibrated_outputs: Vec<f64>,
+    pub fit_errors: Vec<ObservationError>,
+    pub validation_errors: Vec<ObservationError>,
+    /// Every fit evaluation, from the log or run now.
+    pub evaluations: Vec<Evaluation>,
+    pub failed: usize,
+    pub wall_s: f64,
+    pub identifiability: Option<Identifiability>,
+}
+
 /// Runs the study; `initial` is the BO start design (ignored by
 /// surrogate-moo). Writes summary.json and the report into `directory`.
 pub fn run_study(
@@ -115,13 +134,27 @@ pub fn run_study(
     directory: &RunDirectory,
     settings: &RunSettings<'_>,
 ) -> Result<()> {
+    let outcome = calibrate_study(study, model, method, initial, directory, settings)?;
+    write_study(study, &outcome, directory, settings)
+}
+
+/// Runs the search on the fit cases, then the validate cases at the
+/// calibrated point, then the identifiability analysis.
+pub fn calibrate_study(
+    study: &Study,
+    model: &dyn Model,
+    method: &Method,
+    initial: Vec<Vec<f64>>,
+    directory: &RunDirectory,
+    settings: &RunSettings<'_>,
+) -> Result<StudyOutcome> {
     let parameters = study.search_parameters();
     let simulator = StudySimulator::new(study, model, Role::Fit);
     let budget = match method {
         Method::Bo(bo) => bo.max_evals,
         Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
     };
-    let progress = Progress::new("calibrate external", budget);
+    let progress = Progress::new(settings.label.clone(), budget);
     let start = Instant::now();
     let mut evaluator = directory
         .evaluator(&simulator, settings.parallel, settings.resume)?
@@ -170,19 +203,16 @@ pub fn run_study(
         }
     }
     let found = found?;
-    let scored = scored(evaluator.evaluations(), |y| study.loss(y));
-    let failed = evaluator
-        .evaluations()
-        .iter()
-        .filter(|e| e.outcome.is_err())
-        .count();
+    let evaluations = evaluator.evaluations().to_vec();
+    let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
     let (calibrated, calibrated_outputs) = match &found {
         Found::Moo(moo) => (moo.optimal.clone(), moo.optimal_outputs.clone()),
         Found::Bo(_) => {
+            let scored = scored(&evaluations, |y| study.loss(y));
             let Some(&(best, _)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
                 return Err(AcqError::Config(format!(
                     "none of the {} model runs succeeded; see {}",
-                    evaluator.evaluations().len(),
+                    evaluations.len(),
                     directory.file("evaluations.csv").display()
                 )));
             };
@@ -194,9 +224,42 @@ pub fn run_study(
     };
     let fit_errors = study.errors(Role::Fit, &calibrated_outputs);
     let validation_errors = validate(study, model, &calibrated, directory, settings)?;
-    let wall_s = start.elapsed().as_secs_f64();
-    let evaluations = evaluator.evaluations().len();
-    let analysis = identifiability(study, evaluator.evaluations(), &calibrated, found.gps());
+    let identifiability = identifiability(study, &evaluations, &calibrated, found.gps());
+    Ok(StudyOutcome {
+        found,
+        calibrated,
+        calibrated_outputs,
+        fit_errors,
+        validation_errors,
+        evaluations,
+        failed,
+        wall_s: start.elapsed().as_secs_f64(),
+        identifiability,
+    })
+}
+
+/// The study's `summary.json` (each method's fixed keys) and its report.
+pub fn write_study(
+    study: &Study,
+    outcome: &StudyOutcome,
+    directory: &RunDirectory,
+    settings: &RunSettings<'_>,
+) -> Result<()> {
+    let StudyOutcome {
+        found,
+        calibrated,
+        calibrated_outputs,
+        fit_errors,
+        validation_errors,
+        evaluations: all_evaluations,
+        failed,
+        wall_s,
+        identifiability: analysis,
+    } = outcome;
+    let (failed, wall_s) = (*failed, *wall_s);
+    let parameters = study.search_parameters();
+    let evaluations = all_evaluations.len();
+    let scored = scored(all_evaluations, |y| study.loss(y));
 
     // summary.json: the fixed keys of each method.
     let mut summary = Map::new();
@@ -213,19 +276,19 @@ pub fn run_study(
         Found::Bo(result) => {
             summary.insert(
                 "best_loss_pct".into(),
-                json!(study.loss(&calibrated_outputs)),
+                json!(study.loss(calibrated_outputs)),
             );
             summary.insert(
                 "best_outputs".into(),
                 Value::Object(
                     simulator_outputs(study)
                         .into_iter()
-                        .zip(&calibrated_outputs)
+                        .zip(calibrated_outputs)
                         .map(|(k, v)| (k, json!(v)))
                         .collect(),
                 ),
             );
-            summary.insert("best_params".into(), named(&calibrated));
+            summary.insert("best_params".into(), named(calibrated));
             summary.insert(
                 "evaluations_to_target".into(),
                 json!(result.evaluations_to_target),
@@ -238,8 +301,8 @@ pub fn run_study(
                 "errors_initial_pct".into(),
                 errors_json(&study.errors(Role::Fit, &moo.nominal_outputs)),
             );
-            summary.insert("errors_optimal_pct".into(), errors_json(&fit_errors));
-            summary.insert("optimal".into(), named(&calibrated));
+            summary.insert("errors_optimal_pct".into(), errors_json(fit_errors));
+            summary.insert("optimal".into(), named(calibrated));
             let mut rmse = Map::new();
             let keys = simulator_outputs(study);
             for (surrogate, row) in &moo.surrogate_rmse {
@@ -272,6 +335,12 @@ pub fn run_study(
             summary.insert(key.into(), json!({"value": chi2, "observations": n}));
         }
     }
+    if let Some(analysis) = analysis {
+        write_text(
+            &directory.file("identifiability.json"),
+            &format!("{:#}\n", identifiability_json(analysis, &parameters)),
+        )?;
+    }
     write_text(
         &directory.file("summary.json"),
         &format!("{:#}\n", Value::Object(summary)),
@@ -284,7 +353,7 @@ pub fn run_study(
         Found::Bo(result) => format!(
             "Bayesian optimisation of the {} error: best loss {:.4} after {evaluations} model evaluations ({failed} failed), {wall_s:.1} s; stopped: {:?}.",
             if study.loss == super::study::LossKind::Max { "largest" } else { "weighted mean" },
-            study.loss(&calibrated_outputs),
+            study.loss(calibrated_outputs),
             result.stop
         ),
         Found::Moo(moo) => format!(
@@ -300,14 +369,14 @@ pub fn run_study(
         Found::Bo(_) => None,
     };
     report.heading(2, "Fit cases");
-    report.table(errors_table(&fit_errors, nominal_errors.as_deref()));
+    report.table(errors_table(fit_errors, nominal_errors.as_deref()));
     if !validation_errors.is_empty() {
         report
             .heading(2, "Validation cases (never seen by the search)")
-            .table(errors_table(&validation_errors, None));
+            .table(errors_table(validation_errors, None));
         let largest =
             |errors: &[ObservationError]| errors.iter().map(|e| e.error_pct).fold(0.0f64, f64::max);
-        let (fit, validation) = (largest(&fit_errors), largest(&validation_errors));
+        let (fit, validation) = (largest(fit_errors), largest(validation_errors));
         report.paragraph(if validation > 2.0 * fit.max(1.0) {
             format!(
                 "The largest validation error, {validation:.2} %, is well above the largest fit error, {fit:.2} %: the calibrated model does not carry over to the validation cases. Suspect the model (a missing effect) before the parameters."
@@ -318,10 +387,10 @@ pub fn run_study(
             )
         });
     }
-    if let Some(sentence) = chi_square_sentence("fit", &fit_errors, parameters.len()) {
+    if let Some(sentence) = chi_square_sentence("fit", fit_errors, parameters.len()) {
         report.paragraph(sentence);
     }
-    if let Some(sentence) = chi_square_sentence("validation", &validation_errors, 0) {
+    if let Some(sentence) = chi_square_sentence("validation", validation_errors, 0) {
         report.paragraph(sentence);
     }
     report.heading(2, "Parameters");
@@ -334,7 +403,7 @@ pub fn run_study(
         "calibrated",
         "note",
     ]);
-    for ((p, sp), v) in parameters.iter().zip(&study.parameters).zip(&calibrated) {
+    for ((p, sp), v) in parameters.iter().zip(&study.parameters).zip(calibrated) {
         let unit = p.to_unit(*v);
         table.row(vec![
             p.name.clone(),
@@ -351,7 +420,7 @@ pub fn run_study(
         ]);
     }
     report.table(table);
-    write_identifiability(&mut report, &analysis, &parameters);
+    write_identifiability(&mut report, analysis, &parameters);
     match &found {
         Found::Moo(moo) => {
             let keys = simulator_outputs(study);
@@ -405,19 +474,19 @@ pub fn run_study(
     report.figure(Figure {
         file: "loss.svg".into(),
         caption: "loss per model evaluation".into(),
-        svg: chart_svg(&loss_chart(study, &evaluator), 720.0, 420.0),
+        svg: chart_svg(&loss_chart(study, all_evaluations), 720.0, 420.0),
     });
     write_report(directory, &report, "Calibration study")?;
     println!(
         "loss {:.4} after {evaluations} model evaluations ({failed} failed); report in {}",
-        study.loss(&calibrated_outputs),
+        study.loss(calibrated_outputs),
         directory.file("report.md").display()
     );
     Ok(())
 }
 
 /// What a method found.
-enum Found {
+pub enum Found {
     Bo(acq_calib::bo::BoResult),
     Moo(Box<super::surrogate_moo::SurrogateMoo>),
 }
@@ -527,11 +596,11 @@ fn chi_square_sentence(what: &str, errors: &[ObservationError], fitted: usize) -
     })
 }
 
-fn loss_chart(study: &Study, evaluator: &Evaluator<'_>) -> Chart {
+fn loss_chart(study: &Study, evaluations: &[Evaluation]) -> Chart {
     let mut best_so_far = f64::INFINITY;
     let mut running = Vec::new();
     let mut each = Vec::new();
-    for e in evaluator.evaluations() {
+    for e in evaluations {
         if let Ok(y) = &e.outcome {
             let loss = study.loss(y);
             best_so_far = best_so_far.min(loss);

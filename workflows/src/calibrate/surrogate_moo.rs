@@ -95,6 +95,7 @@ pub struct Round {
 }
 
 /// What the method found.
+#[derive(Clone)]
 pub struct SurrogateMoo {
     /// The model's outputs at the nominal point.
     pub nominal_outputs: Vec<f64>,

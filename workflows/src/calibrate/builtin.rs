@@ -1,3 +1,6 @@
+//! The built-in twins as study [`Model`]s: the excavator ([`ExcavatorModel`])
+//! and the GTN tensile bar ([`GtnModel`]).
+//!
 //! The built-in excavator twin as a study [`Model`], so a study spec can
 //! calibrate it like a user's solver (`model = "excavator"`): several load
 //! cases, shared and per-case parameters, and any number of the geometry
@@ -24,6 +27,7 @@ use acq_twins::excavator::{Excavator, Inputs, Strokes};
 
 use super::study::{numbers_by_key_path, Model, ModelRun};
 use crate::excavator_report::evaluation_json;
+use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 
 /// The operating inputs the twin takes by name.
 pub const OPERATING_INPUTS: [&str; 5] = [
@@ -131,6 +135,79 @@ impl Model for ExcavatorModel {
         Ok(ModelRun {
             scalars,
             curves: Vec::new(),
+        })
+    }
+}
+
+/// The built-in GTN tensile twin as a study [`Model`]: the eight GTN
+/// parameters by name (`q1`, `q2`, `q3`, `epsN`, `sN`, `fN`, `f0`, `m`) in,
+/// the simulated force-displacement curve (`force_displacement`: mm, kN)
+/// out, for the test the model was set up from.
+pub struct GtnModel {
+    model: TensileModel,
+}
+
+/// The GTN twin's one curve.
+pub const GTN_CURVE: &str = "force_displacement";
+
+impl GtnModel {
+    pub fn new(model: TensileModel) -> Self {
+        GtnModel { model }
+    }
+
+    pub fn tensile_model(&self) -> &TensileModel {
+        &self.model
+    }
+}
+
+impl Model for GtnModel {
+    fn run(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Result<ModelRun, String> {
+        if let Some(name) = scalars.first() {
+            return Err(format!(
+                "the GTN twin gives no scalar {name:?}; observe its curve {GTN_CURVE}"
+            ));
+        }
+        if let Some(name) = curves.iter().find(|c| **c != GTN_CURVE) {
+            return Err(format!(
+                "the GTN twin has no curve {name:?}; its curve is {GTN_CURVE}"
+            ));
+        }
+        let values = PARAMETER_NAMES
+            .iter()
+            .map(|name| {
+                inputs
+                    .iter()
+                    .find(|(input, _)| input == name)
+                    .map(|(_, v)| *v)
+                    .ok_or_else(|| {
+                        format!("the GTN twin needs {name}: make it a parameter or a case input")
+                    })
+            })
+            .collect::<Result<Vec<f64>, String>>()?;
+        if let Some((name, _)) = inputs
+            .iter()
+            .find(|(n, _)| !PARAMETER_NAMES.contains(&n.as_str()))
+        {
+            return Err(format!(
+                "the GTN twin takes no input {name:?}: it takes {}",
+                PARAMETER_NAMES.join(", ")
+            ));
+        }
+        let run = self.model.run(&GtnInputs::from_values(&values)?)?;
+        let curve: Vec<(f64, f64)> = run
+            .result
+            .curve
+            .iter()
+            .map(|p| (p.displacement_mm, p.force_kn))
+            .collect();
+        Ok(ModelRun {
+            scalars: Vec::new(),
+            curves: curves.iter().map(|_| curve.clone()).collect(),
         })
     }
 }

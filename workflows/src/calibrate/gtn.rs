@@ -7,12 +7,13 @@
 //! scaled to the unit box and the MAPE is minimised (the published code did
 //! neither). The run stops at the target MAPE or the evaluation budget.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
+use acq_analysis::extract::tensile_props::{
+    read_test_csv, tensile_properties, SpecimenGeometry, TestPoint,
+};
 use acq_calib::bo::Acquisition;
-use acq_calib::doe::{orthogonal_array_l12, two_level_to_unit};
-use acq_calib::evaluation::{Evaluation, Parameter, Simulator};
+use acq_calib::evaluation::{Evaluation, Parameter};
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
@@ -20,10 +21,13 @@ use acq_twins::tensile::mesh::MeshDensity;
 use clap::Args;
 use serde_json::json;
 
-use super::progress::Progress;
+use super::builtin::{GtnModel, GTN_CURVE};
+use super::identifiability::write_identifiability;
 use super::report::{write_report, write_text};
 use super::run_directory::RunDirectory;
-use super::search::{bo_settings, distinct_best, minimise_logged, scored};
+use super::search::{distinct_best, scored};
+use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
+use super::study_runner::{calibrate_study, start_design, BoMethod, Found, Method, RunSettings};
 use crate::tensile_model::{GtnInputs, ModelSettings, TensileModel, PARAMETER_NAMES};
 
 #[derive(Args, Debug)]
@@ -80,39 +84,40 @@ pub fn parameters(m_upper_mpa: f64) -> Vec<Parameter> {
         .collect()
 }
 
-/// The tensile twin as the engine sees it: eight parameters in, the curve
-/// MAPE (%) out.
-pub struct GtnSimulator {
-    model: TensileModel,
-    parameters: Vec<Parameter>,
-    outputs: Vec<String>,
-}
-
-impl GtnSimulator {
-    pub fn new(model: TensileModel, parameters: Vec<Parameter>) -> Self {
-        GtnSimulator {
-            model,
-            parameters,
-            outputs: vec!["mape_pct".into()],
-        }
-    }
-
-    pub fn model(&self) -> &TensileModel {
-        &self.model
-    }
-}
-
-impl Simulator for GtnSimulator {
-    fn parameters(&self) -> &[Parameter] {
-        &self.parameters
-    }
-    fn outputs(&self) -> &[String] {
-        &self.outputs
-    }
-    fn evaluate(&self, values: &[f64]) -> std::result::Result<Vec<f64>, String> {
-        let inputs = GtnInputs::from_values(values)?;
-        let run = self.model.run(&inputs)?;
-        Ok(vec![run.mape.mape_percent])
+/// The test as a study of the GTN twin: the eight parameters (nominal:
+/// the middle of the box) and one fit case whose observation is the test's
+/// curve, scored by the curve MAPE (logged as `mape_pct`).
+pub fn test_study(parameters: &[Parameter], test: &[TestPoint]) -> Study {
+    Study {
+        parameters: parameters
+            .iter()
+            .map(|p| StudyParameter {
+                search: p.clone(),
+                input: p.name.clone(),
+                case: None,
+                nominal: p.midpoint(),
+            })
+            .collect(),
+        cases: vec![Case {
+            name: "test".into(),
+            role: Role::Fit,
+            inputs: Vec::new(),
+            observations: vec![Observation {
+                name: "mape_pct".into(),
+                output: GTN_CURVE.into(),
+                measured: Measured::Curve {
+                    points: test
+                        .iter()
+                        .map(|p| (p.displacement_mm, p.force_kn))
+                        .collect(),
+                },
+                weight: 1.0,
+                source: "the test".into(),
+            }],
+        }],
+        named_cases: false,
+        residuals: Residuals::Relative,
+        loss: LossKind::Mean,
     }
 }
 
@@ -151,41 +156,36 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         },
     );
     let parameters = parameters(m_upper.max(1.0));
-    let simulator = GtnSimulator::new(model, parameters.clone());
+    let study = test_study(&parameters, &points);
+    let model = GtnModel::new(model);
     let directory = RunDirectory::create(&args.out)?;
-    let start = std::time::Instant::now();
-    let budget = args.max_evals as usize;
-    let progress = Progress::new("calibrate gtn", budget);
-    let mut evaluator = directory
-        .evaluator(&simulator, args.batch as usize, args.resume)?
-        .with_progress(|e| {
-            let loss = e.outcome.as_ref().ok().map(|y| y[0]);
-            progress.record(loss, e.outcome.is_err(), e.from_log);
-        });
-
-    let start_design = two_level_to_unit(
-        &orthogonal_array_l12(parameters.len()).map_err(|e| AcqError::Config(e.to_string()))?,
-    );
-    let settings = bo_settings(
-        args.batch as usize,
-        Some(args.target_mape),
-        budget,
-        args.patience.map(|p| p as usize),
-        Some(args.acquisition),
-        args.seed,
-    );
-    let result = minimise_logged(
-        &mut evaluator,
-        &parameters,
-        start_design,
-        |y| y[0],
-        &settings,
-    );
-    progress.finish();
-    let result = result?;
-    let wall_s = start.elapsed().as_secs_f64();
-
-    let evaluations = scored(evaluator.evaluations(), |y| y[0]);
+    let method = Method::Bo(BoMethod {
+        start: "l12".into(),
+        start_runs: 12,
+        max_evals: args.max_evals as usize,
+        target_loss: Some(args.target_mape),
+        acquisition: Some(args.acquisition),
+        patience: args.patience.map(|p| p as usize),
+        batch: args.batch as usize,
+        seed: args.seed,
+    });
+    let Method::Bo(bo) = &method else {
+        unreachable!("the GTN preset runs Bayesian optimisation")
+    };
+    let settings = RunSettings {
+        label: "calibrate gtn".into(),
+        title: args.test.display().to_string(),
+        spec_directory: Path::new("."),
+        parallel: args.batch as usize,
+        resume: args.resume,
+    };
+    let start_design = start_design(&parameters, bo, settings.spec_directory)?;
+    let outcome = calibrate_study(&study, &model, &method, start_design, &directory, &settings)?;
+    let Found::Bo(result) = &outcome.found else {
+        unreachable!("the GTN preset runs Bayesian optimisation")
+    };
+    let wall_s = outcome.wall_s;
+    let evaluations = scored(&outcome.evaluations, |y| y[0]);
     let Some(&(best, best_mape)) = evaluations.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
         return Err(AcqError::Config("no simulation succeeded".into()));
     };
@@ -197,7 +197,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         .collect();
     let summary = json!({
         "best_mape": best_mape,
-        "evaluations": evaluator.evaluations().len(),
+        "evaluations": outcome.evaluations.len(),
         "evaluations_to_target": result.evaluations_to_target,
         "best_params": best_params,
         "wall_s": wall_s,
@@ -206,7 +206,10 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
 
     // The calibrated curve against the test.
     let inputs = GtnInputs::from_values(&best_values).map_err(AcqError::Config)?;
-    let best_run = simulator.model().run(&inputs).map_err(AcqError::Config)?;
+    let best_run = model
+        .tensile_model()
+        .run(&inputs)
+        .map_err(AcqError::Config)?;
     let mut curve = String::from("DISPLACEMENT,FORCE\n");
     for p in &best_run.result.curve {
         curve.push_str(&format!("{},{}\n", p.displacement_mm, p.force_kn));
@@ -242,7 +245,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
     let mut best_so_far = f64::INFINITY;
     let mut running = Vec::new();
     let mut each = Vec::new();
-    for e in evaluator.evaluations() {
+    for e in &outcome.evaluations {
         if let Ok(y) = &e.outcome {
             best_so_far = best_so_far.min(y[0]);
             each.push((e.id as f64, y[0]));
@@ -273,7 +276,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
              target {} % {}; {:.1} s. Stopped: {:?}.",
             split.map_or(f64::NAN, |s| s.0),
             split.map_or(f64::NAN, |s| s.1),
-            evaluator.evaluations().len(),
+            outcome.evaluations.len(),
             args.target_mape,
             result
                 .evaluations_to_target
@@ -350,10 +353,11 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         ]);
     }
     report.table(spread);
+    write_identifiability(&mut report, &outcome.identifiability, &parameters);
     write_report(&directory, &report, "GTN calibration")?;
     println!(
         "best MAPE {best_mape:.3} % after {} simulations ({:.1} s); report in {}",
-        evaluator.evaluations().len(),
+        outcome.evaluations.len(),
         wall_s,
         directory.file("report.md").display()
     );
@@ -365,7 +369,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
             .map(|p| p.name.clone())
             .zip(best_values.iter().copied())
             .collect(),
-        evaluations: evaluator.evaluations().len(),
+        evaluations: outcome.evaluations.len(),
         evaluations_to_target: result.evaluations_to_target,
         wall_s,
         report,

@@ -1,18 +1,23 @@
-//! Which parameters the data pin down: a local, linearised analysis at the
-//! calibrated point on the GP surrogates of the fit observations (the
-//! method's own GPs, or GPs fitted to the logged runs after Bayesian
-//! optimisation).
+//! Which parameters the data pin down: a local analysis at the calibrated
+//! point on the GP surrogates of the fit observations (the method's own
+//! GPs, or GPs fitted to the logged runs after Bayesian optimisation).
 //!
-//! With residuals `r_i` (a scalar's `(model - measured) / u` when its
-//! standard uncertainty u is known, else its relative error in %; a curve's
-//! MAPE in %), the Jacobian `J = dr/du` over the unit box gives the
-//! Gauss-Newton covariance `C = (J^T J)^-1` of the parameters (in the
-//! residuals' unit squared): its diagonal is how far each parameter can
-//! move for one unit of residual, its off-diagonal the correlations. A
-//! parameter whose column of J is near zero, or whose spread exceeds half
-//! its range, is not identified; a pair with |correlation| > 0.9 is pinned
-//! down only as a combination. The loss along each parameter through the
-//! optimum (the others held) is drawn from the same GPs.
+//! - **Scalars only** (Gauss-Newton): with residuals `r_i` (a scalar's
+//!   `(model - measured) / u` when its standard uncertainty u is known, else
+//!   its relative error in %), the Jacobian `J = dr/du` over the unit box
+//!   gives the covariance `C = (J^T J)^-1` of the parameters in the
+//!   residuals' unit squared: its diagonal is how far each parameter can
+//!   move for one unit of residual.
+//! - **With a curve** (whose MAPE is no signed residual): the loss's
+//!   Hessian `H` on the GP means by central differences gives `C = 2 H^-1`:
+//!   how far each parameter can move before the loss rises by one point.
+//!
+//! A direction the data do not see (an eigenvalue of `J^T J` or `H` below
+//! 1e-10 of the largest, or negative) makes the parameters in it
+//! unidentified; a spread over half the range is the same in practice; a
+//! pair with |correlation| > 0.9 is pinned down only as a combination. The
+//! loss along each parameter through the optimum (the others held) is drawn
+//! from the same GPs.
 
 use acq_calib::evaluation::{Evaluation, Parameter};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
@@ -25,8 +30,8 @@ use super::study::{Measured, Role, Study};
 
 /// The analysis at one point.
 pub struct Identifiability {
-    /// Per parameter: the change of the residual vector's norm across the
-    /// whole range (linearised), in the residuals' unit.
+    /// Per parameter: how much the loss changes along its whole range, the
+    /// others held at the optimum.
     pub sensitivity: Vec<f64>,
     /// Per parameter: its spread for one unit of residual, as a fraction
     /// of its range (infinite when not identified).
@@ -36,6 +41,9 @@ pub struct Identifiability {
     /// True when every residual is in standard uncertainties, so the
     /// spread is the parameter's standard uncertainty.
     pub in_uncertainties: bool,
+    /// From the loss's curvature (a curve is observed): the spread is how
+    /// far a parameter moves before the loss rises by one point.
+    pub from_loss_curvature: bool,
     /// The loss along each parameter (unit position, loss), others held.
     pub slices: Vec<Vec<(f64, f64)>>,
 }
@@ -68,30 +76,44 @@ pub fn identifiability(
             }
         )
     });
-    // d(residual_i)/d(unit_j) from each GP's mean gradient.
     let at = to_unit(&parameters, calibrated);
-    let mut jacobian = DMatrix::<f64>::zeros(observations.len(), d);
-    for (i, ((_, observation), gp)) in observations.iter().zip(gps).enumerate() {
-        let gradient = gp.predict_with_gradient(&at).mean_gradient;
-        let scale = match &observation.measured {
-            Measured::Scalar {
-                uncertainty: Some(u),
-                ..
-            } if in_uncertainties => 1.0 / u,
-            Measured::Scalar { value, .. } => 100.0 / value.abs(),
-            Measured::Curve { .. } => 1.0,
-        };
-        for j in 0..d {
-            jacobian[(i, j)] = gradient[j] * scale;
-        }
-    }
-    let sensitivity: Vec<f64> = (0..d).map(|j| jacobian.column(j).norm()).collect();
-    let information = jacobian.transpose() * &jacobian;
+    let has_curve = observations
+        .iter()
+        .any(|(_, o)| matches!(o.measured, Measured::Curve { .. }));
+    let predicted = |u: &[f64]| -> Vec<f64> { gps.iter().map(|gp| gp.predict(u).mean).collect() };
+    let information = if has_curve {
+        loss_hessian(&|u: &[f64]| study.loss(&predicted(u)), &at) / 2.0
+    } else {
+        gauss_newton_information(&observations, gps, &at, in_uncertainties)
+    };
     let eigen = SymmetricEigen::new(information);
     let largest = eigen.eigenvalues.iter().fold(0.0f64, |a, &b| a.max(b));
     // Directions the data barely see are left out of the inverse: their
     // spread is reported as infinite instead of as a huge number.
     let cutoff = largest * 1e-10;
+    let slices: Vec<Vec<(f64, f64)>> = (0..d)
+        .map(|j| {
+            (0..=40)
+                .map(|step| {
+                    let mut u = at.clone();
+                    u[j] = step as f64 / 40.0;
+                    (u[j], study.loss(&predicted(&u)))
+                })
+                .collect()
+        })
+        .collect();
+    // How much the loss changes along each parameter's whole range.
+    let sensitivity: Vec<f64> = slices
+        .iter()
+        .map(|slice| {
+            let (low, high) = slice
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, l)| {
+                    (lo.min(l), hi.max(l))
+                });
+            high - low
+        })
+        .collect();
     let mut covariance = DMatrix::<f64>::zeros(d, d);
     for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
         if lambda > cutoff && lambda > 0.0 {
@@ -101,11 +123,11 @@ pub fn identifiability(
     }
     let unseen: Vec<bool> = (0..d)
         .map(|j| {
-            eigen
-                .eigenvalues
-                .iter()
-                .enumerate()
-                .any(|(k, &l)| l <= cutoff && eigen.eigenvectors[(j, k)].abs() > 0.1)
+            eigen.eigenvalues.iter().enumerate().any(|(k, &l)| {
+                // Below the cutoff, negative, or NaN: a direction the data do not see.
+                l.partial_cmp(&cutoff) != Some(std::cmp::Ordering::Greater)
+                    && eigen.eigenvectors[(j, k)].abs() > 0.1
+            })
         })
         .collect();
     let spread_of_range: Vec<f64> = (0..d)
@@ -130,25 +152,70 @@ pub fn identifiability(
                 .collect()
         })
         .collect();
-    let slices = (0..d)
-        .map(|j| {
-            (0..=40)
-                .map(|step| {
-                    let mut u = at.clone();
-                    u[j] = step as f64 / 40.0;
-                    let predicted: Vec<f64> = gps.iter().map(|gp| gp.predict(&u).mean).collect();
-                    (u[j], study.loss(&predicted))
-                })
-                .collect()
-        })
-        .collect();
     Some(Identifiability {
         sensitivity,
         spread_of_range,
         correlation,
-        in_uncertainties,
+        in_uncertainties: in_uncertainties && !has_curve,
+        from_loss_curvature: has_curve,
         slices,
     })
+}
+
+/// `J^T J` of the scalar residuals at `at` (unit box), from the GP mean
+/// gradients.
+fn gauss_newton_information(
+    observations: &[(&super::study::Case, &super::study::Observation)],
+    gps: &[Gp],
+    at: &[f64],
+    in_uncertainties: bool,
+) -> DMatrix<f64> {
+    let mut jacobian = DMatrix::<f64>::zeros(observations.len(), at.len());
+    for (i, ((_, observation), gp)) in observations.iter().zip(gps).enumerate() {
+        let gradient = gp.predict_with_gradient(at).mean_gradient;
+        let scale = match &observation.measured {
+            Measured::Scalar {
+                uncertainty: Some(u),
+                ..
+            } if in_uncertainties => 1.0 / u,
+            Measured::Scalar { value, .. } => 100.0 / value.abs(),
+            Measured::Curve { .. } => 1.0,
+        };
+        for (j, g) in gradient.iter().enumerate() {
+            jacobian[(i, j)] = g * scale;
+        }
+    }
+    jacobian.transpose() * jacobian
+}
+
+/// The Hessian of `loss` at `at` in the unit box by central differences
+/// (step 0.02; the stencil is moved inside the box at a bound).
+fn loss_hessian(loss: &dyn Fn(&[f64]) -> f64, at: &[f64]) -> DMatrix<f64> {
+    const STEP: f64 = 0.02;
+    let centre: Vec<f64> = at.iter().map(|u| u.clamp(STEP, 1.0 - STEP)).collect();
+    let d = centre.len();
+    let value = |shifts: &[(usize, f64)]| {
+        let mut u = centre.clone();
+        for &(i, h) in shifts {
+            u[i] += h;
+        }
+        loss(&u)
+    };
+    let f0 = value(&[]);
+    let mut hessian = DMatrix::<f64>::zeros(d, d);
+    for i in 0..d {
+        hessian[(i, i)] = (value(&[(i, STEP)]) - 2.0 * f0 + value(&[(i, -STEP)])) / (STEP * STEP);
+        for j in 0..i {
+            let mixed = (value(&[(i, STEP), (j, STEP)])
+                - value(&[(i, STEP), (j, -STEP)])
+                - value(&[(i, -STEP), (j, STEP)])
+                + value(&[(i, -STEP), (j, -STEP)]))
+                / (4.0 * STEP * STEP);
+            hessian[(i, j)] = mixed;
+            hessian[(j, i)] = mixed;
+        }
+    }
+    hessian
 }
 
 /// GPs of the fit outputs on the logged runs (unit-box inputs).
@@ -233,13 +300,20 @@ pub fn write_identifiability(
         report.paragraph("Too few successful model runs for the surrogates this analysis needs.");
         return;
     };
-    let unit = if analysis.in_uncertainties {
+    let unit = if analysis.from_loss_curvature {
+        "a rise of the loss by one point"
+    } else if analysis.in_uncertainties {
         "one standard uncertainty of every observation"
     } else {
-        "1 % of relative error (or MAPE) per observation"
+        "1 % of relative error per observation"
     };
     report.paragraph(format!(
-        "Linearised at the calibrated point on GP surrogates of each observation. The spread is how far a parameter can move for {unit}, as a share of its range{}.",
+        "At the calibrated point, on GP surrogates of each observation{}. The spread is how far a parameter can move for {unit}, as a share of its range{}.",
+        if analysis.from_loss_curvature {
+            " (from the loss's curvature, as a curve is observed)"
+        } else {
+            " (linearised)"
+        },
         if analysis.in_uncertainties {
             ": its standard uncertainty"
         } else {
@@ -248,28 +322,23 @@ pub fn write_identifiability(
     ));
     let mut table = Table::new(&[
         "parameter",
-        "residual change over the range",
+        "loss change along its range",
         "spread",
         "verdict",
     ]);
-    let mut sentences = Vec::new();
+    let largest = analysis.sensitivity.iter().fold(0.0f64, |a, &b| a.max(b));
+    let (mut flat, mut confounded, mut weak) = (Vec::new(), Vec::new(), Vec::new());
     for (j, p) in parameters.iter().enumerate() {
         let spread = analysis.spread_of_range[j];
-        let largest = analysis.sensitivity.iter().fold(0.0f64, |a, &b| a.max(b));
         let verdict = if !spread.is_finite() || spread > 0.5 {
-            sentences.push(if analysis.sensitivity[j] <= 1e-3 * largest {
-                format!(
-                    "{} is not identified: the data change too little when it moves.",
-                    p.name
-                )
+            if analysis.sensitivity[j] <= 1e-3 * largest {
+                flat.push(p.name.as_str());
             } else {
-                format!(
-                    "{} is not identified on its own: the data see it, but a combination with other parameters leaves them unchanged (more parameters than independent observations, or parameters that act alike).",
-                    p.name
-                )
-            });
+                confounded.push(p.name.as_str());
+            }
             "not identified"
         } else if spread > 0.1 {
+            weak.push(p.name.as_str());
             "weakly identified"
         } else {
             "identified"
@@ -285,6 +354,25 @@ pub fn write_identifiability(
             },
             verdict.into(),
         ]);
+    }
+    let mut sentences = Vec::new();
+    if !flat.is_empty() {
+        sentences.push(format!(
+            "Flat in the data, so not identified: {}. Fix them at a value from elsewhere, or add an observation they move.",
+            flat.join(", ")
+        ));
+    }
+    if !confounded.is_empty() {
+        sentences.push(format!(
+            "Seen by the data but not identified on their own: {}. Combinations of them leave every observation unchanged (more parameters than independent observations, or parameters that act alike); the values found are one of many equally good answers.",
+            confounded.join(", ")
+        ));
+    }
+    if !weak.is_empty() {
+        sentences.push(format!(
+            "Weakly identified (spread 10-50 % of the range): {}.",
+            weak.join(", ")
+        ));
     }
     for a in 0..parameters.len() {
         for b in a + 1..parameters.len() {

@@ -236,14 +236,20 @@ impl TensileModel {
             .fold(0.0, f64::max)
     }
 
+    /// Simulates one parameter set up to the test's last displacement,
+    /// without scoring it.
+    pub fn pull(&self, inputs: &GtnInputs) -> Result<PullResult, String> {
+        let twin = self.twin(inputs)?;
+        let mut loading = LoadingSettings::to(self.end_displacement_mm());
+        loading.output_interval_mm = self.settings.output_interval_mm;
+        twin.pull(&loading)
+    }
+
     /// Simulates and scores one parameter set.
     pub fn run(&self, inputs: &GtnInputs) -> Result<TensileRun, String> {
-        let twin = self.twin(inputs)?;
         let end = self.end_displacement_mm();
-        let mut loading = LoadingSettings::to(end);
-        loading.output_interval_mm = self.settings.output_interval_mm;
         let start = Instant::now();
-        let result = twin.pull(&loading)?;
+        let result = self.pull(inputs)?;
         let wall_s = start.elapsed().as_secs_f64();
         let test: Vec<(f64, f64)> = self
             .test

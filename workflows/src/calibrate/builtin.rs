@@ -198,9 +198,10 @@ impl Model for GtnModel {
                 PARAMETER_NAMES.join(", ")
             ));
         }
-        let run = self.model.run(&GtnInputs::from_values(&values)?)?;
-        let curve: Vec<(f64, f64)> = run
-            .result
+        // The study scores the curve itself: the model's own MAPE is not
+        // computed twice.
+        let result = self.model.pull(&GtnInputs::from_values(&values)?)?;
+        let curve: Vec<(f64, f64)> = result
             .curve
             .iter()
             .map(|p| (p.displacement_mm, p.force_kn))

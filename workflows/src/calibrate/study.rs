@@ -225,12 +225,21 @@ impl Study {
 
     /// The costs the search minimises, one per fit observation: relative
     /// errors (%) and MAPEs, or scalars in standard uncertainties.
+    ///
+    /// Called for every surrogate point NSGA-II tries, so it builds no
+    /// [`ObservationError`]s (their names would be allocated each time).
     pub fn objectives(&self, outputs: &[f64]) -> Vec<f64> {
-        self.errors(Role::Fit, outputs)
-            .iter()
-            .map(|e| match (self.residuals, e.normalised) {
-                (Residuals::Normalised, Some(z)) => z.abs(),
-                _ => e.error_pct,
+        self.cases_with(Role::Fit)
+            .flat_map(|(_, case)| &case.observations)
+            .zip(outputs)
+            .map(|(observation, &model)| match &observation.measured {
+                Measured::Scalar {
+                    value,
+                    uncertainty: Some(u),
+                } if self.residuals == Residuals::Normalised => (model - value).abs() / u,
+                Measured::Scalar { value, .. } => 100.0 * (model - value).abs() / value.abs(),
+                // The logged value of a curve is its MAPE already.
+                Measured::Curve { .. } => model,
             })
             .collect()
     }

@@ -335,6 +335,19 @@ fn a_shared_parameter_is_recovered_from_two_fit_cases_and_checked_on_a_validate_
     assert!(report.contains("Validation cases"), "{report}");
     assert!(report.contains("about as well"), "{report}");
 
+    // The HTML report as a reader sees it, in a real Chromium: no console
+    // error, every table and plot shown.
+    let page = common::browser::check_page(&out.join("report.html"))
+        .unwrap_or_else(|e| panic!("browser check failed: {e}"));
+    assert!(page.console_errors.is_empty(), "{:?}", page.console_errors);
+    assert!(page.tables.iter().all(|t| t.visible && t.body_rows > 0), "{:?}", page.tables);
+    let headers: Vec<&str> = page.tables.iter().map(|t| t.first_header.as_str()).collect();
+    for wanted in ["case", "parameter", "correlation", "surrogate"] {
+        assert!(headers.contains(&wanted), "{headers:?}");
+    }
+    // Identifiability, Pareto front and loss plots.
+    assert!(page.visible_svgs >= 3, "{} plots shown", page.visible_svgs);
+
     // Resumed, the study retraces itself from its logs: no model run again,
     // the same answer.
     std::fs::remove_file(out.join("summary.json")).unwrap();

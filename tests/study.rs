@@ -340,8 +340,16 @@ fn a_shared_parameter_is_recovered_from_two_fit_cases_and_checked_on_a_validate_
     let page = common::browser::check_page(&out.join("report.html"))
         .unwrap_or_else(|e| panic!("browser check failed: {e}"));
     assert!(page.console_errors.is_empty(), "{:?}", page.console_errors);
-    assert!(page.tables.iter().all(|t| t.visible && t.body_rows > 0), "{:?}", page.tables);
-    let headers: Vec<&str> = page.tables.iter().map(|t| t.first_header.as_str()).collect();
+    assert!(
+        page.tables.iter().all(|t| t.visible && t.body_rows > 0),
+        "{:?}",
+        page.tables
+    );
+    let headers: Vec<&str> = page
+        .tables
+        .iter()
+        .map(|t| t.first_header.as_str())
+        .collect();
     for wanted in ["case", "parameter", "correlation", "surrogate"] {
         assert!(headers.contains(&wanted), "{headers:?}");
     }

@@ -280,3 +280,83 @@ fn gtn_malformed_test_file_exits_3_with_the_line() {
     assert_eq!(output.status.code(), Some(3), "{}", stderr(&output));
     assert!(stderr(&output).contains("bad.csv:3"), "{}", stderr(&output));
 }
+
+#[test]
+fn gtn_with_an_explicit_flow_curve_runs_without_a_test_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.display().to_string()
+    };
+    // Linear hardening from 400 MPa: the bar yields near F = 400 MPa x
+    // 12.566 mm^2 = 5.0 kN (less the 0.1 % imperfection's section) and
+    // hardens a little by 0.3 mm.
+    let flow = write(
+        "flow.csv",
+        "PLASTIC_STRAIN,TRUE_STRESS_MPA\n0,400\n0.5,600\n",
+    );
+    let damage_off = "q1=1.5,q2=1,q3=2.25,epsN=0.3,sN=0.1,fN=0,f0=0,m=400";
+    let output = acq(&[
+        "twin",
+        "gtn",
+        "--flow-curve",
+        &flow,
+        "--param",
+        damage_off,
+        "--end-mm",
+        "0.3",
+        "--mesh",
+        "2x6",
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&output)).unwrap();
+    assert!(json["mape"].is_null(), "{json}");
+    let peak = json["max_force_kn"].as_f64().unwrap();
+    let yield_kn = 400.0 * std::f64::consts::PI * 4.0 / 1000.0;
+    assert!(peak > yield_kn * 0.99 && peak < yield_kn * 1.1, "{json}");
+
+    let refused = |args: &[&str], code: i32, wanted: &[&str]| {
+        let mut all = vec!["twin", "gtn", "--param", damage_off];
+        all.extend_from_slice(args);
+        let output = acq(&all);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(code), "{args:?}: {message}");
+        for part in wanted {
+            assert!(
+                message.contains(part),
+                "{args:?}: {part:?} not in {message}"
+            );
+        }
+    };
+    let no_column = write("no_column.csv", "STRAIN,STRESS\n0,400\n");
+    refused(
+        &["--flow-curve", &no_column, "--end-mm", "0.3"],
+        3,
+        &["no_column.csv", "PLASTIC_STRAIN"],
+    );
+    let late_start = write(
+        "late.csv",
+        "PLASTIC_STRAIN,TRUE_STRESS_MPA\n0.1,400\n0.5,600\n",
+    );
+    refused(
+        &["--flow-curve", &late_start, "--end-mm", "0.3"],
+        3,
+        &["late.csv"],
+    );
+    refused(&["--flow-curve", &flow], 2, &["--end-mm"]);
+    refused(
+        &[
+            "--flow-curve",
+            &flow,
+            "--end-mm",
+            "0.3",
+            "--imperfection",
+            "0.7",
+        ],
+        2,
+        &["--imperfection"],
+    );
+    refused(&["--flow-curve", &flow, "--end-mm", "40"], 2, &["--end-mm"]);
+}

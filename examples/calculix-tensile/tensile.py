@@ -4,6 +4,7 @@ CalculiX, calibrated by `acq calibrate external`.
 
     python3 tensile.py run --params params.json [--mesh 6x30] [--out out.json] [--curve curve.csv]
     python3 tensile.py measured --K 1000 --n 0.12 [--noise 0.005] [--seed 1] [--mesh 6x30] -o measured.csv
+    python3 tensile.py flow --K 1000 --n 0.12 -o flow.csv   (the *PLASTIC table, for acq twin gtn --flow-curve)
 
 `run` is the solver wrapper acq calls once per evaluation, in the run's own
 directory: it writes the deck `bar.inp` (the mesh made from parameters, never
@@ -15,7 +16,8 @@ logs a failed evaluation and the study goes on.
 
 The model (an axisymmetric quarter of the bar, the published tensile
 specimen): radius 2 mm, half gauge length 12.5 mm, the radius 0.5 % smaller
-at the mid-plane (so the neck forms there), CAX8R elements, `*STEP, NLGEOM`,
+at the mid-plane and blending back along a half cosine (so the neck forms
+there; the same shape as acq's own twin), CAX8R elements, `*STEP, NLGEOM`,
 the end face pulled 2.5 mm. The material: E = 210 GPa, nu = 0.3, and the
 Swift hardening law sigma = K (0.002 + eps_p)^n as a `*PLASTIC` table; K
 (MPa) and n are what the study calibrates.
@@ -81,8 +83,10 @@ def deck(k_mpa, n, radial, axial):
              "*NODE, NSET=NALL"]
     for j in range(rows):
         z = HALF_LENGTH_MM * j / (rows - 1)
-        # A linear taper from the mid-plane's smaller radius to the nominal.
-        radius = RADIUS_MM * (1.0 - IMPERFECTION * (1.0 - z / HALF_LENGTH_MM))
+        # The mid-plane's smaller radius blends into the nominal along a
+        # half cosine: the shape acq's own tensile twin uses.
+        shape = 0.5 * (1.0 + math.cos(math.pi * z / HALF_LENGTH_MM))
+        radius = RADIUS_MM * (1.0 - IMPERFECTION * shape)
         for i in range(columns):
             if i % 2 == 1 and j % 2 == 1:
                 continue  # element centres: CAX8R has no centre node
@@ -222,7 +226,17 @@ def main():
     measured.add_argument("--seed", type=int, default=1)
     measured.add_argument("--mesh", default="6x30")
     measured.add_argument("-o", "--output", required=True)
+    flow = commands.add_parser("flow", help="the Swift *PLASTIC table as acq reads it")
+    flow.add_argument("--K", type=float, required=True, dest="k_mpa")
+    flow.add_argument("--n", type=float, required=True)
+    flow.add_argument("-o", "--output", required=True)
     args = parser.parse_args()
+    if args.command == "flow":
+        with open(args.output, "w") as f:
+            f.write("PLASTIC_STRAIN,TRUE_STRESS_MPA\n")
+            for stress, strain in flow_table(args.k_mpa, args.n):
+                f.write("%.10g,%.10g\n" % (strain, stress))
+        return
     radial, axial = parse_mesh(args.mesh)
     if args.command == "run":
         k_mpa, n = read_params(args.params)

@@ -170,6 +170,57 @@ impl Default for ModelSettings {
     }
 }
 
+/// The twin of a flow curve given as (plastic strain, true stress MPa)
+/// pairs from 0 plastic strain, Young's modulus (MPa; Poisson's ratio
+/// 0.3), one GTN parameter set (m extends the table past its last point)
+/// and the bar and mesh of `settings`. Parameters out of their physical
+/// range are an error naming the parameter.
+pub fn build_twin(
+    flow_table: &[(f64, f64)],
+    youngs_modulus_mpa: f64,
+    inputs: &GtnInputs,
+    settings: &ModelSettings,
+) -> Result<TensileTwin, String> {
+    let flow = FlowCurve::new(
+        flow_table.iter().map(|p| p.0).collect(),
+        flow_table.iter().map(|p| p.1).collect(),
+        inputs.m_mpa,
+    )
+    .map_err(|e| format!("flow curve: {e}"))?;
+    let elasticity = Elasticity {
+        youngs_modulus_mpa,
+        poisson_ratio: POISSON_RATIO,
+    };
+    let material =
+        GtnMaterial::new(elasticity, inputs.parameters(), flow).map_err(|e| e.to_string())?;
+    Ok(TensileTwin {
+        geometry: settings.geometry,
+        mesh: settings.mesh,
+        material,
+    })
+}
+
+/// The header of an explicit flow curve file.
+pub const FLOW_CURVE_COLUMNS: [&str; 2] = ["PLASTIC_STRAIN", "TRUE_STRESS_MPA"];
+
+/// Reads an explicit flow curve: a CSV with `PLASTIC_STRAIN` and
+/// `TRUE_STRESS_MPA` columns (others ignored), the first row at plastic
+/// strain 0. Errors name the file and line.
+pub fn read_flow_curve(path: &std::path::Path) -> Result<Vec<(f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let rows = acq_calib::doe::read_design_csv(&text, &FLOW_CURVE_COLUMNS)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let table: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], r[1])).collect();
+    // The same checks the twin makes, with the file's name on them.
+    FlowCurve::new(
+        table.iter().map(|p| p.0).collect(),
+        table.iter().map(|p| p.1).collect(),
+        0.0,
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(table)
+}
+
 /// A test, ready to be simulated with any parameter set.
 pub struct TensileModel {
     pub test: Vec<TestPoint>,
@@ -209,23 +260,16 @@ impl TensileModel {
     /// range are an error naming the parameter.
     pub fn twin(&self, inputs: &GtnInputs) -> Result<TensileTwin, String> {
         let flow = &self.properties.flow_curve.points;
-        let flow = FlowCurve::new(
-            flow.iter().map(|p| p.plastic_strain).collect(),
-            flow.iter().map(|p| p.true_stress_mpa).collect(),
-            inputs.m_mpa,
+        let table: Vec<(f64, f64)> = flow
+            .iter()
+            .map(|p| (p.plastic_strain, p.true_stress_mpa))
+            .collect();
+        build_twin(
+            &table,
+            self.properties.youngs_modulus_mpa,
+            inputs,
+            &self.settings,
         )
-        .map_err(|e| format!("m: {e}"))?;
-        let elasticity = Elasticity {
-            youngs_modulus_mpa: self.properties.youngs_modulus_mpa,
-            poisson_ratio: POISSON_RATIO,
-        };
-        let material =
-            GtnMaterial::new(elasticity, inputs.parameters(), flow).map_err(|e| e.to_string())?;
-        Ok(TensileTwin {
-            geometry: self.settings.geometry,
-            mesh: self.settings.mesh,
-            material,
-        })
     }
 
     /// The test's last displacement, mm: where the simulation stops.

@@ -360,14 +360,26 @@ pub fn twin_report(
     text
 }
 
+/// The test's points against the twin's curve.
 pub fn comparison_svg(
     title: &str,
     test: &[acq_analysis::extract::tensile_props::TestPoint],
     curve: &[acq_twins::tensile::solver::CurvePoint],
 ) -> String {
+    labelled_comparison_svg(title, "test", test, curve)
+}
+
+/// A reference curve's points (a test, another FE code), named
+/// `reference`, against the twin's curve.
+pub fn labelled_comparison_svg(
+    title: &str,
+    reference: &str,
+    test: &[acq_analysis::extract::tensile_props::TestPoint],
+    curve: &[acq_twins::tensile::solver::CurvePoint],
+) -> String {
     let mut chart = Chart::new(title, "displacement (half gauge), mm", "force, kN");
     chart.series.push(Series {
-        name: "test".into(),
+        name: reference.into(),
         points: test
             .iter()
             .map(|p| (p.displacement_mm, p.force_kn))
@@ -375,7 +387,7 @@ pub fn comparison_svg(
         style: SeriesStyle::Markers,
     });
     chart.series.push(Series {
-        name: "GTN twin".into(),
+        name: "acq GTN twin".into(),
         points: curve
             .iter()
             .map(|p| (p.displacement_mm, p.force_kn))

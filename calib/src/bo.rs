@@ -296,6 +296,21 @@ pub fn propose(
     settings: &BoSettings,
     iteration: u64,
 ) -> Result<Vec<Vec<f64>>, BoError> {
+    propose_beside(observations, &[], settings, iteration)
+}
+
+/// The next `settings.batch` points, given points still being evaluated
+/// (`pending`): each is believed to give the GP's mean there (kriging
+/// believer), so the proposals keep away from them.
+///
+/// # Errors
+/// As [`propose`].
+pub fn propose_beside(
+    observations: &[Observation],
+    pending: &[Vec<f64>],
+    settings: &BoSettings,
+    iteration: u64,
+) -> Result<Vec<Vec<f64>>, BoError> {
     let dimensions = observations.first().map_or(0, |o| o.unit_point.len());
     if dimensions == 0 {
         return Err(BoError::TooFewObservations(0));
@@ -333,6 +348,19 @@ pub fn propose(
             points.push((x, p.mean + p.std));
         }
         gp = fit(&points, &gp_settings)?;
+    }
+    if !pending.is_empty() {
+        for x in pending {
+            let believed = gp.predict(x).mean;
+            points.push((x.clone(), believed));
+        }
+        gp = fit(
+            &points,
+            &GpSettings {
+                restarts: 1,
+                ..gp_settings.clone()
+            },
+        )?;
     }
     let mut batch = Vec::with_capacity(settings.batch);
     for pick in 0..settings.batch {
@@ -534,6 +562,128 @@ pub fn minimise<E: From<BoError>>(
         observations,
         best,
         stop,
+        evaluations_to_target,
+    })
+}
+
+/// A finished unit-box point and its loss (`None`: the run failed).
+pub type Finished = (Vec<f64>, Option<f64>);
+
+/// Where [`minimise_as_they_finish`] runs its points: start one, and take
+/// whichever running point finishes next.
+pub trait RunsAsTheyFinish<E> {
+    /// Starts evaluating a unit-box point.
+    fn start(&mut self, unit_point: Vec<f64>) -> Result<(), E>;
+    /// The next point to finish and its loss (`None`: it failed), or
+    /// `None` when nothing is running.
+    fn next_done(&mut self) -> Result<Option<Finished>, E>;
+}
+
+/// [`minimise`] with `slots` evaluations always running: the start design
+/// fills the slots, and whenever one finishes the next point is proposed
+/// at once, beside the points still running ([`propose_beside`]). No slot
+/// waits for the slowest run of a batch. With one slot it proposes exactly
+/// as [`minimise`] with batches of one.
+///
+/// The stop criteria are those of [`minimise`]; points still running when
+/// one holds are waited for and recorded.
+///
+/// # Errors
+/// The runner's error, or a proposal that cannot be made.
+pub fn minimise_as_they_finish<E: From<BoError>>(
+    initial: Vec<Vec<f64>>,
+    runs: &mut impl RunsAsTheyFinish<E>,
+    slots: usize,
+    settings: &BoSettings,
+) -> Result<BoResult, E> {
+    let slots = slots.max(1);
+    let mut observations: Vec<Observation> = Vec::new();
+    let mut evaluations_to_target = None;
+    let mut queue: std::collections::VecDeque<Vec<f64>> = initial
+        .into_iter()
+        .take(settings.max_evaluations.max(1))
+        .collect();
+    let mut running: Vec<Vec<f64>> = Vec::new();
+    let mut stop = None;
+    let mut best_so_far = f64::INFINITY;
+    let mut since_progress = 0usize;
+    let mut iteration = 0u64;
+    let one_at_a_time = BoSettings {
+        batch: 1,
+        ..settings.clone()
+    };
+    loop {
+        while stop.is_none()
+            && running.len() < slots
+            && observations.len() + running.len() < settings.max_evaluations
+        {
+            let point = match queue.pop_front() {
+                Some(point) => point,
+                None if observations.iter().filter(|o| o.loss.is_some()).count() >= 2 => {
+                    iteration += 1;
+                    let mut proposed =
+                        propose_beside(&observations, &running, &one_at_a_time, iteration)
+                            .map_err(E::from)?;
+                    proposed.remove(0)
+                }
+                // The start design has not given two successes yet: wait.
+                None => break,
+            };
+            runs.start(point.clone())?;
+            running.push(point);
+        }
+        let Some((unit_point, loss)) = runs.next_done()? else {
+            break;
+        };
+        if let Some(index) = running.iter().position(|p| *p == unit_point) {
+            running.remove(index);
+        }
+        observations.push(Observation { unit_point, loss });
+        if queue.is_empty() {
+            since_progress += 1;
+        }
+        if evaluations_to_target.is_none()
+            && settings
+                .target_loss
+                .is_some_and(|t| loss.is_some_and(|l| l <= t))
+        {
+            evaluations_to_target = Some(observations.len());
+            stop.get_or_insert(Stop::TargetReached);
+        }
+        let best = observations
+            .iter()
+            .filter_map(|o| o.loss)
+            .fold(f64::INFINITY, f64::min);
+        if best < best_so_far - settings.min_improvement * best_so_far.abs() {
+            best_so_far = best;
+            since_progress = 0;
+        }
+        if settings.patience.is_some_and(|p| since_progress >= p) {
+            stop.get_or_insert(Stop::NoProgress);
+        }
+        if observations.len() >= settings.max_evaluations {
+            stop.get_or_insert(Stop::MaxEvaluations);
+        }
+        if running.is_empty()
+            && queue.is_empty()
+            && stop.is_none()
+            && observations.iter().filter(|o| o.loss.is_some()).count() < 2
+        {
+            return Err(E::from(BoError::TooFewObservations(
+                observations.iter().filter(|o| o.loss.is_some()).count(),
+            )));
+        }
+    }
+    let best = observations
+        .iter()
+        .enumerate()
+        .filter_map(|(i, o)| o.loss.map(|l| (i, l)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(0, |(i, _)| i);
+    Ok(BoResult {
+        observations,
+        best,
+        stop: stop.unwrap_or(Stop::MaxEvaluations),
         evaluations_to_target,
     })
 }

@@ -482,8 +482,183 @@ impl<'a> Evaluator<'a> {
     /// One simulator call, with a panic or a wrong answer turned into a
     /// failure.
     fn run_one(&self, point: &[f64]) -> Result<Vec<f64>, String> {
-        let outputs = self.simulator.outputs().len();
+        run_simulator(self.simulator, point)
+    }
+
+    /// Runs evaluations as slots free up instead of in batches: `body`
+    /// starts points ([`AsyncRuns::start`]) and takes results as they
+    /// finish ([`AsyncRuns::next_done`]), so a search can propose the next
+    /// point the moment a run ends and no slot waits for a batch's slowest
+    /// run. Every result is logged as it is taken.
+    ///
+    /// A resumed run replays its log deterministically: a started point
+    /// the log already holds is answered from it, and while any such point
+    /// is in flight, `next_done` returns the one logged first, which is the
+    /// order the interrupted run saw them finish in. So the same proposals
+    /// follow, up to where the log ends.
+    pub fn run_async<R>(
+        &mut self,
+        slots: usize,
+        body: impl FnOnce(&mut AsyncRuns<'_, 'a>) -> R,
+    ) -> R {
         let simulator = self.simulator;
+        let (job_sender, job_receiver) = std::sync::mpsc::channel::<(u64, Vec<f64>)>();
+        let job_receiver = Mutex::new(job_receiver);
+        std::thread::scope(|scope| {
+            let (result_sender, result_receiver) = std::sync::mpsc::channel();
+            for _ in 0..slots.max(1) {
+                let result_sender = result_sender.clone();
+                let job_receiver = &job_receiver;
+                scope.spawn(move || loop {
+                    let job = match job_receiver.lock() {
+                        Ok(receiver) => receiver.recv(),
+                        Err(_) => break,
+                    };
+                    let Ok((ticket, point)) = job else { break };
+                    let start = Instant::now();
+                    let outcome = run_simulator(simulator, &point);
+                    let wall_s = start.elapsed().as_secs_f64();
+                    if result_sender.send((ticket, outcome, wall_s)).is_err() {
+                        break;
+                    }
+                });
+            }
+            drop(result_sender);
+            let mut runs = AsyncRuns {
+                evaluator: self,
+                jobs: Some(job_sender.clone()),
+                results: result_receiver,
+                in_flight: Vec::new(),
+                next_ticket: 0,
+            };
+            let result = body(&mut runs);
+            // Closing the queue lets the workers end once their runs do.
+            runs.jobs = None;
+            drop(job_sender);
+            result
+        })
+    }
+}
+
+/// One point started by [`AsyncRuns::start`].
+struct InFlight {
+    ticket: u64,
+    point: Vec<f64>,
+    /// Its result in the log of an earlier run, if there is one.
+    logged: Option<Evaluation>,
+}
+
+/// The runs of [`Evaluator::run_async`].
+pub struct AsyncRuns<'e, 'a> {
+    evaluator: &'e mut Evaluator<'a>,
+    jobs: Option<std::sync::mpsc::Sender<(u64, Vec<f64>)>>,
+    results: std::sync::mpsc::Receiver<(u64, Result<Vec<f64>, String>, f64)>,
+    in_flight: Vec<InFlight>,
+    next_ticket: u64,
+}
+
+impl AsyncRuns<'_, '_> {
+    /// Points started and not yet taken by `next_done`.
+    pub fn in_flight(&self) -> Vec<Vec<f64>> {
+        self.in_flight.iter().map(|f| f.point.clone()).collect()
+    }
+
+    /// Starts `point` (answered from the log when it is there).
+    pub fn start(&mut self, point: Vec<f64>) -> Result<(), EvaluationError> {
+        let n_parameters = self.evaluator.simulator.parameters().len();
+        if point.len() != n_parameters {
+            return Err(EvaluationError::Setup(format!(
+                "a point has {} values; the simulator takes {n_parameters}",
+                point.len()
+            )));
+        }
+        let ticket = self.next_ticket;
+        self.next_ticket += 1;
+        let logged = self
+            .evaluator
+            .earlier
+            .get_mut(&key(&point))
+            .and_then(|list| (!list.is_empty()).then(|| list.remove(0)));
+        if logged.is_none() {
+            let sent = self
+                .jobs
+                .as_ref()
+                .map(|jobs| jobs.send((ticket, point.clone())));
+            if !matches!(sent, Some(Ok(()))) {
+                return Err(EvaluationError::Setup(
+                    "the evaluation workers stopped unexpectedly".into(),
+                ));
+            }
+        }
+        self.in_flight.push(InFlight {
+            ticket,
+            point,
+            logged,
+        });
+        Ok(())
+    }
+
+    /// The next finished evaluation (logged before it is returned), or
+    /// `None` when nothing is in flight.
+    pub fn next_done(&mut self) -> Result<Option<Evaluation>, EvaluationError> {
+        if self.in_flight.is_empty() {
+            return Ok(None);
+        }
+        // From the log first, in the order it was written.
+        let logged = self
+            .in_flight
+            .iter()
+            .enumerate()
+            .filter_map(|(i, f)| f.logged.as_ref().map(|e| (i, e.id)))
+            .min_by_key(|&(_, id)| id)
+            .map(|(i, _)| i);
+        let evaluation = match logged {
+            Some(index) => {
+                let flight = self.in_flight.remove(index);
+                let mut evaluation = flight.logged.unwrap_or_else(|| unreachable!());
+                evaluation.from_log = true;
+                evaluation
+            }
+            None => {
+                let (ticket, outcome, wall_s) = self.results.recv().map_err(|_| {
+                    EvaluationError::Setup("the evaluation workers stopped unexpectedly".into())
+                })?;
+                let index = self
+                    .in_flight
+                    .iter()
+                    .position(|f| f.ticket == ticket)
+                    .ok_or_else(|| EvaluationError::Setup("a result nobody asked for".into()))?;
+                let flight = self.in_flight.remove(index);
+                let evaluation = Evaluation {
+                    id: self.evaluator.next_id,
+                    parameters: flight.point,
+                    outcome,
+                    wall_s,
+                    from_log: false,
+                };
+                self.evaluator.next_id += 1;
+                if let Some(log) = &self.evaluator.log {
+                    let outputs = self.evaluator.simulator.outputs().len();
+                    log.lock()
+                        .map_err(|_| EvaluationError::Setup("the log writer panicked".into()))?
+                        .append(&evaluation, outputs)?;
+                }
+                evaluation
+            }
+        };
+        if let Some(progress) = &self.evaluator.progress {
+            progress(&evaluation);
+        }
+        self.evaluator.finished.push(evaluation.clone());
+        Ok(Some(evaluation))
+    }
+}
+
+/// One simulator call, with a panic or a wrong answer turned into a
+/// failure.
+fn run_simulator(simulator: &dyn Simulator, point: &[f64]) -> Result<Vec<f64>, String> {
+    {
+        let outputs = simulator.outputs().len();
         let outcome =
             std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulator.evaluate(point)))
                 .unwrap_or_else(|payload| {
@@ -503,7 +678,7 @@ impl<'a> Evaluator<'a> {
         if let Some(i) = outcome.iter().position(|v| !v.is_finite()) {
             return Err(format!(
                 "output {} is not finite ({})",
-                self.simulator.outputs()[i],
+                simulator.outputs()[i],
                 outcome[i]
             ));
         }

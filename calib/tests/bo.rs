@@ -254,3 +254,120 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!("ucb:2.5".parse::<Acquisition>().is_ok());
     assert!("pi".parse::<Acquisition>().is_err());
 }
+
+/// Runs points on a virtual clock: a point takes `duration(point)` time
+/// units, and the one that ends first is the next done. Records, at every
+/// start, the clock and how many points run after it.
+struct VirtualClock {
+    duration: fn(&[f64]) -> f64,
+    loss: fn(&[f64]) -> f64,
+    now: f64,
+    running: Vec<(f64, Vec<f64>)>,
+    starts: Vec<(f64, usize)>,
+}
+
+impl acq_calib::bo::RunsAsTheyFinish<BoError> for VirtualClock {
+    fn start(&mut self, unit_point: Vec<f64>) -> Result<(), BoError> {
+        let ends = self.now + (self.duration)(&unit_point);
+        self.running.push((ends, unit_point));
+        self.starts.push((self.now, self.running.len()));
+        Ok(())
+    }
+    fn next_done(&mut self) -> Result<Option<acq_calib::bo::Finished>, BoError> {
+        let Some(index) = (0..self.running.len())
+            .min_by(|&a, &b| self.running[a].0.total_cmp(&self.running[b].0))
+        else {
+            return Ok(None);
+        };
+        let (ends, point) = self.running.remove(index);
+        self.now = ends;
+        let loss = (self.loss)(&point);
+        Ok(Some((point, Some(loss))))
+    }
+}
+
+fn virtual_clock(duration: fn(&[f64]) -> f64) -> VirtualClock {
+    VirtualClock {
+        duration,
+        loss: branin,
+        now: 0.0,
+        running: Vec::new(),
+        starts: Vec::new(),
+    }
+}
+
+#[test]
+fn as_they_finish_with_one_slot_proposes_exactly_as_batches_of_one() {
+    let settings = BoSettings {
+        max_evaluations: 16,
+        seed: 3,
+        ..BoSettings::default()
+    };
+    let batches = run(branin, 2, 6, &settings);
+    let mut clock = virtual_clock(|_| 1.0);
+    let streamed = acq_calib::bo::minimise_as_they_finish(
+        start_points(6, 2, settings.seed + 1),
+        &mut clock,
+        1,
+        &settings,
+    )
+    .unwrap();
+    assert_eq!(batches.observations.len(), streamed.observations.len());
+    for (a, b) in batches.observations.iter().zip(&streamed.observations) {
+        assert_eq!(a.unit_point, b.unit_point);
+        assert_eq!(a.loss, b.loss);
+    }
+}
+
+#[test]
+fn as_they_finish_no_slot_waits_and_the_minimum_is_still_found() {
+    // Runs take 1 to 4 time units depending on where they are. With 3
+    // slots, a new point must start the moment any run ends: 3 points
+    // running after every start until the budget's last ones. Batches of
+    // 3 would wait for each batch's slowest run.
+    let settings = BoSettings {
+        max_evaluations: 40,
+        batch: 3,
+        seed: 5,
+        ..BoSettings::default()
+    };
+    let duration = |u: &[f64]| 1.0 + 3.0 * u[0];
+    let mut clock = virtual_clock(duration);
+    let result =
+        acq_calib::bo::minimise_as_they_finish(start_points(10, 2, 6), &mut clock, 3, &settings)
+            .unwrap();
+    assert_eq!(result.observations.len(), 40);
+    let full = clock
+        .starts
+        .iter()
+        .filter(|(_, running)| *running == 3)
+        .count();
+    // The first two starts of the design fill the slots; every later start
+    // refills one at once.
+    assert_eq!(full, 40 - 2, "{:?}", clock.starts);
+    let regret = best_loss(&result) - BRANIN_MINIMUM;
+    assert!(regret < 0.05, "regret {regret}");
+    // Against batches of 3 on the same clock: each batch takes its slowest run.
+    let batched = run(branin, 2, 10, &settings);
+    let mut batch_time = 0.0;
+    for chunk in batched.observations[10..].chunks(3) {
+        batch_time += chunk
+            .iter()
+            .map(|o| duration(&o.unit_point))
+            .fold(0.0, f64::max);
+    }
+    let start_design_time: f64 = batched.observations[..10]
+        .chunks(3)
+        .map(|c| {
+            c.iter()
+                .map(|o| duration(&o.unit_point))
+                .fold(0.0, f64::max)
+        })
+        .sum();
+    assert!(
+        clock.now < start_design_time + batch_time,
+        "as they finish {} vs batches {}",
+        clock.now,
+        start_design_time + batch_time
+    );
+}

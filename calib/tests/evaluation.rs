@@ -234,3 +234,85 @@ fn a_log_scale_parameter_moves_in_equal_ratios() {
     let message = validate_parameters(&[zero_lower]).unwrap_err().to_string();
     assert!(message.contains("log scale needs lower > 0"), "{message}");
 }
+
+/// `y = x`, after sleeping `x` ms; counts its calls.
+struct Sleepy {
+    parameters: Vec<Parameter>,
+    outputs: Vec<String>,
+    calls: AtomicUsize,
+}
+
+impl Simulator for Sleepy {
+    fn parameters(&self) -> &[Parameter] {
+        &self.parameters
+    }
+    fn outputs(&self) -> &[String] {
+        &self.outputs
+    }
+    fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, String> {
+        self.calls.fetch_add(1, Ordering::SeqCst);
+        std::thread::sleep(std::time::Duration::from_millis(x[0] as u64));
+        Ok(vec![x[0]])
+    }
+}
+
+/// A search whose next point depends on which run finished: it starts
+/// three, then after each result starts `10 * (results so far) + that
+/// result's value mod 7`, up to 9 runs. Returns the points in the order
+/// they finished.
+fn order_dependent_search(evaluator: &mut Evaluator<'_>) -> Vec<f64> {
+    evaluator.run_async(2, |runs| {
+        for x in [60.0, 5.0, 30.0] {
+            runs.start(vec![x]).unwrap();
+        }
+        let mut finished = Vec::new();
+        let mut started = 3;
+        while let Some(done) = runs.next_done().unwrap() {
+            let x = done.parameters[0];
+            finished.push(x);
+            if started < 9 {
+                runs.start(vec![10.0 * finished.len() as f64 + x % 7.0])
+                    .unwrap();
+                started += 1;
+            }
+        }
+        finished
+    })
+}
+
+#[test]
+fn runs_as_they_finish_are_logged_and_a_resume_replays_them_in_their_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("evaluations.csv");
+    let sleepy = Sleepy {
+        parameters: vec![Parameter::new("x_ms", 0.0, 200.0)],
+        outputs: vec!["y".into()],
+        calls: AtomicUsize::new(0),
+    };
+    let first = {
+        let mut evaluator = Evaluator::create(&sleepy, &log, 2).unwrap();
+        let order = order_dependent_search(&mut evaluator);
+        assert_eq!(evaluator.evaluations().len(), 9);
+        order
+    };
+    assert_eq!(sleepy.calls.load(Ordering::SeqCst), 9);
+    // Two slots: the 5 ms run ends before the 60 ms one that started with it.
+    assert_eq!(first[0], 5.0, "{first:?}");
+    assert_eq!(
+        std::fs::read_to_string(&log).unwrap().lines().count(),
+        10,
+        "a header and nine runs"
+    );
+    // Resumed, every point comes from the log in the order it was written,
+    // so the search takes the same path and the simulator is never called.
+    let resumed = Sleepy {
+        parameters: sleepy.parameters.clone(),
+        outputs: sleepy.outputs.clone(),
+        calls: AtomicUsize::new(0),
+    };
+    let mut evaluator = Evaluator::resume(&resumed, &log, 2).unwrap();
+    let second = order_dependent_search(&mut evaluator);
+    assert_eq!(first, second);
+    assert_eq!(resumed.calls.load(Ordering::SeqCst), 0);
+    assert!(evaluator.evaluations().iter().all(|e| e.from_log));
+}

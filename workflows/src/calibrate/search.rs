@@ -2,8 +2,11 @@
 //! unit box, Bayesian optimisation through the logging evaluator, and the
 //! best distinct parameter sets of a run.
 
-use acq_calib::bo::{minimise, Acquisition, BoError, BoResult, BoSettings};
-use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_calib::bo::{
+    minimise, minimise_as_they_finish, Acquisition, BoError, BoResult, BoSettings, Finished,
+    RunsAsTheyFinish,
+};
+use acq_calib::evaluation::{AsyncRuns, Evaluation, EvaluationError, Evaluator, Parameter};
 use acq_calib::gp::{GpSettings, Kernel};
 use acq_io::error::{AcqError, Result};
 
@@ -76,6 +79,10 @@ pub fn distinct_best(
 /// engine's unit-box points are scaled to the parameters, run (in parallel,
 /// logged) and scored; a failed run is a missing loss. A log that cannot be
 /// written stops the run with that error.
+///
+/// With more than one slot (`settings.batch`), the runs go as they finish
+/// ([`minimise_as_they_finish`]): a new point is proposed as soon as one
+/// run ends, so no slot waits for the slowest run of a batch.
 pub fn minimise_logged(
     evaluator: &mut Evaluator<'_>,
     parameters: &[Parameter],
@@ -83,6 +90,22 @@ pub fn minimise_logged(
     loss: impl Fn(&[f64]) -> f64,
     settings: &BoSettings,
 ) -> Result<BoResult> {
+    if settings.batch > 1 {
+        let slots = settings.batch;
+        let result = evaluator.run_async(slots, |runs| {
+            let mut adapter = LoggedRuns {
+                runs,
+                parameters,
+                started: Vec::new(),
+                loss: &loss,
+            };
+            minimise_as_they_finish::<LoggedRunError>(initial, &mut adapter, slots, settings)
+        });
+        return result.map_err(|error| match error {
+            LoggedRunError::Log(error) => evaluation_error(error),
+            LoggedRunError::Search(error) => AcqError::Config(error.to_string()),
+        });
+    }
     let mut log_failure = None;
     let result = minimise::<BoError>(
         initial,
@@ -144,5 +167,55 @@ pub fn bo_settings(
         },
         seed,
         ..defaults
+    }
+}
+
+/// Why a run-as-they-finish search stopped short.
+enum LoggedRunError {
+    Log(EvaluationError),
+    Search(BoError),
+}
+
+impl From<BoError> for LoggedRunError {
+    fn from(error: BoError) -> Self {
+        LoggedRunError::Search(error)
+    }
+}
+
+/// The engine's unit-box points on the logging evaluator's runs.
+struct LoggedRuns<'r, 'e, 'a, L> {
+    runs: &'r mut AsyncRuns<'e, 'a>,
+    parameters: &'r [Parameter],
+    /// (parameter values, unit point) of the points started.
+    started: Vec<(Vec<f64>, Vec<f64>)>,
+    loss: &'r L,
+}
+
+impl<L: Fn(&[f64]) -> f64> RunsAsTheyFinish<LoggedRunError> for LoggedRuns<'_, '_, '_, L> {
+    fn start(&mut self, unit_point: Vec<f64>) -> std::result::Result<(), LoggedRunError> {
+        let values = from_unit(self.parameters, &unit_point);
+        self.runs
+            .start(values.clone())
+            .map_err(LoggedRunError::Log)?;
+        self.started.push((values, unit_point));
+        Ok(())
+    }
+
+    fn next_done(&mut self) -> std::result::Result<Option<Finished>, LoggedRunError> {
+        let Some(evaluation) = self.runs.next_done().map_err(LoggedRunError::Log)? else {
+            return Ok(None);
+        };
+        let index = self
+            .started
+            .iter()
+            .position(|(values, _)| *values == evaluation.parameters)
+            .ok_or_else(|| {
+                LoggedRunError::Log(EvaluationError::Setup(
+                    "a finished run matches no started point".into(),
+                ))
+            })?;
+        let (_, unit_point) = self.started.remove(index);
+        let loss = evaluation.outcome.as_ref().ok().map(|y| (self.loss)(y));
+        Ok(Some((unit_point, loss)))
     }
 }

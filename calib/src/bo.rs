@@ -552,18 +552,22 @@ pub fn minimise<E: From<BoError>>(
         );
         since_progress += count;
     };
-    let best = observations
+    Ok(BoResult {
+        best: best_index(&observations),
+        observations,
+        stop,
+        evaluations_to_target,
+    })
+}
+
+/// The index of the lowest loss (0 when none succeeded).
+fn best_index(observations: &[Observation]) -> usize {
+    observations
         .iter()
         .enumerate()
         .filter_map(|(i, o)| o.loss.map(|l| (i, l)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(0, |(i, _)| i);
-    Ok(BoResult {
-        observations,
-        best,
-        stop,
-        evaluations_to_target,
-    })
+        .map_or(0, |(i, _)| i)
 }
 
 /// A finished unit-box point and its loss (`None`: the run failed).
@@ -674,15 +678,9 @@ pub fn minimise_as_they_finish<E: From<BoError>>(
             )));
         }
     }
-    let best = observations
-        .iter()
-        .enumerate()
-        .filter_map(|(i, o)| o.loss.map(|l| (i, l)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map_or(0, |(i, _)| i);
     Ok(BoResult {
+        best: best_index(&observations),
         observations,
-        best,
         stop: stop.unwrap_or(Stop::MaxEvaluations),
         evaluations_to_target,
     })

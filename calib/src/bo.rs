@@ -350,36 +350,38 @@ pub fn propose_beside(
         gp = fit(&points, &gp_settings)?;
     }
     if !pending.is_empty() {
-        for x in pending {
-            let believed = gp.predict(x).mean;
-            points.push((x.clone(), believed));
-        }
-        gp = fit(
-            &points,
-            &GpSettings {
-                restarts: 1,
-                ..gp_settings.clone()
-            },
-        )?;
+        gp = believe(&mut points, pending, &gp, &gp_settings)?;
     }
     let mut batch = Vec::with_capacity(settings.batch);
     for pick in 0..settings.batch {
         let x = maximise_acquisition(&gp, best_modelled, &points, settings, &mut rng);
         batch.push(x.clone());
         if pick + 1 < settings.batch {
-            // Kriging believer: pretend the GP mean was observed there.
-            let believed = gp.predict(&x).mean;
-            points.push((x, believed));
-            gp = fit(
-                &points,
-                &GpSettings {
-                    restarts: 1,
-                    ..gp_settings.clone()
-                },
-            )?;
+            gp = believe(&mut points, &[x], &gp, &gp_settings)?;
         }
     }
     Ok(batch)
+}
+
+/// Kriging believer: pretends the GP's mean was observed at each of `xs`
+/// (points proposed but not evaluated yet) and refits, so the next
+/// proposal keeps away from them.
+fn believe(
+    points: &mut Vec<ModelledPoint>,
+    xs: &[Vec<f64>],
+    gp: &Gp,
+    settings: &GpSettings,
+) -> Result<Gp, GpError> {
+    for x in xs {
+        points.push((x.clone(), gp.predict(x).mean));
+    }
+    fit(
+        points,
+        &GpSettings {
+            restarts: 1,
+            ..settings.clone()
+        },
+    )
 }
 
 /// Random sampling, then L-BFGS-B from the best candidates.

@@ -11,7 +11,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{acq, path_arg, root, stderr};
+use common::{acq, calibrate_external, path_arg, root, stderr};
 
 /// Runs acq, expects `code`, and returns stderr.
 fn refused(args: &[&str], code: i32) -> String {
@@ -24,17 +24,20 @@ fn refused(args: &[&str], code: i32) -> String {
 
 /// Runs `acq calibrate external` on `spec`, expects exit 2, returns stderr.
 fn refused_external(spec: &Path, out: &Path) -> String {
-    refused(
-        &[
-            "calibrate",
-            "external",
-            "--spec",
-            path_arg(spec),
-            "--out",
-            path_arg(out),
-        ],
-        2,
-    )
+    let output = calibrate_external(spec, out, &[]);
+    let message = stderr(&output);
+    assert_eq!(
+        output.status.code(),
+        Some(2),
+        "{}: {message}",
+        spec.display()
+    );
+    assert!(
+        !message.contains("panicked"),
+        "{}: {message}",
+        spec.display()
+    );
+    message
 }
 
 fn files_in(dir: &Path) -> Vec<String> {

@@ -7,7 +7,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{acq, path_arg, root, stderr};
+use common::{acq, external_summary, number, path_arg, root, stderr};
 use serde_json::Value;
 
 /// The truth the synthetic test is made at, and its noise.
@@ -95,25 +95,7 @@ fn example_at_test_mesh(dir: &Path) -> Value {
 }
 
 fn calibrate(spec: &Path, out: &Path) -> Value {
-    let output = acq(&[
-        "calibrate",
-        "external",
-        "--spec",
-        path_arg(spec),
-        "--out",
-        path_arg(out),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
-}
-
-fn number(value: &Value, path: &[&str]) -> f64 {
-    let mut v = value;
-    for key in path {
-        v = &v[*key];
-    }
-    v.as_f64()
-        .unwrap_or_else(|| panic!("no number at {path:?} in {value:#}"))
+    external_summary(spec, out, &[])
 }
 
 #[test]

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{acq, path_arg, root, stderr, stdout};
+use common::{acq, calibrate_external, path_arg, root, stderr, stdout};
 use serde_json::Value;
 
 // ---- helpers --------------------------------------------------------------------------
@@ -598,19 +598,6 @@ fn solver_calls(log: &Path) -> (usize, usize) {
     let text = std::fs::read_to_string(log).unwrap_or_default();
     let count = |word: &str| text.lines().filter(|l| l.starts_with(word)).count();
     (count("start "), count("end "))
-}
-
-fn calibrate_external(spec: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args = vec![
-        "calibrate",
-        "external",
-        "--spec",
-        path_arg(spec),
-        "--out",
-        path_arg(out),
-    ];
-    args.extend_from_slice(extra);
-    acq(&args)
 }
 
 #[test]

@@ -7,7 +7,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{acq, path_arg, root, stderr};
+use common::{acq, external_summary, number, path_arg, root, stderr};
 use serde_json::Value;
 
 fn calibrate(kind: &str, args: &[&str]) -> std::process::Output {
@@ -21,15 +21,6 @@ fn summary(run: &Path) -> Value {
     serde_json::from_str(&text).unwrap()
 }
 
-fn number(value: &Value, path: &[&str]) -> f64 {
-    let mut v = value;
-    for key in path {
-        v = &v[*key];
-    }
-    v.as_f64()
-        .unwrap_or_else(|| panic!("no number at {path:?} in {value:#}"))
-}
-
 fn acq_binary() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_acq"))
 }
@@ -39,19 +30,7 @@ fn run_external(spec: &Path, out: &Path) -> Value {
 }
 
 fn run_external_seeded(spec: &Path, out: &Path, seed: &str) -> Value {
-    let output = calibrate(
-        "external",
-        &[
-            "--spec",
-            path_arg(spec),
-            "--out",
-            path_arg(out),
-            "--seed",
-            seed,
-        ],
-    );
-    assert!(output.status.success(), "{}", stderr(&output));
-    summary(out)
+    external_summary(spec, out, &["--seed", seed])
 }
 
 /// Writes `text` as `wrapped.toml` in `dir` and runs it into `dir/wrapped`.

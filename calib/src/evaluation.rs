@@ -102,6 +102,16 @@ pub trait Simulator: Sync {
     fn outputs(&self) -> &[String];
     /// One run. An `Err` says why the run failed (logged, never fatal).
     fn evaluate(&self, parameters: &[f64]) -> Result<Vec<f64>, String>;
+    /// Text columns the log gets after `reason` for each evaluation:
+    /// where and how it ran (a cluster's job ids and queue waits). None
+    /// by default.
+    fn note_columns(&self) -> &[String] {
+        &[]
+    }
+    /// [`Simulator::evaluate`] with one note per [`Simulator::note_columns`].
+    fn evaluate_noted(&self, parameters: &[f64]) -> (Result<Vec<f64>, String>, Vec<String>) {
+        (self.evaluate(parameters), Vec::new())
+    }
 }
 
 /// Checks the parameters of a simulator: names unique and plain (they
@@ -151,6 +161,8 @@ pub struct Evaluation {
     pub wall_s: f64,
     /// Answered from the log of an earlier run.
     pub from_log: bool,
+    /// One text per [`Simulator::note_columns`] (empty when it has none).
+    pub notes: Vec<String>,
 }
 
 /// Why evaluations cannot be run or logged (the run stops; a failed
@@ -206,11 +218,12 @@ struct Log {
 }
 
 impl Log {
-    fn header(parameters: &[Parameter], outputs: &[String]) -> String {
+    fn header(simulator: &dyn Simulator) -> String {
         let mut columns = vec!["id".to_string(), "status".into(), "wall_s".into()];
-        columns.extend(parameters.iter().map(|p| p.name.clone()));
-        columns.extend(outputs.iter().cloned());
+        columns.extend(simulator.parameters().iter().map(|p| p.name.clone()));
+        columns.extend(simulator.outputs().iter().cloned());
         columns.push("reason".into());
+        columns.extend(simulator.note_columns().iter().cloned());
         columns.join(",")
     }
 
@@ -235,6 +248,7 @@ impl Log {
                 cells.push(csv_text(reason));
             }
         }
+        cells.extend(evaluation.notes.iter().map(|note| csv_text(note)));
         let line = cells.join(",") + "\n";
         let io = |source| EvaluationError::Io {
             path: self.path.clone(),
@@ -307,7 +321,7 @@ impl<'a> Evaluator<'a> {
         resume: bool,
     ) -> Result<Self, EvaluationError> {
         validate_parameters(simulator.parameters())?;
-        let header = Log::header(simulator.parameters(), simulator.outputs());
+        let header = Log::header(simulator);
         let io = |source| EvaluationError::Io {
             path: path.to_path_buf(),
             source,
@@ -424,7 +438,7 @@ impl<'a> Evaluator<'a> {
                     while let Some(index) = queue.lock().map_or(None, |mut q| q.next()) {
                         let point = &points[index];
                         let start = Instant::now();
-                        let outcome = self.run_one(point);
+                        let (outcome, notes) = run_simulator(self.simulator, point);
                         let wall_s = start.elapsed().as_secs_f64();
                         // The id and the log line are taken together so the log
                         // is in id order.
@@ -435,6 +449,7 @@ impl<'a> Evaluator<'a> {
                             outcome,
                             wall_s,
                             from_log: false,
+                            notes,
                         };
                         *id += 1;
                         if let Some(log) = &self.log {
@@ -479,12 +494,6 @@ impl<'a> Evaluator<'a> {
         Ok(results)
     }
 
-    /// One simulator call, with a panic or a wrong answer turned into a
-    /// failure.
-    fn run_one(&self, point: &[f64]) -> Result<Vec<f64>, String> {
-        run_simulator(self.simulator, point)
-    }
-
     /// Runs evaluations as slots free up instead of in batches: `body`
     /// starts points ([`AsyncRuns::start`]) and takes results as they
     /// finish ([`AsyncRuns::next_done`]), so a search can propose the next
@@ -516,9 +525,12 @@ impl<'a> Evaluator<'a> {
                     };
                     let Ok((ticket, point)) = job else { break };
                     let start = Instant::now();
-                    let outcome = run_simulator(simulator, &point);
+                    let (outcome, notes) = run_simulator(simulator, &point);
                     let wall_s = start.elapsed().as_secs_f64();
-                    if result_sender.send((ticket, outcome, wall_s)).is_err() {
+                    if result_sender
+                        .send((ticket, outcome, wall_s, notes))
+                        .is_err()
+                    {
                         break;
                     }
                 });
@@ -548,11 +560,15 @@ struct InFlight {
     logged: Option<Evaluation>,
 }
 
+/// What a worker of [`Evaluator::run_async`] sends back: the ticket of
+/// the point, its outcome, wall time and notes.
+type RunResult = (u64, Result<Vec<f64>, String>, f64, Vec<String>);
+
 /// The runs of [`Evaluator::run_async`].
 pub struct AsyncRuns<'e, 'a> {
     evaluator: &'e mut Evaluator<'a>,
     jobs: Option<std::sync::mpsc::Sender<(u64, Vec<f64>)>>,
-    results: std::sync::mpsc::Receiver<(u64, Result<Vec<f64>, String>, f64)>,
+    results: std::sync::mpsc::Receiver<RunResult>,
     in_flight: Vec<InFlight>,
     next_ticket: u64,
 }
@@ -620,7 +636,7 @@ impl AsyncRuns<'_, '_> {
                 evaluation
             }
             None => {
-                let (ticket, outcome, wall_s) = self.results.recv().map_err(|_| {
+                let (ticket, outcome, wall_s, notes) = self.results.recv().map_err(|_| {
                     EvaluationError::Setup("the evaluation workers stopped unexpectedly".into())
                 })?;
                 let index = self
@@ -635,6 +651,7 @@ impl AsyncRuns<'_, '_> {
                     outcome,
                     wall_s,
                     from_log: false,
+                    notes,
                 };
                 self.evaluator.next_id += 1;
                 if let Some(log) = &self.evaluator.log {
@@ -656,34 +673,52 @@ impl AsyncRuns<'_, '_> {
 
 /// One simulator call, with a panic or a wrong answer turned into a
 /// failure.
-fn run_simulator(simulator: &dyn Simulator, point: &[f64]) -> Result<Vec<f64>, String> {
-    {
-        let outputs = simulator.outputs().len();
-        let outcome =
-            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulator.evaluate(point)))
-                .unwrap_or_else(|payload| {
-                    let message = payload
-                        .downcast_ref::<String>()
-                        .cloned()
-                        .or_else(|| payload.downcast_ref::<&str>().map(|s| (*s).to_string()))
-                        .unwrap_or_else(|| "unknown panic".into());
-                    Err(format!("the simulator panicked: {message}"))
-                })?;
-        if outcome.len() != outputs {
-            return Err(format!(
-                "the simulator returned {} values; {outputs} outputs were expected",
-                outcome.len()
-            ));
-        }
-        if let Some(i) = outcome.iter().position(|v| !v.is_finite()) {
-            return Err(format!(
-                "output {} is not finite ({})",
-                simulator.outputs()[i],
-                outcome[i]
-            ));
-        }
-        Ok(outcome)
+fn run_simulator(
+    simulator: &dyn Simulator,
+    point: &[f64],
+) -> (Result<Vec<f64>, String>, Vec<String>) {
+    let columns = simulator.note_columns().len();
+    let (outcome, mut notes) = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        simulator.evaluate_noted(point)
+    }))
+    .unwrap_or_else(|payload| (Err(panic_message(payload.as_ref())), Vec::new()));
+    // One note per column, whatever the simulator gave.
+    notes.resize(columns, String::new());
+    (checked_outputs(simulator, outcome), notes)
+}
+
+/// Why a simulator panicked, from the panic's payload.
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    let message = payload
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| payload.downcast_ref::<&str>().map(|s| (*s).to_string()))
+        .unwrap_or_else(|| "unknown panic".into());
+    format!("the simulator panicked: {message}")
+}
+
+/// A simulator's answer with a wrong count or a non-finite value turned
+/// into a failure.
+fn checked_outputs(
+    simulator: &dyn Simulator,
+    outcome: Result<Vec<f64>, String>,
+) -> Result<Vec<f64>, String> {
+    let outputs = simulator.outputs().len();
+    let outcome = outcome?;
+    if outcome.len() != outputs {
+        return Err(format!(
+            "the simulator returned {} values; {outputs} outputs were expected",
+            outcome.len()
+        ));
     }
+    if let Some(i) = outcome.iter().position(|v| !v.is_finite()) {
+        return Err(format!(
+            "output {} is not finite ({})",
+            simulator.outputs()[i],
+            outcome[i]
+        ));
+    }
+    Ok(outcome)
 }
 
 /// Reads a log: its records, and the length of its whole lines (a last
@@ -709,6 +744,7 @@ fn read_log(
     let mut number = 0;
     let n_parameters = simulator.parameters().len();
     let n_outputs = simulator.outputs().len();
+    let n_notes = simulator.note_columns().len();
     loop {
         bytes.clear();
         let read = reader.read_until(b'\n', &mut bytes).map_err(io)?;
@@ -736,7 +772,7 @@ fn read_log(
             continue;
         }
         let cells = split_csv_line(text);
-        let expected = 3 + n_parameters + n_outputs + 1;
+        let expected = 3 + n_parameters + n_outputs + 1 + n_notes;
         if cells.len() != expected {
             return Err(log_error(
                 number,
@@ -762,7 +798,7 @@ fn read_log(
             "ok" => Ok((3 + n_parameters..3 + n_parameters + n_outputs)
                 .map(number_at)
                 .collect::<Result<Vec<_>, _>>()?),
-            "failed" => Err(cells[expected - 1].clone()),
+            "failed" => Err(cells[3 + n_parameters + n_outputs].clone()),
             other => {
                 return Err(log_error(
                     number,
@@ -776,6 +812,7 @@ fn read_log(
             outcome,
             wall_s: cells[2].parse().unwrap_or(0.0),
             from_log: true,
+            notes: cells[expected - n_notes..].to_vec(),
         });
     }
     Ok((records, whole_length))

@@ -3,7 +3,9 @@
 #![allow(dead_code)]
 
 pub mod browser;
+pub mod calculix;
 pub mod pipeline;
+pub mod slurm;
 use std::path::Path;
 use std::process::{Command, Output};
 

@@ -118,7 +118,7 @@ proptest! {
             let timeout = Duration::try_from_secs_f64(spec.timeout_s);
             prop_assert!(timeout.is_ok(), "{text}");
             prop_assert!(Instant::now().checked_add(timeout.unwrap()).is_some(), "{text}");
-            prop_assert!((1..=256).contains(&spec.parallel), "{text}");
+            prop_assert!((1..=256).contains(&spec.runs_at_once()), "{text}");
             prop_assert!(spec.search.max_evals <= 100_000, "{text}");
             let inside = acq_io::output::inside(Path::new("run"), &spec.output_file, "output_file");
             prop_assert!(inside.is_ok(), "{text}");

@@ -3,8 +3,8 @@
 //!
 //! An [`Executor`] runs one prepared command in its run directory and says
 //! whether it succeeded. [`LocalExecutor`] runs it as a child process of
-//! acq (several at once: the study's `parallel`); a cluster executor
-//! submits it as a batch job instead. Everything else about a run (its
+//! acq (several at once: the study's `parallel`);
+//! [`super::slurm::SlurmExecutor`] submits it as a batch job instead. Everything else about a run (its
 //! directory, staged files, `params.json`, reading the outputs, retries)
 //! stays with the caller, so every executor runs the same jobs.
 
@@ -23,18 +23,54 @@ pub struct Job<'a> {
     pub timeout: Duration,
 }
 
-/// Runs jobs. `Ok` when the job ran to a zero exit status; otherwise why
-/// not, in words a user can act on (the exit status and the end of stderr,
-/// a timeout, a program that cannot start).
+/// How a job went.
+pub struct Execution {
+    /// `Ok` when the job ran to a zero exit status; otherwise why not, in
+    /// words a user can act on (the exit status and the end of stderr, a
+    /// timeout, a program that cannot start, the cluster's verdict).
+    pub outcome: Result<(), String>,
+    /// One text per [`Executor::note_columns`].
+    pub notes: Vec<String>,
+}
+
+/// Runs jobs.
 pub trait Executor: Sync {
-    fn execute(&self, job: &Job<'_>) -> Result<(), String>;
+    fn execute(&self, job: &Job<'_>) -> Execution;
+
+    /// What the executor notes about each job for the evaluation log
+    /// (a cluster's job id, queue wait, run time). None by default.
+    fn note_columns(&self) -> &[String] {
+        &[]
+    }
+
+    /// Whether `directory` holds a job this executor started before acq
+    /// was stopped, which it will re-attach to (or collect, when it has
+    /// finished) instead of starting it again.
+    fn holds_job(&self, _directory: &Path) -> bool {
+        false
+    }
+
+    /// The jobs under way, for the progress line.
+    fn status(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Child processes of acq on this machine.
 pub struct LocalExecutor;
 
 impl Executor for LocalExecutor {
-    fn execute(&self, job: &Job<'_>) -> Result<(), String> {
+    fn execute(&self, job: &Job<'_>) -> Execution {
+        Execution {
+            outcome: run_locally(job),
+            notes: Vec::new(),
+        }
+    }
+}
+
+/// One job as a child process, killed (with its children) at its timeout.
+fn run_locally(job: &Job<'_>) -> Result<(), String> {
+    {
         let directory = job.directory;
         let stdout =
             std::fs::File::create(directory.join("stdout.txt")).map_err(|e| e.to_string())?;

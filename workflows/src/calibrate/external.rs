@@ -93,9 +93,10 @@
 //! square root of the effective sample count). Any observation may have a
 //! `weight` (1 by default) in the loss and in TOPSIS.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 use std::time::Duration;
 
 use acq_analysis::extract::measured::read_measured;
@@ -111,6 +112,7 @@ use serde_json::json;
 
 use super::builtin::ExcavatorModel;
 use super::executor::{Executor, Job, LocalExecutor};
+use super::slurm::{SlurmExecutor, SlurmSettings};
 use super::study::{
     numbers_by_key_path, Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role,
     Study, StudyParameter,
@@ -164,8 +166,12 @@ pub struct Spec {
     pub timeout_s: f64,
     #[serde(default)]
     pub retries: u32,
-    #[serde(default = "default_parallel")]
-    pub parallel: usize,
+    /// Runs at a time on the local executor (`[executor] parallel` is the
+    /// same, for any executor).
+    pub parallel: Option<usize>,
+    /// Where the runs happen: `local` (child processes) or `slurm`.
+    #[serde(default)]
+    pub executor: ExecutorSpec,
     #[serde(rename = "parameter")]
     pub parameters: Vec<SpecParameter>,
     #[serde(rename = "output", default)]
@@ -179,6 +185,9 @@ pub struct Spec {
     /// The study the spec defines, built by [`Spec::load`].
     #[serde(skip)]
     study: Option<Study>,
+    /// Runs in flight at once, from `parallel` or `[executor] parallel`.
+    #[serde(skip)]
+    runs_at_once: usize,
 }
 
 fn default_model() -> String {
@@ -193,8 +202,102 @@ fn default_timeout_s() -> f64 {
     3600.0
 }
 
-fn default_parallel() -> usize {
-    1
+/// `[executor]`: where the solver runs.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExecutorSpec {
+    /// `"local"` [default] or `"slurm"`.
+    pub kind: Option<String>,
+    /// Runs (jobs) in flight at once [default: 1].
+    pub parallel: Option<usize>,
+    pub partition: Option<String>,
+    pub account: Option<String>,
+    /// Slurm's time limit per job, in Slurm's format.
+    pub time_limit: Option<String>,
+    pub cpus_per_job: Option<u32>,
+    /// Slurm's `--mem` per job (`4G`).
+    pub memory_per_job: Option<String>,
+    #[serde(default)]
+    pub sbatch_args: Vec<String>,
+    /// Lines the job script runs before the solver.
+    #[serde(default)]
+    pub prelude: Vec<String>,
+}
+
+impl ExecutorSpec {
+    fn is_slurm(&self) -> bool {
+        self.kind.as_deref() == Some("slurm")
+    }
+
+    /// Checks the section; `top_parallel` is the spec's top-level
+    /// `parallel`.
+    fn check(&self, top_parallel: Option<usize>) -> std::result::Result<usize, String> {
+        match self.kind.as_deref() {
+            None | Some("local" | "slurm") => {}
+            Some(other) => {
+                return Err(format!(
+                    "[executor] kind = {other:?}: use \"local\" (child processes of acq) or \"slurm\" (batch jobs)"
+                ))
+            }
+        }
+        let slurm_only = [
+            ("partition", self.partition.is_some()),
+            ("account", self.account.is_some()),
+            ("time_limit", self.time_limit.is_some()),
+            ("cpus_per_job", self.cpus_per_job.is_some()),
+            ("memory_per_job", self.memory_per_job.is_some()),
+            ("sbatch_args", !self.sbatch_args.is_empty()),
+            ("prelude", !self.prelude.is_empty()),
+        ];
+        if !self.is_slurm() {
+            if let Some((name, _)) = slurm_only.iter().find(|(_, given)| *given) {
+                return Err(format!(
+                    "[executor] {name} is a Slurm option; add kind = \"slurm\" or leave it out"
+                ));
+            }
+        }
+        if let Some(limit) = &self.time_limit {
+            let slurm_format = !limit.is_empty()
+                && limit
+                    .chars()
+                    .all(|c| c.is_ascii_digit() || c == ':' || c == '-')
+                || matches!(limit.as_str(), "UNLIMITED" | "INFINITE");
+            if !slurm_format {
+                return Err(format!(
+                    "[executor] time_limit = {limit:?}: give Slurm's format, minutes (\"30\"), \"H:MM:SS\" or \"D-HH:MM:SS\""
+                ));
+            }
+        }
+        if self.cpus_per_job == Some(0) {
+            return Err("[executor] cpus_per_job = 0: give at least 1".into());
+        }
+        let parallel = match (top_parallel, self.parallel) {
+            (Some(top), Some(own)) if top != own => {
+                return Err(format!(
+                "parallel = {top} and [executor] parallel = {own}: give it once, under [executor]"
+            ))
+            }
+            (top, own) => own.or(top).unwrap_or(1),
+        };
+        if !(1..=MAX_PARALLEL).contains(&parallel) {
+            return Err(format!(
+                "parallel = {parallel}: give 1 to {MAX_PARALLEL} runs at a time"
+            ));
+        }
+        Ok(parallel)
+    }
+
+    fn slurm_settings(&self) -> SlurmSettings {
+        SlurmSettings {
+            partition: self.partition.clone(),
+            account: self.account.clone(),
+            time_limit: self.time_limit.clone(),
+            cpus_per_job: self.cpus_per_job,
+            memory_per_job: self.memory_per_job.clone(),
+            sbatch_args: self.sbatch_args.clone(),
+            prelude: self.prelude.clone(),
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -649,11 +752,16 @@ impl Spec {
                 spec.retries
             )));
         }
-        if !(1..=MAX_PARALLEL).contains(&spec.parallel) {
-            return Err(problem(format!(
-                "parallel = {}: give 1 to {MAX_PARALLEL} runs at a time",
-                spec.parallel
-            )));
+        spec.runs_at_once = spec
+            .executor
+            .check(spec.parallel)
+            .map_err(|e| at("[executor]", 0, e))?;
+        if spec.model == "excavator" && spec.executor.is_slurm() {
+            return Err(at(
+                "[executor]",
+                0,
+                "model = \"excavator\" runs inside acq; a Slurm executor is for a command".into(),
+            ));
         }
         let any_run = Path::new("runs/000001");
         if !spec.output_file.is_empty() {
@@ -1003,6 +1111,11 @@ impl Spec {
         Ok(())
     }
 
+    /// Runs in flight at once (`parallel`, or `[executor] parallel`).
+    pub fn runs_at_once(&self) -> usize {
+        self.runs_at_once
+    }
+
     /// The study this spec defines.
     pub fn study(&self) -> &Study {
         self.study.as_ref().expect("Spec::load builds the study")
@@ -1037,11 +1150,21 @@ impl Spec {
                 target_loss: search.target_loss_pct,
                 acquisition: search.acquisition.as_deref().and_then(|a| a.parse().ok()),
                 patience: search.patience,
-                batch: self.parallel,
+                batch: self.runs_at_once,
                 seed,
             })
         }
     }
+}
+
+/// What one model run is asked for.
+#[derive(Clone, Copy)]
+struct RunRequest<'a> {
+    inputs: &'a [(String, f64)],
+    /// `inputs` as the `params.json` the solver reads.
+    params: &'a str,
+    scalars: &'a [&'a str],
+    curves: &'a [&'a str],
 }
 
 /// The user's solver: a command run once per model run.
@@ -1052,10 +1175,20 @@ pub struct ExternalModel {
     runs: PathBuf,
     counter: AtomicUsize,
     executor: Box<dyn Executor>,
+    /// Run directories of an interrupted run that hold a job the executor
+    /// re-attaches to, by their `params.json`, oldest first: a resumed
+    /// study that asks for the same inputs gets that job's result instead
+    /// of a new run.
+    unfinished: Mutex<HashMap<String, VecDeque<PathBuf>>>,
 }
 
 impl ExternalModel {
-    pub fn new(mut spec: Spec, spec_directory: PathBuf, runs: PathBuf) -> Self {
+    pub fn new(
+        mut spec: Spec,
+        spec_directory: PathBuf,
+        runs: PathBuf,
+        executor: Box<dyn Executor>,
+    ) -> Self {
         let highest = highest_run_number(&runs);
         // The runs start in their own directories: a program or argument that
         // names a file next to the spec must still find it.
@@ -1070,6 +1203,15 @@ impl ExternalModel {
                 }
             }
         }
+        let mut unfinished: HashMap<String, VecDeque<PathBuf>> = HashMap::new();
+        for number in 1..=highest {
+            let directory = runs.join(format!("{number:06}"));
+            if executor.holds_job(&directory) {
+                if let Ok(params) = std::fs::read_to_string(directory.join("params.json")) {
+                    unfinished.entry(params).or_default().push_back(directory);
+                }
+            }
+        }
         ExternalModel {
             spec,
             spec_directory,
@@ -1077,25 +1219,29 @@ impl ExternalModel {
             // A resumed run numbers on after the directories already there,
             // so the interrupted run's files are kept.
             counter: AtomicUsize::new(highest),
-            executor: Box::new(LocalExecutor),
+            executor,
+            unfinished: Mutex::new(unfinished),
         }
     }
 
+    /// One run of `request` in `directory`; `prepared` when the directory
+    /// already holds this run's job (a resumed run re-attaching to it).
+    /// The executor's notes go to `notes`, whatever the outcome.
     fn run_once(
         &self,
-        inputs: &[(String, f64)],
-        scalars: &[&str],
-        curves: &[&str],
+        request: &RunRequest<'_>,
         directory: &Path,
+        prepared: bool,
+        notes: &mut Vec<String>,
     ) -> std::result::Result<ModelRun, String> {
+        let RunRequest {
+            inputs,
+            params,
+            scalars,
+            curves,
+        } = *request;
         std::fs::create_dir_all(directory).map_err(|e| format!("{}: {e}", directory.display()))?;
-        let params: serde_json::Map<String, serde_json::Value> = inputs
-            .iter()
-            .map(|(name, v)| (name.clone(), json!(v)))
-            .collect();
         let params_path = directory.join("params.json");
-        std::fs::write(&params_path, serde_json::Value::Object(params).to_string())
-            .map_err(|e| format!("{}: {e}", params_path.display()))?;
         let output_path = acq_io::output::inside(directory, &self.spec.output_file, "output_file")
             .ok()
             .filter(|_| !self.spec.output_file.is_empty());
@@ -1114,11 +1260,15 @@ impl ExternalModel {
             .map(|c| acq_io::output::inside(directory, &c.file, "curve.file"))
             .collect::<Result<Vec<_>>>()
             .map_err(|e| e.to_string())?;
-        // A file left by an earlier attempt must not pass for this one's.
-        for path in output_path.iter().chain(&curve_paths) {
-            let _ = std::fs::remove_file(path);
+        if !prepared {
+            std::fs::write(&params_path, params)
+                .map_err(|e| format!("{}: {e}", params_path.display()))?;
+            // A file left by an earlier attempt must not pass for this one's.
+            for path in output_path.iter().chain(&curve_paths) {
+                let _ = std::fs::remove_file(path);
+            }
+            self.stage_files(directory)?;
         }
-        self.stage_files(directory)?;
         let substitute = |argument: &str| -> String {
             let mut text = argument
                 .replace("{params}", &params_path.display().to_string())
@@ -1135,11 +1285,13 @@ impl ExternalModel {
             text
         };
         let argv: Vec<String> = self.spec.command.iter().map(|a| substitute(a)).collect();
-        self.executor.execute(&Job {
+        let execution = self.executor.execute(&Job {
             argv: &argv,
             directory,
             timeout: Duration::from_secs_f64(self.spec.timeout_s),
-        })?;
+        });
+        *notes = execution.notes;
+        execution.outcome?;
         let scalars = match (&output_path, scalars.is_empty()) {
             (_, true) => Vec::new(),
             (Some(path), false) => read_outputs(path, scalars)?,
@@ -1163,16 +1315,61 @@ impl Model for ExternalModel {
         scalars: &[&str],
         curves: &[&str],
     ) -> std::result::Result<ModelRun, String> {
+        self.run_noted(inputs, scalars, curves).0
+    }
+
+    fn note_columns(&self) -> &[String] {
+        self.executor.note_columns()
+    }
+
+    /// Each attempt's notes, space-separated per column.
+    fn run_noted(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> (std::result::Result<ModelRun, String>, Vec<String>) {
+        let params: serde_json::Map<String, serde_json::Value> = inputs
+            .iter()
+            .map(|(name, v)| (name.clone(), json!(v)))
+            .collect();
+        let params = serde_json::Value::Object(params).to_string();
+        let mut notes = vec![String::new(); self.note_columns().len()];
         let mut reasons = Vec::new();
         for attempt in 0..=self.spec.retries {
-            let number = self.counter.fetch_add(1, Ordering::SeqCst) + 1;
-            let directory = self.runs.join(format!("{number:06}"));
-            match self.run_once(inputs, scalars, curves, &directory) {
-                Ok(run) => return Ok(run),
+            let held = self
+                .unfinished
+                .lock()
+                .ok()
+                .and_then(|mut unfinished| unfinished.get_mut(&params)?.pop_front());
+            let directory = held.clone().unwrap_or_else(|| {
+                let number = self.counter.fetch_add(1, Ordering::SeqCst) + 1;
+                self.runs.join(format!("{number:06}"))
+            });
+            let mut run_notes = Vec::new();
+            let request = RunRequest {
+                inputs,
+                params: &params,
+                scalars,
+                curves,
+            };
+            let outcome = self.run_once(&request, &directory, held.is_some(), &mut run_notes);
+            for (note, run_note) in notes.iter_mut().zip(run_notes) {
+                if !note.is_empty() && !run_note.is_empty() {
+                    note.push(' ');
+                }
+                note.push_str(&run_note);
+            }
+            match outcome {
+                Ok(run) => return (Ok(run), notes),
                 Err(reason) => reasons.push(format!("attempt {}: {reason}", attempt + 1)),
             }
         }
-        Err(reasons.join("; "))
+        (Err(reasons.join("; ")), notes)
+    }
+
+    fn status(&self) -> Option<String> {
+        self.executor.status()
     }
 }
 
@@ -1278,7 +1475,7 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         }
         Method::SurrogateMoo(_) => Vec::new(),
     };
-    let parallel = spec.parallel.max(1);
+    let parallel = spec.runs_at_once.max(1);
     let settings = RunSettings {
         label: "calibrate external".into(),
         title: args.spec.display().to_string(),
@@ -1306,10 +1503,18 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         let directory = super::run_directory::RunDirectory::create(&args.out)?;
         return study_runner::run_study(&study, &model, &method, initial, &directory, &settings);
     }
+    let executor: Box<dyn Executor> = if spec.executor.is_slurm() {
+        Box::new(
+            SlurmExecutor::new(spec.executor.slurm_settings())
+                .map_err(|e| AcqError::Config(format!("{}: {e}", args.spec.display())))?,
+        )
+    } else {
+        Box::new(LocalExecutor)
+    };
     let directory = super::run_directory::RunDirectory::create(&args.out)?;
     let runs = std::fs::canonicalize(&directory.path)
         .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
         .join("runs");
-    let model = ExternalModel::new(spec, spec_directory.clone(), runs);
+    let model = ExternalModel::new(spec, spec_directory.clone(), runs, executor);
     study_runner::run_study(&study, &model, &method, initial, &directory, &settings)
 }

@@ -25,6 +25,7 @@ pub mod progress;
 pub mod report;
 pub mod run_directory;
 pub mod search;
+pub mod slurm;
 pub mod study;
 pub mod study_runner;
 pub mod surrogate_moo;

@@ -6,11 +6,13 @@ use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
 use std::time::Instant;
 
-pub struct Progress {
+pub struct Progress<'a> {
     label: String,
     total: usize,
     terminal: bool,
     state: Mutex<State>,
+    /// What the runs under way are doing (a cluster's job counts).
+    status: Option<Box<dyn Fn() -> Option<String> + Sync + 'a>>,
 }
 
 struct State {
@@ -24,7 +26,7 @@ struct State {
     start: Instant,
 }
 
-impl Progress {
+impl<'a> Progress<'a> {
     /// `total` is the evaluation budget (the bar's 100 %).
     pub fn new(label: impl Into<String>, total: usize) -> Self {
         Progress {
@@ -40,7 +42,14 @@ impl Progress {
                 last_plain_done: 0,
                 start: Instant::now(),
             }),
+            status: None,
         }
+    }
+
+    /// Adds `status` (when it says something) to every line.
+    pub fn with_status(mut self, status: impl Fn() -> Option<String> + Sync + 'a) -> Self {
+        self.status = Some(Box::new(status));
+        self
     }
 
     /// One more evaluation; `loss` is its loss when it has one.
@@ -74,8 +83,13 @@ impl Progress {
         let best = state
             .best
             .map_or_else(|| "-".to_string(), |b| format!("{b:.4}"));
+        let status = self
+            .status
+            .as_ref()
+            .and_then(|status| status())
+            .map_or_else(String::new, |status| format!("; {status}"));
         format!(
-            "{} [{}{}] {}/{} evaluations, best loss {best}, {} failed, {} from the log, {:.0} s",
+            "{} [{}{}] {}/{} evaluations, best loss {best}, {} failed, {} from the log, {:.0} s{status}",
             self.label,
             "#".repeat(filled),
             " ".repeat(WIDTH - filled),

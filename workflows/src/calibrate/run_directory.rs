@@ -1,7 +1,7 @@
 //! A calibration's run directory and the evaluator that logs into it.
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use acq_calib::evaluation::{EvaluationError, Evaluator, Simulator};
 use acq_io::error::{AcqError, Result};
@@ -44,53 +44,67 @@ impl RunDirectory {
 
 /// From now on Ctrl-C (SIGINT) or SIGTERM ends the run with exit code
 /// 130 and says how to continue it: every finished evaluation is already
-/// whole in `evaluations.csv`, so `--resume` picks up from there.
+/// whole in `evaluations.csv`, so `--resume` picks up from there. Before
+/// that, the hooks of [`on_interrupt`] run (a cluster executor cancels
+/// the jobs it submitted).
+///
+/// The signal is taken by a thread of its own (signal-hook's self-pipe),
+/// not in a handler, so the hooks may start programs (`scancel`).
 pub fn say_how_to_resume_on_interrupt(run_directory: &Path) {
     let message = format!(
-        "\nacq: interrupted; every finished model run is in {}. Run the same command with --resume to continue without repeating one.\n",
+        "\nacq: interrupted; every finished model run is in {}. Run the same command with --resume to continue without repeating one.",
         run_directory.join("evaluations.csv").display()
     );
-    if INTERRUPT_MESSAGE.set(message.into_bytes()).is_err() {
+    if INTERRUPT_WATCHER.set(()).is_err() {
         return; // installed already
     }
-    let action = SigAction::new(
-        SigHandler::Handler(on_interrupt),
-        SaFlags::empty(),
-        SigSet::empty(),
-    );
-    for signal in [Signal::SIGINT, Signal::SIGTERM] {
-        // SAFETY: `on_interrupt` calls only async-signal-safe functions
-        // (write(2), _exit(2)) and reads a OnceLock that was set before
-        // the handler was installed and is never changed again.
-        let previous = unsafe { sigaction(signal, &action) };
-        // A signal the shell set to be ignored (a background job) stays ignored.
-        if let Ok(previous) = previous {
-            if matches!(previous.handler(), SigHandler::SigIgn) {
-                // SAFETY: puts back the disposition that was there.
-                let _ = unsafe { sigaction(signal, &previous) };
+    // A signal the shell set to be ignored (a background job) stays ignored.
+    let wanted: Vec<i32> = [Signal::SIGINT, Signal::SIGTERM]
+        .into_iter()
+        .filter(|&signal| !is_ignored(signal))
+        .map(|signal| signal as i32)
+        .collect();
+    let Ok(mut signals) = signal_hook::iterator::Signals::new(&wanted) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if signals.forever().next().is_some() {
+            let hooks =
+                std::mem::take(&mut *INTERRUPT_HOOKS.lock().unwrap_or_else(|p| p.into_inner()));
+            for hook in hooks {
+                hook();
             }
+            eprintln!("{message}");
+            std::process::exit(130);
         }
-    }
+    });
 }
 
-/// What the interrupt handler writes, built before it is installed.
-static INTERRUPT_MESSAGE: OnceLock<Vec<u8>> = OnceLock::new();
+/// Runs `hook` when the run is interrupted (Ctrl-C, SIGTERM), before acq
+/// exits; see [`say_how_to_resume_on_interrupt`].
+pub fn on_interrupt(hook: impl FnOnce() + Send + 'static) {
+    INTERRUPT_HOOKS
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .push(Box::new(hook));
+}
 
-extern "C" fn on_interrupt(_signal: nix::libc::c_int) {
-    if let Some(message) = INTERRUPT_MESSAGE.get() {
-        // SAFETY: write(2) on stderr with a buffer that lives for the whole
-        // program; the result is ignored (nothing else can be done here).
-        let _ = unsafe {
-            nix::libc::write(
-                nix::libc::STDERR_FILENO,
-                message.as_ptr().cast(),
-                message.len(),
-            )
-        };
-    }
-    // SAFETY: _exit(2) is async-signal-safe and ends the process at once;
-    // the evaluation log holds only whole, synced lines, so nothing is lost.
-    unsafe { nix::libc::_exit(130) }
+type InterruptHook = Box<dyn FnOnce() + Send>;
+static INTERRUPT_HOOKS: Mutex<Vec<InterruptHook>> = Mutex::new(Vec::new());
+static INTERRUPT_WATCHER: OnceLock<()> = OnceLock::new();
+
+/// Whether `signal` is ignored (by the shell that started acq).
+fn is_ignored(signal: Signal) -> bool {
+    let default = SigAction::new(SigHandler::SigDfl, SaFlags::empty(), SigSet::empty());
+    // SAFETY: installs the default disposition for a moment to read the
+    // one in place, which is put back at once; no handler of ours runs
+    // in between (signal-hook registers only after this returns).
+    let Ok(previous) = (unsafe { sigaction(signal, &default) }) else {
+        return false;
+    };
+    // SAFETY: puts back the disposition that was there.
+    let _ = unsafe { sigaction(signal, &previous) };
+    matches!(previous.handler(), SigHandler::SigIgn)
 }
 
 /// An engine error as the CLI reports it: a bad log or setup is a

@@ -38,6 +38,29 @@ pub trait Model: Sync {
         scalars: &[&str],
         curves: &[&str],
     ) -> Result<ModelRun, String>;
+
+    /// Text columns about where each run happened (a cluster's job id,
+    /// queue wait and run time), logged with every evaluation. None for a
+    /// model that runs inside acq.
+    fn note_columns(&self) -> &[String] {
+        &[]
+    }
+
+    /// [`Model::run`] with one note per [`Model::note_columns`].
+    fn run_noted(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> (Result<ModelRun, String>, Vec<String>) {
+        (self.run(inputs, scalars, curves), Vec::new())
+    }
+
+    /// A short status of the runs under way (`2 pending, 1 running`) for
+    /// the progress line, when the model has one.
+    fn status(&self) -> Option<String> {
+        None
+    }
 }
 
 /// What one model run gave.
@@ -322,7 +345,23 @@ impl Simulator for StudySimulator<'_> {
     fn outputs(&self) -> &[String] {
         &self.outputs
     }
+    fn note_columns(&self) -> &[String] {
+        self.model.note_columns()
+    }
     fn evaluate(&self, values: &[f64]) -> Result<Vec<f64>, String> {
+        self.evaluate_noted(values).0
+    }
+    /// Each case's run in turn; a note column holds the notes of every
+    /// case's run, space-separated.
+    fn evaluate_noted(&self, values: &[f64]) -> (Result<Vec<f64>, String>, Vec<String>) {
+        let mut notes = vec![String::new(); self.model.note_columns().len()];
+        let outcome = self.evaluate_cases(values, &mut notes);
+        (outcome, notes)
+    }
+}
+
+impl StudySimulator<'_> {
+    fn evaluate_cases(&self, values: &[f64], notes: &mut [String]) -> Result<Vec<f64>, String> {
         let mut outputs = Vec::with_capacity(self.outputs.len());
         for (index, case) in self.study.cases_with(self.role) {
             let scalars: Vec<&str> = case
@@ -344,10 +383,16 @@ impl Simulator for StudySimulator<'_> {
                     reason
                 }
             };
-            let run = self
-                .model
-                .run(&self.study.inputs_of(index, values), &scalars, &curves)
-                .map_err(in_case)?;
+            let (run, run_notes) =
+                self.model
+                    .run_noted(&self.study.inputs_of(index, values), &scalars, &curves);
+            for (note, run_note) in notes.iter_mut().zip(run_notes) {
+                if !note.is_empty() && !run_note.is_empty() {
+                    note.push(' ');
+                }
+                note.push_str(&run_note);
+            }
+            let run = run.map_err(in_case)?;
             let (mut scalar, mut curve) = (run.scalars.iter(), run.curves.iter());
             for observation in &case.observations {
                 outputs.push(match &observation.measured {

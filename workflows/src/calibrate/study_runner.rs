@@ -122,6 +122,8 @@ pub struct StudyOutcome {
     pub failed: usize,
     pub wall_s: f64,
     pub identifiability: Option<Identifiability>,
+    /// The model's note columns (where each run happened), as logged.
+    pub note_columns: Vec<String>,
 }
 
 /// Runs the study; `initial` is the BO start design (ignored by
@@ -154,7 +156,7 @@ pub fn calibrate_study(
         Method::Bo(bo) => bo.max_evals,
         Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
     };
-    let progress = Progress::new(settings.label.clone(), budget);
+    let progress = Progress::new(settings.label.clone(), budget).with_status(|| model.status());
     let start = Instant::now();
     let mut evaluator = directory
         .evaluator(&simulator, settings.parallel, settings.resume)?
@@ -235,6 +237,7 @@ pub fn calibrate_study(
         failed,
         wall_s: start.elapsed().as_secs_f64(),
         identifiability,
+        note_columns: model.note_columns().to_vec(),
     })
 }
 
@@ -255,6 +258,7 @@ pub fn write_study(
         failed,
         wall_s,
         identifiability: analysis,
+        note_columns,
     } = outcome;
     let (failed, wall_s) = (*failed, *wall_s);
     let parameters = study.search_parameters();
@@ -476,6 +480,7 @@ pub fn write_study(
         caption: "loss per model evaluation".into(),
         svg: chart_svg(&loss_chart(study, all_evaluations), 720.0, 420.0),
     });
+    write_runs_section(&mut report, note_columns, all_evaluations);
     write_report(directory, &report, "Calibration study")?;
     println!(
         "loss {:.4} after {evaluations} model evaluations ({failed} failed); report in {}",
@@ -483,6 +488,65 @@ pub fn write_study(
         directory.file("report.md").display()
     );
     Ok(())
+}
+
+/// Where each evaluation ran (the model's notes: a cluster's job ids,
+/// queue waits and run times), when the model notes anything.
+fn write_runs_section(report: &mut Document, columns: &[String], evaluations: &[Evaluation]) {
+    if columns.is_empty()
+        || evaluations
+            .iter()
+            .all(|e| e.notes.iter().all(String::is_empty))
+    {
+        return;
+    }
+    report.heading(2, "Where the runs ran");
+    // Per-job seconds, over every job of every evaluation.
+    let seconds = |column: &str| -> Vec<f64> {
+        let Some(index) = columns.iter().position(|c| c == column) else {
+            return Vec::new();
+        };
+        evaluations
+            .iter()
+            .filter_map(|e| e.notes.get(index))
+            .flat_map(|note| note.split_whitespace().filter_map(|v| v.parse().ok()))
+            .collect()
+    };
+    let (waits, runs) = (seconds("queue_wait_s"), seconds("run_s"));
+    if !waits.is_empty() && !runs.is_empty() {
+        let median = |values: &[f64]| {
+            let mut sorted = values.to_vec();
+            sorted.sort_by(f64::total_cmp);
+            sorted[sorted.len() / 2]
+        };
+        let largest = |values: &[f64]| values.iter().copied().fold(0.0f64, f64::max);
+        report.paragraph(format!(
+            "{} jobs: queue wait median {:.2} s (largest {:.2} s), run time median {:.2} s (largest {:.2} s). Evaluations answered from the log of an earlier run show the notes logged then.",
+            runs.len(),
+            median(&waits),
+            largest(&waits),
+            median(&runs),
+            largest(&runs)
+        ));
+    }
+    let mut header = vec!["evaluation".to_string(), "status".to_string()];
+    header.extend(columns.iter().cloned());
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut table = Table::new(&header);
+    for evaluation in evaluations {
+        let mut cells = vec![
+            evaluation.id.to_string(),
+            if evaluation.outcome.is_ok() {
+                "ok"
+            } else {
+                "failed"
+            }
+            .to_string(),
+        ];
+        cells.extend(evaluation.notes.iter().cloned());
+        table.row(cells);
+    }
+    report.table(table);
 }
 
 /// What a method found.

@@ -1,0 +1,265 @@
+//! A real one-node Slurm cluster on this machine, for the tests of acq's
+//! Slurm executor: Debian's `slurmctld`, `slurmd` and `munge`, started in a
+//! temporary directory with a generated `slurm.conf` (the recipe of
+//! `../shared/reference/slurm-on-one-machine.md`), on free ports so that
+//! nothing else on the machine is disturbed. Stopped by the pids in its
+//! pid files when dropped. scripts/test installs the packages.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+pub struct Cluster {
+    directory: tempfile::TempDir,
+    pub conf: PathBuf,
+    pub node: String,
+    /// munged's pid when this cluster started it.
+    started_munged: Option<i32>,
+}
+
+fn require(program: &str) {
+    let found = Command::new("sh")
+        .args(["-c", &format!("command -v {program}")])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        found,
+        "{program} is not installed; the Slurm tests start a real cluster. Install \
+         slurmctld slurmd slurm-client munge (scripts/test does)"
+    );
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|listener| listener.local_addr())
+        .map(|address| address.port())
+        .expect("a free TCP port")
+}
+
+fn pid_in(path: &Path) -> Option<i32> {
+    std::fs::read_to_string(path).ok()?.trim().parse().ok()
+}
+
+fn alive(pid: i32) -> bool {
+    Path::new(&format!("/proc/{pid}")).exists()
+        && !std::fs::read_to_string(format!("/proc/{pid}/stat"))
+            .unwrap_or_default()
+            .contains(") Z ")
+}
+
+impl Cluster {
+    pub fn start() -> Cluster {
+        for program in [
+            "munged",
+            "slurmctld",
+            "slurmd",
+            "sbatch",
+            "squeue",
+            "scontrol",
+        ] {
+            require(program);
+        }
+        let started_munged = start_munged();
+        let directory = tempfile::Builder::new()
+            .prefix("acq-slurm-")
+            .tempdir()
+            .unwrap();
+        let dir = directory.path();
+        for sub in ["spool", "state", "log"] {
+            std::fs::create_dir_all(dir.join(sub)).unwrap();
+        }
+        let node = String::from_utf8(Command::new("hostname").arg("-s").output().unwrap().stdout)
+            .unwrap()
+            .trim()
+            .to_string();
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let d = dir.display();
+        let conf = dir.join("slurm.conf");
+        std::fs::write(
+            &conf,
+            format!(
+                "ClusterName=acqtest\n\
+                 SlurmctldHost={node}\n\
+                 SlurmctldPort={}\n\
+                 SlurmdPort={}\n\
+                 AuthType=auth/munge\n\
+                 ProctrackType=proctrack/linuxproc\n\
+                 TaskPlugin=task/none\n\
+                 SchedulerType=sched/backfill\n\
+                 SelectType=select/cons_tres\n\
+                 SelectTypeParameters=CR_Core\n\
+                 SlurmctldPidFile={d}/slurmctld.pid\n\
+                 SlurmdPidFile={d}/slurmd.pid\n\
+                 SlurmdSpoolDir={d}/spool\n\
+                 StateSaveLocation={d}/state\n\
+                 SlurmctldLogFile={d}/log/ctld.log\n\
+                 SlurmdLogFile={d}/log/d.log\n\
+                 SlurmUser=root\n\
+                 ReturnToService=2\n\
+                 KillWait=2\n\
+                 NodeName={node} CPUs={cpus} State=UNKNOWN\n\
+                 PartitionName=debug Nodes={node} Default=YES MaxTime=INFINITE State=UP\n",
+                free_port(),
+                free_port()
+            ),
+        )
+        .unwrap();
+        let cluster = Cluster {
+            directory,
+            conf,
+            node,
+            started_munged,
+        };
+        for daemon in ["/usr/sbin/slurmctld", "/usr/sbin/slurmd"] {
+            let status = Command::new(daemon)
+                .arg("-f")
+                .arg(&cluster.conf)
+                .env("SLURM_CONF", &cluster.conf)
+                .stdin(Stdio::null())
+                .status()
+                .unwrap();
+            assert!(status.success(), "{daemon} did not start: {status}");
+        }
+        cluster.wait_for_node("idle", Duration::from_secs(60));
+        cluster
+    }
+
+    /// A Slurm command against this cluster.
+    pub fn command(&self, program: &str) -> Command {
+        let mut command = Command::new(program);
+        command.env("SLURM_CONF", &self.conf).stdin(Stdio::null());
+        command
+    }
+
+    pub fn run(&self, program: &str, args: &[&str]) -> Output {
+        let output = self.command(program).args(args).output().unwrap();
+        assert!(
+            output.status.success(),
+            "{program} {args:?}: {}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        output
+    }
+
+    /// The node's state as `sinfo` says it (`idle`, `mix`, `drain`...).
+    pub fn node_state(&self) -> String {
+        let output = self.run("sinfo", &["-h", "-N", "-o", "%t"]);
+        String::from_utf8_lossy(&output.stdout).trim().to_string()
+    }
+
+    pub fn wait_for_node(&self, state: &str, limit: Duration) {
+        let deadline = Instant::now() + limit;
+        loop {
+            let output = self
+                .command("sinfo")
+                .args(["-h", "-N", "-o", "%t"])
+                .output()
+                .unwrap();
+            let now = String::from_utf8_lossy(&output.stdout).trim().to_string();
+            if now == state {
+                return;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "the test cluster's node is {now:?}, not {state:?}, after {limit:?}; logs in {}",
+                self.directory.path().join("log").display()
+            );
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+
+    /// `(state, restarts)` of a job from `scontrol show job`.
+    pub fn job(&self, id: u64) -> (String, u32) {
+        let output = self.run("scontrol", &["show", "job", &id.to_string()]);
+        let text = String::from_utf8_lossy(&output.stdout).into_owned();
+        let field = |name: &str| -> String {
+            text.split_whitespace()
+                .find_map(|word| word.strip_prefix(&format!("{name}=")))
+                .unwrap_or("")
+                .to_string()
+        };
+        (field("JobState"), field("Restarts").parse().unwrap_or(0))
+    }
+
+    /// Lets a requeued job start now: Slurm holds one back two minutes
+    /// (reason BeginTime), as an admin may cut short.
+    pub fn start_now(&self, id: u64) {
+        self.run(
+            "scontrol",
+            &["update", &format!("JobId={id}"), "StartTime=now"],
+        );
+    }
+
+    /// Waits until job `id` is in `state`.
+    pub fn wait_for_job(&self, id: u64, state: &str, limit: Duration) {
+        let deadline = Instant::now() + limit;
+        loop {
+            let (now, _) = self.job(id);
+            if now == state {
+                return;
+            }
+            assert!(
+                Instant::now() < deadline,
+                "job {id} is {now}, not {state}, after {limit:?}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        let dir = self.directory.path();
+        let mut pids: Vec<i32> = ["slurmd.pid", "slurmctld.pid"]
+            .iter()
+            .filter_map(|name| pid_in(&dir.join(name)))
+            .collect();
+        pids.extend(self.started_munged);
+        for &pid in &pids {
+            let _ = nix::sys::signal::kill(
+                nix::unistd::Pid::from_raw(pid),
+                nix::sys::signal::Signal::SIGTERM,
+            );
+        }
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while pids.iter().any(|&pid| alive(pid)) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        for &pid in pids.iter().filter(|&&pid| alive(pid)) {
+            let _ = nix::sys::signal::kill(
+                nix::unistd::Pid::from_raw(pid),
+                nix::sys::signal::Signal::SIGKILL,
+            );
+        }
+    }
+}
+
+/// Starts munged unless it runs; its pid when started here.
+fn start_munged() -> Option<i32> {
+    let pid_file = Path::new("/run/munge/munged.pid");
+    if pid_in(pid_file).is_some_and(alive) {
+        return None;
+    }
+    let _ = std::fs::create_dir_all("/run/munge");
+    let _ = Command::new("chown")
+        .args(["munge:munge", "/run/munge"])
+        .status();
+    let status = Command::new("/usr/sbin/munged")
+        .arg("--force")
+        .stdin(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(
+        status.success(),
+        "munged did not start ({status}); the Slurm tests need munge's key (/etc/munge/munge.key) and root"
+    );
+    let deadline = Instant::now() + Duration::from_secs(10);
+    loop {
+        if let Some(pid) = pid_in(pid_file).filter(|&pid| alive(pid)) {
+            return Some(pid);
+        }
+        assert!(Instant::now() < deadline, "munged wrote no pid file");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}

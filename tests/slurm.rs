@@ -1,0 +1,566 @@
+//! acq's Slurm executor on a real one-node Slurm cluster started by the
+//! test (tests/common/slurm.rs), never a mock. The cluster starts once and
+//! the scenarios run one after the other on it: the worked CalculiX
+//! example calibrated on Slurm, a job cancelled from outside, acq's own
+//! timeout, a requeued job, a drained and a failed node, acq killed with
+//! SIGKILL and resumed, and Ctrl-C that cancels acq's jobs and nobody
+//! else's.
+//!
+//! The toy solver records every run it completes (its `SLURM_JOB_ID` and
+//! inputs) in a file of its own, outside acq's bookkeeping: that file is
+//! the independent check that no evaluation ran twice and none was lost.
+
+mod common;
+
+use std::collections::{BTreeSet, HashMap};
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::calculix::{example_at_test_mesh, TRUE_K_MPA, TRUE_N};
+use common::slurm::Cluster;
+use common::{number, path_arg, root};
+use nix::sys::signal::{kill, signal, SigHandler, Signal};
+use nix::unistd::Pid;
+
+const SOLVER: &str = r#"import json, os, sys, time
+params = json.load(open(sys.argv[1]))
+x, y = params["x"], params["y"]
+hang_below = os.environ.get("ACQ_TEST_HANG_BELOW_X")
+if hang_below is not None and x < float(hang_below):
+    time.sleep(600)
+time.sleep(float(os.environ.get("ACQ_TEST_SLEEP_S", "0.5")))
+with open(os.environ["ACQ_TEST_RAN"], "a") as ran:
+    ran.write(os.environ.get("SLURM_JOB_ID", "-") + " " + json.dumps(params, sort_keys=True) + "\n")
+json.dump({"f": 1.0 + (x - 0.3) ** 2 + (y + 0.2) ** 2, "g": 2.0 + x * y}, open(sys.argv[2], "w"))
+"#;
+
+/// A BO study of the toy solver on Slurm in `dir`, `parallel` jobs at a
+/// time, `evaluations` of them after a start design of `start_runs`; its
+/// spec and run directory.
+fn toy_study(
+    dir: &Path,
+    parallel: usize,
+    start_runs: usize,
+    evaluations: usize,
+    timeout_s: u32,
+) -> (PathBuf, PathBuf) {
+    std::fs::write(dir.join("solver.py"), SOLVER).unwrap();
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            r#"command = ["python3", "solver.py", "{{params}}", "{{out}}"]
+output_file = "out.json"
+timeout_s = {timeout_s}
+
+[executor]
+kind = "slurm"
+parallel = {parallel}
+
+[[parameter]]
+name = "x"
+lower = -1.0
+upper = 1.0
+
+[[parameter]]
+name = "y"
+lower = -1.0
+upper = 1.0
+
+[[output]]
+name = "f"
+measured = 1.0
+
+[[output]]
+name = "g"
+measured = 1.94
+
+[search]
+method = "bo"
+start_runs = {start_runs}
+max_evals = {evaluations}
+"#
+        ),
+    )
+    .unwrap();
+    (spec, dir.join("run"))
+}
+
+/// `acq calibrate external` against the cluster, started and not waited
+/// for; stderr goes to `out`'s sibling `stderr.txt`.
+fn start_acq(
+    cluster: &Cluster,
+    spec: &Path,
+    out: &Path,
+    extra: &[&str],
+    environment: &[(&str, &str)],
+) -> Child {
+    let stderr = out.with_extension("stderr.txt");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_acq"));
+    command
+        .args(["calibrate", "external", "--spec", path_arg(spec)])
+        .args(["--out", path_arg(out)])
+        .args(extra)
+        .env("SLURM_CONF", &cluster.conf)
+        .env("ACQ_TEST_RAN", spec.with_file_name("ran.txt"))
+        .envs(environment.iter().copied())
+        .current_dir(root())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(stderr)
+                .unwrap(),
+        );
+    // A test started from a non-interactive shell inherits an ignored
+    // SIGINT, and exec keeps it ignored: give acq the default, as on a
+    // terminal.
+    // SAFETY: only sigaction (async-signal-safe) runs between fork and exec.
+    unsafe {
+        command.pre_exec(|| {
+            signal(Signal::SIGINT, SigHandler::SigDfl)
+                .map(drop)
+                .map_err(std::io::Error::from)
+        });
+    }
+    command.spawn().unwrap()
+}
+
+fn said(out: &Path) -> String {
+    std::fs::read_to_string(out.with_extension("stderr.txt")).unwrap_or_default()
+}
+
+/// Waits for acq to end within `limit`; its exit code.
+fn finish(mut child: Child, out: &Path, limit: Duration) -> i32 {
+    let deadline = Instant::now() + limit;
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status.code().unwrap_or(-1);
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("acq did not end in {limit:?}: {}", said(out));
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Waits for acq to end well within `limit`.
+fn finish_ok(child: Child, out: &Path, limit: Duration) {
+    assert_eq!(finish(child, out, limit), 0, "{}", said(out));
+}
+
+/// Polls `condition` every 50 ms until it gives something.
+fn wait_for<T>(what: &str, limit: Duration, mut condition: impl FnMut() -> Option<T>) -> T {
+    let deadline = Instant::now() + limit;
+    loop {
+        if let Some(found) = condition() {
+            return found;
+        }
+        assert!(Instant::now() < deadline, "no {what} within {limit:?}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The job ids acq noted in the run directories, by directory.
+fn submitted(out: &Path) -> Vec<(PathBuf, u64)> {
+    let mut jobs: Vec<(PathBuf, u64)> = std::fs::read_dir(out.join("runs"))
+        .map(|entries| {
+            entries
+                .filter_map(|entry| {
+                    let directory = entry.ok()?.path();
+                    let id = std::fs::read_to_string(directory.join("slurm_job_id"))
+                        .ok()?
+                        .trim()
+                        .parse()
+                        .ok()?;
+                    Some((directory, id))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    jobs.sort();
+    jobs
+}
+
+/// The first job of the run in `state`.
+fn a_job_in(cluster: &Cluster, out: &Path, state: &str) -> Option<u64> {
+    submitted(out)
+        .into_iter()
+        .map(|(_, id)| id)
+        .find(|&id| cluster.job(id).0 == state)
+}
+
+/// Waits for a job of the run in `state`.
+fn wait_for_a_job_in(cluster: &Cluster, out: &Path, state: &str) -> u64 {
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        if let Some(id) = a_job_in(cluster, out, state) {
+            return id;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no job of acq {state} within a minute; acq said: {}",
+            said(out)
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// The rows of `evaluations.csv` by column name.
+fn evaluations(out: &Path) -> Vec<HashMap<String, String>> {
+    let mut reader = csv::Reader::from_path(out.join("evaluations.csv")).unwrap();
+    let header = reader.headers().unwrap().clone();
+    reader
+        .records()
+        .map(|record| {
+            header
+                .iter()
+                .map(String::from)
+                .zip(record.unwrap().iter().map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+/// What the solver itself recorded: `(SLURM_JOB_ID, inputs)` per
+/// completed run.
+fn solver_runs(dir: &Path) -> Vec<(String, String)> {
+    std::fs::read_to_string(dir.join("ran.txt"))
+        .unwrap_or_default()
+        .lines()
+        .map(|line| {
+            let (id, params) = line.split_once(' ').unwrap();
+            (id.to_string(), params.to_string())
+        })
+        .collect()
+}
+
+/// One scenario on the shared cluster.
+type Scenario = fn(&Cluster);
+
+#[test]
+fn acq_on_a_real_slurm_cluster() {
+    let cluster = Cluster::start();
+    let scenarios: [(&str, Scenario); 7] = [
+        ("the worked CalculiX example", calculix_example_on_slurm),
+        ("a job cancelled from outside", job_cancelled_from_outside),
+        ("acq's own timeout", job_exceeding_acqs_timeout),
+        ("a requeued job", requeued_job),
+        ("a drained node and a failed one", drained_and_failed_node),
+        ("SIGKILL, then --resume", killed_and_resumed),
+        ("Ctrl-C", ctrl_c_cancels_only_acqs_jobs),
+    ];
+    // ACQ_SLURM_SCENARIO=word runs only the scenarios whose name has it
+    // (while working on one).
+    let only = std::env::var("ACQ_SLURM_SCENARIO").unwrap_or_default();
+    for (name, scenario) in scenarios {
+        if !name.contains(&only) {
+            continue;
+        }
+        eprintln!("== {name}");
+        let start = Instant::now();
+        scenario(&cluster);
+        eprintln!("   passed in {:.1} s", start.elapsed().as_secs_f64());
+        cluster.wait_for_node("idle", Duration::from_secs(60));
+    }
+}
+
+/// The example's BO study with its jobs on Slurm recovers the truth as it
+/// does locally (tests/calculix.rs states the tolerance and why), and
+/// every evaluation names the job it ran in.
+fn calculix_example_on_slurm(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    example_at_test_mesh(dir.path());
+    let spec = dir.path().join("spec-bo.toml");
+    let text = std::fs::read_to_string(&spec).unwrap() + "\n[executor]\nkind = \"slurm\"\n";
+    std::fs::write(&spec, text).unwrap();
+    let out = dir.path().join("run");
+    let child = start_acq(cluster, &spec, &out, &[], &[]);
+    finish_ok(child, &out, Duration::from_secs(900));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let k = number(&summary, &["best_params", "K_mpa"]);
+    let n = number(&summary, &["best_params", "n"]);
+    assert!((k - TRUE_K_MPA).abs() < 0.02 * TRUE_K_MPA, "K = {k} MPa");
+    assert!((n - TRUE_N).abs() < 0.05 * TRUE_N, "n = {n}");
+    let rows = evaluations(&out);
+    let logged: BTreeSet<u64> = rows
+        .iter()
+        .map(|row| {
+            row["job_id"]
+                .parse()
+                .expect("every evaluation names its job")
+        })
+        .collect();
+    let jobs: BTreeSet<u64> = submitted(&out).into_iter().map(|(_, id)| id).collect();
+    assert_eq!(logged, jobs, "one job per evaluation, each logged");
+    for row in &rows {
+        let wait: f64 = row["queue_wait_s"].parse().unwrap();
+        let run: f64 = row["run_s"].parse().unwrap();
+        assert!((0.0..60.0).contains(&wait) && run > 0.0, "{row:?}");
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("## Where the runs ran"),
+        "the report gives each run's queue wait and run time"
+    );
+}
+
+/// A job scancelled by someone else is a failed evaluation that says so;
+/// the study goes on to its budget.
+fn job_cancelled_from_outside(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, out) = toy_study(dir.path(), 2, 4, 6, 120);
+    // Long enough that the job cannot end between the test seeing it run
+    // and its scancel.
+    let child = start_acq(cluster, &spec, &out, &[], &[("ACQ_TEST_SLEEP_S", "6")]);
+    let victim = wait_for_a_job_in(cluster, &out, "RUNNING");
+    cluster.run("scancel", &[&victim.to_string()]);
+    finish_ok(child, &out, Duration::from_secs(300));
+    let rows = evaluations(&out);
+    assert_eq!(rows.len(), 6, "the study went on to its budget");
+    let row = rows
+        .iter()
+        .find(|row| row["job_id"] == victim.to_string())
+        .expect("the cancelled job's evaluation is logged");
+    assert_eq!(row["status"], "failed");
+    assert!(
+        row["reason"].contains("cancelled from outside acq"),
+        "{}",
+        row["reason"]
+    );
+    assert_eq!(rows.iter().filter(|r| r["status"] == "ok").count(), 5);
+}
+
+/// A run longer than acq's timeout (shorter than Slurm's minute) is
+/// scancelled by acq within about a second of it, and failed with the
+/// reason; the others go on.
+fn job_exceeding_acqs_timeout(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    // An LHS of 4 puts one point in each quarter of x: the two below 0 hang.
+    let (spec, out) = toy_study(dir.path(), 2, 4, 4, 3);
+    let start = Instant::now();
+    let child = start_acq(cluster, &spec, &out, &[], &[("ACQ_TEST_HANG_BELOW_X", "0")]);
+    finish_ok(child, &out, Duration::from_secs(120));
+    // Two rounds of at most 3 s each plus scheduling, not Slurm's minute.
+    assert!(
+        start.elapsed() < Duration::from_secs(40),
+        "acq's 3 s timeout was not enforced: {:?}",
+        start.elapsed()
+    );
+    let rows = evaluations(&out);
+    let timed_out: Vec<&HashMap<String, String>> =
+        rows.iter().filter(|r| r["status"] == "failed").collect();
+    assert_eq!(timed_out.len(), 2, "{rows:?}");
+    for row in timed_out {
+        assert!(row["x"].parse::<f64>().unwrap() < 0.0);
+        assert!(
+            row["reason"].contains("timed out after 3 s"),
+            "{}",
+            row["reason"]
+        );
+        let id: u64 = row["job_id"].parse().unwrap();
+        assert_eq!(cluster.job(id).0, "CANCELLED", "acq scancelled job {id}");
+    }
+}
+
+/// A job an admin requeues runs again (Slurm delays a requeued job by two
+/// minutes; the test, as the admin, lets it start at once), and its
+/// evaluation is the rerun's result, not a failure.
+fn requeued_job(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, out) = toy_study(dir.path(), 1, 2, 3, 120);
+    let child = start_acq(cluster, &spec, &out, &[], &[("ACQ_TEST_SLEEP_S", "3")]);
+    let job = wait_for_a_job_in(cluster, &out, "RUNNING");
+    cluster.run("scontrol", &["requeue", &job.to_string()]);
+    cluster.wait_for_job(job, "PENDING", Duration::from_secs(30));
+    wait_for("acq noticing the requeue", Duration::from_secs(10), || {
+        said(&out).contains("requeued").then_some(())
+    });
+    cluster.start_now(job);
+    finish_ok(child, &out, Duration::from_secs(120));
+    assert_eq!(cluster.job(job), ("COMPLETED".into(), 1));
+    let rows = evaluations(&out);
+    assert!(rows.iter().all(|r| r["status"] == "ok"), "{rows:?}");
+    let runs = solver_runs(dir.path());
+    assert_eq!(
+        runs.iter().filter(|(id, _)| *id == job.to_string()).count(),
+        1,
+        "the requeued job completed once (its first run was killed)"
+    );
+}
+
+/// With the node drained, acq's next job waits and acq says why; once the
+/// node is back it runs. A node that fails under a running job has Slurm
+/// requeue it, and the evaluation is the rerun's.
+fn drained_and_failed_node(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, out) = toy_study(dir.path(), 1, 3, 3, 120);
+    let child = start_acq(cluster, &spec, &out, &[], &[("ACQ_TEST_SLEEP_S", "2")]);
+    let node = format!("NodeName={}", cluster.node);
+    let first = wait_for_a_job_in(cluster, &out, "RUNNING");
+    cluster.run(
+        "scontrol",
+        &["update", &node, "State=DRAIN", "Reason=acq-test"],
+    );
+    let waiting = wait_for(
+        "a job waiting on the drained node",
+        Duration::from_secs(30),
+        || a_job_in(cluster, &out, "PENDING"),
+    );
+    assert_ne!(
+        waiting, first,
+        "the running job went on while the node drained"
+    );
+    wait_for(
+        "acq saying why the job waits",
+        Duration::from_secs(10),
+        || {
+            said(&out)
+                .contains(&format!("Slurm job {waiting} waits"))
+                .then_some(())
+        },
+    );
+    cluster.run("scontrol", &["update", &node, "State=RESUME"]);
+    // The third job: its node fails while it runs.
+    let third = wait_for("third job running", Duration::from_secs(60), || {
+        submitted(&out)
+            .get(2)
+            .map(|&(_, id)| id)
+            .filter(|&id| cluster.job(id).0 == "RUNNING")
+    });
+    cluster.run(
+        "scontrol",
+        &["update", &node, "State=DOWN", "Reason=acq-test"],
+    );
+    cluster.wait_for_job(third, "PENDING", Duration::from_secs(30));
+    cluster.wait_for_node("idle", Duration::from_secs(60));
+    cluster.start_now(third);
+    finish_ok(child, &out, Duration::from_secs(120));
+    let rows = evaluations(&out);
+    assert_eq!(rows.len(), 3);
+    assert!(rows.iter().all(|r| r["status"] == "ok"), "{rows:?}");
+    assert_eq!(
+        cluster.job(third).1,
+        1,
+        "Slurm requeued the job of the failed node"
+    );
+}
+
+/// acq killed with SIGKILL while jobs run; `--resume` re-attaches to them
+/// (and collects those that ended meanwhile) instead of submitting them
+/// again. The solver's own record: every point ran exactly once, and every
+/// run is an evaluation.
+fn killed_and_resumed(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, out) = toy_study(dir.path(), 2, 4, 8, 120);
+    let environment = [("ACQ_TEST_SLEEP_S", "2")];
+    let child = start_acq(cluster, &spec, &out, &[], &environment);
+    wait_for(
+        "3 logged evaluations and 2 jobs in flight",
+        Duration::from_secs(120),
+        || {
+            let logged = std::fs::read_to_string(out.join("evaluations.csv"))
+                .map(|t| t.lines().count().saturating_sub(1))
+                .unwrap_or(0);
+            (logged >= 3 && submitted(&out).len() >= logged + 2).then_some(())
+        },
+    );
+    kill(Pid::from_raw(child.id() as i32), Signal::SIGKILL).unwrap();
+    assert_eq!(finish(child, &out, Duration::from_secs(10)), -1);
+    let before = submitted(&out);
+    let in_flight: Vec<u64> = before
+        .iter()
+        .map(|&(_, id)| id)
+        .filter(|&id| matches!(cluster.job(id).0.as_str(), "RUNNING" | "PENDING"))
+        .collect();
+    let child = start_acq(cluster, &spec, &out, &["--resume"], &environment);
+    finish_ok(child, &out, Duration::from_secs(300));
+    let rows = evaluations(&out);
+    assert_eq!(rows.len(), 8, "{rows:?}");
+    assert!(rows.iter().all(|r| r["status"] == "ok"), "{rows:?}");
+    let after = submitted(&out);
+    assert_eq!(after.len(), 8, "one job per evaluation: {after:?}");
+    for (directory, id) in &before {
+        assert!(
+            after.contains(&(directory.clone(), *id)),
+            "job {id} of the killed run was submitted again"
+        );
+    }
+    let runs = solver_runs(dir.path());
+    let points: BTreeSet<&String> = runs.iter().map(|(_, params)| params).collect();
+    assert_eq!(points.len(), runs.len(), "a point ran twice: {runs:?}");
+    let ran: BTreeSet<String> = runs.iter().map(|(id, _)| id.clone()).collect();
+    let logged: BTreeSet<String> = rows.iter().map(|r| r["job_id"].clone()).collect();
+    assert_eq!(ran, logged, "every run is an evaluation and no run is lost");
+    assert!(
+        in_flight.iter().all(|id| logged.contains(&id.to_string())),
+        "the jobs in flight at the kill were collected: {in_flight:?}"
+    );
+}
+
+/// Ctrl-C: acq cancels the jobs it submitted, by id, and exits 130; a job
+/// of someone else on the same cluster runs on. `--resume` then submits the
+/// cancelled evaluation again and finishes.
+fn ctrl_c_cancels_only_acqs_jobs(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let foreign: u64 = String::from_utf8(
+        cluster
+            .run(
+                "sbatch",
+                &[
+                    "--parsable",
+                    "--job-name=someone-else",
+                    &format!("--output={}/foreign.txt", dir.path().display()),
+                    "--wrap",
+                    "sleep 120",
+                ],
+            )
+            .stdout,
+    )
+    .unwrap()
+    .trim()
+    .parse()
+    .unwrap();
+    cluster.wait_for_job(foreign, "RUNNING", Duration::from_secs(30));
+    let (spec, out) = toy_study(dir.path(), 1, 2, 3, 120);
+    let environment = [("ACQ_TEST_SLEEP_S", "30")];
+    let child = start_acq(cluster, &spec, &out, &[], &environment);
+    let ours = wait_for("acq's job running", Duration::from_secs(60), || {
+        a_job_in(cluster, &out, "RUNNING")
+    });
+    kill(Pid::from_raw(child.id() as i32), Signal::SIGINT).unwrap();
+    assert_eq!(
+        finish(child, &out, Duration::from_secs(30)),
+        130,
+        "{}",
+        said(&out)
+    );
+    assert!(
+        said(&out).contains(&format!("cancelled its 1 Slurm job(s) {ours}")),
+        "{}",
+        said(&out)
+    );
+    cluster.wait_for_job(ours, "CANCELLED", Duration::from_secs(30));
+    assert_eq!(cluster.job(foreign).0, "RUNNING", "another job was touched");
+    cluster.run("scancel", &[&foreign.to_string()]);
+    let child = start_acq(
+        cluster,
+        &spec,
+        &out,
+        &["--resume"],
+        &[("ACQ_TEST_SLEEP_S", "0.5")],
+    );
+    finish_ok(child, &out, Duration::from_secs(120));
+    let rows = evaluations(&out);
+    assert_eq!(rows.len(), 3);
+    assert!(
+        rows.iter().all(|r| r["status"] == "ok"),
+        "the evaluation acq cancelled ran again on --resume: {rows:?}"
+    );
+}

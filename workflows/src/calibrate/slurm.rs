@@ -1,0 +1,702 @@
+//! Model runs as Slurm batch jobs: one `sbatch --parsable` per run.
+//!
+//! Each run's directory gets a job script, `job.sh`, kept for the user
+//! (`sbatch job.sh` in that directory runs the same solver again). It runs
+//! the prelude lines (`module load abaqus`), then the solver's argv with
+//! every word quoted (no shell expansion), and writes the solver's exit
+//! status to `exit_status` (through a rename, so it is whole when seen) and
+//! its start time to `started_at`. The job id goes to `slurm_job_id` the
+//! moment `sbatch` answers.
+//!
+//! A run has ended when `exit_status` appears (polled every 50 ms) or when
+//! Slurm says the job ended without one (cancelled, timed out, node
+//! failure). Job states come from `squeue` (one call for all of acq's jobs,
+//! at most once a second); no accounting database is needed. acq's own
+//! timeout counts from the job's start, not its submission: a job waiting
+//! in the queue is not slow. What the cluster does to a job:
+//! - a non-zero exit: a failed run, with the end of its stderr;
+//! - cancelled by someone else, or Slurm's time limit: a failed run, with
+//!   the state;
+//! - requeued (by an admin, or preempted with requeue): Slurm runs it
+//!   again; acq waits for the rerun and says so;
+//! - preempted (cancel mode), node failure, boot failure: the cluster's
+//!   fault, not the solver's; submitted again, at most twice;
+//! - a drained node: the job waits, and the progress line says why.
+//!
+//! On acq's timeout, Ctrl-C or SIGTERM, acq `scancel`s the jobs it
+//! submitted, by id, and nothing else. After SIGKILL the jobs run on; a
+//! `--resume` finds their ids in the run directories and re-attaches
+//! (collecting those that finished meanwhile) instead of submitting again.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use super::executor::{end_of_stderr, Execution, Executor, Job};
+
+/// The user's `[executor]` options for Slurm.
+#[derive(Clone, Debug, Default)]
+pub struct SlurmSettings {
+    pub partition: Option<String>,
+    pub account: Option<String>,
+    /// Slurm's format (`30`, `1:30:00`, `2-00:00:00`) [default: acq's
+    /// timeout rounded up to whole minutes, plus one].
+    pub time_limit: Option<String>,
+    pub cpus_per_job: Option<u32>,
+    /// Slurm's `--mem` format (`4G`).
+    pub memory_per_job: Option<String>,
+    /// More `sbatch` arguments, as given.
+    pub sbatch_args: Vec<String>,
+    /// Shell lines run before the solver in the job script.
+    pub prelude: Vec<String>,
+}
+
+const JOB_SCRIPT: &str = "job.sh";
+const JOB_ID: &str = "slurm_job_id";
+const EXIT_STATUS: &str = "exit_status";
+const STARTED_AT: &str = "started_at";
+const SUBMITTED_AT: &str = "submitted_at";
+/// Marks a job acq cancelled itself (Ctrl-C, an error): a `--resume`
+/// submits it again rather than collect a cancelled job.
+const CANCELLED_BY_ACQ: &str = "cancelled_by_acq";
+/// How often a waiting run looks for its exit status file.
+const FILE_POLL: Duration = Duration::from_millis(50);
+/// How often `squeue` is asked (one call for all jobs).
+const QUEUE_POLL: Duration = Duration::from_millis(500);
+/// Times a job the cluster lost (node failure, preemption) is submitted
+/// again before the run is failed.
+const RESUBMISSIONS: u32 = 2;
+/// Successful `squeue` answers without a job before it counts as gone
+/// (a shared file system may show its exit status a moment late).
+const GONE_AFTER_POLLS: u32 = 4;
+
+/// What `squeue` said about a job.
+#[derive(Clone, Debug, PartialEq)]
+struct JobState {
+    /// Slurm's state name: PENDING, RUNNING, COMPLETED, CANCELLED...
+    state: String,
+    /// Slurm's reason (why it pends).
+    reason: String,
+    /// Times Slurm requeued it.
+    restarts: u32,
+}
+
+/// acq's jobs still in Slurm, by id.
+type LiveJobs = BTreeMap<u64, LiveJob>;
+
+struct LiveJob {
+    phase: Phase,
+    directory: PathBuf,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Phase {
+    Pending(String),
+    Running,
+}
+
+/// The latest `squeue` answer, shared by every waiting run.
+#[derive(Default)]
+struct QueueView {
+    asked: Option<Instant>,
+    /// `None` when the last call failed (no news: nothing is concluded).
+    states: Option<HashMap<u64, JobState>>,
+    /// Successful answers in a row that did not list a job.
+    missing: HashMap<u64, u32>,
+}
+
+pub struct SlurmExecutor {
+    settings: SlurmSettings,
+    columns: Vec<String>,
+    queue: Mutex<QueueView>,
+    live: Arc<Mutex<LiveJobs>>,
+    /// Runs ended well and not.
+    ended: Mutex<(usize, usize)>,
+}
+
+impl SlurmExecutor {
+    /// Checks that Slurm answers (its commands are installed and the
+    /// controller is up, `SLURM_CONF` honoured) and arranges for acq's jobs
+    /// to be cancelled on Ctrl-C or SIGTERM.
+    pub fn new(settings: SlurmSettings) -> Result<Self, String> {
+        let probe = Command::new("squeue")
+            .args(["-h", "-o", "%i", "-j", "1"])
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| {
+                format!("executor kind = \"slurm\": cannot run squeue ({e}); run acq where Slurm's client commands are installed (a login node)")
+            })?;
+        let said = String::from_utf8_lossy(&probe.stderr);
+        if !probe.status.success() && !said.contains("Invalid job id") {
+            return Err(format!(
+                "executor kind = \"slurm\": Slurm does not answer: {}{}",
+                said.trim(),
+                std::env::var("SLURM_CONF")
+                    .map(|conf| format!(" (SLURM_CONF={conf})"))
+                    .unwrap_or_default()
+            ));
+        }
+        let live = Arc::new(Mutex::new(LiveJobs::new()));
+        let on_interrupt = Arc::clone(&live);
+        super::run_directory::on_interrupt(move || {
+            let ids = cancel_live(&on_interrupt);
+            if !ids.is_empty() {
+                eprintln!(
+                    "\nacq: cancelled its {} Slurm job(s) {}",
+                    ids.len(),
+                    ids.iter().map(u64::to_string).collect::<Vec<_>>().join(" ")
+                );
+            }
+        });
+        Ok(SlurmExecutor {
+            settings,
+            columns: vec!["job_id".into(), "queue_wait_s".into(), "run_s".into()],
+            queue: Mutex::new(QueueView::default()),
+            live,
+            ended: Mutex::new((0, 0)),
+        })
+    }
+
+    /// The job script for `argv`.
+    fn script(&self, argv: &[String]) -> String {
+        let mut text = String::from(
+            "#!/bin/bash\n\
+             # Written by acq for one model run; `sbatch job.sh` here runs it again.\n\
+             rm -f exit_status exit_status.partial\n\
+             date +%s.%N > started_at\n",
+        );
+        for line in &self.settings.prelude {
+            text.push_str(line);
+            text.push('\n');
+        }
+        let words: Vec<String> = argv.iter().map(|word| shell_quote(word)).collect();
+        text.push_str(&words.join(" "));
+        text.push_str(
+            " </dev/null\n\
+             status=$?\n\
+             echo \"$status\" > exit_status.partial && mv exit_status.partial exit_status\n\
+             exit \"$status\"\n",
+        );
+        text
+    }
+
+    /// `sbatch`'s arguments for a run in `directory`.
+    fn sbatch_arguments(&self, directory: &Path, timeout: Duration) -> Vec<String> {
+        let name = directory
+            .file_name()
+            .map_or_else(|| "run".into(), |n| n.to_string_lossy().into_owned());
+        let minutes = timeout.as_secs().div_ceil(60) + 1;
+        let mut arguments = vec![
+            "--parsable".to_string(),
+            format!("--job-name=acq-{name}"),
+            format!("--chdir={}", directory.display()),
+            "--output=stdout.txt".into(),
+            "--error=stderr.txt".into(),
+            format!(
+                "--time={}",
+                self.settings
+                    .time_limit
+                    .clone()
+                    .unwrap_or_else(|| minutes.to_string())
+            ),
+        ];
+        let settings = &self.settings;
+        arguments.extend(
+            settings
+                .partition
+                .iter()
+                .map(|p| format!("--partition={p}")),
+        );
+        arguments.extend(settings.account.iter().map(|a| format!("--account={a}")));
+        arguments.extend(
+            settings
+                .cpus_per_job
+                .iter()
+                .map(|c| format!("--cpus-per-task={c}")),
+        );
+        arguments.extend(settings.memory_per_job.iter().map(|m| format!("--mem={m}")));
+        arguments.extend(settings.sbatch_args.iter().cloned());
+        arguments.push(JOB_SCRIPT.into());
+        arguments
+    }
+
+    /// Writes the job script and submits it; returns the job id, which is
+    /// in `slurm_job_id` before this returns.
+    fn submit(&self, job: &Job<'_>) -> Result<u64, String> {
+        let directory = job.directory;
+        write_whole(&directory.join(JOB_SCRIPT), &self.script(job.argv))?;
+        write_whole(&directory.join(SUBMITTED_AT), &format!("{}\n", now_s()))?;
+        let output = Command::new("sbatch")
+            .args(self.sbatch_arguments(directory, job.timeout))
+            .current_dir(directory)
+            .stdin(Stdio::null())
+            .output()
+            .map_err(|e| format!("cannot run sbatch: {e}"))?;
+        let answer = String::from_utf8_lossy(&output.stdout);
+        // `--parsable` prints `id` or `id;cluster`.
+        let id = answer
+            .trim()
+            .split(';')
+            .next()
+            .and_then(|id| id.parse::<u64>().ok())
+            .filter(|_| output.status.success())
+            .ok_or_else(|| {
+                format!(
+                    "sbatch refused the job: {}",
+                    String::from_utf8_lossy(&output.stderr).trim()
+                )
+            })?;
+        write_whole(&directory.join(JOB_ID), &format!("{id}\n"))?;
+        let _ = std::fs::remove_file(directory.join(CANCELLED_BY_ACQ));
+        self.set_phase(id, directory, Phase::Pending(String::new()));
+        Ok(id)
+    }
+
+    /// The job of an interrupted run in `directory`: its id from
+    /// `slurm_job_id`, or, when acq died between `sbatch` and writing it,
+    /// from `squeue` by the job script's path.
+    fn job_of(&self, directory: &Path) -> Option<u64> {
+        if directory.join(CANCELLED_BY_ACQ).exists() {
+            return None;
+        }
+        if let Some(id) = std::fs::read_to_string(directory.join(JOB_ID))
+            .ok()
+            .and_then(|text| text.trim().parse().ok())
+        {
+            return Some(id);
+        }
+        let script = directory.join(JOB_SCRIPT);
+        if !script.is_file() {
+            return None;
+        }
+        let output = Command::new("squeue")
+            .args(["-h", "-t", "all", "-o", "%i|%o"])
+            .stdin(Stdio::null())
+            .output()
+            .ok()?;
+        let text = String::from_utf8_lossy(&output.stdout);
+        let id = text.lines().find_map(|line| {
+            let (id, command) = line.split_once('|')?;
+            (Path::new(command.trim()) == script).then(|| id.trim().parse().ok())?
+        })?;
+        let _ = write_whole(&directory.join(JOB_ID), &format!("{id}\n"));
+        Some(id)
+    }
+
+    /// What Slurm last said about `id` (asking it when the answer is
+    /// older than [`QUEUE_POLL`]); `Err(missing)` when it did not list
+    /// the job in `missing` successful answers in a row.
+    fn state_of(&self, id: u64) -> Option<Result<JobState, u32>> {
+        let mut view = lock(&self.queue);
+        if view.asked.is_none_or(|asked| asked.elapsed() >= QUEUE_POLL) {
+            let ids: Vec<u64> = lock(&self.live).keys().copied().collect();
+            view.states = query(&ids);
+            view.asked = Some(Instant::now());
+            if let Some(states) = view.states.clone() {
+                for id in ids {
+                    let missing = view.missing.entry(id).or_default();
+                    *missing = if states.contains_key(&id) {
+                        0
+                    } else {
+                        *missing + 1
+                    };
+                }
+            }
+        }
+        let states = view.states.as_ref()?;
+        Some(match states.get(&id) {
+            Some(state) => Ok(state.clone()),
+            None => Err(view.missing.get(&id).copied().unwrap_or(0)),
+        })
+    }
+
+    /// Waits for job `id` in `directory` to end; `Err` says why it failed,
+    /// `Ok(None)` that the cluster lost it (to be submitted again).
+    fn wait(&self, id: u64, job: &Job<'_>) -> Result<Option<()>, String> {
+        let directory = job.directory;
+        let mut started: Option<Instant> = None;
+        let mut last_reason = String::new();
+        let mut cancelled_by_acq = false;
+        let mut restarts_seen = 0;
+        loop {
+            if let Some(status) = read_exit_status(directory) {
+                return if status == 0 {
+                    Ok(Some(()))
+                } else {
+                    Err(format!(
+                        "Slurm job {id}: the solver exited with status {status}: {}",
+                        end_of_stderr(directory)
+                    ))
+                };
+            }
+            let answer = self.state_of(id);
+            if let Some(Ok(state)) = &answer {
+                if state.restarts > restarts_seen {
+                    restarts_seen = state.restarts;
+                    started = None;
+                    eprintln!(
+                        "acq: Slurm job {id} was requeued ({} restart(s)); waiting for its rerun",
+                        state.restarts
+                    );
+                }
+            }
+            match answer {
+                Some(Ok(state)) => match state.state.as_str() {
+                    "PENDING" | "REQUEUED" | "REQUEUE_HOLD" | "REQUEUE_FED" | "SUSPENDED" => {
+                        if state.reason != last_reason && is_stuck(&state.reason) {
+                            eprintln!("acq: Slurm job {id} waits: {}", state.reason);
+                        }
+                        last_reason.clone_from(&state.reason);
+                        self.set_phase(id, directory, Phase::Pending(state.reason));
+                    }
+                    "RUNNING" | "CONFIGURING" | "COMPLETING" | "STAGE_OUT" | "SIGNALING"
+                    | "RESIZING" => {
+                        let since = *started.get_or_insert_with(Instant::now);
+                        self.set_phase(id, directory, Phase::Running);
+                        // From the job's own start when it wrote it: the
+                        // queue's answer may be half a second old.
+                        let running_s = read_number(directory, STARTED_AT)
+                            .map_or_else(|| since.elapsed().as_secs_f64(), |t| now_s() - t);
+                        if !cancelled_by_acq && running_s > job.timeout.as_secs_f64() {
+                            cancel(&[id]);
+                            cancelled_by_acq = true;
+                        }
+                    }
+                    ended => {
+                        // The exit status may land just after the state.
+                        std::thread::sleep(FILE_POLL);
+                        if read_exit_status(directory).is_some() {
+                            continue;
+                        }
+                        return ended_without_status(id, ended, cancelled_by_acq, job);
+                    }
+                },
+                Some(Err(missing)) if missing >= GONE_AFTER_POLLS => {
+                    return Err(format!(
+                        "Slurm job {id} is gone without an exit status (purged from the controller, or lost): {}",
+                        end_of_stderr(directory)
+                    ));
+                }
+                _ => {}
+            }
+            std::thread::sleep(FILE_POLL);
+        }
+    }
+
+    fn set_phase(&self, id: u64, directory: &Path, phase: Phase) {
+        lock(&self.live).insert(
+            id,
+            LiveJob {
+                phase,
+                directory: directory.to_path_buf(),
+            },
+        );
+    }
+
+    /// The job's notes: id, queue wait and run time in seconds.
+    fn notes(&self, id: Option<u64>, directory: &Path) -> Vec<String> {
+        let submitted = read_number(directory, SUBMITTED_AT);
+        let started = read_number(directory, STARTED_AT);
+        let ended = std::fs::metadata(directory.join(EXIT_STATUS))
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
+            .map(|d| d.as_secs_f64());
+        let seconds = |from: Option<f64>, to: Option<f64>| match (from, to) {
+            (Some(from), Some(to)) => format!("{:.3}", (to - from).max(0.0)),
+            _ => String::new(),
+        };
+        vec![
+            id.map_or_else(String::new, |id| id.to_string()),
+            seconds(submitted, started),
+            seconds(started, ended),
+        ]
+    }
+}
+
+impl Executor for SlurmExecutor {
+    fn execute(&self, job: &Job<'_>) -> Execution {
+        let mut id = self.job_of(job.directory);
+        let mut outcome = Err(String::new());
+        let mut lost = Vec::new();
+        for _ in 0..=RESUBMISSIONS {
+            let this = match id.take() {
+                Some(id) => Ok(id),
+                None => self.submit(job),
+            };
+            let this = match this {
+                Ok(this) => this,
+                Err(reason) => {
+                    outcome = Err(reason);
+                    break;
+                }
+            };
+            if !lock(&self.live).contains_key(&this) {
+                self.set_phase(this, job.directory, Phase::Pending(String::new()));
+            }
+            let waited = self.wait(this, job);
+            lock(&self.live).remove(&this);
+            id = Some(this);
+            match waited {
+                Ok(Some(())) => {
+                    outcome = Ok(());
+                    break;
+                }
+                Ok(None) => {
+                    lost.push(this);
+                    eprintln!("acq: Slurm lost job {this}; submitting it again");
+                    id = None;
+                    outcome = Err(format!(
+                        "the cluster lost the job {} times (node failure, preemption): jobs {}",
+                        lost.len(),
+                        lost.iter()
+                            .map(u64::to_string)
+                            .collect::<Vec<_>>()
+                            .join(" ")
+                    ));
+                }
+                Err(reason) => {
+                    outcome = Err(reason);
+                    break;
+                }
+            }
+        }
+        {
+            let mut ended = lock(&self.ended);
+            if outcome.is_ok() {
+                ended.0 += 1;
+            } else {
+                ended.1 += 1;
+            }
+        }
+        let last = id.or_else(|| lost.last().copied());
+        Execution {
+            outcome,
+            notes: self.notes(last, job.directory),
+        }
+    }
+
+    fn note_columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    fn holds_job(&self, directory: &Path) -> bool {
+        directory.join(JOB_SCRIPT).is_file()
+    }
+
+    fn status(&self) -> Option<String> {
+        let live = lock(&self.live);
+        let pending: Vec<&String> = live
+            .values()
+            .filter_map(|job| match &job.phase {
+                Phase::Pending(reason) => Some(reason),
+                Phase::Running => None,
+            })
+            .collect();
+        let running = live.len() - pending.len();
+        let (done, failed) = *lock(&self.ended);
+        let why = pending
+            .iter()
+            .find(|reason| is_stuck(reason))
+            .map_or_else(String::new, |reason| format!(" ({reason})"));
+        Some(format!(
+            "jobs: {} pending{why}, {running} running, {done} done, {failed} failed",
+            pending.len()
+        ))
+    }
+}
+
+impl Drop for SlurmExecutor {
+    /// Jobs still waited for when the study stops on an error are
+    /// cancelled: nobody will collect them.
+    fn drop(&mut self) {
+        cancel_live(&self.live);
+    }
+}
+
+/// Cancels every live job, marking its directory first so that a
+/// `--resume` submits it again; returns the ids.
+fn cancel_live(live: &Mutex<LiveJobs>) -> Vec<u64> {
+    let live = lock(live);
+    for job in live.values() {
+        let _ = std::fs::write(job.directory.join(CANCELLED_BY_ACQ), "");
+    }
+    let ids: Vec<u64> = live.keys().copied().collect();
+    if !ids.is_empty() {
+        cancel(&ids);
+    }
+    ids
+}
+
+/// A number from a one-line file of a run directory.
+fn read_number(directory: &Path, name: &str) -> Option<f64> {
+    std::fs::read_to_string(directory.join(name))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
+}
+
+/// Why a job that ended without an exit status failed, or `Ok(None)` when
+/// the cluster lost it and it is worth submitting again.
+fn ended_without_status(
+    id: u64,
+    state: &str,
+    cancelled_by_acq: bool,
+    job: &Job<'_>,
+) -> Result<Option<()>, String> {
+    let stderr = end_of_stderr(job.directory);
+    match state {
+        "CANCELLED" if cancelled_by_acq => Err(format!(
+            "Slurm job {id}: timed out after {} s of running (acq's timeout_s; scancelled): {stderr}",
+            job.timeout.as_secs_f64()
+        )),
+        "CANCELLED" => Err(format!(
+            "Slurm job {id} was cancelled from outside acq (scancel): {stderr}"
+        )),
+        "TIMEOUT" => Err(format!(
+            "Slurm job {id} hit its time limit (state TIMEOUT; raise time_limit): {stderr}"
+        )),
+        "NODE_FAIL" | "PREEMPTED" | "BOOT_FAIL" => {
+            eprintln!("acq: Slurm job {id} ended as {state}");
+            Ok(None)
+        }
+        "OUT_OF_MEMORY" => Err(format!(
+            "Slurm job {id} ran out of memory (state OUT_OF_MEMORY; raise memory_per_job): {stderr}"
+        )),
+        other => Err(format!(
+            "Slurm job {id} ended as {other} without the solver's exit status: {stderr}"
+        )),
+    }
+}
+
+/// A pending reason worth telling the user: not just waiting its turn.
+fn is_stuck(reason: &str) -> bool {
+    !matches!(reason, "" | "None" | "Priority" | "Resources")
+}
+
+/// `squeue`'s states of `ids` (`None` when it cannot be asked).
+fn query(ids: &[u64]) -> Option<HashMap<u64, JobState>> {
+    if ids.is_empty() {
+        return Some(HashMap::new());
+    }
+    let list: Vec<String> = ids.iter().map(u64::to_string).collect();
+    let output = Command::new("squeue")
+        .args(["-h", "-t", "all", "-O", QUEUE_FORMAT, "-j", &list.join(",")])
+        .stdin(Stdio::null())
+        .output()
+        .ok()?;
+    // One unknown id makes squeue fail; several unknown ones print nothing.
+    if !output.status.success() {
+        return String::from_utf8_lossy(&output.stderr)
+            .contains("Invalid job id")
+            .then(HashMap::new);
+    }
+    Some(parse_squeue(&String::from_utf8_lossy(&output.stdout)))
+}
+
+/// `squeue -O`'s fields, each ended by `|` (no padding): the restart
+/// count is only in this long format.
+const QUEUE_FORMAT: &str = "JobID:|,State:|,RestartCnt:|,Reason:|";
+
+/// Lines `id|STATE|restarts|reason|` of `squeue -O QUEUE_FORMAT`.
+fn parse_squeue(text: &str) -> HashMap<u64, JobState> {
+    text.lines()
+        .filter_map(|line| {
+            let mut cells = line.trim_end().trim_end_matches('|').splitn(4, '|');
+            let id = cells.next()?.trim().parse().ok()?;
+            let state = cells.next()?.trim().to_string();
+            let restarts = cells.next()?.trim().parse().unwrap_or(0);
+            let reason = cells.next().unwrap_or("").trim().to_string();
+            Some((
+                id,
+                JobState {
+                    state,
+                    reason,
+                    restarts,
+                },
+            ))
+        })
+        .collect()
+}
+
+/// `scancel` of exactly these job ids.
+fn cancel(ids: &[u64]) {
+    let list: Vec<String> = ids.iter().map(u64::to_string).collect();
+    let _ = Command::new("scancel")
+        .args(&list)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status();
+}
+
+/// The solver's exit status once the job script has written it.
+fn read_exit_status(directory: &Path) -> Option<i32> {
+    std::fs::read_to_string(directory.join(EXIT_STATUS))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
+}
+
+/// A word as the shell reads it literally: in single quotes, with each
+/// single quote closed, escaped and reopened.
+fn shell_quote(word: &str) -> String {
+    format!("'{}'", word.replace('\'', r"'\''"))
+}
+
+/// Writes `text` to `path` through a temporary file and a rename, so the
+/// file is whole whenever it exists.
+fn write_whole(path: &Path, text: &str) -> Result<(), String> {
+    let partial: PathBuf = path.with_extension("partial");
+    std::fs::write(&partial, text)
+        .and_then(|()| std::fs::rename(&partial, path))
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn now_s() -> f64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0.0, |d| d.as_secs_f64())
+}
+
+fn lock<T>(mutex: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    mutex
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_quoted_word_reaches_the_program_unchanged() {
+        let words = ["plain", "with space", "it's", "$HOME", "*", "a\"b", ""];
+        let script: Vec<String> = words.iter().map(|w| shell_quote(w)).collect();
+        let output = Command::new("sh")
+            .arg("-c")
+            .arg(format!("printf '%s\\n' {}", script.join(" ")))
+            .output()
+            .unwrap();
+        let printed = String::from_utf8(output.stdout).unwrap();
+        assert_eq!(printed.lines().collect::<Vec<_>>(), words);
+    }
+
+    #[test]
+    fn squeue_lines_are_read_and_junk_is_skipped() {
+        let states = parse_squeue(
+            "12|PENDING|0|ReqNodeNotAvail, UnavailableNodes:vm|\n13|RUNNING|1|None|\nnot a job\n",
+        );
+        assert_eq!(states.len(), 2);
+        assert_eq!(states[&12].state, "PENDING");
+        assert_eq!(states[&12].reason, "ReqNodeNotAvail, UnavailableNodes:vm");
+        assert_eq!(states[&13].state, "RUNNING");
+        assert_eq!((states[&12].restarts, states[&13].restarts), (0, 1));
+        assert!(is_stuck(&states[&12].reason));
+        assert!(!is_stuck("Resources"));
+    }
+}

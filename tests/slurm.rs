@@ -19,74 +19,10 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::calculix::{example_at_test_mesh, TRUE_K_MPA, TRUE_N};
-use common::slurm::Cluster;
+use common::slurm::{evaluations, toy_study, Cluster};
 use common::{number, path_arg, root};
 use nix::sys::signal::{kill, signal, SigHandler, Signal};
 use nix::unistd::Pid;
-
-const SOLVER: &str = r#"import json, os, sys, time
-params = json.load(open(sys.argv[1]))
-x, y = params["x"], params["y"]
-hang_below = os.environ.get("ACQ_TEST_HANG_BELOW_X")
-if hang_below is not None and x < float(hang_below):
-    time.sleep(600)
-time.sleep(float(os.environ.get("ACQ_TEST_SLEEP_S", "0.5")))
-with open(os.environ["ACQ_TEST_RAN"], "a") as ran:
-    ran.write(os.environ.get("SLURM_JOB_ID", "-") + " " + json.dumps(params, sort_keys=True) + "\n")
-json.dump({"f": 1.0 + (x - 0.3) ** 2 + (y + 0.2) ** 2, "g": 2.0 + x * y}, open(sys.argv[2], "w"))
-"#;
-
-/// A BO study of the toy solver on Slurm in `dir`, `parallel` jobs at a
-/// time, `evaluations` of them after a start design of `start_runs`; its
-/// spec and run directory.
-fn toy_study(
-    dir: &Path,
-    parallel: usize,
-    start_runs: usize,
-    evaluations: usize,
-    timeout_s: u32,
-) -> (PathBuf, PathBuf) {
-    std::fs::write(dir.join("solver.py"), SOLVER).unwrap();
-    let spec = dir.join("spec.toml");
-    std::fs::write(
-        &spec,
-        format!(
-            r#"command = ["python3", "solver.py", "{{params}}", "{{out}}"]
-output_file = "out.json"
-timeout_s = {timeout_s}
-
-[executor]
-kind = "slurm"
-parallel = {parallel}
-
-[[parameter]]
-name = "x"
-lower = -1.0
-upper = 1.0
-
-[[parameter]]
-name = "y"
-lower = -1.0
-upper = 1.0
-
-[[output]]
-name = "f"
-measured = 1.0
-
-[[output]]
-name = "g"
-measured = 1.94
-
-[search]
-method = "bo"
-start_runs = {start_runs}
-max_evals = {evaluations}
-"#
-        ),
-    )
-    .unwrap();
-    (spec, dir.join("run"))
-}
 
 /// `acq calibrate external` against the cluster, started and not waited
 /// for; stderr goes to `out`'s sibling `stderr.txt`.
@@ -209,22 +145,6 @@ fn wait_for_a_job_in(cluster: &Cluster, out: &Path, state: &str) -> u64 {
         );
         std::thread::sleep(Duration::from_millis(50));
     }
-}
-
-/// The rows of `evaluations.csv` by column name.
-fn evaluations(out: &Path) -> Vec<HashMap<String, String>> {
-    let mut reader = csv::Reader::from_path(out.join("evaluations.csv")).unwrap();
-    let header = reader.headers().unwrap().clone();
-    reader
-        .records()
-        .map(|record| {
-            header
-                .iter()
-                .map(String::from)
-                .zip(record.unwrap().iter().map(String::from))
-                .collect()
-        })
-        .collect()
 }
 
 /// What the solver itself recorded: `(SLURM_JOB_ID, inputs)` per

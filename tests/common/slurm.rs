@@ -5,6 +5,7 @@
 //! nothing else on the machine is disturbed. Stopped by the pids in its
 //! pid files when dropped. scripts/test installs the packages.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -262,4 +263,90 @@ fn start_munged() -> Option<i32> {
         assert!(Instant::now() < deadline, "munged wrote no pid file");
         std::thread::sleep(Duration::from_millis(50));
     }
+}
+
+/// A toy solver for the Slurm tests and bench: sleeps `ACQ_TEST_SLEEP_S`
+/// (0.5 s by default; 600 s when x < `ACQ_TEST_HANG_BELOW_X`), records its
+/// run (`SLURM_JOB_ID` and inputs) in `ACQ_TEST_RAN` when set, and writes
+/// two smooth outputs.
+const TOY_SOLVER: &str = r#"import json, os, sys, time
+params = json.load(open(sys.argv[1]))
+x, y = params["x"], params["y"]
+hang_below = os.environ.get("ACQ_TEST_HANG_BELOW_X")
+if hang_below is not None and x < float(hang_below):
+    time.sleep(600)
+time.sleep(float(os.environ.get("ACQ_TEST_SLEEP_S", "0.5")))
+if "ACQ_TEST_RAN" in os.environ:
+    with open(os.environ["ACQ_TEST_RAN"], "a") as ran:
+        ran.write(os.environ.get("SLURM_JOB_ID", "-") + " " + json.dumps(params, sort_keys=True) + "\n")
+json.dump({"f": 1.0 + (x - 0.3) ** 2 + (y + 0.2) ** 2, "g": 2.0 + x * y}, open(sys.argv[2], "w"))
+"#;
+
+/// A BO study of the toy solver on Slurm in `dir`, `parallel` jobs at a
+/// time, `evaluations` of them after a start design of `start_runs`; its
+/// spec and run directory.
+pub fn toy_study(
+    dir: &Path,
+    parallel: usize,
+    start_runs: usize,
+    evaluations: usize,
+    timeout_s: u32,
+) -> (PathBuf, PathBuf) {
+    std::fs::write(dir.join("solver.py"), TOY_SOLVER).unwrap();
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            r#"command = ["python3", "solver.py", "{{params}}", "{{out}}"]
+output_file = "out.json"
+timeout_s = {timeout_s}
+
+[executor]
+kind = "slurm"
+parallel = {parallel}
+
+[[parameter]]
+name = "x"
+lower = -1.0
+upper = 1.0
+
+[[parameter]]
+name = "y"
+lower = -1.0
+upper = 1.0
+
+[[output]]
+name = "f"
+measured = 1.0
+
+[[output]]
+name = "g"
+measured = 1.94
+
+[search]
+method = "bo"
+start_runs = {start_runs}
+max_evals = {evaluations}
+patience = 1000
+"#
+        ),
+    )
+    .unwrap();
+    (spec, dir.join("run"))
+}
+
+/// The rows of `evaluations.csv` by column name.
+pub fn evaluations(out: &Path) -> Vec<HashMap<String, String>> {
+    let mut reader = csv::Reader::from_path(out.join("evaluations.csv")).unwrap();
+    let header = reader.headers().unwrap().clone();
+    reader
+        .records()
+        .map(|record| {
+            header
+                .iter()
+                .map(String::from)
+                .zip(record.unwrap().iter().map(String::from))
+                .collect()
+        })
+        .collect()
 }

@@ -17,7 +17,11 @@
 //! A run that exits non-zero, times out (it is killed) or leaves no
 //! readable output is retried `retries` times, then logged as failed with
 //! the reason (the end of its stderr); it never ends the study. Where a
-//! run happens is the [`super::executor`]'s business.
+//! run happens is the [`super::executor`]'s business: a child process, or a
+//! Slurm batch job ([`super::slurm`]), whose notes (job id, queue wait, run
+//! time) `evaluations.csv` adds. A resumed study re-attaches to the jobs of
+//! run directories the interrupted one left (same `params.json`) instead of
+//! starting them again.
 //!
 //! The study ([`super::study`]): parameters shared by all cases or one
 //! case's own; `[[case]]`s with a role (`fit` or `validate`), fixed inputs
@@ -40,7 +44,17 @@
 //! copy_files = []            # copied instead (for files the solver changes)
 //! timeout_s = 600            # at most 10,000,000 s
 //! retries = 1                # at most 100
-//! parallel = 2               # solver licences, 1 to 256
+//! parallel = 2               # solver licences, 1 to 256 (or under [executor])
+//!
+//! [executor]                 # optional: where the runs happen
+//! kind = "slurm"             # or "local" (child processes, the default)
+//! partition = "compute"      # slurm only, all optional:
+//! account = "project42"
+//! time_limit = "2:00:00"     # Slurm's format [default: timeout_s in minutes, + 1]
+//! cpus_per_job = 4
+//! memory_per_job = "8G"
+//! sbatch_args = ["--qos=short"]
+//! prelude = ["module load abaqus"]   # lines the job script runs before the solver
 //!
 //! [[parameter]]
 //! name = "youngs_modulus_gpa"

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use super::{root, stderr};
+use super::{number, root, stderr};
 
 /// The truth the synthetic test is made at, and its noise.
 pub const TRUE_K_MPA: f64 = 1000.0;
@@ -90,4 +90,50 @@ pub fn example_at_test_mesh(dir: &Path) -> Value {
         std::fs::write(dir.join(spec), text).unwrap();
     }
     measured
+}
+
+/// The tensile study's method (BO of the curve MAPE) found the truth.
+pub fn assert_bo_recovers_the_truth(summary: &Value) {
+    // The curve has about 50 points with 0.5 % independent noise, so the
+    // noise moves the best fit by far less than 1 %; what limits the answer
+    // is the 24-run budget on a 600 MPa x 0.2 box: a few percent of the
+    // range, 2 % of K and 5 % of n.
+    let k = number(summary, &["best_params", "K_mpa"]);
+    let n = number(summary, &["best_params", "n"]);
+    assert!((k - TRUE_K_MPA).abs() < 0.02 * TRUE_K_MPA, "K = {k} MPa");
+    assert!((n - TRUE_N).abs() < 0.05 * TRUE_N, "n = {n}");
+    assert_eq!(number(summary, &["failed"]), 0.0);
+}
+
+/// The excavator study's method (GP + NSGA-II + TOPSIS on two scalars)
+/// found the truth within its own stated uncertainty (`out` is its run
+/// directory, with `identifiability.json`).
+pub fn assert_moo_recovers_the_truth(summary: &Value, out: &Path) {
+    // Two noisy scalars for two parameters: the answer moves with the
+    // noise, as far as the study's own identifiability analysis says. The
+    // truth must lie within its 99.7 % region (Mahalanobis distance with
+    // the reported correlation, chi-square of 2 degrees of freedom: 11.8),
+    // and the parameters within a plain 10 % / 25 % of it whatever the
+    // analysis says.
+    let k = number(summary, &["optimal", "K_mpa"]);
+    let n = number(summary, &["optimal", "n"]);
+    let identified: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("identifiability.json")).unwrap())
+            .unwrap();
+    let sigma_k = number(&identified, &["standard_uncertainty", "K_mpa"]);
+    let sigma_n = number(&identified, &["standard_uncertainty", "n"]);
+    let rho = number(&identified, &["correlation", "K_mpa", "n"]);
+    let (a, b) = ((k - TRUE_K_MPA) / sigma_k, (n - TRUE_N) / sigma_n);
+    let distance_squared = (a * a - 2.0 * rho * a * b + b * b) / (1.0 - rho * rho);
+    assert!(
+        distance_squared < 11.8,
+        "K = {k} +- {sigma_k}, n = {n} +- {sigma_n}, rho {rho}: d^2 = {distance_squared}"
+    );
+    assert!((k - TRUE_K_MPA).abs() < 0.10 * TRUE_K_MPA, "K = {k} MPa");
+    assert!((n - TRUE_N).abs() < 0.25 * TRUE_N, "n = {n}");
+    // The two measured values are met within their uncertainties.
+    assert!(
+        number(summary, &["chi_square", "value"]) < 9.0,
+        "{summary:#}"
+    );
 }

@@ -22,7 +22,7 @@ use common::calculix::{
     assert_bo_recovers_the_truth, assert_moo_recovers_the_truth, example_at_test_mesh,
 };
 use common::slurm::{evaluations, toy_study, Cluster};
-use common::{number, path_arg, root};
+use common::{path_arg, root};
 use nix::sys::signal::{kill, signal, SigHandler, Signal};
 use nix::unistd::Pid;
 

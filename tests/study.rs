@@ -393,6 +393,19 @@ fn normal_deviates(count: usize, mut state: u64) -> Vec<f64> {
         .collect()
 }
 
+/// `line.sh A B` in `dir`: writes `out.json` with `y<i> = A x_i + B`.
+fn write_line_solver(dir: &Path, xs: &[f64]) {
+    let mut script = String::from("awk -v a=\"$1\" -v b=\"$2\" 'BEGIN { printf \"{\"; ");
+    for (i, x) in xs.iter().enumerate() {
+        let comma = if i + 1 < xs.len() { "," } else { "" };
+        script.push_str(&format!(
+            "printf \"\\\"y{i}\\\": %.17g{comma}\", a * {x:?} + b; "
+        ));
+    }
+    script.push_str("print \"}\" }' > out.json\n");
+    std::fs::write(dir.join("line.sh"), script).unwrap();
+}
+
 #[test]
 fn chi_square_of_a_fit_to_noisy_data_is_close_to_the_number_of_observations() {
     // A line y = a x + b observed at 30 points with Gaussian noise of known
@@ -429,15 +442,7 @@ fn chi_square_of_a_fit_to_noisy_data_is_close_to_the_number_of_observations() {
 
     for (stated_sigma, agrees) in [(sigma, true), (sigma / 5.0, false)] {
         let dir = tempfile::tempdir().unwrap();
-        let mut script = String::from("awk -v a=\"$1\" -v b=\"$2\" 'BEGIN { printf \"{\"; ");
-        for (i, x) in xs.iter().enumerate() {
-            let comma = if i + 1 < xs.len() { "," } else { "" };
-            script.push_str(&format!(
-                "printf \"\\\"y{i}\\\": %.17g{comma}\", a * {x:?} + b; "
-            ));
-        }
-        script.push_str("print \"}\" }' > out.json\n");
-        std::fs::write(dir.path().join("line.sh"), script).unwrap();
+        write_line_solver(dir.path(), &xs);
         let mut spec = String::from(
             r#"command = ["sh", "line.sh", "{a}", "{b}"]
 output_file = "out.json"
@@ -686,7 +691,7 @@ lower = 1.0
 upper = 2.0
 "#;
     let fit = "[[case]]\nname = \"a\"\nmeasured = { y = 1.0 }\n";
-    let cases: [(&str, String, &[&str]); 4] = [
+    let cases: [(&str, String, &[&str]); 7] = [
         (
             "unknown_case",
             format!("{head}\n[[parameter]]\nname = \"d\"\ncase = \"b\"\nlower = 0.0\nupper = 1.0\n\n{fit}"),
@@ -707,6 +712,21 @@ upper = 2.0
             format!("{head}\n{fit}\n[[case]]\nname = \"v\"\nrole = \"validate\"\n"),
             &["empty_validate.toml:19:", "case v", "validate case needs at least one observation"],
         ),
+        (
+            "prior_without_uncertainty",
+            format!("{head}\n[[parameter]]\nname = \"d\"\nlower = 0.0\nupper = 1.0\nprior = {{ value = 0.5, uncertainty = 0.0 }}\n\n{fit}"),
+            &["prior_without_uncertainty.toml:15:", "parameter d", "uncertainty above 0"],
+        ),
+        (
+            "prior_relative",
+            format!("{head}\n[[parameter]]\nname = \"d\"\nlower = 0.0\nupper = 1.0\nprior = {{ value = 0.5, uncertainty = 0.1 }}\n\n{fit}"),
+            &["prior_relative.toml", "standard deviations", "residuals = \"normalised\""],
+        ),
+        (
+            "executor_twice",
+            format!("parallel = 2\n{head}\n[executor]\nparallel = 3\n\n{fit}"),
+            &["executor_twice.toml", "parallel = 2 and [executor] parallel = 3", "give it once"],
+        ),
     ];
     for (name, text, wanted) in cases {
         let spec = dir.path().join(format!("{name}.toml"));
@@ -725,5 +745,95 @@ upper = 2.0
             );
         }
         assert!(!out.exists(), "{name}: a run directory was made");
+    }
+}
+
+#[test]
+fn a_prior_pulls_a_parameter_to_the_closed_form_map_estimate() {
+    // y = a x + b seen at x = 1, 2, 3 with sigma 0.5, exactly on the line
+    // a = 1.5, b = 4; b also has a prior 3.0 +- 0.4. Minimising the squares
+    // of the normalised residuals, prior included, is the Gaussian MAP
+    // estimate: the normal equations (X^T X / s^2 + P) p = X^T y / s^2 + P p0
+    // with P = diag(0, 1 / 0.4^2), whose inverse is the posterior
+    // covariance. Without the prior b would be 4; with it, b moves about
+    // two of its posterior deviations toward 3.
+    let xs = [1.0f64, 2.0, 3.0];
+    let (sigma, prior_b, prior_sigma) = (0.5f64, 3.0f64, 0.4f64);
+    let ys: Vec<f64> = xs.iter().map(|x| 1.5 * x + 4.0).collect();
+    let w = 1.0 / (sigma * sigma);
+    let p = 1.0 / (prior_sigma * prior_sigma);
+    let sxx: f64 = xs.iter().map(|x| x * x).sum::<f64>() * w;
+    let sx: f64 = xs.iter().sum::<f64>() * w;
+    let s1 = xs.len() as f64 * w + p;
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| x * y).sum::<f64>() * w;
+    let sy: f64 = ys.iter().sum::<f64>() * w + p * prior_b;
+    let det = sxx * s1 - sx * sx;
+    let (map_a, map_b) = ((s1 * sxy - sx * sy) / det, (sxx * sy - sx * sxy) / det);
+    let (sigma_a, sigma_b) = ((s1 / det).sqrt(), (sxx / det).sqrt());
+    assert!(
+        (map_b - 4.0).abs() > 2.0 * sigma_b,
+        "the prior must matter here"
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    write_line_solver(dir.path(), &xs);
+    let mut spec = format!(
+        r#"command = ["sh", "line.sh", "{{a}}", "{{b}}"]
+output_file = "out.json"
+parallel = 2
+
+[[parameter]]
+name = "a"
+lower = 0.5
+upper = 3.0
+
+[[parameter]]
+name = "b"
+lower = 2.0
+upper = 6.0
+prior = {{ value = {prior_b:?}, uncertainty = {prior_sigma:?} }}
+
+[search]
+method = "bo"
+residuals = "normalised"
+loss = "squares"
+start_runs = 10
+max_evals = 60
+"#
+    );
+    for (i, y) in ys.iter().enumerate() {
+        spec.push_str(&format!(
+            "\n[[output]]\nname = \"y{i}\"\nmeasured = {y:?}\nuncertainty = {sigma:?}\n"
+        ));
+    }
+    let spec_path = dir.path().join("line.toml");
+    std::fs::write(&spec_path, spec).unwrap();
+    let out = dir.path().join("run");
+    let got = run_external(&spec_path, &out);
+    let (a, b) = (
+        number(&got, &["best_params", "a"]),
+        number(&got, &["best_params", "b"]),
+    );
+    // BO's answer on a smooth bowl: within a tenth of a posterior deviation.
+    assert!((a - map_a).abs() < 0.1 * sigma_a, "a {a} vs MAP {map_a}");
+    assert!((b - map_b).abs() < 0.1 * sigma_b, "b {b} vs MAP {map_b}");
+    // The prior is scored and reported like a measured value.
+    assert_eq!(got["chi_square"]["observations"], 4);
+    assert!(got["best_outputs"]["prior/b"].is_number(), "{got:#}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("| prior | b | 3 |"),
+        "the report lists the prior"
+    );
+    // Identifiability is the posterior: the closed form's deviations.
+    let identified: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("identifiability.json")).unwrap())
+            .unwrap();
+    for (name, expected) in [("a", sigma_a), ("b", sigma_b)] {
+        let got_sigma = number(&identified, &["standard_uncertainty", name]);
+        assert!(
+            (got_sigma - expected).abs() < 0.05 * expected,
+            "{name}: {got_sigma} vs posterior {expected}"
+        );
     }
 }

@@ -108,6 +108,7 @@ pub fn case_study(case: &CaseFile, measured: &MeasuredPressures) -> Study {
                 input: input.name().to_string(),
                 case: None,
                 nominal: search.midpoint(),
+                prior: None,
                 search,
             }
         })
@@ -119,6 +120,7 @@ pub fn case_study(case: &CaseFile, measured: &MeasuredPressures) -> Study {
             input: FORCE_PARAMETER.to_string(),
             case: None,
             nominal: case.force_kn,
+            prior: None,
         }),
         None => inputs.push((FORCE_PARAMETER.to_string(), case.force_kn)),
     }
@@ -127,6 +129,7 @@ pub fn case_study(case: &CaseFile, measured: &MeasuredPressures) -> Study {
         cases: vec![Case {
             name: case.name.clone(),
             role: Role::Fit,
+            priors: false,
             inputs,
             observations: CylinderName::ALL
                 .iter()

@@ -63,6 +63,8 @@
 //! scale = "linear"           # or "log"
 //! nominal = 200.0            # optional: where the initial errors are shown
 //! # case = "hot"             # optional: this case's own parameter
+//! # prior = { value = 205.0, uncertainty = 5.0 }  # optional: a penalty in
+//! #                          # standard deviations (needs residuals = "normalised")
 //!
 //! [[output]]                 # without [[case]]: the observations
 //! name = "tip_deflection_mm"
@@ -95,7 +97,7 @@
 //! start_runs = 10
 //! max_evals = 60
 //! target_loss_pct = 1.0
-//! loss = "mean"              # or "max"
+//! loss = "mean"              # or "max", or "squares" (with priors: a MAP estimate)
 //! training_runs = 40         # surrogate-moo, with test_runs, population,
 //! test_runs = 40             # generations, pareto_fraction, kernel,
 //!                            # refine_tolerance, refine_rounds
@@ -128,8 +130,8 @@ use super::builtin::ExcavatorModel;
 use super::executor::{Executor, Job, LocalExecutor};
 use super::slurm::{SlurmExecutor, SlurmSettings};
 use super::study::{
-    numbers_by_key_path, Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role,
-    Study, StudyParameter,
+    numbers_by_key_path, Case, LossKind, Measured, Model, ModelRun, Observation, Prior, Residuals,
+    Role, Study, StudyParameter,
 };
 use super::study_runner::{self, Method, RunSettings};
 use super::surrogate_moo::SurrogateMooSettings;
@@ -326,6 +328,16 @@ pub struct SpecParameter {
     pub nominal: Option<f64>,
     /// The case this parameter belongs to [default: shared by all].
     pub case: Option<String>,
+    /// Where class-typical values lie: `{ value, uncertainty }`, a penalty
+    /// in standard deviations for straying from it.
+    pub prior: Option<PriorSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PriorSpec {
+    pub value: f64,
+    pub uncertainty: f64,
 }
 
 #[derive(Debug, Deserialize)]
@@ -846,6 +858,7 @@ impl Spec {
                 role: Role::Fit,
                 inputs: Vec::new(),
                 observations,
+                priors: false,
             });
         }
         for (index, c) in spec.curves.iter().enumerate() {
@@ -919,6 +932,7 @@ impl Spec {
                 role,
                 inputs: c.inputs.iter().map(|(k, v)| (k.clone(), *v)).collect(),
                 observations,
+                priors: false,
             });
         }
         if cases.iter().all(|c| c.role != Role::Fit) {
@@ -986,11 +1000,34 @@ impl Spec {
                     ),
                 ));
             }
+            let prior = match &p.prior {
+                None => None,
+                Some(prior) if prior.value.is_finite()
+                    && prior.uncertainty.is_finite()
+                    && prior.uncertainty > 0.0 =>
+                {
+                    Some(Prior {
+                        value: prior.value,
+                        uncertainty: prior.uncertainty,
+                    })
+                }
+                Some(prior) => {
+                    return Err(at(
+                        "[[parameter]]",
+                        index,
+                        format!(
+                            "parameter {}: prior = {{ value = {}, uncertainty = {} }}: give a finite value and an uncertainty above 0",
+                            p.name, prior.value, prior.uncertainty
+                        ),
+                    ))
+                }
+            };
             parameters.push(StudyParameter {
                 search,
                 input: p.name.clone(),
                 case,
                 nominal,
+                prior,
             });
         }
         for (index, p) in spec.parameters.iter().enumerate() {
@@ -1004,6 +1041,22 @@ impl Spec {
                     format!("parameter {} is listed twice for the same case", p.name),
                 ));
             }
+        }
+        if let Some(priors) = Case::priors(&parameters) {
+            if let Some(index) = spec.cases.iter().position(|c| c.name == priors.name) {
+                return Err(at(
+                    "[[case]]",
+                    index,
+                    "the case name \"prior\" is taken by the parameters' priors; rename the case"
+                        .into(),
+                ));
+            }
+            if spec.search.residuals != "normalised" {
+                return Err(problem(
+                    "a [[parameter]] prior is a penalty in standard deviations: set search.residuals = \"normalised\" (and give the measured values their uncertainties)".into(),
+                ));
+            }
+            cases.push(priors);
         }
         let search_parameters: Vec<Parameter> =
             parameters.iter().map(|p| p.search.clone()).collect();
@@ -1039,10 +1092,10 @@ impl Spec {
             named_cases: !spec.cases.is_empty(),
             cases,
             residuals,
-            loss: if spec.search.loss == "max" {
-                LossKind::Max
-            } else {
-                LossKind::Mean
+            loss: match spec.search.loss.as_str() {
+                "max" => LossKind::Max,
+                "squares" => LossKind::Squares,
+                _ => LossKind::Mean,
             },
         });
         Ok(spec)
@@ -1069,8 +1122,11 @@ impl Spec {
                 START_DESIGNS.join(", ")
             ));
         }
-        if !matches!(search.loss.as_str(), "mean" | "max") {
-            return Err(format!("search.loss {:?}: use mean or max", search.loss));
+        if !matches!(search.loss.as_str(), "mean" | "max" | "squares") {
+            return Err(format!(
+                "search.loss {:?}: use mean, max or squares",
+                search.loss
+            ));
         }
         if !(3..=MAX_EVALUATIONS).contains(&search.max_evals)
             || !(2..=MAX_EVALUATIONS).contains(&search.start_runs)

@@ -96,11 +96,13 @@ pub fn test_study(parameters: &[Parameter], test: &[TestPoint]) -> Study {
                 input: p.name.clone(),
                 case: None,
                 nominal: p.midpoint(),
+                prior: None,
             })
             .collect(),
         cases: vec![Case {
             name: "test".into(),
             role: Role::Fit,
+            priors: false,
             inputs: Vec::new(),
             observations: vec![Observation {
                 name: "mape_pct".into(),

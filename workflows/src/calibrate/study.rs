@@ -122,6 +122,58 @@ pub struct Case {
     /// Fixed inputs, passed to the model like parameters.
     pub inputs: Vec<(String, f64)>,
     pub observations: Vec<Observation>,
+    /// The parameters' priors ([`Case::priors`]): each observation is a
+    /// parameter's own value, answered from the search point without a
+    /// model run.
+    pub priors: bool,
+}
+
+/// A parameter's prior: where class-typical values lie, and how far.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prior {
+    pub value: f64,
+    /// One standard deviation, in the parameter's unit.
+    pub uncertainty: f64,
+}
+
+impl Case {
+    /// A load case whose observations the model answers.
+    pub fn new(name: impl Into<String>, role: Role, observations: Vec<Observation>) -> Self {
+        Case {
+            name: name.into(),
+            role,
+            inputs: Vec::new(),
+            observations,
+            priors: false,
+        }
+    }
+
+    /// The fit case "prior" holding one observation per parameter with a
+    /// prior: a penalty for straying from it, scored like any measured
+    /// value (so a MAP estimate with `loss = "squares"` and normalised
+    /// residuals). `None` when no parameter has one.
+    pub fn priors(parameters: &[StudyParameter]) -> Option<Case> {
+        let observations: Vec<Observation> = parameters
+            .iter()
+            .filter_map(|p| {
+                let prior = p.prior?;
+                Some(Observation {
+                    name: p.search.name.clone(),
+                    output: p.search.name.clone(),
+                    measured: Measured::Scalar {
+                        value: prior.value,
+                        uncertainty: Some(prior.uncertainty),
+                    },
+                    weight: 1.0,
+                    source: "prior".into(),
+                })
+            })
+            .collect();
+        (!observations.is_empty()).then(|| Case {
+            priors: true,
+            ..Case::new("prior", Role::Fit, observations)
+        })
+    }
 }
 
 /// One parameter of the study.
@@ -135,6 +187,8 @@ pub struct StudyParameter {
     pub case: Option<usize>,
     /// The value the initial errors are reported at.
     pub nominal: f64,
+    /// Where it is expected to lie, when known (a penalty for leaving it).
+    pub prior: Option<Prior>,
 }
 
 /// How residuals become errors.
@@ -153,6 +207,9 @@ pub enum LossKind {
     Mean,
     /// The largest.
     Max,
+    /// The weighted mean of their squares: with normalised residuals and
+    /// priors, a maximum a-posteriori estimate (chi-square over n).
+    Squares,
 }
 
 /// A whole study.
@@ -203,7 +260,9 @@ impl Study {
 
     /// The key of an observation in logs and summaries.
     pub fn key(&self, case: &Case, observation: &Observation) -> String {
-        if self.named_cases {
+        if case.priors {
+            format!("prior/{}", observation.name)
+        } else if self.named_cases {
             format!("{}/{}", case.name, observation.name)
         } else {
             observation.name.clone()
@@ -280,13 +339,14 @@ impl Study {
         let objectives = self.objectives(outputs);
         match self.loss {
             LossKind::Max => objectives.iter().fold(0.0f64, |a, &b| a.max(b)),
-            LossKind::Mean => {
+            LossKind::Mean | LossKind::Squares => {
+                let power = if self.loss == LossKind::Squares { 2 } else { 1 };
                 let weights = self.weights();
                 let total: f64 = weights.iter().sum();
                 objectives
                     .iter()
                     .zip(&weights)
-                    .map(|(e, w)| e * w)
+                    .map(|(e, w)| e.powi(power) * w)
                     .sum::<f64>()
                     / total
             }
@@ -364,6 +424,19 @@ impl StudySimulator<'_> {
     fn evaluate_cases(&self, values: &[f64], notes: &mut [String]) -> Result<Vec<f64>, String> {
         let mut outputs = Vec::with_capacity(self.outputs.len());
         for (index, case) in self.study.cases_with(self.role) {
+            if case.priors {
+                for observation in &case.observations {
+                    let at = self
+                        .parameters
+                        .iter()
+                        .position(|p| p.name == observation.output)
+                        .ok_or_else(|| {
+                            format!("a prior of no parameter: {}", observation.output)
+                        })?;
+                    outputs.push(values[at]);
+                }
+                continue;
+            }
             let scalars: Vec<&str> = case
                 .observations
                 .iter()

@@ -101,6 +101,24 @@ impl<'a> Progress<'a> {
         )
     }
 
+    /// Redraws the line on a terminal, so that the status of runs under
+    /// way (a cluster's pending and running jobs) stays current between
+    /// evaluations. Does nothing elsewhere.
+    pub fn redraw(&self) {
+        if !self.terminal {
+            return;
+        }
+        if let Ok(state) = self.state.lock() {
+            eprint!("\r{}\x1b[K", self.line(&state));
+            let _ = std::io::stderr().flush();
+        }
+    }
+
+    /// Whether [`Progress::redraw`] draws anything.
+    pub fn is_redrawn(&self) -> bool {
+        self.terminal
+    }
+
     /// Ends the bar's line on a terminal; elsewhere prints the final count
     /// unless it was the last line printed (the total is a budget, which a
     /// run may end short of).

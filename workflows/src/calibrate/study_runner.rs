@@ -9,7 +9,8 @@
 //! `validation.csv`; both resume.
 
 use std::path::Path;
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 use acq_calib::bo::Acquisition;
 use acq_calib::doe::{
@@ -164,34 +165,53 @@ pub fn calibrate_study(
             let loss = e.outcome.as_ref().ok().map(|y| study.loss(y));
             progress.record(loss, e.outcome.is_err(), e.from_log);
         });
-    let found = match method {
-        Method::Bo(bo) => {
-            let bo_settings = bo_settings(
-                bo.batch,
-                bo.target_loss,
-                bo.max_evals,
-                bo.patience,
-                bo.acquisition,
-                bo.seed,
-            );
-            minimise_logged(
+    // On a terminal the line is redrawn every second while runs are under
+    // way elsewhere (a cluster), so a job's pending -> running shows.
+    let searching = AtomicBool::new(true);
+    let found = std::thread::scope(|scope| {
+        if progress.is_redrawn() && model.status().is_some() {
+            scope.spawn(|| {
+                let mut ticks = 0u32;
+                while searching.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(100));
+                    ticks += 1;
+                    if ticks % 10 == 0 {
+                        progress.redraw();
+                    }
+                }
+            });
+        }
+        let found = match method {
+            Method::Bo(bo) => {
+                let bo_settings = bo_settings(
+                    bo.batch,
+                    bo.target_loss,
+                    bo.max_evals,
+                    bo.patience,
+                    bo.acquisition,
+                    bo.seed,
+                );
+                minimise_logged(
+                    &mut evaluator,
+                    &parameters,
+                    initial,
+                    |y| study.loss(y),
+                    &bo_settings,
+                )
+                .map(Found::Bo)
+            }
+            Method::SurrogateMoo(moo) => surrogate_moo(
                 &mut evaluator,
                 &parameters,
-                initial,
-                |y| study.loss(y),
-                &bo_settings,
+                &study.nominal(),
+                &|y: &[f64]| study.objectives(y),
+                moo,
             )
-            .map(Found::Bo)
-        }
-        Method::SurrogateMoo(moo) => surrogate_moo(
-            &mut evaluator,
-            &parameters,
-            &study.nominal(),
-            &|y: &[f64]| study.objectives(y),
-            moo,
-        )
-        .map(|m| Found::Moo(Box::new(m))),
-    };
+            .map(|m| Found::Moo(Box::new(m))),
+        };
+        searching.store(false, Ordering::Relaxed);
+        found
+    });
     progress.finish();
     if evaluator.evaluations().iter().all(|e| e.outcome.is_err()) {
         if let Some(first) = evaluator.evaluations().first() {

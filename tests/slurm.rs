@@ -318,6 +318,16 @@ fn requeued_job(cluster: &Cluster) {
     let (spec, out) = toy_study(dir.path(), 1, 2, 3, 120);
     let child = start_acq(cluster, &spec, &out, &[], &[("ACQ_TEST_SLEEP_S", "3")]);
     let job = wait_for_a_job_in(cluster, &out, "RUNNING");
+    // Requeued once its script runs (Slurm says RUNNING a moment before it
+    // launches the script; a requeue then may not stop the first run).
+    let directory = submitted(&out)
+        .into_iter()
+        .find(|&(_, id)| id == job)
+        .map(|(directory, _)| directory)
+        .unwrap();
+    wait_for("the job script's start", Duration::from_secs(10), || {
+        directory.join("started_at").exists().then_some(())
+    });
     cluster.run("scontrol", &["requeue", &job.to_string()]);
     cluster.wait_for_job(job, "PENDING", Duration::from_secs(30));
     wait_for("acq noticing the requeue", Duration::from_secs(10), || {

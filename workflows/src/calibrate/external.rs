@@ -1258,6 +1258,7 @@ impl ExternalModel {
         spec_directory: PathBuf,
         runs: PathBuf,
         executor: Box<dyn Executor>,
+        resume: bool,
     ) -> Self {
         let highest = highest_run_number(&runs);
         // The runs start in their own directories: a program or argument that
@@ -1274,7 +1275,9 @@ impl ExternalModel {
             }
         }
         let mut unfinished: HashMap<String, VecDeque<PathBuf>> = HashMap::new();
-        for number in 1..=highest {
+        // Only a resumed study asks again for what an interrupted one
+        // started; a new one never re-attaches to a stray directory.
+        for number in (1..=highest).filter(|_| resume) {
             let directory = runs.join(format!("{number:06}"));
             if executor.holds_job(&directory) {
                 if let Ok(params) = std::fs::read_to_string(directory.join("params.json")) {
@@ -1585,6 +1588,6 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
     let runs = std::fs::canonicalize(&directory.path)
         .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
         .join("runs");
-    let model = ExternalModel::new(spec, spec_directory.clone(), runs, executor);
+    let model = ExternalModel::new(spec, spec_directory.clone(), runs, executor, args.resume);
     study_runner::run_study(&study, &model, &method, initial, &directory, &settings)
 }

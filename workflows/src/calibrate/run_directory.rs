@@ -5,7 +5,7 @@ use std::sync::{Mutex, OnceLock};
 
 use acq_calib::evaluation::{EvaluationError, Evaluator, Simulator};
 use acq_io::error::{AcqError, Result};
-use nix::sys::signal::{sigaction, SaFlags, SigAction, SigHandler, SigSet, Signal};
+use nix::sys::signal::Signal;
 
 /// The run directory: created if missing; `evaluations.csv` in it must be
 /// new unless the run resumes.
@@ -68,13 +68,23 @@ pub fn say_how_to_resume_on_interrupt(run_directory: &Path) {
         return;
     };
     std::thread::spawn(move || {
-        if signals.forever().next().is_some() {
+        let mut signals = signals.forever();
+        if signals.next().is_none() {
+            return;
+        }
+        // The hooks (scancel) may hang on a cluster that does not answer:
+        // a second Ctrl-C ends acq at once.
+        std::thread::spawn(move || {
+            eprintln!("\nacq: stopping (Ctrl-C again to stop at once)");
             let hooks =
                 std::mem::take(&mut *INTERRUPT_HOOKS.lock().unwrap_or_else(|p| p.into_inner()));
             for hook in hooks {
                 hook();
             }
             eprintln!("{message}");
+            std::process::exit(130);
+        });
+        if signals.next().is_some() {
             std::process::exit(130);
         }
     });
@@ -95,16 +105,14 @@ static INTERRUPT_WATCHER: OnceLock<()> = OnceLock::new();
 
 /// Whether `signal` is ignored (by the shell that started acq).
 fn is_ignored(signal: Signal) -> bool {
-    let default = SigAction::new(SigHandler::SigDfl, SaFlags::empty(), SigSet::empty());
-    // SAFETY: installs the default disposition for a moment to read the
-    // one in place, which is put back at once; no handler of ours runs
-    // in between (signal-hook registers only after this returns).
-    let Ok(previous) = (unsafe { sigaction(signal, &default) }) else {
-        return false;
-    };
-    // SAFETY: puts back the disposition that was there.
-    let _ = unsafe { sigaction(signal, &previous) };
-    matches!(previous.handler(), SigHandler::SigIgn)
+    let mut current = std::mem::MaybeUninit::<nix::libc::sigaction>::zeroed();
+    // SAFETY: sigaction(2) with a null new action only reads the current
+    // one into `current`, a zeroed sigaction struct it may overwrite.
+    let read =
+        unsafe { nix::libc::sigaction(signal as i32, std::ptr::null(), current.as_mut_ptr()) };
+    // SAFETY: a zeroed sigaction is a valid value, filled in when `read` is 0.
+    let current = unsafe { current.assume_init() };
+    read == 0 && current.sa_sigaction == nix::libc::SIG_IGN
 }
 
 /// An engine error as the CLI reports it: a bad log or setup is a

@@ -29,8 +29,10 @@
 //! (collecting those that finished meanwhile) instead of submitting again.
 
 use std::collections::{BTreeMap, HashMap};
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -71,6 +73,10 @@ const RESUBMISSIONS: u32 = 2;
 /// Successful `squeue` answers without a job before it counts as gone
 /// (a shared file system may show its exit status a moment late).
 const GONE_AFTER_POLLS: u32 = 4;
+/// How long the exit status of a job Slurm says completed is waited for.
+const STATUS_GRACE: Duration = Duration::from_secs(60);
+/// When a scancel for acq's timeout has not ended the job, it is sent again.
+const CANCEL_AGAIN: Duration = Duration::from_secs(10);
 
 /// What `squeue` said about a job.
 #[derive(Clone, Debug, PartialEq)]
@@ -112,6 +118,8 @@ pub struct SlurmExecutor {
     columns: Vec<String>,
     queue: Mutex<QueueView>,
     live: Arc<Mutex<LiveJobs>>,
+    /// Set when Ctrl-C or SIGTERM came (before the jobs are cancelled).
+    interrupting: Arc<AtomicBool>,
     /// Runs ended well and not.
     ended: Mutex<(usize, usize)>,
 }
@@ -139,8 +147,11 @@ impl SlurmExecutor {
             ));
         }
         let live = Arc::new(Mutex::new(LiveJobs::new()));
-        let on_interrupt = Arc::clone(&live);
+        let interrupting = Arc::new(AtomicBool::new(false));
+        let (on_interrupt, flag) = (Arc::clone(&live), Arc::clone(&interrupting));
         super::run_directory::on_interrupt(move || {
+            // Under the lock, so no submission slips in between.
+            flag.store(true, Ordering::SeqCst);
             let ids = cancel_live(&on_interrupt);
             if !ids.is_empty() {
                 eprintln!(
@@ -155,6 +166,7 @@ impl SlurmExecutor {
             columns: vec!["job_id".into(), "queue_wait_s".into(), "run_s".into()],
             queue: Mutex::new(QueueView::default()),
             live,
+            interrupting,
             ended: Mutex::new((0, 0)),
         })
     }
@@ -165,7 +177,7 @@ impl SlurmExecutor {
             "#!/bin/bash\n\
              # Written by acq for one model run; `sbatch job.sh` here runs it again.\n\
              rm -f exit_status exit_status.partial\n\
-             date +%s.%N > started_at\n",
+             echo \"${SLURM_RESTART_COUNT:-0} $(date +%s.%N)\" > started_at\n",
         );
         for line in &self.settings.prelude {
             text.push_str(line);
@@ -226,12 +238,16 @@ impl SlurmExecutor {
     /// in `slurm_job_id` before this returns.
     fn submit(&self, job: &Job<'_>) -> Result<u64, String> {
         let directory = job.directory;
+        // A rerun in this directory must not be taken for an earlier one.
+        for stale in [EXIT_STATUS, STARTED_AT, JOB_ID] {
+            let _ = std::fs::remove_file(directory.join(stale));
+        }
         write_whole(&directory.join(JOB_SCRIPT), &self.script(job.argv))?;
         write_whole(&directory.join(SUBMITTED_AT), &format!("{}\n", now_s()))?;
-        let output = Command::new("sbatch")
+        self.park_if_interrupted();
+        let output = slurm_command("sbatch")
             .args(self.sbatch_arguments(directory, job.timeout))
             .current_dir(directory)
-            .stdin(Stdio::null())
             .output()
             .map_err(|e| format!("cannot run sbatch: {e}"))?;
         let answer = String::from_utf8_lossy(&output.stdout);
@@ -250,7 +266,24 @@ impl SlurmExecutor {
             })?;
         write_whole(&directory.join(JOB_ID), &format!("{id}\n"))?;
         let _ = std::fs::remove_file(directory.join(CANCELLED_BY_ACQ));
-        self.set_phase(id, directory, Phase::Pending(String::new()));
+        {
+            // The interrupt hook cancels what is live under this lock: a job
+            // submitted after it went through is cancelled here.
+            let mut live = lock(&self.live);
+            if self.interrupting.load(Ordering::SeqCst) {
+                let _ = std::fs::write(directory.join(CANCELLED_BY_ACQ), "");
+                cancel(&[id]);
+            } else {
+                live.insert(
+                    id,
+                    LiveJob {
+                        phase: Phase::Pending(String::new()),
+                        directory: directory.to_path_buf(),
+                    },
+                );
+            }
+        }
+        self.park_if_interrupted();
         Ok(id)
     }
 
@@ -258,7 +291,7 @@ impl SlurmExecutor {
     /// `slurm_job_id`, or, when acq died between `sbatch` and writing it,
     /// from `squeue` by the job script's path.
     fn job_of(&self, directory: &Path) -> Option<u64> {
-        if directory.join(CANCELLED_BY_ACQ).exists() {
+        if directory.join(CANCELLED_BY_ACQ).exists() && read_exit_status(directory).is_none() {
             return None;
         }
         if let Some(id) = std::fs::read_to_string(directory.join(JOB_ID))
@@ -271,9 +304,8 @@ impl SlurmExecutor {
         if !script.is_file() {
             return None;
         }
-        let output = Command::new("squeue")
-            .args(["-h", "-t", "all", "-o", "%i|%o"])
-            .stdin(Stdio::null())
+        let output = slurm_command("squeue")
+            .args(["--all", "-h", "-t", "all", "-o", "%i|%o"])
             .output()
             .ok()?;
         let text = String::from_utf8_lossy(&output.stdout);
@@ -318,18 +350,12 @@ impl SlurmExecutor {
         let directory = job.directory;
         let mut started: Option<Instant> = None;
         let mut last_reason = String::new();
-        let mut cancelled_by_acq = false;
+        let mut cancelled_at: Option<Instant> = None;
         let mut restarts_seen = 0;
         loop {
+            self.park_if_interrupted();
             if let Some(status) = read_exit_status(directory) {
-                return if status == 0 {
-                    Ok(Some(()))
-                } else {
-                    Err(format!(
-                        "Slurm job {id}: the solver exited with status {status}: {}",
-                        end_of_stderr(directory)
-                    ))
-                };
+                return solver_outcome(id, status, directory);
             }
             let answer = self.state_of(id);
             if let Some(Ok(state)) = &answer {
@@ -344,7 +370,8 @@ impl SlurmExecutor {
             }
             match answer {
                 Some(Ok(state)) => match state.state.as_str() {
-                    "PENDING" | "REQUEUED" | "REQUEUE_HOLD" | "REQUEUE_FED" | "SUSPENDED" => {
+                    "PENDING" | "REQUEUED" | "REQUEUE_HOLD" | "REQUEUE_FED" | "SUSPENDED"
+                    | "SPECIAL_EXIT" | "RESV_DEL_HOLD" => {
                         if state.reason != last_reason && is_stuck(&state.reason) {
                             eprintln!("acq: Slurm job {id} waits: {}", state.reason);
                         }
@@ -355,22 +382,40 @@ impl SlurmExecutor {
                     | "RESIZING" => {
                         let since = *started.get_or_insert_with(Instant::now);
                         self.set_phase(id, directory, Phase::Running);
-                        // From the job's own start when it wrote it: the
-                        // queue's answer may be half a second old.
-                        let running_s = read_number(directory, STARTED_AT)
-                            .map_or_else(|| since.elapsed().as_secs_f64(), |t| now_s() - t);
-                        if !cancelled_by_acq && running_s > job.timeout.as_secs_f64() {
+                        // From this run's own start when it wrote it (the
+                        // queue's answer may be half a second old), not an
+                        // earlier run's before a requeue.
+                        let running_s = read_start(directory)
+                            .filter(|&(restarts, _)| restarts == restarts_seen)
+                            .map_or_else(|| since.elapsed().as_secs_f64(), |(_, t)| now_s() - t);
+                        // Sent again should the first scancel get lost.
+                        let cancel_due = cancelled_at
+                            .map_or(running_s > job.timeout.as_secs_f64(), |at| {
+                                at.elapsed() > CANCEL_AGAIN
+                            });
+                        if cancel_due {
                             cancel(&[id]);
-                            cancelled_by_acq = true;
+                            cancelled_at = Some(Instant::now());
                         }
                     }
+                    "COMPLETED" | "FAILED" => {
+                        // The script ran to its end: its exit status is on
+                        // the way (a shared file system may show it late),
+                        // and Slurm has it too.
+                        let status = wait_for_exit_status(directory)
+                            .or_else(|| slurm_exit_code(id))
+                            .ok_or_else(|| {
+                                format!(
+                                    "Slurm job {id} ended as {} and its exit status is nowhere: {}",
+                                    state.state,
+                                    end_of_stderr(directory)
+                                )
+                            })?;
+                        return solver_outcome(id, status, directory);
+                    }
                     ended => {
-                        // The exit status may land just after the state.
-                        std::thread::sleep(FILE_POLL);
-                        if read_exit_status(directory).is_some() {
-                            continue;
-                        }
-                        return ended_without_status(id, ended, cancelled_by_acq, job);
+                        self.park_if_interrupted();
+                        return ended_without_status(id, ended, cancelled_at.is_some(), job);
                     }
                 },
                 Some(Err(missing)) if missing >= GONE_AFTER_POLLS => {
@@ -382,6 +427,15 @@ impl SlurmExecutor {
                 _ => {}
             }
             std::thread::sleep(FILE_POLL);
+        }
+    }
+
+    /// Once Ctrl-C or SIGTERM has come, a run neither ends nor submits:
+    /// acq is about to exit, and a cancelled job must not be logged as a
+    /// failed evaluation (a `--resume` runs it again instead).
+    fn park_if_interrupted(&self) {
+        while self.interrupting.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_secs(1));
         }
     }
 
@@ -398,18 +452,20 @@ impl SlurmExecutor {
     /// The job's notes: id, queue wait and run time in seconds.
     fn notes(&self, id: Option<u64>, directory: &Path) -> Vec<String> {
         let submitted = read_number(directory, SUBMITTED_AT);
-        let started = read_number(directory, STARTED_AT);
+        let started = read_start(directory).map(|(_, t)| t);
         let ended = std::fs::metadata(directory.join(EXIT_STATUS))
             .and_then(|m| m.modified())
             .ok()
             .and_then(|t| t.duration_since(UNIX_EPOCH).ok())
             .map(|d| d.as_secs_f64());
+        // "-" for what is unknown (a job cancelled while it pended), so
+        // that the notes of several jobs stay aligned column by column.
         let seconds = |from: Option<f64>, to: Option<f64>| match (from, to) {
             (Some(from), Some(to)) => format!("{:.3}", (to - from).max(0.0)),
-            _ => String::new(),
+            _ => "-".into(),
         };
         vec![
-            id.map_or_else(String::new, |id| id.to_string()),
+            id.map_or_else(|| "-".into(), |id| id.to_string()),
             seconds(submitted, started),
             seconds(started, ended),
         ]
@@ -445,6 +501,9 @@ impl Executor for SlurmExecutor {
                     break;
                 }
                 Ok(None) => {
+                    // Should Slurm requeue it after all, two runs would share
+                    // the directory.
+                    cancel(&[this]);
                     lost.push(this);
                     eprintln!("acq: Slurm lost job {this}; submitting it again");
                     id = None;
@@ -482,8 +541,12 @@ impl Executor for SlurmExecutor {
         &self.columns
     }
 
+    /// A run directory with a job script whose job acq did not cancel
+    /// itself (or which finished anyway): re-attached or collected. A run
+    /// acq cancelled is run again in a fresh directory.
     fn holds_job(&self, directory: &Path) -> bool {
         directory.join(JOB_SCRIPT).is_file()
+            && (!directory.join(CANCELLED_BY_ACQ).exists() || read_exit_status(directory).is_some())
     }
 
     fn status(&self) -> Option<String> {
@@ -505,14 +568,6 @@ impl Executor for SlurmExecutor {
             "jobs: {} pending{why}, {running} running, {done} done, {failed} failed",
             pending.len()
         ))
-    }
-}
-
-impl Drop for SlurmExecutor {
-    /// Jobs still waited for when the study stops on an error are
-    /// cancelled: nobody will collect them.
-    fn drop(&mut self) {
-        cancel_live(&self.live);
     }
 }
 
@@ -583,9 +638,17 @@ fn query(ids: &[u64]) -> Option<HashMap<u64, JobState>> {
         return Some(HashMap::new());
     }
     let list: Vec<String> = ids.iter().map(u64::to_string).collect();
-    let output = Command::new("squeue")
-        .args(["-h", "-t", "all", "-O", QUEUE_FORMAT, "-j", &list.join(",")])
-        .stdin(Stdio::null())
+    let output = slurm_command("squeue")
+        .args([
+            "--all",
+            "-h",
+            "-t",
+            "all",
+            "-O",
+            QUEUE_FORMAT,
+            "-j",
+            &list.join(","),
+        ])
         .output()
         .ok()?;
     // One unknown id makes squeue fail; several unknown ones print nothing.
@@ -625,12 +688,73 @@ fn parse_squeue(text: &str) -> HashMap<u64, JobState> {
 /// `scancel` of exactly these job ids.
 fn cancel(ids: &[u64]) {
     let list: Vec<String> = ids.iter().map(u64::to_string).collect();
-    let _ = Command::new("scancel")
+    let _ = slurm_command("scancel")
         .args(&list)
-        .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .status();
+}
+
+/// A Slurm command in a process group of its own: Ctrl-C on the terminal
+/// reaches acq, which cancels its jobs, and must not kill an `sbatch`
+/// halfway (a job submitted but never noted).
+fn slurm_command(program: &str) -> Command {
+    let mut command = Command::new(program);
+    command.stdin(Stdio::null()).process_group(0);
+    command
+}
+
+/// The run's outcome from the solver's exit status.
+fn solver_outcome(id: u64, status: i32, directory: &Path) -> Result<Option<()>, String> {
+    if status == 0 {
+        Ok(Some(()))
+    } else {
+        Err(format!(
+            "Slurm job {id}: the solver exited with status {status}: {}",
+            end_of_stderr(directory)
+        ))
+    }
+}
+
+/// The exit status of a job Slurm says has ended, read for up to
+/// [`STATUS_GRACE`]: on a shared file system a file written on the compute
+/// node can take a while to show on this one. Listing the directory
+/// refreshes NFS's cache of it.
+fn wait_for_exit_status(directory: &Path) -> Option<i32> {
+    let deadline = Instant::now() + STATUS_GRACE;
+    loop {
+        let _ = std::fs::read_dir(directory).map(|entries| entries.count());
+        if let Some(status) = read_exit_status(directory) {
+            return Some(status);
+        }
+        if Instant::now() >= deadline {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
+/// The exit code Slurm recorded for the job (its script exits with the
+/// solver's), from `scontrol show job` (`ExitCode=1:0`).
+fn slurm_exit_code(id: u64) -> Option<i32> {
+    let output = slurm_command("scontrol")
+        .args(["show", "job", &id.to_string()])
+        .output()
+        .ok()?;
+    String::from_utf8_lossy(&output.stdout)
+        .split_whitespace()
+        .find_map(|word| word.strip_prefix("ExitCode="))?
+        .split(':')
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// `(restart count, start time)` the job script wrote when it started.
+fn read_start(directory: &Path) -> Option<(u32, f64)> {
+    let text = std::fs::read_to_string(directory.join(STARTED_AT)).ok()?;
+    let mut words = text.split_whitespace();
+    Some((words.next()?.parse().ok()?, words.next()?.parse().ok()?))
 }
 
 /// The solver's exit status once the job script has written it.

@@ -126,9 +126,12 @@ pub fn end_of_stderr(directory: &Path) -> String {
     last.join(" / ")
 }
 
-/// SIGKILL to every descendant of `root` (found through /proc), deepest
-/// first. The solver stays in acq's process group, so Ctrl-C on the
-/// terminal still reaches it; a timeout has to find its children itself.
+/// SIGKILL to `root` and every descendant (found through /proc before
+/// any is killed), parents first: a wrapper script whose child died first
+/// could otherwise go on and write its outputs before its own kill (a
+/// timed-out run that looks finished). The solver stays in acq's process
+/// group, so Ctrl-C on the terminal still reaches it; a timeout has to find
+/// its children itself.
 fn kill_process_tree(root: u32) {
     let parent_of = |pid: u32| -> Option<u32> {
         let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
@@ -154,7 +157,8 @@ fn kill_process_tree(root: u32) {
         );
         index += 1;
     }
-    for &pid in tree.iter().skip(1).rev() {
+    // Breadth-first from the root: parents before their children.
+    for &pid in &tree {
         if let Ok(pid) = i32::try_from(pid) {
             let _ = nix::sys::signal::kill(
                 nix::unistd::Pid::from_raw(pid),

@@ -775,10 +775,18 @@ fn a_prior_pulls_a_parameter_to_the_closed_form_map_estimate() {
         "the prior must matter here"
     );
 
-    let dir = tempfile::tempdir().unwrap();
-    write_line_solver(dir.path(), &xs);
-    let mut spec = format!(
-        r#"command = ["sh", "line.sh", "{{a}}", "{{b}}"]
+    // Bayesian optimisation gets within a tenth of a posterior deviation
+    // on this smooth bowl; least squares lands on the closed form, and its
+    // Jacobian gives the posterior deviations to within the finite
+    // differences.
+    for (method, keys, tolerance_sigma, spread_tolerance) in [
+        ("bo", "best_params", 0.1, 0.05),
+        ("least-squares", "optimal", 1e-4, 1e-3),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        write_line_solver(dir.path(), &xs);
+        let mut spec = format!(
+            r#"command = ["sh", "line.sh", "{{a}}", "{{b}}"]
 output_file = "out.json"
 parallel = 2
 
@@ -794,46 +802,49 @@ upper = 6.0
 prior = {{ value = {prior_b:?}, uncertainty = {prior_sigma:?} }}
 
 [search]
-method = "bo"
+method = "{method}"
 residuals = "normalised"
 loss = "squares"
 start_runs = 10
 max_evals = 60
 "#
-    );
-    for (i, y) in ys.iter().enumerate() {
-        spec.push_str(&format!(
-            "\n[[output]]\nname = \"y{i}\"\nmeasured = {y:?}\nuncertainty = {sigma:?}\n"
-        ));
-    }
-    let spec_path = dir.path().join("line.toml");
-    std::fs::write(&spec_path, spec).unwrap();
-    let out = dir.path().join("run");
-    let got = run_external(&spec_path, &out);
-    let (a, b) = (
-        number(&got, &["best_params", "a"]),
-        number(&got, &["best_params", "b"]),
-    );
-    // BO's answer on a smooth bowl: within a tenth of a posterior deviation.
-    assert!((a - map_a).abs() < 0.1 * sigma_a, "a {a} vs MAP {map_a}");
-    assert!((b - map_b).abs() < 0.1 * sigma_b, "b {b} vs MAP {map_b}");
-    // The prior is scored and reported like a measured value.
-    assert_eq!(got["chi_square"]["observations"], 4);
-    assert!(got["best_outputs"]["prior/b"].is_number(), "{got:#}");
-    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
-    assert!(
-        report.contains("| prior | b | 3 |"),
-        "the report lists the prior"
-    );
-    // Identifiability is the posterior: the closed form's deviations.
-    let identified: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("identifiability.json")).unwrap())
-            .unwrap();
-    for (name, expected) in [("a", sigma_a), ("b", sigma_b)] {
-        let got_sigma = number(&identified, &["standard_uncertainty", name]);
-        assert!(
-            (got_sigma - expected).abs() < 0.05 * expected,
-            "{name}: {got_sigma} vs posterior {expected}"
         );
+        for (i, y) in ys.iter().enumerate() {
+            spec.push_str(&format!(
+                "\n[[output]]\nname = \"y{i}\"\nmeasured = {y:?}\nuncertainty = {sigma:?}\n"
+            ));
+        }
+        let spec_path = dir.path().join("line.toml");
+        std::fs::write(&spec_path, spec).unwrap();
+        let out = dir.path().join("run");
+        let got = run_external(&spec_path, &out);
+        let (a, b) = (number(&got, &[keys, "a"]), number(&got, &[keys, "b"]));
+        assert!(
+            (a - map_a).abs() < tolerance_sigma * sigma_a,
+            "{method}: a {a} vs MAP {map_a}"
+        );
+        assert!(
+            (b - map_b).abs() < tolerance_sigma * sigma_b,
+            "{method}: b {b} vs MAP {map_b}"
+        );
+        // The prior is scored and reported like a measured value.
+        assert_eq!(got["chi_square"]["observations"], 4);
+        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(
+            report.contains("| prior | b | 3 |"),
+            "{method}: the report lists the prior"
+        );
+        // Identifiability is the posterior: the closed form's deviations.
+        let identified: Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("identifiability.json")).unwrap(),
+        )
+        .unwrap();
+        for (name, expected) in [("a", sigma_a), ("b", sigma_b)] {
+            let got_sigma = number(&identified, &["standard_uncertainty", name]);
+            assert!(
+                (got_sigma - expected).abs() < spread_tolerance * expected,
+                "{method}: {name}: {got_sigma} vs posterior {expected}"
+            );
+        }
     }
 }

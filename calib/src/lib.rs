@@ -10,6 +10,7 @@
 //! - `gp`: Gaussian-process regression (SE and Matern kernels, ARD, marginal-likelihood fit).
 //! - `surrogate`: polynomial and RBF surrogates, and the comparison by held-out RMSE.
 //! - `moo`: NSGA-II, hypervolume, the ZDT/DTLZ benchmark problems; `topsis`: the pick.
+//! - `least_squares`: bounded Levenberg-Marquardt, for cheap smooth models.
 //! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches).
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
 //! - `training_data`: the shape and finiteness check every fitted model runs first.
@@ -18,6 +19,7 @@ pub mod bo;
 pub mod doe;
 pub mod evaluation;
 pub mod gp;
+pub mod least_squares;
 pub mod moo;
 pub mod optim;
 pub mod sobol_indices;

@@ -91,7 +91,10 @@
 //! force_displacement = { file = "cold.csv", x = "DISPLACEMENT", y = "FORCE" }
 //!
 //! [search]
-//! method = "bo"              # or "surrogate-moo"
+//! method = "bo"              # or "surrogate-moo", or "least-squares"
+//!                            # (Levenberg-Marquardt from the nominal point,
+//!                            # for cheap smooth models; max_evals counts
+//!                            # one run per parameter per Jacobian)
 //! residuals = "relative"     # or "normalised": scalars in standard uncertainties
 //! start = "lhs"              # bo: lhs, sobol, l12, factorial, or a CSV file of points
 //! start_runs = 10
@@ -1103,9 +1106,12 @@ impl Spec {
 
     fn check_search(&self) -> std::result::Result<(), String> {
         let search = &self.search;
-        if !matches!(search.method.as_str(), "bo" | "surrogate-moo") {
+        if !matches!(
+            search.method.as_str(),
+            "bo" | "surrogate-moo" | "least-squares"
+        ) {
             return Err(format!(
-                "search.method = {:?}: use \"bo\" or \"surrogate-moo\"",
+                "search.method = {:?}: use \"bo\", \"surrogate-moo\" or \"least-squares\"",
                 search.method
             ));
         }
@@ -1211,6 +1217,10 @@ impl Spec {
                 seed,
                 refine_tolerance: search.refine_tolerance.unwrap_or(defaults.refine_tolerance),
                 refine_rounds: search.refine_rounds.unwrap_or(defaults.refine_rounds),
+            })
+        } else if search.method == "least-squares" {
+            Method::LeastSquares(study_runner::LeastSquaresMethod {
+                max_evals: search.max_evals,
             })
         } else {
             Method::Bo(study_runner::BoMethod {
@@ -1546,7 +1556,7 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         Method::Bo(bo) => {
             study_runner::start_design(&study.search_parameters(), bo, &spec_directory)?
         }
-        Method::SurrogateMoo(_) => Vec::new(),
+        Method::SurrogateMoo(_) | Method::LeastSquares(_) => Vec::new(),
     };
     let parallel = spec.runs_at_once.max(1);
     let settings = RunSettings {

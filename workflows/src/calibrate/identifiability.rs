@@ -1,6 +1,8 @@
 //! Which parameters the data pin down: a local analysis at the calibrated
 //! point on the GP surrogates of the fit observations (the method's own
-//! GPs, or GPs fitted to the logged runs after Bayesian optimisation).
+//! GPs, or GPs fitted to the logged runs after Bayesian optimisation), or
+//! on the model itself linearised there (after a least-squares search,
+//! whose last Jacobian it is).
 //!
 //! - **Scalars only** (Gauss-Newton): with residuals `r_i` (a scalar's
 //!   `(model - measured) / u` when its standard uncertainty u is known, else
@@ -48,22 +50,72 @@ pub struct Identifiability {
     pub slices: Vec<Vec<(f64, f64)>>,
 }
 
+/// The fit outputs at a unit-box point, near the calibrated one.
+type Predictor<'a> = dyn Fn(&[f64]) -> Vec<f64> + 'a;
+
+/// What the analysis looks at the outputs through.
+pub enum Local<'a> {
+    /// The method's GPs of the fit outputs, or none: GPs are fitted to
+    /// the logged runs.
+    Surrogates(Option<&'a [Gp]>),
+    /// The model's own outputs linearised at the calibrated point: d output
+    /// / d unit-box position, one row per fit output (a least-squares
+    /// search's last Jacobian).
+    Jacobian(&'a [Vec<f64>]),
+}
+
 /// The analysis, or `None` when the surrogates cannot be had (too few
 /// successful runs).
 pub fn identifiability(
     study: &Study,
     evaluations: &[Evaluation],
     calibrated: &[f64],
-    gps: Option<&[Gp]>,
+    calibrated_outputs: &[f64],
+    local: Local<'_>,
 ) -> Option<Identifiability> {
     let parameters = study.search_parameters();
     let d = parameters.len();
+    let at = to_unit(&parameters, calibrated);
     let fitted;
-    let gps = match gps {
-        Some(gps) => gps,
-        None => {
-            fitted = fit_gps(&parameters, evaluations)?;
-            &fitted
+    // Outputs near the calibrated point, and their Jacobian there.
+    let (predicted, jacobian): (Box<Predictor<'_>>, DMatrix<f64>) = match local {
+        Local::Surrogates(gps) => {
+            let gps = match gps {
+                Some(gps) => gps,
+                None => {
+                    fitted = fit_gps(&parameters, evaluations)?;
+                    &fitted
+                }
+            };
+            let mut jacobian = DMatrix::<f64>::zeros(gps.len(), d);
+            for (i, gp) in gps.iter().enumerate() {
+                let gradient = gp.predict_with_gradient(&at).mean_gradient;
+                for (j, g) in gradient.iter().enumerate() {
+                    jacobian[(i, j)] = *g;
+                }
+            }
+            (
+                Box::new(move |u: &[f64]| gps.iter().map(|gp| gp.predict(u).mean).collect()),
+                jacobian,
+            )
+        }
+        Local::Jacobian(rows) => {
+            let jacobian = DMatrix::from_fn(rows.len(), d, |i, j| rows[i][j]);
+            let centre = at.clone();
+            let outputs = calibrated_outputs.to_vec();
+            let linear = jacobian.clone();
+            (
+                Box::new(move |u: &[f64]| {
+                    let shift = DMatrix::from_fn(d, 1, |j, _| u[j] - centre[j]);
+                    let change = &linear * shift;
+                    outputs
+                        .iter()
+                        .enumerate()
+                        .map(|(i, y)| y + change[(i, 0)])
+                        .collect()
+                }),
+                jacobian,
+            )
         }
     };
     let observations = study.observations(Role::Fit);
@@ -76,15 +128,13 @@ pub fn identifiability(
             }
         )
     });
-    let at = to_unit(&parameters, calibrated);
     let has_curve = observations
         .iter()
         .any(|(_, o)| matches!(o.measured, Measured::Curve { .. }));
-    let predicted = |u: &[f64]| -> Vec<f64> { gps.iter().map(|gp| gp.predict(u).mean).collect() };
     let information = if has_curve {
         loss_hessian(&|u: &[f64]| study.loss(&predicted(u)), &at) / 2.0
     } else {
-        gauss_newton_information(&observations, gps, &at, in_uncertainties)
+        gauss_newton_information(&observations, &jacobian, in_uncertainties)
     };
     let eigen = SymmetricEigen::new(information);
     let largest = eigen.eigenvalues.iter().fold(0.0f64, |a, &b| a.max(b));
@@ -162,17 +212,14 @@ pub fn identifiability(
     })
 }
 
-/// `J^T J` of the scalar residuals at `at` (unit box), from the GP mean
-/// gradients.
+/// `J^T J` of the scalar residuals, from the outputs' Jacobian.
 fn gauss_newton_information(
     observations: &[(&super::study::Case, &super::study::Observation)],
-    gps: &[Gp],
-    at: &[f64],
+    outputs_jacobian: &DMatrix<f64>,
     in_uncertainties: bool,
 ) -> DMatrix<f64> {
-    let mut jacobian = DMatrix::<f64>::zeros(observations.len(), at.len());
-    for (i, ((_, observation), gp)) in observations.iter().zip(gps).enumerate() {
-        let gradient = gp.predict_with_gradient(at).mean_gradient;
+    let mut jacobian = outputs_jacobian.clone();
+    for (i, (_, observation)) in observations.iter().enumerate() {
         let scale = match &observation.measured {
             Measured::Scalar {
                 uncertainty: Some(u),
@@ -181,8 +228,8 @@ fn gauss_newton_information(
             Measured::Scalar { value, .. } => 100.0 / value.abs(),
             Measured::Curve { .. } => 1.0,
         };
-        for (j, g) in gradient.iter().enumerate() {
-            jacobian[(i, j)] = g * scale;
+        for j in 0..jacobian.ncols() {
+            jacobian[(i, j)] *= scale;
         }
     }
     jacobian.transpose() * jacobian

@@ -326,6 +326,29 @@ impl Study {
             .collect()
     }
 
+    /// The signed residuals a least-squares search squares and sums, one
+    /// per fit observation: a scalar's `(model - measured) / u` with
+    /// normalised residuals, else its signed relative error in %; a
+    /// curve's MAPE. Each is scaled by the square root of its weight, so
+    /// the sum of squares is [`LossKind::Squares`]'s weighted sum.
+    pub fn residuals(&self, outputs: &[f64]) -> Vec<f64> {
+        self.cases_with(Role::Fit)
+            .flat_map(|(_, case)| &case.observations)
+            .zip(outputs)
+            .map(|(observation, &model)| {
+                let residual = match &observation.measured {
+                    Measured::Scalar {
+                        value,
+                        uncertainty: Some(u),
+                    } if self.residuals == Residuals::Normalised => (model - value) / u,
+                    Measured::Scalar { value, .. } => 100.0 * (model - value) / value.abs(),
+                    Measured::Curve { .. } => model,
+                };
+                residual * observation.weight.sqrt()
+            })
+            .collect()
+    }
+
     /// The weights of the fit observations.
     pub fn weights(&self) -> Vec<f64> {
         self.observations(Role::Fit)

@@ -4,6 +4,10 @@
 //!
 //! - `bo`: Bayesian optimisation of the study's loss ([`minimise_logged`]).
 //! - `surrogate-moo`: [`surrogate_moo`] over the study's objectives.
+//! - `least-squares`: bounded Levenberg-Marquardt on the study's residuals
+//!   from the nominal point ([`acq_calib::least_squares`]), for cheap,
+//!   smooth models (the built-in excavator twin); its last Jacobian is the
+//!   identifiability analysis's.
 //!
 //! The fit runs log to `evaluations.csv`, the validation runs to
 //! `validation.csv`; both resume.
@@ -18,18 +22,23 @@ use acq_calib::doe::{
     two_level_to_unit,
 };
 use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_calib::least_squares::{
+    least_squares, LeastSquaresError, LeastSquaresResult, LeastSquaresSettings, Stop as LsStop,
+};
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
 use serde_json::{json, Map, Value};
 
 use super::identifiability::{
-    identifiability, identifiability_json, write_identifiability, Identifiability,
+    identifiability, identifiability_json, write_identifiability, Identifiability, Local,
 };
 use super::progress::Progress;
 use super::report::{pareto_svg, write_report, write_text};
 use super::run_directory::{evaluation_error, RunDirectory};
-use super::search::{bo_settings, distinct_best, minimise_logged, scored, to_unit};
+use super::search::{
+    bo_settings, distinct_best, from_unit as acq_calib_from_unit, minimise_logged, scored, to_unit,
+};
 use super::study::{
     cases_json, chi_square, errors_json, Model, ObservationError, Residuals, Role, Study,
     StudySimulator,
@@ -51,11 +60,19 @@ pub struct BoMethod {
     pub seed: u64,
 }
 
+/// Least squares' settings in a study.
+#[derive(Clone, Debug)]
+pub struct LeastSquaresMethod {
+    /// Model runs at most (each Jacobian costs one per parameter).
+    pub max_evals: usize,
+}
+
 /// The search method of a study.
 #[derive(Clone, Debug)]
 pub enum Method {
     Bo(BoMethod),
     SurrogateMoo(SurrogateMooSettings),
+    LeastSquares(LeastSquaresMethod),
 }
 
 /// How a study runs, besides its method.
@@ -156,6 +173,7 @@ pub fn calibrate_study(
     let budget = match method {
         Method::Bo(bo) => bo.max_evals,
         Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
+        Method::LeastSquares(ls) => ls.max_evals + parameters.len(),
     };
     let progress = Progress::new(settings.label.clone(), budget).with_status(|| model.status());
     let start = Instant::now();
@@ -208,6 +226,10 @@ pub fn calibrate_study(
                 moo,
             )
             .map(|m| Found::Moo(Box::new(m))),
+            Method::LeastSquares(ls) => {
+                least_squares_logged(&mut evaluator, study, &parameters, ls.max_evals)
+                    .map(|found| Found::LeastSquares(Box::new(found)))
+            }
         };
         searching.store(false, Ordering::Relaxed);
         found
@@ -229,6 +251,10 @@ pub fn calibrate_study(
     let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
     let (calibrated, calibrated_outputs) = match &found {
         Found::Moo(moo) => (moo.optimal.clone(), moo.optimal_outputs.clone()),
+        Found::LeastSquares(ls) => (
+            acq_calib_from_unit(&parameters, &ls.result.point),
+            ls.result.outputs.clone(),
+        ),
         Found::Bo(_) => {
             let scored = scored(&evaluations, |y| study.loss(y));
             let Some(&(best, _)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
@@ -246,7 +272,12 @@ pub fn calibrate_study(
     };
     let fit_errors = study.errors(Role::Fit, &calibrated_outputs);
     let validation_errors = validate(study, model, &calibrated, directory, settings)?;
-    let identifiability = identifiability(study, &evaluations, &calibrated, found.gps());
+    let local = match &found {
+        Found::LeastSquares(ls) => Local::Jacobian(&ls.result.output_jacobian),
+        other => Local::Surrogates(other.gps()),
+    };
+    let identifiability =
+        identifiability(study, &evaluations, &calibrated, &calibrated_outputs, local);
     Ok(StudyOutcome {
         found,
         calibrated,
@@ -344,6 +375,23 @@ pub fn write_study(
             summary.insert("failed".into(), json!(failed));
             summary.insert("wall_s".into(), json!(wall_s));
         }
+        Found::LeastSquares(ls) => {
+            summary.insert(
+                "errors_initial_pct".into(),
+                errors_json(&study.errors(Role::Fit, &ls.nominal_outputs)),
+            );
+            summary.insert("errors_optimal_pct".into(), errors_json(fit_errors));
+            summary.insert("optimal".into(), named(calibrated));
+            summary.insert("loss".into(), json!(study.loss(calibrated_outputs)));
+            summary.insert("sum_of_squares".into(), json!(ls.result.cost));
+            summary.insert("iterations".into(), json!(ls.result.iterations));
+            summary.insert(
+                "stop".into(),
+                json!(format!("{:?}", ls.result.stop).to_lowercase()),
+            );
+            summary.insert("failed".into(), json!(failed));
+            summary.insert("wall_s".into(), json!(wall_s));
+        }
     }
     summary.insert("evaluations".into(), json!(evaluations));
     if study.named_cases {
@@ -386,10 +434,21 @@ pub fn write_study(
             moo.front.len(),
             rounds_sentence(&moo.rounds)
         ),
+        Found::LeastSquares(ls) => format!(
+            "Least squares (Levenberg-Marquardt from the nominal point): sum of squared residuals {:.4} after {} iterations and {evaluations} model evaluations ({failed} failed), {wall_s:.1} s; stopped: {}.",
+            ls.result.cost,
+            ls.result.iterations,
+            match ls.result.stop {
+                LsStop::Converged => "converged",
+                LsStop::NoDescent => "no step lowers the residuals further (a local minimum, perhaps on a bound)",
+                LsStop::Budget => "the run budget (max_evals) is spent; the search had not converged",
+            }
+        ),
     };
     report.paragraph(method_sentence);
     let nominal_errors = match &found {
         Found::Moo(moo) => Some(study.errors(Role::Fit, &moo.nominal_outputs)),
+        Found::LeastSquares(ls) => Some(study.errors(Role::Fit, &ls.nominal_outputs)),
         Found::Bo(_) => None,
     };
     report.heading(2, "Fit cases");
@@ -494,6 +553,7 @@ pub fn write_study(
             }
             report.table(table);
         }
+        Found::LeastSquares(_) => {}
     }
     report.figure(Figure {
         file: "loss.svg".into(),
@@ -573,15 +633,67 @@ fn write_runs_section(report: &mut Document, columns: &[String], evaluations: &[
 pub enum Found {
     Bo(acq_calib::bo::BoResult),
     Moo(Box<super::surrogate_moo::SurrogateMoo>),
+    LeastSquares(Box<LeastSquaresFound>),
 }
 
 impl Found {
     fn gps(&self) -> Option<&[acq_calib::gp::Gp]> {
         match self {
             Found::Moo(moo) => Some(&moo.gps),
-            Found::Bo(_) => None,
+            Found::Bo(_) | Found::LeastSquares(_) => None,
         }
     }
+}
+
+/// What a least-squares search found, and where it started.
+pub struct LeastSquaresFound {
+    pub result: LeastSquaresResult,
+    /// The fit outputs at the nominal point (the search's start).
+    pub nominal_outputs: Vec<f64>,
+}
+
+/// Levenberg-Marquardt from the nominal point through the logging
+/// evaluator: each Jacobian's shifted points go as one batch (in parallel
+/// on a solver with several slots), every run is logged, and a resumed
+/// search replays the same points from the log.
+fn least_squares_logged(
+    evaluator: &mut acq_calib::evaluation::Evaluator<'_>,
+    study: &Study,
+    parameters: &[Parameter],
+    max_evals: usize,
+) -> Result<LeastSquaresFound> {
+    let start = to_unit(parameters, &study.nominal());
+    let mut nominal_outputs = None;
+    let settings = LeastSquaresSettings {
+        max_evaluations: max_evals,
+        ..LeastSquaresSettings::default()
+    };
+    let result = least_squares(
+        start,
+        |points| {
+            let values: Vec<Vec<f64>> = points
+                .iter()
+                .map(|u| acq_calib_from_unit(parameters, u))
+                .collect();
+            let evaluations = evaluator.evaluate(&values)?;
+            let outputs: Vec<Option<Vec<f64>>> =
+                evaluations.into_iter().map(|e| e.outcome.ok()).collect();
+            if nominal_outputs.is_none() {
+                nominal_outputs = Some(outputs.first().cloned().flatten());
+            }
+            Ok(outputs)
+        },
+        |y| study.residuals(y),
+        &settings,
+    )
+    .map_err(|error| match error {
+        LeastSquaresError::Run(error) => evaluation_error(error),
+        other => AcqError::Config(other.to_string()),
+    })?;
+    Ok(LeastSquaresFound {
+        nominal_outputs: nominal_outputs.flatten().unwrap_or_default(),
+        result,
+    })
 }
 
 /// The fit simulator's output names.

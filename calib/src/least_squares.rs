@@ -35,7 +35,15 @@ pub struct LeastSquaresSettings {
     /// Converged when a taken step lowers the cost by less than this
     /// share of it.
     pub relative_tolerance: f64,
+    /// Also converged when the last [`STALL_STEPS`] taken steps together
+    /// lowered it by less than this share: a model whose outputs are
+    /// smooth only to some digits (an iterative solve inside) makes the
+    /// search creep at the end instead of stopping.
+    pub stall_tolerance: f64,
 }
+
+/// The taken steps [`LeastSquaresSettings::stall_tolerance`] looks back over.
+pub const STALL_STEPS: usize = 5;
 
 impl Default for LeastSquaresSettings {
     fn default() -> Self {
@@ -43,6 +51,7 @@ impl Default for LeastSquaresSettings {
             max_evaluations: 2000,
             difference_step: 1e-6,
             relative_tolerance: 1e-10,
+            stall_tolerance: 1e-6,
         }
     }
 }
@@ -183,6 +192,7 @@ pub fn least_squares<E>(
 
     let mut lambda = 1e-3;
     let mut iterations = 0;
+    let mut taken_costs = vec![cost];
     let mut jacobian_at_x = None;
     let stop = loop {
         if evaluations + d + 1 > settings.max_evaluations {
@@ -237,11 +247,25 @@ pub fn least_squares<E>(
             }
             continue;
         }
-        let candidate: Vec<f64> = x
-            .iter()
-            .zip(&delta)
-            .map(|(u, s)| (u + s).clamp(0.0, 1.0))
-            .collect();
+        // A step whose run fails (the model cannot be built there: a
+        // linkage that no longer closes) is halved along the same
+        // direction a few times before the damping rises: the boundary of
+        // where the model runs is no reason to turn.
+        let mut fraction = 1.0;
+        let (candidate, tried) = loop {
+            let candidate: Vec<f64> = x
+                .iter()
+                .zip(&delta)
+                .map(|(u, s)| (u + fraction * s).clamp(0.0, 1.0))
+                .collect();
+            let tried = run_batch(std::slice::from_ref(&candidate), &mut evaluations)?
+                .pop()
+                .flatten();
+            if tried.is_some() || fraction < 0.1 || evaluations + d + 2 > settings.max_evaluations {
+                break (candidate, tried);
+            }
+            fraction *= 0.5;
+        };
         let moved = candidate
             .iter()
             .zip(&x)
@@ -249,9 +273,6 @@ pub fn least_squares<E>(
         if moved < 1e-14 {
             break Stop::NoDescent;
         }
-        let tried = run_batch(std::slice::from_ref(&candidate), &mut evaluations)?
-            .pop()
-            .flatten();
         let better = tried.and_then(|y| {
             let ry = residuals(&y);
             let c = sum_of_squares(&ry);
@@ -266,7 +287,15 @@ pub fn least_squares<E>(
                 cost = c;
                 jacobian_at_x = None;
                 lambda = (lambda / 3.0).max(1e-12);
-                if decrease <= settings.relative_tolerance * (cost + decrease) || cost == 0.0 {
+                taken_costs.push(cost);
+                let stalled = taken_costs.len() > STALL_STEPS && {
+                    let before = taken_costs[taken_costs.len() - 1 - STALL_STEPS];
+                    before - cost <= settings.stall_tolerance * before
+                };
+                if decrease <= settings.relative_tolerance * (cost + decrease)
+                    || cost == 0.0
+                    || stalled
+                {
                     break Stop::Converged;
                 }
             }

@@ -8,9 +8,10 @@ use acq_io::error::{AcqError, Result};
 use acq_io::output::Output;
 use acq_report::plot::grid_svg;
 use acq_twins::excavator::case::{CaseFile, UncertainInput};
+use acq_twins::excavator::envelope::working_envelope;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::{CylinderName, Excavator};
-use acq_workflows::excavator_report::{evaluation_json, evaluation_report};
+use acq_workflows::excavator_report::{envelope_json, evaluation_json, evaluation_report};
 use acq_workflows::sensitivity::{one_at_a_time, Factor, Response};
 use clap::{Args, Subcommand};
 
@@ -55,6 +56,11 @@ pub struct TwinExcavatorArgs {
     /// Print one JSON object instead of the tables.
     #[arg(long)]
     pub json: bool,
+    /// Also give the working envelope over the stroke ranges: maximum
+    /// reach, digging depth and dump height (needs the foot pin's place,
+    /// base.foot_pin_above_ground_m and base.foot_pin_ahead_of_swing_axis_m).
+    #[arg(long)]
+    pub envelope: bool,
 }
 
 #[derive(Subcommand, Debug)]
@@ -113,10 +119,43 @@ pub fn run_twin(command: TwinCommand) -> Result<()> {
     let evaluation = twin
         .evaluate(&inputs)
         .map_err(|e| AcqError::Config(format!("{}: {e}", case.name)))?;
+    let envelope = if args.envelope {
+        Some(working_envelope(twin.geometry()).map_err(|e| AcqError::Config(e.to_string()))?)
+    } else {
+        None
+    };
     if args.json {
-        println!("{}", evaluation_json(&evaluation));
+        let mut json = evaluation_json(&evaluation);
+        if let Some(envelope) = &envelope {
+            json["envelope"] = envelope_json(envelope)["envelope"].take();
+        }
+        println!("{json}");
     } else {
         print!("{}", evaluation_report(&case, &inputs, &twin, &evaluation));
+        if let Some(e) = &envelope {
+            let strokes = |s: &acq_twins::excavator::Strokes| {
+                format!(
+                    "bucket {:.0}, arm {:.0}, boom {:.0} mm",
+                    s.bucket_mm, s.arm_mm, s.boom_mm
+                )
+            };
+            println!("\nworking envelope (over the stroke ranges)");
+            println!(
+                "max reach from the swing axis   {:.3} m  at {}",
+                e.max_reach_m,
+                strokes(&e.reach_strokes)
+            );
+            println!(
+                "max digging depth below ground  {:.3} m  at {}",
+                e.max_digging_depth_m,
+                strokes(&e.depth_strokes)
+            );
+            println!(
+                "max dump height (bucket opened) {:.3} m  at {}",
+                e.max_dump_height_m,
+                strokes(&e.dump_strokes)
+            );
+        }
     }
     Ok(())
 }

@@ -301,3 +301,93 @@ fn geometry_and_case_errors_name_the_problem() {
     let err = CaseFile::parse(&case.replace("force_kN = 40.6", "force_kn = 40.6")).unwrap_err();
     assert!(err.contains("force_kn"), "{err}");
 }
+
+#[test]
+fn a_pressure_above_the_relief_is_reported_as_its_excess() {
+    let mut geometry = Geometry::load(&data("dx55.toml")).unwrap();
+    let case2 = CaseFile::load(&data("case2.toml")).unwrap().nominal();
+    let e = Excavator::new(geometry.clone())
+        .unwrap()
+        .evaluate(&case2)
+        .unwrap();
+    let relief = geometry.relief_pressure_bar.unwrap();
+    for c in &e.cylinders {
+        let excess = (c.loaded_chamber_pressure_bar - relief).max(0.0);
+        assert_eq!(c.over_relief_bar, Some(excess));
+    }
+    assert!(
+        e.cylinders.iter().any(|c| c.over_relief_bar.unwrap() > 0.0),
+        "40.6 kN in the Case-2 pose is beyond this geometry's relief"
+    );
+    geometry.relief_pressure_bar = None;
+    let e = Excavator::new(geometry).unwrap().evaluate(&case2).unwrap();
+    assert!(e.cylinders.iter().all(|c| c.over_relief_bar.is_none()));
+}
+
+#[test]
+fn the_working_envelope_is_the_extreme_of_a_dense_stroke_grid() {
+    // Independently of the envelope's own search: a dense grid over the
+    // strokes (41 per cylinder) never beats it, and comes within a few
+    // millimetres of it (the grid's spacing).
+    use acq_twins::excavator::envelope::working_envelope;
+    use acq_twins::excavator::kinematics::Pose;
+    let geometry = Geometry::load(&data("dx55.toml")).unwrap();
+    let envelope = working_envelope(&geometry).unwrap();
+    let height = geometry.base.foot_pin_above_ground_m.unwrap();
+    let ahead = geometry.base.foot_pin_ahead_of_swing_axis_m.unwrap();
+    let range = |name: CylinderName| geometry.cylinder(name).stroke_range_mm;
+    let steps = 40;
+    let at = |name: CylinderName, k: usize| {
+        let [low, high] = range(name);
+        low + (high - low) * k as f64 / steps as f64
+    };
+    let (mut reach, mut depth, mut dump) = (f64::MIN, f64::MIN, f64::MIN);
+    for i in 0..=steps {
+        for j in 0..=steps {
+            for k in 0..=steps {
+                let strokes = Strokes {
+                    boom_mm: at(CylinderName::Boom, i),
+                    arm_mm: at(CylinderName::Arm, j),
+                    bucket_mm: at(CylinderName::Bucket, k),
+                };
+                let Ok(pose) = Pose::solve(&geometry, &strokes) else {
+                    continue;
+                };
+                reach = reach.max(ahead + pose.j.x);
+                depth = depth.max(-pose.j.y - height);
+                if k == 0 && pose.j.y <= pose.g.y {
+                    dump = dump.max(height + pose.j.y);
+                }
+            }
+        }
+    }
+    // The dump height's maximum lies on the curve where J comes level with
+    // G, which a grid meets only between its points: it is checked more
+    // loosely, and by the pose at the strokes named.
+    for (name, searched, grid, within) in [
+        ("reach", envelope.max_reach_m, reach, 0.02),
+        ("depth", envelope.max_digging_depth_m, depth, 0.02),
+        ("dump height", envelope.max_dump_height_m, dump, 0.15),
+    ] {
+        assert!(
+            grid <= searched + 1e-9,
+            "{name}: grid {grid} beats {searched}"
+        );
+        assert!(
+            searched - grid < within,
+            "{name}: {searched} vs grid {grid}"
+        );
+    }
+    let dumped = Pose::solve(&geometry, &envelope.dump_strokes).unwrap();
+    assert!(dumped.j.y <= dumped.g.y + 1e-12);
+    assert!((height + dumped.j.y - envelope.max_dump_height_m).abs() < 1e-12);
+    // The strokes it names give the value it names.
+    let pose = Pose::solve(&geometry, &envelope.reach_strokes).unwrap();
+    assert!((ahead + pose.j.x - envelope.max_reach_m).abs() < 1e-12);
+    // Without A's place on the machine there is no envelope, and the
+    // error says what to add.
+    let mut unplaced = geometry.clone();
+    unplaced.base.foot_pin_above_ground_m = None;
+    let error = working_envelope(&unplaced).unwrap_err().to_string();
+    assert!(error.contains("base.foot_pin_above_ground_m"), "{error}");
+}

@@ -3,7 +3,8 @@
 
 use acq_twins::excavator::geometry::{Geometry, GeometryTemplate};
 use acq_twins::excavator::kinematics::Pose;
-use acq_twins::excavator::pose_fit::{published_poses, refit_poses};
+use acq_twins::excavator::pose_fit::{published_poses, refit_poses, refit_poses_from};
+use acq_twins::excavator::CylinderName;
 
 fn angle_deg(point: [f64; 2]) -> f64 {
     point[1].atan2(point[0]).to_degrees()
@@ -98,6 +99,65 @@ fn moved_pins_are_refitted_so_the_published_poses_still_hold() {
     // The moved pins themselves stay where they were put.
     assert_eq!(refitted.base.boom_cylinder_pin_m, [0.20, -0.45]);
     assert_eq!(refitted.arm.bucket_cylinder_pin_m[0], 0.30);
+
+    // Started from a nearby fitted geometry (a search's previous point),
+    // the fit lands on the same numbers.
+    let mut warm = moved.clone();
+    refit_poses_from(&mut warm, &poses, Some(&template.with(&[]).unwrap())).unwrap();
+    for (a, b) in [
+        (
+            warm.boom.boom_cylinder_pin_m,
+            refitted.boom.boom_cylinder_pin_m,
+        ),
+        (warm.arm.arm_cylinder_pin_m, refitted.arm.arm_cylinder_pin_m),
+        (warm.bucket.link_pin_m, refitted.bucket.link_pin_m),
+    ] {
+        assert!(
+            (a[0] - b[0]).abs() + (a[1] - b[1]).abs() < 1e-9,
+            "{a:?} vs {b:?}"
+        );
+    }
+    for name in CylinderName::ALL {
+        let (a, b) = (
+            warm.cylinder(name).retracted_length_m,
+            refitted.cylinder(name).retracted_length_m,
+        );
+        assert!((a - b).abs() < 1e-9, "{name}: {a} vs {b}");
+    }
+}
+
+#[test]
+fn a_moved_pin_carries_its_lug_and_the_member_keeps_its_stations_shares() {
+    // F is the arm centreline's first vertex and carries a boss: moving it
+    // moves both, and the sections and gauges keep their share of the
+    // longer centreline, so the file stays valid.
+    let template = GeometryTemplate::dx55();
+    let before = template.with(&[]).unwrap();
+    let moved = template
+        .with(&[("arm.arm_cylinder_pin_m[0]", -0.40)])
+        .unwrap();
+    let f = moved.arm.arm_cylinder_pin_m;
+    assert_eq!(moved.arm.structure.centreline_m[0], f);
+    assert!(moved
+        .arm
+        .structure
+        .attached_mass
+        .iter()
+        .any(|m| m.at_m == f));
+    let stretch = moved.arm.structure.length_m() / before.arm.structure.length_m();
+    assert!(stretch > 1.01, "{stretch}");
+    let last = |g: &acq_twins::excavator::geometry::Geometry| {
+        g.arm.structure.section.last().unwrap().station_m
+    };
+    let share = |g: &acq_twins::excavator::geometry::Geometry| last(g) / g.arm.structure.length_m();
+    assert!((share(&moved) - share(&before)).abs() < 1e-12);
+    for (a, b) in moved.gauges.iter().zip(&before.gauges) {
+        let expected = match a.member {
+            acq_twins::excavator::geometry::Member::Arm => b.station_m * stretch,
+            acq_twins::excavator::geometry::Member::Boom => b.station_m,
+        };
+        assert!((a.station_m - expected).abs() < 1e-12, "gauge {}", a.point);
+    }
 }
 
 #[test]

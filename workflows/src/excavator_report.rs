@@ -3,6 +3,7 @@
 //! the fixed `--json` object.
 
 use acq_twins::excavator::case::CaseFile;
+use acq_twins::excavator::envelope::WorkingEnvelope;
 use acq_twins::excavator::{CylinderName, Evaluation, Excavator, Inputs};
 
 /// The fixed `--json` object.
@@ -16,6 +17,23 @@ pub fn evaluation_json(evaluation: &Evaluation) -> serde_json::Value {
         "cylinder_force_kN": per_cylinder(&|name| evaluation.cylinder(name).axial_force_kn),
         "gauge_stress_MPa": evaluation.gauges.iter().map(|g| g.stress_mpa).collect::<Vec<_>>(),
         "max_von_mises_MPa": {"boom": evaluation.boom.max_von_mises_mpa, "arm": evaluation.arm.max_von_mises_mpa},
+    })
+}
+
+/// The working envelope as `acq twin excavator --envelope --json` writes it.
+pub fn envelope_json(envelope: &WorkingEnvelope) -> serde_json::Value {
+    let strokes = |s: &acq_twins::excavator::Strokes| serde_json::json!({"bucket_mm": s.bucket_mm, "arm_mm": s.arm_mm, "boom_mm": s.boom_mm});
+    serde_json::json!({
+        "envelope": {
+            "max_reach_m": envelope.max_reach_m,
+            "max_digging_depth_m": envelope.max_digging_depth_m,
+            "max_dump_height_m": envelope.max_dump_height_m,
+            "strokes": {
+                "max_reach": strokes(&envelope.reach_strokes),
+                "max_digging_depth": strokes(&envelope.depth_strokes),
+                "max_dump_height": strokes(&envelope.dump_strokes),
+            }
+        }
     })
 }
 
@@ -82,6 +100,18 @@ pub fn evaluation_report(
             let _ = write!(text, " {measured:<13.2} {error:.2}");
         }
         text.push('\n');
+    }
+    if let Some(relief) = twin.geometry().relief_pressure_bar {
+        for name in CylinderName::ALL {
+            let c = evaluation.cylinder(name);
+            if c.over_relief_bar.is_some_and(|over| over > 0.0) {
+                let _ = writeln!(
+                    text,
+                    "warning: the {name} cylinder needs {:.0} bar, above the relief pressure of {relief:.0} bar: the machine could not hold this load",
+                    c.loaded_chamber_pressure_bar
+                );
+            }
+        }
     }
     let _ = writeln!(
         text,

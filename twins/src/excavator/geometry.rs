@@ -32,6 +32,9 @@ pub struct Geometry {
     pub gauges: Vec<Gauge>,
     /// Pose solutions closer than this to a dead centre are refused.
     pub dead_centre_margin_deg: f64,
+    /// The pressure the relief valves open at: a loaded chamber above it
+    /// means the machine could not hold that load.
+    pub relief_pressure_bar: Option<f64>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -51,6 +54,11 @@ pub struct Material {
 pub struct Base {
     /// C: the boom cylinder's barrel pin.
     pub boom_cylinder_pin_m: PointM,
+    /// A's height above the ground the machine stands on (for the working
+    /// envelope).
+    pub foot_pin_above_ground_m: Option<f64>,
+    /// A's distance ahead of the swing axis (for the working envelope).
+    pub foot_pin_ahead_of_swing_axis_m: Option<f64>,
 }
 
 /// A flexible body: a box-section centreline (a polyline through the
@@ -308,6 +316,21 @@ impl Geometry {
                 ));
             }
         }
+        for (name, value) in [
+            (
+                "base.foot_pin_above_ground_m",
+                self.base.foot_pin_above_ground_m,
+            ),
+            (
+                "base.foot_pin_ahead_of_swing_axis_m",
+                self.base.foot_pin_ahead_of_swing_axis_m,
+            ),
+            ("relief_pressure_bar", self.relief_pressure_bar),
+        ] {
+            if let Some(value) = value {
+                positive(name, value)?;
+            }
+        }
         if !(self.dead_centre_margin_deg > 0.0 && self.dead_centre_margin_deg < 45.0) {
             return Err("dead_centre_margin_deg must be between 0 and 45".into());
         }
@@ -394,9 +417,12 @@ impl Structure {
 impl Geometry {
     /// Where a pin of the boom or arm moved from `before`, its centreline
     /// vertex and attached mass (the boss around it) move along: a pin's
-    /// lug goes where the pin goes.
+    /// lug goes where the pin goes. When that changes the centreline's
+    /// length, the section stations and the member's gauges keep their
+    /// share of it.
     pub fn carry_pins(&mut self, before: &Geometry) {
-        fn carry(structure: &mut Structure, pins: &[(PointM, PointM)]) {
+        fn carry(structure: &mut Structure, pins: &[(PointM, PointM)]) -> f64 {
+            let length_before = structure.length_m();
             for &(old, new) in pins {
                 if old == new {
                     continue;
@@ -412,6 +438,13 @@ impl Geometry {
                     }
                 }
             }
+            let stretch = structure.length_m() / length_before;
+            if stretch != 1.0 {
+                for station in &mut structure.section {
+                    station.station_m *= stretch;
+                }
+            }
+            stretch
         }
         let boom_pins = [
             (before.boom.arm_pin_m, self.boom.arm_pin_m),
@@ -421,7 +454,7 @@ impl Geometry {
             ),
             (before.boom.arm_cylinder_pin_m, self.boom.arm_cylinder_pin_m),
         ];
-        carry(&mut self.boom.structure, &boom_pins);
+        let boom_stretch = carry(&mut self.boom.structure, &boom_pins);
         let arm_pins = [
             (before.arm.bucket_pin_m, self.arm.bucket_pin_m),
             (before.arm.arm_cylinder_pin_m, self.arm.arm_cylinder_pin_m),
@@ -431,16 +464,26 @@ impl Geometry {
             ),
             (before.arm.side_link_pin_m, self.arm.side_link_pin_m),
         ];
-        carry(&mut self.arm.structure, &arm_pins);
+        let arm_stretch = carry(&mut self.arm.structure, &arm_pins);
+        for gauge in &mut self.gauges {
+            gauge.station_m *= match gauge.member {
+                Member::Boom => boom_stretch,
+                Member::Arm => arm_stretch,
+            };
+        }
     }
 }
 
 /// A geometry file kept as its TOML table, so any of its numbers can be set
 /// by key path: `bucket.mass_kg`, `base.boom_cylinder_pin_m[1]`,
-/// `gauge[2].station_m` (the file's own names; arrays indexed from 0).
+/// `gauge[2].station_m` (the file's own names; arrays indexed from 0). A
+/// boom or arm pin set this way carries its centreline vertex and its boss
+/// (the attached mass at it) along ([`Geometry::carry_pins`]).
 #[derive(Debug, Clone)]
 pub struct GeometryTemplate {
     table: toml::Table,
+    /// The file as it is, where moved pins are carried from.
+    unchanged: Geometry,
 }
 
 /// One step of a key path.
@@ -478,9 +521,9 @@ fn key_path(path: &str) -> Result<Vec<Step<'_>>, String> {
 impl GeometryTemplate {
     /// A geometry file's text; it must itself be a valid geometry.
     pub fn parse(text: &str) -> Result<GeometryTemplate, String> {
-        Geometry::parse(text)?;
+        let unchanged = Geometry::parse(text)?;
         let table = toml::from_str(text).map_err(|e| e.to_string())?;
-        Ok(GeometryTemplate { table })
+        Ok(GeometryTemplate { table, unchanged })
     }
 
     /// The shipped DX55-class geometry.
@@ -529,9 +572,10 @@ impl GeometryTemplate {
         for &(path, number) in values {
             *Self::number_at(&mut table, path)? = toml::Value::Float(number);
         }
-        let geometry: Geometry = toml::Value::Table(table)
+        let mut geometry: Geometry = toml::Value::Table(table)
             .try_into()
             .map_err(|e: toml::de::Error| e.to_string())?;
+        geometry.carry_pins(&self.unchanged);
         geometry.validate()?;
         Ok(geometry)
     }

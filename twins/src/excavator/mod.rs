@@ -10,6 +10,7 @@
 //! module uses and which uses none of them.
 
 pub mod case;
+pub mod envelope;
 pub mod geometry;
 pub mod inputs;
 pub mod kinematics;
@@ -40,6 +41,9 @@ pub struct CylinderResult {
     pub loaded_chamber: Chamber,
     /// The pressure that alone balances the axial force, bar.
     pub loaded_chamber_pressure_bar: f64,
+    /// How far that pressure is above the relief pressure, bar (0 below
+    /// it); `None` when the geometry gives no relief pressure.
+    pub over_relief_bar: Option<f64>,
     pub length_m: f64,
 }
 
@@ -214,10 +218,15 @@ impl Excavator {
             } else {
                 (Chamber::Rod, cylinder.annulus_area_m2())
             };
+            let pressure_bar = joint.axial_force_n.abs() / area_m2 * 1e-5;
             CylinderResult {
                 axial_force_kn: joint.axial_force_n * 1e-3,
                 loaded_chamber,
-                loaded_chamber_pressure_bar: joint.axial_force_n.abs() / area_m2 * 1e-5,
+                loaded_chamber_pressure_bar: pressure_bar,
+                over_relief_bar: self
+                    .geometry
+                    .relief_pressure_bar
+                    .map(|relief| (pressure_bar - relief).max(0.0)),
                 length_m: (rod_pin - barrel_pin).norm(),
             }
         });

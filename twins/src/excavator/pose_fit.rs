@@ -108,13 +108,44 @@ fn unknowns(geometry: &mut Geometry, joint: CylinderName) -> [f64; 2] {
     [pin[1].atan2(pin[0]), retracted]
 }
 
-/// Largest joint-angle error the fit accepts, rad (about 6e-8 deg).
-const TOLERANCE_RAD: f64 = 1e-9;
+/// Largest joint-angle error the fit accepts, rad (about 6e-10 deg): tight,
+/// so that a search's finite differences see the geometry, not where
+/// the iteration happened to stop.
+const TOLERANCE_RAD: f64 = 1e-11;
 const MAX_ITERATIONS: usize = 60;
 
 /// Re-fits `geometry`'s rod pin angles and retracted lengths so that both
 /// reference poses hold. An error says which joint cannot reach them.
 pub fn refit_poses(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Result<(), String> {
+    refit_poses_from(geometry, poses, None)
+}
+
+/// [`refit_poses`], starting each joint's Newton iteration from the fitted
+/// numbers of `near` (a geometry fitted before, close to this one: a
+/// search's previous point), where it converges in a step or two even
+/// when the pins have moved far from the file's. Should that fail, from
+/// the geometry's own numbers.
+pub fn refit_poses_from(
+    geometry: &mut Geometry,
+    poses: &[ReferencePose; 2],
+    near: Option<&Geometry>,
+) -> Result<(), String> {
+    if let Some(near) = near {
+        let mut warm = geometry.clone();
+        for joint in JOINTS {
+            let mut near = near.clone();
+            let [angle, retracted] = unknowns(&mut near, joint);
+            set_unknowns(&mut warm, joint, angle, retracted);
+        }
+        if fit_joints(&mut warm, poses).is_ok() {
+            *geometry = warm;
+            return Ok(());
+        }
+    }
+    fit_joints(geometry, poses)
+}
+
+fn fit_joints(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Result<(), String> {
     let targets = poses.map(|p| p.joint_angles_rad());
     for (index, &joint) in JOINTS.iter().enumerate() {
         let residual = |geometry: &Geometry| -> Result<[f64; 2], String> {
@@ -181,7 +212,10 @@ pub fn refit_poses(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Resul
                 }
                 scale *= 0.5;
                 if scale < 1e-6 {
-                    return Err(cannot("the Newton step found no better point".into()));
+                    return Err(cannot(format!(
+                        "the Newton step found no better point; angle error {:.2e} rad",
+                        r[0].abs().max(r[1].abs())
+                    )));
                 }
             }
         }

@@ -17,16 +17,25 @@
 //!
 //! Outputs: any number of `acq twin excavator --json` by key path
 //! (`pressure_bar.boom`, `gauge_stress_MPa[3]`, `cylinder_force_kN.arm`,
-//! `points.J[1]`).
+//! `points.J[1]`); `pressure_over_relief_bar.boom` (how far a loaded
+//! chamber is above the geometry's `relief_pressure_bar`, 0 below it: a
+//! one-sided plausibility penalty); and the working envelope of
+//! `--envelope` (`envelope.max_reach_m`): a case that observes only the
+//! envelope needs no operating inputs.
+//!
+//! The last changed geometry's twin and envelope are kept: the cases of one
+//! evaluation share the geometry, so only the first builds it.
 
 use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
+use acq_twins::excavator::envelope::working_envelope;
 use acq_twins::excavator::geometry::GeometryTemplate;
-use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
-use acq_twins::excavator::{Excavator, Inputs, Strokes};
+use acq_twins::excavator::pose_fit::{published_poses, refit_poses_from, ReferencePose};
+use acq_twins::excavator::{CylinderName, Excavator, Inputs, Strokes};
 
 use super::study::{numbers_by_key_path, Model, ModelRun};
-use crate::excavator_report::evaluation_json;
+use crate::excavator_report::{envelope_json, evaluation_json};
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 
 /// The operating inputs the twin takes by name.
@@ -42,10 +51,26 @@ pub const OPERATING_INPUTS: [&str; 5] = [
 pub struct ExcavatorModel {
     template: GeometryTemplate,
     /// The twin of the unchanged geometry (most runs change none).
-    twin: Excavator,
+    twin: Arc<Excavator>,
     /// The poses a changed geometry is re-fitted to; `None`: no re-fit.
     poses: Option<[ReferencePose; 2]>,
+    /// The last changed geometry (its key paths and values), its twin, and
+    /// its envelope's numbers once asked for.
+    last: Mutex<Option<Built>>,
 }
+
+/// A twin built for a changed geometry.
+struct Built {
+    geometry: Vec<(String, f64)>,
+    twin: Arc<Excavator>,
+    envelope: Option<Arc<Numbers>>,
+}
+
+/// Outputs by key path.
+type Numbers = HashMap<String, f64>;
+
+/// The prefix of the envelope's outputs.
+const ENVELOPE: &str = "envelope.";
 
 impl ExcavatorModel {
     /// `refit`: re-fit the pose numbers of a changed geometry to the
@@ -54,20 +79,56 @@ impl ExcavatorModel {
         let twin = Excavator::new(template.with(&[])?).map_err(|e| e.to_string())?;
         Ok(ExcavatorModel {
             template,
-            twin,
+            twin: Arc::new(twin),
             poses: refit.then(published_poses),
+            last: Mutex::new(None),
         })
     }
 
-    fn twin_for(&self, geometry: &[(&str, f64)]) -> Result<Option<Excavator>, String> {
-        if geometry.is_empty() {
-            return Ok(None);
+    /// The twin of a changed geometry (the unchanged one for none), and
+    /// its envelope's numbers if `envelope`.
+    fn twin_for(
+        &self,
+        geometry: &[(&str, f64)],
+        envelope: bool,
+    ) -> Result<(Arc<Excavator>, Option<Arc<Numbers>>), String> {
+        let envelope_of = |twin: &Excavator| -> Result<Arc<Numbers>, String> {
+            let envelope = working_envelope(twin.geometry()).map_err(|e| e.to_string())?;
+            Ok(Arc::new(numbers_by_key_path(&envelope_json(&envelope))))
+        };
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        let same = |built: &Built| {
+            built.geometry.len() == geometry.len()
+                && built
+                    .geometry
+                    .iter()
+                    .zip(geometry)
+                    .all(|((a, x), (b, y))| a == b && x.to_bits() == y.to_bits())
+        };
+        if !last.as_ref().is_some_and(same) {
+            let twin = if geometry.is_empty() {
+                self.twin.clone()
+            } else {
+                let mut changed = self.template.with(geometry)?;
+                if let Some(poses) = &self.poses {
+                    // From the last fitted geometry: a search's next point
+                    // is usually near its last.
+                    let near = last.as_ref().map(|built| built.twin.geometry());
+                    refit_poses_from(&mut changed, poses, near)?;
+                }
+                Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?)
+            };
+            *last = Some(Built {
+                geometry: geometry.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+                twin,
+                envelope: None,
+            });
         }
-        let mut changed = self.template.with(geometry)?;
-        if let Some(poses) = &self.poses {
-            refit_poses(&mut changed, poses)?;
+        let built = last.as_mut().expect("set above");
+        if envelope && built.envelope.is_none() {
+            built.envelope = Some(envelope_of(&built.twin)?);
         }
-        Excavator::new(changed).map(Some).map_err(|e| e.to_string())
+        Ok((built.twin.clone(), built.envelope.clone()))
     }
 }
 
@@ -97,28 +158,43 @@ impl Model for ExcavatorModel {
                 ));
             }
         }
-        let operating_input = |name: &str| -> Result<f64, String> {
-            operating.get(name).copied().ok_or_else(|| {
-                format!("the excavator twin needs {name}: make it a parameter or a case input")
-            })
+        let wants_envelope = scalars.iter().any(|name| name.starts_with(ENVELOPE));
+        let wants_evaluation = scalars.iter().any(|name| !name.starts_with(ENVELOPE));
+        let (twin, envelope) = self.twin_for(&geometry, wants_envelope)?;
+        let numbers = if wants_evaluation {
+            let operating_input = |name: &str| -> Result<f64, String> {
+                operating.get(name).copied().ok_or_else(|| {
+                    format!("the excavator twin needs {name}: make it a parameter or a case input")
+                })
+            };
+            let inputs = Inputs {
+                strokes: Strokes {
+                    bucket_mm: operating_input("bucket_stroke_mm")?,
+                    arm_mm: operating_input("arm_stroke_mm")?,
+                    boom_mm: operating_input("boom_stroke_mm")?,
+                },
+                tip_force_kn: operating_input("force_kN")?,
+                tip_force_angle_deg: operating_input("force_angle_deg")?,
+            };
+            let evaluation = twin.evaluate(&inputs).map_err(|e| e.to_string())?;
+            let mut numbers = numbers_by_key_path(&evaluation_json(&evaluation));
+            for (name, cylinder) in CylinderName::ALL.iter().zip(&evaluation.cylinders) {
+                if let Some(excess) = cylinder.over_relief_bar {
+                    numbers.insert(format!("pressure_over_relief_bar.{name}"), excess);
+                }
+            }
+            numbers
+        } else {
+            HashMap::new()
         };
-        let inputs = Inputs {
-            strokes: Strokes {
-                bucket_mm: operating_input("bucket_stroke_mm")?,
-                arm_mm: operating_input("arm_stroke_mm")?,
-                boom_mm: operating_input("boom_stroke_mm")?,
-            },
-            tip_force_kn: operating_input("force_kN")?,
-            tip_force_angle_deg: operating_input("force_angle_deg")?,
-        };
-        let changed = self.twin_for(&geometry)?;
-        let twin = changed.as_ref().unwrap_or(&self.twin);
-        let evaluation = twin.evaluate(&inputs).map_err(|e| e.to_string())?;
-        let numbers = numbers_by_key_path(&evaluation_json(&evaluation));
         let scalars = scalars
             .iter()
             .map(|name| {
-                numbers.get(*name).copied().ok_or_else(|| {
+                let found = match &envelope {
+                    Some(envelope) if name.starts_with(ENVELOPE) => envelope.get(*name),
+                    _ => numbers.get(*name),
+                };
+                found.copied().ok_or_else(|| {
                     let mut known: Vec<&str> = numbers
                         .keys()
                         .map(String::as_str)
@@ -126,7 +202,7 @@ impl Model for ExcavatorModel {
                         .collect();
                     known.sort_unstable();
                     format!(
-                        "the excavator twin has no output {name:?}; its outputs are key paths of `acq twin excavator --json`, e.g. {}",
+                        "the excavator twin has no output {name:?}; its outputs are key paths of `acq twin excavator --json`, e.g. {}, and of its envelope (envelope.max_reach_m, envelope.max_digging_depth_m, envelope.max_dump_height_m)",
                         known.join(", ")
                     )
                 })

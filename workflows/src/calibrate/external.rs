@@ -62,6 +62,7 @@
 //! upper = 220.0
 //! scale = "linear"           # or "log"
 //! nominal = 200.0            # optional: where the initial errors are shown
+//!                            # [default: the prior's value, else the middle]
 //! # case = "hot"             # optional: this case's own parameter
 //! # prior = { value = 205.0, uncertainty = 5.0 }  # optional: a penalty in
 //! #                          # standard deviations (needs residuals = "normalised")
@@ -510,9 +511,11 @@ fn scalar(
     weight: f64,
     source: String,
 ) -> std::result::Result<Observation, String> {
-    if !(value.is_finite() && value != 0.0) {
+    // A 0 is only meaningful in standard uncertainties (a one-sided
+    // penalty's target); relative errors divide by the value.
+    if !(value.is_finite() && (value != 0.0 || uncertainty.is_some())) {
         return Err(format!(
-            "{name}: measured must be a finite non-zero number (errors are relative to it), got {value}"
+            "{name}: measured must be a finite non-zero number (errors are relative to it; a 0 needs an uncertainty and residuals = \"normalised\"), got {value}"
         ));
     }
     if let Some(u) = uncertainty {
@@ -992,7 +995,12 @@ impl Spec {
                 None => p.name.clone(),
             };
             let search = Parameter::new(search_name, p.lower, p.upper).with_scale(p.scale);
-            let nominal = p.nominal.unwrap_or_else(|| search.midpoint());
+            // Without a nominal, a prior's value (where the parameter is
+            // expected), else the middle of the range.
+            let nominal = p
+                .nominal
+                .or(p.prior.as_ref().map(|prior| prior.value))
+                .unwrap_or_else(|| search.midpoint());
             if !(nominal >= p.lower && nominal <= p.upper) {
                 return Err(at(
                     "[[parameter]]",
@@ -1089,6 +1097,16 @@ impl Spec {
                     o.name, case.name
                 )));
             }
+        } else if let Some((case, o)) = cases.iter().find_map(|c| {
+            c.observations
+                .iter()
+                .find(|o| matches!(o.measured, Measured::Scalar { value, .. } if value == 0.0))
+                .map(|o| (c, o))
+        }) {
+            return Err(problem(format!(
+                "{} of {} is measured as 0, and relative errors divide by it; use search.residuals = \"normalised\" (its uncertainty is the scale)",
+                o.name, case.name
+            )));
         }
         spec.study = Some(Study {
             parameters,

@@ -736,6 +736,15 @@ fn validate(
     Ok(study.errors(Role::Validate, &outputs))
 }
 
+/// A relative error, or "-" where there is none (a measured 0).
+fn percent(error_pct: f64) -> String {
+    if error_pct.is_finite() {
+        format!("{error_pct:.3}")
+    } else {
+        "-".into()
+    }
+}
+
 fn errors_table(errors: &[ObservationError], nominal: Option<&[ObservationError]>) -> Table {
     let mut header = vec![
         "case",
@@ -760,10 +769,10 @@ fn errors_table(errors: &[ObservationError], nominal: Option<&[ObservationError]
             } else {
                 format!("MAPE {:.3} %", e.model)
             },
-            format!("{:.3}", e.error_pct),
+            percent(e.error_pct),
         ];
         if let Some(nominal) = nominal {
-            cells.insert(3, format!("{:.3}", nominal[i].error_pct));
+            cells.insert(3, percent(nominal[i].error_pct));
         }
         cells.push(
             e.normalised

@@ -1,23 +1,35 @@
 //! Keeping a changed geometry true to the published poses.
 //!
 //! The published study gives the pins B, G and J at two poses (Cases 1 and
-//! 2, with their strokes). Each joint's rod pin angle on its moving body (D
-//! on the boom, F on the arm, L on the bucket; their distance from the
-//! joint is kept) and its cylinder's retracted length are fitted so that
-//! the twin puts the joint at the published angle in both poses: two
-//! equations, two unknowns per joint. A geometry whose lever pins were
-//! moved (a calibration parameter, a user's own file) is re-fitted here, so
-//! the published poses still hold.
+//! 2, with their strokes), so each joint's angle is known at two strokes.
+//! Two numbers per cylinder are fitted so that the twin meets both: where
+//! its barrel pin sits along one line, and its retracted length. The rod
+//! pins (D on the boom, F on the arm, and the bucket linkage's K through L
+//! and the links) stay where the file or a study puts them.
 //!
-//! The forward model is [`Pose::solve`] itself, so the fit and the twin
-//! cannot disagree. The joints are solved in order (boom, then the arm
-//! relative to the boom, then the bucket relative to the arm); each is a
-//! damped Newton iteration with a finite-difference Jacobian.
+//! Why the barrel pin: between the two poses the rod pin moves from R1 to
+//! R2 (in the barrel pin's body frame) and the cylinder's length changes by
+//! the stroke difference. The barrel pin must therefore lie on the
+//! hyperbola branch `|R1 - X| - |R2 - X| = stroke difference` with foci R1
+//! and R2. A line along R1 - R2 crosses that branch exactly once whenever
+//! the rod pin travels farther than the cylinder's length changes (which
+//! a real linkage must), so the fit always has its one answer: the barrel
+//! pin is moved along that line through where the file put it. (Fitting
+//! the rod pin's angle instead has no answer for most moves of the pins:
+//! a search over them kept failing.) The retracted length then follows.
+//!
+//! The bucket cylinder drives a four-bar: its rod end K is the point at the
+//! side link's length from I and the connecting link's from L, on the side
+//! where L lies to the left of K -> G, as [`Pose::solve`] assembles it.
+//!
+//! The result is checked with [`Pose::solve`] itself (the joint angles to
+//! 1e-9 rad), so the fit and the twin cannot disagree.
 
 use super::case::CaseFile;
 use super::geometry::{Geometry, PointM};
 use super::inputs::{CylinderName, Strokes};
-use super::kinematics::Pose;
+use super::kinematics::{cross, vec2, Pose, Vec2};
+use nalgebra::Rotation2;
 
 /// A published pose: the strokes and the measured pins B, G and J (m, machine frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,143 +94,185 @@ fn joint_angles_rad(geometry: &Geometry, strokes: &Strokes) -> Result<[f64; 3], 
 /// The joint driven by each cylinder, in the order of the joint angles.
 const JOINTS: [CylinderName; 3] = [CylinderName::Boom, CylinderName::Arm, CylinderName::Bucket];
 
-/// The fitted rod pin of a joint's cylinder, on its moving body.
-fn rod_pin(geometry: &mut Geometry, joint: CylinderName) -> &mut PointM {
-    match joint {
-        CylinderName::Boom => &mut geometry.boom.boom_cylinder_pin_m,
-        CylinderName::Arm => &mut geometry.arm.arm_cylinder_pin_m,
-        CylinderName::Bucket => &mut geometry.bucket.link_pin_m,
-    }
+/// Largest joint-angle error the check accepts, rad.
+const TOLERANCE_RAD: f64 = 1e-9;
+
+fn rotate(angle_rad: f64, local: Vec2) -> Vec2 {
+    Rotation2::new(angle_rad) * local
 }
 
-/// Sets a joint's two fitted numbers: the rod pin's angle (its distance
-/// from the joint kept) and the cylinder's retracted length.
-fn set_unknowns(geometry: &mut Geometry, joint: CylinderName, angle_rad: f64, retracted_m: f64) {
-    let before = geometry.clone();
-    let pin = rod_pin(geometry, joint);
-    let radius = pin[0].hypot(pin[1]);
-    *pin = [radius * angle_rad.cos(), radius * angle_rad.sin()];
-    geometry.cylinder_mut(joint).retracted_length_m = retracted_m;
-    geometry.carry_pins(&before);
-}
-
-fn unknowns(geometry: &mut Geometry, joint: CylinderName) -> [f64; 2] {
-    let retracted = geometry.cylinder(joint).retracted_length_m;
-    let pin = rod_pin(geometry, joint);
-    [pin[1].atan2(pin[0]), retracted]
-}
-
-/// Largest joint-angle error the fit accepts, rad (about 6e-10 deg): tight,
-/// so that a search's finite differences see the geometry, not where
-/// the iteration happened to stop.
-const TOLERANCE_RAD: f64 = 1e-11;
-const MAX_ITERATIONS: usize = 60;
-
-/// Re-fits `geometry`'s rod pin angles and retracted lengths so that both
-/// reference poses hold. An error says which joint cannot reach them.
+/// Re-fits `geometry`'s barrel pins (each along its rod pin's travel) and
+/// retracted lengths so that both reference poses hold. An error says
+/// which joint cannot reach them, and why.
 pub fn refit_poses(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Result<(), String> {
-    refit_poses_from(geometry, poses, None)
-}
+    let before = geometry.clone();
+    let angles = poses.map(|p| p.joint_angles_rad());
+    let stroke_m = |k: usize, name: CylinderName| poses[k].strokes.get(name) * 1e-3;
+    let cannot = |joint: CylinderName, why: String| {
+        format!(
+            "the {joint} joint cannot be fitted to the published poses with these pins ({why}); move its pins back toward the class-typical places"
+        )
+    };
 
-/// [`refit_poses`], starting each joint's Newton iteration from the fitted
-/// numbers of `near` (a geometry fitted before, close to this one: a
-/// search's previous point), where it converges in a step or two even
-/// when the pins have moved far from the file's. Should that fail, from
-/// the geometry's own numbers.
-pub fn refit_poses_from(
-    geometry: &mut Geometry,
-    poses: &[ReferencePose; 2],
-    near: Option<&Geometry>,
-) -> Result<(), String> {
-    if let Some(near) = near {
-        let mut warm = geometry.clone();
-        for joint in JOINTS {
-            let mut near = near.clone();
-            let [angle, retracted] = unknowns(&mut near, joint);
-            set_unknowns(&mut warm, joint, angle, retracted);
-        }
-        if fit_joints(&mut warm, poses).is_ok() {
-            *geometry = warm;
-            return Ok(());
-        }
-    }
-    fit_joints(geometry, poses)
-}
+    // Boom, in the machine frame: D turns with the boom about A.
+    let d_local = vec2(geometry.boom.boom_cylinder_pin_m);
+    let rod = [0, 1].map(|k| rotate(angles[k][0], d_local));
+    let (c, retracted) = solve_barrel(
+        vec2(geometry.base.boom_cylinder_pin_m),
+        rod,
+        [
+            stroke_m(0, CylinderName::Boom),
+            stroke_m(1, CylinderName::Boom),
+        ],
+    )
+    .map_err(|why| cannot(CylinderName::Boom, why))?;
+    geometry.base.boom_cylinder_pin_m = [c.x, c.y];
+    geometry.cylinder.boom.retracted_length_m = retracted;
 
-fn fit_joints(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Result<(), String> {
-    let targets = poses.map(|p| p.joint_angles_rad());
-    for (index, &joint) in JOINTS.iter().enumerate() {
-        let residual = |geometry: &Geometry| -> Result<[f64; 2], String> {
-            let mut out = [0.0; 2];
-            for (k, pose) in poses.iter().enumerate() {
-                out[k] =
-                    wrap(joint_angles_rad(geometry, &pose.strokes)?[index] - targets[k][index]);
-            }
-            Ok(out)
-        };
-        let cannot = |why: String| {
-            format!(
-                "the {joint} joint cannot be fitted to the published poses with these pins ({why}); move the {joint} cylinder's pins back toward the class-typical places"
+    // Arm, in the boom frame: F turns with the arm about B.
+    let b = vec2(geometry.boom.arm_pin_m);
+    let f_local = vec2(geometry.arm.arm_cylinder_pin_m);
+    let rod = [0, 1].map(|k| b + rotate(angles[k][1], f_local));
+    let (e, retracted) = solve_barrel(
+        vec2(geometry.boom.arm_cylinder_pin_m),
+        rod,
+        [
+            stroke_m(0, CylinderName::Arm),
+            stroke_m(1, CylinderName::Arm),
+        ],
+    )
+    .map_err(|why| cannot(CylinderName::Arm, why))?;
+    geometry.boom.arm_cylinder_pin_m = [e.x, e.y];
+    geometry.cylinder.arm.retracted_length_m = retracted;
+
+    // Bucket, in the arm frame: L turns with the bucket about G, and the
+    // links place K.
+    let g = vec2(geometry.arm.bucket_pin_m);
+    let i = vec2(geometry.arm.side_link_pin_m);
+    let l_local = vec2(geometry.bucket.link_pin_m);
+    let mut rod = [Vec2::zeros(); 2];
+    for (k, angle) in angles.iter().enumerate() {
+        let l = g + rotate(angle[2], l_local);
+        rod[k] = link_pin(
+            i,
+            geometry.side_link.length_m,
+            l,
+            geometry.connecting_link.length_m,
+            g,
+        )
+        .ok_or_else(|| {
+            cannot(
+                CylinderName::Bucket,
+                format!(
+                    "the side link ({} m) and the connecting link ({} m) do not meet in the Case-{} pose",
+                    geometry.side_link.length_m,
+                    geometry.connecting_link.length_m,
+                    k + 1
+                ),
             )
-        };
-        let mut x = unknowns(geometry, joint);
-        let mut r = residual(geometry).map_err(cannot)?;
-        let mut iteration = 0;
-        while r[0].abs().max(r[1].abs()) > TOLERANCE_RAD {
-            iteration += 1;
-            if iteration > MAX_ITERATIONS {
-                return Err(cannot(format!(
-                    "no convergence after {MAX_ITERATIONS} Newton steps, angle error {:.2e} rad",
-                    r[0].abs().max(r[1].abs())
-                )));
-            }
-            // Finite-difference Jacobian in (angle, length).
-            let steps = [1e-7, 1e-7];
-            let mut jacobian = [[0.0; 2]; 2];
-            for column in 0..2 {
-                let mut trial = geometry.clone();
-                let mut moved = x;
-                moved[column] += steps[column];
-                set_unknowns(&mut trial, joint, moved[0], moved[1]);
-                let shifted = residual(&trial).map_err(cannot)?;
-                for row in 0..2 {
-                    jacobian[row][column] = (shifted[row] - r[row]) / steps[column];
-                }
-            }
-            let det = jacobian[0][0] * jacobian[1][1] - jacobian[0][1] * jacobian[1][0];
-            if !det.is_finite() || det.abs() < 1e-14 {
+        })?;
+    }
+    let (h, retracted) = solve_barrel(
+        vec2(geometry.arm.bucket_cylinder_pin_m),
+        rod,
+        [
+            stroke_m(0, CylinderName::Bucket),
+            stroke_m(1, CylinderName::Bucket),
+        ],
+    )
+    .map_err(|why| cannot(CylinderName::Bucket, why))?;
+    geometry.arm.bucket_cylinder_pin_m = [h.x, h.y];
+    geometry.cylinder.bucket.retracted_length_m = retracted;
+    geometry.carry_pins(&before);
+
+    // The twin itself must now stand in both poses.
+    for (k, pose) in poses.iter().enumerate() {
+        let got = joint_angles_rad(geometry, &pose.strokes).map_err(|why| {
+            cannot(
+                CylinderName::Boom,
+                format!(
+                    "the fitted linkage does not assemble in the Case-{} pose: {why}",
+                    k + 1
+                ),
+            )
+        })?;
+        for (index, joint) in JOINTS.iter().enumerate() {
+            let error = wrap(got[index] - angles[k][index]).abs();
+            if error > TOLERANCE_RAD {
                 return Err(cannot(
-                    "the two poses do not tell the pin's angle from the cylinder's length".into(),
+                    *joint,
+                    format!(
+                        "it assembles on its other side in the Case-{} pose, {error:.2e} rad off",
+                        k + 1
+                    ),
                 ));
-            }
-            let step = [
-                (jacobian[1][1] * r[0] - jacobian[0][1] * r[1]) / det,
-                (jacobian[0][0] * r[1] - jacobian[1][0] * r[0]) / det,
-            ];
-            // Damped: halve the step until the residual falls and the
-            // linkage still closes.
-            let mut scale = 1.0;
-            loop {
-                let candidate = [x[0] - scale * step[0], x[1] - scale * step[1]];
-                let mut trial = geometry.clone();
-                set_unknowns(&mut trial, joint, candidate[0], candidate[1]);
-                if let Ok(next) = residual(&trial) {
-                    if next[0].abs().max(next[1].abs()) < r[0].abs().max(r[1].abs()) {
-                        *geometry = trial;
-                        x = candidate;
-                        r = next;
-                        break;
-                    }
-                }
-                scale *= 0.5;
-                if scale < 1e-6 {
-                    return Err(cannot(format!(
-                        "the Newton step found no better point; angle error {:.2e} rad",
-                        r[0].abs().max(r[1].abs())
-                    )));
-                }
             }
         }
     }
     Ok(())
+}
+
+/// The barrel pin on the line through `start` along the rod pin's travel
+/// `rod[0] - rod[1]` where the cylinder's length changes by the stroke
+/// difference, and the retracted length there.
+fn solve_barrel(start: Vec2, rod: [Vec2; 2], stroke_m: [f64; 2]) -> Result<(Vec2, f64), String> {
+    let travel = rod[0] - rod[1];
+    let span = travel.norm();
+    let change = stroke_m[0] - stroke_m[1];
+    // NaN (a degenerate travel) is refused too.
+    if change.abs() >= span * (1.0 - 1e-9) || span.is_nan() {
+        return Err(format!(
+            "its length must change by {:.1} mm between the poses, but its rod pin moves only {:.1} mm",
+            change.abs() * 1e3,
+            span * 1e3
+        ));
+    }
+    let along = travel / span;
+    // Falls from +span - change to -span - change along the line.
+    let mismatch = |t: f64| {
+        let x = start + along * t;
+        (rod[0] - x).norm() - (rod[1] - x).norm() - change
+    };
+    let (mut low, mut high) = (-1.0, 1.0);
+    while mismatch(low) < 0.0 && low > -1e3 {
+        low *= 2.0;
+    }
+    while mismatch(high) > 0.0 && high < 1e3 {
+        high *= 2.0;
+    }
+    if mismatch(low) < 0.0 || mismatch(high) > 0.0 {
+        return Err("no barrel pin place on its line meets both poses".into());
+    }
+    while high - low > 1e-13 {
+        let middle = 0.5 * (low + high);
+        if mismatch(middle) > 0.0 {
+            low = middle;
+        } else {
+            high = middle;
+        }
+    }
+    let x = start + along * (0.5 * (low + high));
+    let retracted = (rod[0] - x).norm() - stroke_m[0];
+    if retracted <= 0.0 || retracted.is_nan() {
+        return Err(format!("the retracted length would be {retracted:.3} m"));
+    }
+    Ok((x, retracted))
+}
+
+/// K: at `side` from I and `connecting` from L, with L to the left of
+/// K -> G (the side [`Pose::solve`] assembles).
+fn link_pin(i: Vec2, side: f64, l: Vec2, connecting: f64, g: Vec2) -> Option<Vec2> {
+    let base = l - i;
+    let d = base.norm();
+    let along = (side * side - connecting * connecting + d * d) / (2.0 * d);
+    let height_squared = side * side - along * along;
+    if height_squared <= 0.0 || height_squared.is_nan() {
+        return None;
+    }
+    let unit = base / d;
+    let normal = Vec2::new(-unit.y, unit.x);
+    [1.0, -1.0]
+        .into_iter()
+        .map(|sign| i + unit * along + normal * (sign * height_squared.sqrt()))
+        .find(|k| cross(&(g - k), &(l - k)) > 0.0)
 }

@@ -11,9 +11,10 @@
 //! a parameter or a case's fixed input), and geometry numbers by their key
 //! path in the geometry file (`bucket.mass_kg`,
 //! `base.boom_cylinder_pin_m[1]`). When a geometry number changes, the
-//! fitted pose numbers (each cylinder's rod pin angle and retracted length)
-//! are re-fitted to the published poses ([`acq_twins::excavator::pose_fit`]),
-//! so Cases 1 and 2 still stand where they were measured.
+//! fitted pose numbers (each cylinder's barrel pin along its rod pin's
+//! travel, and its retracted length) are re-fitted to the published poses
+//! ([`acq_twins::excavator::pose_fit`]), so Cases 1 and 2 still stand where
+//! they were measured.
 //!
 //! Outputs: any number of `acq twin excavator --json` by key path
 //! (`pressure_bar.boom`, `gauge_stress_MPa[3]`, `cylinder_force_kN.arm`,
@@ -31,7 +32,7 @@ use std::sync::{Arc, Mutex};
 
 use acq_twins::excavator::envelope::working_envelope;
 use acq_twins::excavator::geometry::GeometryTemplate;
-use acq_twins::excavator::pose_fit::{published_poses, refit_poses_from, ReferencePose};
+use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
 use acq_twins::excavator::{CylinderName, Excavator, Inputs, Strokes};
 
 use super::study::{numbers_by_key_path, Model, ModelRun};
@@ -111,10 +112,7 @@ impl ExcavatorModel {
             } else {
                 let mut changed = self.template.with(geometry)?;
                 if let Some(poses) = &self.poses {
-                    // From the last fitted geometry: a search's next point
-                    // is usually near its last.
-                    let near = last.as_ref().map(|built| built.twin.geometry());
-                    refit_poses_from(&mut changed, poses, near)?;
+                    refit_poses(&mut changed, poses)?;
                 }
                 Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?)
             };

@@ -114,36 +114,34 @@ pub fn refit_poses(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Resul
         )
     };
 
+    // Sets a joint's barrel pin and retracted length from its rod pin's
+    // two places (in the barrel pin's body frame).
+    let fit = |geometry: &mut Geometry, joint: CylinderName, rod: [Vec2; 2]| {
+        let pin = barrel_pin(geometry, joint);
+        let (x, retracted) =
+            solve_barrel(vec2(*pin), rod, [stroke_m(0, joint), stroke_m(1, joint)])
+                .map_err(|why| cannot(joint, why))?;
+        *pin = [x.x, x.y];
+        geometry.cylinder_mut(joint).retracted_length_m = retracted;
+        Ok::<(), String>(())
+    };
+
     // Boom, in the machine frame: D turns with the boom about A.
     let d_local = vec2(geometry.boom.boom_cylinder_pin_m);
-    let rod = [0, 1].map(|k| rotate(angles[k][0], d_local));
-    let (c, retracted) = solve_barrel(
-        vec2(geometry.base.boom_cylinder_pin_m),
-        rod,
-        [
-            stroke_m(0, CylinderName::Boom),
-            stroke_m(1, CylinderName::Boom),
-        ],
-    )
-    .map_err(|why| cannot(CylinderName::Boom, why))?;
-    geometry.base.boom_cylinder_pin_m = [c.x, c.y];
-    geometry.cylinder.boom.retracted_length_m = retracted;
+    fit(
+        geometry,
+        CylinderName::Boom,
+        [0, 1].map(|k| rotate(angles[k][0], d_local)),
+    )?;
 
     // Arm, in the boom frame: F turns with the arm about B.
     let b = vec2(geometry.boom.arm_pin_m);
     let f_local = vec2(geometry.arm.arm_cylinder_pin_m);
-    let rod = [0, 1].map(|k| b + rotate(angles[k][1], f_local));
-    let (e, retracted) = solve_barrel(
-        vec2(geometry.boom.arm_cylinder_pin_m),
-        rod,
-        [
-            stroke_m(0, CylinderName::Arm),
-            stroke_m(1, CylinderName::Arm),
-        ],
-    )
-    .map_err(|why| cannot(CylinderName::Arm, why))?;
-    geometry.boom.arm_cylinder_pin_m = [e.x, e.y];
-    geometry.cylinder.arm.retracted_length_m = retracted;
+    fit(
+        geometry,
+        CylinderName::Arm,
+        [0, 1].map(|k| b + rotate(angles[k][1], f_local)),
+    )?;
 
     // Bucket, in the arm frame: L turns with the bucket about G, and the
     // links place K.
@@ -172,17 +170,7 @@ pub fn refit_poses(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Resul
             )
         })?;
     }
-    let (h, retracted) = solve_barrel(
-        vec2(geometry.arm.bucket_cylinder_pin_m),
-        rod,
-        [
-            stroke_m(0, CylinderName::Bucket),
-            stroke_m(1, CylinderName::Bucket),
-        ],
-    )
-    .map_err(|why| cannot(CylinderName::Bucket, why))?;
-    geometry.arm.bucket_cylinder_pin_m = [h.x, h.y];
-    geometry.cylinder.bucket.retracted_length_m = retracted;
+    fit(geometry, CylinderName::Bucket, rod)?;
     geometry.carry_pins(&before);
 
     // The twin itself must now stand in both poses.
@@ -210,6 +198,16 @@ pub fn refit_poses(geometry: &mut Geometry, poses: &[ReferencePose; 2]) -> Resul
         }
     }
     Ok(())
+}
+
+/// A cylinder's barrel pin, on the body it is fixed to (the base, the
+/// boom, the arm).
+fn barrel_pin(geometry: &mut Geometry, joint: CylinderName) -> &mut PointM {
+    match joint {
+        CylinderName::Boom => &mut geometry.base.boom_cylinder_pin_m,
+        CylinderName::Arm => &mut geometry.boom.arm_cylinder_pin_m,
+        CylinderName::Bucket => &mut geometry.arm.bucket_cylinder_pin_m,
+    }
 }
 
 /// The barrel pin on the line through `start` along the rod pin's travel

@@ -1466,7 +1466,7 @@ fn an_external_solver_can_return_a_curve_scored_by_the_curve_mape() {
     std::fs::write(
         &spec,
         r#"command = ["sh", "curve.sh", "{a}"]
-parallel = 2
+parallel = 1
 
 [[parameter]]
 name = "a"

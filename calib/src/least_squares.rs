@@ -35,6 +35,9 @@ pub struct LeastSquaresSettings {
     /// Converged when a taken step lowers the cost by less than this
     /// share of it.
     pub relative_tolerance: f64,
+    /// The step (unit box) of the central differences the returned
+    /// Jacobian is taken with.
+    pub spread_step: f64,
     /// Also converged when the last [`STALL_STEPS`] taken steps together
     /// lowered it by less than this share: a model whose outputs are
     /// smooth only to some digits (an iterative solve inside) makes the
@@ -52,6 +55,7 @@ impl Default for LeastSquaresSettings {
             difference_step: 1e-6,
             relative_tolerance: 1e-10,
             stall_tolerance: 1e-6,
+            spread_step: 1e-3,
         }
     }
 }
@@ -78,7 +82,8 @@ pub struct LeastSquaresResult {
     pub residuals: Vec<f64>,
     /// `sum r_i^2` there.
     pub cost: f64,
-    /// d output / d unit at the optimum, one row per output.
+    /// d output / d unit at the optimum (central differences), one row per
+    /// output.
     pub output_jacobian: Vec<Vec<f64>>,
     /// d residual / d unit at the optimum, one row per residual.
     pub residual_jacobian: Vec<Vec<f64>>,
@@ -307,12 +312,61 @@ pub fn least_squares<E>(
             }
         }
     };
-    // The spread needs the Jacobian at the point returned.
-    if jacobian_at_x.is_none() {
-        let mut batch = |p: &[Vec<f64>]| run_batch(p, &mut evaluations);
-        jacobian_at_x = Some(jacobians(&x, &outputs, &r, &mut batch)?);
+    // The Jacobian returned (for the parameters' spread) is taken by
+    // central differences over a wider step: a model smooth only at some
+    // scale (an inner search, a tolerance) must not turn a tiny jump into
+    // a huge slope there.
+    let s = settings.spread_step;
+    let stencil: Vec<(f64, f64)> = x
+        .iter()
+        .map(|&u| {
+            let centre = u.clamp(s, 1.0 - s);
+            (centre - s, centre + s)
+        })
+        .collect();
+    let points: Vec<Vec<f64>> = (0..d)
+        .flat_map(|i| {
+            let (low, high) = stencil[i];
+            [low, high].map(|v| {
+                let mut p = x.clone();
+                p[i] = v;
+                p
+            })
+        })
+        .collect();
+    let shifted = run_batch(&points, &mut evaluations)?;
+    let mut output_jacobian = Mat::<f64>::zeros(outputs.len(), d);
+    let mut residual_jacobian = Mat::<f64>::zeros(r.len(), d);
+    fn usable(y: &Option<Vec<f64>>, length: usize) -> Option<&Vec<f64>> {
+        y.as_ref()
+            .filter(|y| y.len() == length && y.iter().all(|v| v.is_finite()))
     }
-    let (output_jacobian, residual_jacobian) = jacobian_at_x.expect("computed above");
+    for i in 0..d {
+        let (low, high) = stencil[i];
+        // Both sides where both ran; else the side that ran and the centre.
+        let sides = match (
+            usable(&shifted[2 * i], outputs.len()),
+            usable(&shifted[2 * i + 1], outputs.len()),
+        ) {
+            (Some(a), Some(b)) => Some((a.clone(), low, b.clone(), high)),
+            (Some(a), None) => Some((a.clone(), low, outputs.clone(), x[i])),
+            (None, Some(b)) => Some((outputs.clone(), x[i], b.clone(), high)),
+            (None, None) => None,
+        };
+        let Some((ya, ua, yb, ub)) = sides else {
+            continue;
+        };
+        if ub == ua {
+            continue;
+        }
+        let (ra, rb) = (residuals(&ya), residuals(&yb));
+        for k in 0..outputs.len() {
+            output_jacobian[(k, i)] = (yb[k] - ya[k]) / (ub - ua);
+        }
+        for k in 0..r.len().min(ra.len()).min(rb.len()) {
+            residual_jacobian[(k, i)] = (rb[k] - ra[k]) / (ub - ua);
+        }
+    }
     let rows = |m: &Mat<f64>| -> Vec<Vec<f64>> {
         (0..m.nrows())
             .map(|k| (0..m.ncols()).map(|i| m[(k, i)]).collect())

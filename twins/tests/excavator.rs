@@ -116,12 +116,20 @@ fn strokes_out_of_range_and_bad_numbers_are_errors_naming_the_cylinder() {
 
 #[test]
 fn a_stroke_at_a_dead_centre_is_refused_with_the_cylinder_named() {
-    // Widen the boom cylinder's range past the linkage: near 108 mm A, C
-    // and D line up (found by the closed form; see dx55.toml).
+    // Widen the boom cylinder's range past the linkage: A, C and D line up
+    // (the boom straight above its cylinder) where the cylinder is as long
+    // as |AC| + |AD|, by the closed form.
     let mut geometry = Geometry::dx55();
-    geometry.cylinder.boom.stroke_range_mm = [0.0, 1200.0];
+    let norm = |p: [f64; 2]| p[0].hypot(p[1]);
+    let in_line_mm = (norm(geometry.base.boom_cylinder_pin_m)
+        + norm(geometry.boom.boom_cylinder_pin_m)
+        - geometry.cylinder.boom.retracted_length_m)
+        * 1e3;
+    geometry.cylinder.boom.stroke_range_mm = [0.0, in_line_mm + 200.0];
     let twin = Excavator::new(geometry).unwrap();
-    for stroke in [50.0, 105.0, 1100.0] {
+    // Just short of the line (inside the dead-centre margin), and beyond
+    // it (the linkage cannot be assembled).
+    for stroke in [in_line_mm - 0.5, in_line_mm + 100.0] {
         let err = twin
             .evaluate(&inputs(121.0, 210.0, stroke, 40.6, -10.0))
             .unwrap_err();
@@ -134,7 +142,7 @@ fn a_stroke_at_a_dead_centre_is_refused_with_the_cylinder_named() {
         );
     }
     assert!(twin
-        .evaluate(&inputs(121.0, 210.0, 120.0, 40.6, -10.0))
+        .evaluate(&inputs(121.0, 210.0, 467.0, 40.6, -10.0))
         .is_ok());
 }
 
@@ -232,11 +240,13 @@ fn pressure_is_the_axial_force_over_the_loaded_area() {
         Chamber::Rod,
         "Case 2 pulls the boom cylinder"
     );
-    let annulus_mm2 = std::f64::consts::PI / 4.0 * (100.0f64.powi(2) - 60.0f64.powi(2));
+    let bore = |name: CylinderName| twin.geometry().cylinder(name).bore_mm;
+    let annulus_mm2 =
+        std::f64::consts::PI / 4.0 * (bore(CylinderName::Boom).powi(2) - 60.0f64.powi(2));
     let expected_bar = boom.axial_force_kn.abs() * 1e3 / annulus_mm2 * 10.0;
     assert!((boom.loaded_chamber_pressure_bar - expected_bar).abs() < 1e-9 * expected_bar);
     let arm = e.cylinder(CylinderName::Arm);
-    let head_mm2 = std::f64::consts::PI / 4.0 * 90.0f64.powi(2);
+    let head_mm2 = std::f64::consts::PI / 4.0 * bore(CylinderName::Arm).powi(2);
     assert_eq!(arm.loaded_chamber, Chamber::Head);
     assert!(
         (arm.loaded_chamber_pressure_bar - arm.axial_force_kn * 1e3 / head_mm2 * 10.0).abs() < 1e-9
@@ -269,16 +279,43 @@ fn the_frame_models_weigh_what_the_file_says() {
     // Box plates by hand from the file's sections (trapezoid rule on the
     // area, which is quadratic along the taper, so only close) plus the
     // attached masses.
-    let (boom_kg, arm_kg) = twin().structure_masses_kg();
-    assert!((boom_kg - 315.0).abs() < 5.0, "boom {boom_kg} kg");
-    assert!((arm_kg - 160.0).abs() < 5.0, "arm {arm_kg} kg");
+    let twin = twin();
+    let geometry = twin.geometry();
+    let density = geometry.material.density_kg_m3;
+    let by_hand = |s: &acq_twins::excavator::geometry::Structure| -> f64 {
+        let area = |t: &acq_twins::excavator::geometry::Station| {
+            2.0 * t.width_m * t.flange_thickness_m
+                + 2.0 * (t.height_m - 2.0 * t.flange_thickness_m) * t.web_thickness_m
+        };
+        let plates: f64 = s
+            .section
+            .windows(2)
+            .map(|pair| {
+                0.5 * (area(&pair[0]) + area(&pair[1])) * (pair[1].station_m - pair[0].station_m)
+            })
+            .sum::<f64>()
+            * density;
+        plates + s.attached_mass.iter().map(|m| m.mass_kg).sum::<f64>()
+    };
+    let (boom_kg, arm_kg) = twin.structure_masses_kg();
+    let boom_expected = by_hand(&geometry.boom.structure);
+    let arm_expected = by_hand(&geometry.arm.structure);
+    assert!(
+        (boom_kg - boom_expected).abs() < 5.0,
+        "boom {boom_kg} kg vs {boom_expected}"
+    );
+    assert!(
+        (arm_kg - arm_expected).abs() < 5.0,
+        "arm {arm_kg} kg vs {arm_expected}"
+    );
 }
 
 #[test]
 fn geometry_and_case_errors_name_the_problem() {
-    let bad = Geometry::parse(
-        &acq_twins::excavator::geometry::DX55_TOML.replace("bore_mm = 100.0", "bore_mm = -1.0"),
-    )
+    let bad = Geometry::parse(&acq_twins::excavator::geometry::DX55_TOML.replace(
+        "[cylinder.boom]\nbore_mm = ",
+        "[cylinder.boom]\nbore_mm = -1.0 # ",
+    ))
     .unwrap_err();
     assert!(
         bad.contains("cylinder.boom.bore_mm must be positive"),
@@ -305,7 +342,8 @@ fn geometry_and_case_errors_name_the_problem() {
 #[test]
 fn a_pressure_above_the_relief_is_reported_as_its_excess() {
     let mut geometry = Geometry::load(&data("dx55.toml")).unwrap();
-    let case2 = CaseFile::load(&data("case2.toml")).unwrap().nominal();
+    let mut case2 = CaseFile::load(&data("case2.toml")).unwrap().nominal();
+    case2.tip_force_kn = 41.0;
     let e = Excavator::new(geometry.clone())
         .unwrap()
         .evaluate(&case2)
@@ -317,7 +355,7 @@ fn a_pressure_above_the_relief_is_reported_as_its_excess() {
     }
     assert!(
         e.cylinders.iter().any(|c| c.over_relief_bar.unwrap() > 0.0),
-        "40.6 kN in the Case-2 pose is beyond this geometry's relief"
+        "the 41 kN working load in the Case-2 pose is beyond the relief"
     );
     geometry.relief_pressure_bar = None;
     let e = Excavator::new(geometry).unwrap().evaluate(&case2).unwrap();
@@ -355,19 +393,35 @@ fn the_working_envelope_is_the_extreme_of_a_dense_stroke_grid() {
                 };
                 reach = reach.max(ahead + pose.j.x);
                 depth = depth.max(-pose.j.y - height);
-                if k == 0 && pose.j.y <= pose.g.y {
+            }
+        }
+    }
+    // The dump height's maximum lies on the curve where J comes level with
+    // G, which a grid meets only between its points: a finer grid over
+    // boom and arm (the bucket opened).
+    let fine = 200;
+    let at_fine = |name: CylinderName, k: usize| {
+        let [low, high] = range(name);
+        low + (high - low) * k as f64 / fine as f64
+    };
+    for i in 0..=fine {
+        for j in 0..=fine {
+            let strokes = Strokes {
+                boom_mm: at_fine(CylinderName::Boom, i),
+                arm_mm: at_fine(CylinderName::Arm, j),
+                bucket_mm: range(CylinderName::Bucket)[0],
+            };
+            if let Ok(pose) = Pose::solve(&geometry, &strokes) {
+                if pose.j.y <= pose.g.y {
                     dump = dump.max(height + pose.j.y);
                 }
             }
         }
     }
-    // The dump height's maximum lies on the curve where J comes level with
-    // G, which a grid meets only between its points: it is checked more
-    // loosely, and by the pose at the strokes named.
     for (name, searched, grid, within) in [
         ("reach", envelope.max_reach_m, reach, 0.02),
         ("depth", envelope.max_digging_depth_m, depth, 0.02),
-        ("dump height", envelope.max_dump_height_m, dump, 0.15),
+        ("dump height", envelope.max_dump_height_m, dump, 0.03),
     ] {
         assert!(
             grid <= searched + 1e-9,

@@ -67,13 +67,7 @@ pub fn working_envelope(geometry: &Geometry) -> Result<WorkingEnvelope, TwinErro
         .ok_or_else(|| none_reached("digging depth"))?;
     let opened_mm = range(CylinderName::Bucket)[0];
     let (dump, dump_strokes) =
-        maximise(&[CylinderName::Boom, CylinderName::Arm], &range, &mut |s| {
-            let mut opened = *s;
-            opened.bucket_mm = opened_mm;
-            let pose = Pose::solve(geometry, &opened).ok()?;
-            (pose.j.y <= pose.g.y).then_some(pose.j.y)
-        })
-        .ok_or_else(|| none_reached("dump height"))?;
+        dump_height(geometry, &range, opened_mm).ok_or_else(|| none_reached("dump height"))?;
     Ok(WorkingEnvelope {
         max_reach_m: ahead_m + reach,
         reach_strokes,
@@ -153,6 +147,84 @@ fn maximise(
         }
     }
     Some((value, at))
+}
+
+/// The highest J with the bucket opened and J no higher than G: for each
+/// boom stroke, the best arm stroke on the side of the arm range where J
+/// hangs below G (found by bisection where the two meet, then a golden
+/// section), and the best boom stroke by a grid and a golden section. A
+/// search over both strokes at once would stall on the curve J = G.
+fn dump_height(
+    geometry: &Geometry,
+    range: &dyn Fn(CylinderName) -> [f64; 2],
+    opened_mm: f64,
+) -> Option<(f64, Strokes)> {
+    let [arm_low, arm_high] = range(CylinderName::Arm);
+    let [boom_low, boom_high] = range(CylinderName::Boom);
+    let strokes = |boom_mm: f64, arm_mm: f64| Strokes {
+        bucket_mm: opened_mm,
+        arm_mm,
+        boom_mm,
+    };
+    // J's height, and how far it is above G, or None off the linkage.
+    let tip = |boom_mm: f64, arm_mm: f64| {
+        let pose = Pose::solve(geometry, &strokes(boom_mm, arm_mm)).ok()?;
+        Some((pose.j.y, pose.j.y - pose.g.y))
+    };
+    let best_arm = |boom_mm: f64| -> Option<(f64, f64)> {
+        let value = |arm_mm: f64| match tip(boom_mm, arm_mm) {
+            Some((height, above)) if above <= 0.0 => height,
+            _ => f64::NEG_INFINITY,
+        };
+        let cell = (arm_high - arm_low) / (GRID - 1) as f64;
+        let (k, best) = (0..GRID)
+            .map(|k| (k, value(arm_low + cell * k as f64)))
+            .fold((0, f64::NEG_INFINITY), |b, c| if c.1 > b.1 { c } else { b });
+        if best == f64::NEG_INFINITY {
+            return None;
+        }
+        let at = arm_low + cell * k as f64;
+        // The bracket one cell either side, cut where J comes level with G.
+        let mut ends = [(at - cell).max(arm_low), (at + cell).min(arm_high)];
+        for end in &mut ends {
+            if value(*end) == f64::NEG_INFINITY {
+                let (mut inside, mut outside) = (at, *end);
+                while (outside - inside).abs() > 1e-10 * (arm_high - arm_low) {
+                    let middle = 0.5 * (inside + outside);
+                    if value(middle) == f64::NEG_INFINITY {
+                        outside = middle;
+                    } else {
+                        inside = middle;
+                    }
+                }
+                *end = inside;
+            }
+        }
+        let (arm_mm, height) = golden_section_max(
+            &mut |x| value(x),
+            ends[0],
+            ends[1],
+            1e-10 * (arm_high - arm_low),
+        );
+        Some((arm_mm, height))
+    };
+    let along_boom = |boom_mm: f64| best_arm(boom_mm).map_or(f64::NEG_INFINITY, |(_, h)| h);
+    let cell = (boom_high - boom_low) / (GRID - 1) as f64;
+    let (k, best) = (0..GRID)
+        .map(|k| (k, along_boom(boom_low + cell * k as f64)))
+        .fold((0, f64::NEG_INFINITY), |b, c| if c.1 > b.1 { c } else { b });
+    if best == f64::NEG_INFINITY {
+        return None;
+    }
+    let at = boom_low + cell * k as f64;
+    let (boom_mm, height) = golden_section_max(
+        &mut |x| along_boom(x),
+        (at - cell).max(boom_low),
+        (at + cell).min(boom_high),
+        1e-10 * (boom_high - boom_low),
+    );
+    let (arm_mm, _) = best_arm(boom_mm)?;
+    Some((height, strokes(boom_mm, arm_mm)))
 }
 
 /// The maximum of a unimodal `f` on [a, b], with the ends tried too (a

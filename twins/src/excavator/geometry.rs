@@ -9,14 +9,14 @@
 
 use std::path::Path;
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::frame::BoxSection;
 
 /// A point in a body frame, metres.
 pub type PointM = [f64; 2];
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Geometry {
     pub name: String,
@@ -37,7 +37,7 @@ pub struct Geometry {
     pub relief_pressure_bar: Option<f64>,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
     pub name: String,
@@ -49,7 +49,7 @@ pub struct Material {
 }
 
 /// The fixed base (swing frame), in machine coordinates.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Base {
     /// C: the boom cylinder's barrel pin.
@@ -63,7 +63,7 @@ pub struct Base {
 
 /// A flexible body: a box-section centreline (a polyline through the
 /// pins it carries) with sections given at stations along it.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Structure {
     /// Polyline vertices in the body frame; pins on it become nodes.
@@ -78,7 +78,7 @@ pub struct Structure {
     pub attached_mass: Vec<PointMass>,
 }
 
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Station {
     pub station_m: f64,
@@ -99,14 +99,14 @@ impl Station {
     }
 }
 
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Copy, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct PointMass {
     pub at_m: PointM,
     pub mass_kg: f64,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Boom {
     /// B, on the x axis by definition of the frame.
@@ -118,7 +118,7 @@ pub struct Boom {
     pub structure: Structure,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Arm {
     /// G, on the x axis by definition of the frame.
@@ -132,7 +132,7 @@ pub struct Arm {
     pub structure: Structure,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Bucket {
     /// J, on the x axis by definition of the frame.
@@ -144,14 +144,14 @@ pub struct Bucket {
 }
 
 /// A rigid link between two pins, its centre of mass halfway.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Link {
     pub length_m: f64,
     pub mass_kg: f64,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Cylinders {
     pub boom: Cylinder,
@@ -159,7 +159,7 @@ pub struct Cylinders {
     pub bucket: Cylinder,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Cylinder {
     pub bore_mm: f64,
@@ -187,7 +187,7 @@ impl Cylinder {
 }
 
 /// Which flexible body a gauge sits on.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Member {
     Boom,
@@ -196,7 +196,7 @@ pub enum Member {
 
 /// Where on the box section a uniaxial gauge (along the member axis) sits.
 /// `top` is the flange on the body frame's +y side of the centreline.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Face {
     Top,
@@ -206,7 +206,7 @@ pub enum Face {
     RightSide,
 }
 
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Gauge {
     /// Measuring point number, 1..=18.
@@ -481,9 +481,35 @@ impl Geometry {
 /// (the attached mass at it) along ([`Geometry::carry_pins`]).
 #[derive(Debug, Clone)]
 pub struct GeometryTemplate {
+    /// The file as written, comments and all.
+    text: String,
     table: toml::Table,
     /// The file as it is, where moved pins are carried from.
     unchanged: Geometry,
+}
+
+/// Every number under `value`, by key path from `path`.
+fn numbers_of(value: &toml::Value, path: String, out: &mut Vec<(String, f64)>) {
+    match value {
+        toml::Value::Float(x) => out.push((path, *x)),
+        toml::Value::Integer(i) => out.push((path, *i as f64)),
+        toml::Value::Table(table) => {
+            for (key, inner) in table {
+                let path = if path.is_empty() {
+                    key.clone()
+                } else {
+                    format!("{path}.{key}")
+                };
+                numbers_of(inner, path, out);
+            }
+        }
+        toml::Value::Array(array) => {
+            for (index, inner) in array.iter().enumerate() {
+                numbers_of(inner, format!("{path}[{index}]"), out);
+            }
+        }
+        _ => {}
+    }
 }
 
 /// One step of a key path.
@@ -523,7 +549,11 @@ impl GeometryTemplate {
     pub fn parse(text: &str) -> Result<GeometryTemplate, String> {
         let unchanged = Geometry::parse(text)?;
         let table = toml::from_str(text).map_err(|e| e.to_string())?;
-        Ok(GeometryTemplate { table, unchanged })
+        Ok(GeometryTemplate {
+            text: text.to_string(),
+            table,
+            unchanged,
+        })
     }
 
     /// The shipped DX55-class geometry.
@@ -553,6 +583,33 @@ impl GeometryTemplate {
             v @ (toml::Value::Float(_) | toml::Value::Integer(_)) => Ok(v),
             _ => Err(missing()),
         }
+    }
+
+    /// The file as written.
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// Every number of the file that `geometry` (made from this template)
+    /// has changed, by key path, with its new value.
+    pub fn changed_numbers(&self, geometry: &Geometry) -> Result<Vec<(String, f64)>, String> {
+        let written = toml::Value::try_from(geometry).map_err(|e| e.to_string())?;
+        let mut before = Vec::new();
+        numbers_of(
+            &toml::Value::Table(self.table.clone()),
+            String::new(),
+            &mut before,
+        );
+        let mut after = Vec::new();
+        numbers_of(&written, String::new(), &mut after);
+        let after: std::collections::HashMap<String, f64> = after.into_iter().collect();
+        Ok(before
+            .into_iter()
+            .filter_map(|(path, old)| {
+                let new = *after.get(&path)?;
+                (new.to_bits() != old.to_bits()).then_some((path, new))
+            })
+            .collect())
     }
 
     /// The number at a key path.

@@ -12,6 +12,7 @@
 pub mod case;
 pub mod envelope;
 pub mod geometry;
+pub mod geometry_file;
 pub mod inputs;
 pub mod kinematics;
 pub mod pose_fit;

@@ -20,9 +20,11 @@
 //! (`pressure_bar.boom`, `gauge_stress_MPa[3]`, `cylinder_force_kN.arm`,
 //! `points.J[1]`); `pressure_over_relief_bar.boom` (how far a loaded
 //! chamber is above the geometry's `relief_pressure_bar`, 0 below it: a
-//! one-sided plausibility penalty); and the working envelope of
-//! `--envelope` (`envelope.max_reach_m`): a case that observes only the
-//! envelope needs no operating inputs.
+//! one-sided plausibility penalty); and numbers of the geometry itself:
+//! the working envelope of `--envelope` (`envelope.max_reach_m`) and each
+//! cylinder's dead length (`cylinder_dead_length_m.arm`: its retracted
+//! length less its longest stroke). A case that observes only these needs
+//! no operating inputs.
 //!
 //! The last changed geometry's twin and envelope are kept: the cases of one
 //! evaluation share the geometry, so only the first builds it.
@@ -32,10 +34,11 @@ use std::sync::{Arc, Mutex};
 
 use acq_twins::excavator::envelope::working_envelope;
 use acq_twins::excavator::geometry::GeometryTemplate;
+use acq_twins::excavator::geometry_file::{rewrite_geometry_file, ChangedNumber};
 use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
 use acq_twins::excavator::{CylinderName, Excavator, Inputs, Strokes};
 
-use super::study::{numbers_by_key_path, Model, ModelRun};
+use super::study::{numbers_by_key_path, Model, ModelRun, Study, StudyParameter};
 use crate::excavator_report::{envelope_json, evaluation_json};
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 
@@ -70,8 +73,15 @@ struct Built {
 /// Outputs by key path.
 type Numbers = HashMap<String, f64>;
 
-/// The prefix of the envelope's outputs.
-const ENVELOPE: &str = "envelope.";
+/// The prefixes of the outputs of the geometry itself (no load case):
+/// the working envelope, and each cylinder's dead length (its retracted
+/// length less its longest stroke: piston, gland and eyes, which a real
+/// cylinder needs).
+const OF_GEOMETRY: [&str; 2] = ["envelope.", "cylinder_dead_length_m."];
+
+fn of_geometry(name: &str) -> bool {
+    OF_GEOMETRY.iter().any(|prefix| name.starts_with(prefix))
+}
 
 impl ExcavatorModel {
     /// `refit`: re-fit the pose numbers of a changed geometry to the
@@ -95,7 +105,15 @@ impl ExcavatorModel {
     ) -> Result<(Arc<Excavator>, Option<Arc<Numbers>>), String> {
         let envelope_of = |twin: &Excavator| -> Result<Arc<Numbers>, String> {
             let envelope = working_envelope(twin.geometry()).map_err(|e| e.to_string())?;
-            Ok(Arc::new(numbers_by_key_path(&envelope_json(&envelope))))
+            let mut numbers = numbers_by_key_path(&envelope_json(&envelope));
+            for name in CylinderName::ALL {
+                let cylinder = twin.geometry().cylinder(name);
+                numbers.insert(
+                    format!("cylinder_dead_length_m.{name}"),
+                    cylinder.retracted_length_m - cylinder.stroke_range_mm[1] * 1e-3,
+                );
+            }
+            Ok(Arc::new(numbers))
         };
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
         let same = |built: &Built| {
@@ -130,6 +148,92 @@ impl ExcavatorModel {
     }
 }
 
+impl ExcavatorModel {
+    /// The geometry file of a study's calibrated point: the template's
+    /// file with every number the study changed replaced and annotated
+    /// with where it came from: identified (with its standard uncertainty
+    /// and prior, `uncertainties` per search parameter), fitted to the
+    /// published poses, or moved with a pin. `None` when the study changes
+    /// no geometry number.
+    pub fn calibrated_geometry_file(
+        &self,
+        study: &Study,
+        calibrated: &[f64],
+        uncertainties: Option<&[f64]>,
+        spec: &str,
+    ) -> Result<Option<String>, String> {
+        let identified: Vec<(usize, &StudyParameter)> = study
+            .parameters
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.case.is_none() && p.input.contains(['.', '[']))
+            .collect();
+        if identified.is_empty() {
+            return Ok(None);
+        }
+        let values: Vec<(&str, f64)> = identified
+            .iter()
+            .map(|&(j, p)| (p.input.as_str(), calibrated[j]))
+            .collect();
+        let mut geometry = self.template.with(&values)?;
+        if let Some(poses) = &self.poses {
+            refit_poses(&mut geometry, poses)?;
+        }
+        let fitted = |path: &str| {
+            path.starts_with("base.boom_cylinder_pin_m")
+                || path.starts_with("boom.arm_cylinder_pin_m")
+                || path.starts_with("arm.bucket_cylinder_pin_m")
+                || path.ends_with("retracted_length_m")
+        };
+        let changes = self
+            .template
+            .changed_numbers(&geometry)?
+            .into_iter()
+            .map(|(path, value)| {
+                let searched = identified.iter().find(|(_, p)| p.input == path);
+                let provenance = match searched {
+                    Some(&(j, p)) => {
+                        let spread = uncertainties
+                            .map(|u| u[j])
+                            .filter(|u| u.is_finite())
+                            .map_or("spread unknown".to_string(), |u| format!("+- {u:.3}"));
+                        let prior = p.prior.map_or(String::new(), |prior| {
+                            format!(", prior {} +- {}", prior.value, prior.uncertainty)
+                        });
+                        let how = if fitted(&path) {
+                            format!(
+                                "across its rod pin's travel identified ({:.4} {spread}{prior}), along it fitted to the published poses",
+                                calibrated[j]
+                            )
+                        } else {
+                            format!("identified, {spread}{prior}")
+                        };
+                        format!("{how} ({spec})")
+                    }
+                    None if fitted(&path) => {
+                        "fitted to the published poses of Cases 1 and 2".to_string()
+                    }
+                    None if path.contains("station_m") => {
+                        "kept its share of the member's changed length".to_string()
+                    }
+                    None => "moved with its pin".to_string(),
+                };
+                ChangedNumber {
+                    path,
+                    value,
+                    provenance,
+                }
+            })
+            .collect::<Vec<_>>();
+        let header = vec![
+            format!("Written by acq from {spec}: the numbers marked identified or fitted"),
+            "are its result; every other number is as in the file it started from,".into(),
+            "published or chosen as its note says.".into(),
+        ];
+        rewrite_geometry_file(self.template.text(), &header, &changes).map(Some)
+    }
+}
+
 impl Model for ExcavatorModel {
     fn run(
         &self,
@@ -156,8 +260,8 @@ impl Model for ExcavatorModel {
                 ));
             }
         }
-        let wants_envelope = scalars.iter().any(|name| name.starts_with(ENVELOPE));
-        let wants_evaluation = scalars.iter().any(|name| !name.starts_with(ENVELOPE));
+        let wants_envelope = scalars.iter().any(|name| of_geometry(name));
+        let wants_evaluation = scalars.iter().any(|name| !of_geometry(name));
         let (twin, envelope) = self.twin_for(&geometry, wants_envelope)?;
         let numbers = if wants_evaluation {
             let operating_input = |name: &str| -> Result<f64, String> {
@@ -189,7 +293,7 @@ impl Model for ExcavatorModel {
             .iter()
             .map(|name| {
                 let found = match &envelope {
-                    Some(envelope) if name.starts_with(ENVELOPE) => envelope.get(*name),
+                    Some(envelope) if of_geometry(name) => envelope.get(*name),
                     _ => numbers.get(*name),
                 };
                 found.copied().ok_or_else(|| {

@@ -1602,7 +1602,28 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         study_runner::check_at_nominal(&study, &model)
             .map_err(|e| AcqError::Config(format!("{}: {e}", args.spec.display())))?;
         let directory = super::run_directory::RunDirectory::create(&args.out)?;
-        return study_runner::run_study(&study, &model, &method, initial, &directory, &settings);
+        let outcome =
+            study_runner::calibrate_study(&study, &model, &method, initial, &directory, &settings)?;
+        study_runner::write_study(&study, &outcome, &directory, &settings)?;
+        // A study of geometry numbers leaves the geometry it found.
+        let uncertainties = outcome
+            .identifiability
+            .as_ref()
+            .and_then(|a| a.standard_uncertainties(&study.search_parameters()));
+        let file = model
+            .calibrated_geometry_file(
+                &study,
+                &outcome.calibrated,
+                uncertainties.as_deref(),
+                &args.spec.display().to_string(),
+            )
+            .map_err(|e| AcqError::Config(format!("writing the calibrated geometry: {e}")))?;
+        if let Some(text) = file {
+            let path = directory.file("geometry.toml");
+            super::report::write_text(&path, &text)?;
+            println!("the calibrated geometry is in {}", path.display());
+        }
+        return Ok(());
     }
     let executor: Box<dyn Executor> = if spec.executor.is_slurm() {
         Box::new(

@@ -48,6 +48,8 @@ pub struct Identifiability {
     pub from_loss_curvature: bool,
     /// The loss along each parameter (unit position, loss), others held.
     pub slices: Vec<Vec<(f64, f64)>>,
+    /// Taken on the model's own outputs, linearised (else on GPs).
+    pub on_the_model: bool,
 }
 
 /// The fit outputs at a unit-box point, near the calibrated one.
@@ -64,6 +66,20 @@ pub enum Local<'a> {
     Jacobian(&'a [Vec<f64>]),
 }
 
+impl Identifiability {
+    /// Each parameter's standard uncertainty in its own unit (infinite when
+    /// not identified), when every residual is in standard uncertainties.
+    pub fn standard_uncertainties(&self, parameters: &[Parameter]) -> Option<Vec<f64>> {
+        self.in_uncertainties.then(|| {
+            self.spread_of_range
+                .iter()
+                .zip(parameters)
+                .map(|(&s, p)| s * (p.upper - p.lower))
+                .collect()
+        })
+    }
+}
+
 /// The analysis, or `None` when the surrogates cannot be had (too few
 /// successful runs).
 pub fn identifiability(
@@ -78,6 +94,7 @@ pub fn identifiability(
     let at = to_unit(&parameters, calibrated);
     let fitted;
     // Outputs near the calibrated point, and their Jacobian there.
+    let on_the_model = matches!(local, Local::Jacobian(_));
     let (predicted, jacobian): (Box<Predictor<'_>>, DMatrix<f64>) = match local {
         Local::Surrogates(gps) => {
             let gps = match gps {
@@ -209,6 +226,7 @@ pub fn identifiability(
         in_uncertainties: in_uncertainties && !has_curve,
         from_loss_curvature: has_curve,
         slices,
+        on_the_model,
     })
 }
 
@@ -312,16 +330,10 @@ pub fn identifiability_json(
         "spread_of_range".into(),
         by_name(&mut analysis.spread_of_range.iter().map(|&s| finite(s))),
     );
-    if analysis.in_uncertainties {
+    if let Some(uncertainties) = analysis.standard_uncertainties(parameters) {
         out.insert(
             "standard_uncertainty".into(),
-            by_name(
-                &mut analysis
-                    .spread_of_range
-                    .iter()
-                    .zip(parameters)
-                    .map(|(&s, p)| finite(s * (p.upper - p.lower))),
-            ),
+            by_name(&mut uncertainties.into_iter().map(finite)),
         );
     }
     out.insert(
@@ -355,7 +367,12 @@ pub fn write_identifiability(
         "1 % of relative error per observation"
     };
     report.paragraph(format!(
-        "At the calibrated point, on GP surrogates of each observation{}. The spread is how far a parameter can move for {unit}, as a share of its range{}.",
+        "At the calibrated point, {}{}. The spread is how far a parameter can move for {unit}, as a share of its range{}.",
+        if analysis.on_the_model {
+            "on the model itself (central differences)"
+        } else {
+            "on GP surrogates of each observation"
+        },
         if analysis.from_loss_curvature {
             " (from the loss's curvature, as a curve is observed)"
         } else {

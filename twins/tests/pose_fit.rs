@@ -6,10 +6,6 @@ use acq_twins::excavator::kinematics::Pose;
 use acq_twins::excavator::pose_fit::{published_poses, refit_poses};
 use acq_twins::excavator::CylinderName;
 
-fn angle_deg(point: [f64; 2]) -> f64 {
-    point[1].atan2(point[0]).to_degrees()
-}
-
 #[test]
 fn refitting_the_shipped_geometry_gives_back_its_numbers() {
     // dx55.toml's pose numbers came from the same two poses by a scratch

@@ -176,14 +176,7 @@ fn dump_height(
             Some((height, above)) if above <= 0.0 => height,
             _ => f64::NEG_INFINITY,
         };
-        let cell = (arm_high - arm_low) / (GRID - 1) as f64;
-        let (k, best) = (0..GRID)
-            .map(|k| (k, value(arm_low + cell * k as f64)))
-            .fold((0, f64::NEG_INFINITY), |b, c| if c.1 > b.1 { c } else { b });
-        if best == f64::NEG_INFINITY {
-            return None;
-        }
-        let at = arm_low + cell * k as f64;
+        let (at, cell) = best_on_grid(&value, arm_low, arm_high)?;
         // The bracket one cell either side, cut where J comes level with G.
         let mut ends = [(at - cell).max(arm_low), (at + cell).min(arm_high)];
         for end in &mut ends {
@@ -209,14 +202,7 @@ fn dump_height(
         Some((arm_mm, height))
     };
     let along_boom = |boom_mm: f64| best_arm(boom_mm).map_or(f64::NEG_INFINITY, |(_, h)| h);
-    let cell = (boom_high - boom_low) / (GRID - 1) as f64;
-    let (k, best) = (0..GRID)
-        .map(|k| (k, along_boom(boom_low + cell * k as f64)))
-        .fold((0, f64::NEG_INFINITY), |b, c| if c.1 > b.1 { c } else { b });
-    if best == f64::NEG_INFINITY {
-        return None;
-    }
-    let at = boom_low + cell * k as f64;
+    let (at, cell) = best_on_grid(&along_boom, boom_low, boom_high)?;
     let (boom_mm, height) = golden_section_max(
         &mut |x| along_boom(x),
         (at - cell).max(boom_low),
@@ -225,6 +211,20 @@ fn dump_height(
     );
     let (arm_mm, _) = best_arm(boom_mm)?;
     Some((height, strokes(boom_mm, arm_mm)))
+}
+
+/// The best of GRID evenly spaced points of [low, high] and the spacing,
+/// or None where `f` is nowhere above minus infinity.
+fn best_on_grid(f: &dyn Fn(f64) -> f64, low: f64, high: f64) -> Option<(f64, f64)> {
+    let cell = (high - low) / (GRID - 1) as f64;
+    let (at, best) = (0..GRID)
+        .map(|k| low + cell * k as f64)
+        .map(|x| (x, f(x)))
+        .fold(
+            (low, f64::NEG_INFINITY),
+            |b, c| if c.1 > b.1 { c } else { b },
+        );
+    (best > f64::NEG_INFINITY).then_some((at, cell))
 }
 
 /// The maximum of a unimodal `f` on [a, b], with the ends tried too (a

@@ -59,7 +59,7 @@ pub struct ExcavatorModel {
     /// The poses a changed geometry is re-fitted to; `None`: no re-fit.
     poses: Option<[ReferencePose; 2]>,
     /// The last changed geometry (its key paths and values), its twin, and
-    /// its envelope's numbers once asked for.
+    /// the numbers of the geometry itself once asked for.
     last: Mutex<Option<Built>>,
 }
 
@@ -67,7 +67,7 @@ pub struct ExcavatorModel {
 struct Built {
     geometry: Vec<(String, f64)>,
     twin: Arc<Excavator>,
-    envelope: Option<Arc<Numbers>>,
+    of_geometry: Option<Arc<Numbers>>,
 }
 
 /// Outputs by key path.
@@ -137,14 +137,14 @@ impl ExcavatorModel {
             *last = Some(Built {
                 geometry: geometry.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
                 twin,
-                envelope: None,
+                of_geometry: None,
             });
         }
         let built = last.as_mut().expect("set above");
-        if envelope && built.envelope.is_none() {
-            built.envelope = Some(envelope_of(&built.twin)?);
+        if envelope && built.of_geometry.is_none() {
+            built.of_geometry = Some(envelope_of(&built.twin)?);
         }
-        Ok((built.twin.clone(), built.envelope.clone()))
+        Ok((built.twin.clone(), built.of_geometry.clone()))
     }
 }
 

@@ -5,7 +5,8 @@
 //! the prelude lines (`module load abaqus`), then the solver's argv with
 //! every word quoted (no shell expansion), and writes the solver's exit
 //! status to `exit_status` (through a rename, so it is whole when seen) and
-//! its start time to `started_at`. The job id goes to `slurm_job_id` the
+//! its start time to `started_at`. A job Slurm signals writes no status:
+//! what the solver returned after the signal says nothing of the run. The job id goes to `slurm_job_id` the
 //! moment `sbatch` answers.
 //!
 //! A run has ended when `exit_status` appears (polled every 50 ms) or when
@@ -173,9 +174,14 @@ impl SlurmExecutor {
 
     /// The job script for `argv`.
     fn script(&self, argv: &[String]) -> String {
+        // A job Slurm signals (scancel, node failure, its time limit) ends
+        // without an exit status of its own: the solver's status after the
+        // signal is no verdict on the run, and the job's state says what
+        // happened (a requeued job's rerun writes the status).
         let mut text = String::from(
             "#!/bin/bash\n\
              # Written by acq for one model run; `sbatch job.sh` here runs it again.\n\
+             trap 'exit 143' TERM INT\n\
              rm -f exit_status exit_status.partial\n\
              echo \"${SLURM_RESTART_COUNT:-0} $(date +%s.%N)\" > started_at\n",
         );

@@ -79,6 +79,9 @@ acq record --iface vcan3 --out "$OUT/c5" --quiet &
 rec=$!
 wait_for_session "$OUT/c5"
 cangen vcan3 -g 2 -I 123 -L 8 -D i -n 50
+# Let the last frame reach acq's socket: deleting the device drops what is
+# still queued in the kernel, which no reader could have seen.
+sleep 0.3
 ip link del dev vcan3
 sleep 1
 ip link add dev vcan3 type vcan

@@ -47,6 +47,7 @@ fn main() {
                 generations: 100,
                 pareto_fraction: 0.5,
                 weights: vec![1.0, 1.0, 1.0],
+                pick: "minimax".parse().expect("a pick"),
                 kernel: Kernel::SquaredExponential,
                 seed: 1,
                 resume: false,

@@ -47,7 +47,7 @@ fn main() {
             let case_path = root.join(format!("data/excavator/{case}.toml"));
             let geometry = dir.path().join("identify/geometry.toml");
             let out = dir.path().join(case);
-            // The command line's own defaults (the published method).
+            // The command line's own defaults.
             let argv = [
                 "calibrate-excavator".as_ref(),
                 "--case".as_ref(),

@@ -314,6 +314,38 @@ fn excavator_summary_has_the_fixed_shape_and_does_not_worsen_the_fit() {
 }
 
 #[test]
+fn excavator_picks_minimax_by_default_and_topsis_on_request() {
+    // Same seed, same designs and GPs, same front: only the pick differs.
+    let dir = tempfile::tempdir().unwrap();
+    let minimax = dir.path().join("minimax");
+    let topsis = dir.path().join("topsis");
+    let output = calibrate_excavator(&minimax, &[]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let output = calibrate_excavator(&topsis, &["--pick", "topsis"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(text(&minimax.join("report.md")).contains("the minimax pick"));
+    assert!(
+        text(&topsis.join("report.md")).contains("the TOPSIS pick (per-objective normalisation")
+    );
+    // The minimax pick has the least largest error on the GPs' front; the twin
+    // re-run there agrees with the GPs within a few hundredths of a percent.
+    let largest_minimax = largest(&json(&minimax.join("summary.json"))["errors_optimal_pct"]);
+    let largest_topsis = largest(&json(&topsis.join("summary.json"))["errors_optimal_pct"]);
+    assert!(
+        largest_minimax <= largest_topsis + 0.1,
+        "minimax {largest_minimax} % > TOPSIS {largest_topsis} %"
+    );
+
+    let output = calibrate_excavator(&dir.path().join("bad"), &["--pick", "best"]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("give topsis, topsis-common or minimax"),
+        "{}",
+        stderr(&output)
+    );
+}
+
+#[test]
 fn excavator_resume_reuses_every_evaluation_and_reproduces_the_summary() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
@@ -954,6 +986,11 @@ fn external_spec_errors_exit_2_naming_the_file() {
             "command is empty",
         ),
         ("no_output.toml", without_outputs, "output"),
+        (
+            "bad_pick.toml",
+            good.replace("[search]", "[search]\npick = \"best\""),
+            "give topsis, topsis-common or minimax",
+        ),
     ];
     for (name, spec_text, why) in cases {
         let spec = dir.path().join(name);

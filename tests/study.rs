@@ -97,7 +97,8 @@ parallel = 2
             "\n[[output]]\nname = \"pressure_bar.{cylinder}\"\nmeasured = {value:?}\n"
         ));
     }
-    spec.push_str("\n[search]\nmethod = \"surrogate-moo\"\n");
+    // The preset picks minimax; a spec's default is the published TOPSIS.
+    spec.push_str("\n[search]\nmethod = \"surrogate-moo\"\npick = \"minimax\"\n");
     let (wrapped, got) = run_wrapped(dir.path(), &spec, "3");
 
     let close = |a: f64, b: f64, what: &str| {

@@ -9,7 +9,8 @@
 //! - `optim`: bounded L-BFGS, the local optimiser under the GP fit and the acquisition.
 //! - `gp`: Gaussian-process regression (SE and Matern kernels, ARD, marginal-likelihood fit).
 //! - `surrogate`: polynomial and RBF surrogates, and the comparison by held-out RMSE.
-//! - `moo`: NSGA-II, hypervolume, the ZDT/DTLZ benchmark problems; `topsis`: the pick.
+//! - `moo`: NSGA-II, hypervolume, the ZDT/DTLZ benchmark problems; `topsis` and `minimax`:
+//!   the pick of one front point.
 //! - `least_squares`: bounded Levenberg-Marquardt, for cheap smooth models.
 //! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches).
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
@@ -20,6 +21,7 @@ pub mod doe;
 pub mod evaluation;
 pub mod gp;
 pub mod least_squares;
+pub mod minimax;
 pub mod moo;
 pub mod optim;
 pub mod sobol_indices;

@@ -6,6 +6,12 @@
 //! benefit, the smallest for a cost) and the anti-ideal (the worst), measure each
 //! alternative's Euclidean separations `S+` from the ideal and `S-` from the anti-ideal,
 //! and rank by the relative closeness `C = S- / (S+ + S-)` in [0, 1], larger is better.
+//!
+//! The per-criterion normalisation is what makes criteria in different units comparable,
+//! but it also re-weights them: a criterion that happens to spread widely over the
+//! alternatives is shrunk more. When every criterion is in the same unit (relative errors
+//! in %), [`Normalisation::Common`] divides all of them by one norm instead, so that equal
+//! weights mean that one point of one criterion counts as much as one point of another.
 
 /// Whether more of a criterion is better (benefit) or worse (cost, e.g. an error).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -15,6 +21,21 @@ pub enum Criterion {
     Benefit,
     /// Smaller is better.
     Cost,
+}
+
+/// How the decision matrix is made unit-free before weighting.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Default, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum Normalisation {
+    /// Each criterion by its own Euclidean norm over the alternatives (Hwang & Yoon): for
+    /// criteria in different units.
+    #[default]
+    PerCriterion,
+    /// Every criterion by the one Euclidean norm of the whole matrix: for criteria in the
+    /// same unit, whose scale must stay comparable.
+    Common,
 }
 
 /// The TOPSIS result: closeness per alternative (row), and the rows best first.
@@ -101,13 +122,48 @@ pub fn topsis(
     weights: &[f64],
     criteria: &[Criterion],
 ) -> Result<Topsis, TopsisError> {
+    topsis_normalised(
+        decision_matrix,
+        weights,
+        criteria,
+        Normalisation::PerCriterion,
+    )
+}
+
+/// [`topsis`] with a choice of [`Normalisation`].
+pub fn topsis_normalised(
+    decision_matrix: &[Vec<f64>],
+    weights: &[f64],
+    criteria: &[Criterion],
+    normalisation: Normalisation,
+) -> Result<Topsis, TopsisError> {
     let columns = validate(decision_matrix, weights, criteria)?;
     let weights = normalised_weights(weights);
+    let column_norms: Vec<f64> = (0..columns)
+        .map(|column| column_norm(decision_matrix, column))
+        .collect();
+    let common_norm = {
+        // sqrt of the sum of squared column norms, scaled so squaring cannot overflow.
+        let largest = column_norms.iter().copied().fold(0.0, f64::max);
+        if largest == 0.0 {
+            0.0
+        } else {
+            largest
+                * column_norms
+                    .iter()
+                    .map(|n| (n / largest).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+        }
+    };
 
-    // Weighted, vector-normalised matrix, column by column. A column of zeros stays 0.
+    // Weighted, normalised matrix, column by column. A column of zeros stays 0.
     let mut weighted: Vec<Vec<f64>> = vec![vec![0.0; columns]; decision_matrix.len()];
     for (column, weight) in weights.iter().enumerate() {
-        let norm = column_norm(decision_matrix, column);
+        let norm = match normalisation {
+            Normalisation::PerCriterion => column_norms[column],
+            Normalisation::Common => common_norm,
+        };
         if norm == 0.0 {
             continue;
         }
@@ -185,7 +241,7 @@ fn normalised_weights(weights: &[f64]) -> Vec<f64> {
 }
 
 /// Check shapes and values; return the number of criteria.
-fn validate(
+pub(crate) fn validate(
     decision_matrix: &[Vec<f64>],
     weights: &[f64],
     criteria: &[Criterion],

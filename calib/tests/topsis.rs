@@ -1,6 +1,7 @@
 //! TOPSIS against the textbook example, its invariances and its input errors.
 
-use acq_calib::topsis::{topsis, Criterion, TopsisError};
+use acq_calib::minimax::minimax_ranking;
+use acq_calib::topsis::{topsis, topsis_normalised, Criterion, Normalisation, TopsisError};
 
 use Criterion::{Benefit, Cost};
 
@@ -178,4 +179,117 @@ fn input_errors() {
     // Huge but finite weights do not overflow their sum.
     let huge = vec![f64::MAX; 6];
     assert!(topsis(&matrix, &huge, &criteria).is_ok());
+}
+
+/// Closeness of each row by the plain definition, on the raw values (no normalisation),
+/// all criteria costs and equally weighted: the independent reference for `Common`.
+fn plain_closeness_of_costs(matrix: &[Vec<f64>]) -> Vec<f64> {
+    let columns = matrix[0].len();
+    let ideal: Vec<f64> = (0..columns)
+        .map(|c| matrix.iter().map(|r| r[c]).fold(f64::INFINITY, f64::min))
+        .collect();
+    let anti: Vec<f64> = (0..columns)
+        .map(|c| {
+            matrix
+                .iter()
+                .map(|r| r[c])
+                .fold(f64::NEG_INFINITY, f64::max)
+        })
+        .collect();
+    let distance = |row: &[f64], to: &[f64]| {
+        row.iter()
+            .zip(to)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    matrix
+        .iter()
+        .map(|row| {
+            let (plus, minus) = (distance(row, &ideal), distance(row, &anti));
+            minus / (plus + minus)
+        })
+        .collect()
+}
+
+/// Relative errors in % of three pressures on a front that stretches far along the
+/// third: the shape a calibration front takes when one error is very sensitive.
+fn errors_front() -> Vec<Vec<f64>> {
+    vec![
+        vec![0.8, 4.4, 19.0],
+        vec![0.8, 6.7, 0.8],
+        vec![0.1, 0.2, 50.0],
+        vec![3.0, 9.0, 0.0],
+        vec![1.5, 5.5, 10.0],
+        vec![0.2, 1.0, 40.0],
+        vec![0.5, 2.0, 35.0],
+        vec![0.4, 3.0, 30.0],
+        vec![0.1, 0.5, 45.0],
+    ]
+}
+
+#[test]
+fn common_normalisation_is_topsis_on_the_raw_values() {
+    let matrix = errors_front();
+    let result = topsis_normalised(&matrix, &[1.0; 3], &[Cost; 3], Normalisation::Common).unwrap();
+    for (ours, plain) in result
+        .closeness
+        .iter()
+        .zip(plain_closeness_of_costs(&matrix))
+    {
+        assert!((ours - plain).abs() < 1e-12, "{ours} vs {plain}");
+    }
+    // On the raw values the balanced point (largest error 6.7 %) is closest.
+    assert_eq!(result.best, 1);
+    // Scaling every criterion by one factor changes nothing.
+    let scaled: Vec<Vec<f64>> = matrix
+        .iter()
+        .map(|row| row.iter().map(|v| v * 1.0e-200).collect())
+        .collect();
+    let again = topsis_normalised(&scaled, &[1.0; 3], &[Cost; 3], Normalisation::Common).unwrap();
+    for (x, y) in result.closeness.iter().zip(&again.closeness) {
+        assert!((x - y).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn per_criterion_normalisation_shrinks_the_criterion_that_spreads_most() {
+    // The third error spreads over 0-50 %, the others over 0-9 %: normalised per
+    // criterion, one point of the third counts about five times less, and the pick is
+    // the point with 19 % on it. This is why same-unit errors are normalised together.
+    let matrix = errors_front();
+    let per_criterion = topsis(&matrix, &[1.0; 3], &[Cost; 3]).unwrap();
+    let default =
+        topsis_normalised(&matrix, &[1.0; 3], &[Cost; 3], Normalisation::default()).unwrap();
+    assert_eq!(per_criterion, default);
+    assert_ne!(per_criterion.best, 1);
+    let largest = |row: usize| matrix[row].iter().copied().fold(0.0, f64::max);
+    assert!(largest(per_criterion.best) > 2.0 * largest(1));
+}
+
+#[test]
+fn the_minimax_pick_has_the_least_largest_error() {
+    let matrix = errors_front();
+    let ranking = minimax_ranking(&matrix, &[1.0; 3]).unwrap();
+    let pick = ranking[0];
+    let largest = |row: &Vec<f64>| row.iter().copied().fold(0.0, f64::max);
+    let least = matrix.iter().map(largest).fold(f64::INFINITY, f64::min);
+    assert_eq!(largest(&matrix[pick]), least);
+    assert_eq!(pick, 1);
+    for pair in ranking.windows(2) {
+        assert!(largest(&matrix[pair[0]]) <= largest(&matrix[pair[1]]));
+    }
+    // Weights scale the errors before the largest is taken: with the third error
+    // weighted down by 10, (0.4, 3, 30) counts as 3 and wins over (0.8, 6.7, 0.8).
+    assert_eq!(minimax_ranking(&matrix, &[1.0, 1.0, 0.1]).unwrap()[0], 7);
+    // Only the weights' ratios matter.
+    assert_eq!(minimax_ranking(&matrix, &[2.0, 2.0, 0.2]).unwrap()[0], 7);
+    assert_eq!(
+        minimax_ranking(&matrix, &[0.0; 3]).unwrap_err(),
+        TopsisError::ZeroWeights
+    );
+    assert_eq!(
+        minimax_ranking(&[], &[1.0]).unwrap_err(),
+        TopsisError::NoAlternatives
+    );
 }

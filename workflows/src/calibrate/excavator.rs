@@ -9,8 +9,15 @@
 //! 3. NSGA-II on the GP means over the three relative errors
 //!    `|measured - model| / |measured|` (population 400, 100 generations,
 //!    Pareto fraction 0.5).
-//! 4. TOPSIS (equal weights by default, every error a cost) picks one point
-//!    of the front; the twin is re-run there and the real errors reported.
+//! 4. One point of the front is picked (equal weights by default, every
+//!    error a cost) and the twin re-run there; the real errors are reported.
+//!    The default pick is minimax, the point whose largest error is least,
+//!    since a calibration is judged by its worst pressure. The published
+//!    TOPSIS (`--pick topsis`) normalises each error by its own spread over
+//!    the front: the boom pressure moves about 12 bar per degree of load
+//!    angle, its error spreads over 0-50 %, so TOPSIS counts a point of it
+//!    about five times less than one of the arm's and settles on 19 % boom
+//!    error in Case 1 (5.9 % with minimax).
 
 use std::path::{Path, PathBuf};
 
@@ -35,7 +42,7 @@ use super::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
 };
 use super::study_runner::{calibrate_study, Found, Method, RunSettings};
-use super::surrogate_moo::{rounds_sentence, SurrogateMoo, SurrogateMooSettings};
+use super::surrogate_moo::{rounds_sentence, Pick, SurrogateMoo, SurrogateMooSettings};
 
 #[derive(Args, Debug)]
 pub struct CalibrateExcavatorArgs {
@@ -77,6 +84,14 @@ pub struct CalibrateExcavatorArgs {
     /// TOPSIS weights of the bucket, arm and boom errors.
     #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [1.0, 1.0, 1.0])]
     pub weights: Vec<f64>,
+    /// How one point of the Pareto front is picked: `minimax` (the point
+    /// whose largest weighted error is least: what "largest error" judges),
+    /// `topsis` (the published method; each error normalised by its own
+    /// spread over the front, so an error that spreads widely, like the
+    /// boom's, counts least) or `topsis-common` (TOPSIS with one norm for
+    /// the three errors, which share a unit).
+    #[arg(long, default_value = "minimax")]
+    pub pick: Pick,
     /// GP kernel: se, matern12, matern32, matern52.
     #[arg(long, default_value = "se")]
     pub kernel: Kernel,
@@ -381,6 +396,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         generations: args.generations as usize,
         pareto_fraction: args.pareto_fraction,
         weights: args.weights.clone(),
+        pick: args.pick,
         kernel: args.kernel,
         ..SurrogateMooSettings::published(CylinderName::ALL.len(), args.seed)
     });
@@ -409,11 +425,11 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         surrogate_rmse: rmse_table,
         front: matrix,
         pick,
-        closeness,
         gps,
         test_runs,
         failed_runs,
         rounds,
+        ..
     } = found.as_ref().clone();
     let dimensions = parameters.len();
     let errors_initial = relative_errors_pct(&measured, &nominal_bar);
@@ -438,8 +454,8 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     let names = ["bucket error %", "arm error %", "boom error %"];
     let pareto = pareto_svg(
         &format!(
-            "{}: Pareto front of the GP errors (NSGA-II), TOPSIS pick",
-            case.name
+            "{}: Pareto front of the GP errors (NSGA-II), {} pick",
+            case.name, args.pick
         ),
         &names,
         &matrix,
@@ -506,8 +522,8 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     report.heading(
         2,
         format!(
-            "Calibrated inputs (TOPSIS pick, weights {:?})",
-            args.weights
+            "Calibrated inputs ({} pick, weights {:?})",
+            args.pick, args.weights,
         ),
     );
     let mut table = Table::new(&["input", "lower", "upper", "nominal", "calibrated"]);
@@ -540,16 +556,16 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         ))
         .heading(2, "Pareto front")
         .paragraph(format!(
-            "{} points (population {}, {} generations, Pareto fraction {}); the pick has closeness {:.3}.",
+            "{} points (population {}, {} generations, Pareto fraction {}); {}.",
             matrix.len(),
             args.population,
             args.generations,
             args.pareto_fraction,
-            closeness,
+            found.pick_sentence(),
         ))
         .figure(Figure {
             file: "pareto.svg".into(),
-            caption: "Pareto front of the GP errors, TOPSIS pick".into(),
+            caption: format!("Pareto front of the GP errors, {} pick", args.pick),
             svg: pareto,
         })
         .figure(Figure {

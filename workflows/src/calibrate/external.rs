@@ -138,7 +138,7 @@ use super::study::{
     Role, Study, StudyParameter,
 };
 use super::study_runner::{self, Method, RunSettings};
-use super::surrogate_moo::SurrogateMooSettings;
+use super::surrogate_moo::{Pick, SurrogateMooSettings};
 
 #[derive(Args, Debug)]
 pub struct CalibrateExternalArgs {
@@ -413,6 +413,9 @@ pub struct Search {
     pub kernel: Option<String>,
     pub refine_tolerance: Option<f64>,
     pub refine_rounds: Option<usize>,
+    /// How the surrogate-MOO search picks its front point: "topsis"
+    /// (default, the published method), "topsis-common" or "minimax".
+    pub pick: Option<String>,
 }
 
 impl Default for Search {
@@ -1168,6 +1171,10 @@ impl Spec {
             text.parse::<Kernel>()
                 .map_err(|e| format!("search.kernel = {text:?}: {e}"))?;
         }
+        if let Some(text) = &search.pick {
+            text.parse::<Pick>()
+                .map_err(|e| format!("search.pick: {e}"))?;
+        }
         let counts = [
             ("training_runs", search.training_runs, 3),
             ("test_runs", search.test_runs, 0),
@@ -1227,6 +1234,11 @@ impl Spec {
                 generations: search.generations.unwrap_or(defaults.generations),
                 pareto_fraction: search.pareto_fraction.unwrap_or(defaults.pareto_fraction),
                 weights: self.study().weights(),
+                pick: search
+                    .pick
+                    .as_deref()
+                    .and_then(|p| p.parse().ok())
+                    .unwrap_or(defaults.pick),
                 kernel: search
                     .kernel
                     .as_deref()

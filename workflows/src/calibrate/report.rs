@@ -42,7 +42,7 @@ pub fn pareto_svg(title: &str, names: &[&str], front: &[Vec<f64>], pick: usize) 
                 .unwrap_or_default();
             Chart::new(format!("{} vs {}", names[b], names[a]), names[a], names[b])
                 .with_series(Series::new("Pareto front", points).with_style(SeriesStyle::Markers))
-                .with_series(Series::new("TOPSIS pick", chosen).with_style(SeriesStyle::Markers))
+                .with_series(Series::new("pick", chosen).with_style(SeriesStyle::Markers))
         })
         .collect();
     if charts.len() == 1 {

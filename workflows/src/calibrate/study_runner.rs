@@ -429,8 +429,8 @@ pub fn write_study(
             result.stop
         ),
         Found::Moo(moo) => format!(
-            "Surrogate + NSGA-II + TOPSIS: {evaluations} model evaluations ({failed} failed) in {wall_s:.1} s; the pick has TOPSIS closeness {:.3} among {} Pareto points. {}",
-            moo.closeness,
+            "Surrogate + NSGA-II: {evaluations} model evaluations ({failed} failed) in {wall_s:.1} s; {} among {} Pareto points. {}",
+            moo.pick_sentence(),
             moo.front.len(),
             rounds_sentence(&moo.rounds)
         ),
@@ -526,7 +526,10 @@ pub fn write_study(
             if names.len() >= 2 {
                 report.figure(Figure {
                     file: "pareto.svg".into(),
-                    caption: "Pareto front of the GP errors (NSGA-II), TOPSIS pick".into(),
+                    caption: format!(
+                        "Pareto front of the GP errors (NSGA-II), {} pick",
+                        moo.picked_by
+                    ),
                     svg: pareto_svg(
                         "Pareto front of the GP errors",
                         &names,

@@ -6,7 +6,7 @@
 //!
 //! The surrogates can be wrong where the front lies. While the re-run and
 //! the GP disagree on an objective by more than a tolerance, the front's
-//! best points (by TOPSIS closeness) become extra training runs and the
+//! best points (by the pick's ranking) become extra training runs and the
 //! loop repeats, for a few rounds at most; every round is reported.
 //!
 //! Everything happens in the unit box of the parameters (their own scale,
@@ -18,13 +18,73 @@
 use acq_calib::doe::{latin_hypercube, random_uniform};
 use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
+use acq_calib::minimax::minimax_ranking;
 use acq_calib::moo::{nsga2, Nsga2Settings};
 use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
-use acq_calib::topsis::{topsis, Criterion};
+use acq_calib::topsis::{topsis_normalised, Criterion, Normalisation};
 use acq_io::error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;
 use super::search::{from_unit, to_unit};
+
+/// How one point of the Pareto front is picked: `topsis` (the published
+/// method: each objective normalised by its own spread over the front),
+/// `topsis-common` (TOPSIS with one norm for all objectives, when they
+/// share a unit) or `minimax` (the point whose largest weighted objective
+/// is least: what a calibration judged by its worst error wants).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pick {
+    Topsis(Normalisation),
+    Minimax,
+}
+
+impl std::str::FromStr for Pick {
+    type Err = String;
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "topsis" => Ok(Pick::Topsis(Normalisation::PerCriterion)),
+            "topsis-common" => Ok(Pick::Topsis(Normalisation::Common)),
+            "minimax" => Ok(Pick::Minimax),
+            other => Err(format!(
+                "pick {other:?}: give topsis, topsis-common or minimax"
+            )),
+        }
+    }
+}
+
+impl SurrogateMoo {
+    /// How the pick was made, for a report: "the minimax pick (...)" or
+    /// "the TOPSIS pick (closeness 0.640, ...)".
+    pub fn pick_sentence(&self) -> String {
+        let largest = self.front[self.pick]
+            .iter()
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        match (self.picked_by, self.closeness) {
+            (Pick::Minimax, _) => format!(
+                "the minimax pick (least largest weighted objective; its largest objective on the GPs {largest:.3})"
+            ),
+            (Pick::Topsis(normalisation), closeness) => format!(
+                "the TOPSIS pick ({} normalisation, closeness {:.3}; its largest objective on the GPs {largest:.3})",
+                match normalisation {
+                    Normalisation::PerCriterion => "per-objective",
+                    Normalisation::Common => "common",
+                },
+                closeness.unwrap_or(f64::NAN)
+            ),
+        }
+    }
+}
+
+impl std::fmt::Display for Pick {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Pick::Topsis(Normalisation::PerCriterion) => "topsis",
+            Pick::Topsis(Normalisation::Common) => "topsis-common",
+            Pick::Minimax => "minimax",
+        })
+    }
+}
 
 /// The method's knobs; the defaults are the published study's.
 #[derive(Clone, Debug)]
@@ -39,6 +99,8 @@ pub struct SurrogateMooSettings {
     pub pareto_fraction: f64,
     /// TOPSIS weights, one per objective (every objective is a cost).
     pub weights: Vec<f64>,
+    /// How one point of the Pareto front is picked.
+    pub pick: Pick,
     pub kernel: Kernel,
     pub seed: u64,
     /// Largest disagreement between the re-run and the GP on any
@@ -59,6 +121,7 @@ impl SurrogateMooSettings {
             generations: 100,
             pareto_fraction: 0.5,
             weights: vec![1.0; objectives],
+            pick: Pick::Topsis(Normalisation::PerCriterion),
             kernel: Kernel::SquaredExponential,
             seed,
             refine_tolerance: 2.0,
@@ -109,7 +172,9 @@ pub struct SurrogateMoo {
     /// The last round's front, as objective vectors, and the picked row.
     pub front: Vec<Vec<f64>>,
     pub pick: usize,
-    pub closeness: f64,
+    /// How the pick was made, and its TOPSIS closeness (TOPSIS picks only).
+    pub picked_by: Pick,
+    pub closeness: Option<f64>,
     /// The last round's GPs, one per output, on unit-box inputs.
     pub gps: Vec<Gp>,
     pub test_runs: usize,
@@ -218,9 +283,16 @@ pub fn surrogate_moo(
         }
         let front: Vec<Vec<f64>> = moo.front.iter().map(|i| i.objectives.clone()).collect();
         let criteria = vec![Criterion::Cost; front[0].len()];
-        let ranking = topsis(&front, &settings.weights, &criteria)
-            .map_err(|e| AcqError::Config(e.to_string()))?;
-        let pick_unit = moo.front[ranking.best].x.clone();
+        // The front's rows best first, and the TOPSIS closeness of the first.
+        let (ranking, closeness) = match settings.pick {
+            Pick::Topsis(normalisation) => {
+                topsis_normalised(&front, &settings.weights, &criteria, normalisation)
+                    .map(|t| (t.ranking, Some(t.closeness[t.best])))
+            }
+            Pick::Minimax => minimax_ranking(&front, &settings.weights).map(|r| (r, None)),
+        }
+        .map_err(|e| AcqError::Config(e.to_string()))?;
+        let pick_unit = moo.front[ranking[0]].x.clone();
         let pick = from_unit(parameters, &pick_unit);
         let rerun = evaluator
             .evaluate(std::slice::from_ref(&pick))
@@ -253,8 +325,9 @@ pub fn surrogate_moo(
                 surrogate_at_optimal,
                 surrogate_rmse,
                 front,
-                pick: ranking.best,
-                closeness: ranking.closeness[ranking.best],
+                pick: ranking[0],
+                picked_by: settings.pick,
+                closeness,
                 gps,
                 test_runs: test_x.len(),
                 failed_runs,
@@ -262,9 +335,8 @@ pub fn surrogate_moo(
             });
         }
         // Teach the GPs where the front is: the pick's run and the front's
-        // best other points by closeness.
+        // best other points by the pick's ranking.
         let mut extra: Vec<Vec<f64>> = ranking
-            .ranking
             .iter()
             .skip(1)
             .map(|&row| from_unit(parameters, &moo.front[row].x))

@@ -145,7 +145,7 @@ fn main() {
         batch: 1,
         acquisition: Acquisition::LogExpectedImprovement { xi: 0.0 },
         patience: None,
-        mesh: "6x30".into(),
+        mesh: Default::default(),
         seed: 1,
         resume: false,
     })

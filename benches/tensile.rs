@@ -2,6 +2,8 @@
 //! displacement with the published parameters, and one to fracture (the
 //! same with coalescence, fc = 0.02, fF = 0.15, which breaks at 1.75 mm):
 //! wall time and peak memory. Target (issue 6): under 1 s and under 100 MB.
+//! Then meshes by element size in the neck (issue 21): 0.33, 0.18 and
+//! 0.09 mm; target for 0.09 mm under 5 s.
 //!
 //! `cargo bench --bench tensile`
 
@@ -32,17 +34,22 @@ fn main() {
         "q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1,fc=0.02,fF=0.15",
     )
     .expect("parameters");
-    println!("run        mesh      threads  runs  median s  min s   steps  iterations  MAPE %");
-    for (label, inputs, radial, axial) in [
-        ("published", &inputs, 6, 30),
-        ("published", &inputs, 8, 40),
-        ("fracture", &fracture, 6, 30),
+    println!("run        mesh         neck mm  threads  runs  median s  min s   steps  iterations  MAPE %");
+    let geometry = ModelSettings::default().geometry;
+    let by_size = |mm: f64| MeshDensity::by_element_size(&geometry, mm, None).expect("mesh");
+    let by_counts = |radial: usize, axial: usize| MeshDensity {
+        radial_elements: radial,
+        axial_elements: axial,
+        ..Default::default()
+    };
+    for (label, inputs, mesh, runs) in [
+        ("published", &inputs, by_counts(6, 30), 5),
+        ("published", &inputs, by_counts(8, 40), 5),
+        ("fracture", &fracture, by_counts(6, 30), 5),
+        ("published", &inputs, by_size(0.33), 5),
+        ("published", &inputs, by_size(0.18), 3),
+        ("published", &inputs, by_size(0.09), 3),
     ] {
-        let mesh = MeshDensity {
-            radial_elements: radial,
-            axial_elements: axial,
-            ..Default::default()
-        };
         let model = TensileModel::new(
             points.clone(),
             properties.clone(),
@@ -53,15 +60,18 @@ fn main() {
         );
         let mut times = Vec::new();
         let mut last = None;
-        for _ in 0..5 {
+        for _ in 0..runs {
             let run = model.run(inputs).expect("run");
             times.push(run.wall_s);
             last = Some(run);
         }
         times.sort_by(f64::total_cmp);
         let run = last.expect("at least one run");
+        let (neck_radial_mm, _) = mesh.neck_element_mm(&geometry);
         println!(
-            "{label:<10} {radial}x{axial:<6} {:>7}  {:>4}  {:>8.3}  {:>5.3}  {:>6}  {:>10}  {:>6.3}",
+            "{label:<10} {:<12} {:>7.3}  {:>7}  {:>4}  {:>8.3}  {:>5.3}  {:>6}  {:>10}  {:>6.3}",
+            format!("{}x{}", mesh.radial_elements, mesh.axial_elements),
+            neck_radial_mm,
             std::thread::available_parallelism().map_or(1, |n| n.get()),
             times.len(),
             times[times.len() / 2],

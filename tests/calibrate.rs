@@ -445,6 +445,8 @@ const L12: [[u8; 8]; 12] = [
     [2, 2, 1, 1, 2, 1, 2, 1],
 ];
 
+/// `acq calibrate gtn` on a coarse 3 x 12 mesh (fast), unless `extra` gives
+/// the mesh by element size.
 fn calibrate_gtn(out: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec![
         "calibrate",
@@ -453,9 +455,13 @@ fn calibrate_gtn(out: &Path, extra: &[&str]) -> std::process::Output {
         TEST_CSV,
         "--out",
         path_arg(out),
-        "--mesh",
-        "3x12",
     ];
+    if !extra
+        .iter()
+        .any(|a| a.starts_with("--element-mm") || a.starts_with("--mesh"))
+    {
+        args.extend(["--mesh", "3x12"]);
+    }
     args.extend_from_slice(extra);
     acq(&args)
 }
@@ -479,10 +485,16 @@ fn gtn_small_budget_starts_from_l12_and_resumes_to_a_target() {
             "evaluations",
             "evaluations_to_target",
             "best_params",
-            "wall_s"
+            "wall_s",
+            "mesh"
         ])
     );
     assert_eq!(summary["evaluations"], 14);
+    // A mesh given by counts: 3 x 12, 2 mm / 3 across the radius.
+    assert_eq!(summary["mesh"]["radial_elements"], 3);
+    assert_eq!(summary["mesh"]["axial_elements"], 12);
+    assert!((number(&summary["mesh"]["neck_element_radial_mm"]) - 2.0 / 3.0).abs() < 1e-12);
+    assert_eq!(summary["mesh"]["neck_zone_mm"], Value::Null);
     match &summary["evaluations_to_target"] {
         Value::Null => {}
         n => assert!(n.as_u64().is_some_and(|n| (1..=14).contains(&n)), "{n}"),
@@ -565,6 +577,28 @@ fn gtn_small_budget_starts_from_l12_and_resumes_to_a_target() {
 }
 
 #[test]
+fn gtn_calibrates_at_the_element_size_asked_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let output = calibrate_gtn(&out, &["--element-mm", "0.25", "--max-evals", "13"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let summary = json(&out.join("summary.json"));
+    let mesh = &summary["mesh"];
+    // 2 mm radius / 0.25 mm; a zone of half the 4 mm diameter, 8 elements long.
+    assert_eq!(mesh["radial_elements"], 8);
+    assert_eq!(number(&mesh["neck_element_radial_mm"]), 0.25);
+    assert!((number(&mesh["neck_element_axial_mm"]) - 0.25).abs() < 1e-12);
+    assert_eq!(number(&mesh["neck_zone_mm"]), 2.0);
+    let axial = mesh["axial_elements"].as_u64().unwrap();
+    assert!((9..30).contains(&axial), "{axial} axial elements");
+    let report = text(&out.join("report.md"));
+    assert!(
+        report.contains("square elements of 0.2500 mm over a neck zone of 2 mm"),
+        "{report}"
+    );
+}
+
+#[test]
 fn gtn_stops_at_the_first_simulation_that_reaches_the_target() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
@@ -608,6 +642,35 @@ fn gtn_bad_mesh_and_budget_exit_2() {
     ]);
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert!(stderr(&output).contains("--mesh 3x"), "{}", stderr(&output));
+    // An element size beyond the radius, or with --mesh, is refused.
+    for (extra, why) in [
+        (
+            &["--element-mm", "3"][..],
+            "--element-mm: element size 3 mm",
+        ),
+        (
+            &["--element-mm", "0.001"][..],
+            "expected 0.02 mm to the radius",
+        ),
+        (
+            &["--element-mm", "0.2", "--mesh", "6x30"][..],
+            "cannot be used with",
+        ),
+        (&["--neck-zone-mm", "2"][..], "--element-mm"),
+    ] {
+        let output = calibrate_gtn(&out, extra);
+        assert_eq!(
+            output.status.code(),
+            Some(2),
+            "{extra:?}: {}",
+            stderr(&output)
+        );
+        assert!(
+            stderr(&output).contains(why),
+            "{extra:?}: {}",
+            stderr(&output)
+        );
+    }
     // The budget must cover the 12-run start and at least one search step.
     let output = calibrate_gtn(&out, &["--max-evals", "12"]);
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));

@@ -360,3 +360,49 @@ fn gtn_with_an_explicit_flow_curve_runs_without_a_test_and_refuses_bad_input() {
     );
     refused(&["--flow-curve", &flow, "--end-mm", "40"], 2, &["--end-mm"]);
 }
+
+#[test]
+fn gtn_mesh_convergence_runs_each_size_and_overlays_the_curves() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("convergence.svg");
+    let fracture = format!("{PUBLISHED_DATASET_1},fc=0.02,fF=0.15");
+    let output = gtn(
+        DATASET_1,
+        &fracture,
+        &[
+            "--convergence",
+            "0.4,0.8",
+            "--svg",
+            svg.to_str().unwrap(),
+            "--json",
+        ],
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let value: serde_json::Value = serde_json::from_str(stdout(&output).trim()).unwrap();
+    let sizes = value.as_array().unwrap();
+    // Coarsest first; the radius (2 mm) over the size, rounded.
+    assert_eq!(sizes.len(), 2);
+    assert_eq!(sizes[0]["element_mm"], 0.8);
+    assert_eq!(sizes[0]["radial_elements"], 3);
+    assert_eq!(sizes[1]["radial_elements"], 5);
+    for size in sizes {
+        let mape = size["mape"].as_f64().unwrap();
+        assert!(mape.is_finite() && mape > 0.0, "{size}");
+        // With coalescence the bar breaks before the test's last point (2.6 mm).
+        let broke = size["fracture_mm"].as_f64().unwrap();
+        assert!(broke > 1.3 && broke < 2.6, "{size}");
+        let max_force = size["max_force_kn"].as_f64().unwrap();
+        assert!((max_force - 7.46).abs() < 0.3, "{size}");
+    }
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.contains("0.8 mm elements") && plot.contains("0.4 mm elements"));
+
+    // A size the bar cannot be meshed at is refused before any run.
+    let output = gtn(DATASET_1, PUBLISHED_DATASET_1, &["--convergence", "0.4,5"]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("--convergence 5"),
+        "{}",
+        stderr(&output)
+    );
+}

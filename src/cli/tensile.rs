@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
 use acq_io::error::{AcqError, Result};
 use acq_io::output::Output;
+use acq_workflows::tensile_model::MeshArgs;
 use acq_workflows::tensile_report::{
     comparison_svg, flow_curve_csv, labelled_comparison_svg, properties_svg, report,
     simulated_curve_csv, twin_report,
@@ -133,9 +134,21 @@ pub struct TwinGtnArgs {
     /// Draw the test and simulated curves.
     #[arg(long, value_name = "FILE.svg")]
     pub svg: Option<PathBuf>,
-    /// Mesh as RADIALxAXIAL elements of the quarter model.
-    #[arg(long, value_name = "NRxNZ", default_value = "6x30")]
-    pub mesh: String,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Mesh convergence instead of one run: the same parameters at each of
+    /// these element sizes in the neck (mm, e.g. 0.33,0.18,0.12,0.09); a
+    /// table of MAPE, maximum force and where the bar broke, and with
+    /// --svg the curves overlaid. Needs --test.
+    #[arg(
+        long,
+        value_name = "MM,...",
+        value_delimiter = ',',
+        num_args = 1..,
+        conflicts_with_all = ["mesh", "element_mm", "output", "flow_curve"],
+        requires = "test"
+    )]
+    pub convergence: Vec<f64>,
     /// Output interval of the simulated curve, also the largest load step, mm.
     #[arg(long, value_name = "MM", default_value_t = 0.01)]
     pub step_mm: f64,
@@ -145,11 +158,6 @@ pub struct TwinGtnArgs {
     /// Length the displacement is measured over (the modelled half), mm.
     #[arg(long, value_name = "MM", default_value_t = 12.5)]
     pub strain_length_mm: f64,
-}
-
-fn parse_mesh(text: &str) -> Result<acq_twins::tensile::mesh::MeshDensity> {
-    acq_twins::tensile::mesh::MeshDensity::parse(text)
-        .map_err(|e| AcqError::Config(format!("--mesh {e}")))
 }
 
 pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
@@ -163,11 +171,15 @@ pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
         )));
     }
     let mut settings = ModelSettings {
-        mesh: parse_mesh(&args.mesh)?,
         output_interval_mm: args.step_mm,
         ..Default::default()
     };
     settings.geometry.diameter_mm = args.diameter_mm;
+    settings.geometry.half_length_mm = args.strain_length_mm;
+    settings.mesh = args
+        .mesh
+        .density(&settings.geometry)
+        .map_err(AcqError::Config)?;
     let geometry = SpecimenGeometry {
         diameter_mm: args.diameter_mm,
         strain_length_mm: args.strain_length_mm,
@@ -197,6 +209,9 @@ pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
     model
         .twin(&inputs)
         .map_err(|e| AcqError::Config(format!("--param: {e}")))?;
+    if !args.convergence.is_empty() {
+        return run_mesh_convergence(&args, test, &model, &inputs);
+    }
     let run = model
         .run(&inputs)
         .map_err(|e| AcqError::Config(e.to_string()))?;
@@ -229,6 +244,85 @@ pub fn run_twin_gtn(args: TwinGtnArgs) -> Result<()> {
     } else {
         twin_report(&file_name(test), &model, &inputs, &run)
     };
+    stdout.buffer.extend_from_slice(text.as_bytes());
+    stdout.finish()?;
+    Ok(())
+}
+
+/// `acq twin gtn --convergence SIZES`: the table (or JSON) and the plot.
+fn run_mesh_convergence(
+    args: &TwinGtnArgs,
+    test: &Path,
+    model: &acq_workflows::tensile_model::TensileModel,
+    inputs: &acq_workflows::tensile_model::GtnInputs,
+) -> Result<()> {
+    use acq_workflows::mesh_convergence::{convergence_svg, convergence_table, mesh_convergence};
+    // Every size is checked before the first (slow) run.
+    for &size in &args.convergence {
+        acq_twins::tensile::mesh::MeshDensity::by_element_size(
+            &model.settings.geometry,
+            size,
+            args.mesh.neck_zone_mm,
+        )
+        .map_err(|e| AcqError::Config(format!("--convergence {size}: {e}")))?;
+    }
+    let runs = mesh_convergence(
+        model,
+        inputs,
+        &args.convergence,
+        args.mesh.neck_zone_mm,
+        |run| {
+            eprintln!(
+                "acq twin gtn: {} mm elements ({}x{}): MAPE {:.3} % in {:.1} s",
+                run.element_mm,
+                run.mesh.radial_elements,
+                run.mesh.axial_elements,
+                run.mape_pct,
+                run.wall_s
+            );
+        },
+    )
+    .map_err(AcqError::Config)?;
+    if let Some(path) = &args.svg {
+        let test_points: Vec<(f64, f64)> = model
+            .test
+            .iter()
+            .map(|p| (p.displacement_mm, p.force_kn))
+            .collect();
+        let title = format!(
+            "{}: GTN twin at {} element sizes",
+            file_name(test),
+            runs.len()
+        );
+        Output::write_complete(
+            path,
+            convergence_svg(&title, &test_points, &runs).as_bytes(),
+        )?;
+    }
+    let text = if args.json {
+        let sizes: Vec<serde_json::Value> = runs
+            .iter()
+            .map(|run| {
+                serde_json::json!({
+                    "element_mm": run.element_mm,
+                    "radial_elements": run.mesh.radial_elements,
+                    "axial_elements": run.mesh.axial_elements,
+                    "mape": run.mape_pct,
+                    "max_force_kn": run.max_force_kn,
+                    "fracture_mm": run.fracture_mm,
+                    "wall_s": run.wall_s,
+                })
+            })
+            .collect();
+        format!("{}\n", serde_json::Value::Array(sizes))
+    } else {
+        format!(
+            "GTN twin mesh convergence: {}\n{}",
+            file_name(test),
+            convergence_table(&runs)
+        )
+    };
+    let mut stdout = Output::create(None)?;
     stdout.buffer.extend_from_slice(text.as_bytes());
     stdout.finish()?;
     Ok(())
@@ -268,6 +362,10 @@ fn run_twin_gtn_with_flow_curve(
     }
     settings.geometry.diameter_mm = geometry.diameter_mm;
     settings.geometry.half_length_mm = geometry.strain_length_mm;
+    settings.mesh = args
+        .mesh
+        .density(&settings.geometry)
+        .map_err(AcqError::Config)?;
     let twin = build_twin(&table, args.youngs_mpa, inputs, &settings)
         .map_err(|e| AcqError::Config(format!("--param: {e}")))?;
     let reference = match &args.test {

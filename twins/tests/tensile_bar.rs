@@ -122,6 +122,7 @@ fn a_perfect_bar_follows_the_uniform_closed_form_through_large_strain() {
             radial_elements: 3,
             axial_elements: 6,
             axial_grading: 2.0,
+            neck_zone: None,
         },
         206_900.0,
         0.29,
@@ -180,6 +181,7 @@ fn the_necking_bar_peaks_at_the_considere_force_and_then_necks() {
         radial_elements: 6,
         axial_elements: 30,
         axial_grading: 6.0,
+        neck_zone: None,
     });
     assert_eq!(result.outcome, Outcome::ReachedEnd, "{:?}", result.outcome);
     let flow = &twin.material.flow;
@@ -263,6 +265,7 @@ fn the_pre_peak_curve_is_converged_in_mesh_and_step() {
             radial_elements: 4,
             axial_elements: 20,
             axial_grading: 8.0,
+            neck_zone: None,
         }),
         1.0,
         0.02,
@@ -272,6 +275,7 @@ fn the_pre_peak_curve_is_converged_in_mesh_and_step() {
             radial_elements: 8,
             axial_elements: 40,
             axial_grading: 8.0,
+            neck_zone: None,
         }),
         1.0,
         0.02,
@@ -281,6 +285,7 @@ fn the_pre_peak_curve_is_converged_in_mesh_and_step() {
             radial_elements: 4,
             axial_elements: 20,
             axial_grading: 8.0,
+            neck_zone: None,
         }),
         1.0,
         0.005,

@@ -16,6 +16,7 @@
 
 pub mod calibrate;
 pub mod excavator_report;
+pub mod mesh_convergence;
 pub mod sensitivity;
 pub mod tensile_model;
 pub mod tensile_report;

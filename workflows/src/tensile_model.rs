@@ -152,6 +152,89 @@ impl GtnInputs {
     }
 }
 
+/// The mesh options of the GTN commands: element counts, or an element
+/// size at the neck (the size GTN parameters belong to).
+#[derive(Clone, Debug, clap::Args)]
+pub struct MeshArgs {
+    /// Mesh as RADIALxAXIAL elements of the quarter model, graded toward the neck.
+    #[arg(long, value_name = "NRxNZ", default_value = "6x30")]
+    pub mesh: String,
+    /// Element size in the neck zone, mm (instead of --mesh): square
+    /// elements there, graded coarser toward the pulled end. GTN softening
+    /// depends on it, so calibrate at the size of the model the parameters
+    /// are for.
+    #[arg(long, value_name = "MM", conflicts_with = "mesh")]
+    pub element_mm: Option<f64>,
+    /// Length of the neck zone from the mid-gauge plane, mm, with
+    /// --element-mm [default: one diameter]
+    #[arg(long, value_name = "MM", requires = "element_mm")]
+    pub neck_zone_mm: Option<f64>,
+}
+
+impl Default for MeshArgs {
+    fn default() -> Self {
+        MeshArgs {
+            mesh: "6x30".into(),
+            element_mm: None,
+            neck_zone_mm: None,
+        }
+    }
+}
+
+impl MeshArgs {
+    /// The mesh these options ask for on `geometry`; the message names the
+    /// option and what was expected.
+    pub fn density(&self, geometry: &BarGeometry) -> Result<MeshDensity, String> {
+        match self.element_mm {
+            Some(element_mm) => {
+                MeshDensity::by_element_size(geometry, element_mm, self.neck_zone_mm)
+                    .map_err(|e| format!("--element-mm: {e}"))
+            }
+            None if self.neck_zone_mm.is_some() => {
+                Err("--neck-zone-mm sets the zone of --element-mm: give --element-mm too".into())
+            }
+            None => MeshDensity::parse(&self.mesh).map_err(|e| format!("--mesh {e}")),
+        }
+    }
+}
+
+impl ModelSettings {
+    /// The mesh in words, with the element size at the neck that GTN
+    /// results belong to.
+    pub fn mesh_sentence(&self) -> String {
+        let (radial_mm, axial_mm) = self.mesh.neck_element_mm(&self.geometry);
+        let zone = match &self.mesh.neck_zone {
+            Some(zone) => format!(
+                "square elements of {radial_mm:.4} mm over a neck zone of {} mm, graded to {:.3} mm at the end",
+                zone.length_mm,
+                axial_mm * self.mesh.axial_grading
+            ),
+            None => format!(
+                "neck elements {radial_mm:.4} mm radial x {axial_mm:.4} mm axial, graded {}x toward the end",
+                self.mesh.axial_grading
+            ),
+        };
+        format!(
+            "quarter bar {} x {} elements (F-bar, finite strain), {zone}",
+            self.mesh.radial_elements, self.mesh.axial_elements
+        )
+    }
+
+    /// The mesh for a summary: counts, the element size at the neck (the
+    /// size GTN parameters belong to) and the neck zone (null for a mesh
+    /// given by counts).
+    pub fn mesh_json(&self) -> serde_json::Value {
+        let (radial_mm, axial_mm) = self.mesh.neck_element_mm(&self.geometry);
+        serde_json::json!({
+            "radial_elements": self.mesh.radial_elements,
+            "axial_elements": self.mesh.axial_elements,
+            "neck_element_radial_mm": radial_mm,
+            "neck_element_axial_mm": axial_mm,
+            "neck_zone_mm": self.mesh.neck_zone.map(|zone| zone.length_mm),
+        })
+    }
+}
+
 /// How finely the bar is modelled and pulled.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ModelSettings {
@@ -222,6 +305,7 @@ pub fn read_flow_curve(path: &std::path::Path) -> Result<Vec<(f64, f64)>, String
 }
 
 /// A test, ready to be simulated with any parameter set.
+#[derive(Clone, Debug)]
 pub struct TensileModel {
     pub test: Vec<TestPoint>,
     pub properties: TensileProperties,
@@ -249,6 +333,11 @@ impl TensileModel {
     ) -> Self {
         settings.geometry.diameter_mm = properties.diameter_mm;
         settings.geometry.half_length_mm = properties.strain_length_mm;
+        // A mesh by element size follows the specimen (if it cannot, the
+        // simulation says why).
+        if let Ok(mesh) = settings.mesh.on(&settings.geometry) {
+            settings.mesh = mesh;
+        }
         TensileModel {
             test,
             properties,

@@ -278,11 +278,11 @@ pub fn twin_report(
             .map(|(c, f)| format!(", coalescence fc {c} fF {f}"))
             .unwrap_or_default()
     );
-    let mesh = &model.settings.mesh;
     let _ = writeln!(
         text,
-        "  model: quarter bar {} x {} elements (F-bar, finite strain), imperfection {} of the radius",
-        mesh.radial_elements, mesh.axial_elements, model.settings.geometry.imperfection
+        "  model: {}, imperfection {} of the radius",
+        model.settings.mesh_sentence(),
+        model.settings.geometry.imperfection
     );
     // The curve always holds the origin, so there is a largest point.
     let peak = result

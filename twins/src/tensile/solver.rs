@@ -470,6 +470,7 @@ mod tests {
                 radial_elements: 3,
                 axial_elements: 4,
                 axial_grading: 2.0,
+                neck_zone: None,
             },
         )
         .unwrap();

@@ -17,7 +17,6 @@ use acq_calib::evaluation::{Evaluation, Parameter};
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
-use acq_twins::tensile::mesh::MeshDensity;
 use clap::Args;
 use serde_json::json;
 
@@ -28,7 +27,7 @@ use super::run_directory::RunDirectory;
 use super::search::{distinct_best, scored};
 use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
 use super::study_runner::{calibrate_study, start_design, BoMethod, Found, Method, RunSettings};
-use crate::tensile_model::{GtnInputs, ModelSettings, TensileModel, PARAMETER_NAMES};
+use crate::tensile_model::{GtnInputs, MeshArgs, ModelSettings, TensileModel, PARAMETER_NAMES};
 
 #[derive(Args, Debug)]
 pub struct CalibrateGtnArgs {
@@ -54,9 +53,8 @@ pub struct CalibrateGtnArgs {
     /// less than 0.1 % (relative).
     #[arg(long)]
     pub patience: Option<u32>,
-    /// Elements across the radius x along the half length.
-    #[arg(long, default_value = "6x30")]
-    pub mesh: String,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Continue the run in DIR: simulations already in its log are not repeated.
@@ -143,8 +141,10 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
             "--target-mape must be a number >= 0".into(),
         ));
     }
-    let mesh =
-        MeshDensity::parse(&args.mesh).map_err(|e| AcqError::Config(format!("--mesh {e}")))?;
+    let mesh = args
+        .mesh
+        .density(&ModelSettings::default().geometry)
+        .map_err(AcqError::Config)?;
     let points = read_test_csv(&args.test)?;
     let properties = tensile_properties(&points, SpecimenGeometry::default())
         .map_err(|e| AcqError::Malformed(format!("{}: {e}", args.test.display())))?;
@@ -203,6 +203,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         "evaluations_to_target": result.evaluations_to_target,
         "best_params": best_params,
         "wall_s": wall_s,
+        "mesh": model.tensile_model().settings.mesh_json(),
     });
     write_text(&directory.file("summary.json"), &format!("{summary:#}\n"))?;
 
@@ -285,6 +286,10 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
                 .map_or_else(|| "not reached".to_string(), |n| format!("reached at simulation {n}")),
             wall_s,
             result.stop,
+        ))
+        .paragraph(format!(
+            "Mesh: {}. GTN softening depends on the element size at the neck: these parameters belong to it (`--element-mm`).",
+            model.tensile_model().settings.mesh_sentence()
         ))
         .heading(2, "Best parameters");
     let mut table = Table::new(&["parameter", "lower", "upper", "best", "position in range"]);

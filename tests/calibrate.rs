@@ -596,6 +596,91 @@ fn gtn_calibrates_at_the_element_size_asked_and_says_so() {
         report.contains("square elements of 0.2500 mm over a neck zone of 2 mm"),
         "{report}"
     );
+
+    // The Abaqus block, read back by a parser of its own, against summary.json
+    // and `acq tensile-props` (modulus and flow table).
+    let inp = text(&out.join("abaqus_material.inp"));
+    assert!(inp.contains("0.2500 mm"), "{inp}");
+    let block = abaqus_keywords(&inp);
+    let names: Vec<&str> = block.iter().map(|k| k.0.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "*MATERIAL",
+            "*ELASTIC",
+            "*PLASTIC",
+            "*POROUS METAL PLASTICITY",
+            "*VOID NUCLEATION"
+        ]
+    );
+    let best = |name: &str| number(&summary["best_params"][name]);
+    let keyword = |name: &str| block.iter().find(|k| k.0 == name).unwrap();
+    let porous = keyword("*POROUS METAL PLASTICITY");
+    let relative_density: f64 = porous.1["RELATIVE DENSITY"].parse().unwrap();
+    assert_eq!(relative_density, 1.0 - best("f0"));
+    assert_eq!(porous.2, [vec![best("q1"), best("q2"), best("q3")]]);
+    assert_eq!(
+        keyword("*VOID NUCLEATION").2,
+        [vec![best("epsN"), best("sN"), best("fN")]]
+    );
+    let props: Value =
+        serde_json::from_str(&stdout(&acq(&["tensile-props", TEST_CSV, "--json"]))).unwrap();
+    assert_eq!(
+        keyword("*ELASTIC").2,
+        [vec![number(&props["youngs_modulus_mpa"]), 0.3]]
+    );
+    let flow_csv = dir.path().join("flow.csv");
+    let output = acq(&["tensile-props", TEST_CSV, "-o", path_arg(&flow_csv)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let flow = Table::read(&flow_csv);
+    let plastic = &keyword("*PLASTIC").2;
+    // (stress, strain) pairs: the test's flow table, then one point on slope m.
+    assert_eq!(plastic.len(), flow.rows.len() + 1);
+    for (pair, row) in plastic.iter().zip(&flow.rows) {
+        assert_eq!(pair[1], flow.value(row, "PLASTIC_STRAIN"));
+        assert_eq!(pair[0], flow.value(row, "TRUE_STRESS_MPA"));
+    }
+    let (before, last) = (&plastic[plastic.len() - 2], &plastic[plastic.len() - 1]);
+    let slope = (last[0] - before[0]) / (last[1] - before[1]);
+    assert!(
+        (slope - best("m")).abs() <= 1e-9 * best("m").max(1.0),
+        "{slope} vs {}",
+        best("m")
+    );
+}
+
+/// An Abaqus input block as (keyword, its parameters, its data lines), with
+/// comment lines (`**`) dropped: the reader the export is checked with.
+type Keyword = (String, BTreeMap<String, String>, Vec<Vec<f64>>);
+fn abaqus_keywords(text: &str) -> Vec<Keyword> {
+    let mut keywords: Vec<Keyword> = Vec::new();
+    for line in text.lines().map(str::trim).filter(|l| !l.is_empty()) {
+        if line.starts_with("**") {
+            continue;
+        }
+        if let Some(rest) = line.strip_prefix('*') {
+            let mut parts = rest.split(',').map(str::trim);
+            let name = format!("*{}", parts.next().unwrap().to_uppercase());
+            let parameters = parts
+                .map(|p| {
+                    let (key, value) = p.split_once('=').unwrap_or((p, ""));
+                    (key.trim().to_uppercase(), value.trim().to_string())
+                })
+                .collect();
+            keywords.push((name, parameters, Vec::new()));
+        } else {
+            let values = line
+                .split(',')
+                .map(|v| v.trim().parse::<f64>().unwrap_or_else(|_| panic!("{line}")))
+                .collect();
+            keywords
+                .last_mut()
+                .expect("data before any keyword")
+                .2
+                .push(values);
+        }
+    }
+    keywords
 }
 
 #[test]

@@ -14,6 +14,7 @@
 //! of its commands derive `clap::Args`, so the demo takes the same defaults
 //! from the same definitions.
 
+pub mod abaqus_material;
 pub mod calibrate;
 pub mod excavator_report;
 pub mod mesh_convergence;

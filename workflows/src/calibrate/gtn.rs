@@ -27,6 +27,7 @@ use super::run_directory::RunDirectory;
 use super::search::{distinct_best, scored};
 use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
 use super::study_runner::{calibrate_study, start_design, BoMethod, Found, Method, RunSettings};
+use crate::abaqus_material::abaqus_material_block;
 use crate::tensile_model::{GtnInputs, MeshArgs, ModelSettings, TensileModel, PARAMETER_NAMES};
 
 #[derive(Args, Debug)]
@@ -213,6 +214,25 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         .tensile_model()
         .run(&inputs)
         .map_err(AcqError::Config)?;
+    // The material for the user's own solver, with the element size it belongs to.
+    let twin = model
+        .tensile_model()
+        .twin(&inputs)
+        .map_err(AcqError::Config)?;
+    let provenance = [
+        format!(
+            "GTN material calibrated by acq on {} (MAPE {best_mape:.3} %).",
+            args.test.display()
+        ),
+        format!(
+            "It belongs to this mesh: {}.",
+            model.tensile_model().settings.mesh_sentence()
+        ),
+    ];
+    write_text(
+        &directory.file("abaqus_material.inp"),
+        &abaqus_material_block("ACQ_GTN", &twin.material, &provenance),
+    )?;
     let mut curve = String::from("DISPLACEMENT,FORCE\n");
     for p in &best_run.result.curve {
         curve.push_str(&format!("{},{}\n", p.displacement_mm, p.force_kn));
@@ -288,7 +308,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
             result.stop,
         ))
         .paragraph(format!(
-            "Mesh: {}. GTN softening depends on the element size at the neck: these parameters belong to it (`--element-mm`).",
+            "Mesh: {}. GTN softening depends on the element size at the neck: these parameters belong to it (`--element-mm`). For your own solver, the material is in `abaqus_material.inp` (Abaqus keywords; units N, mm, MPa).",
             model.tensile_model().settings.mesh_sentence()
         ))
         .heading(2, "Best parameters");

@@ -221,7 +221,9 @@ pub struct MessageCodec {
     pub size: usize,
     pub signals: Vec<SignalCodec>,
     multiplexor: Option<usize>,
-    /// The multiplexer values that select signals (inclusive ranges).
+    /// The multiplexer values a frame may carry (inclusive ranges): those
+    /// that select signals and the multiplexor's value-table keys. Empty: the
+    /// switch selects nothing, and every value decodes (as cantools does).
     multiplexer_values: Vec<(u64, u64)>,
     /// The DBC file this message came from.
     pub source: Arc<str>,
@@ -232,7 +234,9 @@ pub struct MessageCodec {
 pub enum FrameDecodeError {
     #[error("frame has {got} bytes, the DBC message needs {needed}")]
     Short { got: usize, needed: usize },
-    #[error("multiplexer value {0} selects no signals in the DBC")]
+    #[error(
+        "multiplexer value {0} selects no signals and is not in the multiplexor's value table"
+    )]
     UnknownMultiplexerValue(u64),
 }
 
@@ -240,7 +244,8 @@ impl MessageCodec {
     /// Calls `emit(signal_index, value)` for every signal present in the
     /// payload: all plain signals, and multiplexed ones only when the
     /// multiplexor selects them. A frame shorter than the message, or whose
-    /// multiplexer value selects nothing, is refused whole, as cantools does.
+    /// multiplexer value is no page (neither selects a signal nor is in the
+    /// multiplexor's value table), is refused whole, as cantools does.
     #[inline]
     pub fn decode(
         &self,
@@ -249,10 +254,11 @@ impl MessageCodec {
     ) -> Result<(), FrameDecodeError> {
         let selector = self.selector(payload)?;
         if let Some(value) = selector {
-            if !self
-                .multiplexer_values
-                .iter()
-                .any(|&(low, high)| (low..=high).contains(&value))
+            if !self.multiplexer_values.is_empty()
+                && !self
+                    .multiplexer_values
+                    .iter()
+                    .any(|&(low, high)| (low..=high).contains(&value))
             {
                 return Err(FrameDecodeError::UnknownMultiplexerValue(value));
             }
@@ -663,6 +669,21 @@ fn compile_message(
                 .chain(s.multiplexer_ranges.iter().copied())
         })
         .collect();
+    // The multiplexor's value-table keys are pages too, even when they hold
+    // no signal: cantools accepts exactly the union (its `_create_codec`).
+    if let Some(switch) = multiplexor.map(|index| &signals[index]) {
+        let mask = if switch.field.length_bits() >= 64 {
+            u64::MAX
+        } else {
+            (1u64 << switch.field.length_bits()) - 1
+        };
+        multiplexer_values.extend(
+            switch
+                .labels
+                .iter()
+                .map(|&(raw, _)| (raw as u64 & mask, raw as u64 & mask)),
+        );
+    }
     multiplexer_values.sort_unstable();
     multiplexer_values.dedup();
     Ok(Ok(MessageCodec {

@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod convert;
 mod decode;
 mod engine;
 mod live;
@@ -28,6 +29,8 @@ pub struct Cli {
 pub enum Command {
     /// Decode CAN logs (candump -L or Vector ASC) to CSV, through DBC files or a rig.
     Decode(decode::DecodeArgs),
+    /// Convert a CAN log to another format (candump -L, Vector ASC), by OUT's extension.
+    Convert(convert::ConvertArgs),
     /// Validate a rig file and explain every problem found.
     CheckRig(decode::CheckRigArgs),
     /// Record CAN interfaces into a session directory, with live status.
@@ -67,6 +70,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Decode(args) => decode::run_decode(args),
+        Command::Convert(args) => convert::run_convert(args),
         Command::Align(args) => offline::run_align(args),
         Command::Extract(args) => offline::run_extract(args),
         Command::CheckRig(args) => decode::run_check_rig(args),

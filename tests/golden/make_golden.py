@@ -154,14 +154,20 @@ def set_page(buf, message, signal):
         # the frame decodes (cantools refuses unknown multiplexor values).
         for mux in message.signals:
             if mux.is_multiplexer and mux_parent(message, mux) is None:
-                put_raw(buf, mux, mux_pages(message, mux)[0])
+                pages = mux_pages(message, mux)
+                if pages:
+                    put_raw(buf, mux, pages[0])
 
 
 def mux_pages(message, mux):
-    """Multiplexor values that select at least one signal."""
-    return sorted({i for s in message.signals
-                   if s.multiplexer_signal == mux.name
-                   for i in (s.multiplexer_ids or [])})
+    """Multiplexor values cantools accepts: those that select at least one
+    signal, and the multiplexor's value-table keys (a page may hold no
+    signal). Empty: the switch selects nothing, so any value decodes."""
+    pages = {i for s in message.signals
+             if s.multiplexer_signal == mux.name
+             for i in (s.multiplexer_ids or [])}
+    pages.update((mux.choices or {}).keys())
+    return sorted(pages)
 
 
 def random_normal_bits(rng, length):
@@ -253,6 +259,8 @@ def build_payloads(rng, message):
     muxers = [s for s in message.signals if s.is_multiplexer]
     for mux in muxers:
         pages = mux_pages(message, mux)
+        if not pages:
+            continue
         for bad in (max(pages) + 1, (1 << mux.length) - 1):
             buf = rand_buf()
             put_raw(buf, mux, bad)
@@ -267,7 +275,7 @@ def build_payloads(rng, message):
         # Keep most random frames of a multiplexed message on a valid page
         # (every 10th one keeps its random, mostly unknown, multiplexor value).
         for mux in muxers:
-            if i % 10 != 9:
+            if i % 10 != 9 and mux_pages(message, mux):
                 put_raw(buf, mux, rng.choice(mux_pages(message, mux)))
         add(buf)
 

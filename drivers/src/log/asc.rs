@@ -45,7 +45,8 @@
 //!   event (frame or not), and they are summed.
 //!
 //! Channels are 1-based in ASC; channel `N` becomes interface `can{N-1}`
-//! (python-can's convention: channel 1 is `can0`). `Rx`/`Tx` become
+//! (python-can's convention: channel 1 is `can0`), unless a comment line
+//! `// acq channel N = NAME` (written by acq's [`super::asc_write`]) named it. `Rx`/`Tx` become
 //! [`Direction::Received`]/[`Direction::Transmitted`].
 //!
 //! Every other line that starts with a time (`Start of measurement`, `CAN 1
@@ -179,6 +180,8 @@ struct State {
     /// Time of the last event since the start, ns (the running sum of the
     /// deltas with `timestamps relative`).
     clock_ns: i64,
+    /// Channels named by `// acq channel K = NAME` comments (acq's writer).
+    named_channels: Vec<(u64, IfaceName)>,
 }
 
 enum Parsed {
@@ -201,12 +204,48 @@ impl State {
         };
         let first = buffer.get(start..end).unwrap_or_default();
         if first.starts_with(b"//") {
+            self.channel_name_comment(first, tokens);
             return Ok(Parsed::Skip);
         }
         if first.first().is_some_and(u8::is_ascii_digit) {
             return self.event(first, (start, end), tokens);
         }
         self.header(first, tokens)
+    }
+
+    /// `// acq channel K = NAME`: channel K's frames get interface NAME.
+    /// Any other comment, or one that does not parse, is only a comment.
+    fn channel_name_comment(&mut self, first: &[u8], mut tokens: Tokens<'_>) {
+        if first != b"//" {
+            return;
+        }
+        let (Some(b"acq"), Some(b"channel"), Some(number), Some(b"="), Some(name), None) = (
+            tokens.next(),
+            tokens.next(),
+            tokens.next(),
+            tokens.next(),
+            tokens.next(),
+            tokens.next(),
+        ) else {
+            return;
+        };
+        let (Some(channel), Some(iface)) = (parse_decimal(number, 20), IfaceName::from_bytes(name))
+        else {
+            return;
+        };
+        self.named_channels.retain(|&(c, _)| c != channel);
+        self.named_channels.push((channel, iface));
+    }
+
+    /// The interface of ASC channel `text`: its `// acq channel` name, or
+    /// `can{N-1}`.
+    fn iface_of(&self, text: &[u8]) -> Result<IfaceName, &'static str> {
+        if let Some(channel) = parse_decimal(text, 20) {
+            if let Some(&(_, iface)) = self.named_channels.iter().find(|&&(c, _)| c == channel) {
+                return Ok(iface);
+            }
+        }
+        channel_iface(text)
     }
 
     fn header(&mut self, keyword: &[u8], mut tokens: Tokens<'_>) -> Result<Parsed, &'static str> {
@@ -279,7 +318,7 @@ impl State {
             let fourth = ahead.next();
             match third {
                 Some(t) if t.eq_ignore_ascii_case(b"ErrorFrame") => {
-                    Frame::error(timestamp_ns, channel_iface(second)?, ERROR_FRAME_CLASS, &[])
+                    Frame::error(timestamp_ns, self.iface_of(second)?, ERROR_FRAME_CLASS, &[])
                         .map_err(|_| E_CHANNEL)?
                 }
                 // A transmit request, not a frame on the bus.
@@ -309,7 +348,7 @@ impl State {
         mut tokens: Tokens<'_>,
         timestamp_ns: i64,
     ) -> Result<Frame, &'static str> {
-        let iface = channel_iface(channel)?;
+        let iface = self.iface_of(channel)?;
         let id = parse_id(tokens.next().ok_or(E_ID)?, self.base)?;
         let direction = tokens.next().and_then(parse_direction).ok_or(E_DIRECTION)?;
         let kind = tokens.next().ok_or(E_KIND)?;
@@ -373,7 +412,7 @@ impl State {
         if !is_digits(channel) {
             return Ok(None);
         }
-        let iface = channel_iface(channel)?;
+        let iface = self.iface_of(channel)?;
         if third.eq_ignore_ascii_case(b"ErrorFrame") {
             return Frame::error(timestamp_ns, iface, ERROR_FRAME_CLASS, &[])
                 .map(Some)

@@ -4,7 +4,7 @@
 //! - [`record`]: [`LogRecord`], [`ParseError`], [`ReadError`]; what every
 //!   reader yields. It depends on no reader.
 //! - [`candump`], [`asc`]: the readers (and the candump writer); each depends
-//!   only on [`record`] and the frame types.
+//!   only on [`record`] and the frame types. [`asc_write`]: the ASC writer.
 //! - this module: [`LogFormat`] and [`LogReader`], which detects the format
 //!   and dispatches. A new format is a new module beside the readers and one
 //!   arm here.
@@ -14,6 +14,7 @@
 //! without allocating, and memory stays constant whatever the log's size.
 
 pub mod asc;
+pub mod asc_write;
 pub mod candump;
 pub mod record;
 

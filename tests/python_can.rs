@@ -1,0 +1,158 @@
+//! acq's logs against python-can, the reference most test engineers already
+//! run: python-can reads every ASC file `acq convert` writes as the frames
+//! of the source log, and acq reads python-can's ASC files as those frames.
+//! python-can lives in a scratch virtualenv the test makes (never a
+//! dependency of acq); without it the test fails.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::{acq, path_arg, stderr};
+
+const PYTHON_CAN: &str = "python-can==4.6.1";
+
+/// A candump log with every kind of frame ASC carries: classic 11- and
+/// 29-bit data (0-8 bytes), remote frames, CAN FD with bit-rate switch and
+/// error state (flags with FDF, as current kernels log them: ASC has no way
+/// to say a frame lacked it), an error frame, on two channels, with
+/// microsecond times.
+const SOURCE: &str = "\
+(1763719200.000100) can0 123#11223344 R
+(1763719200.000250) can1 1ABCDEF0#0102030405060708 T
+(1763719200.001000) can0 7FF# R
+(1763719200.002000) can0 0C0#R R
+(1763719200.002500) can1 18FEF100#R5 R
+(1763719200.003000) can0 321##5AABBCCDDEEFF001122334455 R
+(1763719200.003500) can1 1F334455##700112233445566778899AABBCCDDEEFF00112233445566778899AABBCCDDEEFF00112233445566778899AABBCCDDEEFF R
+(1763719200.004000) can0 20000080#0000000000000000 R
+(1763719200.005000) can1 010#DEADBEEF R
+";
+
+/// The scratch virtualenv with python-can, made once per machine.
+fn python() -> PathBuf {
+    let venv = std::env::temp_dir().join("acq-python-can-4.6.1");
+    let python = venv.join("bin/python");
+    if !python.exists() {
+        let made = Command::new("python3")
+            .args(["-m", "venv", path_arg(&venv)])
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(&python)
+                .args(["-m", "pip", "install", "--quiet", PYTHON_CAN])
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            made,
+            "could not install {PYTHON_CAN} into {} (python3 -m venv, pip from the package registry)",
+            venv.display()
+        );
+    }
+    python
+}
+
+/// python-can's frames of a log, one JSON object each.
+fn python_can_frames(python: &Path, log: &Path) -> Vec<serde_json::Value> {
+    let output = Command::new(python)
+        .arg(common::root().join("tests/python_can/frames.py"))
+        .args(["read", path_arg(log)])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .map(|line| serde_json::from_str(line).unwrap())
+        .collect()
+}
+
+#[test]
+fn python_can_and_acq_read_each_others_asc_as_the_source_frames() {
+    let python = python();
+    let dir = tempfile::tempdir().unwrap();
+    let source = dir.path().join("source.log");
+    std::fs::write(&source, SOURCE).unwrap();
+    let expected = python_can_frames(&python, &source);
+    assert_eq!(expected.len(), 9);
+
+    // acq writes ASC; python-can reads the source's frames from it.
+    let ours = dir.path().join("acq.asc");
+    let output = acq(&["convert", path_arg(&source), "-o", path_arg(&ours)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let read = python_can_frames(&python, &ours);
+    assert_eq!(read.len(), expected.len());
+    for (got, want) in read.iter().zip(&expected) {
+        assert_eq!(got, want, "python-can on acq's ASC");
+    }
+
+    // python-can writes ASC; acq reads it and writes candump: the source.
+    let theirs = dir.path().join("python-can.asc");
+    let output = Command::new(&python)
+        .arg(common::root().join("tests/python_can/frames.py"))
+        .args(["asc", path_arg(&source), path_arg(&theirs)])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let back = dir.path().join("back.log");
+    let output = acq(&["convert", path_arg(&theirs), "-o", path_arg(&back)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let back_text = std::fs::read_to_string(&back).unwrap();
+    // python-can's ASC writer dates the log when it writes it and counts
+    // times from the first frame: the times agree relative to the first.
+    // ASC keeps no error class or details: acq reads an ASC error frame as
+    // CAN_ERR_BUSERROR with zero details. All else is the source's.
+    let split = |line: &str| -> (f64, String) {
+        let (time, rest) = line.split_once(' ').unwrap();
+        (
+            time.trim_matches(|c| c == '(' || c == ')').parse().unwrap(),
+            rest.to_string(),
+        )
+    };
+    let (first_back, _) = split(back_text.lines().next().unwrap());
+    let (first_source, _) = split(SOURCE.lines().next().unwrap());
+    for (line, (got, want)) in back_text.lines().zip(SOURCE.lines()).enumerate() {
+        let ((got_time, got_rest), (want_time, want_rest)) = (split(got), split(want));
+        let offset_us = |t: f64, first: f64| ((t - first) * 1e6).round();
+        assert_eq!(
+            offset_us(got_time, first_back),
+            offset_us(want_time, first_source),
+            "line {}: {got}",
+            line + 1
+        );
+        if want.contains(" 20000080#") {
+            assert_eq!(got_rest, "can0 20000080#0000000000000000");
+        } else {
+            assert_eq!(got_rest, want_rest, "line {}", line + 1);
+        }
+    }
+    assert_eq!(back_text.lines().count(), SOURCE.lines().count());
+
+    // And acq's own round trip, candump -> ASC -> candump, is exact.
+    let again = dir.path().join("again.log");
+    let output = acq(&["convert", path_arg(&ours), "-o", path_arg(&again)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    // (An ASC error frame has no direction.)
+    assert_eq!(
+        std::fs::read_to_string(&again).unwrap(),
+        SOURCE.replace("20000080#0000000000000000 R", "20000080#0000000000000000")
+    );
+}
+
+#[test]
+fn convert_refuses_formats_it_cannot_write() {
+    let dir = tempfile::tempdir().unwrap();
+    for (out, why) in [
+        ("x.mf4", "acq does not write MF4 yet"),
+        ("x.csv", "the format comes from the extension"),
+    ] {
+        let output = acq(&[
+            "convert",
+            "fixtures/logs/excavator_case1.log",
+            "-o",
+            path_arg(&dir.path().join(out)),
+        ]);
+        assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+        assert!(stderr(&output).contains(why), "{}", stderr(&output));
+        assert!(!dir.path().join(out).exists());
+    }
+}

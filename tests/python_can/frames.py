@@ -2,6 +2,7 @@
 
     frames.py read FILE        one JSON object per frame python-can reads
     frames.py asc CANDUMP OUT  python-can reads a candump log, writes it as ASC
+    frames.py blf CANDUMP OUT  the same, as BLF
 
 Run with the python-can the test installs in a scratch virtualenv; never a
 dependency of acq.
@@ -15,6 +16,8 @@ import can
 def reader(path):
     if path.endswith(".asc"):
         return can.ASCReader(path, relative_timestamp=False)
+    if path.endswith(".blf"):
+        return can.BLFReader(path)
     return can.CanutilsLogReader(path)
 
 
@@ -42,12 +45,13 @@ def main():
                 "dlc": message.dlc,
                 "data": message.data.hex() if not message.is_error_frame else "",
             }))
-    elif sys.argv[1] == "asc":
-        with can.ASCWriter(sys.argv[3]) as writer:
+    elif sys.argv[1] in ("asc", "blf"):
+        writer_class = can.ASCWriter if sys.argv[1] == "asc" else can.BLFWriter
+        with writer_class(sys.argv[3]) as writer:
             for message in can.CanutilsLogReader(sys.argv[2]):
                 writer.on_message_received(message)
     else:
-        sys.exit("usage: frames.py read FILE | asc CANDUMP OUT")
+        sys.exit("usage: frames.py read FILE | asc CANDUMP OUT | blf CANDUMP OUT")
 
 
 main()

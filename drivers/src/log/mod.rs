@@ -3,8 +3,8 @@
 //!
 //! - [`record`]: [`LogRecord`], [`ParseError`], [`ReadError`]; what every
 //!   reader yields. It depends on no reader.
-//! - [`candump`], [`asc`]: the readers (and the candump writer); each depends
-//!   only on [`record`] and the frame types. [`asc_write`]: the ASC writer.
+//! - [`candump`], [`asc`], [`blf`]: the readers (and the candump writer);
+//!   each depends only on [`record`] and the frame types. [`asc_write`]: the ASC writer.
 //! - this module: [`LogFormat`] and [`LogReader`], which detects the format
 //!   and dispatches. A new format is a new module beside the readers and one
 //!   arm here.
@@ -15,6 +15,7 @@
 
 pub mod asc;
 pub mod asc_write;
+pub mod blf;
 pub mod candump;
 pub mod record;
 
@@ -23,6 +24,7 @@ use std::io::{self, BufRead};
 pub use record::{LogRecord, ParseError, ReadError};
 
 use asc::AscReader;
+use blf::BlfReader;
 use candump::CandumpReader;
 
 /// The log formats `acq` reads.
@@ -32,25 +34,34 @@ pub enum LogFormat {
     Candump,
     /// Vector ASCII log (`.asc`).
     Asc,
+    /// Vector binary log (`.blf`).
+    Blf,
 }
 
 /// A reader of either format.
 pub enum LogReader<R> {
     Candump(CandumpReader<R>),
     Asc(AscReader<R>),
+    Blf(BlfReader<R>),
 }
 
 impl<R: BufRead> LogReader<R> {
     /// Guesses the format from the first bytes of the input without
-    /// consuming them: a candump log starts with `(`, anything else is
-    /// taken for ASC (whose header starts with `date` or `base`).
+    /// consuming them: a BLF file starts with `LOGG`, a candump log with
+    /// `(`, anything else is taken for ASC (whose header starts with `date`
+    /// or `base`).
     pub fn detect(mut input: R) -> io::Result<(Self, LogFormat)> {
-        let looks_candump = {
+        let (looks_blf, looks_candump) = {
             let head = input.fill_buf()?;
             let first = head.iter().find(|b| !b.is_ascii_whitespace());
-            first.is_none_or(|&b| b == b'(' || b == b'#')
+            (
+                head.starts_with(blf::SIGNATURE),
+                first.is_none_or(|&b| b == b'(' || b == b'#'),
+            )
         };
-        Ok(if looks_candump {
+        Ok(if looks_blf {
+            (LogReader::Blf(BlfReader::new(input)), LogFormat::Blf)
+        } else if looks_candump {
             (
                 LogReader::Candump(CandumpReader::new(input)),
                 LogFormat::Candump,
@@ -64,6 +75,7 @@ impl<R: BufRead> LogReader<R> {
         match format {
             LogFormat::Candump => LogReader::Candump(CandumpReader::new(input)),
             LogFormat::Asc => LogReader::Asc(AscReader::new(input)),
+            LogFormat::Blf => LogReader::Blf(BlfReader::new(input)),
         }
     }
 
@@ -73,6 +85,7 @@ impl<R: BufRead> LogReader<R> {
         match self {
             LogReader::Candump(reader) => reader.next_record(),
             LogReader::Asc(reader) => reader.next_record(),
+            LogReader::Blf(reader) => reader.next_record(),
         }
     }
 }

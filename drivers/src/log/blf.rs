@@ -44,7 +44,7 @@
 
 use std::io::{self, BufRead, Read};
 
-use flate2::read::ZlibDecoder;
+use flate2::{Decompress, FlushDecompress, Status};
 
 use super::record::{LogRecord, ParseError, ReadError};
 use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN};
@@ -96,6 +96,8 @@ pub struct BlfReader<R> {
     /// Objects read so far, for error messages.
     objects: u64,
     time_text: String,
+    /// The compressed bytes of the current container (reused).
+    compressed: Vec<u8>,
 }
 
 impl<R: BufRead> BlfReader<R> {
@@ -109,6 +111,7 @@ impl<R: BufRead> BlfReader<R> {
             pos: 0,
             objects: 0,
             time_text: String::new(),
+            compressed: Vec::new(),
         }
     }
 
@@ -135,15 +138,17 @@ impl<R: BufRead> BlfReader<R> {
         loop {
             match self.next_in_container() {
                 Ok(Some(frame)) => {
-                    self.time_text.clear();
                     let ns = frame.timestamp_ns;
-                    use std::fmt::Write as _;
-                    let _ = write!(
-                        self.time_text,
-                        "{}.{:09}",
-                        ns.div_euclid(1_000_000_000),
-                        ns.rem_euclid(1_000_000_000)
-                    );
+                    self.time_text.clear();
+                    let mut digits = itoa::Buffer::new();
+                    self.time_text
+                        .push_str(digits.format(ns.div_euclid(1_000_000_000)));
+                    self.time_text.push('.');
+                    let nanos = digits.format(ns.rem_euclid(1_000_000_000));
+                    for _ in nanos.len()..9 {
+                        self.time_text.push('0');
+                    }
+                    self.time_text.push_str(nanos);
                     return Ok(Some(LogRecord {
                         line: self.objects,
                         timestamp_text: &self.time_text,
@@ -254,16 +259,28 @@ impl<R: BufRead> BlfReader<R> {
                     }
                     skip(&mut self.input, padding)?;
                 }
-                2 if uncompressed <= MAX_CONTAINER_BYTES => {
-                    let mut compressed = vec![0u8; stored];
-                    if let Err(error) = self.input.read_exact(&mut compressed) {
+                // Deflate shrinks by at most about 1032 to 1: a larger claim
+                // is not this container's (and is not worth the memory).
+                2 if uncompressed <= MAX_CONTAINER_BYTES
+                    && uncompressed <= stored.saturating_mul(1032).saturating_add(1024) =>
+                {
+                    self.compressed.clear();
+                    self.compressed.resize(stored, 0);
+                    if let Err(error) = self.input.read_exact(&mut self.compressed) {
                         return Err(self.ended_inside(error));
                     }
                     skip(&mut self.input, padding)?;
+                    // Inflated in one call straight into place: no copies.
                     let before = self.data.len();
-                    let mut decoder = ZlibDecoder::new(&compressed[..]).take(uncompressed as u64);
-                    if decoder.read_to_end(&mut self.data).is_err()
-                        || self.data.len() - before != uncompressed
+                    self.data.resize(before + uncompressed, 0);
+                    let mut inflater = Decompress::new(true);
+                    let inflated = inflater.decompress(
+                        &self.compressed,
+                        &mut self.data[before..],
+                        FlushDecompress::Finish,
+                    );
+                    if !matches!(inflated, Ok(Status::StreamEnd))
+                        || inflater.total_out() != uncompressed as u64
                     {
                         self.data.truncate(before);
                         return Err(self.error(E_INFLATE));
@@ -497,10 +514,16 @@ fn can_id(raw: u32) -> Result<CanId, &'static str> {
     }
 }
 
-/// BLF channel `N` (1-based) -> interface `can{N-1}`.
+/// BLF channel `N` (1-based) -> interface `can{N-1}` (no allocation: it
+/// runs for every frame).
 fn channel_iface(channel: u64) -> Result<IfaceName, &'static str> {
     let index = channel.checked_sub(1).ok_or(E_CHANNEL)?;
-    IfaceName::new(&format!("can{index}")).ok_or(E_CHANNEL)
+    let mut digits = itoa::Buffer::new();
+    let digits = digits.format(index).as_bytes();
+    let mut name = [0u8; 3 + 20];
+    name[..3].copy_from_slice(b"can");
+    name[3..3 + digits.len()].copy_from_slice(digits);
+    IfaceName::from_bytes(&name[..3 + digits.len()]).ok_or(E_CHANNEL)
 }
 
 /// ns since the epoch of a `SYSTEMTIME` (year, month, day, hour, minute,

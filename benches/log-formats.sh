@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Reading speed of each log format acq reads, the same frames in each, and
+# python-can's readers on the same files (issue 22).
+#
+#   benches/log-formats.sh [FRAMES]        (default 1,000,000)
+#
+# Needs python-can in a scratch virtualenv (made if missing, as
+# tests/python_can.rs does). Makes a candump log of random classic and FD
+# frames, has python-can write it as BLF, has acq write it as ASC, then
+# times `acq convert X -o out.log` per format (the same candump writing in
+# each, so the difference is the reading) and python-can iterating over
+# each file. Prints frames per second.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+frames=${1:-1000000}
+venv="${TMPDIR:-/tmp}/acq-python-can-4.6.1"
+[ -x "$venv/bin/python" ] || { python3 -m venv "$venv" && "$venv/bin/pip" install --quiet python-can==4.6.1; }
+cargo build --release --quiet
+acq=target/release/acq
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+"$venv/bin/python" - "$frames" "$work" <<'PY'
+import random, sys, can
+n, work = int(sys.argv[1]), sys.argv[2]
+random.seed(1)
+t = 1763719200.0
+with open(f"{work}/frames.log", "w") as f:
+    for i in range(n):
+        t += 0.0001
+        if i % 10 == 9:
+            data = bytes(random.getrandbits(8) for _ in range(12))
+            f.write(f"({t:.6f}) can1 {random.randrange(0x800):03X}##5{data.hex().upper()} R\n")
+        else:
+            data = bytes(random.getrandbits(8) for _ in range(8))
+            f.write(f"({t:.6f}) can0 {random.randrange(1 << 29):08X}#{data.hex().upper()} R\n")
+with can.BLFWriter(f"{work}/frames.blf") as w:
+    for m in can.CanutilsLogReader(f"{work}/frames.log"):
+        w.on_message_received(m)
+PY
+"$acq" convert "$work/frames.log" -o "$work/frames.asc" 2>/dev/null
+seconds() { local start end; start=$(date +%s.%N); "$@" >/dev/null 2>&1; end=$(date +%s.%N); echo "$end - $start" | bc -l; }
+printf 'format   size MB   acq s   acq frames/s   python-can s   python-can frames/s   ratio\n'
+for format in log asc blf; do
+    file="$work/frames.$format"
+    size=$(du -m "$file" | cut -f1)
+    ours=$(seconds "$acq" convert "$file" -o "$work/out.log")
+    theirs=$(seconds "$venv/bin/python" -c "
+import can, sys
+f = sys.argv[1]
+r = can.BLFReader(f) if f.endswith('.blf') else can.ASCReader(f) if f.endswith('.asc') else can.CanutilsLogReader(f)
+sum(1 for _ in r)" "$file")
+    printf '%-6s %8s %8.2f %14.0f %14.2f %21.0f %7.1f\n' "$format" "$size" "$ours" \
+        "$(echo "$frames / $ours" | bc -l)" "$theirs" "$(echo "$frames / $theirs" | bc -l)" \
+        "$(echo "$theirs / $ours" | bc -l)"
+done

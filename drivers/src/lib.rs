@@ -5,11 +5,12 @@
 //!
 //! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface.
 //! - [`log`]: log files: the record every reader yields, one module per format
-//!   (can-utils `candump -L`, Vector ASC), and the reader that picks the format.
+//!   (can-utils `candump -L`, Vector ASC and BLF), and the reader that picks the format.
 //! - [`kernel`]: the SocketCAN `can_frame`/`canfd_frame` byte layout; [`bus_error`]: error frames.
 //! - [`bits`]: bit fields in both byte orders, shared by all protocols.
 //! - [`dbc`]: DBC signals, compiled from the `can-dbc` AST.
-//! - [`canopen`], [`j1939`]: the two device protocols on the rigs.
+//! - [`canopen`], [`j1939`]: the two device protocols on the rigs; [`j1939_tp`]: J1939
+//!   messages longer than 8 bytes put back together (BAM and RTS/CTS).
 //! - [`profiles`]: sensor physics (pressure, force, strain, inclination, displacement).
 //! - [`rig`]: the rig file: buses and sensors, validated.
 //! - [`sensors`]: frames -> samples through a rig.
@@ -21,6 +22,7 @@ pub mod dbc;
 pub mod frame;
 mod hex;
 pub mod j1939;
+pub mod j1939_tp;
 pub mod kernel;
 pub mod log;
 pub mod profiles;

@@ -1032,10 +1032,9 @@ fn compile_source(
         address.length_bits,
     )
     .ok()
-    .filter(|f| f.end_byte() <= 8)
     .ok_or_else(|| {
         format!(
-            "j1939 field of {} bits at bit {} does not fit in 8 bytes",
+            "j1939 field of {} bits at bit {} does not fit in 64 bytes (a parameter group longer than 8 bytes comes by the transport protocol; acq reads SPNs in its first 64)",
             address.length_bits, address.start_bit
         )
     })?;

@@ -10,6 +10,7 @@ use rustc_hash::FxHashMap;
 use crate::canopen::{HeartbeatEvent, HeartbeatMonitor};
 use crate::frame::{Frame, FrameKind};
 use crate::j1939::J1939Id;
+use crate::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
 use crate::rig::{Rig, SensorSource};
 
 /// One value of one sensor at one instant.
@@ -64,6 +65,8 @@ pub struct SensorDecoder<'r> {
     /// J1939 sensors by (bus, PGN).
     by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>>,
     heartbeats: Vec<HeartbeatMonitor>,
+    /// J1939 transport-protocol sessions per bus (messages over 8 bytes).
+    transport: Vec<Reassembler>,
 }
 
 /// A heartbeat lost after this many producer periods.
@@ -113,6 +116,7 @@ impl<'r> SensorDecoder<'r> {
             by_id,
             by_pgn,
             heartbeats,
+            transport: vec![Reassembler::default(); rig.buses.len()],
         }
     }
 
@@ -182,12 +186,24 @@ impl<'r> SensorDecoder<'r> {
             }
         }
         if let Some(id) = J1939Id::from_can_id(frame.id) {
-            if let Some(entries) = self.by_pgn.get(&(bus, id.pgn)) {
+            // A transport-protocol frame may complete a longer message: its
+            // SPNs are decoded at the time of its last packet.
+            let reassembled = self.transport[bus].on_frame(id, payload, time_ns);
+            if matches!(id.pgn, TP_CM_PGN | TP_DT_PGN) {
+                protocol = true;
+            }
+            let messages = [
+                Some((id.pgn, id.source_address, payload)),
+                reassembled
+                    .as_ref()
+                    .map(|m| (m.pgn, m.source_address, m.data.as_slice())),
+            ];
+            for (pgn, source_address, payload) in messages.into_iter().flatten() {
+                let Some(entries) = self.by_pgn.get(&(bus, pgn)) else {
+                    continue;
+                };
                 for entry in entries {
-                    if entry
-                        .source_address
-                        .is_some_and(|sa| sa != id.source_address)
-                    {
+                    if entry.source_address.is_some_and(|sa| sa != source_address) {
                         continue;
                     }
                     let sensor = &self.rig.sensors[entry.sensor];

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use acq_drivers::j1939_tp::bam_frames;
 use acq_drivers::rig::Rig;
 use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
 use acq_drivers::{CanId, Frame, IfaceName};
@@ -97,4 +98,70 @@ proptest! {
             decoder.check_heartbeats(time, |_| {});
         }
     }
+}
+
+/// A rig whose inclination comes in a 20-byte J1939 parameter group, by the
+/// transport protocol: 24 bits at byte 10 (past the first 8 bytes).
+fn long_pgn_rig() -> Rig {
+    let text = r#"
+[[bus]]
+name = "hydraulics"
+iface = "can0"
+bitrate = 250000
+
+[[sensor]]
+name = "boom_inclination"
+kind = "inclination"
+bus = "hydraulics"
+rate_hz = 10
+j1939 = { pgn = 65000, source_address = 0xE2, start_bit = 80, length_bits = 24, resolution = 3.0517578125e-5, offset = -250.0 }
+"#;
+    Rig::parse(text, Path::new("long_pgn.toml"), Path::new(".")).unwrap()
+}
+
+#[test]
+fn a_j1939_group_longer_than_8_bytes_is_reassembled_and_decoded() {
+    let rig = long_pgn_rig();
+    let mut decoder = SensorDecoder::new(&rig);
+    // 12.5 deg = (raw * 2^-15) - 250  ->  raw = 8_601_600 = 0x834000.
+    let mut data = vec![0xFFu8; 20];
+    data[10..13].copy_from_slice(&[0x00, 0x40, 0x83]);
+    let mut uses = Vec::new();
+    let mut samples = Vec::new();
+    for (k, (id, payload)) in bam_frames(65000, 7, 0xE2, &data)
+        .unwrap()
+        .into_iter()
+        .enumerate()
+    {
+        let frame = Frame::data(k as i64 * 50_000_000, iface("can0"), id, &payload).unwrap();
+        uses.push(decoder.decode(&frame, |e| {
+            if let SensorEvent::Sample(sample) = e {
+                samples.push(sample);
+            }
+        }));
+    }
+    // The announcement and the first two packets are protocol; the last
+    // packet completes the group and gives the value, at its time.
+    assert_eq!(
+        uses,
+        [
+            FrameUse::Protocol,
+            FrameUse::Protocol,
+            FrameUse::Protocol,
+            FrameUse::Decoded
+        ]
+    );
+    assert_eq!(samples.len(), 1);
+    assert_eq!(samples[0].time_ns, 150_000_000);
+    assert_eq!(samples[0].value, Some(12.5));
+    // From another source address it is no value of this sensor.
+    let mut decoder = SensorDecoder::new(&rig);
+    let mut other = 0;
+    for (id, payload) in bam_frames(65000, 7, 0xE3, &data).unwrap() {
+        let frame = Frame::data(0, iface("can0"), id, &payload).unwrap();
+        decoder.decode(&frame, |e| {
+            other += usize::from(matches!(e, SensorEvent::Sample(_)))
+        });
+    }
+    assert_eq!(other, 0);
 }

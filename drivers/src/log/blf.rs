@@ -386,58 +386,15 @@ fn parse_frame(kind: u32, body: &[u8], timestamp_ns: i64) -> Result<Frame, &'sta
             frame.direction = Some(direction(flags & 0x01 != 0));
             Ok(frame)
         }
-        CAN_FD_MESSAGE => {
-            let channel = u16_at(body, 0).ok_or(E_FD_MESSAGE)?;
-            let flags = *body.get(2).ok_or(E_FD_MESSAGE)?;
-            let dlc = *body.get(3).ok_or(E_FD_MESSAGE)? & 0x0F;
-            let id = can_id(u32_at(body, 4).ok_or(E_FD_MESSAGE)?)?;
-            let fd = *body.get(13).ok_or(E_FD_MESSAGE)?;
-            let valid = usize::from(*body.get(14).ok_or(E_FD_MESSAGE)?);
-            let data = body.get(20..84).ok_or(E_FD_MESSAGE)?;
-            let iface = channel_iface(u64::from(channel))?;
-            frame_of(
-                timestamp_ns,
-                iface,
-                id,
-                FdObject {
-                    remote: flags & 0x80 != 0,
-                    transmitted: flags & 0x01 != 0,
-                    edl: fd & 0x01 != 0,
-                    brs: fd & 0x02 != 0,
-                    esi: fd & 0x04 != 0,
-                    dlc,
-                    valid,
-                    data,
-                },
-            )
-            .ok_or(E_FD_MESSAGE)
-        }
-        CAN_FD_MESSAGE_64 => {
-            let head = body.get(..40).ok_or(E_FD64_MESSAGE)?;
-            let channel = head[0];
-            let dlc = head[1] & 0x0F;
-            let valid = usize::from(head[2]);
-            let id = can_id(u32_at(head, 4).ok_or(E_FD64_MESSAGE)?)?;
-            let flags = u32_at(head, 12).ok_or(E_FD64_MESSAGE)?;
-            let transmitted = head[34] != 0;
-            let data = &body[40..];
-            let iface = channel_iface(u64::from(channel))?;
-            frame_of(
-                timestamp_ns,
-                iface,
-                id,
-                FdObject {
-                    remote: flags & 0x0010 != 0,
-                    transmitted,
-                    edl: flags & 0x1000 != 0,
-                    brs: flags & 0x2000 != 0,
-                    esi: flags & 0x4000 != 0,
-                    dlc,
-                    valid,
-                    data,
-                },
-            )
-            .ok_or(E_FD64_MESSAGE)
+        CAN_FD_MESSAGE | CAN_FD_MESSAGE_64 => {
+            let expected = if kind == CAN_FD_MESSAGE {
+                E_FD_MESSAGE
+            } else {
+                E_FD64_MESSAGE
+            };
+            let (channel, raw_id, object) = fd_object(kind, body).ok_or(expected)?;
+            let iface = channel_iface(channel)?;
+            frame_of(timestamp_ns, iface, can_id(raw_id)?, object).ok_or(expected)
         }
         _ => {
             // CAN_ERROR, CAN_ERROR_EXT: the channel is the first u16 of both.
@@ -445,6 +402,46 @@ fn parse_frame(kind: u32, body: &[u8], timestamp_ns: i64) -> Result<Frame, &'sta
             let iface = channel_iface(u64::from(channel))?;
             Frame::error(timestamp_ns, iface, ERROR_FRAME_CLASS, &[]).map_err(|_| E_CAN_MESSAGE)
         }
+    }
+}
+
+/// (channel, raw id, frame fields) of a `CAN_FD_MESSAGE` or
+/// `CAN_FD_MESSAGE_64` body: the two layouts of one kind of frame.
+fn fd_object(kind: u32, body: &[u8]) -> Option<(u64, u32, FdObject<'_>)> {
+    if kind == CAN_FD_MESSAGE {
+        let flags = *body.get(2)?;
+        let fd = *body.get(13)?;
+        Some((
+            u64::from(u16_at(body, 0)?),
+            u32_at(body, 4)?,
+            FdObject {
+                remote: flags & 0x80 != 0,
+                transmitted: flags & 0x01 != 0,
+                edl: fd & 0x01 != 0,
+                brs: fd & 0x02 != 0,
+                esi: fd & 0x04 != 0,
+                dlc: *body.get(3)? & 0x0F,
+                valid: usize::from(*body.get(14)?),
+                data: body.get(20..84)?,
+            },
+        ))
+    } else {
+        let head = body.get(..40)?;
+        let flags = u32_at(head, 12)?;
+        Some((
+            u64::from(head[0]),
+            u32_at(head, 4)?,
+            FdObject {
+                remote: flags & 0x0010 != 0,
+                transmitted: head[34] != 0,
+                edl: flags & 0x1000 != 0,
+                brs: flags & 0x2000 != 0,
+                esi: flags & 0x4000 != 0,
+                dlc: head[1] & 0x0F,
+                valid: usize::from(head[2]),
+                data: &body[40..],
+            },
+        ))
     }
 }
 

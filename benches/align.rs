@@ -21,10 +21,12 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use acq_analysis::align::table::{Column, CsvTable};
-use acq_analysis::align::{Aligner, ChannelSpec, GridSpec};
+use acq_analysis::align::table::{Column, CsvTable, ParquetAlignedTable};
+use acq_analysis::align::{Aligner, ChannelSpec, GridSpec, RowSink};
 use acq_drivers::rig::Interpolation;
+use acq_io::error::AcqError;
 use acq_io::output::Output;
+use acq_io::parquet_table::TableFormat;
 
 const CHANNELS: usize = 25;
 const RATE_HZ: f64 = 1000.0;
@@ -133,28 +135,131 @@ fn end_to_end() {
         started.elapsed().as_secs_f64()
     );
     let binary = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/release/acq");
-    let started = Instant::now();
-    let output = Command::new(&binary)
-        .arg("align")
-        .arg(&log)
-        .arg("--rig")
-        .arg(dir.path().join("rig.toml"))
-        .arg("-o")
-        .arg(dir.path().join("aligned.csv"))
-        .output()
-        .expect("build the binary first: cargo build --release");
-    let wall_s = started.elapsed().as_secs_f64();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let rss = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN)
-        .map(|u| u.max_rss())
-        .unwrap_or(-1);
+    let mut results = Vec::new();
+    // Each format twice, interleaved: the machine is shared, so compare
+    // runs made side by side.
+    for name in [
+        "aligned.csv",
+        "aligned.parquet",
+        "aligned.csv",
+        "aligned.parquet",
+    ] {
+        let table = dir.path().join(name);
+        let started = Instant::now();
+        let output = Command::new(&binary)
+            .arg("align")
+            .arg(&log)
+            .arg("--rig")
+            .arg(dir.path().join("rig.toml"))
+            .arg("-o")
+            .arg(&table)
+            .output()
+            .expect("build the binary first: cargo build --release");
+        let wall_s = started.elapsed().as_secs_f64();
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let rss = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN)
+            .map(|u| u.max_rss())
+            .unwrap_or(-1);
+        let bytes = std::fs::metadata(&table).unwrap().len();
+        println!(
+            "end to end: acq align (read + decode + align + write 100 Hz {name}) of 90 M samples: {wall_s:.2} s, {:.1} MB, peak RSS of any child so far {rss} KiB; {}",
+            bytes as f64 / 1e6,
+            String::from_utf8_lossy(&output.stderr).trim()
+        );
+        results.push((wall_s, bytes));
+    }
+    let csv_s = results[0].0.min(results[2].0);
+    let parquet_s = results[1].0.min(results[3].0);
     println!(
-        "end to end: acq align (read + decode + align + write 100 Hz CSV) of 90 M samples: {wall_s:.2} s, peak RSS {rss} KiB; {}",
-        String::from_utf8_lossy(&output.stderr).trim()
+        "end to end: Parquet / CSV wall time {:.3} (best of 2 each: {parquet_s:.2} / {csv_s:.2} s); CSV / Parquet size {:.2} ({} / {} bytes)",
+        parquet_s / csv_s,
+        results[0].1 as f64 / results[1].1 as f64,
+        results[0].1,
+        results[1].1
+    );
+}
+
+/// Counts what a table writes, and drops it.
+struct CountingSink(std::rc::Rc<std::cell::Cell<u64>>);
+
+impl Write for CountingSink {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.set(self.0.get() + bytes.len() as u64);
+        Ok(bytes.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// Aligns `hours` of generated traffic into a CSV or Parquet table whose
+/// bytes are counted and dropped; prints one line.
+fn align_hours(hours: f64, format: TableFormat) {
+    let seconds = (hours * 3600.0) as u64;
+    let samples = seconds as f64 * RATE_HZ * CHANNELS as f64;
+
+    let started = Instant::now();
+    let mut checksum = 0.0;
+    generate(seconds, |c, t, v| {
+        checksum += v + (t + c as i64) as f64 * 1e-18
+    });
+    let generator_s = started.elapsed().as_secs_f64();
+
+    let columns: Vec<Column> = (0..CHANNELS)
+        .map(|i| Column {
+            name: format!("channel{i:02}"),
+            unit: "bar".into(),
+        })
+        .collect();
+    let grid = GridSpec {
+        t0_ns: 1_795_000_000_000_000_000,
+        rate_hz: 100.0,
+        first_row: 0,
+        last_row: None,
+        lateness_ns: 500_000_000,
+    };
+    let bytes = std::rc::Rc::new(std::cell::Cell::new(0));
+    let output = Output::to_writer("sink", Box::new(CountingSink(bytes.clone())));
+    let comments = ["benchmark".to_string()];
+    let table: Box<dyn RowSink<Error = AcqError>> = match format {
+        TableFormat::Csv => {
+            Box::new(CsvTable::new(output, &comments, &columns, grid.rate_hz).unwrap())
+        }
+        TableFormat::Parquet => {
+            Box::new(ParquetAlignedTable::new(output, &comments, &columns, grid).unwrap())
+        }
+    };
+    let specs = vec![
+        ChannelSpec {
+            interpolation: Interpolation::Linear,
+            max_gap_ns: 3_000_000,
+        };
+        CHANNELS
+    ];
+    let started = Instant::now();
+    let mut aligner = Aligner::new(grid, &specs, table);
+    let mut largest_pending = 0;
+    let mut pushed = 0u64;
+    generate(seconds, |c, t, v| {
+        aligner.push(c, grid.t0_ns + t, Some(v)).unwrap();
+        pushed += 1;
+        if pushed % 1_000_000 == 0 {
+            largest_pending = largest_pending.max(aligner.pending_rows());
+        }
+    });
+    let (_, stats) = aligner.finish().unwrap();
+    let total_s = started.elapsed().as_secs_f64();
+    let rows = stats[0].rows_with_value + stats[0].rows_without_value;
+    println!(
+        "{format:?} {hours:>5} h: {:.1} M samples aligned + written in {total_s:.2} s ({:.1} M samples/s; generator alone {generator_s:.2} s), {rows} rows, {:.1} MB written, at most {largest_pending} rows pending, peak RSS {} KiB (checksum {checksum:.3e})",
+        samples / 1e6,
+        samples / total_s / 1e6,
+        bytes.get() as f64 / 1e6,
+        peak_rss_kib()
     );
 }
 
@@ -163,65 +268,10 @@ fn main() {
         end_to_end();
         return;
     }
-    let hours_list = [0.25, 1.0, 2.0];
-    println!("align benchmark: {CHANNELS} channels at {RATE_HZ} Hz -> 100 Hz grid, CSV to a discarding sink");
-    for hours in hours_list {
-        let seconds = (hours * 3600.0) as u64;
-        let samples = seconds as f64 * RATE_HZ * CHANNELS as f64;
-
-        let started = Instant::now();
-        let mut checksum = 0.0;
-        generate(seconds, |c, t, v| {
-            checksum += v + (t + c as i64) as f64 * 1e-18
-        });
-        let generator_s = started.elapsed().as_secs_f64();
-
-        let columns: Vec<Column> = (0..CHANNELS)
-            .map(|i| Column {
-                name: format!("channel{i:02}"),
-                unit: "bar".into(),
-            })
-            .collect();
-        let table = CsvTable::new(
-            Output::to_writer("sink", Box::new(std::io::sink())),
-            &["benchmark".into()],
-            &columns,
-            100.0,
-        )
-        .unwrap();
-        let grid = GridSpec {
-            t0_ns: 0,
-            rate_hz: 100.0,
-            first_row: 0,
-            last_row: None,
-            lateness_ns: 500_000_000,
-        };
-        let specs = vec![
-            ChannelSpec {
-                interpolation: Interpolation::Linear,
-                max_gap_ns: 3_000_000,
-            };
-            CHANNELS
-        ];
-        let started = Instant::now();
-        let mut aligner = Aligner::new(grid, &specs, table);
-        let mut largest_pending = 0;
-        let mut pushed = 0u64;
-        generate(seconds, |c, t, v| {
-            aligner.push(c, t, Some(v)).unwrap();
-            pushed += 1;
-            if pushed % 1_000_000 == 0 {
-                largest_pending = largest_pending.max(aligner.pending_rows());
-            }
-        });
-        let (_, stats) = aligner.finish().unwrap();
-        let total_s = started.elapsed().as_secs_f64();
-        let rows = stats[0].rows_with_value + stats[0].rows_without_value;
-        println!(
-            "{hours:>5} h: {:.1} M samples aligned + written in {total_s:.2} s ({:.1} M samples/s; generator alone {generator_s:.2} s), {rows} rows, at most {largest_pending} rows pending, peak RSS {} KiB (checksum {checksum:.3e})",
-            samples / 1e6,
-            samples / total_s / 1e6,
-            peak_rss_kib()
-        );
+    println!("align benchmark: {CHANNELS} channels at {RATE_HZ} Hz -> 100 Hz grid, into a CSV or Parquet table whose bytes are counted and dropped");
+    for format in [TableFormat::Csv, TableFormat::Parquet] {
+        for hours in [0.25, 1.0, 2.0] {
+            align_hours(hours, format);
+        }
     }
 }

@@ -1,4 +1,4 @@
-//! `acq decode`: logs -> one CSV row per decoded value.
+//! `acq decode`: logs -> one CSV (or Parquet) row per decoded value.
 //!
 //! Two routes: through DBC files (every signal of every known message) and
 //! through a rig (each sensor in its own protocol). Both stream: memory does
@@ -9,13 +9,15 @@
 use std::io::Write;
 
 use acq_drivers::canopen::HeartbeatEvent;
-use acq_drivers::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError};
+use acq_drivers::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
 use acq_drivers::rig::Rig;
 use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
 use acq_drivers::FrameKind;
+use acq_drivers::LogRecord;
 use acq_io::error::Result;
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
 use acq_io::output::{csv_field, Output};
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
 /// The fixed header of the DBC route.
 pub const DBC_HEADER: &str = "time_s,iface,can_id,message,signal,value,unit";
@@ -60,12 +62,143 @@ impl std::fmt::Display for DecodeSummary {
     }
 }
 
+/// Where the DBC route's values go: CSV rows built from byte templates, or a
+/// Parquet table. One frame's values, then [`DbcRows::end_frame`].
+trait DbcRows {
+    fn value(
+        &mut self,
+        record: &LogRecord<'_>,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+        label: Option<&str>,
+    );
+    fn end_frame(&mut self) -> Result<()>;
+}
+
 /// Row pieces of one signal that do not change from frame to frame.
 struct SignalRow {
     /// `,0x123,Message,Signal,`
     middle: Vec<u8>,
     /// `,unit\n`
     tail: Vec<u8>,
+}
+
+struct CsvDbcRows<'a> {
+    output: &'a mut Output,
+    /// Per message, per signal.
+    rows: Vec<Vec<SignalRow>>,
+    labels: bool,
+}
+
+impl DbcRows for CsvDbcRows<'_> {
+    #[inline]
+    fn value(
+        &mut self,
+        record: &LogRecord<'_>,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+        label: Option<&str>,
+    ) {
+        let row = &self.rows[message][signal];
+        let buffer = &mut self.output.buffer;
+        buffer.extend_from_slice(record.timestamp_text.as_bytes());
+        buffer.push(b',');
+        buffer.extend_from_slice(record.frame.iface.as_str().as_bytes());
+        buffer.extend_from_slice(&row.middle);
+        value.push_shortest(buffer);
+        buffer.extend_from_slice(&row.tail);
+        if self.labels {
+            buffer.push(b',');
+            if let Some(label) = label {
+                buffer.extend_from_slice(csv_field(label).as_bytes());
+            }
+        }
+        buffer.push(b'\n');
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        self.output.maybe_flush()
+    }
+}
+
+/// The DBC route's table as Parquet: the CSV's columns; `time_s` the
+/// frame's UTC instant, `value` a float (an integer beyond 2^53 is rounded,
+/// as in pandas), text columns dictionary-encoded.
+pub struct DbcParquet {
+    table: ParquetTable,
+    /// Per message: `can_id` and `message` cells.
+    messages: Vec<(String, String)>,
+}
+
+impl DbcParquet {
+    pub fn create(output: Output, database: &DbcDatabase, labels: bool) -> Result<Self> {
+        let mut columns = vec![
+            ColumnSpec::new("time_s", ColumnType::Time),
+            ColumnSpec::new("iface", ColumnType::Text),
+            ColumnSpec::new("can_id", ColumnType::Text),
+            ColumnSpec::new("message", ColumnType::Text),
+            ColumnSpec::new("signal", ColumnType::Text),
+            ColumnSpec::new("value", ColumnType::Float),
+            ColumnSpec::new("unit", ColumnType::Text),
+        ];
+        if labels {
+            columns.push(ColumnSpec::new("label", ColumnType::Text).nullable());
+        }
+        Ok(DbcParquet {
+            table: ParquetTable::new(output, &columns, &[])?,
+            messages: database
+                .messages()
+                .iter()
+                .map(|m| (m.id.to_string(), m.name.clone()))
+                .collect(),
+        })
+    }
+
+    /// Writes the footer; the file is complete.
+    pub fn finish(self) -> Result<u64> {
+        self.table.finish()
+    }
+}
+
+struct ParquetDbcRows<'a> {
+    parquet: &'a mut DbcParquet,
+    database: &'a DbcDatabase,
+    labels: bool,
+}
+
+impl DbcRows for ParquetDbcRows<'_> {
+    #[inline]
+    fn value(
+        &mut self,
+        record: &LogRecord<'_>,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+        label: Option<&str>,
+    ) {
+        let (can_id, message_name) = &self.parquet.messages[message];
+        let signal = &self.database.messages()[message].signals[signal];
+        let table = &mut self.parquet.table;
+        table.time_ns(0, record.frame.timestamp_ns);
+        table.text(1, Some(record.frame.iface.as_str()));
+        table.text(2, Some(can_id));
+        table.text(3, Some(message_name));
+        table.text(4, Some(&signal.name));
+        table.float(5, Some(value.as_f64()));
+        table.text(6, Some(&signal.unit));
+        if self.labels {
+            table.text(7, label);
+        }
+        table.end_row_in_callback();
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        self.parquet.table.check()
+    }
 }
 
 /// Options of the DBC route.
@@ -76,7 +209,7 @@ pub struct DbcDecodeOptions {
     pub labels: bool,
 }
 
-/// Decodes every frame of `inputs` through `database` into `output`.
+/// Decodes every frame of `inputs` through `database` into `output` (CSV).
 pub fn decode_with_dbc(
     inputs: &mut [LogInput],
     database: &DbcDatabase,
@@ -109,7 +242,37 @@ pub fn decode_with_dbc(
         output.buffer.extend_from_slice(b",label");
     }
     output.buffer.push(b'\n');
+    let mut sink = CsvDbcRows {
+        output,
+        rows,
+        labels: options.labels,
+    };
+    decode_dbc_frames(inputs, database, options, &mut sink)
+}
 
+/// Decodes every frame of `inputs` through `database` into a Parquet
+/// table made by [`DbcParquet::create`] (finish it also after an error:
+/// what was decoded is kept, as in a CSV).
+pub fn decode_with_dbc_to_parquet(
+    inputs: &mut [LogInput],
+    database: &DbcDatabase,
+    options: DbcDecodeOptions,
+    parquet: &mut DbcParquet,
+) -> Result<DecodeSummary> {
+    let mut sink = ParquetDbcRows {
+        parquet,
+        database,
+        labels: options.labels,
+    };
+    decode_dbc_frames(inputs, database, options, &mut sink)
+}
+
+fn decode_dbc_frames(
+    inputs: &mut [LogInput],
+    database: &DbcDatabase,
+    options: DbcDecodeOptions,
+    sink: &mut impl DbcRows,
+) -> Result<DecodeSummary> {
     let mut summary = DecodeSummary::default();
     for_each_record(inputs, options.bad_lines, &mut summary.scan, |_, record| {
         let frame = &record.frame;
@@ -122,25 +285,15 @@ pub fn decode_with_dbc(
                     return Ok(());
                 };
                 let message = &database.messages()[index];
-                let message_rows = &rows[index];
                 let payload = frame.payload();
-                let buffer = &mut output.buffer;
                 let mut written = 0u64;
                 let result = message.decode(payload, |signal, value| {
-                    let row = &message_rows[signal];
-                    buffer.extend_from_slice(record.timestamp_text.as_bytes());
-                    buffer.push(b',');
-                    buffer.extend_from_slice(frame.iface.as_str().as_bytes());
-                    buffer.extend_from_slice(&row.middle);
-                    value.push_shortest(buffer);
-                    buffer.extend_from_slice(&row.tail);
-                    if options.labels {
-                        buffer.push(b',');
-                        if let Some(label) = message.signals[signal].label(payload) {
-                            buffer.extend_from_slice(csv_field(label).as_bytes());
-                        }
-                    }
-                    buffer.push(b'\n');
+                    let label = if options.labels {
+                        message.signals[signal].label(payload)
+                    } else {
+                        None
+                    };
+                    sink.value(record, index, signal, value, label);
                     written += 1;
                 });
                 match result {
@@ -156,7 +309,7 @@ pub fn decode_with_dbc(
                         summary.undecodable += 1;
                     }
                 }
-                output.maybe_flush()?;
+                sink.end_frame()?;
             }
         }
         Ok(())
@@ -172,44 +325,139 @@ pub fn report(summary: &DecodeSummary) {
 /// The fixed header of the rig route.
 pub const RIG_HEADER: &str = "time_s,sensor,value,unit";
 
-/// Decodes every frame of `inputs` through the rig's sensors into `output`.
-/// A missing sample (J1939 "not available"/"error") is a row with an empty
-/// value; CANopen heartbeat changes and losses are reported on stderr.
+/// Where the rig route's samples go.
+trait RigRows {
+    fn sample(&mut self, record: &LogRecord<'_>, sensor: usize, value: Option<f64>);
+    fn end_frame(&mut self) -> Result<()>;
+}
+
+struct CsvRigRows<'a> {
+    output: &'a mut Output,
+    /// Per sensor: `,sensor,` and `,unit\n`.
+    rows: Vec<(Vec<u8>, Vec<u8>)>,
+}
+
+impl RigRows for CsvRigRows<'_> {
+    #[inline]
+    fn sample(&mut self, record: &LogRecord<'_>, sensor: usize, value: Option<f64>) {
+        let (middle, tail) = &self.rows[sensor];
+        let buffer = &mut self.output.buffer;
+        buffer.extend_from_slice(record.timestamp_text.as_bytes());
+        buffer.extend_from_slice(middle);
+        if let Some(value) = value {
+            push_shortest_f64(buffer, value);
+        }
+        buffer.extend_from_slice(tail);
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        self.output.maybe_flush()
+    }
+}
+
+/// The rig route's table as Parquet: `time_s` (UTC instant), `sensor`,
+/// `value` (null for a missing sample), `unit`.
+pub struct RigParquet {
+    table: ParquetTable,
+    /// Per sensor: name and unit.
+    sensors: Vec<(String, String)>,
+}
+
+impl RigParquet {
+    pub fn create(output: Output, rig: &Rig) -> Result<Self> {
+        let columns = [
+            ColumnSpec::new("time_s", ColumnType::Time),
+            ColumnSpec::new("sensor", ColumnType::Text),
+            ColumnSpec::new("value", ColumnType::Float).nullable(),
+            ColumnSpec::new("unit", ColumnType::Text),
+        ];
+        Ok(RigParquet {
+            table: ParquetTable::new(output, &columns, &[])?,
+            sensors: rig
+                .sensors
+                .iter()
+                .map(|s| (s.name.clone(), s.unit().to_string()))
+                .collect(),
+        })
+    }
+
+    /// Writes the footer; the file is complete.
+    pub fn finish(self) -> Result<u64> {
+        self.table.finish()
+    }
+}
+
+impl RigRows for RigParquet {
+    #[inline]
+    fn sample(&mut self, record: &LogRecord<'_>, sensor: usize, value: Option<f64>) {
+        let (name, unit) = &self.sensors[sensor];
+        self.table.time_ns(0, record.frame.timestamp_ns);
+        self.table.text(1, Some(name));
+        self.table.float(2, value);
+        self.table.text(3, Some(unit));
+        self.table.end_row_in_callback();
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        self.table.check()
+    }
+}
+
+/// Decodes every frame of `inputs` through the rig's sensors into `output`
+/// (CSV). A missing sample (J1939 "not available"/"error") is a row with an
+/// empty value; CANopen heartbeat changes and losses are reported on stderr.
 pub fn decode_with_rig(
     inputs: &mut [LogInput],
     rig: &Rig,
     bad_lines: BadLines,
     output: &mut Output,
 ) -> Result<DecodeSummary> {
-    let mut decoder = SensorDecoder::new(rig);
-    // Constant row parts: `,sensor,` and `,unit\n`.
-    let rows: Vec<(Vec<u8>, Vec<u8>)> = rig
-        .sensors
-        .iter()
-        .map(|s| {
-            (
-                format!(",{},", s.name).into_bytes(),
-                format!(",{}\n", s.unit()).into_bytes(),
-            )
-        })
-        .collect();
     output.buffer.extend_from_slice(RIG_HEADER.as_bytes());
     output.buffer.push(b'\n');
+    let mut sink = CsvRigRows {
+        output,
+        rows: rig
+            .sensors
+            .iter()
+            .map(|s| {
+                (
+                    format!(",{},", s.name).into_bytes(),
+                    format!(",{}\n", s.unit()).into_bytes(),
+                )
+            })
+            .collect(),
+    };
+    decode_rig_frames(inputs, rig, bad_lines, &mut sink)
+}
+
+/// [`decode_with_rig`] into a Parquet table made by [`RigParquet::create`]
+/// (finish it also after an error).
+pub fn decode_with_rig_to_parquet(
+    inputs: &mut [LogInput],
+    rig: &Rig,
+    bad_lines: BadLines,
+    parquet: &mut RigParquet,
+) -> Result<DecodeSummary> {
+    decode_rig_frames(inputs, rig, bad_lines, parquet)
+}
+
+fn decode_rig_frames(
+    inputs: &mut [LogInput],
+    rig: &Rig,
+    bad_lines: BadLines,
+    sink: &mut impl RigRows,
+) -> Result<DecodeSummary> {
+    let mut decoder = SensorDecoder::new(rig);
     let mut summary = DecodeSummary::default();
     let mut last_time_ns = None;
     let mut heartbeats: Vec<(usize, HeartbeatEvent)> = Vec::new();
     for_each_record(inputs, bad_lines, &mut summary.scan, |_, record| {
-        let buffer = &mut output.buffer;
         last_time_ns = Some(record.frame.timestamp_ns);
         let used = decoder.decode(&record.frame, |event| match event {
             SensorEvent::Sample(sample) => {
-                let (middle, tail) = &rows[sample.sensor];
-                buffer.extend_from_slice(record.timestamp_text.as_bytes());
-                buffer.extend_from_slice(middle);
-                if let Some(value) = sample.value {
-                    push_shortest_f64(buffer, value);
-                }
-                buffer.extend_from_slice(tail);
+                sink.sample(record, sample.sensor, sample.value);
                 summary.rows += 1;
             }
             SensorEvent::Heartbeat { bus, event } => heartbeats.push((bus, event)),
@@ -224,7 +472,7 @@ pub fn decode_with_rig(
                 _ => summary.remote_frames += 1,
             },
         }
-        output.maybe_flush()
+        sink.end_frame()
     })?;
     if let Some(end) = last_time_ns {
         decoder.check_heartbeats(end, |event| {

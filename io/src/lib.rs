@@ -5,6 +5,8 @@
 //!   policy, small CSV tables read with file and line in every message.
 //! - [`output`]: where results go; a file appears under its name only when
 //!   complete (`NAME.partial`, renamed at the end).
+//! - [`parquet_table`]: the same tables as Apache Parquet (`-o x.parquet`),
+//!   streamed, with units in the column metadata and time as a timestamp.
 //! - [`session`]: the session directory a recording leaves (`session.toml`,
 //!   raw logs), read by the offline analysis and written by the recorder.
 //!
@@ -14,4 +16,5 @@
 pub mod error;
 pub mod input;
 pub mod output;
+pub mod parquet_table;
 pub mod session;

@@ -83,6 +83,11 @@ impl Output {
         }
     }
 
+    /// The name errors use: the path the file will have, or `<stdout>`.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
     /// Writes the buffer out once it is large; call after each record.
     #[inline]
     pub fn maybe_flush(&mut self) -> Result<()> {

@@ -1,14 +1,15 @@
-//! `acq decode` and `acq check-rig`: logs to CSV through DBC files or a rig,
+//! `acq decode` and `acq check-rig`: logs to CSV or Parquet through DBC files or a rig,
 //! and a rig file explained. Glue over [`acq_analysis::decode`] and
 //! [`acq_drivers::rig`].
 
 use std::path::PathBuf;
 
-use acq_analysis::decode::{self, DbcDecodeOptions};
+use acq_analysis::decode::{self, DbcDecodeOptions, DbcParquet, RigParquet};
 use acq_drivers::dbc::DbcDatabase;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{load_rig, open_logs, BadLines};
 use acq_io::output::Output;
+use acq_io::parquet_table::TableFormat;
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -27,7 +28,9 @@ pub struct DecodeArgs {
     /// Rig file; output: time_s,sensor,value,unit.
     #[arg(long, value_name = "RIG.toml")]
     pub rig: Option<PathBuf>,
-    /// Output CSV file; `-` or absent writes to stdout.
+    /// Output file: CSV, or Parquet when the name ends in `.parquet` (the
+    /// same columns; time as a UTC timestamp; written whole or not at all);
+    /// `-` or absent writes CSV to stdout.
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: Option<PathBuf>,
     /// Count malformed lines and go on instead of stopping at the first.
@@ -55,12 +58,26 @@ fn bad_lines(skip_bad: bool) -> BadLines {
 
 pub fn run_decode(args: DecodeArgs) -> Result<()> {
     let mut inputs = open_logs(&args.logs)?;
+    let parquet_path = args
+        .output
+        .as_deref()
+        .filter(|path| TableFormat::of(path) == TableFormat::Parquet);
     if let Some(rig_path) = &args.rig {
         let rig = load_rig(rig_path)?;
+        if let Some(path) = parquet_path {
+            let mut table = RigParquet::create(Output::create_complete_only(path)?, &rig)?;
+            let summary = decode::decode_with_rig_to_parquet(
+                &mut inputs,
+                &rig,
+                bad_lines(args.skip_bad),
+                &mut table,
+            );
+            return finish(summary, table.finish().map(|_| ()));
+        }
         let mut output = Output::create(args.output.as_deref())?;
         let summary =
             decode::decode_with_rig(&mut inputs, &rig, bad_lines(args.skip_bad), &mut output);
-        return finish(summary, output);
+        return finish(summary, output.finish());
     }
     let (database, warnings) =
         DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
@@ -70,19 +87,25 @@ pub fn run_decode(args: DecodeArgs) -> Result<()> {
     for warning in warnings {
         eprintln!("acq: warning: {}", warning.0);
     }
-    let mut output = Output::create(args.output.as_deref())?;
     let options = DbcDecodeOptions {
         bad_lines: bad_lines(args.skip_bad),
         labels: args.labels,
     };
+    if let Some(path) = parquet_path {
+        let mut table =
+            DbcParquet::create(Output::create_complete_only(path)?, &database, args.labels)?;
+        let summary =
+            decode::decode_with_dbc_to_parquet(&mut inputs, &database, options, &mut table);
+        return finish(summary, table.finish().map(|_| ()));
+    }
+    let mut output = Output::create(args.output.as_deref())?;
     let summary = decode::decode_with_dbc(&mut inputs, &database, options, &mut output);
-    finish(summary, output)
+    finish(summary, output.finish())
 }
 
-/// Flushes what was decoded even when decoding stopped at a bad line, then
-/// reports the summary.
-fn finish(summary: Result<decode::DecodeSummary>, output: Output) -> Result<()> {
-    let flushed = output.finish();
+/// Keeps what was decoded even when decoding stopped at a bad line (the
+/// output is `flushed` first), then reports the summary.
+fn finish(summary: Result<decode::DecodeSummary>, flushed: Result<()>) -> Result<()> {
     let summary = summary?;
     flushed?;
     decode::report(&summary);

@@ -7,6 +7,7 @@ use acq_analysis::recording::Recording;
 use acq_drivers::rig::Interpolation;
 use acq_io::error::{AcqError, Result};
 use acq_io::output::Output;
+use acq_io::parquet_table::TableFormat;
 use clap::{Args, ValueEnum};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -72,7 +73,9 @@ pub struct AlignArgs {
     /// A bus's clock minus the reference clock (overrides the rig): BUS=MS.
     #[arg(long = "clock-offset", value_name = "BUS=MS", value_parser = parse_clock_offset)]
     pub clock_offsets: Vec<(String, f64)>,
-    /// Output CSV; `-` writes to stdout.
+    /// Output table: CSV, or Parquet when the name ends in `.parquet`
+    /// (time as a UTC timestamp, units in the column metadata); `-` writes
+    /// CSV to stdout.
     #[arg(short = 'o', long = "output", value_name = "aligned.csv")]
     pub output: PathBuf,
 }
@@ -106,7 +109,7 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
         acq_io::output::refuse_if_disk_too_small(&args.output, bytes, "the aligned table")?;
     }
     let output = Output::create_complete_only(&args.output)?;
-    let summary = align_recording(&recording, &options, output)?;
+    let summary = align_recording(&recording, &options, output, TableFormat::of(&args.output))?;
     eprintln!("acq: aligned {}: {summary}", recording.label);
     Ok(())
 }
@@ -170,7 +173,8 @@ pub struct ExtractArgs {
     /// A bus's clock minus the reference clock (overrides the rig): BUS=MS.
     #[arg(long = "clock-offset", value_name = "BUS=MS", value_parser = parse_clock_offset)]
     pub clock_offsets: Vec<(String, f64)>,
-    /// Output CSV (measured values, or the curve with --tensile); `-` is stdout.
+    /// Output table (measured values, or the curve with --tensile): CSV, or
+    /// Parquet when the name ends in `.parquet`; `-` is CSV on stdout.
     #[arg(
         short = 'o',
         long = "output",

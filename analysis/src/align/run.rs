@@ -7,11 +7,12 @@ use std::fmt::Write as _;
 use acq_drivers::rig::{BusClock, Interpolation, Rig};
 use acq_io::error::{AcqError, Result};
 use acq_io::output::Output;
+use acq_io::parquet_table::TableFormat;
 use acq_io::session::utc_text;
 
 use super::filter::{GaussianFilter, RISE_TIME_TIMES_CUTOFF};
 use super::offset::{estimate_offset, OffsetEstimate, DEFAULT_MAX_LAG_NS, MAX_WINDOW_NS};
-use super::table::{Column, CsvTable};
+use super::table::{Column, CsvTable, ParquetAlignedTable};
 use super::{Aligner, ChannelSpec, ChannelStats, GridSpec, RowSink};
 use crate::recording::{Recording, SampleCounts};
 
@@ -345,11 +346,12 @@ impl std::fmt::Display for AlignSummary {
     }
 }
 
-/// Aligns `recording` into `output` as CSV.
+/// Aligns `recording` into `output` as a CSV or Parquet table.
 pub fn align_recording(
     recording: &Recording,
     options: &AlignOptions,
     output: Output,
+    format: TableFormat,
 ) -> Result<AlignSummary> {
     if !(options.rate_hz > 0.0 && options.rate_hz.is_finite() && options.rate_hz <= 1e6) {
         return Err(AcqError::Config(format!(
@@ -410,12 +412,19 @@ pub fn align_recording(
             });
         }
         let comments = header_comments(recording, options, &clocks, t0_ns, session_start.is_some());
-        let table = CsvTable::new(output, &comments, &columns, options.rate_hz)?;
+        let table: Box<dyn RowSink<Error = AcqError>> = match format {
+            TableFormat::Csv => {
+                Box::new(CsvTable::new(output, &comments, &columns, options.rate_hz)?)
+            }
+            TableFormat::Parquet => {
+                Box::new(ParquetAlignedTable::new(output, &comments, &columns, grid)?)
+            }
+        };
         let sink: Box<dyn RowSink<Error = AcqError>> = match options.filter_hz {
             Some(cutoff) => Box::new(
                 GaussianFilter::new(table, cutoff, options.rate_hz).map_err(AcqError::Config)?,
             ),
-            None => Box::new(table),
+            None => table,
         };
         Ok(Aligner::new(grid, &specs, sink))
     };

@@ -1,12 +1,17 @@
 //! The aligned table as CSV: `#` comment lines (session, start, grid,
 //! clock offsets), then `time_s` and per channel `name [unit]` and
 //! `name_gap` (1 where the channel has no value: the cell is empty).
+//!
+//! Or as Parquet ([`ParquetAlignedTable`]): the same columns, `time_s` the
+//! row's UTC instant, a missing value null, `name_gap` a boolean, each
+//! value column's unit in its metadata, the comments in the file's.
 
 use acq_drivers::dbc::push_shortest_f64;
 use acq_io::error::AcqError;
 use acq_io::output::{csv_field, Output};
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
-use super::RowSink;
+use super::{GridSpec, RowSink};
 
 /// One column of the table.
 #[derive(Clone, Debug)]
@@ -84,6 +89,66 @@ impl RowSink for CsvTable {
     fn finish(&mut self) -> Result<(), AcqError> {
         match self.out.take() {
             Some(out) => out.finish(),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Writes aligned rows as Parquet.
+pub struct ParquetAlignedTable {
+    /// `None` once finished.
+    table: Option<ParquetTable>,
+    /// Row times come from the grid, as the aligner computes them.
+    grid: GridSpec,
+}
+
+impl ParquetAlignedTable {
+    pub fn new(
+        out: Output,
+        comments: &[String],
+        columns: &[Column],
+        grid: GridSpec,
+    ) -> Result<Self, AcqError> {
+        let mut specs = vec![ColumnSpec::new("time_s", ColumnType::Time)];
+        for column in columns {
+            specs.push(
+                ColumnSpec::new(
+                    format!("{} [{}]", column.name, column.unit),
+                    ColumnType::Float,
+                )
+                .unit(&column.unit)
+                .nullable(),
+            );
+            specs.push(ColumnSpec::new(
+                format!("{}_gap", column.name),
+                ColumnType::Flag,
+            ));
+        }
+        Ok(ParquetAlignedTable {
+            table: Some(ParquetTable::new(out, &specs, comments)?),
+            grid,
+        })
+    }
+}
+
+impl RowSink for ParquetAlignedTable {
+    type Error = AcqError;
+
+    fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), AcqError> {
+        let Some(table) = self.table.as_mut() else {
+            return Ok(());
+        };
+        table.time_ns(0, self.grid.time_ns(row));
+        for (channel, value) in values.iter().enumerate() {
+            table.float(1 + 2 * channel, *value);
+            table.flag(2 + 2 * channel, value.is_none());
+        }
+        table.end_row()
+    }
+
+    fn finish(&mut self) -> Result<(), AcqError> {
+        match self.table.take() {
+            Some(table) => table.finish().map(|_| ()),
             None => Ok(()),
         }
     }

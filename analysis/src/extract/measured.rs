@@ -25,6 +25,7 @@ use std::path::Path;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::read_csv_records;
 use acq_io::output::{csv_field, Output};
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable, TableFormat};
 
 use crate::extract::stats::WindowStats;
 
@@ -59,9 +60,13 @@ fn number(out: &mut String, value: Option<f64>) {
     }
 }
 
-/// Writes the file (complete-only: a crash leaves no half file).
+/// Writes the file (complete-only: a crash leaves no half file): CSV, or
+/// Parquet for a `.parquet` path.
 pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
     let mut output = Output::create_complete_only(path)?;
+    if TableFormat::of(path) == TableFormat::Parquet {
+        return write_measured_parquet(output, values);
+    }
     let mut text = String::with_capacity(128 * (values.len() + 1));
     text.push_str(MEASURED_HEADER);
     text.push('\n');
@@ -97,6 +102,54 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
     }
     output.buffer.extend_from_slice(text.as_bytes());
     output.finish()
+}
+
+/// The measured values as Parquet: the CSV's columns; a statistic that is
+/// not a finite number is null (an empty cell in the CSV). The values'
+/// units differ per row, so they stay in the `unit` column.
+fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()> {
+    let float = |name: &str| ColumnSpec::new(name, ColumnType::Float).nullable();
+    let text = |name: &str| ColumnSpec::new(name, ColumnType::Text);
+    let columns = [
+        text("window"),
+        float("start_s").unit("s"),
+        float("end_s").unit("s"),
+        text("quantity"),
+        text("unit"),
+        float("mean"),
+        float("std"),
+        ColumnSpec::new("n", ColumnType::Integer),
+        float("n_eff"),
+        float("ci95_low"),
+        float("ci95_high"),
+        text("flags"),
+        text("note"),
+    ];
+    debug_assert_eq!(
+        columns.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
+        MEASURED_HEADER.split(',').collect::<Vec<_>>()
+    );
+    let finite = |v: Option<f64>| v.filter(|v| v.is_finite());
+    let mut table = ParquetTable::new(output, &columns, &[])?;
+    for v in values {
+        let s = &v.stats;
+        let half = s.ci95_half_width;
+        table.text(0, Some(&v.window));
+        table.float(1, finite(Some(v.start_s)));
+        table.float(2, finite(Some(v.end_s)));
+        table.text(3, Some(&v.quantity));
+        table.text(4, Some(&v.unit));
+        table.float(5, finite(s.mean));
+        table.float(6, finite(s.std));
+        table.integer(7, Some(i64::try_from(s.n).unwrap_or(i64::MAX)));
+        table.float(8, finite((s.n > 0).then_some(s.n_eff)));
+        table.float(9, finite(s.mean.zip(half).map(|(m, h)| m - h)));
+        table.float(10, finite(s.mean.zip(half).map(|(m, h)| m + h)));
+        table.text(11, Some(&v.flags.join(";")));
+        table.text(12, Some(&v.note));
+        table.end_row()?;
+    }
+    table.finish().map(|_| ())
 }
 
 /// Reads a measured-values file; errors name the file and line.

@@ -27,6 +27,7 @@ use std::path::Path;
 use acq_drivers::rig::Specimen;
 use acq_io::error::Result;
 use acq_io::output::Output;
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable, TableFormat};
 
 /// Header of the curve file, as in the test files.
 pub const CURVE_HEADER: &str = "DISPLACEMENT,FORCE,STRAIN,STRESS,TRUE_STRAIN,TRUE_STRESS";
@@ -203,9 +204,35 @@ pub fn extract_curve(
     })
 }
 
-/// Writes the curve with the test files' columns.
+/// Writes the curve with the test files' columns: CSV, or Parquet for a
+/// `.parquet` path (units in the column metadata).
 pub fn write_curve(path: &Path, curve: &TensileCurve, specimen: &Specimen) -> Result<()> {
     let mut output = Output::create_complete_only(path)?;
+    if TableFormat::of(path) == TableFormat::Parquet {
+        let columns: Vec<ColumnSpec> = CURVE_HEADER
+            .split(',')
+            .zip(["mm", "kN", "", "MPa", "", "MPa"])
+            .map(|(name, unit)| {
+                ColumnSpec::new(name, ColumnType::Float)
+                    .unit(unit)
+                    .nullable()
+            })
+            .collect();
+        let mut table = ParquetTable::new(output, &columns, &[])?;
+        for (i, p) in curve.points.iter().enumerate() {
+            let strain = p.displacement_mm / specimen.gauge_length_mm;
+            let stress = p.force_kn * 1000.0 / specimen.area_mm2();
+            let uniform = i <= curve.max_index;
+            table.float(0, Some(p.displacement_mm));
+            table.float(1, Some(p.force_kn));
+            table.float(2, Some(strain));
+            table.float(3, Some(stress));
+            table.float(4, uniform.then(|| (1.0 + strain).ln()));
+            table.float(5, uniform.then_some(stress * (1.0 + strain)));
+            table.end_row()?;
+        }
+        return table.finish().map(|_| ());
+    }
     let mut text = String::with_capacity(96 * (curve.points.len() + 1));
     text.push_str(CURVE_HEADER);
     text.push('\n');

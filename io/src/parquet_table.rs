@@ -1,0 +1,446 @@
+//! Tables as Apache Parquet, for pandas, polars, DuckDB and Spark users: the
+//! columns of the CSV a command writes, under the same names, with
+//! - each column's unit in its Arrow field metadata (`unit`), so it survives
+//!   into `pyarrow.Schema.field(name).metadata` and polars/DuckDB schemas;
+//! - time as a timestamp column (UTC, nanoseconds), not seconds as text;
+//! - text that repeats (interface, message, signal, unit) dictionary-encoded:
+//!   pandas reads it as a categorical;
+//! - the CSV's `#` comment lines as the file's key-value metadata
+//!   (`acq.comments`).
+//!
+//! It streams, as the CSV path does. Rows go into Arrow builders; every
+//! [`BATCH_ROWS`] rows they become a record batch for the Parquet writer, which
+//! writes a row group out once it holds about [`ROW_GROUP_CELLS`] cells. So
+//! memory is bounded by the table's width, never by its length. The encoded
+//! bytes go through an [`Output`]: the file appears under its name only when
+//! complete, like every file acq writes.
+//!
+//! Encodings are chosen per column type for sensor data: times are evenly
+//! spaced or nearly so (delta encoding stores a few bits per row); float
+//! values are split into byte streams (`BYTE_STREAM_SPLIT`), which lets zstd
+//! compress the sign, exponent and upper mantissa bytes that vary slowly in a
+//! physical signal and the all-zero low bytes of a float32 reading held as
+//! f64.
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow_array::builder::{
+    BooleanBuilder, Float64Builder, Int64Builder, StringDictionaryBuilder,
+    TimestampNanosecondBuilder,
+};
+use arrow_array::types::Int32Type;
+use arrow_array::{ArrayRef, RecordBatch};
+use arrow_schema::{DataType, Field, Schema, SchemaRef, TimeUnit};
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, Encoding, ZstdLevel};
+use parquet::file::metadata::KeyValue;
+use parquet::file::properties::WriterProperties;
+use parquet::schema::types::ColumnPath;
+
+use crate::error::{AcqError, Result};
+use crate::output::Output;
+
+/// Rows collected in the builders before they go to the Parquet writer.
+pub const BATCH_ROWS: usize = 16 * 1024;
+/// Cells (rows x columns) in a row group: about 32 MiB of f64 before encoding.
+pub const ROW_GROUP_CELLS: usize = 4 * 1024 * 1024;
+/// The key of the file metadata that holds the CSV's comment lines.
+pub const COMMENTS_KEY: &str = "acq.comments";
+/// The key of each column's unit in its Arrow field metadata.
+pub const UNIT_KEY: &str = "unit";
+
+/// What a table file is, from its name: `.parquet` is Parquet, anything
+/// else (and stdout) CSV.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TableFormat {
+    Csv,
+    Parquet,
+}
+
+impl TableFormat {
+    pub fn of(path: &Path) -> Self {
+        let parquet = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
+        if parquet {
+            TableFormat::Parquet
+        } else {
+            TableFormat::Csv
+        }
+    }
+}
+
+/// The type of a column's values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColumnType {
+    /// A UTC instant, nanoseconds since the Unix epoch.
+    Time,
+    Float,
+    Integer,
+    /// Text that repeats (dictionary-encoded).
+    Text,
+    Flag,
+}
+
+/// One column of a table.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ColumnSpec {
+    pub name: String,
+    pub column_type: ColumnType,
+    pub unit: Option<String>,
+    /// Whether a cell may be empty (null).
+    pub nullable: bool,
+}
+
+impl ColumnSpec {
+    pub fn new(name: impl Into<String>, column_type: ColumnType) -> Self {
+        ColumnSpec {
+            name: name.into(),
+            column_type,
+            unit: None,
+            nullable: false,
+        }
+    }
+
+    /// The column's unit (none for an empty string).
+    pub fn unit(mut self, unit: &str) -> Self {
+        self.unit = (!unit.is_empty()).then(|| unit.to_string());
+        self
+    }
+
+    pub fn nullable(mut self) -> Self {
+        self.nullable = true;
+        self
+    }
+
+    fn field(&self) -> Field {
+        let data_type = match self.column_type {
+            ColumnType::Time => DataType::Timestamp(TimeUnit::Nanosecond, Some("UTC".into())),
+            ColumnType::Float => DataType::Float64,
+            ColumnType::Integer => DataType::Int64,
+            ColumnType::Text => {
+                DataType::Dictionary(Box::new(DataType::Int32), Box::new(DataType::Utf8))
+            }
+            ColumnType::Flag => DataType::Boolean,
+        };
+        let metadata: HashMap<String, String> = self
+            .unit
+            .iter()
+            .map(|unit| (UNIT_KEY.to_string(), unit.clone()))
+            .collect();
+        Field::new(&self.name, data_type, self.nullable).with_metadata(metadata)
+    }
+}
+
+enum ColumnBuilder {
+    Time(TimestampNanosecondBuilder),
+    Float(Float64Builder),
+    Integer(Int64Builder),
+    Text(StringDictionaryBuilder<Int32Type>),
+    Flag(BooleanBuilder),
+}
+
+impl ColumnBuilder {
+    fn new(column_type: ColumnType) -> Self {
+        match column_type {
+            ColumnType::Time => ColumnBuilder::Time(
+                TimestampNanosecondBuilder::with_capacity(BATCH_ROWS).with_timezone("UTC"),
+            ),
+            ColumnType::Float => ColumnBuilder::Float(Float64Builder::with_capacity(BATCH_ROWS)),
+            ColumnType::Integer => ColumnBuilder::Integer(Int64Builder::with_capacity(BATCH_ROWS)),
+            ColumnType::Text => ColumnBuilder::Text(StringDictionaryBuilder::new()),
+            ColumnType::Flag => ColumnBuilder::Flag(BooleanBuilder::with_capacity(BATCH_ROWS)),
+        }
+    }
+
+    fn finish(&mut self) -> ArrayRef {
+        match self {
+            ColumnBuilder::Time(b) => Arc::new(b.finish()),
+            ColumnBuilder::Float(b) => Arc::new(b.finish()),
+            ColumnBuilder::Integer(b) => Arc::new(b.finish()),
+            ColumnBuilder::Text(b) => Arc::new(b.finish()),
+            ColumnBuilder::Flag(b) => Arc::new(b.finish()),
+        }
+    }
+}
+
+/// A Parquet table being written, one row at a time: set each column of a
+/// row with the method of its type, then [`ParquetTable::end_row`].
+///
+/// Calling a column's setter with the wrong type is a bug in the caller
+/// (the columns are fixed by code, never by input) and panics.
+pub struct ParquetTable {
+    writer: ArrowWriter<Vec<u8>>,
+    schema: SchemaRef,
+    columns: Vec<ColumnBuilder>,
+    rows_in_batch: usize,
+    rows: u64,
+    output: Output,
+    /// A failure met where it could not be returned ([`ParquetTable::end_row_in_callback`]).
+    failed: Option<AcqError>,
+}
+
+impl ParquetTable {
+    /// Starts a table in `output` with these columns; `comments` are the
+    /// CSV's `#` lines (file metadata).
+    pub fn new(output: Output, columns: &[ColumnSpec], comments: &[String]) -> Result<Self> {
+        let schema: SchemaRef = Arc::new(Schema::new(
+            columns.iter().map(ColumnSpec::field).collect::<Vec<_>>(),
+        ));
+        let rows_per_group = (ROW_GROUP_CELLS / columns.len().max(1)).clamp(BATCH_ROWS, 1 << 20);
+        let mut properties = WriterProperties::builder()
+            .set_compression(Compression::ZSTD(ZstdLevel::default()))
+            .set_max_row_group_row_count(Some(rows_per_group))
+            .set_created_by(format!("acq {}", env!("CARGO_PKG_VERSION")));
+        if !comments.is_empty() {
+            properties = properties.set_key_value_metadata(Some(vec![KeyValue::new(
+                COMMENTS_KEY.to_string(),
+                comments.join("\n"),
+            )]));
+        }
+        for column in columns {
+            let path = ColumnPath::from(column.name.as_str());
+            let encoding = match column.column_type {
+                ColumnType::Time | ColumnType::Integer => Encoding::DELTA_BINARY_PACKED,
+                ColumnType::Float => Encoding::BYTE_STREAM_SPLIT,
+                ColumnType::Text | ColumnType::Flag => continue,
+            };
+            properties = properties
+                .set_column_dictionary_enabled(path.clone(), false)
+                .set_column_encoding(path, encoding);
+        }
+        let writer = ArrowWriter::try_new(Vec::new(), schema.clone(), Some(properties.build()))
+            .map_err(|e| parquet_error(&output, e))?;
+        Ok(ParquetTable {
+            writer,
+            columns: columns
+                .iter()
+                .map(|c| ColumnBuilder::new(c.column_type))
+                .collect(),
+            schema,
+            rows_in_batch: 0,
+            rows: 0,
+            output,
+            failed: None,
+        })
+    }
+
+    /// Rows written so far.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    #[inline]
+    pub fn time_ns(&mut self, column: usize, time_ns: i64) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Time(b) => b.append_value(time_ns),
+            _ => self.wrong_type(column, "a time"),
+        }
+    }
+
+    #[inline]
+    pub fn float(&mut self, column: usize, value: Option<f64>) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Float(b) => b.append_option(value),
+            _ => self.wrong_type(column, "a float"),
+        }
+    }
+
+    #[inline]
+    pub fn integer(&mut self, column: usize, value: Option<i64>) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Integer(b) => b.append_option(value),
+            _ => self.wrong_type(column, "an integer"),
+        }
+    }
+
+    #[inline]
+    pub fn text(&mut self, column: usize, value: Option<&str>) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Text(b) => b.append_option(value),
+            _ => self.wrong_type(column, "text"),
+        }
+    }
+
+    #[inline]
+    pub fn flag(&mut self, column: usize, value: bool) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Flag(b) => b.append_value(value),
+            _ => self.wrong_type(column, "a flag"),
+        }
+    }
+
+    #[cold]
+    fn wrong_type(&self, column: usize, what: &str) -> ! {
+        panic!(
+            "bug: column {} ({}) of {} is not {what}",
+            column,
+            self.schema.field(column).name(),
+            self.output.name()
+        )
+    }
+
+    /// Ends the row: every column must have had its value set.
+    #[inline]
+    pub fn end_row(&mut self) -> Result<()> {
+        self.rows += 1;
+        self.rows_in_batch += 1;
+        if self.rows_in_batch == BATCH_ROWS {
+            self.write_batch()?;
+        }
+        Ok(())
+    }
+
+    /// [`ParquetTable::end_row`] where an error cannot be returned (in a
+    /// decoder's callback): a failure is kept for [`ParquetTable::check`].
+    #[inline]
+    pub fn end_row_in_callback(&mut self) {
+        if let Err(error) = self.end_row() {
+            self.failed.get_or_insert(error);
+        }
+    }
+
+    /// The first failure of [`ParquetTable::end_row_in_callback`] since the last check.
+    pub fn check(&mut self) -> Result<()> {
+        self.failed.take().map_or(Ok(()), Err)
+    }
+
+    fn write_batch(&mut self) -> Result<()> {
+        if self.rows_in_batch == 0 {
+            return Ok(());
+        }
+        let arrays: Vec<ArrayRef> = self.columns.iter_mut().map(ColumnBuilder::finish).collect();
+        self.rows_in_batch = 0;
+        let batch = RecordBatch::try_new(self.schema.clone(), arrays)
+            .map_err(|e| AcqError::Malformed(format!("{}: {e}", self.output.name())))?;
+        self.writer
+            .write(&batch)
+            .map_err(|e| parquet_error(&self.output, e))?;
+        self.pass_on_encoded()
+    }
+
+    /// Moves what the Parquet writer has encoded into the output, in order.
+    fn pass_on_encoded(&mut self) -> Result<()> {
+        let encoded = self.writer.inner_mut();
+        if !encoded.is_empty() {
+            self.output.buffer.append(encoded);
+            self.output.maybe_flush()?;
+        }
+        Ok(())
+    }
+
+    /// Writes the last rows and the footer, and completes the file.
+    pub fn finish(mut self) -> Result<u64> {
+        self.check()?;
+        self.write_batch()?;
+        self.writer
+            .finish()
+            .map_err(|e| parquet_error(&self.output, e))?;
+        self.pass_on_encoded()?;
+        self.output.finish()?;
+        Ok(self.rows)
+    }
+}
+
+fn parquet_error(output: &Output, error: parquet::errors::ParquetError) -> AcqError {
+    AcqError::io(
+        format!("writing Parquet {}", output.name()),
+        std::io::Error::other(error),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+
+    #[test]
+    fn a_long_table_is_written_in_row_groups_and_reads_back_equal() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.parquet");
+        // 128 float columns: a row group holds ROW_GROUP_CELLS / 129 rows.
+        let mut columns = vec![ColumnSpec::new("time_s", ColumnType::Time)];
+        columns.extend((0..128).map(|k| {
+            ColumnSpec::new(format!("c{k} [bar]"), ColumnType::Float)
+                .unit("bar")
+                .nullable()
+        }));
+        let rows = 70_000u64;
+        let value =
+            |row: u64, k: usize| (row % 7 != k as u64 % 7).then(|| row as f64 * 0.5 + k as f64);
+        let output = Output::create_complete_only(&path).unwrap();
+        let mut table = ParquetTable::new(output, &columns, &["session x".into()]).unwrap();
+        for row in 0..rows {
+            table.time_ns(0, 1_000_000_000 + row as i64 * 10_000_000);
+            for k in 0..128 {
+                table.float(1 + k, value(row, k));
+            }
+            table.end_row().unwrap();
+        }
+        assert!(!path.exists(), "the file appears only when complete");
+        assert_eq!(table.finish().unwrap(), rows);
+
+        let reader = SerializedFileReader::new(std::fs::File::open(&path).unwrap()).unwrap();
+        let metadata = reader.metadata();
+        assert!(
+            metadata.num_row_groups() >= 2,
+            "{}",
+            metadata.num_row_groups()
+        );
+        let comments = metadata
+            .file_metadata()
+            .key_value_metadata()
+            .unwrap()
+            .iter()
+            .find(|kv| kv.key == COMMENTS_KEY)
+            .and_then(|kv| kv.value.clone());
+        assert_eq!(comments.as_deref(), Some("session x"));
+
+        let builder =
+            ParquetRecordBatchReaderBuilder::try_new(std::fs::File::open(&path).unwrap()).unwrap();
+        let schema = builder.schema().clone();
+        assert_eq!(
+            schema.field(5).metadata().get(UNIT_KEY).map(String::as_str),
+            Some("bar")
+        );
+        let mut row = 0u64;
+        for batch in builder.build().unwrap() {
+            let batch = batch.unwrap();
+            let times = batch
+                .column(0)
+                .as_any()
+                .downcast_ref::<arrow_array::TimestampNanosecondArray>()
+                .unwrap();
+            let c5 = batch
+                .column(6)
+                .as_any()
+                .downcast_ref::<arrow_array::Float64Array>()
+                .unwrap();
+            for i in 0..batch.num_rows() {
+                assert_eq!(times.value(i), 1_000_000_000 + row as i64 * 10_000_000);
+                let got = (!arrow_array::Array::is_null(c5, i)).then(|| c5.value(i));
+                assert_eq!(got, value(row, 5), "row {row}");
+                row += 1;
+            }
+        }
+        assert_eq!(row, rows);
+    }
+
+    #[test]
+    fn the_format_comes_from_the_extension() {
+        assert_eq!(
+            TableFormat::of(Path::new("a.parquet")),
+            TableFormat::Parquet
+        );
+        assert_eq!(
+            TableFormat::of(Path::new("A.PARQUET")),
+            TableFormat::Parquet
+        );
+        assert_eq!(TableFormat::of(Path::new("a.csv")), TableFormat::Csv);
+        assert_eq!(TableFormat::of(Path::new("-")), TableFormat::Csv);
+        assert_eq!(TableFormat::of(Path::new("parquet")), TableFormat::Csv);
+    }
+}

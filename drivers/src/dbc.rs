@@ -6,6 +6,22 @@
 //! cantools' rules (checked against its golden vectors in `tests/golden/`):
 //! identity and integer scaling stay exact integers, anything else is
 //! `raw * factor + offset` in `f64`; float32 signals are widened to `f64`.
+//!
+//! # Conformance with cantools
+//!
+//! Decoded values equal cantools' (45.1.0, `decode_choices=False`,
+//! `scaling=True`) for the same DBC and frame, bit for bit and int vs
+//! float alike. Two tests hold that: the golden vectors
+//! (`tests/golden/`), and `drivers/tests/opendbc.rs`, which loads every DBC
+//! of the opendbc package (0.3.1: 151 files, those it generates included)
+//! with cantools and acq and compares random frames of every message. Every
+//! DBC cantools loads, acq loads too or refuses for a reason in this table;
+//! the test checks that and the counts in the last column (opendbc 0.3.1).
+//!
+//! | feature | why acq does not take it | opendbc 0.3.1 |
+//! | --- | --- | --- |
+//! | A DBC file with no messages | A file without `BO_` lines decodes nothing; refusing it catches the wrong file given as a DBC (cantools loads an empty database). | 8 files, 0 messages (honda generator sources holding only `CM_ "IMPORT ..."` lines) |
+//! | Extended multiplexing | several multiplexors, or a multiplexor that is itself multiplexed (`m1M`): messages skipped with a warning | 0 files, 0 messages |
 
 use std::sync::Arc;
 

@@ -1,0 +1,337 @@
+//! Conformance over opendbc: for every DBC that cantools loads from the
+//! opendbc package, acq loads it too or refuses it (or skips a message of
+//! it) for a reason in the table of unsupported features (`dbc` module
+//! doc), and every frame decodes to exactly cantools' values.
+//!
+//! cantools and opendbc live in a scratch virtualenv this test makes
+//! (never dependencies of acq); without them the test fails, it never
+//! skips. `tests/opendbc/vectors.py` writes the vectors (its docstring
+//! describes them).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use acq_drivers::dbc::{DbcDatabase, PhysicalValue};
+use acq_drivers::CanId;
+
+const PINS: [&str; 2] = ["cantools==45.1.0", "opendbc==0.3.1"];
+
+/// What acq does not support, as the `dbc` module doc's table lists it:
+/// (the table's feature, a text every refusal or skip for it contains).
+const UNSUPPORTED: &[(&str, &str)] = &[
+    ("A DBC file with no messages", "no messages (BO_ lines)"),
+    (
+        "Extended multiplexing",
+        "extended multiplexing is not supported",
+    ),
+];
+
+/// The scratch virtualenv with the pinned cantools and opendbc, made once
+/// per machine (and remade when the pins change).
+fn python() -> PathBuf {
+    let venv = std::env::temp_dir().join("acq-opendbc-venv");
+    let python = venv.join("bin/python");
+    let stamp = venv.join("acq-pins.txt");
+    let pins = PINS.join(" ");
+    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(pins.as_str()) {
+        return python;
+    }
+    let run = |program: &Path, args: &[&str]| {
+        Command::new(program)
+            .args(args)
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    let venv_arg = venv.to_str().expect("temp dir is UTF-8");
+    // opendbc's own dependencies (numpy, pycapnp, ...) serve its car
+    // interfaces, not its DBC files: --no-deps keeps the venv small.
+    let made = (python.exists() || run(Path::new("python3"), &["-m", "venv", venv_arg]))
+        && run(&python, &["-m", "pip", "install", "--quiet", PINS[0]])
+        && run(
+            &python,
+            &["-m", "pip", "install", "--quiet", "--no-deps", PINS[1]],
+        );
+    assert!(
+        made,
+        "could not install {pins} into {} (python3 -m venv, pip from the package registry)",
+        venv.display()
+    );
+    std::fs::write(&stamp, &pins).unwrap();
+    python
+}
+
+/// True when our value is the value Python's `repr` printed: an int for an
+/// int, the same bits for a float (as tests/golden_cantools.rs).
+fn same_value(ours: PhysicalValue, theirs: &str) -> bool {
+    let is_python_int = theirs.bytes().all(|b| b.is_ascii_digit() || b == b'-');
+    match ours {
+        PhysicalValue::Integer(v) => is_python_int && theirs.parse::<i128>() == Ok(v),
+        PhysicalValue::Float(v) => {
+            let expected: f64 = match theirs {
+                "nan" => f64::NAN,
+                "inf" => f64::INFINITY,
+                "-inf" => f64::NEG_INFINITY,
+                text => text.parse().unwrap(),
+            };
+            !is_python_int
+                && (v.to_bits() == expected.to_bits() || (v.is_nan() && expected.is_nan()))
+        }
+    }
+}
+
+fn payload(hex: &str) -> Vec<u8> {
+    (0..hex.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+        .collect()
+}
+
+/// The table row a refusal or skip message belongs to, if any.
+fn feature_of(text: &str) -> Option<&'static str> {
+    UNSUPPORTED
+        .iter()
+        .find(|(_, needle)| text.contains(needle))
+        .map(|(feature, _)| *feature)
+}
+
+#[derive(Default)]
+struct Tally {
+    dbcs_cantools: usize,
+    dbcs_refused_by_cantools: usize,
+    dbcs_acq: usize,
+    /// Refused by cantools in strict mode, loaded with strict=False.
+    dbcs_lax: usize,
+    dbcs_lax_acq: usize,
+    /// Frames of lax DBCs cantools cannot unpack (overlapping signals).
+    lax_unpackable: usize,
+    messages: usize,
+    frames: usize,
+    refused_frames: usize,
+    values: usize,
+    /// feature -> (DBCs, messages)
+    unsupported: BTreeMap<&'static str, (usize, usize)>,
+    problems: Vec<String>,
+}
+
+#[test]
+fn acq_decodes_every_opendbc_dbc_as_cantools_does() {
+    let started = Instant::now();
+    let python = python();
+    let out = std::env::temp_dir().join(format!("acq-opendbc-vectors-{}", std::process::id()));
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/opendbc/vectors.py");
+    let output = Command::new(&python)
+        .arg(&script)
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{} failed: {}",
+        script.display(),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let cantools_took = started.elapsed();
+    let text = std::fs::read_to_string(out.join("vectors.txt")).unwrap();
+    let tally = compare(&text);
+    let _ = std::fs::remove_dir_all(&out);
+
+    println!(
+        "opendbc: {} DBC files cantools loads ({} it refuses; {} of those with strict=False); acq loads {} (and {}); {} messages, {} frames ({} refused by both), {} values equal",
+        tally.dbcs_cantools,
+        tally.dbcs_refused_by_cantools,
+        tally.dbcs_lax,
+        tally.dbcs_acq,
+        tally.dbcs_lax_acq,
+        tally.messages,
+        tally.frames,
+        tally.refused_frames,
+        tally.values
+    );
+    println!(
+        "strict=False DBCs: {} frames cantools cannot unpack (overlapping signals), not compared",
+        tally.lax_unpackable
+    );
+    for (feature, (dbcs, messages)) in &tally.unsupported {
+        println!("unsupported: {feature}: {dbcs} DBC files, {messages} messages");
+    }
+    check_the_documented_table(&tally);
+    println!(
+        "took {:.1} s ({:.1} s in cantools)",
+        started.elapsed().as_secs_f64(),
+        cantools_took.as_secs_f64()
+    );
+    assert!(
+        tally.problems.is_empty(),
+        "{} problems:\n{}",
+        tally.problems.len(),
+        tally.problems.join("\n")
+    );
+    assert!(tally.dbcs_cantools > 50 && tally.values > 100_000);
+}
+
+/// The `dbc` module doc's table says, for each feature, how many opendbc
+/// files and messages it affects: those numbers must be the ones counted.
+fn check_the_documented_table(tally: &Tally) {
+    let doc =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/dbc.rs")).unwrap();
+    for (feature, _) in UNSUPPORTED {
+        let (dbcs, messages) = tally.unsupported.get(feature).copied().unwrap_or_default();
+        let row = doc
+            .lines()
+            .find(|line| line.starts_with(&format!("//! | {feature} |")))
+            .unwrap_or_else(|| panic!("src/dbc.rs: no table row for {feature:?}"));
+        let counted = format!("{dbcs} files, {messages} messages");
+        assert!(
+            row.contains(&counted),
+            "src/dbc.rs: the row for {feature:?} must say \"{counted}\" (opendbc 0.3.1): {row}"
+        );
+    }
+}
+
+/// Replays vectors.txt against acq.
+fn compare(text: &str) -> Tally {
+    let mut tally = Tally::default();
+    let mut database: Option<DbcDatabase> = None;
+    let mut dbc_name = String::new();
+    // The current message: (acq's message index, cantools' signal names).
+    let mut message: Option<(usize, Vec<String>)> = None;
+    let mut message_label = String::new();
+    let mut warnings: Vec<String> = Vec::new();
+    let mut lax = false;
+    for line in text.lines() {
+        let fields: Vec<&str> = line.split('\t').collect();
+        match fields[0] {
+            "D" => {
+                message = None;
+                dbc_name = fields[2].to_string();
+                let strict = fields[3] == "loaded";
+                lax = fields[3] == "lax";
+                database = None;
+                if !strict {
+                    tally.dbcs_refused_by_cantools += 1;
+                    if fields[3] == "refused" {
+                        continue;
+                    }
+                    // cantools decodes it only with strict=False: its frames
+                    // are compared when acq loads it, nothing more.
+                    tally.dbcs_lax += 1;
+                    if let Ok((loaded, these)) = DbcDatabase::load(Path::new(fields[1])) {
+                        tally.dbcs_lax_acq += 1;
+                        database = Some(loaded);
+                        warnings = these.into_iter().map(|w| w.0).collect();
+                    }
+                    continue;
+                }
+                tally.dbcs_cantools += 1;
+                match DbcDatabase::load(Path::new(fields[1])) {
+                    Ok((loaded, these)) => {
+                        tally.dbcs_acq += 1;
+                        database = Some(loaded);
+                        warnings = these.into_iter().map(|w| w.0).collect();
+                    }
+                    Err(error) => {
+                        database = None;
+                        let error = error.to_string();
+                        match feature_of(&error) {
+                            Some(feature) => tally.unsupported.entry(feature).or_default().0 += 1,
+                            None => tally
+                                .problems
+                                .push(format!("{dbc_name}: cantools loads it, acq: {error}")),
+                        }
+                    }
+                }
+            }
+            "M" => {
+                message = None;
+                let Some(database) = &database else { continue };
+                tally.messages += 1;
+                let raw = u32::from_str_radix(fields[1], 16).unwrap();
+                let id = if fields[2] == "1" {
+                    CanId::Extended(raw)
+                } else {
+                    CanId::Standard(raw as u16)
+                };
+                message_label = format!("{dbc_name}: {} ({id})", fields[3]);
+                match database.message_index(id) {
+                    Some(index) => {
+                        message = Some((index, fields[4..].iter().map(|s| s.to_string()).collect()))
+                    }
+                    // Skipped with a warning: for a reason in the table.
+                    None => {
+                        let skipped = format!("message {} ({id}) skipped", fields[3]);
+                        let why = warnings.iter().find(|w| w.contains(&skipped));
+                        match why.and_then(|w| feature_of(w)) {
+                            Some(feature) => tally.unsupported.entry(feature).or_default().1 += 1,
+                            None => tally.problems.push(format!(
+                                "{message_label}: cantools has it, acq does not ({})",
+                                why.map_or("no warning", |w| w.as_str())
+                            )),
+                        }
+                    }
+                }
+            }
+            "F" | "E" => {
+                let (Some(database), Some((index, names))) = (&database, &message) else {
+                    continue;
+                };
+                let codec = &database.messages()[*index];
+                let data = payload(fields[1]);
+                let mut ours: BTreeMap<&str, PhysicalValue> = BTreeMap::new();
+                let result = codec.decode(&data, |i, v| {
+                    ours.insert(codec.signals[i].name.as_str(), v);
+                });
+                if fields[0] == "E" {
+                    // With strict=False cantools cannot unpack overlapping
+                    // signals at all (bitstruct): nothing to compare.
+                    if lax && fields[2].starts_with("unpacking failed") {
+                        tally.lax_unpackable += 1;
+                        continue;
+                    }
+                    tally.refused_frames += 1;
+                    if result.is_ok() {
+                        tally.problems.push(format!(
+                            "{message_label} {}: cantools refuses it ({}), acq decodes it",
+                            fields[1], fields[2]
+                        ));
+                    }
+                    continue;
+                }
+                tally.frames += 1;
+                if let Err(error) = result {
+                    tally.problems.push(format!(
+                        "{message_label} {}: cantools decodes it, acq: {error}",
+                        fields[1]
+                    ));
+                    continue;
+                }
+                for (name, theirs) in names.iter().zip(&fields[2..]) {
+                    match (ours.get(name.as_str()), *theirs) {
+                        (None, "-") => {}
+                        (Some(value), "-") => tally.problems.push(format!(
+                            "{message_label} {}: {name}: acq {value:?}, cantools does not decode it",
+                            fields[1]
+                        )),
+                        (None, theirs) => tally.problems.push(format!(
+                            "{message_label} {}: {name}: cantools {theirs}, acq does not decode it",
+                            fields[1]
+                        )),
+                        (Some(value), theirs) => {
+                            if same_value(*value, theirs) {
+                                tally.values += 1;
+                            } else {
+                                tally.problems.push(format!(
+                                    "{message_label} {}: {name}: acq {value:?}, cantools {theirs}",
+                                    fields[1]
+                                ));
+                            }
+                        }
+                    }
+                }
+            }
+            other => panic!("vectors.txt: unexpected record {other:?}"),
+        }
+    }
+    tally
+}

@@ -20,13 +20,7 @@ const PINS: [&str; 2] = ["cantools==45.1.0", "opendbc==0.3.1"];
 
 /// What acq does not support, as the `dbc` module doc's table lists it:
 /// (the table's feature, a text every refusal or skip for it contains).
-const UNSUPPORTED: &[(&str, &str)] = &[
-    ("A DBC file with no messages", "no messages (BO_ lines)"),
-    (
-        "Extended multiplexing",
-        "extended multiplexing is not supported",
-    ),
-];
+const UNSUPPORTED: &[(&str, &str)] = &[("A DBC file with no messages", "no messages (BO_ lines)")];
 
 /// The scratch virtualenv with the pinned cantools and opendbc, made once
 /// per machine (and remade when the pins change).
@@ -63,7 +57,7 @@ fn python() -> PathBuf {
 }
 
 /// True when our value is the value Python's `repr` printed: an int for an
-/// int, the same bits for a float (as tests/golden_cantools.rs).
+/// int, the same bits for a float (as golden_cantools.rs).
 fn same_value(ours: PhysicalValue, theirs: &str) -> bool {
     let is_python_int = theirs.bytes().all(|b| b.is_ascii_digit() || b == b'-');
     match ours {

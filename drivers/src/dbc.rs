@@ -19,9 +19,10 @@
 //! DBC cantools loads, acq loads too or refuses for a reason in this table;
 //! the test checks that and the counts in the last column (opendbc 0.3.1).
 //!
-//! | feature | why acq does not take it | opendbc 0.3.1 |
+//! | feature | why acq differs | opendbc 0.3.1 |
 //! | --- | --- | --- |
 //! | A DBC file with no messages | A file without `BO_` lines decodes nothing; refusing it catches the wrong file given as a DBC (cantools loads an empty database). | 8 files, 0 messages (honda generator sources holding only `CM_ "IMPORT ..."` lines) |
+//! | Non-ASCII text read as cp1252 | cantools' `load_file` reads DBC text as cp1252; acq reads UTF-8 (Latin-1 when the file is not UTF-8), which is what opendbc and current tools write. Values are the same; a label (or unit, comment) with non-ASCII characters differs: `verfügbar`, not `verfÃ¼gbar`. | 3 files, 33 messages (labels; vw_mlb, and hyundai_canfd which cantools loads only with strict=False) |
 
 use std::sync::Arc;
 

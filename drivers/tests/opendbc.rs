@@ -8,7 +8,7 @@
 //! skips. `tests/opendbc/vectors.py` writes the vectors (its docstring
 //! describes them).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -20,7 +20,32 @@ const PINS: [&str; 2] = ["cantools==45.1.0", "opendbc==0.3.1"];
 
 /// What acq does not support, as the `dbc` module doc's table lists it:
 /// (the table's feature, a text every refusal or skip for it contains).
-const UNSUPPORTED: &[(&str, &str)] = &[("A DBC file with no messages", "no messages (BO_ lines)")];
+const UNSUPPORTED: &[(&str, &str)] = &[
+    ("A DBC file with no messages", "no messages (BO_ lines)"),
+    // No acq message says this: counted from labels that differ only so.
+    (TEXT_ENCODING, "(labels compared)"),
+];
+
+/// acq reads DBC text as UTF-8 (Latin-1 when it is not UTF-8), cantools'
+/// `load_file` as cp1252: a non-ASCII label differs, and nothing else.
+const TEXT_ENCODING: &str = "Non-ASCII text read as cp1252";
+
+/// What cantools makes of UTF-8 `text` by reading its bytes as cp1252
+/// (Python's codec with `errors="replace"`: the five bytes cp1252 leaves
+/// undefined become U+FFFD).
+fn as_cp1252(text: &str) -> String {
+    const HIGH: [u32; 32] = [
+        0x20AC, 0xFFFD, 0x201A, 0x0192, 0x201E, 0x2026, 0x2020, 0x2021, 0x02C6, 0x2030, 0x0160,
+        0x2039, 0x0152, 0xFFFD, 0x017D, 0xFFFD, 0xFFFD, 0x2018, 0x2019, 0x201C, 0x201D, 0x2022,
+        0x2013, 0x2014, 0x02DC, 0x2122, 0x0161, 0x203A, 0x0153, 0xFFFD, 0x017E, 0x0178,
+    ];
+    text.bytes()
+        .map(|b| match b {
+            0x80..=0x9F => char::from_u32(HIGH[usize::from(b - 0x80)]).unwrap_or('\u{FFFD}'),
+            _ => char::from(b),
+        })
+        .collect()
+}
 
 /// The scratch virtualenv with the pinned cantools and opendbc, made once
 /// per machine (and remade when the pins change).
@@ -104,8 +129,9 @@ struct Tally {
     frames: usize,
     refused_frames: usize,
     values: usize,
+    labels: usize,
     /// feature -> (DBCs, messages)
-    unsupported: BTreeMap<&'static str, (usize, usize)>,
+    unsupported: BTreeMap<&'static str, (BTreeSet<String>, BTreeSet<String>)>,
     problems: Vec<String>,
 }
 
@@ -132,7 +158,7 @@ fn acq_decodes_every_opendbc_dbc_as_cantools_does() {
     let _ = std::fs::remove_dir_all(&out);
 
     println!(
-        "opendbc: {} DBC files cantools loads ({} it refuses; {} of those with strict=False); acq loads {} (and {}); {} messages, {} frames ({} refused by both), {} values equal",
+        "opendbc: {} DBC files cantools loads ({} it refuses; {} of those with strict=False); acq loads {} (and {}); {} messages, {} frames ({} refused by both), {} values and {} value-table labels equal",
         tally.dbcs_cantools,
         tally.dbcs_refused_by_cantools,
         tally.dbcs_lax,
@@ -141,14 +167,19 @@ fn acq_decodes_every_opendbc_dbc_as_cantools_does() {
         tally.messages,
         tally.frames,
         tally.refused_frames,
-        tally.values
+        tally.values,
+        tally.labels
     );
     println!(
         "strict=False DBCs: {} frames cantools cannot unpack (overlapping signals), not compared",
         tally.lax_unpackable
     );
     for (feature, (dbcs, messages)) in &tally.unsupported {
-        println!("unsupported: {feature}: {dbcs} DBC files, {messages} messages");
+        println!(
+            "unsupported: {feature}: {} DBC files, {} messages",
+            dbcs.len(),
+            messages.len()
+        );
     }
     check_the_documented_table(&tally);
     println!(
@@ -171,7 +202,10 @@ fn check_the_documented_table(tally: &Tally) {
     let doc =
         std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/dbc.rs")).unwrap();
     for (feature, _) in UNSUPPORTED {
-        let (dbcs, messages) = tally.unsupported.get(feature).copied().unwrap_or_default();
+        let (dbcs, messages) = tally
+            .unsupported
+            .get(feature)
+            .map_or((0, 0), |(dbcs, messages)| (dbcs.len(), messages.len()));
         let row = doc
             .lines()
             .find(|line| line.starts_with(&format!("//! | {feature} |")))
@@ -194,7 +228,8 @@ fn compare(text: &str) -> Tally {
     let mut message_label = String::new();
     let mut warnings: Vec<String> = Vec::new();
     let mut lax = false;
-    for line in text.lines() {
+    let mut lines = text.lines().peekable();
+    while let Some(line) = lines.next() {
         let fields: Vec<&str> = line.split('\t').collect();
         match fields[0] {
             "D" => {
@@ -229,7 +264,14 @@ fn compare(text: &str) -> Tally {
                         database = None;
                         let error = error.to_string();
                         match feature_of(&error) {
-                            Some(feature) => tally.unsupported.entry(feature).or_default().0 += 1,
+                            Some(feature) => {
+                                tally
+                                    .unsupported
+                                    .entry(feature)
+                                    .or_default()
+                                    .0
+                                    .insert(dbc_name.clone());
+                            }
                             None => tally
                                 .problems
                                 .push(format!("{dbc_name}: cantools loads it, acq: {error}")),
@@ -257,7 +299,11 @@ fn compare(text: &str) -> Tally {
                         let skipped = format!("message {} ({id}) skipped", fields[3]);
                         let why = warnings.iter().find(|w| w.contains(&skipped));
                         match why.and_then(|w| feature_of(w)) {
-                            Some(feature) => tally.unsupported.entry(feature).or_default().1 += 1,
+                            Some(feature) => {
+                                let entry = tally.unsupported.entry(feature).or_default();
+                                entry.0.insert(dbc_name.clone());
+                                entry.1.insert(message_label.clone());
+                            }
                             None => tally.problems.push(format!(
                                 "{message_label}: cantools has it, acq does not ({})",
                                 why.map_or("no warning", |w| w.as_str())
@@ -300,6 +346,38 @@ fn compare(text: &str) -> Tally {
                     ));
                     continue;
                 }
+                // The labels cantools gives this frame (an L record follows
+                // the frame when there are any) against acq's.
+                let mut their_labels: BTreeMap<usize, &str> = BTreeMap::new();
+                if lines.peek().is_some_and(|next| next.starts_with("L\t")) {
+                    let record = lines.next().unwrap_or_default();
+                    for pair in record.split('\t').skip(1) {
+                        let (index, label) = pair.split_once('=').unwrap();
+                        their_labels.insert(index.parse().unwrap(), label);
+                    }
+                }
+                for (position, name) in names.iter().enumerate() {
+                    let ours = ours
+                        .contains_key(name.as_str())
+                        .then(|| codec.signal(name))
+                        .flatten()
+                        .and_then(|(_, signal)| signal.label(&data));
+                    let theirs = their_labels.get(&position).copied();
+                    let reencoded = ours.map(as_cp1252);
+                    if ours == theirs {
+                        tally.labels += usize::from(ours.is_some());
+                    } else if theirs.is_some() && reencoded.as_deref() == theirs {
+                        // The same label, read in another encoding.
+                        let entry = tally.unsupported.entry(TEXT_ENCODING).or_default();
+                        entry.0.insert(dbc_name.clone());
+                        entry.1.insert(message_label.clone());
+                    } else {
+                        tally.problems.push(format!(
+                            "{message_label} {}: {name}: acq's label {ours:?}, cantools' {theirs:?}",
+                            fields[1]
+                        ));
+                    }
+                }
                 for (name, theirs) in names.iter().zip(&fields[2..]) {
                     match (ours.get(name.as_str()), *theirs) {
                         (None, "-") => {}
@@ -324,6 +402,8 @@ fn compare(text: &str) -> Tally {
                     }
                 }
             }
+            // The labels of a frame that was not compared.
+            "L" => {}
             other => panic!("vectors.txt: unexpected record {other:?}"),
         }
     }

@@ -39,6 +39,9 @@ tab (names and values hold none):
                                           signals, in cantools' order
     F  data_hex  value...                 a frame: repr() of each signal's
                                           value, '-' when not decoded
+    L  index=label...                     the value-table labels of the
+                                          frame before (decode_choices=True),
+                                          by the index of the signal in M
     E  data_hex  error                    a frame cantools refuses
 """
 
@@ -52,6 +55,7 @@ from importlib.metadata import version
 import cantools
 import opendbc
 from cantools.database.errors import DecodeError
+from cantools.database.namedsignalvalue import NamedSignalValue
 
 CANTOOLS_VERSION = "45.1.0"
 OPENDBC_VERSION = "0.3.1"
@@ -168,7 +172,7 @@ def main(argv):
     out_dir = os.path.abspath(argv[0])
     os.makedirs(out_dir, exist_ok=True)
     lines = []
-    counts = {"loaded": 0, "refused": 0, "lax": 0, "frames": 0, "values": 0}
+    counts = {"loaded": 0, "refused": 0, "lax": 0, "labels": 0, "frames": 0, "values": 0}
     for path, shown in dbc_files(out_dir):
         try:
             db = cantools.database.load_file(path, strict=True)
@@ -213,12 +217,23 @@ def main(argv):
                         counts["values"] += 1
                 lines.append("\t".join(["F", data.hex().upper()] + values))
                 counts["frames"] += 1
+                # Value-table labels: decode_choices=True names a raw value
+                # its VAL_ entry.
+                labelled = db.decode_message(message.frame_id, data,
+                                             decode_choices=True, scaling=True,
+                                             force_extended_id=message.is_extended_frame)
+                labels = [f"{names.index(name)}={value}"
+                          for name, value in labelled.items()
+                          if isinstance(value, (NamedSignalValue, str))]
+                if labels:
+                    lines.append("\t".join(["L"] + labels))
+                    counts["labels"] += len(labels)
     with open(os.path.join(out_dir, "vectors.txt"), "w", encoding="utf-8") as f:
         f.write("\n".join(lines) + "\n")
     print(f"cantools {cantools.__version__}, opendbc {OPENDBC_VERSION}: "
           f"{counts['loaded']} DBCs loaded, {counts['refused']} refused "
           f"({counts['lax']} of them load with strict=False), "
-          f"{counts['frames']} frames, {counts['values']} values")
+          f"{counts['frames']} frames, {counts['values']} values, {counts['labels']} labels")
 
 
 if __name__ == "__main__":

@@ -1323,6 +1323,30 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         assert!(message.signals[6].is_multiplexed() && !message.signals[5].is_multiplexed());
     }
 
+    /// An SG_MUL_VAL_ line for a signal without a marker neither switches it
+    /// nor adds a page (cantools 45.1.0, checked 2026-11-25): A=0 decodes
+    /// all three, A=1 is refused.
+    #[test]
+    fn a_value_list_for_an_unmarked_signal_changes_nothing() {
+        let text = dbc_with(
+            8,
+            " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Listed : 8|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ P m0 : 16|8@1+ (1,0) [0|0] \"\" Vector__XXX",
+            "SG_MUL_VAL_ 256 Listed A 1-1;\n",
+        );
+        let (db, warnings) = DbcDatabase::parse(&text, "unmarked.dbc").unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let message = db.message(CanId::Standard(256)).unwrap();
+        let mut count = 0;
+        message
+            .decode(&[0, 7, 9, 0, 0, 0, 0, 0], |_, _| count += 1)
+            .unwrap();
+        assert_eq!(count, 3);
+        assert_eq!(
+            message.decode(&[1, 7, 9, 0, 0, 0, 0, 0], |_, _| {}),
+            Err(FrameDecodeError::UnknownMultiplexerValue(1))
+        );
+    }
+
     /// cantools (45.1.0, checked 2026-11-24 on this DBC) decodes switch values
     /// 0, 3, 4, 5 as Listed, 1 as Plain, and refuses 2 and 6.
     #[test]

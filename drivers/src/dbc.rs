@@ -6,6 +6,23 @@
 //! cantools' rules (checked against its golden vectors in `tests/golden/`):
 //! identity and integer scaling stay exact integers, anything else is
 //! `raw * factor + offset` in `f64`; float32 signals are widened to `f64`.
+//!
+//! # Conformance with cantools
+//!
+//! Decoded values equal cantools' (45.1.0, `decode_choices=False`,
+//! `scaling=True`) for the same DBC and frame, bit for bit and int vs
+//! float alike, multiplexing and extended multiplexing (`SG_MUL_VAL_`,
+//! `m<v>M`) included: the same signals, and the same frames refused. Two tests hold that: the golden vectors
+//! (`tests/golden/`), and `drivers/tests/opendbc.rs`, which loads every DBC
+//! of the opendbc package (0.3.1: 151 files, those it generates included)
+//! with cantools and acq and compares random frames of every message. Every
+//! DBC cantools loads, acq loads too or refuses for a reason in this table;
+//! the test checks that and the counts in the last column (opendbc 0.3.1).
+//!
+//! | feature | why acq differs | opendbc 0.3.1 |
+//! | --- | --- | --- |
+//! | A DBC file with no messages | A file without `BO_` lines decodes nothing; refusing it catches the wrong file given as a DBC (cantools loads an empty database). | 8 files, 0 messages (honda generator sources holding only `CM_ "IMPORT ..."` lines) |
+//! | Non-ASCII text read as cp1252 | cantools' `load_file` reads DBC text as cp1252; acq reads UTF-8 (Latin-1 when the file is not UTF-8), which is what opendbc and current tools write. Values are the same; a label (or unit, comment) with non-ASCII characters differs: `verfügbar`, not `verfÃ¼gbar`. | 3 files, 33 messages (labels; vw_mlb, and hyundai_canfd which cantools loads only with strict=False) |
 
 use std::sync::Arc;
 
@@ -69,6 +86,61 @@ enum Scaling {
     Linear { factor: f64, offset: f64 },
 }
 
+/// Which frames carry a signal: cantools' multiplexing tree, flattened.
+#[derive(Clone, Debug, PartialEq)]
+enum Presence {
+    /// Every frame (a plain signal, a top-level multiplexor).
+    Always,
+    /// Frames whose multiplexor `switch` (an index into
+    /// [`MessageCodec::switches`]) is read and has a value in `values`
+    /// (inclusive ranges).
+    Switched {
+        switch: usize,
+        values: Vec<(i128, i128)>,
+    },
+    /// No frame: its multiplexor is not a multiplexor signal of the message,
+    /// or is never read itself. cantools leaves such signals out too.
+    Never,
+}
+
+impl Presence {
+    /// Whether a frame whose multiplexors read `switches` carries the signal.
+    #[inline]
+    fn holds(&self, switches: &[Option<i128>]) -> bool {
+        match self {
+            Presence::Always => true,
+            Presence::Never => false,
+            Presence::Switched { switch, values } => switches
+                .get(*switch)
+                .copied()
+                .flatten()
+                .is_some_and(|value| in_ranges(values, value)),
+        }
+    }
+}
+
+#[inline]
+fn in_ranges(ranges: &[(i128, i128)], value: i128) -> bool {
+    ranges
+        .iter()
+        .any(|&(low, high)| low <= value && value <= high)
+}
+
+/// A multiplexor signal that frames read.
+#[derive(Clone, Debug)]
+struct Switch {
+    /// Index into [`MessageCodec::signals`].
+    signal: usize,
+    /// The values that select a page (inclusive ranges): those of its
+    /// signals and its value-table keys, as cantools' `_create_codec`.
+    /// Empty: it selects nothing and any value decodes.
+    pages: Vec<(i128, i128)>,
+}
+
+/// How many multiplexor values a frame keeps on the stack; messages with
+/// more multiplexors (rare) use the heap.
+const INLINE_SWITCHES: usize = 4;
+
 /// One signal, ready to decode.
 #[derive(Clone, Debug)]
 pub struct SignalCodec {
@@ -79,11 +151,12 @@ pub struct SignalCodec {
     pub factor: f64,
     pub offset: f64,
     scaling: Scaling,
-    /// `Some(v)`: only present when the message's multiplexor has raw value `v`.
+    /// The DBC's multiplexer marker value (`m<v>`, `m<v>M`); `None` for a
+    /// signal without one, which is in every frame. Which frames carry a
+    /// signal with one is [`SignalCodec::is_multiplexed`]'s business.
     pub multiplexer_value: Option<u64>,
-    /// Further multiplexor values that select it, inclusive ranges from the
-    /// DBC's value lists (`SG_MUL_VAL_`).
-    multiplexer_ranges: Vec<(u64, u64)>,
+    /// Which frames carry it.
+    presence: Presence,
     /// Value-table labels by raw value, sorted.
     labels: Vec<(i64, String)>,
 }
@@ -99,37 +172,10 @@ impl SignalCodec {
         }
     }
 
-    /// Whether the multiplexor's value `selector` puts this signal in the frame.
-    #[inline]
-    fn is_selected(&self, selector: Option<u64>) -> bool {
-        if self.multiplexer_value.is_none() && self.multiplexer_ranges.is_empty() {
-            return true;
-        }
-        selector.is_some_and(|value| {
-            self.multiplexer_value == Some(value)
-                || self
-                    .multiplexer_ranges
-                    .iter()
-                    .any(|&(low, high)| (low..=high).contains(&value))
-        })
-    }
-
-    /// Whether this signal and `other` can be in the same frame.
-    fn can_share_a_frame_with(&self, other: &SignalCodec) -> bool {
-        let values = |signal: &SignalCodec| -> Option<Vec<(u64, u64)>> {
-            if signal.multiplexer_value.is_none() && signal.multiplexer_ranges.is_empty() {
-                return None;
-            }
-            let mut ranges = signal.multiplexer_ranges.clone();
-            ranges.extend(signal.multiplexer_value.map(|v| (v, v)));
-            Some(ranges)
-        };
-        match (values(self), values(other)) {
-            (Some(mine), Some(theirs)) => mine
-                .iter()
-                .any(|&(a, b)| theirs.iter().any(|&(c, d)| a <= d && c <= b)),
-            _ => true,
-        }
+    /// Whether some frames lack this signal: it is switched by a
+    /// multiplexor (or never decoded at all, as cantools does not).
+    pub fn is_multiplexed(&self) -> bool {
+        !matches!(self.presence, Presence::Always)
     }
 
     /// Decodes the signal from a payload; `None` if the payload is too short.
@@ -220,11 +266,10 @@ pub struct MessageCodec {
     /// Payload length declared in the DBC, bytes.
     pub size: usize,
     pub signals: Vec<SignalCodec>,
-    multiplexor: Option<usize>,
-    /// The multiplexer values a frame may carry (inclusive ranges): those
-    /// that select signals and the multiplexor's value-table keys. Empty: the
-    /// switch selects nothing, and every value decodes (as cantools does).
-    multiplexer_values: Vec<(u64, u64)>,
+    /// The multiplexors that frames read, each after the one that switches
+    /// it (if any): reading them in this order decides every signal's
+    /// presence in one pass.
+    switches: Vec<Switch>,
     /// The DBC file this message came from.
     pub source: Arc<str>,
 }
@@ -234,44 +279,38 @@ pub struct MessageCodec {
 pub enum FrameDecodeError {
     #[error("frame has {got} bytes, the DBC message needs {needed}")]
     Short { got: usize, needed: usize },
+    /// The multiplexor's value as cantools takes it: its scaled value,
+    /// truncated to an integer (saturated; a NaN float reads as 0).
     #[error(
         "multiplexer value {0} selects no signals and is not in the multiplexor's value table"
     )]
-    UnknownMultiplexerValue(u64),
+    UnknownMultiplexerValue(i128),
 }
 
 impl MessageCodec {
     /// Calls `emit(signal_index, value)` for every signal present in the
-    /// payload: all plain signals, and multiplexed ones only when the
-    /// multiplexor selects them. A frame shorter than the message, or whose
-    /// multiplexer value is no page (neither selects a signal nor is in the
-    /// multiplexor's value table), is refused whole, as cantools does.
+    /// payload: all plain signals, and multiplexed ones only when their
+    /// multiplexor (itself present) selects them. A frame shorter than the
+    /// message, or with a multiplexor value that is no page (neither
+    /// selects a signal nor is in the multiplexor's value table), is
+    /// refused whole, as cantools does.
     #[inline]
     pub fn decode(
         &self,
         payload: &[u8],
         mut emit: impl FnMut(usize, PhysicalValue),
     ) -> Result<(), FrameDecodeError> {
-        let selector = self.selector(payload)?;
-        if let Some(value) = selector {
-            if !self.multiplexer_values.is_empty()
-                && !self
-                    .multiplexer_values
-                    .iter()
-                    .any(|&(low, high)| (low..=high).contains(&value))
-            {
-                return Err(FrameDecodeError::UnknownMultiplexerValue(value));
+        self.check_length(payload)?;
+        self.with_switches(payload, |switches| {
+            for (index, signal) in self.signals.iter().enumerate() {
+                if !signal.presence.holds(switches) {
+                    continue;
+                }
+                if let Some(raw) = signal.field.extract(payload) {
+                    emit(index, signal.scale(raw));
+                }
             }
-        }
-        for (index, signal) in self.signals.iter().enumerate() {
-            if !signal.is_selected(selector) {
-                continue;
-            }
-            if let Some(raw) = signal.field.extract(payload) {
-                emit(index, signal.scale(raw));
-            }
-        }
-        Ok(())
+        })
     }
 
     /// Decodes one signal: `Ok(None)` when the multiplexer does not select it.
@@ -281,27 +320,66 @@ impl MessageCodec {
         payload: &[u8],
         index: usize,
     ) -> Result<Option<PhysicalValue>, FrameDecodeError> {
-        let selector = self.selector(payload)?;
-        Ok(self
-            .signals
-            .get(index)
-            .filter(|signal| signal.is_selected(selector))
-            .and_then(|signal| signal.decode(payload)))
+        self.check_length(payload)?;
+        self.with_switches(payload, |switches| {
+            self.signals
+                .get(index)
+                .filter(|signal| signal.presence.holds(switches))
+                .and_then(|signal| signal.decode(payload))
+        })
     }
 
-    /// Refuses a frame shorter than the message; returns the multiplexor's
-    /// raw value, if the message has one.
+    /// Refuses a frame shorter than the message.
     #[inline]
-    fn selector(&self, payload: &[u8]) -> Result<Option<u64>, FrameDecodeError> {
+    fn check_length(&self, payload: &[u8]) -> Result<(), FrameDecodeError> {
         if payload.len() < self.size {
             return Err(FrameDecodeError::Short {
                 got: payload.len(),
                 needed: self.size,
             });
         }
-        Ok(self
-            .multiplexor
-            .and_then(|i| self.signals[i].field.extract(payload)))
+        Ok(())
+    }
+
+    /// Reads the multiplexors of `payload` (`None` for one the frame does
+    /// not carry) and gives them to `then`; an unknown page is an error.
+    #[inline]
+    fn with_switches<R>(
+        &self,
+        payload: &[u8],
+        then: impl FnOnce(&[Option<i128>]) -> R,
+    ) -> Result<R, FrameDecodeError> {
+        if self.switches.is_empty() {
+            return Ok(then(&[]));
+        }
+        let mut inline = [None; INLINE_SWITCHES];
+        let mut heap = Vec::new();
+        let values: &mut [Option<i128>] = if self.switches.len() <= INLINE_SWITCHES {
+            &mut inline[..self.switches.len()]
+        } else {
+            heap.resize(self.switches.len(), None);
+            &mut heap
+        };
+        for (k, switch) in self.switches.iter().enumerate() {
+            let signal = &self.signals[switch.signal];
+            // Its own multiplexor comes earlier in `switches`.
+            if !signal.presence.holds(&values[..k]) {
+                continue;
+            }
+            let Some(raw) = signal.field.extract(payload) else {
+                continue;
+            };
+            // cantools picks the page by `int()` of the scaled value.
+            let value = match signal.scale(raw) {
+                PhysicalValue::Integer(v) => v,
+                PhysicalValue::Float(v) => v as i128,
+            };
+            if !switch.pages.is_empty() && !in_ranges(&switch.pages, value) {
+                return Err(FrameDecodeError::UnknownMultiplexerValue(value));
+            }
+            values[k] = Some(value);
+        }
+        Ok(then(values))
     }
 
     pub fn signal(&self, name: &str) -> Option<(usize, &SignalCodec)> {
@@ -383,9 +461,9 @@ impl DbcDatabase {
     /// longer than a CAN FD frame, a signal beyond its message or whose
     /// scaling overflows. What decodes but looks wrong is a warning naming
     /// the message and signal once: overlapping signals, a signal name used
-    /// twice in a message. Messages that use what this decoder does not
-    /// support (extended multiplexing with several multiplexors) are skipped
-    /// with a warning. Vector's placeholder `VECTOR__INDEPENDENT_SIG_MSG`
+    /// twice in a message, a signal that no frame carries. Multiplexing,
+    /// extended multiplexing (`SG_MUL_VAL_`, `m<v>M`) included, follows
+    /// cantools exactly (see `build_multiplexing`). Vector's placeholder `VECTOR__INDEPENDENT_SIG_MSG`
     /// (signals of no message, no frame of its own) is skipped silently, as
     /// cantools does.
     pub fn parse(text: &str, source_name: &str) -> Result<(Self, Vec<DbcWarning>), DbcError> {
@@ -402,10 +480,7 @@ impl DbcDatabase {
                 continue;
             }
             messages += 1;
-            match compile_message(&dbc, message, &source, &mut warnings)? {
-                Ok(codec) => database.add(codec)?,
-                Err(warning) => warnings.push(warning),
-            }
+            database.add(compile_message(&dbc, message, &source, &mut warnings)?)?;
         }
         if messages == 0 {
             return Err(DbcError::Empty {
@@ -501,14 +576,13 @@ const INDEPENDENT_SIGNALS_MESSAGE: &str = "VECTOR__INDEPENDENT_SIG_MSG";
 /// The longest payload a CAN frame carries (CAN FD), bytes.
 const MAX_PAYLOAD_BYTES: u64 = 64;
 
-/// Compiles one message: `Ok(Err(warning))` when it is skipped; the
-/// warnings about a message that is kept go to `warnings`.
+/// Compiles one message; what looks wrong in it goes to `warnings`.
 fn compile_message(
     dbc: &Dbc,
     message: &can_dbc::Message,
     source: &Arc<str>,
     warnings: &mut Vec<DbcWarning>,
-) -> Result<Result<MessageCodec, DbcWarning>, DbcError> {
+) -> Result<MessageCodec, DbcError> {
     let id = match message.id {
         MessageId::Standard(id) => CanId::standard(id),
         MessageId::Extended(id) => CanId::extended(id),
@@ -538,26 +612,11 @@ fn compile_message(
     };
 
     let mut signals = Vec::with_capacity(message.signals.len());
-    let mut multiplexor = None;
-    for (index, signal) in message.signals.iter().enumerate() {
+    for signal in &message.signals {
         let multiplexer_value = match signal.multiplexer_indicator {
-            MultiplexIndicator::Plain => None,
-            MultiplexIndicator::Multiplexor => {
-                if multiplexor.replace(index).is_some() {
-                    return Ok(Err(DbcWarning(format!(
-                        "{source}: message {} ({id}) skipped: more than one multiplexor signal (extended multiplexing is not supported)",
-                        message.name
-                    ))));
-                }
-                None
-            }
-            MultiplexIndicator::MultiplexedSignal(v) => Some(v),
-            MultiplexIndicator::MultiplexorAndMultiplexedSignal(_) => {
-                return Ok(Err(DbcWarning(format!(
-                    "{source}: message {} ({id}) skipped: signal {} is both multiplexed and a multiplexor (extended multiplexing is not supported)",
-                    message.name, signal.name
-                ))));
-            }
+            MultiplexIndicator::MultiplexedSignal(v)
+            | MultiplexIndicator::MultiplexorAndMultiplexedSignal(v) => Some(v),
+            MultiplexIndicator::Plain | MultiplexIndicator::Multiplexor => None,
         };
         let order = match signal.byte_order {
             can_dbc::ByteOrder::LittleEndian => ByteOrder::LittleEndian,
@@ -617,84 +676,265 @@ fn compile_message(
             offset: signal.offset,
             scaling: scaling(signal.factor, signal.offset),
             multiplexer_value,
-            multiplexer_ranges: Vec::new(),
+            presence: Presence::Always,
             labels,
         });
     }
-    // Multiplexer value lists (SG_MUL_VAL_) on a plainly multiplexed message:
-    // further switch values that select a signal.
+    let switches = build_multiplexing(dbc, message, id, source, &mut signals, warnings);
+    warn_about_suspicious_signals(message, id, source, &signals, &switches, warnings);
+    Ok(MessageCodec {
+        id,
+        name: message.name.clone(),
+        size: message.size as usize,
+        signals,
+        switches,
+        source: Arc::clone(source),
+    })
+}
+
+/// Inclusive ranges of multiplexor values.
+type Ranges = Vec<(i128, i128)>;
+
+/// One signal's place in cantools' multiplexing tree, before it is resolved.
+struct Node {
+    /// The multiplexor that switches it, by name.
+    parent: Option<String>,
+    /// The values of `parent` that select it (inclusive ranges).
+    values: Vec<(i128, i128)>,
+    is_multiplexor: bool,
+}
+
+/// Sets every signal's [`Presence`] and returns the message's switches,
+/// following cantools 45.1.0 exactly (`dbc.py` `_load_signals`, `message.py`
+/// `_create_codec`):
+///
+/// - One signal marked `M` or `m<v>M`: plain multiplexing. A signal marked
+///   `m<v>` is switched by it at `v` and at the values its `SG_MUL_VAL_`
+///   lines for that multiplexor add; lines naming another multiplexor are
+///   ignored.
+/// - Otherwise (several multiplexors, or none): extended multiplexing.
+///   Only `SG_MUL_VAL_` says who switches whom: a marked signal listed
+///   there is switched by the line's multiplexor at its ranges (the marker's
+///   value is ignored); a marked signal not listed is in every frame.
+/// - A signal without a marker is in every frame, listed or not.
+/// - A signal switched by a name that is no multiplexor of the message, or
+///   by one never read, is in no frame.
+/// - A multiplexor's pages are its signals' values and its value-table keys;
+///   it selects by `int()` of its scaled value.
+fn build_multiplexing(
+    dbc: &Dbc,
+    message: &can_dbc::Message,
+    id: CanId,
+    source: &Arc<str>,
+    signals: &mut [SignalCodec],
+    warnings: &mut Vec<DbcWarning>,
+) -> Vec<Switch> {
+    let is_multiplexor = |indicator: &MultiplexIndicator| {
+        matches!(
+            indicator,
+            MultiplexIndicator::Multiplexor
+                | MultiplexIndicator::MultiplexorAndMultiplexedSignal(_)
+        )
+    };
+    let multiplexors: Vec<&str> = message
+        .signals
+        .iter()
+        .filter(|s| is_multiplexor(&s.multiplexer_indicator))
+        .map(|s| s.name.as_str())
+        .collect();
+    let multiplexor_count = multiplexors.len();
+    let plain_multiplexor = match multiplexors[..] {
+        [only] => Some(only),
+        _ => None,
+    };
+
+    // SG_MUL_VAL_ lines of this message: multiplexor -> [(signal, values)],
+    // in first-seen order; a later line for the same pair replaces the
+    // earlier one (cantools keeps them in dicts).
+    let mut lists: Vec<(&str, Vec<(&str, Ranges)>)> = Vec::new();
     for list in dbc
         .extended_multiplex
         .iter()
         .filter(|list| list.message_id == message.id)
     {
-        let switch_matches =
-            multiplexor.is_some_and(|index| signals[index].name == list.multiplexor_signal_name);
-        let Some(signal) = signals.iter_mut().find(|s| s.name == list.signal_name) else {
+        if !message.signals.iter().any(|s| s.name == list.signal_name) {
             warnings.push(DbcWarning(format!(
                 "{source}: message {} ({id}): the value list (SG_MUL_VAL_) names signal {}, which the message does not have; ignored",
                 message.name, list.signal_name
             )));
-            continue;
-        };
-        if !switch_matches {
-            return Ok(Err(DbcWarning(format!(
-                "{source}: message {} ({id}) skipped: signal {} is switched by {}, not by the message's multiplexor (extended multiplexing is not supported)",
-                message.name, list.signal_name, list.multiplexor_signal_name
-            ))));
         }
-        signal.multiplexer_ranges.extend(
-            list.mappings
-                .iter()
-                .map(|m| (m.min_value.min(m.max_value), m.min_value.max(m.max_value))),
-        );
-    }
-    warn_about_suspicious_signals(message, id, source, &signals, warnings);
-    if multiplexor.is_none()
-        && signals
+        // A range written high-low selects nothing (cantools: `range(low, high + 1)`).
+        let values: Vec<(i128, i128)> = list
+            .mappings
             .iter()
-            .any(|s| s.multiplexer_value.is_some() || !s.multiplexer_ranges.is_empty())
-    {
-        return Ok(Err(DbcWarning(format!(
-            "{source}: message {} ({id}) skipped: multiplexed signals but no multiplexor",
-            message.name
-        ))));
+            .filter(|m| m.min_value <= m.max_value)
+            .map(|m| (i128::from(m.min_value), i128::from(m.max_value)))
+            .collect();
+        let switch = list.multiplexor_signal_name.as_str();
+        let entries = match lists.iter_mut().find(|(name, _)| *name == switch) {
+            Some((_, entries)) => entries,
+            None => {
+                lists.push((switch, Vec::new()));
+                &mut lists.last_mut().expect("just pushed").1
+            }
+        };
+        match entries
+            .iter_mut()
+            .find(|(name, _)| *name == list.signal_name)
+        {
+            Some(entry) => entry.1 = values,
+            None => entries.push((list.signal_name.as_str(), values)),
+        }
     }
-    let mut multiplexer_values: Vec<(u64, u64)> = signals
+    let listed = |switch: &str, signal: &str| -> Option<&Vec<(i128, i128)>> {
+        lists
+            .iter()
+            .find(|(name, _)| *name == switch)
+            .and_then(|(_, entries)| entries.iter().find(|(name, _)| *name == signal))
+            .map(|(_, values)| values)
+    };
+    // Extended multiplexing: the last multiplexor listing a signal switches it.
+    let switch_of = |signal: &str| -> Option<&str> {
+        lists
+            .iter()
+            .rfind(|(_, entries)| entries.iter().any(|(name, _)| *name == signal))
+            .map(|(switch, _)| *switch)
+    };
+
+    let nodes: Vec<Node> = message
+        .signals
         .iter()
-        .flat_map(|s| {
-            s.multiplexer_value
-                .map(|v| (v, v))
-                .into_iter()
-                .chain(s.multiplexer_ranges.iter().copied())
+        .map(|signal| {
+            let marked = signal.multiplexer_indicator != MultiplexIndicator::Plain;
+            let (parent, values) = match plain_multiplexor {
+                Some(switch) => {
+                    let mut values = Vec::new();
+                    if let MultiplexIndicator::MultiplexedSignal(v) = signal.multiplexer_indicator {
+                        values.push((i128::from(v), i128::from(v)));
+                    }
+                    values.extend(listed(switch, &signal.name).into_iter().flatten());
+                    let parent = (marked && signal.name != switch).then(|| switch.to_string());
+                    (parent, values)
+                }
+                None => {
+                    let switch = switch_of(&signal.name);
+                    let values = switch
+                        .and_then(|switch| listed(switch, &signal.name))
+                        .cloned()
+                        .unwrap_or_default();
+                    let parent = switch.filter(|_| marked).map(str::to_string);
+                    let has_value = matches!(
+                        signal.multiplexer_indicator,
+                        MultiplexIndicator::MultiplexedSignal(_)
+                            | MultiplexIndicator::MultiplexorAndMultiplexedSignal(_)
+                    );
+                    if has_value && parent.is_none() {
+                        warnings.push(DbcWarning(format!(
+                            "{source}: message {} ({id}): signal {} is marked multiplexed, but the message has {} multiplexors and no SG_MUL_VAL_ line switches it: decoded in every frame, as cantools does",
+                            message.name,
+                            signal.name,
+                            if multiplexor_count == 0 { "no" } else { "several" }
+                        )));
+                    }
+                    (parent, values)
+                }
+            };
+            Node {
+                parent,
+                values,
+                is_multiplexor: is_multiplexor(&signal.multiplexer_indicator),
+            }
         })
         .collect();
-    // The multiplexor's value-table keys are pages too, even when they hold
-    // no signal: cantools accepts exactly the union (its `_create_codec`).
-    if let Some(switch) = multiplexor.map(|index| &signals[index]) {
-        let mask = if switch.field.length_bits() >= 64 {
-            u64::MAX
-        } else {
-            (1u64 << switch.field.length_bits()) - 1
-        };
-        multiplexer_values.extend(
-            switch
-                .labels
-                .iter()
-                .map(|&(raw, _)| (raw as u64 & mask, raw as u64 & mask)),
-        );
+
+    // Resolve parents: a signal's multiplexor is a multiplexor signal of
+    // the message (the first of that name) that is itself resolved; what is
+    // left (a missing multiplexor, a cycle) is in no frame. Each pass
+    // resolves at least one more level of the tree.
+    let parent_index: Vec<Option<usize>> = nodes
+        .iter()
+        .map(|node| {
+            node.parent.as_ref().and_then(|parent| {
+                signals
+                    .iter()
+                    .zip(&nodes)
+                    .position(|(s, n)| n.is_multiplexor && s.name == *parent)
+            })
+        })
+        .collect();
+    let mut switch_of_signal: Vec<Option<usize>> = vec![None; signals.len()];
+    let mut resolved = vec![false; signals.len()];
+    let mut switches: Vec<Switch> = Vec::new();
+    let mut order: Vec<usize> = Vec::new();
+    loop {
+        let before = order.len();
+        for (index, node) in nodes.iter().enumerate() {
+            if resolved[index] {
+                continue;
+            }
+            let ready = match (&node.parent, parent_index[index]) {
+                (None, _) => true,
+                (Some(_), Some(parent)) => resolved[parent] && parent != index,
+                (Some(_), None) => false,
+            };
+            if ready {
+                resolved[index] = true;
+                order.push(index);
+            }
+        }
+        if order.len() == before {
+            break;
+        }
     }
-    multiplexer_values.sort_unstable();
-    multiplexer_values.dedup();
-    Ok(Ok(MessageCodec {
-        id,
-        name: message.name.clone(),
-        size: message.size as usize,
-        signals,
-        multiplexor,
-        multiplexer_values,
-        source: Arc::clone(source),
-    }))
+    for &index in &order {
+        let node = &nodes[index];
+        signals[index].presence = match parent_index[index].and_then(|p| switch_of_signal[p]) {
+            Some(switch) => Presence::Switched {
+                switch,
+                values: node.values.clone(),
+            },
+            None if node.parent.is_none() => Presence::Always,
+            None => Presence::Never,
+        };
+        if node.is_multiplexor && signals[index].presence != Presence::Never {
+            switch_of_signal[index] = Some(switches.len());
+            let name = &signals[index].name;
+            let mut pages: Vec<(i128, i128)> = nodes
+                .iter()
+                .filter(|n| n.parent.as_deref() == Some(name.as_str()))
+                .flat_map(|n| n.values.iter().copied())
+                .collect();
+            // Value-table keys are pages even when they hold no signal.
+            pages.extend(
+                signals[index]
+                    .labels
+                    .iter()
+                    .map(|&(key, _)| (i128::from(key), i128::from(key))),
+            );
+            pages.sort_unstable();
+            pages.dedup();
+            switches.push(Switch {
+                signal: index,
+                pages,
+            });
+        }
+    }
+    for (index, signal) in signals.iter_mut().enumerate() {
+        if !resolved[index] {
+            signal.presence = Presence::Never;
+        }
+        let never = signal.presence == Presence::Never
+            || matches!(&signal.presence, Presence::Switched { values, .. } if values.is_empty());
+        if never {
+            warnings.push(DbcWarning(format!(
+                "{source}: message {} ({id}): signal {} is never decoded: its multiplexor {} is not a multiplexor signal that frames carry, or no value selects it (cantools leaves it out too)",
+                message.name,
+                signal.name,
+                nodes[index].parent.as_deref().unwrap_or("?")
+            )));
+        }
+    }
+    switches
 }
 
 /// An error when `raw * factor + offset` is not a finite number for some raw
@@ -739,8 +979,46 @@ fn warn_about_suspicious_signals(
     id: CanId,
     source: &Arc<str>,
     signals: &[SignalCodec],
+    switches: &[Switch],
     warnings: &mut Vec<DbcWarning>,
 ) {
+    // Each signal's way down the multiplexing tree: (switch, the values of
+    // it on the way); `None` for a signal no frame carries.
+    type Path<'a> = Vec<(usize, &'a [(i128, i128)])>;
+    let paths: Vec<Option<Path>> = signals
+        .iter()
+        .map(|signal| {
+            let mut path = Vec::new();
+            let mut presence = &signal.presence;
+            // A switch's own multiplexor comes earlier in `switches`, so
+            // this ends; the bound only makes that plain.
+            for _ in 0..=switches.len() {
+                match presence {
+                    Presence::Always => return Some(path),
+                    Presence::Never => return None,
+                    Presence::Switched { switch, values } => {
+                        path.push((*switch, values.as_slice()));
+                        presence = &signals[switches[*switch].signal].presence;
+                    }
+                }
+            }
+            None
+        })
+        .collect();
+    // Two signals share a frame unless, at some multiplexor both hang
+    // under, their values are disjoint.
+    let can_share = |i: usize, j: usize| match (&paths[i], &paths[j]) {
+        (Some(first), Some(second)) => first.iter().all(|(switch, mine)| {
+            second
+                .iter()
+                .filter(|(other, _)| other == switch)
+                .all(|(_, theirs)| {
+                    mine.iter()
+                        .any(|&(a, b)| theirs.iter().any(|&(c, d)| a <= d && c <= b))
+                })
+        }),
+        _ => false,
+    };
     let bits: Vec<Vec<u8>> = signals
         .iter()
         .map(|signal| {
@@ -760,7 +1038,7 @@ fn warn_about_suspicious_signals(
                 continue;
             }
             let shared = bits[i].iter().zip(&bits[j]).any(|(a, b)| a & b != 0);
-            if shared && first.can_share_a_frame_with(second) {
+            if shared && can_share(i, j) {
                 warnings.push(DbcWarning(format!(
                     "{source}: message {} ({id}): signals {} and {} share bits; each is decoded as declared",
                     message.name, first.name, second.name
@@ -994,6 +1272,79 @@ VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
         assert!(warnings.is_empty(), "{warnings:?}");
         assert_eq!(db.messages().len(), 1);
         assert_eq!(db.messages()[0].name, "Probe");
+    }
+
+    /// Extended multiplexing's corners, as cantools 45.1.0 decodes this DBC
+    /// (checked 2026-11-25): a marked signal no SG_MUL_VAL_ line names is in
+    /// every frame; a range written high-low and a switch that is no
+    /// multiplexor select nothing; a later line for the same pair replaces
+    /// the earlier; value-table keys are pages, compared with the switch's
+    /// value as it decodes (so -1 is no page of an unsigned switch).
+    #[test]
+    fn extended_multiplexing_follows_cantools_corners() {
+        let text = dbc_with(
+            8,
+            " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ B M : 8|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Unlisted m1 : 16|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Reversed m2 : 24|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ ByPlain m3 : 32|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Plain : 40|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ OnB m4 : 48|8@1+ (1,0) [0|0] \"\" Vector__XXX",
+            "VAL_ 256 A -1 \"Minus\" 9 \"Nine\" ;\nSG_MUL_VAL_ 256 Reversed A 5-3;\nSG_MUL_VAL_ 256 ByPlain Plain 1-1;\nSG_MUL_VAL_ 256 OnB B 0-0, 2-2;\nSG_MUL_VAL_ 256 OnB B 4-4;\n",
+        );
+        let (db, warnings) = DbcDatabase::parse(&text, "ext.dbc").unwrap();
+        let warnings: Vec<&str> = warnings.iter().map(|w| w.0.as_str()).collect();
+        assert_eq!(warnings.len(), 3, "{warnings:?}");
+        assert!(warnings[0].contains("signal Unlisted is marked multiplexed"));
+        assert!(warnings[1].contains("signal Reversed is never decoded"));
+        assert!(warnings[2].contains("signal ByPlain is never decoded"));
+        let message = db.message(CanId::Standard(256)).unwrap();
+        let decoded = |a: u8, b: u8| {
+            let mut values = Vec::new();
+            message
+                .decode(&[a, b, 1, 2, 3, 4, 5, 6], |i, v| {
+                    values.push((message.signals[i].name.as_str(), v))
+                })
+                .map(|()| values)
+        };
+        let int = PhysicalValue::Integer;
+        assert_eq!(
+            decoded(9, 4).unwrap(),
+            [
+                ("A", int(9)),
+                ("B", int(4)),
+                ("Unlisted", int(1)),
+                ("Plain", int(4)),
+                ("OnB", int(5))
+            ]
+        );
+        for (a, b, refused) in [(9, 0, 0), (255, 4, 255), (4, 4, 4), (9, 1, 1)] {
+            assert_eq!(
+                decoded(a, b),
+                Err(FrameDecodeError::UnknownMultiplexerValue(refused)),
+                "A={a} B={b}"
+            );
+        }
+        assert!(message.signals[6].is_multiplexed() && !message.signals[5].is_multiplexed());
+    }
+
+    /// An SG_MUL_VAL_ line for a signal without a marker neither switches it
+    /// nor adds a page (cantools 45.1.0, checked 2026-11-25): A=0 decodes
+    /// all three, A=1 is refused.
+    #[test]
+    fn a_value_list_for_an_unmarked_signal_changes_nothing() {
+        let text = dbc_with(
+            8,
+            " SG_ A M : 0|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ Listed : 8|8@1+ (1,0) [0|0] \"\" Vector__XXX\n SG_ P m0 : 16|8@1+ (1,0) [0|0] \"\" Vector__XXX",
+            "SG_MUL_VAL_ 256 Listed A 1-1;\n",
+        );
+        let (db, warnings) = DbcDatabase::parse(&text, "unmarked.dbc").unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let message = db.message(CanId::Standard(256)).unwrap();
+        let mut count = 0;
+        message
+            .decode(&[0, 7, 9, 0, 0, 0, 0, 0], |_, _| count += 1)
+            .unwrap();
+        assert_eq!(count, 3);
+        assert_eq!(
+            message.decode(&[1, 7, 9, 0, 0, 0, 0, 0], |_, _| {}),
+            Err(FrameDecodeError::UnknownMultiplexerValue(1))
+        );
     }
 
     /// cantools (45.1.0, checked 2026-11-24 on this DBC) decodes switch values

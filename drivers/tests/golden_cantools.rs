@@ -1,5 +1,6 @@
 //! The DBC decoder gives exactly what cantools gives for the same DBC and
-//! frames (vectors made by tests/golden/make_golden.py, cantools 45.1.0).
+//! frames (vectors made by tests/golden/make_golden.py at the workspace
+//! root, cantools 45.1.0).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -10,7 +11,7 @@ use acq_drivers::CanId;
 fn golden(name: &str) -> String {
     std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("tests/golden")
+            .join("../tests/golden")
             .join(name),
     )
     .unwrap_or_else(|e| panic!("tests/golden/{name}: {e}"))

@@ -1,20 +1,32 @@
 //! Reads a log (any format acq reads, detected from its content) and prints
-//! its frames, or with `--count` how many and how fast: a check and a
-//! measurement that need only acq-drivers built.
+//! its frames, or with `--count` how many and how fast, or with `--mf4 OUT`
+//! writes them to OUT as MF4: a check, a measurement and a seed maker that
+//! need only acq-drivers built.
 //!
-//!     cargo run --release -p acq-drivers --example log_frames -- [--count] FILE
+//!     cargo run --release -p acq-drivers --example log_frames -- [--count | --mf4 OUT] FILE
 
 use std::fs::File;
 use std::io::BufReader;
 use std::time::Instant;
 
+use acq_drivers::log::mf4_write::Mf4Writer;
 use acq_drivers::{LogReader, ReadError};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
     let count_only = args.iter().any(|a| a == "--count");
-    let Some(path) = args.iter().find(|a| *a != "--count") else {
-        eprintln!("usage: log_frames [--count] FILE");
+    args.retain(|a| a != "--count");
+    let mut mf4 = match args.iter().position(|a| a == "--mf4") {
+        Some(at) if at + 1 < args.len() => {
+            let out = args.remove(at + 1);
+            args.remove(at);
+            let file = File::create(&out).unwrap_or_else(|e| panic!("{out}: {e}"));
+            Some(Mf4Writer::new(std::io::BufWriter::new(file)))
+        }
+        _ => None,
+    };
+    let Some(path) = args.first() else {
+        eprintln!("usage: log_frames [--count | --mf4 OUT] FILE");
         std::process::exit(2);
     };
     let started = Instant::now();
@@ -26,7 +38,9 @@ fn main() {
         match reader.next_record() {
             Ok(Some(record)) => {
                 frames += 1;
-                if !count_only {
+                if let Some(writer) = &mut mf4 {
+                    writer.write_frame(&record.frame).expect("write");
+                } else if !count_only {
                     println!("{} {:?}", record.timestamp_text, record.frame);
                 }
             }
@@ -34,6 +48,9 @@ fn main() {
             Err(ReadError::Parse(e)) => eprintln!("{path}:{}: expected {}", e.line, e.expected),
             Err(ReadError::Io(e)) => panic!("{path}: {e}"),
         }
+    }
+    if let Some(writer) = mf4 {
+        writer.finish().expect("write");
     }
     if count_only {
         let seconds = started.elapsed().as_secs_f64();

@@ -85,7 +85,7 @@ pub const MAX_DZ_BYTES: u64 = 256 << 20;
 
 const ID_BLOCK: u64 = 64;
 const HEADER: u64 = 24;
-const CHUNK: u64 = 256 << 10;
+const CHUNK: u64 = 1 << 20;
 const FD_DLC_LEN: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 /// `CAN_ERR_BUSERROR`: the class of every error frame read from MF4.
 pub const ERROR_FRAME_CLASS: u32 = 0x80;
@@ -251,13 +251,18 @@ impl<R: BufRead> Source<R> {
             Ok(skipped) if skipped == gap => self.pos = at,
             _ => return Err(E_TRUNCATED),
         }
-        let got = (&mut self.input)
-            .take(count)
-            .read_to_end(out)
-            .map_err(|_| E_TRUNCATED)? as u64;
-        self.pos += got;
-        if got != count {
-            return Err(E_TRUNCATED);
+        // `count` is at most a chunk, or a DZ block's stated size: read it
+        // in chunks so a false size costs no memory.
+        while count > 0 {
+            let step = count.min(CHUNK);
+            let before = out.len();
+            out.resize(before + step as usize, 0);
+            if self.input.read_exact(&mut out[before..]).is_err() {
+                out.truncate(before);
+                return Err(E_TRUNCATED);
+            }
+            self.pos += step;
+            count -= step;
         }
         Ok(())
     }
@@ -274,6 +279,14 @@ struct Field {
 impl Field {
     #[inline]
     fn read(&self, record: &[u8]) -> u64 {
+        // Whole bytes, the fields bus logging writes: no shifting.
+        if self.bit == 0 {
+            match self.bits {
+                8 => return record.get(self.byte).map_or(0, |&b| u64::from(b)),
+                32 => return u32_at(record, self.byte).map_or(0, u64::from),
+                _ => {}
+            }
+        }
         let mut word = [0u8; 16];
         let bytes = ((self.bit + self.bits).div_ceil(8)) as usize;
         if let Some(source) = record.get(self.byte..self.byte + bytes) {
@@ -389,6 +402,25 @@ impl<R: BufRead> Mf4Reader<R> {
                 return Err(error);
             }
         }
+        if let [cursor] = &mut self.cursors[..] {
+            // One group (acq's files, loggers'): nothing to merge.
+            if cursor.done {
+                self.finished = true;
+                return Ok(None);
+            }
+            let next = cursor.next_frame(
+                &mut self.source,
+                &mut self.compressed,
+                &mut self.transposed,
+                self.start_ns,
+            )?;
+            let Some((frame, line)) = next else {
+                cursor.done = true;
+                self.finished = true;
+                return Ok(None);
+            };
+            return Ok(Some(self.record(frame, line)));
+        }
         for index in 0..self.cursors.len() {
             if self.heads[index].is_none() && !self.cursors[index].done {
                 let next = self.cursors[index].next_frame(
@@ -417,6 +449,11 @@ impl<R: BufRead> Mf4Reader<R> {
         let Some((frame, line)) = self.heads[index].take() else {
             return Ok(None);
         };
+        Ok(Some(self.record(frame, line)))
+    }
+
+    /// The record of `frame`, its time written out as seconds.
+    fn record(&mut self, frame: Frame, line: u64) -> LogRecord<'_> {
         let ns = frame.timestamp_ns;
         self.time_text.clear();
         let mut digits = itoa::Buffer::new();
@@ -426,17 +463,20 @@ impl<R: BufRead> Mf4Reader<R> {
         let magnitude = ns.unsigned_abs();
         self.time_text
             .push_str(digits.format(magnitude / 1_000_000_000));
-        self.time_text.push('.');
-        let nanos = digits.format(magnitude % 1_000_000_000);
-        for _ in nanos.len()..9 {
-            self.time_text.push('0');
+        // Nine digits of ns, zero-padded, without a formatter per digit.
+        let mut nanos = magnitude % 1_000_000_000;
+        let mut text = *b".000000000";
+        for digit in text[1..].iter_mut().rev() {
+            *digit = b'0' + (nanos % 10) as u8;
+            nanos /= 10;
         }
-        self.time_text.push_str(nanos);
-        Ok(Some(LogRecord {
+        self.time_text
+            .push_str(std::str::from_utf8(&text).unwrap_or_default());
+        LogRecord {
             line,
             timestamp_text: &self.time_text,
             frame,
-        }))
+        }
     }
 
     /// Reads the metadata: which groups hold CAN frames, where their fields

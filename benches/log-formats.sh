@@ -4,18 +4,21 @@
 #
 #   benches/log-formats.sh [FRAMES]        (default 1,000,000)
 #
-# Needs python-can in a scratch virtualenv (made if missing, as
-# tests/python_can.rs does). Makes a candump log of random classic and FD
-# frames, has python-can write it as BLF, has acq write it as ASC, then
+# Needs python-can (and asammdf, for MF4) in a scratch virtualenv (made if
+# missing, as drivers/tests/mf4.rs does). Makes a candump log of random
+# classic and FD frames, has python-can write it as BLF, has acq write it
+# as ASC and MF4 (through the acq-drivers example log_frames), then
 # times `acq convert X -o out.log` per format (the same candump writing in
 # each, so the difference is the reading) and python-can iterating over
 # each file. Prints frames per second.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 frames=${1:-1000000}
-venv="${TMPDIR:-/tmp}/acq-python-can-4.6.1"
-[ -x "$venv/bin/python" ] || { python3 -m venv "$venv" && "$venv/bin/pip" install --quiet python-can==4.6.1; }
+venv="${TMPDIR:-/tmp}/acq-python-can-mf4"
+"$venv/bin/python" -c "import can, asammdf" 2>/dev/null ||
+    { python3 -m venv "$venv" && "$venv/bin/pip" install --quiet python-can==4.6.1 asammdf==8.8.28; }
 cargo build --release --quiet
+cargo build --release --quiet -p acq-drivers --example log_frames
 acq=target/release/acq
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -38,16 +41,18 @@ with can.BLFWriter(f"{work}/frames.blf") as w:
         w.on_message_received(m)
 PY
 "$acq" convert "$work/frames.log" -o "$work/frames.asc" 2>/dev/null
+target/release/examples/log_frames --mf4 "$work/frames.mf4" "$work/frames.log"
 seconds() { local start end; start=$(date +%s.%N); "$@" >/dev/null 2>&1; end=$(date +%s.%N); echo "$end - $start" | bc -l; }
 printf 'format   size MB   acq s   acq frames/s   python-can s   python-can frames/s   ratio\n'
-for format in log asc blf; do
+for format in log asc blf mf4; do
     file="$work/frames.$format"
     size=$(du -m "$file" | cut -f1)
     ours=$(seconds "$acq" convert "$file" -o "$work/out.log")
     theirs=$(seconds "$venv/bin/python" -c "
 import can, sys
 f = sys.argv[1]
-r = can.BLFReader(f) if f.endswith('.blf') else can.ASCReader(f) if f.endswith('.asc') else can.CanutilsLogReader(f)
+r = (can.BLFReader(f) if f.endswith('.blf') else can.ASCReader(f) if f.endswith('.asc')
+     else can.MF4Reader(f) if f.endswith('.mf4') else can.CanutilsLogReader(f))
 sum(1 for _ in r)" "$file")
     printf '%-6s %8s %8.2f %14.0f %14.2f %21.0f %7.1f\n' "$format" "$size" "$ours" \
         "$(echo "$frames / $ours" | bc -l)" "$theirs" "$(echo "$frames / $theirs" | bc -l)" \

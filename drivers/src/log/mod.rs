@@ -3,8 +3,9 @@
 //!
 //! - [`record`]: [`LogRecord`], [`ParseError`], [`ReadError`]; what every
 //!   reader yields. It depends on no reader.
-//! - [`candump`], [`asc`], [`blf`]: the readers (and the candump writer);
-//!   each depends only on [`record`] and the frame types. [`asc_write`]: the ASC writer.
+//! - [`candump`], [`asc`], [`blf`], [`mf4`]: the readers (and the candump
+//!   writer); each depends only on [`record`] and the frame types.
+//!   [`asc_write`], [`mf4_write`]: the ASC and MF4 writers.
 //! - this module: [`LogFormat`] and [`LogReader`], which detects the format
 //!   and dispatches. A new format is a new module beside the readers and one
 //!   arm here.
@@ -17,6 +18,8 @@ pub mod asc;
 pub mod asc_write;
 pub mod blf;
 pub mod candump;
+pub mod mf4;
+pub mod mf4_write;
 pub mod record;
 
 use std::io::{self, BufRead};
@@ -26,6 +29,7 @@ pub use record::{LogRecord, ParseError, ReadError};
 use asc::AscReader;
 use blf::BlfReader;
 use candump::CandumpReader;
+use mf4::Mf4Reader;
 
 /// The log formats `acq` reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,6 +40,8 @@ pub enum LogFormat {
     Asc,
     /// Vector binary log (`.blf`).
     Blf,
+    /// ASAM MDF 4 bus logging (`.mf4`).
+    Mf4,
 }
 
 /// A reader of either format.
@@ -43,23 +49,28 @@ pub enum LogReader<R> {
     Candump(CandumpReader<R>),
     Asc(AscReader<R>),
     Blf(BlfReader<R>),
+    Mf4(Mf4Reader<R>),
 }
 
 impl<R: BufRead> LogReader<R> {
     /// Guesses the format from the first bytes of the input without
-    /// consuming them: a BLF file starts with `LOGG`, a candump log with
+    /// consuming them: a BLF file starts with `LOGG`, an MF4 file with
+    /// `MDF     ` (its identification block), a candump log with
     /// `(`, anything else is taken for ASC (whose header starts with `date`
     /// or `base`).
     pub fn detect(mut input: R) -> io::Result<(Self, LogFormat)> {
-        let (looks_blf, looks_candump) = {
+        let (looks_blf, looks_mf4, looks_candump) = {
             let head = input.fill_buf()?;
             let first = head.iter().find(|b| !b.is_ascii_whitespace());
             (
                 head.starts_with(blf::SIGNATURE),
+                head.starts_with(mf4::SIGNATURE),
                 first.is_none_or(|&b| b == b'(' || b == b'#'),
             )
         };
-        Ok(if looks_blf {
+        Ok(if looks_mf4 {
+            (LogReader::Mf4(Mf4Reader::new(input)), LogFormat::Mf4)
+        } else if looks_blf {
             (LogReader::Blf(BlfReader::new(input)), LogFormat::Blf)
         } else if looks_candump {
             (
@@ -76,6 +87,7 @@ impl<R: BufRead> LogReader<R> {
             LogFormat::Candump => LogReader::Candump(CandumpReader::new(input)),
             LogFormat::Asc => LogReader::Asc(AscReader::new(input)),
             LogFormat::Blf => LogReader::Blf(BlfReader::new(input)),
+            LogFormat::Mf4 => LogReader::Mf4(Mf4Reader::new(input)),
         }
     }
 
@@ -86,6 +98,7 @@ impl<R: BufRead> LogReader<R> {
             LogReader::Candump(reader) => reader.next_record(),
             LogReader::Asc(reader) => reader.next_record(),
             LogReader::Blf(reader) => reader.next_record(),
+            LogReader::Mf4(reader) => reader.next_record(),
         }
     }
 }

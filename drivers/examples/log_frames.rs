@@ -1,0 +1,62 @@
+//! Reads a log (any format acq reads, detected from its content) and prints
+//! its frames, or with `--count` how many and how fast, or with `--mf4 OUT`
+//! writes them to OUT as MF4: a check, a measurement and a seed maker that
+//! need only acq-drivers built.
+//!
+//!     cargo run --release -p acq-drivers --example log_frames -- [--count | --mf4 OUT] FILE
+
+use std::fs::File;
+use std::io::BufReader;
+use std::time::Instant;
+
+use acq_drivers::log::mf4_write::Mf4Writer;
+use acq_drivers::{LogReader, ReadError};
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let count_only = args.iter().any(|a| a == "--count");
+    args.retain(|a| a != "--count");
+    let mut mf4 = match args.iter().position(|a| a == "--mf4") {
+        Some(at) if at + 1 < args.len() => {
+            let out = args.remove(at + 1);
+            args.remove(at);
+            let file = File::create(&out).unwrap_or_else(|e| panic!("{out}: {e}"));
+            Some(Mf4Writer::new(std::io::BufWriter::new(file)))
+        }
+        _ => None,
+    };
+    let Some(path) = args.first() else {
+        eprintln!("usage: log_frames [--count | --mf4 OUT] FILE");
+        std::process::exit(2);
+    };
+    let started = Instant::now();
+    let file = File::open(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let (mut reader, format) =
+        LogReader::detect(BufReader::with_capacity(256 * 1024, file)).expect("read");
+    let mut frames = 0u64;
+    loop {
+        match reader.next_record() {
+            Ok(Some(record)) => {
+                frames += 1;
+                if let Some(writer) = &mut mf4 {
+                    writer.write_frame(&record.frame).expect("write");
+                } else if !count_only {
+                    println!("{} {:?}", record.timestamp_text, record.frame);
+                }
+            }
+            Ok(None) => break,
+            Err(ReadError::Parse(e)) => eprintln!("{path}:{}: expected {}", e.line, e.expected),
+            Err(ReadError::Io(e)) => panic!("{path}: {e}"),
+        }
+    }
+    if let Some(writer) = mf4 {
+        writer.finish().expect("write");
+    }
+    if count_only {
+        let seconds = started.elapsed().as_secs_f64();
+        println!(
+            "{format:?} {frames} frames in {seconds:.3} s: {:.0} frames/s",
+            frames as f64 / seconds
+        );
+    }
+}

@@ -1,0 +1,361 @@
+//! MF4 bus logging: acq's writer and reader round-trip every frame MF4
+//! carries; python-can (through asammdf, in a scratch virtualenv the test
+//! makes: never a dependency of acq; without it the test fails) reads acq's
+//! MF4 as the frames written, and acq reads python-can's MF4, stored,
+//! deflated and transposed, as the frames python-can was given.
+
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use acq_drivers::frame::fd_flags;
+use acq_drivers::log::mf4::{Mf4Reader, ERROR_FRAME_CLASS};
+use acq_drivers::log::mf4_write::Mf4Writer;
+use acq_drivers::{CanId, Direction, Frame, FrameKind, IfaceName, LogFormat, LogReader, ReadError};
+use proptest::prelude::*;
+use serde_json::{json, Value};
+
+const PYTHON_CAN: &str = "python-can==4.6.1";
+/// The asammdf python-can's `[mf4]` extra takes (`asammdf>=6.0.0`), pinned.
+const ASAMMDF: &str = "asammdf==8.8.28";
+
+fn write(frames: &[Frame]) -> Vec<u8> {
+    let mut writer = Mf4Writer::new(Cursor::new(Vec::new()));
+    for frame in frames {
+        writer.write_frame(frame).unwrap();
+    }
+    writer.finish().unwrap().into_inner()
+}
+
+/// Every frame of an MF4 file, through format detection; any error fails.
+fn read(bytes: &[u8]) -> Vec<Frame> {
+    let (mut reader, format) = LogReader::detect(bytes).unwrap();
+    assert_eq!(format, LogFormat::Mf4);
+    let mut frames = Vec::new();
+    loop {
+        match reader.next_record() {
+            Ok(Some(record)) => {
+                let ns = record.frame.timestamp_ns;
+                assert_eq!(
+                    record.timestamp_text,
+                    format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
+                );
+                frames.push(record.frame);
+            }
+            Ok(None) => return frames,
+            Err(error) => panic!("{error:?}"),
+        }
+    }
+}
+
+/// What MF4 keeps of a frame: no direction reads Rx; error frames lose
+/// their class and details; FD payloads are padded to a DLC step.
+fn as_kept(frame: &Frame) -> Frame {
+    let mut kept = match frame.kind {
+        FrameKind::Error { .. } => {
+            Frame::error(frame.timestamp_ns, frame.iface, ERROR_FRAME_CLASS, &[]).unwrap()
+        }
+        FrameKind::Fd { flags } => {
+            let steps = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
+            let len = *steps.iter().find(|&&s| s >= frame.payload().len()).unwrap();
+            let mut payload = frame.payload().to_vec();
+            payload.resize(len, 0);
+            let flags = fd_flags(flags & 1 != 0, flags & 2 != 0);
+            Frame::fd(frame.timestamp_ns, frame.iface, frame.id, flags, &payload).unwrap()
+        }
+        _ => *frame,
+    };
+    kept.direction = Some(frame.direction.unwrap_or(Direction::Received));
+    kept
+}
+
+fn can_id() -> impl Strategy<Value = CanId> {
+    prop_oneof![
+        (0..=0x7FFu16).prop_map(CanId::Standard),
+        (0..=0x1FFF_FFFFu32).prop_map(CanId::Extended),
+    ]
+}
+
+fn frame(start_ns: i64) -> impl Strategy<Value = Frame> {
+    let iface = prop::sample::select(&["can0", "can1", "can9", "can255"][..])
+        .prop_map(|name| IfaceName::new(name).unwrap());
+    // Up to 20 days after the first frame: ns survive f64 seconds.
+    let time = (0..20 * 86_400_000_000_000i64).prop_map(move |ns| start_ns + ns);
+    let data = (
+        time.clone(),
+        iface.clone(),
+        can_id(),
+        prop::collection::vec(any::<u8>(), 0..=8),
+        prop::option::of(9..=15u8),
+    )
+        .prop_map(|(ts, iface, id, payload, len8)| {
+            let mut frame = Frame::data(ts, iface, id, &payload).unwrap();
+            if let (8, Some(dlc)) = (payload.len(), len8) {
+                frame.set_len8_dlc(dlc).unwrap();
+            }
+            frame
+        });
+    let remote = (
+        time.clone(),
+        iface.clone(),
+        can_id(),
+        0..=8u8,
+        prop::option::of(9..=15u8),
+    )
+        .prop_map(|(ts, iface, id, requested, len8)| {
+            let mut frame = Frame::remote(ts, iface, id, requested).unwrap();
+            if let (8, Some(dlc)) = (requested, len8) {
+                frame.set_len8_dlc(dlc).unwrap();
+            }
+            frame
+        });
+    let fd = (
+        time.clone(),
+        iface.clone(),
+        can_id(),
+        0..=15u8,
+        prop::collection::vec(any::<u8>(), 0..=64),
+    )
+        .prop_map(|(ts, iface, id, flags, payload)| {
+            Frame::fd(ts, iface, id, flags, &payload).unwrap()
+        });
+    let error = (time, iface, 0..=0x1FFF_FFFFu32, any::<[u8; 8]>())
+        .prop_map(|(ts, iface, class, details)| Frame::error(ts, iface, class, &details).unwrap());
+    let direction = prop::option::of(prop_oneof![
+        Just(Direction::Received),
+        Just(Direction::Transmitted)
+    ]);
+    (prop_oneof![data, remote, fd, error], direction).prop_map(|(mut frame, direction)| {
+        frame.direction = direction;
+        frame
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Frames in time order come back exactly as MF4 keeps them.
+    #[test]
+    fn writer_then_reader_gives_the_frames(
+        start_ns in 0..4_000_000_000_000_000_000i64,
+        frames in prop::collection::vec(frame(0), 0..200),
+    ) {
+        let mut frames: Vec<Frame> = frames
+            .into_iter()
+            .map(|mut f| { f.timestamp_ns += start_ns; f })
+            .collect();
+        frames.sort_by_key(|f| f.timestamp_ns);
+        let bytes = write(&frames);
+        let read = if frames.is_empty() {
+            let mut reader = Mf4Reader::new(&bytes[..]);
+            assert!(matches!(reader.next_record(), Ok(None)));
+            Vec::new()
+        } else {
+            read(&bytes)
+        };
+        let kept: Vec<Frame> = frames.iter().map(as_kept).collect();
+        prop_assert_eq!(read, kept);
+    }
+
+    /// Any cut or byte flip of a valid file is read without a panic and
+    /// without looping.
+    #[test]
+    fn damaged_files_end_in_errors_not_panics(
+        frames in prop::collection::vec(frame(1_700_000_000_000_000_000), 1..40),
+        cut in any::<prop::sample::Index>(),
+        flips in prop::collection::vec((any::<prop::sample::Index>(), any::<u8>()), 0..8),
+    ) {
+        let mut bytes = write(&frames);
+        for (at, byte) in flips {
+            let at = at.index(bytes.len());
+            bytes[at] ^= byte;
+        }
+        bytes.truncate(cut.index(bytes.len() + 1));
+        let mut reader = Mf4Reader::new(&bytes[..]);
+        let ended = (0..bytes.len() + 2)
+            .any(|_| matches!(reader.next_record(), Ok(None) | Err(ReadError::Io(_))));
+        prop_assert!(ended, "no end after {} records", bytes.len() + 2);
+    }
+}
+
+#[test]
+fn memory_stays_bounded_by_the_input_when_links_point_far() {
+    // A header whose first data group is claimed at 1 TiB: the reader reads
+    // what there is and reports the block missing, without allocating.
+    let mut bytes = write(&[]);
+    bytes[64 + 24..64 + 32].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let mut reader = Mf4Reader::new(&bytes[..]);
+    match reader.next_record() {
+        Err(ReadError::Parse(error)) => assert_eq!(error.line, 1 << 40),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// The known frames: every kind MF4 carries, two channels, whole us.
+fn known_frames() -> Vec<Frame> {
+    let t = |us: i64| 1_763_719_200_000_000_000 + us * 1000;
+    let iface = |name| IfaceName::new(name).unwrap();
+    let (can0, can1) = (iface("can0"), iface("can1"));
+    let std = |id| CanId::Standard(id);
+    let ext = |id| CanId::Extended(id);
+    let tx = |mut f: Frame| {
+        f.direction = Some(Direction::Transmitted);
+        f
+    };
+    let mut frames = vec![
+        Frame::data(t(100), can0, std(0x123), &[0x11, 0x22, 0x33, 0x44]).unwrap(),
+        tx(Frame::data(t(250), can1, ext(0x1ABC_DEF0), &[1, 2, 3, 4, 5, 6, 7, 8]).unwrap()),
+        Frame::data(t(1000), can0, std(0x7FF), &[]).unwrap(),
+        Frame::remote(t(2000), can0, std(0x0C0), 0).unwrap(),
+        tx(Frame::remote(t(2500), can1, ext(0x18FE_F100), 5).unwrap()),
+        Frame::fd(
+            t(3000),
+            can0,
+            std(0x321),
+            fd_flags(true, false),
+            &[0x5A; 12],
+        )
+        .unwrap(),
+        Frame::fd(
+            t(3500),
+            can1,
+            ext(0x1F33_4455),
+            fd_flags(true, true),
+            &[0xC3; 64],
+        )
+        .unwrap(),
+        Frame::fd(t(3700), can1, std(0x42), fd_flags(false, false), &[7; 8]).unwrap(),
+        Frame::error(t(4000), can0, ERROR_FRAME_CLASS, &[]).unwrap(),
+        Frame::data(t(5000), can1, std(0x010), &[0xDE, 0xAD, 0xBE, 0xEF]).unwrap(),
+    ];
+    for frame in &mut frames {
+        frame.direction.get_or_insert(Direction::Received);
+    }
+    frames
+}
+
+/// python-can's JSON view of a frame (`tests/mf4/frames.py`).
+fn as_json(frame: &Frame) -> Value {
+    let error = frame.is_error();
+    let (fd, brs, esi) = match frame.kind {
+        FrameKind::Fd { flags } => (true, flags & 1 != 0, flags & 2 != 0),
+        _ => (false, false, false),
+    };
+    let dlc = match frame.kind {
+        FrameKind::Remote { requested_len, .. } => usize::from(requested_len),
+        FrameKind::Error { .. } => 0,
+        _ => frame.payload().len(),
+    };
+    let hex: String = frame.payload().iter().map(|b| format!("{b:02x}")).collect();
+    json!({
+        "timestamp_us": frame.timestamp_ns / 1000,
+        "channel": frame.iface.as_str()[3..].parse::<u64>().unwrap(),
+        "id": if error { 0 } else { frame.id.raw() },
+        "extended": !error && frame.id.is_extended(),
+        "remote": matches!(frame.kind, FrameKind::Remote { .. }),
+        "error": error,
+        "fd": fd,
+        "brs": brs,
+        "esi": esi,
+        "dlc": dlc,
+        "data": if error { String::new() } else { hex },
+        "rx": frame.direction != Some(Direction::Transmitted),
+    })
+}
+
+/// The scratch virtualenv with python-can and asammdf, made once per machine.
+fn python() -> PathBuf {
+    let venv = std::env::temp_dir().join("acq-python-can-mf4");
+    let python = venv.join("bin/python");
+    let ready = |python: &Path| {
+        Command::new(python)
+            .args(["-c", "import can, asammdf"])
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    if !ready(&python) {
+        let made = Command::new("python3")
+            .args(["-m", "venv", venv.to_str().unwrap()])
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(&python)
+                .args(["-m", "pip", "install", "--quiet", PYTHON_CAN, ASAMMDF])
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            made && ready(&python),
+            "could not install {PYTHON_CAN} and {ASAMMDF} into {} (python3 -m venv, pip from the package registry)",
+            venv.display()
+        );
+    }
+    python
+}
+
+fn helper(python: &Path, args: &[&str]) -> String {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mf4/frames.py");
+    let output = Command::new(python)
+        .arg(script)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "frames.py {args:?}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8(output.stdout).unwrap()
+}
+
+#[test]
+fn python_can_reads_acq_mf4_as_the_frames_written() {
+    let python = python();
+    let dir = tempfile::tempdir().unwrap();
+    let frames = known_frames();
+    let path = dir.path().join("acq.mf4");
+    std::fs::write(&path, write(&frames)).unwrap();
+    let read: Vec<Value> = helper(&python, &["read", path.to_str().unwrap()])
+        .lines()
+        .map(|line| serde_json::from_str(line).unwrap())
+        .collect();
+    let expected: Vec<Value> = frames.iter().map(as_json).collect();
+    assert_eq!(read.len(), expected.len());
+    for (got, want) in read.iter().zip(&expected) {
+        assert_eq!(got, want, "python-can on acq's MF4");
+    }
+}
+
+#[test]
+fn acq_reads_python_can_mf4_as_the_frames_given() {
+    let python = python();
+    let dir = tempfile::tempdir().unwrap();
+    let frames = known_frames();
+    let jsonl = dir.path().join("frames.jsonl");
+    let lines: Vec<String> = frames.iter().map(|f| as_json(f).to_string()).collect();
+    std::fs::write(&jsonl, lines.join("\n")).unwrap();
+    for level in ["0", "1", "2"] {
+        let path = dir.path().join(format!("python-can-{level}.mf4"));
+        helper(
+            &python,
+            &[
+                "write",
+                jsonl.to_str().unwrap(),
+                path.to_str().unwrap(),
+                level,
+            ],
+        );
+        let read = read(&std::fs::read(&path).unwrap());
+        assert_eq!(read.len(), frames.len(), "compression {level}");
+        for (got, want) in read.iter().zip(&frames) {
+            // python-can stores t as f64 seconds from a start of float
+            // epoch seconds: its last bits are worth about 0.24 us.
+            let off_ns = got.timestamp_ns - want.timestamp_ns;
+            assert!(
+                off_ns.abs() < 1000,
+                "compression {level}: {got:?} is {off_ns} ns off"
+            );
+            let mut got = *got;
+            got.timestamp_ns = want.timestamp_ns;
+            assert_eq!(&got, want, "compression {level}");
+        }
+    }
+}

@@ -114,20 +114,81 @@ impl Output {
         if let Some((partial, complete)) = self.rename.take() {
             // Closes the file before it is renamed.
             self.sink = Box::new(io::sink());
-            let renamed = refuse_input(&complete).and_then(|()| {
-                std::fs::rename(&partial, &complete).map_err(|e| {
-                    AcqError::io(
-                        format!("renaming {} to {}", partial.display(), complete.display()),
-                        e,
-                    )
-                })
-            });
-            if renamed.is_err() {
-                let _ = std::fs::remove_file(&partial);
-            }
-            renamed?;
+            give_complete_name(&partial, &complete)?;
         }
         Ok(())
+    }
+}
+
+/// Renames a finished `.partial` to its name (never over an input); a
+/// failure removes the `.partial`.
+fn give_complete_name(partial: &Path, complete: &Path) -> Result<()> {
+    let renamed = refuse_input(complete).and_then(|()| {
+        std::fs::rename(partial, complete).map_err(|e| {
+            AcqError::io(
+                format!("renaming {} to {}", partial.display(), complete.display()),
+                e,
+            )
+        })
+    });
+    if renamed.is_err() {
+        let _ = std::fs::remove_file(partial);
+    }
+    renamed
+}
+
+/// A regular file written as `NAME.partial` and renamed by
+/// [`CompleteOnlyFile::finish`], for writers that seek back (an MF4 log
+/// patches its block lengths at the end), which an [`Output`] cannot.
+/// Dropped unfinished, it removes the `.partial`.
+pub struct CompleteOnlyFile {
+    /// `None` once finished.
+    file: Option<File>,
+    partial: PathBuf,
+    complete: PathBuf,
+}
+
+impl CompleteOnlyFile {
+    pub fn create(path: &Path, what: &str) -> Result<Self> {
+        refuse_input(path)?;
+        if std::fs::metadata(path).is_ok_and(|meta| !meta.is_file()) {
+            return Err(AcqError::Config(format!(
+                "{}: {what} must go to a regular file (it is written, then completed in place)",
+                path.display()
+            )));
+        }
+        let mut partial = path.as_os_str().to_owned();
+        partial.push(".partial");
+        let partial = PathBuf::from(partial);
+        Ok(CompleteOnlyFile {
+            file: Some(create_file(&partial)?),
+            partial,
+            complete: path.to_path_buf(),
+        })
+    }
+
+    /// The `.partial` file to write and seek in.
+    pub fn file(&mut self) -> &mut File {
+        self.file.as_mut().expect("written before finish")
+    }
+
+    /// Closes the file, then gives it its name.
+    pub fn finish(mut self) -> Result<()> {
+        // Closes the file before it is renamed.
+        drop(self.file.take());
+        let (partial, complete) = (
+            std::mem::take(&mut self.partial),
+            std::mem::take(&mut self.complete),
+        );
+        give_complete_name(&partial, &complete)
+    }
+}
+
+impl Drop for CompleteOnlyFile {
+    fn drop(&mut self) {
+        if self.file.is_some() {
+            let _ = std::fs::remove_file(&self.partial);
+        }
     }
 }
 

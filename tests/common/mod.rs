@@ -65,3 +65,21 @@ pub fn number(value: &serde_json::Value, path: &[&str]) -> f64 {
     v.as_f64()
         .unwrap_or_else(|| panic!("no number at {path:?} in {value:#}"))
 }
+
+/// A candump log with every kind of frame the log formats carry: classic
+/// 11- and 29-bit data (0-8 bytes), remote frames, CAN FD with bit-rate
+/// switch and error state (flags with FDF, as current kernels log them),
+/// an error frame, on two channels, received, sent and without a
+/// direction, with microsecond times.
+pub const EVERY_KIND_OF_FRAME: &str = "\
+(1763719200.000100) can0 123#11223344 R
+(1763719200.000250) can1 1ABCDEF0#0102030405060708 T
+(1763719200.001000) can0 7FF# R
+(1763719200.002000) can0 0C0#R R
+(1763719200.002500) can1 18FEF100#R5 R
+(1763719200.003000) can0 321##5AABBCCDDEEFF001122334455 R
+(1763719200.003500) can1 1F334455##700112233445566778899AABBCCDDEEFF00112233445566778899AABBCCDDEEFF00112233445566778899AABBCCDDEEFF R
+(1763719200.004000) can0 20000080#0000000000000000 R
+(1763719200.005000) can1 010#DEADBEEF T
+(1763719200.006000) can0 010#DEADBEEF
+";

@@ -1,6 +1,7 @@
 //! acq's logs against python-can, the reference most test engineers already
 //! run: python-can reads every ASC file `acq convert` writes as the frames
-//! of the source log, and acq reads python-can's ASC files as those frames.
+//! of the source log, and acq reads python-can's ASC, BLF and candump files
+//! as the frames python-can wrote (MF4: `drivers/tests/mf4.rs`).
 //! python-can lives in a scratch virtualenv the test makes (never a
 //! dependency of acq); without it the test fails.
 
@@ -153,4 +154,29 @@ fn acq_reads_python_can_blf_as_the_source_frames() {
     let source = dir.path().join("source.log");
     std::fs::write(&source, SOURCE).unwrap();
     acq_reads_what_python_can_wrote(&python, &source, "blf");
+}
+
+/// python-can's candump writer keeps less than candump does (a remote
+/// frame's length, the FD flags but BRS, an error frame's channel and
+/// bytes), so the check is against python-can's own reading of its file:
+/// acq reads python-can's candump log as the frames python-can sees in it.
+#[test]
+fn acq_reads_python_can_candump_as_python_can_does() {
+    let python = python();
+    let dir = tempfile::tempdir().unwrap();
+    let source = dir.path().join("source.log");
+    std::fs::write(&source, SOURCE).unwrap();
+    let theirs = dir.path().join("python-can.log");
+    let output = Command::new(&python)
+        .arg(common::root().join("tests/python_can/frames.py"))
+        .args(["log", path_arg(&source), path_arg(&theirs)])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let back = dir.path().join("back.log");
+    let output = acq(&["convert", path_arg(&theirs), "-o", path_arg(&back)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let expected = python_can_frames(&python, &theirs);
+    assert_eq!(expected.len(), SOURCE.lines().count());
+    assert_eq!(python_can_frames(&python, &back), expected);
 }

@@ -3,6 +3,7 @@
     frames.py read FILE        one JSON object per frame python-can reads
     frames.py asc CANDUMP OUT  python-can reads a candump log, writes it as ASC
     frames.py blf CANDUMP OUT  the same, as BLF
+    frames.py log CANDUMP OUT  the same, as candump -L (python-can's writer)
 
 Run with the python-can the test installs in a scratch virtualenv; never a
 dependency of acq.
@@ -45,13 +46,17 @@ def main():
                 "dlc": message.dlc,
                 "data": message.data.hex() if not message.is_error_frame else "",
             }))
-    elif sys.argv[1] in ("asc", "blf"):
-        writer_class = can.ASCWriter if sys.argv[1] == "asc" else can.BLFWriter
+    elif sys.argv[1] in ("asc", "blf", "log"):
+        writer_class = {
+            "asc": can.ASCWriter,
+            "blf": can.BLFWriter,
+            "log": can.CanutilsLogWriter,
+        }[sys.argv[1]]
         with writer_class(sys.argv[3]) as writer:
             for message in can.CanutilsLogReader(sys.argv[2]):
                 writer.on_message_received(message)
     else:
-        sys.exit("usage: frames.py read FILE | asc CANDUMP OUT | blf CANDUMP OUT")
+        sys.exit("usage: frames.py read FILE | asc|blf|log CANDUMP OUT")
 
 
 main()

@@ -26,7 +26,7 @@ use acq_analysis::align::{Aligner, ChannelSpec, GridSpec, RowSink};
 use acq_drivers::rig::Interpolation;
 use acq_io::error::AcqError;
 use acq_io::output::Output;
-use acq_io::parquet_table::TableFormat;
+use acq_io::output::TableFormat;
 
 const CHANNELS: usize = 25;
 const RATE_HZ: f64 = 1000.0;
@@ -232,6 +232,7 @@ fn align_hours(hours: f64, format: TableFormat) {
         TableFormat::Parquet => {
             Box::new(ParquetAlignedTable::new(output, &comments, &columns, grid).unwrap())
         }
+        TableFormat::Mf4 => unreachable!("the benchmark writes CSV and Parquet"),
     };
     let specs = vec![
         ChannelSpec {

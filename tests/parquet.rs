@@ -15,29 +15,9 @@ use common::{acq, path_arg, stderr};
 
 const READERS: [&str; 2] = ["pyarrow==22.0.0", "polars==1.35.2"];
 
-/// The scratch virtualenv with the readers, made once per machine.
+/// The scratch virtualenv with the readers.
 fn python() -> PathBuf {
-    let venv = std::env::temp_dir().join("acq-parquet-readers-1");
-    let python = venv.join("bin/python");
-    let ready = venv.join("ready");
-    if !ready.exists() {
-        let made = Command::new("python3")
-            .args(["-m", "venv", "--clear", path_arg(&venv)])
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(&python)
-                .args(["-m", "pip", "install", "--quiet"])
-                .args(READERS)
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            made,
-            "could not install {READERS:?} into {} (python3 -m venv, pip from the package registry)",
-            venv.display()
-        );
-        std::fs::write(&ready, "").unwrap();
-    }
-    python
+    common::scratch_python("acq-parquet-readers-1", &READERS)
 }
 
 /// Runs acq twice, to `NAME.csv` and `NAME.parquet`, and has the readers

@@ -14,26 +14,9 @@ use common::{acq, path_arg, stderr, EVERY_KIND_OF_FRAME as SOURCE};
 
 const PYTHON_CAN: &str = "python-can==4.6.1";
 
-/// The scratch virtualenv with python-can, made once per machine.
+/// The scratch virtualenv with python-can.
 fn python() -> PathBuf {
-    let venv = std::env::temp_dir().join("acq-python-can-4.6.1");
-    let python = venv.join("bin/python");
-    if !python.exists() {
-        let made = Command::new("python3")
-            .args(["-m", "venv", path_arg(&venv)])
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(&python)
-                .args(["-m", "pip", "install", "--quiet", PYTHON_CAN])
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            made,
-            "could not install {PYTHON_CAN} into {} (python3 -m venv, pip from the package registry)",
-            venv.display()
-        );
-    }
-    python
+    common::scratch_python("acq-python-can-4.6.1", &[PYTHON_CAN])
 }
 
 /// python-can's frames of a log, one JSON object each.

@@ -1,4 +1,5 @@
-//! `acq decode`: logs -> one CSV (or Parquet) row per decoded value.
+//! `acq decode`: logs -> one CSV (or Parquet) row per decoded value, or MF4
+//! channel groups (a message or a sensor each).
 //!
 //! Two routes: through DBC files (every signal of every known message) and
 //! through a rig (each sensor in its own protocol). Both stream: memory does
@@ -10,13 +11,14 @@ use std::io::Write;
 
 use acq_drivers::canopen::HeartbeatEvent;
 use acq_drivers::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
+use acq_drivers::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_drivers::rig::Rig;
 use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
 use acq_drivers::FrameKind;
 use acq_drivers::LogRecord;
-use acq_io::error::Result;
+use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
-use acq_io::output::{csv_field, Output};
+use acq_io::output::{csv_field, CompleteOnlyFile, Output};
 use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
 /// The fixed header of the DBC route.
@@ -62,9 +64,10 @@ impl std::fmt::Display for DecodeSummary {
     }
 }
 
-/// Where the DBC route's values go: CSV rows built from byte templates, or a
-/// Parquet table. One frame's values, then [`DbcRows::end_frame`].
-trait DbcRows {
+/// Where the DBC route's values go: CSV rows built from byte templates, a
+/// Parquet table or MF4 channel groups. One frame's values, then
+/// [`DbcRows::end_frame`].
+pub trait DbcRows {
     fn value(
         &mut self,
         record: &LogRecord<'_>,
@@ -74,6 +77,10 @@ trait DbcRows {
         label: Option<&str>,
     );
     fn end_frame(&mut self) -> Result<()>;
+    /// Whether [`DbcRows::value`] is given each value's label.
+    fn wants_labels(&self) -> bool {
+        false
+    }
 }
 
 /// Row pieces of one signal that do not change from frame to frame.
@@ -122,6 +129,10 @@ impl DbcRows for CsvDbcRows<'_> {
     fn end_frame(&mut self) -> Result<()> {
         self.output.maybe_flush()
     }
+
+    fn wants_labels(&self) -> bool {
+        self.labels
+    }
 }
 
 /// The DBC route's table as Parquet: the CSV's columns; `time_s` the
@@ -131,6 +142,9 @@ pub struct DbcParquet {
     table: ParquetTable,
     /// Per message: `can_id` and `message` cells.
     messages: Vec<(String, String)>,
+    /// Per message, per signal: `signal` and `unit` cells.
+    signals: Vec<Vec<(String, String)>>,
+    labels: bool,
 }
 
 impl DbcParquet {
@@ -154,6 +168,17 @@ impl DbcParquet {
                 .iter()
                 .map(|m| (m.id.to_string(), m.name.clone()))
                 .collect(),
+            signals: database
+                .messages()
+                .iter()
+                .map(|m| {
+                    m.signals
+                        .iter()
+                        .map(|s| (s.name.clone(), s.unit.clone()))
+                        .collect()
+                })
+                .collect(),
+            labels,
         })
     }
 
@@ -163,13 +188,7 @@ impl DbcParquet {
     }
 }
 
-struct ParquetDbcRows<'a> {
-    parquet: &'a mut DbcParquet,
-    database: &'a DbcDatabase,
-    labels: bool,
-}
-
-impl DbcRows for ParquetDbcRows<'_> {
+impl DbcRows for DbcParquet {
     #[inline]
     fn value(
         &mut self,
@@ -179,16 +198,16 @@ impl DbcRows for ParquetDbcRows<'_> {
         value: PhysicalValue,
         label: Option<&str>,
     ) {
-        let (can_id, message_name) = &self.parquet.messages[message];
-        let signal = &self.database.messages()[message].signals[signal];
-        let table = &mut self.parquet.table;
+        let (can_id, message_name) = &self.messages[message];
+        let (signal_name, unit) = &self.signals[message][signal];
+        let table = &mut self.table;
         table.time_ns(0, record.frame.timestamp_ns);
         table.text(1, Some(record.frame.iface.as_str()));
         table.text(2, Some(can_id));
         table.text(3, Some(message_name));
-        table.text(4, Some(&signal.name));
+        table.text(4, Some(signal_name));
         table.float(5, Some(value.as_f64()));
-        table.text(6, Some(&signal.unit));
+        table.text(6, Some(unit));
         if self.labels {
             table.text(7, label);
         }
@@ -197,7 +216,108 @@ impl DbcRows for ParquetDbcRows<'_> {
 
     #[inline]
     fn end_frame(&mut self) -> Result<()> {
-        self.parquet.table.check()
+        self.table.check()
+    }
+
+    fn wants_labels(&self) -> bool {
+        self.labels
+    }
+}
+
+/// The DBC route's values as MF4: a channel group per message (its
+/// signals, with units), a record per decoded frame, a signal the frame
+/// did not carry (another multiplexer page) invalid. Frames of one id on
+/// several interfaces share the message's group.
+pub struct DbcMf4 {
+    writer: Option<Mf4SignalWriter<CompleteOnlyFile>>,
+    name: String,
+    /// The message of the frame being decoded, its time and values.
+    pending: Option<(usize, i64)>,
+    values: Vec<Option<f64>>,
+    signal_counts: Vec<usize>,
+}
+
+impl DbcMf4 {
+    pub fn create(file: CompleteOnlyFile, name: &str, database: &DbcDatabase) -> Result<Self> {
+        let groups = database
+            .messages()
+            .iter()
+            .map(|m| SignalGroup {
+                name: m.name.clone(),
+                channels: m
+                    .signals
+                    .iter()
+                    .map(|s| SignalChannel {
+                        name: s.name.clone(),
+                        unit: s.unit.clone(),
+                    })
+                    .collect(),
+            })
+            .collect();
+        Ok(DbcMf4 {
+            writer: Some(mf4_writer(file, name, groups)?),
+            name: name.to_string(),
+            pending: None,
+            values: Vec::new(),
+            signal_counts: database
+                .messages()
+                .iter()
+                .map(|m| m.signals.len())
+                .collect(),
+        })
+    }
+
+    /// Patches lengths and counts; the file is complete.
+    pub fn finish(mut self) -> Result<()> {
+        finish_mf4(self.writer.take(), &self.name)
+    }
+}
+
+impl DbcRows for DbcMf4 {
+    #[inline]
+    fn value(
+        &mut self,
+        record: &LogRecord<'_>,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+        _label: Option<&str>,
+    ) {
+        if self.pending.is_none() {
+            self.pending = Some((message, record.frame.timestamp_ns));
+            self.values.clear();
+            self.values.resize(self.signal_counts[message], None);
+        }
+        self.values[signal] = Some(value.as_f64());
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        match (self.pending.take(), self.writer.as_mut()) {
+            (Some((message, time_ns)), Some(writer)) => writer
+                .write(message, time_ns, &self.values)
+                .map_err(|e| AcqError::io(format!("writing {}", self.name), e)),
+            _ => Ok(()),
+        }
+    }
+}
+
+fn mf4_writer(
+    file: CompleteOnlyFile,
+    name: &str,
+    groups: Vec<SignalGroup>,
+) -> Result<Mf4SignalWriter<CompleteOnlyFile>> {
+    Mf4SignalWriter::new(file, groups, Some("decoded by acq".into()))
+        .map_err(|e| AcqError::Config(format!("{name}: {e}")))
+}
+
+fn finish_mf4(writer: Option<Mf4SignalWriter<CompleteOnlyFile>>, name: &str) -> Result<()> {
+    match writer {
+        Some(writer) => writer
+            .finish()
+            .map_err(|e| AcqError::io(format!("writing {name}"), e))?
+            .finish(),
+        None => Ok(()),
     }
 }
 
@@ -250,24 +370,10 @@ pub fn decode_with_dbc(
     decode_dbc_frames(inputs, database, options, &mut sink)
 }
 
-/// Decodes every frame of `inputs` through `database` into a Parquet
-/// table made by [`DbcParquet::create`] (finish it also after an error:
-/// what was decoded is kept, as in a CSV).
-pub fn decode_with_dbc_to_parquet(
-    inputs: &mut [LogInput],
-    database: &DbcDatabase,
-    options: DbcDecodeOptions,
-    parquet: &mut DbcParquet,
-) -> Result<DecodeSummary> {
-    let mut sink = ParquetDbcRows {
-        parquet,
-        database,
-        labels: options.labels,
-    };
-    decode_dbc_frames(inputs, database, options, &mut sink)
-}
-
-fn decode_dbc_frames(
+/// Decodes every frame of `inputs` through `database` into `sink` (a
+/// [`DbcParquet`] or [`DbcMf4`]; finish it also after an error: what was
+/// decoded is kept, as in a CSV).
+pub fn decode_dbc_frames(
     inputs: &mut [LogInput],
     database: &DbcDatabase,
     options: DbcDecodeOptions,
@@ -288,7 +394,7 @@ fn decode_dbc_frames(
                 let payload = frame.payload();
                 let mut written = 0u64;
                 let result = message.decode(payload, |signal, value| {
-                    let label = if options.labels {
+                    let label = if sink.wants_labels() {
                         message.signals[signal].label(payload)
                     } else {
                         None
@@ -326,7 +432,7 @@ pub fn report(summary: &DecodeSummary) {
 pub const RIG_HEADER: &str = "time_s,sensor,value,unit";
 
 /// Where the rig route's samples go.
-trait RigRows {
+pub trait RigRows {
     fn sample(&mut self, record: &LogRecord<'_>, sensor: usize, value: Option<f64>);
     fn end_frame(&mut self) -> Result<()>;
 }
@@ -405,6 +511,57 @@ impl RigRows for RigParquet {
     }
 }
 
+/// The rig route's samples as MF4: a channel group per sensor (one channel,
+/// its unit), a missing sample invalid.
+pub struct RigMf4 {
+    writer: Option<Mf4SignalWriter<CompleteOnlyFile>>,
+    name: String,
+    failed: Option<AcqError>,
+}
+
+impl RigMf4 {
+    pub fn create(file: CompleteOnlyFile, name: &str, rig: &Rig) -> Result<Self> {
+        let groups = rig
+            .sensors
+            .iter()
+            .map(|s| SignalGroup {
+                name: s.name.clone(),
+                channels: vec![SignalChannel {
+                    name: s.name.clone(),
+                    unit: s.unit().to_string(),
+                }],
+            })
+            .collect();
+        Ok(RigMf4 {
+            writer: Some(mf4_writer(file, name, groups)?),
+            name: name.to_string(),
+            failed: None,
+        })
+    }
+
+    /// Patches lengths and counts; the file is complete.
+    pub fn finish(mut self) -> Result<()> {
+        finish_mf4(self.writer.take(), &self.name)
+    }
+}
+
+impl RigRows for RigMf4 {
+    #[inline]
+    fn sample(&mut self, record: &LogRecord<'_>, sensor: usize, value: Option<f64>) {
+        if let Some(writer) = self.writer.as_mut() {
+            if let Err(e) = writer.write(sensor, record.frame.timestamp_ns, &[value]) {
+                self.failed
+                    .get_or_insert(AcqError::io(format!("writing {}", self.name), e));
+            }
+        }
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        self.failed.take().map_or(Ok(()), Err)
+    }
+}
+
 /// Decodes every frame of `inputs` through the rig's sensors into `output`
 /// (CSV). A missing sample (J1939 "not available"/"error") is a row with an
 /// empty value; CANopen heartbeat changes and losses are reported on stderr.
@@ -432,18 +589,9 @@ pub fn decode_with_rig(
     decode_rig_frames(inputs, rig, bad_lines, &mut sink)
 }
 
-/// [`decode_with_rig`] into a Parquet table made by [`RigParquet::create`]
-/// (finish it also after an error).
-pub fn decode_with_rig_to_parquet(
-    inputs: &mut [LogInput],
-    rig: &Rig,
-    bad_lines: BadLines,
-    parquet: &mut RigParquet,
-) -> Result<DecodeSummary> {
-    decode_rig_frames(inputs, rig, bad_lines, parquet)
-}
-
-fn decode_rig_frames(
+/// Decodes every frame of `inputs` through the rig's sensors into `sink`
+/// (a [`RigParquet`] or [`RigMf4`]; finish it also after an error).
+pub fn decode_rig_frames(
     inputs: &mut [LogInput],
     rig: &Rig,
     bad_lines: BadLines,

@@ -32,8 +32,7 @@ use acq_analysis::extract::run::{
 use acq_analysis::extract::tensile::write_curve;
 use acq_analysis::recording::Recording;
 use acq_io::error::{AcqError, Result};
-use acq_io::output::Output;
-use acq_io::parquet_table::TableFormat;
+use acq_io::output::{Output, TableOutput};
 use acq_io::session::{self, SessionFile};
 use acq_workflows::calibrate::excavator::{CalibrateExcavatorArgs, ExcavatorCalibration};
 use acq_workflows::calibrate::gtn::{CalibrateGtnArgs, GtnCalibration};
@@ -313,8 +312,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 filter_hz: None,
                 clock_offsets_ms: Vec::new(),
             },
-            Output::create_complete_only(&work.join("aligned.csv"))?,
-            TableFormat::Csv,
+            TableOutput::Csv(Output::create_complete_only(&work.join("aligned.csv"))?),
         )?;
         steps.push(Step {
             name: format!("{name}: align (100 Hz)"),

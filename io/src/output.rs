@@ -137,6 +137,59 @@ fn give_complete_name(partial: &Path, complete: &Path) -> Result<()> {
     renamed
 }
 
+/// What a table file is, from its name: `.parquet` is Parquet, `.mf4`
+/// MF4 (signals as channel groups), anything else (and stdout) CSV.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TableFormat {
+    Csv,
+    Parquet,
+    Mf4,
+}
+
+impl TableFormat {
+    pub fn of(path: &Path) -> Self {
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match extension.as_deref() {
+            Some("parquet") => TableFormat::Parquet,
+            Some("mf4") => TableFormat::Mf4,
+            _ => TableFormat::Csv,
+        }
+    }
+}
+
+/// Refuses an `.mf4` name for a table that is not signals over time.
+pub fn refuse_mf4_table(path: &Path, what: &str) -> Result<()> {
+    if TableFormat::of(path) == TableFormat::Mf4 {
+        return Err(AcqError::Config(format!(
+            "{}: the {what} are a table, not signals over time: write .csv or .parquet (MF4 output is for acq decode and acq align)",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Where a table goes, opened by the format its name gives: CSV and
+/// Parquet stream through an [`Output`], MF4 seeks back at the end.
+pub enum TableOutput {
+    Csv(Output),
+    Parquet(Output),
+    Mf4(CompleteOnlyFile),
+}
+
+impl TableOutput {
+    /// Opens `path` (`-` is CSV on stdout); each appears under its name only
+    /// when complete.
+    pub fn create(path: &Path) -> Result<Self> {
+        Ok(match TableFormat::of(path) {
+            TableFormat::Csv => TableOutput::Csv(Output::create_complete_only(path)?),
+            TableFormat::Parquet => TableOutput::Parquet(Output::create_complete_only(path)?),
+            TableFormat::Mf4 => TableOutput::Mf4(CompleteOnlyFile::create(path, "an MF4 file")?),
+        })
+    }
+}
+
 /// A regular file written as `NAME.partial` and renamed by
 /// [`CompleteOnlyFile::finish`], for writers that seek back (an MF4 log
 /// patches its block lengths at the end), which an [`Output`] cannot.
@@ -181,6 +234,22 @@ impl CompleteOnlyFile {
             std::mem::take(&mut self.complete),
         );
         give_complete_name(&partial, &complete)
+    }
+}
+
+/// Writers that seek take the file itself (an MF4 writer owns its output).
+impl Write for CompleteOnlyFile {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        self.file().write(bytes)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.file().flush()
+    }
+}
+
+impl io::Seek for CompleteOnlyFile {
+    fn seek(&mut self, position: io::SeekFrom) -> io::Result<u64> {
+        self.file().seek(position)
     }
 }
 
@@ -318,6 +387,24 @@ pub fn csv_field(text: &str) -> Cow<'_, str> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_table_format_comes_from_the_extension() {
+        use super::TableFormat;
+        use std::path::Path;
+        assert_eq!(
+            TableFormat::of(Path::new("a.parquet")),
+            TableFormat::Parquet
+        );
+        assert_eq!(
+            TableFormat::of(Path::new("A.PARQUET")),
+            TableFormat::Parquet
+        );
+        assert_eq!(TableFormat::of(Path::new("a.mf4")), TableFormat::Mf4);
+        assert_eq!(TableFormat::of(Path::new("a.csv")), TableFormat::Csv);
+        assert_eq!(TableFormat::of(Path::new("-")), TableFormat::Csv);
+        assert_eq!(TableFormat::of(Path::new("parquet")), TableFormat::Csv);
+    }
+
     use super::{create_file, csv_field, file_name_part, inside, Output};
     use std::io::Read;
     use std::os::unix::fs::FileTypeExt;

@@ -23,7 +23,6 @@
 //! f64.
 
 use std::collections::HashMap;
-use std::path::Path;
 use std::sync::Arc;
 
 use arrow_array::builder::{
@@ -50,27 +49,6 @@ pub const ROW_GROUP_CELLS: usize = 4 * 1024 * 1024;
 pub const COMMENTS_KEY: &str = "acq.comments";
 /// The key of each column's unit in its Arrow field metadata.
 pub const UNIT_KEY: &str = "unit";
-
-/// What a table file is, from its name: `.parquet` is Parquet, anything
-/// else (and stdout) CSV.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TableFormat {
-    Csv,
-    Parquet,
-}
-
-impl TableFormat {
-    pub fn of(path: &Path) -> Self {
-        let parquet = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
-        if parquet {
-            TableFormat::Parquet
-        } else {
-            TableFormat::Csv
-        }
-    }
-}
 
 /// The type of a column's values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -370,7 +348,7 @@ mod tests {
         }));
         let rows = 70_000u64;
         let value =
-            |row: u64, k: usize| (row % 7 != k as u64 % 7).then(|| row as f64 * 0.5 + k as f64);
+            |row: u64, k: usize| (row % 7 != k as u64 % 7).then_some(row as f64 * 0.5 + k as f64);
         let output = Output::create_complete_only(&path).unwrap();
         let mut table = ParquetTable::new(output, &columns, &["session x".into()]).unwrap();
         for row in 0..rows {
@@ -427,20 +405,5 @@ mod tests {
             }
         }
         assert_eq!(row, rows);
-    }
-
-    #[test]
-    fn the_format_comes_from_the_extension() {
-        assert_eq!(
-            TableFormat::of(Path::new("a.parquet")),
-            TableFormat::Parquet
-        );
-        assert_eq!(
-            TableFormat::of(Path::new("A.PARQUET")),
-            TableFormat::Parquet
-        );
-        assert_eq!(TableFormat::of(Path::new("a.csv")), TableFormat::Csv);
-        assert_eq!(TableFormat::of(Path::new("-")), TableFormat::Csv);
-        assert_eq!(TableFormat::of(Path::new("parquet")), TableFormat::Csv);
     }
 }

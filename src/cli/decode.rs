@@ -4,12 +4,11 @@
 
 use std::path::PathBuf;
 
-use acq_analysis::decode::{self, DbcDecodeOptions, DbcParquet, RigParquet};
+use acq_analysis::decode::{self, DbcDecodeOptions, DbcMf4, DbcParquet, RigMf4, RigParquet};
 use acq_drivers::dbc::DbcDatabase;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{load_rig, open_logs, BadLines};
-use acq_io::output::Output;
-use acq_io::parquet_table::TableFormat;
+use acq_io::output::{Output, TableFormat, TableOutput};
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -28,9 +27,10 @@ pub struct DecodeArgs {
     /// Rig file; output: time_s,sensor,value,unit.
     #[arg(long, value_name = "RIG.toml")]
     pub rig: Option<PathBuf>,
-    /// Output file: CSV, or Parquet when the name ends in `.parquet` (the
-    /// same columns; time as a UTC timestamp; written whole or not at all);
-    /// `-` or absent writes CSV to stdout.
+    /// Output file: CSV; Parquet when the name ends in `.parquet` (the same
+    /// columns, time as a UTC timestamp); MF4 for `.mf4` (a channel group
+    /// per message or sensor, with units). Parquet and MF4 appear whole or
+    /// not at all. `-` or absent writes CSV to stdout.
     #[arg(short = 'o', long = "output", value_name = "OUT")]
     pub output: Option<PathBuf>,
     /// Count malformed lines and go on instead of stopping at the first.
@@ -58,26 +58,35 @@ fn bad_lines(skip_bad: bool) -> BadLines {
 
 pub fn run_decode(args: DecodeArgs) -> Result<()> {
     let mut inputs = open_logs(&args.logs)?;
-    let parquet_path = args
+    let table = match args.output.as_deref() {
+        Some(path) if TableFormat::of(path) != TableFormat::Csv => Some(TableOutput::create(path)?),
+        _ => None,
+    };
+    let name = args
         .output
         .as_deref()
-        .filter(|path| TableFormat::of(path) == TableFormat::Parquet);
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let skip = bad_lines(args.skip_bad);
     if let Some(rig_path) = &args.rig {
         let rig = load_rig(rig_path)?;
-        if let Some(path) = parquet_path {
-            let mut table = RigParquet::create(Output::create_complete_only(path)?, &rig)?;
-            let summary = decode::decode_with_rig_to_parquet(
-                &mut inputs,
-                &rig,
-                bad_lines(args.skip_bad),
-                &mut table,
-            );
-            return finish(summary, table.finish().map(|_| ()));
-        }
-        let mut output = Output::create(args.output.as_deref())?;
-        let summary =
-            decode::decode_with_rig(&mut inputs, &rig, bad_lines(args.skip_bad), &mut output);
-        return finish(summary, output.finish());
+        return match table {
+            Some(TableOutput::Parquet(output)) => {
+                let mut sink = RigParquet::create(output, &rig)?;
+                let summary = decode::decode_rig_frames(&mut inputs, &rig, skip, &mut sink);
+                finish(summary, sink.finish().map(|_| ()))
+            }
+            Some(TableOutput::Mf4(file)) => {
+                let mut sink = RigMf4::create(file, &name, &rig)?;
+                let summary = decode::decode_rig_frames(&mut inputs, &rig, skip, &mut sink);
+                finish(summary, sink.finish())
+            }
+            _ => {
+                let mut output = Output::create(args.output.as_deref())?;
+                let summary = decode::decode_with_rig(&mut inputs, &rig, skip, &mut output);
+                finish(summary, output.finish())
+            }
+        };
     }
     let (database, warnings) =
         DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
@@ -88,19 +97,26 @@ pub fn run_decode(args: DecodeArgs) -> Result<()> {
         eprintln!("acq: warning: {}", warning.0);
     }
     let options = DbcDecodeOptions {
-        bad_lines: bad_lines(args.skip_bad),
+        bad_lines: skip,
         labels: args.labels,
     };
-    if let Some(path) = parquet_path {
-        let mut table =
-            DbcParquet::create(Output::create_complete_only(path)?, &database, args.labels)?;
-        let summary =
-            decode::decode_with_dbc_to_parquet(&mut inputs, &database, options, &mut table);
-        return finish(summary, table.finish().map(|_| ()));
+    match table {
+        Some(TableOutput::Parquet(output)) => {
+            let mut sink = DbcParquet::create(output, &database, args.labels)?;
+            let summary = decode::decode_dbc_frames(&mut inputs, &database, options, &mut sink);
+            finish(summary, sink.finish().map(|_| ()))
+        }
+        Some(TableOutput::Mf4(file)) => {
+            let mut sink = DbcMf4::create(file, &name, &database)?;
+            let summary = decode::decode_dbc_frames(&mut inputs, &database, options, &mut sink);
+            finish(summary, sink.finish())
+        }
+        _ => {
+            let mut output = Output::create(args.output.as_deref())?;
+            let summary = decode::decode_with_dbc(&mut inputs, &database, options, &mut output);
+            finish(summary, output.finish())
+        }
     }
-    let mut output = Output::create(args.output.as_deref())?;
-    let summary = decode::decode_with_dbc(&mut inputs, &database, options, &mut output);
-    finish(summary, output.finish())
 }
 
 /// Keeps what was decoded even when decoding stopped at a bad line (the

@@ -6,8 +6,7 @@ use acq_analysis::align::run::{align_recording, AlignOptions, GapTolerance, Time
 use acq_analysis::recording::Recording;
 use acq_drivers::rig::Interpolation;
 use acq_io::error::{AcqError, Result};
-use acq_io::output::Output;
-use acq_io::parquet_table::TableFormat;
+use acq_io::output::TableOutput;
 use clap::{Args, ValueEnum};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -73,9 +72,9 @@ pub struct AlignArgs {
     /// A bus's clock minus the reference clock (overrides the rig): BUS=MS.
     #[arg(long = "clock-offset", value_name = "BUS=MS", value_parser = parse_clock_offset)]
     pub clock_offsets: Vec<(String, f64)>,
-    /// Output table: CSV, or Parquet when the name ends in `.parquet`
-    /// (time as a UTC timestamp, units in the column metadata); `-` writes
-    /// CSV to stdout.
+    /// Output table: CSV, Parquet when the name ends in `.parquet` (time as
+    /// a UTC timestamp, units in the column metadata) or MF4 for `.mf4` (a
+    /// channel group with units, gaps invalid); `-` writes CSV to stdout.
     #[arg(short = 'o', long = "output", value_name = "aligned.csv")]
     pub output: PathBuf,
 }
@@ -108,8 +107,8 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
     {
         acq_io::output::refuse_if_disk_too_small(&args.output, bytes, "the aligned table")?;
     }
-    let output = Output::create_complete_only(&args.output)?;
-    let summary = align_recording(&recording, &options, output, TableFormat::of(&args.output))?;
+    let output = TableOutput::create(&args.output)?;
+    let summary = align_recording(&recording, &options, output)?;
     eprintln!("acq: aligned {}: {summary}", recording.label);
     Ok(())
 }

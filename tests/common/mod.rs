@@ -6,7 +6,7 @@ pub mod browser;
 pub mod calculix;
 pub mod pipeline;
 pub mod slurm;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 pub fn root() -> &'static Path {
@@ -83,3 +83,37 @@ pub const EVERY_KIND_OF_FRAME: &str = "\
 (1763719200.005000) can1 010#DEADBEEF T
 (1763719200.006000) can0 010#DEADBEEF
 ";
+
+/// The Python of a scratch virtualenv `name` (under the temp directory)
+/// holding `packages`, made once per machine from the package registry.
+/// Tests of a run wait on a lock file instead of making it twice at once.
+/// The reference tools (python-can, pyarrow, asammdf) live there, never in
+/// acq's dependencies; without them a test fails.
+pub fn scratch_python(name: &str, packages: &[&str]) -> PathBuf {
+    let venv = std::env::temp_dir().join(name);
+    let python = venv.join("bin/python");
+    let ready = venv.join("acq-ready");
+    let lock = std::fs::File::create(std::env::temp_dir().join(format!("{name}.lock"))).unwrap();
+    // Held until this function returns (std's File::lock needs Rust 1.89).
+    let _lock = nix::fcntl::Flock::lock(lock, nix::fcntl::FlockArg::LockExclusive)
+        .map_err(|(_, e)| e)
+        .unwrap();
+    if !ready.exists() {
+        let made = Command::new("python3")
+            .args(["-m", "venv", "--clear", path_arg(&venv)])
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(&python)
+                .args(["-m", "pip", "install", "--quiet"])
+                .args(packages)
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            made,
+            "could not install {packages:?} into {} (python3 -m venv, pip from the package registry)",
+            venv.display()
+        );
+        std::fs::write(&ready, "").unwrap();
+    }
+    python
+}

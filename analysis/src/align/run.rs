@@ -6,13 +6,12 @@ use std::fmt::Write as _;
 
 use acq_drivers::rig::{BusClock, Interpolation, Rig};
 use acq_io::error::{AcqError, Result};
-use acq_io::output::Output;
-use acq_io::parquet_table::TableFormat;
+use acq_io::output::TableOutput;
 use acq_io::session::utc_text;
 
 use super::filter::{GaussianFilter, RISE_TIME_TIMES_CUTOFF};
 use super::offset::{estimate_offset, OffsetEstimate, DEFAULT_MAX_LAG_NS, MAX_WINDOW_NS};
-use super::table::{Column, CsvTable, ParquetAlignedTable};
+use super::table::{Column, CsvTable, Mf4AlignedTable, ParquetAlignedTable};
 use super::{Aligner, ChannelSpec, ChannelStats, GridSpec, RowSink};
 use crate::recording::{Recording, SampleCounts};
 
@@ -346,12 +345,11 @@ impl std::fmt::Display for AlignSummary {
     }
 }
 
-/// Aligns `recording` into `output` as a CSV or Parquet table.
+/// Aligns `recording` into `output`: a CSV, Parquet or MF4 table.
 pub fn align_recording(
     recording: &Recording,
     options: &AlignOptions,
-    output: Output,
-    format: TableFormat,
+    output: TableOutput,
 ) -> Result<AlignSummary> {
     if !(options.rate_hz > 0.0 && options.rate_hz.is_finite() && options.rate_hz <= 1e6) {
         return Err(AcqError::Config(format!(
@@ -380,7 +378,7 @@ pub fn align_recording(
     let session_start = recording.session_start_unix_ns();
     let mut t0 = None;
     let build = |t0_ns: i64,
-                 output: Output|
+                 output: TableOutput|
      -> Result<Aligner<Box<dyn RowSink<Error = AcqError>>>> {
         let from = options.from.map(|p| p.offset_from(t0_ns));
         let to = options.to.map(|p| p.offset_from(t0_ns));
@@ -412,13 +410,20 @@ pub fn align_recording(
             });
         }
         let comments = header_comments(recording, options, &clocks, t0_ns, session_start.is_some());
-        let table: Box<dyn RowSink<Error = AcqError>> = match format {
-            TableFormat::Csv => {
+        let table: Box<dyn RowSink<Error = AcqError>> = match output {
+            TableOutput::Csv(output) => {
                 Box::new(CsvTable::new(output, &comments, &columns, options.rate_hz)?)
             }
-            TableFormat::Parquet => {
+            TableOutput::Parquet(output) => {
                 Box::new(ParquetAlignedTable::new(output, &comments, &columns, grid)?)
             }
+            TableOutput::Mf4(file) => Box::new(Mf4AlignedTable::new(
+                file,
+                format!("{} (aligned)", recording.label),
+                &comments,
+                &columns,
+                grid,
+            )?),
         };
         let sink: Box<dyn RowSink<Error = AcqError>> = match options.filter_hz {
             Some(cutoff) => Box::new(

@@ -5,10 +5,15 @@
 //! Or as Parquet ([`ParquetAlignedTable`]): the same columns, `time_s` the
 //! row's UTC instant, a missing value null, `name_gap` a boolean, each
 //! value column's unit in its metadata, the comments in the file's.
+//!
+//! Or as MF4 ([`Mf4AlignedTable`]): one channel group `aligned`, a channel
+//! per sensor with its unit, a gap an invalid value, the comments the data
+//! group's comment.
 
 use acq_drivers::dbc::push_shortest_f64;
+use acq_drivers::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_io::error::AcqError;
-use acq_io::output::{csv_field, Output};
+use acq_io::output::{csv_field, CompleteOnlyFile, Output};
 use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
 use super::{GridSpec, RowSink};
@@ -149,6 +154,65 @@ impl RowSink for ParquetAlignedTable {
     fn finish(&mut self) -> Result<(), AcqError> {
         match self.table.take() {
             Some(table) => table.finish().map(|_| ()),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Writes aligned rows as MF4.
+pub struct Mf4AlignedTable {
+    /// `None` once finished.
+    writer: Option<Mf4SignalWriter<CompleteOnlyFile>>,
+    grid: GridSpec,
+    name: String,
+}
+
+impl Mf4AlignedTable {
+    pub fn new(
+        file: CompleteOnlyFile,
+        name: String,
+        comments: &[String],
+        columns: &[Column],
+        grid: GridSpec,
+    ) -> Result<Self, AcqError> {
+        let group = SignalGroup {
+            name: "aligned".into(),
+            channels: columns
+                .iter()
+                .map(|c| SignalChannel {
+                    name: c.name.clone(),
+                    unit: c.unit.clone(),
+                })
+                .collect(),
+        };
+        let writer = Mf4SignalWriter::new(file, vec![group], Some(comments.join("\n")))
+            .map_err(|e| AcqError::io(format!("writing {name}"), e))?;
+        Ok(Mf4AlignedTable {
+            writer: Some(writer),
+            grid,
+            name,
+        })
+    }
+}
+
+impl RowSink for Mf4AlignedTable {
+    type Error = AcqError;
+
+    fn row(&mut self, row: u64, values: &[Option<f64>]) -> Result<(), AcqError> {
+        let Some(writer) = self.writer.as_mut() else {
+            return Ok(());
+        };
+        writer
+            .write(0, self.grid.time_ns(row), values)
+            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))
+    }
+
+    fn finish(&mut self) -> Result<(), AcqError> {
+        match self.writer.take() {
+            Some(writer) => writer
+                .finish()
+                .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?
+                .finish(),
             None => Ok(()),
         }
     }

@@ -25,7 +25,8 @@ use std::path::Path;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::read_csv_records;
 use acq_io::output::{csv_field, Output};
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable, TableFormat};
+use acq_io::output::{refuse_mf4_table, TableFormat};
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
 use crate::extract::stats::WindowStats;
 
@@ -63,6 +64,7 @@ fn number(out: &mut String, value: Option<f64>) {
 /// Writes the file (complete-only: a crash leaves no half file): CSV, or
 /// Parquet for a `.parquet` path.
 pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
+    refuse_mf4_table(path, "measured values")?;
     let mut output = Output::create_complete_only(path)?;
     if TableFormat::of(path) == TableFormat::Parquet {
         return write_measured_parquet(output, values);

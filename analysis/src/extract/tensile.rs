@@ -27,7 +27,8 @@ use std::path::Path;
 use acq_drivers::rig::Specimen;
 use acq_io::error::Result;
 use acq_io::output::Output;
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable, TableFormat};
+use acq_io::output::{refuse_mf4_table, TableFormat};
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
 /// Header of the curve file, as in the test files.
 pub const CURVE_HEADER: &str = "DISPLACEMENT,FORCE,STRAIN,STRESS,TRUE_STRAIN,TRUE_STRESS";
@@ -207,6 +208,7 @@ pub fn extract_curve(
 /// Writes the curve with the test files' columns: CSV, or Parquet for a
 /// `.parquet` path (units in the column metadata).
 pub fn write_curve(path: &Path, curve: &TensileCurve, specimen: &Specimen) -> Result<()> {
+    refuse_mf4_table(path, "curve")?;
     let mut output = Output::create_complete_only(path)?;
     if TableFormat::of(path) == TableFormat::Parquet {
         let columns: Vec<ColumnSpec> = CURVE_HEADER

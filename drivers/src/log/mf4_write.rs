@@ -28,7 +28,9 @@
 //! `CAN_ERR_BUSERROR`). An FD payload whose length is not a DLC step is
 //! padded with zeros to the next one.
 
-use std::io::{self, Seek, SeekFrom, Write};
+use std::io::{self, Seek, Write};
+
+use super::mf4_blocks::{Blocks, UnsortedData, CN_FLAG_BUS_EVENT};
 
 use crate::frame::{CanId, Direction, Frame, FrameKind, IfaceName, FD_FLAG_BRS, FD_FLAG_ESI};
 
@@ -38,8 +40,6 @@ const REMOTE_RECORD: u8 = 3;
 /// Record bytes after the id: data and error frames, remote frames.
 const FRAME_RECORD_BYTES: usize = 84;
 const REMOTE_RECORD_BYTES: usize = 17;
-const FLUSH_BYTES: usize = 256 << 10;
-const CN_FLAG_BUS_EVENT: u32 = 1 << 10;
 /// CG flags: bus event, plain bus event (as python-can writes).
 const CG_FLAGS: u16 = 0b110;
 const FD_STEPS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
@@ -91,18 +91,12 @@ pub struct Mf4Writer<W: Write + Seek> {
     layout: Option<Written>,
     /// (interface, BusChannel) in order of first appearance.
     channels: Vec<(IfaceName, u8)>,
-    records: Vec<u8>,
-    data_bytes: u64,
-    cycles: [u64; 3],
 }
 
-/// Where the patched fields are, and the start time.
+/// The start time and the records after the metadata.
 struct Written {
     start_ns: i64,
-    /// File offset of the `##DT` block.
-    dt_at: u64,
-    /// File offsets of the three CGs (data, error, remote).
-    cg_at: [u64; 3],
+    data: UnsortedData,
 }
 
 impl<W: Write + Seek> Mf4Writer<W> {
@@ -113,28 +107,28 @@ impl<W: Write + Seek> Mf4Writer<W> {
             output,
             layout: None,
             channels: Vec::new(),
-            records: Vec::with_capacity(FLUSH_BYTES + 128),
-            data_bytes: 0,
-            cycles: [0; 3],
         }
     }
 
     /// Appends one frame.
     pub fn write_frame(&mut self, frame: &Frame) -> io::Result<()> {
-        let start_ns = match &self.layout {
-            Some(written) => written.start_ns,
-            None => self.write_metadata(frame.timestamp_ns)?,
-        };
+        if self.layout.is_none() {
+            self.write_metadata(frame.timestamp_ns)?;
+        }
         let channel = self.channel(frame.iface)?;
+        let Some(Written { start_ns, data }) = &mut self.layout else {
+            return Err(io::ErrorKind::Other.into());
+        };
+        let start_ns = *start_ns;
         let offset_s = (i128::from(frame.timestamp_ns) - i128::from(start_ns)) as f64 / 1e9;
         let (record_id, size) = match frame.kind {
             FrameKind::Remote { .. } => (REMOTE_RECORD, REMOTE_RECORD_BYTES),
             FrameKind::Error { .. } => (ERROR_RECORD, FRAME_RECORD_BYTES),
             FrameKind::Data { .. } | FrameKind::Fd { .. } => (DATA_RECORD, FRAME_RECORD_BYTES),
         };
-        let at = self.records.len();
-        self.records.resize(at + 1 + size, 0);
-        let record = &mut self.records[at..];
+        let at = data.records.len();
+        data.records.resize(at + 1 + size, 0);
+        let record = &mut data.records[at..];
         record[0] = record_id;
         let record = &mut record[1..];
         record[..8].copy_from_slice(&offset_s.to_le_bytes());
@@ -185,40 +179,18 @@ impl<W: Write + Seek> Mf4Writer<W> {
                 record[83] = u8::from(flags & FD_FLAG_ESI != 0);
             }
         }
-        self.cycles[usize::from(record_id - 1)] += 1;
-        self.data_bytes += 1 + size as u64;
-        if self.records.len() >= FLUSH_BYTES {
-            self.output.write_all(&self.records)?;
-            self.records.clear();
-        }
-        Ok(())
+        data.record_added(&mut self.output, usize::from(record_id), 1 + size)
     }
 
     /// Writes what is buffered, patches the `##DT` length and the cycle
     /// counts, and returns the output (positioned at its end).
     pub fn finish(mut self) -> io::Result<W> {
-        let written = match self.layout.take() {
-            Some(written) => written,
-            None => {
-                self.write_metadata(0)?;
-                self.layout.take().ok_or(io::ErrorKind::Other)?
-            }
-        };
-        self.output.write_all(&self.records)?;
-        let end = written.dt_at + 24 + self.data_bytes;
-        self.output.seek(SeekFrom::Start(written.dt_at + 8))?;
-        self.output
-            .write_all(&(24 + self.data_bytes).to_le_bytes())?;
-        for (cg_at, cycles) in written.cg_at.iter().zip(self.cycles) {
-            // The cycle count follows the 6 links and the record id.
-            self.output.seek(SeekFrom::Start(cg_at + 24 + 6 * 8 + 8))?;
-            self.output.write_all(&cycles.to_le_bytes())?;
+        if self.layout.is_none() {
+            self.write_metadata(0)?;
         }
-        self.output.seek(SeekFrom::Start(end))?;
-        // Blocks are 8-byte aligned: pad the end of the file too.
-        let padding = (8 - end % 8) % 8;
-        self.output.write_all(&[0u8; 8][..padding as usize])?;
-        self.output.flush()?;
+        if let Some(written) = self.layout.take() {
+            written.data.finish(&mut self.output)?;
+        }
         Ok(self.output)
     }
 
@@ -250,29 +222,11 @@ impl<W: Write + Seek> Mf4Writer<W> {
     }
 
     /// Writes the identification, header and group metadata and the `##DT`
-    /// header; returns the start time.
-    fn write_metadata(&mut self, first_ns: i64) -> io::Result<i64> {
+    /// header.
+    fn write_metadata(&mut self, first_ns: i64) -> io::Result<()> {
         let start_ns = first_ns.max(0) - first_ns.max(0) % 1000;
         let mut blocks = Blocks::new();
-        let hd = blocks.add(b"##HD", 6, &{
-            let mut data = [0u8; 32];
-            data[..8].copy_from_slice(&(start_ns as u64).to_le_bytes());
-            data
-        });
-        let fh = blocks.add(b"##FH", 2, &[0u8; 16]);
-        let fh_comment = blocks.text(
-            b"##MD",
-            concat!(
-                "<FHcomment>\n<TX>created</TX>\n<tool_id>acq</tool_id>\n",
-                "<tool_vendor>acq</tool_vendor>\n<tool_version>",
-                env!("CARGO_PKG_VERSION"),
-                "</tool_version>\n</FHcomment>"
-            ),
-        );
-        blocks.link(fh, 1, fh_comment);
-        blocks.link(hd, 1, fh);
-        let dg = blocks.add(b"##DG", 4, &[1, 0, 0, 0, 0, 0, 0, 0]);
-        blocks.link(hd, 0, dg);
+        let dg = blocks.header_and_data_group(start_ns, 1);
         let can = blocks.text(b"##TX", "CAN");
         let si = blocks.add(b"##SI", 3, &[2, 2, 0, 0, 0, 0, 0, 0]);
         blocks.link(si, 0, can);
@@ -298,15 +252,10 @@ impl<W: Write + Seek> Mf4Writer<W> {
                 &REMOTE_MEMBERS,
             ),
         ];
-        let mut cg_at = [0u64; 3];
+        let mut cg_at = vec![0u64; 3];
         let mut previous_cg = None;
         for (index, (name, record_id, size, members)) in groups.into_iter().enumerate() {
-            let mut data = [0u8; 32];
-            data[..8].copy_from_slice(&u64::from(record_id).to_le_bytes());
-            data[16..18].copy_from_slice(&CG_FLAGS.to_le_bytes());
-            data[18..20].copy_from_slice(&u16::from(b'.').to_le_bytes());
-            data[24..28].copy_from_slice(&(size as u32).to_le_bytes());
-            let cg = blocks.add(b"##CG", 6, &data);
+            let cg = blocks.channel_group(u64::from(record_id), CG_FLAGS, size as u32, 0);
             cg_at[index] = cg;
             match previous_cg {
                 None => blocks.link(dg, 1, cg),
@@ -336,80 +285,8 @@ impl<W: Write + Seek> Mf4Writer<W> {
                 previous = Some(cn);
             }
         }
-        let dt_at = blocks.add(b"##DT", 0, &[]);
-        blocks.link(dg, 2, dt_at);
-        self.output.write_all(&blocks.bytes)?;
-        self.layout = Some(Written {
-            start_ns,
-            dt_at,
-            cg_at,
-        });
-        Ok(start_ns)
-    }
-}
-
-/// The metadata being laid out: the bytes from file offset 0.
-struct Blocks {
-    bytes: Vec<u8>,
-}
-
-impl Blocks {
-    fn new() -> Self {
-        let mut bytes = Vec::with_capacity(16 << 10);
-        bytes.extend_from_slice(b"MDF     4.10    acq     ");
-        bytes.extend_from_slice(&[0u8; 4]);
-        bytes.extend_from_slice(&410u16.to_le_bytes());
-        bytes.resize(64, 0);
-        Blocks { bytes }
-    }
-
-    /// Appends a block with `links` zero links and `data`, padded to 8
-    /// bytes; its file offset.
-    fn add(&mut self, id: &[u8; 4], links: usize, data: &[u8]) -> u64 {
-        let at = self.bytes.len();
-        let len = 24 + 8 * links + data.len();
-        let padded = len.div_ceil(8) * 8;
-        self.bytes.extend_from_slice(id);
-        self.bytes.extend_from_slice(&[0u8; 4]);
-        // A `##DT` block's length is patched at the end; padding is part of
-        // other blocks (as asammdf writes text blocks).
-        let stated = if id == b"##DT" { len } else { padded };
-        self.bytes.extend_from_slice(&(stated as u64).to_le_bytes());
-        self.bytes.extend_from_slice(&(links as u64).to_le_bytes());
-        self.bytes.resize(at + 24 + 8 * links, 0);
-        self.bytes.extend_from_slice(data);
-        self.bytes.resize(at + padded, 0);
-        at as u64
-    }
-
-    fn text(&mut self, id: &[u8; 4], text: &str) -> u64 {
-        let mut data = text.as_bytes().to_vec();
-        data.push(0);
-        self.add(id, 0, &data)
-    }
-
-    /// A `##CN` block (8 links).
-    fn channel(
-        &mut self,
-        channel_type: u8,
-        sync_type: u8,
-        data_type: u8,
-        byte: u32,
-        bits: u32,
-        flags: u32,
-    ) -> u64 {
-        let mut data = [0u8; 72];
-        data[0] = channel_type;
-        data[1] = sync_type;
-        data[2] = data_type;
-        data[4..8].copy_from_slice(&byte.to_le_bytes());
-        data[8..12].copy_from_slice(&bits.to_le_bytes());
-        data[12..16].copy_from_slice(&flags.to_le_bytes());
-        self.add(b"##CN", 8, &data)
-    }
-
-    fn link(&mut self, block: u64, index: usize, target: u64) {
-        let at = block as usize + 24 + 8 * index;
-        self.bytes[at..at + 8].copy_from_slice(&target.to_le_bytes());
+        let data = UnsortedData::start(&mut self.output, blocks, dg, cg_at)?;
+        self.layout = Some(Written { start_ns, data });
+        Ok(())
     }
 }

@@ -5,7 +5,9 @@
 //!   reader yields. It depends on no reader.
 //! - [`candump`], [`asc`], [`blf`], [`mf4`]: the readers (and the candump
 //!   writer); each depends only on [`record`] and the frame types.
-//!   [`asc_write`], [`mf4_write`]: the ASC and MF4 writers.
+//!   [`asc_write`], [`mf4_write`]: the ASC and MF4 writers; [`mf4_signals`]:
+//!   MF4 files of decoded or aligned signals; [`mf4_blocks`]: the MF4
+//!   layout both MF4 writers share.
 //! - this module: [`LogFormat`] and [`LogReader`], which detects the format
 //!   and dispatches. A new format is a new module beside the readers and one
 //!   arm here.
@@ -19,6 +21,8 @@ pub mod asc_write;
 pub mod blf;
 pub mod candump;
 pub mod mf4;
+pub mod mf4_blocks;
+pub mod mf4_signals;
 pub mod mf4_write;
 pub mod record;
 

@@ -1,0 +1,194 @@
+//! `-o X.mf4` on decode and align: signals as MF4 channel groups with
+//! units, read by asammdf (the reference MDF library most test engineers'
+//! tools build on). Every value asammdf reads equals the CSV acq writes for
+//! the same command, at the same instant to the nanosecond; a missing value
+//! (an aligned gap, a device's "not available") is an invalid sample.
+//! asammdf lives in a scratch virtualenv (tests/mf4_output/dump.py).
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::{acq, path_arg, stderr};
+
+const ASAMMDF: &str = "asammdf==8.8.28";
+
+/// asammdf's channels: (group, channel) -> (unit, [(time ns, value)]).
+type Channels = BTreeMap<(String, String), (String, Vec<(i64, Option<f64>)>)>;
+
+fn asammdf_view(python: &Path, mf4: &Path) -> (String, Channels) {
+    let output = Command::new(python)
+        .arg(common::root().join("tests/mf4_output/dump.py"))
+        .arg(mf4)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = String::from_utf8_lossy(&output.stdout);
+    let mut lines = text.lines();
+    let head: serde_json::Value = serde_json::from_str(lines.next().unwrap()).unwrap();
+    let mut channels = Channels::new();
+    for line in lines {
+        let channel: serde_json::Value = serde_json::from_str(line).unwrap();
+        let times = channel["time_ns"].as_array().unwrap();
+        let values = channel["values"].as_array().unwrap();
+        channels.insert(
+            (
+                channel["group"].as_str().unwrap().to_string(),
+                channel["channel"].as_str().unwrap().to_string(),
+            ),
+            (
+                channel["unit"].as_str().unwrap().to_string(),
+                times
+                    .iter()
+                    .zip(values)
+                    .map(|(t, v)| (t.as_i64().unwrap(), v.as_f64()))
+                    .collect(),
+            ),
+        );
+    }
+    (head["comment"].as_str().unwrap_or("").to_string(), channels)
+}
+
+/// `acq ARGS -o NAME.csv` and `-o NAME.mf4`.
+fn both(dir: &Path, name: &str, args: &[&str]) -> (String, PathBuf) {
+    let mut written = Vec::new();
+    for extension in ["csv", "mf4"] {
+        let path = dir.join(format!("{name}.{extension}"));
+        let mut full = args.to_vec();
+        full.extend(["-o", path_arg(&path)]);
+        let output = acq(&full);
+        assert!(output.status.success(), "{full:?}: {}", stderr(&output));
+        assert!(!dir.join(format!("{name}.{extension}.partial")).exists());
+        written.push(path);
+    }
+    (
+        std::fs::read_to_string(&written[0]).unwrap(),
+        written.pop().unwrap(),
+    )
+}
+
+fn ns_of_seconds(text: &str) -> i64 {
+    let (whole, fraction) = text.split_once('.').unwrap_or((text, ""));
+    let digits = format!("{fraction:0<9}");
+    whole.parse::<i64>().unwrap() * 1_000_000_000 + digits[..9].parse::<i64>().unwrap()
+}
+
+#[test]
+fn mf4_signals_equal_the_csv_in_asammdf() {
+    let python = common::scratch_python("acq-asammdf-8.8.28", &[ASAMMDF]);
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let log = "fixtures/logs/excavator_case1.log";
+
+    // decode --rig: a group per sensor, one record per sample.
+    let (csv, mf4) = both(
+        dir,
+        "rig",
+        &["decode", log, "--rig", "fixtures/rigs/excavator.toml"],
+    );
+    let (_, channels) = asammdf_view(&python, &mf4);
+    let mut expected: Channels = Channels::new();
+    for line in csv.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let entry = expected
+            .entry((cells[1].to_string(), cells[1].to_string()))
+            .or_insert_with(|| (cells[3].to_string(), Vec::new()));
+        entry
+            .1
+            .push((ns_of_seconds(cells[0]), cells[2].parse::<f64>().ok()));
+    }
+    for (key, (unit, samples)) in &expected {
+        let (their_unit, theirs) = &channels[key];
+        assert_eq!(unit, their_unit, "{key:?}");
+        assert_eq!(samples, theirs, "{key:?}");
+    }
+    assert!(expected.len() > 10);
+
+    // decode --dbc: a group per message, a channel per signal.
+    let (csv, mf4) = both(
+        dir,
+        "dbc",
+        &["decode", log, "--dbc", "fixtures/dbc/somat_excavator.dbc"],
+    );
+    let (_, channels) = asammdf_view(&python, &mf4);
+    let mut compared = 0;
+    let mut positions: BTreeMap<(String, String), usize> = BTreeMap::new();
+    for line in csv.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let key = (cells[3].to_string(), cells[4].to_string());
+        let (unit, samples) = &channels[&key];
+        assert_eq!(unit, cells[6], "{key:?}");
+        let position = positions.entry(key.clone()).or_default();
+        let value: f64 = cells[5].parse().unwrap();
+        assert_eq!(
+            samples[*position],
+            (ns_of_seconds(cells[0]), Some(value)),
+            "{key:?}"
+        );
+        *position += 1;
+        compared += 1;
+    }
+    for (key, count) in &positions {
+        assert_eq!(channels[key].1.len(), *count, "{key:?}");
+    }
+    assert!(compared > 50);
+
+    // align: one group; a gap is an invalid sample; values bit for bit.
+    let (csv, mf4) = both(
+        dir,
+        "aligned",
+        &["align", "fixtures/sessions/excavator_case1"],
+    );
+    let (comment, channels) = asammdf_view(&python, &mf4);
+    assert!(comment.contains("session start"), "{comment}");
+    let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<&str>> = rows.map(|l| l.split(',').collect()).collect();
+    let mut gaps = 0;
+    for (column, heading) in header.iter().enumerate().skip(1).step_by(2) {
+        let (name, unit) = heading.trim_end_matches(']').split_once(" [").unwrap();
+        let (their_unit, samples) = &channels[&("aligned".to_string(), name.to_string())];
+        assert_eq!(unit, their_unit);
+        assert_eq!(samples.len(), rows.len());
+        let first_ns = samples[0].0;
+        for (row, (time_ns, value)) in rows.iter().zip(samples) {
+            // Relative to the first row, to the nanosecond.
+            assert_eq!(
+                time_ns - first_ns,
+                ns_of_seconds(row[0]) - ns_of_seconds(rows[0][0]),
+                "{name}"
+            );
+            let expected = row[column].parse::<f64>().ok();
+            assert_eq!(expected.is_none(), row[column + 1] == "1");
+            assert_eq!(
+                value.map(f64::to_bits),
+                expected.map(f64::to_bits),
+                "{name} at {}",
+                row[0]
+            );
+            gaps += usize::from(value.is_none());
+        }
+    }
+    assert!(gaps > 0, "the session's start has gaps");
+}
+
+#[test]
+fn extract_refuses_mf4_and_says_what_to_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("measured.mf4");
+    let output = acq(&[
+        "extract",
+        "fixtures/sessions/excavator_case2",
+        "-o",
+        path_arg(&out),
+    ]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains(".csv or .parquet"),
+        "{}",
+        stderr(&output)
+    );
+    assert!(!out.exists());
+}

@@ -39,10 +39,13 @@
 //! object (1-based, counting those inside containers) where reading
 //! stopped. A malformed object inside a container is skipped with the rest
 //! of that container; a container that cannot be decompressed is skipped
-//! whole. Memory stays bounded: one container at a time, at most
-//! [`MAX_CONTAINER_BYTES`].
+//! whole. Memory stays bounded: the container being read, one read ahead
+//! and inflating on a second thread meanwhile (zlib is a quarter of the
+//! work), each at most [`MAX_CONTAINER_BYTES`].
 
+use std::collections::VecDeque;
 use std::io::{self, BufRead, Read};
+use std::sync::mpsc;
 
 use flate2::{Decompress, FlushDecompress, Status};
 
@@ -96,8 +99,103 @@ pub struct BlfReader<R> {
     /// Objects read so far, for error messages.
     objects: u64,
     time_text: String,
-    /// The compressed bytes of the current container (reused).
+    /// Containers read ahead, in file order.
+    ahead: VecDeque<Ahead>,
+    /// No more containers to read ahead (the end, or reading failed).
+    input_ended: bool,
+    /// The thread that inflates containers, started at the first.
+    inflater: Option<Inflater>,
+    /// Buffers to reuse: no allocation per container.
+    spare_compressed: Vec<Vec<u8>>,
+    spare_data: Vec<Vec<u8>>,
+}
+
+/// A container read ahead of the one being parsed.
+struct Ahead {
+    /// File-level objects read for it (itself, and skipped ones before it).
+    objects: u64,
+    content: Content,
+}
+
+enum Content {
+    Ready(Vec<u8>),
+    /// With the inflater, whose results come back in order.
+    Inflating,
+    Failed {
+        failure: Failure,
+        finishes: bool,
+    },
+    End,
+}
+
+enum Failure {
+    Expected(&'static str),
+    Io(io::Error),
+}
+
+/// A read that failed inside an object: the end of a truncated file is
+/// malformed input, anything else an I/O error. Reading ends either way.
+fn ended_inside(error: io::Error) -> Failure {
+    match error.kind() {
+        io::ErrorKind::UnexpectedEof => Failure::Expected(E_TRUNCATED),
+        _ => Failure::Io(error),
+    }
+}
+
+/// One container's zlib data to inflate, and where.
+struct InflateJob {
     compressed: Vec<u8>,
+    out: Vec<u8>,
+    uncompressed: usize,
+    inflated: bool,
+}
+
+impl InflateJob {
+    /// Inflates in one call: zlib data that does not end at exactly the
+    /// stated size is not this container's.
+    fn run(&mut self) {
+        self.out.clear();
+        self.out.resize(self.uncompressed, 0);
+        let mut inflater = Decompress::new(true);
+        let inflated =
+            inflater.decompress(&self.compressed, &mut self.out, FlushDecompress::Finish);
+        self.inflated = matches!(inflated, Ok(Status::StreamEnd))
+            && inflater.total_out() == self.uncompressed as u64;
+    }
+}
+
+/// A thread that inflates containers in the order they are sent: zlib is
+/// a quarter of reading a BLF file, and it overlaps the parsing this way.
+/// It ends when the reader (the sender) is dropped.
+struct Inflater {
+    jobs: mpsc::Sender<InflateJob>,
+    done: mpsc::Receiver<InflateJob>,
+}
+
+impl Inflater {
+    /// `None` on a single core, or if no thread can be started: the reader
+    /// then inflates in turn. Fuzzing inflates in turn too: a thread per
+    /// input would make it ten times slower, and the order of containers
+    /// is kept by the same queue either way.
+    fn start() -> Option<Self> {
+        if cfg!(fuzzing) || std::thread::available_parallelism().map_or(1, |n| n.get()) < 2 {
+            return None;
+        }
+        let (jobs, incoming) = mpsc::channel::<InflateJob>();
+        let (finished, done) = mpsc::channel();
+        std::thread::Builder::new()
+            .name("blf-inflate".into())
+            .spawn(move || {
+                for mut job in incoming {
+                    job.run();
+                    if finished.send(job).is_err() {
+                        break;
+                    }
+                }
+            })
+            .ok()?;
+        Some(Inflater { jobs, done })
+    }
 }
 
 impl<R: BufRead> BlfReader<R> {
@@ -111,7 +209,11 @@ impl<R: BufRead> BlfReader<R> {
             pos: 0,
             objects: 0,
             time_text: String::new(),
-            compressed: Vec::new(),
+            ahead: VecDeque::new(),
+            input_ended: false,
+            inflater: None,
+            spare_compressed: Vec::new(),
+            spare_data: Vec::new(),
         }
     }
 
@@ -169,16 +271,6 @@ impl<R: BufRead> BlfReader<R> {
         }
     }
 
-    /// A read that failed inside an object: the end of a truncated file is
-    /// malformed input, anything else an I/O error. Reading ends either way.
-    fn ended_inside(&mut self, error: io::Error) -> ReadError {
-        self.finished = true;
-        match error.kind() {
-            io::ErrorKind::UnexpectedEof => self.error(E_TRUNCATED),
-            _ => ReadError::Io(error),
-        }
-    }
-
     fn read_file_header(&mut self) -> Result<(), ReadError> {
         let mut head = [0u8; FILE_HEADER_MIN];
         if let Err(error) = self.input.read_exact(&mut head) {
@@ -207,91 +299,166 @@ impl<R: BufRead> BlfReader<R> {
         Ok(())
     }
 
-    /// Reads file-level objects up to the next log container and makes its
-    /// data current (after what is left of the last one). `false` at the end.
+    /// Makes the next log container's objects current (after what is left
+    /// of the last one). `false` at the end. One container is read ahead
+    /// and inflated on the inflater's thread while this one is parsed.
     fn read_container(&mut self) -> Result<bool, ReadError> {
+        while self.ahead.len() < 2 && !self.input_ended {
+            let container = self.read_ahead();
+            self.input_ended = matches!(
+                container.content,
+                Content::End | Content::Failed { finishes: true, .. }
+            );
+            self.ahead.push_back(container);
+        }
+        let Some(container) = self.ahead.pop_front() else {
+            return Ok(false);
+        };
+        // Errors name the object where reading stopped, as if read in turn.
+        self.objects += container.objects;
+        let bytes = match container.content {
+            Content::End => return Ok(false),
+            Content::Ready(bytes) => bytes,
+            Content::Inflating => {
+                let Some(job) = self.inflater.as_ref().and_then(|i| i.done.recv().ok()) else {
+                    self.finished = true;
+                    return Err(ReadError::Io(io::Error::other("the BLF inflater stopped")));
+                };
+                self.spare_compressed.push(job.compressed);
+                if !job.inflated {
+                    self.spare_data.push(job.out);
+                    return Err(self.error(E_INFLATE));
+                }
+                job.out
+            }
+            Content::Failed { failure, finishes } => {
+                self.finished |= finishes;
+                return Err(match failure {
+                    Failure::Expected(expected) => self.error(expected),
+                    Failure::Io(error) => ReadError::Io(error),
+                });
+            }
+        };
+        // Keep the unread tail of the last container: an object may span two.
+        self.data.drain(..self.pos.min(self.data.len()));
+        self.pos = 0;
+        self.data.extend_from_slice(&bytes);
+        self.spare_data.push(bytes);
+        Ok(true)
+    }
+
+    /// Reads file-level objects up to the next log container and reads it,
+    /// or starts inflating it.
+    fn read_ahead(&mut self) -> Ahead {
+        let mut objects = 0;
+        let failed = |objects: u64, failure: Failure, finishes: bool| Ahead {
+            objects,
+            content: Content::Failed { failure, finishes },
+        };
         loop {
             let mut base = [0u8; BASE_HEADER];
             if let Err(error) = self.input.read_exact(&mut base) {
                 return match error.kind() {
-                    io::ErrorKind::UnexpectedEof => Ok(false),
-                    _ => Err(ReadError::Io(error)),
+                    io::ErrorKind::UnexpectedEof => Ahead {
+                        objects,
+                        content: Content::End,
+                    },
+                    _ => failed(objects, Failure::Io(error), true),
                 };
             }
-            self.objects += 1;
+            objects += 1;
             let size = u32_at(&base, 8).unwrap_or(0) as usize;
             let kind = u32_at(&base, 12).unwrap_or(0);
             if &base[..4] != OBJECT_SIGNATURE || size < BASE_HEADER {
                 // Without a size the next object cannot be found.
-                self.finished = true;
-                return Err(self.error(E_OBJECT));
+                return failed(objects, Failure::Expected(E_OBJECT), true);
             }
             // The body, then `size % 4` padding bytes (as Vector and
             // python-can write them).
             let body = (size - BASE_HEADER) as u64;
             let padding = (size % 4) as u64;
             if kind != LOG_CONTAINER {
-                skip(&mut self.input, body + padding)?;
+                if let Err(error) = skip(&mut self.input, body + padding) {
+                    return failed(objects, Failure::Io(error), true);
+                }
                 continue;
             }
             if body < CONTAINER_HEADER as u64 || body > MAX_CONTAINER_BYTES as u64 {
-                skip(&mut self.input, body + padding)?;
-                return Err(self.error(E_CONTAINER));
+                return match skip(&mut self.input, body + padding) {
+                    Ok(()) => failed(objects, Failure::Expected(E_CONTAINER), false),
+                    Err(error) => failed(objects, Failure::Io(error), true),
+                };
             }
             let mut header = [0u8; CONTAINER_HEADER];
             if let Err(error) = self.input.read_exact(&mut header) {
-                return Err(self.ended_inside(error));
+                return failed(objects, ended_inside(error), true);
             }
             let method = u16_at(&header, 0).unwrap_or(u16::MAX);
             let uncompressed = u32_at(&header, 8).unwrap_or(0) as usize;
             let stored = body as usize - CONTAINER_HEADER;
-            // Keep the unread tail of the last container: an object may
-            // span two.
-            self.data.drain(..self.pos.min(self.data.len()));
-            self.pos = 0;
-            match method {
+            let content = match method {
                 0 => {
-                    let before = self.data.len();
-                    self.data.resize(before + stored, 0);
-                    if let Err(error) = self.input.read_exact(&mut self.data[before..]) {
-                        self.data.truncate(before);
-                        return Err(self.ended_inside(error));
+                    let mut bytes = self.spare_data.pop().unwrap_or_default();
+                    bytes.clear();
+                    bytes.resize(stored, 0);
+                    if let Err(error) = self.input.read_exact(&mut bytes) {
+                        return failed(objects, ended_inside(error), true);
                     }
-                    skip(&mut self.input, padding)?;
+                    Content::Ready(bytes)
                 }
                 // Deflate shrinks by at most about 1032 to 1: a larger claim
                 // is not this container's (and is not worth the memory).
                 2 if uncompressed <= MAX_CONTAINER_BYTES
                     && uncompressed <= stored.saturating_mul(1032).saturating_add(1024) =>
                 {
-                    self.compressed.clear();
-                    self.compressed.resize(stored, 0);
-                    if let Err(error) = self.input.read_exact(&mut self.compressed) {
-                        return Err(self.ended_inside(error));
+                    let mut compressed = self.spare_compressed.pop().unwrap_or_default();
+                    compressed.clear();
+                    compressed.resize(stored, 0);
+                    if let Err(error) = self.input.read_exact(&mut compressed) {
+                        return failed(objects, ended_inside(error), true);
                     }
-                    skip(&mut self.input, padding)?;
-                    // Inflated in one call straight into place: no copies.
-                    let before = self.data.len();
-                    self.data.resize(before + uncompressed, 0);
-                    let mut inflater = Decompress::new(true);
-                    let inflated = inflater.decompress(
-                        &self.compressed,
-                        &mut self.data[before..],
-                        FlushDecompress::Finish,
-                    );
-                    if !matches!(inflated, Ok(Status::StreamEnd))
-                        || inflater.total_out() != uncompressed as u64
-                    {
-                        self.data.truncate(before);
-                        return Err(self.error(E_INFLATE));
+                    let job = InflateJob {
+                        compressed,
+                        out: self.spare_data.pop().unwrap_or_default(),
+                        uncompressed,
+                        inflated: false,
+                    };
+                    if self.inflater.is_none() {
+                        self.inflater = Inflater::start();
+                    }
+                    let unsent = match &self.inflater {
+                        Some(inflater) => inflater.jobs.send(job).err().map(|e| e.0),
+                        None => Some(job),
+                    };
+                    match unsent {
+                        None => Content::Inflating,
+                        Some(mut job) => {
+                            // No thread: inflate here.
+                            job.run();
+                            self.spare_compressed.push(job.compressed);
+                            if job.inflated {
+                                Content::Ready(job.out)
+                            } else {
+                                self.spare_data.push(job.out);
+                                Content::Failed {
+                                    failure: Failure::Expected(E_INFLATE),
+                                    finishes: false,
+                                }
+                            }
+                        }
                     }
                 }
                 _ => {
-                    skip(&mut self.input, stored as u64 + padding)?;
-                    return Err(self.error(E_CONTAINER));
+                    return match skip(&mut self.input, stored as u64 + padding) {
+                        Ok(()) => failed(objects, Failure::Expected(E_CONTAINER), false),
+                        Err(error) => failed(objects, Failure::Io(error), true),
+                    };
                 }
+            };
+            if let Err(error) = skip(&mut self.input, padding) {
+                return failed(objects, Failure::Io(error), true);
             }
-            return Ok(true);
+            return Ahead { objects, content };
         }
     }
 

@@ -2,11 +2,14 @@
 //! frames (vectors made by tests/golden/make_golden.py at the workspace
 //! root, cantools 45.1.0).
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use acq_drivers::dbc::{DbcDatabase, PhysicalValue};
+use acq_drivers::dbc::DbcDatabase;
 use acq_drivers::CanId;
+use common::same_value;
 
 fn golden(name: &str) -> String {
     std::fs::read_to_string(
@@ -37,24 +40,6 @@ fn payload(hex: &str) -> Vec<u8> {
         .step_by(2)
         .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
         .collect()
-}
-
-/// True when our value is the value Python's `repr` printed.
-fn same_value(ours: PhysicalValue, theirs: &str) -> bool {
-    let is_python_int = theirs.bytes().all(|b| b.is_ascii_digit() || b == b'-');
-    match ours {
-        PhysicalValue::Integer(v) => is_python_int && v == theirs.parse::<i128>().unwrap(),
-        PhysicalValue::Float(v) => {
-            let expected: f64 = match theirs {
-                "nan" => f64::NAN,
-                "inf" => f64::INFINITY,
-                "-inf" => f64::NEG_INFINITY,
-                text => text.parse().unwrap(),
-            };
-            !is_python_int
-                && (v.to_bits() == expected.to_bits() || (v.is_nan() && expected.is_nan()))
-        }
-    }
 }
 
 #[test]

@@ -1,85 +1,30 @@
 //! Property tests of the log formats: candump logs round-trip every kind of
 //! frame exactly, and neither reader panics on any input.
 
+mod common;
+
 use acq_drivers::frame::fd_flags;
 use acq_drivers::log::asc::{AscReader, ERROR_FRAME_CLASS};
 use acq_drivers::log::asc_write::AscWriter;
 use acq_drivers::log::candump::{self, CandumpReader, CandumpWriter};
-use acq_drivers::{CanId, Direction, Frame, FrameKind, IfaceName, ReadError};
+use acq_drivers::{Direction, Frame, FrameKind, IfaceName, ReadError};
 use proptest::prelude::*;
 
 const IFACES: [&str; 5] = ["can0", "can1", "vcan0", "slcan12", "excavator_fd"];
 
-fn iface() -> impl Strategy<Value = IfaceName> {
+fn iface() -> impl Strategy<Value = IfaceName> + Clone {
     prop::sample::select(&IFACES[..]).prop_map(|name| IfaceName::new(name).unwrap())
 }
 
-fn can_id() -> impl Strategy<Value = CanId> {
-    prop_oneof![
-        (0..=0x7FFu16).prop_map(CanId::Standard),
-        (0..=0x1FFF_FFFFu32).prop_map(CanId::Extended),
-    ]
-}
-
 /// Whole microseconds from 0 to 10^17 ns (the format's resolution).
-fn timestamp() -> impl Strategy<Value = i64> {
+fn timestamp() -> impl Strategy<Value = i64> + Clone {
     (0..100_000_000_000i64).prop_map(|micros| micros * 1_000)
-}
-
-fn direction() -> impl Strategy<Value = Option<Direction>> {
-    prop::option::of(prop_oneof![
-        Just(Direction::Received),
-        Just(Direction::Transmitted)
-    ])
 }
 
 /// Any valid frame: classic data (with a raw DLC 9-F on some 8-byte ones),
 /// remote (the same), CAN FD with any flags nibble, error frames.
 fn frame() -> impl Strategy<Value = Frame> {
-    let data = (
-        timestamp(),
-        iface(),
-        can_id(),
-        prop::collection::vec(any::<u8>(), 0..=8),
-        prop::option::of(9..=15u8),
-    )
-        .prop_map(|(ts, iface, id, payload, len8)| {
-            let mut frame = Frame::data(ts, iface, id, &payload).unwrap();
-            if let (8, Some(dlc)) = (payload.len(), len8) {
-                frame.set_len8_dlc(dlc).unwrap();
-            }
-            frame
-        });
-    let remote = (
-        timestamp(),
-        iface(),
-        can_id(),
-        0..=8u8,
-        prop::option::of(9..=15u8),
-    )
-        .prop_map(|(ts, iface, id, requested, len8)| {
-            let mut frame = Frame::remote(ts, iface, id, requested).unwrap();
-            if let (8, Some(dlc)) = (requested, len8) {
-                frame.set_len8_dlc(dlc).unwrap();
-            }
-            frame
-        });
-    let fd = (
-        timestamp(),
-        iface(),
-        can_id(),
-        0..=15u8,
-        prop::collection::vec(any::<u8>(), 0..=64),
-    )
-        .prop_map(|(ts, iface, id, flags, payload)| {
-            Frame::fd(ts, iface, id, flags, &payload).unwrap()
-        });
-    let error = (timestamp(), iface(), 0..=0x1FFF_FFFFu32, any::<[u8; 8]>())
-        .prop_map(|(ts, iface, class, details)| Frame::error(ts, iface, class, &details).unwrap());
-    (prop_oneof![data, remote, fd, error], direction()).prop_map(|(mut frame, direction)| {
-        frame.direction = direction;
-        frame
-    })
+    common::any_frame(timestamp(), iface())
 }
 
 fn write_all(frames: &[Frame]) -> Vec<u8> {

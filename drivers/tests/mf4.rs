@@ -4,6 +4,8 @@
 //! MF4 as the frames written, and acq reads python-can's MF4, stored,
 //! deflated and transposed, as the frames python-can was given.
 
+mod common;
+
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -69,66 +71,12 @@ fn as_kept(frame: &Frame) -> Frame {
     kept
 }
 
-fn can_id() -> impl Strategy<Value = CanId> {
-    prop_oneof![
-        (0..=0x7FFu16).prop_map(CanId::Standard),
-        (0..=0x1FFF_FFFFu32).prop_map(CanId::Extended),
-    ]
-}
-
 fn frame(start_ns: i64) -> impl Strategy<Value = Frame> {
     let iface = prop::sample::select(&["can0", "can1", "can9", "can255"][..])
         .prop_map(|name| IfaceName::new(name).unwrap());
     // Up to 20 days after the first frame: ns survive f64 seconds.
     let time = (0..20 * 86_400_000_000_000i64).prop_map(move |ns| start_ns + ns);
-    let data = (
-        time.clone(),
-        iface.clone(),
-        can_id(),
-        prop::collection::vec(any::<u8>(), 0..=8),
-        prop::option::of(9..=15u8),
-    )
-        .prop_map(|(ts, iface, id, payload, len8)| {
-            let mut frame = Frame::data(ts, iface, id, &payload).unwrap();
-            if let (8, Some(dlc)) = (payload.len(), len8) {
-                frame.set_len8_dlc(dlc).unwrap();
-            }
-            frame
-        });
-    let remote = (
-        time.clone(),
-        iface.clone(),
-        can_id(),
-        0..=8u8,
-        prop::option::of(9..=15u8),
-    )
-        .prop_map(|(ts, iface, id, requested, len8)| {
-            let mut frame = Frame::remote(ts, iface, id, requested).unwrap();
-            if let (8, Some(dlc)) = (requested, len8) {
-                frame.set_len8_dlc(dlc).unwrap();
-            }
-            frame
-        });
-    let fd = (
-        time.clone(),
-        iface.clone(),
-        can_id(),
-        0..=15u8,
-        prop::collection::vec(any::<u8>(), 0..=64),
-    )
-        .prop_map(|(ts, iface, id, flags, payload)| {
-            Frame::fd(ts, iface, id, flags, &payload).unwrap()
-        });
-    let error = (time, iface, 0..=0x1FFF_FFFFu32, any::<[u8; 8]>())
-        .prop_map(|(ts, iface, class, details)| Frame::error(ts, iface, class, &details).unwrap());
-    let direction = prop::option::of(prop_oneof![
-        Just(Direction::Received),
-        Just(Direction::Transmitted)
-    ]);
-    (prop_oneof![data, remote, fd, error], direction).prop_map(|(mut frame, direction)| {
-        frame.direction = direction;
-        frame
-    })
+    common::any_frame(time, iface)
 }
 
 proptest! {

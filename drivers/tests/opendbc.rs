@@ -8,6 +8,8 @@
 //! skips. `tests/opendbc/vectors.py` writes the vectors (its docstring
 //! describes them).
 
+mod common;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -15,6 +17,7 @@ use std::time::Instant;
 
 use acq_drivers::dbc::{DbcDatabase, PhysicalValue};
 use acq_drivers::CanId;
+use common::same_value;
 
 const PINS: [&str; 2] = ["cantools==45.1.0", "opendbc==0.3.1"];
 
@@ -79,25 +82,6 @@ fn python() -> PathBuf {
     );
     std::fs::write(&stamp, &pins).unwrap();
     python
-}
-
-/// True when our value is the value Python's `repr` printed: an int for an
-/// int, the same bits for a float (as golden_cantools.rs).
-fn same_value(ours: PhysicalValue, theirs: &str) -> bool {
-    let is_python_int = theirs.bytes().all(|b| b.is_ascii_digit() || b == b'-');
-    match ours {
-        PhysicalValue::Integer(v) => is_python_int && theirs.parse::<i128>() == Ok(v),
-        PhysicalValue::Float(v) => {
-            let expected: f64 = match theirs {
-                "nan" => f64::NAN,
-                "inf" => f64::INFINITY,
-                "-inf" => f64::NEG_INFINITY,
-                text => text.parse().unwrap(),
-            };
-            !is_python_int
-                && (v.to_bits() == expected.to_bits() || (v.is_nan() && expected.is_nan()))
-        }
-    }
 }
 
 fn payload(hex: &str) -> Vec<u8> {

@@ -21,6 +21,8 @@ pub const MAX_EXTENDED_ID: u32 = 0x1FFF_FFFF;
 pub const CLASSIC_MAX_LEN: usize = 8;
 /// Payload of a CAN FD frame, bytes.
 pub const FD_MAX_LEN: usize = 64;
+/// The payload length of each CAN FD DLC (0-15), as every log format counts it.
+pub const FD_DLC_LENGTHS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 
 /// CAN FD flag: bit rate switch.
 pub const FD_FLAG_BRS: u8 = 0x01;

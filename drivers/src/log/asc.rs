@@ -65,7 +65,9 @@
 use std::io::BufRead;
 
 use super::record::{LogRecord, ParseError, ReadError};
-use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_MAX_LEN};
+use crate::frame::{
+    fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
+};
 use crate::hex;
 
 /// Error class given to ASC error frames: `CAN_ERR_BUSERROR` (the ASC line
@@ -75,9 +77,6 @@ pub const ERROR_FRAME_CLASS: u32 = 0x80;
 /// Bits of the `<flags>` column of a CAN FD line (Vector's `CAN_FD_MESSAGE_64`).
 const FLAG_REMOTE: u32 = 0x0010;
 const FLAG_EDL: u32 = 0x1000;
-
-/// Payload length of each CAN FD DLC.
-const FD_DLC_LEN: [u8; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 
 const NANOS_PER_SECOND: i64 = 1_000_000_000;
 
@@ -462,7 +461,7 @@ impl State {
             }
             _ => None,
         };
-        let dlc_len = FD_DLC_LEN.get(usize::from(dlc)).copied().map(usize::from);
+        let dlc_len = FD_DLC_LENGTHS.get(usize::from(dlc)).copied();
         let mut frame = match flags {
             Some(flags) if flags & FLAG_EDL == 0 && flags & FLAG_REMOTE != 0 => {
                 if len != 0 {

@@ -31,7 +31,9 @@
 
 use std::io::{self, Write};
 
-use crate::frame::{CanId, Direction, Frame, FrameKind, IfaceName, FD_FLAG_BRS, FD_FLAG_ESI};
+use crate::frame::{
+    CanId, Direction, Frame, FrameKind, IfaceName, FD_DLC_LENGTHS, FD_FLAG_BRS, FD_FLAG_ESI,
+};
 
 const NANOS_PER_SECOND: i64 = 1_000_000_000;
 const NANOS_PER_MILLI: i64 = 1_000_000;
@@ -229,7 +231,7 @@ fn push_event(line: &mut Vec<u8>, channel: u32, frame: &Frame) {
             // A length between two DLC steps goes out padded with zeros to
             // the DLC's, as the bus carries it (the kernel pads the same).
             let mut padded = [0u8; 64];
-            let length = FD_LENGTHS[usize::from(dlc)];
+            let length = FD_DLC_LENGTHS[usize::from(dlc)];
             padded[..frame.payload().len()].copy_from_slice(frame.payload());
             let payload = &padded[..length];
             let asc_flags = 0x1000 | (u32::from(brs) << 13) | (u32::from(esi) << 14);
@@ -256,11 +258,8 @@ fn push_event(line: &mut Vec<u8>, channel: u32, frame: &Frame) {
 
 /// The CAN FD DLC of a payload length: the smallest that holds it.
 fn fd_dlc(len: usize) -> u8 {
-    FD_LENGTHS.iter().position(|&l| l >= len).unwrap_or(15) as u8
+    FD_DLC_LENGTHS.iter().position(|&l| l >= len).unwrap_or(15) as u8
 }
-
-/// Payload length of each CAN FD DLC.
-const FD_LENGTHS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 
 /// `Tue Nov 24 09:15:02.512 pm 2026` for ns since the epoch (UTC), as the
 /// `date` and `Begin Triggerblock` lines write it.

@@ -50,7 +50,7 @@ use std::sync::mpsc;
 use flate2::{Decompress, FlushDecompress, Status};
 
 use super::record::{LogRecord, ParseError, ReadError};
-use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN};
+use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS};
 
 /// The first bytes of every BLF file.
 pub const SIGNATURE: &[u8; 4] = b"LOGG";
@@ -70,7 +70,6 @@ const CAN_FD_MESSAGE: u32 = 100;
 const CAN_FD_MESSAGE_64: u32 = 101;
 const TIME_TEN_MICROS: u32 = 0x1;
 const ERROR_FRAME_CLASS: u32 = 0x80;
-const FD_DLC_LEN: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 
 const E_HEADER: &str = "a BLF file header: 'LOGG' and a header size of at least 72 bytes";
 const E_OBJECT: &str = "an object starting with 'LOBJ' and a size of at least its header";
@@ -642,7 +641,7 @@ fn frame_of(timestamp_ns: i64, iface: IfaceName, id: CanId, object: FdObject<'_>
         }
         frame
     } else {
-        let len = FD_DLC_LEN[usize::from(object.dlc)];
+        let len = FD_DLC_LENGTHS[usize::from(object.dlc)];
         let mut payload = [0u8; 64];
         let available = object.data.len().min(object.valid).min(len);
         payload[..available].copy_from_slice(&object.data[..available]);

@@ -74,7 +74,9 @@ use std::io::{self, BufRead, Read};
 use flate2::{Decompress, FlushDecompress, Status};
 
 use super::record::{LogRecord, ParseError, ReadError};
-use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_MAX_LEN};
+use crate::frame::{
+    fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
+};
 
 /// The first bytes of every MDF file.
 pub const SIGNATURE: &[u8; 8] = b"MDF     ";
@@ -86,7 +88,6 @@ pub const MAX_DZ_BYTES: u64 = 256 << 20;
 const ID_BLOCK: u64 = 64;
 const HEADER: u64 = 24;
 const CHUNK: u64 = 1 << 20;
-const FD_DLC_LEN: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 /// `CAN_ERR_BUSERROR`: the class of every error frame read from MF4.
 pub const ERROR_FRAME_CLASS: u32 = 0x80;
 
@@ -1011,7 +1012,7 @@ fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'s
             let id = can_id(bits, extended)?;
             let fd = read(layout.edl).unwrap_or(0) != 0;
             let from_dlc = if fd {
-                FD_DLC_LEN[usize::from(dlc)]
+                FD_DLC_LENGTHS[usize::from(dlc)]
             } else {
                 usize::from(dlc).min(CLASSIC_MAX_LEN)
             };

@@ -32,7 +32,9 @@ use std::io::{self, Seek, Write};
 
 use super::mf4_blocks::{Blocks, UnsortedData, CN_FLAG_BUS_EVENT};
 
-use crate::frame::{CanId, Direction, Frame, FrameKind, IfaceName, FD_FLAG_BRS, FD_FLAG_ESI};
+use crate::frame::{
+    CanId, Direction, Frame, FrameKind, IfaceName, FD_DLC_LENGTHS, FD_FLAG_BRS, FD_FLAG_ESI,
+};
 
 const DATA_RECORD: u8 = 1;
 const ERROR_RECORD: u8 = 2;
@@ -42,7 +44,6 @@ const FRAME_RECORD_BYTES: usize = 84;
 const REMOTE_RECORD_BYTES: usize = 17;
 /// CG flags: bus event, plain bus event (as python-can writes).
 const CG_FLAGS: u16 = 0b110;
-const FD_STEPS: [usize; 16] = [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64];
 
 /// (name suffix, byte offset, bits, data type) of a structure member.
 type Member = (&'static str, u32, u32, u8);
@@ -164,14 +165,14 @@ impl<W: Write + Seek> Mf4Writer<W> {
             }
             FrameKind::Fd { flags } => {
                 let payload = frame.payload();
-                let dlc = FD_STEPS
+                let dlc = FD_DLC_LENGTHS
                     .iter()
                     .position(|&step| step >= payload.len())
                     .unwrap_or(15);
                 record[9..13].copy_from_slice(&id.to_le_bytes());
                 record[13] = u8::from(extended);
                 record[14] = dlc as u8;
-                record[15] = FD_STEPS[dlc] as u8;
+                record[15] = FD_DLC_LENGTHS[dlc] as u8;
                 record[16..16 + payload.len()].copy_from_slice(payload);
                 record[80] = u8::from(transmitted);
                 record[81] = 1;

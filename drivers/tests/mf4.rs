@@ -126,6 +126,127 @@ proptest! {
     }
 }
 
+/// How one piece of a file's records is stored when it is split into
+/// blocks: as is, deflated, or transposed over `columns` and deflated.
+#[derive(Clone, Copy, Debug)]
+enum Storage {
+    Dt,
+    Deflated,
+    Transposed { columns: u32 },
+}
+
+fn storage() -> impl Strategy<Value = Storage> {
+    prop_oneof![
+        Just(Storage::Dt),
+        Just(Storage::Deflated),
+        (1u32..100).prop_map(|columns| Storage::Transposed { columns }),
+    ]
+}
+
+/// acq's MF4 with its one `##DT` block's records moved into a `##DL` list
+/// of blocks appended at the end, cut at `cuts` (byte offsets into the
+/// records, wherever they fall: records span blocks, as loggers write
+/// them), each stored as its `Storage` says.
+fn split_into_blocks(bytes: &[u8], cuts: &[usize], storages: &[Storage]) -> Vec<u8> {
+    let u64_at = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap());
+    let dg = u64_at(64 + 24) as usize;
+    let data_link = dg + 24 + 2 * 8;
+    let dt = u64_at(data_link) as usize;
+    assert_eq!(&bytes[dt..dt + 4], b"##DT");
+    let records = &bytes[dt + 24..dt + u64_at(dt + 8) as usize];
+    let mut cuts: Vec<usize> = cuts.iter().map(|&c| c % (records.len() + 1)).collect();
+    cuts.extend([0, records.len()]);
+    cuts.sort_unstable();
+    cuts.dedup();
+    let mut out = bytes.to_vec();
+    let block = |out: &mut Vec<u8>, id: &[u8; 4], links: &[u64], data: &[u8]| {
+        while out.len() % 8 != 0 {
+            out.push(0);
+        }
+        let at = out.len() as u64;
+        out.extend_from_slice(id);
+        out.extend_from_slice(&[0; 4]);
+        out.extend_from_slice(&((24 + 8 * links.len() + data.len()) as u64).to_le_bytes());
+        out.extend_from_slice(&(links.len() as u64).to_le_bytes());
+        for link in links {
+            out.extend_from_slice(&link.to_le_bytes());
+        }
+        out.extend_from_slice(data);
+        at
+    };
+    let mut blocks = Vec::new();
+    let mut offsets = Vec::new();
+    for (index, piece) in cuts.windows(2).enumerate() {
+        let piece_bytes = &records[piece[0]..piece[1]];
+        offsets.push(piece[0] as u64);
+        let zip = |data: &[u8]| {
+            use std::io::Write;
+            let mut encoder =
+                flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+            encoder.write_all(data).unwrap();
+            encoder.finish().unwrap()
+        };
+        let dz = |zip_type: u8, columns: u32, zipped: Vec<u8>| {
+            let mut data = b"DT".to_vec();
+            data.extend_from_slice(&[zip_type, 0]);
+            data.extend_from_slice(&columns.to_le_bytes());
+            data.extend_from_slice(&(piece_bytes.len() as u64).to_le_bytes());
+            data.extend_from_slice(&(zipped.len() as u64).to_le_bytes());
+            data.extend_from_slice(&zipped);
+            data
+        };
+        let at = match storages[index % storages.len()] {
+            Storage::Dt => block(&mut out, b"##DT", &[], piece_bytes),
+            Storage::Deflated => block(&mut out, b"##DZ", &[], &dz(0, 0, zip(piece_bytes))),
+            Storage::Transposed { columns } => {
+                // Byte c of every `columns`-byte line, then byte c + 1, ...;
+                // what does not fill a line stays as is.
+                let columns_usize = columns as usize;
+                let lines = piece_bytes.len() / columns_usize;
+                let mut transposed = Vec::with_capacity(piece_bytes.len());
+                for column in 0..columns_usize {
+                    for line in 0..lines {
+                        transposed.push(piece_bytes[line * columns_usize + column]);
+                    }
+                }
+                transposed.extend_from_slice(&piece_bytes[lines * columns_usize..]);
+                block(&mut out, b"##DZ", &[], &dz(1, columns, zip(&transposed)))
+            }
+        };
+        blocks.push(at);
+    }
+    let mut links = vec![0u64];
+    links.extend(&blocks);
+    let mut data = vec![0u8; 4];
+    data.extend_from_slice(&(blocks.len() as u32).to_le_bytes());
+    for offset in offsets {
+        data.extend_from_slice(&offset.to_le_bytes());
+    }
+    let dl = block(&mut out, b"##DL", &links, &data);
+    out[data_link..data_link + 8].copy_from_slice(&dl.to_le_bytes());
+    out
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(100))]
+
+    /// Records cut into blocks anywhere, each block stored, deflated or
+    /// transposed and deflated, read as the frames written (the reader
+    /// inflates the next block on a second thread while it parses one).
+    #[test]
+    fn records_split_over_stored_and_zipped_blocks_read_as_written(
+        frames in prop::collection::vec(frame(1_700_000_000_000_000_000), 1..300),
+        cuts in prop::collection::vec(any::<usize>(), 0..12),
+        storages in prop::collection::vec(storage(), 1..6),
+    ) {
+        let mut frames = frames;
+        frames.sort_by_key(|f| f.timestamp_ns);
+        let bytes = split_into_blocks(&write(&frames), &cuts, &storages);
+        let kept: Vec<Frame> = frames.iter().map(as_kept).collect();
+        prop_assert_eq!(read(&bytes), kept);
+    }
+}
+
 #[test]
 fn memory_stays_bounded_by_the_input_when_links_point_far() {
     // A header whose first data group is claimed at 1 TiB: the reader reads

@@ -45,11 +45,9 @@
 
 use std::collections::VecDeque;
 use std::io::{self, BufRead, Read};
-use std::sync::mpsc;
 
-use flate2::{Decompress, FlushDecompress, Status};
-
-use super::record::{LogRecord, ParseError, ReadError};
+use super::inflate::{InflateJob, Inflater};
+use super::record::{LogRecord, ParseError, ReadError, TimeText};
 use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS};
 
 /// The first bytes of every BLF file.
@@ -97,7 +95,7 @@ pub struct BlfReader<R> {
     pos: usize,
     /// Objects read so far, for error messages.
     objects: u64,
-    time_text: String,
+    time_text: TimeText,
     /// Containers read ahead, in file order.
     ahead: VecDeque<Ahead>,
     /// No more containers to read ahead (the end, or reading failed).
@@ -141,62 +139,6 @@ fn ended_inside(error: io::Error) -> Failure {
     }
 }
 
-/// One container's zlib data to inflate, and where.
-struct InflateJob {
-    compressed: Vec<u8>,
-    out: Vec<u8>,
-    uncompressed: usize,
-    inflated: bool,
-}
-
-impl InflateJob {
-    /// Inflates in one call: zlib data that does not end at exactly the
-    /// stated size is not this container's.
-    fn run(&mut self) {
-        self.out.clear();
-        self.out.resize(self.uncompressed, 0);
-        let mut inflater = Decompress::new(true);
-        let inflated =
-            inflater.decompress(&self.compressed, &mut self.out, FlushDecompress::Finish);
-        self.inflated = matches!(inflated, Ok(Status::StreamEnd))
-            && inflater.total_out() == self.uncompressed as u64;
-    }
-}
-
-/// A thread that inflates containers in the order they are sent: zlib is
-/// a quarter of reading a BLF file, and it overlaps the parsing this way.
-/// It ends when the reader (the sender) is dropped.
-struct Inflater {
-    jobs: mpsc::Sender<InflateJob>,
-    done: mpsc::Receiver<InflateJob>,
-}
-
-impl Inflater {
-    /// `None` on a single core, or if no thread can be started: the reader
-    /// then inflates in turn. Fuzzing inflates in turn too: a thread per
-    /// input would make it ten times slower, and the order of containers
-    /// is kept by the same queue either way.
-    fn start() -> Option<Self> {
-        if cfg!(fuzzing) || std::thread::available_parallelism().map_or(1, |n| n.get()) < 2 {
-            return None;
-        }
-        let (jobs, incoming) = mpsc::channel::<InflateJob>();
-        let (finished, done) = mpsc::channel();
-        std::thread::Builder::new()
-            .name("blf-inflate".into())
-            .spawn(move || {
-                for mut job in incoming {
-                    job.run();
-                    if finished.send(job).is_err() {
-                        break;
-                    }
-                }
-            })
-            .ok()?;
-        Some(Inflater { jobs, done })
-    }
-}
-
 impl<R: BufRead> BlfReader<R> {
     pub fn new(input: R) -> Self {
         BlfReader {
@@ -207,7 +149,7 @@ impl<R: BufRead> BlfReader<R> {
             data: Vec::new(),
             pos: 0,
             objects: 0,
-            time_text: String::new(),
+            time_text: TimeText::default(),
             ahead: VecDeque::new(),
             input_ended: false,
             inflater: None,
@@ -239,20 +181,9 @@ impl<R: BufRead> BlfReader<R> {
         loop {
             match self.next_in_container() {
                 Ok(Some(frame)) => {
-                    let ns = frame.timestamp_ns;
-                    self.time_text.clear();
-                    let mut digits = itoa::Buffer::new();
-                    self.time_text
-                        .push_str(digits.format(ns.div_euclid(1_000_000_000)));
-                    self.time_text.push('.');
-                    let nanos = digits.format(ns.rem_euclid(1_000_000_000));
-                    for _ in nanos.len()..9 {
-                        self.time_text.push('0');
-                    }
-                    self.time_text.push_str(nanos);
                     return Ok(Some(LogRecord {
                         line: self.objects,
-                        timestamp_text: &self.time_text,
+                        timestamp_text: self.time_text.set(frame.timestamp_ns),
                         frame,
                     }));
                 }
@@ -319,7 +250,7 @@ impl<R: BufRead> BlfReader<R> {
             Content::End => return Ok(false),
             Content::Ready(bytes) => bytes,
             Content::Inflating => {
-                let Some(job) = self.inflater.as_ref().and_then(|i| i.done.recv().ok()) else {
+                let Some(job) = self.inflater.as_ref().and_then(Inflater::receive) else {
                     self.finished = true;
                     return Err(ReadError::Io(io::Error::other("the BLF inflater stopped")));
                 };
@@ -417,16 +348,17 @@ impl<R: BufRead> BlfReader<R> {
                         return failed(objects, ended_inside(error), true);
                     }
                     let job = InflateJob {
+                        stream: 0..compressed.len(),
                         compressed,
                         out: self.spare_data.pop().unwrap_or_default(),
                         uncompressed,
-                        inflated: false,
+                        ..InflateJob::default()
                     };
                     if self.inflater.is_none() {
-                        self.inflater = Inflater::start();
+                        self.inflater = Inflater::start("blf-inflate");
                     }
                     let unsent = match &self.inflater {
-                        Some(inflater) => inflater.jobs.send(job).err().map(|e| e.0),
+                        Some(inflater) => inflater.send(job),
                         None => Some(job),
                     };
                     match unsent {

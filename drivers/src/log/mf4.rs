@@ -53,7 +53,9 @@
 //! streams the data blocks that lie beyond, one chunk at a time. When the
 //! frames come from several DGs at once (python-can's files), every data
 //! block is kept so the groups can be merged by time. Memory is thus bounded
-//! by the input's size, never by a length field.
+//! by the input's size, never by a length field. Each group reads its next
+//! `##DZ` block while it parses one, and a second thread inflates it
+//! ([`super::inflate`]).
 //!
 //! Mapping: `BusChannel` N is interface `canN` (python-can writes its int
 //! channel as is, and reads it back so); a group without one is `can0`.
@@ -71,9 +73,8 @@
 
 use std::io::{self, BufRead, Read};
 
-use flate2::{Decompress, FlushDecompress, Status};
-
-use super::record::{LogRecord, ParseError, ReadError};
+use super::inflate::{InflateJob, Inflater};
+use super::record::{LogRecord, ParseError, ReadError, TimeText};
 use crate::frame::{
     fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
 };
@@ -126,10 +127,58 @@ pub struct Mf4Reader<R> {
     cursors: Vec<Cursor>,
     /// The next frame of each cursor (merged by time), with its "line".
     heads: Vec<Option<(Frame, u64)>>,
-    time_text: String,
-    /// Scratch for DZ blocks (reused).
-    compressed: Vec<u8>,
-    transposed: Vec<u8>,
+    time_text: TimeText,
+    inflation: Inflation,
+}
+
+/// How `##DZ` blocks are inflated: each group reads the block after the one
+/// it parses as soon as that one is read whole, and sends it to the
+/// inflater's thread. With one group that is the next block in the file; with
+/// several every block is kept (see the module doc), so reading ahead never
+/// goes back in the stream.
+struct Inflation {
+    /// Started at the first block read ahead (once).
+    inflater: Option<Inflater>,
+    tried_to_start: bool,
+    /// Inflated blocks received while waiting for another group's, by
+    /// their file offset.
+    received: Vec<(u64, InflateJob)>,
+    /// Jobs to reuse: no allocation per block.
+    spare: Vec<InflateJob>,
+}
+
+impl Inflation {
+    /// The inflated block at `at`, sent earlier; `None` if the thread stopped.
+    fn receive(&mut self, at: u64) -> Option<InflateJob> {
+        if let Some(index) = self.received.iter().position(|(block, _)| *block == at) {
+            return Some(self.received.swap_remove(index).1);
+        }
+        let inflater = self.inflater.as_ref()?;
+        loop {
+            let job = inflater.receive()?;
+            if job.block == at {
+                return Some(job);
+            }
+            self.received.push((job.block, job));
+        }
+    }
+}
+
+/// A data block whose header (and, for `##DZ`, data) has been read.
+enum DataBlock {
+    Dt {
+        len: u64,
+    },
+    /// Read, not inflated yet.
+    Dz(InflateJob),
+}
+
+/// The block after the current one, read ahead.
+enum Ahead {
+    Block(DataBlock),
+    /// In the inflater's queue.
+    Sent,
+    Failed(&'static str),
 }
 
 /// The input and the bytes of it that are kept.
@@ -367,6 +416,11 @@ struct Cursor {
     buf: Vec<u8>,
     start: usize,
     done: bool,
+    /// The next block (its file offset), read ahead.
+    ahead: Option<(u64, Ahead)>,
+    /// The longest fixed-size record with its id: room kept before a
+    /// block's records for one that began in the block before.
+    longest_record: usize,
 }
 
 impl<R: BufRead> Mf4Reader<R> {
@@ -383,9 +437,13 @@ impl<R: BufRead> Mf4Reader<R> {
             start_ns: 0,
             cursors: Vec::new(),
             heads: Vec::new(),
-            time_text: String::new(),
-            compressed: Vec::new(),
-            transposed: Vec::new(),
+            time_text: TimeText::default(),
+            inflation: Inflation {
+                inflater: None,
+                tried_to_start: false,
+                received: Vec::new(),
+                spare: Vec::new(),
+            },
         }
     }
 
@@ -409,12 +467,7 @@ impl<R: BufRead> Mf4Reader<R> {
                 self.finished = true;
                 return Ok(None);
             }
-            let next = cursor.next_frame(
-                &mut self.source,
-                &mut self.compressed,
-                &mut self.transposed,
-                self.start_ns,
-            )?;
+            let next = cursor.next_frame(&mut self.source, &mut self.inflation, self.start_ns)?;
             let Some((frame, line)) = next else {
                 cursor.done = true;
                 self.finished = true;
@@ -426,8 +479,7 @@ impl<R: BufRead> Mf4Reader<R> {
             if self.heads[index].is_none() && !self.cursors[index].done {
                 let next = self.cursors[index].next_frame(
                     &mut self.source,
-                    &mut self.compressed,
-                    &mut self.transposed,
+                    &mut self.inflation,
                     self.start_ns,
                 );
                 match next {
@@ -455,27 +507,9 @@ impl<R: BufRead> Mf4Reader<R> {
 
     /// The record of `frame`, its time written out as seconds.
     fn record(&mut self, frame: Frame, line: u64) -> LogRecord<'_> {
-        let ns = frame.timestamp_ns;
-        self.time_text.clear();
-        let mut digits = itoa::Buffer::new();
-        if ns < 0 {
-            self.time_text.push('-');
-        }
-        let magnitude = ns.unsigned_abs();
-        self.time_text
-            .push_str(digits.format(magnitude / 1_000_000_000));
-        // Nine digits of ns, zero-padded, without a formatter per digit.
-        let mut nanos = magnitude % 1_000_000_000;
-        let mut text = *b".000000000";
-        for digit in text[1..].iter_mut().rev() {
-            *digit = b'0' + (nanos % 10) as u8;
-            nanos /= 10;
-        }
-        self.time_text
-            .push_str(std::str::from_utf8(&text).unwrap_or_default());
         LogRecord {
             line,
-            timestamp_text: &self.time_text,
+            timestamp_text: self.time_text.set(frame.timestamp_ns),
             frame,
         }
     }
@@ -537,6 +571,15 @@ impl<R: BufRead> Mf4Reader<R> {
             if reads_can && data_at != 0 {
                 let mut blocks = Vec::new();
                 data_blocks(source, data_at, &mut blocks, &mut visited)?;
+                let longest_record = usize::from(record_id_bytes)
+                    + layouts
+                        .iter()
+                        .map(|(_, layout)| match layout {
+                            Layout::Skip(size) | Layout::Can(size, _) => *size,
+                            Layout::Vlsd => 0,
+                        })
+                        .max()
+                        .unwrap_or(0);
                 cursors.push(Cursor {
                     record_id_bytes: usize::from(record_id_bytes),
                     layouts,
@@ -548,6 +591,8 @@ impl<R: BufRead> Mf4Reader<R> {
                     buf: Vec::new(),
                     start: 0,
                     done: false,
+                    ahead: None,
+                    longest_record,
                 });
             }
             dg_at = dg.link(&source.kept, 0);
@@ -819,8 +864,7 @@ impl Cursor {
         &mut self,
         need: usize,
         source: &mut Source<R>,
-        compressed: &mut Vec<u8>,
-        transposed: &mut Vec<u8>,
+        inflation: &mut Inflation,
     ) -> Result<bool, ReadError> {
         while self.buf.len() - self.start < need {
             if self.start > 0 {
@@ -841,27 +885,68 @@ impl Cursor {
             };
             self.next_block += 1;
             self.block_offset = at;
-            let mut header = Vec::with_capacity(HEADER as usize);
-            source
-                .append(at, HEADER, &mut header)
-                .map_err(|expected| self.fail(expected))?;
-            let len = u64_at(&header, 8).unwrap_or(0);
-            let links = u64_at(&header, 16).unwrap_or(u64::MAX);
-            if len < HEADER || links != 0 {
-                return Err(self.fail(E_DATA));
-            }
-            match &header[..4] {
-                b"##DT" => {
+            let ahead = match self.ahead.take() {
+                Some((ahead_at, ahead)) if ahead_at == at => ahead,
+                _ => match read_block(at, source, &mut inflation.spare, self.longest_record) {
+                    Ok(block) => Ahead::Block(block),
+                    Err(expected) => Ahead::Failed(expected),
+                },
+            };
+            let inflated = match ahead {
+                Ahead::Failed(expected) => return Err(self.fail(expected)),
+                Ahead::Block(DataBlock::Dt { len }) => {
                     self.dt_next = at + HEADER;
                     self.dt_end = at.saturating_add(len);
+                    continue;
                 }
-                b"##DZ" => {
-                    self.inflate(at, len, source, compressed, transposed)?;
+                Ahead::Block(DataBlock::Dz(mut job)) => {
+                    // This block is read whole: the next can be read (and
+                    // inflated) while this one is parsed.
+                    self.read_ahead(source, inflation);
+                    job.run();
+                    job
                 }
-                _ => return Err(self.fail(E_DATA)),
-            }
+                Ahead::Sent => {
+                    let Some(job) = inflation.receive(at) else {
+                        self.done = true;
+                        return Err(ReadError::Io(io::Error::other("the MF4 inflater stopped")));
+                    };
+                    self.read_ahead(source, inflation);
+                    job
+                }
+            };
+            self.take_inflated(inflated, inflation)?;
         }
         Ok(true)
+    }
+
+    /// Reads the block after the current one and sends it to the inflater
+    /// (see [`Inflation`]).
+    fn read_ahead<R: BufRead>(&mut self, source: &mut Source<R>, inflation: &mut Inflation) {
+        let Some(&at) = self.blocks.get(self.next_block) else {
+            return;
+        };
+        if self.ahead.is_some() {
+            return;
+        }
+        if !inflation.tried_to_start {
+            inflation.tried_to_start = true;
+            inflation.inflater = Inflater::start("mf4-inflate");
+        }
+        // Without a thread (one core, fuzzing) the block is read ahead all
+        // the same, and inflated when it is reached.
+        let ahead = match read_block(at, source, &mut inflation.spare, self.longest_record) {
+            Ok(DataBlock::Dz(job)) => match &inflation.inflater {
+                Some(inflater) => match inflater.send(job) {
+                    None => Ahead::Sent,
+                    Some(job) => Ahead::Block(DataBlock::Dz(job)),
+                },
+                None => Ahead::Block(DataBlock::Dz(job)),
+            },
+            Ok(block) => Ahead::Block(block),
+            Err(expected) => Ahead::Failed(expected),
+        };
+        self.ahead = Some((at, ahead));
     }
 
     fn fail(&mut self, expected: &'static str) -> ReadError {
@@ -871,55 +956,30 @@ impl Cursor {
         parse(self.block_offset, expected)
     }
 
-    /// Appends the inflated data of the `##DZ` block at `at` to `buf`.
-    fn inflate<R: BufRead>(
+    /// Appends an inflated `##DZ` block's records to `buf`: its buffer
+    /// becomes `buf`, with the start of a record begun in the block before
+    /// copied into its headroom.
+    fn take_inflated(
         &mut self,
-        at: u64,
-        len: u64,
-        source: &mut Source<R>,
-        compressed: &mut Vec<u8>,
-        transposed: &mut Vec<u8>,
+        mut job: InflateJob,
+        inflation: &mut Inflation,
     ) -> Result<(), ReadError> {
-        const DZ_HEAD: u64 = 24;
-        if len < HEADER + DZ_HEAD || len - HEADER - DZ_HEAD > MAX_DZ_BYTES {
+        if !job.inflated {
+            inflation.spare.push(job);
             return Err(self.fail(E_DZ));
         }
-        compressed.clear();
-        source
-            .append(at + HEADER, len - HEADER, compressed)
-            .map_err(|expected| self.fail(expected))?;
-        let zip_type = compressed[2];
-        let columns = u32_at(compressed, 4).unwrap_or(0) as usize;
-        let original = u64_at(compressed, 8).unwrap_or(u64::MAX);
-        let zipped = u64_at(compressed, 16).unwrap_or(u64::MAX);
-        let stored = len - HEADER - DZ_HEAD;
-        if &compressed[..2] != b"DT"
-            || zip_type > 1
-            || (zip_type == 1 && columns == 0)
-            || zipped > stored
-            || original > MAX_DZ_BYTES
-            || original > zipped.saturating_mul(1032).saturating_add(1024)
-        {
-            return Err(self.fail(E_DZ));
+        // A record begun in the last block goes in the headroom before the
+        // new block's records: no copy of the block.
+        let leftover = self.buf.len() - self.start;
+        if leftover <= job.headroom {
+            let begin = job.headroom - leftover;
+            job.out[begin..job.headroom].copy_from_slice(&self.buf[self.start..]);
+            std::mem::swap(&mut self.buf, &mut job.out);
+            self.start = begin;
+        } else {
+            self.buf.extend_from_slice(&job.out[job.headroom..]);
         }
-        let before = self.buf.len();
-        self.buf.resize(before + original as usize, 0);
-        let mut inflater = Decompress::new(true);
-        let body = &compressed[DZ_HEAD as usize..(DZ_HEAD + zipped) as usize];
-        let inflated = inflater.decompress(body, &mut self.buf[before..], FlushDecompress::Finish);
-        if !matches!(inflated, Ok(Status::StreamEnd)) || inflater.total_out() != original {
-            self.buf.truncate(before);
-            return Err(self.fail(E_DZ));
-        }
-        if zip_type == 1 {
-            // Stored column by column: `columns` runs of `lines` bytes,
-            // then the rest as is.
-            let lines = original as usize / columns;
-            let block = &mut self.buf[before..before + lines * columns];
-            transposed.clear();
-            transposed.extend_from_slice(block);
-            untranspose(transposed, block, lines, columns);
-        }
+        inflation.spare.push(job);
         Ok(())
     }
 
@@ -927,13 +987,12 @@ impl Cursor {
     fn next_frame<R: BufRead>(
         &mut self,
         source: &mut Source<R>,
-        compressed: &mut Vec<u8>,
-        transposed: &mut Vec<u8>,
+        inflation: &mut Inflation,
         start_ns: i64,
     ) -> Result<Option<(Frame, u64)>, ReadError> {
         loop {
             let id_bytes = self.record_id_bytes;
-            if !self.fill(id_bytes.max(1), source, compressed, transposed)? {
+            if !self.fill(id_bytes.max(1), source, inflation)? {
                 if self.buf.len() > self.start {
                     self.start = self.buf.len();
                     self.done = true;
@@ -958,7 +1017,7 @@ impl Cursor {
             let size = match &self.layouts[index].1 {
                 Layout::Skip(size) | Layout::Can(size, _) => *size,
                 Layout::Vlsd => {
-                    if !self.fill(id_bytes + 4, source, compressed, transposed)? {
+                    if !self.fill(id_bytes + 4, source, inflation)? {
                         self.done = true;
                         return Err(parse(self.block_offset, E_RECORD));
                     }
@@ -967,7 +1026,7 @@ impl Cursor {
                 }
             };
             let line = self.block_offset;
-            if !self.fill(id_bytes + size, source, compressed, transposed)? {
+            if !self.fill(id_bytes + size, source, inflation)? {
                 self.done = true;
                 return Err(parse(line, E_RECORD));
             }
@@ -981,6 +1040,60 @@ impl Cursor {
             }
         }
     }
+}
+
+/// Reads the header of the data block at `at`, and a `##DZ` block's data
+/// (checked, not inflated).
+fn read_block<R: BufRead>(
+    at: u64,
+    source: &mut Source<R>,
+    spare: &mut Vec<InflateJob>,
+    headroom: usize,
+) -> Result<DataBlock, &'static str> {
+    const DZ_HEAD: u64 = 24;
+    let mut header = Vec::with_capacity(HEADER as usize);
+    source.append(at, HEADER, &mut header)?;
+    let len = u64_at(&header, 8).unwrap_or(0);
+    let links = u64_at(&header, 16).unwrap_or(u64::MAX);
+    if len < HEADER || links != 0 {
+        return Err(E_DATA);
+    }
+    match &header[..4] {
+        b"##DT" => return Ok(DataBlock::Dt { len }),
+        b"##DZ" => {}
+        _ => return Err(E_DATA),
+    }
+    if len < HEADER + DZ_HEAD || len - HEADER - DZ_HEAD > MAX_DZ_BYTES {
+        return Err(E_DZ);
+    }
+    let mut job = spare.pop().unwrap_or_default();
+    job.compressed.clear();
+    if let Err(expected) = source.append(at + HEADER, len - HEADER, &mut job.compressed) {
+        spare.push(job);
+        return Err(expected);
+    }
+    let head = &job.compressed;
+    let zip_type = head[2];
+    let columns = u32_at(head, 4).unwrap_or(0) as usize;
+    let original = u64_at(head, 8).unwrap_or(u64::MAX);
+    let zipped = u64_at(head, 16).unwrap_or(u64::MAX);
+    let stored = len - HEADER - DZ_HEAD;
+    if &head[..2] != b"DT"
+        || zip_type > 1
+        || (zip_type == 1 && columns == 0)
+        || zipped > stored
+        || original > MAX_DZ_BYTES
+        || original > zipped.saturating_mul(1032).saturating_add(1024)
+    {
+        spare.push(job);
+        return Err(E_DZ);
+    }
+    job.stream = DZ_HEAD as usize..(DZ_HEAD + zipped) as usize;
+    job.uncompressed = original as usize;
+    job.transposed_columns = if zip_type == 1 { columns } else { 0 };
+    job.headroom = headroom;
+    job.block = at;
+    Ok(DataBlock::Dz(job))
 }
 
 /// The frame one bus-logging record holds.
@@ -1130,89 +1243,9 @@ fn f64_at(bytes: &[u8], at: usize) -> Option<f64> {
     u64_at(bytes, at).map(f64::from_bits)
 }
 
-/// Undoes a transposed `##DZ` block: `columns` runs of `lines` bytes (byte
-/// `c` of every record, then byte `c + 1`, ...) back into `lines` records of
-/// `columns` bytes. Eight records by eight columns at a time, transposed
-/// in registers (three rounds of swaps between words): a byte at a time,
-/// this was a quarter of reading python-can's MF4 files.
-fn untranspose(runs: &[u8], records: &mut [u8], lines: usize, columns: usize) {
-    let word = |at: usize| {
-        let mut bytes = [0u8; 8];
-        bytes.copy_from_slice(&runs[at..at + 8]);
-        u64::from_le_bytes(bytes)
-    };
-    let full_lines = lines - lines % 8;
-    let full_columns = columns - columns % 8;
-    for first_line in (0..full_lines).step_by(8) {
-        for first_column in (0..full_columns).step_by(8) {
-            // x[i] byte j: column first_column + i, line first_line + j.
-            let mut x: [u64; 8] =
-                std::array::from_fn(|i| word((first_column + i) * lines + first_line));
-            transpose_8x8(&mut x);
-            // Now x[j] byte i: line first_line + j, column first_column + i.
-            for (j, row) in x.iter().enumerate() {
-                let at = (first_line + j) * columns + first_column;
-                records[at..at + 8].copy_from_slice(&row.to_le_bytes());
-            }
-        }
-        for column in full_columns..columns {
-            for line in first_line..first_line + 8 {
-                records[line * columns + column] = runs[column * lines + line];
-            }
-        }
-    }
-    for line in full_lines..lines {
-        for column in 0..columns {
-            records[line * columns + column] = runs[column * lines + line];
-        }
-    }
-}
-
-/// Transposes the 8 x 8 byte matrix whose row i is `x[i]` (byte j at bit
-/// 8 j): swaps of 4-byte, 2-byte and 1-byte blocks between rows.
-fn transpose_8x8(x: &mut [u64; 8]) {
-    for (distance, bits, mask) in [
-        (4, 32, 0x0000_0000_FFFF_FFFFu64),
-        (2, 16, 0x0000_FFFF_0000_FFFF),
-        (1, 8, 0x00FF_00FF_00FF_00FF),
-    ] {
-        for i in 0..8 {
-            if i & distance == 0 {
-                let (a, b) = (x[i], x[i + distance]);
-                x[i] = (a & mask) | ((b & mask) << bits);
-                x[i + distance] = ((a >> bits) & mask) | (b & !mask);
-            }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn untranspose_is_the_bytewise_definition_for_any_shape() {
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        for (lines, columns) in [(0, 5), (1, 1), (7, 9), (8, 8), (16, 85), (61, 17), (64, 3)] {
-            let runs: Vec<u8> = (0..lines * columns)
-                .map(|_| {
-                    state ^= state << 13;
-                    state ^= state >> 7;
-                    state ^= state << 17;
-                    state as u8
-                })
-                .collect();
-            let mut expected = vec![0u8; lines * columns];
-            for column in 0..columns {
-                for line in 0..lines {
-                    expected[line * columns + column] = runs[column * lines + line];
-                }
-            }
-            let mut records = vec![0u8; lines * columns];
-            untranspose(&runs, &mut records, lines, columns);
-            assert_eq!(records, expected, "{lines} lines of {columns} bytes");
-        }
-    }
 
     #[test]
     fn fields_read_bits_little_endian() {

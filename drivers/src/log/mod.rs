@@ -20,6 +20,7 @@ pub mod asc;
 pub mod asc_write;
 pub mod blf;
 pub mod candump;
+mod inflate;
 pub mod mf4;
 pub mod mf4_blocks;
 pub mod mf4_signals;

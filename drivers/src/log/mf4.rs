@@ -86,6 +86,9 @@ pub const MAX_METADATA_BYTES: u64 = 16 << 20;
 /// The largest zipped data block acq inflates (asammdf writes 4 MiB ones).
 pub const MAX_DZ_BYTES: u64 = 256 << 20;
 
+/// Room kept before an inflated block's records for a record begun in the
+/// block before, bytes.
+const MAX_HEADROOM: usize = 4096;
 const ID_BLOCK: u64 = 64;
 const HEADER: u64 = 24;
 const CHUNK: u64 = 1 << 20;
@@ -1091,7 +1094,9 @@ fn read_block<R: BufRead>(
     job.stream = DZ_HEAD as usize..(DZ_HEAD + zipped) as usize;
     job.uncompressed = original as usize;
     job.transposed_columns = if zip_type == 1 { columns } else { 0 };
-    job.headroom = headroom;
+    // Bus-logging records are tens of bytes; a longer one (a field says
+    // how long, not the data) is copied across instead.
+    job.headroom = headroom.min(MAX_HEADROOM);
     job.block = at;
     Ok(DataBlock::Dz(job))
 }

@@ -493,6 +493,7 @@ fn consistent_tangent_matches_central_differences() {
             matrix_plastic_strain: rng.uniform(0.0, 0.6),
             porosity: rng.uniform(0.0, 0.1),
             failed: false,
+            last_increments: [0.0; 4],
         };
         let magnitude = rng.uniform(0.002, 0.02);
         let strain = random_trial_strain(&mut rng, magnitude);
@@ -543,6 +544,7 @@ fn volume_ratio_puts_the_cauchy_stress_on_the_yield_surface() {
             matrix_plastic_strain: rng.uniform(0.0, 0.5),
             porosity: rng.uniform(0.001, 0.08),
             failed: false,
+            last_increments: [0.0; 4],
         };
         let volume_ratio = rng.uniform(0.98, 1.12);
         let magnitude = rng.uniform(0.003, 0.02);
@@ -608,6 +610,7 @@ fn volume_ratio_one_is_the_small_strain_update() {
         matrix_plastic_strain: 0.1,
         porosity: 0.01,
         failed: false,
+        last_increments: [0.0; 4],
     };
     let strain = diagonal(0.01, -0.002, -0.002);
     let small = material.update(&state, &strain).unwrap();
@@ -633,6 +636,7 @@ fn hydrostatic_trial_tangent_matches_central_differences() {
         matrix_plastic_strain: 0.1,
         porosity: 0.05,
         failed: false,
+        last_increments: [0.0; 4],
     };
     let strain = diagonal(0.004, 0.004, 0.004);
     let update = material.update(&state, &strain).unwrap();
@@ -906,6 +910,7 @@ fn j2_limit_matches_radial_return_and_its_tangent() {
             matrix_plastic_strain: matrix_strain_n,
             porosity: 0.0,
             failed: false,
+            last_increments: [0.0; 4],
         };
         let magnitude = rng.uniform(0.001, 0.03);
         let strain = random_trial_strain(&mut rng, magnitude);
@@ -1285,6 +1290,7 @@ proptest! {
             matrix_plastic_strain,
             porosity: porosity_fraction * 0.2 * parameters.failure_porosity(),
             failed: false,
+            last_increments: [0.0; 4],
         };
         let trial = Mandel::from_row_slice(&strain);
         let Ok(update) = material.update(&state, &trial) else {
@@ -1362,6 +1368,7 @@ fn a_trial_a_hair_outside_the_surface_converges() {
         matrix_plastic_strain: 0.08,
         porosity: 0.004,
         failed: false,
+        last_increments: [0.0; 4],
     };
     let direction = diagonal(-0.3, 1.0, -0.3);
     let stiffness = material.elasticity.stiffness_mpa();

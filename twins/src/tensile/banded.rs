@@ -125,6 +125,11 @@ impl BandedMatrix {
         let tiny = scale * f64::EPSILON * 16.0;
         // Upper bandwidth of U after row swaps.
         let upper_filled = self.upper + self.lower;
+        // The last column any row at or above the pivot may hold: `k +
+        // upper` until a swap brings up a row from below (LAPACK gbtf2's
+        // `ju`). A stiffness matrix rarely needs one, so the updates stay
+        // `upper` wide instead of `upper + lower`.
+        let mut filled_to = 0;
         for k in 0..n {
             let last_row = (k + self.lower).min(n - 1);
             let mut pivot_row = k;
@@ -139,7 +144,8 @@ impl BandedMatrix {
             if pivot_abs <= tiny || !pivot_abs.is_finite() {
                 return Err(SingularMatrix { column: k });
             }
-            let last_column = (k + upper_filled).min(n - 1);
+            filled_to = filled_to.max(pivot_row + self.upper).min(n - 1);
+            let last_column = filled_to;
             if pivot_row != k {
                 for column in k..=last_column {
                     let a = self.offset(k, column);
@@ -238,6 +244,32 @@ mod tests {
             for i in 0..n {
                 assert!((x[i] - expected[i]).abs() < 1e-8 * (1.0 + expected[i].abs()));
             }
+        }
+    }
+
+    #[test]
+    fn matches_dense_lu_without_swaps_and_with_a_late_one() {
+        // Diagonally dominant (no row swap: the updates stay `upper` wide),
+        // then the same with one zero pivot near the end (the width grows
+        // from there on).
+        for late_zero in [None, Some(33)] {
+            let (n, lower, upper) = (45, 4, 3);
+            let (mut banded, mut dense) = random_banded(n, lower, upper, 11);
+            for k in 0..n {
+                let value = if Some(k) == late_zero { 0.0 } else { 10.0 };
+                dense[(k, k)] = value;
+                let at = banded.offset(k, k);
+                banded.entries[at] = value;
+            }
+            let rhs: Vec<f64> = (0..n).map(|i| (i as f64 * 0.71).cos()).collect();
+            let mut x = rhs.clone();
+            banded.solve_in_place(&mut x).unwrap();
+            let residual = &dense * DVector::from_vec(x) - DVector::from_vec(rhs);
+            assert!(
+                residual.norm() < 1e-10,
+                "{late_zero:?}: residual {}",
+                residual.norm()
+            );
         }
     }
 

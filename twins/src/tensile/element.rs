@@ -58,11 +58,15 @@ pub struct PointResponse<S> {
 pub trait PointMaterial {
     type State: Copy + std::fmt::Debug;
     fn initial_state(&self) -> Self::State;
+    /// `last` is the state this point's previous update gave (the last
+    /// Newton iteration's, or the last step's): a material that solves a
+    /// local problem may start from its solution.
     fn update(
         &self,
         state: &Self::State,
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
+        last: &Self::State,
     ) -> Result<PointResponse<Self::State>, String>;
     /// Whether the point no longer carries load.
     fn has_failed(&self, state: &Self::State) -> bool;
@@ -232,10 +236,13 @@ pub struct ElementResponse<S> {
 
 /// Evaluates one element at the trial displacement from the converged
 /// states of the last step.
+/// `states` are the points' states at the last converged step, `last` what
+/// their previous update gave (see [`PointMaterial::update`]).
 pub fn evaluate<M: PointMaterial>(
     shape: &ElementShape,
     material: &M,
     states: &[GaussPointState<M::State>; 4],
+    last: &[GaussPointState<M::State>; 4],
     displacement: &ElementDisplacement,
 ) -> Result<ElementResponse<M::State>, ElementError> {
     let centre_gradient = gradient_of(&shape.centre, displacement);
@@ -271,6 +278,7 @@ pub fn evaluate<M: PointMaterial>(
                 &states[k].material,
                 &mandel_from_symmetric(&trial_strain),
                 centre_volume_ratio,
+                &last[k].material,
             )
             .map_err(ElementError::Material)?;
         let kirchhoff = symmetric_from_mandel(&response.stress_mpa);
@@ -356,6 +364,7 @@ impl PointMaterial for Hencky {
         _: &(),
         trial_elastic_strain: &Mandel,
         _volume_ratio: f64,
+        _last: &(),
     ) -> Result<PointResponse<()>, String> {
         let tangent = self.tangent();
         Ok(PointResponse {
@@ -399,6 +408,7 @@ mod tests {
             plastic: &f64,
             trial: &Mandel,
             _volume_ratio: f64,
+            _last: &f64,
         ) -> Result<PointResponse<f64>, String> {
             let c = self.elastic.tangent();
             let shear = c[(3, 3)] / 2.0;
@@ -455,7 +465,7 @@ mod tests {
     fn check_tangent<M: PointMaterial>(material: &M, states: [GaussPointState<M::State>; 4]) {
         let shape = ElementShape::new(&NODES);
         let u = displacement();
-        let analytic = evaluate(&shape, material, &states, &u)
+        let analytic = evaluate(&shape, material, &states, &states, &u)
             .unwrap()
             .stiffness_n_per_mm;
         let mut numeric = ElementStiffness::zeros();
@@ -465,8 +475,12 @@ mod tests {
             let mut minus = u;
             plus[column] += step;
             minus[column] -= step;
-            let difference = evaluate(&shape, material, &states, &plus).unwrap().force_n
-                - evaluate(&shape, material, &states, &minus).unwrap().force_n;
+            let difference = evaluate(&shape, material, &states, &states, &plus)
+                .unwrap()
+                .force_n
+                - evaluate(&shape, material, &states, &states, &minus)
+                    .unwrap()
+                    .force_n;
             numeric.set_column(column, &(difference / (2.0 * step)));
         }
         let error = (analytic - numeric).norm() / numeric.norm();
@@ -532,12 +546,13 @@ mod tests {
             matrix_plastic_strain: 0.2,
             porosity: 0.03,
             failed: false,
+            last_increments: [0.0; 4],
         }); 4];
         for (k, state) in states.iter_mut().enumerate() {
             state.plastic_metric = Symmetric::new(1.02 + 0.01 * k as f64, 0.97, 1.01, 0.015);
         }
         let shape = ElementShape::new(&NODES);
-        let response = evaluate(&shape, &material, &states, &displacement()).unwrap();
+        let response = evaluate(&shape, &material, &states, &states, &displacement()).unwrap();
         assert!(
             response.states.iter().all(|s| s.material.porosity > 0.03),
             "the check needs plastic, dilating points: {:?}",
@@ -557,7 +572,14 @@ mod tests {
         };
         // Axial translation (radial translation is not rigid for a ring).
         let u = ElementDisplacement::from_column_slice(&[0.0, 0.3, 0.0, 0.3, 0.0, 0.3, 0.0, 0.3]);
-        let response = evaluate(&shape, &material, &[GaussPointState::new(()); 4], &u).unwrap();
+        let response = evaluate(
+            &shape,
+            &material,
+            &[GaussPointState::new(()); 4],
+            &[GaussPointState::new(()); 4],
+            &u,
+        )
+        .unwrap();
         assert!(response.force_n.norm() < 1e-9);
     }
 }

@@ -94,6 +94,13 @@ pub struct FlowCurve {
     plastic_strain: Vec<f64>,
     true_stress_mpa: Vec<f64>,
     post_uts_slope_mpa: f64,
+    /// Derived from the table, for [`FlowCurve::flow_stress_mpa`], which every
+    /// return-mapping iteration calls: each segment's slope, and the mean
+    /// knot spacing that guesses a strain's segment.
+    #[serde(skip_serializing)]
+    segment_slope_mpa: Vec<f64>,
+    #[serde(skip_serializing)]
+    mean_spacing: f64,
 }
 
 /// The serialised form, checked by [`FlowCurve::new`] on the way in.
@@ -169,10 +176,19 @@ impl FlowCurve {
         if !post_uts_slope_mpa.is_finite() || post_uts_slope_mpa < 0.0 {
             return Err(FlowCurveError::InvalidPostUtsSlope(post_uts_slope_mpa));
         }
+        let segment_slope_mpa = plastic_strain
+            .windows(2)
+            .zip(true_stress_mpa.windows(2))
+            .map(|(strain, stress)| (stress[1] - stress[0]) / (strain[1] - strain[0]))
+            .collect();
+        let mean_spacing =
+            plastic_strain[plastic_strain.len() - 1] / (plastic_strain.len() - 1).max(1) as f64;
         Ok(Self {
             plastic_strain,
             true_stress_mpa,
             post_uts_slope_mpa,
+            segment_slope_mpa,
+            mean_spacing,
         })
     }
 
@@ -201,19 +217,30 @@ impl FlowCurve {
         } else {
             0.0
         };
-        // Number of knots at or left of `strain`; >= 1 because the first knot is 0.
-        let knots_left = self.plastic_strain.partition_point(|&knot| knot <= strain);
         let last = self.plastic_strain.len() - 1;
-        if knots_left > last {
+        if strain >= self.plastic_strain[last] {
             let stress = self.true_stress_mpa[last]
                 + self.post_uts_slope_mpa * (strain - self.plastic_strain[last]);
             return (stress, self.post_uts_slope_mpa);
         }
-        let left = knots_left.saturating_sub(1);
-        let right = left + 1;
-        let slope = (self.true_stress_mpa[right] - self.true_stress_mpa[left])
-            / (self.plastic_strain[right] - self.plastic_strain[left]);
-        let stress = self.true_stress_mpa[left] + slope * (strain - self.plastic_strain[left]);
+        // The segment `left` with knot[left] <= strain < knot[left + 1]: the
+        // mean spacing's guess, moved a knot or two (tables of equal strain
+        // bins, as tensile-props makes), else a binary search.
+        let knots = &self.plastic_strain;
+        let mut left = ((strain / self.mean_spacing) as usize).min(last - 1);
+        for _ in 0..2 {
+            if knots[left] > strain {
+                left -= 1;
+            } else if knots[left + 1] <= strain {
+                left += 1;
+            }
+        }
+        if !(knots[left] <= strain && strain < knots[left + 1]) {
+            // Knots at or left of `strain`: >= 1 because the first is 0.
+            left = knots.partition_point(|&knot| knot <= strain) - 1;
+        }
+        let slope = self.segment_slope_mpa[left];
+        let stress = self.true_stress_mpa[left] + slope * (strain - knots[left]);
         (stress, slope)
     }
 
@@ -274,6 +301,56 @@ mod tests {
         let (stress, slope) = curve.flow_stress_mpa(0.05);
         assert!((stress - 550.0).abs() < 1e-12);
         assert_eq!(slope, 300.0);
+    }
+
+    #[test]
+    fn every_strain_finds_its_segment_in_even_and_uneven_tables() {
+        // The segment search against its definition: the last knot at or
+        // left of the strain, on tables of equal bins, jittered bins and
+        // widely uneven ones, at knots, between them and past the end.
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for table in 0..60 {
+            let points = 2 + table % 40;
+            let mut strains = vec![0.0];
+            for _ in 1..points {
+                let step = match table % 3 {
+                    0 => 0.002,
+                    1 => 0.002 * (0.9 + 0.2 * uniform()),
+                    _ => 1e-4 + 0.05 * uniform() * uniform(),
+                };
+                strains.push(strains[strains.len() - 1] + step);
+            }
+            let stresses: Vec<f64> = (0..points)
+                .map(|i| 400.0 + 3.0 * i as f64 + uniform())
+                .collect();
+            let curve = FlowCurve::new(strains.clone(), stresses.clone(), 250.0).unwrap();
+            let end = strains[points - 1];
+            let probes = strains
+                .iter()
+                .copied()
+                .chain((0..200).map(|_| 1.1 * end * uniform()));
+            for strain in probes {
+                let left = strains.iter().rposition(|&knot| knot <= strain).unwrap();
+                let expected = if left == points - 1 {
+                    (stresses[left] + 250.0 * (strain - strains[left]), 250.0)
+                } else {
+                    let slope =
+                        (stresses[left + 1] - stresses[left]) / (strains[left + 1] - strains[left]);
+                    (stresses[left] + slope * (strain - strains[left]), slope)
+                };
+                assert_eq!(
+                    curve.flow_stress_mpa(strain),
+                    expected,
+                    "table {table}, strain {strain}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -49,9 +49,10 @@ impl PointMaterial for GtnMaterial {
         state: &MaterialState,
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
+        last: &MaterialState,
     ) -> Result<PointResponse<MaterialState>, String> {
         let update = self
-            .update_at_volume_ratio(state, trial_elastic_strain, volume_ratio)
+            .update_starting_from(state, trial_elastic_strain, volume_ratio, last)
             .map_err(|e| e.to_string())?;
         let tangent_mpa = if update.state.failed {
             self.elasticity.stiffness_mpa() * FAILED_POINT_STIFFNESS_FRACTION

@@ -110,6 +110,9 @@ pub const YIELD_TOLERANCE: f64 = 1e-10;
 /// Newton stops when every residual, scaled to the size of the increments, is
 /// below this; one more full Newton step then polishes to rounding.
 pub const RESIDUAL_TOLERANCE: f64 = 1e-10;
+/// A scaled residual this small needs no polishing step (see
+/// `solve_return_mapping`): rounding, for the tangent's purpose.
+const POLISHED_RESIDUAL: f64 = 1e-13;
 
 /// A scaled residual this small is accepted when the Newton step no longer
 /// changes any unknown beyond rounding (see `solve_return_mapping`).
@@ -1172,6 +1175,10 @@ fn solve_return_mapping(
     for iteration in 1..=MAX_ITERATIONS {
         residual_norm =
             ReturnMapping::scaled_norm(&evaluation.residual, ReturnMapping::strain_scale(&x));
+        if residual_norm <= POLISHED_RESIDUAL {
+            // Already where a polishing step would take it.
+            return Ok(Some((x, evaluation)));
+        }
         let converged = residual_norm <= RESIDUAL_TOLERANCE;
         let Some(step) = evaluation.jacobian.lu().solve(&-evaluation.residual) else {
             return if max_porosity >= failure_trigger_porosity {

@@ -371,7 +371,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     wall_s: step.elapsed().as_secs_f64(),
                 });
                 say(format!(
-                    "{name}: curve of {} points; calibrating the GTN model (about 30 s)",
+                    "{name}: curve of {} points; calibrating the GTN model (about 10 s)",
                     curve.curve.points.len()
                 ));
                 let step = Instant::now();

@@ -143,7 +143,8 @@ parallel = 2
 #[test]
 fn the_tensile_method_on_a_wrapped_twin_gives_the_built_in_calibration() {
     // The user's solver is `acq twin gtn -o curve.csv`; its curve is scored by
-    // the same curve MAPE, and Bayesian optimisation starts from the same L12.
+    // the same curve MAPE, and Bayesian optimisation starts from the same L12
+    // and takes the same local steps on the curve's parts.
     let dir = tempfile::tempdir().unwrap();
     let test = root().join("data/tensile/P91_20_2_DF_SS.csv");
     assert!(test.exists(), "{}", test.display());
@@ -197,6 +198,7 @@ method = "bo"
 start = "l12"
 max_evals = 16
 target_loss_pct = 2.0
+local_steps = true
 "#,
         test = test.display()
     ));

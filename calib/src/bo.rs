@@ -23,6 +23,13 @@
 //! with its own mean at the pick as if observed, so the next pick goes
 //! elsewhere.
 //!
+//! When the runs also return residuals (a curve's signed errors along its
+//! length) and [`BoSettings::local_steps`] is set, local Gauss-Newton steps
+//! in a trust region ([`crate::trust_region`]) replace the global ones
+//! while the local search makes progress; the global steps come back when
+//! its trust region has shrunk to nothing or its model sees no better
+//! point.
+//!
 //! Losses are modelled as `ln(loss)` when all are positive (a MAPE spans
 //! decades, and the interesting region is its low end), otherwise as is.
 //! A failed evaluation is imputed pessimistically but locally: the GP of the
@@ -39,6 +46,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::gp::{Gp, GpError, GpSettings, Kernel};
 use crate::optim::{minimize_bounded, LbfgsSettings};
+use crate::trust_region::{Run, TrustRegion, TrustRegionSettings};
 
 /// What the next point should maximise.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +111,9 @@ pub struct BoSettings {
     /// Model `ln(loss)` when every loss is positive.
     pub log_transform: bool,
     pub seed: u64,
+    /// Local trust-region steps on the runs' residuals between the global
+    /// ones; `None`: global steps only.
+    pub local_steps: Option<TrustRegionSettings>,
 }
 
 impl Default for BoSettings {
@@ -128,6 +139,7 @@ impl Default for BoSettings {
             },
             log_transform: true,
             seed: 0,
+            local_steps: None,
         }
     }
 }
@@ -158,6 +170,101 @@ pub enum BoError {
 pub struct Observation {
     pub unit_point: Vec<f64>,
     pub loss: Option<f64>,
+    /// The residuals behind the loss, for local steps (empty: none).
+    pub residuals: Vec<f64>,
+}
+
+impl Observation {
+    pub fn new(unit_point: Vec<f64>, outcome: Option<Outcome>) -> Self {
+        let (loss, residuals) = match outcome {
+            Some(outcome) => (Some(outcome.loss), outcome.residuals),
+            None => (None, Vec::new()),
+        };
+        Observation {
+            unit_point,
+            loss,
+            residuals,
+        }
+    }
+}
+
+/// What a successful run gave: its loss, and optionally the residuals it
+/// comes from (for [`BoSettings::local_steps`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    pub loss: f64,
+    pub residuals: Vec<f64>,
+}
+
+impl From<f64> for Outcome {
+    fn from(loss: f64) -> Self {
+        Outcome {
+            loss,
+            residuals: Vec::new(),
+        }
+    }
+}
+
+/// Picks each next point: the trust region's local step when it is its
+/// turn, the acquisition's otherwise.
+struct NextPoints {
+    trust_region: Option<TrustRegion>,
+}
+
+impl NextPoints {
+    fn new(settings: &BoSettings) -> Self {
+        NextPoints {
+            trust_region: settings.local_steps.clone().map(TrustRegion::new),
+        }
+    }
+
+    fn propose(
+        &mut self,
+        observations: &[Observation],
+        pending: &[Vec<f64>],
+        settings: &BoSettings,
+        iteration: u64,
+    ) -> Result<Vec<Vec<f64>>, BoError> {
+        let local = self.trust_region.as_mut().and_then(|trust_region| {
+            let runs: Vec<Run<'_>> = observations
+                .iter()
+                .filter_map(|o| {
+                    o.loss.map(|loss| Run {
+                        unit_point: &o.unit_point,
+                        loss,
+                        residuals: &o.residuals,
+                    })
+                })
+                .collect();
+            trust_region.propose(&runs)
+        });
+        let Some(local) = local else {
+            return propose_beside(observations, pending, settings, iteration);
+        };
+        let mut points = vec![local.clone()];
+        if settings.batch > 1 {
+            let mut beside = pending.to_vec();
+            beside.push(local);
+            let rest = BoSettings {
+                batch: settings.batch - 1,
+                ..settings.clone()
+            };
+            points.extend(propose_beside(observations, &beside, &rest, iteration)?);
+        }
+        Ok(points)
+    }
+
+    fn record(&mut self, observation: &Observation) {
+        if let Some(trust_region) = &mut self.trust_region {
+            trust_region.record(
+                &observation.unit_point,
+                observation.loss,
+                Some(&observation.residuals)
+                    .filter(|r| !r.is_empty())
+                    .map(|r| r.as_slice()),
+            );
+        }
+    }
 }
 
 /// The whole history of a run and how it ended.
@@ -479,25 +586,30 @@ fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
 
 /// Runs the whole optimisation: evaluates `initial` (unit-box points), then
 /// proposes and evaluates batches until a stop criterion holds. `evaluate`
-/// gets a batch of unit-box points and returns each loss (`None`: failed);
-/// its error ends the run.
+/// gets a batch of unit-box points and returns each loss, or [`Outcome`]
+/// with residuals (`None`: failed); its error ends the run.
 ///
 /// # Errors
 /// The evaluator's error, or a proposal that cannot be made.
-pub fn minimise<E: From<BoError>>(
+pub fn minimise<E: From<BoError>, O: Into<Outcome>>(
     initial: Vec<Vec<f64>>,
-    mut evaluate: impl FnMut(&[Vec<f64>]) -> Result<Vec<Option<f64>>, E>,
+    mut evaluate: impl FnMut(&[Vec<f64>]) -> Result<Vec<Option<O>>, E>,
     settings: &BoSettings,
 ) -> Result<BoResult, E> {
     let mut observations: Vec<Observation> = Vec::new();
     let mut evaluations_to_target = None;
     let target = settings.target_loss;
+    let mut next_points = NextPoints::new(settings);
     let record = |points: Vec<Vec<f64>>,
-                  losses: Vec<Option<f64>>,
+                  outcomes: Vec<Option<O>>,
+                  next_points: &mut NextPoints,
                   observations: &mut Vec<Observation>,
                   evaluations_to_target: &mut Option<usize>| {
-        for (unit_point, loss) in points.into_iter().zip(losses) {
-            observations.push(Observation { unit_point, loss });
+        for (unit_point, outcome) in points.into_iter().zip(outcomes) {
+            let observation = Observation::new(unit_point, outcome.map(Into::into));
+            let loss = observation.loss;
+            next_points.record(&observation);
+            observations.push(observation);
             let reached = target.is_some_and(|t| loss.is_some_and(|l| l <= t));
             if evaluations_to_target.is_none() && reached {
                 *evaluations_to_target = Some(observations.len());
@@ -512,6 +624,7 @@ pub fn minimise<E: From<BoError>>(
     record(
         initial,
         losses,
+        &mut next_points,
         &mut observations,
         &mut evaluations_to_target,
     );
@@ -543,12 +656,15 @@ pub fn minimise<E: From<BoError>>(
             batch: settings.batch.min(room),
             ..settings.clone()
         };
-        let points = propose(&observations, &batch_settings, iteration).map_err(E::from)?;
+        let points = next_points
+            .propose(&observations, &[], &batch_settings, iteration)
+            .map_err(E::from)?;
         let count = points.len();
         let losses = evaluate(&points)?;
         record(
             points,
             losses,
+            &mut next_points,
             &mut observations,
             &mut evaluations_to_target,
         );
@@ -572,8 +688,8 @@ fn best_index(observations: &[Observation]) -> usize {
         .map_or(0, |(i, _)| i)
 }
 
-/// A finished unit-box point and its loss (`None`: the run failed).
-pub type Finished = (Vec<f64>, Option<f64>);
+/// A finished unit-box point and its outcome (`None`: the run failed).
+pub type Finished = (Vec<f64>, Option<Outcome>);
 
 /// Where [`minimise_as_they_finish`] runs its points: start one, and take
 /// whichever running point finishes next.
@@ -618,6 +734,7 @@ pub fn minimise_as_they_finish<E: From<BoError>>(
         batch: 1,
         ..settings.clone()
     };
+    let mut next_points = NextPoints::new(settings);
     loop {
         while stop.is_none()
             && running.len() < slots
@@ -627,9 +744,9 @@ pub fn minimise_as_they_finish<E: From<BoError>>(
                 Some(point) => point,
                 None if observations.iter().filter(|o| o.loss.is_some()).count() >= 2 => {
                     iteration += 1;
-                    let mut proposed =
-                        propose_beside(&observations, &running, &one_at_a_time, iteration)
-                            .map_err(E::from)?;
+                    let mut proposed = next_points
+                        .propose(&observations, &running, &one_at_a_time, iteration)
+                        .map_err(E::from)?;
                     proposed.remove(0)
                 }
                 // The start design has not given two successes yet: wait.
@@ -638,13 +755,16 @@ pub fn minimise_as_they_finish<E: From<BoError>>(
             runs.start(point.clone())?;
             running.push(point);
         }
-        let Some((unit_point, loss)) = runs.next_done()? else {
+        let Some((unit_point, outcome)) = runs.next_done()? else {
             break;
         };
         if let Some(index) = running.iter().position(|p| *p == unit_point) {
             running.remove(index);
         }
-        observations.push(Observation { unit_point, loss });
+        let observation = Observation::new(unit_point, outcome);
+        let loss = observation.loss;
+        next_points.record(&observation);
+        observations.push(observation);
         if queue.is_empty() {
             since_progress += 1;
         }

@@ -12,7 +12,8 @@
 //! - `moo`: NSGA-II, hypervolume, the ZDT/DTLZ benchmark problems; `topsis` and `minimax`:
 //!   the pick of one front point.
 //! - `least_squares`: bounded Levenberg-Marquardt, for cheap smooth models.
-//! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches).
+//! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches);
+//!   `trust_region`: its local Gauss-Newton steps when runs return residuals.
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
 //! - `training_data`: the shape and finiteness check every fitted model runs first.
 
@@ -28,3 +29,4 @@ pub mod sobol_indices;
 pub mod surrogate;
 pub mod topsis;
 pub mod training_data;
+pub mod trust_region;

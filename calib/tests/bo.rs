@@ -75,7 +75,7 @@ fn run(
     initial: usize,
     settings: &BoSettings,
 ) -> acq_calib::bo::BoResult {
-    minimise::<BoError>(
+    minimise::<BoError, f64>(
         start_points(initial, dimensions, settings.seed + 1),
         |batch| Ok(batch.iter().map(|x| Some(f(x))).collect()),
         settings,
@@ -163,10 +163,7 @@ fn it_minimises_and_stops_at_the_target() {
 fn a_batch_spreads_out_and_failures_do_not_stop_the_run() {
     let mut observations: Vec<Observation> = start_points(8, 2, 5)
         .into_iter()
-        .map(|x| Observation {
-            loss: Some(branin(&x)),
-            unit_point: x,
-        })
+        .map(|x| Observation::new(x.clone(), Some(branin(&x).into())))
         .collect();
     observations[3].loss = None;
     let settings = BoSettings {
@@ -191,7 +188,7 @@ fn a_batch_spreads_out_and_failures_do_not_stop_the_run() {
 
     // A run in which every third evaluation fails still finds the minimum.
     let mut count = 0;
-    let result = minimise::<BoError>(
+    let result = minimise::<BoError, f64>(
         start_points(10, 2, 9),
         |batch| {
             Ok(batch
@@ -228,23 +225,14 @@ fn a_batch_spreads_out_and_failures_do_not_stop_the_run() {
 
 #[test]
 fn bad_input_is_an_error_not_a_panic() {
-    let one = vec![Observation {
-        unit_point: vec![0.5, 0.5],
-        loss: Some(1.0),
-    }];
+    let one = vec![Observation::new(vec![0.5, 0.5], Some(1.0.into()))];
     assert!(matches!(
         propose(&one, &BoSettings::default(), 0),
         Err(BoError::TooFewObservations(1))
     ));
     let outside = vec![
-        Observation {
-            unit_point: vec![0.5, 1.5],
-            loss: Some(1.0),
-        },
-        Observation {
-            unit_point: vec![0.1, 0.2],
-            loss: Some(2.0),
-        },
+        Observation::new(vec![0.5, 1.5], Some(1.0.into())),
+        Observation::new(vec![0.1, 0.2], Some(2.0.into())),
     ];
     assert!(matches!(
         propose(&outside, &BoSettings::default(), 0),
@@ -282,7 +270,7 @@ impl acq_calib::bo::RunsAsTheyFinish<BoError> for VirtualClock {
         let (ends, point) = self.running.remove(index);
         self.now = ends;
         let loss = (self.loss)(&point);
-        Ok(Some((point, Some(loss))))
+        Ok(Some((point, Some(loss.into()))))
     }
 }
 

@@ -165,6 +165,46 @@ pub fn curve_mape(
     simulation: &[(f64, f64)],
     options: CurveMapeOptions,
 ) -> Result<CurveMape, CurveLossError> {
+    compare_on_grid(test, simulation, options, |_| {})
+}
+
+/// The curve MAPE, and the signed error (%, simulation above the test
+/// positive) averaged over each of `parts` consecutive runs of the grid
+/// points in the mean, of as equal a count as the grid allows (fewer
+/// parts when there are fewer points).
+///
+/// The parts say *where* along the curve and in which direction the
+/// simulation misses, which a single MAPE hides: a local search can fit
+/// a linear model to them (a Gauss-Newton step).
+pub fn curve_errors_by_part(
+    test: &[(f64, f64)],
+    simulation: &[(f64, f64)],
+    options: CurveMapeOptions,
+    parts: usize,
+) -> Result<(CurveMape, Vec<f64>), CurveLossError> {
+    let mut signed_pct = Vec::new();
+    let mape = compare_on_grid(test, simulation, options, |error| {
+        signed_pct.push(100.0 * error)
+    })?;
+    let parts = parts.min(signed_pct.len()).max(1);
+    let means = (0..parts)
+        .map(|part| {
+            let run =
+                &signed_pct[part * signed_pct.len() / parts..(part + 1) * signed_pct.len() / parts];
+            run.iter().sum::<f64>() / run.len() as f64
+        })
+        .collect();
+    Ok((mape, means))
+}
+
+/// The loop both of the above share: `signed_error` sees each compared
+/// grid point's `(simulated - test) / test`, in grid order.
+fn compare_on_grid(
+    test: &[(f64, f64)],
+    simulation: &[(f64, f64)],
+    options: CurveMapeOptions,
+    mut signed_error: impl FnMut(f64),
+) -> Result<CurveMape, CurveLossError> {
     let test = prepare(test, CurveName::Test)?;
     let simulation = prepare(simulation, CurveName::Simulation)?;
     let step_mm = test
@@ -231,7 +271,9 @@ pub fn curve_mape(
         } else {
             simulation_spline.eval(x.min(simulation_end))
         };
-        let term = ((test_force - simulated_force) / test_force).abs();
+        let signed = (simulated_force - test_force) / test_force;
+        signed_error(signed);
+        let term = signed.abs();
         sum += term;
         if options.split_at_mm.is_some_and(|split| x <= split) {
             before.0 += term;
@@ -420,6 +462,36 @@ mod tests {
         assert!((split.before_percent - 25.0).abs() < 1e-9, "{split:?}");
         assert!((split.after_percent - 75.0).abs() < 1e-9, "{split:?}");
         assert!((loss.mape_percent - 55.0).abs() < 1e-9, "{loss:?}");
+    }
+
+    #[test]
+    fn the_parts_average_the_signed_errors_in_grid_order() {
+        // As above: test F = u, simulation F = u + 0.1 u^2, error +10 u %
+        // at u = 1..10. Two parts: mean of 10..50 and of 60..100; with the
+        // simulation below the test, the signs turn.
+        let test: Vec<(f64, f64)> = (1..=10).map(|i| (i as f64, i as f64)).collect();
+        let above: Vec<(f64, f64)> = (0..=10)
+            .map(|i| {
+                let u = i as f64;
+                (u, u + 0.1 * u * u)
+            })
+            .collect();
+        let (mape, parts) =
+            curve_errors_by_part(&test, &above, CurveMapeOptions::default(), 2).unwrap();
+        assert_eq!(parts.len(), 2);
+        assert!((parts[0] - 30.0).abs() < 1e-9, "{parts:?}");
+        assert!((parts[1] - 80.0).abs() < 1e-9, "{parts:?}");
+        let whole = curve_mape(&test, &above, CurveMapeOptions::default()).unwrap();
+        assert_eq!(mape, whole);
+        let below: Vec<(f64, f64)> = above.iter().map(|&(u, f)| (u, 2.0 * u - f)).collect();
+        let (_, parts) =
+            curve_errors_by_part(&test, &below, CurveMapeOptions::default(), 2).unwrap();
+        assert!((parts[0] + 30.0).abs() < 1e-9 && (parts[1] + 80.0).abs() < 1e-9);
+        // More parts than grid points: one per point.
+        let (_, parts) =
+            curve_errors_by_part(&test, &above, CurveMapeOptions::default(), 50).unwrap();
+        assert_eq!(parts.len(), 10);
+        assert!((parts[9] - 100.0).abs() < 1e-9, "{parts:?}");
     }
 
     #[test]

@@ -11,4 +11,7 @@
 
 pub mod curve;
 
-pub use curve::{curve_mape, CurveLossError, CurveMape, CurveMapeOptions, CurveName, SplitMape};
+pub use curve::{
+    curve_errors_by_part, curve_mape, CurveLossError, CurveMape, CurveMapeOptions, CurveName,
+    SplitMape,
+};

@@ -102,6 +102,8 @@
 //! max_evals = 60
 //! target_loss_pct = 1.0
 //! loss = "mean"              # or "max", or "squares" (with priors: a MAP estimate)
+//! local_steps = false        # bo: true adds trust-region Gauss-Newton steps on
+//!                            # the residuals (each curve's errors in 20 parts)
 //! training_runs = 40         # surrogate-moo, with test_runs, population,
 //! test_runs = 40             # generations, pareto_fraction, kernel,
 //!                            # refine_tolerance, refine_rounds
@@ -413,6 +415,9 @@ pub struct Search {
     pub kernel: Option<String>,
     pub refine_tolerance: Option<f64>,
     pub refine_rounds: Option<usize>,
+    /// Bayesian optimisation: local Gauss-Newton steps on the residuals
+    /// (each curve's errors along its length) between the global ones.
+    pub local_steps: Option<bool>,
     /// How the surrogate-MOO search picks its front point: "topsis"
     /// (default, the published method), "topsis-common" or "minimax".
     pub pick: Option<String>,
@@ -1262,6 +1267,7 @@ impl Spec {
                 patience: search.patience,
                 batch: self.runs_at_once,
                 seed,
+                local_steps: search.local_steps.unwrap_or(false),
             })
         }
     }

@@ -58,6 +58,10 @@ pub struct CalibrateGtnArgs {
     pub mesh: MeshArgs,
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Global Bayesian-optimisation steps only (the published search),
+    /// without the local Gauss-Newton steps on the curve's errors.
+    #[arg(long)]
+    pub global_only: bool,
     /// Continue the run in DIR: simulations already in its log are not repeated.
     #[arg(long)]
     pub resume: bool,
@@ -171,6 +175,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         patience: args.patience.map(|p| p as usize),
         batch: args.batch as usize,
         seed: args.seed,
+        local_steps: !args.global_only,
     });
     let Method::Bo(bo) = &method else {
         unreachable!("the GTN preset runs Bayesian optimisation")

@@ -4,10 +4,11 @@
 
 use acq_calib::bo::{
     minimise, minimise_as_they_finish, Acquisition, BoError, BoResult, BoSettings, Finished,
-    RunsAsTheyFinish,
+    Outcome, RunsAsTheyFinish,
 };
 use acq_calib::evaluation::{AsyncRuns, Evaluation, EvaluationError, Evaluator, Parameter};
 use acq_calib::gp::{GpSettings, Kernel};
+use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;
@@ -75,9 +76,10 @@ pub fn distinct_best(
     chosen
 }
 
-/// Bayesian optimisation of `loss(outputs)` through a logging evaluator: the
-/// engine's unit-box points are scaled to the parameters, run (in parallel,
-/// logged) and scored; a failed run is a missing loss. A log that cannot be
+/// Bayesian optimisation of `score(outputs)` (the loss, and residuals for
+/// local steps) through a logging evaluator: the engine's unit-box points
+/// are scaled to the parameters, run (in parallel, logged) and scored; a
+/// failed run is a missing loss. A log that cannot be
 /// written stops the run with that error.
 ///
 /// With more than one slot (`settings.batch`), the runs go as they finish
@@ -87,7 +89,7 @@ pub fn minimise_logged(
     evaluator: &mut Evaluator<'_>,
     parameters: &[Parameter],
     initial: Vec<Vec<f64>>,
-    loss: impl Fn(&[f64]) -> f64,
+    score: impl Fn(&[f64]) -> Outcome,
     settings: &BoSettings,
 ) -> Result<BoResult> {
     if settings.batch > 1 {
@@ -97,7 +99,7 @@ pub fn minimise_logged(
                 runs,
                 parameters,
                 started: Vec::new(),
-                loss: &loss,
+                score: &score,
             };
             minimise_as_they_finish::<LoggedRunError>(initial, &mut adapter, slots, settings)
         });
@@ -107,14 +109,14 @@ pub fn minimise_logged(
         });
     }
     let mut log_failure = None;
-    let result = minimise::<BoError>(
+    let result = minimise::<BoError, Outcome>(
         initial,
         |batch| {
             let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(parameters, u)).collect();
             match evaluator.evaluate(&values) {
                 Ok(evaluations) => Ok(evaluations
                     .iter()
-                    .map(|e| e.outcome.as_ref().ok().map(|y| loss(y)))
+                    .map(|e| e.outcome.as_ref().ok().map(|y| score(y)))
                     .collect()),
                 Err(error) => {
                     let message = error.to_string();
@@ -150,6 +152,7 @@ pub fn bo_settings(
     patience: Option<usize>,
     acquisition: Option<Acquisition>,
     seed: u64,
+    local_steps: Option<TrustRegionSettings>,
 ) -> BoSettings {
     let defaults = BoSettings::default();
     BoSettings {
@@ -166,6 +169,7 @@ pub fn bo_settings(
             ..GpSettings::default()
         },
         seed,
+        local_steps,
         ..defaults
     }
 }
@@ -188,10 +192,10 @@ struct LoggedRuns<'r, 'e, 'a, L> {
     parameters: &'r [Parameter],
     /// (parameter values, unit point) of the points started.
     started: Vec<(Vec<f64>, Vec<f64>)>,
-    loss: &'r L,
+    score: &'r L,
 }
 
-impl<L: Fn(&[f64]) -> f64> RunsAsTheyFinish<LoggedRunError> for LoggedRuns<'_, '_, '_, L> {
+impl<L: Fn(&[f64]) -> Outcome> RunsAsTheyFinish<LoggedRunError> for LoggedRuns<'_, '_, '_, L> {
     fn start(&mut self, unit_point: Vec<f64>) -> std::result::Result<(), LoggedRunError> {
         let values = from_unit(self.parameters, &unit_point);
         self.runs
@@ -215,7 +219,7 @@ impl<L: Fn(&[f64]) -> f64> RunsAsTheyFinish<LoggedRunError> for LoggedRuns<'_, '
                 ))
             })?;
         let (_, unit_point) = self.started.remove(index);
-        let loss = evaluation.outcome.as_ref().ok().map(|y| (self.loss)(y));
-        Ok(Some((unit_point, loss)))
+        let outcome = evaluation.outcome.as_ref().ok().map(|y| (self.score)(y));
+        Ok(Some((unit_point, outcome)))
     }
 }

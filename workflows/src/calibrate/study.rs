@@ -21,7 +21,7 @@
 //! calibrated model agrees with the measurement within what the
 //! instruments can tell.
 
-use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions};
+use acq_analysis::loss::curve::{curve_errors_by_part, CurveMapeOptions};
 use acq_calib::evaluation::{Parameter, Simulator};
 use serde_json::{json, Map, Value};
 
@@ -349,6 +349,37 @@ impl Study {
             .collect()
     }
 
+    /// The residuals of a search's local steps, from fit outputs of a
+    /// simulator [`StudySimulator::with_curve_parts`]`(parts)`: each scalar
+    /// as in [`Study::residuals`], each curve as its `parts` signed errors
+    /// (%) scaled by `sqrt(weight / parts)`, so that a curve off by e %
+    /// everywhere counts as a scalar off by e %. Empty when the outputs
+    /// hold no parts.
+    pub fn local_residuals(&self, outputs: &[f64], parts: usize) -> Vec<f64> {
+        let observations = self.observations(Role::Fit);
+        let curves = observations
+            .iter()
+            .filter(|(_, o)| matches!(o.measured, Measured::Curve { .. }))
+            .count();
+        if outputs.len() != observations.len() + curves * parts {
+            return Vec::new();
+        }
+        let scalars = self.residuals(&outputs[..observations.len()]);
+        let mut part_values = outputs[observations.len()..].chunks(parts.max(1));
+        let mut residuals = Vec::with_capacity(outputs.len());
+        for ((_, observation), scalar) in observations.iter().zip(scalars) {
+            match &observation.measured {
+                Measured::Scalar { .. } => residuals.push(scalar),
+                Measured::Curve { .. } => {
+                    let scale = (observation.weight / parts as f64).sqrt();
+                    let values = part_values.next().unwrap_or_default();
+                    residuals.extend(values.iter().map(|v| v * scale));
+                }
+            }
+        }
+        residuals
+    }
+
     /// The weights of the fit observations.
     pub fn weights(&self) -> Vec<f64> {
         self.observations(Role::Fit)
@@ -403,6 +434,7 @@ pub struct StudySimulator<'a> {
     role: Role,
     parameters: Vec<Parameter>,
     outputs: Vec<String>,
+    curve_parts: usize,
 }
 
 impl<'a> StudySimulator<'a> {
@@ -417,7 +449,25 @@ impl<'a> StudySimulator<'a> {
                 .into_iter()
                 .map(|(case, observation)| study.key(case, observation))
                 .collect(),
+            curve_parts: 0,
         }
+    }
+
+    /// Also outputs, after the observations, each curve's signed errors
+    /// in `parts` consecutive runs of its grid (`KEY.partNN`), for a
+    /// search's local steps ([`Study::local_residuals`]).
+    pub fn with_curve_parts(mut self, parts: usize) -> Self {
+        self.curve_parts = parts;
+        if parts > 0 {
+            for (case, observation) in self.study.observations(self.role) {
+                if matches!(observation.measured, Measured::Curve { .. }) {
+                    let key = self.study.key(case, observation);
+                    self.outputs
+                        .extend((1..=parts).map(|part| format!("{key}.part{part:02}")));
+                }
+            }
+        }
+        self
     }
 }
 
@@ -446,6 +496,7 @@ impl Simulator for StudySimulator<'_> {
 impl StudySimulator<'_> {
     fn evaluate_cases(&self, values: &[f64], notes: &mut [String]) -> Result<Vec<f64>, String> {
         let mut outputs = Vec::with_capacity(self.outputs.len());
+        let mut curve_parts: Vec<f64> = Vec::new();
         for (index, case) in self.study.cases_with(self.role) {
             if case.priors {
                 for observation in &case.observations {
@@ -499,13 +550,23 @@ impl StudySimulator<'_> {
                         let simulated = curve
                             .next()
                             .ok_or_else(|| in_case("the model returned too few curves".into()))?;
-                        curve_mape(points, simulated, CurveMapeOptions::default())
-                            .map_err(|e| in_case(format!("curve {}: {e}", observation.name)))?
-                            .mape_percent
+                        let (mape, mut parts) = curve_errors_by_part(
+                            points,
+                            simulated,
+                            CurveMapeOptions::default(),
+                            self.curve_parts,
+                        )
+                        .map_err(|e| in_case(format!("curve {}: {e}", observation.name)))?;
+                        // A grid shorter than the parts: the last part repeats.
+                        let last = parts.last().copied().unwrap_or(0.0);
+                        parts.resize(self.curve_parts, last);
+                        curve_parts.extend(parts);
+                        mape.mape_percent
                     }
                 });
             }
         }
+        outputs.extend(curve_parts);
         Ok(outputs)
     }
 }

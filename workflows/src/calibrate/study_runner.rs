@@ -16,7 +16,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use acq_calib::bo::Acquisition;
+use acq_calib::bo::{Acquisition, Outcome};
 use acq_calib::doe::{
     full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
     two_level_to_unit,
@@ -25,6 +25,7 @@ use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
 use acq_calib::least_squares::{
     least_squares, LeastSquaresError, LeastSquaresResult, LeastSquaresSettings, Stop as LsStop,
 };
+use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
@@ -40,7 +41,7 @@ use super::search::{
     bo_settings, distinct_best, from_unit as acq_calib_from_unit, minimise_logged, scored, to_unit,
 };
 use super::study::{
-    cases_json, chi_square, errors_json, Model, ObservationError, Residuals, Role, Study,
+    cases_json, chi_square, errors_json, LossKind, Model, ObservationError, Residuals, Role, Study,
     StudySimulator,
 };
 use super::surrogate_moo::{rounds_sentence, surrogate_moo, SurrogateMooSettings};
@@ -58,7 +59,14 @@ pub struct BoMethod {
     /// Points proposed (and run) at once.
     pub batch: usize,
     pub seed: u64,
+    /// Local trust-region steps on the residuals (each curve's errors in
+    /// [`CURVE_PARTS`] parts) between the global ones.
+    pub local_steps: bool,
 }
+
+/// How many parts of a curve the local steps of a search see: enough to
+/// tell the elastic rise, the hardening, the necking and the drop apart.
+pub const CURVE_PARTS: usize = 20;
 
 /// Least squares' settings in a study.
 #[derive(Clone, Debug)]
@@ -169,7 +177,11 @@ pub fn calibrate_study(
     settings: &RunSettings<'_>,
 ) -> Result<StudyOutcome> {
     let parameters = study.search_parameters();
-    let simulator = StudySimulator::new(study, model, Role::Fit);
+    let curve_parts = match method {
+        Method::Bo(bo) if bo.local_steps => CURVE_PARTS,
+        _ => 0,
+    };
+    let simulator = StudySimulator::new(study, model, Role::Fit).with_curve_parts(curve_parts);
     let budget = match method {
         Method::Bo(bo) => bo.max_evals,
         Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
@@ -208,12 +220,21 @@ pub fn calibrate_study(
                     bo.patience,
                     bo.acquisition,
                     bo.seed,
+                    bo.local_steps.then(|| TrustRegionSettings {
+                        // A mean or largest error is a sum of absolute values,
+                        // not of squares.
+                        absolute: study.loss != LossKind::Squares,
+                        ..TrustRegionSettings::default()
+                    }),
                 );
                 minimise_logged(
                     &mut evaluator,
                     &parameters,
                     initial,
-                    |y| study.loss(y),
+                    |y| Outcome {
+                        loss: study.loss(y),
+                        residuals: study.local_residuals(y, curve_parts),
+                    },
                     &bo_settings,
                 )
                 .map(Found::Bo)
@@ -247,7 +268,15 @@ pub fn calibrate_study(
         }
     }
     let found = found?;
-    let evaluations = evaluator.evaluations().to_vec();
+    // The curve parts served the search only; what follows sees the
+    // observations.
+    let observations = study.observations(Role::Fit).len();
+    let mut evaluations = evaluator.evaluations().to_vec();
+    for evaluation in &mut evaluations {
+        if let Ok(outputs) = &mut evaluation.outcome {
+            outputs.truncate(observations);
+        }
+    }
     let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
     let (calibrated, calibrated_outputs) = match &found {
         Found::Moo(moo) => (moo.optimal.clone(), moo.optimal_outputs.clone()),

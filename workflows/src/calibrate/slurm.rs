@@ -172,34 +172,6 @@ impl SlurmExecutor {
         })
     }
 
-    /// The job script for `argv`.
-    fn script(&self, argv: &[String]) -> String {
-        // A job Slurm signals (scancel, node failure, its time limit) ends
-        // without an exit status of its own: the solver's status after the
-        // signal is no verdict on the run, and the job's state says what
-        // happened (a requeued job's rerun writes the status).
-        let mut text = String::from(
-            "#!/bin/bash\n\
-             # Written by acq for one model run; `sbatch job.sh` here runs it again.\n\
-             trap 'exit 143' TERM INT\n\
-             rm -f exit_status exit_status.partial\n\
-             echo \"${SLURM_RESTART_COUNT:-0} $(date +%s.%N)\" > started_at\n",
-        );
-        for line in &self.settings.prelude {
-            text.push_str(line);
-            text.push('\n');
-        }
-        let words: Vec<String> = argv.iter().map(|word| shell_quote(word)).collect();
-        text.push_str(&words.join(" "));
-        text.push_str(
-            " </dev/null\n\
-             status=$?\n\
-             echo \"$status\" > exit_status.partial && mv exit_status.partial exit_status\n\
-             exit \"$status\"\n",
-        );
-        text
-    }
-
     /// `sbatch`'s arguments for a run in `directory`.
     fn sbatch_arguments(&self, directory: &Path, timeout: Duration) -> Vec<String> {
         let name = directory
@@ -248,7 +220,10 @@ impl SlurmExecutor {
         for stale in [EXIT_STATUS, STARTED_AT, JOB_ID] {
             let _ = std::fs::remove_file(directory.join(stale));
         }
-        write_whole(&directory.join(JOB_SCRIPT), &self.script(job.argv))?;
+        write_whole(
+            &directory.join(JOB_SCRIPT),
+            &job_script(&self.settings, job.argv),
+        )?;
         write_whole(&directory.join(SUBMITTED_AT), &format!("{}\n", now_s()))?;
         self.park_if_interrupted();
         let output = slurm_command("sbatch")
@@ -793,6 +768,40 @@ fn now_s() -> f64 {
         .map_or(0.0, |d| d.as_secs_f64())
 }
 
+/// The job script for `argv`.
+fn job_script(settings: &SlurmSettings, argv: &[String]) -> String {
+    // A job Slurm signals (scancel, node failure, its time limit) ends
+    // without an exit status of its own: the solver's status after the
+    // signal is no verdict on the run, and the job's state says what
+    // happened (a requeued job's rerun writes the status). Slurm may
+    // signal the solver before the script, so the script may see the
+    // solver die of SIGTERM (143) or SIGINT (130) before its own trap
+    // runs: such a status is not written either (the job's state, or
+    // the exit code Slurm keeps, still tells a solver that killed
+    // itself so).
+    let mut text = String::from(
+        "#!/bin/bash\n\
+         # Written by acq for one model run; `sbatch job.sh` here runs it again.\n\
+         trap 'exit 143' TERM INT\n\
+         rm -f exit_status exit_status.partial\n\
+         echo \"${SLURM_RESTART_COUNT:-0} $(date +%s.%N)\" > started_at\n",
+    );
+    for line in &settings.prelude {
+        text.push_str(line);
+        text.push('\n');
+    }
+    let words: Vec<String> = argv.iter().map(|word| shell_quote(word)).collect();
+    text.push_str(&words.join(" "));
+    text.push_str(
+        " </dev/null\n\
+         status=$?\n\
+         case \"$status\" in 130|143) exit \"$status\" ;; esac\n\
+         echo \"$status\" > exit_status.partial && mv exit_status.partial exit_status\n\
+         exit \"$status\"\n",
+    );
+    text
+}
+
 fn lock<T>(mutex: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     mutex
         .lock()
@@ -814,6 +823,35 @@ mod tests {
             .unwrap();
         let printed = String::from_utf8(output.stdout).unwrap();
         assert_eq!(printed.lines().collect::<Vec<_>>(), words);
+    }
+
+    /// The script under real bash: a solver's own exit status is written,
+    /// one that died of the signal Slurm sends is not (the job's state
+    /// decides then: a node failure requeues it).
+    #[test]
+    fn a_solver_killed_by_sigterm_leaves_no_exit_status() {
+        for (argv, code, written) in [
+            (["sh", "-c", "exit 3"], 3, Some("3")),
+            (["sh", "-c", "kill -TERM $$"], 143, None),
+            (["sh", "-c", "kill -INT $$"], 130, None),
+        ] {
+            let dir = tempfile::tempdir().unwrap();
+            let argv: Vec<String> = argv.iter().map(|w| w.to_string()).collect();
+            std::fs::write(
+                dir.path().join("job.sh"),
+                job_script(&SlurmSettings::default(), &argv),
+            )
+            .unwrap();
+            let status = Command::new("bash")
+                .arg("job.sh")
+                .current_dir(dir.path())
+                .status()
+                .unwrap();
+            assert_eq!(status.code(), Some(code), "{argv:?}");
+            let status_file = std::fs::read_to_string(dir.path().join(EXIT_STATUS)).ok();
+            assert_eq!(status_file.as_deref().map(str::trim), written, "{argv:?}");
+            assert!(dir.path().join(STARTED_AT).exists());
+        }
     }
 
     #[test]

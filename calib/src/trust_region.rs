@@ -117,15 +117,6 @@ impl TrustRegion {
         }
     }
 
-    pub fn radius(&self) -> f64 {
-        self.radius
-    }
-
-    /// Whether a local step is proposed and not yet recorded.
-    pub fn is_pending(&self) -> bool {
-        self.pending.is_some()
-    }
-
     /// The next local step (or geometry step after a failed one), or
     /// `None` when it is the global search's turn: while paused, with
     /// fewer runs than the model needs, or when the model sees no better

@@ -21,7 +21,9 @@
 //! calibrated model agrees with the measurement within what the
 //! instruments can tell.
 
-use acq_analysis::loss::curve::{curve_errors_by_part, CurveMapeOptions};
+use acq_analysis::loss::curve::{
+    curve_errors_by_part, curve_mape, CurveLossError, CurveMapeOptions,
+};
 use acq_calib::evaluation::{Parameter, Simulator};
 use serde_json::{json, Map, Value};
 
@@ -550,18 +552,26 @@ impl StudySimulator<'_> {
                         let simulated = curve
                             .next()
                             .ok_or_else(|| in_case("the model returned too few curves".into()))?;
-                        let (mape, mut parts) = curve_errors_by_part(
-                            points,
-                            simulated,
-                            CurveMapeOptions::default(),
-                            self.curve_parts,
-                        )
-                        .map_err(|e| in_case(format!("curve {}: {e}", observation.name)))?;
-                        // A grid shorter than the parts: the last part repeats.
-                        let last = parts.last().copied().unwrap_or(0.0);
-                        parts.resize(self.curve_parts, last);
-                        curve_parts.extend(parts);
-                        mape.mape_percent
+                        let in_curve =
+                            |e: CurveLossError| in_case(format!("curve {}: {e}", observation.name));
+                        if self.curve_parts == 0 {
+                            curve_mape(points, simulated, CurveMapeOptions::default())
+                                .map_err(in_curve)?
+                                .mape_percent
+                        } else {
+                            let (mape, mut parts) = curve_errors_by_part(
+                                points,
+                                simulated,
+                                CurveMapeOptions::default(),
+                                self.curve_parts,
+                            )
+                            .map_err(in_curve)?;
+                            // A grid shorter than the parts: the last part repeats.
+                            let last = parts.last().copied().unwrap_or(0.0);
+                            parts.resize(self.curve_parts, last);
+                            curve_parts.extend(parts);
+                            mape.mape_percent
+                        }
                     }
                 });
             }

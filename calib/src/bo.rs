@@ -259,9 +259,7 @@ impl NextPoints {
             trust_region.record(
                 &observation.unit_point,
                 observation.loss,
-                Some(&observation.residuals)
-                    .filter(|r| !r.is_empty())
-                    .map(|r| r.as_slice()),
+                &observation.residuals,
             );
         }
     }

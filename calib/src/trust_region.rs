@@ -191,8 +191,8 @@ impl TrustRegion {
     }
 
     /// The outcome of a run; only the pending local step's changes the
-    /// state (`residuals`/`loss` `None`: the run failed).
-    pub fn record(&mut self, unit_point: &[f64], loss: Option<f64>, residuals: Option<&[f64]>) {
+    /// state (`loss` `None`: the run failed; `residuals` empty: none).
+    pub fn record(&mut self, unit_point: &[f64], loss: Option<f64>, residuals: &[f64]) {
         let Some(pending) = self.pending.take_if(|p| p.point == unit_point) else {
             return;
         };
@@ -206,10 +206,11 @@ impl TrustRegion {
             return;
         }
         let predicted = pending.centre_squares - pending.predicted_squares;
-        let actual = pending.centre_squares
-            - residuals
-                .filter(|r| r.len() == pending.weights.len())
-                .map_or(f64::INFINITY, |r| squares(r, &pending.weights));
+        let actual = if residuals.len() == pending.weights.len() {
+            pending.centre_squares - squares(residuals, &pending.weights)
+        } else {
+            f64::NEG_INFINITY
+        };
         let ratio = if predicted > 0.0 {
             actual / predicted
         } else {

@@ -1679,17 +1679,15 @@ target_loss_pct = 0.5
     let output = calibrate_external(&spec, &out, &[]);
     assert!(output.status.success(), "{}", stderr(&output));
     let log = Table::read(&out.join("evaluations.csv"));
-    assert_eq!(
-        log.header,
-        [
-            "id",
-            "status",
-            "wall_s",
-            "a",
-            "force_displacement",
-            "reason"
-        ]
-    );
+    // A study with a curve takes local steps by default, on the curve's
+    // signed errors in 20 parts, which the log keeps for --resume.
+    let parts: Vec<String> = (1..=20)
+        .map(|k| format!("force_displacement.part{k:02}"))
+        .collect();
+    let mut header = vec!["id", "status", "wall_s", "a", "force_displacement"];
+    header.extend(parts.iter().map(String::as_str));
+    header.push("reason");
+    assert_eq!(log.header, header);
     for row in &log.rows {
         assert_eq!(log.cell(row, "status"), "ok", "{row:?}");
         let a = log.value(row, "a");
@@ -1699,6 +1697,15 @@ target_loss_pct = 0.5
             "a = {a}: MAPE {mape}, closed form {}",
             50.0 * (2.0 - a).abs()
         );
+        // Every point misses by the same signed (a - 2) / 2, so every part does.
+        for part in &parts {
+            let signed = log.value(row, part);
+            assert!(
+                (signed - 50.0 * (a - 2.0)).abs() < 1e-6,
+                "a = {a}: {part} {signed}, closed form {}",
+                50.0 * (a - 2.0)
+            );
+        }
     }
     let summary = json(&out.join("summary.json"));
     let best = summary["best_params"]["a"].as_f64().unwrap();

@@ -1679,8 +1679,8 @@ target_loss_pct = 0.5
     let output = calibrate_external(&spec, &out, &[]);
     assert!(output.status.success(), "{}", stderr(&output));
     let log = Table::read(&out.join("evaluations.csv"));
-    // A study with a curve takes local steps by default, on the curve's
-    // signed errors in 20 parts, which the log keeps for --resume.
+    // A BO study takes local steps by default, on the curve's signed
+    // errors in 20 parts, which the log keeps for --resume.
     let parts: Vec<String> = (1..=20)
         .map(|k| format!("force_displacement.part{k:02}"))
         .collect();

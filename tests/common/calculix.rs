@@ -98,9 +98,9 @@ pub fn assert_bo_recovers_the_truth(summary: &Value) {
     // noise moves the best fit by about 0.5 / sqrt(50) = 0.07 % of the
     // force: tenths of a percent of K and n. Global BO steps alone are
     // limited by the 24-run budget on a 600 MPa x 0.2 box (within 2 % of K
-    // and 5 % of n); the local steps, on by default for a study with a
-    // curve, get to the noise's limit within it, so these bounds are that
-    // limit with room: 0.5 % of K and 1 % of n.
+    // and 5 % of n); the local steps, on by default, get to the noise's
+    // limit within it, so these bounds are that limit with room: 0.5 % of K
+    // and 1 % of n.
     let k = number(summary, &["best_params", "K_mpa"]);
     let n = number(summary, &["best_params", "n"]);
     assert!((k - TRUE_K_MPA).abs() < 0.005 * TRUE_K_MPA, "K = {k} MPa");

@@ -103,9 +103,9 @@
 //! target_loss_pct = 1.0
 //! loss = "mean"              # or "max", or "squares" (with priors: a MAP estimate)
 //! local_steps = true         # bo: trust-region Gauss-Newton steps on the
-//!                            # residuals (each curve's errors in 20 parts)
-//!                            # between the global ones [default: true when
-//!                            # the study has a curve, else false]
+//!                            # residuals (each scalar's error, each curve's
+//!                            # errors in 20 parts) between the global ones;
+//!                            # false gives the published search alone
 //! training_runs = 40         # surrogate-moo, with test_runs, population,
 //! test_runs = 40             # generations, pareto_fraction, kernel,
 //!                            # refine_tolerance, refine_rounds
@@ -419,9 +419,8 @@ pub struct Search {
     pub refine_rounds: Option<usize>,
     /// Bayesian optimisation: local Gauss-Newton steps on the residuals
     /// (each curve's errors along its length) between the global ones.
-    /// Default: on when the study has a curve (measured on the CalculiX
-    /// example and the GTN preset: the target in a third to a half of the
-    /// runs), off for scalars alone, where nothing has measured them yet.
+    /// Default: on (measured on the CalculiX example, curve and scalars,
+    /// and on the GTN preset: BENCHMARKS.md, "Local steps").
     pub local_steps: Option<bool>,
     /// How the surrogate-MOO search picks its front point: "topsis"
     /// (default, the published method), "topsis-common" or "minimax".
@@ -1272,7 +1271,7 @@ impl Spec {
                 patience: search.patience,
                 batch: self.runs_at_once,
                 seed,
-                local_steps: search.local_steps.unwrap_or(!self.curves.is_empty()),
+                local_steps: search.local_steps.unwrap_or(true),
             })
         }
     }

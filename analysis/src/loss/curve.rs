@@ -437,17 +437,26 @@ mod tests {
         assert!(truncated.mape_percent.abs() < 1e-12);
     }
 
-    #[test]
-    fn the_split_averages_each_side_and_leaves_the_total_alone() {
-        // The not-a-knot spline reproduces polynomials up to cubics exactly.
-        // Test F = u, simulation F = u + 0.1 u^2: the error at u is 10 u %.
-        let test: Vec<(f64, f64)> = (1..=10).map(|i| (i as f64, i as f64)).collect();
-        let simulation: Vec<(f64, f64)> = (0..=10)
+    /// `(displacement_mm, force_kn)`.
+    type Point = (f64, f64);
+
+    /// Test F = u at u = 1..10, simulation F = u + 0.1 u^2 at u = 0..10:
+    /// the not-a-knot spline reproduces polynomials up to cubics exactly,
+    /// so the error at u is +10 u %.
+    fn line_and_parabola_above() -> (Vec<Point>, Vec<Point>) {
+        let test = (1..=10).map(|i| (i as f64, i as f64)).collect();
+        let simulation = (0..=10)
             .map(|i| {
                 let u = i as f64;
                 (u, u + 0.1 * u * u)
             })
             .collect();
+        (test, simulation)
+    }
+
+    #[test]
+    fn the_split_averages_each_side_and_leaves_the_total_alone() {
+        let (test, simulation) = line_and_parabola_above();
         let options = CurveMapeOptions {
             split_at_mm: Some(4.0),
             ..Default::default()
@@ -466,16 +475,9 @@ mod tests {
 
     #[test]
     fn the_parts_average_the_signed_errors_in_grid_order() {
-        // As above: test F = u, simulation F = u + 0.1 u^2, error +10 u %
-        // at u = 1..10. Two parts: mean of 10..50 and of 60..100; with the
-        // simulation below the test, the signs turn.
-        let test: Vec<(f64, f64)> = (1..=10).map(|i| (i as f64, i as f64)).collect();
-        let above: Vec<(f64, f64)> = (0..=10)
-            .map(|i| {
-                let u = i as f64;
-                (u, u + 0.1 * u * u)
-            })
-            .collect();
+        // Error +10 u % at u = 1..10. Two parts: mean of 10..50 and of
+        // 60..100; with the simulation below the test, the signs turn.
+        let (test, above) = line_and_parabola_above();
         let (mape, parts) =
             curve_errors_by_part(&test, &above, CurveMapeOptions::default(), 2).unwrap();
         assert_eq!(parts.len(), 2);

@@ -11,7 +11,7 @@ use common::calculix::{
     assert_bo_recovers_the_truth, assert_moo_recovers_the_truth, example, example_at_test_mesh,
     require, TEST_MESH, TRUE_N,
 };
-use common::{acq, external_summary, number, path_arg, stderr};
+use common::{acq, external_summary, interfaces, number, path_arg, stderr};
 use serde_json::Value;
 
 fn calibrate(spec: &Path, out: &Path) -> Value {
@@ -82,8 +82,10 @@ fn the_wrapper_reads_the_whole_bars_force_checked_against_e_a_over_l() {
 fn the_tensile_method_recovers_the_truth_from_a_noisy_calculix_curve() {
     let dir = tempfile::tempdir().unwrap();
     example_at_test_mesh(dir.path());
-    let got = calibrate(&dir.path().join("spec-bo.toml"), &dir.path().join("run"));
+    let out = dir.path().join("run");
+    let got = calibrate(&dir.path().join("spec-bo.toml"), &out);
     assert_bo_recovers_the_truth(&got);
+    interfaces::check("calculix-bo", &out, dir.path());
 }
 
 #[test]
@@ -93,6 +95,7 @@ fn the_excavator_method_recovers_the_truth_within_its_stated_uncertainty() {
     let out = dir.path().join("run");
     let got = calibrate(&dir.path().join("spec-moo.toml"), &out);
     assert_moo_recovers_the_truth(&got, &out);
+    interfaces::check("calculix-moo", &out, dir.path());
 }
 
 #[test]

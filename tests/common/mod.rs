@@ -4,6 +4,7 @@
 
 pub mod browser;
 pub mod calculix;
+pub mod interfaces;
 pub mod pipeline;
 pub mod slurm;
 use std::path::{Path, PathBuf};

@@ -142,6 +142,7 @@ upper = 250.0
 
 [[parameter]]
 name = "force_angle_deg"
+case = "case1"
 lower = -15.0
 upper = -5.0
 

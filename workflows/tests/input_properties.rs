@@ -8,7 +8,8 @@ use std::time::{Duration, Instant};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::Excavator;
-use acq_workflows::calibrate::external::Spec;
+use acq_workflows::calibrate::spec::{ModelKind, Spec};
+use acq_workflows::calibrate::study::{Measured, Role};
 use proptest::prelude::*;
 
 /// What careless hands put in a TOML value.
@@ -115,18 +116,23 @@ proptest! {
         std::fs::write(&path, &text).unwrap();
         if let Ok(spec) = Spec::load(&path) {
             // What the runner does with the numbers must not panic.
-            let timeout = Duration::try_from_secs_f64(spec.timeout_s);
+            let ModelKind::Command(command) = &spec.model else {
+                return Err(TestCaseError::fail(format!("a command spec loaded as another model: {text}")));
+            };
+            let timeout = Duration::try_from_secs_f64(command.timeout_s);
             prop_assert!(timeout.is_ok(), "{text}");
             prop_assert!(Instant::now().checked_add(timeout.unwrap()).is_some(), "{text}");
-            prop_assert!((1..=256).contains(&spec.runs_at_once()), "{text}");
+            prop_assert!((1..=256).contains(&spec.runs_at_once), "{text}");
             prop_assert!(spec.search.max_evals <= 100_000, "{text}");
-            let inside = acq_io::output::inside(Path::new("run"), &spec.output_file, "output_file");
+            let inside = acq_io::output::inside(Path::new("run"), &command.output_file, "output_file");
             prop_assert!(inside.is_ok(), "{text}");
-            for output in &spec.outputs {
-                prop_assert!(output.measured.is_finite() && output.measured != 0.0, "{text}");
+            for (_, observation) in spec.study.observations(Role::Fit) {
+                if let Measured::Scalar { value, .. } = observation.measured {
+                    prop_assert!(value.is_finite() && value != 0.0, "{text}");
+                }
             }
-            for parameter in &spec.parameters {
-                prop_assert!(parameter.lower < parameter.upper, "{text}");
+            for parameter in &spec.study.parameters {
+                prop_assert!(parameter.search.lower < parameter.search.upper, "{text}");
             }
         }
     }

@@ -165,7 +165,7 @@ pub fn curve_mape(
     simulation: &[(f64, f64)],
     options: CurveMapeOptions,
 ) -> Result<CurveMape, CurveLossError> {
-    compare_on_grid(test, simulation, options, |_| {})
+    compare_on_grid(test, simulation, options, |_, _| {})
 }
 
 /// The curve MAPE, and the signed error (%, simulation above the test
@@ -183,7 +183,7 @@ pub fn curve_errors_by_part(
     parts: usize,
 ) -> Result<(CurveMape, Vec<f64>), CurveLossError> {
     let mut signed_pct = Vec::new();
-    let mape = compare_on_grid(test, simulation, options, |error| {
+    let mape = compare_on_grid(test, simulation, options, |_, error| {
         signed_pct.push(100.0 * error)
     })?;
     let parts = parts.min(signed_pct.len()).max(1);
@@ -197,13 +197,28 @@ pub fn curve_errors_by_part(
     Ok((mape, means))
 }
 
-/// The loop both of the above share: `signed_error` sees each compared
-/// grid point's `(simulated - test) / test`, in grid order.
+/// The curve MAPE, and the signed error (%, simulation above the test
+/// positive) at each compared grid point, as `(x, error)`: where along
+/// the curve the simulation misses, for a plot.
+pub fn curve_errors_along(
+    test: &[(f64, f64)],
+    simulation: &[(f64, f64)],
+    options: CurveMapeOptions,
+) -> Result<(CurveMape, Vec<(f64, f64)>), CurveLossError> {
+    let mut along = Vec::new();
+    let mape = compare_on_grid(test, simulation, options, |x, error| {
+        along.push((x, 100.0 * error))
+    })?;
+    Ok((mape, along))
+}
+
+/// The loop all of the above share: `signed_error` sees each compared
+/// grid point's `x` and `(simulated - test) / test`, in grid order.
 fn compare_on_grid(
     test: &[(f64, f64)],
     simulation: &[(f64, f64)],
     options: CurveMapeOptions,
-    mut signed_error: impl FnMut(f64),
+    mut signed_error: impl FnMut(f64, f64),
 ) -> Result<CurveMape, CurveLossError> {
     let test = prepare(test, CurveName::Test)?;
     let simulation = prepare(simulation, CurveName::Simulation)?;
@@ -272,7 +287,7 @@ fn compare_on_grid(
             simulation_spline.eval(x.min(simulation_end))
         };
         let signed = (simulated_force - test_force) / test_force;
-        signed_error(signed);
+        signed_error(x, signed);
         let term = signed.abs();
         sum += term;
         if options.split_at_mm.is_some_and(|split| x <= split) {

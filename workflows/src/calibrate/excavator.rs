@@ -24,25 +24,22 @@ use std::path::{Path, PathBuf};
 use acq_analysis::extract::measured::read_measured;
 use acq_calib::evaluation::{Parameter, Simulator};
 use acq_calib::gp::Kernel;
-use acq_calib::sobol_indices::sobol_indices;
 use acq_io::error::{AcqError, Result};
-use acq_report::document::{Document, Figure, Table};
-use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
+use acq_report::document::{Document, Table};
 use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_twins::excavator::CylinderName;
 use clap::Args;
-use serde_json::json;
+use serde_json::{json, Map, Value};
 
 use super::builtin::ExcavatorModel;
-use super::identifiability::write_identifiability;
-use super::report::{pareto_svg, write_report, write_text};
+use super::extras::{Extras, Section};
 use super::run_directory::{default_parallelism, RunDirectory};
 use super::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
 };
-use super::study_runner::{calibrate_study, Found, Method, RunSettings};
-use super::surrogate_moo::{rounds_sentence, Pick, SurrogateMoo, SurrogateMooSettings};
+use super::study_runner::{run_study, Found, Method, RunSettings, StudyOutcome};
+use super::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};
 
 #[derive(Args, Debug)]
 pub struct CalibrateExcavatorArgs {
@@ -229,10 +226,6 @@ fn relative_errors_pct(measured: &MeasuredPressures, model_bar: &[f64]) -> Vec<f
         .collect()
 }
 
-fn per_cylinder(values: &[f64]) -> serde_json::Value {
-    json!({"bucket": values[0], "arm": values[1], "boom": values[2]})
-}
-
 /// What the calibration found, besides the files it wrote.
 #[derive(Clone, Debug)]
 pub struct ExcavatorCalibration {
@@ -381,14 +374,12 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     // No geometry number is calibrated here, so nothing is re-fitted.
     let model = ExcavatorModel::new(template, false).map_err(AcqError::Config)?;
     let study = case_study(&case, &measured);
-    let parameters = study.search_parameters();
     check_before_the_first_run(
         &args.case,
         &measured,
         &StudySimulator::new(&study, &model, Role::Fit),
     )?;
     let directory = RunDirectory::create(&args.out)?;
-
     let method = Method::SurrogateMoo(SurrogateMooSettings {
         training_runs: args.training as usize,
         test_runs: args.test_runs as usize,
@@ -400,7 +391,17 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
         kernel: args.kernel,
         ..SurrogateMooSettings::published(CylinderName::ALL.len(), args.seed)
     });
-    let outcome = calibrate_study(
+    let extras = ExcavatorExtras {
+        case: case.name.clone(),
+        pick: args.pick,
+        weights: args.weights.clone(),
+        force_kn: case.force_kn,
+        force_source: force_source.clone(),
+        measured_source,
+        measured,
+        out: args.out.clone(),
+    };
+    let run = run_study(
         &study,
         &model,
         &method,
@@ -413,222 +414,162 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             parallel: args.parallel.unwrap_or_else(default_parallelism),
             resume: args.resume,
         },
+        &extras,
     )?;
-    let Found::Moo(found) = &outcome.found else {
-        unreachable!("the excavator preset runs surrogate-moo");
-    };
-    let SurrogateMoo {
-        nominal_outputs: nominal_bar,
-        optimal,
-        optimal_outputs: optimal_bar,
-        surrogate_at_optimal: gp_at_pick,
-        surrogate_rmse: rmse_table,
-        front: matrix,
-        pick,
-        gps,
-        test_runs,
-        failed_runs,
-        rounds,
-        ..
-    } = found.as_ref().clone();
-    let dimensions = parameters.len();
-    let errors_initial = relative_errors_pct(&measured, &nominal_bar);
-    let errors_optimal = relative_errors_pct(&measured, &optimal_bar);
-    let evaluations = outcome.evaluations.len();
-
-    // The fixed summary.
-    let mut rmse_json = serde_json::Map::new();
-    for (name, row) in &rmse_table {
-        rmse_json.insert(name.clone(), per_cylinder(row));
-    }
-    let summary = json!({
-        "errors_initial_pct": per_cylinder(&errors_initial),
-        "errors_optimal_pct": per_cylinder(&errors_optimal),
-        "optimal": parameters.iter().zip(&optimal).map(|(p, v)| (p.name.clone(), json!(v))).collect::<serde_json::Map<_, _>>(),
-        "surrogate_rmse_bar": rmse_json,
-        "evaluations": evaluations,
-    });
-    write_text(&directory.file("summary.json"), &format!("{summary:#}\n"))?;
-
-    // Plots: the Pareto front with the pick, and the error of every run.
-    let names = ["bucket error %", "arm error %", "boom error %"];
-    let pareto = pareto_svg(
-        &format!(
-            "{}: Pareto front of the GP errors (NSGA-II), {} pick",
-            case.name, args.pick
-        ),
-        &names,
-        &matrix,
-        pick,
-    );
-    let worst_error: Vec<(f64, f64)> = outcome
-        .evaluations
-        .iter()
-        .filter_map(|e| {
-            let y = e.outcome.as_ref().ok()?;
-            Some((
-                e.id as f64,
-                relative_errors_pct(&measured, y)
-                    .into_iter()
-                    .fold(0.0, f64::max),
-            ))
-        })
-        .collect();
-    let loss_chart = Chart::new(
-        format!("{}: largest pressure error of each twin run", case.name),
-        "evaluation",
-        "largest relative error [%]",
-    )
-    .with_series(Series::new("twin runs", worst_error).with_style(SeriesStyle::Markers));
-
-    // The report.
-    let wall_s = outcome.wall_s;
-    let largest = |errors: &[f64]| errors.iter().fold(0.0f64, |a, &b| a.max(b));
-    let mut report = Document::new();
-    report
-        .heading(1, format!("Calibration of the excavator twin: {}", case.name))
-        .paragraph(format!(
-            "{evaluations} twin evaluations ({failed_runs} failed) in {wall_s:.2} s; run directory `{}`. \
-             Measured pressures from {measured_source}; tip force {:.2} kN from {force_source}.",
-            args.out.display(),
-            case.force_kn,
-        ))
-        .heading(2, "Pressures");
-    let mut table = Table::new(&[
-        "cylinder",
-        "measured [bar]",
-        "model at nominal [bar]",
-        "model at calibrated [bar]",
-        "GP at calibrated [bar]",
-        "error nominal [%]",
-        "error calibrated [%]",
-    ]);
-    for (k, name) in CylinderName::ALL.iter().enumerate() {
-        table.row(vec![
-            name.to_string(),
-            format!("{:.2}", measured.get(*name)),
-            format!("{:.2}", nominal_bar[k]),
-            format!("{:.2}", optimal_bar[k]),
-            format!("{:.2}", gp_at_pick[k]),
-            format!("{:.2}", errors_initial[k]),
-            format!("{:.2}", errors_optimal[k]),
-        ]);
-    }
-    report.table(table).paragraph(format!(
-        "Largest error: {:.2} % at nominal, {:.2} % calibrated.",
-        largest(&errors_initial),
-        largest(&errors_optimal),
-    ));
-    report.heading(
-        2,
-        format!(
-            "Calibrated inputs ({} pick, weights {:?})",
-            args.pick, args.weights,
-        ),
-    );
-    let mut table = Table::new(&["input", "lower", "upper", "nominal", "calibrated"]);
-    for (p, value) in parameters.iter().zip(&optimal) {
-        table.row(vec![
-            p.name.clone(),
-            format!("{}", p.lower),
-            format!("{}", p.upper),
-            format!("{}", p.midpoint()),
-            format!("{value:.3}"),
-        ]);
-    }
-    report.table(table).heading(
-        2,
-        format!("Surrogates: RMSE on the {test_runs} test runs [bar]"),
-    );
-    let mut table = Table::new(&["surrogate", "bucket", "arm", "boom"]);
-    for (name, row) in &rmse_table {
-        let mut cells = vec![name.clone()];
-        cells.extend(row.iter().map(|v| format!("{v:.3}")));
-        table.row(cells);
-    }
-    report
-        .table(table)
-        .paragraph(format!(
-            "GP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs. {}",
-            args.kernel,
-            rounds.last().map_or(0, |r| r.training_runs),
-            rounds_sentence(&rounds),
-        ))
-        .heading(2, "Pareto front")
-        .paragraph(format!(
-            "{} points (population {}, {} generations, Pareto fraction {}); {}.",
-            matrix.len(),
-            args.population,
-            args.generations,
-            args.pareto_fraction,
-            found.pick_sentence(),
-        ))
-        .figure(Figure {
-            file: "pareto.svg".into(),
-            caption: format!("Pareto front of the GP errors, {} pick", args.pick),
-            svg: pareto,
-        })
-        .figure(Figure {
-            file: "loss.svg".into(),
-            caption: "largest pressure error of each twin run".into(),
-            svg: chart_svg(&loss_chart, 720.0, 420.0),
-        });
-    // Variance-based sensitivity of each pressure, on its GP (cheap: 6,144
-    // GP predictions per output instead of twin runs).
-    report.heading(
-        2,
-        "Sensitivity: Sobol indices from the GPs (first order / total, 1024 base samples)",
-    );
-    let mut header = vec!["pressure"];
-    header.extend(parameters.iter().map(|p| p.name.as_str()));
-    let mut table = Table::new(&header);
-    for (k, name) in CylinderName::ALL.iter().enumerate() {
-        let gp = &gps[k];
-        let indices = sobol_indices(|u| gp.predict(u).mean, dimensions, 1024, args.seed);
-        let mut cells = vec![name.to_string()];
-        match indices {
-            Ok(indices) => cells.extend(
-                indices
-                    .first_order
-                    .iter()
-                    .zip(&indices.total)
-                    .map(|(first, total)| format!("{first:.3} / {total:.3}")),
-            ),
-            Err(error) => cells.push(error.to_string()),
-        }
-        table.row(cells);
-    }
-    report.table(table);
-    write_identifiability(&mut report, &outcome.identifiability, &parameters);
-    write_report(
-        &directory,
-        &report,
-        &format!("Excavator calibration {}", case.name),
-    )?;
-    println!(
-        "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",
-        case.name,
-        largest(&errors_initial),
-        largest(&errors_optimal),
-        evaluations,
-        directory.file("report.md").display()
-    );
+    let moo = surrogate_moo_of(&run.outcome);
     Ok(ExcavatorCalibration {
         case: case.name.clone(),
         force_kn: case.force_kn,
         force_source,
         measured_bar: CylinderName::ALL.iter().map(|c| measured.get(*c)).collect(),
-        nominal_bar,
-        calibrated_bar: optimal_bar,
-        errors_initial_pct: errors_initial,
-        errors_optimal_pct: errors_optimal,
-        optimal: parameters
-            .iter()
-            .map(|p| p.name.clone())
-            .zip(optimal.iter().copied())
-            .collect(),
-        evaluations,
-        wall_s,
-        report,
+        nominal_bar: moo.nominal_outputs.clone(),
+        calibrated_bar: moo.optimal_outputs.clone(),
+        errors_initial_pct: relative_errors_pct(&measured, &moo.nominal_outputs),
+        errors_optimal_pct: relative_errors_pct(&measured, &moo.optimal_outputs),
+        optimal: run.outcome.calibrated_by_name(&study),
+        evaluations: run.outcome.evaluations.len(),
+        wall_s: run.outcome.wall_s,
+        report: run.report,
     })
+}
+
+/// What the preset's surrogate-MOO search found.
+fn surrogate_moo_of(outcome: &StudyOutcome) -> &SurrogateMoo {
+    match &outcome.found {
+        Found::Moo(moo) => moo,
+        Found::Bo(_) | Found::LeastSquares(_) => {
+            unreachable!("the excavator preset runs surrogate-moo")
+        }
+    }
+}
+
+/// What the excavator preset shows besides every study's report: where
+/// the measured pressures and the load came from, the published pressure
+/// table, and its summary's names (errors and RMSE per cylinder).
+struct ExcavatorExtras {
+    case: String,
+    /// How the front point was picked, and the weights, for the report.
+    pick: Pick,
+    weights: Vec<f64>,
+    force_kn: f64,
+    force_source: String,
+    measured_source: String,
+    measured: MeasuredPressures,
+    out: PathBuf,
+}
+
+impl Extras for ExcavatorExtras {
+    /// The published report's names: the inputs with the pick, RMSEs in bar.
+    fn heading(&self, section: Section, common: String) -> String {
+        match section {
+            Section::Parameters => format!(
+                "Calibrated inputs ({} pick, weights {:?})",
+                self.pick, self.weights
+            ),
+            Section::Surrogates => format!("{common} [bar]"),
+            Section::Candidates => common,
+        }
+    }
+
+    fn title(&self, _settings: &RunSettings<'_>) -> (String, String) {
+        (
+            format!("Calibration of the excavator twin: {}", self.case),
+            format!("Excavator calibration {}", self.case),
+        )
+    }
+
+    fn sections(
+        &self,
+        _study: &Study,
+        outcome: &StudyOutcome,
+        report: &mut Document,
+    ) -> Result<()> {
+        let moo = surrogate_moo_of(outcome);
+        let errors_initial = relative_errors_pct(&self.measured, &moo.nominal_outputs);
+        let errors_optimal = relative_errors_pct(&self.measured, &moo.optimal_outputs);
+        report
+            .paragraph(format!(
+                "Run directory `{}`. Measured pressures from {}; tip force {:.2} kN from {}.",
+                self.out.display(),
+                self.measured_source,
+                self.force_kn,
+                self.force_source,
+            ))
+            .heading(2, "Pressures");
+        let mut table = Table::new(&[
+            "cylinder",
+            "measured [bar]",
+            "model at nominal [bar]",
+            "model at calibrated [bar]",
+            "GP at calibrated [bar]",
+            "error nominal [%]",
+            "error calibrated [%]",
+        ]);
+        for (k, name) in CylinderName::ALL.iter().enumerate() {
+            table.row(vec![
+                name.to_string(),
+                format!("{:.2}", self.measured.get(*name)),
+                format!("{:.2}", moo.nominal_outputs[k]),
+                format!("{:.2}", moo.optimal_outputs[k]),
+                format!("{:.2}", moo.surrogate_at_optimal[k]),
+                format!("{:.2}", errors_initial[k]),
+                format!("{:.2}", errors_optimal[k]),
+            ]);
+        }
+        report.table(table).paragraph(format!(
+            "Largest error: {:.2} % at nominal, {:.2} % calibrated.",
+            largest(&errors_initial),
+            largest(&errors_optimal),
+        ));
+        Ok(())
+    }
+
+    /// The published summary: errors and RMSEs by cylinder, the
+    /// calibrated inputs, the run count.
+    fn summary(
+        &self,
+        _study: &Study,
+        outcome: &StudyOutcome,
+        common: Map<String, Value>,
+    ) -> Map<String, Value> {
+        let moo = surrogate_moo_of(outcome);
+        let per_cylinder = |values: &[f64]| -> Value {
+            json!({"bucket": values[0], "arm": values[1], "boom": values[2]})
+        };
+        let rmse: Map<String, Value> = moo
+            .surrogate_rmse
+            .iter()
+            .map(|(name, row)| (name.clone(), per_cylinder(row)))
+            .collect();
+        let mut summary = Map::new();
+        summary.insert(
+            "errors_initial_pct".into(),
+            per_cylinder(&relative_errors_pct(&self.measured, &moo.nominal_outputs)),
+        );
+        summary.insert(
+            "errors_optimal_pct".into(),
+            per_cylinder(&relative_errors_pct(&self.measured, &moo.optimal_outputs)),
+        );
+        summary.insert("surrogate_rmse_bar".into(), Value::Object(rmse));
+        for key in ["optimal", "evaluations"] {
+            summary.insert(key.into(), common[key].clone());
+        }
+        summary
+    }
+
+    fn closing_line(&self, _study: &Study, outcome: &StudyOutcome) -> Option<String> {
+        let moo = surrogate_moo_of(outcome);
+        Some(format!(
+            "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",
+            self.case,
+            largest(&relative_errors_pct(&self.measured, &moo.nominal_outputs)),
+            largest(&relative_errors_pct(&self.measured, &moo.optimal_outputs)),
+            outcome.evaluations.len(),
+            self.out.join("report.md").display()
+        ))
+    }
+}
+
+fn largest(errors: &[f64]) -> f64 {
+    errors.iter().fold(0.0f64, |a, &b| a.max(b))
 }

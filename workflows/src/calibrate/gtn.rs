@@ -12,21 +12,22 @@ use std::path::{Path, PathBuf};
 use acq_analysis::extract::tensile_props::{
     read_test_csv, tensile_properties, SpecimenGeometry, TestPoint,
 };
+use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions, SplitMape};
 use acq_calib::bo::Acquisition;
-use acq_calib::evaluation::{Evaluation, Parameter};
+use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
-use acq_report::document::{Document, Figure, Table};
-use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
+use acq_report::document::Document;
 use clap::Args;
-use serde_json::json;
+use serde_json::{json, Map, Value};
 
 use super::builtin::{GtnModel, GTN_CURVE};
-use super::identifiability::write_identifiability;
-use super::report::{write_report, write_text};
+use super::extras::{Extras, Section};
+use super::report::write_text;
 use super::run_directory::RunDirectory;
-use super::search::{distinct_best, scored};
 use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
-use super::study_runner::{calibrate_study, start_design, BoMethod, Found, Method, RunSettings};
+use super::study_runner::{
+    run_study, start_design, BoMethod, Found, Method, RunSettings, StudyOutcome,
+};
 use crate::abaqus_material::abaqus_material_block;
 use crate::tensile_model::{GtnInputs, MeshArgs, ModelSettings, TensileModel, PARAMETER_NAMES};
 
@@ -115,6 +116,7 @@ pub fn test_study(parameters: &[Parameter], test: &[TestPoint]) -> Study {
                         .iter()
                         .map(|p| (p.displacement_mm, p.force_kn))
                         .collect(),
+                    axes: ["displacement [mm]".into(), "force [kN]".into()],
                 },
                 weight: 1.0,
                 source: "the test".into(),
@@ -177,9 +179,6 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         seed: args.seed,
         local_steps: !args.global_only,
     });
-    let Method::Bo(bo) = &method else {
-        unreachable!("the GTN preset runs Bayesian optimisation")
-    };
     let settings = RunSettings {
         label: "calibrate gtn".into(),
         title: args.test.display().to_string(),
@@ -187,223 +186,181 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         parallel: args.batch as usize,
         resume: args.resume,
     };
-    let start_design = start_design(&parameters, bo, settings.spec_directory)?;
-    let outcome = calibrate_study(&study, &model, &method, start_design, &directory, &settings)?;
+    let start_design = start_design(&parameters, &method, settings.spec_directory)?;
+    let extras = GtnExtras {
+        model: &model,
+        test: args.test.clone(),
+        target_mape: args.target_mape,
+        out: args.out.clone(),
+    };
+    let run = run_study(
+        &study,
+        &model,
+        &method,
+        start_design,
+        &directory,
+        &settings,
+        &extras,
+    )?;
+    let outcome = &run.outcome;
     let Found::Bo(result) = &outcome.found else {
         unreachable!("the GTN preset runs Bayesian optimisation")
     };
-    let wall_s = outcome.wall_s;
-    let evaluations = scored(&outcome.evaluations, |y| y[0]);
-    let Some(&(best, best_mape)) = evaluations.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
-        return Err(AcqError::Config("no simulation succeeded".into()));
-    };
-    let best_values = best.parameters.clone();
-    let best_params: serde_json::Map<String, serde_json::Value> = parameters
-        .iter()
-        .zip(&best_values)
-        .map(|(p, v)| (p.name.clone(), json!(v)))
-        .collect();
-    let summary = json!({
-        "best_mape": best_mape,
-        "evaluations": outcome.evaluations.len(),
-        "evaluations_to_target": result.evaluations_to_target,
-        "best_params": best_params,
-        "wall_s": wall_s,
-        "mesh": model.tensile_model().settings.mesh_json(),
-    });
-    write_text(&directory.file("summary.json"), &format!("{summary:#}\n"))?;
-
-    // The calibrated curve against the test.
-    let inputs = GtnInputs::from_values(&best_values).map_err(AcqError::Config)?;
-    let best_run = model
-        .tensile_model()
-        .run(&inputs)
-        .map_err(AcqError::Config)?;
-    // The material for the user's own solver, with the element size it belongs to.
-    let twin = model
-        .tensile_model()
-        .twin(&inputs)
-        .map_err(AcqError::Config)?;
-    let provenance = [
-        format!(
-            "GTN material calibrated by acq on {} (MAPE {best_mape:.3} %).",
-            args.test.display()
-        ),
-        format!(
-            "It belongs to this mesh: {}.",
-            model.tensile_model().settings.mesh_sentence()
-        ),
-    ];
-    write_text(
-        &directory.file("abaqus_material.inp"),
-        &abaqus_material_block("ACQ_GTN", &twin.material, &provenance),
-    )?;
-    let mut curve = String::from("DISPLACEMENT,FORCE\n");
-    for p in &best_run.result.curve {
-        curve.push_str(&format!("{},{}\n", p.displacement_mm, p.force_kn));
-    }
-    write_text(&directory.file("curve.csv"), &curve)?;
-    let chart = Chart::new(
-        format!(
-            "{}: measured vs calibrated (MAPE {best_mape:.3} %)",
-            args.test.display()
-        ),
-        "displacement [mm]",
-        "force [kN]",
-    )
-    .with_series(
-        Series::new(
-            "test",
-            points
-                .iter()
-                .map(|p| (p.displacement_mm, p.force_kn))
-                .collect(),
-        )
-        .with_style(SeriesStyle::Markers),
-    )
-    .with_series(Series::new(
-        "calibrated twin",
-        best_run
-            .result
-            .curve
-            .iter()
-            .map(|p| (p.displacement_mm, p.force_kn))
-            .collect(),
-    ));
-    let mut best_so_far = f64::INFINITY;
-    let mut running = Vec::new();
-    let mut each = Vec::new();
-    for e in &outcome.evaluations {
-        if let Ok(y) = &e.outcome {
-            best_so_far = best_so_far.min(y[0]);
-            each.push((e.id as f64, y[0]));
-        }
-        running.push((e.id as f64, best_so_far));
-    }
-    let loss_chart = Chart::new("MAPE per simulation", "simulation", "MAPE [%]")
-        .with_series(Series::new("simulation", each).with_style(SeriesStyle::Markers))
-        .with_series(Series::new("best so far", running))
-        .with_reference_line(args.target_mape, format!("target {} %", args.target_mape));
-
-    // Non-uniqueness: distinct parameter sets near the best.
-    let near: Vec<(&Evaluation, f64)> = evaluations
-        .iter()
-        .copied()
-        .filter(|(_, mape)| *mape <= 1.25 * best_mape + 0.25)
-        .collect();
-    let candidates = distinct_best(&parameters, &near, 5, 0.25);
-    let split = best_run
-        .mape
-        .split
-        .map(|s| (s.before_percent, s.after_percent));
-    let mut report = Document::new();
-    report
-        .heading(1, format!("GTN calibration of {}", args.test.display()))
-        .paragraph(format!(
-            "Best MAPE {best_mape:.3} % (before the maximum force {:.3} %, after {:.3} %) after {} simulations; \
-             target {} % {}; {:.1} s. Stopped: {:?}.",
-            split.map_or(f64::NAN, |s| s.0),
-            split.map_or(f64::NAN, |s| s.1),
-            outcome.evaluations.len(),
-            args.target_mape,
-            result
-                .evaluations_to_target
-                .map_or_else(|| "not reached".to_string(), |n| format!("reached at simulation {n}")),
-            wall_s,
-            result.stop,
-        ))
-        .paragraph(format!(
-            "Mesh: {}. GTN softening depends on the element size at the neck: these parameters belong to it (`--element-mm`). For your own solver, the material is in `abaqus_material.inp` (Abaqus keywords; units N, mm, MPa).",
-            model.tensile_model().settings.mesh_sentence()
-        ))
-        .heading(2, "Best parameters");
-    let mut table = Table::new(&["parameter", "lower", "upper", "best", "position in range"]);
-    for (p, v) in parameters.iter().zip(&best_values) {
-        table.row(vec![
-            p.name.clone(),
-            format!("{}", p.lower),
-            format!("{}", p.upper),
-            format!("{v:.5}"),
-            format!("{:.0} %", 100.0 * p.to_unit(*v)),
-        ]);
-    }
-    report
-        .table(table)
-        .figure(Figure {
-            file: "curve.svg".into(),
-            caption: "measured vs calibrated force-displacement curve".into(),
-            svg: chart_svg(&chart, 720.0, 440.0),
-        })
-        .figure(Figure {
-            file: "loss.svg".into(),
-            caption: "MAPE per simulation".into(),
-            svg: chart_svg(&loss_chart, 720.0, 420.0),
-        })
-        .heading(
-            2,
-            "Not one answer: distinct parameter sets within 1.25 x best + 0.25 points of MAPE",
-        )
-        .paragraph(format!(
-            "{} simulations lie that close; the best {} that are at least 0.25 apart in the unit box:",
-            near.len(),
-            candidates.len()
-        ));
-    let mut header = vec!["simulation", "MAPE [%]"];
-    header.extend(PARAMETER_NAMES);
-    let mut table = Table::new(&header);
-    for c in &candidates {
-        let mut cells = vec![c.evaluation_id.to_string(), format!("{:.3}", c.loss)];
-        cells.extend(c.parameters.iter().map(|v| format!("{v:.4}")));
-        table.row(cells);
-    }
-    report.table(table);
-    if candidates.len() < 2 {
-        report.paragraph(
-            "The run stopped as soon as it reached the target, before it could map the region \
-             of good fits. For that picture, run on with a lower `--target-mape` (0 runs the whole \
-             budget) and `--resume` into the same directory: nothing is repeated.",
-        );
-    }
-    let mut spread = Table::new(&[
-        "parameter",
-        "min among them",
-        "max among them",
-        "spread / range",
-    ]);
-    for (k, p) in parameters.iter().enumerate() {
-        let values: Vec<f64> = candidates.iter().map(|c| c.parameters[k]).collect();
-        let (low, high) = values
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
-        spread.row(vec![
-            p.name.clone(),
-            format!("{low:.4}"),
-            format!("{high:.4}"),
-            format!("{:.0} %", 100.0 * (p.to_unit(high) - p.to_unit(low)).abs()),
-        ]);
-    }
-    report.table(spread);
-    write_identifiability(&mut report, &outcome.identifiability, &parameters);
-    write_report(&directory, &report, "GTN calibration")?;
-    println!(
-        "best MAPE {best_mape:.3} % after {} simulations ({:.1} s); report in {}",
-        outcome.evaluations.len(),
-        wall_s,
-        directory.file("report.md").display()
-    );
     Ok(GtnCalibration {
-        best_mape_pct: best_mape,
-        best_split_pct: split,
-        best_params: parameters
-            .iter()
-            .map(|p| p.name.clone())
-            .zip(best_values.iter().copied())
-            .collect(),
+        best_mape_pct: study.loss(&outcome.calibrated_outputs),
+        best_split_pct: extras
+            .split(outcome)
+            .map(|s| (s.before_percent, s.after_percent)),
+        best_params: outcome.calibrated_by_name(&study),
         evaluations: outcome.evaluations.len(),
         evaluations_to_target: result.evaluations_to_target,
-        wall_s,
-        report,
+        wall_s: outcome.wall_s,
+        report: run.report,
     })
+}
+
+/// What the GTN preset adds: the MAPE before and after the maximum force,
+/// the mesh the parameters belong to, the calibrated curve as CSV and the
+/// material as an Abaqus block.
+struct GtnExtras<'a> {
+    model: &'a GtnModel,
+    test: PathBuf,
+    target_mape: f64,
+    out: PathBuf,
+}
+
+impl GtnExtras<'_> {
+    /// The calibrated curve (the study's one curve).
+    fn curve<'o>(&self, outcome: &'o StudyOutcome) -> Option<&'o [(f64, f64)]> {
+        outcome.curves.first()?.model.as_deref()
+    }
+
+    /// The calibrated curve's MAPE before and after the test's maximum force.
+    fn split(&self, outcome: &StudyOutcome) -> Option<SplitMape> {
+        let tensile = self.model.tensile_model();
+        let test: Vec<(f64, f64)> = tensile
+            .test
+            .iter()
+            .map(|p| (p.displacement_mm, p.force_kn))
+            .collect();
+        let options = CurveMapeOptions {
+            split_at_mm: Some(tensile.properties.uts.displacement_mm),
+            ..CurveMapeOptions::default()
+        };
+        curve_mape(&test, self.curve(outcome)?, options).ok()?.split
+    }
+}
+
+impl Extras for GtnExtras<'_> {
+    /// The published report's names.
+    fn heading(&self, section: Section, common: String) -> String {
+        match section {
+            Section::Parameters => "Best parameters".into(),
+            Section::Candidates => {
+                "Not one answer: distinct parameter sets within 1.25 x best + 0.25 points of MAPE"
+                    .into()
+            }
+            Section::Surrogates => common,
+        }
+    }
+
+    fn title(&self, _settings: &RunSettings<'_>) -> (String, String) {
+        (
+            format!("GTN calibration of {}", self.test.display()),
+            "GTN calibration".into(),
+        )
+    }
+
+    fn sections(&self, study: &Study, outcome: &StudyOutcome, report: &mut Document) -> Result<()> {
+        let Found::Bo(result) = &outcome.found else {
+            return Ok(());
+        };
+        let split = self.split(outcome);
+        report
+            .paragraph(format!(
+                "Best MAPE {:.3} % (before the maximum force {:.3} %, after {:.3} %) after {} simulations; \
+                 target {} % {}.",
+                study.loss(&outcome.calibrated_outputs),
+                split.map_or(f64::NAN, |s| s.before_percent),
+                split.map_or(f64::NAN, |s| s.after_percent),
+                outcome.evaluations.len(),
+                self.target_mape,
+                result
+                    .evaluations_to_target
+                    .map_or_else(|| "not reached".to_string(), |n| format!("reached at simulation {n}")),
+            ))
+            .paragraph(format!(
+                "Mesh: {}. GTN softening depends on the element size at the neck: these parameters belong to it (`--element-mm`). For your own solver, the material is in `abaqus_material.inp` (Abaqus keywords; units N, mm, MPa).",
+                self.model.tensile_model().settings.mesh_sentence()
+            ));
+        Ok(())
+    }
+
+    /// The published summary: the best MAPE and parameters, the run
+    /// counts, the mesh they belong to.
+    fn summary(
+        &self,
+        study: &Study,
+        outcome: &StudyOutcome,
+        common: Map<String, Value>,
+    ) -> Map<String, Value> {
+        let mut summary = Map::new();
+        summary.insert(
+            "best_mape".into(),
+            json!(study.loss(&outcome.calibrated_outputs)),
+        );
+        summary.insert(
+            "mesh".into(),
+            self.model.tensile_model().settings.mesh_json(),
+        );
+        for key in [
+            "best_params",
+            "evaluations",
+            "evaluations_to_target",
+            "wall_s",
+        ] {
+            summary.insert(key.into(), common[key].clone());
+        }
+        summary
+    }
+
+    fn files(&self, study: &Study, outcome: &StudyOutcome, directory: &RunDirectory) -> Result<()> {
+        let inputs = GtnInputs::from_values(&outcome.calibrated).map_err(AcqError::Config)?;
+        // The material for the user's own solver, with the element size it belongs to.
+        let tensile = self.model.tensile_model();
+        let twin = tensile.twin(&inputs).map_err(AcqError::Config)?;
+        let provenance = [
+            format!(
+                "GTN material calibrated by acq on {} (MAPE {:.3} %).",
+                self.test.display(),
+                study.loss(&outcome.calibrated_outputs)
+            ),
+            format!(
+                "It belongs to this mesh: {}.",
+                tensile.settings.mesh_sentence()
+            ),
+        ];
+        write_text(
+            &directory.file("abaqus_material.inp"),
+            &abaqus_material_block("ACQ_GTN", &twin.material, &provenance),
+        )?;
+        let curve = self.curve(outcome).ok_or_else(|| {
+            AcqError::Config("the GTN twin gave no curve at the calibrated parameters".into())
+        })?;
+        let mut text = String::from("DISPLACEMENT,FORCE\n");
+        for (displacement_mm, force_kn) in curve {
+            text.push_str(&format!("{displacement_mm},{force_kn}\n"));
+        }
+        write_text(&directory.file("curve.csv"), &text)
+    }
+
+    fn closing_line(&self, study: &Study, outcome: &StudyOutcome) -> Option<String> {
+        Some(format!(
+            "best MAPE {:.3} % after {} simulations ({:.1} s); report in {}",
+            study.loss(&outcome.calibrated_outputs),
+            outcome.evaluations.len(),
+            outcome.wall_s,
+            self.out.join("report.md").display()
+        ))
+    }
 }

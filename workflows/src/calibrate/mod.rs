@@ -1,24 +1,24 @@
-//! `acq calibrate`: the workflows that fit a model to measurements with the
-//! engine of `acq_calib`, and what they leave in the run directory.
+//! `acq calibrate`: a model fitted to measurements by the engine of
+//! `acq_calib`, and what that leaves in the run directory.
 //!
-//! - [`excavator`]: DoE -> GP per pressure -> NSGA-II on the GP -> TOPSIS ->
-//!   the pick re-run on the twin.
-//! - [`gtn`]: flow curve from the test, L12 start, Bayesian optimisation of
-//!   the curve MAPE.
-//! - [`external`]: the same engine on a user's solver run as a command.
-//!
-//! Every workflow writes `evaluations.csv` as it goes (resumable with
-//! `--resume`), then `summary.json` (the fixed interface), `report.md`, `report.html` and
-//! SVG plots. Progress goes to stderr.
-//!
-//! Shared by the workflows, and using none of them: [`run_directory`] (where
-//! a run's files go, its logging evaluator) and [`search`] (the unit box,
-//! Bayesian optimisation through the log, the best distinct candidates).
+//! Every study goes one way: a preset ([`excavator`], [`gtn`]) or a spec
+//! ([`external`] reading [`spec`]) builds a [`study::Study`] and a
+//! [`study::Model`] (a built-in twin, [`builtin`], or a user's solver,
+//! [`command_model`], run where an [`executor`] says: child processes or
+//! [`slurm`]) and hands them to the one runner, [`study_runner`], with a
+//! method (Bayesian optimisation through [`search`], [`surrogate_moo`], or
+//! least squares). The runner logs every model run in `evaluations.csv`
+//! ([`run_directory`]; resumable with `--resume`), checks the validation
+//! cases, runs the [`identifiability`] analysis, and writes
+//! `summary.json` ([`summary`]) and the report ([`report`]); a preset adds
+//! its own through [`extras`]. Progress goes to stderr ([`progress`]).
 
 pub mod builtin;
+pub mod command_model;
 pub mod excavator;
 pub mod executor;
 pub mod external;
+pub mod extras;
 pub mod gtn;
 pub mod identifiability;
 pub mod progress;
@@ -26,8 +26,10 @@ pub mod report;
 pub mod run_directory;
 pub mod search;
 pub mod slurm;
+pub mod spec;
 pub mod study;
 pub mod study_runner;
+pub mod summary;
 pub mod surrogate_moo;
 
 use clap::Subcommand;

@@ -1,14 +1,31 @@
-//! What a calibration leaves for its reader: the report (Markdown and HTML)
-//! and the plots (Pareto front with the pick, loss per evaluation).
+//! The report of a study, written here for every study: what the search
+//! did, the errors of every case, each observed curve against the
+//! calibrated model's, the parameters and what the data pin down, what the
+//! method shows of itself (surrogates, Pareto front, Sobol indices, the
+//! distinct good parameter sets), the loss per run and where the runs ran.
+//! A preset or model adds its own sections through [`Extras::sections`].
+//!
+//! Also the plumbing every report shares: a report as Markdown, HTML and
+//! its SVG files ([`write_report`]), and the Pareto-front plot.
 
 use std::path::Path;
 
+use acq_analysis::loss::curve::{curve_errors_along, CurveMapeOptions};
+use acq_calib::evaluation::Evaluation;
+use acq_calib::least_squares::Stop as LsStop;
+use acq_calib::sobol_indices::sobol_indices;
 use acq_io::error::Result;
 use acq_io::output::Output;
-use acq_report::document::Document;
+use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
 
+use super::extras::{Extras, Section};
+use super::identifiability::write_identifiability;
 use super::run_directory::RunDirectory;
+use super::search::{distinct_best, scored};
+use super::study::{chi_square, LossKind, ObservationError, Residuals, Role, Study};
+use super::study_runner::{CalibratedCurve, Found, Method, RunSettings, StudyOutcome};
+use super::surrogate_moo::rounds_sentence;
 
 /// Writes a whole file (appears under its name only when complete).
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
@@ -23,6 +40,555 @@ pub fn write_report(directory: &RunDirectory, report: &Document, title: &str) ->
     }
     write_text(&directory.file("report.md"), &report.to_markdown())?;
     write_text(&directory.file("report.html"), &report.to_html(title))
+}
+
+/// The report of a finished study, with the extras' title and sections.
+pub fn study_report(
+    study: &Study,
+    method: &Method,
+    outcome: &StudyOutcome,
+    settings: &RunSettings<'_>,
+    extras: &dyn Extras,
+) -> Result<Document> {
+    let parameters = study.search_parameters();
+    let mut report = Document::new();
+    report.heading(1, extras.title(settings).0);
+    report.paragraph(method_sentence(study, outcome));
+    extras.sections(study, outcome, &mut report)?;
+    let nominal_errors = match &outcome.found {
+        Found::Moo(moo) => Some(study.errors(Role::Fit, &moo.nominal_outputs)),
+        Found::LeastSquares(ls) => Some(study.errors(Role::Fit, &ls.nominal_outputs)),
+        Found::Bo(_) => None,
+    };
+    report.heading(2, "Fit cases");
+    report.table(errors_table(&outcome.fit_errors, nominal_errors.as_deref()));
+    write_validation(&mut report, outcome);
+    if let Some(sentence) = chi_square_sentence("fit", &outcome.fit_errors, parameters.len()) {
+        report.paragraph(sentence);
+    }
+    if let Some(sentence) = chi_square_sentence("validation", &outcome.validation_errors, 0) {
+        report.paragraph(sentence);
+    }
+    write_curves(&mut report, &outcome.curves);
+    write_parameters(&mut report, study, &outcome.calibrated, extras);
+    write_identifiability(&mut report, &outcome.identifiability, &parameters);
+    match (&outcome.found, method) {
+        (Found::Moo(moo), Method::SurrogateMoo(settings)) => {
+            write_surrogates(&mut report, study, moo, settings, extras)
+        }
+        (Found::Bo(result), _) => write_candidates(&mut report, study, outcome, result, extras),
+        _ => {}
+    }
+    let target = match method {
+        Method::Bo(bo) => bo.target_loss,
+        _ => None,
+    };
+    report.figure(Figure {
+        file: "loss.svg".into(),
+        caption: "loss per model evaluation".into(),
+        svg: chart_svg(
+            &loss_chart(study, &outcome.evaluations, target),
+            720.0,
+            420.0,
+        ),
+    });
+    write_runs_section(&mut report, &outcome.note_columns, &outcome.evaluations);
+    Ok(report)
+}
+
+/// What the search did, in one sentence.
+fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
+    let evaluations = outcome.evaluations.len();
+    let (failed, wall_s) = (outcome.failed, outcome.wall_s);
+    match &outcome.found {
+        Found::Bo(result) => format!(
+            "Bayesian optimisation of the {} error: best loss {:.4} after {evaluations} model evaluations ({failed} failed), {wall_s:.1} s; stopped: {:?}.",
+            if study.loss == LossKind::Max { "largest" } else { "weighted mean" },
+            study.loss(&outcome.calibrated_outputs),
+            result.stop
+        ),
+        Found::Moo(moo) => format!(
+            "Surrogate + NSGA-II: {evaluations} model evaluations ({failed} failed) in {wall_s:.1} s; {} among {} Pareto points. {}",
+            moo.pick_sentence(),
+            moo.front.len(),
+            rounds_sentence(&moo.rounds)
+        ),
+        Found::LeastSquares(ls) => format!(
+            "Least squares (Levenberg-Marquardt from the nominal point): sum of squared residuals {:.4} after {} iterations and {evaluations} model evaluations ({failed} failed), {wall_s:.1} s; stopped: {}.",
+            ls.result.cost,
+            ls.result.iterations,
+            match ls.result.stop {
+                LsStop::Converged => "converged",
+                LsStop::NoDescent => "no step lowers the residuals further (a local minimum, perhaps on a bound)",
+                LsStop::Budget => "the run budget (max_evals) is spent; the search had not converged",
+            }
+        ),
+    }
+}
+
+fn write_validation(report: &mut Document, outcome: &StudyOutcome) {
+    let (fit_errors, validation_errors) = (&outcome.fit_errors, &outcome.validation_errors);
+    if validation_errors.is_empty() {
+        return;
+    }
+    report
+        .heading(2, "Validation cases (never seen by the search)")
+        .table(errors_table(validation_errors, None));
+    let largest =
+        |errors: &[ObservationError]| errors.iter().map(|e| e.error_pct).fold(0.0f64, f64::max);
+    let (fit, validation) = (largest(fit_errors), largest(validation_errors));
+    report.paragraph(if validation > 2.0 * fit.max(1.0) {
+        format!(
+            "The largest validation error, {validation:.2} %, is well above the largest fit error, {fit:.2} %: the calibrated model does not carry over to the validation cases. Suspect the model (a missing effect) before the parameters."
+        )
+    } else {
+        format!(
+            "The largest validation error is {validation:.2} % against {fit:.2} % on the fit cases: the calibrated model predicts the cases it was not fitted to about as well as those it was."
+        )
+    });
+}
+
+/// Each observed curve: measured and calibrated model overlaid, and the
+/// signed error along it (on the grid the curve MAPE is computed on).
+fn write_curves(report: &mut Document, curves: &[CalibratedCurve]) {
+    if curves.is_empty() {
+        return;
+    }
+    report.heading(2, "Curves: measured and calibrated");
+    let single = curves.len() == 1;
+    for curve in curves {
+        let label = format!("{} ({})", curve.name, curve.case);
+        let Some(model) = &curve.model else {
+            report.paragraph(format!(
+                "{label}: the calibrated run's curve is no longer in its run directory, so it cannot be drawn."
+            ));
+            continue;
+        };
+        let [x, y] = &curve.axes;
+        let overlay = Chart::new("measured and calibrated", x, y)
+            .with_series(
+                Series::new("measured", curve.measured.clone()).with_style(SeriesStyle::Markers),
+            )
+            .with_series(Series::new("calibrated model", model.clone()));
+        let mut charts = vec![overlay];
+        match curve_errors_along(&curve.measured, model, CurveMapeOptions::default()) {
+            Ok((mape, errors)) => {
+                let largest = errors.iter().map(|e| e.1.abs()).fold(0.0f64, f64::max);
+                report.paragraph(format!(
+                    "{label}: MAPE {:.3} % over {} grid points from {x} = {} to {}; largest error {largest:.3} %{}.",
+                    mape.mape_percent,
+                    mape.grid_points - mape.excluded_points,
+                    short(mape.grid_start_mm),
+                    short(mape.grid_end_mm),
+                    if mape.padded_points > 0 {
+                        format!(
+                            "; the model's curve ends before the measured one, and its {} points past the end count as zero",
+                            mape.padded_points
+                        )
+                    } else {
+                        String::new()
+                    }
+                ));
+                charts.push(
+                    Chart::new("error along the curve", x, "model - measured [%]")
+                        .with_series(Series::new("error", errors))
+                        .with_reference_line(0.0, "0"),
+                );
+            }
+            Err(error) => {
+                report.paragraph(format!("{label}: no error along it: {error}."));
+            }
+        }
+        let file = if single {
+            "curve.svg".to_string()
+        } else {
+            format!(
+                "curve-{}-{}.svg",
+                file_safe(&curve.case),
+                file_safe(&curve.name)
+            )
+        };
+        report.figure(Figure {
+            file,
+            caption: format!("{label}: measured vs calibrated, and the error along it"),
+            svg: grid_svg(&label, &charts, 1, 720.0, 360.0),
+        });
+    }
+}
+
+/// A name as part of a file name: letters, digits, `-` and `_`.
+fn file_safe(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+fn write_parameters(report: &mut Document, study: &Study, calibrated: &[f64], extras: &dyn Extras) {
+    report.heading(2, extras.heading(Section::Parameters, "Parameters".into()));
+    let mut table = Table::new(&[
+        "parameter",
+        "lower",
+        "upper",
+        "scale",
+        "nominal",
+        "calibrated",
+        "position in range",
+        "note",
+    ]);
+    for (p, v) in study.parameters.iter().zip(calibrated) {
+        let search = &p.search;
+        let unit = search.to_unit(*v);
+        table.row(vec![
+            search.name.clone(),
+            format!("{}", search.lower),
+            format!("{}", search.upper),
+            format!("{:?}", search.scale).to_lowercase(),
+            short(p.nominal),
+            format!("{v:.6}"),
+            format!("{:.0} %", 100.0 * unit),
+            if !(0.01..=0.99).contains(&unit) {
+                "on a bound: the optimum may lie outside the range".into()
+            } else {
+                String::new()
+            },
+        ]);
+    }
+    report.table(table);
+}
+
+/// The surrogate-MOO method's own sections: how good the surrogates are,
+/// the Pareto front and its pick, and the Sobol indices on the GPs.
+fn write_surrogates(
+    report: &mut Document,
+    study: &Study,
+    moo: &super::surrogate_moo::SurrogateMoo,
+    settings: &super::surrogate_moo::SurrogateMooSettings,
+    extras: &dyn Extras,
+) {
+    let keys = study.output_keys(Role::Fit);
+    let parameters = study.search_parameters();
+    report.heading(
+        2,
+        extras.heading(
+            Section::Surrogates,
+            format!("Surrogates: RMSE on the {} test runs", moo.test_runs),
+        ),
+    );
+    let mut header = vec!["surrogate"];
+    header.extend(keys.iter().map(String::as_str));
+    let mut table = Table::new(&header);
+    for (name, row) in &moo.surrogate_rmse {
+        let mut cells = vec![name.clone()];
+        cells.extend(row.iter().map(|v| format!("{v:.4}")));
+        table.row(cells);
+    }
+    report.table(table).paragraph(format!(
+        "GP: {:?} kernel, one length scale per input, constant mean, noise fitted, {} training runs. {}",
+        settings.kernel,
+        moo.rounds.last().map_or(0, |r| r.training_runs),
+        rounds_sentence(&moo.rounds),
+    ));
+    report.heading(2, "Pareto front").paragraph(format!(
+        "{} points (population {}, {} generations, Pareto fraction {}); {}.",
+        moo.front.len(),
+        settings.population,
+        settings.generations,
+        settings.pareto_fraction,
+        moo.pick_sentence(),
+    ));
+    let names: Vec<String> = keys.iter().map(|k| format!("{k} error")).collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    if names.len() >= 2 {
+        report.figure(Figure {
+            file: "pareto.svg".into(),
+            caption: format!(
+                "Pareto front of the GP errors (NSGA-II), {} pick",
+                moo.picked_by
+            ),
+            svg: pareto_svg(
+                "Pareto front of the GP errors",
+                &names,
+                &moo.front,
+                moo.pick,
+            ),
+        });
+    }
+    // Variance-based sensitivity of each observation, on its GP (cheap:
+    // 1024 (d + 2) GP predictions per output instead of model runs).
+    report.heading(
+        2,
+        "Sensitivity: Sobol indices from the GPs (first order / total, 1024 base samples)",
+    );
+    let mut header = vec!["observation"];
+    header.extend(parameters.iter().map(|p| p.name.as_str()));
+    let mut table = Table::new(&header);
+    for (key, gp) in keys.iter().zip(&moo.gps) {
+        let indices = sobol_indices(
+            |u| gp.predict(u).mean,
+            parameters.len(),
+            1024,
+            settings.seed,
+        );
+        let mut cells = vec![key.clone()];
+        match indices {
+            Ok(indices) => cells.extend(
+                indices
+                    .first_order
+                    .iter()
+                    .zip(&indices.total)
+                    .map(|(first, total)| format!("{first:.3} / {total:.3}")),
+            ),
+            Err(error) => cells.push(error.to_string()),
+        }
+        table.row(cells);
+    }
+    report.table(table);
+}
+
+/// Bayesian optimisation's own section: not one answer, but the best
+/// parameter sets nearly as good as the best that are far apart, and how
+/// far they spread.
+fn write_candidates(
+    report: &mut Document,
+    study: &Study,
+    outcome: &StudyOutcome,
+    result: &acq_calib::bo::BoResult,
+    extras: &dyn Extras,
+) {
+    let parameters = study.search_parameters();
+    let scored = scored(&outcome.evaluations, |y| study.loss(y));
+    let best = scored.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    let near: Vec<(&Evaluation, f64)> = scored
+        .iter()
+        .copied()
+        .filter(|(_, loss)| *loss <= 1.25 * best + 0.25)
+        .collect();
+    let candidates = distinct_best(&parameters, &near, 5, 0.25);
+    report
+        .heading(
+            2,
+            extras.heading(
+                Section::Candidates,
+                "Distinct good parameter sets (at least 0.25 apart in the unit box)".into(),
+            ),
+        )
+        .paragraph(format!(
+            "{} runs lie within 1.25 x best + 0.25 of the best loss; the best {} of them that are at least 0.25 apart in the unit box:",
+            near.len(),
+            candidates.len()
+        ));
+    let mut header = vec!["run".to_string(), "loss".to_string()];
+    header.extend(parameters.iter().map(|p| p.name.clone()));
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut table = Table::new(&header);
+    for c in &candidates {
+        let mut cells = vec![c.evaluation_id.to_string(), format!("{:.4}", c.loss)];
+        cells.extend(c.parameters.iter().map(|v| format!("{v:.5}")));
+        table.row(cells);
+    }
+    report.table(table);
+    if candidates.len() < 2 {
+        if result.evaluations_to_target.is_some() {
+            report.paragraph(
+                "The run stopped as soon as it reached the target, before it could map the region \
+                 of good fits. For that picture, run on with a lower target (0 runs the whole \
+                 budget) and `--resume` into the same directory: nothing is repeated.",
+            );
+        }
+        return;
+    }
+    let mut spread = Table::new(&[
+        "parameter",
+        "min among them",
+        "max among them",
+        "spread / range",
+    ]);
+    for (k, p) in parameters.iter().enumerate() {
+        let (low, high) = candidates
+            .iter()
+            .map(|c| c.parameters[k])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(v), h.max(v))
+            });
+        spread.row(vec![
+            p.name.clone(),
+            format!("{low:.4}"),
+            format!("{high:.4}"),
+            format!("{:.0} %", 100.0 * (p.to_unit(high) - p.to_unit(low)).abs()),
+        ]);
+    }
+    report.table(spread);
+}
+
+/// Where each evaluation ran (the model's notes: a cluster's job ids,
+/// queue waits and run times), when the model notes anything.
+fn write_runs_section(report: &mut Document, columns: &[String], evaluations: &[Evaluation]) {
+    if columns.is_empty()
+        || evaluations
+            .iter()
+            .all(|e| e.notes.iter().all(String::is_empty))
+    {
+        return;
+    }
+    report.heading(2, "Where the runs ran");
+    // Per-job seconds, over every job of every evaluation.
+    let seconds = |column: &str| -> Vec<f64> {
+        let Some(index) = columns.iter().position(|c| c == column) else {
+            return Vec::new();
+        };
+        evaluations
+            .iter()
+            .filter_map(|e| e.notes.get(index))
+            .flat_map(|note| note.split_whitespace().filter_map(|v| v.parse().ok()))
+            .collect()
+    };
+    let (waits, runs) = (seconds("queue_wait_s"), seconds("run_s"));
+    if !waits.is_empty() && !runs.is_empty() {
+        let median = |values: &[f64]| {
+            let mut sorted = values.to_vec();
+            sorted.sort_by(f64::total_cmp);
+            sorted[sorted.len() / 2]
+        };
+        let largest = |values: &[f64]| values.iter().copied().fold(0.0f64, f64::max);
+        report.paragraph(format!(
+            "{} jobs: queue wait median {:.2} s (largest {:.2} s), run time median {:.2} s (largest {:.2} s). Evaluations answered from the log of an earlier run show the notes logged then.",
+            runs.len(),
+            median(&waits),
+            largest(&waits),
+            median(&runs),
+            largest(&runs)
+        ));
+    }
+    let mut header = vec!["evaluation".to_string(), "status".to_string()];
+    header.extend(columns.iter().cloned());
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut table = Table::new(&header);
+    for evaluation in evaluations {
+        let status = if evaluation.outcome.is_ok() {
+            "ok"
+        } else {
+            "failed"
+        };
+        let mut cells = vec![evaluation.id.to_string(), status.to_string()];
+        cells.extend(evaluation.notes.iter().cloned());
+        table.row(cells);
+    }
+    report.table(table);
+}
+
+/// A number to 6 significant digits, without trailing zeros: the
+/// bounds and nominals as a reader would write them.
+fn short(value: f64) -> String {
+    if !value.is_finite() || value == 0.0 {
+        return format!("{value}");
+    }
+    let decimals = (5.0 - value.abs().log10().floor()).clamp(0.0, 12.0) as usize;
+    let text = format!("{value:.decimals$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    }
+}
+
+/// A relative error, or "-" where there is none (a measured 0).
+fn percent(error_pct: f64) -> String {
+    if error_pct.is_finite() {
+        format!("{error_pct:.3}")
+    } else {
+        "-".into()
+    }
+}
+
+fn errors_table(errors: &[ObservationError], nominal: Option<&[ObservationError]>) -> Table {
+    let mut header = vec![
+        "case",
+        "observation",
+        "measured",
+        "calibrated model",
+        "error [%]",
+    ];
+    if nominal.is_some() {
+        header.insert(3, "error at nominal [%]");
+    }
+    header.push("residual / u");
+    let mut table = Table::new(&header);
+    for (i, e) in errors.iter().enumerate() {
+        let mut cells = vec![
+            e.case.clone(),
+            e.name.clone(),
+            e.measured
+                .map_or_else(|| "curve".into(), |m| format!("{m}")),
+            if e.measured.is_some() {
+                format!("{:.6}", e.model)
+            } else {
+                format!("MAPE {:.3} %", e.model)
+            },
+            percent(e.error_pct),
+        ];
+        if let Some(nominal) = nominal {
+            cells.insert(3, percent(nominal[i].error_pct));
+        }
+        cells.push(
+            e.normalised
+                .map_or_else(String::new, |z| format!("{z:+.2}")),
+        );
+        table.row(cells);
+    }
+    table
+}
+
+/// Chi-square in words: is the misfit what the uncertainties allow?
+fn chi_square_sentence(what: &str, errors: &[ObservationError], fitted: usize) -> Option<String> {
+    let (chi2, n) = chi_square(errors)?;
+    let dof = n.saturating_sub(fitted).max(1) as f64;
+    // Beyond about 3 standard deviations (2 dof) of the chi-square
+    // distribution the misfit is more than the instruments explain.
+    let limit = dof + 3.0 * (2.0 * dof).sqrt();
+    Some(if chi2 <= limit {
+        format!(
+            "On the {what} cases, chi-square = {chi2:.2} for {n} observations with uncertainties ({dof:.0} degrees of freedom): the calibrated model agrees with the measurement within what the instruments can tell."
+        )
+    } else {
+        format!(
+            "On the {what} cases, chi-square = {chi2:.2} for {n} observations with uncertainties ({dof:.0} degrees of freedom, expected at most about {limit:.1}): the misfit is larger than the stated uncertainties explain. Either the model misses an effect or the uncertainties are too small."
+        )
+    })
+}
+
+/// Each run's loss and the best so far; the search's target, if it has one.
+fn loss_chart(study: &Study, evaluations: &[Evaluation], target: Option<f64>) -> Chart {
+    let mut best_so_far = f64::INFINITY;
+    let mut running = Vec::new();
+    let mut each = Vec::new();
+    for e in evaluations {
+        if let Ok(y) = &e.outcome {
+            let loss = study.loss(y);
+            best_so_far = best_so_far.min(loss);
+            each.push((e.id as f64, loss));
+        }
+        running.push((e.id as f64, best_so_far));
+    }
+    let unit = match (study.residuals, study.loss) {
+        (Residuals::Normalised, _) => "loss [standard uncertainties]",
+        (Residuals::Relative, LossKind::Max) => "largest error [%]",
+        (Residuals::Relative, _) => "loss [%]",
+    };
+    let chart = Chart::new("Loss per model evaluation", "evaluation", unit)
+        .with_series(Series::new("run", each).with_style(SeriesStyle::Markers))
+        .with_series(Series::new("best so far", running));
+    match target {
+        Some(target) if target > 0.0 => {
+            chart.with_reference_line(target, format!("target {target}"))
+        }
+        _ => chart,
+    }
 }
 
 /// The Pareto front as scatter plots of each pair of objectives, the pick
@@ -49,5 +615,21 @@ pub fn pareto_svg(title: &str, names: &[&str], front: &[Vec<f64>], pick: usize) 
         chart_svg(&charts[0], 640.0, 440.0)
     } else {
         grid_svg(title, &charts, charts.len().min(3), 420.0, 340.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short;
+
+    #[test]
+    fn short_numbers_keep_six_significant_digits() {
+        assert_eq!(short(0.15000000000000002), "0.15");
+        assert_eq!(short(2.6070192019999974), "2.60702");
+        assert_eq!(short(121.5), "121.5");
+        assert_eq!(short(-0.43), "-0.43");
+        assert_eq!(short(210000.0), "210000");
+        assert_eq!(short(0.0), "0");
+        assert_eq!(short(f64::NAN), "NaN");
     }
 }

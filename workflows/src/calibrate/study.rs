@@ -63,6 +63,19 @@ pub trait Model: Sync {
     fn status(&self) -> Option<String> {
         None
     }
+
+    /// The run at `inputs` again, for the report (the calibrated curves):
+    /// a model inside acq runs it; a solver answers from the files of a
+    /// run it already made there, or None, since one more run of it can
+    /// cost hours.
+    fn run_again(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Option<ModelRun> {
+        self.run(inputs, scalars, curves).ok()
+    }
 }
 
 /// What one model run gave.
@@ -73,7 +86,8 @@ pub struct ModelRun {
 }
 
 /// What a case is for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Role {
     /// The search fits the parameters to it.
     Fit,
@@ -98,8 +112,12 @@ pub enum Measured {
         value: f64,
         uncertainty: Option<f64>,
     },
-    /// A curve the model's curve of the same name is compared with.
-    Curve { points: Vec<(f64, f64)> },
+    /// A curve the model's curve of the same name is compared with, and
+    /// the names of its x and y (columns, or quantities with units).
+    Curve {
+        points: Vec<(f64, f64)>,
+        axes: [String; 2],
+    },
 }
 
 /// One observation of a case.
@@ -194,7 +212,8 @@ pub struct StudyParameter {
 }
 
 /// How residuals become errors.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Residuals {
     /// `100 |model - measured| / |measured|`, in %.
     Relative,
@@ -203,7 +222,8 @@ pub enum Residuals {
 }
 
 /// How the errors become one loss (Bayesian optimisation).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum LossKind {
     /// Their weighted mean.
     Mean,
@@ -269,6 +289,15 @@ impl Study {
         } else {
             observation.name.clone()
         }
+    }
+
+    /// The keys of the `role` simulator's outputs (the observations'), in
+    /// order: the columns of its log.
+    pub fn output_keys(&self, role: Role) -> Vec<String> {
+        self.observations(role)
+            .into_iter()
+            .map(|(case, observation)| self.key(case, observation))
+            .collect()
     }
 
     /// The observations of the cases with `role`, in output order.
@@ -446,11 +475,7 @@ impl<'a> StudySimulator<'a> {
             model,
             role,
             parameters: study.search_parameters(),
-            outputs: study
-                .observations(role)
-                .into_iter()
-                .map(|(case, observation)| study.key(case, observation))
-                .collect(),
+            outputs: study.output_keys(role),
             curve_parts: 0,
         }
     }
@@ -535,12 +560,7 @@ impl StudySimulator<'_> {
             let (run, run_notes) =
                 self.model
                     .run_noted(&self.study.inputs_of(index, values), &scalars, &curves);
-            for (note, run_note) in notes.iter_mut().zip(run_notes) {
-                if !note.is_empty() && !run_note.is_empty() {
-                    note.push(' ');
-                }
-                note.push_str(&run_note);
-            }
+            append_notes(notes, run_notes);
             let run = run.map_err(in_case)?;
             let (mut scalar, mut curve) = (run.scalars.iter(), run.curves.iter());
             for observation in &case.observations {
@@ -548,7 +568,7 @@ impl StudySimulator<'_> {
                     Measured::Scalar { .. } => *scalar
                         .next()
                         .ok_or_else(|| in_case("the model returned too few outputs".into()))?,
-                    Measured::Curve { points } => {
+                    Measured::Curve { points, .. } => {
                         let simulated = curve
                             .next()
                             .ok_or_else(|| in_case("the model returned too few curves".into()))?;
@@ -578,6 +598,18 @@ impl StudySimulator<'_> {
         }
         outputs.extend(curve_parts);
         Ok(outputs)
+    }
+}
+
+/// Each run's notes after the notes already there, space-separated per
+/// column: an evaluation of several cases, or several attempts, notes
+/// every job it ran.
+pub fn append_notes(notes: &mut [String], run_notes: Vec<String>) {
+    for (note, run_note) in notes.iter_mut().zip(run_notes) {
+        if !note.is_empty() && !run_note.is_empty() {
+            note.push(' ');
+        }
+        note.push_str(&run_note);
     }
 }
 

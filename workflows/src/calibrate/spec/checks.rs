@@ -1,0 +1,253 @@
+//! One check per section of a spec, each before anything runs or any run
+//! directory exists; each problem says where (the file, or the line of
+//! the `[[table]]` at fault) and what to give instead.
+
+use std::path::Path;
+
+use acq_calib::bo::Acquisition;
+use acq_calib::gp::Kernel;
+
+use super::schema::{
+    ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_EVALUATIONS, MAX_PARALLEL,
+    MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
+};
+use super::{CommandSpec, ModelKind, SpecProblem};
+use crate::calibrate::surrogate_moo::Pick;
+
+/// `model` and the keys that belong to it: a command, or the built-in
+/// twin's geometry.
+pub fn model(file: &SpecFile) -> Result<ModelKind, SpecProblem> {
+    let problem = |message: &str| Err(SpecProblem::file(message));
+    match file.model {
+        ModelName::Command if file.command.is_empty() => {
+            problem("command is empty; give the program and its arguments")
+        }
+        ModelName::Command if file.geometry.is_some() => problem(
+            "geometry belongs to model = \"excavator\"; a command reads its own files",
+        ),
+        ModelName::Command => Ok(ModelKind::Command(CommandSpec {
+            command: file.command.clone(),
+            output_file: file.output_file.clone(),
+            link_files: file.link_files.clone(),
+            copy_files: file.copy_files.clone(),
+            timeout_s: file.timeout_s,
+            retries: file.retries,
+            curves: file.curves.clone(),
+        })),
+        ModelName::Excavator if !file.command.is_empty() => {
+            problem("model = \"excavator\" runs the built-in twin; leave out command")
+        }
+        ModelName::Excavator if !file.curves.is_empty() => problem(
+            "the excavator twin gives no curves; observe its numbers by key path (pressure_bar.boom)",
+        ),
+        ModelName::Excavator => Ok(ModelKind::Excavator {
+            geometry: file.geometry.clone(),
+            refit_poses: file.refit_poses,
+        }),
+    }
+}
+
+/// The observations are given one way: `[[output]]`s and `[[curve]]`s
+/// without cases, or each case's `measured` table; each name once.
+pub fn observations_given(file: &SpecFile) -> Result<(), SpecProblem> {
+    if file.cases.is_empty() && file.outputs.is_empty() && file.curves.is_empty() {
+        return Err(SpecProblem::file(
+            "no [[output]] with a measured value, no [[curve]] to compare and no [[case]]",
+        ));
+    }
+    if !file.cases.is_empty() && !file.outputs.is_empty() {
+        return Err(SpecProblem::table(
+            "[[output]]",
+            0,
+            "with [[case]], give each case's measured values in its `measured` table instead of [[output]]",
+        ));
+    }
+    let mut names: Vec<&str> = file.outputs.iter().map(|o| o.name.as_str()).collect();
+    names.extend(file.curves.iter().map(|c| c.name.as_str()));
+    for (i, name) in names.iter().enumerate() {
+        if names[..i].contains(name) {
+            return Err(SpecProblem::file(format!(
+                "the output or curve name {name:?} is given twice"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// `timeout_s` and `retries`.
+pub fn runs(file: &SpecFile) -> Result<(), SpecProblem> {
+    if !(file.timeout_s.is_finite() && file.timeout_s > 0.0 && file.timeout_s <= MAX_TIMEOUT_S) {
+        return Err(SpecProblem::file(format!(
+            "timeout_s = {}: give seconds above 0 and at most {MAX_TIMEOUT_S} (116 days)",
+            file.timeout_s
+        )));
+    }
+    if file.retries > MAX_RETRIES {
+        return Err(SpecProblem::file(format!(
+            "retries = {}: at most {MAX_RETRIES}",
+            file.retries
+        )));
+    }
+    Ok(())
+}
+
+/// `[executor]` (and the top-level `parallel`): the runs at once.
+pub fn executor(file: &SpecFile) -> Result<usize, SpecProblem> {
+    let here = |message: String| SpecProblem::table("[executor]", 0, message);
+    let executor = &file.executor;
+    let parallel = executor_section(executor, file.parallel).map_err(here)?;
+    if file.model == ModelName::Excavator && executor.kind == ExecutorKind::Slurm {
+        return Err(here(
+            "model = \"excavator\" runs inside acq; a Slurm executor is for a command".into(),
+        ));
+    }
+    Ok(parallel)
+}
+
+fn executor_section(executor: &ExecutorSpec, top_parallel: Option<usize>) -> Result<usize, String> {
+    let slurm_only = [
+        ("partition", executor.partition.is_some()),
+        ("account", executor.account.is_some()),
+        ("time_limit", executor.time_limit.is_some()),
+        ("cpus_per_job", executor.cpus_per_job.is_some()),
+        ("memory_per_job", executor.memory_per_job.is_some()),
+        ("sbatch_args", !executor.sbatch_args.is_empty()),
+        ("prelude", !executor.prelude.is_empty()),
+    ];
+    if executor.kind != ExecutorKind::Slurm {
+        if let Some((name, _)) = slurm_only.iter().find(|(_, given)| *given) {
+            return Err(format!(
+                "[executor] {name} is a Slurm option; add kind = \"slurm\" or leave it out"
+            ));
+        }
+    }
+    if let Some(limit) = &executor.time_limit {
+        let slurm_format = !limit.is_empty()
+            && limit
+                .chars()
+                .all(|c| c.is_ascii_digit() || c == ':' || c == '-')
+            || matches!(limit.as_str(), "UNLIMITED" | "INFINITE");
+        if !slurm_format {
+            return Err(format!(
+                "[executor] time_limit = {limit:?}: give Slurm's format, minutes (\"30\"), \"H:MM:SS\" or \"D-HH:MM:SS\""
+            ));
+        }
+    }
+    if executor.cpus_per_job == Some(0) {
+        return Err("[executor] cpus_per_job = 0: give at least 1".into());
+    }
+    let parallel = match (top_parallel, executor.parallel) {
+        (Some(top), Some(own)) if top != own => {
+            return Err(format!(
+                "parallel = {top} and [executor] parallel = {own}: give it once, under [executor]"
+            ))
+        }
+        (top, own) => own.or(top).unwrap_or(1),
+    };
+    if !(1..=MAX_PARALLEL).contains(&parallel) {
+        return Err(format!(
+            "parallel = {parallel}: give 1 to {MAX_PARALLEL} runs at a time"
+        ));
+    }
+    Ok(parallel)
+}
+
+/// The files a run reads and writes: each inside its run directory, and
+/// those staged from next to the spec there.
+pub fn files(file: &SpecFile, spec_directory: &Path) -> Result<(), SpecProblem> {
+    let problem = |e: acq_io::error::AcqError| SpecProblem::file(e.to_string());
+    let any_run = Path::new("runs/000001");
+    if !file.output_file.is_empty() {
+        acq_io::output::inside(any_run, &file.output_file, "output_file").map_err(problem)?;
+    }
+    for curve in &file.curves {
+        acq_io::output::inside(any_run, &curve.file, "curve.file").map_err(problem)?;
+    }
+    for (what, files) in [
+        ("link_files", &file.link_files),
+        ("copy_files", &file.copy_files),
+    ] {
+        for name in files {
+            acq_io::output::inside(any_run, name, what).map_err(problem)?;
+            let source = spec_directory.join(name);
+            if !source.exists() {
+                return Err(SpecProblem::file(format!(
+                    "{what}: {} does not exist (paths are relative to the spec)",
+                    source.display()
+                )));
+            }
+            acq_io::input::note_input(&source);
+        }
+    }
+    Ok(())
+}
+
+/// `[search]`: the start design, the budgets and the named settings.
+pub fn search(search: &Search) -> Result<(), SpecProblem> {
+    search_section(search).map_err(SpecProblem::file)
+}
+
+fn search_section(search: &Search) -> Result<(), String> {
+    if !START_DESIGNS.contains(&search.start.as_str()) && !search.start.ends_with(".csv") {
+        return Err(format!(
+            "search.start = {:?}: use one of {}, or a CSV file of points (name ending in .csv, next to the spec)",
+            search.start,
+            START_DESIGNS.join(", ")
+        ));
+    }
+    if !(3..=MAX_EVALUATIONS).contains(&search.max_evals)
+        || !(2..=MAX_EVALUATIONS).contains(&search.start_runs)
+    {
+        return Err(format!(
+            "search: give max_evals from 3 and start_runs from 2, each at most {MAX_EVALUATIONS} (got {} and {})",
+            search.max_evals, search.start_runs
+        ));
+    }
+    if let Some(text) = &search.acquisition {
+        text.parse::<Acquisition>()
+            .map_err(|e| format!("search.acquisition = {text:?}: {e}"))?;
+    }
+    if let Some(text) = &search.kernel {
+        text.parse::<Kernel>()
+            .map_err(|e| format!("search.kernel = {text:?}: {e}"))?;
+    }
+    if let Some(text) = &search.pick {
+        text.parse::<Pick>()
+            .map_err(|e| format!("search.pick: {e}"))?;
+    }
+    let counts = [
+        ("training_runs", search.training_runs, 3),
+        ("test_runs", search.test_runs, 0),
+        ("population", search.population, 4),
+        ("generations", search.generations, 0),
+        ("refine_rounds", search.refine_rounds, 0),
+        ("patience", search.patience, 1),
+    ];
+    for (name, value, least) in counts {
+        if let Some(value) = value {
+            if !(least..=MAX_EVALUATIONS).contains(&value) {
+                return Err(format!(
+                    "search.{name} = {value}: give {least} to {MAX_EVALUATIONS}"
+                ));
+            }
+        }
+    }
+    if let Some(f) = search.pareto_fraction {
+        if !(f > 0.0 && f <= 1.0) {
+            return Err(format!(
+                "search.pareto_fraction = {f}: give a number in (0, 1]"
+            ));
+        }
+    }
+    for (name, value) in [
+        ("refine_tolerance", search.refine_tolerance),
+        ("target_loss_pct", search.target_loss_pct),
+    ] {
+        if let Some(t) = value {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(format!("search.{name} = {t}: give a number >= 0"));
+            }
+        }
+    }
+    Ok(())
+}

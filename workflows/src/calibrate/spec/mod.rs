@@ -1,0 +1,287 @@
+//! The spec of `acq calibrate external`: a study on a user's solver or
+//! a built-in twin, as a TOML file. [`Spec::load`] reads it and checks it
+//! section by section ([`checks`]), reads the measured values it names
+//! ([`observations`]) and builds the [`Study`] ([`build`]); every problem
+//! names the file, and the line of the `[[table]]` at fault.
+//!
+//! - [`schema`]: every key and its default;
+//! - [`checks`]: one check per section;
+//! - [`observations`]: measured values from the spec and from files;
+//! - [`build`]: the cases, parameters and priors of the study.
+//!
+//! ```toml
+//! command = ["sh", "solver.sh", "{params}", "{out}"]
+//! output_file = "out.json"   # in the run directory
+//! link_files = ["mesh.inp"]  # next to the spec; linked into each run directory
+//! copy_files = []            # copied instead (for files the solver changes)
+//! timeout_s = 600            # at most 10,000,000 s
+//! retries = 1                # at most 100
+//! parallel = 2               # solver licences, 1 to 256 (or under [executor])
+//!
+//! [executor]                 # optional: where the runs happen
+//! kind = "slurm"             # or "local" (child processes, the default)
+//! partition = "compute"      # slurm only, all optional:
+//! account = "project42"
+//! time_limit = "2:00:00"     # Slurm's format [default: timeout_s in minutes, + 1]
+//! cpus_per_job = 4
+//! memory_per_job = "8G"
+//! sbatch_args = ["--qos=short"]
+//! prelude = ["module load abaqus"]   # lines the job script runs before the solver
+//!
+//! [[parameter]]
+//! name = "youngs_modulus_gpa"
+//! lower = 180.0
+//! upper = 220.0
+//! scale = "linear"           # or "log"
+//! nominal = 200.0            # optional: where the initial errors are shown
+//!                            # [default: the prior's value, else the middle]
+//! # case = "hot"             # optional: this case's own parameter
+//! # prior = { value = 205.0, uncertainty = 5.0 }  # optional: a penalty in
+//! #                          # standard deviations (needs residuals = "normalised")
+//!
+//! [[output]]                 # without [[case]]: the observations
+//! name = "tip_deflection_mm"
+//! measured = 12.5
+//! uncertainty = 0.05         # optional, standard uncertainty (same unit)
+//!
+//! [[curve]]                  # optional, any number
+//! name = "force_displacement"
+//! file = "curve.csv"         # written by the solver in its run directory
+//! x = "u_mm"                 # its columns
+//! y = "f_kn"
+//! measured_file = "test.csv" # next to the spec (without [[case]])
+//! measured_x = "DISPLACEMENT"
+//! measured_y = "FORCE"
+//!
+//! [[case]]                   # optional, any number
+//! name = "cold"
+//! role = "fit"               # or "validate": never seen by the search
+//! inputs = { temperature_c = 20.0 }
+//! [case.measured]
+//! tip_deflection_mm = 12.5                                 # a value
+//! tip_rotation_deg = { value = 1.2, uncertainty = 0.02 }   # with its uncertainty
+//! boom_bar = { file = "measured.csv", quantity = "boom_loaded_pressure", hold = "hold1", uncertainty = "std" }
+//! force_displacement = { file = "cold.csv", x = "DISPLACEMENT", y = "FORCE" }
+//!
+//! [search]
+//! method = "bo"              # or "surrogate-moo", or "least-squares"
+//!                            # (Levenberg-Marquardt from the nominal point,
+//!                            # for cheap smooth models; max_evals counts
+//!                            # one run per parameter per Jacobian)
+//! residuals = "relative"     # or "normalised": scalars in standard uncertainties
+//! start = "lhs"              # bo: lhs, sobol, l12, factorial, or a CSV file of points
+//! start_runs = 10
+//! max_evals = 60
+//! target_loss_pct = 1.0
+//! loss = "mean"              # or "max", or "squares" (with priors: a MAP estimate)
+//! local_steps = true         # bo: trust-region Gauss-Newton steps on the
+//!                            # residuals (each scalar's error, each curve's
+//!                            # errors in 20 parts) between the global ones;
+//!                            # false gives the published search alone
+//! training_runs = 40         # surrogate-moo, with test_runs, population,
+//! test_runs = 40             # generations, pareto_fraction, kernel,
+//!                            # refine_tolerance, refine_rounds
+//! ```
+//!
+//! A measured value read from an `acq extract` file takes the hold's mean;
+//! its uncertainty is a number, `"std"` (the spread of the readings in the
+//! hold) or `"std_of_mean"` (the standard error of the mean, std over the
+//! square root of the effective sample count). Any observation may have a
+//! `weight` (1 by default) in the loss and in TOPSIS.
+
+use std::path::{Path, PathBuf};
+
+use acq_io::error::{AcqError, Result};
+
+use self::schema::{CurveSpec, ExecutorSpec, MethodName, Search, SpecFile};
+use super::study::Study;
+use super::study_runner::{BoMethod, LeastSquaresMethod, Method};
+use super::surrogate_moo::SurrogateMooSettings;
+
+pub mod build;
+pub mod checks;
+pub mod observations;
+pub mod schema;
+
+/// A checked spec: the model, the study, how to search it.
+#[derive(Debug)]
+pub struct Spec {
+    pub model: ModelKind,
+    pub study: Study,
+    pub search: Search,
+    /// `[executor]`: where a command's runs happen.
+    pub executor: ExecutorSpec,
+    /// Runs in flight at once, from `parallel` or `[executor] parallel`.
+    pub runs_at_once: usize,
+    /// Where the spec's relative paths start.
+    pub directory: PathBuf,
+}
+
+/// The model a spec calibrates.
+#[derive(Debug)]
+pub enum ModelKind {
+    /// A user's solver, run as a command once per run.
+    Command(CommandSpec),
+    /// The built-in excavator twin, with its geometry file (next to the
+    /// spec) and whether changed geometry re-fits the published poses.
+    Excavator {
+        geometry: Option<String>,
+        refit_poses: bool,
+    },
+}
+
+/// How a user's solver is run and read.
+#[derive(Clone, Debug)]
+pub struct CommandSpec {
+    /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
+    pub command: Vec<String>,
+    /// The file of scalar outputs, in the run directory ("" for none).
+    pub output_file: String,
+    pub link_files: Vec<String>,
+    pub copy_files: Vec<String>,
+    pub timeout_s: f64,
+    pub retries: u32,
+    /// The curves the solver writes.
+    pub curves: Vec<CurveSpec>,
+}
+
+/// A problem with a spec, and where it is.
+#[derive(Debug)]
+pub struct SpecProblem {
+    /// The `[[table]]` header and which of them (0-based), when the problem
+    /// is in one.
+    table: Option<(&'static str, usize)>,
+    message: String,
+    /// A measured file that cannot be read as data (exit code 3), rather
+    /// than a spec that asks for the wrong thing (2).
+    malformed_input: Option<AcqError>,
+}
+
+impl SpecProblem {
+    /// A problem with the spec as a whole.
+    pub fn file(message: impl Into<String>) -> Self {
+        SpecProblem {
+            table: None,
+            message: message.into(),
+            malformed_input: None,
+        }
+    }
+
+    /// A problem in the `index`-th `header` table (`[[case]]`).
+    pub fn table(header: &'static str, index: usize, message: impl Into<String>) -> Self {
+        SpecProblem {
+            table: Some((header, index)),
+            ..SpecProblem::file(message)
+        }
+    }
+
+    /// A file the spec names that cannot be read: its own error.
+    pub fn malformed(error: AcqError) -> Self {
+        SpecProblem {
+            malformed_input: Some(error),
+            ..SpecProblem::file(String::new())
+        }
+    }
+
+    /// The error to report for the spec at `path` with `text`.
+    fn located(self, path: &Path, text: &str) -> AcqError {
+        if let Some(error) = self.malformed_input {
+            return error;
+        }
+        let line = self
+            .table
+            .map(|(header, index)| format!(":{}", table_line(text, header, index)))
+            .unwrap_or_default();
+        AcqError::Config(format!("{}{line}: {}", path.display(), self.message))
+    }
+}
+
+/// The 1-based line of the `index`-th `[[header]]` table in a spec.
+fn table_line(text: &str, header: &str, index: usize) -> usize {
+    text.lines()
+        .enumerate()
+        .filter(|(_, line)| line.trim() == header)
+        .nth(index)
+        .map_or(1, |(number, _)| number + 1)
+}
+
+/// The directory a spec's relative paths start from.
+pub fn spec_directory(spec: &Path) -> PathBuf {
+    spec.parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+impl Spec {
+    /// Reads and checks a spec and the measured files it names; errors
+    /// name the file (and the line of the table at fault) and what to fix.
+    pub fn load(path: &Path) -> Result<Spec> {
+        let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+        acq_io::input::note_input(path);
+        let file: SpecFile = toml::from_str(&text)
+            .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?;
+        let located = |problem: SpecProblem| problem.located(path, &text);
+        let directory = spec_directory(path);
+        let model = checks::model(&file).map_err(located)?;
+        checks::observations_given(&file).map_err(located)?;
+        checks::runs(&file).map_err(located)?;
+        let runs_at_once = checks::executor(&file).map_err(located)?;
+        checks::files(&file, &directory).map_err(located)?;
+        checks::search(&file.search).map_err(located)?;
+        let study = build::study(&file, &directory).map_err(located)?;
+        Ok(Spec {
+            model,
+            study,
+            search: file.search,
+            executor: file.executor,
+            runs_at_once,
+            directory,
+        })
+    }
+
+    /// The search method with its settings: the spec's, else the method's
+    /// published defaults.
+    pub fn method(&self, seed: u64) -> Method {
+        let search = &self.search;
+        match search.method {
+            MethodName::SurrogateMoo => {
+                let defaults = SurrogateMooSettings::published(self.study.weights().len(), seed);
+                Method::SurrogateMoo(SurrogateMooSettings {
+                    training_runs: search.training_runs.unwrap_or(defaults.training_runs),
+                    test_runs: search.test_runs.unwrap_or(defaults.test_runs),
+                    population: search.population.unwrap_or(defaults.population),
+                    generations: search.generations.unwrap_or(defaults.generations),
+                    pareto_fraction: search.pareto_fraction.unwrap_or(defaults.pareto_fraction),
+                    weights: self.study.weights(),
+                    pick: search
+                        .pick
+                        .as_deref()
+                        .and_then(|p| p.parse().ok())
+                        .unwrap_or(defaults.pick),
+                    kernel: search
+                        .kernel
+                        .as_deref()
+                        .and_then(|k| k.parse().ok())
+                        .unwrap_or(defaults.kernel),
+                    seed,
+                    refine_tolerance: search.refine_tolerance.unwrap_or(defaults.refine_tolerance),
+                    refine_rounds: search.refine_rounds.unwrap_or(defaults.refine_rounds),
+                })
+            }
+            MethodName::LeastSquares => Method::LeastSquares(LeastSquaresMethod {
+                max_evals: search.max_evals,
+            }),
+            MethodName::Bo => Method::Bo(BoMethod {
+                start: search.start.clone(),
+                start_runs: search.start_runs,
+                max_evals: search.max_evals,
+                target_loss: search.target_loss_pct,
+                acquisition: search.acquisition.as_deref().and_then(|a| a.parse().ok()),
+                patience: search.patience,
+                batch: self.runs_at_once,
+                seed,
+                local_steps: search.local_steps.unwrap_or(true),
+            }),
+        }
+    }
+}

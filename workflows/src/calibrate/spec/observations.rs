@@ -1,0 +1,253 @@
+//! The measured values of a spec: numbers in the spec, holds of an `acq
+//! extract` measured-values file (mean, and `std` or `std_of_mean` as the
+//! uncertainty), and measured curves from CSV files next to the spec.
+
+use std::path::Path;
+
+use acq_analysis::extract::measured::read_measured;
+use acq_calib::doe::read_design_csv;
+use acq_io::error::AcqError;
+
+use super::schema::CurveSpec;
+use crate::calibrate::study::{Measured, Observation};
+
+/// The points of columns `x` and `y` of a CSV with a header row; errors
+/// name the file and line.
+pub fn read_curve(path: &Path, x: &str, y: &str) -> Result<Vec<(f64, f64)>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let rows = read_design_csv(&text, &[x, y]).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(rows.iter().map(|row| (row[0], row[1])).collect())
+}
+
+/// A measured curve next to the spec, at least two points.
+pub fn measured_curve(
+    spec_directory: &Path,
+    name: &str,
+    file: &str,
+    x: &str,
+    y: &str,
+) -> acq_io::error::Result<Vec<(f64, f64)>> {
+    let path = spec_directory.join(file);
+    acq_io::input::note_input(&path);
+    let points =
+        read_curve(&path, x, y).map_err(|e| AcqError::Malformed(format!("curve {name}: {e}")))?;
+    if points.len() < 2 {
+        return Err(AcqError::Malformed(format!(
+            "curve {name}: {} has {} point(s); a measured curve needs at least 2",
+            path.display(),
+            points.len()
+        )));
+    }
+    Ok(points)
+}
+
+pub fn weight_of(weight: Option<f64>, what: &str) -> Result<f64, String> {
+    match weight {
+        None => Ok(1.0),
+        Some(w) if (0.0..=1e6).contains(&w) => Ok(w),
+        Some(w) => Err(format!("{what}: weight = {w}; give a number from 0 to 1e6")),
+    }
+}
+
+pub fn scalar(
+    name: &str,
+    value: f64,
+    uncertainty: Option<f64>,
+    weight: f64,
+    source: String,
+) -> Result<Observation, String> {
+    // A 0 is only meaningful in standard uncertainties (a one-sided
+    // penalty's target); relative errors divide by the value.
+    if !(value.is_finite() && (value != 0.0 || uncertainty.is_some())) {
+        return Err(format!(
+            "{name}: measured must be a finite non-zero number (errors are relative to it; a 0 needs an uncertainty and residuals = \"normalised\"), got {value}"
+        ));
+    }
+    if let Some(u) = uncertainty {
+        if !(u.is_finite() && u > 0.0) {
+            return Err(format!(
+                "{name}: uncertainty = {u}; give the standard uncertainty, a finite number above 0, in the value's unit"
+            ));
+        }
+    }
+    Ok(Observation {
+        name: name.to_string(),
+        output: name.to_string(),
+        measured: Measured::Scalar { value, uncertainty },
+        weight,
+        source,
+    })
+}
+
+/// One entry of a case's `measured` table.
+pub fn case_observation(
+    curves: &[CurveSpec],
+    spec_directory: &Path,
+    name: &str,
+    entry: &toml::Value,
+) -> Result<Observation, String> {
+    let number = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+    if let Some(value) = number(entry) {
+        return scalar(name, value, None, 1.0, "spec".into());
+    }
+    let table = entry.as_table().ok_or_else(|| {
+        format!("{name}: give a number, or a table with value, file (+ quantity), or file (+ x, y) for a curve")
+    })?;
+    let text = |key: &str| -> Result<Option<String>, String> {
+        match table.get(key) {
+            None => Ok(None),
+            Some(v) => v
+                .as_str()
+                .map(|s| Some(s.to_string()))
+                .ok_or_else(|| format!("{name}: {key} must be a string")),
+        }
+    };
+    let allowed: &[&str] = if table.contains_key("value") {
+        &["value", "uncertainty", "weight"]
+    } else if table.contains_key("quantity") {
+        &["file", "quantity", "hold", "uncertainty", "weight"]
+    } else {
+        &["file", "x", "y", "weight"]
+    };
+    if let Some(key) = table.keys().find(|k| !allowed.contains(&k.as_str())) {
+        return Err(format!(
+            "{name}: unknown key {key:?}; this kind of measured value takes {}",
+            allowed.join(", ")
+        ));
+    }
+    let weight = match table.get("weight") {
+        None => 1.0,
+        Some(v) => weight_of(
+            Some(number(v).ok_or_else(|| format!("{name}: weight must be a number"))?),
+            name,
+        )?,
+    };
+    if let Some(value) = table.get("value") {
+        let value = number(value).ok_or_else(|| format!("{name}: value must be a number"))?;
+        let uncertainty = match table.get("uncertainty") {
+            None => None,
+            Some(u) => Some(number(u).ok_or_else(|| {
+                format!("{name}: uncertainty must be a number (the standard uncertainty)")
+            })?),
+        };
+        return scalar(name, value, uncertainty, weight, "spec".into());
+    }
+    let file = text("file")?.ok_or_else(|| {
+        format!("{name}: give value = ..., or file = ... with quantity (a measured-values file) or x and y (a curve)")
+    })?;
+    let path = spec_directory.join(&file);
+    if let Some(quantity) = text("quantity")? {
+        return measured_value_from_file(
+            name,
+            &path,
+            &quantity,
+            text("hold")?.as_deref(),
+            table.get("uncertainty"),
+            weight,
+        );
+    }
+    let (Some(x), Some(y)) = (text("x")?, text("y")?) else {
+        return Err(format!(
+            "{name}: a measured curve needs x and y (its column names in {file})"
+        ));
+    };
+    if !curves.iter().any(|c| c.name == name) {
+        return Err(format!(
+            "{name}: a measured curve, but no [[curve]] named {name:?} says which file the solver writes it to"
+        ));
+    }
+    let points = measured_curve(spec_directory, name, &file, &x, &y).map_err(|e| e.to_string())?;
+    Ok(Observation {
+        name: name.to_string(),
+        output: name.to_string(),
+        measured: Measured::Curve {
+            points,
+            axes: [x, y],
+        },
+        weight,
+        source: file,
+    })
+}
+
+/// A measured value from an `acq extract` measured-values file.
+fn measured_value_from_file(
+    name: &str,
+    path: &Path,
+    quantity: &str,
+    hold: Option<&str>,
+    uncertainty: Option<&toml::Value>,
+    weight: f64,
+) -> Result<Observation, String> {
+    let values = read_measured(path).map_err(|e| format!("{name}: {e}"))?;
+    let mut holds: Vec<&str> = values.iter().map(|v| v.window.as_str()).collect();
+    holds.dedup();
+    let hold = match hold {
+        Some(h) => h.to_string(),
+        None if holds.len() == 1 => holds[0].to_string(),
+        None => {
+            return Err(format!(
+                "{name}: {} has {} holds ({}); name one with hold = \"...\"",
+                path.display(),
+                holds.len(),
+                holds.join(", ")
+            ))
+        }
+    };
+    let Some(value) = values
+        .iter()
+        .find(|v| v.window == hold && v.quantity == quantity)
+    else {
+        return Err(if holds.contains(&hold.as_str()) {
+            format!(
+                "{name}: {} has no {quantity} in hold {hold}",
+                path.display()
+            )
+        } else {
+            format!(
+                "{name}: {} has no hold {hold:?}; it has {}",
+                path.display(),
+                holds.join(", ")
+            )
+        });
+    };
+    if !value.is_usable() {
+        return Err(format!(
+            "{name}: {quantity} in {hold} of {} is not fit to calibrate against (flags '{}': {})",
+            path.display(),
+            value.flags.join(";"),
+            value.note
+        ));
+    }
+    let mean = value
+        .stats
+        .mean
+        .ok_or_else(|| format!("{name}: {quantity} in {hold} has no mean"))?;
+    let standard = |what: &str| -> Result<f64, String> {
+        let std = value.stats.std.ok_or_else(|| {
+            format!("{name}: {quantity} in {hold} has no std (fewer than 2 samples)")
+        })?;
+        Ok(match what {
+            "std" => std,
+            _ => std / value.stats.n_eff.max(1.0).sqrt(),
+        })
+    };
+    let uncertainty = match uncertainty {
+        None => None,
+        Some(toml::Value::String(s)) if s == "std" || s == "std_of_mean" => Some(standard(s)?),
+        Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
+            Some(u) => Some(u),
+            None => {
+                return Err(format!(
+                    "{name}: uncertainty = {v}; give a number, \"std\" or \"std_of_mean\""
+                ))
+            }
+        },
+    };
+    scalar(
+        name,
+        mean,
+        uncertainty,
+        weight,
+        format!("{} ({hold}, {quantity} [{}])", path.display(), value.unit),
+    )
+}

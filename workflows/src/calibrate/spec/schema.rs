@@ -1,0 +1,266 @@
+//! The spec file as written: every table and key, its type and its
+//! default. Nothing here is checked beyond its type: that is
+//! [`super::checks`]'s business, one function per section.
+
+use std::collections::BTreeMap;
+
+use acq_calib::evaluation::Scale;
+use serde::Deserialize;
+
+use crate::calibrate::study::{LossKind, Residuals, Role};
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpecFile {
+    /// A user's solver run as a command (the default) or a built-in twin.
+    #[serde(default)]
+    pub model: ModelName,
+    /// The built-in excavator's geometry file, next to the spec [default:
+    /// the shipped DX55-class file].
+    pub geometry: Option<String>,
+    /// Re-fit the excavator's pose numbers to the published poses when a
+    /// geometry number changes.
+    #[serde(default = "default_refit_poses")]
+    pub refit_poses: bool,
+    /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
+    #[serde(default)]
+    pub command: Vec<String>,
+    /// File the command writes, relative to the run directory (.json or
+    /// .csv); needed when there are scalar outputs.
+    #[serde(default)]
+    pub output_file: String,
+    /// Files next to the spec each run needs, linked into its directory.
+    #[serde(default)]
+    pub link_files: Vec<String>,
+    /// Files next to the spec each run needs a copy of.
+    #[serde(default)]
+    pub copy_files: Vec<String>,
+    #[serde(default = "default_timeout_s")]
+    pub timeout_s: f64,
+    #[serde(default)]
+    pub retries: u32,
+    /// Runs at a time on the local executor (`[executor] parallel` is the
+    /// same, for any executor).
+    pub parallel: Option<usize>,
+    /// Where the runs happen: child processes or Slurm jobs.
+    #[serde(default)]
+    pub executor: ExecutorSpec,
+    #[serde(rename = "parameter")]
+    pub parameters: Vec<SpecParameter>,
+    #[serde(rename = "output", default)]
+    pub outputs: Vec<MeasuredOutput>,
+    #[serde(rename = "curve", default)]
+    pub curves: Vec<CurveSpec>,
+    #[serde(rename = "case", default)]
+    pub cases: Vec<CaseSpec>,
+    #[serde(default)]
+    pub search: Search,
+}
+
+/// `model`: which model the study calibrates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModelName {
+    /// A user's solver, run as `command`.
+    #[default]
+    Command,
+    /// The built-in excavator twin.
+    Excavator,
+}
+
+fn default_refit_poses() -> bool {
+    true
+}
+
+fn default_timeout_s() -> f64 {
+    3600.0
+}
+
+/// `[executor]`: where the solver runs.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExecutorSpec {
+    #[serde(default)]
+    pub kind: ExecutorKind,
+    /// Runs (jobs) in flight at once [default: 1].
+    pub parallel: Option<usize>,
+    pub partition: Option<String>,
+    pub account: Option<String>,
+    /// Slurm's time limit per job, in Slurm's format.
+    pub time_limit: Option<String>,
+    pub cpus_per_job: Option<u32>,
+    /// Slurm's `--mem` per job (`4G`).
+    pub memory_per_job: Option<String>,
+    #[serde(default)]
+    pub sbatch_args: Vec<String>,
+    /// Lines the job script runs before the solver.
+    #[serde(default)]
+    pub prelude: Vec<String>,
+}
+
+/// `[executor] kind`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ExecutorKind {
+    /// Child processes of acq.
+    #[default]
+    Local,
+    /// Slurm batch jobs.
+    Slurm,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpecParameter {
+    pub name: String,
+    pub lower: f64,
+    pub upper: f64,
+    #[serde(default)]
+    pub scale: Scale,
+    /// Where the initial errors are reported [default: the prior's value,
+    /// else the middle].
+    pub nominal: Option<f64>,
+    /// The case this parameter belongs to [default: shared by all].
+    pub case: Option<String>,
+    /// Where class-typical values lie: `{ value, uncertainty }`, a penalty
+    /// in standard deviations for straying from it.
+    pub prior: Option<PriorSpec>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PriorSpec {
+    pub value: f64,
+    pub uncertainty: f64,
+}
+
+/// `[[output]]`: a measured scalar of a study without cases.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeasuredOutput {
+    pub name: String,
+    pub measured: f64,
+    pub uncertainty: Option<f64>,
+    pub weight: Option<f64>,
+}
+
+/// `[[curve]]`: a curve the solver writes, compared with a measured one by
+/// the curve MAPE.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSpec {
+    pub name: String,
+    /// The CSV the solver writes in its run directory.
+    pub file: String,
+    /// Its x and y column names.
+    pub x: String,
+    pub y: String,
+    /// Without cases: the measured curve, a CSV next to the spec, and its
+    /// column names.
+    pub measured_file: Option<String>,
+    pub measured_x: Option<String>,
+    pub measured_y: Option<String>,
+    pub weight: Option<f64>,
+}
+
+/// `[[case]]`: a load case with its fixed inputs and measured values.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseSpec {
+    pub name: String,
+    #[serde(default = "default_role")]
+    pub role: Role,
+    #[serde(default)]
+    pub inputs: BTreeMap<String, f64>,
+    /// Each observation: a number, or a table (read by
+    /// [`super::observations::case_observation`]).
+    #[serde(default)]
+    pub measured: toml::Table,
+}
+
+fn default_role() -> Role {
+    Role::Fit
+}
+
+/// `[search]`: the method and its settings; unset ones take the
+/// method's published defaults.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Search {
+    #[serde(default)]
+    pub method: MethodName,
+    #[serde(default = "default_residuals")]
+    pub residuals: Residuals,
+    /// lhs, sobol, l12, factorial, or a CSV file of points next to the spec.
+    #[serde(default = "default_start")]
+    pub start: String,
+    #[serde(default = "default_start_runs")]
+    pub start_runs: usize,
+    #[serde(default = "default_max_evals")]
+    pub max_evals: usize,
+    pub target_loss_pct: Option<f64>,
+    #[serde(default = "default_loss")]
+    pub loss: LossKind,
+    pub acquisition: Option<String>,
+    pub patience: Option<usize>,
+    pub training_runs: Option<usize>,
+    pub test_runs: Option<usize>,
+    pub population: Option<usize>,
+    pub generations: Option<usize>,
+    pub pareto_fraction: Option<f64>,
+    pub kernel: Option<String>,
+    pub refine_tolerance: Option<f64>,
+    pub refine_rounds: Option<usize>,
+    /// Bayesian optimisation: local Gauss-Newton steps on the residuals
+    /// (each curve's errors along its length) between the global ones.
+    /// Default: on (measured on the CalculiX example, curve and scalars,
+    /// and on the GTN preset: BENCHMARKS.md, "Local steps").
+    pub local_steps: Option<bool>,
+    /// How the surrogate-MOO search picks its front point: "topsis"
+    /// (default, the published method), "topsis-common" or "minimax".
+    pub pick: Option<String>,
+}
+
+/// `[search] method`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodName {
+    /// Bayesian optimisation (the tensile study's).
+    #[default]
+    Bo,
+    /// GP surrogates, NSGA-II and a pick (the excavator study's).
+    SurrogateMoo,
+    /// Levenberg-Marquardt from the nominal point.
+    LeastSquares,
+}
+
+impl Default for Search {
+    fn default() -> Self {
+        toml::from_str("").expect("every search field has a default")
+    }
+}
+
+fn default_residuals() -> Residuals {
+    Residuals::Relative
+}
+fn default_start() -> String {
+    "lhs".into()
+}
+fn default_start_runs() -> usize {
+    10
+}
+fn default_max_evals() -> usize {
+    60
+}
+fn default_loss() -> LossKind {
+    LossKind::Mean
+}
+
+/// Limits of a spec's numbers: beyond them a value is a typo, and some
+/// (a timeout past `Instant`'s range) would panic.
+pub const MAX_TIMEOUT_S: f64 = 1e7;
+pub const MAX_RETRIES: u32 = 100;
+pub const MAX_PARALLEL: usize = 256;
+pub const MAX_EVALUATIONS: usize = 100_000;
+/// The built-in start designs of `search.start`.
+pub const START_DESIGNS: [&str; 4] = ["lhs", "sobol", "l12", "factorial"];

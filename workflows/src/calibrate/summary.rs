@@ -1,0 +1,119 @@
+//! `summary.json`, the fixed interface of a run directory: written here and
+//! nowhere else. Each method has its keys (below); named cases add
+//! `cases`, observations with uncertainties `chi_square`; a preset's own
+//! keys come through [`Extras::summary`], which may also keep only a
+//! preset's published keys.
+//!
+//! - `bo`: `best_loss_pct`, `best_outputs`, `best_params`,
+//!   `evaluations_to_target`;
+//! - `surrogate-moo`: `errors_initial_pct`, `errors_optimal_pct`,
+//!   `optimal`, `surrogate_rmse`;
+//! - `least-squares`: `errors_initial_pct`, `errors_optimal_pct`,
+//!   `optimal`, `loss`, `sum_of_squares`, `iterations`, `stop`;
+//! - every method: `evaluations`, `failed`, `wall_s`.
+
+use serde_json::{json, Map, Value};
+
+use super::extras::Extras;
+use super::study::{cases_json, chi_square, errors_json, Role, Study};
+use super::study_runner::{Found, StudyOutcome};
+
+/// The summary of a finished study.
+pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Value {
+    let StudyOutcome {
+        found,
+        calibrated,
+        calibrated_outputs,
+        fit_errors,
+        validation_errors,
+        evaluations,
+        failed,
+        wall_s,
+        ..
+    } = outcome;
+    let parameters = study.search_parameters();
+    let named = |values: &[f64]| -> Value {
+        Value::Object(
+            parameters
+                .iter()
+                .zip(values)
+                .map(|(p, v)| (p.name.clone(), json!(v)))
+                .collect(),
+        )
+    };
+    let mut summary = Map::new();
+    match found {
+        Found::Bo(result) => {
+            summary.insert(
+                "best_loss_pct".into(),
+                json!(study.loss(calibrated_outputs)),
+            );
+            summary.insert(
+                "best_outputs".into(),
+                Value::Object(
+                    study
+                        .output_keys(Role::Fit)
+                        .into_iter()
+                        .zip(calibrated_outputs)
+                        .map(|(k, v)| (k, json!(v)))
+                        .collect(),
+                ),
+            );
+            summary.insert("best_params".into(), named(calibrated));
+            summary.insert(
+                "evaluations_to_target".into(),
+                json!(result.evaluations_to_target),
+            );
+        }
+        Found::Moo(moo) => {
+            summary.insert(
+                "errors_initial_pct".into(),
+                errors_json(&study.errors(Role::Fit, &moo.nominal_outputs)),
+            );
+            summary.insert("errors_optimal_pct".into(), errors_json(fit_errors));
+            summary.insert("optimal".into(), named(calibrated));
+            let keys = study.output_keys(Role::Fit);
+            let rmse: Map<String, Value> = moo
+                .surrogate_rmse
+                .iter()
+                .map(|(surrogate, row)| {
+                    let by_output = keys.iter().zip(row).map(|(k, v)| (k.clone(), json!(v)));
+                    (surrogate.clone(), Value::Object(by_output.collect()))
+                })
+                .collect();
+            summary.insert("surrogate_rmse".into(), Value::Object(rmse));
+        }
+        Found::LeastSquares(ls) => {
+            summary.insert(
+                "errors_initial_pct".into(),
+                errors_json(&study.errors(Role::Fit, &ls.nominal_outputs)),
+            );
+            summary.insert("errors_optimal_pct".into(), errors_json(fit_errors));
+            summary.insert("optimal".into(), named(calibrated));
+            summary.insert("loss".into(), json!(study.loss(calibrated_outputs)));
+            summary.insert("sum_of_squares".into(), json!(ls.result.cost));
+            summary.insert("iterations".into(), json!(ls.result.iterations));
+            summary.insert(
+                "stop".into(),
+                json!(format!("{:?}", ls.result.stop).to_lowercase()),
+            );
+        }
+    }
+    summary.insert("failed".into(), json!(failed));
+    summary.insert("wall_s".into(), json!(wall_s));
+    summary.insert("evaluations".into(), json!(evaluations.len()));
+    if study.named_cases {
+        let mut all = fit_errors.clone();
+        all.extend(validation_errors.iter().cloned());
+        summary.insert("cases".into(), cases_json(&all));
+    }
+    for (key, errors) in [
+        ("chi_square", fit_errors),
+        ("validation_chi_square", validation_errors),
+    ] {
+        if let Some((chi2, n)) = chi_square(errors) {
+            summary.insert(key.into(), json!({"value": chi2, "observations": n}));
+        }
+    }
+    Value::Object(extras.summary(study, outcome, summary))
+}

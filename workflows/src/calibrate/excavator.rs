@@ -34,11 +34,13 @@ use serde_json::{json, Map, Value};
 
 use super::builtin::ExcavatorModel;
 use super::extras::{Extras, Section};
+use super::method::{Method, RunSettings};
+use super::outcome::{Found, StudyOutcome};
 use super::run_directory::{default_parallelism, RunDirectory};
 use super::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
 };
-use super::study_runner::{run_study, Found, Method, RunSettings, StudyOutcome};
+use super::study_runner::run_study;
 use super::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};
 
 #[derive(Args, Debug)]

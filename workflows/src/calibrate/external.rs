@@ -14,13 +14,15 @@ use super::builtin::ExcavatorModel;
 use super::command_model::CommandModel;
 use super::executor::{Executor, LocalExecutor};
 use super::extras::{Extras, NoExtras};
+use super::method::{start_design, RunSettings};
+use super::outcome::StudyOutcome;
 use super::report::write_text;
 use super::run_directory::RunDirectory;
 use super::slurm::{SlurmExecutor, SlurmSettings};
 use super::spec::schema::{ExecutorKind, ExecutorSpec};
 use super::spec::{ModelKind, Spec};
 use super::study::Study;
-use super::study_runner::{check_at_nominal, run_study, start_design, RunSettings, StudyOutcome};
+use super::study_runner::{check_at_nominal, run_study};
 
 #[derive(Args, Debug)]
 pub struct CalibrateExternalArgs {

@@ -8,9 +8,10 @@ use acq_io::error::Result;
 use acq_report::document::Document;
 use serde_json::{Map, Value};
 
+use super::method::RunSettings;
+use super::outcome::StudyOutcome;
 use super::run_directory::RunDirectory;
 use super::study::Study;
-use super::study_runner::{RunSettings, StudyOutcome};
 
 /// A study's additions to its summary and report; every method has a
 /// default that adds nothing.

@@ -22,12 +22,12 @@ use serde_json::{json, Map, Value};
 
 use super::builtin::{GtnModel, GTN_CURVE};
 use super::extras::{Extras, Section};
+use super::method::{start_design, BoMethod, Method, RunSettings};
+use super::outcome::{Found, StudyOutcome};
 use super::report::write_text;
 use super::run_directory::RunDirectory;
 use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
-use super::study_runner::{
-    run_study, start_design, BoMethod, Found, Method, RunSettings, StudyOutcome,
-};
+use super::study_runner::run_study;
 use crate::abaqus_material::abaqus_material_block;
 use crate::tensile_model::{GtnInputs, MeshArgs, ModelSettings, TensileModel, PARAMETER_NAMES};
 

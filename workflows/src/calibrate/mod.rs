@@ -21,6 +21,8 @@ pub mod external;
 pub mod extras;
 pub mod gtn;
 pub mod identifiability;
+pub mod method;
+pub mod outcome;
 pub mod progress;
 pub mod report;
 pub mod run_directory;

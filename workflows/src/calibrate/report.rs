@@ -21,10 +21,11 @@ use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
 
 use super::extras::{Extras, Section};
 use super::identifiability::write_identifiability;
+use super::method::{Method, RunSettings};
+use super::outcome::{CalibratedCurve, Found, StudyOutcome};
 use super::run_directory::RunDirectory;
 use super::search::{distinct_best, scored};
 use super::study::{chi_square, LossKind, ObservationError, Residuals, Role, Study};
-use super::study_runner::{CalibratedCurve, Found, Method, RunSettings, StudyOutcome};
 use super::surrogate_moo::rounds_sentence;
 
 /// Writes a whole file (appears under its name only when complete).

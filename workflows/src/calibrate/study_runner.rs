@@ -14,25 +14,20 @@
 //! The fit runs log to `evaluations.csv`, the validation runs to
 //! `validation.csv`; both resume.
 
-use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use acq_calib::bo::{Acquisition, Outcome};
-use acq_calib::doe::{
-    full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
-    two_level_to_unit,
-};
-use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
-use acq_calib::least_squares::{
-    least_squares, LeastSquaresError, LeastSquaresResult, LeastSquaresSettings,
-};
+use acq_calib::bo::Outcome;
+use acq_calib::evaluation::{Evaluator, Parameter};
+use acq_calib::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
 use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 use acq_report::document::Document;
 
 use super::extras::Extras;
-use super::identifiability::{identifiability, identifiability_json, Identifiability, Local};
+use super::identifiability::{identifiability, identifiability_json, Local};
+use super::method::{Method, RunSettings, CURVE_PARTS};
+use super::outcome::{CalibratedCurve, Found, LeastSquaresFound, StudyOutcome};
 use super::progress::Progress;
 use super::report::{study_report, write_report, write_text};
 use super::run_directory::{evaluation_error, RunDirectory};
@@ -41,87 +36,7 @@ use super::study::{
     LossKind, Measured, Model, Observation, ObservationError, Role, Study, StudySimulator,
 };
 use super::summary::summary;
-use super::surrogate_moo::{surrogate_moo, SurrogateMooSettings};
-
-/// Bayesian optimisation's settings in a study.
-#[derive(Clone, Debug)]
-pub struct BoMethod {
-    /// lhs, sobol, l12, factorial, or a CSV file of points.
-    pub start: String,
-    pub start_runs: usize,
-    pub max_evals: usize,
-    pub target_loss: Option<f64>,
-    pub acquisition: Option<Acquisition>,
-    pub patience: Option<usize>,
-    /// Points proposed (and run) at once.
-    pub batch: usize,
-    pub seed: u64,
-    /// Local trust-region steps on the residuals (each curve's errors in
-    /// [`CURVE_PARTS`] parts) between the global ones.
-    pub local_steps: bool,
-}
-
-/// How many parts of a curve the local steps of a search see: enough to
-/// tell the elastic rise, the hardening, the necking and the drop apart.
-pub const CURVE_PARTS: usize = 20;
-
-/// Least squares' settings in a study.
-#[derive(Clone, Debug)]
-pub struct LeastSquaresMethod {
-    /// Model runs at most (each Jacobian costs one per parameter).
-    pub max_evals: usize,
-}
-
-/// The search method of a study.
-#[derive(Clone, Debug)]
-pub enum Method {
-    Bo(BoMethod),
-    SurrogateMoo(SurrogateMooSettings),
-    LeastSquares(LeastSquaresMethod),
-}
-
-/// How a study runs, besides its method.
-pub struct RunSettings<'a> {
-    /// The progress line's label.
-    pub label: String,
-    /// For messages and the report's title (the spec's path).
-    pub title: String,
-    /// Where a CSV start design's path starts.
-    pub spec_directory: &'a Path,
-    pub parallel: usize,
-    pub resume: bool,
-}
-
-/// The start design in the unit box; read before the run directory exists,
-/// so a refused design leaves nothing behind. None for the methods that
-/// start from their own design.
-pub fn start_design(
-    parameters: &[Parameter],
-    method: &Method,
-    spec_directory: &Path,
-) -> Result<Vec<Vec<f64>>> {
-    let Method::Bo(bo) = method else {
-        return Ok(Vec::new());
-    };
-    let d = parameters.len();
-    let n = bo.start_runs;
-    let config = |e: String| AcqError::Config(format!("search.start: {e}"));
-    Ok(match bo.start.as_str() {
-        "lhs" => latin_hypercube(n, d, bo.seed),
-        "sobol" => sobol_points(n, d, Some(bo.seed)).map_err(|e| config(e.to_string()))?,
-        "l12" => two_level_to_unit(&orthogonal_array_l12(d).map_err(|e| config(e.to_string()))?),
-        "factorial" => full_factorial(&vec![2; d]).map_err(|e| config(e.to_string()))?,
-        file => {
-            let path = spec_directory.join(file);
-            let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
-            acq_io::input::note_input(&path);
-            let names: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
-            let points = read_design_csv(&text, &names)
-                .map_err(|e| AcqError::Malformed(format!("{}: {e}", path.display())))?;
-            points.iter().map(|p| to_unit(parameters, p)).collect()
-        }
-    })
-}
+use super::surrogate_moo::surrogate_moo;
 
 /// Runs every case once at the nominal point, fit and validate alike: a
 /// study whose model refuses a name or a value says so before it starts.
@@ -134,50 +49,6 @@ pub fn check_at_nominal(study: &Study, model: &dyn Model) -> std::result::Result
             .map_err(|e| format!("at the nominal point: {e}"))?;
     }
     Ok(())
-}
-
-/// What a study found.
-pub struct StudyOutcome {
-    pub found: Found,
-    /// The calibrated point (search vector) and the fit outputs there.
-    pub calibrated: Vec<f64>,
-    pub calibrated_outputs: Vec<f64>,
-    pub fit_errors: Vec<ObservationError>,
-    pub validation_errors: Vec<ObservationError>,
-    /// Every fit evaluation, from the log or run now.
-    pub evaluations: Vec<Evaluation>,
-    pub failed: usize,
-    pub wall_s: f64,
-    pub identifiability: Option<Identifiability>,
-    /// The model's note columns (where each run happened), as logged.
-    pub note_columns: Vec<String>,
-    /// Each observed curve at the calibrated point, fit and validate cases.
-    pub curves: Vec<CalibratedCurve>,
-}
-
-impl StudyOutcome {
-    /// The calibrated parameters by name.
-    pub fn calibrated_by_name(&self, study: &Study) -> Vec<(String, f64)> {
-        study
-            .parameters
-            .iter()
-            .map(|p| p.search.name.clone())
-            .zip(self.calibrated.iter().copied())
-            .collect()
-    }
-}
-
-/// An observed curve and the calibrated model's.
-#[derive(Clone, Debug)]
-pub struct CalibratedCurve {
-    pub case: String,
-    pub name: String,
-    pub measured: Vec<(f64, f64)>,
-    /// The column names or quantities of x and y.
-    pub axes: [String; 2],
-    /// None when the model cannot give it again without a new run (a
-    /// solver's run directory that is gone).
-    pub model: Option<Vec<(f64, f64)>>,
 }
 
 /// A finished study: what it found and its report (also on disk).
@@ -403,29 +274,6 @@ fn search(
                 .map(|found| Found::LeastSquares(Box::new(found)))
         }
     }
-}
-
-/// What a method found.
-pub enum Found {
-    Bo(acq_calib::bo::BoResult),
-    Moo(Box<super::surrogate_moo::SurrogateMoo>),
-    LeastSquares(Box<LeastSquaresFound>),
-}
-
-impl Found {
-    fn gps(&self) -> Option<&[acq_calib::gp::Gp]> {
-        match self {
-            Found::Moo(moo) => Some(&moo.gps),
-            Found::Bo(_) | Found::LeastSquares(_) => None,
-        }
-    }
-}
-
-/// What a least-squares search found, and where it started.
-pub struct LeastSquaresFound {
-    pub result: LeastSquaresResult,
-    /// The fit outputs at the nominal point (the search's start).
-    pub nominal_outputs: Vec<f64>,
 }
 
 /// Levenberg-Marquardt from the nominal point through the logging

@@ -15,8 +15,8 @@
 use serde_json::{json, Map, Value};
 
 use super::extras::Extras;
+use super::outcome::{Found, StudyOutcome};
 use super::study::{cases_json, chi_square, errors_json, Role, Study};
-use super::study_runner::{Found, StudyOutcome};
 
 /// The summary of a finished study.
 pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Value {

@@ -8,8 +8,8 @@ use std::path::Path;
 use acq_calib::evaluation::Parameter;
 
 use super::observations::{case_observation, measured_curve, scalar, weight_of};
+use super::problem::SpecProblem;
 use super::schema::{ModelName, SpecFile};
-use super::SpecProblem;
 use crate::calibrate::study::{
     Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter,
 };

@@ -7,11 +7,12 @@ use std::path::Path;
 use acq_calib::bo::Acquisition;
 use acq_calib::gp::Kernel;
 
+use super::model::{CommandSpec, ModelKind};
+use super::problem::SpecProblem;
 use super::schema::{
     ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_EVALUATIONS, MAX_PARALLEL,
     MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
 };
-use super::{CommandSpec, ModelKind, SpecProblem};
 use crate::calibrate::surrogate_moo::Pick;
 
 /// `model` and the keys that belong to it: a command, or the built-in

@@ -93,15 +93,20 @@ use std::path::{Path, PathBuf};
 
 use acq_io::error::{AcqError, Result};
 
-use self::schema::{CurveSpec, ExecutorSpec, MethodName, Search, SpecFile};
+use self::schema::{ExecutorSpec, MethodName, Search, SpecFile};
+use super::method::{BoMethod, LeastSquaresMethod, Method};
 use super::study::Study;
-use super::study_runner::{BoMethod, LeastSquaresMethod, Method};
 use super::surrogate_moo::SurrogateMooSettings;
 
 pub mod build;
 pub mod checks;
+pub mod model;
 pub mod observations;
+pub mod problem;
 pub mod schema;
+
+pub use self::model::{CommandSpec, ModelKind};
+pub use self::problem::SpecProblem;
 
 /// A checked spec: the model, the study, how to search it.
 #[derive(Debug)]
@@ -115,94 +120,6 @@ pub struct Spec {
     pub runs_at_once: usize,
     /// Where the spec's relative paths start.
     pub directory: PathBuf,
-}
-
-/// The model a spec calibrates.
-#[derive(Debug)]
-pub enum ModelKind {
-    /// A user's solver, run as a command once per run.
-    Command(CommandSpec),
-    /// The built-in excavator twin, with its geometry file (next to the
-    /// spec) and whether changed geometry re-fits the published poses.
-    Excavator {
-        geometry: Option<String>,
-        refit_poses: bool,
-    },
-}
-
-/// How a user's solver is run and read.
-#[derive(Clone, Debug)]
-pub struct CommandSpec {
-    /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
-    pub command: Vec<String>,
-    /// The file of scalar outputs, in the run directory ("" for none).
-    pub output_file: String,
-    pub link_files: Vec<String>,
-    pub copy_files: Vec<String>,
-    pub timeout_s: f64,
-    pub retries: u32,
-    /// The curves the solver writes.
-    pub curves: Vec<CurveSpec>,
-}
-
-/// A problem with a spec, and where it is.
-#[derive(Debug)]
-pub struct SpecProblem {
-    /// The `[[table]]` header and which of them (0-based), when the problem
-    /// is in one.
-    table: Option<(&'static str, usize)>,
-    message: String,
-    /// A measured file that cannot be read as data (exit code 3), rather
-    /// than a spec that asks for the wrong thing (2).
-    malformed_input: Option<AcqError>,
-}
-
-impl SpecProblem {
-    /// A problem with the spec as a whole.
-    pub fn file(message: impl Into<String>) -> Self {
-        SpecProblem {
-            table: None,
-            message: message.into(),
-            malformed_input: None,
-        }
-    }
-
-    /// A problem in the `index`-th `header` table (`[[case]]`).
-    pub fn table(header: &'static str, index: usize, message: impl Into<String>) -> Self {
-        SpecProblem {
-            table: Some((header, index)),
-            ..SpecProblem::file(message)
-        }
-    }
-
-    /// A file the spec names that cannot be read: its own error.
-    pub fn malformed(error: AcqError) -> Self {
-        SpecProblem {
-            malformed_input: Some(error),
-            ..SpecProblem::file(String::new())
-        }
-    }
-
-    /// The error to report for the spec at `path` with `text`.
-    fn located(self, path: &Path, text: &str) -> AcqError {
-        if let Some(error) = self.malformed_input {
-            return error;
-        }
-        let line = self
-            .table
-            .map(|(header, index)| format!(":{}", table_line(text, header, index)))
-            .unwrap_or_default();
-        AcqError::Config(format!("{}{line}: {}", path.display(), self.message))
-    }
-}
-
-/// The 1-based line of the `index`-th `[[header]]` table in a spec.
-fn table_line(text: &str, header: &str, index: usize) -> usize {
-    text.lines()
-        .enumerate()
-        .filter(|(_, line)| line.trim() == header)
-        .nth(index)
-        .map_or(1, |(number, _)| number + 1)
 }
 
 /// The directory a spec's relative paths start from.

@@ -1,0 +1,95 @@
+//! How a study is searched: the method and its settings, the start design,
+//! and how the run goes (progress label, parallel runs, resume).
+
+use std::path::Path;
+
+use acq_calib::bo::Acquisition;
+use acq_calib::doe::{
+    full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
+    two_level_to_unit,
+};
+use acq_calib::evaluation::Parameter;
+use acq_io::error::{AcqError, Result};
+
+use super::search::to_unit;
+use super::surrogate_moo::SurrogateMooSettings;
+
+/// Bayesian optimisation's settings in a study.
+#[derive(Clone, Debug)]
+pub struct BoMethod {
+    /// lhs, sobol, l12, factorial, or a CSV file of points.
+    pub start: String,
+    pub start_runs: usize,
+    pub max_evals: usize,
+    pub target_loss: Option<f64>,
+    pub acquisition: Option<Acquisition>,
+    pub patience: Option<usize>,
+    /// Points proposed (and run) at once.
+    pub batch: usize,
+    pub seed: u64,
+    /// Local trust-region steps on the residuals (each curve's errors in
+    /// [`CURVE_PARTS`] parts) between the global ones.
+    pub local_steps: bool,
+}
+
+/// How many parts of a curve the local steps of a search see: enough to
+/// tell the elastic rise, the hardening, the necking and the drop apart.
+pub const CURVE_PARTS: usize = 20;
+
+/// Least squares' settings in a study.
+#[derive(Clone, Debug)]
+pub struct LeastSquaresMethod {
+    /// Model runs at most (each Jacobian costs one per parameter).
+    pub max_evals: usize,
+}
+
+/// The search method of a study.
+#[derive(Clone, Debug)]
+pub enum Method {
+    Bo(BoMethod),
+    SurrogateMoo(SurrogateMooSettings),
+    LeastSquares(LeastSquaresMethod),
+}
+
+/// How a study runs, besides its method.
+pub struct RunSettings<'a> {
+    /// The progress line's label.
+    pub label: String,
+    /// For messages and the report's title (the spec's path).
+    pub title: String,
+    /// Where a CSV start design's path starts.
+    pub spec_directory: &'a Path,
+    pub parallel: usize,
+    pub resume: bool,
+}
+
+/// The start design in the unit box; read before the run directory exists,
+/// so a refused design leaves nothing behind. None for the methods that
+/// start from their own design.
+pub fn start_design(
+    parameters: &[Parameter],
+    method: &Method,
+    spec_directory: &Path,
+) -> Result<Vec<Vec<f64>>> {
+    let Method::Bo(bo) = method else {
+        return Ok(Vec::new());
+    };
+    let d = parameters.len();
+    let n = bo.start_runs;
+    let config = |e: String| AcqError::Config(format!("search.start: {e}"));
+    Ok(match bo.start.as_str() {
+        "lhs" => latin_hypercube(n, d, bo.seed),
+        "sobol" => sobol_points(n, d, Some(bo.seed)).map_err(|e| config(e.to_string()))?,
+        "l12" => two_level_to_unit(&orthogonal_array_l12(d).map_err(|e| config(e.to_string()))?),
+        "factorial" => full_factorial(&vec![2; d]).map_err(|e| config(e.to_string()))?,
+        file => {
+            let path = spec_directory.join(file);
+            let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
+            acq_io::input::note_input(&path);
+            let names: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
+            let points = read_design_csv(&text, &names)
+                .map_err(|e| AcqError::Malformed(format!("{}: {e}", path.display())))?;
+            points.iter().map(|p| to_unit(parameters, p)).collect()
+        }
+    })
+}

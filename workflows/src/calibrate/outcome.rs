@@ -1,0 +1,77 @@
+//! What a study found: the method's own result, the calibrated point and
+//! its errors, every evaluation, the identifiability analysis and the
+//! calibrated curves. The runner makes it; the summary, the report and a
+//! preset's extras read it.
+
+use acq_calib::evaluation::Evaluation;
+use acq_calib::least_squares::LeastSquaresResult;
+
+use super::identifiability::Identifiability;
+use super::study::{ObservationError, Study};
+
+/// What a study found.
+pub struct StudyOutcome {
+    pub found: Found,
+    /// The calibrated point (search vector) and the fit outputs there.
+    pub calibrated: Vec<f64>,
+    pub calibrated_outputs: Vec<f64>,
+    pub fit_errors: Vec<ObservationError>,
+    pub validation_errors: Vec<ObservationError>,
+    /// Every fit evaluation, from the log or run now.
+    pub evaluations: Vec<Evaluation>,
+    pub failed: usize,
+    pub wall_s: f64,
+    pub identifiability: Option<Identifiability>,
+    /// The model's note columns (where each run happened), as logged.
+    pub note_columns: Vec<String>,
+    /// Each observed curve at the calibrated point, fit and validate cases.
+    pub curves: Vec<CalibratedCurve>,
+}
+
+impl StudyOutcome {
+    /// The calibrated parameters by name.
+    pub fn calibrated_by_name(&self, study: &Study) -> Vec<(String, f64)> {
+        study
+            .parameters
+            .iter()
+            .map(|p| p.search.name.clone())
+            .zip(self.calibrated.iter().copied())
+            .collect()
+    }
+}
+
+/// An observed curve and the calibrated model's.
+#[derive(Clone, Debug)]
+pub struct CalibratedCurve {
+    pub case: String,
+    pub name: String,
+    pub measured: Vec<(f64, f64)>,
+    /// The column names or quantities of x and y.
+    pub axes: [String; 2],
+    /// None when the model cannot give it again without a new run (a
+    /// solver's run directory that is gone).
+    pub model: Option<Vec<(f64, f64)>>,
+}
+
+/// What a method found.
+pub enum Found {
+    Bo(acq_calib::bo::BoResult),
+    Moo(Box<super::surrogate_moo::SurrogateMoo>),
+    LeastSquares(Box<LeastSquaresFound>),
+}
+
+impl Found {
+    pub fn gps(&self) -> Option<&[acq_calib::gp::Gp]> {
+        match self {
+            Found::Moo(moo) => Some(&moo.gps),
+            Found::Bo(_) | Found::LeastSquares(_) => None,
+        }
+    }
+}
+
+/// What a least-squares search found, and where it started.
+pub struct LeastSquaresFound {
+    pub result: LeastSquaresResult,
+    /// The fit outputs at the nominal point (the search's start).
+    pub nominal_outputs: Vec<f64>,
+}

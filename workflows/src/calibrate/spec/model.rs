@@ -1,0 +1,32 @@
+//! The model a spec calibrates, as checked: a user's solver run as a
+//! command, or a built-in twin.
+
+use super::schema::CurveSpec;
+
+/// The model a spec calibrates.
+#[derive(Debug)]
+pub enum ModelKind {
+    /// A user's solver, run as a command once per run.
+    Command(CommandSpec),
+    /// The built-in excavator twin, with its geometry file (next to the
+    /// spec) and whether changed geometry re-fits the published poses.
+    Excavator {
+        geometry: Option<String>,
+        refit_poses: bool,
+    },
+}
+
+/// How a user's solver is run and read.
+#[derive(Clone, Debug)]
+pub struct CommandSpec {
+    /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
+    pub command: Vec<String>,
+    /// The file of scalar outputs, in the run directory ("" for none).
+    pub output_file: String,
+    pub link_files: Vec<String>,
+    pub copy_files: Vec<String>,
+    pub timeout_s: f64,
+    pub retries: u32,
+    /// The curves the solver writes.
+    pub curves: Vec<CurveSpec>,
+}

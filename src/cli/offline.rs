@@ -290,7 +290,7 @@ pub fn run_extract(args: ExtractArgs) -> Result<()> {
         );
     }
     for clock in &report.clocks {
-        if clock.source != acq_analysis::align::run::ClockSource::Reference {
+        if clock.source != acq_analysis::recording::clocks::ClockSource::Reference {
             eprintln!("acq: {clock}");
         }
     }

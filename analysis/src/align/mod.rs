@@ -13,12 +13,10 @@
 //! enough to call it a gap. Memory is the channels times the rows inside
 //! `lateness + max gap`, whatever the session's length.
 //!
-//! - [`offset`]: clock offsets between buses by cross-correlation.
 //! - [`filter`]: the optional zero-phase Gaussian low-pass.
 //! - [`table`]: the aligned CSV.
 
 pub mod filter;
-pub mod offset;
 pub mod run;
 pub mod table;
 

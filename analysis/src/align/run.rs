@@ -4,15 +4,15 @@
 
 use std::fmt::Write as _;
 
-use acq_drivers::rig::{BusClock, Interpolation, Rig};
+use acq_drivers::rig::{Interpolation, Rig};
 use acq_io::error::{AcqError, Result};
 use acq_io::output::TableOutput;
 use acq_io::session::utc_text;
 
 use super::filter::{GaussianFilter, RISE_TIME_TIMES_CUTOFF};
-use super::offset::{estimate_offset, OffsetEstimate, DEFAULT_MAX_LAG_NS, MAX_WINDOW_NS};
 use super::table::{Column, CsvTable, Mf4AlignedTable, ParquetAlignedTable};
 use super::{Aligner, ChannelSpec, ChannelStats, GridSpec, RowSink};
+use crate::recording::clocks::{offsets_ns, BusOffset, ClockSource};
 use crate::recording::{Recording, SampleCounts};
 
 /// A duration in seconds (see [`acq_io::input::parse_duration`]).
@@ -137,137 +137,6 @@ impl Default for AlignOptions {
     }
 }
 
-/// Where a bus's clock offset came from.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ClockSource {
-    Reference,
-    Given,
-    Estimated {
-        estimate: OffsetEstimate,
-        signal: String,
-        reference: String,
-    },
-}
-
-/// One bus's clock offset.
-#[derive(Clone, Debug, PartialEq)]
-pub struct BusOffset {
-    pub bus: String,
-    pub offset_ns: i64,
-    pub source: ClockSource,
-}
-
-impl std::fmt::Display for BusOffset {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let ms = self.offset_ns as f64 / 1e6;
-        match &self.source {
-            ClockSource::Reference => write!(f, "bus {}: reference clock", self.bus),
-            ClockSource::Given => write!(f, "bus {}: clock offset {ms:+.3} ms (given)", self.bus),
-            ClockSource::Estimated { estimate, signal, reference } => write!(
-                f,
-                "bus {}: clock offset {ms:+.3} ms +- {:.3} ms estimated from {signal} against {reference} (peak correlation {:.4}, confidence {}, {} samples)",
-                self.bus,
-                estimate.standard_error_ns / 1e6,
-                estimate.correlation,
-                estimate.confidence(),
-                estimate.samples
-            ),
-        }
-    }
-}
-
-/// Each bus's clock offset: given on the command line, in the rig, or
-/// estimated (one extra pass over the recording's first ten minutes).
-pub fn resolve_clock_offsets(
-    recording: &Recording,
-    overrides_ms: &[(String, f64)],
-) -> Result<Vec<BusOffset>> {
-    let rig = &recording.rig;
-    for (name, _) in overrides_ms {
-        if !rig.buses.iter().any(|b| &b.name == name) {
-            let names: Vec<&str> = rig.buses.iter().map(|b| b.name.as_str()).collect();
-            return Err(AcqError::Config(format!(
-                "--clock-offset names bus '{name}', but the rig's buses are {}",
-                names.join(", ")
-            )));
-        }
-    }
-    let mut offsets: Vec<BusOffset> = rig
-        .buses
-        .iter()
-        .map(|bus| {
-            let given = overrides_ms
-                .iter()
-                .find(|(name, _)| name == &bus.name)
-                .map(|(_, ms)| *ms);
-            let (offset_ns, source) = match (given, &bus.clock) {
-                (Some(ms), _) | (None, &BusClock::OffsetMs(ms)) => {
-                    ((ms * 1e6).round() as i64, ClockSource::Given)
-                }
-                _ => (0, ClockSource::Reference),
-            };
-            BusOffset {
-                bus: bus.name.clone(),
-                offset_ns,
-                source,
-            }
-        })
-        .collect();
-    let to_estimate: Vec<(usize, usize, usize)> = rig
-        .buses
-        .iter()
-        .enumerate()
-        .filter_map(|(i, bus)| match bus.clock {
-            BusClock::Estimate { signal, reference } if offsets[i].source != ClockSource::Given => {
-                Some((i, signal, reference))
-            }
-            _ => None,
-        })
-        .collect();
-    if to_estimate.is_empty() {
-        return Ok(offsets);
-    }
-    // Reference signals are read with their own bus's (given) offset.
-    let base: Vec<i64> = offsets.iter().map(|o| o.offset_ns).collect();
-    let mut series: Vec<Vec<(i64, f64)>> = vec![Vec::new(); rig.sensors.len()];
-    let wanted: Vec<usize> = to_estimate.iter().flat_map(|&(_, s, r)| [s, r]).collect();
-    let horizon = MAX_WINDOW_NS + 2 * DEFAULT_MAX_LAG_NS;
-    let mut counts = SampleCounts::default();
-    recording.for_each_sample(&base, &mut counts, |sample| {
-        if wanted.contains(&sample.sensor) {
-            let list = &mut series[sample.sensor];
-            let within = list
-                .first()
-                .is_none_or(|(t0, _)| sample.time_ns - t0 <= horizon);
-            if let (Some(v), true) = (sample.value, within) {
-                list.push((sample.time_ns, v));
-            }
-        }
-        Ok(())
-    })?;
-    for (bus, signal, reference) in to_estimate {
-        for list in [signal, reference] {
-            series[list].sort_by_key(|(t, _)| *t);
-        }
-        let (signal_name, reference_name) =
-            (&rig.sensors[signal].name, &rig.sensors[reference].name);
-        let estimate = estimate_offset(&series[signal], &series[reference], DEFAULT_MAX_LAG_NS)
-            .map_err(|e| {
-                AcqError::Config(format!(
-                    "bus {}: cannot estimate the clock offset from {signal_name} against {reference_name}: {e}; give clock_offset_ms in the rig or --clock-offset {}=MS",
-                    rig.buses[bus].name, rig.buses[bus].name
-                ))
-            })?;
-        offsets[bus].offset_ns = estimate.offset_ns.round() as i64;
-        offsets[bus].source = ClockSource::Estimated {
-            estimate,
-            signal: signal_name.clone(),
-            reference: reference_name.clone(),
-        };
-    }
-    Ok(offsets)
-}
-
 /// How every sensor is read, from the rig and the options.
 pub fn channel_specs(
     rig: &Rig,
@@ -358,8 +227,8 @@ pub fn align_recording(
         )));
     }
     let rig = &recording.rig;
-    let clocks = resolve_clock_offsets(recording, &options.clock_offsets_ms)?;
-    let offsets: Vec<i64> = clocks.iter().map(|c| c.offset_ns).collect();
+    let clocks = recording.clock_offsets(&options.clock_offsets_ms)?;
+    let offsets = offsets_ns(&clocks);
     let specs = channel_specs(rig, options.method, options.max_gap);
     let largest_offset = offsets.iter().map(|o| o.abs()).max().unwrap_or(0);
     let columns: Vec<Column> = rig
@@ -448,11 +317,7 @@ pub fn align_recording(
         engine.push(sample.sensor, sample.time_ns, sample.value)
     })?;
     let Some(engine) = aligner else {
-        return Err(AcqError::Config(format!(
-            "{}: no sample of any rig sensor in the recording; is it the right rig ({})?",
-            recording.label,
-            rig.path.display()
-        )));
+        return Err(recording.no_rig_sample());
     };
     let (sink, channels) = engine.finish()?;
     let rows = channels

@@ -14,7 +14,7 @@ use super::measured::MeasuredValue;
 use super::plausibility::check_window;
 use super::stats::{WindowAccumulator, WindowStats};
 use super::tensile::{extract_curve, TensileCurve};
-use crate::align::run::{resolve_clock_offsets, BusOffset};
+use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
 
 /// Which windows to summarise.
@@ -116,8 +116,8 @@ pub fn extract_holds(
     clock_overrides_ms: &[(String, f64)],
 ) -> Result<HoldsReport> {
     let rig = &recording.rig;
-    let clocks = resolve_clock_offsets(recording, clock_overrides_ms)?;
-    let offsets: Vec<i64> = clocks.iter().map(|c| c.offset_ns).collect();
+    let clocks = recording.clock_offsets(clock_overrides_ms)?;
+    let offsets = offsets_ns(&clocks);
     let load_index = match choice {
         WindowChoice::Auto(_) => Some(load_sensor(recording, load)?),
         WindowChoice::File(_) => load.map(|n| recording.sensor_index(n)).transpose()?,
@@ -137,11 +137,7 @@ pub fn extract_holds(
         Ok(())
     })?;
     let Some(first_ns) = first_ns else {
-        return Err(AcqError::Config(format!(
-            "{}: no sample of any rig sensor in the recording; is it the right rig ({})?",
-            recording.label,
-            rig.path.display()
-        )));
+        return Err(recording.no_rig_sample());
     };
     let t0_ns = recording.session_start_unix_ns().unwrap_or(first_ns);
     let (windows, detection) = match choice {
@@ -333,8 +329,8 @@ pub fn extract_tensile(
                 AcqError::Config("the rig has no displacement sensor (extensometer); name it with --displacement SENSOR".into())
             })?,
     };
-    let clocks = resolve_clock_offsets(recording, clock_overrides_ms)?;
-    let offsets: Vec<i64> = clocks.iter().map(|c| c.offset_ns).collect();
+    let clocks = recording.clock_offsets(clock_overrides_ms)?;
+    let offsets = offsets_ns(&clocks);
     let mut force_samples = Vec::new();
     let mut displacement_samples = Vec::new();
     let mut counts = SampleCounts::default();

@@ -5,6 +5,11 @@
 //!
 //! This is where the chain turns from frames into samples; everything
 //! downstream (align, extract) sees only [`Sample`]s.
+//!
+//! - [`clocks`]: each bus's clock offset (given, or estimated by [`offset`]).
+
+pub mod clocks;
+pub mod offset;
 
 use std::path::{Path, PathBuf};
 
@@ -104,6 +109,16 @@ impl Recording {
                 names.join(", ")
             ))
         })
+    }
+
+    /// The error of a pass that decoded no sample of any rig sensor: the
+    /// recording was most likely made on another rig.
+    pub fn no_rig_sample(&self) -> AcqError {
+        AcqError::Config(format!(
+            "{}: no sample of any rig sensor in the recording; is it the right rig ({})?",
+            self.label,
+            self.rig.path.display()
+        ))
     }
 
     /// Decodes every frame and calls `on_sample` with each sample, its time

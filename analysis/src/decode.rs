@@ -1,5 +1,6 @@
 //! `acq decode`: logs -> one CSV (or Parquet) row per decoded value, or MF4
-//! channel groups (a message or a sensor each).
+//! channel groups (a message or a sensor each): [`decode_dbc`] and
+//! [`decode_rig`] write any of them, picked by the output's name.
 //!
 //! Two routes: through DBC files (every signal of every known message) and
 //! through a rig (each sensor in its own protocol). Both stream: memory does
@@ -18,7 +19,7 @@ use acq_drivers::FrameKind;
 use acq_drivers::LogRecord;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
-use acq_io::output::{csv_field, CompleteOnlyFile, Output};
+use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
 use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
 /// The fixed header of the DBC route.
@@ -423,6 +424,42 @@ pub fn decode_dbc_frames(
     Ok(summary)
 }
 
+/// Decodes every frame of `inputs` through `database` into `output`: CSV
+/// rows, a Parquet table or MF4 channel groups (`name` titles them). What
+/// was decoded before a bad line stopped the run is written out first.
+pub fn decode_dbc(
+    inputs: &mut [LogInput],
+    database: &DbcDatabase,
+    options: DbcDecodeOptions,
+    output: TableOutput,
+    name: &str,
+) -> Result<DecodeSummary> {
+    match output {
+        TableOutput::Csv(mut output) => {
+            let summary = decode_with_dbc(inputs, database, options, &mut output);
+            written(summary, output.finish())
+        }
+        TableOutput::Parquet(output) => {
+            let mut sink = DbcParquet::create(output, database, options.labels)?;
+            let summary = decode_dbc_frames(inputs, database, options, &mut sink);
+            written(summary, sink.finish().map(drop))
+        }
+        TableOutput::Mf4(file) => {
+            let mut sink = DbcMf4::create(file, name, database)?;
+            let summary = decode_dbc_frames(inputs, database, options, &mut sink);
+            written(summary, sink.finish())
+        }
+    }
+}
+
+/// The decode's summary once its output is `finished`; the decode's own
+/// error first (the output holds what came before it).
+fn written(summary: Result<DecodeSummary>, finished: Result<()>) -> Result<DecodeSummary> {
+    let summary = summary?;
+    finished?;
+    Ok(summary)
+}
+
 /// Prints the summary line to stderr.
 pub fn report(summary: &DecodeSummary) {
     let _ = writeln!(std::io::stderr(), "acq decode: {summary}");
@@ -587,6 +624,35 @@ pub fn decode_with_rig(
             .collect(),
     };
     decode_rig_frames(inputs, rig, bad_lines, &mut sink)
+}
+
+/// Decodes every frame of `inputs` through the rig's sensors into
+/// `output`: CSV rows, a Parquet table or MF4 channel groups (`name`
+/// titles them). What was decoded before a bad line stopped the run is
+/// written out first.
+pub fn decode_rig(
+    inputs: &mut [LogInput],
+    rig: &Rig,
+    bad_lines: BadLines,
+    output: TableOutput,
+    name: &str,
+) -> Result<DecodeSummary> {
+    match output {
+        TableOutput::Csv(mut output) => {
+            let summary = decode_with_rig(inputs, rig, bad_lines, &mut output);
+            written(summary, output.finish())
+        }
+        TableOutput::Parquet(output) => {
+            let mut sink = RigParquet::create(output, rig)?;
+            let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
+            written(summary, sink.finish().map(drop))
+        }
+        TableOutput::Mf4(file) => {
+            let mut sink = RigMf4::create(file, name, rig)?;
+            let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
+            written(summary, sink.finish())
+        }
+    }
 }
 
 /// Decodes every frame of `inputs` through the rig's sensors into `sink`

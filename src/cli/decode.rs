@@ -4,11 +4,11 @@
 
 use std::path::PathBuf;
 
-use acq_analysis::decode::{self, DbcDecodeOptions, DbcMf4, DbcParquet, RigMf4, RigParquet};
+use acq_analysis::decode::{self, DbcDecodeOptions};
 use acq_drivers::dbc::DbcDatabase;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{load_rig, open_logs, BadLines};
-use acq_io::output::{Output, TableFormat, TableOutput};
+use acq_io::output::TableOutput;
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -58,72 +58,33 @@ fn bad_lines(skip_bad: bool) -> BadLines {
 
 pub fn run_decode(args: DecodeArgs) -> Result<()> {
     let mut inputs = open_logs(&args.logs)?;
-    let table = match args.output.as_deref() {
-        Some(path) if TableFormat::of(path) != TableFormat::Csv => Some(TableOutput::create(path)?),
-        _ => None,
-    };
-    let name = args
-        .output
-        .as_deref()
-        .map(|p| p.display().to_string())
-        .unwrap_or_default();
+    let path = args.output.unwrap_or_else(|| PathBuf::from("-"));
+    let name = path.display().to_string();
     let skip = bad_lines(args.skip_bad);
-    if let Some(rig_path) = &args.rig {
+    let summary = if let Some(rig_path) = &args.rig {
         let rig = load_rig(rig_path)?;
-        return match table {
-            Some(TableOutput::Parquet(output)) => {
-                let mut sink = RigParquet::create(output, &rig)?;
-                let summary = decode::decode_rig_frames(&mut inputs, &rig, skip, &mut sink);
-                finish(summary, sink.finish().map(|_| ()))
-            }
-            Some(TableOutput::Mf4(file)) => {
-                let mut sink = RigMf4::create(file, &name, &rig)?;
-                let summary = decode::decode_rig_frames(&mut inputs, &rig, skip, &mut sink);
-                finish(summary, sink.finish())
-            }
-            _ => {
-                let mut output = Output::create(args.output.as_deref())?;
-                let summary = decode::decode_with_rig(&mut inputs, &rig, skip, &mut output);
-                finish(summary, output.finish())
-            }
+        decode::decode_rig(&mut inputs, &rig, skip, TableOutput::create(&path)?, &name)?
+    } else {
+        let (database, warnings) =
+            DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+        for dbc in &args.dbc {
+            acq_io::input::note_input(dbc);
+        }
+        for warning in warnings {
+            eprintln!("acq: warning: {}", warning.0);
+        }
+        let options = DbcDecodeOptions {
+            bad_lines: skip,
+            labels: args.labels,
         };
-    }
-    let (database, warnings) =
-        DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
-    for dbc in &args.dbc {
-        acq_io::input::note_input(dbc);
-    }
-    for warning in warnings {
-        eprintln!("acq: warning: {}", warning.0);
-    }
-    let options = DbcDecodeOptions {
-        bad_lines: skip,
-        labels: args.labels,
+        decode::decode_dbc(
+            &mut inputs,
+            &database,
+            options,
+            TableOutput::create(&path)?,
+            &name,
+        )?
     };
-    match table {
-        Some(TableOutput::Parquet(output)) => {
-            let mut sink = DbcParquet::create(output, &database, args.labels)?;
-            let summary = decode::decode_dbc_frames(&mut inputs, &database, options, &mut sink);
-            finish(summary, sink.finish().map(|_| ()))
-        }
-        Some(TableOutput::Mf4(file)) => {
-            let mut sink = DbcMf4::create(file, &name, &database)?;
-            let summary = decode::decode_dbc_frames(&mut inputs, &database, options, &mut sink);
-            finish(summary, sink.finish())
-        }
-        _ => {
-            let mut output = Output::create(args.output.as_deref())?;
-            let summary = decode::decode_with_dbc(&mut inputs, &database, options, &mut output);
-            finish(summary, output.finish())
-        }
-    }
-}
-
-/// Keeps what was decoded even when decoding stopped at a bad line (the
-/// output is `flushed` first), then reports the summary.
-fn finish(summary: Result<decode::DecodeSummary>, flushed: Result<()>) -> Result<()> {
-    let summary = summary?;
-    flushed?;
     decode::report(&summary);
     Ok(())
 }

@@ -23,7 +23,7 @@ use serde_json::json;
 
 use acq_acquire::bus::memory::MemoryBus;
 use acq_acquire::bus::socketcan::SocketCanBus;
-use acq_analysis::align::run::{align_recording, AlignOptions, AlignSummary, GapTolerance};
+use acq_analysis::align::run::{align_recording, AlignOptions, AlignSummary};
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::measured::write_measured;
 use acq_analysis::extract::run::{
@@ -303,19 +303,11 @@ pub fn run(args: DemoArgs) -> Result<()> {
         let step = Instant::now();
         let aligned = align_recording(
             &recording,
-            &AlignOptions {
-                rate_hz: 100.0,
-                method: None,
-                max_gap: GapTolerance::Periods(3.0),
-                from: None,
-                to: None,
-                filter_hz: None,
-                clock_offsets_ms: Vec::new(),
-            },
+            &AlignOptions::default(),
             TableOutput::Csv(Output::create_complete_only(&work.join("aligned.csv"))?),
         )?;
         steps.push(Step {
-            name: format!("{name}: align (100 Hz)"),
+            name: format!("{name}: align ({} Hz)", AlignOptions::default().rate_hz),
             wall_s: step.elapsed().as_secs_f64(),
         });
         let step = Instant::now();

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use acq_analysis::align::run::{align_recording, AlignOptions, GapTolerance, TimePoint};
+use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::recording::Recording;
 use acq_drivers::rig::Interpolation;
 use acq_io::error::{AcqError, Result};
@@ -50,14 +51,14 @@ pub struct AlignArgs {
     #[arg(long, value_name = "RIG.toml")]
     pub rig: Option<PathBuf>,
     /// Rows per second of the common time base.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = AlignOptions::default().rate_hz)]
     pub rate: f64,
     /// Interpolation for every sensor [default: each sensor's own from the
     /// rig: linear for continuous values, hold for states].
     #[arg(long, value_enum)]
     pub method: Option<MethodArg>,
     /// Silence that counts as a gap: `3x` sample periods, or `50ms`, `0.2s`.
-    #[arg(long, default_value = "3x", value_parser = GapTolerance::parse)]
+    #[arg(long, default_value_t = AlignOptions::default().max_gap, value_parser = GapTolerance::parse)]
     pub max_gap: GapTolerance,
     /// First row: seconds from the session start, or a UTC time.
     #[arg(long, value_parser = TimePoint::parse)]
@@ -113,9 +114,19 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
     Ok(())
 }
 
-fn parse_duration_ns(text: &str) -> std::result::Result<i64, String> {
+/// A duration on the command line (`3s`, `500ms`), ns; shown in seconds.
+#[derive(Clone, Copy, Debug)]
+pub struct DurationNs(pub i64);
+
+impl std::fmt::Display for DurationNs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}s", self.0 as f64 / 1e9)
+    }
+}
+
+fn parse_duration_ns(text: &str) -> std::result::Result<DurationNs, String> {
     // At most MAX_DURATION_S (1e18 ns), so it fits an i64.
-    acq_io::input::parse_duration(text).map(|d| d.as_nanos() as i64)
+    acq_io::input::parse_duration(text).map(|d| DurationNs(d.as_nanos() as i64))
 }
 
 #[derive(Args, Debug)]
@@ -146,16 +157,16 @@ pub struct ExtractArgs {
     #[arg(long, value_name = "VALUE")]
     pub steady_std: Option<f64>,
     /// Rolling window of the steadiness test.
-    #[arg(long, default_value = "1s", value_parser = parse_duration_ns)]
-    pub steady_window: i64,
+    #[arg(long, default_value_t = DurationNs(HoldOptions::default().window_ns), value_parser = parse_duration_ns)]
+    pub steady_window: DurationNs,
     /// Shortest hold kept (after trimming).
-    #[arg(long, default_value = "3s", value_parser = parse_duration_ns)]
-    pub min_hold: i64,
+    #[arg(long, default_value_t = DurationNs(HoldOptions::default().min_hold_ns), value_parser = parse_duration_ns)]
+    pub min_hold: DurationNs,
     /// Trimmed from both ends of a hold.
-    #[arg(long, default_value = "0.5s", value_parser = parse_duration_ns)]
-    pub settle: i64,
+    #[arg(long, default_value_t = DurationNs(HoldOptions::default().settle_ns), value_parser = parse_duration_ns)]
+    pub settle: DurationNs,
     /// Smallest mean load of a hold, as a fraction of the load's range.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = HoldOptions::default().min_load_fraction)]
     pub min_load: f64,
     /// Tensile: the force sensor [default: the rig's only force sensor].
     #[arg(long, value_name = "SENSOR", requires = "tensile")]
@@ -184,9 +195,8 @@ pub struct ExtractArgs {
 }
 
 pub fn run_extract(args: ExtractArgs) -> Result<()> {
-    use acq_analysis::extract::holds::HoldOptions;
     use acq_analysis::extract::measured::write_measured;
-    use acq_analysis::extract::run::{extract_holds, extract_tensile, WindowChoice};
+    use acq_analysis::extract::run::{extract_holds, extract_tensile, specimen, WindowChoice};
     use acq_analysis::extract::tensile::write_curve;
 
     let recording = Recording::open(&args.input, args.rig.as_deref())?;
@@ -194,24 +204,7 @@ pub fn run_extract(args: ExtractArgs) -> Result<()> {
         eprintln!("acq: warning: {warning}");
     }
     if args.tensile {
-        let specimen = match (recording.rig.specimen, args.diameter_mm, args.gauge_length_mm) {
-            (_, Some(d), Some(l)) => acq_drivers::rig::Specimen { diameter_mm: d, gauge_length_mm: l },
-            (Some(s), d, l) => acq_drivers::rig::Specimen {
-                diameter_mm: d.unwrap_or(s.diameter_mm),
-                gauge_length_mm: l.unwrap_or(s.gauge_length_mm),
-            },
-            (None, _, _) => {
-                return Err(AcqError::Config(format!(
-                    "the rig {} has no [specimen]; add one (diameter_mm, gauge_length_mm) or give --diameter-mm and --gauge-length-mm",
-                    recording.rig.path.display()
-                )))
-            }
-        };
-        if !(specimen.diameter_mm > 0.0 && specimen.gauge_length_mm > 0.0) {
-            return Err(AcqError::Config(
-                "--diameter-mm and --gauge-length-mm must be positive".into(),
-            ));
-        }
+        let specimen = specimen(&recording, args.diameter_mm, args.gauge_length_mm)?;
         let report = extract_tensile(
             &recording,
             args.force.as_deref(),
@@ -242,23 +235,12 @@ pub fn run_extract(args: ExtractArgs) -> Result<()> {
         }
         return Ok(());
     }
-    if !(0.0..1.0).contains(&args.min_load) {
-        return Err(AcqError::Config(format!(
-            "--min-load is a fraction of the load's range in [0, 1), got {}",
-            args.min_load
-        )));
-    }
-    if args.steady_std.is_some_and(|s| !(s > 0.0 && s.is_finite())) {
-        return Err(AcqError::Config(
-            "--steady-std must be a positive number in the load's unit".into(),
-        ));
-    }
     let choice = if args.windows == "auto" {
         WindowChoice::Auto(HoldOptions {
-            window_ns: args.steady_window.max(1),
+            window_ns: args.steady_window.0.max(1),
             steady_std: args.steady_std,
-            min_hold_ns: args.min_hold,
-            settle_ns: args.settle,
+            min_hold_ns: args.min_hold.0,
+            settle_ns: args.settle.0,
             min_load_fraction: args.min_load,
         })
     } else {

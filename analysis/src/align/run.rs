@@ -69,6 +69,16 @@ impl GapTolerance {
     }
 }
 
+/// As [`GapTolerance::parse`] reads it: `3x`, or seconds (`0.05s`).
+impl std::fmt::Display for GapTolerance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            GapTolerance::Periods(periods) => write!(f, "{periods}x"),
+            GapTolerance::Fixed(ns) => write!(f, "{}s", ns as f64 / 1e9),
+        }
+    }
+}
+
 impl Default for GapTolerance {
     fn default() -> Self {
         GapTolerance::Periods(3.0)

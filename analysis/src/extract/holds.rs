@@ -39,6 +39,23 @@ impl Default for HoldOptions {
     }
 }
 
+impl HoldOptions {
+    /// Refuses settings no hold could be found with; the message names the
+    /// command-line option.
+    pub fn check(&self) -> Result<(), String> {
+        if !(0.0..1.0).contains(&self.min_load_fraction) {
+            return Err(format!(
+                "--min-load is a fraction of the load's range in [0, 1), got {}",
+                self.min_load_fraction
+            ));
+        }
+        if self.steady_std.is_some_and(|s| !(s > 0.0 && s.is_finite())) {
+            return Err("--steady-std must be a positive number in the load's unit".into());
+        }
+        Ok(())
+    }
+}
+
 /// Default steady threshold as a fraction of the load range.
 pub const STEADY_STD_FRACTION_OF_RANGE: f64 = 0.01;
 

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use acq_drivers::profiles::SensorKind;
-use acq_drivers::rig::Rig;
+use acq_drivers::rig::{Rig, Specimen};
 use acq_io::error::{AcqError, Result};
 use acq_io::input::read_csv_records;
 
@@ -108,6 +108,37 @@ pub fn read_windows(path: &Path, t0_ns: i64) -> Result<Vec<Window>> {
     Ok(windows)
 }
 
+/// The specimen of a tensile test: the rig's `[specimen]` with each number
+/// given here instead; both must be positive lengths.
+pub fn specimen(
+    recording: &Recording,
+    diameter_mm: Option<f64>,
+    gauge_length_mm: Option<f64>,
+) -> Result<Specimen> {
+    let specimen = match (recording.rig.specimen, diameter_mm, gauge_length_mm) {
+        (_, Some(diameter_mm), Some(gauge_length_mm)) => Specimen {
+            diameter_mm,
+            gauge_length_mm,
+        },
+        (Some(rig), diameter_mm, gauge_length_mm) => Specimen {
+            diameter_mm: diameter_mm.unwrap_or(rig.diameter_mm),
+            gauge_length_mm: gauge_length_mm.unwrap_or(rig.gauge_length_mm),
+        },
+        (None, _, _) => {
+            return Err(AcqError::Config(format!(
+                "the rig {} has no [specimen]; add one (diameter_mm, gauge_length_mm) or give --diameter-mm and --gauge-length-mm",
+                recording.rig.path.display()
+            )))
+        }
+    };
+    if !(specimen.diameter_mm > 0.0 && specimen.gauge_length_mm > 0.0) {
+        return Err(AcqError::Config(
+            "--diameter-mm and --gauge-length-mm must be positive".into(),
+        ));
+    }
+    Ok(specimen)
+}
+
 /// Summarises every sensor in every window (the holds, or the file's).
 pub fn extract_holds(
     recording: &Recording,
@@ -116,6 +147,9 @@ pub fn extract_holds(
     clock_overrides_ms: &[(String, f64)],
 ) -> Result<HoldsReport> {
     let rig = &recording.rig;
+    if let WindowChoice::Auto(options) = choice {
+        options.check().map_err(AcqError::Config)?;
+    }
     let clocks = recording.clock_offsets(clock_overrides_ms)?;
     let offsets = offsets_ns(&clocks);
     let load_index = match choice {

@@ -7,6 +7,8 @@
 //! - [`tensile_model`]: the GTN twin set up from a test and scored on it.
 //! - [`tensile_report`]: the reports of `acq tensile-props` and `acq twin gtn`.
 //! - [`excavator_report`]: the report of `acq twin excavator`.
+//! - [`twin_excavator`], [`twin_gtn`]: `acq twin excavator|gtn` and
+//!   `acq sensitivity excavator`, a twin run at given inputs.
 //!
 //! Sits at the end of the data flow: it reads measured values (`acq-analysis`),
 //! runs twins (`acq-twins`) and the engine (`acq-calib`) and writes reports
@@ -21,3 +23,5 @@ pub mod mesh_convergence;
 pub mod sensitivity;
 pub mod tensile_model;
 pub mod tensile_report;
+pub mod twin_excavator;
+pub mod twin_gtn;

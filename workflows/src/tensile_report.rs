@@ -12,6 +12,13 @@ use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
 pub const FLOW_CURVE_HEADER: &str = "PLASTIC_STRAIN,TRUE_STRESS_MPA";
 
 /// The flow curve as CSV, shortest round-trip numbers.
+/// A path's file name for a title (the whole path if it has none).
+pub fn file_name(path: &std::path::Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
 pub fn flow_curve_csv(points: &[FlowPoint]) -> String {
     let mut text = String::with_capacity(32 * (points.len() + 1));
     text.push_str(FLOW_CURVE_HEADER);

@@ -15,6 +15,7 @@
 
 pub mod builtin;
 pub mod command_model;
+pub mod error;
 pub mod excavator;
 pub mod executor;
 pub mod external;

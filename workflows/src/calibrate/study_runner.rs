@@ -22,6 +22,8 @@ use acq_calib::evaluation::{Evaluator, Parameter};
 use acq_calib::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
 use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
+
+use super::error::StudyError;
 use acq_report::document::Document;
 
 use super::extras::Extras;
@@ -67,7 +69,7 @@ pub fn run_study(
     directory: &RunDirectory,
     settings: &RunSettings<'_>,
     extras: &dyn Extras,
-) -> Result<StudyRun> {
+) -> Result<StudyRun, StudyError> {
     let outcome = calibrate_study(study, model, method, initial, directory, settings)?;
     if let Some(analysis) = &outcome.identifiability {
         write_text(
@@ -109,7 +111,7 @@ pub fn calibrate_study(
     initial: Vec<Vec<f64>>,
     directory: &RunDirectory,
     settings: &RunSettings<'_>,
-) -> Result<StudyOutcome> {
+) -> Result<StudyOutcome, StudyError> {
     let parameters = study.search_parameters();
     let curve_parts = match method {
         Method::Bo(bo) if bo.local_steps => CURVE_PARTS,
@@ -160,12 +162,12 @@ pub fn calibrate_study(
     if evaluator.evaluations().iter().all(|e| e.outcome.is_err()) {
         if let Some(first) = evaluator.evaluations().first() {
             let reason = first.outcome.as_ref().err().cloned().unwrap_or_default();
-            return Err(AcqError::Config(format!(
-                "none of the {} model runs succeeded; the first failed with: {reason}. Each run's stdout.txt and stderr.txt are in {}, every reason in {}",
-                evaluator.evaluations().len(),
-                directory.file("runs").display(),
-                directory.file("evaluations.csv").display()
-            )));
+            return Err(StudyError::NoRunSucceeded {
+                runs: evaluator.evaluations().len(),
+                first_reason: reason,
+                runs_directory: directory.file("runs"),
+                log: directory.file("evaluations.csv"),
+            });
         }
     }
     let found = found?;
@@ -188,11 +190,12 @@ pub fn calibrate_study(
         Found::Bo(_) => {
             let scored = scored(&evaluations, |y| study.loss(y));
             let Some(&(best, _)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
-                return Err(AcqError::Config(format!(
-                    "none of the {} model runs succeeded; see {}",
-                    evaluations.len(),
-                    directory.file("evaluations.csv").display()
-                )));
+                return Err(StudyError::NoRunSucceeded {
+                    runs: evaluations.len(),
+                    first_reason: "no run gave a loss".into(),
+                    runs_directory: directory.file("runs"),
+                    log: directory.file("evaluations.csv"),
+                });
             };
             (
                 best.parameters.clone(),
@@ -325,7 +328,7 @@ fn validate(
     calibrated: &[f64],
     directory: &RunDirectory,
     settings: &RunSettings<'_>,
-) -> Result<Vec<ObservationError>> {
+) -> Result<Vec<ObservationError>, StudyError> {
     if study.cases_with(Role::Validate).next().is_none() {
         return Ok(Vec::new());
     }
@@ -340,11 +343,10 @@ fn validate(
     let run = evaluator
         .evaluate(&[calibrated.to_vec()])
         .map_err(evaluation_error)?;
-    let outputs = run[0].outcome.clone().map_err(|reason| {
-        AcqError::Config(format!(
-            "the model fails on the validation cases at the calibrated parameters: {reason}"
-        ))
-    })?;
+    let outputs = run[0]
+        .outcome
+        .clone()
+        .map_err(|reason| StudyError::ValidationFailed { reason })?;
     Ok(study.errors(Role::Validate, &outputs))
 }
 

@@ -91,7 +91,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acq_io::error::{AcqError, Result};
+use acq_io::error::AcqError;
 
 use self::schema::{ExecutorSpec, MethodName, Search, SpecFile};
 use super::method::{BoMethod, LeastSquaresMethod, Method};
@@ -106,7 +106,7 @@ pub mod problem;
 pub mod schema;
 
 pub use self::model::{CommandSpec, ModelKind};
-pub use self::problem::SpecProblem;
+pub use self::problem::{SpecError, SpecProblem};
 
 /// A checked spec: the model, the study, how to search it.
 #[derive(Debug)]
@@ -132,11 +132,14 @@ pub fn spec_directory(spec: &Path) -> PathBuf {
 impl Spec {
     /// Reads and checks a spec and the measured files it names; errors
     /// name the file (and the line of the table at fault) and what to fix.
-    pub fn load(path: &Path) -> Result<Spec> {
+    pub fn load(path: &Path) -> Result<Spec, SpecError> {
         let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
         acq_io::input::note_input(path);
-        let file: SpecFile = toml::from_str(&text)
-            .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?;
+        let file: SpecFile = toml::from_str(&text).map_err(|e| SpecError::Invalid {
+            path: path.to_path_buf(),
+            line: None,
+            message: e.to_string(),
+        })?;
         let located = |problem: SpecProblem| problem.located(path, &text);
         let directory = spec_directory(path);
         let model = checks::model(&file).map_err(located)?;

@@ -1,9 +1,39 @@
 //! A problem with a spec and where it is: the file, or the line of the
-//! `[[table]]` at fault.
+//! `[[table]]` at fault. [`SpecProblem`] is what a check finds;
+//! [`SpecError`] is what [`super::Spec::load`] returns, a type a caller
+//! can match (a spec to fix, or a file that cannot be read).
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use acq_io::error::AcqError;
+
+/// Why a spec was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum SpecError {
+    /// The spec asks for something it cannot have; `line` is that of the
+    /// `[[table]]` at fault, when the problem is in one.
+    #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Invalid {
+        path: PathBuf,
+        line: Option<usize>,
+        message: String,
+    },
+    /// The spec or a file it names cannot be read, or is not what its
+    /// format says.
+    #[error(transparent)]
+    Input(#[from] AcqError),
+}
+
+/// A spec to fix is a configuration error (exit 2); a file that cannot be
+/// read keeps its own kind.
+impl From<SpecError> for AcqError {
+    fn from(error: SpecError) -> Self {
+        match error {
+            SpecError::Input(error) => error,
+            invalid => AcqError::Config(invalid.to_string()),
+        }
+    }
+}
 
 /// A problem with a spec, and where it is.
 #[derive(Debug)]
@@ -44,15 +74,17 @@ impl SpecProblem {
     }
 
     /// The error to report for the spec at `path` with `text`.
-    pub fn located(self, path: &Path, text: &str) -> AcqError {
+    pub fn located(self, path: &Path, text: &str) -> SpecError {
         if let Some(error) = self.malformed_input {
-            return error;
+            return SpecError::Input(error);
         }
-        let line = self
-            .table
-            .map(|(header, index)| format!(":{}", table_line(text, header, index)))
-            .unwrap_or_default();
-        AcqError::Config(format!("{}{line}: {}", path.display(), self.message))
+        SpecError::Invalid {
+            path: path.to_path_buf(),
+            line: self
+                .table
+                .map(|(header, index)| table_line(text, header, index)),
+            message: self.message,
+        }
     }
 }
 

@@ -28,16 +28,26 @@
 //! submitted, by id, and nothing else. After SIGKILL the jobs run on; a
 //! `--resume` finds their ids in the run directories and re-attaches
 //! (collecting those that finished meanwhile) instead of submitting again.
+//!
+//! - [`client`]: the Slurm commands (`squeue`, `scancel`, `scontrol`);
+//! - [`job_files`]: the job script and the files a job leaves.
 
 use std::collections::{BTreeMap, HashMap};
-use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, UNIX_EPOCH};
 
+use self::client::{cancel, is_stuck, query, slurm_command, slurm_exit_code, JobState};
+use self::job_files::{
+    job_script, now_s, read_exit_status, read_number, read_start, wait_for_exit_status,
+    write_whole, CANCELLED_BY_ACQ, EXIT_STATUS, JOB_ID, JOB_SCRIPT, STARTED_AT, SUBMITTED_AT,
+};
 use super::executor::{end_of_stderr, Execution, Executor, Job};
+
+mod client;
+mod job_files;
 
 /// The user's `[executor]` options for Slurm.
 #[derive(Clone, Debug, Default)]
@@ -56,14 +66,6 @@ pub struct SlurmSettings {
     pub prelude: Vec<String>,
 }
 
-const JOB_SCRIPT: &str = "job.sh";
-const JOB_ID: &str = "slurm_job_id";
-const EXIT_STATUS: &str = "exit_status";
-const STARTED_AT: &str = "started_at";
-const SUBMITTED_AT: &str = "submitted_at";
-/// Marks a job acq cancelled itself (Ctrl-C, an error): a `--resume`
-/// submits it again rather than collect a cancelled job.
-const CANCELLED_BY_ACQ: &str = "cancelled_by_acq";
 /// How often a waiting run looks for its exit status file.
 const FILE_POLL: Duration = Duration::from_millis(50);
 /// How often `squeue` is asked (one call for all jobs).
@@ -74,21 +76,8 @@ const RESUBMISSIONS: u32 = 2;
 /// Successful `squeue` answers without a job before it counts as gone
 /// (a shared file system may show its exit status a moment late).
 const GONE_AFTER_POLLS: u32 = 4;
-/// How long the exit status of a job Slurm says completed is waited for.
-const STATUS_GRACE: Duration = Duration::from_secs(60);
 /// When a scancel for acq's timeout has not ended the job, it is sent again.
 const CANCEL_AGAIN: Duration = Duration::from_secs(10);
-
-/// What `squeue` said about a job.
-#[derive(Clone, Debug, PartialEq)]
-struct JobState {
-    /// Slurm's state name: PENDING, RUNNING, COMPLETED, CANCELLED...
-    state: String,
-    /// Slurm's reason (why it pends).
-    reason: String,
-    /// Times Slurm requeued it.
-    restarts: u32,
-}
 
 /// acq's jobs still in Slurm, by id.
 type LiveJobs = BTreeMap<u64, LiveJob>;
@@ -222,7 +211,7 @@ impl SlurmExecutor {
         }
         write_whole(
             &directory.join(JOB_SCRIPT),
-            &job_script(&self.settings, job.argv),
+            &job_script(&self.settings.prelude, job.argv),
         )?;
         write_whole(&directory.join(SUBMITTED_AT), &format!("{}\n", now_s()))?;
         self.park_if_interrupted();
@@ -566,15 +555,6 @@ fn cancel_live(live: &Mutex<LiveJobs>) -> Vec<u64> {
     ids
 }
 
-/// A number from a one-line file of a run directory.
-fn read_number(directory: &Path, name: &str) -> Option<f64> {
-    std::fs::read_to_string(directory.join(name))
-        .ok()?
-        .trim()
-        .parse()
-        .ok()
-}
-
 /// Why a job that ended without an exit status failed, or `Ok(None)` when
 /// the cluster lost it and it is worth submitting again.
 fn ended_without_status(
@@ -608,83 +588,6 @@ fn ended_without_status(
     }
 }
 
-/// A pending reason worth telling the user: not just waiting its turn.
-fn is_stuck(reason: &str) -> bool {
-    !matches!(reason, "" | "None" | "Priority" | "Resources")
-}
-
-/// `squeue`'s states of `ids` (`None` when it cannot be asked).
-fn query(ids: &[u64]) -> Option<HashMap<u64, JobState>> {
-    if ids.is_empty() {
-        return Some(HashMap::new());
-    }
-    let list: Vec<String> = ids.iter().map(u64::to_string).collect();
-    let output = slurm_command("squeue")
-        .args([
-            "--all",
-            "-h",
-            "-t",
-            "all",
-            "-O",
-            QUEUE_FORMAT,
-            "-j",
-            &list.join(","),
-        ])
-        .output()
-        .ok()?;
-    // One unknown id makes squeue fail; several unknown ones print nothing.
-    if !output.status.success() {
-        return String::from_utf8_lossy(&output.stderr)
-            .contains("Invalid job id")
-            .then(HashMap::new);
-    }
-    Some(parse_squeue(&String::from_utf8_lossy(&output.stdout)))
-}
-
-/// `squeue -O`'s fields, each ended by `|` (no padding): the restart
-/// count is only in this long format.
-const QUEUE_FORMAT: &str = "JobID:|,State:|,RestartCnt:|,Reason:|";
-
-/// Lines `id|STATE|restarts|reason|` of `squeue -O QUEUE_FORMAT`.
-fn parse_squeue(text: &str) -> HashMap<u64, JobState> {
-    text.lines()
-        .filter_map(|line| {
-            let mut cells = line.trim_end().trim_end_matches('|').splitn(4, '|');
-            let id = cells.next()?.trim().parse().ok()?;
-            let state = cells.next()?.trim().to_string();
-            let restarts = cells.next()?.trim().parse().unwrap_or(0);
-            let reason = cells.next().unwrap_or("").trim().to_string();
-            Some((
-                id,
-                JobState {
-                    state,
-                    reason,
-                    restarts,
-                },
-            ))
-        })
-        .collect()
-}
-
-/// `scancel` of exactly these job ids.
-fn cancel(ids: &[u64]) {
-    let list: Vec<String> = ids.iter().map(u64::to_string).collect();
-    let _ = slurm_command("scancel")
-        .args(&list)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status();
-}
-
-/// A Slurm command in a process group of its own: Ctrl-C on the terminal
-/// reaches acq, which cancels its jobs, and must not kill an `sbatch`
-/// halfway (a job submitted but never noted).
-fn slurm_command(program: &str) -> Command {
-    let mut command = Command::new(program);
-    command.stdin(Stdio::null()).process_group(0);
-    command
-}
-
 /// The run's outcome from the solver's exit status.
 fn solver_outcome(id: u64, status: i32, directory: &Path) -> Result<Option<()>, String> {
     if status == 0 {
@@ -697,174 +600,8 @@ fn solver_outcome(id: u64, status: i32, directory: &Path) -> Result<Option<()>, 
     }
 }
 
-/// The exit status of a job Slurm says has ended, read for up to
-/// [`STATUS_GRACE`]: on a shared file system a file written on the compute
-/// node can take a while to show on this one. Listing the directory
-/// refreshes NFS's cache of it.
-fn wait_for_exit_status(directory: &Path) -> Option<i32> {
-    let deadline = Instant::now() + STATUS_GRACE;
-    loop {
-        let _ = std::fs::read_dir(directory).map(|entries| entries.count());
-        if let Some(status) = read_exit_status(directory) {
-            return Some(status);
-        }
-        if Instant::now() >= deadline {
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    }
-}
-
-/// The exit code Slurm recorded for the job (its script exits with the
-/// solver's), from `scontrol show job` (`ExitCode=1:0`).
-fn slurm_exit_code(id: u64) -> Option<i32> {
-    let output = slurm_command("scontrol")
-        .args(["show", "job", &id.to_string()])
-        .output()
-        .ok()?;
-    String::from_utf8_lossy(&output.stdout)
-        .split_whitespace()
-        .find_map(|word| word.strip_prefix("ExitCode="))?
-        .split(':')
-        .next()?
-        .parse()
-        .ok()
-}
-
-/// `(restart count, start time)` the job script wrote when it started.
-fn read_start(directory: &Path) -> Option<(u32, f64)> {
-    let text = std::fs::read_to_string(directory.join(STARTED_AT)).ok()?;
-    let mut words = text.split_whitespace();
-    Some((words.next()?.parse().ok()?, words.next()?.parse().ok()?))
-}
-
-/// The solver's exit status once the job script has written it.
-fn read_exit_status(directory: &Path) -> Option<i32> {
-    std::fs::read_to_string(directory.join(EXIT_STATUS))
-        .ok()?
-        .trim()
-        .parse()
-        .ok()
-}
-
-/// A word as the shell reads it literally: in single quotes, with each
-/// single quote closed, escaped and reopened.
-fn shell_quote(word: &str) -> String {
-    format!("'{}'", word.replace('\'', r"'\''"))
-}
-
-/// Writes `text` to `path` through a temporary file and a rename, so the
-/// file is whole whenever it exists.
-fn write_whole(path: &Path, text: &str) -> Result<(), String> {
-    let partial: PathBuf = path.with_extension("partial");
-    std::fs::write(&partial, text)
-        .and_then(|()| std::fs::rename(&partial, path))
-        .map_err(|e| format!("{}: {e}", path.display()))
-}
-
-fn now_s() -> f64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0.0, |d| d.as_secs_f64())
-}
-
-/// The job script for `argv`.
-fn job_script(settings: &SlurmSettings, argv: &[String]) -> String {
-    // A job Slurm signals (scancel, node failure, its time limit) ends
-    // without an exit status of its own: the solver's status after the
-    // signal is no verdict on the run, and the job's state says what
-    // happened (a requeued job's rerun writes the status). Slurm may
-    // signal the solver before the script, so the script may see the
-    // solver die of SIGTERM (143) or SIGINT (130) before its own trap
-    // runs: such a status is not written either (the job's state, or
-    // the exit code Slurm keeps, still tells a solver that killed
-    // itself so).
-    let mut text = String::from(
-        "#!/bin/bash\n\
-         # Written by acq for one model run; `sbatch job.sh` here runs it again.\n\
-         trap 'exit 143' TERM INT\n\
-         rm -f exit_status exit_status.partial\n\
-         echo \"${SLURM_RESTART_COUNT:-0} $(date +%s.%N)\" > started_at\n",
-    );
-    for line in &settings.prelude {
-        text.push_str(line);
-        text.push('\n');
-    }
-    let words: Vec<String> = argv.iter().map(|word| shell_quote(word)).collect();
-    text.push_str(&words.join(" "));
-    text.push_str(
-        " </dev/null\n\
-         status=$?\n\
-         case \"$status\" in 130|143) exit \"$status\" ;; esac\n\
-         echo \"$status\" > exit_status.partial && mv exit_status.partial exit_status\n\
-         exit \"$status\"\n",
-    );
-    text
-}
-
 fn lock<T>(mutex: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     mutex
         .lock()
         .unwrap_or_else(|poisoned| poisoned.into_inner())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_quoted_word_reaches_the_program_unchanged() {
-        let words = ["plain", "with space", "it's", "$HOME", "*", "a\"b", ""];
-        let script: Vec<String> = words.iter().map(|w| shell_quote(w)).collect();
-        let output = Command::new("sh")
-            .arg("-c")
-            .arg(format!("printf '%s\\n' {}", script.join(" ")))
-            .output()
-            .unwrap();
-        let printed = String::from_utf8(output.stdout).unwrap();
-        assert_eq!(printed.lines().collect::<Vec<_>>(), words);
-    }
-
-    /// The script under real bash: a solver's own exit status is written,
-    /// one that died of the signal Slurm sends is not (the job's state
-    /// decides then: a node failure requeues it).
-    #[test]
-    fn a_solver_killed_by_sigterm_leaves_no_exit_status() {
-        for (argv, code, written) in [
-            (["sh", "-c", "exit 3"], 3, Some("3")),
-            (["sh", "-c", "kill -TERM $$"], 143, None),
-            (["sh", "-c", "kill -INT $$"], 130, None),
-        ] {
-            let dir = tempfile::tempdir().unwrap();
-            let argv: Vec<String> = argv.iter().map(|w| w.to_string()).collect();
-            std::fs::write(
-                dir.path().join("job.sh"),
-                job_script(&SlurmSettings::default(), &argv),
-            )
-            .unwrap();
-            let status = Command::new("bash")
-                .arg("job.sh")
-                .current_dir(dir.path())
-                .status()
-                .unwrap();
-            assert_eq!(status.code(), Some(code), "{argv:?}");
-            let status_file = std::fs::read_to_string(dir.path().join(EXIT_STATUS)).ok();
-            assert_eq!(status_file.as_deref().map(str::trim), written, "{argv:?}");
-            assert!(dir.path().join(STARTED_AT).exists());
-        }
-    }
-
-    #[test]
-    fn squeue_lines_are_read_and_junk_is_skipped() {
-        let states = parse_squeue(
-            "12|PENDING|0|ReqNodeNotAvail, UnavailableNodes:vm|\n13|RUNNING|1|None|\nnot a job\n",
-        );
-        assert_eq!(states.len(), 2);
-        assert_eq!(states[&12].state, "PENDING");
-        assert_eq!(states[&12].reason, "ReqNodeNotAvail, UnavailableNodes:vm");
-        assert_eq!(states[&13].state, "RUNNING");
-        assert_eq!((states[&12].restarts, states[&13].restarts), (0, 1));
-        assert!(is_stuck(&states[&12].reason));
-        assert!(!is_stuck("Resources"));
-    }
 }

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{acq, calibrate_external, path_arg, root, stderr, stdout};
+use common::{acq, calibrate_external, parabola_study, path_arg, root, stderr, stdout};
 use serde_json::Value;
 
 // ---- helpers --------------------------------------------------------------------------
@@ -1630,51 +1630,14 @@ max_evals = 6
 
 #[test]
 fn an_external_solver_can_return_a_curve_scored_by_the_curve_mape() {
-    // The model's curve is y = a x^2 on x = 0.5 .. 5, the measured one 2 x^2 at the
-    // same x. A not-a-knot spline reproduces a parabola exactly, so at every grid point
-    // the relative error is |2 - a| / 2: the curve MAPE is 50 |2 - a| %, a closed form.
+    // The closed form of common::parabola_study: MAPE = 50 |2 - a| %.
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("model");
     std::fs::create_dir(&model).unwrap();
-    let mut measured = String::from("DISPLACEMENT,FORCE\n");
-    for i in 1..=10 {
-        let x = 0.5 * f64::from(i);
-        measured.push_str(&format!("{x},{}\n", 2.0 * x * x));
-    }
-    std::fs::write(model.join("test.csv"), measured).unwrap();
-    std::fs::write(
-        model.join("curve.sh"),
-        "awk -v a=\"$1\" 'BEGIN { print \"u_mm,f_kn\"; for (i = 1; i <= 10; i++) { x = 0.5 * i; printf \"%.17g,%.17g\\n\", x, a * x * x } }' > curve.csv\n",
-    )
-    .unwrap();
-    let spec = model.join("spec.toml");
-    std::fs::write(
-        &spec,
-        r#"command = ["sh", "curve.sh", "{a}"]
-parallel = 1
-
-[[parameter]]
-name = "a"
-lower = 1.0
-upper = 3.0
-
-[[curve]]
-name = "force_displacement"
-file = "curve.csv"
-x = "u_mm"
-y = "f_kn"
-measured_file = "test.csv"
-measured_x = "DISPLACEMENT"
-measured_y = "FORCE"
-
-[search]
-start = "lhs"
-start_runs = 4
-max_evals = 12
-target_loss_pct = 0.5
-"#,
-    )
-    .unwrap();
+    let spec = parabola_study(
+        &model,
+        "start = \"lhs\"\nstart_runs = 4\nmax_evals = 12\ntarget_loss_pct = 0.5\n",
+    );
     let out = dir.path().join("run");
     let output = calibrate_external(&spec, &out, &[]);
     assert!(output.status.success(), "{}", stderr(&output));
@@ -1716,4 +1679,28 @@ target_loss_pct = 0.5
         summary["best_outputs"]["force_displacement"].as_f64(),
         Some(loss)
     );
+    // The report draws the calibrated curve against the measured one, read
+    // back from the best run's directory (no extra run), and says how far
+    // it misses along it: everywhere |2 - a| / 2, so the largest error is
+    // the MAPE.
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let line = report
+        .lines()
+        .find(|l| l.starts_with("force_displacement (the test): MAPE"))
+        .unwrap_or_else(|| panic!("no curve paragraph in\n{report}"));
+    let number_after = |label: &str| -> f64 {
+        let rest = &line[line.find(label).unwrap() + label.len()..];
+        rest.split_whitespace().next().unwrap().parse().unwrap()
+    };
+    for label in ["MAPE ", "largest error "] {
+        let reported = number_after(label);
+        assert!(
+            (reported - loss).abs() < 1e-3,
+            "{label}{reported} against {loss}: {line}"
+        );
+    }
+    let svg = std::fs::read_to_string(out.join("curve.svg")).unwrap();
+    assert!(svg.contains("measured") && svg.contains("calibrated model"));
+    let runs = std::fs::read_dir(out.join("runs")).unwrap().count();
+    assert_eq!(runs, log.rows.len(), "a run was made for the report");
 }

@@ -12,7 +12,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{acq, interfaces, path_arg, root, stderr};
+use common::{acq, interfaces, parabola_study, path_arg, root, stderr};
 
 /// Where run `name` goes: a kept directory, or one in `scratch`.
 fn run_directory(scratch: &Path, name: &str) -> PathBuf {
@@ -177,49 +177,14 @@ measured = { "pressure_bar.boom" = 90.0 }
 
 #[test]
 fn an_external_study_of_a_curve_keeps_its_interfaces() {
-    // y = a x^2 against a measured 2 x^2 (tests/calibrate.rs has the
-    // closed form of its MAPE).
+    // common::parabola_study: y = a x^2 against a measured 2 x^2.
     let scratch = tempfile::tempdir().unwrap();
     let spec_directory = scratch.path().join("spec");
     std::fs::create_dir(&spec_directory).unwrap();
-    let mut measured = String::from("DISPLACEMENT,FORCE\n");
-    for i in 1..=10 {
-        let x = 0.5 * f64::from(i);
-        measured.push_str(&format!("{x},{}\n", 2.0 * x * x));
-    }
-    std::fs::write(spec_directory.join("test.csv"), measured).unwrap();
-    std::fs::write(
-        spec_directory.join("curve.sh"),
-        "awk -v a=\"$1\" 'BEGIN { print \"u_mm,f_kn\"; for (i = 1; i <= 10; i++) { x = 0.5 * i; printf \"%.17g,%.17g\\n\", x, a * x * x } }' > curve.csv\n",
-    )
-    .unwrap();
-    let spec_path = spec_directory.join("spec.toml");
-    std::fs::write(
-        &spec_path,
-        r#"command = ["sh", "curve.sh", "{a}"]
-parallel = 1
-
-[[parameter]]
-name = "a"
-lower = 1.0
-upper = 3.0
-
-[[curve]]
-name = "force_displacement"
-file = "curve.csv"
-x = "u_mm"
-y = "f_kn"
-measured_file = "test.csv"
-measured_x = "DISPLACEMENT"
-measured_y = "FORCE"
-
-[search]
-start_runs = 4
-max_evals = 8
-target_loss_pct = 0
-"#,
-    )
-    .unwrap();
+    let spec_path = parabola_study(
+        &spec_directory,
+        "start_runs = 4\nmax_evals = 8\ntarget_loss_pct = 0\n",
+    );
     let out = run_directory(scratch.path(), "external-curve");
     succeed(&[
         "calibrate",

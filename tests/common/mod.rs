@@ -57,6 +57,52 @@ pub fn external_summary(spec: &Path, out: &Path, extra: &[&str]) -> serde_json::
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 
+/// A study with a closed form in `dir`: the model's curve is y = a x^2 on
+/// x = 0.5 .. 5 (`curve.sh`, awk), the measured one 2 x^2 at the same x
+/// (`test.csv`). A not-a-knot spline reproduces a parabola exactly, so at
+/// every grid point the relative error is |2 - a| / 2: the curve MAPE is
+/// 50 |2 - a| %. `search` is the spec's `[search]` table; returns the spec.
+pub fn parabola_study(dir: &Path, search: &str) -> PathBuf {
+    let mut measured = String::from("DISPLACEMENT,FORCE\n");
+    for i in 1..=10 {
+        let x = 0.5 * f64::from(i);
+        measured.push_str(&format!("{x},{}\n", 2.0 * x * x));
+    }
+    std::fs::write(dir.join("test.csv"), measured).unwrap();
+    std::fs::write(
+        dir.join("curve.sh"),
+        "awk -v a=\"$1\" 'BEGIN { print \"u_mm,f_kn\"; for (i = 1; i <= 10; i++) { x = 0.5 * i; printf \"%.17g,%.17g\\n\", x, a * x * x } }' > curve.csv\n",
+    )
+    .unwrap();
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            r#"command = ["sh", "curve.sh", "{{a}}"]
+parallel = 1
+
+[[parameter]]
+name = "a"
+lower = 1.0
+upper = 3.0
+
+[[curve]]
+name = "force_displacement"
+file = "curve.csv"
+x = "u_mm"
+y = "f_kn"
+measured_file = "test.csv"
+measured_x = "DISPLACEMENT"
+measured_y = "FORCE"
+
+[search]
+{search}"#
+        ),
+    )
+    .unwrap();
+    spec
+}
+
 /// The number at a key path of a JSON value (panics naming the path).
 pub fn number(value: &serde_json::Value, path: &[&str]) -> f64 {
     let mut v = value;

@@ -272,7 +272,7 @@ fn run_twin_gtn_with_flow_curve(
     args: &TwinGtnArgs,
     flow_path: &Path,
     inputs: &crate::tensile_model::GtnInputs,
-    mut settings: crate::tensile_model::ModelSettings,
+    settings: crate::tensile_model::ModelSettings,
     geometry: SpecimenGeometry,
 ) -> Result<()> {
     use crate::tensile_model::{build_twin, read_flow_curve};
@@ -285,12 +285,7 @@ fn run_twin_gtn_with_flow_curve(
             args.youngs_mpa
         )));
     }
-    settings.geometry.diameter_mm = geometry.diameter_mm;
-    settings.geometry.half_length_mm = geometry.strain_length_mm;
-    settings.mesh = args
-        .mesh
-        .density(&settings.geometry)
-        .map_err(AcqError::Config)?;
+    // `settings` carry the specimen's geometry and the mesh on it already.
     let twin = build_twin(&table, args.youngs_mpa, inputs, &settings)
         .map_err(|e| AcqError::Config(format!("--param: {e}")))?;
     let reference = match &args.test {

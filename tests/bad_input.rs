@@ -626,3 +626,116 @@ fn damaged_or_contradictory_files_name_the_line() {
         );
     }
 }
+
+/// A python-can BLF (shipped as a fuzz seed) and acq's own MF4 of the same
+/// kind of log, and two text logs, each cut short: reading stops with exit
+/// 3 and names the file and what was expected; --skip-bad keeps what was
+/// read and says what is missing. Never "frames read N" and exit 0.
+#[test]
+fn a_log_cut_short_is_never_read_as_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let blf = std::fs::read(root().join("fuzz/seeds/blf_log/python_can_zlib.blf")).unwrap();
+    let mf4 = std::fs::read(root().join("fuzz/seeds/mf4_log/acq.mf4")).unwrap();
+    let candump =
+        b"(1763719200.000100) can0 123#11223344\n(1763719200.000250) can0 123#1122".to_vec();
+    let asc = b"date Tue Mar 4 09:15:02.512 am 2025\nbase hex  timestamps absolute\nBegin Triggerblock Tue Mar 4 09:15:02.512 am 2025\n   0.010214 1  181 Tx d 2 A0 0F\n".to_vec();
+    let cuts: [(&str, Vec<u8>, &str); 6] = [
+        // Inside the 144-byte file header, and inside an object's header.
+        ("header.blf", blf[..100].to_vec(), "a whole file header"),
+        (
+            "object.blf",
+            blf[..blf.len() - 9].to_vec(),
+            "a whole object",
+        ),
+        ("data.mf4", mf4[..mf4.len() - 10].to_vec(), "expected"),
+        ("meta.mf4", mf4[..200].to_vec(), "expected"),
+        ("cut.log", candump, "a line ended by a newline"),
+        ("cut.asc", asc, "an 'End TriggerBlock' line"),
+    ];
+    for (name, bytes, expected) in cuts {
+        let log = dir.path().join(name);
+        std::fs::write(&log, &bytes).unwrap();
+        let message = refused(
+            &[
+                "decode",
+                path_arg(&log),
+                "--dbc",
+                "fixtures/dbc/tensile_frame.dbc",
+            ],
+            3,
+        );
+        assert!(
+            message.contains(path_arg(&log)) && message.contains(expected),
+            "{name}: {message}"
+        );
+        // Kept on request, and the cut is reported.
+        let output = acq(&[
+            "decode",
+            path_arg(&log),
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+            "--skip-bad",
+        ]);
+        assert_eq!(output.status.code(), Some(0), "{name}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains("acq: skipped"),
+            "{name}: {}",
+            stderr(&output)
+        );
+    }
+    // A BLF that ends between objects before the size its header states
+    // (as a copy stopped at an object boundary would) says how much is
+    // missing: here the header claims 100 bytes more than the file has.
+    let mut short = blf.clone();
+    let stated = u64::from_le_bytes(short[16..24].try_into().unwrap());
+    assert_eq!(
+        stated,
+        blf.len() as u64,
+        "python-can states the file's size"
+    );
+    short[16..24].copy_from_slice(&(stated + 100).to_le_bytes());
+    let log = dir.path().join("short.blf");
+    std::fs::write(&log, &short).unwrap();
+    let message = refused(
+        &[
+            "decode",
+            path_arg(&log),
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+        ],
+        3,
+    );
+    assert!(message.contains("(100 missing)"), "{message}");
+}
+
+/// A decode that stops at a malformed line leaves nothing under the
+/// output's name, whatever the format (stdout still streams).
+#[test]
+fn a_failed_decode_leaves_no_output_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("broken.log");
+    std::fs::write(
+        &log,
+        "(1.000000) can0 200#0000000000000000\n(2.000000) can0 200#00112\n(3.000000) can0 200#0000000000000000\n",
+    )
+    .unwrap();
+    for name in ["out.csv", "out.parquet", "out.mf4"] {
+        let out = dir.path().join(name);
+        let message = refused(
+            &[
+                "decode",
+                path_arg(&log),
+                "--dbc",
+                "fixtures/dbc/tensile_frame.dbc",
+                "-o",
+                path_arg(&out),
+            ],
+            3,
+        );
+        assert!(
+            message.contains("broken.log:2:") && message.contains("is not written"),
+            "{name}: {message}"
+        );
+        assert_eq!(files_in(dir.path()), ["broken.log"], "{name}");
+    }
+}

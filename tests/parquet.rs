@@ -125,7 +125,7 @@ fn parquet_tables_equal_the_csv_in_pyarrow_and_polars() {
 }
 
 #[test]
-fn a_parquet_decode_stopped_by_a_bad_line_keeps_what_was_decoded() {
+fn a_parquet_decode_stopped_by_a_bad_line_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("bad.log");
     let good =
@@ -147,7 +147,12 @@ fn a_parquet_decode_stopped_by_a_bad_line_keeps_what_was_decoded() {
         "{}",
         stderr(&output)
     );
-    // The file is complete (footer written) and holds the good lines' rows.
-    let bytes = std::fs::read(&out).unwrap();
-    assert!(bytes.starts_with(b"PAR1") && bytes.ends_with(b"PAR1"));
+    // A derived file appears only when complete: neither the table nor
+    // its .partial is left, and the message says so.
+    assert!(!out.exists() && !dir.path().join("out.parquet.partial").exists());
+    assert!(
+        stderr(&output).contains("is not written"),
+        "{}",
+        stderr(&output)
+    );
 }

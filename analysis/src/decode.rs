@@ -437,27 +437,43 @@ pub fn decode_dbc(
     match output {
         TableOutput::Csv(mut output) => {
             let summary = decode_with_dbc(inputs, database, options, &mut output);
-            written(summary, output.finish())
+            let streamed = output.name() == "<stdout>";
+            written(summary, name, streamed, || output.finish())
         }
         TableOutput::Parquet(output) => {
             let mut sink = DbcParquet::create(output, database, options.labels)?;
             let summary = decode_dbc_frames(inputs, database, options, &mut sink);
-            written(summary, sink.finish().map(drop))
+            written(summary, name, false, || sink.finish().map(drop))
         }
         TableOutput::Mf4(file) => {
             let mut sink = DbcMf4::create(file, name, database)?;
             let summary = decode_dbc_frames(inputs, database, options, &mut sink);
-            written(summary, sink.finish())
+            written(summary, name, false, || sink.finish())
         }
     }
 }
 
-/// The decode's summary once its output is `finished`; the decode's own
-/// error first (the output holds what came before it).
-fn written(summary: Result<DecodeSummary>, finished: Result<()>) -> Result<DecodeSummary> {
-    let summary = summary?;
-    finished?;
-    Ok(summary)
+/// The decode's summary once its output is finished. A decode that
+/// stopped leaves no file under the output's name (a derived file appears
+/// only when complete; the unfinished output is dropped with its
+/// `.partial`); on stdout the rows before the error have streamed.
+fn written(
+    summary: Result<DecodeSummary>,
+    name: &str,
+    streamed: bool,
+    finish: impl FnOnce() -> Result<()>,
+) -> Result<DecodeSummary> {
+    match summary {
+        Ok(summary) => finish().map(|()| summary),
+        Err(error) if streamed => {
+            let _ = finish();
+            Err(error)
+        }
+        Err(AcqError::Malformed(message)) => Err(AcqError::Malformed(format!(
+            "{message}; {name} is not written (--skip-bad decodes past bad lines and counts them)"
+        ))),
+        Err(error) => Err(error),
+    }
 }
 
 /// Prints the summary line to stderr.
@@ -640,17 +656,18 @@ pub fn decode_rig(
     match output {
         TableOutput::Csv(mut output) => {
             let summary = decode_with_rig(inputs, rig, bad_lines, &mut output);
-            written(summary, output.finish())
+            let streamed = output.name() == "<stdout>";
+            written(summary, name, streamed, || output.finish())
         }
         TableOutput::Parquet(output) => {
             let mut sink = RigParquet::create(output, rig)?;
             let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
-            written(summary, sink.finish().map(drop))
+            written(summary, name, false, || sink.finish().map(drop))
         }
         TableOutput::Mf4(file) => {
             let mut sink = RigMf4::create(file, name, rig)?;
             let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
-            written(summary, sink.finish())
+            written(summary, name, false, || sink.finish())
         }
     }
 }

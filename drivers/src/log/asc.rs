@@ -111,6 +111,8 @@ const E_FD_LEN_MATCH: &str =
 const E_CLASSIC_LEN_MATCH: &str =
     "a data length that matches the DLC (at most 8) on a classic frame (flags without EDL)";
 const E_REMOTE_LEN: &str = "a data length of 0 on a remote frame";
+const E_END_BLOCK: &str =
+    "an 'End TriggerBlock' line (the file ends inside its trigger block: cut short?)";
 
 /// Streaming reader of Vector ASC logs.
 pub struct AscReader<R> {
@@ -135,6 +137,14 @@ impl<R: BufRead> AscReader<R> {
         loop {
             self.buffer.clear();
             if self.input.read_until(b'\n', &mut self.buffer)? == 0 {
+                // A block begun and never ended, or a header that no block
+                // followed: the log was cut (said once).
+                if std::mem::take(&mut self.state.in_trigger_block)
+                    | std::mem::take(&mut self.state.awaiting_block)
+                {
+                    let line = self.state.line.saturating_add(1);
+                    return Err(ReadError::Parse(ParseError::new(line, E_END_BLOCK)));
+                }
                 return Ok(None);
             }
             self.state.line = self.state.line.saturating_add(1);
@@ -142,6 +152,7 @@ impl<R: BufRead> AscReader<R> {
             match self.state.parse_line(&self.buffer) {
                 Ok(Parsed::Skip) => continue,
                 Ok(Parsed::Frame { time, frame }) => {
+                    self.state.awaiting_block = false;
                     // The time was checked to be ASCII digits and a dot.
                     let text = self.buffer.get(time.0..time.1).unwrap_or_default();
                     return Ok(Some(LogRecord {
@@ -150,7 +161,7 @@ impl<R: BufRead> AscReader<R> {
                         frame,
                     }));
                 }
-                Err(expected) => return Err(ReadError::Parse(ParseError { line, expected })),
+                Err(expected) => return Err(ReadError::Parse(ParseError::new(line, expected))),
             }
         }
     }
@@ -181,6 +192,10 @@ struct State {
     clock_ns: i64,
     /// Channels named by `// acq channel K = NAME` comments (acq's writer).
     named_channels: Vec<(u64, IfaceName)>,
+    /// Inside `Begin Triggerblock` .. `End TriggerBlock`.
+    in_trigger_block: bool,
+    /// A header line was read and no block or frame yet.
+    awaiting_block: bool,
 }
 
 enum Parsed {
@@ -251,6 +266,9 @@ impl State {
         let is = |token: Option<&[u8]>, word: &str| {
             token.is_some_and(|t| t.eq_ignore_ascii_case(word.as_bytes()))
         };
+        if keyword.eq_ignore_ascii_case(b"date") || keyword.eq_ignore_ascii_case(b"base") {
+            self.awaiting_block = true;
+        }
         if keyword.eq_ignore_ascii_case(b"date") {
             // A date that cannot be read would put the log in 1970 without a
             // word; the user can fix or delete the line.
@@ -268,10 +286,14 @@ impl State {
             self.timestamps(tokens.next())?;
         } else if keyword.eq_ignore_ascii_case(b"internal")
             || (keyword.eq_ignore_ascii_case(b"no") && is(tokens.next(), "internal"))
-            || ((keyword.eq_ignore_ascii_case(b"begin") || keyword.eq_ignore_ascii_case(b"end"))
-                && is(tokens.next(), "triggerblock"))
         {
             // Nothing in these lines changes how frames read.
+        } else if (keyword.eq_ignore_ascii_case(b"begin") || keyword.eq_ignore_ascii_case(b"end"))
+            && is(tokens.next(), "triggerblock")
+        {
+            // A log whose block never ends was cut short.
+            self.in_trigger_block = keyword.eq_ignore_ascii_case(b"begin");
+            self.awaiting_block = false;
         } else {
             return Err(E_LINE);
         }
@@ -806,9 +828,14 @@ mod tests {
         IfaceName::new(name).unwrap()
     }
 
-    /// All results of reading `log`: frames with their line and time text,
-    /// or the parse error.
+    /// All results of reading `log` and the end of its trigger block:
+    /// frames with their line and time text, or the parse error.
     fn read_all(log: &str) -> Vec<Result<(u64, String, Frame), ParseError>> {
+        read_whole(&format!("{log}End TriggerBlock\n"))
+    }
+
+    /// All results of reading `log` as it is.
+    fn read_whole(log: &str) -> Vec<Result<(u64, String, Frame), ParseError>> {
         let mut reader = AscReader::new(log.as_bytes());
         let mut out = Vec::new();
         loop {
@@ -844,6 +871,19 @@ mod tests {
             [Err(e)] => e.expected,
             other => panic!("{line}: expected one error, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn a_log_cut_inside_its_trigger_block_is_an_error_after_its_frames() {
+        let log = format!("{HEADER}   0.010214 1  181             Tx   d 2 A0 0F\n");
+        let results = read_whole(&log);
+        assert_eq!(results.len(), 2, "{results:?}");
+        assert!(results[0].is_ok());
+        let error = results[1].clone().unwrap_err();
+        assert_eq!((error.line, error.expected), (8, E_END_BLOCK));
+        // Ended, it reads whole; without a block, nothing is missing.
+        assert!(read_all(&log).iter().all(Result::is_ok));
+        assert_eq!(read_whole("   0.1 1  181 Tx d 0\n").len(), 1);
     }
 
     #[test]
@@ -1239,13 +1279,7 @@ mod tests {
     fn the_reader_goes_on_after_an_error_and_numbers_lines() {
         let log = "\u{feff}date Tue Mar 4 09:15:02.512 am 2025\r\nbase hex  timestamps absolute\r\n1.0 1 123 Rx d 9\r\n2.0 1 124 Rx d 1 AA\r\n";
         let results = read_all(log);
-        assert_eq!(
-            results[0],
-            Err(ParseError {
-                line: 3,
-                expected: E_DATA
-            })
-        );
+        assert_eq!(results[0], Err(ParseError::new(3, E_DATA)));
         let (line, text, frame) = results[1].clone().unwrap();
         assert_eq!(
             (line, text.as_str(), frame.payload()),

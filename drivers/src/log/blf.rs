@@ -82,7 +82,10 @@ const E_FD64_MESSAGE: &str = "a CAN FD 64 message object with its 40-byte head a
 const E_CHANNEL: &str = "a channel number of at least 1 (BLF channels are 1-based)";
 const E_ID: &str = "an id of at most 0x7FF, or 0x1FFFFFFF with the extended bit";
 const E_TIME: &str = "a timestamp that fits in a 64-bit nanosecond time";
-const E_TRUNCATED: &str = "a whole object (the file ends inside one)";
+const E_TRUNCATED: &str = "a whole object (the file ends inside one: cut short?)";
+const E_HEADER_TRUNCATED: &str = "a whole file header (the file ends inside it: cut short?)";
+const E_SHORT: &str =
+    "as many bytes as the file header states (the file ends before them: cut short?)";
 
 /// Streaming reader of BLF logs.
 pub struct BlfReader<R> {
@@ -95,6 +98,10 @@ pub struct BlfReader<R> {
     pos: usize,
     /// Objects read so far, for error messages.
     objects: u64,
+    /// The file's size as its header states it (0: not stated), and the
+    /// bytes read so far: a file that ends before its stated size was cut.
+    stated_size: u64,
+    consumed: u64,
     time_text: TimeText,
     /// Containers read ahead, in file order.
     ahead: VecDeque<Ahead>,
@@ -149,6 +156,8 @@ impl<R: BufRead> BlfReader<R> {
             data: Vec::new(),
             pos: 0,
             objects: 0,
+            stated_size: 0,
+            consumed: 0,
             time_text: TimeText::default(),
             ahead: VecDeque::new(),
             input_ended: false,
@@ -164,10 +173,7 @@ impl<R: BufRead> BlfReader<R> {
     }
 
     fn error(&self, expected: &'static str) -> ReadError {
-        ReadError::Parse(ParseError {
-            line: self.objects.max(1),
-            expected,
-        })
+        ReadError::Parse(ParseError::new(self.objects.max(1), expected))
     }
 
     /// The next CAN frame; other objects are skipped. `Ok(None)` at the end.
@@ -196,6 +202,12 @@ impl<R: BufRead> BlfReader<R> {
             }
             if self.finished || !self.read_container()? {
                 self.finished = true;
+                // An object begun in the last container that never went on.
+                let rest = &self.data[self.pos.min(self.data.len())..];
+                if rest.windows(4).take(4).any(|w| w == OBJECT_SIGNATURE) {
+                    self.pos = self.data.len();
+                    return Err(self.error(E_TRUNCATED));
+                }
                 return Ok(None);
             }
         }
@@ -215,7 +227,15 @@ impl<R: BufRead> BlfReader<R> {
             self.finished = true;
             return Err(self.error(E_HEADER));
         }
-        skip(&mut self.input, (size - FILE_HEADER_MIN) as u64)?;
+        if let Err(error) = skip(&mut self.input, (size - FILE_HEADER_MIN) as u64) {
+            self.finished = true;
+            return match error.kind() {
+                io::ErrorKind::UnexpectedEof => Err(self.error(E_HEADER_TRUNCATED)),
+                _ => Err(ReadError::Io(error)),
+            };
+        }
+        self.consumed = size as u64;
+        self.stated_size = u64_at(&head, 16).unwrap_or(0);
         let field = |index: usize| u16_at(&head, 40 + 2 * index).unwrap_or(0);
         self.start_ns = system_time_ns([
             field(0),
@@ -264,6 +284,15 @@ impl<R: BufRead> BlfReader<R> {
             Content::Failed { failure, finishes } => {
                 self.finished |= finishes;
                 return Err(match failure {
+                    Failure::Expected(E_SHORT) => ReadError::Parse(ParseError {
+                        note: Some(format!(
+                            "its header states {} bytes, it ends after {} ({} missing)",
+                            self.stated_size,
+                            self.consumed,
+                            self.stated_size - self.consumed
+                        )),
+                        ..ParseError::new(self.objects.max(1), E_SHORT)
+                    }),
                     Failure::Expected(expected) => self.error(expected),
                     Failure::Io(error) => ReadError::Io(error),
                 });
@@ -287,14 +316,20 @@ impl<R: BufRead> BlfReader<R> {
         };
         loop {
             let mut base = [0u8; BASE_HEADER];
-            if let Err(error) = self.input.read_exact(&mut base) {
-                return match error.kind() {
-                    io::ErrorKind::UnexpectedEof => Ahead {
+            match read_or_end(&mut self.input, &mut base) {
+                Ok(true) => {}
+                // A clean end between objects, unless the header says
+                // more must follow.
+                Ok(false) if self.consumed < self.stated_size => {
+                    return failed(objects + 1, Failure::Expected(E_SHORT), true);
+                }
+                Ok(false) => {
+                    return Ahead {
                         objects,
                         content: Content::End,
-                    },
-                    _ => failed(objects, Failure::Io(error), true),
-                };
+                    }
+                }
+                Err(error) => return failed(objects + 1, ended_inside(error), true),
             }
             objects += 1;
             let size = u32_at(&base, 8).unwrap_or(0) as usize;
@@ -307,16 +342,17 @@ impl<R: BufRead> BlfReader<R> {
             // python-can write them).
             let body = (size - BASE_HEADER) as u64;
             let padding = (size % 4) as u64;
+            self.consumed = self.consumed.saturating_add(size as u64 + padding);
             if kind != LOG_CONTAINER {
                 if let Err(error) = skip(&mut self.input, body + padding) {
-                    return failed(objects, Failure::Io(error), true);
+                    return failed(objects, ended_inside(error), true);
                 }
                 continue;
             }
             if body < CONTAINER_HEADER as u64 || body > MAX_CONTAINER_BYTES as u64 {
                 return match skip(&mut self.input, body + padding) {
                     Ok(()) => failed(objects, Failure::Expected(E_CONTAINER), false),
-                    Err(error) => failed(objects, Failure::Io(error), true),
+                    Err(error) => failed(objects, ended_inside(error), true),
                 };
             }
             let mut header = [0u8; CONTAINER_HEADER];
@@ -382,12 +418,12 @@ impl<R: BufRead> BlfReader<R> {
                 _ => {
                     return match skip(&mut self.input, stored as u64 + padding) {
                         Ok(()) => failed(objects, Failure::Expected(E_CONTAINER), false),
-                        Err(error) => failed(objects, Failure::Io(error), true),
+                        Err(error) => failed(objects, ended_inside(error), true),
                     };
                 }
             };
             if let Err(error) = skip(&mut self.input, padding) {
-                return failed(objects, Failure::Io(error), true);
+                return failed(objects, ended_inside(error), true);
             }
             return Ahead { objects, content };
         }
@@ -664,9 +700,30 @@ fn u64_at(bytes: &[u8], at: usize) -> Option<u64> {
     Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?))
 }
 
-/// Reads and drops `count` bytes (a truncated file just ends).
+/// Reads and drops `count` bytes; fewer before the end is `UnexpectedEof`
+/// (a file cut inside what it skips).
 fn skip(input: &mut impl Read, count: u64) -> io::Result<()> {
-    io::copy(&mut input.take(count), &mut io::sink()).map(|_| ())
+    let skipped = io::copy(&mut input.take(count), &mut io::sink())?;
+    if skipped < count {
+        return Err(io::ErrorKind::UnexpectedEof.into());
+    }
+    Ok(())
+}
+
+/// Fills `buffer`: `Ok(false)` when the input ends before its first byte
+/// (a clean end), `UnexpectedEof` when it ends inside it.
+fn read_or_end(input: &mut impl Read, buffer: &mut [u8]) -> io::Result<bool> {
+    let mut filled = 0;
+    while filled < buffer.len() {
+        match input.read(&mut buffer[filled..]) {
+            Ok(0) if filled == 0 => return Ok(false),
+            Ok(0) => return Err(io::ErrorKind::UnexpectedEof.into()),
+            Ok(read) => filled += read,
+            Err(error) if error.kind() == io::ErrorKind::Interrupted => {}
+            Err(error) => return Err(error),
+        }
+    }
+    Ok(true)
 }
 
 #[cfg(test)]

@@ -23,6 +23,9 @@ use crate::frame::{
 };
 use crate::hex;
 
+const E_CUT_LINE: &str =
+    "a line ended by a newline (the file ends inside its last line: cut short?)";
+
 /// Streaming reader of candump logs.
 pub struct CandumpReader<R> {
     input: R,
@@ -56,6 +59,11 @@ impl<R: BufRead> CandumpReader<R> {
                 continue;
             }
             let line = self.line;
+            // candump ends every line with a newline: a last line without
+            // one was cut, and may read as a shorter frame than was logged.
+            if self.buffer.last() != Some(&b'\n') {
+                return Err(ReadError::Parse(ParseError::new(line, E_CUT_LINE)));
+            }
             let text = &self.buffer[..len];
             return match parse_line(text) {
                 Ok((timestamp, frame)) => Ok(Some(LogRecord {
@@ -65,7 +73,7 @@ impl<R: BufRead> CandumpReader<R> {
                         .unwrap_or_default(),
                     frame,
                 })),
-                Err(expected) => Err(ReadError::Parse(ParseError { line, expected })),
+                Err(expected) => Err(ReadError::Parse(ParseError::new(line, expected))),
             };
         }
     }

@@ -244,12 +244,7 @@ impl<R: BufRead> Source<R> {
         ids: &[&[u8; 4]],
         expected: &'static str,
     ) -> Result<Block, ReadError> {
-        let error = |expected| {
-            ReadError::Parse(ParseError {
-                line: offset,
-                expected,
-            })
-        };
+        let error = |expected| ReadError::Parse(ParseError::new(offset, expected));
         if offset < ID_BLOCK || !self.keep_to(offset.saturating_add(HEADER))? {
             return Err(error(expected));
         }
@@ -521,12 +516,7 @@ impl<R: BufRead> Mf4Reader<R> {
     /// and data blocks are.
     fn open(&mut self) -> Result<(), ReadError> {
         let source = &mut self.source;
-        let id_error = || {
-            ReadError::Parse(ParseError {
-                line: 0,
-                expected: E_ID,
-            })
-        };
+        let id_error = || ReadError::Parse(ParseError::new(0, E_ID));
         if !source.keep_to(ID_BLOCK)? || &source.kept[..8] != SIGNATURE {
             return Err(id_error());
         }
@@ -609,7 +599,7 @@ impl<R: BufRead> Mf4Reader<R> {
 }
 
 fn parse(line: u64, expected: &'static str) -> ReadError {
-    ReadError::Parse(ParseError { line, expected })
+    ReadError::Parse(ParseError::new(line, expected))
 }
 
 /// The data blocks under `at` (a data block, or a list of them), in order.

@@ -19,18 +19,33 @@ pub struct LogRecord<'a> {
 
 /// A line that is not a valid record.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("line {line}: expected {expected}")]
+#[error("line {line}: expected {expected}{}", note.as_deref().map(|n| format!("; {n}")).unwrap_or_default())]
 pub struct ParseError {
     /// 1-based line number.
     pub line: u64,
     /// What the reader expected there, in words.
     pub expected: &'static str,
+    /// What was found instead, when the reader can say (how much of a cut
+    /// file is missing).
+    pub note: Option<String>,
 }
 
 impl ParseError {
+    /// A line that is not what `expected` says.
+    pub fn new(line: u64, expected: &'static str) -> Self {
+        ParseError {
+            line,
+            expected,
+            note: None,
+        }
+    }
+
     /// `file:line: expected ...`, the form every command reports.
     pub fn in_file(&self, name: &str) -> String {
-        format!("{name}:{}: expected {}", self.line, self.expected)
+        match &self.note {
+            Some(note) => format!("{name}:{}: expected {}; {note}", self.line, self.expected),
+            None => format!("{name}:{}: expected {}", self.line, self.expected),
+        }
     }
 }
 

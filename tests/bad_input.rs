@@ -739,3 +739,100 @@ fn a_failed_decode_leaves_no_output_file() {
         assert_eq!(files_in(dir.path()), ["broken.log"], "{name}");
     }
 }
+
+/// Each message names the real mistake, not a consequence of it.
+#[test]
+fn messages_name_the_real_mistake() {
+    let dir = tempfile::tempdir().unwrap();
+    // Bounds the wrong way round, or not a number: the bounds are named,
+    // not the nominal they leave outside.
+    for (lower, upper) in [("10.0", "0.0"), ("nan", "10.0"), ("0.0", "inf")] {
+        let spec = external_spec(
+            dir.path(),
+            &[(
+                "lower = 0.0\nupper = 10.0",
+                &format!("lower = {lower}\nupper = {upper}"),
+            )],
+        );
+        let message = refused_external(&spec, &dir.path().join("run"));
+        assert!(
+            message.contains("parameter x_mm: lower =")
+                && message.contains("finite bounds with lower below upper"),
+            "{message}"
+        );
+        assert!(!message.contains("nominal"), "{message}");
+    }
+    // A tensile test whose displacement never changes, or runs backwards.
+    for (name, rows, expected) in [
+        ("flat.csv", "0,0\n0,1\n0,2\n0,3\n", "never changes"),
+        (
+            "backwards.csv",
+            "0,0\n-0.1,2\n-0.2,4\n-0.3,5\n-0.4,4\n",
+            "runs backwards",
+        ),
+    ] {
+        let test = dir.path().join(name);
+        std::fs::write(&test, format!("DISPLACEMENT,FORCE\n{rows}")).unwrap();
+        let message = refused(&["tensile-props", path_arg(&test)], 3);
+        assert!(
+            message.contains(expected) && message.contains("displacement"),
+            "{message}"
+        );
+    }
+    // A displacement sensor given as the force, and a force as the
+    // extensometer: their kinds and units from the rig.
+    let session = "fixtures/sessions/tensile_p91_20c";
+    let message = refused(
+        &["extract", session, "--tensile", "--force", "extension"],
+        2,
+    );
+    assert!(
+        message.contains("--force extension")
+            && message.contains("displacement sensor in mm")
+            && message.contains("force sensors: load"),
+        "{message}"
+    );
+    let message = refused(
+        &["extract", session, "--tensile", "--displacement", "load"],
+        2,
+    );
+    assert!(message.contains("force sensor in kN"), "{message}");
+    // A negative weight is a weight, refused as one.
+    for weights in [&["1", "1", "-1"][..], &["1,1,-1"], &["1", "1"]] {
+        let mut args = vec![
+            "calibrate",
+            "excavator",
+            "--case",
+            "data/excavator/case1.toml",
+        ];
+        let out = dir.path().join("weights");
+        args.extend(["--out", path_arg(&out), "--weights"]);
+        args.extend(weights);
+        let message = refused(&args, 2);
+        assert!(
+            message.contains("give three weights") && message.contains("non-negative"),
+            "{message}"
+        );
+        assert!(!out.exists());
+    }
+    // A Slurm time limit sbatch would refuse for every job is refused with
+    // the spec, before the run directory exists.
+    for limit in ["1:2:3:4", "1:75", "3-25:00", "--5"] {
+        let spec = external_spec(
+            dir.path(),
+            &[(
+                "parallel = 2\n",
+                &format!(
+                    "\n[executor]\nkind = \"slurm\"\nparallel = 2\ntime_limit = \"{limit}\"\n"
+                ),
+            )],
+        );
+        let out = dir.path().join("slurm");
+        let message = refused_external(&spec, &out);
+        assert!(
+            message.contains("time_limit") && message.contains("D-HH:MM:SS"),
+            "{limit}: {message}"
+        );
+        assert!(!out.exists());
+    }
+}

@@ -1,7 +1,7 @@
 //! The `acq` command line: argument definitions and dispatch to the libraries.
 //! One file per command group; each command is glue over a library call.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod convert;
 mod decode;
@@ -12,6 +12,26 @@ mod tensile;
 mod twin;
 
 use acq_io::error::Result;
+
+/// The command line as given. Every option that takes a value takes a
+/// negative number too: `--weights 1 1 -1` is a weight that the command
+/// refuses with its reason, not an unknown option `-1`.
+pub fn parse() -> Cli {
+    let matches = numbers_may_be_negative(Cli::command()).get_matches();
+    Cli::from_arg_matches(&matches).unwrap_or_else(|error| error.exit())
+}
+
+fn numbers_may_be_negative(command: clap::Command) -> clap::Command {
+    command
+        .mut_args(|arg| {
+            if arg.get_action().takes_values() {
+                arg.allow_negative_numbers(true)
+            } else {
+                arg
+            }
+        })
+        .mut_subcommands(numbers_may_be_negative)
+}
 
 #[derive(Parser, Debug)]
 #[command(

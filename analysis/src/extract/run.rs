@@ -353,8 +353,31 @@ pub fn extract_tensile(
 ) -> Result<TensileReport> {
     let rig = &recording.rig;
     let force = load_sensor(recording, force_name)?;
+    let of_kind = |index: usize, kind: SensorKind, option: &str| -> Result<usize> {
+        let sensor = &rig.sensors[index];
+        if sensor.kind == kind {
+            return Ok(index);
+        }
+        let fitting: Vec<&str> = rig
+            .sensors
+            .iter()
+            .filter(|s| s.kind == kind)
+            .map(|s| s.name.as_str())
+            .collect();
+        Err(AcqError::Config(format!(
+            "{option} {}: it is a {} sensor in {} in the rig {}, not a {} sensor; the rig's {} sensors: {}",
+            sensor.name,
+            sensor.kind.name(),
+            sensor.unit(),
+            rig.path.display(),
+            kind.name(),
+            kind.name(),
+            if fitting.is_empty() { "none".to_string() } else { fitting.join(", ") }
+        )))
+    };
+    let force = of_kind(force, SensorKind::Force, "--force")?;
     let displacement = match displacement_name {
-        Some(name) => recording.sensor_index(name)?,
+        Some(name) => of_kind(recording.sensor_index(name)?, SensorKind::Displacement, "--displacement")?,
         None => rig
             .sensors
             .iter()

@@ -453,6 +453,28 @@ pub fn tensile_properties(
             points.len()
         ));
     }
+    // A curve whose displacement does not run forward has no elastic line
+    // to offset: say what is wrong with the displacement itself.
+    let (low, high) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+            (l.min(p.displacement_mm), h.max(p.displacement_mm))
+        });
+    let (start, end) = (
+        points[0].displacement_mm,
+        points[points.len() - 1].displacement_mm,
+    );
+    if low == high {
+        return Err(format!(
+            "the displacement never changes (it is {low} mm at all {} points): is DISPLACEMENT the extensometer's column?",
+            points.len()
+        ));
+    }
+    if end < start {
+        return Err(format!(
+            "the displacement runs backwards, from {start} mm to {end} mm: a pull lengthens the specimen (check the extensometer's sign, or the order of the rows)"
+        ));
+    }
     let mut notes = Vec::new();
     let first = points[0];
     if first.displacement_mm != 0.0 || first.force_kn != 0.0 {

@@ -80,8 +80,9 @@ pub struct CalibrateExcavatorArgs {
     /// Largest share of the population on the first front.
     #[arg(long, default_value_t = 0.5)]
     pub pareto_fraction: f64,
-    /// TOPSIS weights of the bucket, arm and boom errors.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [1.0, 1.0, 1.0])]
+    /// Weights of the bucket, arm and boom errors in the pick (`1 1 2` or
+    /// `1,1,2`; non-negative, not all zero).
+    #[arg(long, value_delimiter = ',', num_args = 1..=3, default_values_t = [1.0, 1.0, 1.0])]
     pub weights: Vec<f64>,
     /// How one point of the Pareto front is picked: `minimax` (the point
     /// whose largest weighted error is least: what "largest error" judges),
@@ -353,12 +354,15 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             args.case.display()
         ))
     })?;
-    if args.weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
+    if args.weights.len() != 3
+        || args.weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
         || args.weights.iter().sum::<f64>() <= 0.0
     {
-        return Err(AcqError::Config(
-            "--weights: three non-negative numbers, not all zero".into(),
-        ));
+        let given: Vec<String> = args.weights.iter().map(f64::to_string).collect();
+        return Err(AcqError::Config(format!(
+            "--weights {}: give three weights (bucket, arm, boom) that are non-negative and not all zero, e.g. --weights 1 1 2",
+            given.join(" ")
+        )));
     }
     if !(args.pareto_fraction > 0.0 && args.pareto_fraction <= 1.0) {
         return Err(AcqError::Config(

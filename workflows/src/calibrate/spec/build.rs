@@ -203,6 +203,13 @@ fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>, Sp
                 Some(found)
             }
         };
+        // The bounds first: a nominal outside them may be their mistake.
+        if !(p.lower.is_finite() && p.upper.is_finite() && p.lower < p.upper) {
+            return Err(here(format!(
+                "lower = {}, upper = {}: give finite bounds with lower below upper",
+                p.lower, p.upper
+            )));
+        }
         let search_name = match &p.case {
             Some(case) => format!("{case}/{}", p.name),
             None => p.name.clone(),

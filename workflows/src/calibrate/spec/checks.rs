@@ -123,14 +123,9 @@ fn executor_section(executor: &ExecutorSpec, top_parallel: Option<usize>) -> Res
         }
     }
     if let Some(limit) = &executor.time_limit {
-        let slurm_format = !limit.is_empty()
-            && limit
-                .chars()
-                .all(|c| c.is_ascii_digit() || c == ':' || c == '-')
-            || matches!(limit.as_str(), "UNLIMITED" | "INFINITE");
-        if !slurm_format {
+        if !is_slurm_time(limit) {
             return Err(format!(
-                "[executor] time_limit = {limit:?}: give Slurm's format, minutes (\"30\"), \"H:MM:SS\" or \"D-HH:MM:SS\""
+                "[executor] time_limit = {limit:?}: give one of Slurm's formats: minutes (\"30\"), \"MM:SS\", \"HH:MM:SS\", \"D-HH\", \"D-HH:MM\" or \"D-HH:MM:SS\" (minutes and seconds below 60, hours after a day below 24), or \"UNLIMITED\""
             ));
         }
     }
@@ -151,6 +146,37 @@ fn executor_section(executor: &ExecutorSpec, top_parallel: Option<usize>) -> Res
         ));
     }
     Ok(parallel)
+}
+
+/// A time in one of Slurm's formats (`sbatch --time`): minutes, MM:SS,
+/// HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS, or UNLIMITED / INFINITE. Checked
+/// here, so a malformed one is refused before any run directory exists
+/// rather than by `sbatch` for every job.
+pub fn is_slurm_time(text: &str) -> bool {
+    if matches!(text, "UNLIMITED" | "INFINITE") {
+        return true;
+    }
+    let number = |part: &str, below: Option<u64>| {
+        !part.is_empty()
+            && part.len() <= 9
+            && part.bytes().all(|b| b.is_ascii_digit())
+            && below.is_none_or(|limit| part.parse::<u64>().is_ok_and(|v| v < limit))
+    };
+    match text.split_once('-') {
+        Some((days, clock)) => {
+            let parts: Vec<&str> = clock.split(':').collect();
+            number(days, None)
+                && (1..=3).contains(&parts.len())
+                && number(parts[0], Some(24))
+                && parts[1..].iter().all(|p| number(p, Some(60)))
+        }
+        None => {
+            let parts: Vec<&str> = text.split(':').collect();
+            (1..=3).contains(&parts.len())
+                && number(parts[0], None)
+                && parts[1..].iter().all(|p| number(p, Some(60)))
+        }
+    }
 }
 
 /// The files a run reads and writes: each inside its run directory, and
@@ -251,4 +277,45 @@ fn search_section(search: &Search) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::is_slurm_time;
+
+    #[test]
+    fn slurm_times_in_each_documented_format_and_nothing_else() {
+        for good in [
+            "30",
+            "90",
+            "5:30",
+            "1:30:00",
+            "2-0",
+            "2-12",
+            "2-12:30",
+            "2-12:30:15",
+            "0",
+            "UNLIMITED",
+        ] {
+            assert!(is_slurm_time(good), "{good}");
+        }
+        for bad in [
+            "",
+            "1:2:3:4",
+            "1::2",
+            "-5",
+            "5-",
+            "1-2-3",
+            "1:60",
+            "1:30:60",
+            "2-24",
+            "2-1:2:3:4",
+            "1h",
+            " 30",
+            "1.5",
+            "99999999999",
+        ] {
+            assert!(!is_slurm_time(bad), "{bad}");
+        }
+    }
 }

@@ -152,6 +152,7 @@ fn main() {
                 mesh: Default::default(),
                 seed: 1,
                 global_only,
+                deterministic: false,
                 resume: false,
             })
             .expect("gtn calibration");

@@ -63,6 +63,12 @@ pub struct CalibrateGtnArgs {
     /// without the local Gauss-Newton steps on the curve's errors.
     #[arg(long)]
     pub global_only: bool,
+    /// With --batch above 1: synchronous batches, so the result depends
+    /// only on the test, the options and the seed (slots wait for the
+    /// slowest simulation of each batch) [default: each new point as soon
+    /// as a simulation ends, which machine load can steer].
+    #[arg(long)]
+    pub deterministic: bool,
     /// Continue the run in DIR: simulations already in its log are not repeated.
     #[arg(long)]
     pub resume: bool,
@@ -178,6 +184,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         batch: args.batch as usize,
         seed: args.seed,
         local_steps: !args.global_only,
+        deterministic: args.deterministic,
     });
     let settings = RunSettings {
         label: "calibrate gtn".into(),

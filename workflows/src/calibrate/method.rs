@@ -30,6 +30,10 @@ pub struct BoMethod {
     /// Local trust-region steps on the residuals (each curve's errors in
     /// [`CURVE_PARTS`] parts) between the global ones.
     pub local_steps: bool,
+    /// Synchronous batches of `batch` points: the result depends only on
+    /// the inputs and the seed, not on which run finishes first (slots
+    /// wait for the slowest run of each batch).
+    pub deterministic: bool,
 }
 
 /// How many parts of a curve the local steps of a search see: enough to

@@ -82,17 +82,21 @@ pub fn distinct_best(
 /// failed run is a missing loss. A log that cannot be
 /// written stops the run with that error.
 ///
-/// With more than one slot (`settings.batch`), the runs go as they finish
-/// ([`minimise_as_they_finish`]): a new point is proposed as soon as one
-/// run ends, so no slot waits for the slowest run of a batch.
+/// With more than one slot (`settings.batch`) and `as_they_finish`, the
+/// runs go as they finish ([`minimise_as_they_finish`]): a new point is
+/// proposed as soon as one run ends, so no slot waits for the slowest run
+/// of a batch, but which run ends first (machine load) steers the search.
+/// Otherwise the points go in synchronous batches: the result depends only
+/// on the inputs and the seed.
 pub fn minimise_logged(
     evaluator: &mut Evaluator<'_>,
     parameters: &[Parameter],
     initial: Vec<Vec<f64>>,
     score: impl Fn(&[f64]) -> Outcome,
     settings: &BoSettings,
+    as_they_finish: bool,
 ) -> Result<BoResult> {
-    if settings.batch > 1 {
+    if settings.batch > 1 && as_they_finish {
         let slots = settings.batch;
         let result = evaluator.run_async(slots, |runs| {
             let mut adapter = LoggedRuns {

@@ -261,6 +261,7 @@ fn search(
                     residuals: study.local_residuals(y, curve_parts),
                 },
                 &bo_settings,
+                !bo.deterministic,
             )
             .map(Found::Bo)
         }

@@ -74,6 +74,9 @@
 //! max_evals = 60
 //! target_loss_pct = 1.0
 //! loss = "mean"              # or "max", or "squares" (with priors: a MAP estimate)
+//! deterministic = false      # bo with parallel > 1: synchronous batches, the
+//!                            # result a function of the spec and seed alone
+//!                            # (default: runs as they finish, no slot idles)
 //! local_steps = true         # bo: trust-region Gauss-Newton steps on the
 //!                            # residuals (each scalar's error, each curve's
 //!                            # errors in 20 parts) between the global ones;
@@ -201,7 +204,39 @@ impl Spec {
                 batch: self.runs_at_once,
                 seed,
                 local_steps: search.local_steps.unwrap_or(true),
+                deterministic: search.deterministic,
             }),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn method_of(search: &str) -> Method {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("spec.toml");
+        std::fs::write(
+            &path,
+            format!(
+                "command = [\"true\"]\noutput_file = \"out.json\"\nparallel = 2\n\n[[parameter]]\nname = \"a\"\nlower = 1.0\nupper = 2.0\n\n[[output]]\nname = \"y\"\nmeasured = 1.0\n\n[search]\n{search}"
+            ),
+        )
+        .unwrap();
+        Spec::load(&path).unwrap().method(1)
+    }
+
+    #[test]
+    fn deterministic_asks_for_synchronous_batches_and_is_off_by_default() {
+        let Method::Bo(default) = method_of("") else {
+            panic!("bo is the default method")
+        };
+        assert!(!default.deterministic);
+        assert_eq!(default.batch, 2);
+        let Method::Bo(asked) = method_of("deterministic = true\n") else {
+            panic!("bo is the default method")
+        };
+        assert!(asked.deterministic);
     }
 }

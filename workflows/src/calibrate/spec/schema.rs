@@ -216,6 +216,11 @@ pub struct Search {
     /// Default: on (measured on the CalculiX example, curve and scalars,
     /// and on the GTN preset: BENCHMARKS.md, "Local steps").
     pub local_steps: Option<bool>,
+    /// Bayesian optimisation with `parallel` above 1: synchronous batches,
+    /// so the result depends only on the spec and the seed [default:
+    /// false, runs go as they finish and no slot idles].
+    #[serde(default)]
+    pub deterministic: bool,
     /// How the surrogate-MOO search picks its front point: "topsis"
     /// (default, the published method), "topsis-common" or "minimax".
     pub pick: Option<String>,

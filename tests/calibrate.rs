@@ -470,63 +470,6 @@ fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * b.abs().max(1.0)
 }
 
-/// The evaluated points and their MAPEs, in the order the search asked
-/// for them (ids follow the finish order within a batch).
-fn evaluated(out: &Path) -> Vec<String> {
-    let log = std::fs::read_to_string(out.join("evaluations.csv")).unwrap();
-    let mut rows: Vec<String> = log
-        .lines()
-        .skip(1)
-        .map(|line| {
-            let cells: Vec<&str> = line.split(',').collect();
-            // Without id and wall_s: the point and what the model gave.
-            cells[1..2]
-                .iter()
-                .chain(&cells[3..])
-                .copied()
-                .collect::<Vec<_>>()
-                .join(",")
-        })
-        .collect();
-    rows.sort();
-    rows
-}
-
-#[test]
-fn gtn_with_two_slots_is_reproducible_when_asked() {
-    // With two simulations at once, the default lets whichever finishes
-    // first steer the next point; --deterministic runs synchronous batches,
-    // so the same command gives the same search, point for point.
-    let dir = tempfile::tempdir().unwrap();
-    let runs: Vec<_> = (0..2)
-        .map(|k| {
-            let out = dir.path().join(format!("run{k}"));
-            let output = calibrate_gtn(
-                &out,
-                &[
-                    "--max-evals",
-                    "18",
-                    "--target-mape",
-                    "0",
-                    "--batch",
-                    "2",
-                    "--deterministic",
-                ],
-            );
-            assert!(output.status.success(), "{}", stderr(&output));
-            out
-        })
-        .collect();
-    let (first, second) = (
-        json(&runs[0].join("summary.json")),
-        json(&runs[1].join("summary.json")),
-    );
-    assert_eq!(first["best_params"], second["best_params"]);
-    assert_eq!(first["best_mape"], second["best_mape"]);
-    assert_eq!(evaluated(&runs[0]), evaluated(&runs[1]));
-    assert_eq!(evaluated(&runs[0]).len(), 18);
-}
-
 #[test]
 fn gtn_small_budget_starts_from_l12_and_resumes_to_a_target() {
     let dir = tempfile::tempdir().unwrap();

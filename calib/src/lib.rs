@@ -15,9 +15,12 @@
 //! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches);
 //!   `trust_region`: its local Gauss-Newton steps when runs return residuals.
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
+//! - `chain_diagnostics`: whether Markov chains have mixed (rank-normalised split R-hat,
+//!   bulk ESS), as ArviZ computes them.
 //! - `training_data`: the shape and finiteness check every fitted model runs first.
 
 pub mod bo;
+pub mod chain_diagnostics;
 pub mod doe;
 pub mod evaluation;
 pub mod gp;

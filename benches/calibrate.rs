@@ -18,7 +18,9 @@ use acq_calib::moo::{nsga2, Nsga2Settings};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_workflows::calibrate::builtin::ExcavatorModel;
-use acq_workflows::calibrate::excavator::{case_study, run, CalibrateExcavatorArgs};
+use acq_workflows::calibrate::excavator::{
+    case_study, run, CalibrateExcavatorArgs, PosteriorDiscrepancy,
+};
 use acq_workflows::calibrate::gtn::CalibrateGtnArgs;
 use acq_workflows::calibrate::study::{Role, StudySimulator};
 
@@ -52,6 +54,8 @@ fn main() {
                 seed: 1,
                 resume: false,
                 parallel: None,
+                posterior: false,
+                discrepancy: PosteriorDiscrepancy::None,
             };
             let start = Instant::now();
             run(args).expect("workflow");
@@ -71,6 +75,7 @@ fn main() {
     let study = case_study(
         &case,
         &case.measured.expect("case 1 has measured pressures"),
+        [None; 3],
     );
     let simulator = StudySimulator::new(&study, &model, Role::Fit);
     let bounds: Vec<(f64, f64)> = simulator

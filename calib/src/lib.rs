@@ -15,6 +15,8 @@
 //! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches);
 //!   `trust_region`: its local Gauss-Newton steps when runs return residuals.
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
+//! - `mcmc`: draws from a posterior (adaptive random-walk Metropolis in free coordinates,
+//!   chains in parallel) and their summaries.
 //! - `chain_diagnostics`: whether Markov chains have mixed (rank-normalised split R-hat,
 //!   bulk ESS), as ArviZ computes them.
 //! - `training_data`: the shape and finiteness check every fitted model runs first.
@@ -25,6 +27,7 @@ pub mod doe;
 pub mod evaluation;
 pub mod gp;
 pub mod least_squares;
+pub mod mcmc;
 pub mod minimax;
 pub mod moo;
 pub mod optim;

@@ -235,13 +235,39 @@ pub fn grid_svg(
     panel_width_px: f64,
     panel_height_px: f64,
 ) -> String {
+    let panels: Vec<Option<&Chart>> = charts.iter().map(Some).collect();
+    panels_svg(title, &panels, columns, panel_width_px, panel_height_px)
+}
+
+/// [`grid_svg`] with empty places: a `None` leaves its panel blank (the
+/// upper triangle of a corner plot). The shared legend, if any, is that of
+/// the charts present.
+pub fn sparse_grid_svg(
+    title: &str,
+    charts: &[Option<Chart>],
+    columns: usize,
+    panel_width_px: f64,
+    panel_height_px: f64,
+) -> String {
+    let panels: Vec<Option<&Chart>> = charts.iter().map(Option::as_ref).collect();
+    panels_svg(title, &panels, columns, panel_width_px, panel_height_px)
+}
+
+fn panels_svg(
+    title: &str,
+    charts: &[Option<&Chart>],
+    columns: usize,
+    panel_width_px: f64,
+    panel_height_px: f64,
+) -> String {
     let panel_width = sanitize_size(panel_width_px, 320.0);
     let panel_height = sanitize_size(panel_height_px, 240.0);
     let columns = columns.clamp(1, charts.len().max(1));
     let rows = charts.len().div_ceil(columns);
     let width = columns as f64 * panel_width;
 
-    let shared = shared_series(charts);
+    let present: Vec<&Chart> = charts.iter().flatten().copied().collect();
+    let shared = shared_series(&present);
     let title_height = if title.trim().is_empty() {
         0.0
     } else {
@@ -268,6 +294,9 @@ pub fn grid_svg(
         draw_legend(&mut out, &legend, PAD, title_height);
     }
     for (i, chart) in charts.iter().enumerate() {
+        let Some(chart) = chart else {
+            continue;
+        };
         let (column, row) = (i % columns, i / columns);
         let origin = (
             column as f64 * panel_width,
@@ -1078,8 +1107,8 @@ fn draw_legend(out: &mut String, legend: &Legend, left: f64, top: f64) {
 
 /// The series whose legend serves every panel: all charts name the same
 /// series with the same styles in the same order (so colours agree too).
-fn shared_series(charts: &[Chart]) -> Option<&[Series]> {
-    let first = charts.first()?;
+fn shared_series<'c>(charts: &[&'c Chart]) -> Option<&'c [Series]> {
+    let first = *charts.first()?;
     let key = |chart: &Chart| {
         chart
             .series

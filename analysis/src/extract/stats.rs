@@ -144,6 +144,13 @@ pub struct WindowStats {
     pub ci95_half_width: Option<f64>,
 }
 
+impl WindowStats {
+    /// The standard error of the mean: `std / sqrt(n_eff)`.
+    pub fn std_of_mean(&self) -> Option<f64> {
+        Some(self.std? / self.n_eff.max(1.0).sqrt())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -36,6 +36,7 @@ use super::builtin::ExcavatorModel;
 use super::extras::{Extras, Section};
 use super::method::{Method, RunSettings};
 use super::outcome::{Found, StudyOutcome};
+use super::posterior::{Discrepancy, PosteriorSettings};
 use super::run_directory::{default_parallelism, RunDirectory};
 use super::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
@@ -104,6 +105,33 @@ pub struct CalibrateExcavatorArgs {
     /// Twin evaluations at once [default: the number of cores].
     #[arg(long)]
     pub parallel: Option<usize>,
+    /// After the search, sample the posterior of the inputs (4 chains of
+    /// 1,000 draws, the twin run at every step) given the measured
+    /// pressures' uncertainty: their `std_of_mean` with --measured, else a
+    /// noise scale the posterior estimates. Writes posterior.csv and
+    /// predictive.csv, and adds `posterior` and `predictive` to summary.json.
+    #[arg(long)]
+    pub posterior: bool,
+    /// The model error the posterior allows for: `none`, or `constant` (an
+    /// additive error per pressure, its size estimated).
+    #[arg(long, value_enum, default_value = "none", requires = "posterior")]
+    pub discrepancy: PosteriorDiscrepancy,
+}
+
+/// `--discrepancy`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum PosteriorDiscrepancy {
+    None,
+    Constant,
+}
+
+impl From<PosteriorDiscrepancy> for Discrepancy {
+    fn from(value: PosteriorDiscrepancy) -> Self {
+        match value {
+            PosteriorDiscrepancy::None => Discrepancy::None,
+            PosteriorDiscrepancy::Constant => Discrepancy::Constant,
+        }
+    }
 }
 
 /// The calibrated load magnitude's name, when the case bounds it.
@@ -112,8 +140,14 @@ const FORCE_PARAMETER: &str = "force_kN";
 /// A case file as a study of the built-in twin: the uncertain inputs (and
 /// the load, when bounded) as parameters with the bounds' middles (the
 /// case's force) as nominal, and the three loaded-chamber pressures
-/// (`<cylinder>_pressure_bar`) as the observations of one fit case.
-pub fn case_study(case: &CaseFile, measured: &MeasuredPressures) -> Study {
+/// (`<cylinder>_pressure_bar`) as the observations of one fit case, with
+/// their standard uncertainties where known (in [`CylinderName::ALL`]'s
+/// order).
+pub fn case_study(
+    case: &CaseFile,
+    measured: &MeasuredPressures,
+    uncertainties_bar: [Option<f64>; 3],
+) -> Study {
     let mut parameters: Vec<StudyParameter> = UncertainInput::ALL
         .iter()
         .map(|&input| {
@@ -148,13 +182,14 @@ pub fn case_study(case: &CaseFile, measured: &MeasuredPressures) -> Study {
             inputs,
             observations: CylinderName::ALL
                 .iter()
-                .map(|&cylinder| Observation {
+                .zip(uncertainties_bar)
+                .map(|(&cylinder, uncertainty)| Observation {
                     // The log's column names of earlier versions.
                     name: format!("{cylinder}_pressure_bar"),
                     output: format!("pressure_bar.{cylinder}"),
                     measured: Measured::Scalar {
                         value: measured.get(cylinder),
-                        uncertainty: None,
+                        uncertainty,
                     },
                     weight: 1.0,
                     source: format!("measured {cylinder} pressure"),
@@ -254,6 +289,9 @@ pub struct ExcavatorCalibration {
 struct MeasuredHold {
     window: String,
     pressures: MeasuredPressures,
+    /// Each pressure's standard error of the mean, in the order of
+    /// [`CylinderName::ALL`].
+    std_of_mean_bar: [Option<f64>; 3],
     force_kn: Option<f64>,
 }
 
@@ -280,7 +318,7 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
             )))
         }
     };
-    let mean = |quantity: &str, unit: &str| -> Result<Option<f64>> {
+    let mean = |quantity: &str, unit: &str| -> Result<Option<(f64, Option<f64>)>> {
         let Some(value) = values
             .iter()
             .find(|v| v.window == window && v.quantity == quantity)
@@ -303,9 +341,9 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
                 value.note
             )));
         }
-        Ok(value.stats.mean)
+        Ok(value.stats.mean.map(|m| (m, value.stats.std_of_mean())))
     };
-    let pressure = |cylinder: CylinderName| -> Result<f64> {
+    let pressure = |cylinder: CylinderName| -> Result<(f64, Option<f64>)> {
         let quantity = format!("{cylinder}_loaded_pressure");
         mean(&quantity, "bar")?.ok_or_else(|| {
             AcqError::Config(format!(
@@ -315,13 +353,16 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
             ))
         })
     };
+    let [bucket, arm, boom] = CylinderName::ALL.map(pressure);
+    let (bucket, arm, boom) = (bucket?, arm?, boom?);
     Ok(MeasuredHold {
         pressures: MeasuredPressures {
-            bucket_bar: pressure(CylinderName::Bucket)?,
-            arm_bar: pressure(CylinderName::Arm)?,
-            boom_bar: pressure(CylinderName::Boom)?,
+            bucket_bar: bucket.0,
+            arm_bar: arm.0,
+            boom_bar: boom.0,
         },
-        force_kn: mean(load_quantity, "kN")?,
+        std_of_mean_bar: [bucket.1, arm.1, boom.1],
+        force_kn: mean(load_quantity, "kN")?.map(|(m, _)| m),
         window,
     })
 }
@@ -331,10 +372,12 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     acq_io::input::note_input(&args.case);
     let mut force_source = format!("case file {}", args.case.display());
     let mut measured_source = force_source.clone();
+    let mut uncertainties_bar = [None; 3];
     if let Some(path) = &args.measured {
         let hold = measured_hold(path, args.window.as_deref(), &args.load_quantity)?;
         measured_source = format!("{} ({})", path.display(), hold.window);
         case.measured = Some(hold.pressures);
+        uncertainties_bar = hold.std_of_mean_bar;
         match hold.force_kn {
             Some(force) if force > 0.0 => {
                 case.force_kn = force;
@@ -379,7 +422,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     };
     // No geometry number is calibrated here, so nothing is re-fitted.
     let model = ExcavatorModel::new(template, false).map_err(AcqError::Config)?;
-    let study = case_study(&case, &measured);
+    let study = case_study(&case, &measured, uncertainties_bar);
     check_before_the_first_run(
         &args.case,
         &measured,
@@ -419,6 +462,11 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             spec_directory: Path::new("."),
             parallel: args.parallel.unwrap_or_else(default_parallelism),
             resume: args.resume,
+            posterior: args.posterior.then(|| PosteriorSettings {
+                discrepancy: args.discrepancy.into(),
+                seed: args.seed,
+                ..PosteriorSettings::default()
+            }),
         },
         &extras,
     )?;

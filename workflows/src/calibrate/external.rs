@@ -52,6 +52,7 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         spec_directory: &spec.directory,
         parallel: spec.runs_at_once.max(1),
         resume: args.resume,
+        posterior: spec.posterior.clone(),
     };
     let study = &spec.study;
     match &spec.model {

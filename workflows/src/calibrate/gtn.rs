@@ -192,6 +192,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         spec_directory: Path::new("."),
         parallel: args.batch as usize,
         resume: args.resume,
+        posterior: None,
     };
     let start_design = start_design(&parameters, &method, settings.spec_directory)?;
     let extras = GtnExtras {

@@ -11,6 +11,7 @@ use acq_calib::doe::{
 use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 
+use super::posterior::PosteriorSettings;
 use super::search::to_unit;
 use super::surrogate_moo::SurrogateMooSettings;
 
@@ -65,6 +66,8 @@ pub struct RunSettings<'a> {
     pub spec_directory: &'a Path,
     pub parallel: usize,
     pub resume: bool,
+    /// The posterior stage after the search, when asked for.
+    pub posterior: Option<PosteriorSettings>,
 }
 
 /// The start design in the unit box; read before the run directory exists,

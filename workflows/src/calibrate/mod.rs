@@ -24,6 +24,7 @@ pub mod gtn;
 pub mod identifiability;
 pub mod method;
 pub mod outcome;
+pub mod posterior;
 pub mod progress;
 pub mod report;
 pub mod run_directory;

@@ -7,6 +7,7 @@ use acq_calib::evaluation::Evaluation;
 use acq_calib::least_squares::LeastSquaresResult;
 
 use super::identifiability::Identifiability;
+use super::posterior::PosteriorOutcome;
 use super::study::{ObservationError, Study};
 
 /// What a study found.
@@ -26,6 +27,8 @@ pub struct StudyOutcome {
     pub note_columns: Vec<String>,
     /// Each observed curve at the calibrated point, fit and validate cases.
     pub curves: Vec<CalibratedCurve>,
+    /// The posterior stage's result, when the study asked for it.
+    pub posterior: Option<PosteriorOutcome>,
 }
 
 impl StudyOutcome {

@@ -73,6 +73,9 @@ pub fn study_report(
     write_curves(&mut report, &outcome.curves);
     write_parameters(&mut report, study, &outcome.calibrated, extras);
     write_identifiability(&mut report, &outcome.identifiability, &parameters);
+    if let Some(posterior) = &outcome.posterior {
+        super::posterior::report::write_section(&mut report, posterior);
+    }
     match (&outcome.found, method) {
         (Found::Moo(moo), Method::SurrogateMoo(settings)) => {
             write_surrogates(&mut report, study, moo, settings, extras)

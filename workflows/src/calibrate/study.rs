@@ -64,6 +64,13 @@ pub trait Model: Sync {
         None
     }
 
+    /// Whether a run costs so little (microseconds, inside acq) that a
+    /// posterior can be sampled on the model itself, hundreds of thousands
+    /// of runs, rather than on an emulator of its logged runs.
+    fn is_cheap(&self) -> bool {
+        false
+    }
+
     /// The run at `inputs` again, for the report (the calibrated curves):
     /// a model inside acq runs it; a solver answers from the files of a
     /// run it already made there, or None, since one more run of it can

@@ -30,6 +30,7 @@ use super::extras::Extras;
 use super::identifiability::{identifiability, identifiability_json, Local};
 use super::method::{Method, RunSettings, CURVE_PARTS};
 use super::outcome::{CalibratedCurve, Found, LeastSquaresFound, StudyOutcome};
+use super::posterior::run_posterior;
 use super::progress::Progress;
 use super::report::{study_report, write_report, write_text};
 use super::run_directory::{evaluation_error, RunDirectory};
@@ -70,7 +71,18 @@ pub fn run_study(
     settings: &RunSettings<'_>,
     extras: &dyn Extras,
 ) -> Result<StudyRun, StudyError> {
-    let outcome = calibrate_study(study, model, method, initial, directory, settings)?;
+    let mut outcome = calibrate_study(study, model, method, initial, directory, settings)?;
+    if let Some(posterior) = &settings.posterior {
+        outcome.posterior = Some(run_posterior(
+            study,
+            model,
+            &outcome,
+            posterior,
+            directory,
+            settings.parallel,
+            settings.resume,
+        )?);
+    }
     if let Some(analysis) = &outcome.identifiability {
         write_text(
             &directory.file("identifiability.json"),
@@ -224,6 +236,7 @@ pub fn calibrate_study(
         identifiability,
         note_columns: model.note_columns().to_vec(),
         curves,
+        posterior: None,
     })
 }
 

@@ -10,12 +10,15 @@
 //!   `optimal`, `surrogate_rmse`;
 //! - `least-squares`: `errors_initial_pct`, `errors_optimal_pct`,
 //!   `optimal`, `loss`, `sum_of_squares`, `iterations`, `stop`;
-//! - every method: `evaluations`, `failed`, `wall_s`.
+//! - every method: `evaluations`, `failed`, `wall_s`;
+//! - with the posterior stage: `posterior`, `predictive` and, with a
+//!   discrepancy, `discrepancy` ([`super::posterior::report::summary_keys`]).
 
 use serde_json::{json, Map, Value};
 
 use super::extras::Extras;
 use super::outcome::{Found, StudyOutcome};
+use super::posterior::report::summary_keys as posterior_summary_keys;
 use super::study::{cases_json, chi_square, errors_json, Role, Study};
 
 /// The summary of a finished study.
@@ -115,5 +118,11 @@ pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Va
             summary.insert(key.into(), json!({"value": chi2, "observations": n}));
         }
     }
-    Value::Object(extras.summary(study, outcome, summary))
+    let mut summary = extras.summary(study, outcome, summary);
+    // The posterior's keys whatever the preset keeps: they are every
+    // study's.
+    if let Some(posterior) = &outcome.posterior {
+        summary.extend(posterior_summary_keys(posterior));
+    }
+    Value::Object(summary)
 }

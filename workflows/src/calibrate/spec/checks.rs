@@ -10,8 +10,8 @@ use acq_calib::gp::Kernel;
 use super::model::{CommandSpec, ModelKind};
 use super::problem::SpecProblem;
 use super::schema::{
-    ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_EVALUATIONS, MAX_PARALLEL,
-    MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
+    ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
+    MAX_EVALUATIONS, MAX_PARALLEL, MAX_PREDICTIVE_RUNS, MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
 };
 use crate::calibrate::surrogate_moo::Pick;
 
@@ -205,6 +205,32 @@ pub fn files(file: &SpecFile, spec_directory: &Path) -> Result<(), SpecProblem> 
             }
             acq_io::input::note_input(&source);
         }
+    }
+    Ok(())
+}
+
+/// `[posterior]`: its counts within reach.
+pub fn posterior(file: &SpecFile) -> Result<(), SpecProblem> {
+    let Some(posterior) = &file.posterior else {
+        return Ok(());
+    };
+    if !(100..=MAX_DRAWS).contains(&posterior.draws) {
+        return Err(SpecProblem::file(format!(
+            "posterior.draws = {}: give 100 to {MAX_DRAWS} draws per chain (R-hat and ESS need a hundred at least)",
+            posterior.draws
+        )));
+    }
+    if !(1..=MAX_CHAINS).contains(&posterior.chains) {
+        return Err(SpecProblem::file(format!(
+            "posterior.chains = {}: give 1 to {MAX_CHAINS} chains (4 lets R-hat tell whether they agree)",
+            posterior.chains
+        )));
+    }
+    if posterior.predictive_runs > MAX_PREDICTIVE_RUNS {
+        return Err(SpecProblem::file(format!(
+            "posterior.predictive_runs = {}: at most {MAX_PREDICTIVE_RUNS}",
+            posterior.predictive_runs
+        )));
     }
     Ok(())
 }

@@ -84,7 +84,19 @@
 //! training_runs = 40         # surrogate-moo, with test_runs, population,
 //! test_runs = 40             # generations, pareto_fraction, kernel,
 //!                            # refine_tolerance, refine_rounds
+//!
+//! [posterior]                # optional: after the search, the posterior
+//! draws = 1000               # kept draws per chain (100 to 1,000,000)
+//! chains = 4                 # 1 to 64
+//! discrepancy = "none"       # or "constant": an additive model error per
+//!                            # output, the same in every case, its size estimated
+//! predictive_runs = 50       # model runs at posterior draws, per case
+//! seed = 1
 //! ```
+//!
+//! The posterior's likelihood takes each measured value's `uncertainty`;
+//! where none is stated, a relative noise scale is estimated with the
+//! parameters (`measurement_noise_pct`).
 //!
 //! A measured value read from an `acq extract` file takes the hold's mean;
 //! its uncertainty is a number, `"std"` (the spread of the readings in the
@@ -96,8 +108,9 @@ use std::path::{Path, PathBuf};
 
 use acq_io::error::AcqError;
 
-use self::schema::{ExecutorSpec, MethodName, Search, SpecFile};
+use self::schema::{ExecutorSpec, MethodName, PosteriorSpec, Search, SpecFile};
 use super::method::{BoMethod, LeastSquaresMethod, Method};
+use super::posterior::PosteriorSettings;
 use super::study::Study;
 use super::surrogate_moo::SurrogateMooSettings;
 
@@ -117,6 +130,8 @@ pub struct Spec {
     pub model: ModelKind,
     pub study: Study,
     pub search: Search,
+    /// `[posterior]`: the posterior stage, when asked for.
+    pub posterior: Option<PosteriorSettings>,
     /// `[executor]`: where a command's runs happen.
     pub executor: ExecutorSpec,
     /// Runs in flight at once, from `parallel` or `[executor] parallel`.
@@ -151,11 +166,13 @@ impl Spec {
         let runs_at_once = checks::executor(&file).map_err(located)?;
         checks::files(&file, &directory).map_err(located)?;
         checks::search(&file.search).map_err(located)?;
+        checks::posterior(&file).map_err(located)?;
         let study = build::study(&file, &directory).map_err(located)?;
         Ok(Spec {
             model,
             study,
             search: file.search,
+            posterior: file.posterior.as_ref().map(PosteriorSpec::settings),
             executor: file.executor,
             runs_at_once,
             directory,

@@ -228,7 +228,7 @@ fn measured_value_from_file(
         })?;
         Ok(match what {
             "std" => std,
-            _ => std / value.stats.n_eff.max(1.0).sqrt(),
+            _ => value.stats.std_of_mean().unwrap_or(std),
         })
     };
     let uncertainty = match uncertainty {

@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use acq_calib::evaluation::Scale;
 use serde::Deserialize;
 
+use crate::calibrate::posterior::{Discrepancy, PosteriorSettings};
 use crate::calibrate::study::{LossKind, Residuals, Role};
 
 #[derive(Debug, Deserialize)]
@@ -55,6 +56,51 @@ pub struct SpecFile {
     pub cases: Vec<CaseSpec>,
     #[serde(default)]
     pub search: Search,
+    /// `[posterior]`: sample the posterior after the search.
+    pub posterior: Option<PosteriorSpec>,
+}
+
+/// `[posterior]`: the posterior stage after the search.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PosteriorSpec {
+    /// Kept draws per chain.
+    #[serde(default = "default_draws")]
+    pub draws: usize,
+    #[serde(default = "default_chains")]
+    pub chains: usize,
+    #[serde(default)]
+    pub discrepancy: Discrepancy,
+    /// Model runs at posterior draws, per case.
+    #[serde(default = "default_predictive_runs")]
+    pub predictive_runs: usize,
+    #[serde(default = "default_posterior_seed")]
+    pub seed: u64,
+}
+
+fn default_draws() -> usize {
+    PosteriorSettings::default().draws
+}
+fn default_chains() -> usize {
+    PosteriorSettings::default().chains
+}
+fn default_predictive_runs() -> usize {
+    PosteriorSettings::default().predictive_runs
+}
+fn default_posterior_seed() -> u64 {
+    PosteriorSettings::default().seed
+}
+
+impl PosteriorSpec {
+    pub fn settings(&self) -> PosteriorSettings {
+        PosteriorSettings {
+            draws: self.draws,
+            chains: self.chains,
+            discrepancy: self.discrepancy,
+            predictive_runs: self.predictive_runs,
+            seed: self.seed,
+        }
+    }
 }
 
 /// `model`: which model the study calibrates.
@@ -267,5 +313,10 @@ pub const MAX_TIMEOUT_S: f64 = 1e7;
 pub const MAX_RETRIES: u32 = 100;
 pub const MAX_PARALLEL: usize = 256;
 pub const MAX_EVALUATIONS: usize = 100_000;
+/// `[posterior]`: at most this many draws per chain, chains, and
+/// predictive runs per case.
+pub const MAX_DRAWS: usize = 1_000_000;
+pub const MAX_CHAINS: usize = 64;
+pub const MAX_PREDICTIVE_RUNS: usize = 100_000;
 /// The built-in start designs of `search.start`.
 pub const START_DESIGNS: [&str; 4] = ["lhs", "sobol", "l12", "factorial"];

@@ -1,0 +1,609 @@
+//! The posterior density of a study: the prior of its parameters times the
+//! likelihood of its fit cases' measured values.
+//!
+//! - **Prior**: uniform over each parameter's bounds (log-uniform for a
+//!   parameter searched on a log scale), times a normal density where the
+//!   parameter states `prior = { value, uncertainty }`.
+//! - **Likelihood**: each measured scalar is the model's value plus
+//!   normal error of its stated standard uncertainty. Where a study states
+//!   none, the error is `noise %` of the measured value, with `noise`
+//!   log-uniform over 0.1-100 % (no transducer in a rig is better than
+//!   0.1 %, and none is off by more than its value).
+//! - **Discrepancy** (Kennedy and O'Hagan 2001): with `constant`, each
+//!   model output has an additive error `delta`, the same in every fit case,
+//!   normal with mean 0 and standard deviation `tau`. The prior of `tau` is
+//!   half-Cauchy with a scale of 10 % of the output's measured size, the
+//!   weakly informative prior Gelman (2006) recommends for a hierarchical
+//!   scale: flat near zero, so a model that happens to fit one value
+//!   exactly makes no spike there (a log-uniform prior would), and with a
+//!   tail that allows an error as large as the value. `delta` is
+//!   integrated out in closed form:
+//!   the residuals of one output across the cases are jointly normal with
+//!   covariance `diag(u^2) + tau^2 1 1'`.
+//!
+//! **The scales are integrated out, not sampled.** A noise or discrepancy
+//! scale sampled with the parameters makes a funnel (small scales allow
+//! only parameters that fit exactly), where a random walk stalls. Each is
+//! one-dimensional given the parameters, so the likelihood integrates it
+//! by the midpoint rule in its logarithm (spectrally accurate for a smooth
+//! peak once the nodes are closer than its width; the node counts below
+//! keep them so), and [`StudyPosterior::draw_scales`] draws it afterwards
+//! from its conditional at each kept draw: together an exact draw of the
+//! joint posterior.
+//!
+//! Weights are a search's preference, not a statement about the
+//! measurement: the likelihood ignores them. The study's `prior` case (its
+//! priors as observations, for a search's MAP estimate) is not used: the
+//! prior is the prior.
+
+use std::f64::consts::PI;
+
+use acq_calib::evaluation::Scale;
+use acq_calib::mcmc::Support;
+use rand::RngExt;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::super::study::{Measured, Role, Study};
+use super::Discrepancy;
+
+/// The lower and upper relative size of the measurement noise when a study
+/// states no uncertainty, %.
+pub const NOISE_RANGE_PCT: [f64; 2] = [0.1, 100.0];
+/// The half-Cauchy scale of the discrepancy's standard deviation,
+/// relative to the output's size, and the range its integral covers (below
+/// it the prior is flat and the likelihood no larger than at its lower
+/// end, so the part left out is below 1e-5 of the prior's mass; above it
+/// the Cauchy tail holds 0.6 %).
+pub const DISCREPANCY_SCALE: f64 = 0.1;
+pub const DISCREPANCY_RANGE: [f64; 2] = [1e-6, 10.0];
+
+/// The posterior of a study: a density over its parameters (the search
+/// vector), with the noise and discrepancy scales integrated out.
+#[derive(Clone, Debug)]
+pub struct StudyPosterior {
+    /// The sampled coordinates: the study's parameters.
+    pub coordinates: Vec<Coordinate>,
+    /// The fit observations the likelihood reads, in the fit simulator's
+    /// output order (the index of each into those outputs).
+    pub observations: Vec<FitObservation>,
+    /// Whether some value states no uncertainty: the relative noise.
+    pub noise: bool,
+    /// The outputs with a discrepancy.
+    pub outputs: Vec<OutputDiscrepancy>,
+    /// The midpoint rule of the noise's integral.
+    noise_grid: ScaleGrid,
+}
+
+/// The midpoint rule of a scale's integral in its logarithm: the nodes,
+/// the log of each node's prior mass, and the cell's width.
+#[derive(Clone, Debug)]
+pub struct ScaleGrid {
+    pub nodes: Vec<f64>,
+    log_weights: Vec<f64>,
+    cell: f64,
+}
+
+impl ScaleGrid {
+    /// `count` cells over `range`, each weighted by the prior density of
+    /// the scale times the scale (the density of its logarithm), summing
+    /// to one.
+    fn new(range: [f64; 2], count: usize, density: impl Fn(f64) -> f64) -> Self {
+        let cell = (range[1] / range[0]).ln() / count as f64;
+        let nodes: Vec<f64> = (0..count)
+            .map(|k| (range[0].ln() + (k as f64 + 0.5) * cell).exp())
+            .collect();
+        let mass: Vec<f64> = nodes.iter().map(|&x| density(x) * x).collect();
+        let total: f64 = mass.iter().sum();
+        ScaleGrid {
+            log_weights: mass.iter().map(|m| (m / total).ln()).collect(),
+            nodes,
+            cell,
+        }
+    }
+
+    /// The log of the integral of `exp(log_f)` over the prior.
+    fn log_integral(&self, log_f: impl Fn(f64) -> f64) -> f64 {
+        log_sum_exp(&self.log_terms(log_f))
+    }
+
+    /// `log_f` plus the log prior mass at each node.
+    fn log_terms(&self, log_f: impl Fn(f64) -> f64) -> Vec<f64> {
+        self.nodes
+            .iter()
+            .zip(&self.log_weights)
+            .map(|(&x, w)| log_f(x) + w)
+            .collect()
+    }
+
+    /// A scale drawn from the posterior `exp(log_f)` times the prior: a
+    /// node by its mass, then a place uniform in the logarithm in its cell.
+    fn draw(&self, log_f: impl Fn(f64) -> f64, rng: &mut impl rand::Rng) -> f64 {
+        let terms = self.log_terms(log_f);
+        let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let weights: Vec<f64> = terms.iter().map(|t| (t - top).exp()).collect();
+        let mut pick = rng.random::<f64>() * weights.iter().sum::<f64>();
+        let mut index = self.nodes.len() - 1;
+        for (k, w) in weights.iter().enumerate() {
+            if pick < *w {
+                index = k;
+                break;
+            }
+            pick -= w;
+        }
+        (self.nodes[index].ln() + (rng.random::<f64>() - 0.5) * self.cell).exp()
+    }
+}
+
+/// One coordinate of the posterior.
+#[derive(Clone, Debug)]
+pub struct Coordinate {
+    /// Its column in `posterior.csv`.
+    pub name: String,
+    pub support: Support,
+    /// Uniform in the logarithm rather than the value.
+    pub log_uniform: bool,
+    /// A normal prior `(value, sd)` on top of the bounds.
+    pub normal: Option<(f64, f64)>,
+}
+
+/// A measured scalar the likelihood reads.
+#[derive(Clone, Debug)]
+pub struct FitObservation {
+    /// Its index among the fit simulator's outputs.
+    pub output_index: usize,
+    /// `case/name` or `name`.
+    pub key: String,
+    /// The model output it is compared with.
+    pub output: String,
+    pub measured: f64,
+    /// Its standard uncertainty; `None`: the relative noise.
+    pub uncertainty: Option<f64>,
+}
+
+/// One model output's discrepancy: the observations of it (indices into
+/// [`StudyPosterior::observations`]) and the range of its scale `tau`.
+#[derive(Clone, Debug)]
+pub struct OutputDiscrepancy {
+    pub output: String,
+    pub observations: Vec<usize>,
+    /// The range its scale's integral covers.
+    pub tau_range: [f64; 2],
+    pub tau_grid: ScaleGrid,
+}
+
+/// The scales drawn at one posterior draw, and each output's discrepancy
+/// given them: `(mean, variance)`, normal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scales {
+    pub noise_pct: Option<f64>,
+    pub tau: Vec<f64>,
+    pub delta: Vec<(f64, f64)>,
+}
+
+impl StudyPosterior {
+    /// The posterior of `study`'s fit cases; refused when it has none of
+    /// the observations it can read (curves need their own treatment).
+    pub fn new(study: &Study, discrepancy: Discrepancy) -> Result<Self, String> {
+        let coordinates: Vec<Coordinate> = study
+            .parameters
+            .iter()
+            .map(|p| {
+                let search = &p.search;
+                Coordinate {
+                    name: search.name.clone(),
+                    support: Support::Interval {
+                        lower: search.lower,
+                        upper: search.upper,
+                    },
+                    log_uniform: search.scale == Scale::Log,
+                    normal: p.prior.map(|prior| (prior.value, prior.uncertainty)),
+                }
+            })
+            .collect();
+        let mut observations = Vec::new();
+        for (output_index, (case, observation)) in
+            study.observations(Role::Fit).into_iter().enumerate()
+        {
+            if case.priors {
+                continue;
+            }
+            match &observation.measured {
+                Measured::Scalar { value, uncertainty } => {
+                    if uncertainty.is_none() && *value == 0.0 {
+                        return Err(format!(
+                            "{}: the measured value is 0 and states no uncertainty, so its error has no scale; give it an uncertainty",
+                            study.key(case, observation)
+                        ));
+                    }
+                    observations.push(FitObservation {
+                        output_index,
+                        key: study.key(case, observation),
+                        output: observation.output.clone(),
+                        measured: *value,
+                        uncertainty: *uncertainty,
+                    });
+                }
+                Measured::Curve { .. } => {
+                    return Err(format!(
+                        "{}: a posterior of a measured curve is not built yet (its errors are correlated along the curve); calibrate the curve without [posterior], or observe scalars of it",
+                        study.key(case, observation)
+                    ))
+                }
+            }
+        }
+        if observations.is_empty() {
+            return Err("the fit cases measure nothing the posterior can read".into());
+        }
+        // Nodes closer than the peak's width in the logarithm: the
+        // likelihood of m values in one scale peaks with a width of about
+        // 1 / sqrt(2 m) there.
+        let nodes = |range: [f64; 2], count: usize| {
+            let width = 1.0 / (2.0 * count.max(1) as f64).sqrt();
+            (((range[1] / range[0]).ln() / width).ceil() as usize).max(32)
+        };
+        let mut outputs: Vec<OutputDiscrepancy> = Vec::new();
+        if discrepancy == Discrepancy::Constant {
+            for (index, observation) in observations.iter().enumerate() {
+                match outputs.iter_mut().find(|o| o.output == observation.output) {
+                    Some(output) => output.observations.push(index),
+                    None => outputs.push(OutputDiscrepancy {
+                        output: observation.output.clone(),
+                        observations: vec![index],
+                        tau_range: [0.0; 2],
+                        tau_grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+                    }),
+                }
+            }
+            for output in &mut outputs {
+                let size = output
+                    .observations
+                    .iter()
+                    .map(|&i| observations[i].measured.abs())
+                    .sum::<f64>()
+                    / output.observations.len() as f64;
+                let largest_uncertainty = output
+                    .observations
+                    .iter()
+                    .filter_map(|&i| observations[i].uncertainty)
+                    .fold(0.0f64, f64::max);
+                let size = size.max(10.0 * largest_uncertainty);
+                if !(size > 0.0 && size.is_finite()) {
+                    return Err(format!(
+                        "{}: measured as 0 without an uncertainty, so its discrepancy has no scale; give it an uncertainty",
+                        output.output
+                    ));
+                }
+                output.tau_range = DISCREPANCY_RANGE.map(|r| r * size);
+                let half_cauchy_scale = DISCREPANCY_SCALE * size;
+                output.tau_grid = ScaleGrid::new(
+                    output.tau_range,
+                    nodes(output.tau_range, output.observations.len()),
+                    |tau| 1.0 / (1.0 + (tau / half_cauchy_scale).powi(2)),
+                );
+            }
+        }
+        let relative = observations
+            .iter()
+            .filter(|o| o.uncertainty.is_none())
+            .count();
+        Ok(StudyPosterior {
+            coordinates,
+            noise: relative > 0,
+            // Log-uniform: the density of the logarithm is flat.
+            noise_grid: ScaleGrid::new(NOISE_RANGE_PCT, nodes(NOISE_RANGE_PCT, relative), |x| {
+                1.0 / x
+            }),
+            observations,
+            outputs,
+        })
+    }
+
+    pub fn support(&self) -> Vec<Support> {
+        self.coordinates.iter().map(|c| c.support).collect()
+    }
+
+    /// The columns of `posterior.csv` after the parameters: the scales
+    /// drawn at each draw.
+    pub fn scale_names(&self) -> Vec<String> {
+        let mut names = Vec::new();
+        if self.noise {
+            names.push("measurement_noise_pct".to_string());
+        }
+        names.extend(
+            self.outputs
+                .iter()
+                .map(|o| format!("discrepancy_sd.{}", o.output)),
+        );
+        names
+    }
+
+    /// Where each scale of [`StudyPosterior::scale_names`] may lie.
+    pub fn scale_supports(&self) -> Vec<Support> {
+        let interval = |[lower, upper]: [f64; 2]| Support::Interval { lower, upper };
+        let mut supports = Vec::new();
+        if self.noise {
+            supports.push(interval(NOISE_RANGE_PCT));
+        }
+        supports.extend(self.outputs.iter().map(|o| interval(o.tau_range)));
+        supports
+    }
+
+    /// The log prior density of `point` (up to a constant); `-inf`
+    /// outside the bounds.
+    pub fn log_prior(&self, point: &[f64]) -> f64 {
+        let mut log_prior = 0.0;
+        for (coordinate, &x) in self.coordinates.iter().zip(point) {
+            if let Support::Interval { lower, upper } = coordinate.support {
+                if !(lower..=upper).contains(&x) {
+                    return f64::NEG_INFINITY;
+                }
+            }
+            if coordinate.log_uniform {
+                log_prior -= x.ln();
+            }
+            if let Some((value, sd)) = coordinate.normal {
+                log_prior -= 0.5 * ((x - value) / sd).powi(2);
+            }
+        }
+        log_prior
+    }
+
+    /// Each observation's residual `measured - model` at the fit
+    /// simulator's `outputs`.
+    fn residuals(&self, outputs: &[f64]) -> Vec<f64> {
+        self.observations
+            .iter()
+            .map(|o| o.measured - outputs.get(o.output_index).copied().unwrap_or(f64::NAN))
+            .collect()
+    }
+
+    /// Each observation's error variance without discrepancy, at a noise
+    /// of `noise_pct`.
+    fn variances(&self, noise_pct: Option<f64>) -> Vec<f64> {
+        self.observations
+            .iter()
+            .map(|o| match o.uncertainty {
+                Some(u) => u * u,
+                None => (noise_pct.unwrap_or(0.0) / 100.0 * o.measured).powi(2),
+            })
+            .collect()
+    }
+
+    /// The log likelihood of the fit simulator's `outputs`, the scales
+    /// integrated out (every normalising term kept, so it weighs them
+    /// right).
+    pub fn log_likelihood(&self, outputs: &[f64]) -> f64 {
+        let residuals = self.residuals(outputs);
+        if residuals.iter().any(|r| !r.is_finite()) {
+            return f64::NEG_INFINITY;
+        }
+        let value = if self.noise {
+            self.noise_grid
+                .log_integral(|noise| self.log_likelihood_at_noise(&residuals, Some(noise)))
+        } else {
+            self.log_likelihood_at_noise(&residuals, None)
+        };
+        if value.is_nan() {
+            f64::NEG_INFINITY
+        } else {
+            value
+        }
+    }
+
+    /// The log likelihood at one noise, each discrepancy scale integrated out.
+    fn log_likelihood_at_noise(&self, residuals: &[f64], noise_pct: Option<f64>) -> f64 {
+        let variances = self.variances(noise_pct);
+        let mut in_group = vec![false; residuals.len()];
+        let mut total = 0.0;
+        for output in &self.outputs {
+            for &i in &output.observations {
+                in_group[i] = true;
+            }
+            total += output
+                .tau_grid
+                .log_integral(|tau| group_log_density(output, residuals, &variances, tau));
+        }
+        for (i, (&r, &v)) in residuals.iter().zip(&variances).enumerate() {
+            if !in_group[i] {
+                total -= 0.5 * (r * r / v + v.ln() + (2.0 * PI).ln());
+            }
+        }
+        total
+    }
+
+    /// Draws the noise and each discrepancy scale from their conditional
+    /// at the fit simulator's `outputs` (a node by its weight, then a
+    /// uniform place in its cell), and each output's discrepancy given them.
+    pub fn draw_scales(&self, outputs: &[f64], rng: &mut impl rand::Rng) -> Scales {
+        let residuals = self.residuals(outputs);
+        let noise_pct = self.noise.then(|| {
+            self.noise_grid.draw(
+                |noise| self.log_likelihood_at_noise(&residuals, Some(noise)),
+                rng,
+            )
+        });
+        let variances = self.variances(noise_pct);
+        let mut tau = Vec::with_capacity(self.outputs.len());
+        let mut delta = Vec::with_capacity(self.outputs.len());
+        for output in &self.outputs {
+            let t = output.tau_grid.draw(
+                |t| group_log_density(output, &residuals, &variances, t),
+                rng,
+            );
+            let (mut sum_r, mut precision) = (0.0, 1.0 / (t * t));
+            for &i in &output.observations {
+                sum_r += residuals[i] / variances[i];
+                precision += 1.0 / variances[i];
+            }
+            tau.push(t);
+            delta.push((sum_r / precision, 1.0 / precision));
+        }
+        Scales {
+            noise_pct,
+            tau,
+            delta,
+        }
+    }
+
+    /// The standard deviation of a new measurement's error of a value
+    /// measured as `measured` with `uncertainty`, at a noise of `noise_pct`.
+    pub fn measurement_sd(
+        &self,
+        noise_pct: Option<f64>,
+        measured: f64,
+        uncertainty: Option<f64>,
+    ) -> f64 {
+        match uncertainty {
+            Some(u) => u,
+            None => noise_pct.unwrap_or(0.0) / 100.0 * measured.abs(),
+        }
+    }
+}
+
+/// The log density of one output's residuals with discrepancy scale `tau`:
+/// normal with covariance `diag(v) + tau^2 1 1'` (Sherman-Morrison).
+fn group_log_density(
+    output: &OutputDiscrepancy,
+    residuals: &[f64],
+    variances: &[f64],
+    tau: f64,
+) -> f64 {
+    let tau2 = tau * tau;
+    let (mut r2, mut sum_r, mut precision, mut log_det) = (0.0, 0.0, 0.0, 0.0);
+    for &i in &output.observations {
+        let (r, v) = (residuals[i], variances[i]);
+        r2 += r * r / v;
+        sum_r += r / v;
+        precision += 1.0 / v;
+        log_det += v.ln();
+    }
+    let shrink = 1.0 + tau2 * precision;
+    let quadratic = r2 - tau2 * sum_r * sum_r / shrink;
+    -0.5 * (quadratic + log_det + shrink.ln() + output.observations.len() as f64 * (2.0 * PI).ln())
+}
+
+/// `ln(sum(exp(terms)))`, without overflow.
+fn log_sum_exp(terms: &[f64]) -> f64 {
+    let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if top == f64::NEG_INFINITY {
+        return top;
+    }
+    top + terms.iter().map(|t| (t - top).exp()).sum::<f64>().ln()
+}
+
+/// A standard normal draw.
+pub fn standard_normal(rng: &mut impl rand::Rng) -> f64 {
+    Distribution::<f64>::sample(&StandardNormal, rng)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::study::{Case, LossKind, Observation, Residuals, StudyParameter};
+    use acq_calib::evaluation::Parameter;
+    use rand::SeedableRng;
+
+    fn study(values: &[(f64, Option<f64>)]) -> Study {
+        let observation = |i: usize, (value, uncertainty): (f64, Option<f64>)| Observation {
+            name: format!("y{i}"),
+            output: "y".into(),
+            measured: Measured::Scalar { value, uncertainty },
+            weight: 1.0,
+            source: String::new(),
+        };
+        Study {
+            parameters: vec![StudyParameter {
+                search: Parameter::new("a", 0.0, 2.0),
+                input: "a".into(),
+                case: None,
+                nominal: 1.0,
+                prior: None,
+            }],
+            cases: values
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| Case::new(format!("c{i}"), Role::Fit, vec![observation(i, v)]))
+                .collect(),
+            named_cases: true,
+            residuals: Residuals::Normalised,
+            loss: LossKind::Squares,
+        }
+    }
+
+    /// The closed form of the constant discrepancy is the density of the
+    /// residuals under their full covariance.
+    #[test]
+    fn the_constant_discrepancy_is_the_normal_density_of_correlated_residuals() {
+        let posterior = StudyPosterior::new(
+            &study(&[(1.0, Some(0.1)), (2.0, Some(0.2))]),
+            Discrepancy::Constant,
+        )
+        .unwrap();
+        let tau: f64 = 0.3;
+        let (r0, r1): (f64, f64) = (1.0 - 1.2, 2.0 - 1.5);
+        let (a, b, c) = (0.01 + tau * tau, tau * tau, 0.04 + tau * tau);
+        let det = a * c - b * b;
+        let quadratic = (c * r0 * r0 - 2.0 * b * r0 * r1 + a * r1 * r1) / det;
+        let expected = -0.5 * (quadratic + det.ln() + 2.0 * (2.0 * PI).ln());
+        let got = group_log_density(
+            &posterior.outputs[0],
+            &[r0, r1],
+            &posterior.variances(None),
+            tau,
+        );
+        assert!((got - expected).abs() < 1e-12, "{got} {expected}");
+    }
+
+    /// The noise integrated by the midpoint rule equals the closed form:
+    /// with a log-uniform noise over [lo, hi] and m residuals, the
+    /// integral is an incomplete gamma function.
+    #[test]
+    fn the_noise_integral_equals_its_incomplete_gamma_closed_form() {
+        let values = [(4.0, None), (5.0, None), (8.0, None)];
+        let posterior = StudyPosterior::new(&study(&values), Discrepancy::None).unwrap();
+        let outputs = [4.2, 4.9, 8.5];
+        let got = posterior.log_likelihood(&outputs);
+        // sum (r / y)^2 and the product of 1 / (sqrt(2 pi) |y|).
+        let q: f64 = values
+            .iter()
+            .zip(outputs)
+            .map(|((y, _), m)| ((y - m) / y).powi(2))
+            .sum();
+        let m = 3.0;
+        let [low, high] = NOISE_RANGE_PCT.map(|p| p / 100.0);
+        let a = m / 2.0;
+        let p = |x: f64| statrs::function::gamma::gamma_lr(a, x);
+        let integral = ((high / low).ln()).recip()
+            * 0.5
+            * (2.0 / q).powf(a)
+            * statrs::function::gamma::gamma(a)
+            * (p(q / (2.0 * low * low)) - p(q / (2.0 * high * high)));
+        let constant: f64 = values
+            .iter()
+            .map(|(y, _)| -(2.0 * PI).sqrt().ln() - y.ln())
+            .sum();
+        let expected = integral.ln() + constant;
+        // The midpoint rule's error, far below any Monte-Carlo error.
+        assert!((got - expected).abs() < 1e-5, "{got} {expected}");
+    }
+
+    #[test]
+    fn scales_are_drawn_inside_their_ranges_and_named() {
+        let posterior =
+            StudyPosterior::new(&study(&[(4.0, None), (6.0, None)]), Discrepancy::Constant)
+                .unwrap();
+        assert_eq!(
+            posterior.scale_names(),
+            ["measurement_noise_pct", "discrepancy_sd.y"]
+        );
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..100 {
+            let scales = posterior.draw_scales(&[4.1, 5.0], &mut rng);
+            let noise = scales.noise_pct.unwrap();
+            assert!((NOISE_RANGE_PCT[0]..=NOISE_RANGE_PCT[1]).contains(&noise));
+            let range = posterior.outputs[0].tau_range;
+            assert!((range[0]..=range[1]).contains(&scales.tau[0]));
+        }
+        assert!(posterior.log_prior(&[3.0]).is_infinite());
+    }
+}

@@ -1,0 +1,395 @@
+//! How sure the calibration is: the posterior of a study's parameters given
+//! its measured values and their uncertainty, after the search.
+//!
+//! - [`likelihood`]: the density ([`likelihood::StudyPosterior`]): prior,
+//!   measurement error (stated, or a noise scale of its own), and model
+//!   discrepancy.
+//! - Sampling: a model that costs microseconds (the built-in excavator twin,
+//!   [`super::study::Model::is_cheap`]) is sampled directly by
+//!   [`acq_calib::mcmc`], the model run at every step.
+//! - [`predictive`]: real model runs at posterior draws, for every fit and
+//!   validation case, logged like every run (so they resume), and the
+//!   intervals a new measurement should fall in.
+//! - [`report`]: the report's section (the table, the words, the corner
+//!   plot) and the summary's keys.
+//!
+//! The run directory gets `posterior.csv` (every kept draw) and
+//! `predictive.csv` (every predictive run's outputs).
+
+use std::time::Instant;
+
+use acq_calib::evaluation::Simulator;
+use acq_calib::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings, Support};
+use acq_io::error::{AcqError, Result};
+use rand::SeedableRng;
+
+use super::outcome::StudyOutcome;
+use super::report::write_text;
+use super::run_directory::RunDirectory;
+use super::study::{Model, Role, Study, StudySimulator};
+
+pub mod likelihood;
+pub mod predictive;
+pub mod report;
+
+use likelihood::{standard_normal, Scales, StudyPosterior};
+use predictive::Predicted;
+
+/// `[posterior] discrepancy`: the model error the posterior allows for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Discrepancy {
+    /// The model is right up to its parameters.
+    #[default]
+    None,
+    /// An additive error per output, the same in every case.
+    Constant,
+    /// An additive error per output that varies smoothly over the cases'
+    /// inputs (a Gaussian process).
+    Gp,
+}
+
+/// How the posterior is sampled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosteriorSettings {
+    /// Kept draws per chain.
+    pub draws: usize,
+    pub chains: usize,
+    pub discrepancy: Discrepancy,
+    /// Model runs at posterior draws, per case.
+    pub predictive_runs: usize,
+    pub seed: u64,
+}
+
+impl Default for PosteriorSettings {
+    fn default() -> Self {
+        PosteriorSettings {
+            draws: 1000,
+            chains: 4,
+            discrepancy: Discrepancy::None,
+            predictive_runs: 50,
+            seed: 1,
+        }
+    }
+}
+
+/// The convergence a posterior's numbers need (Vehtari et al. 2021):
+/// every R-hat below 1.01 and a bulk ESS of at least 100 per chain.
+pub const RHAT_LIMIT: f64 = 1.01;
+pub const ESS_PER_CHAIN: f64 = 100.0;
+
+/// What the posterior stage found.
+#[derive(Clone, Debug)]
+pub struct PosteriorOutcome {
+    pub density: StudyPosterior,
+    /// The chains of the parameters, as sampled.
+    pub chains: Chains,
+    /// The columns: the parameters, then the scales drawn at each draw.
+    pub names: Vec<String>,
+    pub supports: Vec<Support>,
+    /// `[chain][draw][column]`.
+    pub draws: Vec<Vec<Vec<f64>>>,
+    /// The scales at each draw, chain after chain.
+    pub scales: Vec<Scales>,
+    /// Per column.
+    pub marginals: Vec<Marginal>,
+    /// Each output's discrepancy `(mean, sd)`, in the order of
+    /// [`StudyPosterior::outputs`].
+    pub discrepancy: Vec<(f64, f64)>,
+    pub predicted: Vec<Predicted>,
+    /// How it was sampled, in words.
+    pub path: String,
+    pub wall_s: f64,
+    pub settings: PosteriorSettings,
+}
+
+impl PosteriorOutcome {
+    /// The columns that have not converged, with why.
+    pub fn unconverged(&self) -> Vec<String> {
+        let needed = ESS_PER_CHAIN * self.settings.chains as f64;
+        self.names
+            .iter()
+            .zip(&self.marginals)
+            .filter_map(|(name, m)| {
+                let rhat_ok = m.rhat < RHAT_LIMIT || self.settings.chains < 2;
+                let ess_ok = m.ess_bulk >= needed;
+                (!(rhat_ok && ess_ok))
+                    .then(|| format!("{name} (R-hat {:.3}, bulk ESS {:.0})", m.rhat, m.ess_bulk))
+            })
+            .collect()
+    }
+
+    /// The index of column `name`.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+}
+
+/// Samples the posterior of `study` around the search's result and runs
+/// the predictive runs; writes `posterior.csv` and `predictive.csv`.
+pub fn run_posterior(
+    study: &Study,
+    model: &dyn Model,
+    outcome: &StudyOutcome,
+    settings: &PosteriorSettings,
+    directory: &RunDirectory,
+    parallel: usize,
+    resume: bool,
+) -> Result<PosteriorOutcome> {
+    let start = Instant::now();
+    let density = StudyPosterior::new(study, settings.discrepancy).map_err(AcqError::Config)?;
+    if settings.discrepancy == Discrepancy::Gp {
+        return Err(AcqError::Config(
+            "[posterior] discrepancy = \"gp\" is not built yet; use \"constant\" or \"none\""
+                .into(),
+        ));
+    }
+    if !model.is_cheap() {
+        return Err(AcqError::Config(
+            "this model is sampled through an emulator of its runs, which is not built yet; the posterior is available for the built-in excavator twin".into(),
+        ));
+    }
+    let simulator = StudySimulator::new(study, model, Role::Fit);
+    let log_density = |point: &[f64]| -> f64 {
+        let prior = density.log_prior(point);
+        if prior == f64::NEG_INFINITY {
+            return prior;
+        }
+        match simulator.evaluate(point) {
+            Ok(outputs) => prior + density.log_likelihood(&outputs),
+            Err(_) => f64::NEG_INFINITY,
+        }
+    };
+    let centre: Vec<f64> = outcome
+        .calibrated
+        .iter()
+        .zip(&density.coordinates)
+        .map(|(&x, c)| inside(c.support, x))
+        .collect();
+    let starts = chain_starts(&density, &centre, settings, &log_density)?;
+    let sampler = SamplerSettings {
+        chains: settings.chains,
+        draws: settings.draws,
+        warmup: settings.draws.max(2000),
+        thin: None,
+        seed: settings.seed,
+    };
+    let printed = std::sync::atomic::AtomicUsize::new(0);
+    let progress = |p: SamplerProgress| {
+        // A line every tenth of the work keeps a CI log short.
+        let tenth = p.steps * 10 / p.total.max(1);
+        if printed.fetch_max(tenth + 1, std::sync::atomic::Ordering::Relaxed) <= tenth {
+            eprintln!(
+                "posterior: {} {}/{} steps, {:.0} s",
+                if p.warming_up { "warmup" } else { "sampling" },
+                p.steps,
+                p.total,
+                start.elapsed().as_secs_f64()
+            );
+        }
+    };
+    let chains = sample(
+        log_density,
+        &density.support(),
+        &starts,
+        &vec![0.1; density.coordinates.len()],
+        &sampler,
+        &progress,
+    )
+    .map_err(|e| AcqError::Config(format!("posterior: {e}")))?;
+    let outputs = outputs_at_draws(&chains, &simulator);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(3));
+    let scales: Vec<Scales> = outputs
+        .iter()
+        .map(|o| match o {
+            Some(outputs) => density.draw_scales(outputs, &mut rng),
+            None => Scales {
+                noise_pct: None,
+                tau: Vec::new(),
+                delta: Vec::new(),
+            },
+        })
+        .collect();
+    let mut names: Vec<String> = density.coordinates.iter().map(|c| c.name.clone()).collect();
+    names.extend(density.scale_names());
+    let mut supports = density.support();
+    supports.extend(density.scale_supports());
+    let mut pooled_scales = scales.iter();
+    let draws: Vec<Vec<Vec<f64>>> = chains
+        .draws
+        .iter()
+        .map(|chain| {
+            chain
+                .iter()
+                .map(|draw| {
+                    let scale = pooled_scales.next();
+                    let mut row = draw.clone();
+                    row.extend(scale.and_then(|s| s.noise_pct));
+                    row.extend(scale.map_or(&[][..], |s| &s.tau[..]).iter().copied());
+                    row.resize(names.len(), f64::NAN);
+                    row
+                })
+                .collect()
+        })
+        .collect();
+    let marginals: Vec<Marginal> = (0..names.len())
+        .map(|i| {
+            let column: Vec<Vec<f64>> = draws
+                .iter()
+                .map(|chain| chain.iter().map(|d| d[i]).collect())
+                .collect();
+            Marginal::of(&column)
+        })
+        .collect();
+    write_posterior_csv(&directory.file("posterior.csv"), &names, &draws, &chains)?;
+    let discrepancy = discrepancy_moments(&density, &scales);
+    let predicted = predictive::predictive_runs(
+        study, model, &density, &chains, &scales, settings, directory, parallel, resume,
+    )?;
+    Ok(PosteriorOutcome {
+        path: format!(
+            "sampled directly (the model run at every step): {} chains of {} kept draws, one every {} steps after {} warmup steps (acceptance {:.2}), {} model evaluations",
+            settings.chains,
+            settings.draws,
+            chains.thin,
+            sampler.warmup,
+            chains.acceptance.iter().sum::<f64>() / chains.acceptance.len() as f64,
+            chains.evaluations
+        ),
+        density,
+        chains,
+        names,
+        supports,
+        draws,
+        scales,
+        marginals,
+        discrepancy,
+        predicted,
+        wall_s: start.elapsed().as_secs_f64(),
+        settings: settings.clone(),
+    })
+}
+
+/// `value` moved at least 1 % of the interval inside it (its middle when
+/// it is not a number).
+fn inside(support: Support, value: f64) -> f64 {
+    match support {
+        Support::Interval { lower, upper } => {
+            let margin = 0.01 * (upper - lower);
+            if value.is_finite() {
+                value.clamp(lower + margin, upper - margin)
+            } else {
+                (lower + upper) / 2.0
+            }
+        }
+        _ => value,
+    }
+}
+
+/// One start per chain around `centre`: a step of about half a unit of
+/// each free coordinate in a random direction, halved until the posterior
+/// is positive there.
+fn chain_starts(
+    density: &StudyPosterior,
+    centre: &[f64],
+    settings: &PosteriorSettings,
+    log_density: &dyn Fn(&[f64]) -> f64,
+) -> Result<Vec<Vec<f64>>> {
+    if log_density(centre) == f64::NEG_INFINITY {
+        return Err(AcqError::Config(
+            "posterior: the model does not run at the calibrated point, or it lies outside the prior; the chains have nowhere to start".into(),
+        ));
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed);
+    let support = density.support();
+    Ok((0..settings.chains)
+        .map(|_| {
+            let step: Vec<f64> = (0..centre.len())
+                .map(|_| 0.5 * standard_normal(&mut rng))
+                .collect();
+            let mut shrink = 1.0;
+            for _ in 0..10 {
+                let point: Vec<f64> = centre
+                    .iter()
+                    .zip(&support)
+                    .zip(&step)
+                    .map(|((&x, s), &dz)| s.from_free(s.to_free(x) + shrink * dz))
+                    .collect();
+                if log_density(&point) > f64::NEG_INFINITY {
+                    return point;
+                }
+                shrink /= 2.0;
+            }
+            centre.to_vec()
+        })
+        .collect())
+}
+
+/// The fit outputs at every kept draw, chain after chain (on every core).
+fn outputs_at_draws(chains: &Chains, simulator: &StudySimulator<'_>) -> Vec<Option<Vec<f64>>> {
+    let draws: Vec<&Vec<f64>> = chains.pooled().collect();
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let chunk = draws.len().div_ceil(workers).max(1);
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = draws
+            .chunks(chunk)
+            .map(|part| {
+                scope.spawn(move || {
+                    part.iter()
+                        .map(|point| simulator.evaluate(point).ok())
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_default())
+            .collect()
+    })
+}
+
+/// Each output's discrepancy over the draws: the mean of its conditional
+/// means and, by the law of total variance, the mean conditional variance
+/// plus the variance of the means.
+fn discrepancy_moments(density: &StudyPosterior, scales: &[Scales]) -> Vec<(f64, f64)> {
+    let drawn: Vec<&Scales> = scales.iter().filter(|s| !s.delta.is_empty()).collect();
+    let n = drawn.len().max(1) as f64;
+    (0..density.outputs.len())
+        .map(|k| {
+            let mean = drawn.iter().map(|s| s.delta[k].0).sum::<f64>() / n;
+            let spread = drawn
+                .iter()
+                .map(|s| (s.delta[k].0 - mean).powi(2))
+                .sum::<f64>()
+                / n;
+            let within = drawn.iter().map(|s| s.delta[k].1).sum::<f64>() / n;
+            (mean, (within + spread).sqrt())
+        })
+        .collect()
+}
+
+/// `posterior.csv`: `chain`, `draw`, every column by name,
+/// `log_posterior` (of the parameters, up to a constant).
+fn write_posterior_csv(
+    path: &std::path::Path,
+    names: &[String],
+    draws: &[Vec<Vec<f64>>],
+    chains: &Chains,
+) -> Result<()> {
+    let mut text = String::from("chain,draw");
+    for name in names {
+        text.push(',');
+        text.push_str(name);
+    }
+    text.push_str(",log_posterior\n");
+    for (chain, (rows, densities)) in draws.iter().zip(&chains.log_density).enumerate() {
+        for (draw, (values, log_density)) in rows.iter().zip(densities).enumerate() {
+            text.push_str(&format!("{},{}", chain + 1, draw + 1));
+            for value in values {
+                text.push_str(&format!(",{value}"));
+            }
+            text.push_str(&format!(",{log_density}\n"));
+        }
+    }
+    write_text(path, &text)
+}

@@ -1,0 +1,185 @@
+//! Predictions at posterior draws: the model run (for real, through the
+//! logging evaluator, so an interrupted stage resumes without repeating a
+//! run) at `predictive_runs` draws spread evenly over the chains, for the
+//! fit cases and the validation cases alike.
+//!
+//! Each run's value is the model's; the interval a new measurement should
+//! fall in adds what the model does not know: the output's discrepancy
+//! (drawn from its conditional normal at that draw) and the measurement's
+//! own error (its stated uncertainty, or the posterior's noise scale).
+//! `predictive.csv` has both, one row per run, case and output.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use acq_calib::evaluation::Evaluator;
+use acq_calib::mcmc::{quantile, Chains};
+use acq_io::error::Result;
+
+use super::super::report::write_text;
+use super::super::run_directory::{evaluation_error, RunDirectory};
+use super::super::study::{Measured, Model, Role, Study, StudySimulator};
+use super::likelihood::{standard_normal, Scales, StudyPosterior};
+use super::PosteriorSettings;
+
+/// The case name of a study without named cases.
+pub const MAIN_CASE: &str = "main";
+
+/// One output of one case, predicted.
+#[derive(Clone, Debug)]
+pub struct Predicted {
+    /// The case's name ([`MAIN_CASE`] without named cases).
+    pub case: String,
+    pub role: Role,
+    /// The observation's name.
+    pub name: String,
+    pub measured: f64,
+    pub uncertainty: Option<f64>,
+    /// The model's value at each predictive run that succeeded.
+    pub model: Vec<f64>,
+    /// The same with a draw of the discrepancy and the measurement error.
+    pub with_error: Vec<f64>,
+}
+
+impl Predicted {
+    /// `(mean, q05, q95)` of what a new measurement would read.
+    pub fn interval(&self) -> (f64, f64, f64) {
+        let mut sorted = self.with_error.clone();
+        sorted.sort_by(f64::total_cmp);
+        let mean = sorted.iter().sum::<f64>() / sorted.len().max(1) as f64;
+        (mean, quantile(&sorted, 0.05), quantile(&sorted, 0.95))
+    }
+
+    /// Whether the measured value lies in the 90 % interval.
+    pub fn holds_measured(&self) -> bool {
+        let (_, low, high) = self.interval();
+        (low..=high).contains(&self.measured)
+    }
+}
+
+/// Runs the model at evenly spread draws for every case and returns each
+/// scalar observation's predictions; writes `predictive.csv`.
+#[allow(clippy::too_many_arguments)]
+pub fn predictive_runs(
+    study: &Study,
+    model: &dyn Model,
+    density: &StudyPosterior,
+    chains: &Chains,
+    scales: &[Scales],
+    settings: &PosteriorSettings,
+    directory: &RunDirectory,
+    parallel: usize,
+    resume: bool,
+) -> Result<Vec<Predicted>> {
+    let draws: Vec<&Vec<f64>> = chains.pooled().collect();
+    let runs = settings.predictive_runs.min(draws.len());
+    let picked: Vec<usize> = (0..runs).map(|i| i * draws.len() / runs).collect();
+    let points: Vec<Vec<f64>> = picked.iter().map(|&i| draws[i].clone()).collect();
+    let mut outputs_by_role = Vec::new();
+    for (role, log) in [
+        (Role::Fit, "posterior_runs_fit.csv"),
+        (Role::Validate, "posterior_runs_validate.csv"),
+    ] {
+        let has_cases = study.cases_with(role).any(|(_, c)| !c.priors);
+        if !has_cases || runs == 0 {
+            outputs_by_role.push(vec![None; runs]);
+            continue;
+        }
+        let simulator = StudySimulator::new(study, model, role);
+        let path = directory.file(log);
+        let mut evaluator = if resume {
+            Evaluator::resume(&simulator, &path, parallel)
+        } else {
+            Evaluator::create(&simulator, &path, parallel)
+        }
+        .map_err(evaluation_error)?;
+        let evaluations = evaluator.evaluate(&points).map_err(evaluation_error)?;
+        outputs_by_role.push(evaluations.into_iter().map(|e| e.outcome.ok()).collect());
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(7));
+    // Each run's discrepancy per output of the density, drawn from its
+    // conditional normal at that draw.
+    let delta: Vec<Vec<f64>> = picked
+        .iter()
+        .map(|&i| {
+            scales[i]
+                .delta
+                .iter()
+                .map(|(mean, variance)| mean + variance.sqrt() * standard_normal(&mut rng))
+                .collect()
+        })
+        .collect();
+    let mut predicted = Vec::new();
+    for (role, outputs) in [Role::Fit, Role::Validate]
+        .into_iter()
+        .zip(&outputs_by_role)
+    {
+        for (index, (case, observation)) in study.observations(role).into_iter().enumerate() {
+            let Measured::Scalar { value, uncertainty } = observation.measured else {
+                continue;
+            };
+            if case.priors {
+                continue;
+            }
+            let group = density
+                .outputs
+                .iter()
+                .position(|o| o.output == observation.output);
+            let mut entry = Predicted {
+                case: if study.named_cases {
+                    case.name.clone()
+                } else {
+                    MAIN_CASE.into()
+                },
+                role,
+                name: observation.name.clone(),
+                measured: value,
+                uncertainty,
+                model: Vec::new(),
+                with_error: Vec::new(),
+            };
+            for (run, run_outputs) in outputs.iter().enumerate() {
+                let Some(run_outputs) = run_outputs else {
+                    continue;
+                };
+                let model_value = run_outputs[index];
+                let discrepancy = group.map_or(0.0, |k| delta[run].get(k).copied().unwrap_or(0.0));
+                let noise_pct = scales[picked[run]].noise_pct;
+                let sd = density.measurement_sd(noise_pct, value, uncertainty);
+                entry.model.push(model_value);
+                entry
+                    .with_error
+                    .push(model_value + discrepancy + sd * standard_normal(&mut rng));
+            }
+            predicted.push(entry);
+        }
+    }
+    write_predictive_csv(directory, &predicted)?;
+    Ok(predicted)
+}
+
+/// `predictive.csv`: `run`, `case`, `output`, `value` (the model's),
+/// `with_error` (plus discrepancy and measurement error draws).
+fn write_predictive_csv(directory: &RunDirectory, predicted: &[Predicted]) -> Result<()> {
+    let mut text = String::from("run,case,output,value,with_error\n");
+    for entry in predicted {
+        for (run, (value, with_error)) in entry.model.iter().zip(&entry.with_error).enumerate() {
+            text.push_str(&format!(
+                "{},{},{},{value},{with_error}\n",
+                run + 1,
+                csv_field(&entry.case),
+                csv_field(&entry.name)
+            ));
+        }
+    }
+    write_text(&directory.file("predictive.csv"), &text)
+}
+
+/// A CSV field, quoted when it holds a comma or a quote.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}

@@ -1,0 +1,415 @@
+//! The posterior in the report and in `summary.json`: what each parameter
+//! can still be, in numbers and in words; whether the chains converged;
+//! how large the model's own error is next to the measurement's; which
+//! measured values the predictions hold; and a corner plot.
+
+use acq_report::document::{Document, Figure, Table};
+use acq_report::plot::{sparse_grid_svg, Chart, Series, SeriesStyle};
+use serde_json::{json, Map, Value};
+
+use acq_calib::mcmc::Support;
+
+use super::predictive::Predicted;
+use super::{PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
+use crate::calibrate::study::Role;
+
+/// A parameter is pinned down when its 90 % interval spans at most this
+/// share of its prior range, and is not identified when it spans at least
+/// the other (a uniform prior's own 90 % interval spans 0.9).
+const PINNED_SHARE: f64 = 0.25;
+const UNIDENTIFIED_SHARE: f64 = 0.75;
+
+/// Draws shown per scatter panel of the corner plot.
+const CORNER_POINTS: usize = 600;
+
+/// `posterior`, `predictive` and (with discrepancy) `discrepancy` of the
+/// summary.
+pub fn summary_keys(posterior: &PosteriorOutcome) -> Vec<(String, Value)> {
+    let density = &posterior.density;
+    let marginal_json = |index: usize| {
+        let m = &posterior.marginals[index];
+        json!({
+            "mean": m.mean, "sd": m.sd, "q05": m.q05, "q50": m.q50, "q95": m.q95,
+            "rhat": finite_or_null(m.rhat), "ess_bulk": finite_or_null(m.ess_bulk),
+        })
+    };
+    let mut parameters = Map::new();
+    let noise = posterior.column("measurement_noise_pct");
+    for index in (0..density.coordinates.len()).chain(noise) {
+        parameters.insert(posterior.names[index].clone(), marginal_json(index));
+    }
+    let mut predictive = Map::new();
+    for entry in &posterior.predicted {
+        let (mean, q05, q95) = entry.interval();
+        let case = predictive
+            .entry(entry.case.clone())
+            .or_insert_with(|| json!({}));
+        case[&entry.name] = json!({
+            "mean": finite_or_null(mean), "q05": finite_or_null(q05),
+            "q95": finite_or_null(q95), "measured": entry.measured,
+        });
+    }
+    let mut keys = vec![
+        ("posterior".to_string(), Value::Object(parameters)),
+        ("predictive".to_string(), Value::Object(predictive)),
+    ];
+    if !density.outputs.is_empty() {
+        let discrepancy: Map<String, Value> = density
+            .outputs
+            .iter()
+            .zip(&posterior.discrepancy)
+            .map(|(o, (mean, sd))| (o.output.clone(), json!({"mean": mean, "sd": sd})))
+            .collect();
+        keys.push(("discrepancy".to_string(), Value::Object(discrepancy)));
+    }
+    keys
+}
+
+fn finite_or_null(value: f64) -> Value {
+    if value.is_finite() {
+        json!(value)
+    } else {
+        Value::Null
+    }
+}
+
+/// The report's posterior section.
+pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
+    let density = &posterior.density;
+    report.heading(2, "Posterior: how far the parameters can move");
+    report.paragraph(format!(
+        "The posterior of the parameters given the fit cases' measured values and their uncertainty, {} ({:.1} s). Prior: uniform over the bounds{}.",
+        posterior.path,
+        posterior.wall_s,
+        if density.coordinates.iter().any(|c| c.normal.is_some()) {
+            ", times the stated normal priors"
+        } else {
+            ""
+        }
+    ));
+    let unconverged = posterior.unconverged();
+    if unconverged.is_empty() {
+        report.paragraph(format!(
+            "Converged: every R-hat is below {RHAT_LIMIT} and every bulk ESS at least {:.0}.",
+            ESS_PER_CHAIN * posterior.settings.chains as f64
+        ));
+    } else {
+        report.paragraph(format!(
+            "**Not converged**: {}. The numbers below are not to be trusted yet: sample longer (`draws` under `[posterior]`, e.g. {}) or with more chains.",
+            unconverged.join(", "),
+            posterior.settings.draws * 4
+        ));
+    }
+    let mut table = Table::new(&[
+        "parameter",
+        "prior range",
+        "mean",
+        "sd",
+        "5 %",
+        "50 %",
+        "95 %",
+        "90 % interval / range",
+        "R-hat",
+        "bulk ESS",
+        "verdict",
+    ]);
+    let mut verdicts = Vec::new();
+    for ((name, support), m) in posterior
+        .names
+        .iter()
+        .zip(&posterior.supports)
+        .zip(&posterior.marginals)
+    {
+        let log_uniform = density
+            .coordinates
+            .iter()
+            .find(|c| &c.name == name)
+            .is_none_or(|c| c.log_uniform);
+        let (range, share) = match *support {
+            Support::Interval { lower, upper } if log_uniform => (
+                format!("{} .. {} (log)", short(lower), short(upper)),
+                (m.q95 / m.q05).ln() / (upper / lower).ln(),
+            ),
+            Support::Interval { lower, upper } => (
+                format!("{} .. {}", short(lower), short(upper)),
+                (m.q95 - m.q05) / (upper - lower),
+            ),
+            _ => ("-".into(), f64::NAN),
+        };
+        let verdict = if name.starts_with("discrepancy_sd.") {
+            "see the discrepancy below"
+        } else if share <= PINNED_SHARE {
+            "pinned down"
+        } else if share >= UNIDENTIFIED_SHARE {
+            "not identified: the data leave it near its prior"
+        } else {
+            "narrowed"
+        };
+        if !name.starts_with("discrepancy_sd.") {
+            // The discrepancy's scales are stated with it, below.
+            verdicts.push((name.clone(), verdict));
+        }
+        table.row(vec![
+            name.clone(),
+            range,
+            short(m.mean),
+            short(m.sd),
+            short(m.q05),
+            short(m.q50),
+            short(m.q95),
+            format!("{:.0} %", 100.0 * share),
+            format!("{:.3}", m.rhat),
+            format!("{:.0}", m.ess_bulk),
+            verdict.into(),
+        ]);
+    }
+    report.table(table);
+    let pinned: Vec<&str> = verdicts
+        .iter()
+        .filter(|(_, v)| *v == "pinned down")
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let loose: Vec<&str> = verdicts
+        .iter()
+        .filter(|(_, v)| v.starts_with("not identified"))
+        .map(|(n, _)| n.as_str())
+        .collect();
+    report.paragraph(format!(
+        "In words: the measured values pin down {}; they leave {} near {} prior range. A parameter is pinned down when its 90 % interval spans at most {:.0} % of its range, not identified from {:.0} %.",
+        list_or(&pinned, "no parameter"),
+        list_or(&loose, "no parameter"),
+        if loose.len() == 1 { "its" } else { "their" },
+        100.0 * PINNED_SHARE,
+        100.0 * UNIDENTIFIED_SHARE
+    ));
+    write_discrepancy(report, posterior);
+    write_predictive(report, &posterior.predicted);
+    report.figure(Figure {
+        file: "posterior_corner.svg".into(),
+        caption: "posterior draws: each parameter's histogram over its prior range (diagonal) and each pair's draws (below it)".into(),
+        svg: corner_svg(posterior),
+    });
+}
+
+/// Each output's discrepancy next to its measurement uncertainty, and the
+/// verdict in words.
+fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
+    let density = &posterior.density;
+    if density.outputs.is_empty() {
+        return;
+    }
+    report.heading(3, "Model discrepancy");
+    let mut table = Table::new(&[
+        "output",
+        "discrepancy mean",
+        "discrepancy sd",
+        "its scale tau (median)",
+        "measurement uncertainty",
+        "verdict",
+    ]);
+    let mut model_errors = Vec::new();
+    let noise_pct = posterior
+        .column("measurement_noise_pct")
+        .map(|i| posterior.marginals[i].q50);
+    for (output, (mean, sd)) in density.outputs.iter().zip(&posterior.discrepancy) {
+        let measurement = output
+            .observations
+            .iter()
+            .map(|&i| {
+                let o = &density.observations[i];
+                density.measurement_sd(noise_pct, o.measured, o.uncertainty)
+            })
+            .fold(0.0f64, f64::max);
+        let tau = posterior
+            .column(&format!("discrepancy_sd.{}", output.output))
+            .map_or(f64::NAN, |i| posterior.marginals[i].q50);
+        // The model's error stands out when the discrepancy is away from
+        // zero by more than twice both its own spread and the measurement's.
+        let stands_out = mean.abs() > 2.0 * sd.max(measurement);
+        let verdict = if stands_out {
+            model_errors.push(output.output.clone());
+            "the model misses: the misfit is the model's, not the parameters'"
+        } else {
+            "within what the measurement can tell"
+        };
+        table.row(vec![
+            output.output.clone(),
+            short(*mean),
+            short(*sd),
+            short(tau),
+            short(measurement),
+            verdict.into(),
+        ]);
+    }
+    report.table(table);
+    report.paragraph(if model_errors.is_empty() {
+        "No output needs a model error larger than the measurement can tell: the parameters explain the misfit.".to_string()
+    } else {
+        format!(
+            "The model, not the parameters, explains the misfit of {}: no parameter set in the prior range reproduces it, and its additive error is more than twice both its spread and the measurement uncertainty.",
+            model_errors.join(", ")
+        )
+    });
+}
+
+/// The predictive intervals against the measured values.
+fn write_predictive(report: &mut Document, predicted: &[Predicted]) {
+    if predicted.is_empty() {
+        return;
+    }
+    report.heading(3, "Predictions at posterior draws");
+    let mut table = Table::new(&[
+        "case",
+        "role",
+        "output",
+        "measured",
+        "predicted mean",
+        "5 %",
+        "95 %",
+        "model runs",
+        "measured inside",
+    ]);
+    let mut outside = Vec::new();
+    let mut validation_outside = 0;
+    let mut validation = 0;
+    for entry in predicted {
+        let (mean, low, high) = entry.interval();
+        let inside = entry.holds_measured();
+        if entry.role == Role::Validate {
+            validation += 1;
+            validation_outside += usize::from(!inside);
+        }
+        if !inside {
+            outside.push(format!("{}/{}", entry.case, entry.name));
+        }
+        table.row(vec![
+            entry.case.clone(),
+            entry.role.name().into(),
+            entry.name.clone(),
+            short(entry.measured),
+            short(mean),
+            short(low),
+            short(high),
+            entry.model.len().to_string(),
+            if inside { "yes" } else { "**no**" }.into(),
+        ]);
+    }
+    report.table(table);
+    let mut words = if outside.is_empty() {
+        "Every measured value lies inside its 90 % predictive interval (model runs at posterior draws, plus the discrepancy and the measurement's error).".to_string()
+    } else {
+        format!(
+            "Outside their 90 % predictive interval: {}.",
+            outside.join(", ")
+        )
+    };
+    if validation > 0 {
+        words.push_str(&if validation_outside == 0 {
+            " Validation carries over: every validation case's measured value is predicted within the stated uncertainty.".to_string()
+        } else {
+            format!(
+                " Validation does not carry over: {validation_outside} of {validation} validation values fall outside."
+            )
+        });
+    }
+    report.paragraph(words);
+}
+
+/// Pairwise draws and marginal histograms over each coordinate's prior
+/// range (the discrepancy scales left out: they are stated above).
+fn corner_svg(posterior: &PosteriorOutcome) -> String {
+    let shown: Vec<usize> = (0..posterior.names.len())
+        .filter(|&i| !posterior.names[i].starts_with("discrepancy_sd."))
+        .collect();
+    let draws: Vec<&Vec<f64>> = posterior.draws.iter().flatten().collect();
+    let step = (draws.len() / CORNER_POINTS).max(1);
+    let range = |i: usize| match posterior.supports[i] {
+        Support::Interval { lower, upper } => (lower, upper),
+        _ => {
+            let m = &posterior.marginals[i];
+            (m.mean - 4.0 * m.sd, m.mean + 4.0 * m.sd)
+        }
+    };
+    let name = |i: usize| posterior.names[i].clone();
+    let mut panels = Vec::new();
+    for &row in &shown {
+        for &column in &shown {
+            panels.push(if column > row {
+                None
+            } else if column == row {
+                let (low, high) = range(row);
+                Some(
+                    Chart::new(name(row), name(row), "density")
+                        .with_series(Series::new(
+                            "",
+                            histogram(draws.iter().map(|d| d[row]), low, high, 30),
+                        ))
+                        .with_x_range(low, high),
+                )
+            } else {
+                let (x_low, x_high) = range(column);
+                let (y_low, y_high) = range(row);
+                let points = draws
+                    .iter()
+                    .step_by(step)
+                    .map(|d| (d[column], d[row]))
+                    .collect();
+                Some(
+                    Chart::new("", name(column), name(row))
+                        .with_series(Series::new("", points).with_style(SeriesStyle::Markers))
+                        .with_x_range(x_low, x_high)
+                        .with_y_range(y_low, y_high),
+                )
+            });
+        }
+    }
+    let size = if shown.len() > 4 { 200.0 } else { 260.0 };
+    sparse_grid_svg("posterior", &panels, shown.len(), size, size)
+}
+
+/// A histogram as a step line of densities over `bins` equal bins.
+fn histogram(
+    values: impl Iterator<Item = f64>,
+    low: f64,
+    high: f64,
+    bins: usize,
+) -> Vec<(f64, f64)> {
+    let mut counts = vec![0usize; bins];
+    let mut total = 0usize;
+    let width = (high - low) / bins as f64;
+    for value in values {
+        total += 1;
+        if width > 0.0 && (low..=high).contains(&value) {
+            counts[(((value - low) / width) as usize).min(bins - 1)] += 1;
+        }
+    }
+    let mut points = Vec::with_capacity(2 * bins);
+    for (k, &count) in counts.iter().enumerate() {
+        let height = count as f64 / (total.max(1) as f64 * width);
+        points.push((low + k as f64 * width, height));
+        points.push((low + (k + 1) as f64 * width, height));
+    }
+    points
+}
+
+fn list_or(names: &[&str], none: &str) -> String {
+    if names.is_empty() {
+        none.to_string()
+    } else {
+        names.join(", ")
+    }
+}
+
+/// Four significant digits.
+fn short(value: f64) -> String {
+    if !value.is_finite() {
+        return "-".into();
+    }
+    let magnitude = value.abs();
+    if magnitude != 0.0 && !(1e-3..1e6).contains(&magnitude) {
+        format!("{value:.3e}")
+    } else {
+        let decimals = (3 - magnitude.log10().floor() as i32).clamp(0, 6) as usize;
+        format!("{value:.decimals$}")
+    }
+}

@@ -7,7 +7,7 @@ use std::path::Path;
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series};
-use acq_workflows::calibrate::report::write_text;
+use acq_workflows::calibrate::run_directory::write_text;
 
 use super::{Analysis, SessionResult, Step};
 

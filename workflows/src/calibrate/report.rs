@@ -8,14 +8,11 @@
 //! Also the plumbing every report shares: a report as Markdown, HTML and
 //! its SVG files ([`write_report`]), and the Pareto-front plot.
 
-use std::path::Path;
-
 use acq_analysis::loss::curve::{curve_errors_along, CurveMapeOptions};
 use acq_calib::evaluation::Evaluation;
 use acq_calib::least_squares::Stop as LsStop;
 use acq_calib::sobol_indices::sobol_indices;
 use acq_io::error::Result;
-use acq_io::output::Output;
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
 
@@ -23,15 +20,10 @@ use super::extras::{Extras, Section};
 use super::identifiability::write_identifiability;
 use super::method::{Method, RunSettings};
 use super::outcome::{CalibratedCurve, Found, StudyOutcome};
-use super::run_directory::RunDirectory;
+use super::run_directory::{write_text, RunDirectory};
 use super::search::{distinct_best, scored};
 use super::study::{chi_square, LossKind, ObservationError, Residuals, Role, Study};
 use super::surrogate_moo::rounds_sentence;
-
-/// Writes a whole file (appears under its name only when complete).
-pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    Output::write_complete(path, text.as_bytes())
-}
 
 /// Writes a report into its run directory: every figure as its SVG file,
 /// `report.md` (figures linked) and `report.html` (one page, figures inline).

@@ -42,6 +42,12 @@ impl RunDirectory {
     }
 }
 
+/// Writes a whole file: it appears under its name only when complete
+/// ([`acq_io::output::Output::write_complete`]).
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    acq_io::output::Output::write_complete(path, text.as_bytes())
+}
+
 /// From now on Ctrl-C (SIGINT) or SIGTERM ends the run with exit code
 /// 130 and says how to continue it: every finished evaluation is already
 /// whole in `evaluations.csv`, so `--resume` picks up from there. Before

@@ -30,10 +30,10 @@ use super::extras::Extras;
 use super::identifiability::{identifiability, identifiability_json, Local};
 use super::method::{Method, RunSettings, CURVE_PARTS};
 use super::outcome::{CalibratedCurve, Found, LeastSquaresFound, StudyOutcome};
-use super::posterior::run_posterior;
+use super::posterior::{run_posterior, SearchResult};
 use super::progress::Progress;
-use super::report::{study_report, write_report, write_text};
-use super::run_directory::{evaluation_error, RunDirectory};
+use super::report::{study_report, write_report};
+use super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::search::{bo_settings, from_unit, minimise_logged, scored, to_unit};
 use super::study::{
     LossKind, Measured, Model, Observation, ObservationError, Role, Study, StudySimulator,
@@ -73,10 +73,14 @@ pub fn run_study(
 ) -> Result<StudyRun, StudyError> {
     let mut outcome = calibrate_study(study, model, method, initial, directory, settings)?;
     if let Some(posterior) = &settings.posterior {
+        let search = SearchResult {
+            calibrated: &outcome.calibrated,
+            evaluations: &outcome.evaluations,
+        };
         outcome.posterior = Some(run_posterior(
             study,
             model,
-            &outcome,
+            &search,
             posterior,
             directory,
             settings.parallel,

@@ -44,7 +44,7 @@ use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::super::study::{Measured, Role, Study};
-use super::Discrepancy;
+use super::settings::Discrepancy;
 
 /// The lower and upper relative size of the measurement noise when a study
 /// states no uncertainty, %.
@@ -358,30 +358,37 @@ impl StudyPosterior {
     }
 
     /// Each observation's error variance without discrepancy, at a noise
-    /// of `noise_pct`.
-    fn variances(&self, noise_pct: Option<f64>) -> Vec<f64> {
+    /// of `noise_pct`, plus the emulator's variance of the model's value
+    /// (`emulator`, one per observation; empty for the model itself).
+    fn variances(&self, noise_pct: Option<f64>, emulator: &[f64]) -> Vec<f64> {
         self.observations
             .iter()
-            .map(|o| match o.uncertainty {
-                Some(u) => u * u,
-                None => (noise_pct.unwrap_or(0.0) / 100.0 * o.measured).powi(2),
+            .enumerate()
+            .map(|(i, o)| {
+                let measurement = match o.uncertainty {
+                    Some(u) => u * u,
+                    None => (noise_pct.unwrap_or(0.0) / 100.0 * o.measured).powi(2),
+                };
+                measurement + emulator.get(i).copied().unwrap_or(0.0)
             })
             .collect()
     }
 
-    /// The log likelihood of the fit simulator's `outputs`, the scales
-    /// integrated out (every normalising term kept, so it weighs them
-    /// right).
-    pub fn log_likelihood(&self, outputs: &[f64]) -> f64 {
+    /// The log likelihood of the fit simulator's `outputs` (with the
+    /// emulator's variance of each observation's value, or none), the
+    /// scales integrated out (every normalising term kept, so it weighs
+    /// them right).
+    pub fn log_likelihood(&self, outputs: &[f64], emulator: &[f64]) -> f64 {
         let residuals = self.residuals(outputs);
         if residuals.iter().any(|r| !r.is_finite()) {
             return f64::NEG_INFINITY;
         }
         let value = if self.noise {
-            self.noise_grid
-                .log_integral(|noise| self.log_likelihood_at_noise(&residuals, Some(noise)))
+            self.noise_grid.log_integral(|noise| {
+                self.log_likelihood_at_noise(&residuals, Some(noise), emulator)
+            })
         } else {
-            self.log_likelihood_at_noise(&residuals, None)
+            self.log_likelihood_at_noise(&residuals, None, emulator)
         };
         if value.is_nan() {
             f64::NEG_INFINITY
@@ -391,8 +398,13 @@ impl StudyPosterior {
     }
 
     /// The log likelihood at one noise, each discrepancy scale integrated out.
-    fn log_likelihood_at_noise(&self, residuals: &[f64], noise_pct: Option<f64>) -> f64 {
-        let variances = self.variances(noise_pct);
+    fn log_likelihood_at_noise(
+        &self,
+        residuals: &[f64],
+        noise_pct: Option<f64>,
+        emulator: &[f64],
+    ) -> f64 {
+        let variances = self.variances(noise_pct, emulator);
         let mut in_group = vec![false; residuals.len()];
         let mut total = 0.0;
         for output in &self.outputs {
@@ -414,15 +426,20 @@ impl StudyPosterior {
     /// Draws the noise and each discrepancy scale from their conditional
     /// at the fit simulator's `outputs` (a node by its weight, then a
     /// uniform place in its cell), and each output's discrepancy given them.
-    pub fn draw_scales(&self, outputs: &[f64], rng: &mut impl rand::Rng) -> Scales {
+    pub fn draw_scales(
+        &self,
+        outputs: &[f64],
+        emulator: &[f64],
+        rng: &mut impl rand::Rng,
+    ) -> Scales {
         let residuals = self.residuals(outputs);
         let noise_pct = self.noise.then(|| {
             self.noise_grid.draw(
-                |noise| self.log_likelihood_at_noise(&residuals, Some(noise)),
+                |noise| self.log_likelihood_at_noise(&residuals, Some(noise), emulator),
                 rng,
             )
         });
-        let variances = self.variances(noise_pct);
+        let variances = self.variances(noise_pct, emulator);
         let mut tau = Vec::with_capacity(self.outputs.len());
         let mut delta = Vec::with_capacity(self.outputs.len());
         for output in &self.outputs {
@@ -548,7 +565,7 @@ mod tests {
         let got = group_log_density(
             &posterior.outputs[0],
             &[r0, r1],
-            &posterior.variances(None),
+            &posterior.variances(None, &[]),
             tau,
         );
         assert!((got - expected).abs() < 1e-12, "{got} {expected}");
@@ -562,7 +579,7 @@ mod tests {
         let values = [(4.0, None), (5.0, None), (8.0, None)];
         let posterior = StudyPosterior::new(&study(&values), Discrepancy::None).unwrap();
         let outputs = [4.2, 4.9, 8.5];
-        let got = posterior.log_likelihood(&outputs);
+        let got = posterior.log_likelihood(&outputs, &[]);
         // sum (r / y)^2 and the product of 1 / (sqrt(2 pi) |y|).
         let q: f64 = values
             .iter()
@@ -598,7 +615,7 @@ mod tests {
         );
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
         for _ in 0..100 {
-            let scales = posterior.draw_scales(&[4.1, 5.0], &mut rng);
+            let scales = posterior.draw_scales(&[4.1, 5.0], &[], &mut rng);
             let noise = scales.noise_pct.unwrap();
             assert!((NOISE_RANGE_PCT[0]..=NOISE_RANGE_PCT[1]).contains(&noise));
             let range = posterior.outputs[0].tau_range;

@@ -4,9 +4,10 @@
 //! - [`likelihood`]: the density ([`likelihood::StudyPosterior`]): prior,
 //!   measurement error (stated, or a noise scale of its own), and model
 //!   discrepancy.
-//! - Sampling: a model that costs microseconds (the built-in excavator twin,
-//!   [`super::study::Model::is_cheap`]) is sampled directly by
-//!   [`acq_calib::mcmc`], the model run at every step.
+//! - Sampling by [`acq_calib::mcmc`]: a model that costs microseconds (the
+//!   built-in excavator twin, [`super::study::Model::is_cheap`]) directly,
+//!   the model run at every step; any other on an [`emulator`] of its
+//!   logged runs, refined by real runs where the posterior lies.
 //! - [`predictive`]: real model runs at posterior draws, for every fit and
 //!   validation case, logged like every run (so they resume), and the
 //!   intervals a new measurement should fall in.
@@ -18,60 +19,25 @@
 
 use std::time::Instant;
 
-use acq_calib::evaluation::Simulator;
+use acq_calib::evaluation::{Evaluation, Evaluator, Simulator};
 use acq_calib::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings, Support};
 use acq_io::error::{AcqError, Result};
 use rand::SeedableRng;
 
-use super::outcome::StudyOutcome;
-use super::report::write_text;
-use super::run_directory::RunDirectory;
+use super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::study::{Model, Role, Study, StudySimulator};
 
+pub mod emulator;
 pub mod likelihood;
 pub mod predictive;
 pub mod report;
+pub mod settings;
 
+pub use settings::{Discrepancy, PosteriorSettings};
+
+use emulator::{refinement_points, Emulator, MAX_REFINEMENT_RUNS, REFINE_RATIO, RUNS_PER_ROUND};
 use likelihood::{standard_normal, Scales, StudyPosterior};
 use predictive::Predicted;
-
-/// `[posterior] discrepancy`: the model error the posterior allows for.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Discrepancy {
-    /// The model is right up to its parameters.
-    #[default]
-    None,
-    /// An additive error per output, the same in every case.
-    Constant,
-    /// An additive error per output that varies smoothly over the cases'
-    /// inputs (a Gaussian process).
-    Gp,
-}
-
-/// How the posterior is sampled.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PosteriorSettings {
-    /// Kept draws per chain.
-    pub draws: usize,
-    pub chains: usize,
-    pub discrepancy: Discrepancy,
-    /// Model runs at posterior draws, per case.
-    pub predictive_runs: usize,
-    pub seed: u64,
-}
-
-impl Default for PosteriorSettings {
-    fn default() -> Self {
-        PosteriorSettings {
-            draws: 1000,
-            chains: 4,
-            discrepancy: Discrepancy::None,
-            predictive_runs: 50,
-            seed: 1,
-        }
-    }
-}
 
 /// The convergence a posterior's numbers need (Vehtari et al. 2021):
 /// every R-hat below 1.01 and a bulk ESS of at least 100 per chain.
@@ -125,12 +91,24 @@ impl PosteriorOutcome {
     }
 }
 
+/// What the search left for the posterior: the calibrated point (the
+/// chains start around it) and every fit run (an emulator learns from them).
+pub struct SearchResult<'a> {
+    pub calibrated: &'a [f64],
+    pub evaluations: &'a [Evaluation],
+}
+
+/// The model's fit outputs at a point and each observation's emulator
+/// variance (empty for the model itself); `None` where it fails.
+type ModelAt<'a> = dyn Fn(&[f64]) -> Option<(Vec<f64>, Vec<f64>)> + Sync + 'a;
+
 /// Samples the posterior of `study` around the search's result and runs
 /// the predictive runs; writes `posterior.csv` and `predictive.csv`.
+#[allow(clippy::too_many_arguments)]
 pub fn run_posterior(
     study: &Study,
     model: &dyn Model,
-    outcome: &StudyOutcome,
+    search: &SearchResult<'_>,
     settings: &PosteriorSettings,
     directory: &RunDirectory,
     parallel: usize,
@@ -144,29 +122,13 @@ pub fn run_posterior(
                 .into(),
         ));
     }
-    if !model.is_cheap() {
-        return Err(AcqError::Config(
-            "this model is sampled through an emulator of its runs, which is not built yet; the posterior is available for the built-in excavator twin".into(),
-        ));
-    }
     let simulator = StudySimulator::new(study, model, Role::Fit);
-    let log_density = |point: &[f64]| -> f64 {
-        let prior = density.log_prior(point);
-        if prior == f64::NEG_INFINITY {
-            return prior;
-        }
-        match simulator.evaluate(point) {
-            Ok(outputs) => prior + density.log_likelihood(&outputs),
-            Err(_) => f64::NEG_INFINITY,
-        }
-    };
-    let centre: Vec<f64> = outcome
+    let centre: Vec<f64> = search
         .calibrated
         .iter()
         .zip(&density.coordinates)
         .map(|(&x, c)| inside(c.support, x))
         .collect();
-    let starts = chain_starts(&density, &centre, settings, &log_density)?;
     let sampler = SamplerSettings {
         chains: settings.chains,
         draws: settings.draws,
@@ -174,35 +136,34 @@ pub fn run_posterior(
         thin: None,
         seed: settings.seed,
     };
-    let printed = std::sync::atomic::AtomicUsize::new(0);
-    let progress = |p: SamplerProgress| {
-        // A line every tenth of the work keeps a CI log short.
-        let tenth = p.steps * 10 / p.total.max(1);
-        if printed.fetch_max(tenth + 1, std::sync::atomic::Ordering::Relaxed) <= tenth {
-            eprintln!(
-                "posterior: {} {}/{} steps, {:.0} s",
-                if p.warming_up { "warmup" } else { "sampling" },
-                p.steps,
-                p.total,
-                start.elapsed().as_secs_f64()
-            );
-        }
+    let direct = |point: &[f64]| simulator.evaluate(point).ok().map(|o| (o, Vec::new()));
+    let emulator;
+    let (at, how): (&ModelAt<'_>, String) = if model.is_cheap() {
+        (
+            &direct,
+            "sampled directly (the model run at every step)".into(),
+        )
+    } else {
+        let (refined, how) = refined_emulator(
+            &density,
+            &simulator,
+            search.evaluations,
+            &centre,
+            settings,
+            directory,
+            parallel,
+            resume,
+        )?;
+        emulator = refined;
+        (&|point: &[f64]| Some(emulator.predict(point)), how)
     };
-    let chains = sample(
-        log_density,
-        &density.support(),
-        &starts,
-        &vec![0.1; density.coordinates.len()],
-        &sampler,
-        &progress,
-    )
-    .map_err(|e| AcqError::Config(format!("posterior: {e}")))?;
-    let outputs = outputs_at_draws(&chains, &simulator);
+    let chains = sample_on(&density, at, &centre, &sampler, "posterior")?;
+    let outputs = outputs_at_draws(&chains, at);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(3));
     let scales: Vec<Scales> = outputs
         .iter()
         .map(|o| match o {
-            Some(outputs) => density.draw_scales(outputs, &mut rng),
+            Some((outputs, emulator)) => density.draw_scales(outputs, emulator, &mut rng),
             None => Scales {
                 noise_pct: None,
                 tau: Vec::new(),
@@ -248,13 +209,12 @@ pub fn run_posterior(
     )?;
     Ok(PosteriorOutcome {
         path: format!(
-            "sampled directly (the model run at every step): {} chains of {} kept draws, one every {} steps after {} warmup steps (acceptance {:.2}), {} model evaluations",
+            "{how}: {} chains of {} kept draws, one every {} steps after {} warmup steps (acceptance {:.2})",
             settings.chains,
             settings.draws,
             chains.thin,
             sampler.warmup,
             chains.acceptance.iter().sum::<f64>() / chains.acceptance.len() as f64,
-            chains.evaluations
         ),
         density,
         chains,
@@ -268,6 +228,150 @@ pub fn run_posterior(
         wall_s: start.elapsed().as_secs_f64(),
         settings: settings.clone(),
     })
+}
+
+/// Samples the density with the model's outputs from `at`, the chains
+/// started around `centre`, a progress line every tenth of the steps.
+fn sample_on(
+    density: &StudyPosterior,
+    at: &ModelAt<'_>,
+    centre: &[f64],
+    sampler: &SamplerSettings,
+    label: &str,
+) -> Result<Chains> {
+    let log_density = |point: &[f64]| -> f64 {
+        let prior = density.log_prior(point);
+        if prior == f64::NEG_INFINITY {
+            return prior;
+        }
+        match at(point) {
+            Some((outputs, emulator)) => prior + density.log_likelihood(&outputs, &emulator),
+            None => f64::NEG_INFINITY,
+        }
+    };
+    let starts = chain_starts(density, centre, sampler, &log_density)?;
+    let start = Instant::now();
+    let printed = std::sync::atomic::AtomicUsize::new(0);
+    let progress = |p: SamplerProgress| {
+        // A line every tenth of the work keeps a CI log short.
+        let tenth = p.steps * 10 / p.total.max(1);
+        if printed.fetch_max(tenth + 1, std::sync::atomic::Ordering::Relaxed) <= tenth {
+            eprintln!(
+                "{label}: {} {}/{} steps, {:.0} s",
+                if p.warming_up { "warmup" } else { "sampling" },
+                p.steps,
+                p.total,
+                start.elapsed().as_secs_f64()
+            );
+        }
+    };
+    sample(
+        log_density,
+        &density.support(),
+        &starts,
+        &vec![0.1; density.coordinates.len()],
+        sampler,
+        &progress,
+    )
+    .map_err(|e| AcqError::Config(format!("posterior: {e}")))
+}
+
+/// The emulator of the search's runs, refined where the posterior lies
+/// ([`emulator`]): the refinement runs go through the logging evaluator
+/// (`posterior_refinement.csv`, resumable, on the study's executor).
+/// Returns it with a sentence on how it was made.
+#[allow(clippy::too_many_arguments)]
+fn refined_emulator(
+    density: &StudyPosterior,
+    simulator: &StudySimulator<'_>,
+    evaluations: &[Evaluation],
+    centre: &[f64],
+    settings: &PosteriorSettings,
+    directory: &RunDirectory,
+    parallel: usize,
+    resume: bool,
+) -> Result<(Emulator, String)> {
+    let parameters = simulator.parameters().to_vec();
+    let log = directory.file("posterior_refinement.csv");
+    let mut evaluator = if resume {
+        Evaluator::resume(simulator, &log, parallel)
+    } else {
+        Evaluator::create(simulator, &log, parallel)
+    }
+    .map_err(evaluation_error)?;
+    let mut runs = evaluations.to_vec();
+    let mut spent = 0;
+    let mut round = 0u64;
+    loop {
+        let emulator = Emulator::fit(&parameters, density, &runs, settings.seed)
+            .map_err(|e| AcqError::Config(format!("posterior: {e}")))?;
+        let pilot = SamplerSettings {
+            chains: settings.chains,
+            draws: 250,
+            warmup: 1000,
+            thin: None,
+            seed: settings.seed.wrapping_add(round),
+        };
+        let chains = sample_on(
+            density,
+            &|point: &[f64]| Some(emulator.predict(point)),
+            centre,
+            &pilot,
+            "posterior (emulator check)",
+        )?;
+        let noise_pct = typical_noise(density, &emulator, &chains, settings.seed);
+        let budget = MAX_REFINEMENT_RUNS - spent;
+        let (points, at_95) = refinement_points(
+            &emulator,
+            density,
+            &chains,
+            noise_pct,
+            RUNS_PER_ROUND.max(parallel).min(budget),
+        );
+        eprintln!(
+            "posterior: emulator of {} runs; its sd at 95 % of the draws is {at_95:.2} of the measurement's (enough below {REFINE_RATIO}); {} refinement runs so far",
+            emulator.runs, spent
+        );
+        if points.is_empty() {
+            let how = format!(
+                "sampled on a Gaussian-process emulator of the model ({} runs: the search's and {spent} refinement runs where the posterior lies; its sd at 95 % of the draws is {at_95:.2} of the measurement's{})",
+                emulator.runs,
+                if at_95 > REFINE_RATIO {
+                    format!(", above the {REFINE_RATIO} aimed at: the {MAX_REFINEMENT_RUNS} refinement runs are spent, so the intervals carry the emulator's doubt")
+                } else {
+                    String::new()
+                }
+            );
+            return Ok((emulator, how));
+        }
+        let evaluations = evaluator.evaluate(&points).map_err(evaluation_error)?;
+        spent += points.len();
+        runs.extend(evaluations);
+        round += 1;
+    }
+}
+
+/// The noise a study that states none has at the pilot's draws (their
+/// median), for weighing the emulator's doubt; 1 % when it states all.
+fn typical_noise(density: &StudyPosterior, emulator: &Emulator, chains: &Chains, seed: u64) -> f64 {
+    if !density.noise {
+        return 1.0;
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let draws: Vec<&Vec<f64>> = chains.pooled().collect();
+    let step = (draws.len() / 100).max(1);
+    let mut noise: Vec<f64> = draws
+        .iter()
+        .step_by(step)
+        .filter_map(|d| {
+            let (outputs, variances) = emulator.predict(d);
+            density
+                .draw_scales(&outputs, &variances, &mut rng)
+                .noise_pct
+        })
+        .collect();
+    noise.sort_by(f64::total_cmp);
+    acq_calib::mcmc::quantile(&noise, 0.5)
 }
 
 /// `value` moved at least 1 % of the interval inside it (its middle when
@@ -292,7 +396,7 @@ fn inside(support: Support, value: f64) -> f64 {
 fn chain_starts(
     density: &StudyPosterior,
     centre: &[f64],
-    settings: &PosteriorSettings,
+    settings: &SamplerSettings,
     log_density: &dyn Fn(&[f64]) -> f64,
 ) -> Result<Vec<Vec<f64>>> {
     if log_density(centre) == f64::NEG_INFINITY {
@@ -325,21 +429,16 @@ fn chain_starts(
         .collect())
 }
 
-/// The fit outputs at every kept draw, chain after chain (on every core).
-fn outputs_at_draws(chains: &Chains, simulator: &StudySimulator<'_>) -> Vec<Option<Vec<f64>>> {
+/// The fit outputs (and emulator variances) at every kept draw, chain
+/// after chain, on every core.
+fn outputs_at_draws(chains: &Chains, at: &ModelAt<'_>) -> Vec<Option<(Vec<f64>, Vec<f64>)>> {
     let draws: Vec<&Vec<f64>> = chains.pooled().collect();
     let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
     let chunk = draws.len().div_ceil(workers).max(1);
     std::thread::scope(|scope| {
         let handles: Vec<_> = draws
             .chunks(chunk)
-            .map(|part| {
-                scope.spawn(move || {
-                    part.iter()
-                        .map(|point| simulator.evaluate(point).ok())
-                        .collect::<Vec<_>>()
-                })
-            })
+            .map(|part| scope.spawn(move || part.iter().map(|point| at(point)).collect::<Vec<_>>()))
             .collect();
         handles
             .into_iter()

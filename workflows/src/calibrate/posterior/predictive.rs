@@ -16,11 +16,10 @@ use acq_calib::evaluation::Evaluator;
 use acq_calib::mcmc::{quantile, Chains};
 use acq_io::error::Result;
 
-use super::super::report::write_text;
-use super::super::run_directory::{evaluation_error, RunDirectory};
+use super::super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::super::study::{Measured, Model, Role, Study, StudySimulator};
 use super::likelihood::{standard_normal, Scales, StudyPosterior};
-use super::PosteriorSettings;
+use super::settings::PosteriorSettings;
 
 /// The case name of a study without named cases.
 pub const MAIN_CASE: &str = "main";

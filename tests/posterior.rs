@@ -1,0 +1,418 @@
+//! The posterior stage (issue 35) against what it must equal.
+//!
+//! - **Closed form**: a straight line `y = a + b t` at five points with
+//!   normal noise of known sd and normal priors has a normal posterior
+//!   with a known mean and covariance. Sampled by both paths: the model
+//!   run at every step (in process), and a solver script through a spec
+//!   (a Gaussian-process emulator of its logged runs, refined by real runs).
+//! - **Coverage**: 400 replicates of a nonlinear toy with the truth drawn
+//!   from the prior and known noise: the 90 % intervals hold the truth in
+//!   86-94 % of them.
+//! - **Model error**: a toy whose model lacks an offset the data have.
+//!   Without discrepancy the intervals miss the truth in most replicates;
+//!   with a constant discrepancy coverage is back and the posterior names
+//!   the offset's size.
+
+mod common;
+
+use std::path::Path;
+
+use acq_calib::evaluation::Parameter;
+use acq_calib::mcmc::{sample, Marginal, SamplerSettings};
+use acq_workflows::calibrate::extras::NoExtras;
+use acq_workflows::calibrate::method::{LeastSquaresMethod, Method, RunSettings};
+use acq_workflows::calibrate::posterior::likelihood::StudyPosterior;
+use acq_workflows::calibrate::posterior::{Discrepancy, PosteriorSettings};
+use acq_workflows::calibrate::run_directory::RunDirectory;
+use acq_workflows::calibrate::spec::Spec;
+use acq_workflows::calibrate::study::{
+    Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study, StudyParameter,
+};
+use acq_workflows::calibrate::study_runner::run_study;
+use common::{external_summary, number};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal, Uniform};
+use serde_json::Value;
+
+// ---- the straight line -------------------------------------------------------------------
+
+const TIMES: [f64; 5] = [0.0, 1.0, 2.0, 3.0, 4.0];
+/// Measured at a = 2, b = 0.7 with these errors (fixed, so the test is too).
+const MEASURED: [f64; 5] = [2.3, 2.3, 3.5, 4.6, 4.6];
+const NOISE_SD: f64 = 0.5;
+/// The priors' means and sds: the bounds lie 8 sds away, so cutting the
+/// normal prior there changes nothing measurable.
+const PRIOR: [(f64, f64); 2] = [(1.0, 2.0), (0.5, 1.0)];
+
+/// The spec of the line: the solver (awk) writes the five values.
+fn line_spec(dir: &Path, posterior: &str) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("line.sh"),
+        "awk -v a=\"$1\" -v b=\"$2\" 'BEGIN { printf \"{\"; for (i = 0; i < 5; i++) printf \"%s\\\"y%d\\\": %.17g\", (i ? \", \" : \"\"), i, a + b * i; print \"}\" }' > out.json\n",
+    )
+    .unwrap();
+    let mut text = String::from(
+        "command = [\"sh\", \"line.sh\", \"{a}\", \"{b}\"]\noutput_file = \"out.json\"\nparallel = 2\n",
+    );
+    for (name, (mean, sd)) in ["a", "b"].iter().zip(PRIOR) {
+        text.push_str(&format!(
+            "\n[[parameter]]\nname = \"{name}\"\nlower = {}\nupper = {}\nprior = {{ value = {mean}, uncertainty = {sd} }}\n",
+            mean - 8.0 * sd,
+            mean + 8.0 * sd
+        ));
+    }
+    for (i, y) in MEASURED.iter().enumerate() {
+        text.push_str(&format!(
+            "\n[[output]]\nname = \"y{i}\"\nmeasured = {y}\nuncertainty = {NOISE_SD}\n"
+        ));
+    }
+    text.push_str("\n[search]\nmethod = \"least-squares\"\nresiduals = \"normalised\"\nloss = \"squares\"\nmax_evals = 40\n");
+    text.push_str(posterior);
+    let spec = dir.join("spec.toml");
+    std::fs::write(&spec, text).unwrap();
+    spec
+}
+
+/// The posterior's mean and covariance in closed form:
+/// `S = (X'X / s^2 + P^-1)^-1`, `m = S (X'y / s^2 + P^-1 m0)`.
+fn closed_form() -> ([f64; 2], [[f64; 2]; 2]) {
+    let s2 = NOISE_SD * NOISE_SD;
+    let mut precision = [
+        [1.0 / PRIOR[0].1.powi(2), 0.0],
+        [0.0, 1.0 / PRIOR[1].1.powi(2)],
+    ];
+    let mut right = [PRIOR[0].0 * precision[0][0], PRIOR[1].0 * precision[1][1]];
+    for (t, y) in TIMES.iter().zip(MEASURED) {
+        let x = [1.0, *t];
+        for i in 0..2 {
+            right[i] += x[i] * y / s2;
+            for j in 0..2 {
+                precision[i][j] += x[i] * x[j] / s2;
+            }
+        }
+    }
+    let det = precision[0][0] * precision[1][1] - precision[0][1] * precision[1][0];
+    let covariance = [
+        [precision[1][1] / det, -precision[0][1] / det],
+        [-precision[1][0] / det, precision[0][0] / det],
+    ];
+    let mean = [
+        covariance[0][0] * right[0] + covariance[0][1] * right[1],
+        covariance[1][0] * right[0] + covariance[1][1] * right[1],
+    ];
+    (mean, covariance)
+}
+
+/// The draws' mean and covariance agree with the closed form within 3
+/// Monte-Carlo standard errors: `sd / sqrt(ess)` for a mean, and for a
+/// covariance entry of a normal `sqrt((s_ii s_jj + s_ij^2) / ess)`, with
+/// the smaller bulk ESS of the two.
+fn assert_closed_form(draws: &[[f64; 2]], ess: [f64; 2], path: &str) {
+    let (mean, covariance) = closed_form();
+    let n = draws.len() as f64;
+    let sample_mean = [0, 1].map(|i| draws.iter().map(|d| d[i]).sum::<f64>() / n);
+    for i in 0..2 {
+        let mcse = covariance[i][i].sqrt() / ess[i].sqrt();
+        assert!(
+            (sample_mean[i] - mean[i]).abs() < 3.0 * mcse,
+            "{path}: mean {} of {}, MCSE {mcse}",
+            sample_mean[i],
+            mean[i]
+        );
+        for j in 0..2 {
+            let sample = draws
+                .iter()
+                .map(|d| (d[i] - sample_mean[i]) * (d[j] - sample_mean[j]))
+                .sum::<f64>()
+                / (n - 1.0);
+            let se = ((covariance[i][i] * covariance[j][j] + covariance[i][j].powi(2))
+                / ess[i].min(ess[j]))
+            .sqrt();
+            assert!(
+                (sample - covariance[i][j]).abs() < 3.0 * se,
+                "{path}: covariance[{i}][{j}] {sample} of {}, se {se}",
+                covariance[i][j]
+            );
+        }
+    }
+}
+
+/// The draws of `a` and `b` in `posterior.csv`.
+fn posterior_draws(run: &Path) -> Vec<[f64; 2]> {
+    let text = std::fs::read_to_string(run.join("posterior.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header[..2], ["chain", "draw"]);
+    assert_eq!(*header.last().unwrap(), "log_posterior");
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (a, b) = (column("a"), column("b"));
+    lines
+        .map(|line| {
+            let fields: Vec<f64> = line.split(',').map(|f| f.parse().unwrap()).collect();
+            [fields[a], fields[b]]
+        })
+        .collect()
+}
+
+fn ess_of(summary: &Value) -> [f64; 2] {
+    ["a", "b"].map(|p| number(summary, &["posterior", p, "ess_bulk"]))
+}
+
+/// The line in process: cheap, so sampled directly.
+struct Line;
+
+impl Model for Line {
+    fn run(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        _curves: &[&str],
+    ) -> Result<ModelRun, String> {
+        let value = |name: &str| inputs.iter().find(|(n, _)| n == name).map(|(_, v)| *v);
+        let (a, b) = (value("a").unwrap(), value("b").unwrap());
+        Ok(ModelRun {
+            scalars: scalars
+                .iter()
+                .map(|name| {
+                    let i: f64 = name[1..].parse().unwrap();
+                    a + b * i
+                })
+                .collect(),
+            curves: Vec::new(),
+        })
+    }
+
+    fn is_cheap(&self) -> bool {
+        true
+    }
+}
+
+#[test]
+fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direct_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = Spec::load(&line_spec(dir.path(), "")).unwrap();
+    let out = dir.path().join("direct");
+    let directory = RunDirectory::create(&out).unwrap();
+    run_study(
+        &spec.study,
+        &Line,
+        &Method::LeastSquares(LeastSquaresMethod { max_evals: 40 }),
+        Vec::new(),
+        &directory,
+        &RunSettings {
+            label: "line".into(),
+            title: "line".into(),
+            spec_directory: dir.path(),
+            parallel: 1,
+            resume: false,
+            posterior: Some(PosteriorSettings {
+                draws: 2000,
+                seed: 5,
+                predictive_runs: 10,
+                ..PosteriorSettings::default()
+            }),
+        },
+        &NoExtras,
+    )
+    .unwrap();
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for p in ["a", "b"] {
+        assert!(number(&summary, &["posterior", p, "rhat"]) < 1.01);
+    }
+    assert_closed_form(&posterior_draws(&out), ess_of(&summary), "direct");
+    // Every measured value has its predictive interval and is named by case.
+    for i in 0..5 {
+        let entry = &summary["predictive"]["main"][format!("y{i}")];
+        assert!(number(entry, &["q05"]) < number(entry, &["q95"]), "{entry}");
+        assert_eq!(number(entry, &["measured"]), MEASURED[i]);
+    }
+    let predictive = std::fs::read_to_string(out.join("predictive.csv")).unwrap();
+    assert!(predictive.starts_with("run,case,output,value,with_error\n"));
+    assert_eq!(predictive.lines().count(), 1 + 5 * 10);
+}
+
+#[test]
+fn a_straight_line_through_a_solver_script_has_the_closed_form_posterior_by_the_emulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = line_spec(
+        dir.path(),
+        "\n[posterior]\ndraws = 2000\nchains = 4\npredictive_runs = 4\nseed = 5\n",
+    );
+    let out = dir.path().join("emulated");
+    let summary = external_summary(&spec, &out, &[]);
+    assert_closed_form(&posterior_draws(&out), ess_of(&summary), "emulator");
+    // The refinement's runs are logged apart from the search's, and the
+    // report says how the posterior was sampled.
+    assert!(out.join("posterior_refinement.csv").exists());
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    eprintln!("{}", report.lines().find(|l| l.contains("emulator")).unwrap_or(""));
+    assert!(
+        report.contains("Gaussian-process emulator"),
+        "{}",
+        &report[report.find("## Posterior").unwrap_or(0)..]
+    );
+}
+
+// ---- coverage and model error ----------------------------------------------------------------
+
+/// A study of one output `y` measured at several `x`, one case each (so a
+/// constant discrepancy is shared by them all), with known uncertainty.
+fn toy_study(parameters: &[(&str, f64, f64)], measured: &[(f64, f64)], sd: f64) -> Study {
+    Study {
+        parameters: parameters
+            .iter()
+            .map(|&(name, lower, upper)| StudyParameter {
+                search: Parameter::new(name, lower, upper),
+                input: name.into(),
+                case: None,
+                nominal: (lower + upper) / 2.0,
+                prior: None,
+            })
+            .collect(),
+        cases: measured
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| Case {
+                inputs: vec![("x".into(), x)],
+                ..Case::new(
+                    format!("x{i}"),
+                    Role::Fit,
+                    vec![Observation {
+                        name: "y".into(),
+                        output: "y".into(),
+                        measured: Measured::Scalar {
+                            value: y,
+                            uncertainty: Some(sd),
+                        },
+                        weight: 1.0,
+                        source: String::new(),
+                    }],
+                )
+            })
+            .collect(),
+        named_cases: true,
+        residuals: Residuals::Normalised,
+        loss: LossKind::Squares,
+    }
+}
+
+/// The posterior of `study` with `model(point, x)` as its outputs, sampled
+/// from its middle: each parameter's marginal, and the discrepancy's mean
+/// over the draws (0 without one).
+fn toy_posterior(
+    study: &Study,
+    discrepancy: Discrepancy,
+    model: impl Fn(&[f64], f64) -> f64 + Sync,
+    seed: u64,
+) -> (Vec<Marginal>, f64) {
+    let density = StudyPosterior::new(study, discrepancy).unwrap();
+    let xs: Vec<f64> = study.cases.iter().map(|c| c.inputs[0].1).collect();
+    let outputs = |point: &[f64]| -> Vec<f64> { xs.iter().map(|&x| model(point, x)).collect() };
+    let log_density =
+        |point: &[f64]| density.log_prior(point) + density.log_likelihood(&outputs(point), &[]);
+    let settings = SamplerSettings {
+        chains: 2,
+        draws: 400,
+        warmup: 600,
+        thin: None,
+        seed,
+    };
+    let middle: Vec<f64> = study.parameters.iter().map(|p| p.nominal).collect();
+    let chains = sample(
+        log_density,
+        &density.support(),
+        &[middle.clone(), middle],
+        &vec![0.3; study.parameters.len()],
+        &settings,
+        &|_| {},
+    )
+    .unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let deltas: Vec<f64> = chains
+        .pooled()
+        .filter_map(|point| {
+            let scales = density.draw_scales(&outputs(point), &[], &mut rng);
+            scales.delta.first().map(|(mean, _)| *mean)
+        })
+        .collect();
+    let delta = deltas.iter().sum::<f64>() / deltas.len().max(1) as f64;
+    (chains.summaries(), delta)
+}
+
+/// The share of replicates whose 90 % interval holds the truth.
+fn coverage(hits: &[bool]) -> f64 {
+    hits.iter().filter(|h| **h).count() as f64 / hits.len() as f64
+}
+
+/// 400 replicates: the truth drawn from the uniform prior, the data from
+/// the model at it plus known normal noise. If the posterior is right,
+/// its 90 % interval holds the truth in 90 % of them; with 400 the
+/// binomial sd of that share is 1.5 %, so 86-94 % is 2.7 sds either side.
+#[test]
+fn ninety_percent_intervals_hold_the_truth_ninety_percent_of_the_time() {
+    let decay = |p: &[f64], x: f64| p[0] * (-p[1] * x).exp();
+    let bounds = [("a", 0.5, 2.0), ("b", 0.2, 1.5)];
+    let xs = [0.5, 1.0, 2.0, 3.0];
+    let sd = 0.05;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let noise = Normal::new(0.0, sd).unwrap();
+    let mut hits = Vec::new();
+    for replicate in 0..400 {
+        let truth: Vec<f64> = bounds
+            .iter()
+            .map(|&(_, lower, upper)| Uniform::new(lower, upper).unwrap().sample(&mut rng))
+            .collect();
+        let measured: Vec<(f64, f64)> = xs
+            .iter()
+            .map(|&x| (x, decay(&truth, x) + noise.sample(&mut rng)))
+            .collect();
+        let study = toy_study(&bounds, &measured, sd);
+        let (marginals, _) = toy_posterior(&study, Discrepancy::None, decay, replicate);
+        hits.push([0, 1].map(|i| (marginals[i].q05..=marginals[i].q95).contains(&truth[i])));
+    }
+    let [a, b] = [0, 1].map(|i| coverage(&hits.iter().map(|h| h[i]).collect::<Vec<_>>()));
+    eprintln!("90 % intervals holding the truth: a {a}, b {b}");
+    assert!((0.86..=0.94).contains(&a), "coverage of a {a}");
+    assert!((0.86..=0.94).contains(&b), "coverage of b {b}");
+}
+
+/// The data have an offset of 0.8 the model lacks (`y = a x` against
+/// `y = a x + 0.8`). Without discrepancy the slope is bent to make up for
+/// it and its intervals miss; with a constant discrepancy they hold it
+/// again, and the discrepancy's mean is the offset.
+#[test]
+fn a_missing_term_is_named_by_the_discrepancy_and_coverage_comes_back() {
+    let line = |p: &[f64], x: f64| p[0] * x;
+    let bounds = [("a", 0.0, 4.0)];
+    let xs = [0.0, 0.5, 1.0, 1.5, 2.0, 3.0];
+    let (sd, offset) = (0.1, 0.8);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+    let noise = Normal::new(0.0, sd).unwrap();
+    let (mut without, mut with, mut offsets) = (Vec::new(), Vec::new(), Vec::new());
+    for replicate in 0..100 {
+        let slope = Uniform::new(0.5, 3.5).unwrap().sample(&mut rng);
+        let measured: Vec<(f64, f64)> = xs
+            .iter()
+            .map(|&x| (x, slope * x + offset + noise.sample(&mut rng)))
+            .collect();
+        let study = toy_study(&bounds, &measured, sd);
+        let holds = |m: &[Marginal]| (m[0].q05..=m[0].q95).contains(&slope);
+        let (plain, _) = toy_posterior(&study, Discrepancy::None, line, replicate);
+        without.push(holds(&plain));
+        let (allowing, delta) = toy_posterior(&study, Discrepancy::Constant, line, replicate);
+        with.push(holds(&allowing));
+        offsets.push(delta);
+    }
+    let (missed, held) = (coverage(&without), coverage(&with));
+    assert!(missed < 0.5, "without discrepancy coverage {missed}");
+    assert!(held > 0.8, "with a constant discrepancy coverage {held}");
+    let mean_offset = offsets.iter().sum::<f64>() / offsets.len() as f64;
+    eprintln!(
+        "coverage without discrepancy {missed}, with {held}; the discrepancy's mean {mean_offset}"
+    );
+    assert!(
+        (mean_offset - offset).abs() < 0.1,
+        "the discrepancy's size {mean_offset} against {offset}"
+    );
+}

@@ -1,0 +1,40 @@
+//! What a study asks of its posterior stage: draws, chains, the model
+//! error it allows for, predictive runs, the seed.
+
+/// `[posterior] discrepancy`: the model error the posterior allows for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Discrepancy {
+    /// The model is right up to its parameters.
+    #[default]
+    None,
+    /// An additive error per output, the same in every case.
+    Constant,
+    /// An additive error per output that varies smoothly over the cases'
+    /// inputs (a Gaussian process).
+    Gp,
+}
+
+/// How the posterior is sampled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosteriorSettings {
+    /// Kept draws per chain.
+    pub draws: usize,
+    pub chains: usize,
+    pub discrepancy: Discrepancy,
+    /// Model runs at posterior draws, per case.
+    pub predictive_runs: usize,
+    pub seed: u64,
+}
+
+impl Default for PosteriorSettings {
+    fn default() -> Self {
+        PosteriorSettings {
+            draws: 1000,
+            chains: 4,
+            discrepancy: Discrepancy::None,
+            predictive_runs: 50,
+            seed: 1,
+        }
+    }
+}

@@ -159,6 +159,7 @@ fn main() {
                 global_only,
                 deterministic: false,
                 resume: false,
+                posterior: false,
             })
             .expect("gtn calibration");
             let summary: serde_json::Value = serde_json::from_str(

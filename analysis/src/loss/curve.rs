@@ -197,6 +197,80 @@ pub fn curve_errors_by_part(
     Ok((mape, means))
 }
 
+/// How precisely the test curve itself gives the mean of each of the
+/// `parts` of [`curve_errors_by_part`] (same grid, same parts), %: the
+/// test's noise relative to the part's mean force, over the square root
+/// of its points there.
+///
+/// The noise is a force transducer's: the same in kN along the curve (so
+/// a part at a small force is less precise relative to it; each point
+/// counts by its own force, as in the part's mean error), estimated
+/// once from the second differences of the test's forces (a smooth
+/// curve's are nearly constant within a part, white noise's have a
+/// variance of 6 sd^2), pooled over the parts. A part's own few second
+/// differences would weigh it by chance. White noise gives the standard
+/// error of the part's mean; correlated noise and model error scale it by
+/// a factor of their own, which a posterior estimates.
+pub fn test_scatter_by_part(
+    test: &[(f64, f64)],
+    options: CurveMapeOptions,
+    parts: usize,
+) -> Result<Vec<f64>, CurveLossError> {
+    let mut grid = Vec::new();
+    compare_on_grid(test, test, options, |x, _| grid.push(x))?;
+    let measured = prepare(test, CurveName::Test)?;
+    let parts = parts.min(grid.len()).max(1);
+    let mut squares = 0.0;
+    let mut degrees = 0usize;
+    let per_part: Vec<(f64, usize)> = (0..parts)
+        .map(|part| {
+            let run = &grid[part * grid.len() / parts..(part + 1) * grid.len() / parts];
+            let (low, high) = (run[0], run[run.len() - 1]);
+            let inside: Vec<f64> = measured
+                .displacement
+                .iter()
+                .zip(&measured.force)
+                .filter(|(x, _)| (low..=high).contains(*x))
+                .map(|(_, f)| *f)
+                .collect();
+            // The part's mean relative error weighs each point by 1 / force:
+            // white noise of sd s gives it an sd of s sqrt(mean(1 / f^2)) /
+            // sqrt(n), which at the foot of a rising curve is far above
+            // s / mean(f) / sqrt(n).
+            let inverse_square = inside
+                .iter()
+                .filter(|f| f.abs() > 0.0)
+                .map(|f| f.powi(-2))
+                .sum::<f64>()
+                / inside.len().max(1) as f64;
+            let level = inverse_square.sqrt().recip();
+            let second: Vec<f64> = inside
+                .windows(3)
+                .map(|w| w[2] - 2.0 * w[1] + w[0])
+                .collect();
+            if second.len() >= 2 {
+                let mean = second.iter().sum::<f64>() / second.len() as f64;
+                squares += second.iter().map(|d| (d - mean).powi(2)).sum::<f64>();
+                degrees += second.len() - 1;
+            }
+            (level, inside.len().max(1))
+        })
+        .collect();
+    let noise = if degrees > 0 {
+        (squares / degrees as f64 / 6.0).sqrt()
+    } else {
+        0.0
+    };
+    // A noiseless test (a simulated one): a floor of 1e-9 of the force
+    // keeps the weights finite.
+    let largest = measured.force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+    let noise = noise.max(1e-9 * largest);
+    Ok(per_part
+        .into_iter()
+        .map(|(level, points)| 100.0 * noise / level.max(noise) / (points as f64).sqrt())
+        .collect())
+}
+
 /// The curve MAPE, and the signed error (%, simulation above the test
 /// positive) at each compared grid point, as `(x, error)`: where along
 /// the curve the simulation misses, for a plot.

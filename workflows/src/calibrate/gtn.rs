@@ -24,6 +24,7 @@ use super::builtin::{GtnModel, GTN_CURVE};
 use super::extras::{Extras, Section};
 use super::method::{start_design, BoMethod, Method, RunSettings};
 use super::outcome::{Found, StudyOutcome};
+use super::posterior::PosteriorSettings;
 use super::run_directory::{write_text, RunDirectory};
 use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
 use super::study_runner::run_study;
@@ -71,6 +72,14 @@ pub struct CalibrateGtnArgs {
     /// Continue the run in DIR: simulations already in its log are not repeated.
     #[arg(long)]
     pub resume: bool,
+    /// After the search, sample the posterior of the eight parameters on a
+    /// Gaussian-process emulator of the simulations (refined by at most 20
+    /// more where the posterior lies), the curve read as 20 parts with a
+    /// noise of its own, and run 10 simulations at posterior draws for the
+    /// predictive band. Writes posterior.csv and predictive.csv, and adds
+    /// `posterior` and `predictive` to summary.json.
+    #[arg(long)]
+    pub posterior: bool,
 }
 
 /// The published search box (reference table); m's upper bound comes from
@@ -191,7 +200,12 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         spec_directory: Path::new("."),
         parallel: args.batch as usize,
         resume: args.resume,
-        posterior: None,
+        posterior: args.posterior.then(|| PosteriorSettings {
+            // A simulation takes about a second: ten draws give the band.
+            predictive_runs: 10,
+            seed: args.seed,
+            ..PosteriorSettings::default()
+        }),
     };
     let start_design = start_design(&parameters, &method, settings.spec_directory)?;
     let extras = GtnExtras {

@@ -20,6 +20,11 @@ pub struct StudyOutcome {
     pub validation_errors: Vec<ObservationError>,
     /// Every fit evaluation, from the log or run now.
     pub evaluations: Vec<Evaluation>,
+    /// The same with each curve's signed errors in parts after the
+    /// observations, when the search logged them (Bayesian optimisation
+    /// with local steps); empty otherwise. The posterior's emulator of a
+    /// curve learns from them.
+    pub evaluations_with_curve_parts: Vec<Evaluation>,
     pub failed: usize,
     pub wall_s: f64,
     pub identifiability: Option<Identifiability>,

@@ -75,7 +75,11 @@ pub fn run_study(
     if let Some(posterior) = &settings.posterior {
         let search = SearchResult {
             calibrated: &outcome.calibrated,
-            evaluations: &outcome.evaluations,
+            evaluations: if outcome.evaluations_with_curve_parts.is_empty() {
+                &outcome.evaluations
+            } else {
+                &outcome.evaluations_with_curve_parts
+            },
         };
         outcome.posterior = Some(run_posterior(
             study,
@@ -190,6 +194,11 @@ pub fn calibrate_study(
     // The curve parts served the search only; what follows sees the
     // observations.
     let observations = study.observations(Role::Fit).len();
+    let evaluations_with_curve_parts = if curve_parts > 0 {
+        evaluator.evaluations().to_vec()
+    } else {
+        Vec::new()
+    };
     let mut evaluations = evaluator.evaluations().to_vec();
     for evaluation in &mut evaluations {
         if let Ok(outputs) = &mut evaluation.outcome {
@@ -235,6 +244,7 @@ pub fn calibrate_study(
         fit_errors,
         validation_errors,
         evaluations,
+        evaluations_with_curve_parts,
         failed,
         wall_s: start.elapsed().as_secs_f64(),
         identifiability,

@@ -17,7 +17,7 @@ use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_calib::mcmc::{quantile, Chains};
 
 use super::super::search::to_unit;
-use super::likelihood::StudyPosterior;
+use super::likelihood::{Scales, StudyPosterior};
 
 /// Refinement ends when the emulator's sd is below this share of the
 /// measurement's at 95 % of the posterior draws.
@@ -115,17 +115,14 @@ impl Emulator {
     }
 
     /// The largest ratio of the emulator's sd to the measurement's over
-    /// the observations, at `point`, with a noise of `noise_pct` where the
+    /// the observations, at `point`, with the noise `scales` where the
     /// study states none.
-    pub fn unsureness(&self, density: &StudyPosterior, point: &[f64], noise_pct: f64) -> f64 {
+    pub fn unsureness(&self, density: &StudyPosterior, point: &[f64], scales: &Scales) -> f64 {
         let (_, variances) = self.predict(point);
-        density
-            .observations
+        variances
             .iter()
-            .zip(variances)
-            .map(|(o, v)| {
-                v.sqrt() / density.measurement_sd(Some(noise_pct), o.measured, o.uncertainty)
-            })
+            .enumerate()
+            .map(|(i, v)| v.sqrt() / density.observation_sd(i, scales))
             .fold(0.0, f64::max)
     }
 }
@@ -138,7 +135,7 @@ pub fn refinement_points(
     emulator: &Emulator,
     density: &StudyPosterior,
     chains: &Chains,
-    noise_pct: f64,
+    scales: &Scales,
     count: usize,
 ) -> (Vec<Vec<f64>>, f64) {
     let draws: Vec<&Vec<f64>> = chains.pooled().collect();
@@ -146,7 +143,7 @@ pub fn refinement_points(
     let mut scored: Vec<(f64, &Vec<f64>)> = draws
         .iter()
         .step_by(step)
-        .map(|d| (emulator.unsureness(density, d, noise_pct), *d))
+        .map(|d| (emulator.unsureness(density, d, scales), *d))
         .collect();
     let mut ratios: Vec<f64> = scored.iter().map(|(r, _)| *r).collect();
     ratios.sort_by(f64::total_cmp);

@@ -38,6 +38,7 @@
 
 use std::f64::consts::PI;
 
+use acq_analysis::loss::curve::{test_scatter_by_part, CurveMapeOptions};
 use acq_calib::evaluation::Scale;
 use acq_calib::mcmc::Support;
 use rand::RngExt;
@@ -49,6 +50,9 @@ use super::settings::Discrepancy;
 /// The lower and upper relative size of the measurement noise when a study
 /// states no uncertainty, %.
 pub const NOISE_RANGE_PCT: [f64; 2] = [0.1, 100.0];
+/// The range of a curve's error factor: from a tenth of what white
+/// measurement noise explains to ten thousand times it.
+pub const CURVE_FACTOR_RANGE: [f64; 2] = [0.1, 1e4];
 /// The half-Cauchy scale of the discrepancy's standard deviation,
 /// relative to the output's size, and the range its integral covers (below
 /// it the prior is flat and the likelihood no larger than at its lower
@@ -70,6 +74,8 @@ pub struct StudyPosterior {
     pub noise: bool,
     /// The outputs with a discrepancy.
     pub outputs: Vec<OutputDiscrepancy>,
+    /// The measured curves, each read as its parts.
+    pub curves: Vec<CurveParts>,
     /// The midpoint rule of the noise's integral.
     noise_grid: ScaleGrid,
 }
@@ -156,8 +162,35 @@ pub struct FitObservation {
     /// The model output it is compared with.
     pub output: String,
     pub measured: f64,
-    /// Its standard uncertainty; `None`: the relative noise.
+    /// Its standard uncertainty; `None`: the relative noise, or its
+    /// curve's noise.
     pub uncertainty: Option<f64>,
+    /// The curve (index into [`StudyPosterior::curves`]) this is a part of.
+    pub curve: Option<usize>,
+}
+
+/// A measured curve as the likelihood reads it: the signed errors (%) of
+/// its parts, each the model's minus the measured averaged over a run of
+/// the curve's grid. Part `j` errs with a standard deviation of
+/// `factor * scatter[j]`: `scatter[j]` is how precisely the measured
+/// curve gives that part's mean if its noise were white
+/// ([`test_scatter_by_part`], so a part where the force is small and its
+/// relative noise large counts less), and `factor`, one per curve and
+/// log-uniform over [`CURVE_FACTOR_RANGE`], takes up what white noise
+/// does not explain: noise correlated along the curve, and the model's
+/// own error. Averaging a part's errors first removes the correlation
+/// within a part; parts are about 5 % of the curve, longer than the
+/// noise's correlation on a rig (checked by coverage in
+/// `tests/posterior.rs`).
+#[derive(Clone, Debug)]
+pub struct CurveParts {
+    /// `case/name` or `name`.
+    pub key: String,
+    /// Its parts (indices into [`StudyPosterior::observations`]).
+    pub parts: Vec<usize>,
+    /// Each part's white-noise standard error, %.
+    pub scatter_pct: Vec<f64>,
+    grid: ScaleGrid,
 }
 
 /// One model output's discrepancy: the observations of it (indices into
@@ -176,14 +209,26 @@ pub struct OutputDiscrepancy {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scales {
     pub noise_pct: Option<f64>,
+    /// Each curve's error factor, and the correlation of neighbouring
+    /// parts' errors.
+    pub curve_factor: Vec<f64>,
+    pub curve_correlation: Vec<f64>,
     pub tau: Vec<f64>,
     pub delta: Vec<(f64, f64)>,
 }
 
 impl StudyPosterior {
-    /// The posterior of `study`'s fit cases; refused when it has none of
-    /// the observations it can read (curves need their own treatment).
-    pub fn new(study: &Study, discrepancy: Discrepancy) -> Result<Self, String> {
+    /// The posterior of `study`'s fit cases, read from the outputs of a fit
+    /// simulator [`StudySimulator::with_curve_parts`]`(curve_parts)`: each
+    /// measured curve as its `curve_parts` signed errors (0 when the study
+    /// has no curve).
+    ///
+    /// [`StudySimulator::with_curve_parts`]: crate::calibrate::study::StudySimulator::with_curve_parts
+    pub fn new(
+        study: &Study,
+        discrepancy: Discrepancy,
+        curve_parts: usize,
+    ) -> Result<Self, String> {
         let coordinates: Vec<Coordinate> = study
             .parameters
             .iter()
@@ -201,9 +246,10 @@ impl StudyPosterior {
             })
             .collect();
         let mut observations = Vec::new();
-        for (output_index, (case, observation)) in
-            study.observations(Role::Fit).into_iter().enumerate()
-        {
+        let mut curves: Vec<CurveParts> = Vec::new();
+        let fit_observations = study.observations(Role::Fit);
+        let observed = fit_observations.len();
+        for (output_index, (case, observation)) in fit_observations.into_iter().enumerate() {
             if case.priors {
                 continue;
             }
@@ -221,13 +267,43 @@ impl StudyPosterior {
                         output: observation.output.clone(),
                         measured: *value,
                         uncertainty: *uncertainty,
+                        curve: None,
                     });
                 }
-                Measured::Curve { .. } => {
-                    return Err(format!(
-                        "{}: a posterior of a measured curve is not built yet (its errors are correlated along the curve); calibrate the curve without [posterior], or observe scalars of it",
-                        study.key(case, observation)
-                    ))
+                Measured::Curve { points, .. } => {
+                    let key = study.key(case, observation);
+                    if curve_parts == 0 {
+                        return Err(format!(
+                            "{key}: the posterior reads a curve by its parts; the fit outputs have none"
+                        ));
+                    }
+                    // The parts follow the observations, curve after curve.
+                    let first = observed + curves.len() * curve_parts;
+                    let mut parts = Vec::with_capacity(curve_parts);
+                    for part in 0..curve_parts {
+                        parts.push(observations.len());
+                        observations.push(FitObservation {
+                            output_index: first + part,
+                            key: format!("{key}.part{:02}", part + 1),
+                            output: format!("{}.part{:02}", observation.output, part + 1),
+                            measured: 0.0,
+                            uncertainty: None,
+                            curve: Some(curves.len()),
+                        });
+                    }
+                    let mut scatter_pct =
+                        test_scatter_by_part(points, CurveMapeOptions::default(), curve_parts)
+                            .map_err(|e| format!("{key}: {e}"))?;
+                    // A grid shorter than the parts: the last part repeats,
+                    // as in the simulator's outputs.
+                    let last = scatter_pct.last().copied().unwrap_or(1.0);
+                    scatter_pct.resize(curve_parts, last);
+                    curves.push(CurveParts {
+                        key,
+                        parts,
+                        scatter_pct,
+                        grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+                    });
                 }
             }
         }
@@ -241,9 +317,23 @@ impl StudyPosterior {
             let width = 1.0 / (2.0 * count.max(1) as f64).sqrt();
             (((range[1] / range[0]).ln() / width).ceil() as usize).max(32)
         };
+        for curve in &mut curves {
+            // Log-uniform: the density of the logarithm is flat.
+            curve.grid = ScaleGrid::new(
+                CURVE_FACTOR_RANGE,
+                nodes(CURVE_FACTOR_RANGE, curve.parts.len()),
+                |x| 1.0 / x,
+            );
+        }
         let mut outputs: Vec<OutputDiscrepancy> = Vec::new();
         if discrepancy == Discrepancy::Constant {
-            for (index, observation) in observations.iter().enumerate() {
+            // A curve's parts carry their own noise, which takes up the
+            // model's error along it too.
+            for (index, observation) in observations
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| o.curve.is_none())
+            {
                 match outputs.iter_mut().find(|o| o.output == observation.output) {
                     Some(output) => output.observations.push(index),
                     None => outputs.push(OutputDiscrepancy {
@@ -284,10 +374,11 @@ impl StudyPosterior {
         }
         let relative = observations
             .iter()
-            .filter(|o| o.uncertainty.is_none())
+            .filter(|o| o.uncertainty.is_none() && o.curve.is_none())
             .count();
         Ok(StudyPosterior {
             coordinates,
+            curves,
             noise: relative > 0,
             // Log-uniform: the density of the logarithm is flat.
             noise_grid: ScaleGrid::new(NOISE_RANGE_PCT, nodes(NOISE_RANGE_PCT, relative), |x| {
@@ -309,6 +400,12 @@ impl StudyPosterior {
         if self.noise {
             names.push("measurement_noise_pct".to_string());
         }
+        names.extend(self.curves.iter().flat_map(|c| {
+            [
+                format!("curve_error_factor.{}", c.key),
+                format!("curve_error_correlation.{}", c.key),
+            ]
+        }));
         names.extend(
             self.outputs
                 .iter()
@@ -324,6 +421,11 @@ impl StudyPosterior {
         if self.noise {
             supports.push(interval(NOISE_RANGE_PCT));
         }
+        supports.extend(
+            self.curves
+                .iter()
+                .flat_map(|_| [interval(CURVE_FACTOR_RANGE), interval([0.0, 0.98])]),
+        );
         supports.extend(self.outputs.iter().map(|o| interval(o.tau_range)));
         supports
     }
@@ -365,9 +467,11 @@ impl StudyPosterior {
             .iter()
             .enumerate()
             .map(|(i, o)| {
-                let measurement = match o.uncertainty {
-                    Some(u) => u * u,
-                    None => (noise_pct.unwrap_or(0.0) / 100.0 * o.measured).powi(2),
+                let measurement = match (o.uncertainty, o.curve) {
+                    (Some(u), _) => u * u,
+                    // A curve's part: its curve's noise, added by the caller.
+                    (None, Some(_)) => 0.0,
+                    (None, None) => (noise_pct.unwrap_or(0.0) / 100.0 * o.measured).powi(2),
                 };
                 measurement + emulator.get(i).copied().unwrap_or(0.0)
             })
@@ -383,13 +487,22 @@ impl StudyPosterior {
         if residuals.iter().any(|r| !r.is_finite()) {
             return f64::NEG_INFINITY;
         }
-        let value = if self.noise {
+        let scalars = if self.noise {
             self.noise_grid.log_integral(|noise| {
                 self.log_likelihood_at_noise(&residuals, Some(noise), emulator)
             })
         } else {
             self.log_likelihood_at_noise(&residuals, None, emulator)
         };
+        let value = scalars
+            + self
+                .curves
+                .iter()
+                .map(|curve| {
+                    let by_correlation = curve.by_correlation(&residuals, emulator);
+                    log_sum_exp(&by_correlation) - (CURVE_CORRELATIONS as f64).ln()
+                })
+                .sum::<f64>();
         if value.is_nan() {
             f64::NEG_INFINITY
         } else {
@@ -416,7 +529,7 @@ impl StudyPosterior {
                 .log_integral(|tau| group_log_density(output, residuals, &variances, tau));
         }
         for (i, (&r, &v)) in residuals.iter().zip(&variances).enumerate() {
-            if !in_group[i] {
+            if !in_group[i] && self.observations[i].curve.is_none() {
                 total -= 0.5 * (r * r / v + v.ln() + (2.0 * PI).ln());
             }
         }
@@ -439,6 +552,34 @@ impl StudyPosterior {
                 rng,
             )
         });
+        let (curve_factor, curve_correlation) = self
+            .curves
+            .iter()
+            .map(|curve| {
+                // The correlation from its marginal, then the factor given it.
+                let by_correlation = curve.by_correlation(&residuals, emulator);
+                let top = by_correlation
+                    .iter()
+                    .copied()
+                    .fold(f64::NEG_INFINITY, f64::max);
+                let weights: Vec<f64> = by_correlation.iter().map(|t| (t - top).exp()).collect();
+                let mut pick = rng.random::<f64>() * weights.iter().sum::<f64>();
+                let mut index = weights.len() - 1;
+                for (k, w) in weights.iter().enumerate() {
+                    if pick < *w {
+                        index = k;
+                        break;
+                    }
+                    pick -= w;
+                }
+                let correlation = correlation_node(index);
+                let factor = curve.grid.draw(
+                    |factor| curve_log_density(curve, &residuals, emulator, factor, correlation),
+                    rng,
+                );
+                (factor, correlation)
+            })
+            .unzip();
         let variances = self.variances(noise_pct, emulator);
         let mut tau = Vec::with_capacity(self.outputs.len());
         let mut delta = Vec::with_capacity(self.outputs.len());
@@ -457,8 +598,25 @@ impl StudyPosterior {
         }
         Scales {
             noise_pct,
+            curve_factor,
+            curve_correlation,
             tau,
             delta,
+        }
+    }
+
+    /// The standard deviation of observation `i`'s measurement error at
+    /// the scales `scales` (a curve part's: its curve's noise).
+    pub fn observation_sd(&self, i: usize, scales: &Scales) -> f64 {
+        let o = &self.observations[i];
+        match (o.uncertainty, o.curve) {
+            (Some(u), _) => u,
+            (None, Some(c)) => {
+                let curve = &self.curves[c];
+                let part = curve.parts.iter().position(|&p| p == i).unwrap_or(0);
+                scales.curve_factor.get(c).copied().unwrap_or(f64::NAN) * curve.scatter_pct[part]
+            }
+            (None, None) => scales.noise_pct.unwrap_or(0.0) / 100.0 * o.measured.abs(),
         }
     }
 
@@ -497,6 +655,93 @@ fn group_log_density(
     let shrink = 1.0 + tau2 * precision;
     let quadratic = r2 - tau2 * sum_r * sum_r / shrink;
     -0.5 * (quadratic + log_det + shrink.ln() + output.observations.len() as f64 * (2.0 * PI).ln())
+}
+
+/// The correlations of neighbouring parts' errors a curve's likelihood
+/// integrates over (uniform prior on 0 to 0.98, midpoint rule).
+const CURVE_CORRELATIONS: usize = 25;
+
+fn correlation_node(k: usize) -> f64 {
+    0.98 * (k as f64 + 0.5) / CURVE_CORRELATIONS as f64
+}
+
+impl CurveParts {
+    /// The log likelihood at each correlation node, the factor integrated out.
+    fn by_correlation(&self, residuals: &[f64], emulator: &[f64]) -> Vec<f64> {
+        let exact_model = self
+            .parts
+            .iter()
+            .all(|&i| emulator.get(i).is_none_or(|v| *v == 0.0));
+        (0..CURVE_CORRELATIONS)
+            .map(|k| {
+                let correlation = correlation_node(k);
+                if exact_model {
+                    // Without an emulator's variance the factor only scales
+                    // the quadratic form: one pass over the parts, then one
+                    // term per node.
+                    let (quadratic, log_scatter) = self.unit_factor_terms(residuals, correlation);
+                    let parts = self.parts.len() as f64;
+                    self.grid.log_integral(|factor| {
+                        -0.5 * quadratic / (factor * factor) - parts * factor.ln() - log_scatter
+                    })
+                } else {
+                    self.grid.log_integral(|factor| {
+                        curve_log_density(self, residuals, emulator, factor, correlation)
+                    })
+                }
+            })
+            .collect()
+    }
+
+    /// At a factor of 1: the AR(1) quadratic form of the standardised
+    /// residuals, and every other term of [`curve_log_density`] but the
+    /// factor's (the scatters' logs, the correlation's and 2 pi's).
+    fn unit_factor_terms(&self, residuals: &[f64], correlation: f64) -> (f64, f64) {
+        let innovation = 1.0 - correlation * correlation;
+        let (mut quadratic, mut constant) = (0.0, 0.0);
+        let mut previous: Option<f64> = None;
+        for (&i, scatter) in self.parts.iter().zip(&self.scatter_pct) {
+            let z = residuals[i] / scatter;
+            quadratic += match previous {
+                None => z * z,
+                Some(before) => (z - correlation * before).powi(2) / innovation,
+            };
+            if previous.is_some() {
+                constant += 0.5 * innovation.ln();
+            }
+            constant += 0.5 * (2.0 * PI).ln() + scatter.ln();
+            previous = Some(z);
+        }
+        (quadratic, constant)
+    }
+}
+
+/// The log density of a curve's parts' residuals (%) with error factor
+/// `factor` and neighbouring parts correlated by `correlation`: each
+/// part's residual over its standard deviation (`factor` times its scatter,
+/// the emulator's variance added) is a stationary AR(1) sequence along the
+/// curve, so a smooth miss over many parts counts as one miss, not many.
+fn curve_log_density(
+    curve: &CurveParts,
+    residuals: &[f64],
+    emulator: &[f64],
+    factor: f64,
+    correlation: f64,
+) -> f64 {
+    let innovation = 1.0 - correlation * correlation;
+    let mut total = 0.0;
+    let mut previous: Option<f64> = None;
+    for (&i, scatter) in curve.parts.iter().zip(&curve.scatter_pct) {
+        let sd = ((factor * scatter).powi(2) + emulator.get(i).copied().unwrap_or(0.0)).sqrt();
+        let z = residuals[i] / sd;
+        let term = match previous {
+            None => z * z,
+            Some(before) => (z - correlation * before).powi(2) / innovation + innovation.ln(),
+        };
+        total -= 0.5 * (term + (2.0 * PI).ln()) + sd.ln();
+        previous = Some(z);
+    }
+    total
 }
 
 /// `ln(sum(exp(terms)))`, without overflow.
@@ -554,6 +799,7 @@ mod tests {
         let posterior = StudyPosterior::new(
             &study(&[(1.0, Some(0.1)), (2.0, Some(0.2))]),
             Discrepancy::Constant,
+            0,
         )
         .unwrap();
         let tau: f64 = 0.3;
@@ -577,7 +823,7 @@ mod tests {
     #[test]
     fn the_noise_integral_equals_its_incomplete_gamma_closed_form() {
         let values = [(4.0, None), (5.0, None), (8.0, None)];
-        let posterior = StudyPosterior::new(&study(&values), Discrepancy::None).unwrap();
+        let posterior = StudyPosterior::new(&study(&values), Discrepancy::None, 0).unwrap();
         let outputs = [4.2, 4.9, 8.5];
         let got = posterior.log_likelihood(&outputs, &[]);
         // sum (r / y)^2 and the product of 1 / (sqrt(2 pi) |y|).
@@ -604,11 +850,32 @@ mod tests {
         assert!((got - expected).abs() < 1e-5, "{got} {expected}");
     }
 
+    /// The curve's fast path (no emulator variance) is the full density.
+    #[test]
+    fn a_curve_density_without_an_emulator_equals_its_fast_form() {
+        let curve = CurveParts {
+            key: "c".into(),
+            parts: vec![0, 1, 2, 3],
+            scatter_pct: vec![0.5, 0.2, 0.1, 0.1],
+            grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+        };
+        let residuals = [0.3, -0.1, 0.05, 0.2];
+        for (factor, correlation) in [(1.0, 0.0), (3.0, 0.5), (0.4, 0.9)] {
+            let full = curve_log_density(&curve, &residuals, &[], factor, correlation);
+            let (quadratic, constant) = curve.unit_factor_terms(&residuals, correlation);
+            let fast = -0.5 * quadratic / (factor * factor) - 4.0 * f64::ln(factor) - constant;
+            assert!((full - fast).abs() < 1e-12, "{full} {fast}");
+        }
+    }
+
     #[test]
     fn scales_are_drawn_inside_their_ranges_and_named() {
-        let posterior =
-            StudyPosterior::new(&study(&[(4.0, None), (6.0, None)]), Discrepancy::Constant)
-                .unwrap();
+        let posterior = StudyPosterior::new(
+            &study(&[(4.0, None), (6.0, None)]),
+            Discrepancy::Constant,
+            0,
+        )
+        .unwrap();
         assert_eq!(
             posterior.scale_names(),
             ["measurement_noise_pct", "discrepancy_sd.y"]

@@ -24,8 +24,9 @@ use acq_calib::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings
 use acq_io::error::{AcqError, Result};
 use rand::SeedableRng;
 
+use super::method::CURVE_PARTS;
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
-use super::study::{Model, Role, Study, StudySimulator};
+use super::study::{Measured, Model, Role, Study, StudySimulator};
 
 pub mod emulator;
 pub mod likelihood;
@@ -37,7 +38,7 @@ pub use settings::{Discrepancy, PosteriorSettings};
 
 use emulator::{refinement_points, Emulator, MAX_REFINEMENT_RUNS, REFINE_RATIO, RUNS_PER_ROUND};
 use likelihood::{standard_normal, Scales, StudyPosterior};
-use predictive::Predicted;
+use predictive::Predictions;
 
 /// The convergence a posterior's numbers need (Vehtari et al. 2021):
 /// every R-hat below 1.01 and a bulk ESS of at least 100 per chain.
@@ -62,7 +63,7 @@ pub struct PosteriorOutcome {
     /// Each output's discrepancy `(mean, sd)`, in the order of
     /// [`StudyPosterior::outputs`].
     pub discrepancy: Vec<(f64, f64)>,
-    pub predicted: Vec<Predicted>,
+    pub predicted: Predictions,
     /// How it was sampled, in words.
     pub path: String,
     pub wall_s: f64,
@@ -115,14 +116,24 @@ pub fn run_posterior(
     resume: bool,
 ) -> Result<PosteriorOutcome> {
     let start = Instant::now();
-    let density = StudyPosterior::new(study, settings.discrepancy).map_err(AcqError::Config)?;
+    let curve_parts = if study
+        .observations(Role::Fit)
+        .iter()
+        .any(|(case, o)| !case.priors && matches!(o.measured, Measured::Curve { .. }))
+    {
+        CURVE_PARTS
+    } else {
+        0
+    };
+    let density =
+        StudyPosterior::new(study, settings.discrepancy, curve_parts).map_err(AcqError::Config)?;
     if settings.discrepancy == Discrepancy::Gp {
         return Err(AcqError::Config(
             "[posterior] discrepancy = \"gp\" is not built yet; use \"constant\" or \"none\""
                 .into(),
         ));
     }
-    let simulator = StudySimulator::new(study, model, Role::Fit);
+    let simulator = StudySimulator::new(study, model, Role::Fit).with_curve_parts(curve_parts);
     let centre: Vec<f64> = search
         .calibrated
         .iter()
@@ -166,6 +177,8 @@ pub fn run_posterior(
             Some((outputs, emulator)) => density.draw_scales(outputs, emulator, &mut rng),
             None => Scales {
                 noise_pct: None,
+                curve_factor: Vec::new(),
+                curve_correlation: Vec::new(),
                 tau: Vec::new(),
                 delta: Vec::new(),
             },
@@ -186,7 +199,14 @@ pub fn run_posterior(
                     let scale = pooled_scales.next();
                     let mut row = draw.clone();
                     row.extend(scale.and_then(|s| s.noise_pct));
-                    row.extend(scale.map_or(&[][..], |s| &s.tau[..]).iter().copied());
+                    if let Some(scale) = scale {
+                        for (factor, correlation) in
+                            scale.curve_factor.iter().zip(&scale.curve_correlation)
+                        {
+                            row.extend([*factor, *correlation]);
+                        }
+                        row.extend(scale.tau.iter().copied());
+                    }
                     row.resize(names.len(), f64::NAN);
                     row
                 })
@@ -299,7 +319,18 @@ fn refined_emulator(
         Evaluator::create(simulator, &log, parallel)
     }
     .map_err(evaluation_error)?;
-    let mut runs = evaluations.to_vec();
+    let outputs = simulator.outputs().len();
+    let mut runs: Vec<Evaluation> = evaluations
+        .iter()
+        .filter(|e| e.outcome.as_ref().is_ok_and(|y| y.len() == outputs))
+        .cloned()
+        .collect();
+    if !density.curves.is_empty() && runs.len() < parameters.len() + 2 {
+        return Err(AcqError::Config(format!(
+            "posterior: the emulator of a curve learns from the search's runs with the curve's errors in parts, and the search logged {} of them; use method = \"bo\" with local_steps (the default), whose runs log them",
+            runs.len()
+        )));
+    }
     let mut spent = 0;
     let mut round = 0u64;
     loop {
@@ -319,13 +350,13 @@ fn refined_emulator(
             &pilot,
             "posterior (emulator check)",
         )?;
-        let noise_pct = typical_noise(density, &emulator, &chains, settings.seed);
+        let scales = typical_scales(density, &emulator, &chains, settings.seed);
         let budget = MAX_REFINEMENT_RUNS - spent;
         let (points, at_95) = refinement_points(
             &emulator,
             density,
             &chains,
-            noise_pct,
+            &scales,
             RUNS_PER_ROUND.max(parallel).min(budget),
         );
         eprintln!(
@@ -351,27 +382,41 @@ fn refined_emulator(
     }
 }
 
-/// The noise a study that states none has at the pilot's draws (their
-/// median), for weighing the emulator's doubt; 1 % when it states all.
-fn typical_noise(density: &StudyPosterior, emulator: &Emulator, chains: &Chains, seed: u64) -> f64 {
-    if !density.noise {
-        return 1.0;
-    }
+/// The scales at the pilot's draws (each its median over about 100
+/// draws), for weighing the emulator's doubt against the measurement's.
+fn typical_scales(
+    density: &StudyPosterior,
+    emulator: &Emulator,
+    chains: &Chains,
+    seed: u64,
+) -> Scales {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let draws: Vec<&Vec<f64>> = chains.pooled().collect();
     let step = (draws.len() / 100).max(1);
-    let mut noise: Vec<f64> = draws
+    let drawn: Vec<Scales> = draws
         .iter()
         .step_by(step)
-        .filter_map(|d| {
+        .map(|d| {
             let (outputs, variances) = emulator.predict(d);
-            density
-                .draw_scales(&outputs, &variances, &mut rng)
-                .noise_pct
+            density.draw_scales(&outputs, &variances, &mut rng)
         })
         .collect();
-    noise.sort_by(f64::total_cmp);
-    acq_calib::mcmc::quantile(&noise, 0.5)
+    let median = |values: Vec<f64>| {
+        let mut values = values;
+        values.sort_by(f64::total_cmp);
+        acq_calib::mcmc::quantile(&values, 0.5)
+    };
+    Scales {
+        noise_pct: density
+            .noise
+            .then(|| median(drawn.iter().filter_map(|s| s.noise_pct).collect())),
+        curve_factor: (0..density.curves.len())
+            .map(|c| median(drawn.iter().map(|s| s.curve_factor[c]).collect()))
+            .collect(),
+        curve_correlation: Vec::new(),
+        tau: Vec::new(),
+        delta: Vec::new(),
+    }
 }
 
 /// `value` moved at least 1 % of the interval inside it (its middle when

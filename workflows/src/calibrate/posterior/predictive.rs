@@ -56,8 +56,30 @@ impl Predicted {
     }
 }
 
+/// A measured curve and the model's curves at the predictive runs.
+#[derive(Clone, Debug)]
+pub struct PredictedCurve {
+    pub case: String,
+    pub role: Role,
+    pub name: String,
+    pub axes: [String; 2],
+    pub measured: Vec<(f64, f64)>,
+    /// Its MAPE (%) at each run that succeeded.
+    pub mape_pct: Vec<f64>,
+    /// The model's curve at each run it could give again.
+    pub runs: Vec<Vec<(f64, f64)>>,
+}
+
+/// What the predictive runs gave: each scalar observation's predictions
+/// and each curve's runs.
+#[derive(Clone, Debug, Default)]
+pub struct Predictions {
+    pub scalars: Vec<Predicted>,
+    pub curves: Vec<PredictedCurve>,
+}
+
 /// Runs the model at evenly spread draws for every case and returns each
-/// scalar observation's predictions; writes `predictive.csv`.
+/// observation's predictions; writes `predictive.csv`.
 #[allow(clippy::too_many_arguments)]
 pub fn predictive_runs(
     study: &Study,
@@ -69,7 +91,7 @@ pub fn predictive_runs(
     directory: &RunDirectory,
     parallel: usize,
     resume: bool,
-) -> Result<Vec<Predicted>> {
+) -> Result<Predictions> {
     let draws: Vec<&Vec<f64>> = chains.pooled().collect();
     let runs = settings.predictive_runs.min(draws.len());
     let picked: Vec<usize> = (0..runs).map(|i| i * draws.len() / runs).collect();
@@ -109,27 +131,59 @@ pub fn predictive_runs(
         })
         .collect();
     let mut predicted = Vec::new();
+    let mut curves = Vec::new();
     for (role, outputs) in [Role::Fit, Role::Validate]
         .into_iter()
         .zip(&outputs_by_role)
     {
         for (index, (case, observation)) in study.observations(role).into_iter().enumerate() {
-            let Measured::Scalar { value, uncertainty } = observation.measured else {
-                continue;
-            };
             if case.priors {
                 continue;
             }
+            let case_name = if study.named_cases {
+                case.name.clone()
+            } else {
+                MAIN_CASE.into()
+            };
+            let (value, uncertainty) = match &observation.measured {
+                Measured::Scalar { value, uncertainty } => (*value, *uncertainty),
+                Measured::Curve { points, axes } => {
+                    let case_index = study
+                        .cases
+                        .iter()
+                        .position(|c| std::ptr::eq(c, case))
+                        .unwrap_or(0);
+                    // The runs that succeeded, given again by the model (a
+                    // solver's from the run directory the run left).
+                    let curve_runs = picked
+                        .iter()
+                        .zip(outputs)
+                        .filter(|(_, run)| run.is_some())
+                        .filter_map(|(&draw, _)| {
+                            let inputs = study.inputs_of(case_index, draws[draw]);
+                            let run =
+                                model.run_again(&inputs, &[], &[observation.output.as_str()])?;
+                            run.curves.into_iter().next()
+                        })
+                        .collect();
+                    curves.push(PredictedCurve {
+                        case: case_name,
+                        role,
+                        name: observation.name.clone(),
+                        axes: axes.clone(),
+                        measured: points.clone(),
+                        mape_pct: outputs.iter().flatten().map(|o| o[index]).collect(),
+                        runs: curve_runs,
+                    });
+                    continue;
+                }
+            };
             let group = density
                 .outputs
                 .iter()
                 .position(|o| o.output == observation.output);
             let mut entry = Predicted {
-                case: if study.named_cases {
-                    case.name.clone()
-                } else {
-                    MAIN_CASE.into()
-                },
+                case: case_name,
                 role,
                 name: observation.name.clone(),
                 measured: value,
@@ -153,15 +207,30 @@ pub fn predictive_runs(
             predicted.push(entry);
         }
     }
-    write_predictive_csv(directory, &predicted)?;
-    Ok(predicted)
+    let predictions = Predictions {
+        scalars: predicted,
+        curves,
+    };
+    write_predictive_csv(directory, &predictions)?;
+    Ok(predictions)
 }
 
-/// `predictive.csv`: `run`, `case`, `output`, `value` (the model's),
-/// `with_error` (plus discrepancy and measurement error draws).
-fn write_predictive_csv(directory: &RunDirectory, predicted: &[Predicted]) -> Result<()> {
+/// `predictive.csv`: `run`, `case`, `output`, `value` (the model's; a
+/// curve's MAPE, %), `with_error` (plus discrepancy and measurement error
+/// draws; empty for a curve).
+fn write_predictive_csv(directory: &RunDirectory, predictions: &Predictions) -> Result<()> {
     let mut text = String::from("run,case,output,value,with_error\n");
-    for entry in predicted {
+    for curve in &predictions.curves {
+        for (run, value) in curve.mape_pct.iter().enumerate() {
+            text.push_str(&format!(
+                "{},{},{},{value},\n",
+                run + 1,
+                csv_field(&curve.case),
+                csv_field(&curve.name)
+            ));
+        }
+    }
+    for entry in &predictions.scalars {
         for (run, (value, with_error)) in entry.model.iter().zip(&entry.with_error).enumerate() {
             text.push_str(&format!(
                 "{},{},{},{value},{with_error}\n",

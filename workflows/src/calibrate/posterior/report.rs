@@ -4,12 +4,12 @@
 //! measured values the predictions hold; and a corner plot.
 
 use acq_report::document::{Document, Figure, Table};
-use acq_report::plot::{sparse_grid_svg, Chart, Series, SeriesStyle};
+use acq_report::plot::{grid_svg, sparse_grid_svg, Chart, Series, SeriesStyle};
 use serde_json::{json, Map, Value};
 
-use acq_calib::mcmc::Support;
+use acq_calib::mcmc::{quantile, Support};
 
-use super::predictive::Predicted;
+use super::predictive::{Predicted, PredictedCurve};
 use super::{PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
 use crate::calibrate::study::Role;
 
@@ -39,7 +39,7 @@ pub fn summary_keys(posterior: &PosteriorOutcome) -> Vec<(String, Value)> {
         parameters.insert(posterior.names[index].clone(), marginal_json(index));
     }
     let mut predictive = Map::new();
-    for entry in &posterior.predicted {
+    for entry in &posterior.predicted.scalars {
         let (mean, q05, q95) = entry.interval();
         let case = predictive
             .entry(entry.case.clone())
@@ -120,11 +120,11 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
         .zip(&posterior.supports)
         .zip(&posterior.marginals)
     {
-        let log_uniform = density
-            .coordinates
-            .iter()
-            .find(|c| &c.name == name)
-            .is_none_or(|c| c.log_uniform);
+        let log_uniform = match density.coordinates.iter().find(|c| &c.name == name) {
+            Some(coordinate) => coordinate.log_uniform,
+            // The scales are log-uniform, the correlations uniform.
+            None => !name.starts_with("curve_error_correlation."),
+        };
         let (range, share) = match *support {
             Support::Interval { lower, upper } if log_uniform => (
                 format!("{} .. {} (log)", short(lower), short(upper)),
@@ -183,7 +183,8 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
         100.0 * UNIDENTIFIED_SHARE
     ));
     write_discrepancy(report, posterior);
-    write_predictive(report, &posterior.predicted);
+    write_predictive(report, &posterior.predicted.scalars);
+    write_curve_bands(report, &posterior.predicted.curves);
     report.figure(Figure {
         file: "posterior_corner.svg".into(),
         caption: "posterior draws: each parameter's histogram over its prior range (diagonal) and each pair's draws (below it)".into(),
@@ -315,6 +316,113 @@ fn write_predictive(report: &mut Document, predicted: &[Predicted]) {
     report.paragraph(words);
 }
 
+/// Each measured curve with the band the model's curves at the predictive
+/// runs span (5 % to 95 % at each x of the measured curve, a simulated
+/// curve counting as 0 past its end, as the MAPE does).
+fn write_curve_bands(report: &mut Document, curves: &[PredictedCurve]) {
+    for (index, curve) in curves.iter().enumerate() {
+        if curve.runs.is_empty() {
+            report.paragraph(format!(
+                "{}/{}: the model's curves at the predictive runs could not be read back, so no band is drawn.",
+                curve.case, curve.name
+            ));
+            continue;
+        }
+        let step = (curve.measured.len() / 200).max(1);
+        let xs: Vec<f64> = curve.measured.iter().step_by(step).map(|p| p.0).collect();
+        let mut bands = [Vec::new(), Vec::new(), Vec::new()];
+        for &x in &xs {
+            let mut values: Vec<f64> = curve.runs.iter().map(|run| value_at(run, x)).collect();
+            values.sort_by(f64::total_cmp);
+            for (band, p) in bands.iter_mut().zip([0.05, 0.5, 0.95]) {
+                band.push((x, quantile(&values, p)));
+            }
+        }
+        // The band as the error against the measured curve, %, where the
+        // band is too narrow to see on the curve itself.
+        let measured_at: Vec<f64> = xs.iter().map(|&x| value_at(&curve.measured, x)).collect();
+        let relative = |band: &[(f64, f64)]| -> Vec<(f64, f64)> {
+            band.iter()
+                .zip(&measured_at)
+                .map(|(&(x, y), &m)| {
+                    (
+                        x,
+                        if m.abs() > 0.0 {
+                            100.0 * (y - m) / m
+                        } else {
+                            f64::NAN
+                        },
+                    )
+                })
+                .collect()
+        };
+        let errors = Chart::new(
+            "model against measured",
+            curve.axes[0].clone(),
+            "model - measured [% of measured]",
+        )
+        .with_series(Series::new("model, median", relative(&bands[1])))
+        .with_series(Series::new("model, 5 %", relative(&bands[0])).with_style(SeriesStyle::Dashed))
+        .with_series(
+            Series::new("model, 95 %", relative(&bands[2])).with_style(SeriesStyle::Dashed),
+        )
+        .with_reference_line(0.0, "measured");
+        let [low, middle, high] = bands;
+        let mut mape = curve.mape_pct.clone();
+        mape.sort_by(f64::total_cmp);
+        let chart = Chart::new(
+            "measured and predicted",
+            curve.axes[0].clone(),
+            curve.axes[1].clone(),
+        )
+        .with_series(Series::new("measured", curve.measured.clone()))
+        .with_series(Series::new("model, median", middle))
+        .with_series(Series::new("model, 5 %", low).with_style(SeriesStyle::Dashed))
+        .with_series(Series::new("model, 95 %", high).with_style(SeriesStyle::Dashed));
+        report.figure(Figure {
+            file: format!("posterior_band_{}.svg", index + 1),
+            caption: format!(
+                "{}/{} ({}): the model's curves at {} posterior draws, 5 % to 95 % at each x; their MAPE {:.2} % to {:.2} % (5 % to 95 %)",
+                curve.case,
+                curve.name,
+                curve.role.name(),
+                curve.runs.len(),
+                quantile(&mape, 0.05),
+                quantile(&mape, 0.95)
+            ),
+            svg: grid_svg(
+                &format!("{}/{}", curve.case, curve.name),
+                &[chart, errors],
+                2,
+                520.0,
+                380.0,
+            ),
+        });
+    }
+}
+
+/// A curve's y at `x` by linear interpolation; 0 past its end (as the
+/// MAPE counts a simulation that stopped), its first y before its start.
+fn value_at(curve: &[(f64, f64)], x: f64) -> f64 {
+    let Some(last) = curve.last() else {
+        return f64::NAN;
+    };
+    if x > last.0 {
+        return 0.0;
+    }
+    match curve.iter().position(|p| p.0 >= x) {
+        Some(0) | None => curve[0].1,
+        Some(k) => {
+            let (a, b) = (curve[k - 1], curve[k]);
+            if b.0 == a.0 {
+                b.1
+            } else {
+                a.1 + (b.1 - a.1) * (x - a.0) / (b.0 - a.0)
+            }
+        }
+    }
+}
+
 /// Pairwise draws and marginal histograms over each coordinate's prior
 /// range (the discrepancy scales left out: they are stated above).
 fn corner_svg(posterior: &PosteriorOutcome) -> String {
@@ -323,14 +431,31 @@ fn corner_svg(posterior: &PosteriorOutcome) -> String {
         .collect();
     let draws: Vec<&Vec<f64>> = posterior.draws.iter().flatten().collect();
     let step = (draws.len() / CORNER_POINTS).max(1);
-    let range = |i: usize| match posterior.supports[i] {
-        Support::Interval { lower, upper } => (lower, upper),
-        _ => {
-            let m = &posterior.marginals[i];
-            (m.mean - 4.0 * m.sd, m.mean + 4.0 * m.sd)
+    // Each axis spans the draws (0.5 % to 99.5 %, widened by a tenth),
+    // or the prior range where they fill half of it; the title says
+    // which.
+    let prior = |i: usize| match posterior.supports[i] {
+        Support::Interval { lower, upper } => Some((lower, upper)),
+        _ => None,
+    };
+    let range = |i: usize| {
+        let mut values: Vec<f64> = draws.iter().map(|d| d[i]).collect();
+        values.sort_by(f64::total_cmp);
+        let (low, high) = (quantile(&values, 0.005), quantile(&values, 0.995));
+        let pad = 0.1 * (high - low).max(1e-12 * low.abs().max(1.0));
+        match prior(i) {
+            Some((lower, upper)) if high - low >= 0.5 * (upper - lower) => (lower, upper),
+            Some((lower, upper)) => ((low - pad).max(lower), (high + pad).min(upper)),
+            None => (low - pad, high + pad),
         }
     };
     let name = |i: usize| posterior.names[i].clone();
+    let title = |i: usize| match prior(i) {
+        Some((lower, upper)) if range(i) != (lower, upper) => {
+            format!("{} (prior {} .. {})", name(i), short(lower), short(upper))
+        }
+        _ => name(i),
+    };
     let mut panels = Vec::new();
     for &row in &shown {
         for &column in &shown {
@@ -339,7 +464,7 @@ fn corner_svg(posterior: &PosteriorOutcome) -> String {
             } else if column == row {
                 let (low, high) = range(row);
                 Some(
-                    Chart::new(name(row), name(row), "density")
+                    Chart::new(title(row), name(row), "density")
                         .with_series(Series::new(
                             "",
                             histogram(draws.iter().map(|d| d[row]), low, high, 30),

@@ -550,3 +550,99 @@ fn a_curve_with_correlated_noise_gets_honest_intervals() {
     assert!((0.86..=0.94).contains(&a), "coverage of a {a}");
     assert!((0.86..=0.94).contains(&b), "coverage of b {b}");
 }
+
+// ---- resume ------------------------------------------------------------------------------------
+
+/// A posterior stopped in the middle of its predictive runs (the solver
+/// sends acq SIGTERM on its second) resumes with `--resume` without
+/// repeating a finished run (search, refinement or predictive), and ends
+/// with the posterior of a run never stopped, number for number.
+#[test]
+fn an_interrupted_posterior_resumes_without_repeating_a_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let posterior = "\n[posterior]\ndraws = 500\nchains = 2\npredictive_runs = 3\nseed = 2\n";
+    let spec = line_spec(dir.path(), posterior);
+    // One run at a time, each counted in runs.log.
+    let text = std::fs::read_to_string(&spec)
+        .unwrap()
+        .replace("parallel = 2", "parallel = 1");
+    std::fs::write(&spec, text).unwrap();
+    let solver = std::fs::read_to_string(dir.path().join("line.sh")).unwrap();
+    std::fs::write(
+        dir.path().join("line.sh"),
+        format!(
+            "echo run >> \"$3\"\nif [ -n \"$4\" ] && [ \"$(wc -l < \"$3\")\" -eq \"$4\" ]; then kill -TERM $PPID; sleep 5; fi\n{solver}"
+        ),
+    )
+    .unwrap();
+    let counted = |stop_at: &str| {
+        let log = dir.path().join(format!("runs{stop_at}.log"));
+        let text = std::fs::read_to_string(&spec).unwrap().replace(
+            "\"{a}\", \"{b}\"]",
+            &format!(
+                "\"{{a}}\", \"{{b}}\", \"{}\", \"{stop_at}\"]",
+                log.display()
+            ),
+        );
+        let path = dir.path().join(format!("counted{stop_at}.toml"));
+        std::fs::write(&path, text).unwrap();
+        (path, log)
+    };
+    let runs = |log: &Path| {
+        std::fs::read_to_string(log)
+            .map(|t| t.lines().count())
+            .unwrap_or(0)
+    };
+    // A run never stopped.
+    let (whole_spec, whole_log) = counted("");
+    let whole = external_summary(&whole_spec, &dir.path().join("whole"), &[]);
+    let search_runs = std::fs::read_to_string(dir.path().join("whole/evaluations.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    let refinement_runs =
+        std::fs::read_to_string(dir.path().join("whole/posterior_refinement.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            - 1;
+    // Stopped at the second predictive run, after every search and
+    // refinement run, then resumed.
+    let stop_at = (search_runs + refinement_runs + 2).to_string();
+    let (stopped_spec, stopped_log) = counted(&stop_at);
+    let out = dir.path().join("stopped");
+    let first = with_default_sigterm(&stopped_spec, &out);
+    assert_eq!(first.status.code(), Some(130), "{}", common::stderr(&first));
+    let resumed = external_summary(&stopped_spec, &out, &["--resume"]);
+    // The run in flight when acq stopped is the only one run twice.
+    assert_eq!(runs(&stopped_log), runs(&whole_log) + 1);
+    assert_eq!(resumed["posterior"], whole["posterior"]);
+    assert_eq!(resumed["predictive"], whole["predictive"]);
+}
+
+/// `acq calibrate external` with SIGTERM's default action: a test started
+/// from a shell's background job may inherit it ignored, and exec keeps
+/// it so.
+fn with_default_sigterm(spec: &Path, out: &Path) -> std::process::Output {
+    use nix::sys::signal::{signal, SigHandler, Signal};
+    use std::os::unix::process::CommandExt;
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_acq"));
+    command.args([
+        "calibrate",
+        "external",
+        "--spec",
+        common::path_arg(spec),
+        "--out",
+        common::path_arg(out),
+    ]);
+    // SAFETY: only sigaction (async-signal-safe) runs between fork and exec.
+    unsafe {
+        command.pre_exec(|| {
+            signal(Signal::SIGTERM, SigHandler::SigDfl)
+                .map(drop)
+                .map_err(std::io::Error::from)
+        });
+    }
+    command.output().unwrap()
+}

@@ -11,7 +11,7 @@ use acq_calib::doe::{
 use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 
-use super::posterior::PosteriorSettings;
+use super::posterior::settings::PosteriorSettings;
 use super::search::to_unit;
 use super::surrogate_moo::SurrogateMooSettings;
 
@@ -37,9 +37,7 @@ pub struct BoMethod {
     pub deterministic: bool,
 }
 
-/// How many parts of a curve the local steps of a search see: enough to
-/// tell the elastic rise, the hardening, the necking and the drop apart.
-pub const CURVE_PARTS: usize = 20;
+pub use super::study::CURVE_PARTS;
 
 /// Least squares' settings in a study.
 #[derive(Clone, Debug)]

@@ -85,6 +85,11 @@ pub trait Model: Sync {
     }
 }
 
+/// How many parts of a curve the local steps of a search and the
+/// posterior see: enough to tell the elastic rise, the hardening, the
+/// necking and the drop apart.
+pub const CURVE_PARTS: usize = 20;
+
 /// What one model run gave.
 #[derive(Clone, Debug, Default)]
 pub struct ModelRun {

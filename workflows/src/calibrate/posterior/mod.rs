@@ -24,9 +24,8 @@ use acq_calib::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings
 use acq_io::error::{AcqError, Result};
 use rand::SeedableRng;
 
-use super::method::CURVE_PARTS;
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
-use super::study::{Measured, Model, Role, Study, StudySimulator};
+use super::study::{Measured, Model, Role, Study, StudySimulator, CURVE_PARTS};
 
 pub mod emulator;
 pub mod likelihood;
@@ -62,7 +61,7 @@ pub struct PosteriorOutcome {
     pub marginals: Vec<Marginal>,
     /// Each output's discrepancy `(mean, sd)`, in the order of
     /// [`StudyPosterior::outputs`].
-    pub discrepancy: Vec<(f64, f64)>,
+    pub discrepancy: Vec<DiscrepancySummary>,
     pub predicted: Predictions,
     /// How it was sampled, in words.
     pub path: String,
@@ -223,7 +222,7 @@ pub fn run_posterior(
         })
         .collect();
     write_posterior_csv(&directory.file("posterior.csv"), &names, &draws, &chains)?;
-    let discrepancy = discrepancy_moments(&density, &scales);
+    let discrepancy = discrepancy_moments(&density, &scales, settings.seed.wrapping_add(5));
     let predicted = predictive::predictive_runs(
         study, model, &density, &chains, &scales, settings, directory, parallel, resume,
     )?;
@@ -492,12 +491,28 @@ fn outputs_at_draws(chains: &Chains, at: &ModelAt<'_>) -> Vec<Option<(Vec<f64>, 
     })
 }
 
-/// Each output's discrepancy over the draws: the mean of its conditional
-/// means and, by the law of total variance, the mean conditional variance
-/// plus the variance of the means.
-fn discrepancy_moments(density: &StudyPosterior, scales: &[Scales]) -> Vec<(f64, f64)> {
+/// One output's discrepancy over the draws.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiscrepancySummary {
+    /// The mean of its conditional means, and by the law of total
+    /// variance the sd (mean conditional variance plus the variance of
+    /// the means).
+    pub mean: f64,
+    pub sd: f64,
+    /// Its 90 % interval, from one draw of it per posterior draw.
+    pub q05: f64,
+    pub q95: f64,
+}
+
+/// Each output's discrepancy over the draws.
+fn discrepancy_moments(
+    density: &StudyPosterior,
+    scales: &[Scales],
+    seed: u64,
+) -> Vec<DiscrepancySummary> {
     let drawn: Vec<&Scales> = scales.iter().filter(|s| !s.delta.is_empty()).collect();
     let n = drawn.len().max(1) as f64;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     (0..density.outputs.len())
         .map(|k| {
             let mean = drawn.iter().map(|s| s.delta[k].0).sum::<f64>() / n;
@@ -507,7 +522,17 @@ fn discrepancy_moments(density: &StudyPosterior, scales: &[Scales]) -> Vec<(f64,
                 .sum::<f64>()
                 / n;
             let within = drawn.iter().map(|s| s.delta[k].1).sum::<f64>() / n;
-            (mean, (within + spread).sqrt())
+            let mut samples: Vec<f64> = drawn
+                .iter()
+                .map(|s| s.delta[k].0 + s.delta[k].1.sqrt() * standard_normal(&mut rng))
+                .collect();
+            samples.sort_by(f64::total_cmp);
+            DiscrepancySummary {
+                mean,
+                sd: (within + spread).sqrt(),
+                q05: acq_calib::mcmc::quantile(&samples, 0.05),
+                q95: acq_calib::mcmc::quantile(&samples, 0.95),
+            }
         })
         .collect()
 }

@@ -58,7 +58,7 @@ pub fn summary_keys(posterior: &PosteriorOutcome) -> Vec<(String, Value)> {
             .outputs
             .iter()
             .zip(&posterior.discrepancy)
-            .map(|(o, (mean, sd))| (o.output.clone(), json!({"mean": mean, "sd": sd})))
+            .map(|(o, d)| (o.output.clone(), json!({"mean": d.mean, "sd": d.sd})))
             .collect();
         keys.push(("discrepancy".to_string(), Value::Object(discrepancy)));
     }
@@ -136,8 +136,18 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
             ),
             _ => ("-".into(), f64::NAN),
         };
+        let against_bound = match *support {
+            Support::Interval { lower, upper } if !name.starts_with("discrepancy_sd.") => {
+                let near = 0.01 * (upper - lower);
+                m.q05 - lower < near && m.q95 - lower < 2.0 * near
+                    || upper - m.q95 < near && upper - m.q05 < 2.0 * near
+            }
+            _ => false,
+        };
         let verdict = if name.starts_with("discrepancy_sd.") {
             "see the discrepancy below"
+        } else if against_bound {
+            "against a bound: the data push it out of its range (a model error?)"
         } else if share <= PINNED_SHARE {
             "pinned down"
         } else if share >= UNIDENTIFIED_SHARE {
@@ -203,16 +213,18 @@ fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
     let mut table = Table::new(&[
         "output",
         "discrepancy mean",
-        "discrepancy sd",
+        "sd",
+        "5 %",
+        "95 %",
         "its scale tau (median)",
         "measurement uncertainty",
         "verdict",
     ]);
-    let mut model_errors = Vec::new();
+    let (mut model_errors, mut confounded) = (Vec::new(), Vec::new());
     let noise_pct = posterior
         .column("measurement_noise_pct")
         .map(|i| posterior.marginals[i].q50);
-    for (output, (mean, sd)) in density.outputs.iter().zip(&posterior.discrepancy) {
+    for (output, d) in density.outputs.iter().zip(&posterior.discrepancy) {
         let measurement = output
             .observations
             .iter()
@@ -224,33 +236,55 @@ fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
         let tau = posterior
             .column(&format!("discrepancy_sd.{}", output.output))
             .map_or(f64::NAN, |i| posterior.marginals[i].q50);
-        // The model's error stands out when the discrepancy is away from
-        // zero by more than twice both its own spread and the measurement's.
-        let stands_out = mean.abs() > 2.0 * sd.max(measurement);
-        let verdict = if stands_out {
-            model_errors.push(output.output.clone());
-            "the model misses: the misfit is the model's, not the parameters'"
+        // Three answers: the 90 % interval of the discrepancy leaves out 0
+        // (the model misses whatever the parameters); it holds 0 but
+        // reaches far beyond the measurement's uncertainty (the data
+        // cannot tell the model's error from the parameters'); or it stays
+        // within a few measurement uncertainties.
+        let largest = d.q05.abs().max(d.q95.abs());
+        let verdict = if d.q05 > 0.0 || d.q95 < 0.0 {
+            model_errors.push(format!(
+                "{} (by {} to {})",
+                output.output,
+                short(d.q05),
+                short(d.q95)
+            ));
+            "the model misses: no parameter set in the range explains it"
+        } else if largest > 3.0 * measurement {
+            confounded.push(format!("{} (up to {})", output.output, short(largest)));
+            "model or parameters: the data cannot tell"
         } else {
             "within what the measurement can tell"
         };
         table.row(vec![
             output.output.clone(),
-            short(*mean),
-            short(*sd),
+            short(d.mean),
+            short(d.sd),
+            short(d.q05),
+            short(d.q95),
             short(tau),
             short(measurement),
             verdict.into(),
         ]);
     }
     report.table(table);
-    report.paragraph(if model_errors.is_empty() {
-        "No output needs a model error larger than the measurement can tell: the parameters explain the misfit.".to_string()
-    } else {
-        format!(
-            "The model, not the parameters, explains the misfit of {}: no parameter set in the prior range reproduces it, and its additive error is more than twice both its spread and the measurement uncertainty.",
+    let mut words = Vec::new();
+    if !model_errors.is_empty() {
+        words.push(format!(
+            "The model, not the parameters, explains the misfit of {}: the 90 % interval of its additive error leaves out zero, so no parameter set in the prior range reproduces the measured value.",
             model_errors.join(", ")
-        )
-    });
+        ));
+    }
+    if !confounded.is_empty() {
+        words.push(format!(
+            "For {}, the model may miss by far more than the measurement's uncertainty, but the parameters could also take it up: these cases cannot tell the two apart. A load case that moves the parameters differently from the model's error would.",
+            confounded.join(", ")
+        ));
+    }
+    if words.is_empty() {
+        words.push("No output needs a model error beyond what the measurement can tell: the parameters explain the misfit.".into());
+    }
+    report.paragraph(words.join(" "));
 }
 
 /// The predictive intervals against the measured values.

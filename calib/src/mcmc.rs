@@ -1,10 +1,13 @@
 //! Draws from a posterior known up to a constant: adaptive random-walk
 //! Metropolis, several chains in parallel, in an unconstrained space.
 //!
-//! - **Free coordinates.** A bounded coordinate is sampled as the logit of
-//!   its place in its interval, a positive one as its logarithm (with the
-//!   transform's Jacobian in the target), so a proposal never leaves the
-//!   support and a posterior piled against a bound still mixes.
+//! - **Where coordinates live.** A bounded coordinate is sampled in its
+//!   own units, a proposal past a bound refused (the posterior is zero
+//!   there); a positive one as its logarithm (with the Jacobian in the
+//!   target). A logit transform would give a posterior that reaches a
+//!   bound an exponential tail, where a random walk crawls; folding a
+//!   proposal back in at the bound would bias the chain, since a folded
+//!   correlated step is not symmetric.
 //! - **Warmup** (not kept): the proposal's covariance is the sample
 //!   covariance of the chain's last window (windows of 25, 50, 100, ...
 //!   steps, as Stan adapts its mass matrix), its scale is adapted towards
@@ -44,21 +47,24 @@ impl Support {
     /// The free coordinate of `x`.
     pub fn to_free(self, x: f64) -> f64 {
         match self {
-            Support::Interval { lower, upper } => {
-                let p = ((x - lower) / (upper - lower)).clamp(1e-12, 1.0 - 1e-12);
-                (p / (1.0 - p)).ln()
-            }
+            Support::Interval { .. } | Support::Real => x,
             Support::Positive => x.max(f64::MIN_POSITIVE).ln(),
-            Support::Real => x,
         }
     }
 
     /// The value of free coordinate `z`.
     pub fn from_free(self, z: f64) -> f64 {
         match self {
-            Support::Interval { lower, upper } => lower + (upper - lower) * logistic(z),
+            Support::Interval { .. } | Support::Real => z,
             Support::Positive => z.exp(),
-            Support::Real => z,
+        }
+    }
+
+    /// Whether free coordinate `z` lies in the support.
+    pub fn holds(self, z: f64) -> bool {
+        match self {
+            Support::Interval { lower, upper } => (lower..=upper).contains(&z),
+            Support::Positive | Support::Real => z.is_finite(),
         }
     }
 
@@ -66,22 +72,9 @@ impl Support {
     /// density of `x` times it.
     pub fn log_jacobian(self, z: f64) -> f64 {
         match self {
-            // ln(p (1 - p)) = -|z| - 2 ln(1 + e^-|z|), stable for any z.
-            Support::Interval { lower, upper } => {
-                (upper - lower).ln() - z.abs() - 2.0 * (-z.abs()).exp().ln_1p()
-            }
             Support::Positive => z,
-            Support::Real => 0.0,
+            Support::Interval { .. } | Support::Real => 0.0,
         }
-    }
-}
-
-fn logistic(z: f64) -> f64 {
-    if z >= 0.0 {
-        1.0 / (1.0 + (-z).exp())
-    } else {
-        let e = z.exp();
-        e / (1.0 + e)
     }
 }
 
@@ -376,6 +369,9 @@ impl FreeTarget<'_> {
 
     /// `(log density of the free point, of the values)`.
     fn evaluate(&self, free: &[f64]) -> (f64, f64) {
+        if !free.iter().zip(self.support).all(|(&z, s)| s.holds(z)) {
+            return (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        }
         let density = (self.log_density)(&self.values(free));
         if density.is_nan() || density == f64::NEG_INFINITY {
             return (f64::NEG_INFINITY, f64::NEG_INFINITY);

@@ -142,7 +142,11 @@ pub fn run_posterior(
     let sampler = SamplerSettings {
         chains: settings.chains,
         draws: settings.draws,
-        warmup: settings.draws.max(2000),
+        // The proposal's covariance needs more steps to settle in more dimensions.
+        warmup: settings
+            .draws
+            .max(2000)
+            .max(500 * density.coordinates.len()),
         thin: None,
         seed: settings.seed,
     };
@@ -288,7 +292,11 @@ fn sample_on(
         log_density,
         &density.support(),
         &starts,
-        &vec![0.1; density.coordinates.len()],
+        &density
+            .support()
+            .into_iter()
+            .map(initial_scale)
+            .collect::<Vec<_>>(),
         sampler,
         &progress,
     )
@@ -434,8 +442,18 @@ fn inside(support: Support, value: f64) -> f64 {
     }
 }
 
-/// One start per chain around `centre`: a step of about half a unit of
-/// each free coordinate in a random direction, halved until the posterior
+/// A first guess of a free coordinate's posterior spread: a twentieth of
+/// an interval, a tenth in a logarithm or an unbounded coordinate (the
+/// warmup adapts it by orders of magnitude if need be).
+fn initial_scale(support: Support) -> f64 {
+    match support {
+        Support::Interval { lower, upper } => 0.05 * (upper - lower),
+        Support::Positive | Support::Real => 0.1,
+    }
+}
+
+/// One start per chain around `centre`: a random step of about twice
+/// [`initial_scale`] in each free coordinate, halved until the posterior
 /// is positive there.
 fn chain_starts(
     density: &StudyPosterior,
@@ -452,8 +470,9 @@ fn chain_starts(
     let support = density.support();
     Ok((0..settings.chains)
         .map(|_| {
-            let step: Vec<f64> = (0..centre.len())
-                .map(|_| 0.5 * standard_normal(&mut rng))
+            let step: Vec<f64> = support
+                .iter()
+                .map(|s| initial_scale(*s) * 2.0 * standard_normal(&mut rng))
                 .collect();
             let mut shrink = 1.0;
             for _ in 0..10 {

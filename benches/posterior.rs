@@ -31,6 +31,9 @@ use acq_workflows::calibrate::study::{
 };
 use acq_workflows::calibrate::study_runner::run_study;
 
+#[path = "../tests/common/toy.rs"]
+mod toy;
+
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
     values[values.len() / 2]
@@ -253,43 +256,8 @@ const SD: f64 = 0.1;
 const BOUNDS: [(&str, f64, f64); 2] = [("a", 0.2, 3.0), ("b", 0.05, 2.0)];
 
 fn banana_against_emcee() {
-    let study = Study {
-        parameters: BOUNDS
-            .iter()
-            .map(|&(name, lower, upper)| StudyParameter {
-                search: Parameter::new(name, lower, upper),
-                input: name.into(),
-                case: None,
-                nominal: (lower + upper) / 2.0,
-                prior: None,
-            })
-            .collect(),
-        cases: TIMES
-            .iter()
-            .zip(MEASURED)
-            .enumerate()
-            .map(|(i, (&t, y))| Case {
-                inputs: vec![("t".into(), t)],
-                ..Case::new(
-                    format!("t{i}"),
-                    Role::Fit,
-                    vec![Observation {
-                        name: "y".into(),
-                        output: "y".into(),
-                        measured: Measured::Scalar {
-                            value: y,
-                            uncertainty: Some(SD),
-                        },
-                        weight: 1.0,
-                        source: String::new(),
-                    }],
-                )
-            })
-            .collect(),
-        named_cases: true,
-        residuals: Residuals::Normalised,
-        loss: LossKind::Squares,
-    };
+    let measured: Vec<(f64, f64)> = TIMES.iter().copied().zip(MEASURED).collect();
+    let study = toy::toy_study(&BOUNDS, &measured, SD);
     let density = StudyPosterior::new(&study, Discrepancy::None, 0).expect("density");
     let log_density = |p: &[f64]| {
         let outputs: Vec<f64> = TIMES.iter().map(|t| p[0] * (-p[1] * t).exp()).collect();
@@ -328,36 +296,12 @@ fn banana_against_emcee() {
         );
         return;
     };
-    let script = format!(
-        r#"
-import json, time, numpy as np, emcee
-t = np.array([1.0, 2.0]); y = np.array([0.62, 0.35]); sd = {SD}
-low = np.array([0.2, 0.05]); high = np.array([3.0, 2.0])
-def log_density(p):
-    if np.any(p < low) or np.any(p > high):
-        return -np.inf
-    r = y - p[0] * np.exp(-p[1] * t)
-    return -0.5 * np.sum((r / sd) ** 2)
-rates = []
-for run in range(3):
-    np.random.seed(run)
-    start = np.array([0.8, 0.4]) + 0.01 * np.random.standard_normal((32, 2))
-    sampler = emcee.EnsembleSampler(32, 2, log_density)
-    began = time.perf_counter()
-    sampler.run_mcmc(start, 8000)
-    seconds = time.perf_counter() - began
-    chain = sampler.get_chain(discard=2000)
-    tau = np.max(emcee.autocorr.integrated_time(chain, quiet=True))
-    ess = chain.shape[0] * chain.shape[1] / tau
-    rates.append([ess / seconds, ess, seconds])
-print(json.dumps(rates))
-"#
-    );
     let output = std::process::Command::new(&python)
-        .args(["-c", &script])
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/peers/banana_emcee.py"))
         .output()
         .expect("python");
-    let theirs: Vec<[f64; 3]> = serde_json::from_slice(&output.stdout).expect("emcee's rates");
+    let theirs: serde_json::Value = serde_json::from_slice(&output.stdout).expect("emcee's rates");
+    let theirs: Vec<[f64; 3]> = serde_json::from_value(theirs["runs"].clone()).expect("runs");
     let median_rate = |mut r: Vec<f64>| median(std::mem::take(&mut r));
     let ours = median_rate(rates.iter().map(|r| r.0).collect());
     let emcee = median_rate(theirs.iter().map(|r| r[0]).collect());

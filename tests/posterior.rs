@@ -262,47 +262,6 @@ fn a_straight_line_through_a_solver_script_has_the_closed_form_posterior_by_the_
 
 // ---- coverage and model error ----------------------------------------------------------------
 
-/// A study of one output `y` measured at several `x`, one case each (so a
-/// constant discrepancy is shared by them all), with known uncertainty.
-fn toy_study(parameters: &[(&str, f64, f64)], measured: &[(f64, f64)], sd: f64) -> Study {
-    Study {
-        parameters: parameters
-            .iter()
-            .map(|&(name, lower, upper)| StudyParameter {
-                search: Parameter::new(name, lower, upper),
-                input: name.into(),
-                case: None,
-                nominal: (lower + upper) / 2.0,
-                prior: None,
-            })
-            .collect(),
-        cases: measured
-            .iter()
-            .enumerate()
-            .map(|(i, &(x, y))| Case {
-                inputs: vec![("x".into(), x)],
-                ..Case::new(
-                    format!("x{i}"),
-                    Role::Fit,
-                    vec![Observation {
-                        name: "y".into(),
-                        output: "y".into(),
-                        measured: Measured::Scalar {
-                            value: y,
-                            uncertainty: Some(sd),
-                        },
-                        weight: 1.0,
-                        source: String::new(),
-                    }],
-                )
-            })
-            .collect(),
-        named_cases: true,
-        residuals: Residuals::Normalised,
-        loss: LossKind::Squares,
-    }
-}
-
 /// The posterior of `study` with `model(point, x)` as its outputs, sampled
 /// from its middle: each parameter's marginal, and the discrepancy's mean
 /// over the draws (0 without one).
@@ -373,7 +332,7 @@ fn ninety_percent_intervals_hold_the_truth_ninety_percent_of_the_time() {
             .iter()
             .map(|&x| (x, decay(&truth, x) + noise.sample(&mut rng)))
             .collect();
-        let study = toy_study(&bounds, &measured, sd);
+        let study = common::toy::toy_study(&bounds, &measured, sd);
         let (marginals, _) = toy_posterior(&study, Discrepancy::None, decay, replicate);
         hits.push([0, 1].map(|i| (marginals[i].q05..=marginals[i].q95).contains(&truth[i])));
     }
@@ -402,7 +361,7 @@ fn a_missing_term_is_named_by_the_discrepancy_and_coverage_comes_back() {
             .iter()
             .map(|&x| (x, slope * x + offset + noise.sample(&mut rng)))
             .collect();
-        let study = toy_study(&bounds, &measured, sd);
+        let study = common::toy::toy_study(&bounds, &measured, sd);
         let holds = |m: &[Marginal]| (m[0].q05..=m[0].q95).contains(&slope);
         let (plain, _) = toy_posterior(&study, Discrepancy::None, line, replicate);
         without.push(holds(&plain));
@@ -667,7 +626,7 @@ fn a_banana_posterior_has_emcees_quantiles_and_arvizs_diagnostics() {
     let bounds = [("a", 0.2, 3.0), ("b", 0.05, 2.0)];
     let measured = [(1.0, 0.62), (2.0, 0.35)];
     let sd = 0.1;
-    let study = toy_study(&bounds, &measured, sd);
+    let study = common::toy::toy_study(&bounds, &measured, sd);
     let density = StudyPosterior::new(&study, Discrepancy::None, 0).unwrap();
     let log_density = |point: &[f64]| {
         let outputs: Vec<f64> = measured.iter().map(|&(t, _)| decay(point, t)).collect();
@@ -694,37 +653,9 @@ fn a_banana_posterior_has_emcees_quantiles_and_arvizs_diagnostics() {
     let draws = dir.path().join("acq.json");
     let by_parameter: Vec<Vec<Vec<f64>>> = (0..2).map(|i| chains.coordinate(i)).collect();
     std::fs::write(&draws, serde_json::json!(by_parameter).to_string()).unwrap();
-    let script = format!(
-        r#"
-import json, sys, numpy as np, emcee, arviz as az
-t = np.array([1.0, 2.0]); y = np.array([0.62, 0.35]); sd = {sd}
-low = np.array([0.2, 0.05]); high = np.array([3.0, 2.0])
-def log_density(p):
-    if np.any(p < low) or np.any(p > high):
-        return -np.inf
-    r = y - p[0] * np.exp(-p[1] * t)
-    return -0.5 * np.sum((r / sd) ** 2)
-rng = np.random.default_rng(5)
-walkers = 32
-start = np.array([0.8, 0.4]) + 0.01 * rng.standard_normal((walkers, 2))
-np.random.seed(7)
-sampler = emcee.EnsembleSampler(walkers, 2, log_density)
-sampler.run_mcmc(start, 8000)
-chain = sampler.get_chain(discard=2000)
-tau = np.max(emcee.autocorr.integrated_time(chain, quiet=True))
-flat = chain.reshape(-1, 2)
-ess = flat.shape[0] / tau
-levels = [0.05, 0.25, 0.5, 0.75, 0.95]
-acq = json.load(open(sys.argv[1]))
-out = {{"quantiles": [[float(np.quantile(flat[:, i], p)) for p in levels] for i in range(2)],
-       "ess": float(ess),
-       "rhat": [float(az.rhat(np.array(c), method="rank")) for c in acq],
-       "ess_bulk": [float(az.ess(np.array(c), method="bulk")) for c in acq]}}
-print(json.dumps(out))
-"#
-    );
     let output = std::process::Command::new(&python)
-        .args(["-c", &script, common::path_arg(&draws)])
+        .arg(common::root().join("tests/peers/banana_emcee.py"))
+        .arg(&draws)
         .output()
         .unwrap();
     assert!(output.status.success(), "{}", common::stderr(&output));

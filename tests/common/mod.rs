@@ -7,6 +7,7 @@ pub mod calculix;
 pub mod interfaces;
 pub mod pipeline;
 pub mod slurm;
+pub mod toy;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

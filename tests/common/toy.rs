@@ -1,0 +1,48 @@
+//! Toy studies the posterior's tests and benchmarks share (also compiled
+//! into `benches/posterior.rs` by path).
+
+use acq_calib::evaluation::Parameter;
+use acq_workflows::calibrate::study::{
+    Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter,
+};
+
+/// A study of one output `y` measured at several `x`, one case each (so a
+/// constant discrepancy is shared by them all), with known uncertainty.
+pub fn toy_study(parameters: &[(&str, f64, f64)], measured: &[(f64, f64)], sd: f64) -> Study {
+    Study {
+        parameters: parameters
+            .iter()
+            .map(|&(name, lower, upper)| StudyParameter {
+                search: Parameter::new(name, lower, upper),
+                input: name.into(),
+                case: None,
+                nominal: (lower + upper) / 2.0,
+                prior: None,
+            })
+            .collect(),
+        cases: measured
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| Case {
+                inputs: vec![("x".into(), x)],
+                ..Case::new(
+                    format!("x{i}"),
+                    Role::Fit,
+                    vec![Observation {
+                        name: "y".into(),
+                        output: "y".into(),
+                        measured: Measured::Scalar {
+                            value: y,
+                            uncertainty: Some(sd),
+                        },
+                        weight: 1.0,
+                        source: String::new(),
+                    }],
+                )
+            })
+            .collect(),
+        named_cases: true,
+        residuals: Residuals::Normalised,
+        loss: LossKind::Squares,
+    }
+}

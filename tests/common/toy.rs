@@ -10,16 +10,7 @@ use acq_workflows::calibrate::study::{
 /// constant discrepancy is shared by them all), with known uncertainty.
 pub fn toy_study(parameters: &[(&str, f64, f64)], measured: &[(f64, f64)], sd: f64) -> Study {
     Study {
-        parameters: parameters
-            .iter()
-            .map(|&(name, lower, upper)| StudyParameter {
-                search: Parameter::new(name, lower, upper),
-                input: name.into(),
-                case: None,
-                nominal: (lower + upper) / 2.0,
-                prior: None,
-            })
-            .collect(),
+        parameters: toy_parameters(parameters),
         cases: measured
             .iter()
             .enumerate()
@@ -45,4 +36,18 @@ pub fn toy_study(parameters: &[(&str, f64, f64)], measured: &[(f64, f64)], sd: f
         residuals: Residuals::Normalised,
         loss: LossKind::Squares,
     }
+}
+
+/// Shared parameters `(name, lower, upper)`, each nominal in its middle.
+pub fn toy_parameters(parameters: &[(&str, f64, f64)]) -> Vec<StudyParameter> {
+    parameters
+        .iter()
+        .map(|&(name, lower, upper)| StudyParameter {
+            search: Parameter::new(name, lower, upper),
+            input: name.into(),
+            case: None,
+            nominal: (lower + upper) / 2.0,
+            prior: None,
+        })
+        .collect()
 }

@@ -565,10 +565,28 @@ fn short(value: f64) -> String {
         return "-".into();
     }
     let magnitude = value.abs();
-    if magnitude != 0.0 && !(1e-3..1e6).contains(&magnitude) {
+    if magnitude == 0.0 {
+        return "0".into();
+    }
+    if !(1e-3..1e6).contains(&magnitude) {
         format!("{value:.3e}")
     } else {
         let decimals = (3 - magnitude.log10().floor() as i32).clamp(0, 6) as usize;
         format!("{value:.decimals$}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short;
+
+    #[test]
+    fn numbers_are_written_with_four_significant_digits_and_zero_as_zero() {
+        assert_eq!(short(0.0), "0");
+        assert_eq!(short(-0.0), "0");
+        assert_eq!(short(123.456), "123.5");
+        assert_eq!(short(0.012345), "0.01235");
+        assert_eq!(short(2.5e-5), "2.500e-5");
+        assert_eq!(short(f64::NAN), "-");
     }
 }

@@ -132,13 +132,8 @@ impl Model for EightParameters {
         _curves: &[&str],
     ) -> Result<ModelRun, String> {
         let x: Vec<f64> = (0..8)
-            .map(|i| {
-                inputs
-                    .iter()
-                    .find(|(n, _)| *n == format!("x{i}"))
-                    .map_or(0.0, |v| v.1)
-            })
-            .collect();
+            .map(|i| toy::input(inputs, &format!("x{i}")))
+            .collect::<Result<_, _>>()?;
         Ok(ModelRun {
             scalars: scalars
                 .iter()

@@ -28,6 +28,7 @@ use acq_workflows::calibrate::study::{
     Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study,
 };
 use acq_workflows::calibrate::study_runner::run_study;
+use common::toy::input;
 use common::{external_summary, number};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal, Uniform};
@@ -167,8 +168,7 @@ impl Model for Line {
         scalars: &[&str],
         _curves: &[&str],
     ) -> Result<ModelRun, String> {
-        let value = |name: &str| inputs.iter().find(|(n, _)| n == name).map(|(_, v)| *v);
-        let (a, b) = (value("a").unwrap(), value("b").unwrap());
+        let (a, b) = (input(inputs, "a")?, input(inputs, "b")?);
         Ok(ModelRun {
             scalars: scalars
                 .iter()
@@ -395,8 +395,7 @@ impl Model for Saturating {
         _scalars: &[&str],
         curves: &[&str],
     ) -> Result<ModelRun, String> {
-        let value = |name: &str| inputs.iter().find(|(n, _)| n == name).map(|(_, v)| *v);
-        let (a, b) = (value("a").unwrap(), value("b").unwrap());
+        let (a, b) = (input(inputs, "a")?, input(inputs, "b")?);
         let curve: Vec<(f64, f64)> = self
             .xs
             .iter()
@@ -693,11 +692,10 @@ impl Model for Decay {
         scalars: &[&str],
         _curves: &[&str],
     ) -> Result<ModelRun, String> {
-        let value = |name: &str| inputs.iter().find(|(n, _)| n == name).map(|(_, v)| *v);
         let (a, b, t) = (
-            value("a").unwrap(),
-            value("b").unwrap(),
-            value("x").unwrap(),
+            input(inputs, "a")?,
+            input(inputs, "b")?,
+            input(inputs, "x")?,
         );
         Ok(ModelRun {
             scalars: scalars.iter().map(|_| a * (-b * t).exp()).collect(),

@@ -51,3 +51,12 @@ pub fn toy_parameters(parameters: &[(&str, f64, f64)]) -> Vec<StudyParameter> {
         })
         .collect()
 }
+
+/// A model run's input by name, or which is missing.
+pub fn input(inputs: &[(String, f64)], name: &str) -> Result<f64, String> {
+    inputs
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| format!("no input {name}"))
+}

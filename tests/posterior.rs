@@ -793,3 +793,76 @@ fn the_emulated_posterior_matches_the_direct_one() {
         }
     }
 }
+
+// ---- the validation statement ------------------------------------------------------------------
+
+/// A validation case of the straight line at t = 6: ASME V&V 20's
+/// simulation result S and input uncertainty u_input are, in closed form,
+/// the posterior's mean and sd of `a + 6 b` (`sqrt(x' C x)`, x = (1, 6));
+/// from 2,000 predictive runs they are within 3 and 5 % of them.
+#[test]
+fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty() {
+    use acq_workflows::calibrate::posterior::validation::validation_statements;
+    let dir = tempfile::tempdir().unwrap();
+    let mut study = Spec::load(&line_spec(dir.path(), "")).unwrap().study;
+    study.cases.push(Case::new(
+        "check",
+        Role::Validate,
+        vec![Observation {
+            name: "y6".into(),
+            output: "y6".into(),
+            measured: Measured::Scalar {
+                value: 6.3,
+                uncertainty: Some(0.4),
+            },
+            weight: 1.0,
+            source: String::new(),
+        }],
+    ));
+    let directory = RunDirectory::create(&dir.path().join("validated")).unwrap();
+    let run = run_study(
+        &study,
+        &Line,
+        &Method::LeastSquares(LeastSquaresMethod { max_evals: 40 }),
+        Vec::new(),
+        &directory,
+        &RunSettings {
+            label: "line".into(),
+            title: "line".into(),
+            spec_directory: dir.path(),
+            parallel: 1,
+            resume: false,
+            posterior: Some(PosteriorSettings {
+                predictive_runs: 2000,
+                seed: 6,
+                ..PosteriorSettings::default()
+            }),
+        },
+        &NoExtras,
+    )
+    .unwrap();
+    let statements = validation_statements(run.outcome.posterior.as_ref().unwrap());
+    assert_eq!(statements.len(), 1);
+    let s = &statements[0];
+    let (mean, covariance) = closed_form();
+    let predicted = mean[0] + 6.0 * mean[1];
+    let sd = (covariance[0][0] + 12.0 * covariance[0][1] + 36.0 * covariance[1][1]).sqrt();
+    // 2,000 runs at draws of a chain: the mean's error is well under a
+    // tenth of the sd, the sd's under 5 %.
+    assert!(
+        (s.simulated - predicted).abs() < 0.1 * sd,
+        "S {} of {predicted}",
+        s.simulated
+    );
+    assert!(
+        (s.u_input / sd - 1.0).abs() < 0.05,
+        "u_input {} of {sd}",
+        s.u_input
+    );
+    assert_eq!(s.u_measured, 0.4);
+    assert!((s.comparison_error - (s.simulated - 6.3)).abs() < 1e-12);
+    let u_val = (s.u_input.powi(2) + 0.16).sqrt();
+    assert!((s.u_val - u_val).abs() < 1e-12);
+    let report = std::fs::read_to_string(dir.path().join("validated/report.md")).unwrap();
+    assert!(report.contains("Validation (ASME V&V 20)"));
+}

@@ -11,6 +11,7 @@
 //! - [`predictive`]: real model runs at posterior draws, for every fit and
 //!   validation case, logged like every run (so they resume), and the
 //!   intervals a new measurement should fall in.
+//! - [`validation`]: the ASME V&V 20 statement for every validation case.
 //! - [`report`]: the report's section (the table, the words, the corner
 //!   plot) and the summary's keys.
 //!
@@ -32,6 +33,7 @@ pub mod likelihood;
 pub mod predictive;
 pub mod report;
 pub mod settings;
+pub mod validation;
 
 pub use settings::{Discrepancy, PosteriorSettings};
 

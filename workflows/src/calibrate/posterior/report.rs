@@ -10,6 +10,7 @@ use serde_json::{json, Map, Value};
 use acq_calib::mcmc::{quantile, Support};
 
 use super::predictive::{Predicted, PredictedCurve};
+use super::validation::{validation_statements, COVERAGE_FACTOR};
 use super::{PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
 use crate::calibrate::study::Role;
 
@@ -194,6 +195,7 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
     ));
     write_discrepancy(report, posterior);
     write_predictive(report, &posterior.predicted.scalars);
+    write_validation_statement(report, posterior);
     write_curve_bands(report, &posterior.predicted.curves);
     report.figure(Figure {
         file: "posterior_corner.svg".into(),
@@ -285,6 +287,71 @@ fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
         words.push("No output needs a model error beyond what the measurement can tell: the parameters explain the misfit.".into());
     }
     report.paragraph(words.join(" "));
+}
+
+/// The ASME V&V 20 statement for each validation output, beside the
+/// posterior's own answer.
+fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcome) {
+    let statements = validation_statements(posterior);
+    if statements.is_empty() {
+        return;
+    }
+    report.heading(3, "Validation (ASME V&V 20)");
+    report.paragraph(format!(
+        "E = S - D, S the model's mean at the predictive runs, D the measured value; u_val = sqrt(u_num^2 + u_input^2 + u_D^2), u_input the spread of the model's values over the posterior's parameters, u_D the measurement's uncertainty; u_num is taken as 0 (this study has no mesh study of its model). The model's error lies in E +- {COVERAGE_FACTOR} u_val."
+    ));
+    let mut table = Table::new(&[
+        "case",
+        "output",
+        "S",
+        "D",
+        "E",
+        "u_input",
+        "u_D",
+        "u_val",
+        "model error in",
+        "V&V 20",
+        "posterior",
+    ]);
+    let mut disagreements = Vec::new();
+    for s in &statements {
+        let (low, high) = s.model_error;
+        table.row(vec![
+            s.case.clone(),
+            s.name.clone(),
+            short(s.simulated),
+            short(s.measured),
+            short(s.comparison_error),
+            short(s.u_input),
+            short(s.u_measured),
+            short(s.u_val),
+            format!("{} .. {}", short(low), short(high)),
+            if s.within {
+                "within u_val"
+            } else {
+                "**model error**"
+            }
+            .into(),
+            if s.predictive_holds {
+                "inside 90 %"
+            } else {
+                "**outside 90 %**"
+            }
+            .into(),
+        ]);
+        if s.within != s.predictive_holds {
+            disagreements.push(format!("{}/{}", s.case, s.name));
+        }
+    }
+    report.table(table);
+    report.paragraph(if disagreements.is_empty() {
+        "V&V 20 and the posterior agree on every validation output.".to_string()
+    } else {
+        format!(
+            "They disagree on {}: V&V 20 compares the mean prediction at k = {COVERAGE_FACTOR} with the uncertainties added in quadrature, the posterior draws whole predictions (with the discrepancy, where the study allows one) at 90 %; near the edge the two can fall either side.",
+            disagreements.join(", ")
+        )
+    });
 }
 
 /// The predictive intervals against the measured values.

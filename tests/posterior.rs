@@ -186,14 +186,16 @@ impl Model for Line {
     }
 }
 
-#[test]
-fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direct_path() {
-    let dir = tempfile::tempdir().unwrap();
-    let spec = Spec::load(&line_spec(dir.path(), "")).unwrap();
-    let out = dir.path().join("direct");
-    let directory = RunDirectory::create(&out).unwrap();
+/// A study of the line in process, searched by least squares, its
+/// posterior with `posterior`, into `out`.
+fn line_in_process(
+    study: &Study,
+    out: &Path,
+    posterior: PosteriorSettings,
+) -> acq_workflows::calibrate::study_runner::StudyRun {
+    let directory = RunDirectory::create(out).unwrap();
     run_study(
-        &spec.study,
+        study,
         &Line,
         &Method::LeastSquares(LeastSquaresMethod { max_evals: 40 }),
         Vec::new(),
@@ -201,19 +203,31 @@ fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direc
         &RunSettings {
             label: "line".into(),
             title: "line".into(),
-            spec_directory: dir.path(),
+            spec_directory: out,
             parallel: 1,
             resume: false,
-            posterior: Some(PosteriorSettings {
-                draws: 2000,
-                seed: 5,
-                predictive_runs: 10,
-                ..PosteriorSettings::default()
-            }),
+            posterior: Some(posterior),
         },
         &NoExtras,
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direct_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = Spec::load(&line_spec(dir.path(), "")).unwrap();
+    let out = dir.path().join("direct");
+    line_in_process(
+        &spec.study,
+        &out,
+        PosteriorSettings {
+            draws: 2000,
+            seed: 5,
+            predictive_runs: 10,
+            ..PosteriorSettings::default()
+        },
+    );
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     for p in ["a", "b"] {
@@ -819,28 +833,15 @@ fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty
             source: String::new(),
         }],
     ));
-    let directory = RunDirectory::create(&dir.path().join("validated")).unwrap();
-    let run = run_study(
+    let run = line_in_process(
         &study,
-        &Line,
-        &Method::LeastSquares(LeastSquaresMethod { max_evals: 40 }),
-        Vec::new(),
-        &directory,
-        &RunSettings {
-            label: "line".into(),
-            title: "line".into(),
-            spec_directory: dir.path(),
-            parallel: 1,
-            resume: false,
-            posterior: Some(PosteriorSettings {
-                predictive_runs: 2000,
-                seed: 6,
-                ..PosteriorSettings::default()
-            }),
+        &dir.path().join("validated"),
+        PosteriorSettings {
+            predictive_runs: 2000,
+            seed: 6,
+            ..PosteriorSettings::default()
         },
-        &NoExtras,
-    )
-    .unwrap();
+    );
     let statements = validation_statements(run.outcome.posterior.as_ref().unwrap());
     assert_eq!(statements.len(), 1);
     let s = &statements[0];

@@ -1,7 +1,8 @@
 //! acq's Slurm executor on a real one-node Slurm cluster started by the
 //! test (tests/common/slurm.rs), never a mock. The cluster starts once and
 //! the scenarios run one after the other on it: the worked CalculiX
-//! example calibrated on Slurm, a job cancelled from outside, acq's own
+//! example calibrated on Slurm, the posterior's refinement and predictive
+//! runs as jobs, a job cancelled from outside, acq's own
 //! timeout, a requeued job, a drained and a failed node, acq killed with
 //! SIGKILL and resumed, and Ctrl-C that cancels acq's jobs and nobody
 //! else's.
@@ -21,7 +22,7 @@ use std::time::{Duration, Instant};
 use common::calculix::{
     assert_bo_recovers_the_truth, assert_moo_recovers_the_truth, example_at_test_mesh,
 };
-use common::slurm::{evaluations, toy_study, Cluster};
+use common::slurm::{evaluations, log_rows, toy_study, Cluster};
 use common::{path_arg, root};
 use nix::sys::signal::{kill, signal, SigHandler, Signal};
 use nix::unistd::Pid;
@@ -168,8 +169,9 @@ type Scenario = fn(&Cluster);
 #[test]
 fn acq_on_a_real_slurm_cluster() {
     let cluster = Cluster::start();
-    let scenarios: [(&str, Scenario); 7] = [
+    let scenarios: [(&str, Scenario); 8] = [
         ("the worked CalculiX example", calculix_example_on_slurm),
+        ("the posterior's runs as jobs", posterior_runs_as_jobs),
         ("a job cancelled from outside", job_cancelled_from_outside),
         ("acq's own timeout", job_exceeding_acqs_timeout),
         ("a requeued job", requeued_job),
@@ -244,6 +246,43 @@ fn calculix_example_on_slurm(cluster: &Cluster) {
             "the report gives each run's queue wait and run time"
         );
     }
+}
+
+/// The posterior stage on Slurm: its refinement and predictive runs are
+/// jobs like the search's, each logged with its job id, and the solver's
+/// own record holds every job once.
+fn posterior_runs_as_jobs(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let (spec, out) = toy_study(dir.path(), 2, 6, 10, 120);
+    let text = std::fs::read_to_string(&spec).unwrap()
+        + "\n[posterior]\ndraws = 300\nchains = 2\npredictive_runs = 4\nseed = 3\n";
+    std::fs::write(&spec, text).unwrap();
+    let child = start_acq(cluster, &spec, &out, &[], &[]);
+    finish_ok(child, &out, Duration::from_secs(600));
+    let predictive = log_rows(&out, "posterior_runs_fit.csv");
+    assert_eq!(predictive.len(), 4, "{predictive:?}");
+    let mut logged: BTreeSet<String> = BTreeSet::new();
+    for row in evaluations(&out)
+        .iter()
+        .chain(&log_rows(&out, "posterior_refinement.csv"))
+        .chain(&predictive)
+    {
+        assert!(
+            row["job_id"].parse::<u64>().is_ok(),
+            "a run without its job: {row:?}"
+        );
+        logged.insert(row["job_id"].clone());
+    }
+    let runs = solver_runs(dir.path());
+    let ran: BTreeSet<String> = runs.iter().map(|(id, _)| id.clone()).collect();
+    assert_eq!(runs.len(), ran.len(), "a job ran twice: {runs:?}");
+    assert_eq!(ran, logged, "every job is a logged run and no run is lost");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        summary["posterior"]["x"]["q05"].as_f64().is_some(),
+        "{summary:#}"
+    );
 }
 
 #[derive(Clone, Copy, Debug)]

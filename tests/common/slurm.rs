@@ -335,9 +335,12 @@ patience = 1000
     (spec, dir.join("run"))
 }
 
-/// The rows of `evaluations.csv` by column name.
-pub fn evaluations(out: &Path) -> Vec<HashMap<String, String>> {
-    let mut reader = csv::Reader::from_path(out.join("evaluations.csv")).unwrap();
+/// The rows of `name`, a log in the run directory `out` (empty when
+/// there is none), each as column -> text.
+pub fn log_rows(out: &Path, name: &str) -> Vec<HashMap<String, String>> {
+    let Ok(mut reader) = csv::Reader::from_path(out.join(name)) else {
+        return Vec::new();
+    };
     let header = reader.headers().unwrap().clone();
     reader
         .records()
@@ -349,4 +352,9 @@ pub fn evaluations(out: &Path) -> Vec<HashMap<String, String>> {
                 .collect()
         })
         .collect()
+}
+
+/// The rows of `evaluations.csv` by column name.
+pub fn evaluations(out: &Path) -> Vec<HashMap<String, String>> {
+    log_rows(out, "evaluations.csv")
 }

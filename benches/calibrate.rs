@@ -18,9 +18,7 @@ use acq_calib::moo::{nsga2, Nsga2Settings};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_workflows::calibrate::builtin::ExcavatorModel;
-use acq_workflows::calibrate::excavator::{
-    case_study, run, CalibrateExcavatorArgs, PosteriorDiscrepancy,
-};
+use acq_workflows::calibrate::excavator::{case_study, run, CalibrateExcavatorArgs};
 use acq_workflows::calibrate::gtn::CalibrateGtnArgs;
 use acq_workflows::calibrate::study::{Role, StudySimulator};
 
@@ -36,27 +34,10 @@ fn main() {
         let mut times = Vec::new();
         for _ in 0..5 {
             let dir = tempfile::tempdir().expect("temp dir");
-            let args = CalibrateExcavatorArgs {
-                case: root.join(format!("data/excavator/{case}.toml")),
-                measured: None,
-                window: None,
-                load_quantity: "tip_force".into(),
-                geometry: None,
-                out: dir.path().join("run"),
-                training: 40,
-                test_runs: 40,
-                population: 400,
-                generations: 100,
-                pareto_fraction: 0.5,
-                weights: vec![1.0, 1.0, 1.0],
-                pick: "minimax".parse().expect("a pick"),
-                kernel: Kernel::SquaredExponential,
-                seed: 1,
-                resume: false,
-                parallel: None,
-                posterior: false,
-                discrepancy: PosteriorDiscrepancy::None,
-            };
+            let args = CalibrateExcavatorArgs::defaults(
+                &root.join(format!("data/excavator/{case}.toml")),
+                &dir.path().join("run"),
+            );
             let start = Instant::now();
             run(args).expect("workflow");
             times.push(start.elapsed().as_secs_f64());

@@ -17,7 +17,6 @@ use std::path::Path;
 use std::time::Instant;
 
 use acq_calib::evaluation::Parameter;
-use acq_calib::gp::Kernel;
 use acq_calib::mcmc::{sample, SamplerSettings};
 use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorArgs, PosteriorDiscrepancy};
 use acq_workflows::calibrate::extras::NoExtras;
@@ -42,25 +41,9 @@ fn median(mut values: Vec<f64>) -> f64 {
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let arguments = |case: &str, out: &Path, posterior: bool, discrepancy| CalibrateExcavatorArgs {
-        case: root.join(format!("data/excavator/{case}.toml")),
-        measured: None,
-        window: None,
-        load_quantity: "tip_force".into(),
-        geometry: None,
-        out: out.to_path_buf(),
-        training: 40,
-        test_runs: 40,
-        population: 400,
-        generations: 100,
-        pareto_fraction: 0.5,
-        weights: vec![1.0, 1.0, 1.0],
-        pick: "minimax".parse().expect("a pick"),
-        kernel: Kernel::SquaredExponential,
-        seed: 1,
-        resume: false,
-        parallel: None,
         posterior,
         discrepancy,
+        ..CalibrateExcavatorArgs::defaults(&root.join(format!("data/excavator/{case}.toml")), out)
     };
     println!("posterior of the excavator twin, sampled directly (4 chains x 1,000 draws)");
     for (case, discrepancy, label) in [

@@ -118,6 +118,30 @@ pub struct CalibrateExcavatorArgs {
     pub discrepancy: PosteriorDiscrepancy,
 }
 
+impl CalibrateExcavatorArgs {
+    /// The published workflow's settings (every option at its default)
+    /// for `case`, into `out`: the defaults stay where the command line
+    /// reads them.
+    pub fn defaults(case: &Path, out: &Path) -> Self {
+        #[derive(clap::Parser)]
+        struct Command {
+            #[command(flatten)]
+            args: CalibrateExcavatorArgs,
+        }
+        let mut args = <Command as clap::Parser>::parse_from([
+            std::ffi::OsStr::new("calibrate-excavator"),
+            "--case".as_ref(),
+            case.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ])
+        .args;
+        args.case = case.to_path_buf();
+        args.out = out.to_path_buf();
+        args
+    }
+}
+
 /// `--discrepancy`.
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
 pub enum PosteriorDiscrepancy {

@@ -323,6 +323,24 @@ fn coverage(hits: &[bool]) -> f64 {
     hits.iter().filter(|h| **h).count() as f64 / hits.len() as f64
 }
 
+/// A truth drawn uniformly from the bounds: the prior, so a right
+/// posterior covers it at its nominal rate.
+fn truth_from_prior(bounds: &[(&str, f64, f64)], rng: &mut impl rand::Rng) -> Vec<f64> {
+    bounds
+        .iter()
+        .map(|&(_, lower, upper)| Uniform::new(lower, upper).unwrap().sample(rng))
+        .collect()
+}
+
+/// Each of the two parameters' 90 % intervals held the truth in 86-94 %
+/// of the replicates.
+fn assert_nominal_coverage(label: &str, hits: &[[bool; 2]]) {
+    let [a, b] = [0, 1].map(|i| coverage(&hits.iter().map(|h| h[i]).collect::<Vec<_>>()));
+    eprintln!("{label}: 90 % intervals holding the truth: a {a}, b {b}");
+    assert!((0.86..=0.94).contains(&a), "{label}: coverage of a {a}");
+    assert!((0.86..=0.94).contains(&b), "{label}: coverage of b {b}");
+}
+
 /// 400 replicates: the truth drawn from the uniform prior, the data from
 /// the model at it plus known normal noise. If the posterior is right,
 /// its 90 % interval holds the truth in 90 % of them; with 400 the
@@ -337,10 +355,7 @@ fn ninety_percent_intervals_hold_the_truth_ninety_percent_of_the_time() {
     let noise = Normal::new(0.0, sd).unwrap();
     let mut hits = Vec::new();
     for replicate in 0..400 {
-        let truth: Vec<f64> = bounds
-            .iter()
-            .map(|&(_, lower, upper)| Uniform::new(lower, upper).unwrap().sample(&mut rng))
-            .collect();
+        let truth = truth_from_prior(&bounds, &mut rng);
         let measured: Vec<(f64, f64)> = xs
             .iter()
             .map(|&x| (x, decay(&truth, x) + noise.sample(&mut rng)))
@@ -349,10 +364,7 @@ fn ninety_percent_intervals_hold_the_truth_ninety_percent_of_the_time() {
         let (marginals, _) = toy_posterior(&study, Discrepancy::None, decay, replicate);
         hits.push([0, 1].map(|i| (marginals[i].q05..=marginals[i].q95).contains(&truth[i])));
     }
-    let [a, b] = [0, 1].map(|i| coverage(&hits.iter().map(|h| h[i]).collect::<Vec<_>>()));
-    eprintln!("90 % intervals holding the truth: a {a}, b {b}");
-    assert!((0.86..=0.94).contains(&a), "coverage of a {a}");
-    assert!((0.86..=0.94).contains(&b), "coverage of b {b}");
+    assert_nominal_coverage("toy", &hits);
 }
 
 /// The data have an offset of 0.8 the model lacks (`y = a x` against
@@ -451,10 +463,7 @@ fn a_curve_with_correlated_noise_gets_honest_intervals() {
     let bounds = [("a", 5.0, 15.0), ("b", 0.5, 2.0)];
     let mut hits = Vec::new();
     for replicate in 0..400 {
-        let truth: Vec<f64> = bounds
-            .iter()
-            .map(|&(_, lower, upper)| Uniform::new(lower, upper).unwrap().sample(&mut rng))
-            .collect();
+        let truth = truth_from_prior(&bounds, &mut rng);
         let mut noise = Normal::new(0.0, sd).unwrap().sample(&mut rng);
         let measured: Vec<(f64, f64)> = xs
             .iter()
@@ -509,10 +518,7 @@ fn a_curve_with_correlated_noise_gets_honest_intervals() {
         let m = chains.summaries();
         hits.push([0, 1].map(|i| (m[i].q05..=m[i].q95).contains(&truth[i])));
     }
-    let [a, b] = [0, 1].map(|i| coverage(&hits.iter().map(|h| h[i]).collect::<Vec<_>>()));
-    eprintln!("curve: 90 % intervals holding the truth: a {a}, b {b}");
-    assert!((0.86..=0.94).contains(&a), "coverage of a {a}");
-    assert!((0.86..=0.94).contains(&b), "coverage of b {b}");
+    assert_nominal_coverage("curve", &hits);
 }
 
 // ---- resume ------------------------------------------------------------------------------------

@@ -113,7 +113,8 @@ pub struct CalibrateExcavatorArgs {
     #[arg(long)]
     pub posterior: bool,
     /// The model error the posterior allows for: `none`, or `constant` (an
-    /// additive error per pressure, its size estimated).
+    /// additive error per pressure, its size estimated). One case has no
+    /// inputs to vary over: `gp` is for specs with several cases.
     #[arg(long, value_enum, default_value = "none", requires = "posterior")]
     pub discrepancy: PosteriorDiscrepancy,
 }

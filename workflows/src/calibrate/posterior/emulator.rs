@@ -30,7 +30,7 @@ pub const RUNS_PER_ROUND: usize = 4;
 /// One GP per observation the likelihood reads.
 pub struct Emulator {
     parameters: Vec<Parameter>,
-    gps: Vec<Gp>,
+    gps: Vec<Emulated>,
     /// Each GP's fitted noise variance, in the output's units squared.
     noise_variances: Vec<f64>,
     /// The output index of each observation, and how many outputs the fit
@@ -39,6 +39,13 @@ pub struct Emulator {
     outputs: usize,
     /// Runs it was trained on.
     pub runs: usize,
+}
+
+/// How one observation's value is emulated.
+enum Emulated {
+    Gp(Box<Gp>),
+    /// Every run gave the same value.
+    Constant(f64),
 }
 
 impl Emulator {
@@ -73,7 +80,13 @@ impl Emulator {
             .iter()
             .map(|o| {
                 let column: Vec<f64> = outputs.iter().map(|y| y[o.output_index]).collect();
+                // A value no parameter moves (a load case at zero load, a
+                // gauge the parameters do not reach) is that value, surely.
+                if column.iter().all(|v| *v == column[0]) {
+                    return Ok(Emulated::Constant(column[0]));
+                }
                 Gp::fit(&inputs, &column, &settings)
+                    .map(|gp| Emulated::Gp(Box::new(gp)))
                     .map_err(|e| format!("emulating {}: {e}", o.key))
             })
             .collect::<Result<Vec<_>, _>>()?;
@@ -81,7 +94,10 @@ impl Emulator {
             parameters: parameters.to_vec(),
             noise_variances: gps
                 .iter()
-                .map(|gp| gp.hyperparameters().noise_variance)
+                .map(|gp| match gp {
+                    Emulated::Gp(gp) => gp.hyperparameters().noise_variance,
+                    Emulated::Constant(_) => 0.0,
+                })
                 .collect(),
             gps,
             output_indices: density
@@ -105,10 +121,16 @@ impl Emulator {
             .iter()
             .zip(&self.output_indices)
             .zip(&self.noise_variances)
-            .map(|((gp, &index), noise)| {
-                let prediction = gp.predict(&unit);
-                outputs[index] = prediction.mean;
-                prediction.std.powi(2) + noise
+            .map(|((gp, &index), noise)| match gp {
+                Emulated::Gp(gp) => {
+                    let prediction = gp.predict(&unit);
+                    outputs[index] = prediction.mean;
+                    prediction.std.powi(2) + noise
+                }
+                Emulated::Constant(value) => {
+                    outputs[index] = *value;
+                    0.0
+                }
             })
             .collect();
         (outputs, variances)

@@ -9,17 +9,9 @@
 //!   none, the error is `noise %` of the measured value, with `noise`
 //!   log-uniform over 0.1-100 % (no transducer in a rig is better than
 //!   0.1 %, and none is off by more than its value).
-//! - **Discrepancy** (Kennedy and O'Hagan 2001): with `constant`, each
-//!   model output has an additive error `delta`, the same in every fit case,
-//!   normal with mean 0 and standard deviation `tau`. The prior of `tau` is
-//!   half-Cauchy with a scale of 10 % of the output's measured size, the
-//!   weakly informative prior Gelman (2006) recommends for a hierarchical
-//!   scale: flat near zero, so a model that happens to fit one value
-//!   exactly makes no spike there (a log-uniform prior would), and with a
-//!   tail that allows an error as large as the value. `delta` is
-//!   integrated out in closed form:
-//!   the residuals of one output across the cases are jointly normal with
-//!   covariance `diag(u^2) + tau^2 1 1'`.
+//! - **Discrepancy** (Kennedy and O'Hagan 2001): each model output may
+//!   have an additive error, the same in every case or varying over the
+//!   cases' inputs ([`super::discrepancy`]).
 //!
 //! **The scales are integrated out, not sampled.** A noise or discrepancy
 //! scale sampled with the parameters makes a funnel (small scales allow
@@ -45,6 +37,11 @@ use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::super::study::{Measured, Role, Study};
+use super::discrepancy::{
+    DrawnDiscrepancy, Form, GpDiscrepancy, OutputDiscrepancy, DISCREPANCY_RANGE, DISCREPANCY_SCALE,
+    LENGTH_RANGE,
+};
+use super::scale_grid::{log_sum_exp, ScaleGrid};
 use super::settings::Discrepancy;
 
 /// The lower and upper relative size of the measurement noise when a study
@@ -53,13 +50,6 @@ pub const NOISE_RANGE_PCT: [f64; 2] = [0.1, 100.0];
 /// The range of a curve's error factor: from a tenth of what white
 /// measurement noise explains to ten thousand times it.
 pub const CURVE_FACTOR_RANGE: [f64; 2] = [0.1, 1e4];
-/// The half-Cauchy scale of the discrepancy's standard deviation,
-/// relative to the output's size, and the range its integral covers (below
-/// it the prior is flat and the likelihood no larger than at its lower
-/// end, so the part left out is below 1e-5 of the prior's mass; above it
-/// the Cauchy tail holds 0.6 %).
-pub const DISCREPANCY_SCALE: f64 = 0.1;
-pub const DISCREPANCY_RANGE: [f64; 2] = [1e-6, 10.0];
 
 /// The posterior of a study: a density over its parameters (the search
 /// vector), with the noise and discrepancy scales integrated out.
@@ -78,66 +68,6 @@ pub struct StudyPosterior {
     pub curves: Vec<CurveParts>,
     /// The midpoint rule of the noise's integral.
     noise_grid: ScaleGrid,
-}
-
-/// The midpoint rule of a scale's integral in its logarithm: the nodes,
-/// the log of each node's prior mass, and the cell's width.
-#[derive(Clone, Debug)]
-pub struct ScaleGrid {
-    pub nodes: Vec<f64>,
-    log_weights: Vec<f64>,
-    cell: f64,
-}
-
-impl ScaleGrid {
-    /// `count` cells over `range`, each weighted by the prior density of
-    /// the scale times the scale (the density of its logarithm), summing
-    /// to one.
-    fn new(range: [f64; 2], count: usize, density: impl Fn(f64) -> f64) -> Self {
-        let cell = (range[1] / range[0]).ln() / count as f64;
-        let nodes: Vec<f64> = (0..count)
-            .map(|k| (range[0].ln() + (k as f64 + 0.5) * cell).exp())
-            .collect();
-        let mass: Vec<f64> = nodes.iter().map(|&x| density(x) * x).collect();
-        let total: f64 = mass.iter().sum();
-        ScaleGrid {
-            log_weights: mass.iter().map(|m| (m / total).ln()).collect(),
-            nodes,
-            cell,
-        }
-    }
-
-    /// The log of the integral of `exp(log_f)` over the prior.
-    fn log_integral(&self, log_f: impl Fn(f64) -> f64) -> f64 {
-        log_sum_exp(&self.log_terms(log_f))
-    }
-
-    /// `log_f` plus the log prior mass at each node.
-    fn log_terms(&self, log_f: impl Fn(f64) -> f64) -> Vec<f64> {
-        self.nodes
-            .iter()
-            .zip(&self.log_weights)
-            .map(|(&x, w)| log_f(x) + w)
-            .collect()
-    }
-
-    /// A scale drawn from the posterior `exp(log_f)` times the prior: a
-    /// node by its mass, then a place uniform in the logarithm in its cell.
-    fn draw(&self, log_f: impl Fn(f64) -> f64, rng: &mut impl rand::Rng) -> f64 {
-        let terms = self.log_terms(log_f);
-        let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let weights: Vec<f64> = terms.iter().map(|t| (t - top).exp()).collect();
-        let mut pick = rng.random::<f64>() * weights.iter().sum::<f64>();
-        let mut index = self.nodes.len() - 1;
-        for (k, w) in weights.iter().enumerate() {
-            if pick < *w {
-                index = k;
-                break;
-            }
-            pick -= w;
-        }
-        (self.nodes[index].ln() + (rng.random::<f64>() - 0.5) * self.cell).exp()
-    }
 }
 
 /// One coordinate of the posterior.
@@ -159,6 +89,8 @@ pub struct FitObservation {
     pub output_index: usize,
     /// `case/name` or `name`.
     pub key: String,
+    /// The name of its case.
+    pub case: String,
     /// The model output it is compared with.
     pub output: String,
     pub measured: f64,
@@ -193,28 +125,17 @@ pub struct CurveParts {
     grid: ScaleGrid,
 }
 
-/// One model output's discrepancy: the observations of it (indices into
-/// [`StudyPosterior::observations`]) and the range of its scale `tau`.
-#[derive(Clone, Debug)]
-pub struct OutputDiscrepancy {
-    pub output: String,
-    pub observations: Vec<usize>,
-    /// The range its scale's integral covers.
-    pub tau_range: [f64; 2],
-    pub tau_grid: ScaleGrid,
-}
-
 /// The scales drawn at one posterior draw, and each output's discrepancy
-/// given them: `(mean, variance)`, normal.
-#[derive(Clone, Debug, PartialEq)]
+/// given them.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Scales {
     pub noise_pct: Option<f64>,
     /// Each curve's error factor, and the correlation of neighbouring
     /// parts' errors.
     pub curve_factor: Vec<f64>,
     pub curve_correlation: Vec<f64>,
-    pub tau: Vec<f64>,
-    pub delta: Vec<(f64, f64)>,
+    /// Each output's discrepancy (of [`StudyPosterior::outputs`]).
+    pub discrepancy: Vec<DrawnDiscrepancy>,
 }
 
 impl StudyPosterior {
@@ -264,6 +185,7 @@ impl StudyPosterior {
                     observations.push(FitObservation {
                         output_index,
                         key: study.key(case, observation),
+                        case: case.name.clone(),
                         output: observation.output.clone(),
                         measured: *value,
                         uncertainty: *uncertainty,
@@ -285,6 +207,7 @@ impl StudyPosterior {
                         observations.push(FitObservation {
                             output_index: first + part,
                             key: format!("{key}.part{:02}", part + 1),
+                            case: case.name.clone(),
                             output: format!("{}.part{:02}", observation.output, part + 1),
                             measured: 0.0,
                             uncertainty: None,
@@ -326,7 +249,7 @@ impl StudyPosterior {
             );
         }
         let mut outputs: Vec<OutputDiscrepancy> = Vec::new();
-        if discrepancy == Discrepancy::Constant {
+        if discrepancy != Discrepancy::None {
             // A curve's parts carry their own noise, which takes up the
             // model's error along it too.
             for (index, observation) in observations
@@ -341,6 +264,7 @@ impl StudyPosterior {
                         observations: vec![index],
                         tau_range: [0.0; 2],
                         tau_grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+                        form: Form::Constant,
                     }),
                 }
             }
@@ -370,6 +294,18 @@ impl StudyPosterior {
                     nodes(output.tau_range, output.observations.len()),
                     |tau| 1.0 / (1.0 + (tau / half_cauchy_scale).powi(2)),
                 );
+                if discrepancy == Discrepancy::Gp {
+                    let mut gp = gp_sites(study, output, &observations)?;
+                    let stated: Option<Vec<f64>> = output
+                        .observations
+                        .iter()
+                        .map(|&i| observations[i].uncertainty.map(|u| u * u))
+                        .collect();
+                    if let Some(variances) = stated {
+                        gp.fix_variances(variances);
+                    }
+                    output.form = Form::Gp(Box::new(gp));
+                }
             }
         }
         let relative = observations
@@ -411,6 +347,12 @@ impl StudyPosterior {
                 .iter()
                 .map(|o| format!("discrepancy_sd.{}", o.output)),
         );
+        names.extend(
+            self.outputs
+                .iter()
+                .filter(|o| matches!(o.form, Form::Gp(_)))
+                .map(|o| format!("discrepancy_length.{}", o.output)),
+        );
         names
     }
 
@@ -427,6 +369,12 @@ impl StudyPosterior {
                 .flat_map(|_| [interval(CURVE_FACTOR_RANGE), interval([0.0, 0.98])]),
         );
         supports.extend(self.outputs.iter().map(|o| interval(o.tau_range)));
+        supports.extend(
+            self.outputs
+                .iter()
+                .filter(|o| matches!(o.form, Form::Gp(_)))
+                .map(|_| interval(LENGTH_RANGE)),
+        );
         supports
     }
 
@@ -524,9 +472,7 @@ impl StudyPosterior {
             for &i in &output.observations {
                 in_group[i] = true;
             }
-            total += output
-                .tau_grid
-                .log_integral(|tau| group_log_density(output, residuals, &variances, tau));
+            total += output.log_density(residuals, &variances);
         }
         for (i, (&r, &v)) in residuals.iter().zip(&variances).enumerate() {
             if !in_group[i] && self.observations[i].curve.is_none() {
@@ -581,27 +527,16 @@ impl StudyPosterior {
             })
             .unzip();
         let variances = self.variances(noise_pct, emulator);
-        let mut tau = Vec::with_capacity(self.outputs.len());
-        let mut delta = Vec::with_capacity(self.outputs.len());
-        for output in &self.outputs {
-            let t = output.tau_grid.draw(
-                |t| group_log_density(output, &residuals, &variances, t),
-                rng,
-            );
-            let (mut sum_r, mut precision) = (0.0, 1.0 / (t * t));
-            for &i in &output.observations {
-                sum_r += residuals[i] / variances[i];
-                precision += 1.0 / variances[i];
-            }
-            tau.push(t);
-            delta.push((sum_r / precision, 1.0 / precision));
-        }
+        let discrepancy = self
+            .outputs
+            .iter()
+            .map(|output| output.draw(&residuals, &variances, rng))
+            .collect();
         Scales {
             noise_pct,
             curve_factor,
             curve_correlation,
-            tau,
-            delta,
+            discrepancy,
         }
     }
 
@@ -635,26 +570,40 @@ impl StudyPosterior {
     }
 }
 
-/// The log density of one output's residuals with discrepancy scale `tau`:
-/// normal with covariance `diag(v) + tau^2 1 1'` (Sherman-Morrison).
-fn group_log_density(
+/// A `gp` discrepancy's sites: every case, fit and validate, that
+/// measures `output`'s model output, by its fixed inputs.
+fn gp_sites(
+    study: &Study,
     output: &OutputDiscrepancy,
-    residuals: &[f64],
-    variances: &[f64],
-    tau: f64,
-) -> f64 {
-    let tau2 = tau * tau;
-    let (mut r2, mut sum_r, mut precision, mut log_det) = (0.0, 0.0, 0.0, 0.0);
-    for &i in &output.observations {
-        let (r, v) = (residuals[i], variances[i]);
-        r2 += r * r / v;
-        sum_r += r / v;
-        precision += 1.0 / v;
-        log_det += v.ln();
+    observations: &[FitObservation],
+) -> Result<GpDiscrepancy, String> {
+    let mut sites: Vec<(String, Vec<(String, f64)>)> = Vec::new();
+    for role in [Role::Fit, Role::Validate] {
+        for (_, case) in study.cases_with(role) {
+            let measures = case.observations.iter().any(|o| {
+                o.output == output.output && matches!(o.measured, Measured::Scalar { .. })
+            });
+            if !case.priors && measures && !sites.iter().any(|(name, _)| *name == case.name) {
+                sites.push((case.name.clone(), case.inputs.clone()));
+            }
+        }
     }
-    let shrink = 1.0 + tau2 * precision;
-    let quadratic = r2 - tau2 * sum_r * sum_r / shrink;
-    -0.5 * (quadratic + log_det + shrink.ln() + output.observations.len() as f64 * (2.0 * PI).ln())
+    let observation_sites = output
+        .observations
+        .iter()
+        .map(|&i| {
+            sites
+                .iter()
+                .position(|(name, _)| *name == observations[i].case)
+                .unwrap_or(0)
+        })
+        .collect();
+    GpDiscrepancy::new(sites, observation_sites).map_err(|e| {
+        format!(
+            "[posterior] discrepancy = \"gp\" for {}: {e}",
+            output.output
+        )
+    })
 }
 
 /// The correlations of neighbouring parts' errors a curve's likelihood
@@ -744,15 +693,6 @@ fn curve_log_density(
     total
 }
 
-/// `ln(sum(exp(terms)))`, without overflow.
-fn log_sum_exp(terms: &[f64]) -> f64 {
-    let top = terms.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if top == f64::NEG_INFINITY {
-        return top;
-    }
-    top + terms.iter().map(|t| (t - top).exp()).sum::<f64>().ln()
-}
-
 /// A standard normal draw.
 pub fn standard_normal(rng: &mut impl rand::Rng) -> f64 {
     Distribution::<f64>::sample(&StandardNormal, rng)
@@ -808,8 +748,7 @@ mod tests {
         let det = a * c - b * b;
         let quadratic = (c * r0 * r0 - 2.0 * b * r0 * r1 + a * r1 * r1) / det;
         let expected = -0.5 * (quadratic + det.ln() + 2.0 * (2.0 * PI).ln());
-        let got = group_log_density(
-            &posterior.outputs[0],
+        let got = posterior.outputs[0].constant_log_density(
             &[r0, r1],
             &posterior.variances(None, &[]),
             tau,
@@ -886,7 +825,7 @@ mod tests {
             let noise = scales.noise_pct.unwrap();
             assert!((NOISE_RANGE_PCT[0]..=NOISE_RANGE_PCT[1]).contains(&noise));
             let range = posterior.outputs[0].tau_range;
-            assert!((range[0]..=range[1]).contains(&scales.tau[0]));
+            assert!((range[0]..=range[1]).contains(&scales.discrepancy[0].tau));
         }
         assert!(posterior.log_prior(&[3.0]).is_infinite());
     }

@@ -3,7 +3,8 @@
 //!
 //! - [`likelihood`]: the density ([`likelihood::StudyPosterior`]): prior,
 //!   measurement error (stated, or a noise scale of its own), and model
-//!   discrepancy.
+//!   [`discrepancy`] (constant, or a GP over the cases' inputs), each
+//!   scale integrated out by a [`scale_grid`].
 //! - Sampling by [`acq_calib::mcmc`]: a model that costs microseconds (the
 //!   built-in excavator twin, [`super::study::Model::is_cheap`]) directly,
 //!   the model run at every step; any other on an [`emulator`] of its
@@ -28,10 +29,12 @@ use rand::SeedableRng;
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::study::{Measured, Model, Role, Study, StudySimulator, CURVE_PARTS};
 
+pub mod discrepancy;
 pub mod emulator;
 pub mod likelihood;
 pub mod predictive;
 pub mod report;
+pub mod scale_grid;
 pub mod settings;
 pub mod validation;
 
@@ -128,12 +131,6 @@ pub fn run_posterior(
     };
     let density =
         StudyPosterior::new(study, settings.discrepancy, curve_parts).map_err(AcqError::Config)?;
-    if settings.discrepancy == Discrepancy::Gp {
-        return Err(AcqError::Config(
-            "[posterior] discrepancy = \"gp\" is not built yet; use \"constant\" or \"none\""
-                .into(),
-        ));
-    }
     let simulator = StudySimulator::new(study, model, Role::Fit).with_curve_parts(curve_parts);
     let centre: Vec<f64> = search
         .calibrated
@@ -180,13 +177,7 @@ pub fn run_posterior(
         .iter()
         .map(|o| match o {
             Some((outputs, emulator)) => density.draw_scales(outputs, emulator, &mut rng),
-            None => Scales {
-                noise_pct: None,
-                curve_factor: Vec::new(),
-                curve_correlation: Vec::new(),
-                tau: Vec::new(),
-                delta: Vec::new(),
-            },
+            None => Scales::default(),
         })
         .collect();
     let mut names: Vec<String> = density.coordinates.iter().map(|c| c.name.clone()).collect();
@@ -210,7 +201,8 @@ pub fn run_posterior(
                         {
                             row.extend([*factor, *correlation]);
                         }
-                        row.extend(scale.tau.iter().copied());
+                        row.extend(scale.discrepancy.iter().map(|d| d.tau));
+                        row.extend(scale.discrepancy.iter().filter_map(|d| d.length));
                     }
                     row.resize(names.len(), f64::NAN);
                     row
@@ -423,8 +415,7 @@ fn typical_scales(
             .map(|c| median(drawn.iter().map(|s| s.curve_factor[c]).collect()))
             .collect(),
         curve_correlation: Vec::new(),
-        tau: Vec::new(),
-        delta: Vec::new(),
+        discrepancy: Vec::new(),
     }
 }
 
@@ -512,9 +503,13 @@ fn outputs_at_draws(chains: &Chains, at: &ModelAt<'_>) -> Vec<Option<(Vec<f64>, 
     })
 }
 
-/// One output's discrepancy over the draws.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// One output's discrepancy over the draws, at one site.
+#[derive(Clone, Debug, PartialEq)]
 pub struct DiscrepancySummary {
+    /// The output (and with `gp` the case: `case/output`).
+    pub key: String,
+    /// The index of its output in [`StudyPosterior::outputs`].
+    pub output: usize,
     /// The mean of its conditional means, and by the law of total
     /// variance the sd (mean conditional variance plus the variance of
     /// the means).
@@ -525,37 +520,45 @@ pub struct DiscrepancySummary {
     pub q95: f64,
 }
 
-/// Each output's discrepancy over the draws.
+/// Each output's discrepancy over the draws, at each of its sites.
 fn discrepancy_moments(
     density: &StudyPosterior,
     scales: &[Scales],
     seed: u64,
 ) -> Vec<DiscrepancySummary> {
-    let drawn: Vec<&Scales> = scales.iter().filter(|s| !s.delta.is_empty()).collect();
+    let drawn: Vec<&Scales> = scales
+        .iter()
+        .filter(|s| !s.discrepancy.is_empty())
+        .collect();
     let n = drawn.len().max(1) as f64;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    (0..density.outputs.len())
-        .map(|k| {
-            let mean = drawn.iter().map(|s| s.delta[k].0).sum::<f64>() / n;
-            let spread = drawn
-                .iter()
-                .map(|s| (s.delta[k].0 - mean).powi(2))
-                .sum::<f64>()
-                / n;
-            let within = drawn.iter().map(|s| s.delta[k].1).sum::<f64>() / n;
+    let mut summaries = Vec::new();
+    for (k, output) in density.outputs.iter().enumerate() {
+        for (site, case) in output.sites().into_iter().enumerate() {
+            let at = |s: &Scales| s.discrepancy[k].at_sites[site];
+            let mean = drawn.iter().map(|s| at(s).0).sum::<f64>() / n;
+            let spread = drawn.iter().map(|s| (at(s).0 - mean).powi(2)).sum::<f64>() / n;
+            let within = drawn.iter().map(|s| at(s).1).sum::<f64>() / n;
             let mut samples: Vec<f64> = drawn
                 .iter()
-                .map(|s| s.delta[k].0 + s.delta[k].1.sqrt() * standard_normal(&mut rng))
+                .map(|s| at(s).0 + at(s).1.sqrt() * standard_normal(&mut rng))
                 .collect();
             samples.sort_by(f64::total_cmp);
-            DiscrepancySummary {
+            summaries.push(DiscrepancySummary {
+                key: if case.is_empty() {
+                    output.output.clone()
+                } else {
+                    format!("{case}/{}", output.output)
+                },
+                output: k,
                 mean,
                 sd: (within + spread).sqrt(),
                 q05: acq_calib::mcmc::quantile(&samples, 0.05),
                 q95: acq_calib::mcmc::quantile(&samples, 0.95),
-            }
-        })
-        .collect()
+            });
+        }
+    }
+    summaries
 }
 
 /// `posterior.csv`: `chain`, `draw`, every column by name,

@@ -118,15 +118,21 @@ pub fn predictive_runs(
         outputs_by_role.push(evaluations.into_iter().map(|e| e.outcome.ok()).collect());
     }
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(7));
-    // Each run's discrepancy per output of the density, drawn from its
-    // conditional normal at that draw.
-    let delta: Vec<Vec<f64>> = picked
+    // Each run's discrepancy per output of the density and site, drawn
+    // from its conditional normal at that draw.
+    let delta: Vec<Vec<Vec<f64>>> = picked
         .iter()
         .map(|&i| {
             scales[i]
-                .delta
+                .discrepancy
                 .iter()
-                .map(|(mean, variance)| mean + variance.sqrt() * standard_normal(&mut rng))
+                .map(|output| {
+                    output
+                        .at_sites
+                        .iter()
+                        .map(|(mean, variance)| mean + variance.sqrt() * standard_normal(&mut rng))
+                        .collect()
+                })
                 .collect()
         })
         .collect();
@@ -178,10 +184,13 @@ pub fn predictive_runs(
                     continue;
                 }
             };
+            // The output's discrepancy at this case (`constant`: at every case).
             let group = density
                 .outputs
                 .iter()
-                .position(|o| o.output == observation.output);
+                .enumerate()
+                .find(|(_, o)| o.output == observation.output)
+                .and_then(|(k, o)| Some((k, o.site_of(&case.name)?)));
             let mut entry = Predicted {
                 case: case_name,
                 role,
@@ -196,7 +205,13 @@ pub fn predictive_runs(
                     continue;
                 };
                 let model_value = run_outputs[index];
-                let discrepancy = group.map_or(0.0, |k| delta[run].get(k).copied().unwrap_or(0.0));
+                let discrepancy = group.map_or(0.0, |(k, site)| {
+                    delta[run]
+                        .get(k)
+                        .and_then(|at| at.get(site))
+                        .copied()
+                        .unwrap_or(0.0)
+                });
                 let noise_pct = scales[picked[run]].noise_pct;
                 let sd = density.measurement_sd(noise_pct, value, uncertainty);
                 entry.model.push(model_value);

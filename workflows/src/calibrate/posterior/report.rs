@@ -9,6 +9,7 @@ use serde_json::{json, Map, Value};
 
 use acq_calib::mcmc::{quantile, Support};
 
+use super::discrepancy::Form;
 use super::predictive::{Predicted, PredictedCurve};
 use super::validation::{validation_statements, COVERAGE_FACTOR};
 use super::{PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
@@ -55,11 +56,10 @@ pub fn summary_keys(posterior: &PosteriorOutcome) -> Vec<(String, Value)> {
         ("predictive".to_string(), Value::Object(predictive)),
     ];
     if !density.outputs.is_empty() {
-        let discrepancy: Map<String, Value> = density
-            .outputs
+        let discrepancy: Map<String, Value> = posterior
+            .discrepancy
             .iter()
-            .zip(&posterior.discrepancy)
-            .map(|(o, d)| (o.output.clone(), json!({"mean": d.mean, "sd": d.sd})))
+            .map(|d| (d.key.clone(), json!({"mean": d.mean, "sd": d.sd})))
             .collect();
         keys.push(("discrepancy".to_string(), Value::Object(discrepancy)));
     }
@@ -226,7 +226,8 @@ fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
     let noise_pct = posterior
         .column("measurement_noise_pct")
         .map(|i| posterior.marginals[i].q50);
-    for (output, d) in density.outputs.iter().zip(&posterior.discrepancy) {
+    for d in &posterior.discrepancy {
+        let output = &density.outputs[d.output];
         let measurement = output
             .observations
             .iter()
@@ -247,19 +248,19 @@ fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
         let verdict = if d.q05 > 0.0 || d.q95 < 0.0 {
             model_errors.push(format!(
                 "{} (by {} to {})",
-                output.output,
+                d.key,
                 short(d.q05),
                 short(d.q95)
             ));
             "the model misses: no parameter set in the range explains it"
         } else if largest > 3.0 * measurement {
-            confounded.push(format!("{} (up to {})", output.output, short(largest)));
+            confounded.push(format!("{} (up to {})", d.key, short(largest)));
             "model or parameters: the data cannot tell"
         } else {
             "within what the measurement can tell"
         };
         table.row(vec![
-            output.output.clone(),
+            d.key.clone(),
             short(d.mean),
             short(d.sd),
             short(d.q05),
@@ -270,6 +271,19 @@ fn write_discrepancy(report: &mut Document, posterior: &PosteriorOutcome) {
         ]);
     }
     report.table(table);
+    for output in &density.outputs {
+        if let Form::Gp(gp) = &output.form {
+            let length = posterior
+                .column(&format!("discrepancy_length.{}", output.output))
+                .map_or(f64::NAN, |i| posterior.marginals[i].q50);
+            report.paragraph(format!(
+                "The discrepancy of {} varies over {} (a Gaussian process, correlation length {} of their range, median): at a fit case it is what the measurement there leaves to the model; at a validate case it is predicted from the fit cases near it, and its interval grows back to the scale tau far from them.",
+                output.output,
+                gp.inputs.join(", "),
+                short(length)
+            ));
+        }
+    }
     let mut words = Vec::new();
     if !model_errors.is_empty() {
         words.push(format!(

@@ -203,6 +203,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         posterior: args.posterior.then(|| PosteriorSettings {
             // A simulation takes about a second: ten draws give the band.
             predictive_runs: 10,
+            refinement_runs: 100,
             seed: args.seed,
             ..PosteriorSettings::default()
         }),

@@ -22,7 +22,8 @@ use super::likelihood::{Scales, StudyPosterior};
 /// Refinement ends when the emulator's sd is below this share of the
 /// measurement's at 95 % of the posterior draws.
 pub const REFINE_RATIO: f64 = 0.25;
-/// Model runs the refinement may spend beyond the search.
+/// Model runs the refinement may spend beyond the search, unless a
+/// preset whose model is cheap enough allows more.
 pub const MAX_REFINEMENT_RUNS: usize = 20;
 /// Runs per refinement round: a new round refits the GPs and samples again.
 pub const RUNS_PER_ROUND: usize = 4;
@@ -134,6 +135,17 @@ impl Emulator {
             })
             .collect();
         (outputs, variances)
+    }
+
+    /// The largest ratio of the fitted run-to-run scatter's sd (the GPs'
+    /// noise) to the measurement's over the observations: the floor no
+    /// number of runs takes the emulator's doubt below.
+    pub fn scatter_ratio(&self, density: &StudyPosterior, scales: &Scales) -> f64 {
+        self.noise_variances
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v.sqrt() / density.observation_sd(i, scales))
+            .fold(0.0, f64::max)
     }
 
     /// The largest ratio of the emulator's sd to the measurement's over

@@ -40,7 +40,7 @@ pub mod validation;
 
 pub use settings::{Discrepancy, PosteriorSettings};
 
-use emulator::{refinement_points, Emulator, MAX_REFINEMENT_RUNS, REFINE_RATIO, RUNS_PER_ROUND};
+use emulator::{refinement_points, Emulator, REFINE_RATIO, RUNS_PER_ROUND};
 use likelihood::{standard_normal, Scales, StudyPosterior};
 use predictive::Predictions;
 
@@ -351,25 +351,30 @@ fn refined_emulator(
             &pilot,
             "posterior (emulator check)",
         )?;
-        let scales = typical_scales(density, &emulator, &chains, settings.seed);
-        let budget = MAX_REFINEMENT_RUNS - spent;
+        let scales = typical_scales(density, &runs, settings.seed);
+        let budget = settings.refinement_runs.saturating_sub(spent);
         let (points, at_95) = refinement_points(
             &emulator,
             density,
             &chains,
             &scales,
-            RUNS_PER_ROUND.max(parallel).min(budget),
+            // A tenth of a large budget per round: each round refits the
+            // GPs and samples again.
+            RUNS_PER_ROUND
+                .max(parallel)
+                .max(settings.refinement_runs / 10)
+                .min(budget),
         );
         eprintln!(
-            "posterior: emulator of {} runs; its sd at 95 % of the draws is {at_95:.2} of the measurement's (enough below {REFINE_RATIO}); {} refinement runs so far",
-            emulator.runs, spent
+            "posterior: emulator of {} runs; its sd at 95 % of the draws is {at_95:.2} of the measurement's (enough below {REFINE_RATIO}; the runs' own scatter alone {:.2}); {} refinement runs so far",
+            emulator.runs, emulator.scatter_ratio(density, &scales), spent
         );
         if points.is_empty() {
             let how = format!(
                 "sampled on a Gaussian-process emulator of the model ({} runs: the search's and {spent} refinement runs where the posterior lies; its sd at 95 % of the draws is {at_95:.2} of the measurement's{})",
                 emulator.runs,
                 if at_95 > REFINE_RATIO {
-                    format!(", above the {REFINE_RATIO} aimed at: the {MAX_REFINEMENT_RUNS} refinement runs are spent, so the intervals carry the emulator's doubt")
+                    format!(", above the {REFINE_RATIO} aimed at: the {} refinement runs are spent, so the intervals carry the emulator's doubt", settings.refinement_runs)
                 } else {
                     String::new()
                 }
@@ -383,25 +388,30 @@ fn refined_emulator(
     }
 }
 
-/// The scales at the pilot's draws (each its median over about 100
-/// draws), for weighing the emulator's doubt against the measurement's.
-fn typical_scales(
-    density: &StudyPosterior,
-    emulator: &Emulator,
-    chains: &Chains,
-    seed: u64,
-) -> Scales {
+/// The measurement's scales the emulator's doubt is weighed against:
+/// each the median of its draws at the real runs the posterior favours
+/// most (the best tenth, at least five), where the model's values are
+/// exact. Drawn on the emulator instead, the emulator's own variance would
+/// take up the residuals and shrink the noise scales it is weighed
+/// against, so refinement would chase a moving target.
+fn typical_scales(density: &StudyPosterior, runs: &[Evaluation], seed: u64) -> Scales {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let draws: Vec<&Vec<f64>> = chains.pooled().collect();
-    let step = (draws.len() / 100).max(1);
-    let drawn: Vec<Scales> = draws
+    let mut scored: Vec<(f64, &Vec<f64>)> = runs
         .iter()
-        .step_by(step)
-        .map(|d| {
-            let (outputs, variances) = emulator.predict(d);
-            density.draw_scales(&outputs, &variances, &mut rng)
+        .filter_map(|run| {
+            let outputs = run.outcome.as_ref().ok()?;
+            let value = density.log_prior(&run.parameters) + density.log_likelihood(outputs, &[]);
+            value.is_finite().then_some((value, outputs))
         })
         .collect();
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+    scored.truncate((scored.len() / 10).max(5));
+    let mut drawn: Vec<Scales> = Vec::new();
+    for (_, outputs) in &scored {
+        for _ in 0..20 {
+            drawn.push(density.draw_scales(outputs, &[], &mut rng));
+        }
+    }
     let median = |values: Vec<f64>| {
         let mut values = values;
         values.sort_by(f64::total_cmp);

@@ -139,9 +139,13 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
         };
         let against_bound = match *support {
             Support::Interval { lower, upper } if !name.starts_with("discrepancy_sd.") => {
+                // Measured along the coordinate the prior is uniform in.
+                let along = |x: f64| if log_uniform { x.ln() } else { x };
+                let (lower, upper, q05, q95) =
+                    (along(lower), along(upper), along(m.q05), along(m.q95));
                 let near = 0.01 * (upper - lower);
-                m.q05 - lower < near && m.q95 - lower < 2.0 * near
-                    || upper - m.q95 < near && upper - m.q05 < 2.0 * near
+                q05 - lower < near && q95 - lower < 2.0 * near
+                    || upper - q95 < near && upper - q05 < 2.0 * near
             }
             _ => false,
         };

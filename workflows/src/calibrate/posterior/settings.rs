@@ -24,6 +24,9 @@ pub struct PosteriorSettings {
     pub discrepancy: Discrepancy,
     /// Model runs at posterior draws, per case.
     pub predictive_runs: usize,
+    /// Model runs the emulator's refinement may spend beyond the search
+    /// (an emulated posterior only).
+    pub refinement_runs: usize,
     pub seed: u64,
 }
 
@@ -34,6 +37,7 @@ impl Default for PosteriorSettings {
             chains: 4,
             discrepancy: Discrepancy::None,
             predictive_runs: 50,
+            refinement_runs: super::emulator::MAX_REFINEMENT_RUNS,
             seed: 1,
         }
     }

@@ -99,6 +99,7 @@ impl PosteriorSpec {
             discrepancy: self.discrepancy,
             predictive_runs: self.predictive_runs,
             seed: self.seed,
+            ..PosteriorSettings::default()
         }
     }
 }

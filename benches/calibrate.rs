@@ -141,6 +141,7 @@ fn main() {
                 deterministic: false,
                 resume: false,
                 posterior: false,
+                posterior_draws: 1000,
             })
             .expect("gtn calibration");
             let summary: serde_json::Value = serde_json::from_str(

@@ -945,6 +945,8 @@ fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty
         PosteriorSettings {
             predictive_runs: 2000,
             seed: 6,
+            // The solver's own numerical error from a mesh study.
+            numerical_uncertainty: vec![("y6".into(), 0.3)],
             ..PosteriorSettings::default()
         },
     );
@@ -967,8 +969,9 @@ fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty
         s.u_input
     );
     assert_eq!(s.u_measured, 0.4);
+    assert_eq!(s.u_num, 0.3);
     assert!((s.comparison_error - (s.simulated - 6.3)).abs() < 1e-12);
-    let u_val = (s.u_input.powi(2) + 0.16).sqrt();
+    let u_val = (0.09 + s.u_input.powi(2) + 0.16).sqrt();
     assert!((s.u_val - u_val).abs() < 1e-12);
     let report = std::fs::read_to_string(dir.path().join("validated/report.md")).unwrap();
     assert!(report.contains("Validation (ASME V&V 20)"));

@@ -697,7 +697,8 @@ lower = 1.0
 upper = 2.0
 "#;
     let fit = "[[case]]\nname = \"a\"\nmeasured = { y = 1.0 }\n";
-    let cases: [(&str, String, &[&str]); 7] = [
+    let validate = "[[case]]\nname = \"v\"\nrole = \"validate\"\nmeasured = { y = 2.0 }\n";
+    let cases: [(&str, String, &[&str]); 9] = [
         (
             "unknown_case",
             format!("{head}\n[[parameter]]\nname = \"d\"\ncase = \"b\"\nlower = 0.0\nupper = 1.0\n\n{fit}"),
@@ -732,6 +733,16 @@ upper = 2.0
             "executor_twice",
             format!("parallel = 2\n{head}\n[executor]\nparallel = 3\n\n{fit}"),
             &["executor_twice.toml", "parallel = 2 and [executor] parallel = 3", "give it once"],
+        ),
+        (
+            "numerical_of_a_fit_value",
+            format!("{head}\n{fit}\n{validate}\n[posterior]\nnumerical_uncertainty = {{ z = 0.1 }}\n"),
+            &["numerical_of_a_fit_value.toml", "numerical_uncertainty.\"z\"", "no validate case measures it", "\"y\""],
+        ),
+        (
+            "gp_without_inputs",
+            format!("{head}\n{fit}\n[[case]]\nname = \"b\"\nmeasured = {{ y = 1.5 }}\n\n[posterior]\ndiscrepancy = \"gp\"\n"),
+            &["gp_without_inputs.toml", "discrepancy = \"gp\"", "use discrepancy = \"constant\""],
         ),
     ];
     for (name, text, wanted) in cases {

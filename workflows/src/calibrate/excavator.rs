@@ -117,6 +117,10 @@ pub struct CalibrateExcavatorArgs {
     /// inputs to vary over: `gp` is for specs with several cases.
     #[arg(long, value_enum, default_value = "none", requires = "posterior")]
     pub discrepancy: PosteriorDiscrepancy,
+    /// Kept posterior draws per chain (4 chains); an unconverged posterior
+    /// is sampled once more, four times as long.
+    #[arg(long, default_value_t = 1000, requires = "posterior")]
+    pub posterior_draws: usize,
 }
 
 impl CalibrateExcavatorArgs {
@@ -489,6 +493,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             resume: args.resume,
             posterior: args.posterior.then(|| PosteriorSettings {
                 discrepancy: args.discrepancy.into(),
+                draws: args.posterior_draws,
                 seed: args.seed,
                 ..PosteriorSettings::default()
             }),

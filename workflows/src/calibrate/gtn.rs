@@ -73,13 +73,17 @@ pub struct CalibrateGtnArgs {
     #[arg(long)]
     pub resume: bool,
     /// After the search, sample the posterior of the eight parameters on a
-    /// Gaussian-process emulator of the simulations (refined by at most 20
+    /// Gaussian-process emulator of the simulations (refined by at most 100
     /// more where the posterior lies), the curve read as 20 parts with a
     /// noise of its own, and run 10 simulations at posterior draws for the
     /// predictive band. Writes posterior.csv and predictive.csv, and adds
     /// `posterior` and `predictive` to summary.json.
     #[arg(long)]
     pub posterior: bool,
+    /// Kept posterior draws per chain (4 chains); an unconverged posterior
+    /// is sampled once more, four times as long.
+    #[arg(long, default_value_t = 1000, requires = "posterior")]
+    pub posterior_draws: usize,
 }
 
 /// The published search box (reference table); m's upper bound comes from
@@ -203,7 +207,10 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         posterior: args.posterior.then(|| PosteriorSettings {
             // A simulation takes about a second: ten draws give the band.
             predictive_runs: 10,
+            // A simulation takes under a second: more runs buy a closer
+            // emulator cheaply.
             refinement_runs: 100,
+            draws: args.posterior_draws,
             seed: args.seed,
             ..PosteriorSettings::default()
         }),

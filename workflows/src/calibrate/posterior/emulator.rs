@@ -10,7 +10,11 @@
 //! are run on the model (through the logging evaluator, so they resume and
 //! may be cluster jobs), until at 95 % of the draws it is below
 //! [`REFINE_RATIO`] of the measurement's (the posterior then widens by at
-//! most 3 %) or [`MAX_REFINEMENT_RUNS`] runs are spent.
+//! most 3 %) or [`MAX_REFINEMENT_RUNS`] runs are spent. The doubt weighed
+//! is the latent GP's, which runs take away; a GP's fitted scatter (a
+//! solver's run-to-run noise, or a jump it cannot follow, as where a
+//! simulated bar breaks) stays in the likelihood and is reported as the
+//! floor it is.
 
 use acq_calib::evaluation::{Evaluation, Parameter};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
@@ -150,13 +154,18 @@ impl Emulator {
 
     /// The largest ratio of the emulator's sd to the measurement's over
     /// the observations, at `point`, with the noise `scales` where the
-    /// study states none.
+    /// study states none: the part of its doubt more runs take away (the
+    /// latent GP's; the fitted scatter stays however many runs there are,
+    /// and the likelihood carries it).
     pub fn unsureness(&self, density: &StudyPosterior, point: &[f64], scales: &Scales) -> f64 {
-        let (_, variances) = self.predict(point);
-        variances
+        let unit = to_unit(&self.parameters, point);
+        self.gps
             .iter()
             .enumerate()
-            .map(|(i, v)| v.sqrt() / density.observation_sd(i, scales))
+            .map(|(i, gp)| match gp {
+                Emulated::Gp(gp) => gp.predict(&unit).std / density.observation_sd(i, scales),
+                Emulated::Constant(_) => 0.0,
+            })
             .fold(0.0, f64::max)
     }
 }

@@ -77,23 +77,55 @@ pub struct PosteriorOutcome {
 impl PosteriorOutcome {
     /// The columns that have not converged, with why.
     pub fn unconverged(&self) -> Vec<String> {
-        let needed = ESS_PER_CHAIN * self.settings.chains as f64;
-        self.names
-            .iter()
-            .zip(&self.marginals)
-            .filter_map(|(name, m)| {
-                let rhat_ok = m.rhat < RHAT_LIMIT || self.settings.chains < 2;
-                let ess_ok = m.ess_bulk >= needed;
-                (!(rhat_ok && ess_ok))
-                    .then(|| format!("{name} (R-hat {:.3}, bulk ESS {:.0})", m.rhat, m.ess_bulk))
-            })
-            .collect()
+        unconverged(&self.names, &self.marginals, self.settings.chains)
     }
 
     /// The index of column `name`.
     pub fn column(&self, name: &str) -> Option<usize> {
         self.names.iter().position(|n| n == name)
     }
+}
+
+/// The parts each fit curve is read as ([`CURVE_PARTS`]; 0 without one).
+pub fn curve_parts_of(study: &Study) -> usize {
+    if study
+        .observations(Role::Fit)
+        .iter()
+        .any(|(case, o)| !case.priors && matches!(o.measured, Measured::Curve { .. }))
+    {
+        CURVE_PARTS
+    } else {
+        0
+    }
+}
+
+/// Whether `study`'s posterior can be set up as `settings` ask: checked
+/// when a spec is read, so a study that cannot have it fails before its
+/// search, not after.
+pub fn check_posterior(
+    study: &Study,
+    settings: &PosteriorSettings,
+) -> std::result::Result<(), String> {
+    StudyPosterior::new(study, settings.discrepancy, curve_parts_of(study)).map(|_| ())
+}
+
+/// How much longer an unconverged posterior is sampled, once.
+const EXTENSION: usize = 4;
+
+/// Each of `names` whose marginal has not converged, with its R-hat and
+/// bulk ESS.
+fn unconverged(names: &[String], marginals: &[Marginal], chains: usize) -> Vec<String> {
+    let needed = ESS_PER_CHAIN * chains as f64;
+    names
+        .iter()
+        .zip(marginals)
+        .filter_map(|(name, m)| {
+            let rhat_ok = m.rhat < RHAT_LIMIT || chains < 2;
+            let ess_ok = m.ess_bulk >= needed;
+            (!(rhat_ok && ess_ok))
+                .then(|| format!("{name} (R-hat {:.3}, bulk ESS {:.0})", m.rhat, m.ess_bulk))
+        })
+        .collect()
 }
 
 /// What the search left for the posterior: the calibrated point (the
@@ -120,15 +152,7 @@ pub fn run_posterior(
     resume: bool,
 ) -> Result<PosteriorOutcome> {
     let start = Instant::now();
-    let curve_parts = if study
-        .observations(Role::Fit)
-        .iter()
-        .any(|(case, o)| !case.priors && matches!(o.measured, Measured::Curve { .. }))
-    {
-        CURVE_PARTS
-    } else {
-        0
-    };
+    let curve_parts = curve_parts_of(study);
     let density =
         StudyPosterior::new(study, settings.discrepancy, curve_parts).map_err(AcqError::Config)?;
     let simulator = StudySimulator::new(study, model, Role::Fit).with_curve_parts(curve_parts);
@@ -170,7 +194,26 @@ pub fn run_posterior(
         emulator = refined;
         (&|point: &[f64]| Some(emulator.predict(point)), how)
     };
-    let chains = sample_on(&density, at, &centre, &sampler, "posterior")?;
+    let mut chains = sample_on(&density, at, &centre, &sampler, "posterior")?;
+    let mut sampler = sampler;
+    let coordinates: Vec<String> = density.coordinates.iter().map(|c| c.name.clone()).collect();
+    let mut extended = String::new();
+    let first = unconverged(&coordinates, &chains.summaries(), sampler.chains);
+    if !first.is_empty() {
+        // Once, four times as long: a slowly mixing posterior (a ridge the
+        // random walk crawls along) usually converges so; the report says
+        // whether it did.
+        extended = format!(
+            "; extended to {} draws per chain, since after {} {} had not converged",
+            EXTENSION * sampler.draws,
+            sampler.draws,
+            first.join(", ")
+        );
+        eprintln!("posterior: not converged yet{extended}");
+        sampler.draws *= EXTENSION;
+        sampler.seed = sampler.seed.wrapping_add(1);
+        chains = sample_on(&density, at, &centre, &sampler, "posterior (extended)")?;
+    }
     let outputs = outputs_at_draws(&chains, at);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(3));
     let scales: Vec<Scales> = outputs
@@ -226,9 +269,9 @@ pub fn run_posterior(
     )?;
     Ok(PosteriorOutcome {
         path: format!(
-            "{how}: {} chains of {} kept draws, one every {} steps after {} warmup steps (acceptance {:.2})",
+            "{how}: {} chains of {} kept draws, one every {} steps after {} warmup steps (acceptance {:.2}){extended}",
             settings.chains,
-            settings.draws,
+            sampler.draws,
             chains.thin,
             sampler.warmup,
             chains.acceptance.iter().sum::<f64>() / chains.acceptance.len() as f64,
@@ -243,7 +286,10 @@ pub fn run_posterior(
         discrepancy,
         predicted,
         wall_s: start.elapsed().as_secs_f64(),
-        settings: settings.clone(),
+        settings: PosteriorSettings {
+            draws: sampler.draws,
+            ..settings.clone()
+        },
     })
 }
 
@@ -270,8 +316,9 @@ fn sample_on(
     let start = Instant::now();
     let printed = std::sync::atomic::AtomicUsize::new(0);
     let progress = |p: SamplerProgress| {
-        // A line every tenth of the work keeps a CI log short.
-        let tenth = p.steps * 10 / p.total.max(1);
+        // A line every tenth of each phase keeps a CI log short (the
+        // sampling's tenths counted after the warmup's).
+        let tenth = p.steps * 10 / p.total.max(1) + if p.warming_up { 0 } else { 100 };
         if printed.fetch_max(tenth + 1, std::sync::atomic::Ordering::Relaxed) <= tenth {
             eprintln!(
                 "{label}: {} {}/{} steps, {:.0} s",
@@ -366,19 +413,25 @@ fn refined_emulator(
                 .min(budget),
         );
         eprintln!(
-            "posterior: emulator of {} runs; its sd at 95 % of the draws is {at_95:.2} of the measurement's (enough below {REFINE_RATIO}; the runs' own scatter alone {:.2}); {} refinement runs so far",
+            "posterior: emulator of {} runs; its sd at 95 % of the draws is {at_95:.2} of the measurement's (enough below {REFINE_RATIO}; beside it the runs' own scatter {:.2}); {} refinement runs so far",
             emulator.runs, emulator.scatter_ratio(density, &scales), spent
         );
         if points.is_empty() {
             let how = format!(
-                "sampled on a Gaussian-process emulator of the model ({} runs: the search's and {spent} refinement runs where the posterior lies; its sd at 95 % of the draws is {at_95:.2} of the measurement's{})",
+                "sampled on a Gaussian-process emulator of the model ({} runs: the search's and {spent} refinement runs where the posterior lies; its sd at 95 % of the draws is {at_95:.2} of the measurement's{}",
                 emulator.runs,
                 if at_95 > REFINE_RATIO {
                     format!(", above the {REFINE_RATIO} aimed at: the {} refinement runs are spent, so the intervals carry the emulator's doubt", settings.refinement_runs)
                 } else {
                     String::new()
-                }
+                },
             );
+            let scatter = emulator.scatter_ratio(density, &scales);
+            let how = if scatter > REFINE_RATIO {
+                format!("{how}; the runs' own scatter, or a jump the emulator cannot follow, adds up to {scatter:.2} of the measurement's sd, which the likelihood carries)")
+            } else {
+                format!("{how})")
+            };
             return Ok((emulator, how));
         }
         let evaluations = evaluator.evaluate(&points).map_err(evaluation_error)?;

@@ -96,7 +96,7 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
         ));
     } else {
         report.paragraph(format!(
-            "**Not converged**: {}. The numbers below are not to be trusted yet: sample longer (`draws` under `[posterior]`, e.g. {}) or with more chains.",
+            "**Not converged**: {}. The numbers below are not to be trusted yet: sample longer (`draws` under `[posterior]` in a spec, `--posterior-draws` with a preset, e.g. {}) or with more chains.",
             unconverged.join(", "),
             posterior.settings.draws * 4
         ));
@@ -315,8 +315,13 @@ fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcom
         return;
     }
     report.heading(3, "Validation (ASME V&V 20)");
+    let numerical = if posterior.settings.numerical_uncertainty.is_empty() {
+        "u_num is taken as 0 (the study states no numerical uncertainty: `numerical_uncertainty` under `[posterior]`, from a mesh study of the solver)"
+    } else {
+        "u_num the solver's numerical uncertainty the study states (from its mesh study; 0 where it states none)"
+    };
     report.paragraph(format!(
-        "E = S - D, S the model's mean at the predictive runs, D the measured value; u_val = sqrt(u_num^2 + u_input^2 + u_D^2), u_input the spread of the model's values over the posterior's parameters, u_D the measurement's uncertainty; u_num is taken as 0 (this study has no mesh study of its model). The model's error lies in E +- {COVERAGE_FACTOR} u_val."
+        "E = S - D, S the model's mean at the predictive runs, D the measured value; u_val = sqrt(u_num^2 + u_input^2 + u_D^2), u_input the spread of the model's values over the posterior's parameters, u_D the measurement's uncertainty, {numerical}. The model's error lies in E +- {COVERAGE_FACTOR} u_val."
     ));
     let mut table = Table::new(&[
         "case",
@@ -324,6 +329,7 @@ fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcom
         "S",
         "D",
         "E",
+        "u_num",
         "u_input",
         "u_D",
         "u_val",
@@ -340,6 +346,7 @@ fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcom
             short(s.simulated),
             short(s.measured),
             short(s.comparison_error),
+            short(s.u_num),
             short(s.u_input),
             short(s.u_measured),
             short(s.u_val),

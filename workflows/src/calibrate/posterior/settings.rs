@@ -28,6 +28,9 @@ pub struct PosteriorSettings {
     /// (an emulated posterior only).
     pub refinement_runs: usize,
     pub seed: u64,
+    /// Validate observations' numerical uncertainty (u_num of ASME V&V
+    /// 20), by observation name; 0 for the others.
+    pub numerical_uncertainty: Vec<(String, f64)>,
 }
 
 impl Default for PosteriorSettings {
@@ -39,6 +42,7 @@ impl Default for PosteriorSettings {
             predictive_runs: 50,
             refinement_runs: super::emulator::MAX_REFINEMENT_RUNS,
             seed: 1,
+            numerical_uncertainty: Vec::new(),
         }
     }
 }

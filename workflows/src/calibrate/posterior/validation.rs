@@ -12,9 +12,10 @@
 //!   parameters);
 //! - `u_D`: the measurement's stated uncertainty, or the posterior's
 //!   noise scale;
-//! - `u_num`: the solver's numerical uncertainty, from a mesh study where
-//!   the model has one; acq has none for a study's model, so it is taken
-//!   as 0 and the report says so.
+//! - `u_num`: the solver's numerical uncertainty, from a mesh study: a
+//!   spec states it per validate value (`[posterior]
+//!   numerical_uncertainty`, from the user's own mesh study of their
+//!   solver); where none is stated it is taken as 0 and the report says so.
 //!
 //! Beside it stands the posterior's own answer: whether the measured value
 //! lies in its 90 % predictive interval, which also carries the
@@ -83,7 +84,12 @@ fn statement(
         posterior
             .density
             .measurement_sd(noise_pct, predicted.measured, predicted.uncertainty);
-    let u_num = 0.0;
+    let u_num = posterior
+        .settings
+        .numerical_uncertainty
+        .iter()
+        .find(|(name, _)| *name == predicted.name)
+        .map_or(0.0, |(_, u)| *u);
     let u_val = (u_num * u_num + u_input * u_input + u_measured * u_measured).sqrt();
     let comparison_error = simulated - predicted.measured;
     ValidationStatement {

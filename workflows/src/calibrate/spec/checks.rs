@@ -13,6 +13,7 @@ use super::schema::{
     ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
     MAX_EVALUATIONS, MAX_PARALLEL, MAX_PREDICTIVE_RUNS, MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
 };
+use crate::calibrate::study::Role;
 use crate::calibrate::surrogate_moo::Pick;
 
 /// `model` and the keys that belong to it: a command, or the built-in
@@ -231,6 +232,29 @@ pub fn posterior(file: &SpecFile) -> Result<(), SpecProblem> {
             "posterior.predictive_runs = {}: at most {MAX_PREDICTIVE_RUNS}",
             posterior.predictive_runs
         )));
+    }
+    let validated: Vec<&String> = file
+        .cases
+        .iter()
+        .filter(|c| c.role == Role::Validate)
+        .flat_map(|c| c.measured.keys())
+        .collect();
+    for (name, u) in &posterior.numerical_uncertainty {
+        if !validated.contains(&name) {
+            return Err(SpecProblem::file(format!(
+                "posterior.numerical_uncertainty.{name:?}: no validate case measures it; name one of {}",
+                if validated.is_empty() {
+                    "the validate cases' measured values (there are none)".to_string()
+                } else {
+                    validated.iter().map(|n| format!("{n:?}")).collect::<Vec<_>>().join(", ")
+                }
+            )));
+        }
+        if !(u.is_finite() && *u >= 0.0) {
+            return Err(SpecProblem::file(format!(
+                "posterior.numerical_uncertainty.{name:?} = {u}: give the solver's numerical uncertainty as a number of at least 0, in the value's unit (from a mesh study: the grid convergence index, say)"
+            )));
+        }
     }
     Ok(())
 }

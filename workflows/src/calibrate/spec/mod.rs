@@ -89,9 +89,14 @@
 //! draws = 1000               # kept draws per chain (100 to 1,000,000)
 //! chains = 4                 # 1 to 64
 //! discrepancy = "none"       # or "constant": an additive model error per
-//!                            # output, the same in every case, its size estimated
+//!                            # output, the same in every case, its size
+//!                            # estimated; or "gp": one that varies over the
+//!                            # cases' inputs
 //! predictive_runs = 50       # model runs at posterior draws, per case
 //! seed = 1
+//! # optional: a validate value's numerical uncertainty (V&V 20's u_num,
+//! # from your mesh study), in its unit
+//! numerical_uncertainty = { "pressure_bar.boom" = 0.4 }
 //! ```
 //!
 //! The posterior's likelihood takes each measured value's `uncertainty`;
@@ -110,7 +115,7 @@ use acq_io::error::AcqError;
 
 use self::schema::{ExecutorSpec, MethodName, PosteriorSpec, Search, SpecFile};
 use super::method::{BoMethod, LeastSquaresMethod, Method};
-use super::posterior::PosteriorSettings;
+use super::posterior::{check_posterior, PosteriorSettings};
 use super::study::Study;
 use super::surrogate_moo::SurrogateMooSettings;
 
@@ -168,11 +173,16 @@ impl Spec {
         checks::search(&file.search).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
         let study = build::study(&file, &directory).map_err(located)?;
+        let posterior = file.posterior.as_ref().map(PosteriorSpec::settings);
+        if let Some(settings) = &posterior {
+            check_posterior(&study, settings)
+                .map_err(|message| located(SpecProblem::file(format!("[posterior]: {message}"))))?;
+        }
         Ok(Spec {
             model,
             study,
             search: file.search,
-            posterior: file.posterior.as_ref().map(PosteriorSpec::settings),
+            posterior,
             executor: file.executor,
             runs_at_once,
             directory,

@@ -76,6 +76,10 @@ pub struct PosteriorSpec {
     pub predictive_runs: usize,
     #[serde(default = "default_posterior_seed")]
     pub seed: u64,
+    /// A validate observation's numerical uncertainty (u_num of ASME V&V
+    /// 20, from the user's own mesh study), in its unit, by its name.
+    #[serde(default)]
+    pub numerical_uncertainty: BTreeMap<String, f64>,
 }
 
 fn default_draws() -> usize {
@@ -99,6 +103,11 @@ impl PosteriorSpec {
             discrepancy: self.discrepancy,
             predictive_runs: self.predictive_runs,
             seed: self.seed,
+            numerical_uncertainty: self
+                .numerical_uncertainty
+                .iter()
+                .map(|(name, u)| (name.clone(), *u))
+                .collect(),
             ..PosteriorSettings::default()
         }
     }

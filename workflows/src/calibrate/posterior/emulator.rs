@@ -10,7 +10,7 @@
 //! are run on the model (through the logging evaluator, so they resume and
 //! may be cluster jobs), until at 95 % of the draws it is below
 //! [`REFINE_RATIO`] of the measurement's (the posterior then widens by at
-//! most 3 %) or [`MAX_REFINEMENT_RUNS`] runs are spent. The doubt weighed
+//! most 3 %) or the refinement's budget of runs is spent. The doubt weighed
 //! is the latent GP's, which runs take away; a GP's fitted scatter (a
 //! solver's run-to-run noise, or a jump it cannot follow, as where a
 //! simulated bar breaks) stays in the likelihood and is reported as the
@@ -26,9 +26,6 @@ use super::likelihood::{Scales, StudyPosterior};
 /// Refinement ends when the emulator's sd is below this share of the
 /// measurement's at 95 % of the posterior draws.
 pub const REFINE_RATIO: f64 = 0.25;
-/// Model runs the refinement may spend beyond the search, unless a
-/// preset whose model is cheap enough allows more.
-pub const MAX_REFINEMENT_RUNS: usize = 20;
 /// Runs per refinement round: a new round refits the GPs and samples again.
 pub const RUNS_PER_ROUND: usize = 4;
 

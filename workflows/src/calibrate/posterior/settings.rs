@@ -15,6 +15,10 @@ pub enum Discrepancy {
     Gp,
 }
 
+/// Model runs the emulator's refinement may spend beyond the search,
+/// unless a preset whose model is cheap enough allows more.
+pub const MAX_REFINEMENT_RUNS: usize = 20;
+
 /// How the posterior is sampled.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PosteriorSettings {
@@ -40,7 +44,7 @@ impl Default for PosteriorSettings {
             chains: 4,
             discrepancy: Discrepancy::None,
             predictive_runs: 50,
-            refinement_runs: super::emulator::MAX_REFINEMENT_RUNS,
+            refinement_runs: MAX_REFINEMENT_RUNS,
             seed: 1,
             numerical_uncertainty: Vec::new(),
         }

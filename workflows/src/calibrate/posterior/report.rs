@@ -578,7 +578,7 @@ fn corner_svg(posterior: &PosteriorOutcome) -> String {
     let name = |i: usize| posterior.names[i].clone();
     let title = |i: usize| match prior(i) {
         Some((lower, upper)) if range(i) != (lower, upper) => {
-            format!("{} (prior {} .. {})", name(i), short(lower), short(upper))
+            format!("{}, prior {}-{}", name(i), trimmed(lower), trimmed(upper))
         }
         _ => name(i),
     };
@@ -589,13 +589,14 @@ fn corner_svg(posterior: &PosteriorOutcome) -> String {
                 None
             } else if column == row {
                 let (low, high) = range(row);
+                let densities = histogram(draws.iter().map(|d| d[row]), low, high, 30);
+                // From zero: a density axis cut above it exaggerates its shape.
+                let top = densities.iter().map(|(_, y)| *y).fold(0.0, f64::max);
                 Some(
                     Chart::new(title(row), name(row), "density")
-                        .with_series(Series::new(
-                            "",
-                            histogram(draws.iter().map(|d| d[row]), low, high, 30),
-                        ))
-                        .with_x_range(low, high),
+                        .with_series(Series::new("", densities))
+                        .with_x_range(low, high)
+                        .with_y_range(0.0, 1.05 * top.max(f64::MIN_POSITIVE)),
                 )
             } else {
                 let (x_low, x_high) = range(column);
@@ -616,6 +617,16 @@ fn corner_svg(posterior: &PosteriorOutcome) -> String {
     }
     let size = if shown.len() > 4 { 200.0 } else { 260.0 };
     sparse_grid_svg("posterior", &panels, shown.len(), size, size)
+}
+
+/// `value` in at most four significant digits, without trailing zeros.
+fn trimmed(value: f64) -> String {
+    let text = short(value);
+    if text.contains('.') && !text.contains('e') {
+        text.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        text
+    }
 }
 
 /// A histogram as a step line of densities over `bins` equal bins.
@@ -670,7 +681,7 @@ fn short(value: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::short;
+    use super::{short, trimmed};
 
     #[test]
     fn numbers_are_written_with_four_significant_digits_and_zero_as_zero() {
@@ -680,5 +691,8 @@ mod tests {
         assert_eq!(short(0.012345), "0.01235");
         assert_eq!(short(2.5e-5), "2.500e-5");
         assert_eq!(short(f64::NAN), "-");
+        assert_eq!(trimmed(0.25), "0.25");
+        assert_eq!(trimmed(800.0), "800");
+        assert_eq!(trimmed(2.5e-5), "2.500e-5");
     }
 }

@@ -9,8 +9,10 @@
 //! - [`tensile`]: force-displacement curve, zeroed and cut at fracture.
 //! - [`tensile_props`]: E, Rp0.2, UTS, flow curve and post-UTS slope bounds of a test curve.
 //! - [`run`]: both workflows over a recording.
+//! - [`live`]: the holds and their values as a stream, while recording.
 
 pub mod holds;
+pub mod live;
 pub mod measured;
 pub mod plausibility;
 pub mod run;

@@ -16,6 +16,7 @@ use super::stats::{WindowAccumulator, WindowStats};
 use super::tensile::{extract_curve, TensileCurve};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
+use acq_drivers::sensors::Sample;
 
 /// Which windows to summarise.
 #[derive(Clone, Debug)]
@@ -43,11 +44,16 @@ pub struct HoldsReport {
 
 /// The rig's load sensor: `name`, else its only force sensor.
 pub fn load_sensor(recording: &Recording, name: Option<&str>) -> Result<usize> {
-    if let Some(name) = name {
-        return recording.sensor_index(name);
+    match name {
+        Some(name) => recording.sensor_index(name),
+        None => rig_load_sensor(&recording.rig),
     }
-    let forces: Vec<usize> = (0..recording.rig.sensors.len())
-        .filter(|&i| recording.rig.sensors[i].kind == SensorKind::Force)
+}
+
+/// The rig's only force sensor, or what to say instead.
+pub fn rig_load_sensor(rig: &Rig) -> Result<usize> {
+    let forces: Vec<usize> = (0..rig.sensors.len())
+        .filter(|&i| rig.sensors[i].kind == SensorKind::Force)
         .collect();
     match forces.as_slice() {
         [one] => Ok(*one),
@@ -59,7 +65,7 @@ pub fn load_sensor(recording: &Recording, name: Option<&str>) -> Result<usize> {
             several.len(),
             several
                 .iter()
-                .map(|&i| recording.rig.sensors[i].name.as_str())
+                .map(|&i| rig.sensors[i].name.as_str())
                 .collect::<Vec<_>>()
                 .join(", ")
         ))),
@@ -194,58 +200,14 @@ pub fn extract_holds(
     };
 
     // Pass 2: every sensor in every window.
-    let width = rig.sensors.len();
-    let mut accumulators: Vec<WindowAccumulator> = windows
-        .iter()
-        .flat_map(|_| rig.sensors.iter().map(|s| WindowAccumulator::new(s.range)))
-        .collect();
-    let mut seen = vec![false; width];
+    let mut summariser = WindowSummariser::new(rig, &windows);
     let mut second_counts = SampleCounts::default();
     recording.for_each_sample(&offsets, &mut second_counts, |sample| {
-        seen[sample.sensor] = true;
-        let Some(value) = sample.value else {
-            return Ok(());
-        };
-        for (w, window) in windows.iter().enumerate() {
-            if (window.start_ns..=window.end_ns).contains(&sample.time_ns) {
-                accumulators[w * width + sample.sensor].push(sample.time_ns, value);
-            }
-        }
+        summariser.push(&sample);
         Ok(())
     })?;
-
-    let mut values = Vec::new();
-    for (w, window) in windows.iter().enumerate() {
-        let accs = &accumulators[w * width..(w + 1) * width];
-        let stats: Vec<WindowStats> = accs.iter().map(|a| a.summary()).collect();
-        let flags = check_window(rig, accs, &stats);
-        let start_s = (window.start_ns - t0_ns) as f64 / 1e9;
-        let end_s = (window.end_ns - t0_ns) as f64 / 1e9;
-        for (i, sensor) in rig.sensors.iter().enumerate() {
-            values.push(MeasuredValue {
-                window: window.name.clone(),
-                start_s,
-                end_s,
-                quantity: sensor.name.clone(),
-                unit: sensor.unit().to_string(),
-                stats: stats[i],
-                flags: flags[i].iter().map(|f| f.code.clone()).collect(),
-                note: flags[i]
-                    .iter()
-                    .map(|f| f.note.as_str())
-                    .collect::<Vec<_>>()
-                    .join("; "),
-            });
-        }
-        values.extend(cylinder_values(
-            rig,
-            &window.name,
-            start_s,
-            end_s,
-            &stats,
-            &flags,
-        ));
-    }
+    let values = summariser.values(t0_ns);
+    let seen = summariser.seen;
     let never_seen = rig
         .sensors
         .iter()
@@ -265,6 +227,85 @@ pub fn extract_holds(
         clocks,
         never_seen,
     })
+}
+
+/// Every sensor in every window, from samples given in recording order:
+/// `acq extract`'s second pass, and the live view's over the samples it
+/// keeps, so that both give the same numbers bit for bit.
+pub struct WindowSummariser<'a> {
+    rig: &'a Rig,
+    windows: &'a [Window],
+    /// Window-major: `accumulators[w * sensors + s]`.
+    accumulators: Vec<WindowAccumulator>,
+    /// Sensors that sent at least one sample (a value or a missing one).
+    pub seen: Vec<bool>,
+}
+
+impl<'a> WindowSummariser<'a> {
+    pub fn new(rig: &'a Rig, windows: &'a [Window]) -> Self {
+        WindowSummariser {
+            rig,
+            windows,
+            accumulators: windows
+                .iter()
+                .flat_map(|_| rig.sensors.iter().map(|s| WindowAccumulator::new(s.range)))
+                .collect(),
+            seen: vec![false; rig.sensors.len()],
+        }
+    }
+
+    pub fn push(&mut self, sample: &Sample) {
+        let width = self.rig.sensors.len();
+        self.seen[sample.sensor] = true;
+        let Some(value) = sample.value else {
+            return;
+        };
+        for (w, window) in self.windows.iter().enumerate() {
+            if (window.start_ns..=window.end_ns).contains(&sample.time_ns) {
+                self.accumulators[w * width + sample.sensor].push(sample.time_ns, value);
+            }
+        }
+    }
+
+    /// Every sensor's value in every window, then each cylinder's net force
+    /// and loaded-chamber pressure; times in seconds from `t0_ns`.
+    pub fn values(&self, t0_ns: i64) -> Vec<MeasuredValue> {
+        let rig = self.rig;
+        let width = rig.sensors.len();
+        let mut values = Vec::new();
+        for (w, window) in self.windows.iter().enumerate() {
+            let accs = &self.accumulators[w * width..(w + 1) * width];
+            let stats: Vec<WindowStats> = accs.iter().map(|a| a.summary()).collect();
+            let flags = check_window(rig, accs, &stats);
+            let start_s = (window.start_ns - t0_ns) as f64 / 1e9;
+            let end_s = (window.end_ns - t0_ns) as f64 / 1e9;
+            for (i, sensor) in rig.sensors.iter().enumerate() {
+                values.push(MeasuredValue {
+                    window: window.name.clone(),
+                    start_s,
+                    end_s,
+                    quantity: sensor.name.clone(),
+                    unit: sensor.unit().to_string(),
+                    stats: stats[i],
+                    flags: flags[i].iter().map(|f| f.code.clone()).collect(),
+                    note: flags[i]
+                        .iter()
+                        .map(|f| f.note.as_str())
+                        .collect::<Vec<_>>()
+                        .join("; "),
+                });
+            }
+            values.extend(cylinder_values(
+                rig,
+                &window.name,
+                start_s,
+                end_s,
+                &stats,
+                &flags,
+            ));
+        }
+        values
+    }
 }
 
 /// Net force and loaded-chamber pressure of each rig cylinder in a window.

@@ -158,6 +158,7 @@ fn recording_cost(seconds: f64) {
         status: StatusMode::Quiet,
         command_line: "bench".into(),
         notes: Vec::new(),
+        observer: None,
     };
     let recording = runtime.spawn(record::record(bus.clone(), options, async move {
         let _ = stop_rx.await;

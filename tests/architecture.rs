@@ -33,6 +33,17 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-calib",
         ],
     ),
+    // The live page: frames, samples and measured values, read only.
+    (
+        "acq-view",
+        &[
+            "acq-drivers",
+            "acq-io",
+            "acq-acquire",
+            "acq-analysis",
+            "acq-report",
+        ],
+    ),
     // The demo composes the whole chain.
     (
         "acq-demo",
@@ -43,6 +54,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-analysis",
             "acq-report",
             "acq-workflows",
+            "acq-view",
         ],
     ),
     // The binary is glue over all of them.
@@ -58,6 +70,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-report",
             "acq-workflows",
             "acq-demo",
+            "acq-view",
         ],
     ),
 ];

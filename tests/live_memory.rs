@@ -56,6 +56,7 @@ fn options(interfaces: &[&str], rig: Option<Rig>, dir: &Path) -> RecordOptions {
         status: StatusMode::Quiet,
         command_line: "test".into(),
         notes: Vec::new(),
+        observer: None,
     }
 }
 

@@ -105,6 +105,7 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
             status: StatusMode::Quiet,
             command_line: format!("acq demo (replay of {})", playback.source.display()),
             notes,
+            observer: None,
         };
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<StopReason>();
         let recorder_bus = bus.clone();

@@ -44,6 +44,10 @@ pub struct RecordArgs {
     /// Live status as one JSON object per line on stdout.
     #[arg(long)]
     pub status_json: bool,
+    /// The page (needs --rig: it decodes through it). It stops serving when
+    /// the recording ends.
+    #[command(flatten)]
+    pub view: acq_view::ViewArgs,
 }
 
 #[derive(Args, Debug)]
@@ -165,6 +169,32 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     let session_dir = args.out.clone().unwrap_or_else(|| {
         Path::new("sessions").join(session::default_dir_name(SystemTime::now()))
     });
+    // The page is bound before recording starts: a taken port fails first.
+    let mut observer: Option<Box<dyn record::RecordObserver>> = None;
+    let host = match (args.view.resolve()?, &rig) {
+        (None, _) => None,
+        (Some(_), None) => {
+            return Err(AcqError::Config(
+                "--view needs --rig RIG.toml: the page shows the rig's sensors".into(),
+            ))
+        }
+        (Some((addr, access)), Some(rig)) => {
+            let name = session_dir
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "session".into());
+            let (feed, shared) = acq_view::live_session(
+                &name,
+                rig,
+                acq_analysis::extract::holds::HoldOptions::default(),
+                None,
+            );
+            observer = Some(Box::new(feed));
+            let host = acq_view::ViewHost::start(addr, access, vec![shared])?;
+            eprintln!("acq: view at {} (served while recording)", host.url());
+            Some(host)
+        }
+    };
     let status = if args.quiet {
         StatusMode::Quiet
     } else if args.status_json {
@@ -181,13 +211,18 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         status,
         command_line: std::env::args().collect::<Vec<_>>().join(" "),
         notes,
+        observer,
     };
     // Two workers: the readers never wait behind a disk write of the writer loop.
     let summary = acq_acquire::runtime(2)?.block_on(record::record(
         SocketCanBus,
         options,
         record::stop_on_signal_or(args.duration),
-    ))?;
+    ));
+    if let Some(host) = host {
+        host.stop();
+    }
+    let summary = summary?;
     let info = &summary.session.session;
     if status != StatusMode::Quiet {
         eprintln!(

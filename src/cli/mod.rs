@@ -10,6 +10,7 @@ mod live;
 mod offline;
 mod tensile;
 mod twin;
+mod view;
 
 use acq_io::error::Result;
 
@@ -55,6 +56,8 @@ pub enum Command {
     CheckRig(decode::CheckRigArgs),
     /// Record CAN interfaces into a session directory, with live status.
     Record(live::RecordArgs),
+    /// Serve the live page over recorded sessions: every signal, holds marked.
+    View(view::ViewCommandArgs),
     /// Play a log back onto CAN interfaces with its original timing.
     Replay(live::ReplayArgs),
     /// Put a rig's simulated sensors on CAN interfaces, or into a log.
@@ -96,6 +99,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::CheckRig(args) => decode::run_check_rig(args),
         Command::Record(args) => live::run_record(args),
         Command::Replay(args) => live::run_replay(args),
+        Command::View(args) => view::run_view(args),
         Command::Simulate(args) => live::run_simulate(args),
         Command::Session(command) => live::run_session(command),
         Command::Twin(command) => twin::run_twin(command),

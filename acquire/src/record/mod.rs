@@ -60,6 +60,24 @@ pub struct RecordOptions {
     pub command_line: String,
     /// Remarks to keep in `session.toml` (e.g. how rig buses were assigned).
     pub notes: Vec<String>,
+    /// Who watches the recording as it happens (the live view), if anyone.
+    pub observer: Option<Box<dyn RecordObserver>>,
+}
+
+/// Watches a recording: every batch of frames as it is written, and every
+/// status. The recorder calls it inline, so it must never block or wait:
+/// a watcher that cannot keep up drops what it cannot take (and says so),
+/// never the recorder.
+pub trait RecordObserver: Send + Sync {
+    /// The session exists: its start time is the origin of session seconds.
+    fn started(&mut self, session: &SessionFile);
+    /// Frames received on interface `bus` (index into the recorded
+    /// interfaces), in the order they are written to `raw.log`.
+    fn frames(&mut self, bus: usize, frames: &[Frame], arrival_ns: i64);
+    /// The status the terminal shows, about twice a second.
+    fn status(&mut self, status: &Status);
+    /// The recording ended; `session.toml` is complete.
+    fn finished(&mut self, session: &SessionFile);
 }
 
 /// Why a recording stopped.
@@ -144,7 +162,7 @@ pub async fn stop_on_signal_or(duration: Option<Duration>) -> StopReason {
 /// sources end, or writing fails).
 pub async fn record<B: Bus>(
     bus: B,
-    options: RecordOptions,
+    mut options: RecordOptions,
     stop: impl Future<Output = StopReason>,
 ) -> Result<RecordSummary> {
     // Open everything first: a missing interface fails before any file exists.
@@ -210,6 +228,10 @@ pub async fn record<B: Bus>(
     drop(events_tx);
 
     let mut display = StatusDisplay::new(options.status);
+    let mut observer = options.observer.take();
+    if let Some(observer) = observer.as_mut() {
+        observer.started(&session);
+    }
     if options.nmt_start {
         send_nmt_start(&bus, &options, &mut display).await;
     }
@@ -287,12 +309,18 @@ pub async fn record<B: Bus>(
                     }).collect()).unwrap_or_default(),
                 };
                 display.show(&status);
+                if let Some(observer) = observer.as_mut() {
+                    observer.status(&status);
+                }
             }
             event = events.recv() => {
                 let Some(event) = event else { break };
                 match event {
                     Event::Frames { bus, frames, info } => {
                         let arrival_ns = now_ns();
+                        if let Some(observer) = observer.as_mut() {
+                            observer.frames(bus, &frames, arrival_ns);
+                        }
                         let record = &mut session.interface[bus];
                         for frame in &frames {
                             if let Some(report) = record.count(frame) {
@@ -359,6 +387,9 @@ pub async fn record<B: Bus>(
     }
     let _ = fs::remove_file(&reserve);
     write_session(dir, &finished)?;
+    if let Some(observer) = observer.as_mut() {
+        observer.finished(&finished);
+    }
     Ok(RecordSummary {
         session_dir: dir.clone(),
         session: finished,

@@ -1,0 +1,48 @@
+//! `acq view`: the live page over recorded sessions.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use acq_io::error::{AcqError, Result};
+use acq_view::{open_session, ViewArgs, ViewHost, DEFAULT_ADDRESS};
+use clap::Args;
+
+#[derive(Args, Debug)]
+pub struct ViewCommandArgs {
+    /// Session directories written by acq record (one section each).
+    #[arg(value_name = "SESSION_DIR", required = true)]
+    pub sessions: Vec<PathBuf>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
+    if args.view.view.is_none() {
+        args.view.view = Some(DEFAULT_ADDRESS.into());
+    }
+    let (addr, access) = args
+        .view
+        .resolve()?
+        .ok_or_else(|| AcqError::Config("--view: an address is needed".into()))?;
+    let mut sessions = Vec::new();
+    for dir in &args.sessions {
+        let name = dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| dir.display().to_string());
+        let started = std::time::Instant::now();
+        let view = open_session(dir, &name)?;
+        eprintln!(
+            "acq: {}: {} sensors, {} hold(s), read in {:.2} s",
+            dir.display(),
+            view.sensors.len(),
+            view.holds.len(),
+            started.elapsed().as_secs_f64()
+        );
+        sessions.push(Arc::new(Mutex::new(view)));
+    }
+    let host = ViewHost::start(addr, access, sessions)?;
+    eprintln!("acq: view at {} (Ctrl-C to stop)", host.url());
+    host.serve_until_interrupted();
+    Ok(())
+}

@@ -1,0 +1,480 @@
+// acq view: the page. It reads /api/state and /api/series, follows
+// /api/events while a session records, and writes every name from a rig or
+// DBC file into the page as text (textContent), never as HTML.
+'use strict';
+(() => {
+  const token = document.querySelector('meta[name="acq-token"]').content;
+  const LIVE_WINDOW_S = 60;
+  const LIVE_COLUMN_S = 0.05;
+  const KEEP_LIVE_S = 600;
+  const COLORS = ['#0969da', '#cf222e', '#1a7f37', '#8250df', '#bf8700', '#1b7c83',
+    '#e16f24', '#57606a', '#a40e26', '#116329', '#953800', '#0550ae'];
+
+  // What the page has drawn, for the browser checks (and the curious).
+  const view = { sessions: [], holdsShown: [], lastX: [], updates: 0, lost: 0, errors: [] };
+  window.acqView = view;
+
+  function url(path, params = {}) {
+    const u = new URL(path, location.href);
+    for (const [k, v] of Object.entries(params)) u.searchParams.set(k, v);
+    if (token) u.searchParams.set('token', token);
+    return u.toString();
+  }
+
+  function el(tag, props = {}, ...children) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(props)) {
+      if (k === 'class') e.className = v;
+      else if (k === 'text') e.textContent = v;
+      else if (k.startsWith('on')) e.addEventListener(k.slice(2), v);
+      else e.setAttribute(k, v);
+    }
+    for (const c of children) e.append(c);
+    return e;
+  }
+
+  async function getJson(path, params) {
+    const response = await fetch(url(path, params));
+    if (!response.ok) throw new Error(`${path}: HTTP ${response.status}`);
+    return response.json();
+  }
+
+  function fmt(v) {
+    if (v === null || v === undefined) return '-';
+    const a = Math.abs(v);
+    if (a !== 0 && (a >= 1e6 || a < 1e-3)) return v.toExponential(4);
+    return v.toFixed(3);
+  }
+
+  function banner(text) {
+    const b = document.getElementById('banner');
+    b.textContent = text;
+    b.hidden = false;
+  }
+
+  // ---- sessions and charts ----------------------------------------------
+
+  function sessionSensors(state, info, several) {
+    return state.sensors.filter((s) => !several || s.session === info.name);
+  }
+
+  function buildSession(index, info, sensors) {
+    const s = {
+      index, name: info.name, live: info.live, follow: info.live,
+      range: null, sensors, groups: [], holds: [], holdsNote: info.holds_note,
+      columns: sensors.map(() => new Map()), zoomColumns: null, end: 0,
+      tables: null, xy: null, xyCanvas: null,
+    };
+    const mode = el('span', { class: 'mode' });
+    const button = (text, action) => el('button', { type: 'button', onclick: action, text });
+    const controls = el('div', { class: 'controls' },
+      button(info.live ? 'Pause' : 'Whole session', () => (s.live ? toggleFollow(s) : showWhole(s))),
+      button('\u25c0', () => pan(s, -0.5)), button('\u25b6', () => pan(s, 0.5)),
+      button('Zoom out', () => zoom(s, 2)), mode);
+    s.mode = mode;
+    s.pauseButton = controls.firstChild;
+    const charts = el('div', { class: 'charts' });
+    const groups = new Map();
+    sensors.forEach((sensor, k) => {
+      if (!groups.has(sensor.group)) groups.set(sensor.group, []);
+      groups.get(sensor.group).push(k);
+    });
+    const section = el('section', { class: 'session', 'data-session': String(index) },
+      el('h2', { text: info.name + (info.live ? ' (recording)' : ' (recorded)') }), controls, charts);
+    document.getElementById('sessions').append(section);
+    for (const [group, members] of groups) {
+      const box = el('div', { class: 'chart' }, el('h3', { text: group }));
+      charts.append(box);
+      const width = Math.max(400, box.clientWidth - 12);
+      const plot = new uPlot({
+        width, height: 220,
+        // Without data (or with one value) uPlot finds no axis ticks: give
+        // such scales a span of their own.
+        scales: {
+          x: { time: false, range: (u, min, max) => (min === null || !(max > min) ? [0, 1] : [min, max]) },
+          y: { range: (u, min, max) => (min === null ? [0, 1] : uPlot.rangeNum(min, max, 0.1, true)) },
+        },
+        axes: [{ label: 'session time (s)' }, {}],
+        series: [{ label: 't (s)' }].concat(members.map((k, j) => ({
+          label: sensors[k].name, stroke: COLORS[j % COLORS.length], width: 1, spanGaps: false,
+          points: { show: false },
+        }))),
+        // A drag selects a span; the page then reads it at the chart's resolution.
+        cursor: { drag: { x: true, y: false, setScale: false } },
+        legend: { live: true },
+        hooks: {
+          drawClear: [(u) => shadeHolds(s, u)],
+          setSelect: [(u) => onSelect(s, u)],
+        },
+      }, [[], ...members.map(() => [])], box);
+      s.groups.push({ group, members, plot });
+    }
+    if (info.has_xy) {
+      s.xyCanvas = el('canvas', { class: 'xy', width: '560', height: '320' });
+      charts.append(el('div', { class: 'chart' }, el('h3', { text: 'force against displacement' }), s.xyCanvas));
+    }
+    s.tables = el('div', { class: 'tables' });
+    section.append(s.tables);
+    return s;
+  }
+
+  function shadeHolds(s, u) {
+    const ctx = u.ctx;
+    ctx.save();
+    ctx.fillStyle = 'rgba(45, 164, 78, 0.18)';
+    const { left, top, width, height } = u.bbox;
+    for (const h of s.holds) {
+      const x0 = Math.max(left, u.valToPos(h.start_s, 'x', true));
+      const x1 = Math.min(left + width, u.valToPos(h.end_s, 'x', true));
+      if (x1 > x0) ctx.fillRect(x0, top, x1 - x0, height);
+    }
+    ctx.restore();
+  }
+
+  // A drag across any chart: the session stops following and every chart
+  // of it shows the span chosen, read again at the chart's resolution.
+  function onSelect(s, u) {
+    const { left, width } = u.select;
+    if (width < 2) return;
+    const range = [u.posToVal(left, 'x'), u.posToVal(left + width, 'x')];
+    u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
+    s.follow = false;
+    showRange(s, range);
+  }
+
+  function setRange(s, range) {
+    s.range = range;
+    for (const g of s.groups) g.plot.setScale('x', { min: range[0], max: range[1] });
+  }
+
+  async function showRange(s, range) {
+    s.range = range;
+    updateMode(s);
+    const px = Math.max(200, Math.round(s.groups[0] ? s.groups[0].plot.bbox.width / devicePixelRatio : 1000));
+    try {
+      const data = await getJson('/api/series', { session: s.index, from: range[0], to: range[1], px });
+      const width = (range[1] - range[0]) / px;
+      s.zoomColumns = data.series.map((cols) => toMap(cols, width));
+      redraw(s);
+    } catch (e) {
+      banner(`could not read the series: ${e.message}`);
+    }
+  }
+
+  function toMap(cols, width) {
+    const m = new Map();
+    for (const [t, min, max] of cols) m.set(Math.round(t * 1000), [min, max, width]);
+    return m;
+  }
+
+  function toggleFollow(s) {
+    s.follow = !s.follow;
+    if (s.follow) {
+      s.zoomColumns = null;
+      followWindow(s);
+    } else {
+      showRange(s, s.range || [s.end - LIVE_WINDOW_S, s.end]);
+    }
+    updateMode(s);
+  }
+
+  function showWhole(s) {
+    s.follow = false;
+    getJson('/api/state').then((state) => {
+      const info = state.sessions[s.index];
+      if (info.span_s) showRange(s, info.span_s);
+    });
+  }
+
+  function pan(s, fraction) {
+    const [a, b] = s.range || [s.end - LIVE_WINDOW_S, s.end];
+    const shift = (b - a) * fraction;
+    s.follow = false;
+    showRange(s, [a + shift, b + shift]);
+  }
+
+  function zoom(s, factor) {
+    const [a, b] = s.range || [s.end - LIVE_WINDOW_S, s.end];
+    const mid = (a + b) / 2;
+    const half = ((b - a) * factor) / 2;
+    s.follow = false;
+    showRange(s, [mid - half, mid + half]);
+  }
+
+  function updateMode(s) {
+    if (s.live) {
+      s.pauseButton.textContent = s.follow ? 'Pause' : 'Follow';
+      s.mode.textContent = s.follow ? `following the last ${LIVE_WINDOW_S} s`
+        : 'paused (recording goes on); Follow returns to the newest data';
+    } else if (s.range) {
+      s.mode.textContent = `${fmt(s.range[0])} s to ${fmt(s.range[1])} s`;
+    }
+  }
+
+  async function followWindow(s) {
+    const data = await getJson('/api/series', {
+      session: s.index, from: s.end - LIVE_WINDOW_S, to: s.end + 1,
+      px: Math.round((LIVE_WINDOW_S + 1) / LIVE_COLUMN_S),
+    });
+    data.series.forEach((cols, k) => {
+      for (const [t, min, max] of cols) s.columns[k].set(Math.round(t * 1000), [min, max, LIVE_COLUMN_S]);
+    });
+    redraw(s);
+  }
+
+  // Min and max of each column as two points half a column apart: the
+  // envelope a line through every sample would fill. A column a sensor has
+  // no sample in is bridged (undefined) unless the sensor was silent for
+  // three of its periods and two columns (null: a gap is drawn).
+  function chartData(s, members) {
+    const source = s.follow || !s.zoomColumns ? s.columns : s.zoomColumns;
+    const [a, b] = s.range || [-Infinity, Infinity];
+    const keys = new Set();
+    for (const k of members) {
+      for (const key of source[k].keys()) if (key / 1000 >= a - 1 && key / 1000 <= b + 1) keys.add(key);
+    }
+    const sorted = Array.from(keys).sort((p, q) => p - q);
+    const x = new Array(sorted.length * 2);
+    const ys = members.map(() => new Array(sorted.length * 2).fill(undefined));
+    const lastSeen = members.map(() => -Infinity);
+    sorted.forEach((key, i) => {
+      let width = LIVE_COLUMN_S;
+      members.forEach((k, j) => {
+        const c = source[k].get(key);
+        if (c) {
+          ys[j][2 * i] = c[0];
+          ys[j][2 * i + 1] = c[1];
+          width = c[2];
+          lastSeen[j] = key;
+        } else {
+          const period = s.sensors[k].expected_rate_hz > 0 ? 1000 / s.sensors[k].expected_rate_hz : 0;
+          if (key - lastSeen[j] > Math.max(3 * period, 2000 * width) && lastSeen[j] > -Infinity) {
+            ys[j][2 * i] = null;
+          }
+        }
+      });
+      x[2 * i] = key / 1000;
+      x[2 * i + 1] = key / 1000 + width / 2;
+    });
+    return [x, ...ys];
+  }
+
+  let pending = new Set();
+  function redraw(s) {
+    if (pending.has(s)) return;
+    pending.add(s);
+    requestAnimationFrame(() => {
+      pending.delete(s);
+      // setData rescales y (and x, which setRange then sets).
+      for (const g of s.groups) {
+        g.plot.setData(chartData(s, g.members));
+      }
+      if (s.range) setRange(s, s.range);
+      let last = null;
+      for (const m of s.columns) for (const key of m.keys()) last = last === null ? key : Math.max(last, key);
+      view.lastX[s.index] = last === null ? null : last / 1000;
+    });
+  }
+
+  // ---- live updates -----------------------------------------------------
+
+  function applyTails(s, tail) {
+    if (!tail) return;
+    const fromKey = Math.round(tail.from_s * 1000);
+    tail.series.forEach((cols, k) => {
+      const m = s.columns[k];
+      for (const key of Array.from(m.keys())) if (key >= fromKey) m.delete(key);
+      for (const [t, min, max] of cols) {
+        const key = Math.round(t * 1000);
+        m.set(key, [min, max, LIVE_COLUMN_S]);
+        s.end = Math.max(s.end, t + LIVE_COLUMN_S);
+      }
+      const oldest = (s.end - KEEP_LIVE_S) * 1000;
+      for (const key of m.keys()) {
+        if (key >= oldest) break;
+        m.delete(key);
+      }
+    });
+    if (s.follow) s.range = [s.end - LIVE_WINDOW_S, s.end];
+    redraw(s);
+  }
+
+  function applyState(state) {
+    const several = state.sessions.length > 1;
+    state.sessions.forEach((info, i) => {
+      const s = view.sessions[i];
+      if (!s) return;
+      if (s.live && !info.live) {
+        s.live = false;
+        s.mode.textContent = 'recording ended';
+      }
+      s.holdsNote = info.holds_note;
+      s.framesNotShown = info.frames_not_shown;
+      const holds = state.holds.filter((h) => !several || h.session === info.name);
+      const changed = JSON.stringify(holds.map((h) => [h.start_s, h.end_s])) !== JSON.stringify(s.holds.map((h) => [h.start_s, h.end_s]));
+      s.holds = holds;
+      if (changed) {
+        for (const g of s.groups) g.plot.redraw(false, false);
+        for (const h of holds) {
+          if (!view.holdsShown.some((x) => x.session === info.name && x.start_s === h.start_s && x.end_s === h.end_s)) {
+            view.holdsShown.push({ session: info.name, index: h.index, start_s: h.start_s, end_s: h.end_s, shown_ms: Date.now() });
+          }
+        }
+      }
+      s.state = { info, sensors: sessionSensors(state, info, several),
+        buses: state.buses.filter((b) => !several || b.session === info.name), holds };
+    });
+    renderTablesSoon();
+  }
+
+  let tablesDue = false;
+  let tablesAt = 0;
+  function renderTablesSoon() {
+    if (tablesDue) return;
+    tablesDue = true;
+    setTimeout(() => {
+      tablesDue = false;
+      tablesAt = Date.now();
+      for (const s of view.sessions) renderTables(s);
+    }, Math.max(0, 400 - (Date.now() - tablesAt)));
+  }
+
+  function cell(text, cls) { return el('td', cls ? { class: cls, text } : { text }); }
+
+  function renderTables(s) {
+    if (!s.state) return;
+    const { info, sensors, buses, holds } = s.state;
+    const busTable = el('table', { class: 'buses' },
+      el('thead', {}, el('tr', {}, ...['bus', 'state', 'frames/s', 'frames', 'kernel drops', 'error frames'].map((h) => el('th', { text: h })))),
+      el('tbody', {}, ...buses.map((b) => el('tr', {},
+        cell(b.iface), cell(b.state, b.state === 'down' ? 'fault' : ''), cell(fmt(b.frames_per_s), 'num'),
+        cell(String(b.frames), 'num'), cell(String(b.kernel_drops), b.kernel_drops > 0 ? 'num fault' : 'num'),
+        cell(String(b.error_frames), b.error_frames > 0 ? 'num fault' : 'num')))));
+    const sensorTable = el('table', { class: 'sensors' },
+      el('thead', {}, el('tr', {}, ...['sensor', 'last value', 'unit', 'state'].map((h) => el('th', { text: h })))),
+      el('tbody', {}, ...sensors.map((x) => el('tr', x.silent ? { class: 'silent' } : {},
+        cell(x.name), cell(fmt(x.last_value), 'num'), cell(x.unit),
+        cell(x.silent ? `SILENT${x.silence_reason ? ': ' + x.silence_reason : ''}` : 'alive')))));
+    const holdRows = holds.map((h) => {
+      const details = el('details', {}, el('summary', { text: h.values ? `${h.values.length} values` : 'values: see acq extract' }));
+      if (h.values) {
+        details.append(el('table', {},
+          el('thead', {}, el('tr', {}, ...['quantity', 'mean', 'std', '95 % interval', 'unit', 'flags'].map((t) => el('th', { text: t })))),
+          el('tbody', {}, ...h.values.map((v) => el('tr', {},
+            cell(v.quantity), cell(fmt(v.mean), 'num'), cell(fmt(v.std), 'num'),
+            cell(v.ci95_half_width === null ? '-' : '\u00b1 ' + fmt(v.ci95_half_width), 'num'), cell(v.unit),
+            cell(v.flags.join(', '), v.flags.length ? 'fault' : ''))))));
+      }
+      return el('tr', { class: 'hold' }, cell(h.name), cell(fmt(h.start_s), 'num'), cell(fmt(h.end_s), 'num'),
+        cell(fmt(h.end_s - h.start_s), 'num'), el('td', {}, details));
+    });
+    const holdTable = el('table', { class: 'holds' },
+      el('thead', {}, el('tr', {}, ...['hold', 'start (s)', 'end (s)', 'length (s)', 'measured values'].map((t) => el('th', { text: t })))),
+      el('tbody', {}, ...holdRows));
+    const notes = [];
+    if (s.holdsNote) notes.push(el('p', { class: 'note', text: s.holdsNote }));
+    if (info.load_sensor) notes.push(el('p', { class: 'note', text: `holds: steady stretches of ${info.load_sensor}, found as acq extract finds them` }));
+    if (info.frames_not_shown > 0) notes.push(el('p', { class: 'fault', text: `this view fell behind: ${info.frames_not_shown} frames not shown (all of them recorded)` }));
+    // Keep open the hold details a reader opened.
+    const open = new Set(Array.from(s.tables.querySelectorAll('table.holds details[open]')).map((d) => d.closest('tr').firstChild.textContent));
+    s.tables.replaceChildren(el('div', {}, busTable, ...notes), sensorTable, holdTable);
+    for (const d of s.tables.querySelectorAll('table.holds > tbody > tr')) {
+      if (open.has(d.firstChild.textContent)) d.querySelector('details').open = true;
+    }
+  }
+
+  function drawXy(s, xy) {
+    const canvas = s.xyCanvas;
+    if (!canvas || !xy || !xy.points.length) return;
+    const ctx = canvas.getContext('2d');
+    const w = canvas.width;
+    const h = canvas.height;
+    const pad = 48;
+    ctx.clearRect(0, 0, w, h);
+    const xs = xy.points.map((p) => p[0]);
+    const ys = xy.points.map((p) => p[1]);
+    const [x0, x1] = [Math.min(...xs), Math.max(...xs)];
+    const [y0, y1] = [Math.min(0, ...ys), Math.max(...ys)];
+    const px = (x) => pad + ((x - x0) / (x1 - x0 || 1)) * (w - 1.5 * pad);
+    const py = (y) => h - pad + -((y - y0) / (y1 - y0 || 1)) * (h - 1.5 * pad);
+    ctx.strokeStyle = '#57606a';
+    ctx.strokeRect(pad, pad / 2, w - 1.5 * pad, h - 1.5 * pad);
+    ctx.fillStyle = '#1b1f24';
+    ctx.font = '12px system-ui, sans-serif';
+    ctx.fillText(`${xy.x} (${xy.x_unit}): ${fmt(x0)} to ${fmt(x1)}`, pad, h - 12);
+    ctx.save();
+    ctx.translate(14, h - pad);
+    ctx.rotate(-Math.PI / 2);
+    ctx.fillText(`${xy.y} (${xy.y_unit}): ${fmt(y0)} to ${fmt(y1)}`, 0, 0);
+    ctx.restore();
+    ctx.strokeStyle = COLORS[0];
+    ctx.beginPath();
+    xy.points.forEach(([x, y], i) => (i ? ctx.lineTo(px(x), py(y)) : ctx.moveTo(px(x), py(y))));
+    ctx.stroke();
+  }
+
+  async function refreshXy() {
+    for (const s of view.sessions) {
+      if (s.xyCanvas && (s.live || !s.xyDrawn)) {
+        s.xyDrawn = true;
+        drawXy(s, await getJson('/api/xy', { session: s.index }));
+      }
+    }
+  }
+
+  // ---- start --------------------------------------------------------------
+
+  async function start() {
+    const state = await getJson('/api/state');
+    const several = state.sessions.length > 1;
+    state.sessions.forEach((info, i) => {
+      const s = buildSession(i, info, sessionSensors(state, info, several));
+      view.sessions.push(s);
+    });
+    applyState(state);
+    for (const s of view.sessions) {
+      const info = state.sessions[s.index];
+      const span = info.span_s || [0, 0];
+      s.end = span[1];
+      if (s.live) {
+        s.range = [s.end - LIVE_WINDOW_S, s.end];
+        await followWindow(s);
+      } else {
+        await showRange(s, span);
+      }
+      updateMode(s);
+    }
+    await refreshXy();
+    const connection = document.getElementById('connection');
+    if (!view.sessions.some((s) => s.live)) {
+      connection.textContent = 'recorded session';
+      return;
+    }
+    setInterval(() => { refreshXy().catch(() => {}); }, 1000);
+    const events = new EventSource(url('/api/events'));
+    events.onopen = () => { connection.textContent = 'live'; connection.className = ''; };
+    events.onerror = () => {
+      connection.textContent = 'disconnected: the recording ended or acq stopped serving (retrying)';
+      connection.className = 'down';
+    };
+    events.addEventListener('update', (event) => {
+      const update = JSON.parse(event.data);
+      view.updates += 1;
+      update.tails.forEach((tail, i) => { if (view.sessions[i]) applyTails(view.sessions[i], tail); });
+      applyState(update.state);
+    });
+    events.addEventListener('lost', (event) => {
+      const missed = Number(event.data);
+      view.lost += missed;
+      banner(`This page missed ${view.lost} update(s): the browser did not keep up. The recording is not affected; the plotted window was read again.`);
+      for (const s of view.sessions) if (s.live && s.follow) followWindow(s);
+    });
+  }
+
+  window.addEventListener('DOMContentLoaded', () => {
+    start().catch((e) => {
+      view.errors.push(String(e));
+      banner(`acq view could not start: ${e.message}`);
+    });
+  });
+})();

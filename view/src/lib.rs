@@ -1,0 +1,30 @@
+//! The live view: a browser page of every signal while `acq record` (or the
+//! demo) records, and the same page over any recorded session (`acq view`).
+//!
+//! - [`series`]: a signal as min/max buckets, folded per pixel column.
+//! - [`model`]: what the page shows of one session.
+//! - [`live`]: the recorder's observer; a thread decodes and finds holds.
+//! - [`recorded`]: a session read from disk, with `acq extract`'s holds.
+//! - [`server`]: the HTTP server (read-only, loopback or token, CSP, events).
+//! - [`host`]: the `--view` options and the page on a runtime of its own.
+//! - [`page`]: the page's HTML skeleton, script, style and vendored uPlot.
+//!
+//! The view sits after analysis in the data flow: it reads frames, samples
+//! and measured values, and nothing it does reaches back into the recorder
+//! except the counting of frames it could not show.
+
+pub mod host;
+pub mod live;
+pub mod model;
+pub mod page;
+pub mod recorded;
+pub mod series;
+pub mod server;
+
+pub use host::{ViewArgs, ViewHost};
+pub use live::{live_session, LiveFeed, SharedSession};
+pub use recorded::open_session;
+pub use server::{access_for, parse_address, serve, Access, ViewServer};
+
+/// Where the page is served when `--view` is given without an address.
+pub const DEFAULT_ADDRESS: &str = "127.0.0.1:8750";

@@ -1,0 +1,203 @@
+//! The view of a recording going on: the recorder hands every batch of
+//! frames to a [`LiveFeed`], which passes it on to a thread of its own over a
+//! bounded queue. The thread decodes, fills the [`SessionView`] and runs the
+//! hold stream. A full queue costs the view frames (counted, shown on the
+//! page), never the recorder a wait.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, SyncSender, TrySendError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use acq_acquire::record::status::Status;
+use acq_acquire::record::RecordObserver;
+use acq_analysis::extract::holds::HoldOptions;
+use acq_analysis::extract::live::LiveHoldStream;
+use acq_drivers::rig::Rig;
+use acq_drivers::sensors::{SensorDecoder, SensorEvent};
+use acq_drivers::Frame;
+use acq_io::session::SessionFile;
+
+use crate::model::{BusView, SessionView};
+
+/// Batches the view may be behind the recorder (about 5 s at 2,000
+/// frames/s in batches of 10; memory at most a few MB).
+const QUEUE_BATCHES: usize = 1024;
+/// The hold stream looks for newly closed holds this often.
+const HOLD_CHECK: Duration = Duration::from_millis(100);
+/// Live series: 10 ms buckets over 10 minutes.
+pub const LIVE_BUCKET_NS: i64 = 10_000_000;
+pub const LIVE_BUCKETS: usize = 60_000;
+
+/// One session's model, shared by its feed and the server.
+pub type SharedSession = Arc<Mutex<SessionView>>;
+
+enum FeedEvent {
+    Started(i64),
+    Frames(Vec<Frame>),
+    Status(Box<Status>),
+    Finished,
+}
+
+/// Hands what the recorder sees to the view's thread; never blocks.
+pub struct LiveFeed {
+    queue: SyncSender<FeedEvent>,
+    frames_not_shown: Arc<AtomicU64>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+/// A live view of one recording: the feed to give the recorder and the
+/// model to give the server.
+pub fn live_session(
+    name: &str,
+    rig: &Rig,
+    hold_options: HoldOptions,
+    load: Option<&str>,
+) -> (LiveFeed, SharedSession) {
+    let mut view = SessionView::new(name, rig, 0, LIVE_BUCKET_NS, LIVE_BUCKETS);
+    view.live = true;
+    let shared = Arc::new(Mutex::new(view));
+    let (queue, events) = mpsc::sync_channel(QUEUE_BATCHES);
+    let frames_not_shown = Arc::new(AtomicU64::new(0));
+    let thread = {
+        let (rig, shared, lost) = (rig.clone(), shared.clone(), frames_not_shown.clone());
+        let load = load.map(str::to_owned);
+        std::thread::Builder::new()
+            .name("acq-view".into())
+            .spawn(move || run_feed(rig, shared, events, lost, hold_options, load))
+            .ok()
+    };
+    (
+        LiveFeed {
+            queue,
+            frames_not_shown,
+            thread,
+        },
+        shared,
+    )
+}
+
+impl LiveFeed {
+    fn offer(&self, event: FeedEvent, frames: usize) {
+        if let Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) =
+            self.queue.try_send(event)
+        {
+            self.frames_not_shown
+                .fetch_add(frames as u64, Ordering::Relaxed);
+        }
+    }
+}
+
+impl RecordObserver for LiveFeed {
+    fn started(&mut self, session: &SessionFile) {
+        self.offer(FeedEvent::Started(session.session.started_unix_ns), 0);
+    }
+
+    fn frames(&mut self, _bus: usize, frames: &[Frame], _arrival_ns: i64) {
+        self.offer(FeedEvent::Frames(frames.to_vec()), frames.len());
+    }
+
+    fn status(&mut self, status: &Status) {
+        self.offer(FeedEvent::Status(Box::new(status.clone())), 0);
+    }
+
+    fn finished(&mut self, _session: &SessionFile) {
+        // The last frames must be in before the holds are closed: wait for room.
+        let _ = self.queue.send(FeedEvent::Finished);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+fn run_feed(
+    rig: Rig,
+    shared: SharedSession,
+    events: Receiver<FeedEvent>,
+    frames_not_shown: Arc<AtomicU64>,
+    hold_options: HoldOptions,
+    load: Option<String>,
+) {
+    let mut decoder = SensorDecoder::new(&rig);
+    let mut holds: Option<LiveHoldStream> = None;
+    let mut samples = Vec::new();
+    let mut last_check = Instant::now();
+    loop {
+        let event = match events.recv_timeout(HOLD_CHECK) {
+            Ok(event) => Some(event),
+            Err(RecvTimeoutError::Timeout) => None,
+            Err(RecvTimeoutError::Disconnected) => Some(FeedEvent::Finished),
+        };
+        let lock = || shared.lock().unwrap_or_else(|p| p.into_inner());
+        match event {
+            Some(FeedEvent::Started(t0)) => {
+                let mut view = lock();
+                view.started_unix_ns = t0;
+                match LiveHoldStream::new(&rig, load.as_deref(), hold_options, t0) {
+                    Ok(stream) => {
+                        view.load_sensor = Some(stream.load_sensor().to_string());
+                        holds = Some(stream);
+                    }
+                    Err(error) => view.holds_note = Some(format!("no holds: {error}")),
+                }
+            }
+            Some(FeedEvent::Frames(frames)) => {
+                samples.clear();
+                for frame in &frames {
+                    decoder.decode(frame, |event| {
+                        if let SensorEvent::Sample(sample) = event {
+                            samples.push(sample);
+                        }
+                    });
+                }
+                let mut view = lock();
+                for sample in &samples {
+                    view.push(sample.sensor, sample.time_ns, sample.value);
+                    if let Some(stream) = holds.as_mut() {
+                        stream.push(*sample);
+                    }
+                }
+            }
+            Some(FeedEvent::Status(status)) => {
+                let mut view = lock();
+                view.elapsed_s = status.elapsed_s;
+                view.frames_not_shown = frames_not_shown.load(Ordering::Relaxed);
+                view.buses = status
+                    .buses
+                    .iter()
+                    .map(|b| BusView {
+                        iface: b.iface.clone(),
+                        state: b.state.to_string(),
+                        frames_per_s: b.frames_per_s,
+                        frames: b.frames,
+                        kernel_drops: b.dropped_by_kernel,
+                        error_frames: b.error_frames,
+                    })
+                    .collect();
+                for (sensor, live) in view.sensors.iter_mut().zip(&status.sensors) {
+                    sensor.silent = live.silent;
+                    sensor.silence_reason = live.reason;
+                }
+            }
+            Some(FeedEvent::Finished) => {
+                let mut view = lock();
+                if let Some(stream) = holds.as_mut() {
+                    stream.finish();
+                    view.set_holds(stream.holds());
+                }
+                view.live = false;
+                view.frames_not_shown = frames_not_shown.load(Ordering::Relaxed);
+                return;
+            }
+            None => {}
+        }
+        if last_check.elapsed() >= HOLD_CHECK {
+            last_check = Instant::now();
+            if let Some(stream) = holds.as_mut() {
+                if stream.update() {
+                    lock().set_holds(stream.holds());
+                }
+            }
+        }
+    }
+}

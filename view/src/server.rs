@@ -1,0 +1,452 @@
+//! The page's server (axum on acq's tokio runtime). It only reads: every
+//! route is a GET of the page, its scripts, or JSON of the sessions' models.
+//!
+//! - Loopback by default; another address only when the caller allows it,
+//!   and then every request must carry the random token printed at start.
+//! - The Host header must name the address served (a page elsewhere cannot
+//!   reach a loopback view through DNS rebinding).
+//! - A Content-Security-Policy allows scripts and styles from the server only;
+//!   the page inserts every name as text, never as HTML.
+//! - Updates go out as server-sent events from one broadcast ring: a viewer
+//!   that does not read falls behind and is told how many it missed; the
+//!   sender never waits and the ring's size bounds the memory.
+
+use std::collections::HashMap;
+use std::convert::Infallible;
+use std::io::Read;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::{Query, Request, State};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use serde_json::{json, Value};
+use tokio::sync::{broadcast, oneshot};
+
+use acq_io::error::{AcqError, Result};
+
+use crate::live::SharedSession;
+use crate::page;
+
+/// Updates are published this often.
+const PUBLISH_PERIOD: Duration = Duration::from_millis(100);
+/// Updates a viewer may be behind before it loses some (10 s).
+const RING: usize = 100;
+/// Each update re-sends this much of the newest data (late samples).
+const TAIL_OVERLAP_S: f64 = 0.5;
+/// Live columns: 50 ms, 1,200 over a minute.
+const LIVE_COLUMN_S: f64 = 0.05;
+/// Widest plot a request may ask for, in columns.
+const MAX_COLUMNS: usize = 8_192;
+/// After a stop, open event streams get this long to end.
+const SHUTDOWN_GRACE: Duration = Duration::from_secs(2);
+
+/// Who may use the page.
+#[derive(Clone, Debug)]
+pub struct Access {
+    /// Required on every request (`?token=`), for a non-loopback address.
+    pub token: Option<String>,
+    /// Host headers accepted; `None`: any (a non-loopback address).
+    pub hosts: Option<Vec<String>>,
+}
+
+/// `HOST:PORT` to serve on. A non-loopback address is refused unless
+/// `remote` (the user's explicit flag), and then needs a token.
+pub fn access_for(addr: SocketAddr, remote: bool) -> Result<Access> {
+    if addr.ip().is_loopback() {
+        return Ok(Access {
+            token: None,
+            hosts: Some(loopback_hosts(addr)),
+        });
+    }
+    if !remote {
+        return Err(AcqError::Config(format!(
+            "--view {addr}: not a loopback address; other machines could read the rig's data. \
+             Add --view-remote to serve it there (every request then needs the token printed at start), \
+             or use 127.0.0.1:PORT"
+        )));
+    }
+    Ok(Access {
+        token: Some(random_token()?),
+        hosts: None,
+    })
+}
+
+/// The Host headers a browser sends for a loopback address.
+fn loopback_hosts(addr: SocketAddr) -> Vec<String> {
+    let port = addr.port();
+    vec![
+        format!("127.0.0.1:{port}"),
+        format!("localhost:{port}"),
+        format!("[::1]:{port}"),
+        addr.to_string(),
+    ]
+}
+
+/// 128 random bits from the kernel, as hex.
+fn random_token() -> Result<String> {
+    let mut bytes = [0u8; 16];
+    std::fs::File::open("/dev/urandom")
+        .and_then(|mut f| f.read_exact(&mut bytes))
+        .map_err(|e| AcqError::io("reading /dev/urandom for the view's token", e))?;
+    Ok(bytes.iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// `HOST:PORT` as given on the command line.
+pub fn parse_address(text: &str) -> Result<SocketAddr> {
+    use std::net::ToSocketAddrs;
+    let mut addresses = text.to_socket_addrs().map_err(|e| {
+        AcqError::Config(format!(
+            "--view {text}: expected HOST:PORT, e.g. 127.0.0.1:8750 ({e})"
+        ))
+    })?;
+    addresses
+        .next()
+        .ok_or_else(|| AcqError::Config(format!("--view {text}: the host resolves to no address")))
+}
+
+#[derive(Clone)]
+struct App {
+    sessions: Arc<Vec<SharedSession>>,
+    access: Arc<Access>,
+    updates: broadcast::Sender<Arc<str>>,
+    viewers: Arc<AtomicUsize>,
+    /// Becomes true when the server stops: event streams end.
+    closing: tokio::sync::watch::Receiver<bool>,
+}
+
+/// A running page server.
+pub struct ViewServer {
+    url: String,
+    closing: tokio::sync::watch::Sender<bool>,
+    stop: Option<oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<()>,
+    publisher: tokio::task::JoinHandle<()>,
+}
+
+impl ViewServer {
+    /// The address to open, token included.
+    pub fn url(&self) -> &str {
+        &self.url
+    }
+
+    /// Stops serving: event streams end, connections close.
+    pub async fn stop(mut self) {
+        self.publisher.abort();
+        let _ = self.publisher.await;
+        let _ = self.closing.send(true);
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        if tokio::time::timeout(SHUTDOWN_GRACE, &mut self.task)
+            .await
+            .is_err()
+        {
+            self.task.abort();
+        }
+    }
+
+    /// Serves until the task ends (it does not on its own).
+    pub async fn wait(self) {
+        let _ = self.task.await;
+    }
+}
+
+/// Binds `addr` and serves the sessions' page on the current runtime.
+pub async fn serve(
+    addr: SocketAddr,
+    access: Access,
+    sessions: Vec<SharedSession>,
+) -> Result<ViewServer> {
+    let listener = tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(|e| AcqError::io(format!("serving the view on {addr}"), e))?;
+    let bound = listener
+        .local_addr()
+        .map_err(|e| AcqError::io(format!("serving the view on {addr}"), e))?;
+    let mut access = access;
+    if let Some(hosts) = &mut access.hosts {
+        // Port 0 asks for any free port: accept the one bound.
+        hosts.extend(loopback_hosts(bound));
+    }
+    let url = match &access.token {
+        Some(token) => format!("http://{bound}/?token={token}"),
+        None => format!("http://{bound}/"),
+    };
+    let (updates, _) = broadcast::channel(RING);
+    let (closing, closing_rx) = tokio::sync::watch::channel(false);
+    let app = App {
+        closing: closing_rx,
+        sessions: Arc::new(sessions),
+        access: Arc::new(access),
+        updates,
+        viewers: Arc::new(AtomicUsize::new(0)),
+    };
+    let publisher = tokio::spawn(publish(app.clone()));
+    let router = Router::new()
+        .route("/", get(page_html))
+        .route(
+            "/app.js",
+            get(|| async { asset(page::APP_JS, "text/javascript") }),
+        )
+        .route(
+            "/app.css",
+            get(|| async { asset(page::APP_CSS, "text/css") }),
+        )
+        .route(
+            "/uplot.js",
+            get(|| async { asset(page::UPLOT_JS, "text/javascript") }),
+        )
+        .route(
+            "/uplot.css",
+            get(|| async { asset(page::UPLOT_CSS, "text/css") }),
+        )
+        .route(
+            "/uplot-license.txt",
+            get(|| async { asset(page::UPLOT_LICENSE, "text/plain; charset=utf-8") }),
+        )
+        .route("/api/state", get(state))
+        .route("/api/series", get(series))
+        .route("/api/xy", get(xy))
+        .route("/api/events", get(events))
+        .layer(middleware::from_fn_with_state(app.clone(), guard))
+        .with_state(app);
+    let (stop, stopped) = oneshot::channel::<()>();
+    let task = tokio::spawn(async move {
+        let _ = axum::serve(listener, router)
+            .with_graceful_shutdown(async {
+                let _ = stopped.await;
+            })
+            .await;
+    });
+    Ok(ViewServer {
+        url,
+        closing,
+        stop: Some(stop),
+        task,
+        publisher,
+    })
+}
+
+/// Host and token checks, and the headers every answer carries.
+async fn guard(State(app): State<App>, request: Request, next: Next) -> Response {
+    if let Some(hosts) = &app.access.hosts {
+        let host = request
+            .headers()
+            .get(header::HOST)
+            .and_then(|h| h.to_str().ok())
+            .unwrap_or("");
+        if !hosts.iter().any(|h| h == host) {
+            return refuse(
+                StatusCode::FORBIDDEN,
+                "this view answers only on the address it serves",
+            );
+        }
+    }
+    if let Some(token) = &app.access.token {
+        let given = request
+            .uri()
+            .query()
+            .and_then(|q| q.split('&').find_map(|pair| pair.strip_prefix("token=")));
+        if given != Some(token.as_str()) {
+            return refuse(
+                StatusCode::UNAUTHORIZED,
+                "a token is needed: open the URL acq printed at start",
+            );
+        }
+    }
+    let mut response = next.run(request).await;
+    let headers = response.headers_mut();
+    headers.insert(
+        header::CONTENT_SECURITY_POLICY,
+        HeaderValue::from_static(
+            "default-src 'none'; script-src 'self'; style-src 'self'; img-src 'self' data:; \
+             connect-src 'self'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+        ),
+    );
+    headers.insert(
+        header::X_CONTENT_TYPE_OPTIONS,
+        HeaderValue::from_static("nosniff"),
+    );
+    headers.insert(
+        header::REFERRER_POLICY,
+        HeaderValue::from_static("no-referrer"),
+    );
+    headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
+    response
+}
+
+fn refuse(status: StatusCode, message: &'static str) -> Response {
+    (
+        status,
+        [(header::CONTENT_TYPE, "text/plain; charset=utf-8")],
+        message,
+    )
+        .into_response()
+}
+
+fn asset(body: &'static str, content_type: &'static str) -> Response {
+    ([(header::CONTENT_TYPE, content_type)], body).into_response()
+}
+
+async fn page_html(State(app): State<App>) -> Response {
+    let names: Vec<String> = app.sessions.iter().map(|s| lock(s).name.clone()).collect();
+    let html = page::html(&names, app.access.token.as_deref());
+    ([(header::CONTENT_TYPE, "text/html; charset=utf-8")], html).into_response()
+}
+
+fn lock(session: &SharedSession) -> std::sync::MutexGuard<'_, crate::model::SessionView> {
+    session.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// The whole state: `/api/state`, and the `state` of every update.
+fn state_json(app: &App) -> Value {
+    let several = app.sessions.len() > 1;
+    let (mut sessions, mut sensors, mut buses, mut holds) = (vec![], vec![], vec![], vec![]);
+    for shared in app.sessions.iter() {
+        let view = lock(shared);
+        let tag = several.then_some(view.name.as_str());
+        sessions.push(json!({
+            "name": view.name,
+            "live": view.live,
+            "elapsed_s": view.elapsed_s,
+            "span_s": view.span_s(),
+            "load_sensor": view.load_sensor,
+            "holds_note": view.holds_note,
+            "frames_not_shown": view.frames_not_shown,
+            "has_xy": view.xy.is_some(),
+        }));
+        sensors.extend(view.sensors_json(tag));
+        buses.extend(view.buses_json(tag));
+        holds.extend(view.holds_json(tag));
+    }
+    json!({
+        "sessions": sessions,
+        "sensors": sensors,
+        "buses": buses,
+        "holds": holds,
+        "viewers": app.viewers.load(Ordering::Relaxed),
+    })
+}
+
+async fn state(State(app): State<App>) -> Response {
+    axum::Json(state_json(&app)).into_response()
+}
+
+fn session_of<'a>(app: &'a App, query: &HashMap<String, String>) -> Option<&'a SharedSession> {
+    let index = query
+        .get("session")
+        .map_or(Some(0), |s| s.parse::<usize>().ok())?;
+    app.sessions.get(index)
+}
+
+fn number(query: &HashMap<String, String>, key: &str) -> Option<f64> {
+    query
+        .get(key)
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|v| v.is_finite())
+}
+
+/// `?session=I&from=S&to=S&px=N`: every sensor's columns over the span.
+async fn series(State(app): State<App>, Query(query): Query<HashMap<String, String>>) -> Response {
+    let Some(shared) = session_of(&app, &query) else {
+        return refuse(StatusCode::NOT_FOUND, "no such session");
+    };
+    let view = lock(shared);
+    let span = view.span_s().unwrap_or((0.0, 0.0));
+    let from = number(&query, "from").unwrap_or(span.0);
+    let to = number(&query, "to").unwrap_or(span.1);
+    let columns = number(&query, "px").map_or(1_000, |p| p.clamp(1.0, MAX_COLUMNS as f64) as usize);
+    let body = format!(
+        "{{\"from_s\":{},\"to_s\":{},\"series\":{}}}",
+        json!(from),
+        json!(to),
+        view.series_json(from, to, columns)
+    );
+    ([(header::CONTENT_TYPE, "application/json")], body).into_response()
+}
+
+async fn xy(State(app): State<App>, Query(query): Query<HashMap<String, String>>) -> Response {
+    match session_of(&app, &query) {
+        Some(shared) => axum::Json(lock(shared).xy_json()).into_response(),
+        None => refuse(StatusCode::NOT_FOUND, "no such session"),
+    }
+}
+
+/// Counts a viewer while its event stream lives.
+struct ViewerCount(Arc<AtomicUsize>);
+
+impl Drop for ViewerCount {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+async fn events(State(app): State<App>) -> Response {
+    app.viewers.fetch_add(1, Ordering::Relaxed);
+    let count = ViewerCount(app.viewers.clone());
+    let receiver = app.updates.subscribe();
+    let closing = app.closing.clone();
+    let stream = futures_util::stream::unfold(
+        (receiver, closing, count),
+        |(mut receiver, mut closing, count)| async move {
+            let received = tokio::select! {
+                received = receiver.recv() => received,
+                _ = closing.wait_for(|closed| *closed) => return None,
+            };
+            let event = match received {
+                Ok(update) => Event::default().event("update").data(&*update),
+                Err(broadcast::error::RecvError::Lagged(missed)) => {
+                    Event::default().event("lost").data(missed.to_string())
+                }
+                Err(broadcast::error::RecvError::Closed) => return None,
+            };
+            Some((Ok::<_, Infallible>(event), (receiver, closing, count)))
+        },
+    );
+    Sse::new(stream)
+        .keep_alive(KeepAlive::default())
+        .into_response()
+}
+
+/// Every period: the state and each live session's newest columns, once
+/// for all viewers.
+async fn publish(app: App) {
+    let mut tick = tokio::time::interval(PUBLISH_PERIOD);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut sequence: u64 = 0;
+    loop {
+        tick.tick().await;
+        if app.updates.receiver_count() == 0 {
+            continue;
+        }
+        sequence += 1;
+        let tails: Vec<String> = app
+            .sessions
+            .iter()
+            .map(|shared| {
+                let view = lock(shared);
+                let span = view.span_s().filter(|_| view.live);
+                let Some((_, end)) = span else {
+                    return "null".to_string();
+                };
+                let from = ((end - TAIL_OVERLAP_S) / LIVE_COLUMN_S).floor() * LIVE_COLUMN_S;
+                let columns = ((end - from) / LIVE_COLUMN_S).ceil().max(1.0) as usize;
+                let series = view.series_json(from, from + columns as f64 * LIVE_COLUMN_S, columns);
+                format!("{{\"from_s\":{},\"series\":{series}}}", json!(from))
+            })
+            .collect();
+        let update = format!(
+            "{{\"sequence\":{sequence},\"state\":{},\"tails\":[{}]}}",
+            state_json(&app),
+            tails.join(",")
+        );
+        let _ = app.updates.send(Arc::from(update));
+    }
+}

@@ -20,6 +20,7 @@ fn main() {
             sessions: None,
             acquire_only: false,
             data: Some(root.into()),
+            view: Default::default(),
         })
         .expect("the demo runs");
         let wall_s = start.elapsed().as_secs_f64();

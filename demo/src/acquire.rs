@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use acq_acquire::bus::Bus;
 use acq_acquire::record::status::StatusMode;
-use acq_acquire::record::{self, RecordOptions, StopReason};
+use acq_acquire::record::{self, RecordObserver, RecordOptions, StopReason};
 use acq_acquire::replay::{self, LogFiles, Pacing, PlaySummary, Routing};
 use acq_drivers::rig::Rig;
 use acq_drivers::IfaceName;
@@ -61,28 +61,41 @@ pub fn session_rig(source: &Path) -> Result<Rig> {
 /// Plays every session onto `bus` while recording it; `together` plays
 /// them all at once (they must use distinct interfaces), else one by one.
 /// Ctrl-C stops the recordings cleanly (files whole) and ends with an error.
+/// `observers`: one per playback (the live view's feeds), or none.
 pub fn play_and_record<B: Bus>(
     bus: B,
     playbacks: &[Playback],
     together: bool,
+    observers: Vec<Box<dyn RecordObserver>>,
 ) -> Result<Vec<Played>> {
     let runtime = acq_acquire::runtime(2)?;
+    let mut observers: Vec<Option<Box<dyn RecordObserver>>> =
+        observers.into_iter().map(Some).collect();
+    observers.resize_with(playbacks.len(), || None);
     if together {
-        runtime.block_on(play_all(bus, playbacks))
+        runtime.block_on(play_all(bus, playbacks, observers))
     } else {
         let mut played = Vec::new();
-        for playback in playbacks {
-            played.extend(runtime.block_on(play_all(bus.clone(), std::slice::from_ref(playback)))?);
+        for (playback, observer) in playbacks.iter().zip(observers) {
+            played.extend(runtime.block_on(play_all(
+                bus.clone(),
+                std::slice::from_ref(playback),
+                vec![observer],
+            ))?);
         }
         Ok(played)
     }
 }
 
-async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>> {
+async fn play_all<B: Bus>(
+    bus: B,
+    playbacks: &[Playback],
+    observers: Vec<Option<Box<dyn RecordObserver>>>,
+) -> Result<Vec<Played>> {
     // 1. Every recorder listening before any frame is sent.
     let mut recorders = Vec::new();
     let mut routings = Vec::new();
-    for playback in playbacks {
+    for (playback, observer) in playbacks.iter().zip(observers) {
         let mut rig = session_rig(&playback.source)?;
         if rig.buses.len() != playback.interfaces.len() {
             return Err(AcqError::Config(format!(
@@ -105,7 +118,7 @@ async fn play_all<B: Bus>(bus: B, playbacks: &[Playback]) -> Result<Vec<Played>>
             status: StatusMode::Quiet,
             command_line: format!("acq demo (replay of {})", playback.source.display()),
             notes,
-            observer: None,
+            observer,
         };
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<StopReason>();
         let recorder_bus = bus.clone();

@@ -59,6 +59,10 @@ pub struct DemoArgs {
     /// has them, else the source tree acq was built from].
     #[arg(long, value_name = "DIR")]
     pub data: Option<PathBuf>,
+    /// The live page of the sessions as they are replayed; it stays up after
+    /// the demo until Ctrl-C.
+    #[command(flatten)]
+    pub view: acq_view::ViewArgs,
 }
 
 /// What a shipped session is for.
@@ -217,17 +221,31 @@ pub fn run(args: DemoArgs) -> Result<()> {
             )));
         }
     }
+    let view_address = args.view.resolve()?;
     let started = Instant::now();
     let mut steps = Vec::new();
     prepare_out(&args.out)?;
+    let mut view_host = None;
 
     // 1. Acquisition: play and record again, or take recorded sessions.
     let (sessions_dir, played, bus_text) = match &args.sessions {
-        Some(dir) => (
-            dir.clone(),
-            Vec::new(),
-            format!("sessions recorded earlier in {}", dir.display()),
-        ),
+        Some(dir) => {
+            if let Some((addr, access)) = view_address {
+                let mut shared = Vec::new();
+                for (name, _) in SHIPPED {
+                    let view = acq_view::open_session(&dir.join(name), name)?;
+                    shared.push(std::sync::Arc::new(std::sync::Mutex::new(view)));
+                }
+                let host = acq_view::ViewHost::start(addr, access, shared)?;
+                say(format!("the sessions' page: {}", host.url()));
+                view_host = Some(host);
+            }
+            (
+                dir.clone(),
+                Vec::new(),
+                format!("sessions recorded earlier in {}", dir.display()),
+            )
+        }
         None => {
             let target = args.out.join("sessions");
             let playbacks: Vec<Playback> = SHIPPED
@@ -248,6 +266,23 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     },
                 })
                 .collect();
+            let mut observers: Vec<Box<dyn acq_acquire::record::RecordObserver>> = Vec::new();
+            if let Some((addr, access)) = view_address {
+                let mut shared = Vec::new();
+                for playback in &playbacks {
+                    let mut rig = acquire::session_rig(&playback.source)?;
+                    // Decoded on the interfaces it is replayed on, as the recorder does.
+                    rig.assign_interfaces(&playback.interfaces)
+                        .map_err(AcqError::Config)?;
+                    let (feed, session) =
+                        acq_view::live_session(&playback.name, &rig, HoldOptions::default(), None);
+                    observers.push(Box::new(feed));
+                    shared.push(session);
+                }
+                let host = acq_view::ViewHost::start(addr, access, shared)?;
+                say(format!("watch the replay live: {}", host.url()));
+                view_host = Some(host);
+            }
             let step = Instant::now();
             let (played, bus_text) = if interfaces.is_empty() {
                 say("replaying the 3 shipped sessions on the in-process bus in real time and recording them again (about 17 s)");
@@ -258,7 +293,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     }
                 }
                 (
-                    play_and_record(bus, &playbacks, true)?,
+                    play_and_record(bus, &playbacks, true, observers)?,
                     "the in-process bus".to_string(),
                 )
             } else {
@@ -268,7 +303,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     names.join(", ")
                 ));
                 (
-                    play_and_record(SocketCanBus, &playbacks, false)?,
+                    play_and_record(SocketCanBus, &playbacks, false, observers)?,
                     format!("SocketCAN {}", names.join(", ")),
                 )
             };
@@ -287,7 +322,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     };
     if args.acquire_only {
         say(format!("sessions recorded in {}", sessions_dir.display()));
-        return Ok(());
+        return keep_serving(view_host);
     }
 
     // 2-4. Per session: align, extract, calibrate.
@@ -403,6 +438,15 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let html = args.out.join("report.html");
     say(format!("done in {wall_s:.1} s"));
     println!("report: {}", html.display());
+    keep_serving(view_host)
+}
+
+/// With `--view`, the page stays up after the demo's work until Ctrl-C.
+fn keep_serving(host: Option<acq_view::ViewHost>) -> Result<()> {
+    if let Some(host) = host {
+        say(format!("the page stays up at {} until Ctrl-C", host.url()));
+        host.serve_until_interrupted();
+    }
     Ok(())
 }
 

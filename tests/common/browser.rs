@@ -84,7 +84,7 @@ pub fn check_page(html_path: &Path) -> Result<PageCheck, String> {
     let url = file_url(&html);
     let binary = find_chromium()?;
     let profile = tempfile::tempdir().map_err(|e| format!("temp dir: {e}"))?;
-    let mut browser = Browser::launch(&binary, profile.path())?;
+    let mut browser = Browser::launch(&binary, profile.path(), false)?;
     let result = browser.check(&url);
     browser.shut_down();
     result.map_err(|e| {
@@ -180,7 +180,9 @@ struct Browser {
 }
 
 impl Browser {
-    fn launch(binary: &Path, profile: &Path) -> Result<Browser, String> {
+    /// `loopback`: let 127.0.0.1 through (a page acq serves); every other
+    /// host stays unreachable.
+    fn launch(binary: &Path, profile: &Path, loopback: bool) -> Result<Browser, String> {
         // Chromium reads protocol messages from fd 3 and writes to fd 4. The
         // shell moves our stdin/stdout pipes there; Chromium's own stdout goes
         // to the stderr pipe.
@@ -203,8 +205,12 @@ impl Browser {
                 // Nothing may come from the network: every host name fails to
                 // resolve, immediately, so a non-self-contained page shows up
                 // as "Failed to load resource: net::ERR_NAME_NOT_RESOLVED".
-                "--host-resolver-rules=MAP * ~NOTFOUND",
             ])
+            .arg(if loopback {
+                "--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1"
+            } else {
+                "--host-resolver-rules=MAP * ~NOTFOUND"
+            })
             .arg(format!("--user-data-dir={}", profile.display()))
             .arg("about:blank")
             .stdin(Stdio::piped())
@@ -315,7 +321,9 @@ impl Browser {
         }
     }
 
-    fn check(&mut self, url: &str) -> Result<PageCheck, String> {
+    /// Opens `url` in a new tab and waits for its load event: the tab's
+    /// session and the console errors so far.
+    fn open(&mut self, url: &str) -> Result<(String, Vec<String>), String> {
         let mut ignore = |_: &Value| {};
         let target = self.call(
             "Target.createTarget",
@@ -334,8 +342,6 @@ impl Browser {
             .as_str()
             .ok_or("no sessionId")?
             .to_owned();
-        let session = Some(session.as_str());
-
         // From here on every event may carry a console message.
         let mut page = PageState {
             url,
@@ -344,23 +350,32 @@ impl Browser {
             loaded: false,
         };
         for domain in ["Runtime.enable", "Log.enable", "Page.enable"] {
-            self.call(domain, json!({}), session, &mut |e| page.handle(e))?;
+            self.call(domain, json!({}), Some(&session), &mut |e| page.handle(e))?;
         }
-        let navigation = self.call("Page.navigate", json!({ "url": url }), session, &mut |e| {
-            page.handle(e)
-        })?;
+        let navigation = self.call(
+            "Page.navigate",
+            json!({ "url": url }),
+            Some(&session),
+            &mut |e| page.handle(e),
+        )?;
         if let Some(error) = navigation["errorText"].as_str() {
-            return Err(format!("navigation failed: {error}"));
+            return Err(format!("navigation to {url} failed: {error}"));
         }
         while !page.loaded {
             let event = self.recv()?;
             page.handle(&event);
         }
+        Ok((session, page.console_errors))
+    }
+
+    fn check(&mut self, url: &str) -> Result<PageCheck, String> {
+        let (session, mut console_errors) = self.open(url)?;
+        let session = Some(session.as_str());
         let measured = self.call(
             "Runtime.evaluate",
             json!({ "expression": MEASURE_JS, "returnByValue": true }),
             session,
-            &mut |e| page.handle(e),
+            &mut |e| collect_console_error(e, &mut console_errors),
         )?;
         if let Some(details) = measured.get("exceptionDetails") {
             return Err(format!("measuring script failed: {details}"));
@@ -381,7 +396,7 @@ impl Browser {
             })
             .collect();
         Ok(PageCheck {
-            console_errors: page.console_errors,
+            console_errors,
             title: seen["title"].as_str().unwrap_or("").to_owned(),
             tables,
             visible_svgs: seen["visible_svgs"].as_u64().unwrap_or(0) as usize,
@@ -520,5 +535,80 @@ fn location(frame: &Value) -> String {
             format!(" ({url}:{}:{})", line + 1, column + 1)
         }
         _ => String::new(),
+    }
+}
+
+/// A page kept open in headless Chromium: a live page is watched over
+/// time (scripts evaluated, screenshots taken) while its console messages
+/// of level error or warning are collected.
+pub struct LivePage {
+    browser: Browser,
+    session: String,
+    console_errors: Vec<String>,
+    _profile: tempfile::TempDir,
+}
+
+impl LivePage {
+    /// Opens `url` and waits for its load event; the whole watch may last
+    /// up to `limit`.
+    pub fn open(url: &str, limit: Duration) -> Result<LivePage, String> {
+        let binary = find_chromium()?;
+        let profile = tempfile::tempdir().map_err(|e| format!("temp dir: {e}"))?;
+        let mut browser = Browser::launch(&binary, profile.path(), true)?;
+        browser.deadline = Instant::now() + limit;
+        let (session, console_errors) = browser.open(url)?;
+        Ok(LivePage {
+            browser,
+            session,
+            console_errors,
+            _profile: profile,
+        })
+    }
+
+    /// Evaluates `expression` in the page; its value as JSON.
+    pub fn evaluate(&mut self, expression: &str) -> Result<Value, String> {
+        let mut errors = std::mem::take(&mut self.console_errors);
+        let result = self.browser.call(
+            "Runtime.evaluate",
+            json!({ "expression": expression, "returnByValue": true, "awaitPromise": true }),
+            Some(&self.session),
+            &mut |e| collect_console_error(e, &mut errors),
+        );
+        self.console_errors = errors;
+        let result = result?;
+        if let Some(details) = result.get("exceptionDetails") {
+            return Err(format!("{expression}: {details}"));
+        }
+        Ok(result["result"]["value"].clone())
+    }
+
+    /// Writes a PNG of the whole page.
+    pub fn screenshot(&mut self, path: &Path) -> Result<(), String> {
+        let mut errors = std::mem::take(&mut self.console_errors);
+        let shot = self.browser.call(
+            "Page.captureScreenshot",
+            json!({ "format": "png", "captureBeyondViewport": true }),
+            Some(&self.session),
+            &mut |e| collect_console_error(e, &mut errors),
+        );
+        self.console_errors = errors;
+        let data = shot?["data"]
+            .as_str()
+            .ok_or("no screenshot data")?
+            .to_owned();
+        use base64::Engine;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(data)
+            .map_err(|e| format!("screenshot data: {e}"))?;
+        std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+    }
+
+    /// Console errors and warnings so far.
+    pub fn console_errors(&self) -> &[String] {
+        &self.console_errors
+    }
+
+    pub fn close(mut self) {
+        self.browser.shut_down();
     }
 }

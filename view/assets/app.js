@@ -173,7 +173,7 @@
       s.zoomColumns = null;
       followWindow(s);
     } else {
-      showRange(s, s.range || [s.end - LIVE_WINDOW_S, s.end]);
+      showRange(s, s.range || liveWindow(s));
     }
     updateMode(s);
   }
@@ -187,18 +187,23 @@
   }
 
   function pan(s, fraction) {
-    const [a, b] = s.range || [s.end - LIVE_WINDOW_S, s.end];
+    const [a, b] = s.range || liveWindow(s);
     const shift = (b - a) * fraction;
     s.follow = false;
     showRange(s, [a + shift, b + shift]);
   }
 
   function zoom(s, factor) {
-    const [a, b] = s.range || [s.end - LIVE_WINDOW_S, s.end];
+    const [a, b] = s.range || liveWindow(s);
     const mid = (a + b) / 2;
     const half = ((b - a) * factor) / 2;
     s.follow = false;
     showRange(s, [mid - half, mid + half]);
+  }
+
+  // The last minute; in the first minute, the minute from the start.
+  function liveWindow(s) {
+    return [Math.max(0, s.end - LIVE_WINDOW_S), Math.max(s.end, LIVE_WINDOW_S)];
   }
 
   function updateMode(s) {
@@ -295,7 +300,7 @@
         m.delete(key);
       }
     });
-    if (s.follow) s.range = [s.end - LIVE_WINDOW_S, s.end];
+    if (s.follow) s.range = liveWindow(s);
     redraw(s);
   }
 
@@ -437,7 +442,7 @@
       const span = info.span_s || [0, 0];
       s.end = span[1];
       if (s.live) {
-        s.range = [s.end - LIVE_WINDOW_S, s.end];
+        s.range = liveWindow(s);
         await followWindow(s);
       } else {
         await showRange(s, span);

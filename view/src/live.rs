@@ -13,6 +13,7 @@ use acq_acquire::record::status::Status;
 use acq_acquire::record::RecordObserver;
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::live::LiveHoldStream;
+use acq_drivers::log::candump::logged_timestamp_ns;
 use acq_drivers::rig::Rig;
 use acq_drivers::sensors::{SensorDecoder, SensorEvent};
 use acq_drivers::Frame;
@@ -144,7 +145,10 @@ fn run_feed(
             Some(FeedEvent::Frames(frames)) => {
                 samples.clear();
                 for frame in &frames {
-                    decoder.decode(frame, |event| {
+                    // Times as raw.log keeps them, so that holds equal acq extract's.
+                    let mut frame = *frame;
+                    frame.timestamp_ns = logged_timestamp_ns(frame.timestamp_ns);
+                    decoder.decode(&frame, |event| {
                         if let SensorEvent::Sample(sample) = event {
                             samples.push(sample);
                         }

@@ -23,6 +23,7 @@ pub fn html(session_names: &[String], token: Option<&str>) -> String {
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
          <meta name=\"acq-token\" content=\"{token}\">\n\
          <title>acq view: {title}</title>\n\
+         <link rel=\"icon\" href=\"data:,\">\n\
          <link rel=\"stylesheet\" href=\"/uplot.css{suffix}\">\n\
          <link rel=\"stylesheet\" href=\"/app.css{suffix}\">\n\
          <script src=\"/uplot.js{suffix}\" defer></script>\n\

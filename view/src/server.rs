@@ -314,6 +314,7 @@ fn state_json(app: &App) -> Value {
         let tag = several.then_some(view.name.as_str());
         sessions.push(json!({
             "name": view.name,
+            "started_unix_s": view.started_unix_ns as f64 / 1e9,
             "live": view.live,
             "elapsed_s": view.elapsed_s,
             "span_s": view.span_s(),

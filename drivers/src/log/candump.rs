@@ -321,6 +321,13 @@ pub fn push_frame(out: &mut Vec<u8>, frame: &Frame) {
     }
 }
 
+/// A timestamp as a `candump -L` line keeps it: whole microseconds, cut
+/// (not rounded); what the recorder writes, so what any pass over
+/// `raw.log` reads back. A negative one is written as 0.
+pub fn logged_timestamp_ns(timestamp_ns: i64) -> i64 {
+    timestamp_ns.max(0) / 1_000 * 1_000
+}
+
 /// Appends one full log line (with newline) in `candump -L` form.
 /// Timestamps are written in microseconds (the format's resolution);
 /// a negative timestamp cannot be written and is an error.

@@ -1,0 +1,489 @@
+//! The live page (`--view`), checked as its users meet it: `acq demo --view`
+//! watched in a real headless Chromium while it replays the shipped sessions
+//! (plots move, holds shaded as they end, a stopped sensor shown SILENT, no
+//! console error), its holds against `acq extract`'s, and the doors that
+//! must stay shut (other hosts, tokens, POST, hostile names).
+//! Screenshots are kept in target/test-artefacts/view/.
+
+mod common;
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use acq_analysis::recording::{Recording, SampleCounts};
+use common::browser::LivePage;
+use common::{path_arg, root};
+use serde_json::Value;
+
+fn artefacts() -> PathBuf {
+    let dir = root().join("target/test-artefacts/view");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// One HTTP/1.1 request; (status, headers, body).
+fn http(addr: &str, method: &str, path: &str, host: Option<&str>) -> (u16, String, String) {
+    let mut stream = TcpStream::connect(addr).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    write!(
+        stream,
+        "{method} {path} HTTP/1.1\r\nHost: {}\r\nConnection: close\r\nContent-Length: 0\r\n\r\n",
+        host.unwrap_or(addr)
+    )
+    .unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).unwrap();
+    let (head, body) = response.split_once("\r\n\r\n").unwrap_or((&response, ""));
+    let status = head
+        .split_whitespace()
+        .nth(1)
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(0);
+    (status, head.to_string(), body.to_string())
+}
+
+/// A running acq whose stderr lines arrive on a channel.
+struct Running {
+    child: Child,
+    lines: mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Running {
+    fn start(args: &[&str]) -> Running {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_acq"))
+            .args(args)
+            .current_dir(root())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let stderr = child.stderr.take().unwrap();
+        let (tx, lines) = mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    return;
+                }
+            }
+        });
+        Running {
+            child,
+            lines,
+            seen: Vec::new(),
+        }
+    }
+
+    /// Waits for a line containing `marker`; the line.
+    fn wait_for(&mut self, marker: &str, limit: Duration) -> String {
+        let deadline = Instant::now() + limit;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) => {
+                    self.seen.push(line.clone());
+                    if line.contains(marker) {
+                        return line;
+                    }
+                }
+                Err(_) => panic!(
+                    "no line with {marker:?} within {limit:?}; stderr so far:\n{}",
+                    self.seen.join("\n")
+                ),
+            }
+        }
+    }
+
+    /// True once a line containing `marker` came (without waiting).
+    fn has_said(&mut self, marker: &str) -> bool {
+        while let Ok(line) = self.lines.try_recv() {
+            self.seen.push(line);
+        }
+        self.seen.iter().any(|l| l.contains(marker))
+    }
+
+    /// SIGINT, then the exit code.
+    fn interrupt(mut self) -> i32 {
+        nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(self.child.id() as i32),
+            nix::sys::signal::SIGINT,
+        )
+        .unwrap();
+        let deadline = Instant::now() + Duration::from_secs(20);
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status.code().unwrap_or(-1);
+            }
+            assert!(Instant::now() < deadline, "acq did not stop on SIGINT");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn url_in(line: &str) -> String {
+    let start = line.find("http://").expect("a URL");
+    line[start..].split_whitespace().next().unwrap().to_string()
+}
+
+fn host_of(url: &str) -> String {
+    url.trim_start_matches("http://")
+        .split('/')
+        .next()
+        .unwrap()
+        .to_string()
+}
+
+/// When the load left the hold's plateau: the first sample after the
+/// window whose load is off the window's mean by more than 1 % of the
+/// load's range (the scale of the steady rule), seconds from session start.
+fn release_s(session: &Path, load: &str, end_s: f64, mean: f64) -> f64 {
+    let recording = Recording::open(session, None).unwrap();
+    let index = recording.sensor_index(load).unwrap();
+    let t0 = recording.session_start_unix_ns().unwrap();
+    let mut series = Vec::new();
+    let zero = vec![0; recording.rig.buses.len()];
+    recording
+        .for_each_sample(&zero, &mut SampleCounts::default(), |s| {
+            if let (true, Some(v)) = (s.sensor == index, s.value) {
+                series.push(((s.time_ns - t0) as f64 / 1e9, v));
+            }
+            Ok(())
+        })
+        .unwrap();
+    let (lo, hi) = series
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, v)| {
+            (lo.min(*v), hi.max(*v))
+        });
+    series
+        .iter()
+        .find(|(t, v)| *t > end_s && (v - mean).abs() > 0.01 * (hi - lo))
+        .map(|(t, _)| *t)
+        .expect("the load leaves the hold")
+}
+
+/// What the page has drawn, from its own record (`window.acqView`).
+const WATCH_JS: &str = r#"JSON.stringify({
+  lastX: window.acqView.lastX,
+  holds: window.acqView.holdsShown,
+  silent: Array.from(document.querySelectorAll('tr.silent')).map((r) => r.textContent),
+  updates: window.acqView.updates,
+  errors: window.acqView.errors,
+  now: Date.now(),
+})"#;
+
+#[test]
+fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
+    let out = tempfile::tempdir().unwrap();
+    let out_dir = out.path().join("demo");
+    let mut demo = Running::start(&["demo", "--out", path_arg(&out_dir), "--view", "127.0.0.1:0"]);
+    let url = url_in(&demo.wait_for("watch the replay live", Duration::from_secs(60)));
+    let addr = host_of(&url);
+    let mut page = LivePage::open(&url, Duration::from_secs(240)).expect("the page opens");
+    let shots = artefacts();
+
+    let mut first_last_x: Option<Value> = None;
+    let mut moved = false;
+    let mut silent_seen: Vec<String> = Vec::new();
+    let mut shot_live = false;
+    let started = Instant::now();
+    while !demo.has_said("the page stays up") {
+        assert!(
+            started.elapsed() < Duration::from_secs(200),
+            "the demo did not finish; stderr:\n{}",
+            demo.seen.join("\n")
+        );
+        let seen: Value =
+            serde_json::from_str(page.evaluate(WATCH_JS).unwrap().as_str().unwrap()).unwrap();
+        let last_x = seen["lastX"].clone();
+        match &first_last_x {
+            None if last_x
+                .as_array()
+                .is_some_and(|a| a.iter().all(Value::is_number)) =>
+            {
+                first_last_x = Some(last_x.clone())
+            }
+            Some(first) => {
+                let advanced = |k: usize| {
+                    last_x[k].as_f64().unwrap_or(0.0) > first[k].as_f64().unwrap_or(0.0) + 1.0
+                };
+                moved |= (0..3).all(advanced);
+            }
+            None => {}
+        }
+        if !shot_live && started.elapsed() > Duration::from_secs(8) {
+            page.screenshot(&shots.join("demo-live.png")).unwrap();
+            shot_live = true;
+        }
+        if silent_seen.is_empty() {
+            if let Some(rows) = seen["silent"].as_array().filter(|r| !r.is_empty()) {
+                silent_seen = rows.iter().map(|r| r.to_string()).collect();
+                page.screenshot(&shots.join("demo-silent.png")).unwrap();
+            }
+        }
+        std::thread::sleep(Duration::from_millis(250));
+    }
+    page.screenshot(&shots.join("demo-done.png")).unwrap();
+    let seen: Value =
+        serde_json::from_str(page.evaluate(WATCH_JS).unwrap().as_str().unwrap()).unwrap();
+    assert_eq!(
+        page.console_errors(),
+        &[] as &[String],
+        "the page logged errors"
+    );
+    assert_eq!(seen["errors"], Value::Array(vec![]));
+    assert!(
+        moved,
+        "the plots' last points did not move: {first_last_x:?} -> {}",
+        seen["lastX"]
+    );
+    assert!(
+        silent_seen.iter().any(|r| r.contains("SILENT")),
+        "no sensor was shown SILENT when its session's replay stopped"
+    );
+
+    // The live holds against acq extract on the recorded sessions (what the
+    // demo wrote with the library's extract, the same as `acq extract`).
+    let (status, _, body) = http(&addr, "GET", "/api/state", None);
+    assert_eq!(status, 200);
+    let state: Value = serde_json::from_str(&body).unwrap();
+    let shown = seen["holds"].as_array().unwrap().clone();
+    for name in ["excavator_case1", "excavator_case2"] {
+        let live: Vec<&Value> = state["holds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|h| h["session"] == name)
+            .collect();
+        let measured = std::fs::read_to_string(out_dir.join(name).join("measured.csv")).unwrap();
+        let rows: Vec<Vec<&str>> = measured
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect())
+            .collect();
+        let windows: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[0]).collect();
+        assert_eq!(live.len(), windows.len(), "{name}: hold count");
+        for hold in &live {
+            let hold_name = hold["name"].as_str().unwrap();
+            let row_of = |quantity: &str| {
+                rows.iter()
+                    .find(|r| r[0] == hold_name && r[3] == quantity)
+                    .unwrap_or_else(|| panic!("{name}: no {hold_name} {quantity} in measured.csv"))
+            };
+            let first = row_of("tip_force");
+            // The CSV keeps 9 decimals of a second.
+            for (key, column) in [("start_s", 1), ("end_s", 2)] {
+                let offline: f64 = first[column].parse().unwrap();
+                let live_s = hold[key].as_f64().unwrap();
+                assert!(
+                    (live_s - offline).abs() < 1e-9,
+                    "{name} {hold_name} {key}: live {live_s} offline {offline}"
+                );
+            }
+            for value in hold["values"].as_array().unwrap() {
+                let row = row_of(value["quantity"].as_str().unwrap());
+                let offline: f64 = row[5].parse().unwrap();
+                assert_eq!(
+                    value["mean"].as_f64().unwrap(),
+                    offline,
+                    "{name} {hold_name} {}: live mean against acq extract",
+                    value["quantity"]
+                );
+                assert_eq!(value["n"].as_u64().unwrap(), row[7].parse::<u64>().unwrap());
+            }
+            // Shaded within 1 s of the operator releasing the load.
+            let started_unix_s = state["sessions"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|s| s["name"] == name)
+                .unwrap()["started_unix_s"]
+                .as_f64()
+                .unwrap();
+            let end_s = hold["end_s"].as_f64().unwrap();
+            let mean = hold["values"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|v| v["quantity"] == "tip_force")
+                .unwrap()["mean"]
+                .as_f64()
+                .unwrap();
+            let release = release_s(
+                &out_dir.join("sessions").join(name),
+                "tip_force",
+                end_s,
+                mean,
+            );
+            let drawn = shown
+                .iter()
+                .find(|h| h["session"] == name && h["end_s"].as_f64() == Some(end_s))
+                .unwrap_or_else(|| panic!("{name}: {hold_name} never shaded on the page"));
+            let drawn_s = drawn["shown_ms"].as_f64().unwrap() / 1e3 - started_unix_s;
+            eprintln!(
+                "{name} {hold_name}: window ends {end_s:.3} s, load released {release:.3} s, shaded {drawn_s:.3} s"
+            );
+            assert!(
+                drawn_s - release <= 1.0,
+                "{name} {hold_name}: shaded {:.3} s after the load was released",
+                drawn_s - release
+            );
+        }
+    }
+    page.close();
+    assert_eq!(demo.interrupt(), 0, "Ctrl-C ends the demo's page cleanly");
+}
+
+/// A copy of the shipped tensile session whose rig names a sensor with
+/// markup and a style end tag (a rig refuses quotes in sensor names: they
+/// are CSV columns), in a directory whose name has markup and quotes.
+fn hostile_session(parent: &Path) -> (PathBuf, &'static str) {
+    const HOSTILE: &str = "<script>alert(1)</script></style><b>&amp;";
+    let source = root().join("fixtures/sessions/tensile_p91_20c");
+    let dir = parent.join("<img src=x onerror=alert(2)>\"'");
+    std::fs::create_dir_all(dir.join("rig")).unwrap();
+    for entry in std::fs::read_dir(&source).unwrap() {
+        let entry = entry.unwrap();
+        if entry.path().is_file() {
+            std::fs::copy(entry.path(), dir.join(entry.file_name())).unwrap();
+        }
+    }
+    for entry in std::fs::read_dir(source.join("rig")).unwrap() {
+        let entry = entry.unwrap();
+        let text = std::fs::read_to_string(entry.path()).unwrap();
+        let text = text.replace("name = \"load\"", &format!("name = \"load{HOSTILE}\""));
+        std::fs::write(dir.join("rig").join(entry.file_name()), text).unwrap();
+    }
+    (dir, HOSTILE)
+}
+
+#[test]
+fn the_page_only_reads_escapes_names_and_keeps_strangers_out() {
+    let temp = tempfile::tempdir().unwrap();
+    let (session, hostile) = hostile_session(temp.path());
+
+    // Another machine's address without the flag: refused before anything.
+    let output = common::acq(&["view", path_arg(&session), "--view", "0.0.0.0:0"]);
+    assert_eq!(output.status.code(), Some(2), "{}", common::stderr(&output));
+    assert!(common::stderr(&output).contains("--view-remote"));
+
+    // Loopback: no token, but only for the address served.
+    let mut local = Running::start(&["view", path_arg(&session), "--view", "127.0.0.1:0"]);
+    let url = url_in(&local.wait_for("view at", Duration::from_secs(30)));
+    let addr = host_of(&url);
+    let (status, head, page) = http(&addr, "GET", "/", None);
+    assert_eq!(status, 200);
+    let csp = head
+        .lines()
+        .find(|l| {
+            l.to_ascii_lowercase()
+                .starts_with("content-security-policy")
+        })
+        .expect("a CSP header");
+    assert!(
+        csp.contains("script-src 'self'") && !csp.contains("unsafe-inline"),
+        "{csp}"
+    );
+    assert!(
+        !page.contains("<script>alert") && !page.contains("<img src=x"),
+        "{page}"
+    );
+    assert!(
+        page.contains("&lt;img src=x onerror=alert(2)&gt;&quot;&#39;"),
+        "{page}"
+    );
+    let (status, _, state) = http(&addr, "GET", "/api/state", None);
+    assert_eq!(status, 200);
+    let state: Value = serde_json::from_str(&state).unwrap();
+    assert_eq!(state["sensors"][0]["name"], format!("load{hostile}"));
+    assert_eq!(
+        http(&addr, "POST", "/api/state", None).0,
+        405,
+        "the API only reads"
+    );
+    assert_eq!(http(&addr, "DELETE", "/", None).0, 405);
+    assert_eq!(
+        http(&addr, "GET", "/api/state", Some("attacker.example:80")).0,
+        403,
+        "a page elsewhere (DNS rebinding) is refused"
+    );
+
+    // In Chromium the names are text: no script of theirs runs, nothing is
+    // refused by the policy, and the name reads as it is.
+    let mut page = LivePage::open(&url, Duration::from_secs(60)).unwrap();
+    std::thread::sleep(Duration::from_millis(800));
+    let shown = page
+        .evaluate(
+            "JSON.stringify({cells: Array.from(document.querySelectorAll('table.sensors td')).map((c) => c.textContent), \
+             scripts: document.scripts.length, images: document.images.length, title: document.title})",
+        )
+        .unwrap();
+    let shown: Value = serde_json::from_str(shown.as_str().unwrap()).unwrap();
+    page.screenshot(&artefacts().join("hostile-names.png"))
+        .unwrap();
+    assert_eq!(page.console_errors(), &[] as &[String]);
+    assert!(
+        shown["cells"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c.as_str() == Some(&format!("load{hostile}"))),
+        "{shown}"
+    );
+    assert_eq!(shown["scripts"], 2, "only the page's own two scripts");
+    assert_eq!(shown["images"], 0);
+    page.close();
+    assert_eq!(local.interrupt(), 0);
+
+    // Another address with the flag: every request needs the token.
+    let mut remote = Running::start(&[
+        "view",
+        path_arg(&session),
+        "--view",
+        "0.0.0.0:0",
+        "--view-remote",
+    ]);
+    let url = url_in(&remote.wait_for("view at", Duration::from_secs(30)));
+    let token = url
+        .split("token=")
+        .nth(1)
+        .expect("a token in the URL")
+        .to_string();
+    assert_eq!(token.len(), 32);
+    let port = host_of(&url).rsplit(':').next().unwrap().to_string();
+    let addr = format!("127.0.0.1:{port}");
+    assert_eq!(http(&addr, "GET", "/api/state", None).0, 401);
+    assert_eq!(
+        http(
+            &addr,
+            "GET",
+            "/api/state?token=0123456789abcdef0123456789abcdef",
+            None
+        )
+        .0,
+        401
+    );
+    assert_eq!(http(&addr, "GET", "/app.js", None).0, 401);
+    assert_eq!(
+        http(&addr, "GET", &format!("/api/state?token={token}"), None).0,
+        200
+    );
+    assert_eq!(
+        http(&addr, "POST", &format!("/api/state?token={token}"), None).0,
+        405
+    );
+    assert_eq!(remote.interrupt(), 0);
+}

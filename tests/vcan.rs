@@ -304,6 +304,49 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         c4.session.dropped_by_kernel
     );
 
+    // 7. The flood on both buses with the live page on and 10 viewers,
+    // one stalled: the page never costs a frame.
+    let c7 = session::read(&out.join("c7")).unwrap();
+    assert_eq!(
+        fs::read_to_string(out.join("c7.exit")).unwrap().trim(),
+        "0",
+        "{}",
+        fs::read_to_string(out.join("c7_stderr.txt")).unwrap_or_default()
+    );
+    let stop_ns = c7.session.stop_requested_unix_ns.unwrap();
+    let seen = read_log(&out.join("c7_candump.log"));
+    let before: Vec<&Frame> = seen.iter().filter(|f| f.timestamp_ns <= stop_ns).collect();
+    let recorded: HashSet<(i64, CanId, Vec<u8>)> = read_session_frames(&out.join("c7"))
+        .iter()
+        .map(|f| (f.timestamp_ns, f.id, f.payload().to_vec()))
+        .collect();
+    let missing = before
+        .iter()
+        .filter(|f| !recorded.contains(&(f.timestamp_ns, f.id, f.payload().to_vec())))
+        .count() as u64;
+    let state: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("c7_state.json")).unwrap()).unwrap();
+    eprintln!(
+        "flood with the view: candump saw {} frames before the signal; acq recorded {}, reported {} kernel drops, missing {missing}; \
+         the page had {} viewers and did not show {} frames",
+        before.len(),
+        recorded.len(),
+        c7.session.dropped_by_kernel,
+        state["viewers"],
+        state["sessions"][0]["frames_not_shown"]
+    );
+    assert!(before.len() > 1000, "the flood reached the bus");
+    assert!(
+        state["viewers"].as_u64().unwrap() >= 10,
+        "the viewers were connected: {}",
+        state["viewers"]
+    );
+    assert_eq!(
+        (missing, c7.session.dropped_by_kernel),
+        (0, 0),
+        "frames candump saw before the signal that are not in raw.log, and kernel drops"
+    );
+
     // 5. The interface disappears and comes back: reported, recording resumes.
     let c5 = session::read(&out.join("c5")).unwrap();
     let ids: Vec<CanId> = read_session_frames(&out.join("c5"))

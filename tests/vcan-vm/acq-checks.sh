@@ -92,6 +92,44 @@ sleep 0.3
 kill -INT $rec
 wait $rec
 
+say "7: a flood with the live page on and 10 viewers, one of them stalled"
+candump -L can0 can1 > "$OUT/c7_candump.log" &
+dump=$!
+acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c7" --quiet \
+    --view 127.0.0.1:8750 2> "$OUT/c7_stderr.txt" &
+rec=$!
+wait_for_session "$OUT/c7"
+viewers=""
+for i in 1 2 3 4 5 6 7 8 9; do
+    wget -q -O /dev/null http://127.0.0.1:8750/api/events 2>/dev/null &
+    viewers="$viewers $!"
+done
+# The stalled viewer: connected, its request sent, never reading. nc
+# writes into a pipe nobody reads, so the socket's window fills up.
+mkfifo /tmp/stall
+sleep 600 < /tmp/stall &
+holder=$!
+(printf 'GET /api/events HTTP/1.1\r\nHost: 127.0.0.1:8750\r\n\r\n'; sleep 600) | nc 127.0.0.1 8750 > /tmp/stall &
+stalled=$!
+sleep 0.5
+# As fast as the VM sends, on both buses: TPDO1 of the bucket head
+# pressure transducer (node 0x21) on can0, every frame decoded and plotted;
+# random ids on can1.
+cangen can0 -g 0 -I 1A1 -L 8 -D i -n 400000 &
+gen=$!
+cangen can1 -g 0 -I i -L 8 -D i -n 400000 &
+gen1=$!
+sleep 3
+wget -q -O "$OUT/c7_state.json" http://127.0.0.1:8750/api/state || true
+kill -INT $rec
+wait $rec && echo "0" > "$OUT/c7.exit" || echo "$?" > "$OUT/c7.exit"
+sleep 0.3
+kill $gen $gen1 2>/dev/null || true
+wait $gen $gen1 2>/dev/null || true
+sleep 0.3
+kill $dump; wait $dump || true
+kill $viewers $stalled $holder 2>/dev/null || true
+
 say "6: the disk fills up during a recording"
 mkdir -p /mnt/small
 mount -t tmpfs -o size=2m tmpfs /mnt/small

@@ -10,30 +10,15 @@
 //!
 //! `cargo bench --bench live` (ACQ_BENCH_SECONDS sets the window, default 10).
 
-use std::path::Path;
-use std::thread;
-use std::time::{Duration, Instant};
+mod common;
+
+use std::time::Instant;
 
 use acq_acquire::bus::memory::MemoryBus;
-use acq_acquire::bus::{Bus, FrameSink, FrameSource};
-use acq_acquire::record::status::StatusMode;
-use acq_acquire::record::{self, RecordOptions, StopReason};
+use acq_acquire::bus::{Bus, FrameSource};
 use acq_acquire::replay::{self, Pacing, Routing};
-use acq_acquire::simulate::scenario::Scenario;
-use acq_acquire::simulate::Simulation;
-use acq_drivers::rig::Rig;
-use acq_drivers::{CanId, Frame, IfaceName};
-use nix::sys::resource::{getrusage, UsageWho};
-
-fn iface(name: &str) -> IfaceName {
-    IfaceName::new(name).unwrap()
-}
-
-fn cpu_seconds() -> f64 {
-    let usage = getrusage(UsageWho::RUSAGE_SELF).unwrap();
-    let seconds = |t: nix::sys::time::TimeVal| t.tv_sec() as f64 + t.tv_usec() as f64 * 1e-6;
-    seconds(usage.user_time()) + seconds(usage.system_time())
-}
+use acq_drivers::{CanId, Frame};
+use common::{cpu_seconds, four_bus_bus, four_bus_rig, iface, produce, record_while_producing};
 
 fn replay_timing() {
     let runtime = tokio::runtime::Builder::new_current_thread()
@@ -86,95 +71,17 @@ fn replay_timing() {
     });
 }
 
-/// Sends the four-bus simulation in real time from its own thread for `seconds`.
-fn produce(bus: MemoryBus, rig: Rig, seconds: f64) -> thread::JoinHandle<u64> {
-    thread::spawn(move || {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let (scenario, curve) =
-            Scenario::load(&root.join("fixtures/scenarios/bench_four_buses.toml")).unwrap();
-        let mut simulation = Simulation::new(&rig, scenario, curve, 1, 0).unwrap();
-        let runtime = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .unwrap();
-        runtime.block_on(async {
-            let mut sinks: Vec<_> = (0..4)
-                .map(|b| bus.open_sink(iface(&format!("vcan{b}"))).unwrap())
-                .collect();
-            let start = Instant::now();
-            let mut sent = 0u64;
-            while let Some(frame) = simulation.next_frame() {
-                let due = Duration::from_nanos(frame.timestamp_ns as u64);
-                if due.as_secs_f64() > seconds {
-                    break;
-                }
-                // Sleep in 1 ms steps: frames go out in small bursts, as from a DAQ.
-                let now = start.elapsed();
-                if due > now + Duration::from_millis(1) {
-                    thread::sleep(due - now);
-                }
-                let bus_index = frame.iface.as_str().as_bytes()[4] - b'0';
-                sinks[usize::from(bus_index)].send(&frame).await.unwrap();
-                sent += 1;
-            }
-            sent
-        })
-    })
-}
-
 fn recording_cost(seconds: f64) {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let rig = Rig::load(&root.join("fixtures/rigs/bench_four_buses.toml")).unwrap();
-    let interfaces: Vec<IfaceName> = (0..4).map(|b| iface(&format!("vcan{b}"))).collect();
-    let new_bus = || {
-        let bus = MemoryBus::new(1 << 16);
-        for &i in &interfaces {
-            bus.add(i);
-        }
-        bus
-    };
+    let rig = four_bus_rig();
 
     // Baseline: the traffic alone.
-    let bus = new_bus();
+    let bus = four_bus_bus();
     let (cpu0, wall0) = (cpu_seconds(), Instant::now());
-    let sent = produce(bus, rig.clone(), seconds).join().unwrap();
+    let sent = produce(bus, rig.clone(), seconds, 1, None).join().unwrap();
     let baseline = (cpu_seconds() - cpu0) / wall0.elapsed().as_secs_f64();
 
     // The same traffic recorded.
-    let dir = tempfile::tempdir().unwrap();
-    let bus = new_bus();
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .unwrap();
-    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let options = RecordOptions {
-        interfaces: interfaces.clone(),
-        rig: Some(rig.clone()),
-        session_dir: dir.path().join("session"),
-        max_file_bytes: 1 << 30,
-        nmt_start: false,
-        status: StatusMode::Quiet,
-        command_line: "bench".into(),
-        notes: Vec::new(),
-        observer: None,
-    };
-    let recording = runtime.spawn(record::record(bus.clone(), options, async move {
-        let _ = stop_rx.await;
-        StopReason::Signal("BENCH")
-    }));
-    thread::sleep(Duration::from_millis(200));
-    let (cpu0, wall0) = (cpu_seconds(), Instant::now());
-    let sent_recorded = produce(bus, rig, seconds).join().unwrap();
-    thread::sleep(Duration::from_millis(200));
-    let total = (cpu_seconds() - cpu0) / wall0.elapsed().as_secs_f64();
-    stop_tx.send(()).unwrap();
-    let summary = runtime.block_on(recording).unwrap().unwrap();
-    assert_eq!(
-        summary.session.session.frames, sent_recorded,
-        "every frame recorded"
-    );
+    let (total, sent_recorded) = record_while_producing(&rig, None, seconds, 1, None);
     println!(
         "recording 4 buses x 8000 frames/s with live decode: {} frames in {seconds:.0} s ({:.0} frames/s); recorder CPU {:.2} % of one core (process {:.2} % minus traffic alone {:.2} %)",
         sent_recorded,

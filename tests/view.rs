@@ -487,3 +487,63 @@ fn the_page_only_reads_escapes_names_and_keeps_strangers_out() {
     );
     assert_eq!(remote.interrupt(), 0);
 }
+
+#[test]
+fn a_session_opens_again_from_its_index_and_a_damaged_index_is_rebuilt() {
+    let temp = tempfile::tempdir().unwrap();
+    let dir = temp.path().join("case1");
+    std::fs::create_dir_all(dir.join("rig")).unwrap();
+    let source = root().join("fixtures/sessions/excavator_case1");
+    for (from, to) in [
+        (source.clone(), dir.clone()),
+        (source.join("rig"), dir.join("rig")),
+    ] {
+        for entry in std::fs::read_dir(&from).unwrap() {
+            let entry = entry.unwrap();
+            if entry.path().is_file() {
+                std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+            }
+        }
+    }
+    let look = |view: &acq_view::model::SessionView| {
+        (
+            view.series_json(0.0, 20.0, 700),
+            serde_json::to_string(&view.holds_json(None)).unwrap(),
+            serde_json::to_string(&view.sensors_json(None)).unwrap(),
+            serde_json::to_string(&view.buses_json(None)).unwrap(),
+            view.xy_json().to_string(),
+        )
+    };
+    let (first, source) = acq_view::open_session(&dir, "case1").unwrap();
+    assert_eq!(source, acq_view::Source::Recording(Ok(())));
+    let (again, source) = acq_view::open_session(&dir, "case1").unwrap();
+    assert_eq!(source, acq_view::Source::Index);
+    assert_eq!(look(&again), look(&first), "the index gives the same page");
+    assert_eq!(first.holds.len(), 1);
+
+    // Damaged in every way a cut or a stray write can: read from the recording again.
+    let index = dir.join(acq_view::index::FILE);
+    let bytes = std::fs::read(&index).unwrap();
+    for damaged in [
+        bytes[..bytes.len() - 3].to_vec(),
+        bytes[..40].to_vec(),
+        [bytes.clone(), vec![0]].concat(),
+        b"not an index".to_vec(),
+    ] {
+        std::fs::write(&index, &damaged).unwrap();
+        let (view, source) = acq_view::open_session(&dir, "case1").unwrap();
+        assert_eq!(source, acq_view::Source::Recording(Ok(())));
+        assert_eq!(look(&view), look(&first));
+    }
+    // A recording that grew (another raw file size): not the index's.
+    let raw = dir.join("raw.log");
+    let mut log = std::fs::read(&raw).unwrap();
+    let last_line = log[..log.len() - 1]
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .unwrap();
+    log.truncate(last_line + 1);
+    std::fs::write(&raw, &log).unwrap();
+    let (_, source) = acq_view::open_session(&dir, "case1").unwrap();
+    assert_eq!(source, acq_view::Source::Recording(Ok(())));
+}

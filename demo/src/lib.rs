@@ -233,7 +233,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
             if let Some((addr, access)) = view_address {
                 let mut shared = Vec::new();
                 for (name, _) in SHIPPED {
-                    let view = acq_view::open_session(&dir.join(name), name)?;
+                    let (view, _) = acq_view::open_session(&dir.join(name), name)?;
                     shared.push(std::sync::Arc::new(std::sync::Mutex::new(view)));
                 }
                 let host = acq_view::ViewHost::start(addr, access, shared)?;

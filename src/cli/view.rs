@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use acq_io::error::{AcqError, Result};
-use acq_view::{open_session, ViewArgs, ViewHost, DEFAULT_ADDRESS};
+use acq_view::{open_session, Source, ViewArgs, ViewHost, DEFAULT_ADDRESS};
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -31,9 +31,24 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| dir.display().to_string());
         let started = std::time::Instant::now();
-        let view = open_session(dir, &name)?;
+        let (view, source) = open_session(dir, &name)?;
+        let how = match source {
+            Source::Index => format!("from its {}", acq_view::index::FILE),
+            Source::Recording(Ok(())) => {
+                format!(
+                    "from the recording; {} written for the next time",
+                    acq_view::index::FILE
+                )
+            }
+            Source::Recording(Err(why)) => {
+                format!(
+                    "from the recording ({} not written: {why})",
+                    acq_view::index::FILE
+                )
+            }
+        };
         eprintln!(
-            "acq: {}: {} sensors, {} hold(s), read in {:.2} s",
+            "acq: {}: {} sensors, {} hold(s), read in {:.2} s {how}",
             dir.display(),
             view.sensors.len(),
             view.holds.len(),

@@ -5,6 +5,7 @@
 //! - [`model`]: what the page shows of one session.
 //! - [`live`]: the recorder's observer; a thread decodes and finds holds.
 //! - [`recorded`]: a session read from disk, with `acq extract`'s holds.
+//! - [`index`]: a recorded session's view kept beside it for the next open.
 //! - [`server`]: the HTTP server (read-only, loopback or token, CSP, events).
 //! - [`host`]: the `--view` options and the page on a runtime of its own.
 //! - [`page`]: the page's HTML skeleton, script, style and vendored uPlot.
@@ -14,6 +15,7 @@
 //! except the counting of frames it could not show.
 
 pub mod host;
+pub mod index;
 pub mod live;
 pub mod model;
 pub mod page;
@@ -23,7 +25,7 @@ pub mod server;
 
 pub use host::{ViewArgs, ViewHost};
 pub use live::{live_session, LiveFeed, SharedSession};
-pub use recorded::open_session;
+pub use recorded::{open_session, Source};
 pub use server::{access_for, parse_address, serve, Access, ViewServer};
 
 /// Where the page is served when `--view` is given without an address.

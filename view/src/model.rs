@@ -33,7 +33,7 @@ pub struct SensorView {
 }
 
 /// One bus's counters, as the terminal status shows them.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
 pub struct BusView {
     pub iface: String,
     pub state: String,
@@ -44,7 +44,7 @@ pub struct BusView {
 }
 
 /// A hold on the page: its span and what `acq extract` would write for it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct HoldView {
     pub index: usize,
     pub name: String,

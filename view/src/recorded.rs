@@ -1,5 +1,6 @@
 //! The view of a recorded session: one pass fills every series, and the
-//! holds and their values are `acq extract`'s own (its defaults).
+//! holds and their values are `acq extract`'s own (its defaults). The
+//! result is kept beside the session ([`crate::index`]) for the next time.
 
 use std::path::Path;
 
@@ -12,6 +13,7 @@ use acq_io::error::{AcqError, Result};
 
 use acq_acquire::record::live::SILENCE_PERIODS;
 
+use crate::index;
 use crate::live::LIVE_BUCKET_NS;
 use crate::model::{BusView, SessionView};
 
@@ -19,8 +21,22 @@ use crate::model::{BusView, SessionView};
 /// (each 10 ms or longer): about 3 MB per sensor, whatever its length.
 const MAX_BUCKETS: i64 = 1 << 18;
 
-/// Reads the session in `dir` into a view named `name`.
-pub fn open_session(dir: &Path, name: &str) -> Result<SessionView> {
+/// Why a recorded sensor is silent.
+pub const NEVER_SEEN: &str = "never seen";
+pub const STOPPED_EARLY: &str = "stopped before the end of the session";
+
+/// Where a recorded session's view came from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    /// Its index, made by an earlier `acq view`.
+    Index,
+    /// The recording; the index could be written (`Ok`) or not (why).
+    Recording(std::result::Result<(), String>),
+}
+
+/// Reads the session in `dir` into a view named `name`, from its index
+/// when it has one made from this recording.
+pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
     let recording = Recording::open(dir, None)?;
     let Some(session) = recording.session.clone() else {
         return Err(AcqError::Config(format!(
@@ -41,6 +57,10 @@ pub fn open_session(dir: &Path, name: &str) -> Result<SessionView> {
     let bucket_ns = LIVE_BUCKET_NS.max((duration_ns + MAX_BUCKETS - 1) / MAX_BUCKETS);
     let buckets = (duration_ns / bucket_ns + 2) as usize;
     let mut view = SessionView::new(name, &recording.rig, t0, bucket_ns, buckets);
+    let key = index::key(dir, &session);
+    if let Some(indexed) = index::load(dir, &key, view.clone()) {
+        return Ok((indexed, Source::Index));
+    }
     view.elapsed_s = duration_ns as f64 / 1e9;
     let offsets = offsets_ns(&recording.clock_offsets(&[])?);
     let mut counts = SampleCounts::default();
@@ -60,9 +80,9 @@ pub fn open_session(dir: &Path, name: &str) -> Result<SessionView> {
         .zip(&last_sample_ns)
     {
         let (silent, reason) = match last {
-            None => (true, "never seen"),
+            None => (true, NEVER_SEEN),
             Some(t) if end_ns - t > SILENCE_PERIODS * rig_sensor.period_ns() => {
-                (true, "stopped before the end of the session")
+                (true, STOPPED_EARLY)
             }
             Some(_) => (false, ""),
         };
@@ -111,5 +131,6 @@ pub fn open_session(dir: &Path, name: &str) -> Result<SessionView> {
         }
         Err(error) => view.holds_note = Some(format!("no holds: {error}")),
     }
-    Ok(view)
+    let saved = index::save(dir, &key, &view).map_err(|e| e.to_string());
+    Ok((view, Source::Recording(saved)))
 }

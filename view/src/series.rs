@@ -65,6 +65,21 @@ impl MinMaxSeries {
         self.bucket_ns
     }
 
+    /// The index of the first bucket and every bucket, oldest first.
+    pub fn buckets(&self) -> (i64, impl ExactSizeIterator<Item = &Option<MinMax>>) {
+        (self.first_index, self.buckets.iter())
+    }
+
+    /// A series from [`MinMaxSeries::buckets`]'s parts.
+    pub fn from_buckets(bucket_ns: i64, first_index: i64, buckets: Vec<Option<MinMax>>) -> Self {
+        MinMaxSeries {
+            bucket_ns,
+            capacity: buckets.len().max(1),
+            first_index,
+            buckets: buckets.into(),
+        }
+    }
+
     /// The span held, `[start, end)` ns, if any sample came.
     pub fn span_ns(&self) -> Option<(i64, i64)> {
         (!self.buckets.is_empty()).then(|| {

@@ -35,7 +35,7 @@ pub const MEASURED_HEADER: &str =
     "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,flags,note";
 
 /// One quantity in one window.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MeasuredValue {
     pub window: String,
     pub start_s: f64,

@@ -131,7 +131,7 @@ impl WindowAccumulator {
 }
 
 /// The numbers of one sensor in one window.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WindowStats {
     pub n: u64,
     pub mean: Option<f64>,

@@ -1,0 +1,312 @@
+//! The live page's costs on the host, in-process bus, four buses at
+//! 2,000 frames/s each (`fixtures/rigs/bench_four_buses.toml`, every fourth
+//! frame of its simulation), recorded with live decode:
+//!
+//! 1. CPU: the recorder with the page and two viewers (`curl -N` reading
+//!    the event stream, separate processes) against the recorder alone, the
+//!    same traffic, in the same run. Target: the page under 10 % of one core.
+//! 2. Latency, frame on the bus to point in the viewer: bus 0's force frames
+//!    carry their send time as the value; a viewer in this process reads the
+//!    event stream and notes when each value first arrives. For every
+//!    millisecond of sent traffic, the wait until an update held it; the
+//!    median (target under 250 ms; a browser adds one animation frame).
+//!
+//! 3. `acq view` of a long session: one hour at 8,000 frames/s (bus 0 of
+//!    the same rig, 19 sensors, 28.8 M frames, 1.3 GB) written as a session;
+//!    opened once from the recording (which writes its index) and again from
+//!    the index (target under 2 s); then a zoom into 10 s and the whole hour
+//!    at 1,000 columns, which read only the buckets held.
+//!
+//! `cargo bench --bench view` (ACQ_BENCH_SECONDS sets each window, default
+//! 10; ACQ_BENCH_VIEW_HOURS the long session, default 1).
+
+mod common;
+
+use std::io::{BufRead, BufReader, Write};
+use std::net::TcpStream;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::Instant;
+
+use acq_acquire::record::RecordObserver;
+use acq_acquire::simulate::scenario::Scenario;
+use acq_acquire::simulate::Simulation;
+use acq_analysis::extract::holds::HoldOptions;
+use acq_drivers::rig::Rig;
+use common::{four_bus_rig, record_while_producing};
+
+/// (arrival s, newest marker value) of each update a viewer read.
+type Arrivals = Arc<Mutex<Vec<(f64, f64)>>>;
+
+/// Reads the event stream; (arrival s since `epoch`, newest marker value).
+fn probe(url: &str, epoch: Instant, arrivals: Arrivals) {
+    let host = url
+        .trim_start_matches("http://")
+        .trim_end_matches('/')
+        .to_string();
+    thread::spawn(move || {
+        let mut stream = TcpStream::connect(&host).unwrap();
+        write!(
+            stream,
+            "GET /api/events HTTP/1.1\r\nHost: {host}\r\nAccept: text/event-stream\r\n\r\n"
+        )
+        .unwrap();
+        for line in BufReader::new(stream).lines() {
+            let Ok(line) = line else { return };
+            let Some(data) = line.strip_prefix("data: ") else {
+                continue;
+            };
+            let at = epoch.elapsed().as_secs_f64();
+            let Ok(update) = serde_json::from_str::<serde_json::Value>(data) else {
+                continue;
+            };
+            let newest = update["tails"][0]["series"][0]
+                .as_array()
+                .and_then(|columns| columns.last())
+                .and_then(|column| column[2].as_f64());
+            if let Some(value) = newest {
+                arrivals.lock().unwrap().push((at, value));
+            }
+        }
+    });
+}
+
+struct Run {
+    cpu_share: f64,
+    frames: u64,
+}
+
+fn record_run(seconds: f64, view: bool, viewers: usize, arrivals: Option<Arrivals>) -> Run {
+    let rig = four_bus_rig();
+    let epoch = Instant::now();
+    let mut observer: Option<Box<dyn RecordObserver>> = None;
+    let mut host = None;
+    let mut clients: Vec<Child> = Vec::new();
+    if view {
+        let (feed, shared) =
+            acq_view::live_session("bench", &rig, HoldOptions::default(), Some("tip_force_0"));
+        observer = Some(Box::new(feed));
+        let address = "127.0.0.1:0".parse().unwrap();
+        let access = acq_view::access_for(address, false).unwrap();
+        let started = acq_view::ViewHost::start(address, access, vec![shared]).unwrap();
+        let url = started.url().to_string();
+        for _ in 0..viewers {
+            clients.push(
+                Command::new("curl")
+                    .args(["-sN", "-o", "/dev/null", &format!("{url}api/events")])
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::null())
+                    .spawn()
+                    .expect("curl for the viewers"),
+            );
+        }
+        if let Some(arrivals) = arrivals {
+            probe(&url, epoch, arrivals);
+        }
+        host = Some(started);
+    }
+    let (cpu_share, sent) = record_while_producing(&rig, observer, seconds, 4, Some(epoch));
+    if let Some(host) = host {
+        host.stop();
+    }
+    for mut client in clients {
+        let _ = client.kill();
+        let _ = client.wait();
+    }
+    Run {
+        cpu_share,
+        frames: sent,
+    }
+}
+
+/// Writes a session of `hours` of bus 0 of the four-bus rig at 8,000
+/// frames/s into `dir` (raw.log, its rig, session.toml).
+fn long_session(dir: &Path, hours: f64) -> u64 {
+    use acq_io::session::{self, CopiedFile, RigCopy, SessionFile, SessionInfo};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("fixtures/rigs/bench_four_buses.toml")).unwrap();
+    // The header, bus daq0 and its sensors.
+    let mut rig_text = String::new();
+    for (k, block) in text.split("\n[[").enumerate() {
+        let keep = k == 0
+            || block.starts_with("bus]]\nname = \"daq0\"")
+            || block.contains("bus = \"daq0\"");
+        if keep {
+            if k > 0 {
+                rig_text.push_str("\n[[");
+            }
+            rig_text.push_str(block);
+        }
+    }
+    let rig_text = rig_text.replace("../dbc/somat_excavator.dbc", "somat_excavator.dbc");
+    std::fs::create_dir_all(dir.join("rig")).unwrap();
+    std::fs::write(dir.join("rig/bench.toml"), &rig_text).unwrap();
+    let dbc = std::fs::read(root.join("fixtures/dbc/somat_excavator.dbc")).unwrap();
+    std::fs::write(dir.join("rig/somat_excavator.dbc"), &dbc).unwrap();
+    let rig = Rig::load(&dir.join("rig/bench.toml")).unwrap();
+    let total_s = hours * 3600.0;
+    let scenario_path = dir.join("scenario.toml");
+    std::fs::write(
+        &scenario_path,
+        format!(
+            "name = \"long\"\n[timeline]\nidle_s = 60.0\nbuild_up_s = 30.0\nhold_s = {}\nrelease_s = 30.0\nafter_s = 60.0\n\
+             [sensor.tip_force_0]\nidle = 0.0\nhold = 40.6\nnoise = 0.08\n[sensor.sg01_0]\nidle = 2.0\nhold = 11.5\nnoise = 0.15\n",
+            total_s - 180.0
+        ),
+    )
+    .unwrap();
+    let (scenario, curve) = Scenario::load(&scenario_path).unwrap();
+    let start_ns = 1_800_000_000_000_000_000;
+    let mut simulation = Simulation::new(&rig, scenario, curve, 1, start_ns).unwrap();
+    let mut out = std::io::BufWriter::with_capacity(
+        1 << 20,
+        std::fs::File::create(dir.join("raw.log")).unwrap(),
+    );
+    let mut line = Vec::with_capacity(128);
+    let mut frames = 0u64;
+    while let Some(frame) = simulation.next_frame() {
+        line.clear();
+        acq_drivers::log::candump::push_line(&mut line, &frame).unwrap();
+        out.write_all(&line).unwrap();
+        frames += 1;
+    }
+    out.flush().unwrap();
+    let sha = |bytes: &[u8]| session::sha256_hex(bytes);
+    let file = SessionFile {
+        session: SessionInfo {
+            format_version: session::FORMAT_VERSION,
+            software: "bench".into(),
+            started_unix_ns: start_ns,
+            started_utc: session::utc_text(start_ns),
+            ended: "bench".into(),
+            raw_files: vec!["raw.log".into()],
+            ..Default::default()
+        },
+        interface: Vec::new(),
+        rig: Some(RigCopy {
+            name: rig.name.clone(),
+            file: CopiedFile {
+                source: "bench".into(),
+                copy: "rig/bench.toml".into(),
+                sha256: sha(rig_text.as_bytes()),
+            },
+            dbc: vec![CopiedFile {
+                source: "bench".into(),
+                copy: "rig/somat_excavator.dbc".into(),
+                sha256: sha(&dbc),
+            }],
+        }),
+        sensor: Vec::new(),
+    };
+    session::write(dir, &file).unwrap();
+    session::repair(dir).unwrap();
+    frames
+}
+
+fn long_session_open(hours: f64) {
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("long");
+    let started = Instant::now();
+    let frames = long_session(&session, hours);
+    let bytes = std::fs::metadata(session.join("raw.log")).unwrap().len();
+    println!(
+        "long session: {frames} frames, {:.2} GB written in {:.1} s",
+        bytes as f64 / 1e9,
+        started.elapsed().as_secs_f64()
+    );
+    let started = Instant::now();
+    let (first, source) = acq_view::open_session(&session, "long").unwrap();
+    let first_s = started.elapsed().as_secs_f64();
+    assert_eq!(source, acq_view::Source::Recording(Ok(())));
+    let index_bytes = std::fs::metadata(session.join(acq_view::index::FILE))
+        .unwrap()
+        .len();
+    let mut again_s = Vec::new();
+    let mut view = None;
+    for _ in 0..3 {
+        let started = Instant::now();
+        let (opened, source) = acq_view::open_session(&session, "long").unwrap();
+        again_s.push(started.elapsed().as_secs_f64());
+        assert_eq!(source, acq_view::Source::Index);
+        view = Some(opened);
+    }
+    let view = view.unwrap();
+    assert_eq!(view.holds.len(), first.holds.len());
+    let (from, to) = view.span_s().unwrap();
+    let started = Instant::now();
+    let middle = (from + to) / 2.0;
+    let zoom = view.series_json(middle, middle + 10.0, 1000);
+    let zoom_ms = started.elapsed().as_secs_f64() * 1e3;
+    let started = Instant::now();
+    let whole = view.series_json(from, to, 1000);
+    let whole_ms = started.elapsed().as_secs_f64() * 1e3;
+    again_s.sort_by(f64::total_cmp);
+    println!(
+        "acq view of {hours} h at 8,000 frames/s: first open (from the recording, index written, {:.0} MB) {first_s:.1} s; \
+         again from the index {:.2} s (median of 3); zoom to 10 s at 1,000 columns {zoom_ms:.1} ms ({} kB), the whole session {whole_ms:.1} ms ({} kB); {} hold(s)",
+        index_bytes as f64 / 1e6,
+        again_s[1],
+        zoom.len() / 1000,
+        whole.len() / 1000,
+        view.holds.len()
+    );
+}
+
+fn main() {
+    let hours: f64 = std::env::var("ACQ_BENCH_VIEW_HOURS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0);
+    let seconds: f64 = std::env::var("ACQ_BENCH_SECONDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(10.0);
+
+    // 1. CPU, alternating so that the machine's drift hits both alike.
+    let (mut alone, mut with_view) = (Vec::new(), Vec::new());
+    for _ in 0..2 {
+        alone.push(record_run(seconds, false, 0, None));
+        with_view.push(record_run(seconds, true, 2, None));
+    }
+    let mean = |runs: &[Run]| runs.iter().map(|r| r.cpu_share).sum::<f64>() / runs.len() as f64;
+    let frames = with_view.iter().map(|r| r.frames).sum::<u64>() / with_view.len() as u64;
+    println!(
+        "4 buses x 2,000 frames/s ({frames} frames in {seconds:.0} s per run, 2 runs each): \
+         recorder alone {:.2} % of one core, with the page and 2 viewers {:.2} %: the page costs {:.2} % of one core",
+        100.0 * mean(&alone),
+        100.0 * mean(&with_view),
+        100.0 * (mean(&with_view) - mean(&alone))
+    );
+
+    // 2. Latency.
+    let arrivals = Arc::new(Mutex::new(Vec::new()));
+    record_run(seconds, true, 1, Some(arrivals.clone()));
+    let arrivals = arrivals.lock().unwrap().clone();
+    let (first, last) = (arrivals[0].1, arrivals[arrivals.len() - 1].1);
+    let mut waits: Vec<f64> = Vec::new();
+    let mut s = first;
+    let mut k = 0;
+    while s < last {
+        while k < arrivals.len() && arrivals[k].1 < s {
+            k += 1;
+        }
+        if k < arrivals.len() {
+            waits.push(arrivals[k].0 - s);
+        }
+        s += 0.001;
+    }
+    waits.sort_by(f64::total_cmp);
+    println!(
+        "frame on the bus to point in a viewer: median {:.0} ms, p95 {:.0} ms, max {:.0} ms ({} updates, {} ms of traffic)",
+        1e3 * waits[waits.len() / 2],
+        1e3 * waits[waits.len() * 95 / 100],
+        1e3 * waits[waits.len() - 1],
+        arrivals.len(),
+        waits.len()
+    );
+
+    // 3. A long recorded session.
+    long_session_open(hours);
+}

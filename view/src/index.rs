@@ -1,0 +1,198 @@
+//! A recorded session's view kept beside it (`view-index.bin`), so that the
+//! next `acq view` opens it without reading the recording again.
+//!
+//! The file holds a JSON header (what identifies the recording it was made
+//! from, the holds, the buses, each sensor's state) and then every sensor's
+//! buckets as little-endian `f32` pairs (NaN: no sample). It is used only if
+//! the recording is the one it was made from (raw files' names and sizes,
+//! frame count, start, rig copy, acq version); anything else, a damaged file
+//! included, is read again from the recording and the index rewritten.
+
+use std::path::Path;
+
+use acq_io::error::Result;
+use acq_io::output::Output;
+use acq_io::session::SessionFile;
+use serde::{Deserialize, Serialize};
+
+use crate::model::{BusView, HoldView, SessionView};
+use crate::series::{MinMax, MinMaxSeries};
+
+pub const FILE: &str = "view-index.bin";
+const MAGIC: &[u8] = b"ACQ-VIEW-INDEX 1\n";
+
+/// What the index was made from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Key {
+    software: String,
+    raw_files: Vec<(String, u64)>,
+    frames: u64,
+    started_unix_ns: i64,
+    rig_sha256: Option<String>,
+}
+
+/// The recording in `dir` as it is now.
+pub fn key(dir: &Path, session: &SessionFile) -> Key {
+    Key {
+        software: format!("acq {}", env!("CARGO_PKG_VERSION")),
+        raw_files: session
+            .session
+            .raw_files
+            .iter()
+            .map(|name| {
+                let bytes = std::fs::metadata(dir.join(name)).map_or(0, |m| m.len());
+                (name.clone(), bytes)
+            })
+            .collect(),
+        frames: session.session.frames,
+        started_unix_ns: session.session.started_unix_ns,
+        rig_sha256: session.rig.as_ref().map(|r| r.file.sha256.clone()),
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+struct SensorHeader {
+    name: String,
+    last_value: Option<f64>,
+    silent: bool,
+    silence_reason: Option<String>,
+    first_index: i64,
+    buckets: usize,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Header {
+    key: Key,
+    bucket_ns: i64,
+    elapsed_s: f64,
+    load_sensor: Option<String>,
+    holds_note: Option<String>,
+    buses: Vec<BusView>,
+    holds: Vec<HoldView>,
+    xy: Option<Vec<(f64, f64)>>,
+    sensors: Vec<SensorHeader>,
+}
+
+/// Writes the view's index into `dir` (whole or not at all).
+pub fn save(dir: &Path, key: &Key, view: &SessionView) -> Result<()> {
+    let mut payload = Vec::new();
+    let sensors = view
+        .sensors
+        .iter()
+        .map(|sensor| {
+            let (first_index, buckets) = sensor.series.buckets();
+            let count = buckets.len();
+            for bucket in buckets {
+                let MinMax { min, max } = bucket.unwrap_or(MinMax {
+                    min: f32::NAN,
+                    max: f32::NAN,
+                });
+                payload.extend_from_slice(&min.to_le_bytes());
+                payload.extend_from_slice(&max.to_le_bytes());
+            }
+            SensorHeader {
+                name: sensor.name.clone(),
+                last_value: sensor.last_value,
+                silent: sensor.silent,
+                silence_reason: sensor.silence_reason.map(str::to_owned),
+                first_index,
+                buckets: count,
+            }
+        })
+        .collect();
+    let header = Header {
+        key: key.clone(),
+        bucket_ns: view.sensors.first().map_or(1, |s| s.series.bucket_ns()),
+        elapsed_s: view.elapsed_s,
+        load_sensor: view.load_sensor.clone(),
+        holds_note: view.holds_note.clone(),
+        buses: view.buses.clone(),
+        holds: view.holds.clone(),
+        xy: view.xy.as_ref().map(|xy| xy.points.clone()),
+        sensors,
+    };
+    let header = serde_json::to_vec(&header).unwrap_or_default();
+    let mut bytes = Vec::with_capacity(MAGIC.len() + 8 + header.len() + payload.len());
+    bytes.extend_from_slice(MAGIC);
+    bytes.extend_from_slice(&(header.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(&header);
+    bytes.extend_from_slice(&payload);
+    Output::write_complete(&dir.join(FILE), &bytes)
+}
+
+/// The view from `dir`'s index, if there is one made from this recording;
+/// `fresh` is the view of the rig's sensors with nothing in it yet.
+pub fn load(dir: &Path, key: &Key, mut fresh: SessionView) -> Option<SessionView> {
+    let bytes = std::fs::read(dir.join(FILE)).ok()?;
+    let rest = bytes.strip_prefix(MAGIC)?;
+    let (length, rest) = rest.split_first_chunk::<8>()?;
+    let length = usize::try_from(u64::from_le_bytes(*length)).ok()?;
+    let header = rest.get(..length)?;
+    let mut payload = rest.get(length..)?;
+    let header: Header = serde_json::from_slice(header).ok()?;
+    if header.key != *key || header.sensors.len() != fresh.sensors.len() || header.bucket_ns <= 0 {
+        return None;
+    }
+    for (sensor, stored) in fresh.sensors.iter_mut().zip(header.sensors) {
+        if sensor.name != stored.name {
+            return None;
+        }
+        let (chunk, after) = payload.split_at_checked(stored.buckets.checked_mul(8)?)?;
+        payload = after;
+        let buckets = chunk
+            .chunks_exact(8)
+            .map(|pair| {
+                let min = f32::from_le_bytes(pair[..4].try_into().ok()?);
+                let max = f32::from_le_bytes(pair[4..].try_into().ok()?);
+                (!min.is_nan()).then_some(MinMax { min, max })
+            })
+            .collect();
+        sensor.series = MinMaxSeries::from_buckets(header.bucket_ns, stored.first_index, buckets);
+        sensor.last_value = stored.last_value;
+        sensor.silent = stored.silent;
+        sensor.silence_reason = stored.silence_reason.map(|r| silence_reason(&r));
+    }
+    if !payload.is_empty() {
+        return None;
+    }
+    fresh.elapsed_s = header.elapsed_s;
+    fresh.load_sensor = header.load_sensor;
+    fresh.holds_note = header.holds_note;
+    fresh.buses = header.buses;
+    fresh.holds = header.holds;
+    if let (Some(xy), Some(points)) = (fresh.xy.as_mut(), header.xy) {
+        xy.points = points;
+    }
+    Some(fresh)
+}
+
+/// The page's words for a silence, as the recorded view writes them.
+pub fn silence_reason(text: &str) -> &'static str {
+    match text {
+        crate::recorded::NEVER_SEEN => crate::recorded::NEVER_SEEN,
+        crate::recorded::STOPPED_EARLY => crate::recorded::STOPPED_EARLY,
+        _ => "silent",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Any bytes after the magic: no panic, and nothing taken that
+        /// does not carry this recording's key.
+        #[test]
+        fn arbitrary_bytes_never_panic(tail in proptest::collection::vec(any::<u8>(), 0..300)) {
+            let dir = tempfile::tempdir().unwrap();
+            std::fs::write(dir.path().join(FILE), [MAGIC, &tail].concat()).unwrap();
+            let rig_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../fixtures/sessions/tensile_p91_20c");
+            let session = acq_io::session::read(&rig_dir).unwrap();
+            let rig = acq_io::input::load_rig(&rig_dir.join(&session.rig.as_ref().unwrap().file.copy)).unwrap();
+            let fresh = SessionView::new("x", &rig, 0, 10_000_000, 10);
+            prop_assert!(load(dir.path(), &key(&rig_dir, &session), fresh).is_none());
+        }
+    }
+}

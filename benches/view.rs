@@ -85,8 +85,13 @@ fn record_run(seconds: f64, view: bool, viewers: usize, arrivals: Option<Arrival
     let mut host = None;
     let mut clients: Vec<Child> = Vec::new();
     if view {
-        let (feed, shared) =
-            acq_view::live_session("bench", &rig, HoldOptions::default(), Some("tip_force_0"));
+        let (feed, shared) = acq_view::live_session(
+            "bench",
+            &rig,
+            HoldOptions::default(),
+            Some("tip_force_0"),
+            None,
+        );
         observer = Some(Box::new(feed));
         let address = "127.0.0.1:0".parse().unwrap();
         let access = acq_view::access_for(address, false).unwrap();

@@ -345,6 +345,33 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
     }
     page.close();
     assert_eq!(demo.interrupt(), 0, "Ctrl-C ends the demo's page cleanly");
+
+    // The recorder's feed left each session's index: `acq view` opens it
+    // without reading the recording, and it is the page the recording gives.
+    for name in ["excavator_case1", "excavator_case2", "tensile_p91_20c"] {
+        let dir = out_dir.join("sessions").join(name);
+        let (indexed, source) = acq_view::open_session(&dir, name).unwrap();
+        assert_eq!(source, acq_view::Source::Index, "{name}");
+        std::fs::remove_file(dir.join(acq_view::index::FILE)).unwrap();
+        let (read, source) = acq_view::open_session(&dir, name).unwrap();
+        assert_eq!(source, acq_view::Source::Recording(Ok(())));
+        assert_eq!(
+            look(&indexed),
+            look(&read),
+            "{name}: the recorder's index against the recording"
+        );
+    }
+}
+
+/// Everything the page reads of a session.
+fn look(view: &acq_view::model::SessionView) -> (String, String, String, String, String) {
+    (
+        view.series_json(0.0, 30.0, 700),
+        serde_json::to_string(&view.holds_json(None)).unwrap(),
+        serde_json::to_string(&view.sensors_json(None)).unwrap(),
+        serde_json::to_string(&view.buses_json(None)).unwrap(),
+        view.xy_json().to_string(),
+    )
 }
 
 /// A copy of the shipped tensile session whose rig names a sensor with
@@ -505,15 +532,6 @@ fn a_session_opens_again_from_its_index_and_a_damaged_index_is_rebuilt() {
             }
         }
     }
-    let look = |view: &acq_view::model::SessionView| {
-        (
-            view.series_json(0.0, 20.0, 700),
-            serde_json::to_string(&view.holds_json(None)).unwrap(),
-            serde_json::to_string(&view.sensors_json(None)).unwrap(),
-            serde_json::to_string(&view.buses_json(None)).unwrap(),
-            view.xy_json().to_string(),
-        )
-    };
     let (first, source) = acq_view::open_session(&dir, "case1").unwrap();
     assert_eq!(source, acq_view::Source::Recording(Ok(())));
     let (again, source) = acq_view::open_session(&dir, "case1").unwrap();

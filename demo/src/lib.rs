@@ -274,8 +274,13 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     // Decoded on the interfaces it is replayed on, as the recorder does.
                     rig.assign_interfaces(&playback.interfaces)
                         .map_err(AcqError::Config)?;
-                    let (feed, session) =
-                        acq_view::live_session(&playback.name, &rig, HoldOptions::default(), None);
+                    let (feed, session) = acq_view::live_session(
+                        &playback.name,
+                        &rig,
+                        HoldOptions::default(),
+                        None,
+                        Some(&playback.target),
+                    );
                     observers.push(Box::new(feed));
                     shared.push(session);
                 }

@@ -169,32 +169,36 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     let session_dir = args.out.clone().unwrap_or_else(|| {
         Path::new("sessions").join(session::default_dir_name(SystemTime::now()))
     });
-    // The page is bound before recording starts: a taken port fails first.
+    // With a rig, the view's feed decodes along and writes view-index.bin at
+    // the end (acq view then opens the session at once). With --view it also
+    // serves the page, bound before recording starts: a taken port fails first.
+    let view_address = args.view.resolve()?;
+    if view_address.is_some() && rig.is_none() {
+        return Err(AcqError::Config(
+            "--view needs --rig RIG.toml: the page shows the rig's sensors".into(),
+        ));
+    }
     let mut observer: Option<Box<dyn record::RecordObserver>> = None;
-    let host = match (args.view.resolve()?, &rig) {
-        (None, _) => None,
-        (Some(_), None) => {
-            return Err(AcqError::Config(
-                "--view needs --rig RIG.toml: the page shows the rig's sensors".into(),
-            ))
+    let mut host = None;
+    if let Some(rig) = &rig {
+        let name = session_dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "session".into());
+        let (feed, shared) = acq_view::live_session(
+            &name,
+            rig,
+            acq_analysis::extract::holds::HoldOptions::default(),
+            None,
+            Some(&session_dir),
+        );
+        observer = Some(Box::new(feed));
+        if let Some((addr, access)) = view_address {
+            let started = acq_view::ViewHost::start(addr, access, vec![shared])?;
+            eprintln!("acq: view at {} (served while recording)", started.url());
+            host = Some(started);
         }
-        (Some((addr, access)), Some(rig)) => {
-            let name = session_dir
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "session".into());
-            let (feed, shared) = acq_view::live_session(
-                &name,
-                rig,
-                acq_analysis::extract::holds::HoldOptions::default(),
-                None,
-            );
-            observer = Some(Box::new(feed));
-            let host = acq_view::ViewHost::start(addr, access, vec![shared])?;
-            eprintln!("acq: view at {} (served while recording)", host.url());
-            Some(host)
-        }
-    };
+    }
     let status = if args.quiet {
         StatusMode::Quiet
     } else if args.status_json {

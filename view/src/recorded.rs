@@ -9,7 +9,9 @@ use acq_analysis::extract::live::LiveHold;
 use acq_analysis::extract::run::{extract_holds, WindowChoice};
 use acq_analysis::recording::clocks::offsets_ns;
 use acq_analysis::recording::{Recording, SampleCounts};
+use acq_drivers::rig::Rig;
 use acq_io::error::{AcqError, Result};
+use acq_io::session::SessionFile;
 
 use acq_acquire::record::live::SILENCE_PERIODS;
 
@@ -18,8 +20,8 @@ use crate::live::LIVE_BUCKET_NS;
 use crate::model::{BusView, SessionView};
 
 /// A recorded session's series are cut into at most this many buckets
-/// (each 10 ms or longer): about 3 MB per sensor, whatever its length.
-const MAX_BUCKETS: i64 = 1 << 18;
+/// (each 10 ms or longer): about 1.5 MB per sensor, whatever its length.
+pub const MAX_BUCKETS: i64 = 1 << 17;
 
 /// Why a recorded sensor is silent.
 pub const NEVER_SEEN: &str = "never seen";
@@ -34,16 +36,9 @@ pub enum Source {
     Recording(std::result::Result<(), String>),
 }
 
-/// Reads the session in `dir` into a view named `name`, from its index
-/// when it has one made from this recording.
-pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
-    let recording = Recording::open(dir, None)?;
-    let Some(session) = recording.session.clone() else {
-        return Err(AcqError::Config(format!(
-            "{}: not a session directory (acq record writes one)",
-            dir.display()
-        )));
-    };
+/// The session's start (unix ns) and length (ns, at least 1): to its last
+/// frame, else to its stop.
+pub fn session_span(session: &SessionFile) -> (i64, i64) {
     let info = &session.session;
     let t0 = info.started_unix_ns;
     let last_ns = session
@@ -53,31 +48,29 @@ pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
         .max()
         .or(info.stopped_unix_ns)
         .unwrap_or(t0);
-    let duration_ns = (last_ns - t0).max(1);
-    let bucket_ns = LIVE_BUCKET_NS.max((duration_ns + MAX_BUCKETS - 1) / MAX_BUCKETS);
-    let buckets = (duration_ns / bucket_ns + 2) as usize;
-    let mut view = SessionView::new(name, &recording.rig, t0, bucket_ns, buckets);
-    let key = index::key(dir, &session);
-    if let Some(indexed) = index::load(dir, &key, view.clone()) {
-        return Ok((indexed, Source::Index));
-    }
-    view.elapsed_s = duration_ns as f64 / 1e9;
-    let offsets = offsets_ns(&recording.clock_offsets(&[])?);
-    let mut counts = SampleCounts::default();
-    let mut last_sample_ns: Vec<Option<i64>> = vec![None; recording.rig.sensors.len()];
-    recording.for_each_sample(&offsets, &mut counts, |sample| {
-        view.push(sample.sensor, sample.time_ns, sample.value);
-        last_sample_ns[sample.sensor] = Some(sample.time_ns);
-        Ok(())
-    })?;
-    // Silent as the recorder judges it (no sample within 3 periods), at the
-    // session's last frame: a sensor that stopped before the others did.
+    (t0, (last_ns - t0).max(1))
+}
+
+/// What the page says of a session once every sample is in: its length,
+/// each bus's counts and mean rate, and which sensors were silent at its
+/// last sample (as the recorder judges it: none within 3 periods; a sensor
+/// that stopped before the others did, or never sent).
+pub fn finish_recorded(
+    view: &mut SessionView,
+    rig: &Rig,
+    session: &SessionFile,
+    last_sample_ns: &[Option<i64>],
+) {
+    let (t0, duration_ns) = session_span(session);
+    let duration_s = duration_ns as f64 / 1e9;
+    view.live = false;
+    view.elapsed_s = duration_s;
     let end_ns = last_sample_ns.iter().flatten().copied().max().unwrap_or(t0);
     for ((sensor, rig_sensor), last) in view
         .sensors
         .iter_mut()
-        .zip(&recording.rig.sensors)
-        .zip(&last_sample_ns)
+        .zip(&rig.sensors)
+        .zip(last_sample_ns)
     {
         let (silent, reason) = match last {
             None => (true, NEVER_SEEN),
@@ -89,7 +82,6 @@ pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
         sensor.silent = silent;
         sensor.silence_reason = silent.then_some(reason);
     }
-    let duration_s = duration_ns as f64 / 1e9;
     view.buses = session
         .interface
         .iter()
@@ -102,6 +94,35 @@ pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
             error_frames: i.error_frames,
         })
         .collect();
+}
+
+/// Reads the session in `dir` into a view named `name`, from its index
+/// when it has one made from this recording.
+pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
+    let recording = Recording::open(dir, None)?;
+    let Some(session) = recording.session.clone() else {
+        return Err(AcqError::Config(format!(
+            "{}: not a session directory (acq record writes one)",
+            dir.display()
+        )));
+    };
+    let (t0, duration_ns) = session_span(&session);
+    let bucket_ns = LIVE_BUCKET_NS.max((duration_ns + MAX_BUCKETS - 1) / MAX_BUCKETS);
+    let buckets = (duration_ns / bucket_ns + 2) as usize;
+    let mut view = SessionView::new(name, &recording.rig, t0, bucket_ns, buckets);
+    let key = index::key(dir, &session);
+    if let Some(indexed) = index::load(dir, &key, view.clone()) {
+        return Ok((indexed, Source::Index));
+    }
+    let offsets = offsets_ns(&recording.clock_offsets(&[])?);
+    let mut counts = SampleCounts::default();
+    let mut last_sample_ns: Vec<Option<i64>> = vec![None; recording.rig.sensors.len()];
+    recording.for_each_sample(&offsets, &mut counts, |sample| {
+        view.push(sample.sensor, sample.time_ns, sample.value);
+        last_sample_ns[sample.sensor] = Some(sample.time_ns);
+        Ok(())
+    })?;
+    finish_recorded(&mut view, &recording.rig, &session, &last_sample_ns);
     match extract_holds(
         &recording,
         &WindowChoice::Auto(HoldOptions::default()),

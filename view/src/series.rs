@@ -44,6 +44,9 @@ pub struct Column {
 pub struct MinMaxSeries {
     bucket_ns: i64,
     capacity: usize,
+    /// Past the capacity: buckets twice as long (the whole span kept), or
+    /// the oldest dropped (a window).
+    coarsens: bool,
     /// Index (time / bucket_ns) of `buckets[0]`.
     first_index: i64,
     /// `None`: no sample in that bucket (a gap, drawn as one).
@@ -56,9 +59,47 @@ impl MinMaxSeries {
         MinMaxSeries {
             bucket_ns,
             capacity,
+            coarsens: false,
             first_index: 0,
             buckets: VecDeque::new(),
         }
+    }
+
+    /// A series that keeps everything from its first sample on: past
+    /// `capacity` buckets, each two neighbours become one twice as long.
+    pub fn whole(bucket_ns: i64, capacity: usize) -> Self {
+        MinMaxSeries {
+            coarsens: true,
+            ..MinMaxSeries::new(bucket_ns, capacity.max(2))
+        }
+    }
+
+    /// Coarsens until the buckets are `bucket_ns` long (a whole-span
+    /// series whose buckets are a power-of-two fraction of it).
+    pub fn coarsen_to(&mut self, bucket_ns: i64) {
+        while self.bucket_ns < bucket_ns {
+            self.coarsen();
+        }
+    }
+
+    fn coarsen(&mut self) {
+        let first = self.first_index.div_euclid(2);
+        let mut merged: VecDeque<Option<MinMax>> = VecDeque::new();
+        for (k, bucket) in self.buckets.iter().enumerate() {
+            let slot = ((self.first_index + k as i64).div_euclid(2) - first) as usize;
+            if slot == merged.len() {
+                merged.push_back(None);
+            }
+            if let Some(b) = bucket {
+                match &mut merged[slot] {
+                    Some(m) => m.merge(*b),
+                    empty => *empty = Some(*b),
+                }
+            }
+        }
+        self.first_index = first;
+        self.buckets = merged;
+        self.bucket_ns *= 2;
     }
 
     pub fn bucket_ns(&self) -> i64 {
@@ -75,6 +116,7 @@ impl MinMaxSeries {
         MinMaxSeries {
             bucket_ns,
             capacity: buckets.len().max(1),
+            coarsens: false,
             first_index,
             buckets: buckets.into(),
         }
@@ -106,6 +148,12 @@ impl MinMaxSeries {
         if index < self.first_index {
             return;
         }
+        if self.coarsens {
+            while time_ns.div_euclid(self.bucket_ns) - self.first_index >= self.capacity as i64 {
+                self.coarsen();
+            }
+            return self.push_within(time_ns.div_euclid(self.bucket_ns), value);
+        }
         let last = self.first_index + self.buckets.len() as i64 - 1;
         if index > last {
             let missing = (index - last) as usize;
@@ -119,14 +167,22 @@ impl MinMaxSeries {
                 self.buckets.extend(std::iter::repeat_n(None, missing));
             }
         }
-        let slot = (index - self.first_index) as usize;
-        match &mut self.buckets[slot] {
-            Some(extremes) => extremes.merge(MinMax::of(value)),
-            empty => *empty = Some(MinMax::of(value)),
-        }
+        self.push_within(index, value);
         while self.buckets.len() > self.capacity {
             self.buckets.pop_front();
             self.first_index += 1;
+        }
+    }
+
+    /// Adds a sample to bucket `index`, at or after the first.
+    fn push_within(&mut self, index: i64, value: f64) {
+        let slot = (index - self.first_index) as usize;
+        if slot >= self.buckets.len() {
+            self.buckets.resize(slot + 1, None);
+        }
+        match &mut self.buckets[slot] {
+            Some(extremes) => extremes.merge(MinMax::of(value)),
+            empty => *empty = Some(MinMax::of(value)),
         }
     }
 
@@ -221,6 +277,43 @@ mod tests {
                 })
                 .count();
             prop_assert_eq!(covered, expected);
+        }
+    }
+
+    proptest! {
+        /// A whole-span series that coarsened holds, in each of its
+        /// buckets, exactly the extremes of the samples in its span.
+        #[test]
+        fn coarsened_buckets_equal_brute_force(
+            samples in proptest::collection::vec((0i64..100_000, -1e3f64..1e3), 1..300),
+            capacity in 2usize..40,
+        ) {
+            let mut sorted = samples.clone();
+            sorted.sort_by_key(|s| s.0);
+            let mut series = MinMaxSeries::whole(10, capacity);
+            for &(t, v) in &sorted {
+                series.push(t, v);
+            }
+            let (first, buckets) = series.buckets();
+            prop_assert!(buckets.len() <= capacity);
+            let width = series.bucket_ns();
+            let (first, buckets): (i64, Vec<Option<MinMax>>) = (first, buckets.copied().collect());
+            let mut seen = 0;
+            for (k, bucket) in buckets.iter().enumerate() {
+                let start = (first + k as i64) * width;
+                let inside: Vec<f32> = sorted
+                    .iter()
+                    .filter(|(t, _)| *t >= start && *t < start + width)
+                    .map(|s| s.1 as f32)
+                    .collect();
+                seen += inside.len();
+                let expected = (!inside.is_empty()).then(|| MinMax {
+                    min: inside.iter().cloned().fold(f32::INFINITY, f32::min),
+                    max: inside.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+                });
+                prop_assert_eq!(*bucket, expected);
+            }
+            prop_assert_eq!(seen, sorted.len());
         }
     }
 

@@ -122,19 +122,36 @@ pub fn save(dir: &Path, key: &Key, view: &SessionView) -> Result<()> {
 
 /// The view from `dir`'s index, if there is one made from this recording;
 /// `fresh` is the view of the rig's sensors with nothing in it yet.
-pub fn load(dir: &Path, key: &Key, mut fresh: SessionView) -> Option<SessionView> {
+pub fn load(dir: &Path, key: &Key, fresh: SessionView) -> Option<SessionView> {
     let bytes = std::fs::read(dir.join(FILE)).ok()?;
+    let (stored, view) = parse(&bytes, fresh)?;
+    (stored == *key).then_some(view)
+}
+
+/// An index's bytes: what it was made from, and `fresh` filled from it;
+/// `None` for anything that is not a whole index of `fresh`'s sensors.
+pub fn parse(bytes: &[u8], mut fresh: SessionView) -> Option<(Key, SessionView)> {
     let rest = bytes.strip_prefix(MAGIC)?;
     let (length, rest) = rest.split_first_chunk::<8>()?;
     let length = usize::try_from(u64::from_le_bytes(*length)).ok()?;
     let header = rest.get(..length)?;
     let mut payload = rest.get(length..)?;
     let header: Header = serde_json::from_slice(header).ok()?;
-    if header.key != *key || header.sensors.len() != fresh.sensors.len() || header.bucket_ns <= 0 {
+    if header.sensors.len() != fresh.sensors.len() || header.bucket_ns <= 0 {
         return None;
     }
     for (sensor, stored) in fresh.sensors.iter_mut().zip(header.sensors) {
         if sensor.name != stored.name {
+            return None;
+        }
+        // The span must be far inside i64 nanoseconds (a session is years at most).
+        const LIMIT: i64 = 1 << 61;
+        let end = stored
+            .first_index
+            .checked_add(i64::try_from(stored.buckets).ok()?)?
+            .checked_mul(header.bucket_ns)?;
+        let start = stored.first_index.checked_mul(header.bucket_ns)?;
+        if !(-LIMIT..=LIMIT).contains(&start) || !(-LIMIT..=LIMIT).contains(&end) {
             return None;
         }
         let (chunk, after) = payload.split_at_checked(stored.buckets.checked_mul(8)?)?;
@@ -144,7 +161,7 @@ pub fn load(dir: &Path, key: &Key, mut fresh: SessionView) -> Option<SessionView
             .map(|pair| {
                 let min = f32::from_le_bytes(pair[..4].try_into().ok()?);
                 let max = f32::from_le_bytes(pair[4..].try_into().ok()?);
-                (!min.is_nan()).then_some(MinMax { min, max })
+                (!min.is_nan() && !max.is_nan()).then_some(MinMax { min, max })
             })
             .collect();
         sensor.series = MinMaxSeries::from_buckets(header.bucket_ns, stored.first_index, buckets);
@@ -163,7 +180,7 @@ pub fn load(dir: &Path, key: &Key, mut fresh: SessionView) -> Option<SessionView
     if let (Some(xy), Some(points)) = (fresh.xy.as_mut(), header.xy) {
         xy.points = points;
     }
-    Some(fresh)
+    Some((header.key, fresh))
 }
 
 /// The page's words for a silence, as the recorded view writes them.

@@ -14,6 +14,7 @@
 //! and measured values, and nothing it does reaches back into the recorder
 //! except the counting of frames it could not show.
 
+#[cfg(feature = "server")]
 pub mod host;
 pub mod index;
 pub mod live;
@@ -21,11 +22,14 @@ pub mod model;
 pub mod page;
 pub mod recorded;
 pub mod series;
+#[cfg(feature = "server")]
 pub mod server;
 
+#[cfg(feature = "server")]
 pub use host::{ViewArgs, ViewHost};
 pub use live::{live_session, LiveFeed, SharedSession};
 pub use recorded::{open_session, Source};
+#[cfg(feature = "server")]
 pub use server::{access_for, parse_address, serve, Access, ViewServer};
 
 /// Where the page is served when `--view` is given without an address.

@@ -305,7 +305,8 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     );
 
     // 7. The flood on both buses with the live page on and 10 viewers,
-    // one stalled: the page never costs a frame.
+    // one stalled, three leaving and three others coming mid-flood: the page
+    // never costs a frame.
     let c7 = session::read(&out.join("c7")).unwrap();
     assert_eq!(
         fs::read_to_string(out.join("c7.exit")).unwrap().trim(),

@@ -92,7 +92,7 @@ sleep 0.3
 kill -INT $rec
 wait $rec
 
-say "7: a flood with the live page on and 10 viewers, one of them stalled"
+say "7: a flood with the live page on and 10 viewers, one of them stalled, three reconnecting"
 candump -L can0 can1 > "$OUT/c7_candump.log" &
 dump=$!
 acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c7" --quiet \
@@ -119,7 +119,16 @@ cangen can0 -g 0 -I 1A1 -L 8 -D i -n 400000 &
 gen=$!
 cangen can1 -g 0 -I i -L 8 -D i -n 400000 &
 gen1=$!
-sleep 3
+sleep 1.5
+# Three viewers leave mid-flood and three others come.
+set -- $viewers
+kill "$1" "$2" "$3" 2>/dev/null || true
+viewers="$4 $5 $6 $7 $8 $9"
+for i in 1 2 3; do
+    wget -q -O /dev/null http://127.0.0.1:8750/api/events 2>/dev/null &
+    viewers="$viewers $!"
+done
+sleep 1.5
 wget -q -O "$OUT/c7_state.json" http://127.0.0.1:8750/api/state || true
 kill -INT $rec
 wait $rec && echo "0" > "$OUT/c7.exit" || echo "$?" > "$OUT/c7.exit"

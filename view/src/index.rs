@@ -15,7 +15,7 @@ use acq_io::output::Output;
 use acq_io::session::SessionFile;
 use serde::{Deserialize, Serialize};
 
-use crate::model::{BusView, HoldView, SessionView};
+use crate::model::{silence_reason, BusView, HoldView, SessionView};
 use crate::series::{MinMax, MinMaxSeries};
 
 pub const FILE: &str = "view-index.bin";
@@ -181,15 +181,6 @@ pub fn parse(bytes: &[u8], mut fresh: SessionView) -> Option<(Key, SessionView)>
         xy.points = points;
     }
     Some((header.key, fresh))
-}
-
-/// The page's words for a silence, as the recorded view writes them.
-pub fn silence_reason(text: &str) -> &'static str {
-    match text {
-        crate::recorded::NEVER_SEEN => crate::recorded::NEVER_SEEN,
-        crate::recorded::STOPPED_EARLY => crate::recorded::STOPPED_EARLY,
-        _ => "silent",
-    }
 }
 
 #[cfg(test)]

@@ -25,17 +25,16 @@ use acq_drivers::Frame;
 use acq_io::session::SessionFile;
 
 use crate::index;
+use crate::model::finish_recorded;
 use crate::model::{BusView, SessionView};
-use crate::recorded::{finish_recorded, MAX_BUCKETS};
-use crate::series::MinMaxSeries;
+use crate::series::{MinMaxSeries, BUCKET_NS, WHOLE_SPAN_BUCKETS};
 
 /// Batches the view may be behind the recorder (about 5 s at 2,000
 /// frames/s in batches of 10; memory at most a few MB).
 const QUEUE_BATCHES: usize = 1024;
 /// The hold stream looks for newly closed holds this often.
 const HOLD_CHECK: Duration = Duration::from_millis(100);
-/// Live series: 10 ms buckets over 10 minutes.
-pub const LIVE_BUCKET_NS: i64 = 10_000_000;
+/// Live series: 10 minutes of the shortest buckets.
 pub const LIVE_BUCKETS: usize = 60_000;
 
 /// One session's model, shared by its feed and the server.
@@ -65,7 +64,7 @@ pub fn live_session(
     load: Option<&str>,
     session_dir: Option<&Path>,
 ) -> (LiveFeed, SharedSession) {
-    let mut view = SessionView::new(name, rig, 0, LIVE_BUCKET_NS, LIVE_BUCKETS);
+    let mut view = SessionView::new(name, rig, 0, BUCKET_NS, LIVE_BUCKETS);
     view.live = true;
     let shared = Arc::new(Mutex::new(view));
     let (queue, events) = mpsc::sync_channel(QUEUE_BATCHES);
@@ -163,7 +162,7 @@ impl Feed {
         let mut whole: Vec<MinMaxSeries> = rig
             .sensors
             .iter()
-            .map(|_| MinMaxSeries::whole(LIVE_BUCKET_NS, MAX_BUCKETS as usize))
+            .map(|_| MinMaxSeries::whole(BUCKET_NS, WHOLE_SPAN_BUCKETS as usize))
             .collect();
         let mut last_sample_ns: Vec<Option<i64>> = vec![None; rig.sensors.len()];
         let mut t0 = 0;
@@ -286,7 +285,7 @@ impl Feed {
             .iter()
             .map(MinMaxSeries::bucket_ns)
             .max()
-            .unwrap_or(LIVE_BUCKET_NS);
+            .unwrap_or(BUCKET_NS);
         let mut view = SessionView::new(&self.name, &self.rig, live.started_unix_ns, bucket_ns, 1);
         for ((sensor, mut series), shown) in view
             .sensors

@@ -5,14 +5,29 @@
 //! A live recording and a recorded session fill the same model; the server
 //! only reads it.
 
+use acq_acquire::record::live::SILENCE_PERIODS;
 use acq_analysis::extract::live::LiveHold;
 use acq_analysis::extract::measured::MeasuredValue;
 use acq_drivers::profiles::SensorKind;
 use acq_drivers::rig::Rig;
+use acq_io::session::SessionFile;
 use serde::Serialize;
 use serde_json::{json, Value};
 
 use crate::series::{Column, MinMaxSeries};
+
+/// Why a recorded sensor is silent.
+pub const NEVER_SEEN: &str = "never seen";
+pub const STOPPED_EARLY: &str = "stopped before the end of the session";
+
+/// The page's words for a silence read back from an index.
+pub fn silence_reason(text: &str) -> &'static str {
+    match text {
+        NEVER_SEEN => NEVER_SEEN,
+        STOPPED_EARLY => STOPPED_EARLY,
+        _ => "silent",
+    }
+}
 
 /// Force-displacement points kept for the XY plot; past it every other one
 /// is dropped (the curve keeps its shape, memory stays fixed).
@@ -325,4 +340,64 @@ impl XyCurve {
             self.stride *= 2;
         }
     }
+}
+
+/// The session's start (unix ns) and length (ns, at least 1): to its last
+/// frame, else to its stop.
+pub fn session_span(session: &SessionFile) -> (i64, i64) {
+    let info = &session.session;
+    let t0 = info.started_unix_ns;
+    let last_ns = session
+        .interface
+        .iter()
+        .filter_map(|i| i.last_frame_unix_ns)
+        .max()
+        .or(info.stopped_unix_ns)
+        .unwrap_or(t0);
+    (t0, (last_ns - t0).max(1))
+}
+
+/// What the page says of a session once every sample is in: its length,
+/// each bus's counts and mean rate, and which sensors were silent at its
+/// last sample (as the recorder judges it: none within 3 periods; a sensor
+/// that stopped before the others did, or never sent).
+pub fn finish_recorded(
+    view: &mut SessionView,
+    rig: &Rig,
+    session: &SessionFile,
+    last_sample_ns: &[Option<i64>],
+) {
+    let (t0, duration_ns) = session_span(session);
+    let duration_s = duration_ns as f64 / 1e9;
+    view.live = false;
+    view.elapsed_s = duration_s;
+    let end_ns = last_sample_ns.iter().flatten().copied().max().unwrap_or(t0);
+    for ((sensor, rig_sensor), last) in view
+        .sensors
+        .iter_mut()
+        .zip(&rig.sensors)
+        .zip(last_sample_ns)
+    {
+        let (silent, reason) = match last {
+            None => (true, NEVER_SEEN),
+            Some(t) if end_ns - t > SILENCE_PERIODS * rig_sensor.period_ns() => {
+                (true, STOPPED_EARLY)
+            }
+            Some(_) => (false, ""),
+        };
+        sensor.silent = silent;
+        sensor.silence_reason = silent.then_some(reason);
+    }
+    view.buses = session
+        .interface
+        .iter()
+        .map(|i| BusView {
+            iface: i.name.clone(),
+            state: "recorded".into(),
+            frames_per_s: (i.frames as f64 / duration_s * 10.0).round() / 10.0,
+            frames: i.frames,
+            kernel_drops: i.dropped_by_kernel,
+            error_frames: i.error_frames,
+        })
+        .collect();
 }

@@ -8,6 +8,12 @@
 
 use std::collections::VecDeque;
 
+/// The shortest bucket: 10 ms, 1,200 of them under a minute's plot.
+pub const BUCKET_NS: i64 = 10_000_000;
+/// A series over a whole session holds at most this many buckets (each
+/// [`BUCKET_NS`] or longer): about 1.5 MB per sensor, whatever its length.
+pub const WHOLE_SPAN_BUCKETS: i64 = 1 << 17;
+
 /// The smallest and largest value of one stretch of time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MinMax {

@@ -19,6 +19,8 @@
 //!   chains in parallel) and their summaries.
 //! - `chain_diagnostics`: whether Markov chains have mixed (rank-normalised split R-hat,
 //!   bulk ESS), as ArviZ computes them.
+//! - `next_point`: which test point to run next (expected information gain of a
+//!   linear-Gaussian measurement, Bayesian D-optimality) and what it would narrow.
 //! - `training_data`: the shape and finiteness check every fitted model runs first.
 
 pub mod bo;
@@ -30,6 +32,7 @@ pub mod least_squares;
 pub mod mcmc;
 pub mod minimax;
 pub mod moo;
+pub mod next_point;
 pub mod optim;
 pub mod sobol_indices;
 pub mod surrogate;

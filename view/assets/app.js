@@ -315,7 +315,8 @@
       }
       s.holdsNote = info.holds_note;
       s.framesNotShown = info.frames_not_shown;
-      const holds = state.holds.filter((h) => !several || h.session === info.name);
+      // An update carries the holds only when they changed.
+      const holds = state.holds ? state.holds.filter((h) => !several || h.session === info.name) : s.holds;
       const changed = JSON.stringify(holds.map((h) => [h.start_s, h.end_s])) !== JSON.stringify(s.holds.map((h) => [h.start_s, h.end_s]));
       s.holds = holds;
       if (changed) {

@@ -90,6 +90,8 @@ pub struct SessionView {
     pub sensors: Vec<SensorView>,
     pub buses: Vec<BusView>,
     pub holds: Vec<HoldView>,
+    /// Counts changes of `holds` (updates send them only when it moved).
+    pub holds_version: u64,
     pub load_sensor: Option<String>,
     pub xy: Option<XyCurve>,
     /// Frames the view could not take in (the recorder had them all).
@@ -152,6 +154,7 @@ impl SessionView {
             sensors,
             buses: Vec::new(),
             holds: Vec::new(),
+            holds_version: 0,
             load_sensor: None,
             xy,
             frames_not_shown: 0,
@@ -181,6 +184,7 @@ impl SessionView {
     }
 
     pub fn set_holds(&mut self, holds: &[LiveHold]) {
+        self.holds_version += 1;
         self.holds = holds
             .iter()
             .enumerate()

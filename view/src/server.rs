@@ -254,7 +254,7 @@ async fn guard(State(app): State<App>, request: Request, next: Next) -> Response
             .uri()
             .query()
             .and_then(|q| q.split('&').find_map(|pair| pair.strip_prefix("token=")));
-        if given != Some(token.as_str()) {
+        if !given.is_some_and(|given| same_secret(given, token)) {
             return refuse(
                 StatusCode::UNAUTHORIZED,
                 "a token is needed: open the URL acq printed at start",
@@ -282,6 +282,16 @@ async fn guard(State(app): State<App>, request: Request, next: Next) -> Response
     response
 }
 
+/// Equal, in a time that does not depend on where the texts differ.
+fn same_secret(given: &str, secret: &str) -> bool {
+    given.len() == secret.len()
+        && given
+            .bytes()
+            .zip(secret.bytes())
+            .fold(0u8, |differs, (a, b)| differs | (a ^ b))
+            == 0
+}
+
 fn refuse(status: StatusCode, message: &'static str) -> Response {
     (
         status,
@@ -305,8 +315,9 @@ fn lock(session: &SharedSession) -> std::sync::MutexGuard<'_, crate::model::Sess
     session.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// The whole state: `/api/state`, and the `state` of every update.
-fn state_json(app: &App) -> Value {
+/// The whole state: `/api/state`, and the `state` of every update; the
+/// holds (the bulk of it: every hold's values) only when `with_holds`.
+fn state_json(app: &App, with_holds: bool) -> Value {
     let several = app.sessions.len() > 1;
     let (mut sessions, mut sensors, mut buses, mut holds) = (vec![], vec![], vec![], vec![]);
     for shared in app.sessions.iter() {
@@ -325,19 +336,24 @@ fn state_json(app: &App) -> Value {
         }));
         sensors.extend(view.sensors_json(tag));
         buses.extend(view.buses_json(tag));
-        holds.extend(view.holds_json(tag));
+        if with_holds {
+            holds.extend(view.holds_json(tag));
+        }
     }
-    json!({
+    let mut state = json!({
         "sessions": sessions,
         "sensors": sensors,
         "buses": buses,
-        "holds": holds,
         "viewers": app.viewers.load(Ordering::Relaxed),
-    })
+    });
+    if with_holds {
+        state["holds"] = Value::Array(holds);
+    }
+    state
 }
 
 async fn state(State(app): State<App>) -> Response {
-    axum::Json(state_json(&app)).into_response()
+    axum::Json(state_json(&app, true)).into_response()
 }
 
 fn session_of<'a>(app: &'a App, query: &HashMap<String, String>) -> Option<&'a SharedSession> {
@@ -422,12 +438,18 @@ async fn publish(app: App) {
     let mut tick = tokio::time::interval(PUBLISH_PERIOD);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut sequence: u64 = 0;
+    let mut holds_sent: Vec<u64> = Vec::new();
     loop {
         tick.tick().await;
         if app.updates.receiver_count() == 0 {
             continue;
         }
         sequence += 1;
+        // Holds go out when they changed, and every 5 s for a viewer that
+        // came in between (it read them from /api/state anyway).
+        let versions: Vec<u64> = app.sessions.iter().map(|s| lock(s).holds_version).collect();
+        let with_holds = versions != holds_sent || sequence % 50 == 0;
+        holds_sent = versions;
         let tails: Vec<String> = app
             .sessions
             .iter()
@@ -445,7 +467,7 @@ async fn publish(app: App) {
             .collect();
         let update = format!(
             "{{\"sequence\":{sequence},\"state\":{},\"tails\":[{}]}}",
-            state_json(&app),
+            state_json(&app, with_holds),
             tails.join(",")
         );
         let _ = app.updates.send(Arc::from(update));

@@ -199,6 +199,7 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
     let mut moved = false;
     let mut silent_seen: Vec<String> = Vec::new();
     let mut shot_live = false;
+    let mut zoomed = None;
     let started = Instant::now();
     while !demo.has_said("the page stays up") {
         assert!(
@@ -227,6 +228,7 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
         if !shot_live && started.elapsed() > Duration::from_secs(8) {
             page.screenshot(&shots.join("demo-live.png")).unwrap();
             shot_live = true;
+            zoomed = Some(pause_and_zoom(&mut page, &addr));
         }
         if silent_seen.is_empty() {
             if let Some(rows) = seen["silent"].as_array().filter(|r| !r.is_empty()) {
@@ -249,6 +251,23 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
         moved,
         "the plots' last points did not move: {first_last_x:?} -> {}",
         seen["lastX"]
+    );
+    let (range, frames_then) = zoomed.expect("the page was zoomed");
+    let still: Value = serde_json::from_str(
+        page.evaluate("JSON.stringify(window.acqView.sessions[0].range)")
+            .unwrap()
+            .as_str()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        still, range,
+        "a paused, zoomed chart stays where the user put it"
+    );
+    let frames_now = frames_of(&addr);
+    assert!(
+        frames_now > frames_then,
+        "the recording went on while the page was paused: {frames_then} -> {frames_now}"
     );
     assert!(
         silent_seen.iter().any(|r| r.contains("SILENT")),
@@ -372,6 +391,58 @@ fn look(view: &acq_view::model::SessionView) -> (String, String, String, String,
         serde_json::to_string(&view.buses_json(None)).unwrap(),
         view.xy_json().to_string(),
     )
+}
+
+/// Frames recorded so far on the page's first bus.
+fn frames_of(addr: &str) -> u64 {
+    let (_, _, body) = http(addr, "GET", "/api/state", None);
+    let state: Value = serde_json::from_str(&body).unwrap();
+    state["buses"][0]["frames"].as_u64().unwrap()
+}
+
+/// Pauses the first session and drags across the middle third of its first
+/// chart: the session stops following and shows the span dragged over, read
+/// again from the server. Its range and the frames recorded at that moment.
+fn pause_and_zoom(page: &mut LivePage, addr: &str) -> (Value, u64) {
+    page.evaluate("document.querySelector('section[data-session=\"0\"] .controls button').click()")
+        .unwrap();
+    let box_of: Value = serde_json::from_str(
+        page.evaluate(
+            "JSON.stringify((() => { const r = document.querySelector('section[data-session=\"0\"] .u-over').getBoundingClientRect(); \
+             return [r.left, r.top, r.width, r.height]; })())",
+        )
+        .unwrap()
+        .as_str()
+        .unwrap(),
+    )
+    .unwrap();
+    let [left, top, width, height] = [0, 1, 2, 3].map(|k| box_of[k].as_f64().unwrap());
+    let y = top + height / 2.0;
+    page.drag((left + width / 3.0, y), (left + 2.0 * width / 3.0, y))
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(600));
+    let after: Value = serde_json::from_str(
+        page.evaluate(
+            "JSON.stringify({follow: window.acqView.sessions[0].follow, range: window.acqView.sessions[0].range, \
+             mode: document.querySelector('section[data-session=\"0\"] .mode').textContent, \
+             zoomed: window.acqView.sessions[0].zoomColumns !== null})",
+        )
+        .unwrap()
+        .as_str()
+        .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(after["follow"], false, "{after}");
+    assert_eq!(after["zoomed"], true, "the span was read again: {after}");
+    assert!(
+        after["mode"].as_str().unwrap().contains("paused"),
+        "{after}"
+    );
+    let range = after["range"].as_array().unwrap();
+    let span = range[1].as_f64().unwrap() - range[0].as_f64().unwrap();
+    // A third of the 60 s window the chart showed.
+    assert!((15.0..25.0).contains(&span), "zoomed to {span} s: {after}");
+    (after["range"].clone(), frames_of(addr))
 }
 
 /// A copy of the shipped tensile session whose rig names a sensor with

@@ -603,6 +603,35 @@ impl LivePage {
         std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
     }
 
+    /// A mouse drag with the left button from `from` to `to` (CSS pixels
+    /// of the viewport), as a user's hand would make it: press, moves, release.
+    pub fn drag(&mut self, from: (f64, f64), to: (f64, f64)) -> Result<(), String> {
+        let mut errors = std::mem::take(&mut self.console_errors);
+        let mut result = Ok(());
+        let steps = 8;
+        let mut events = vec![("mousePressed", from, 1)];
+        for k in 1..=steps {
+            let t = k as f64 / steps as f64;
+            let point = (from.0 + (to.0 - from.0) * t, from.1 + (to.1 - from.1) * t);
+            events.push(("mouseMoved", point, 1));
+        }
+        events.push(("mouseReleased", to, 0));
+        for (kind, (x, y), buttons) in events {
+            let sent = self.browser.call(
+                "Input.dispatchMouseEvent",
+                json!({ "type": kind, "x": x, "y": y, "button": "left", "buttons": buttons, "clickCount": 1 }),
+                Some(&self.session),
+                &mut |e| collect_console_error(e, &mut errors),
+            );
+            if let Err(error) = sent {
+                result = Err(error);
+                break;
+            }
+        }
+        self.console_errors = errors;
+        result
+    }
+
     /// Console errors and warnings so far.
     pub fn console_errors(&self) -> &[String] {
         &self.console_errors

@@ -13,6 +13,7 @@ pub mod case;
 pub mod envelope;
 pub mod geometry;
 pub mod geometry_file;
+pub mod inclinations;
 pub mod inputs;
 pub mod kinematics;
 pub mod pose_fit;

@@ -499,3 +499,126 @@ fn simulate_to_a_log_is_deterministic_and_decodes_to_the_scenario() {
         );
     }
 }
+
+#[test]
+fn a_scenario_of_several_holds_gives_acq_extract_each_hold_at_its_levels() {
+    let dir = tempfile::tempdir().unwrap();
+    // Three loads, the middle one the largest, the last the shortest; the
+    // pressure follows the load, the inclinometers hold their pose.
+    let scenario = dir.path().join("three.toml");
+    std::fs::write(
+        &scenario,
+        r#"name = "three holds"
+[timeline]
+idle_s = 1.0
+build_up_s = 1.5
+hold_s = 6.0
+release_s = 1.5
+after_s = 2.0
+[sensor.tip_force]
+idle = 0.0
+hold = 30.0
+noise = 0.08
+[sensor.arm_head_pressure]
+idle = 10.0
+hold = 150.0
+noise = 0.4
+[sensor.boom_inclination]
+idle = 12.0
+[[hold]]
+level = { tip_force = 20.0, arm_head_pressure = 100.0 }
+[[hold]]
+level = { tip_force = 40.6, arm_head_pressure = 193.46 }
+[[hold]]
+hold_s = 5.5
+level = { tip_force = 30.0 }
+"#,
+    )
+    .unwrap();
+    let log = dir.path().join("three.log");
+    let simulate = || {
+        acq(&[
+            "simulate",
+            "--rig",
+            "fixtures/rigs/excavator.toml",
+            "--scenario",
+            scenario.to_str().unwrap(),
+            "-o",
+            log.to_str().unwrap(),
+            "--start",
+            "1763719200",
+        ])
+    };
+    let output = simulate();
+    assert!(output.status.success(), "{}", stderr(&output));
+    let measured = dir.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        log.to_str().unwrap(),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        measured.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = std::fs::read_to_string(&measured).unwrap();
+    let mean = |window: &str, quantity: &str| -> f64 {
+        text.lines()
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .find(|r| r[0] == window && r[3] == quantity)
+            .unwrap_or_else(|| panic!("no {window} {quantity} in\n{text}"))[5]
+            .parse()
+            .unwrap()
+    };
+    // The timeline: idle 1 s, then per hold 1.5 s up, the hold, 1.5 s down
+    // and 2 s idle: steady over 2.5-8.5, 13.5-19.5 and 24.5-30 s.
+    let windows: Vec<(f64, f64)> = ["hold1", "hold2", "hold3"]
+        .iter()
+        .map(|w| {
+            let row: Vec<&str> = text
+                .lines()
+                .find(|l| l.starts_with(&format!("{w},")))
+                .unwrap_or_else(|| panic!("no {w} in\n{text}"))
+                .split(',')
+                .collect();
+            (row[1].parse().unwrap(), row[2].parse().unwrap())
+        })
+        .collect();
+    assert!(!text.contains("hold4,"), "{text}");
+    for ((start, end), (from, to)) in windows.iter().zip([(2.5, 8.5), (13.5, 19.5), (24.5, 30.0)]) {
+        assert!(
+            *start >= from && *end <= to && end - start >= 3.0,
+            "{start}-{end} in {from}-{to}"
+        );
+    }
+    for (window, force, pressure) in [
+        ("hold1", 20.0, 100.0),
+        ("hold2", 40.6, 193.46),
+        // Not named in the third hold: the sensor's `hold`.
+        ("hold3", 30.0, 150.0),
+    ] {
+        assert!((mean(window, "tip_force") - force).abs() < 0.05, "{window}");
+        assert!(
+            (mean(window, "arm_head_pressure") - pressure).abs() < 0.2,
+            "{window}"
+        );
+        assert!(
+            (mean(window, "boom_inclination") - 12.0).abs() < 0.05,
+            "{window}"
+        );
+    }
+
+    // A hold that names a sensor the rig does not have is refused, naming it.
+    std::fs::write(
+        &scenario,
+        "name = \"x\"\n[[hold]]\nlevel = { no_such_sensor = 1.0 }\n",
+    )
+    .unwrap();
+    let output = simulate();
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("no_such_sensor"),
+        "{}",
+        stderr(&output)
+    );
+}

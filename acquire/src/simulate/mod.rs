@@ -71,10 +71,8 @@ impl Stream {
 /// What a sensor reads over time.
 #[derive(Clone, Debug)]
 enum Profile {
-    Levels {
-        idle: f64,
-        hold: f64,
-    },
+    /// Idle, then each hold's level in turn.
+    Levels { idle: f64, holds: Vec<f64> },
     /// Follows a curve column; after the curve's end, `after_end` if given
     /// (a load that drops at fracture), else the last value.
     Column {
@@ -121,6 +119,15 @@ impl<'r> Simulation<'r> {
                 )));
             }
         }
+        for (k, hold) in scenario.hold.iter().enumerate() {
+            if let Some(name) = hold.level.keys().find(|name| rig.sensor(name).is_none()) {
+                return Err(AcqError::Config(format!(
+                    "scenario hold {}: level.{name} is not a sensor of the rig {}",
+                    k + 1,
+                    rig.path.display()
+                )));
+            }
+        }
         let devices = scenario.devices;
         let mut unspecified_sensors = Vec::new();
         let mut profiles = Vec::new();
@@ -132,20 +139,29 @@ impl<'r> Simulation<'r> {
                     column: s.column.clone().unwrap_or_default(),
                     after_end: s.after_end,
                 },
-                Some(s) => Profile::Levels {
-                    idle: s.idle.unwrap_or(0.0),
-                    hold: s.hold.or(s.idle).unwrap_or(0.0),
+                Some(s) => {
+                    let hold = s.hold.or(s.idle).unwrap_or(0.0);
+                    Profile::Levels {
+                        idle: s.idle.unwrap_or(0.0),
+                        holds: hold_levels(&scenario, &sensor.name, hold),
+                    }
+                }
+                None if holds_name(&scenario, &sensor.name) => Profile::Levels {
+                    idle: 0.0,
+                    holds: hold_levels(&scenario, &sensor.name, 0.0),
                 },
                 None => {
                     unspecified_sensors.push(sensor.name.clone());
                     Profile::Levels {
                         idle: 0.0,
-                        hold: 0.0,
+                        holds: vec![0.0; scenario.hold_count()],
                     }
                 }
             };
             let scale = match &profile {
-                Profile::Levels { idle, hold } => idle.abs().max(hold.abs()),
+                Profile::Levels { idle, holds } => {
+                    holds.iter().fold(idle.abs(), |m, h| m.max(h.abs()))
+                }
                 Profile::Column { column, .. } => curve
                     .as_ref()
                     .and_then(|c| c.columns.get(column))
@@ -164,7 +180,7 @@ impl<'r> Simulation<'r> {
         }
         let duration_s = curve
             .as_ref()
-            .map_or(scenario.timeline.total_s(), |c| c.duration_s());
+            .map_or(scenario.total_s(), |c| c.duration_s());
         let mut master = ChaCha8Rng::seed_from_u64(seed);
         let streams = build_streams(rig, &devices, &mut master)?;
         check_levels_can_be_sent(rig, &streams, &profiles, curve.as_ref())?;
@@ -201,20 +217,31 @@ impl<'r> Simulation<'r> {
             .sum()
     }
 
-    /// The scenario's steady hold, (start, end) in Unix ns.
+    /// The scenario's (first) steady hold, (start, end) in Unix ns.
     pub fn hold_window_ns(&self) -> (i64, i64) {
-        let (a, b) = self.scenario.timeline.hold_window_s();
-        (
-            self.start_ns + (a * 1e9) as i64,
-            self.start_ns + (b * 1e9) as i64,
-        )
+        self.hold_windows_ns()[0]
+    }
+
+    /// Every steady hold, (start, end) in Unix ns.
+    pub fn hold_windows_ns(&self) -> Vec<(i64, i64)> {
+        self.scenario
+            .hold_windows_s()
+            .into_iter()
+            .map(|(a, b)| {
+                (
+                    self.start_ns + (a * 1e9) as i64,
+                    self.start_ns + (b * 1e9) as i64,
+                )
+            })
+            .collect()
     }
 
     /// The value sensor `index` reads at `t_s` seconds, without noise.
     pub fn true_value(&self, index: usize, t_s: f64) -> f64 {
         match &self.profiles[index] {
-            Profile::Levels { idle, hold } => {
-                idle + (hold - idle) * self.scenario.timeline.load_fraction(t_s)
+            Profile::Levels { idle, holds } => {
+                let (k, fraction) = self.scenario.load_fraction(t_s);
+                idle + (holds[k] - idle) * fraction
             }
             Profile::Column { column, after_end } => {
                 let Some(curve) = self.curve.as_ref() else {
@@ -458,6 +485,23 @@ fn encode_sensor(rig: &Rig, index: usize, value: f64, payload: &mut [u8]) {
     }
 }
 
+/// Sensor `name`'s level in each hold: the hold's own, else `default`.
+fn hold_levels(scenario: &Scenario, name: &str, default: f64) -> Vec<f64> {
+    if scenario.hold.is_empty() {
+        return vec![default];
+    }
+    scenario
+        .hold
+        .iter()
+        .map(|h| h.level.get(name).copied().unwrap_or(default))
+        .collect()
+}
+
+/// Whether a `[[hold]]` sets sensor `name`.
+fn holds_name(scenario: &Scenario, name: &str) -> bool {
+    scenario.hold.iter().any(|h| h.level.contains_key(name))
+}
+
 /// Refuses a scenario level (idle, hold, or a curve column's extremes) that
 /// its sensor's device cannot send: encoded as the device would and decoded
 /// as acq would, it must come back within 2 % of itself (or of 5 % of the
@@ -477,7 +521,9 @@ fn check_levels_can_be_sent(
         };
         for &index in sensors {
             let levels: Vec<(&str, f64)> = match &profiles[index] {
-                Profile::Levels { idle, hold } => vec![("idle", *idle), ("hold", *hold)],
+                Profile::Levels { idle, holds } => std::iter::once(("idle", *idle))
+                    .chain(holds.iter().map(|h| ("hold", *h)))
+                    .collect(),
                 Profile::Column { column, after_end } => {
                     let values = curve.and_then(|c| c.columns.get(column));
                     let extremes = values.map_or((0.0, 0.0), |v| {

@@ -19,6 +19,17 @@
 //! hold = 73.35          # value during the hold
 //! noise = 0.3           # std in the sensor's unit (instead of relative_noise)
 //! ```
+//! Several holds, one after the other, each a build-up from idle, its own
+//! hold and a release back to idle followed by `after_s` of idle: a
+//! `[[hold]]` per hold, its length (`hold_s`, default the timeline's) and
+//! the levels it differs in (a sensor it does not name reads its `hold`):
+//! ```toml
+//! [[hold]]
+//! hold_s = 8.0
+//! level = { tip_force = 20.0, boom_head_pressure = 55.0 }
+//! [[hold]]
+//! level = { tip_force = 40.6, boom_head_pressure = 73.35 }
+//! ```
 //! A measured test can drive sensors instead (`[curve]`: a CSV whose
 //! `x_column` advances at `x_per_s` from `start_s`; a sensor with
 //! `column = "FORCE"` follows that column, interpolated in x; after the
@@ -44,6 +55,18 @@ pub struct Scenario {
     pub curve: Option<CurveSpec>,
     #[serde(default)]
     pub sensor: BTreeMap<String, SensorScenario>,
+    /// The holds, in order; none: one hold of the timeline's.
+    #[serde(default)]
+    pub hold: Vec<HoldSpec>,
+}
+
+/// One hold of several: how long, and the levels it sets.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HoldSpec {
+    pub hold_s: Option<f64>,
+    #[serde(default)]
+    pub level: BTreeMap<String, f64>,
 }
 
 #[derive(Clone, Copy, Debug, Deserialize)]
@@ -191,6 +214,68 @@ impl Curve {
     }
 }
 
+impl Scenario {
+    /// How many holds: the `[[hold]]`s, or the timeline's one.
+    pub fn hold_count(&self) -> usize {
+        self.hold.len().max(1)
+    }
+
+    /// Each hold's length, s.
+    fn hold_lengths_s(&self) -> Vec<f64> {
+        if self.hold.is_empty() {
+            return vec![self.timeline.hold_s];
+        }
+        self.hold
+            .iter()
+            .map(|h| h.hold_s.unwrap_or(self.timeline.hold_s))
+            .collect()
+    }
+
+    /// Each steady hold, (start, end) in seconds.
+    pub fn hold_windows_s(&self) -> Vec<(f64, f64)> {
+        let t = &self.timeline;
+        let mut start = t.idle_s;
+        self.hold_lengths_s()
+            .into_iter()
+            .map(|hold_s| {
+                let window = (start + t.build_up_s, start + t.build_up_s + hold_s);
+                start = window.1 + t.release_s + t.after_s;
+                window
+            })
+            .collect()
+    }
+
+    /// The whole timeline, s.
+    pub fn total_s(&self) -> f64 {
+        let t = &self.timeline;
+        t.idle_s
+            + self
+                .hold_lengths_s()
+                .iter()
+                .map(|hold_s| t.build_up_s + hold_s + t.release_s + t.after_s)
+                .sum::<f64>()
+    }
+
+    /// Which hold's load `t_s` lies in (its build-up, hold or release), and
+    /// how far up: 0 at idle, 1 during the hold, a half-cosine ramp between.
+    pub fn load_fraction(&self, t_s: f64) -> (usize, f64) {
+        let t = &self.timeline;
+        for (k, (start, end)) in self.hold_windows_s().into_iter().enumerate() {
+            let one = Timeline {
+                idle_s: start - t.build_up_s,
+                build_up_s: t.build_up_s,
+                hold_s: end - start,
+                release_s: t.release_s,
+                after_s: 0.0,
+            };
+            if t_s < end + t.release_s {
+                return (k, one.load_fraction(t_s));
+            }
+        }
+        (self.hold_count() - 1, 0.0)
+    }
+}
+
 /// The longest simulation, s: beyond it a timeline is a typo (and `-o`
 /// would fill the disk).
 pub const MAX_DURATION_S: f64 = 86_400.0;
@@ -218,7 +303,32 @@ impl Scenario {
                 )));
             }
         }
-        let total_s = scenario.timeline.total_s();
+        for (k, hold) in scenario.hold.iter().enumerate() {
+            let n = k + 1;
+            if hold.hold_s.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+                return Err(bad(format!(
+                    "hold {n}: hold_s = {}: expected a finite number >= 0",
+                    hold.hold_s.unwrap_or_default()
+                )));
+            }
+            for (sensor, value) in &hold.level {
+                if !value.is_finite() {
+                    return Err(bad(format!(
+                        "hold {n}: level.{sensor} = {value}: expected a finite number"
+                    )));
+                }
+                if scenario
+                    .sensor
+                    .get(sensor)
+                    .is_some_and(|s| s.column.is_some())
+                {
+                    return Err(bad(format!(
+                        "hold {n}: level.{sensor}: that sensor follows the curve's column; a hold cannot set it"
+                    )));
+                }
+            }
+        }
+        let total_s = scenario.total_s();
         if total_s > MAX_DURATION_S {
             return Err(bad(format!(
                 "the timeline lasts {total_s} s; a simulation lasts at most {MAX_DURATION_S} s (a day): split a longer one"

@@ -393,6 +393,25 @@ fn look(view: &acq_view::model::SessionView) -> (String, String, String, String,
     )
 }
 
+/// A copy of the shipped session `name` at `dir` (acq view writes its
+/// index into a session; the checkout's fixtures stay as they are).
+fn copy_session(name: &str, dir: &Path) -> PathBuf {
+    let source = root().join("fixtures/sessions").join(name);
+    std::fs::create_dir_all(dir.join("rig")).unwrap();
+    for (from, to) in [
+        (source.clone(), dir.to_path_buf()),
+        (source.join("rig"), dir.join("rig")),
+    ] {
+        for entry in std::fs::read_dir(&from).unwrap() {
+            let entry = entry.unwrap();
+            if entry.path().is_file() {
+                std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+            }
+        }
+    }
+    dir.to_path_buf()
+}
+
 /// Frames recorded so far on the page's first bus.
 fn frames_of(addr: &str) -> u64 {
     let (_, _, body) = http(addr, "GET", "/api/state", None);
@@ -450,20 +469,15 @@ fn pause_and_zoom(page: &mut LivePage, addr: &str) -> (Value, u64) {
 /// are CSV columns), in a directory whose name has markup and quotes.
 fn hostile_session(parent: &Path) -> (PathBuf, &'static str) {
     const HOSTILE: &str = "<script>alert(1)</script></style><b>&amp;";
-    let source = root().join("fixtures/sessions/tensile_p91_20c");
-    let dir = parent.join("<img src=x onerror=alert(2)>\"'");
-    std::fs::create_dir_all(dir.join("rig")).unwrap();
-    for entry in std::fs::read_dir(&source).unwrap() {
-        let entry = entry.unwrap();
-        if entry.path().is_file() {
-            std::fs::copy(entry.path(), dir.join(entry.file_name())).unwrap();
-        }
-    }
-    for entry in std::fs::read_dir(source.join("rig")).unwrap() {
-        let entry = entry.unwrap();
-        let text = std::fs::read_to_string(entry.path()).unwrap();
+    let dir = copy_session(
+        "tensile_p91_20c",
+        &parent.join("<img src=x onerror=alert(2)>\"'"),
+    );
+    for entry in std::fs::read_dir(dir.join("rig")).unwrap() {
+        let path = entry.unwrap().path();
+        let text = std::fs::read_to_string(&path).unwrap();
         let text = text.replace("name = \"load\"", &format!("name = \"load{HOSTILE}\""));
-        std::fs::write(dir.join("rig").join(entry.file_name()), text).unwrap();
+        std::fs::write(&path, text).unwrap();
     }
     (dir, HOSTILE)
 }
@@ -589,20 +603,7 @@ fn the_page_only_reads_escapes_names_and_keeps_strangers_out() {
 #[test]
 fn a_session_opens_again_from_its_index_and_a_damaged_index_is_rebuilt() {
     let temp = tempfile::tempdir().unwrap();
-    let dir = temp.path().join("case1");
-    std::fs::create_dir_all(dir.join("rig")).unwrap();
-    let source = root().join("fixtures/sessions/excavator_case1");
-    for (from, to) in [
-        (source.clone(), dir.clone()),
-        (source.join("rig"), dir.join("rig")),
-    ] {
-        for entry in std::fs::read_dir(&from).unwrap() {
-            let entry = entry.unwrap();
-            if entry.path().is_file() {
-                std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
-            }
-        }
-    }
+    let dir = copy_session("excavator_case1", &temp.path().join("case1"));
     let (first, source) = acq_view::open_session(&dir, "case1").unwrap();
     assert_eq!(source, acq_view::Source::Recording(Ok(())));
     let (again, source) = acq_view::open_session(&dir, "case1").unwrap();
@@ -635,4 +636,53 @@ fn a_session_opens_again_from_its_index_and_a_damaged_index_is_rebuilt() {
     std::fs::write(&raw, &log).unwrap();
     let (_, source) = acq_view::open_session(&dir, "case1").unwrap();
     assert_eq!(source, acq_view::Source::Recording(Ok(())));
+}
+
+#[test]
+fn view_arguments_that_cannot_work_are_refused_with_the_fix() {
+    let temp = tempfile::tempdir().unwrap();
+    let refused = |args: &[&str], code: i32, says: &str| {
+        let output = common::acq(args);
+        assert_eq!(
+            output.status.code(),
+            Some(code),
+            "{args:?}: {}",
+            common::stderr(&output)
+        );
+        assert!(
+            common::stderr(&output).contains(says),
+            "{args:?}: {}",
+            common::stderr(&output)
+        );
+    };
+    // No rig: nothing to show (refused before any interface is opened).
+    refused(
+        &["record", "--iface", "vcan0", "--view"],
+        2,
+        "--view needs --rig",
+    );
+    refused(
+        &["view", path_arg(temp.path())],
+        2,
+        "not a session directory",
+    );
+    refused(
+        &[
+            "view",
+            "fixtures/sessions/tensile_p91_20c",
+            "--view",
+            "nonsense",
+        ],
+        2,
+        "expected HOST:PORT",
+    );
+    // A port another program holds.
+    let holder = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let taken = holder.local_addr().unwrap().to_string();
+    let session = copy_session("tensile_p91_20c", &temp.path().join("tensile"));
+    refused(
+        &["view", path_arg(&session), "--view", &taken],
+        1,
+        "give another port",
+    );
 }

@@ -27,6 +27,13 @@ pub enum Source {
 /// Reads the session in `dir` into a view named `name`, from its index
 /// when it has one made from this recording.
 pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
+    if !dir.join(acq_io::session::SESSION_FILE).is_file() {
+        return Err(AcqError::Config(format!(
+            "{}: not a session directory (no {}); give a directory acq record wrote",
+            dir.display(),
+            acq_io::session::SESSION_FILE
+        )));
+    }
     let recording = Recording::open(dir, None)?;
     let Some(session) = recording.session.clone() else {
         return Err(AcqError::Config(format!(

@@ -164,9 +164,18 @@ pub async fn serve(
     access: Access,
     sessions: Vec<SharedSession>,
 ) -> Result<ViewServer> {
-    let listener = tokio::net::TcpListener::bind(addr)
-        .await
-        .map_err(|e| AcqError::io(format!("serving the view on {addr}"), e))?;
+    let listener = tokio::net::TcpListener::bind(addr).await.map_err(|e| {
+        let hint = match e.kind() {
+            std::io::ErrorKind::AddrInUse => {
+                "; another program serves there: give another port with --view HOST:PORT"
+            }
+            std::io::ErrorKind::AddrNotAvailable => {
+                "; this machine has no such address: give one of its own, or 127.0.0.1"
+            }
+            _ => "",
+        };
+        AcqError::io(format!("serving the view on {addr}{hint}"), e)
+    })?;
     let bound = listener
         .local_addr()
         .map_err(|e| AcqError::io(format!("serving the view on {addr}"), e))?;

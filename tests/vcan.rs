@@ -272,32 +272,12 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     assert!(c3.rig.is_some());
 
     // 4. Ctrl-C during a flood: what candump saw up to the signal is in raw.log.
-    let c4 = session::read(&out.join("c4")).unwrap();
-    let stop_ns = c4
-        .session
-        .stop_requested_unix_ns
-        .expect("the stop time is recorded");
-    let seen = read_log(&out.join("c4_candump.log"));
-    let before: Vec<&Frame> = seen.iter().filter(|f| f.timestamp_ns <= stop_ns).collect();
-    let recorded: HashSet<(i64, CanId, Vec<u8>)> = read_session_frames(&out.join("c4"))
-        .iter()
-        .map(|f| (f.timestamp_ns, f.id, f.payload().to_vec()))
-        .collect();
-    let missing = before
-        .iter()
-        .filter(|f| !recorded.contains(&(f.timestamp_ns, f.id, f.payload().to_vec())))
-        .count() as u64;
+    let (c4, before, recorded, missing) = flood_check(&out, "c4");
     eprintln!(
-        "flood: candump saw {} frames before the signal; acq recorded {}, reported {} kernel drops, missing {missing}",
-        before.len(),
-        recorded.len(),
+        "flood: candump saw {before} frames before the signal; acq recorded {recorded}, reported {} kernel drops, missing {missing}",
         c4.session.dropped_by_kernel
     );
-    assert!(
-        before.len() > 1000,
-        "the flood reached the bus: {} frames",
-        before.len()
-    );
+    assert!(before > 1000, "the flood reached the bus: {before} frames");
     assert!(
         missing <= c4.session.dropped_by_kernel,
         "{missing} frames candump saw before the signal are not in raw.log, and only {} drops were reported",
@@ -307,36 +287,23 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     // 7. The flood on both buses with the live page on and 10 viewers,
     // one stalled, three leaving and three others coming mid-flood: the page
     // never costs a frame.
-    let c7 = session::read(&out.join("c7")).unwrap();
+    let (c7, before, recorded, missing) = flood_check(&out, "c7");
     assert_eq!(
         fs::read_to_string(out.join("c7.exit")).unwrap().trim(),
         "0",
         "{}",
         fs::read_to_string(out.join("c7_stderr.txt")).unwrap_or_default()
     );
-    let stop_ns = c7.session.stop_requested_unix_ns.unwrap();
-    let seen = read_log(&out.join("c7_candump.log"));
-    let before: Vec<&Frame> = seen.iter().filter(|f| f.timestamp_ns <= stop_ns).collect();
-    let recorded: HashSet<(i64, CanId, Vec<u8>)> = read_session_frames(&out.join("c7"))
-        .iter()
-        .map(|f| (f.timestamp_ns, f.id, f.payload().to_vec()))
-        .collect();
-    let missing = before
-        .iter()
-        .filter(|f| !recorded.contains(&(f.timestamp_ns, f.id, f.payload().to_vec())))
-        .count() as u64;
     let state: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(out.join("c7_state.json")).unwrap()).unwrap();
     eprintln!(
-        "flood with the view: candump saw {} frames before the signal; acq recorded {}, reported {} kernel drops, missing {missing}; \
+        "flood with the view: candump saw {before} frames before the signal; acq recorded {recorded}, reported {} kernel drops, missing {missing}; \
          the page had {} viewers and did not show {} frames",
-        before.len(),
-        recorded.len(),
         c7.session.dropped_by_kernel,
         state["viewers"],
         state["sessions"][0]["frames_not_shown"]
     );
-    assert!(before.len() > 1000, "the flood reached the bus");
+    assert!(before > 1000, "the flood reached the bus");
     assert!(
         state["viewers"].as_u64().unwrap() >= 10,
         "the viewers were connected: {}",
@@ -404,6 +371,28 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         "{} frames before the disk filled",
         frames.len()
     );
+}
+
+/// A flood check's session `name`: what candump saw (`NAME_candump.log`)
+/// up to the stop against `raw.log`: (the session, frames candump saw
+/// before the stop, frames recorded, frames of the first not in the second).
+fn flood_check(out: &Path, name: &str) -> (session::SessionFile, usize, usize, u64) {
+    let recorded_session = session::read(&out.join(name)).unwrap();
+    let stop_ns = recorded_session
+        .session
+        .stop_requested_unix_ns
+        .expect("the stop time is recorded");
+    let seen = read_log(&out.join(format!("{name}_candump.log")));
+    let before: Vec<&Frame> = seen.iter().filter(|f| f.timestamp_ns <= stop_ns).collect();
+    let recorded: HashSet<(i64, CanId, Vec<u8>)> = read_session_frames(&out.join(name))
+        .iter()
+        .map(|f| (f.timestamp_ns, f.id, f.payload().to_vec()))
+        .collect();
+    let missing = before
+        .iter()
+        .filter(|f| !recorded.contains(&(f.timestamp_ns, f.id, f.payload().to_vec())))
+        .count() as u64;
+    (recorded_session, before.len(), recorded.len(), missing)
 }
 
 /// Frames in a candump -L capture, per interface.

@@ -284,9 +284,9 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         c4.session.dropped_by_kernel
     );
 
-    // 7. The flood on both buses with the live page on and 10 viewers,
-    // one stalled, three leaving and three others coming mid-flood: the page
-    // never costs a frame.
+    // 7. Both buses busy (a frame every 0.25 ms asked of each) with the
+    // live page on and 10 viewers, one stalled, three leaving and three
+    // others coming meanwhile: the page never costs a frame.
     let (c7, before, recorded, missing) = flood_check(&out, "c7");
     assert_eq!(
         fs::read_to_string(out.join("c7.exit")).unwrap().trim(),
@@ -297,7 +297,7 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     let state: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(out.join("c7_state.json")).unwrap()).unwrap();
     eprintln!(
-        "flood with the view: candump saw {before} frames before the signal; acq recorded {recorded}, reported {} kernel drops, missing {missing}; \
+        "busy buses with the view: candump saw {before} frames before the signal; acq recorded {recorded}, reported {} kernel drops, missing {missing}; \
          the page had {} viewers and did not show {} frames",
         c7.session.dropped_by_kernel,
         state["viewers"],

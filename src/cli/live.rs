@@ -23,7 +23,8 @@ pub struct RecordArgs {
     /// CAN interface to record (repeat for several buses).
     #[arg(long = "iface", required = true, value_name = "IFACE")]
     pub interfaces: Vec<String>,
-    /// Rig file: decode live for the status, copy it into the session.
+    /// Rig file: decode live for the status (and --view), copy it into the
+    /// session, and leave view-index.bin there for a quick `acq view`.
     #[arg(long, value_name = "RIG.toml")]
     pub rig: Option<PathBuf>,
     /// Session directory [default: sessions/<UTC start time>].
@@ -44,8 +45,8 @@ pub struct RecordArgs {
     /// Live status as one JSON object per line on stdout.
     #[arg(long)]
     pub status_json: bool,
-    /// The page (needs --rig: it decodes through it). It stops serving when
-    /// the recording ends.
+    // The page (needs --rig: it decodes through it); it stops serving when
+    // the recording ends.
     #[command(flatten)]
     pub view: acq_view::ViewArgs,
 }

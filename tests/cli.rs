@@ -505,9 +505,8 @@ fn a_scenario_of_several_holds_gives_acq_extract_each_hold_at_its_levels() {
     let dir = tempfile::tempdir().unwrap();
     // Three loads, the middle one the largest, the last the shortest; the
     // pressure follows the load, the inclinometers hold their pose.
-    let scenario = dir.path().join("three.toml");
-    std::fs::write(
-        &scenario,
+    let text = simulate_and_extract(
+        dir.path(),
         r#"name = "three holds"
 [timeline]
 idle_s = 1.0
@@ -533,43 +532,8 @@ level = { tip_force = 40.6, arm_head_pressure = 193.46 }
 hold_s = 5.5
 level = { tip_force = 30.0 }
 "#,
-    )
-    .unwrap();
-    let log = dir.path().join("three.log");
-    let simulate = || {
-        acq(&[
-            "simulate",
-            "--rig",
-            "fixtures/rigs/excavator.toml",
-            "--scenario",
-            scenario.to_str().unwrap(),
-            "-o",
-            log.to_str().unwrap(),
-            "--start",
-            "1763719200",
-        ])
-    };
-    let output = simulate();
-    assert!(output.status.success(), "{}", stderr(&output));
-    let measured = dir.path().join("measured.csv");
-    let output = acq(&[
-        "extract",
-        log.to_str().unwrap(),
-        "--rig",
-        "fixtures/rigs/excavator.toml",
-        "-o",
-        measured.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let text = std::fs::read_to_string(&measured).unwrap();
-    let mean = |window: &str, quantity: &str| -> f64 {
-        text.lines()
-            .map(|l| l.split(',').collect::<Vec<_>>())
-            .find(|r| r[0] == window && r[3] == quantity)
-            .unwrap_or_else(|| panic!("no {window} {quantity} in\n{text}"))[5]
-            .parse()
-            .unwrap()
-    };
+    );
+    let mean = |window: &str, quantity: &str| measured_mean(&text, window, quantity);
     // The timeline: idle 1 s, then per hold 1.5 s up, the hold, 1.5 s down
     // and 2 s idle: steady over 2.5-8.5, 13.5-19.5 and 24.5-30 s.
     let windows: Vec<(f64, f64)> = ["hold1", "hold2", "hold3"]
@@ -609,16 +573,198 @@ level = { tip_force = 30.0 }
     }
 
     // A hold that names a sensor the rig does not have is refused, naming it.
+    let scenario = dir.path().join("bad.toml");
     std::fs::write(
         &scenario,
         "name = \"x\"\n[[hold]]\nlevel = { no_such_sensor = 1.0 }\n",
     )
     .unwrap();
-    let output = simulate();
+    let output = acq(&[
+        "simulate",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "--scenario",
+        scenario.to_str().unwrap(),
+        "-o",
+        dir.path().join("bad.log").to_str().unwrap(),
+    ]);
     assert_eq!(output.status.code(), Some(2));
     assert!(
         stderr(&output).contains("no_such_sensor"),
         "{}",
         stderr(&output)
     );
+}
+
+/// The excavator twin drives the virtual rig: at two test points (the
+/// published poses, from their pins' inclinations) the levels it computes
+/// go through the rig's devices (CANopen 0.01 bar, J1939 slope, DBC floats)
+/// and `acq extract` reads them back: net cylinder forces, inclinations,
+/// gauge stresses and the tip force, within the noise.
+#[test]
+fn the_excavator_twin_drives_the_virtual_rig_and_acq_extract_reads_its_levels() {
+    use acq_twins::excavator::geometry::Geometry;
+    use acq_twins::excavator::inclinations::Inclinations;
+    use acq_twins::excavator::pose_fit::published_poses;
+    use acq_twins::excavator::CylinderName;
+    use acq_workflows::virtual_rig::{hold_levels, CylinderSensors, RigSensors, TestPoint};
+
+    let geometry = Geometry::dx55();
+    let rig = RigSensors {
+        tip_force: "tip_force".into(),
+        inclinometers: [
+            "boom_inclination".into(),
+            "arm_inclination".into(),
+            "bucket_inclination".into(),
+        ],
+        gauges: (1..=18).map(|k| (format!("sg{k:02}"), k)).collect(),
+        cylinders: [
+            (CylinderName::Bucket, "bucket"),
+            (CylinderName::Arm, "arm"),
+            (CylinderName::Boom, "boom"),
+        ]
+        .map(|(cylinder, name)| CylinderSensors {
+            cylinder,
+            head: format!("{name}_head_pressure"),
+            rod: format!("{name}_rod_pressure"),
+        })
+        .to_vec(),
+    };
+    let back: std::collections::BTreeMap<String, f64> = [
+        ("bucket_rod_pressure", 5.0),
+        ("arm_rod_pressure", 5.0),
+        ("boom_rod_pressure", 4.0),
+        ("bucket_head_pressure", 8.0),
+        ("arm_head_pressure", 10.0),
+        ("boom_head_pressure", 20.0),
+    ]
+    .map(|(k, v)| (k.to_string(), v))
+    .into();
+    let direction =
+        |from: [f64; 2], to: [f64; 2]| (to[1] - from[1]).atan2(to[0] - from[0]).to_degrees();
+    let points: Vec<TestPoint> = published_poses()
+        .iter()
+        .zip([(40.6, -10.0), (25.0, 0.0)])
+        .map(|(pose, (force, angle))| TestPoint {
+            inclinations: Inclinations {
+                boom_deg: direction([0.0, 0.0], pose.b),
+                arm_deg: direction(pose.b, pose.g),
+                bucket_deg: direction(pose.g, pose.j),
+            },
+            tip_force_kn: force,
+            tip_force_angle_deg: angle,
+        })
+        .collect();
+    let levels: Vec<_> = points
+        .iter()
+        .map(|p| hold_levels(&geometry, &rig, &back, p).unwrap())
+        .collect();
+
+    // The scenario: idle at the back pressures and the first pose, one hold per point.
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = String::from(
+        "name = \"twin-driven\"\n[timeline]\nidle_s = 1.0\nbuild_up_s = 1.5\nhold_s = 6.0\nrelease_s = 1.5\nafter_s = 1.0\n",
+    );
+    for (name, value) in &levels[0] {
+        let idle = back
+            .get(name)
+            .copied()
+            .unwrap_or(if name.contains("inclination") {
+                *value
+            } else {
+                0.0
+            });
+        let noise = if name.contains("pressure") { 0.2 } else { 0.05 };
+        text.push_str(&format!(
+            "[sensor.{name}]\nidle = {idle}\nnoise = {noise}\n"
+        ));
+    }
+    for hold in &levels {
+        let level: Vec<String> = hold.iter().map(|(k, v)| format!("{k} = {v}")).collect();
+        text.push_str(&format!("[[hold]]\nlevel = {{ {} }}\n", level.join(", ")));
+    }
+    let text = simulate_and_extract(dir.path(), &text);
+    let mean = |window: &str, quantity: &str| measured_mean(&text, window, quantity);
+    for (k, (point, hold)) in points.iter().zip(&levels).enumerate() {
+        let window = format!("hold{}", k + 1);
+        // Every driven sensor reads its level within a few standard errors
+        // (and the devices' resolution: 0.01 bar, 3e-5 deg, float32).
+        for (name, level) in hold {
+            let got = mean(&window, name);
+            let tolerance = if name.contains("pressure") { 0.1 } else { 0.03 };
+            assert!(
+                (got - level).abs() < tolerance,
+                "{window} {name}: {got} vs {level}"
+            );
+        }
+        // The net force from both chambers' measured means, with the twin's
+        // bores (the rig file states its own, DX55-class values), is the
+        // twin's axial force.
+        let strokes = point.inclinations.strokes(&geometry).unwrap();
+        let twin = acq_twins::excavator::Excavator::new(geometry.clone()).unwrap();
+        let evaluation = twin
+            .evaluate(&acq_twins::excavator::Inputs {
+                strokes,
+                tip_force_kn: point.tip_force_kn,
+                tip_force_angle_deg: point.tip_force_angle_deg,
+            })
+            .unwrap();
+        for (cylinder, name) in [
+            (CylinderName::Bucket, "bucket"),
+            (CylinderName::Arm, "arm"),
+            (CylinderName::Boom, "boom"),
+        ] {
+            let bore = geometry.cylinder(cylinder);
+            let got = (mean(&window, &format!("{name}_head_pressure")) * bore.head_area_m2()
+                - mean(&window, &format!("{name}_rod_pressure")) * bore.annulus_area_m2())
+                * 1e5
+                / 1e3;
+            let truth = evaluation.cylinder(cylinder).axial_force_kn;
+            assert!(
+                (got - truth).abs() < 0.02 * truth.abs().max(1.0),
+                "{window} {name}: net force {got} kN, the twin's {truth} kN"
+            );
+        }
+    }
+}
+
+/// `acq simulate` of the excavator rig on `scenario` (TOML text) to a log,
+/// then `acq extract` of it: the measured-values CSV.
+fn simulate_and_extract(dir: &std::path::Path, scenario: &str) -> String {
+    let path = dir.join("scenario.toml");
+    std::fs::write(&path, scenario).unwrap();
+    let log = dir.join("simulated.log");
+    let output = acq(&[
+        "simulate",
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "--scenario",
+        path.to_str().unwrap(),
+        "-o",
+        log.to_str().unwrap(),
+        "--start",
+        "1763719200",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let measured = dir.join("measured.csv");
+    let output = acq(&[
+        "extract",
+        log.to_str().unwrap(),
+        "--rig",
+        "fixtures/rigs/excavator.toml",
+        "-o",
+        measured.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    std::fs::read_to_string(&measured).unwrap()
+}
+
+/// The mean of `quantity` in `window` of a measured-values CSV.
+fn measured_mean(text: &str, window: &str, quantity: &str) -> f64 {
+    text.lines()
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|r| r[0] == window && r[3] == quantity)
+        .unwrap_or_else(|| panic!("no {window} {quantity} in\n{text}"))[5]
+        .parse()
+        .unwrap()
 }

@@ -9,6 +9,8 @@
 //! - [`excavator_report`]: the report of `acq twin excavator`.
 //! - [`twin_excavator`], [`twin_gtn`]: `acq twin excavator|gtn` and
 //!   `acq sensitivity excavator`, a twin run at given inputs.
+//! - [`virtual_rig`]: a rig's hold levels from the excavator twin at a
+//!   stated geometry (a known truth for `acq simulate`).
 //!
 //! Sits at the end of the data flow: it reads measured values (`acq-analysis`),
 //! runs twins (`acq-twins`) and the engine (`acq-calib`) and writes reports
@@ -25,3 +27,4 @@ pub mod tensile_model;
 pub mod tensile_report;
 pub mod twin_excavator;
 pub mod twin_gtn;
+pub mod virtual_rig;

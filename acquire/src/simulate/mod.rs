@@ -217,11 +217,6 @@ impl<'r> Simulation<'r> {
             .sum()
     }
 
-    /// The scenario's (first) steady hold, (start, end) in Unix ns.
-    pub fn hold_window_ns(&self) -> (i64, i64) {
-        self.hold_windows_ns()[0]
-    }
-
     /// Every steady hold, (start, end) in Unix ns.
     pub fn hold_windows_ns(&self) -> Vec<(i64, i64)> {
         self.scenario

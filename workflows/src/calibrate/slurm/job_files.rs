@@ -4,7 +4,7 @@
 //! solver's exit status), each written whole through a rename.
 
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 pub const JOB_SCRIPT: &str = "job.sh";
 pub const JOB_ID: &str = "slurm_job_id";
@@ -14,7 +14,9 @@ pub const SUBMITTED_AT: &str = "submitted_at";
 /// Marks a job acq cancelled itself (Ctrl-C, an error): a `--resume`
 /// submits it again rather than collect a cancelled job.
 pub const CANCELLED_BY_ACQ: &str = "cancelled_by_acq";
-/// How long the exit status of a job Slurm says completed is waited for.
+/// How long the exit status of a job Slurm says completed is waited for
+/// (a file written on the compute node can take a while to show on a
+/// shared file system).
 pub const STATUS_GRACE: Duration = Duration::from_secs(60);
 
 /// A number from a one-line file of a run directory.
@@ -24,24 +26,6 @@ pub fn read_number(directory: &Path, name: &str) -> Option<f64> {
         .trim()
         .parse()
         .ok()
-}
-
-/// The exit status of a job Slurm says has ended, read for up to
-/// [`STATUS_GRACE`]: on a shared file system a file written on the compute
-/// node can take a while to show on this one. Listing the directory
-/// refreshes NFS's cache of it.
-pub fn wait_for_exit_status(directory: &Path) -> Option<i32> {
-    let deadline = Instant::now() + STATUS_GRACE;
-    loop {
-        let _ = std::fs::read_dir(directory).map(|entries| entries.count());
-        if let Some(status) = read_exit_status(directory) {
-            return Some(status);
-        }
-        if Instant::now() >= deadline {
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    }
 }
 
 /// `(restart count, start time)` the job script wrote when it started.

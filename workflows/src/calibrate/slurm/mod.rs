@@ -41,8 +41,8 @@ use std::time::{Duration, Instant, UNIX_EPOCH};
 
 use self::client::{cancel, is_stuck, query, slurm_command, slurm_exit_code, JobState};
 use self::job_files::{
-    job_script, now_s, read_exit_status, read_number, read_start, wait_for_exit_status,
-    write_whole, CANCELLED_BY_ACQ, EXIT_STATUS, JOB_ID, JOB_SCRIPT, STARTED_AT, SUBMITTED_AT,
+    job_script, now_s, read_exit_status, read_number, read_start, write_whole, CANCELLED_BY_ACQ,
+    EXIT_STATUS, JOB_ID, JOB_SCRIPT, STARTED_AT, STATUS_GRACE, SUBMITTED_AT,
 };
 use super::executor::{end_of_stderr, Execution, Executor, Job};
 
@@ -322,6 +322,8 @@ impl SlurmExecutor {
         let mut last_reason = String::new();
         let mut cancelled_at: Option<Instant> = None;
         let mut restarts_seen = 0;
+        // When Slurm first said the job ended with the script's own status.
+        let mut ended_at: Option<Instant> = None;
         loop {
             self.park_if_interrupted();
             if let Some(status) = read_exit_status(directory) {
@@ -346,11 +348,13 @@ impl SlurmExecutor {
                             eprintln!("acq: Slurm job {id} waits: {}", state.reason);
                         }
                         last_reason.clone_from(&state.reason);
+                        ended_at = None;
                         self.set_phase(id, directory, Phase::Pending(state.reason));
                     }
                     "RUNNING" | "CONFIGURING" | "COMPLETING" | "STAGE_OUT" | "SIGNALING"
                     | "RESIZING" => {
                         let since = *started.get_or_insert_with(Instant::now);
+                        ended_at = None;
                         self.set_phase(id, directory, Phase::Running);
                         // From this run's own start when it wrote it (the
                         // queue's answer may be half a second old), not an
@@ -371,17 +375,23 @@ impl SlurmExecutor {
                     "COMPLETED" | "FAILED" => {
                         // The script ran to its end: its exit status is on
                         // the way (a shared file system may show it late),
-                        // and Slurm has it too.
-                        let status = wait_for_exit_status(directory)
-                            .or_else(|| slurm_exit_code(id))
-                            .ok_or_else(|| {
+                        // and Slurm has it too. Polled with the queue, not
+                        // waited for blindly: a node that fails under the
+                        // job can show it FAILED for a moment before Slurm
+                        // requeues it, and then the rerun's status counts.
+                        let since = *ended_at.get_or_insert_with(Instant::now);
+                        // Listing the directory refreshes NFS's cache of it.
+                        let _ = std::fs::read_dir(directory).map(|entries| entries.count());
+                        if since.elapsed() >= STATUS_GRACE {
+                            let status = slurm_exit_code(id).ok_or_else(|| {
                                 format!(
                                     "Slurm job {id} ended as {} and its exit status is nowhere: {}",
                                     state.state,
                                     end_of_stderr(directory)
                                 )
                             })?;
-                        return solver_outcome(id, status, directory);
+                            return solver_outcome(id, status, directory);
+                        }
                     }
                     ended => {
                         self.park_if_interrupted();

@@ -8,22 +8,28 @@
 //! sensor reads the tip force, which inclinometer which link, which gauge
 //! which measuring point, which pressure sensors which cylinder's chambers.
 //! A cylinder's unloaded chamber keeps its back pressure (given); the
-//! loaded one reads what balances the twin's axial force against it, so
+//! loaded one reads what balances the twin's axial force against it over
+//! the instrumented cylinder's areas (the rig file's bore and rod), so
 //! that the net force `acq extract` computes from both chambers is the
-//! twin's.
+//! twin's axial force whatever bore the twin's geometry has.
 
 use std::collections::BTreeMap;
 
+use acq_drivers::profiles::SensorKind;
+use acq_drivers::rig::Rig;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::inclinations::Inclinations;
 use acq_twins::excavator::{Chamber, CylinderName, Excavator, Inputs};
 
-/// A cylinder's two pressure sensors, by name.
+/// A cylinder's two pressure sensors, by name, and its areas as the rig
+/// file states them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CylinderSensors {
     pub cylinder: CylinderName,
     pub head: String,
     pub rod: String,
+    pub head_area_m2: f64,
+    pub annulus_area_m2: f64,
 }
 
 /// The rig's sensors the twin can drive, by name.
@@ -35,6 +41,41 @@ pub struct RigSensors {
     /// Each strain gauge and its measuring point.
     pub gauges: Vec<(String, u32)>,
     pub cylinders: Vec<CylinderSensors>,
+}
+
+impl RigSensors {
+    /// The sensors of `rig` the twin drives: `tip_force` and the three
+    /// `inclinometers` (boom, arm, bucket) by name, every strain sensor
+    /// with a `location` (its measuring point), and every `[[cylinder]]`
+    /// named after one of the twin's (bucket, arm, boom).
+    pub fn of_rig(rig: &Rig, tip_force: &str, inclinometers: [&str; 3]) -> RigSensors {
+        RigSensors {
+            tip_force: tip_force.to_string(),
+            inclinometers: inclinometers.map(str::to_string),
+            gauges: rig
+                .sensors
+                .iter()
+                .filter(|s| s.kind == SensorKind::Strain)
+                .filter_map(|s| Some((s.name.clone(), s.location?)))
+                .collect(),
+            cylinders: rig
+                .cylinders
+                .iter()
+                .filter_map(|c| {
+                    let cylinder = CylinderName::ALL
+                        .into_iter()
+                        .find(|name| name.to_string() == c.name)?;
+                    Some(CylinderSensors {
+                        cylinder,
+                        head: rig.sensors[c.head_sensor].name.clone(),
+                        rod: rig.sensors[c.rod_sensor].name.clone(),
+                        head_area_m2: c.bore.head_area_mm2() * 1e-6,
+                        annulus_area_m2: c.bore.annulus_area_mm2() * 1e-6,
+                    })
+                })
+                .collect(),
+        }
+    }
 }
 
 /// One condition of a test: where the attachment stands and what it holds.
@@ -89,7 +130,6 @@ pub fn hold_levels(
     }
     for sensors in &rig.cylinders {
         let result = evaluation.cylinder(sensors.cylinder);
-        let cylinder = geometry.cylinder(sensors.cylinder);
         let back = |name: &str| back_pressure_bar.get(name).copied().unwrap_or(0.0);
         // Net force (N) = p_head A_head - p_rod A_annulus, with the
         // unloaded chamber at its back pressure.
@@ -97,14 +137,14 @@ pub fn hold_levels(
         let (head_bar, rod_bar) = match result.loaded_chamber {
             Chamber::Head => {
                 let rod_bar = back(&sensors.rod);
-                let head_pa = (force_n + rod_bar * 1e5 * cylinder.annulus_area_m2())
-                    / cylinder.head_area_m2();
+                let head_pa =
+                    (force_n + rod_bar * 1e5 * sensors.annulus_area_m2) / sensors.head_area_m2;
                 (head_pa * 1e-5, rod_bar)
             }
             Chamber::Rod => {
                 let head_bar = back(&sensors.head);
-                let rod_pa = (head_bar * 1e5 * cylinder.head_area_m2() - force_n)
-                    / cylinder.annulus_area_m2();
+                let rod_pa =
+                    (head_bar * 1e5 * sensors.head_area_m2 - force_n) / sensors.annulus_area_m2;
                 (head_bar, rod_pa * 1e-5)
             }
         };

@@ -6,11 +6,16 @@
 //! cases, shared and per-case parameters, and any number of the geometry
 //! file as a parameter.
 //!
-//! Inputs, by name: the operating inputs `bucket_stroke_mm`,
-//! `arm_stroke_mm`, `boom_stroke_mm`, `force_angle_deg` and `force_kN` (each
-//! a parameter or a case's fixed input), and geometry numbers by their key
+//! Inputs, by name: the operating inputs, a pose and a load (each a
+//! parameter or a case's fixed input), and geometry numbers by their key
 //! path in the geometry file (`bucket.mass_kg`,
-//! `base.boom_cylinder_pin_m[1]`). When a geometry number changes, the
+//! `base.boom_cylinder_pin_m[1]`). The pose is either the strokes
+//! (`bucket_stroke_mm`, `arm_stroke_mm`, `boom_stroke_mm`) or the links'
+//! inclinations as the rig's inclinometers read them
+//! (`boom_inclination_deg`, `arm_inclination_deg`,
+//! `bucket_inclination_deg`: the strokes are solved for in the geometry
+//! of the run, and kept while no number that moves a pin changes); the
+//! load is `force_kN` at `force_angle_deg`. When a geometry number changes, the
 //! fitted pose numbers (each cylinder's barrel pin along its rod pin's
 //! travel, and its retracted length) are re-fitted to the published poses
 //! ([`acq_twins::excavator::pose_fit`]), so Cases 1 and 2 still stand where
@@ -35,6 +40,7 @@ use std::sync::{Arc, Mutex};
 use acq_twins::excavator::envelope::working_envelope;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_twins::excavator::geometry_file::{rewrite_geometry_file, ChangedNumber};
+use acq_twins::excavator::inclinations::Inclinations;
 use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
 use acq_twins::excavator::{CylinderName, Excavator, Inputs, Strokes};
 
@@ -43,13 +49,37 @@ use crate::excavator_report::{envelope_json, evaluation_json};
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 
 /// The operating inputs the twin takes by name.
-pub const OPERATING_INPUTS: [&str; 5] = [
+pub const OPERATING_INPUTS: [&str; 8] = [
     "bucket_stroke_mm",
     "arm_stroke_mm",
     "boom_stroke_mm",
     "force_angle_deg",
     "force_kN",
+    "boom_inclination_deg",
+    "arm_inclination_deg",
+    "bucket_inclination_deg",
 ];
+
+/// The pose as the inclinometers give it (instead of the strokes).
+pub const INCLINATION_INPUTS: [&str; 3] = [
+    "boom_inclination_deg",
+    "arm_inclination_deg",
+    "bucket_inclination_deg",
+];
+
+/// Whether a geometry number can move a pin or a link (so the strokes of
+/// a pose given by inclinations change with it): all but masses, centres
+/// of mass, the structure's sections and material, and the bores.
+fn moves_the_linkage(key_path: &str) -> bool {
+    !(key_path.contains("mass_kg")
+        || key_path.contains("centre_of_mass")
+        || key_path.contains("structure.")
+        || key_path.starts_with("material")
+        || key_path.ends_with("bore_mm")
+        || key_path.ends_with("rod_mm")
+        || key_path.starts_with("gauge")
+        || key_path.contains("relief_pressure"))
+}
 
 /// The excavator twin behind a study.
 pub struct ExcavatorModel {
@@ -61,7 +91,14 @@ pub struct ExcavatorModel {
     /// The last changed geometry (its key paths and values), its twin, and
     /// the numbers of the geometry itself once asked for.
     last: Mutex<Option<Built>>,
+    /// Strokes solved from inclinations, by the inclinations and the
+    /// numbers that move the linkage (their bits): a study at the rig asks
+    /// for the same holds' poses at every step of its sampler.
+    strokes: Mutex<HashMap<Vec<u64>, Strokes>>,
 }
+
+/// How many solved poses are kept before the cache starts again.
+const STROKES_KEPT: usize = 4096;
 
 /// A twin built for a changed geometry.
 struct Built {
@@ -93,6 +130,7 @@ impl ExcavatorModel {
             twin: Arc::new(twin),
             poses: refit.then(published_poses),
             last: Mutex::new(None),
+            strokes: Mutex::new(HashMap::new()),
         })
     }
 
@@ -234,6 +272,45 @@ impl ExcavatorModel {
     }
 }
 
+impl ExcavatorModel {
+    /// The strokes of the pose with `inclinations` in `twin`'s geometry
+    /// (`geometry`: the numbers changed in it), cached while no number that
+    /// moves the linkage changes.
+    fn strokes_at(
+        &self,
+        inclinations: &Inclinations,
+        geometry: &[(&str, f64)],
+        twin: &Excavator,
+    ) -> Result<Strokes, String> {
+        let mut key: Vec<u64> = [
+            inclinations.boom_deg,
+            inclinations.arm_deg,
+            inclinations.bucket_deg,
+        ]
+        .iter()
+        .map(|x| x.to_bits())
+        .collect();
+        key.extend(
+            geometry
+                .iter()
+                .filter(|(path, _)| moves_the_linkage(path))
+                .map(|(_, value)| value.to_bits()),
+        );
+        let mut cache = self.strokes.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(strokes) = cache.get(&key) {
+            return Ok(*strokes);
+        }
+        let strokes = inclinations
+            .strokes(twin.geometry())
+            .map_err(|e| format!("the pose of inclinations {inclinations:?}: {e}"))?;
+        if cache.len() >= STROKES_KEPT {
+            cache.clear();
+        }
+        cache.insert(key, strokes);
+        Ok(strokes)
+    }
+}
+
 impl Model for ExcavatorModel {
     /// About 14 microseconds a run (a changed geometry's re-fit is cached).
     fn is_cheap(&self) -> bool {
@@ -274,12 +351,25 @@ impl Model for ExcavatorModel {
                     format!("the excavator twin needs {name}: make it a parameter or a case input")
                 })
             };
-            let inputs = Inputs {
-                strokes: Strokes {
+            let by_inclinations = INCLINATION_INPUTS
+                .iter()
+                .any(|name| operating.contains_key(name));
+            let strokes = if by_inclinations {
+                let inclinations = Inclinations {
+                    boom_deg: operating_input("boom_inclination_deg")?,
+                    arm_deg: operating_input("arm_inclination_deg")?,
+                    bucket_deg: operating_input("bucket_inclination_deg")?,
+                };
+                self.strokes_at(&inclinations, &geometry, &twin)?
+            } else {
+                Strokes {
                     bucket_mm: operating_input("bucket_stroke_mm")?,
                     arm_mm: operating_input("arm_stroke_mm")?,
                     boom_mm: operating_input("boom_stroke_mm")?,
-                },
+                }
+            };
+            let inputs = Inputs {
+                strokes,
                 tip_force_kn: operating_input("force_kN")?,
                 tip_force_angle_deg: operating_input("force_angle_deg")?,
             };
@@ -393,5 +483,91 @@ impl Model for GtnModel {
             scalars: Vec::new(),
             curves: curves.iter().map(|_| curve.clone()).collect(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use acq_twins::excavator::geometry::Geometry;
+    use acq_twins::excavator::pose_fit::published_poses;
+
+    use super::*;
+
+    fn inputs(pairs: &[(&str, f64)]) -> Vec<(String, f64)> {
+        pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+    }
+
+    /// A pose by the links' inclinations gives the twin's outputs at the
+    /// strokes of that pose: the published Case-1 pose, by its points.
+    /// A changed mass (not moving the linkage) keeps the solved strokes
+    /// and changes the pressures; a moved pin solves them again.
+    #[test]
+    fn a_pose_by_inclinations_is_the_pose_by_strokes() {
+        let model = ExcavatorModel::new(GeometryTemplate::dx55(), false).unwrap();
+        let pose = &published_poses()[0];
+        let direction =
+            |from: [f64; 2], to: [f64; 2]| (to[1] - from[1]).atan2(to[0] - from[0]).to_degrees();
+        let inclinations = Inclinations {
+            boom_deg: direction([0.0, 0.0], pose.b),
+            arm_deg: direction(pose.b, pose.g),
+            bucket_deg: direction(pose.g, pose.j),
+        };
+        let strokes = inclinations.strokes(&Geometry::dx55()).unwrap();
+        let load = [("force_kN", 40.6), ("force_angle_deg", -10.0)];
+        let outputs = [
+            "pressure_bar.boom",
+            "pressure_bar.arm",
+            "gauge_stress_MPa[3]",
+        ];
+        let by_inclinations = |extra: &[(&str, f64)]| {
+            let mut pairs = vec![
+                ("boom_inclination_deg", inclinations.boom_deg),
+                ("arm_inclination_deg", inclinations.arm_deg),
+                ("bucket_inclination_deg", inclinations.bucket_deg),
+            ];
+            pairs.extend_from_slice(&load);
+            pairs.extend_from_slice(extra);
+            model.run(&inputs(&pairs), &outputs, &[]).unwrap().scalars
+        };
+        let by_strokes = |extra: &[(&str, f64)]| {
+            let mut pairs = vec![
+                ("boom_stroke_mm", strokes.boom_mm),
+                ("arm_stroke_mm", strokes.arm_mm),
+                ("bucket_stroke_mm", strokes.bucket_mm),
+            ];
+            pairs.extend_from_slice(&load);
+            pairs.extend_from_slice(extra);
+            model.run(&inputs(&pairs), &outputs, &[]).unwrap().scalars
+        };
+        assert_eq!(by_inclinations(&[]), by_strokes(&[]));
+        let heavier = [("bucket.mass_kg", 400.0)];
+        assert_eq!(by_inclinations(&heavier), by_strokes(&heavier));
+        assert_ne!(by_inclinations(&heavier), by_inclinations(&[]));
+        // A pin moved 5 cm: the same inclinations are other strokes.
+        let moved = [("boom.boom_cylinder_pin_m[0]", 1.59)];
+        let geometry = GeometryTemplate::dx55().with(&moved).unwrap();
+        let moved_strokes = inclinations.strokes(&geometry).unwrap();
+        assert!((moved_strokes.boom_mm - strokes.boom_mm).abs() > 1.0);
+        let relative = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| ((x - y) / y).abs())
+                .fold(0.0, f64::max)
+        };
+        let pairs = |s: &Strokes| {
+            let mut pairs = vec![
+                ("boom_stroke_mm", s.boom_mm),
+                ("arm_stroke_mm", s.arm_mm),
+                ("bucket_stroke_mm", s.bucket_mm),
+            ];
+            pairs.extend_from_slice(&load);
+            pairs.extend_from_slice(&moved);
+            pairs
+        };
+        let expected = model
+            .run(&inputs(&pairs(&moved_strokes)), &outputs, &[])
+            .unwrap()
+            .scalars;
+        assert!(relative(&by_inclinations(&moved), &expected) < 1e-9);
     }
 }

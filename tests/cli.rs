@@ -613,7 +613,7 @@ fn the_excavator_twin_drives_the_virtual_rig_and_acq_extract_reads_its_levels() 
     let rig_file =
         acq_drivers::rig::Rig::load(std::path::Path::new("fixtures/rigs/excavator.toml")).unwrap();
     let rig = RigSensors::of_rig(
-        &rig_file,
+        &acq_analysis::extract::quantities::RigQuantities::of(&rig_file),
         "tip_force",
         ["boom_inclination", "arm_inclination", "bucket_inclination"],
     );

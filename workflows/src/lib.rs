@@ -22,6 +22,7 @@ pub mod abaqus_material;
 pub mod calibrate;
 pub mod excavator_report;
 pub mod mesh_convergence;
+pub mod rig_study;
 pub mod sensitivity;
 pub mod tensile_model;
 pub mod tensile_report;

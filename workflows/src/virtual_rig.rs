@@ -15,8 +15,7 @@
 
 use std::collections::BTreeMap;
 
-use acq_drivers::profiles::SensorKind;
-use acq_drivers::rig::Rig;
+use acq_analysis::extract::quantities::RigQuantities;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::inclinations::Inclinations;
 use acq_twins::excavator::{Chamber, CylinderName, Excavator, Inputs};
@@ -44,33 +43,28 @@ pub struct RigSensors {
 }
 
 impl RigSensors {
-    /// The sensors of `rig` the twin drives: `tip_force` and the three
+    /// The sensors of a rig the twin drives: `tip_force` and the three
     /// `inclinometers` (boom, arm, bucket) by name, every strain sensor
-    /// with a `location` (its measuring point), and every `[[cylinder]]`
-    /// named after one of the twin's (bucket, arm, boom).
-    pub fn of_rig(rig: &Rig, tip_force: &str, inclinometers: [&str; 3]) -> RigSensors {
+    /// with a measuring point, and every cylinder named after one of the
+    /// twin's (bucket, arm, boom).
+    pub fn of_rig(rig: &RigQuantities, tip_force: &str, inclinometers: [&str; 3]) -> RigSensors {
         RigSensors {
             tip_force: tip_force.to_string(),
             inclinometers: inclinometers.map(str::to_string),
-            gauges: rig
-                .sensors
-                .iter()
-                .filter(|s| s.kind == SensorKind::Strain)
-                .filter_map(|s| Some((s.name.clone(), s.location?)))
-                .collect(),
+            gauges: rig.gauges(),
             cylinders: rig
                 .cylinders
                 .iter()
                 .filter_map(|c| {
                     let cylinder = CylinderName::ALL
                         .into_iter()
-                        .find(|name| name.to_string() == c.name)?;
+                        .find(|name| name.as_str() == c.name)?;
                     Some(CylinderSensors {
                         cylinder,
-                        head: rig.sensors[c.head_sensor].name.clone(),
-                        rod: rig.sensors[c.rod_sensor].name.clone(),
-                        head_area_m2: c.bore.head_area_mm2() * 1e-6,
-                        annulus_area_m2: c.bore.annulus_area_mm2() * 1e-6,
+                        head: c.head.clone(),
+                        rod: c.rod.clone(),
+                        head_area_m2: c.head_area_m2,
+                        annulus_area_m2: c.annulus_area_m2,
                     })
                 })
                 .collect(),

@@ -15,6 +15,7 @@ pub mod holds;
 pub mod live;
 pub mod measured;
 pub mod plausibility;
+pub mod quantities;
 pub mod run;
 pub mod stats;
 pub mod tensile;

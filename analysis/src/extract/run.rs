@@ -345,7 +345,7 @@ fn cylinder_values(
             window: window.to_string(),
             start_s,
             end_s,
-            quantity: format!("{}_net_force", cylinder.name),
+            quantity: net_force_quantity(&cylinder.name),
             unit: "kN".into(),
             stats: WindowStats {
                 n,
@@ -366,7 +366,7 @@ fn cylinder_values(
             window: window.to_string(),
             start_s,
             end_s,
-            quantity: format!("{}_loaded_pressure", cylinder.name),
+            quantity: loaded_pressure_quantity(&cylinder.name),
             unit: "bar".into(),
             stats: loaded,
             flags: flags[sensor].iter().map(|f| f.code.clone()).collect(),
@@ -374,6 +374,16 @@ fn cylinder_values(
         });
     }
     values
+}
+
+/// The quantity of a cylinder's net force (kN) in a hold.
+pub fn net_force_quantity(cylinder: &str) -> String {
+    format!("{cylinder}_net_force")
+}
+
+/// The quantity of a cylinder's loaded chamber pressure (bar) in a hold.
+pub fn loaded_pressure_quantity(cylinder: &str) -> String {
+    format!("{cylinder}_loaded_pressure")
 }
 
 /// What `acq extract --tensile` produced.

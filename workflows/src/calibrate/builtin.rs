@@ -31,8 +31,9 @@
 //! length less its longest stroke). A case that observes only these needs
 //! no operating inputs.
 //!
-//! The last changed geometry's twin and envelope are kept: the cases of one
-//! evaluation share the geometry, so only the first builds it.
+//! The last few changed geometries' twins and envelopes are kept: the
+//! cases of one evaluation share the geometry, so only the first builds it
+//! (one geometry per sampler chain at work).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -88,17 +89,21 @@ pub struct ExcavatorModel {
     twin: Arc<Excavator>,
     /// The poses a changed geometry is re-fitted to; `None`: no re-fit.
     poses: Option<[ReferencePose; 2]>,
-    /// The last changed geometry (its key paths and values), its twin, and
-    /// the numbers of the geometry itself once asked for.
-    last: Mutex<Option<Built>>,
+    /// The last changed geometries (their key paths and values, the newest
+    /// first), their twins, and the numbers of each geometry itself once
+    /// asked for: one per sampler chain at work.
+    last: Mutex<Vec<Built>>,
     /// Strokes solved from inclinations, by the inclinations and the
     /// numbers that move the linkage (their bits): a study at the rig asks
     /// for the same holds' poses at every step of its sampler.
     strokes: Mutex<HashMap<Vec<u64>, Strokes>>,
 }
 
+/// Changed geometries kept: more than the threads that evaluate at once.
+const GEOMETRIES_KEPT: usize = 8;
+
 /// How many solved poses are kept before the cache starts again.
-const STROKES_KEPT: usize = 4096;
+const STROKES_KEPT: usize = 65_536;
 
 /// A twin built for a changed geometry.
 struct Built {
@@ -129,7 +134,7 @@ impl ExcavatorModel {
             template,
             twin: Arc::new(twin),
             poses: refit.then(published_poses),
-            last: Mutex::new(None),
+            last: Mutex::new(Vec::new()),
             strokes: Mutex::new(HashMap::new()),
         })
     }
@@ -153,7 +158,6 @@ impl ExcavatorModel {
             }
             Ok(Arc::new(numbers))
         };
-        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
         let same = |built: &Built| {
             built.geometry.len() == geometry.len()
                 && built
@@ -162,23 +166,44 @@ impl ExcavatorModel {
                     .zip(geometry)
                     .all(|((a, x), (b, y))| a == b && x.to_bits() == y.to_bits())
         };
-        if !last.as_ref().is_some_and(same) {
-            let twin = if geometry.is_empty() {
-                self.twin.clone()
-            } else {
-                let mut changed = self.template.with(geometry)?;
-                if let Some(poses) = &self.poses {
-                    refit_poses(&mut changed, poses)?;
-                }
-                Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?)
-            };
-            *last = Some(Built {
-                geometry: geometry.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
-                twin,
-                of_geometry: None,
-            });
-        }
-        let built = last.as_mut().expect("set above");
+        let lock = || self.last.lock().unwrap_or_else(|e| e.into_inner());
+        let found = lock().iter().position(same);
+        let index = match found {
+            Some(index) => index,
+            None => {
+                // Built outside the lock: chains sampled in parallel each
+                // build their own point's twin at once.
+                let twin = if geometry.is_empty() {
+                    self.twin.clone()
+                } else {
+                    let mut changed = self.template.with(geometry)?;
+                    if let Some(poses) = &self.poses {
+                        refit_poses(&mut changed, poses)?;
+                    }
+                    Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?)
+                };
+                let mut last = lock();
+                last.insert(
+                    0,
+                    Built {
+                        geometry: geometry.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+                        twin,
+                        of_geometry: None,
+                    },
+                );
+                last.truncate(GEOMETRIES_KEPT);
+                0
+            }
+        };
+        let mut last = lock();
+        let built = match last.get_mut(index).filter(|b| same(b)) {
+            Some(built) => built,
+            // Another thread moved it meanwhile: find it again.
+            None => match last.iter().position(same) {
+                Some(k) => &mut last[k],
+                None => return Err("the twin's cache lost a geometry it had just built".into()),
+            },
+        };
         if envelope && built.of_geometry.is_none() {
             built.of_geometry = Some(envelope_of(&built.twin)?);
         }

@@ -59,17 +59,7 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
             geometry,
             refit_poses,
         } => {
-            let template = match geometry {
-                Some(file) => {
-                    let path = spec.directory.join(file);
-                    let text =
-                        std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
-                    acq_io::input::note_input(&path);
-                    GeometryTemplate::parse(&text)
-                        .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?
-                }
-                None => GeometryTemplate::dx55(),
-            };
+            let template = geometry_template(&spec.directory, geometry.as_deref())?;
             let model = ExcavatorModel::new(template, *refit_poses)
                 .map_err(|e| in_spec(format!("geometry: {e}")))?;
             // The twin is cheap: every case is tried at the nominal point
@@ -104,6 +94,24 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The excavator's geometry file named by a spec (relative to its
+/// directory), else the shipped one.
+pub(crate) fn geometry_template(
+    spec_directory: &std::path::Path,
+    geometry: Option<&str>,
+) -> Result<GeometryTemplate> {
+    match geometry {
+        Some(file) => {
+            let path = spec_directory.join(file);
+            let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
+            acq_io::input::note_input(&path);
+            GeometryTemplate::parse(&text)
+                .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))
+        }
+        None => Ok(GeometryTemplate::dx55()),
+    }
 }
 
 /// Where a command's runs happen.

@@ -137,7 +137,7 @@ pub struct SearchResult<'a> {
 
 /// The model's fit outputs at a point and each observation's emulator
 /// variance (empty for the model itself); `None` where it fails.
-type ModelAt<'a> = dyn Fn(&[f64]) -> Option<(Vec<f64>, Vec<f64>)> + Sync + 'a;
+pub(crate) type ModelAt<'a> = dyn Fn(&[f64]) -> Option<(Vec<f64>, Vec<f64>)> + Sync + 'a;
 
 /// Samples the posterior of `study` around the search's result and runs
 /// the predictive runs; writes `posterior.csv` and `predictive.csv`.
@@ -162,17 +162,6 @@ pub fn run_posterior(
         .zip(&density.coordinates)
         .map(|(&x, c)| inside(c.support, x))
         .collect();
-    let sampler = SamplerSettings {
-        chains: settings.chains,
-        draws: settings.draws,
-        // The proposal's covariance needs more steps to settle in more dimensions.
-        warmup: settings
-            .draws
-            .max(2000)
-            .max(500 * density.coordinates.len()),
-        thin: None,
-        seed: settings.seed,
-    };
     let direct = |point: &[f64]| simulator.evaluate(point).ok().map(|o| (o, Vec::new()));
     let emulator;
     let (at, how): (&ModelAt<'_>, String) = if model.is_cheap() {
@@ -194,26 +183,7 @@ pub fn run_posterior(
         emulator = refined;
         (&|point: &[f64]| Some(emulator.predict(point)), how)
     };
-    let mut chains = sample_on(&density, at, &centre, &sampler, "posterior")?;
-    let mut sampler = sampler;
-    let coordinates: Vec<String> = density.coordinates.iter().map(|c| c.name.clone()).collect();
-    let mut extended = String::new();
-    let first = unconverged(&coordinates, &chains.summaries(), sampler.chains);
-    if !first.is_empty() {
-        // Once, four times as long: a slowly mixing posterior (a ridge the
-        // random walk crawls along) usually converges so; the report says
-        // whether it did.
-        extended = format!(
-            "; extended to {} draws per chain, since after {} {} had not converged",
-            EXTENSION * sampler.draws,
-            sampler.draws,
-            first.join(", ")
-        );
-        eprintln!("posterior: not converged yet{extended}");
-        sampler.draws *= EXTENSION;
-        sampler.seed = sampler.seed.wrapping_add(1);
-        chains = sample_on(&density, at, &centre, &sampler, "posterior (extended)")?;
-    }
+    let (chains, sampler, extended) = sample_converged(&density, at, &centre, settings)?;
     let outputs = outputs_at_draws(&chains, at);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(3));
     let scales: Vec<Scales> = outputs
@@ -291,6 +261,73 @@ pub fn run_posterior(
             ..settings.clone()
         },
     })
+}
+
+/// The sampler's settings for `settings` in `dimensions` coordinates.
+fn sampler_settings(settings: &PosteriorSettings, dimensions: usize) -> SamplerSettings {
+    SamplerSettings {
+        chains: settings.chains,
+        draws: settings.draws,
+        // The proposal's covariance needs more steps to settle in more dimensions.
+        warmup: settings.draws.max(2000).max(500 * dimensions),
+        thin: None,
+        seed: settings.seed,
+    }
+}
+
+/// Samples `density` with the outputs from `at`, the chains started
+/// around `centre`; when a column has not converged, once more four times
+/// as long. The chains, the sampler as last run, and a sentence on the
+/// extension (empty without one).
+pub(crate) fn sample_converged(
+    density: &StudyPosterior,
+    at: &ModelAt<'_>,
+    centre: &[f64],
+    settings: &PosteriorSettings,
+) -> Result<(Chains, SamplerSettings, String)> {
+    let mut sampler = sampler_settings(settings, density.coordinates.len());
+    let mut chains = sample_on(density, at, centre, &sampler, "posterior")?;
+    let coordinates: Vec<String> = density.coordinates.iter().map(|c| c.name.clone()).collect();
+    let mut extended = String::new();
+    let first = unconverged(&coordinates, &chains.summaries(), sampler.chains);
+    if !first.is_empty() {
+        // Once, four times as long: a slowly mixing posterior (a ridge the
+        // random walk crawls along) usually converges so; the report says
+        // whether it did.
+        extended = format!(
+            "; extended to {} draws per chain, since after {} {} had not converged",
+            EXTENSION * sampler.draws,
+            sampler.draws,
+            first.join(", ")
+        );
+        eprintln!("posterior: not converged yet{extended}");
+        sampler.draws *= EXTENSION;
+        sampler.seed = sampler.seed.wrapping_add(1);
+        chains = sample_on(density, at, centre, &sampler, "posterior (extended)")?;
+    }
+    Ok((chains, sampler, extended))
+}
+
+/// The posterior of a study on a cheap model ([`Model::is_cheap`]),
+/// sampled directly from `centre` (moved inside the box): no files, no
+/// predictive runs. What a study at the rig runs after each hold; the
+/// chains and the sentence on the extension, if any.
+pub fn sample_directly(
+    study: &Study,
+    model: &dyn Model,
+    settings: &PosteriorSettings,
+    centre: &[f64],
+) -> Result<(StudyPosterior, Chains, String)> {
+    let density = StudyPosterior::new(study, settings.discrepancy, 0).map_err(AcqError::Config)?;
+    let simulator = StudySimulator::new(study, model, Role::Fit);
+    let centre: Vec<f64> = centre
+        .iter()
+        .zip(&density.coordinates)
+        .map(|(&x, c)| inside(c.support, x))
+        .collect();
+    let at = |point: &[f64]| simulator.evaluate(point).ok().map(|o| (o, Vec::new()));
+    let (chains, _, extended) = sample_converged(&density, &at, &centre, settings)?;
+    Ok((density, chains, extended))
 }
 
 /// Samples the density with the model's outputs from `at`, the chains

@@ -172,7 +172,10 @@ fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, Spec
 }
 
 /// The `[[parameter]]`s: shared, or one fit case's own.
-fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>, SpecProblem> {
+pub(crate) fn parameters(
+    file: &SpecFile,
+    cases: &[Case],
+) -> Result<Vec<StudyParameter>, SpecProblem> {
     let mut parameters = Vec::new();
     for (index, p) in file.parameters.iter().enumerate() {
         let here = |message: String| {

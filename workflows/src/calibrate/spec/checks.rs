@@ -52,6 +52,11 @@ pub fn model(file: &SpecFile) -> Result<ModelKind, SpecProblem> {
 /// The observations are given one way: `[[output]]`s and `[[curve]]`s
 /// without cases, or each case's `measured` table; each name once.
 pub fn observations_given(file: &SpecFile) -> Result<(), SpecProblem> {
+    if file.cases.is_empty() && file.outputs.is_empty() && file.holds.is_some() {
+        return Err(SpecProblem::file(
+            "a study at the rig ([holds]) takes its cases from a recording's holds: run it with `acq record --study` or `acq view SESSION_DIR --study`",
+        ));
+    }
     if file.cases.is_empty() && file.outputs.is_empty() && file.curves.is_empty() {
         return Err(SpecProblem::file(
             "no [[output]] with a measured value, no [[curve]] to compare and no [[case]]",

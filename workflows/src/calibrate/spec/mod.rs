@@ -152,17 +152,24 @@ pub fn spec_directory(spec: &Path) -> PathBuf {
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
+/// A spec file's text and its tables as written (types checked, nothing
+/// else).
+pub fn read_spec_file(path: &Path) -> Result<(String, SpecFile), SpecError> {
+    let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+    acq_io::input::note_input(path);
+    let file: SpecFile = toml::from_str(&text).map_err(|e| SpecError::Invalid {
+        path: path.to_path_buf(),
+        line: None,
+        message: e.to_string(),
+    })?;
+    Ok((text, file))
+}
+
 impl Spec {
     /// Reads and checks a spec and the measured files it names; errors
     /// name the file (and the line of the table at fault) and what to fix.
     pub fn load(path: &Path) -> Result<Spec, SpecError> {
-        let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
-        acq_io::input::note_input(path);
-        let file: SpecFile = toml::from_str(&text).map_err(|e| SpecError::Invalid {
-            path: path.to_path_buf(),
-            line: None,
-            message: e.to_string(),
-        })?;
+        let (text, file) = read_spec_file(path)?;
         let located = |problem: SpecProblem| problem.located(path, &text);
         let directory = spec_directory(path);
         let model = checks::model(&file).map_err(located)?;

@@ -41,6 +41,8 @@ pub struct SpecProblem {
     /// The `[[table]]` header and which of them (0-based), when the problem
     /// is in one.
     table: Option<(&'static str, usize)>,
+    /// A key of a `[table]` (its header, the key), when the problem is in one.
+    key: Option<(&'static str, String)>,
     message: String,
     /// A measured file that cannot be read as data (exit code 3), rather
     /// than a spec that asks for the wrong thing (2).
@@ -52,6 +54,7 @@ impl SpecProblem {
     pub fn file(message: impl Into<String>) -> Self {
         SpecProblem {
             table: None,
+            key: None,
             message: message.into(),
             malformed_input: None,
         }
@@ -61,6 +64,14 @@ impl SpecProblem {
     pub fn table(header: &'static str, index: usize, message: impl Into<String>) -> Self {
         SpecProblem {
             table: Some((header, index)),
+            ..SpecProblem::file(message)
+        }
+    }
+
+    /// A problem with `key` of the `header` table (`[holds.observe]`).
+    pub fn key(header: &'static str, key: &str, message: impl Into<String>) -> Self {
+        SpecProblem {
+            key: Some((header, key.to_string())),
             ..SpecProblem::file(message)
         }
     }
@@ -80,11 +91,47 @@ impl SpecProblem {
         }
         SpecError::Invalid {
             path: path.to_path_buf(),
-            line: self
-                .table
-                .map(|(header, index)| table_line(text, header, index)),
+            line: match (self.table, &self.key) {
+                (Some((header, index)), _) => Some(table_line(text, header, index)),
+                (None, Some((header, key))) => Some(key_line(text, header, key)),
+                (None, None) => None,
+            },
             message: self.message,
         }
+    }
+}
+
+/// The 1-based line of `key` in the `[header]` table: the first line
+/// after the header that sets it (bare or quoted), else the header's;
+/// without the header, the first line that sets `name.key` or the key.
+fn key_line(text: &str, header: &str, key: &str) -> usize {
+    let sets = |line: &str, key: &str| {
+        let line = line.trim_start();
+        [key.to_string(), format!("\"{key}\"")].iter().any(|k| {
+            line.strip_prefix(k.as_str())
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+    };
+    let lines: Vec<&str> = text.lines().collect();
+    let dotted = format!(
+        "{}.{key}",
+        header
+            .trim_start_matches('[')
+            .trim_end_matches(']')
+            .rsplit('.')
+            .next()
+            .unwrap_or("")
+    );
+    match lines.iter().position(|line| line.trim() == header) {
+        Some(start) => lines[start + 1..]
+            .iter()
+            .take_while(|line| !line.trim_start().starts_with('['))
+            .position(|line| sets(line, key))
+            .map_or(start + 1, |offset| start + offset + 2),
+        None => lines
+            .iter()
+            .position(|line| sets(line, &dotted) || sets(line, key))
+            .map_or(1, |index| index + 1),
     }
 }
 

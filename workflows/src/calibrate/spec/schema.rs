@@ -58,6 +58,45 @@ pub struct SpecFile {
     pub search: Search,
     /// `[posterior]`: sample the posterior after the search.
     pub posterior: Option<PosteriorSpec>,
+    /// `[holds]`: a study at the rig, whose cases are the holds of a
+    /// recording ([`crate::rig_study`]).
+    pub holds: Option<HoldsSpec>,
+    /// `[candidates]`: the conditions an operator can set, by input name:
+    /// a list of values or `{ from, to, steps }`; every combination is a
+    /// candidate for the next test point.
+    #[serde(default)]
+    pub candidates: BTreeMap<String, CandidateValues>,
+}
+
+/// `[holds]`: how a hold's measured values become a case. Each entry is
+/// read by [`crate::rig_study::mapping`]: a number (a fixed input), a
+/// quantity's name, or `{ quantity, uncertainty, instrument }`.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HoldsSpec {
+    /// The model's inputs, by input name.
+    #[serde(default)]
+    pub inputs: BTreeMap<String, toml::Value>,
+    /// The observations, by the model's output name.
+    #[serde(default)]
+    pub observe: BTreeMap<String, toml::Value>,
+}
+
+/// One input's candidate values.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum CandidateValues {
+    List(Vec<f64>),
+    Range(CandidateRange),
+}
+
+/// `{ from, to, steps }`: `steps` values evenly from `from` to `to`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CandidateRange {
+    pub from: f64,
+    pub to: f64,
+    pub steps: usize,
 }
 
 /// `[posterior]`: the posterior stage after the search.

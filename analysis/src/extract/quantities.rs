@@ -1,0 +1,98 @@
+//! What a rig's holds carry, as the analysis stage names it: every
+//! quantity `acq extract` writes (each sensor, and each cylinder's net
+//! force and loaded chamber pressure) with its unit, kind, measuring
+//! point and stated range, and each cylinder's chambers and areas. A
+//! study reads a rig through this, knowing nothing of buses or frames.
+
+use acq_drivers::profiles::SensorKind;
+use acq_drivers::rig::Rig;
+
+use super::run::{loaded_pressure_quantity, net_force_quantity};
+
+/// One quantity of a hold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HoldQuantity {
+    pub name: String,
+    pub unit: &'static str,
+    /// The sensor kind, for a sensor's own reading (`None` for a
+    /// cylinder's derived values).
+    pub kind: Option<SensorKind>,
+    /// The measuring point a strain sensor sits at (`location`).
+    pub location: Option<u32>,
+    /// The full scale the rig file states, in the unit.
+    pub range: Option<[f64; 2]>,
+}
+
+/// A cylinder: its chambers' sensors and areas as the rig file states them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CylinderQuantities {
+    pub name: String,
+    pub head: String,
+    pub rod: String,
+    pub head_area_m2: f64,
+    pub annulus_area_m2: f64,
+}
+
+/// What a rig's holds carry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RigQuantities {
+    pub quantities: Vec<HoldQuantity>,
+    pub cylinders: Vec<CylinderQuantities>,
+}
+
+impl RigQuantities {
+    pub fn of(rig: &Rig) -> RigQuantities {
+        let mut quantities: Vec<HoldQuantity> = rig
+            .sensors
+            .iter()
+            .map(|s| HoldQuantity {
+                name: s.name.clone(),
+                unit: s.unit(),
+                kind: Some(s.kind),
+                location: s.location,
+                range: s.range,
+            })
+            .collect();
+        for cylinder in &rig.cylinders {
+            for (name, unit) in [
+                (net_force_quantity(&cylinder.name), "kN"),
+                (loaded_pressure_quantity(&cylinder.name), "bar"),
+            ] {
+                quantities.push(HoldQuantity {
+                    name,
+                    unit,
+                    kind: None,
+                    location: None,
+                    range: None,
+                });
+            }
+        }
+        RigQuantities {
+            quantities,
+            cylinders: rig
+                .cylinders
+                .iter()
+                .map(|c| CylinderQuantities {
+                    name: c.name.clone(),
+                    head: rig.sensors[c.head_sensor].name.clone(),
+                    rod: rig.sensors[c.rod_sensor].name.clone(),
+                    head_area_m2: c.bore.head_area_mm2() * 1e-6,
+                    annulus_area_m2: c.bore.annulus_area_mm2() * 1e-6,
+                })
+                .collect(),
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<&HoldQuantity> {
+        self.quantities.iter().find(|q| q.name == name)
+    }
+
+    /// The strain sensors with a measuring point: `(name, point)`.
+    pub fn gauges(&self) -> Vec<(String, u32)> {
+        self.quantities
+            .iter()
+            .filter(|q| q.kind == Some(SensorKind::Strain))
+            .filter_map(|q| Some((q.name.clone(), q.location?)))
+            .collect()
+    }
+}

@@ -1,0 +1,208 @@
+//! A study at the rig (`acq record --study`, `acq view SESSION_DIR
+//! --study`): a calibration spec whose cases are a recording's holds. After
+//! each hold the posterior of the parameters is sampled again, each
+//! parameter's interval is set against its prior's and judged, and of the
+//! conditions the operator can set the one expected to narrow the
+//! posterior most is named.
+//!
+//! The file is a spec ([`crate::calibrate::spec`]: `model`, `geometry`,
+//! `[[parameter]]` with priors, `[posterior]`) without `[[case]]`, plus
+//! - `[holds]` ([`mapping`]): which hold quantities are the model's inputs
+//!   (with their spread as input uncertainty) and which its observations;
+//! - `[candidates]` ([`candidates`]): the conditions to choose from.
+//!
+//! - [`update`]: the holds so far as a study, its posterior, the verdicts;
+//! - [`next`]: the next test point (expected information gain on the model
+//!   linearised at the posterior mean, [`acq_calib::next_point`]);
+//! - [`tracker`]: hold by hold, what the page and the terminal show.
+//!
+//! Everything is a function of the holds and the file: the same holds give
+//! the same posterior live and offline (the chains start from the
+//! parameters' nominal values with the `[posterior]` seed).
+
+use std::path::{Path, PathBuf};
+
+use acq_analysis::extract::quantities::RigQuantities;
+
+use crate::calibrate::builtin::ExcavatorModel;
+use crate::calibrate::external::geometry_template;
+use crate::calibrate::posterior::PosteriorSettings;
+use crate::calibrate::spec::build::parameters;
+use crate::calibrate::spec::schema::ModelName;
+use crate::calibrate::spec::{checks, read_spec_file, spec_directory, SpecError, SpecProblem};
+use crate::calibrate::study::{Model, StudyParameter};
+
+pub mod candidates;
+pub mod mapping;
+pub mod next;
+pub mod tracker;
+pub mod update;
+
+use candidates::Candidates;
+use mapping::HoldMapping;
+
+/// A checked study at the rig.
+pub struct RigStudy {
+    pub path: PathBuf,
+    pub mapping: HoldMapping,
+    pub candidates: Candidates,
+    /// Shared by every hold, with their priors.
+    pub parameters: Vec<StudyParameter>,
+    pub settings: PosteriorSettings,
+    model: Box<dyn Model + Send>,
+}
+
+impl RigStudy {
+    /// Reads and checks a study file against `rig` before anything is
+    /// recorded: every quantity it names is one the rig's holds carry,
+    /// every candidate lies in the rig's stated ranges and the model runs
+    /// at the nominal parameters there. Errors name the file and line.
+    pub fn load(path: &Path, rig: &RigQuantities) -> Result<RigStudy, SpecError> {
+        let (text, file) = read_spec_file(path)?;
+        let located = |problem: SpecProblem| problem.located(path, &text);
+        let Some(holds) = &file.holds else {
+            return Err(located(SpecProblem::file(
+                "a study at the rig needs a [holds] table: which hold quantities are the model's inputs ([holds.inputs]) and which its observations ([holds.observe])",
+            )));
+        };
+        if let Some(index) = (!file.cases.is_empty()).then_some(0) {
+            return Err(located(SpecProblem::table(
+                "[[case]]",
+                index,
+                "a study at the rig takes its cases from the holds; leave out [[case]] (run a study of them with acq calibrate external)",
+            )));
+        }
+        if !file.outputs.is_empty() || !file.curves.is_empty() {
+            return Err(located(SpecProblem::file(
+                "a study at the rig observes what [holds.observe] names; leave out [[output]] and [[curve]]",
+            )));
+        }
+        if file.model != ModelName::Excavator {
+            return Err(located(SpecProblem::file(
+                "a study at the rig runs the built-in excavator twin (model = \"excavator\"); a user's solver at the rig needs an emulator saved by an earlier study of it, which acq cannot load yet",
+            )));
+        }
+        checks::model(&file).map_err(located)?;
+        checks::posterior(&file).map_err(located)?;
+        if let Some(index) = file.parameters.iter().position(|p| p.case.is_some()) {
+            return Err(located(SpecProblem::table(
+                "[[parameter]]",
+                index,
+                "a parameter of one case has no place at the rig, where every hold is a case; leave out case",
+            )));
+        }
+        let parameters = parameters(&file, &[]).map_err(located)?;
+        if parameters.is_empty() {
+            return Err(located(SpecProblem::file(
+                "no [[parameter]]: name what the holds are to find",
+            )));
+        }
+        let mapping = HoldMapping::parse(holds).map_err(located)?;
+        mapping.check_quantities(rig).map_err(located)?;
+        for (name, _) in &mapping.inputs {
+            if let Some(index) = file.parameters.iter().position(|p| &p.name == name) {
+                return Err(located(SpecProblem::table(
+                    "[[parameter]]",
+                    index,
+                    format!("{name} is also an input in [holds.inputs]; a value is either measured or calibrated"),
+                )));
+            }
+        }
+        let directory = spec_directory(path);
+        let template =
+            geometry_template(&directory, file.geometry.as_deref()).map_err(SpecError::Input)?;
+        let model = ExcavatorModel::new(template, file.refit_poses)
+            .map_err(|e| located(SpecProblem::file(format!("geometry: {e}"))))?;
+        let settings = file
+            .posterior
+            .as_ref()
+            .map(|p| p.settings())
+            .unwrap_or_default();
+        let mut study = RigStudy {
+            path: path.to_path_buf(),
+            mapping,
+            candidates: Candidates::default(),
+            parameters,
+            settings,
+            model: Box::new(model),
+        };
+        // The model runs at the nominal parameters, so a wrong input or
+        // output name is refused now, not after the first hold.
+        let nominal_inputs: Vec<(String, f64)> = study
+            .mapping
+            .fixed_inputs()
+            .map(|(name, x)| (name.to_string(), x))
+            .collect();
+        let parameter_names: Vec<String> = study
+            .parameters
+            .iter()
+            .map(|p| p.search.name.clone())
+            .collect();
+        let range_of = |quantity: &str| rig.get(quantity).and_then(|q| q.range);
+        let runs = |candidate: &[(String, f64)]| {
+            let mut inputs = nominal_inputs.clone();
+            inputs.extend_from_slice(candidate);
+            study.outputs_at(&study.nominal(), &inputs).map(|_| ())
+        };
+        study.candidates = candidates::candidates(
+            &file.candidates,
+            &study.mapping,
+            &parameter_names,
+            &range_of,
+            &runs,
+        )
+        .map_err(located)?;
+        if let Err(error) = study.check_names() {
+            return Err(located(error));
+        }
+        Ok(study)
+    }
+
+    /// Each parameter's nominal value.
+    pub fn nominal(&self) -> Vec<f64> {
+        self.parameters.iter().map(|p| p.nominal).collect()
+    }
+
+    /// The observed outputs (in `[holds.observe]`'s order) at parameter
+    /// values `theta` and the inputs `inputs` (by name).
+    pub fn outputs_at(&self, theta: &[f64], inputs: &[(String, f64)]) -> Result<Vec<f64>, String> {
+        let mut all: Vec<(String, f64)> = self
+            .parameters
+            .iter()
+            .zip(theta)
+            .map(|(p, &x)| (p.input.clone(), x))
+            .collect();
+        all.extend_from_slice(inputs);
+        let outputs: Vec<&str> = self
+            .mapping
+            .observations
+            .iter()
+            .map(|(name, _)| name.as_str())
+            .collect();
+        Ok(self.model.run(&all, &outputs, &[])?.scalars)
+    }
+
+    /// The model itself, for the study of the holds.
+    pub fn model(&self) -> &dyn Model {
+        self.model.as_ref()
+    }
+
+    /// The model's inputs and outputs as `[holds]` names them exist: it
+    /// runs at the nominal parameters with every measured input at a
+    /// candidate's value (or, without candidates, the error says which
+    /// name is wrong unless it is only the pose).
+    fn check_names(&self) -> Result<(), SpecProblem> {
+        let mut inputs: Vec<(String, f64)> = self
+            .mapping
+            .fixed_inputs()
+            .map(|(name, x)| (name.to_string(), x))
+            .collect();
+        match self.candidates.points.first() {
+            Some(point) => inputs.extend(self.candidates.names.iter().cloned().zip(point.clone())),
+            None => return Ok(()),
+        }
+        self.outputs_at(&self.nominal(), &inputs)
+            .map(|_| ())
+            .map_err(|e| SpecProblem::file(format!("[holds]: at the nominal parameters and the first candidate the model says: {e}")))
+    }
+}

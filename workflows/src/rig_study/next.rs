@@ -1,0 +1,208 @@
+//! The next test point: of the candidate conditions, the one whose hold is
+//! expected to shrink the posterior most.
+//!
+//! The criterion is the expected information gain of the model linearised
+//! at the posterior mean ([`acq_calib::next_point`]), which for a Gaussian
+//! posterior is Bayesian D-optimality: the log ratio of the posterior's
+//! volume before and after. It is exact where the outputs are linear in
+//! the parameters over the posterior's width, as the excavator's cylinder
+//! forces and stresses are in its masses and nearly so in its lever arms;
+//! it needs one Jacobian per candidate (central differences, two model
+//! runs per parameter), so a thousand candidates take well under a second,
+//! where a sampled (nested Monte-Carlo) gain would need thousands of runs
+//! per candidate. Each candidate's noise is the observations' expected
+//! standard uncertainty: the median over the holds so far (before the
+//! first hold, what the file states). Its input uncertainty is left out:
+//! it is the same for every candidate to first order.
+
+use acq_calib::next_point::{next_point, Candidate};
+
+use super::mapping::{HoldReading, Spread};
+use super::update::Posterior;
+use super::RigStudy;
+
+/// A parameter's 90 % interval now and expected after the next hold.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Narrowing {
+    pub parameter: String,
+    pub from_width: f64,
+    pub to_width: f64,
+}
+
+/// The condition to set next and what it is expected to do.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NextTestPoint {
+    /// The inputs the operator sets, by name.
+    pub inputs: Vec<(String, f64)>,
+    /// The observations the twin predicts there, at the posterior mean.
+    pub predicted: Vec<(String, f64)>,
+    /// Per parameter, in the study's order.
+    pub narrows: Vec<Narrowing>,
+    pub information_nats: f64,
+    /// Candidates weighed.
+    pub candidates: usize,
+}
+
+impl NextTestPoint {
+    /// The parameter it narrows most, relative to its width now.
+    pub fn narrows_most(&self) -> Option<&Narrowing> {
+        self.narrows
+            .iter()
+            .filter(|n| n.from_width > 0.0)
+            .min_by(|a, b| (a.to_width / a.from_width).total_cmp(&(b.to_width / b.from_width)))
+    }
+}
+
+/// A relative step of central differences, of a parameter's prior 90 %
+/// interval: small against the posterior's width, large against the
+/// twin's rounding.
+const STEP_OF_PRIOR_WIDTH: f64 = 1e-3;
+
+impl RigStudy {
+    /// Each observation's expected standard uncertainty in a new hold: the
+    /// median of the holds so far, else what the file states (a number as
+    /// `uncertainty`, and `instrument`); `None` when neither says.
+    pub fn expected_noise(&self, readings: &[HoldReading]) -> Option<Vec<f64>> {
+        self.mapping
+            .observations
+            .iter()
+            .enumerate()
+            .map(|(k, (_, from))| {
+                let mut seen: Vec<f64> = readings
+                    .iter()
+                    .filter_map(|r| r.observations.get(k).map(|o| o.2))
+                    .collect();
+                if !seen.is_empty() {
+                    seen.sort_by(f64::total_cmp);
+                    return Some(seen[seen.len() / 2]);
+                }
+                let stated = match from.spread {
+                    Spread::Stated(u) => u,
+                    _ => 0.0,
+                };
+                let total = stated.hypot(from.instrument);
+                (total > 0.0).then_some(total)
+            })
+            .collect()
+    }
+
+    /// The next test point after `posterior`, with each observation's
+    /// expected noise; `None` without candidates.
+    pub fn next_point(
+        &self,
+        posterior: &Posterior,
+        noise_sd: &[f64],
+    ) -> Result<Option<NextTestPoint>, String> {
+        let candidates = &self.candidates;
+        if candidates.points.is_empty() {
+            return Ok(None);
+        }
+        let fixed: Vec<(String, f64)> = self
+            .mapping
+            .fixed_inputs()
+            .map(|(name, x)| (name.to_string(), x))
+            .collect();
+        let inputs_of = |point: &[f64]| {
+            let mut inputs = fixed.clone();
+            inputs.extend(candidates.names.iter().cloned().zip(point.iter().copied()));
+            inputs
+        };
+        // Outer loop over the parameter values, inner over the candidates:
+        // the twin keeps the last geometry it built.
+        let at = |theta: &[f64]| -> Vec<Option<Vec<f64>>> {
+            candidates
+                .points
+                .iter()
+                .map(|point| self.outputs_at(theta, &inputs_of(point)).ok())
+                .collect()
+        };
+        let centre = at(&posterior.mean);
+        let parameters = posterior.mean.len();
+        // columns[j][c]: d outputs / d parameter j at candidate c.
+        let mut columns: Vec<Vec<Option<Vec<f64>>>> = Vec::with_capacity(parameters);
+        for (j, interval) in posterior.parameters.iter().enumerate() {
+            let step = STEP_OF_PRIOR_WIDTH * (interval.prior_q95 - interval.prior_q05);
+            let mut up = posterior.mean.clone();
+            up[j] += step;
+            let mut down = posterior.mean.clone();
+            down[j] -= step;
+            let (above, below) = (at(&up), at(&down));
+            columns.push(
+                above
+                    .into_iter()
+                    .zip(below)
+                    .map(|(a, b)| {
+                        let (a, b) = (a?, b?);
+                        Some(
+                            a.iter()
+                                .zip(&b)
+                                .map(|(x, y)| (x - y) / (2.0 * step))
+                                .collect(),
+                        )
+                    })
+                    .collect(),
+            );
+        }
+        // The candidates where every run went through.
+        let usable: Vec<usize> = (0..candidates.points.len())
+            .filter(|&c| centre[c].is_some() && columns.iter().all(|col| col[c].is_some()))
+            .collect();
+        if usable.is_empty() {
+            return Err("the twin runs at no candidate at the posterior mean".into());
+        }
+        let weighed: Vec<Candidate> = usable
+            .iter()
+            .map(|&c| {
+                let outputs = noise_sd.len();
+                Candidate {
+                    jacobian: (0..outputs)
+                        .map(|k| {
+                            columns
+                                .iter()
+                                .map(|col| col[c].as_ref().map_or(0.0, |d| d[k]))
+                                .collect()
+                        })
+                        .collect(),
+                    noise_sd: noise_sd.to_vec(),
+                }
+            })
+            .collect();
+        let chosen = next_point(&posterior.covariance, &weighed).map_err(|e| e.to_string())?;
+        let best = usable[chosen.best];
+        let gain = &chosen.gains[chosen.best];
+        Ok(Some(NextTestPoint {
+            inputs: candidates
+                .names
+                .iter()
+                .cloned()
+                .zip(candidates.points[best].iter().copied())
+                .collect(),
+            predicted: self
+                .mapping
+                .observations
+                .iter()
+                .map(|(name, _)| name.clone())
+                .zip(centre[best].clone().unwrap_or_default())
+                .collect(),
+            narrows: posterior
+                .parameters
+                .iter()
+                .zip(chosen.sd_before.iter().zip(&gain.sd_after))
+                .map(|(interval, (before, after))| {
+                    let from_width = interval.q95 - interval.q05;
+                    Narrowing {
+                        parameter: interval.name.clone(),
+                        from_width,
+                        to_width: if *before > 0.0 {
+                            from_width * after / before
+                        } else {
+                            from_width
+                        },
+                    }
+                })
+                .collect(),
+            information_nats: gain.information_nats,
+            candidates: usable.len(),
+        }))
+    }
+}

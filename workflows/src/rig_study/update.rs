@@ -1,0 +1,340 @@
+//! The holds so far as a study, and its posterior.
+//!
+//! Each hold is a fit case: its measured inputs at their means, each
+//! observation at its mean with its standard uncertainty. An input's own
+//! uncertainty (a pose read by inclinometers, a load by a transducer) is
+//! carried into the observations to first order: each observation's
+//! variance gains `((y(u + s) - y(u - s)) / 2)^2` per measured input `u`
+//! with standard uncertainty `s`, the model run at the parameters' nominal
+//! values (so that a hold's case is the same whenever it is read).
+//!
+//! A parameter's verdict sets its posterior 90 % interval against its
+//! prior's (the 5 % and 95 % quantiles of the prior within the bounds):
+//! **identified** when the
+//! holds have at least halved it, else **confounded** with the parameter
+//! it is most correlated with when |correlation| > 0.9 (the holds pin down
+//! a combination of the two), else **weak**. These are the thresholds of
+//! the search's identifiability analysis.
+
+use std::time::Instant;
+
+use acq_calib::evaluation::Scale;
+use acq_calib::mcmc::quantile;
+use acq_calib::next_point::draws_moments;
+
+use super::mapping::HoldReading;
+use super::RigStudy;
+use crate::calibrate::posterior::sample_directly;
+use crate::calibrate::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study};
+
+/// Holds that narrow a parameter's interval to this share of its prior's
+/// have identified it.
+pub const IDENTIFIED_WIDTH_RATIO: f64 = 0.5;
+/// A pair this correlated is pinned down only as a combination.
+pub const CONFOUNDED_CORRELATION: f64 = 0.9;
+/// Points of the grid a prior's quantiles are read on.
+const PRIOR_GRID: usize = 4001;
+
+/// What the holds say of a parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Verdict {
+    /// No hold yet: the prior.
+    Prior,
+    Identified,
+    Weak,
+    /// Pinned down only together with `with`.
+    Confounded {
+        with: String,
+        correlation: f64,
+    },
+}
+
+impl Verdict {
+    pub fn word(&self) -> &'static str {
+        match self {
+            Verdict::Prior => "prior only",
+            Verdict::Identified => "identified",
+            Verdict::Weak => "weak",
+            Verdict::Confounded { .. } => "confounded",
+        }
+    }
+}
+
+/// One parameter's interval now and its prior's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterInterval {
+    pub name: String,
+    pub mean: f64,
+    pub sd: f64,
+    pub q05: f64,
+    pub q95: f64,
+    pub prior_q05: f64,
+    pub prior_q95: f64,
+    pub verdict: Verdict,
+}
+
+impl ParameterInterval {
+    /// The 90 % interval's width over the prior's.
+    pub fn width_ratio(&self) -> f64 {
+        (self.q95 - self.q05) / (self.prior_q95 - self.prior_q05)
+    }
+}
+
+/// The posterior after some holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Posterior {
+    pub holds_used: usize,
+    pub parameters: Vec<ParameterInterval>,
+    pub mean: Vec<f64>,
+    pub covariance: Vec<Vec<f64>>,
+    /// How it was sampled, in words.
+    pub how: String,
+    pub wall_s: f64,
+}
+
+impl RigStudy {
+    /// Each parameter's prior 90 % interval and standard deviation: the
+    /// quantiles of its prior density (uniform within the bounds, in the
+    /// logarithm for a log scale, times the normal prior when given) on a
+    /// grid of [`PRIOR_GRID`] points.
+    fn prior_intervals(&self) -> Vec<(f64, f64, f64)> {
+        self.parameters
+            .iter()
+            .map(|p| {
+                let (lower, upper) = (p.search.lower, p.search.upper);
+                let density = |x: f64| {
+                    let uniform = match p.search.scale {
+                        Scale::Log => 1.0 / x,
+                        Scale::Linear => 1.0,
+                    };
+                    let normal = p.prior.map_or(1.0, |prior| {
+                        (-0.5 * ((x - prior.value) / prior.uncertainty).powi(2)).exp()
+                    });
+                    uniform * normal
+                };
+                let step = (upper - lower) / (PRIOR_GRID - 1) as f64;
+                let xs: Vec<f64> = (0..PRIOR_GRID).map(|k| lower + step * k as f64).collect();
+                let ps: Vec<f64> = xs.iter().map(|&x| density(x)).collect();
+                // The trapezoid rule's cumulative mass, normalised.
+                let mut cumulative = vec![0.0; PRIOR_GRID];
+                for k in 1..PRIOR_GRID {
+                    cumulative[k] = cumulative[k - 1] + 0.5 * (ps[k] + ps[k - 1]) * step;
+                }
+                let total = cumulative[PRIOR_GRID - 1];
+                let quantile_at = |q: f64| {
+                    let target = q * total;
+                    let k = cumulative
+                        .partition_point(|&c| c < target)
+                        .clamp(1, PRIOR_GRID - 1);
+                    let (c0, c1) = (cumulative[k - 1], cumulative[k]);
+                    let t = if c1 > c0 {
+                        (target - c0) / (c1 - c0)
+                    } else {
+                        0.0
+                    };
+                    xs[k - 1] + t * step
+                };
+                let mean =
+                    xs.iter().zip(&ps).map(|(x, p)| x * p).sum::<f64>() / ps.iter().sum::<f64>();
+                let variance = xs
+                    .iter()
+                    .zip(&ps)
+                    .map(|(x, p)| (x - mean).powi(2) * p)
+                    .sum::<f64>()
+                    / ps.iter().sum::<f64>();
+                (quantile_at(0.05), quantile_at(0.95), variance.sqrt())
+            })
+            .collect()
+    }
+
+    /// The prior as a posterior of no hold.
+    pub fn prior(&self) -> Posterior {
+        let intervals = self.prior_intervals();
+        let mean = self.nominal();
+        let n = mean.len();
+        Posterior {
+            holds_used: 0,
+            parameters: self
+                .parameters
+                .iter()
+                .zip(&intervals)
+                .zip(&mean)
+                .map(|((p, &(q05, q95, sd)), &mean)| ParameterInterval {
+                    name: p.search.name.clone(),
+                    mean,
+                    sd,
+                    q05,
+                    q95,
+                    prior_q05: q05,
+                    prior_q95: q95,
+                    verdict: Verdict::Prior,
+                })
+                .collect(),
+            covariance: (0..n)
+                .map(|i| {
+                    (0..n)
+                        .map(|j| if i == j { intervals[i].2.powi(2) } else { 0.0 })
+                        .collect()
+                })
+                .collect(),
+            mean,
+            how: "the prior".into(),
+            wall_s: 0.0,
+        }
+    }
+
+    /// The study of `readings`, one fit case each, with the inputs'
+    /// uncertainty carried into the observations'.
+    pub fn study_of(&self, readings: &[HoldReading]) -> Study {
+        let nominal = self.nominal();
+        let cases: Vec<Case> = readings
+            .iter()
+            .map(|reading| {
+                let inputs: Vec<(String, f64)> = reading
+                    .inputs
+                    .iter()
+                    .map(|(name, value, _)| (name.clone(), *value))
+                    .collect();
+                let mut variance: Vec<f64> = reading
+                    .observations
+                    .iter()
+                    .map(|(_, _, sd)| sd * sd)
+                    .collect();
+                for (k, (_, _, sd)) in reading.inputs.iter().enumerate() {
+                    if *sd <= 0.0 {
+                        continue;
+                    }
+                    let moved = |by: f64| {
+                        let mut moved = inputs.clone();
+                        moved[k].1 += by;
+                        self.outputs_at(&nominal, &moved).ok()
+                    };
+                    let slope = match (moved(*sd), moved(-*sd)) {
+                        (Some(up), Some(down)) => Some((up, down, 2.0)),
+                        (Some(up), None) => self
+                            .outputs_at(&nominal, &inputs)
+                            .ok()
+                            .map(|at| (up, at, 1.0)),
+                        (None, Some(down)) => self
+                            .outputs_at(&nominal, &inputs)
+                            .ok()
+                            .map(|at| (at, down, 1.0)),
+                        (None, None) => None,
+                    };
+                    if let Some((up, down, steps)) = slope {
+                        for (v, (a, b)) in variance.iter_mut().zip(up.iter().zip(&down)) {
+                            *v += ((a - b) / steps).powi(2);
+                        }
+                    }
+                }
+                Case {
+                    name: reading.name.clone(),
+                    role: Role::Fit,
+                    inputs,
+                    observations: reading
+                        .observations
+                        .iter()
+                        .zip(&variance)
+                        .map(|((output, value, _), variance)| Observation {
+                            name: output.clone(),
+                            output: output.clone(),
+                            measured: Measured::Scalar {
+                                value: *value,
+                                uncertainty: Some(variance.sqrt()),
+                            },
+                            weight: 1.0,
+                            source: format!("hold {}", reading.name),
+                        })
+                        .collect(),
+                    priors: false,
+                }
+            })
+            .collect();
+        let mut study = Study {
+            parameters: self.parameters.clone(),
+            cases,
+            named_cases: true,
+            residuals: Residuals::Normalised,
+            loss: LossKind::Squares,
+        };
+        if let Some(priors) = Case::priors(&study.parameters) {
+            study.cases.push(priors);
+        }
+        study
+    }
+
+    /// The posterior after `readings` (the prior without any).
+    pub fn posterior(&self, readings: &[HoldReading]) -> Result<Posterior, String> {
+        if readings.is_empty() {
+            return Ok(self.prior());
+        }
+        let start = Instant::now();
+        let study = self.study_of(readings);
+        let (_, chains, extended) =
+            sample_directly(&study, self.model(), &self.settings, &self.nominal())
+                .map_err(|e| e.to_string())?;
+        let pooled: Vec<Vec<f64>> = chains.pooled().cloned().collect();
+        let (mean, covariance) = draws_moments(&pooled)
+            .ok_or("the posterior has fewer than two draws; raise [posterior] draws")?;
+        let intervals = self.prior_intervals();
+        let parameters = self
+            .parameters
+            .iter()
+            .enumerate()
+            .map(|(j, p)| {
+                let mut column: Vec<f64> = pooled.iter().map(|d| d[j]).collect();
+                column.sort_by(f64::total_cmp);
+                let (prior_q05, prior_q95, _) = intervals[j];
+                let mut interval = ParameterInterval {
+                    name: p.search.name.clone(),
+                    mean: mean[j],
+                    sd: covariance[j][j].sqrt(),
+                    q05: quantile(&column, 0.05),
+                    q95: quantile(&column, 0.95),
+                    prior_q05,
+                    prior_q95,
+                    verdict: Verdict::Weak,
+                };
+                interval.verdict = verdict(&interval, j, &covariance, &self.parameters);
+                interval
+            })
+            .collect();
+        Ok(Posterior {
+            holds_used: readings.len(),
+            parameters,
+            mean,
+            covariance,
+            how: format!(
+                "{} chains of {} kept draws{extended}",
+                chains.draws.len(),
+                chains.draws.first().map_or(0, Vec::len)
+            ),
+            wall_s: start.elapsed().as_secs_f64(),
+        })
+    }
+}
+
+/// The verdict of parameter `j` with `interval`.
+fn verdict(
+    interval: &ParameterInterval,
+    j: usize,
+    covariance: &[Vec<f64>],
+    parameters: &[crate::calibrate::study::StudyParameter],
+) -> Verdict {
+    if interval.width_ratio() <= IDENTIFIED_WIDTH_RATIO {
+        return Verdict::Identified;
+    }
+    let correlation = |k: usize| covariance[j][k] / (covariance[j][j] * covariance[k][k]).sqrt();
+    let strongest = (0..covariance.len())
+        .filter(|&k| k != j)
+        .map(|k| (k, correlation(k)))
+        .filter(|(_, rho)| rho.is_finite())
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
+    match strongest {
+        Some((k, rho)) if rho.abs() > CONFOUNDED_CORRELATION => Verdict::Confounded {
+            with: parameters[k].search.name.clone(),
+            correlation: rho,
+        },
+        _ => Verdict::Weak,
+    }
+}

@@ -1,0 +1,211 @@
+//! A study at the rig on holds the virtual rig computes from the twin at a
+//! known truth: the levels every sensor reads (`virtual_rig::hold_levels`),
+//! each hold's mean off by its standard error, as `acq extract` gives it.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use acq_analysis::extract::measured::MeasuredValue;
+use acq_analysis::extract::quantities::RigQuantities;
+use acq_analysis::extract::stats::WindowStats;
+use acq_drivers::rig::Rig;
+use acq_twins::excavator::geometry::GeometryTemplate;
+use acq_twins::excavator::inclinations::Inclinations;
+use acq_workflows::rig_study::tracker::Tracker;
+use acq_workflows::rig_study::RigStudy;
+use acq_workflows::virtual_rig::{hold_levels, RigSensors, TestPoint};
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+
+const STUDY: &str = "../examples/excavator-rig/study.toml";
+
+fn rig() -> RigQuantities {
+    RigQuantities::of(&Rig::load(Path::new("../fixtures/rigs/excavator.toml")).unwrap())
+}
+
+/// The hidden truth: every parameter of the example off its prior's value.
+const TRUTH: [(&str, f64); 4] = [
+    ("bucket.mass_kg", 215.0),
+    ("bucket.centre_of_mass_m[0]", 0.42),
+    ("boom.structure.attached_mass[4].mass_kg", 70.0),
+    ("arm.structure.attached_mass[5].mass_kg", 25.0),
+];
+
+/// Readings per hold and their noise (sd of one reading) by unit.
+const SAMPLES: f64 = 600.0;
+fn noise_of(unit: &str) -> f64 {
+    match unit {
+        "bar" => 0.3,
+        "kN" => 0.05,
+        "deg" => 0.02,
+        _ => 0.5,
+    }
+}
+
+fn normal(rng: &mut rand_chacha::ChaCha8Rng) -> f64 {
+    StandardNormal.sample(rng)
+}
+
+/// What `acq extract` writes for a hold at `point` of the twin at `truth`.
+fn hold(
+    rig: &RigQuantities,
+    truth: &[(&str, f64)],
+    point: &TestPoint,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Vec<MeasuredValue> {
+    let geometry =
+        GeometryTemplate::parse(&std::fs::read_to_string("../data/excavator/dx55.toml").unwrap())
+            .unwrap()
+            .with(truth)
+            .unwrap();
+    let sensors = RigSensors::of_rig(
+        rig,
+        "tip_force",
+        ["boom_inclination", "arm_inclination", "bucket_inclination"],
+    );
+    let back: BTreeMap<String, f64> = BTreeMap::new();
+    let levels = hold_levels(&geometry, &sensors, &back, point).unwrap();
+    let value = |quantity: &str, unit: &str, level: f64, rng: &mut dyn FnMut() -> f64| {
+        let std = noise_of(unit);
+        MeasuredValue {
+            window: "hold".into(),
+            start_s: 0.0,
+            end_s: 6.0,
+            quantity: quantity.into(),
+            unit: unit.into(),
+            stats: WindowStats {
+                n: SAMPLES as u64,
+                mean: Some(level + std / SAMPLES.sqrt() * rng()),
+                std: Some(std),
+                n_eff: SAMPLES,
+                lag1_autocorrelation: 0.0,
+                ci95_half_width: Some(1.96 * std / SAMPLES.sqrt()),
+            },
+            flags: Vec::new(),
+            note: String::new(),
+        }
+    };
+    let mut draw = || normal(rng);
+    let mut values: Vec<MeasuredValue> = rig
+        .quantities
+        .iter()
+        .filter_map(|q| Some(value(&q.name, q.unit, *levels.get(&q.name)?, &mut draw)))
+        .collect();
+    for cylinder in &rig.cylinders {
+        let mean = |name: &str| {
+            values
+                .iter()
+                .find(|v| v.quantity == name)
+                .and_then(|v| v.stats.mean)
+                .unwrap()
+        };
+        // As acq extract computes it: head area x head pressure - annulus
+        // area x rod pressure, over the rig file's areas.
+        let net = (mean(&cylinder.head) * cylinder.head_area_m2
+            - mean(&cylinder.rod) * cylinder.annulus_area_m2)
+            * 1e5
+            / 1e3;
+        let mut net_value = value(
+            &format!("{}_net_force", cylinder.name),
+            "kN",
+            net,
+            &mut || 0.0,
+        );
+        // The head chamber's 0.3 bar of reading noise, in kN.
+        net_value.stats.std = Some(0.3e5 * cylinder.head_area_m2 / 1e3);
+        values.push(net_value);
+    }
+    values
+}
+
+/// The test point of a candidate of the study.
+fn candidate_point(study: &RigStudy, values: &[f64]) -> TestPoint {
+    let value = |name: &str| {
+        let k = study
+            .candidates
+            .names
+            .iter()
+            .position(|n| n == name)
+            .unwrap();
+        values[k]
+    };
+    TestPoint {
+        inclinations: Inclinations {
+            boom_deg: value("boom_inclination_deg"),
+            arm_deg: value("arm_inclination_deg"),
+            bucket_deg: value("bucket_inclination_deg"),
+        },
+        tip_force_kn: value("force_kN"),
+        tip_force_angle_deg: -10.0,
+    }
+}
+
+#[test]
+fn the_example_loads_with_reachable_candidates() {
+    let study = RigStudy::load(Path::new(STUDY), &rig()).unwrap();
+    assert!(study.candidates.points.len() > 50);
+    assert!(
+        study.candidates.dropped > 0,
+        "some grid poses are out of reach"
+    );
+}
+
+/// Four holds at candidates spread over the envelope: every parameter's
+/// 90 % interval holds the truth, and the bucket's mass is identified.
+#[test]
+fn holds_at_a_known_truth_narrow_every_interval_around_it() {
+    let rig = rig();
+    let study = Arc::new(RigStudy::load(Path::new(STUDY), &rig).unwrap());
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let candidates = &study.candidates.points;
+    let points: Vec<TestPoint> = [
+        0,
+        candidates.len() / 3,
+        2 * candidates.len() / 3,
+        candidates.len() - 1,
+    ]
+    .iter()
+    .map(|&k| candidate_point(&study, &candidates[k]))
+    .collect();
+    let holds: Vec<(String, Vec<MeasuredValue>)> = points
+        .iter()
+        .enumerate()
+        .map(|(k, p)| (format!("hold{}", k + 1), hold(&rig, &TRUTH, p, &mut rng)))
+        .collect();
+    let mut tracker = Tracker::new(study.clone());
+    let mut panels = Vec::new();
+    let start = std::time::Instant::now();
+    tracker.update(&holds, &mut |panel| panels.push(panel.clone()));
+    eprintln!(
+        "{} holds in {:.2} s",
+        holds.len(),
+        start.elapsed().as_secs_f64()
+    );
+    assert_eq!(panels.len(), holds.len());
+    for line in &panels.last().unwrap().words {
+        eprintln!("{line}");
+    }
+    let posterior = tracker.posterior().unwrap();
+    assert_eq!(posterior.holds_used, 4);
+    for (p, (name, truth)) in posterior.parameters.iter().zip(TRUTH) {
+        assert_eq!(p.name, name);
+        assert!(
+            p.q05 <= truth && truth <= p.q95,
+            "{name}: truth {truth} outside [{}, {}]",
+            p.q05,
+            p.q95
+        );
+    }
+    // The bucket's mass moves every cylinder's force at every pose: four
+    // holds pin it down.
+    assert!(
+        posterior.parameters[0].width_ratio() < 0.5,
+        "{:?}",
+        posterior.parameters[0]
+    );
+    let json = &panels.last().unwrap().json;
+    assert_eq!(json["holds_used"], 4);
+    assert!(json["next"]["inputs"]["boom_inclination_deg"].is_number());
+    assert!(json["parameters"]["bucket.mass_kg"]["q05"].is_number());
+}

@@ -57,6 +57,7 @@ fn options(interfaces: &[&str], rig: Option<Rig>, dir: &Path) -> RecordOptions {
         command_line: "test".into(),
         notes: Vec::new(),
         observer: None,
+        messages: None,
     }
 }
 

@@ -64,6 +64,7 @@ pub fn record_options(
         command_line: "bench".into(),
         notes: Vec::new(),
         observer,
+        messages: None,
     }
 }
 

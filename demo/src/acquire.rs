@@ -119,6 +119,7 @@ async fn play_all<B: Bus>(
             command_line: format!("acq demo (replay of {})", playback.source.display()),
             notes,
             observer,
+            messages: None,
         };
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<StopReason>();
         let recorder_bus = bus.clone();

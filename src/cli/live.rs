@@ -45,6 +45,13 @@ pub struct RecordArgs {
     /// Live status as one JSON object per line on stdout.
     #[arg(long)]
     pub status_json: bool,
+    /// A study at the rig (needs --rig): every hold becomes a case of the
+    /// twin, the posterior is updated after each, and the next test point
+    /// is named (on the page with --view, and here). Checked against the
+    /// rig before recording starts; its last state is left in the session
+    /// as study.json. The file's format: README, "A study at the rig".
+    #[arg(long, value_name = "STUDY.toml")]
+    pub study: Option<PathBuf>,
     // The page (needs --rig: it decodes through it); it stops serving when
     // the recording ends.
     #[command(flatten)]
@@ -179,8 +186,21 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
             "--view needs --rig RIG.toml: the page shows the rig's sensors".into(),
         ));
     }
+    // The study is checked against the rig before anything is recorded:
+    // the recording must never be what fails.
+    let study = match (&args.study, &rig) {
+        (Some(_), None) => {
+            return Err(AcqError::Config(
+                "--study needs --rig RIG.toml: the study reads the rig's holds".into(),
+            ))
+        }
+        (Some(path), Some(rig)) => Some(super::study::load(path, rig)?),
+        (None, _) => None,
+    };
     let mut observer: Option<Box<dyn record::RecordObserver>> = None;
     let mut host = None;
+    let mut worker = None;
+    let mut messages = None;
     if let Some(rig) = &rig {
         let name = session_dir
             .file_name()
@@ -194,8 +214,25 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
             Some(&session_dir),
         );
         observer = Some(Box::new(feed));
+        if let Some(study) = study {
+            // The study's lines go above the status table, never under it.
+            let (say, said) = std::sync::mpsc::channel::<String>();
+            let say: Box<dyn Fn(&str) + Send> = if args.quiet || args.status_json {
+                Box::new(|line: &str| eprintln!("acq: {line}"))
+            } else {
+                messages = Some(std::sync::Mutex::new(said));
+                Box::new(move |line: &str| {
+                    let _ = say.send(line.to_string());
+                })
+            };
+            worker = Some(super::study::start(study, vec![shared.clone()], say));
+        }
         if let Some((addr, access)) = view_address {
-            let started = acq_view::ViewHost::start(addr, access, vec![shared])?;
+            let pages = acq_view::Pages {
+                sessions: vec![shared],
+                study: worker.as_ref().map(acq_view::StudyWorker::panel),
+            };
+            let started = acq_view::ViewHost::start(addr, access, pages)?;
             eprintln!("acq: view at {} (served while recording)", started.url());
             host = Some(started);
         }
@@ -217,6 +254,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         command_line: std::env::args().collect::<Vec<_>>().join(" "),
         notes,
         observer,
+        messages,
     };
     // Two workers: the readers never wait behind a disk write of the writer loop.
     let summary = acq_acquire::runtime(2)?.block_on(record::record(
@@ -224,10 +262,19 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         options,
         record::stop_on_signal_or(args.duration),
     ));
+    // The study catches up with the last holds before the page stops.
+    let last_panel = worker.map(acq_view::StudyWorker::finish);
     if let Some(host) = host {
         host.stop();
     }
     let summary = summary?;
+    if let Some(panel) = &last_panel {
+        if let Some(words) = panel["next"]["words"].as_str() {
+            eprintln!("acq: study: {words}");
+        }
+        let path = super::study::write_last(&summary.session_dir, panel)?;
+        eprintln!("acq: the study's last state: {}", path.display());
+    }
     let info = &summary.session.session;
     if status != StatusMode::Quiet {
         eprintln!(

@@ -8,6 +8,7 @@ mod decode;
 mod engine;
 mod live;
 mod offline;
+mod study;
 mod tensile;
 mod twin;
 mod view;

@@ -12,6 +12,11 @@ pub struct ViewCommandArgs {
     /// Session directories written by acq record (one section each).
     #[arg(value_name = "SESSION_DIR", required = true)]
     pub sessions: Vec<PathBuf>,
+    /// A study at the rig over the sessions' holds: the same panel a
+    /// recording with --study shows (the holds of several sessions in the
+    /// order given).
+    #[arg(long, value_name = "STUDY.toml")]
+    pub study: Option<PathBuf>,
     #[command(flatten)]
     pub view: ViewArgs,
 }
@@ -56,8 +61,23 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
         );
         sessions.push(Arc::new(Mutex::new(view)));
     }
-    let host = ViewHost::start(addr, access, sessions)?;
+    let worker = match &args.study {
+        Some(path) => {
+            // The first session's own copy of its rig.
+            let rig = acq_analysis::recording::Recording::open(&args.sessions[0], None)?.rig;
+            let study = super::study::load(path, &rig)?;
+            let say: Box<dyn Fn(&str) + Send> = Box::new(|line: &str| eprintln!("acq: {line}"));
+            Some(super::study::start(study, sessions.clone(), say))
+        }
+        None => None,
+    };
+    let pages = acq_view::Pages {
+        sessions,
+        study: worker.as_ref().map(acq_view::StudyWorker::panel),
+    };
+    let host = ViewHost::start(addr, access, pages)?;
     eprintln!("acq: view at {} (Ctrl-C to stop)", host.url());
     host.serve_until_interrupted();
+    drop(worker);
     Ok(())
 }

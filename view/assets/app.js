@@ -330,6 +330,7 @@
       s.state = { info, sensors: sessionSensors(state, info, several),
         buses: state.buses.filter((b) => !several || b.session === info.name), holds };
     });
+    renderStudy(state.study);
     renderTablesSoon();
   }
 
@@ -428,6 +429,100 @@
     }
   }
 
+
+  // ---- a study at the rig ---------------------------------------------------
+
+  const SVG = 'http://www.w3.org/2000/svg';
+  function svg(tag, attrs = {}) {
+    const e = document.createElementNS(SVG, tag);
+    for (const [k, v] of Object.entries(attrs)) e.setAttribute(k, String(v));
+    return e;
+  }
+
+  // One parameter's bar: the prior's 90 % interval in grey, the posterior's
+  // in colour, its mean as a tick, on a scale spanning both.
+  function intervalBar(p) {
+    const lo = Math.min(p.prior_q05, p.q05);
+    const hi = Math.max(p.prior_q95, p.q95);
+    const span = hi > lo ? hi - lo : 1;
+    const x = (v) => 4 + 232 * (v - lo) / span;
+    const bar = svg('svg', { width: 240, height: 18, viewBox: '0 0 240 18', class: 'interval' });
+    bar.append(svg('rect', { x: x(p.prior_q05), y: 6, width: Math.max(1, x(p.prior_q95) - x(p.prior_q05)), height: 6, fill: '#d0d7de' }));
+    const colour = p.verdict === 'identified' ? '#1a7f37' : p.verdict === 'confounded' ? '#bf8700' : '#0969da';
+    bar.append(svg('rect', { x: x(p.q05), y: 3, width: Math.max(1, x(p.q95) - x(p.q05)), height: 12, fill: colour, 'fill-opacity': 0.75 }));
+    bar.append(svg('line', { x1: x(p.mean), x2: x(p.mean), y1: 1, y2: 17, stroke: '#1b1f24', 'stroke-width': 1.5 }));
+    return bar;
+  }
+
+  // Each parameter's interval width over its prior's, hold by hold.
+  function historyChart(study) {
+    const order = study.order;
+    const rows = study.history;
+    if (!rows.length || typeof uPlot === 'undefined') return null;
+    const xs = [0, ...rows.map((r) => r.holds_used)];
+    const series = [{ label: 'holds used' }];
+    const data = [xs];
+    order.forEach((name, k) => {
+      const p = study.parameters[name];
+      const prior = p ? p.prior_q95 - p.prior_q05 : 1;
+      data.push([1, ...rows.map((r) => (r.parameters[name] ? (r.parameters[name].q95 - r.parameters[name].q05) / prior : null))]);
+      series.push({ label: name, stroke: COLORS[k % COLORS.length], width: 2, points: { show: true } });
+    });
+    const box = el('div', { class: 'chart' }, el('h3', { text: '90 % interval width / prior\'s, hold by hold' }));
+    const plot = new uPlot({ width: 520, height: 200, series, scales: { x: { time: false } },
+      axes: [{ label: 'holds used' }, { label: 'width ratio' }] }, data, box);
+    view.studyPlot = plot;
+    return box;
+  }
+
+  let studyShown = '';
+  function renderStudy(study) {
+    const section = document.getElementById('study');
+    if (!section) return;
+    if (!study) { section.hidden = true; return; }
+    const key = JSON.stringify([study.holds_seen, study.holds_used, study.updating, study.error, study.next && study.next.words]);
+    if (key === studyShown) return;
+    studyShown = key;
+    view.study = study;
+    section.hidden = false;
+    const heading = el('h2', { text: `Study ${study.file}: after ${study.holds_used} hold(s)` +
+      (study.holds_seen > study.holds_used ? ` (${study.holds_seen - study.holds_used} not used)` : '') +
+      (study.updating ? ', updating\u2026' : '') });
+    const parts = [heading];
+    if (study.error) parts.push(el('p', { class: 'fault', text: `the posterior failed: ${study.error}` }));
+    for (const skipped of study.skipped) parts.push(el('p', { class: 'note', text: `${skipped.hold} not used: ${skipped.why}` }));
+    const rows = study.order.filter((name) => study.parameters[name]).map((name) => {
+      const p = study.parameters[name];
+      const verdict = p.verdict === 'confounded' && p.confounded ? `confounded with ${p.confounded.with} (r = ${p.confounded.correlation.toFixed(2)})` : p.verdict;
+      return el('tr', { class: `verdict-${p.verdict.replace(' ', '-')}` }, cell(name), cell(fmt(p.mean), 'num'),
+        cell(`${fmt(p.q05)} \u2026 ${fmt(p.q95)}`, 'num'), cell(`${fmt(p.prior_q05)} \u2026 ${fmt(p.prior_q95)}`, 'num'),
+        el('td', {}, intervalBar(p)), cell(verdict));
+    });
+    parts.push(el('table', { class: 'study' },
+      el('thead', {}, el('tr', {}, ...['parameter', 'mean', '90 % interval', 'prior 90 %', 'interval (colour) against the prior (grey)', 'verdict'].map((t) => el('th', { text: t })))),
+      el('tbody', {}, ...rows)));
+    if (study.next) {
+      const next = study.next;
+      parts.push(el('p', { class: 'next', text: next.words }));
+      parts.push(el('table', { class: 'next' },
+        el('thead', {}, el('tr', {}, ...['set', 'value', '', 'the twin predicts there', 'value'].map((t) => el('th', { text: t })))),
+        el('tbody', {}, ...zipRows(Object.entries(next.inputs), Object.entries(next.predicted)).map(([a, b]) => el('tr', {},
+          cell(a ? a[0] : ''), cell(a ? fmt(a[1]) : '', 'num'), cell(''), cell(b ? b[0] : ''), cell(b ? fmt(b[1]) : '', 'num'))))));
+      parts.push(el('p', { class: 'note', text: `chosen of ${next.candidates} candidates by expected information gain (${next.information_nats.toFixed(2)} nats)` }));
+    } else if (study.next_error) {
+      parts.push(el('p', { class: 'fault', text: `no next point: ${study.next_error}` }));
+    }
+    const chart = historyChart(study);
+    if (chart) parts.push(chart);
+    section.replaceChildren(...parts);
+  }
+
+  function zipRows(a, b) {
+    const rows = [];
+    for (let k = 0; k < Math.max(a.length, b.length); k += 1) rows.push([a[k], b[k]]);
+    return rows;
+  }
+
   // ---- start --------------------------------------------------------------
 
   async function start() {
@@ -454,6 +549,15 @@
     const connection = document.getElementById('connection');
     if (!view.sessions.some((s) => s.live)) {
       connection.textContent = 'recorded session';
+      // A study over recorded holds goes hold by hold: follow it until done.
+      if (state.study) {
+        const poll = setInterval(async () => {
+          const now = await getJson('/api/state').catch(() => null);
+          if (!now) return;
+          renderStudy(now.study);
+          if (now.study && !now.study.updating && now.study.holds_seen >= now.holds.filter((h) => h.values).length) clearInterval(poll);
+        }, 1000);
+      }
       return;
     }
     setInterval(() => { refreshXy().catch(() => {}); }, 1000);

@@ -5,8 +5,7 @@ use std::net::SocketAddr;
 
 use acq_io::error::{AcqError, Result};
 
-use crate::live::SharedSession;
-use crate::server::{access_for, parse_address, serve, Access, ViewServer};
+use crate::server::{access_for, parse_address, serve, Access, Pages, ViewServer};
 use crate::DEFAULT_ADDRESS;
 
 /// `--view [HOST:PORT]` and `--view-remote`.
@@ -41,14 +40,14 @@ pub struct ViewHost {
 
 impl ViewHost {
     /// Binds and serves `sessions`; fails at once if the address is taken.
-    pub fn start(addr: SocketAddr, access: Access, sessions: Vec<SharedSession>) -> Result<Self> {
+    pub fn start(addr: SocketAddr, access: Access, pages: impl Into<Pages>) -> Result<Self> {
         let runtime = tokio::runtime::Builder::new_multi_thread()
             .worker_threads(1)
             .thread_name("acq-view-http")
             .enable_all()
             .build()
             .map_err(|e| AcqError::io("starting the view's runtime", e))?;
-        let server = runtime.block_on(serve(addr, access, sessions))?;
+        let server = runtime.block_on(serve(addr, access, pages))?;
         Ok(ViewHost {
             runtime,
             server: Some(server),

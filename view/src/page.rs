@@ -31,6 +31,7 @@ pub fn html(session_names: &[String], token: Option<&str>) -> String {
          </head>\n<body>\n\
          <header><h1>acq view</h1><span id=\"connection\">connecting</span></header>\n\
          <div id=\"banner\" hidden></div>\n\
+         <section id=\"study\" hidden></section>\n\
          <main id=\"sessions\"></main>\n\
          <footer>Plots: <a href=\"/uplot-license.txt{suffix}\">uPlot</a> (MIT). \
          Drag across a plot to zoom; the recording is not touched by anything on this page.</footer>\n\

@@ -33,6 +33,7 @@ use acq_io::error::{AcqError, Result};
 
 use crate::live::SharedSession;
 use crate::page;
+use crate::study::SharedStudy;
 
 /// Updates are published this often.
 const PUBLISH_PERIOD: Duration = Duration::from_millis(100);
@@ -114,6 +115,7 @@ pub fn parse_address(text: &str) -> Result<SocketAddr> {
 #[derive(Clone)]
 struct App {
     sessions: Arc<Vec<SharedSession>>,
+    study: Option<SharedStudy>,
     access: Arc<Access>,
     updates: broadcast::Sender<Arc<str>>,
     viewers: Arc<AtomicUsize>,
@@ -159,11 +161,27 @@ impl ViewServer {
 }
 
 /// Binds `addr` and serves the sessions' page on the current runtime.
+/// What a page shows: the sessions, and a study's panel when one runs.
+pub struct Pages {
+    pub sessions: Vec<SharedSession>,
+    pub study: Option<SharedStudy>,
+}
+
+impl From<Vec<SharedSession>> for Pages {
+    fn from(sessions: Vec<SharedSession>) -> Self {
+        Pages {
+            sessions,
+            study: None,
+        }
+    }
+}
+
 pub async fn serve(
     addr: SocketAddr,
     access: Access,
-    sessions: Vec<SharedSession>,
+    pages: impl Into<Pages>,
 ) -> Result<ViewServer> {
+    let Pages { sessions, study } = pages.into();
     let listener = tokio::net::TcpListener::bind(addr).await.map_err(|e| {
         let hint = match e.kind() {
             std::io::ErrorKind::AddrInUse => {
@@ -193,6 +211,7 @@ pub async fn serve(
     let app = App {
         closing: closing_rx,
         sessions: Arc::new(sessions),
+        study,
         access: Arc::new(access),
         updates,
         viewers: Arc::new(AtomicUsize::new(0)),
@@ -358,6 +377,18 @@ fn state_json(app: &App, with_holds: bool) -> Value {
     if with_holds {
         state["holds"] = Value::Array(holds);
     }
+    // A study's panel: what the holds pin down now and the next test point.
+    state["study"] = match &app.study {
+        Some(study) => {
+            let panel = study.lock().unwrap_or_else(|p| p.into_inner());
+            let mut json = panel.json.clone();
+            if let Value::Object(object) = &mut json {
+                object.insert("updating".into(), Value::Bool(panel.updating));
+            }
+            json
+        }
+        None => Value::Null,
+    };
     state
 }
 

@@ -62,6 +62,9 @@ pub struct RecordOptions {
     pub notes: Vec<String>,
     /// Who watches the recording as it happens (the live view), if anyone.
     pub observer: Option<Box<dyn RecordObserver>>,
+    /// Lines from elsewhere (a study at the rig) to print above the status
+    /// table at its next redraw, so the table does not overdraw them.
+    pub messages: Option<std::sync::Mutex<std::sync::mpsc::Receiver<String>>>,
 }
 
 /// Watches a recording: every batch of frames as it is written, and every
@@ -308,6 +311,15 @@ pub async fn record<B: Bus>(
                         reason: s.silent.then(|| s.silence_reason()),
                     }).collect()).unwrap_or_default(),
                 };
+                if let Some(messages) = &options.messages {
+                    let lines: Vec<String> = messages
+                        .lock()
+                        .map(|m| m.try_iter().collect())
+                        .unwrap_or_default();
+                    for line in lines {
+                        display.message(&line);
+                    }
+                }
                 display.show(&status);
                 if let Some(observer) = observer.as_mut() {
                     observer.status(&status);

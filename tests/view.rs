@@ -7,16 +7,15 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use acq_analysis::recording::{Recording, SampleCounts};
 use common::browser::LivePage;
-use common::{path_arg, root};
+use common::running::Running;
+use common::{copy_session, path_arg, root};
 use serde_json::Value;
 
 fn artefacts() -> PathBuf {
@@ -46,91 +45,6 @@ fn http(addr: &str, method: &str, path: &str, host: Option<&str>) -> (u16, Strin
         .and_then(|s| s.parse().ok())
         .unwrap_or(0);
     (status, head.to_string(), body.to_string())
-}
-
-/// A running acq whose stderr lines arrive on a channel.
-struct Running {
-    child: Child,
-    lines: mpsc::Receiver<String>,
-    seen: Vec<String>,
-}
-
-impl Running {
-    fn start(args: &[&str]) -> Running {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_acq"))
-            .args(args)
-            .current_dir(root())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let stderr = child.stderr.take().unwrap();
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    return;
-                }
-            }
-        });
-        Running {
-            child,
-            lines,
-            seen: Vec::new(),
-        }
-    }
-
-    /// Waits for a line containing `marker`; the line.
-    fn wait_for(&mut self, marker: &str, limit: Duration) -> String {
-        let deadline = Instant::now() + limit;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(line) => {
-                    self.seen.push(line.clone());
-                    if line.contains(marker) {
-                        return line;
-                    }
-                }
-                Err(_) => panic!(
-                    "no line with {marker:?} within {limit:?}; stderr so far:\n{}",
-                    self.seen.join("\n")
-                ),
-            }
-        }
-    }
-
-    /// True once a line containing `marker` came (without waiting).
-    fn has_said(&mut self, marker: &str) -> bool {
-        while let Ok(line) = self.lines.try_recv() {
-            self.seen.push(line);
-        }
-        self.seen.iter().any(|l| l.contains(marker))
-    }
-
-    /// SIGINT, then the exit code.
-    fn interrupt(mut self) -> i32 {
-        nix::sys::signal::kill(
-            nix::unistd::Pid::from_raw(self.child.id() as i32),
-            nix::sys::signal::SIGINT,
-        )
-        .unwrap();
-        let deadline = Instant::now() + Duration::from_secs(20);
-        loop {
-            if let Some(status) = self.child.try_wait().unwrap() {
-                return status.code().unwrap_or(-1);
-            }
-            assert!(Instant::now() < deadline, "acq did not stop on SIGINT");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
 }
 
 fn url_in(line: &str) -> String {
@@ -391,25 +305,6 @@ fn look(view: &acq_view::model::SessionView) -> (String, String, String, String,
         serde_json::to_string(&view.buses_json(None)).unwrap(),
         view.xy_json().to_string(),
     )
-}
-
-/// A copy of the shipped session `name` at `dir` (acq view writes its
-/// index into a session; the checkout's fixtures stay as they are).
-fn copy_session(name: &str, dir: &Path) -> PathBuf {
-    let source = root().join("fixtures/sessions").join(name);
-    std::fs::create_dir_all(dir.join("rig")).unwrap();
-    for (from, to) in [
-        (source.clone(), dir.to_path_buf()),
-        (source.join("rig"), dir.join("rig")),
-    ] {
-        for entry in std::fs::read_dir(&from).unwrap() {
-            let entry = entry.unwrap();
-            if entry.path().is_file() {
-                std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
-            }
-        }
-    }
-    dir.to_path_buf()
 }
 
 /// Frames recorded so far on the page's first bus.

@@ -58,6 +58,32 @@ pub fn session_rig(source: &Path) -> Result<Rig> {
     acq_io::input::load_rig(&source.join(&copy.file.copy))
 }
 
+/// Each playback's live feed and page model.
+pub type LiveViews = (Vec<Box<dyn RecordObserver>>, Vec<acq_view::SharedSession>);
+
+/// The live page's feed (to give the recorder) and model (to give the
+/// server) of each playback, decoded on the interfaces it is replayed on,
+/// as the recorder does.
+pub fn live_views(playbacks: &[Playback]) -> Result<LiveViews> {
+    let mut feeds: Vec<Box<dyn RecordObserver>> = Vec::new();
+    let mut shared = Vec::new();
+    for playback in playbacks {
+        let mut rig = session_rig(&playback.source)?;
+        rig.assign_interfaces(&playback.interfaces)
+            .map_err(AcqError::Config)?;
+        let (feed, session) = acq_view::live_session(
+            &playback.name,
+            &rig,
+            acq_analysis::extract::holds::HoldOptions::default(),
+            None,
+            Some(&playback.target),
+        );
+        feeds.push(Box::new(feed));
+        shared.push(session);
+    }
+    Ok((feeds, shared))
+}
+
 /// Plays every session onto `bus` while recording it; `together` plays
 /// them all at once (they must use distinct interfaces), else one by one.
 /// Ctrl-C stops the recordings cleanly (files whole) and ends with an error.

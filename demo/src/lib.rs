@@ -268,22 +268,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
                 .collect();
             let mut observers: Vec<Box<dyn acq_acquire::record::RecordObserver>> = Vec::new();
             if let Some((addr, access)) = view_address {
-                let mut shared = Vec::new();
-                for playback in &playbacks {
-                    let mut rig = acquire::session_rig(&playback.source)?;
-                    // Decoded on the interfaces it is replayed on, as the recorder does.
-                    rig.assign_interfaces(&playback.interfaces)
-                        .map_err(AcqError::Config)?;
-                    let (feed, session) = acq_view::live_session(
-                        &playback.name,
-                        &rig,
-                        HoldOptions::default(),
-                        None,
-                        Some(&playback.target),
-                    );
-                    observers.push(Box::new(feed));
-                    shared.push(session);
-                }
+                let (feeds, shared) = acquire::live_views(&playbacks)?;
+                observers = feeds;
                 let host = acq_view::ViewHost::start(addr, access, shared)?;
                 say(format!("watch the replay live: {}", host.url()));
                 view_host = Some(host);

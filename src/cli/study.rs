@@ -10,7 +10,7 @@ use acq_analysis::extract::measured::MeasuredValue;
 use acq_analysis::extract::quantities::RigQuantities;
 use acq_drivers::rig::Rig;
 use acq_io::error::{AcqError, Result};
-use acq_view::{HoldsStudy, SharedSession, StudyWorker};
+use acq_view::{SharedSession, StudyWorker};
 use acq_workflows::rig_study::tracker::Tracker;
 use acq_workflows::rig_study::RigStudy;
 use serde_json::Value;
@@ -41,20 +41,6 @@ pub fn load(path: &Path, rig: &Rig) -> Result<Arc<RigStudy>> {
     Ok(Arc::new(study))
 }
 
-struct Tracked(Tracker);
-
-impl HoldsStudy for Tracked {
-    fn update(
-        &mut self,
-        holds: &[(String, Vec<MeasuredValue>)],
-        publish: &mut dyn FnMut(Value, &[String]),
-    ) {
-        self.0.update(holds, &mut |panel| {
-            publish(panel.json.clone(), &panel.words)
-        });
-    }
-}
-
 /// Starts the study over `sessions`; its lines go to `say`. The panel
 /// before any hold (the prior and the first point to run) is said at once.
 pub fn start(
@@ -62,11 +48,15 @@ pub fn start(
     sessions: Vec<SharedSession>,
     say: Box<dyn Fn(&str) + Send>,
 ) -> StudyWorker {
-    let tracker = Tracker::new(study);
+    let mut tracker = Tracker::new(study);
     for line in tracker.panel().words {
         say(&line);
     }
-    StudyWorker::start(Box::new(Tracked(tracker)), sessions, say)
+    let study = move |holds: &[(String, Vec<MeasuredValue>)],
+                      publish: &mut dyn FnMut(Value, &[String])| {
+        tracker.update_json(holds, publish)
+    };
+    StudyWorker::start(Box::new(study), sessions, say)
 }
 
 /// Writes the last panel into the session directory.

@@ -6,6 +6,7 @@ pub mod browser;
 pub mod calculix;
 pub mod interfaces;
 pub mod pipeline;
+pub mod running;
 pub mod slurm;
 pub mod toy;
 use std::path::{Path, PathBuf};
@@ -164,4 +165,23 @@ pub fn scratch_python(name: &str, packages: &[&str]) -> PathBuf {
         std::fs::write(&ready, "").unwrap();
     }
     python
+}
+
+/// A copy of a shipped session in `dir` (acq view writes its index into a
+/// session; the shipped ones stay as they are).
+pub fn copy_session(name: &str, dir: &Path) -> std::path::PathBuf {
+    let source = root().join("fixtures/sessions").join(name);
+    std::fs::create_dir_all(dir.join("rig")).unwrap();
+    for (from, to) in [
+        (source.clone(), dir.to_path_buf()),
+        (source.join("rig"), dir.join("rig")),
+    ] {
+        for entry in std::fs::read_dir(&from).unwrap() {
+            let entry = entry.unwrap();
+            if entry.path().is_file() {
+                std::fs::copy(entry.path(), to.join(entry.file_name())).unwrap();
+            }
+        }
+    }
+    dir.to_path_buf()
 }

@@ -27,6 +27,20 @@ pub trait HoldsStudy: Send + 'static {
     );
 }
 
+/// A closure is a study.
+impl<F> HoldsStudy for F
+where
+    F: FnMut(&[(String, Vec<MeasuredValue>)], &mut dyn FnMut(Value, &[String])) + Send + 'static,
+{
+    fn update(
+        &mut self,
+        holds: &[(String, Vec<MeasuredValue>)],
+        publish: &mut dyn FnMut(Value, &[String]),
+    ) {
+        self(holds, publish)
+    }
+}
+
 /// The newest panel, shared with the server.
 #[derive(Debug, Default)]
 pub struct StudyPanel {

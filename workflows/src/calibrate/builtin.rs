@@ -167,47 +167,51 @@ impl ExcavatorModel {
                     .all(|((a, x), (b, y))| a == b && x.to_bits() == y.to_bits())
         };
         let lock = || self.last.lock().unwrap_or_else(|e| e.into_inner());
-        let found = lock().iter().position(same);
-        let index = match found {
-            Some(index) => index,
+        let kept = lock()
+            .iter()
+            .find(|built| same(built))
+            .map(|built| (built.twin.clone(), built.of_geometry.clone()));
+        // Built outside the lock: chains sampled in parallel each build
+        // their own point's twin at once. What is returned is what was
+        // found or built here, whatever another thread keeps meanwhile.
+        let (twin, of_geometry) = match kept {
+            Some(kept) => kept,
+            None if geometry.is_empty() => (self.twin.clone(), None),
             None => {
-                // Built outside the lock: chains sampled in parallel each
-                // build their own point's twin at once.
-                let twin = if geometry.is_empty() {
-                    self.twin.clone()
-                } else {
-                    let mut changed = self.template.with(geometry)?;
-                    if let Some(poses) = &self.poses {
-                        refit_poses(&mut changed, poses)?;
-                    }
-                    Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?)
-                };
-                let mut last = lock();
+                let mut changed = self.template.with(geometry)?;
+                if let Some(poses) = &self.poses {
+                    refit_poses(&mut changed, poses)?;
+                }
+                (
+                    Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?),
+                    None,
+                )
+            }
+        };
+        let of_geometry = match of_geometry {
+            None if envelope => Some(envelope_of(&twin)?),
+            kept => kept,
+        };
+        let mut last = lock();
+        match last.iter_mut().find(|built| same(built)) {
+            Some(built) => {
+                if built.of_geometry.is_none() {
+                    built.of_geometry.clone_from(&of_geometry);
+                }
+            }
+            None => {
                 last.insert(
                     0,
                     Built {
                         geometry: geometry.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
-                        twin,
-                        of_geometry: None,
+                        twin: twin.clone(),
+                        of_geometry: of_geometry.clone(),
                     },
                 );
                 last.truncate(GEOMETRIES_KEPT);
-                0
             }
-        };
-        let mut last = lock();
-        let built = match last.get_mut(index).filter(|b| same(b)) {
-            Some(built) => built,
-            // Another thread moved it meanwhile: find it again.
-            None => match last.iter().position(same) {
-                Some(k) => &mut last[k],
-                None => return Err("the twin's cache lost a geometry it had just built".into()),
-            },
-        };
-        if envelope && built.of_geometry.is_none() {
-            built.of_geometry = Some(envelope_of(&built.twin)?);
         }
-        Ok((built.twin.clone(), built.of_geometry.clone()))
+        Ok((twin, of_geometry))
     }
 }
 

@@ -113,6 +113,17 @@ impl Tracker {
         }
     }
 
+    /// [`Tracker::update`], each panel published as its JSON and lines.
+    pub fn update_json(
+        &mut self,
+        holds: &[(String, Vec<MeasuredValue>)],
+        publish: &mut dyn FnMut(Value, &[String]),
+    ) {
+        self.update(holds, &mut |panel| {
+            publish(panel.json.clone(), &panel.words)
+        });
+    }
+
     fn readings(&self) -> impl Iterator<Item = &HoldReading> {
         self.steps.iter().filter_map(|s| s.reading.as_ref().ok())
     }

@@ -596,117 +596,86 @@ level = { tip_force = 30.0 }
     );
 }
 
-/// The excavator twin drives the virtual rig: at two test points (the
-/// published poses, from their pins' inclinations) the levels it computes
-/// go through the rig's devices (CANopen 0.01 bar, J1939 slope, DBC floats)
-/// and `acq extract` reads them back: net cylinder forces, inclinations,
-/// gauge stresses and the tip force, within the noise.
+/// The excavator twin drives the virtual rig (`[twin]` in the scenario:
+/// examples/excavator-rig/hidden_truth.toml): at each test point the levels
+/// it computes at the hidden truth go through the rig's devices (CANopen
+/// 0.01 bar, J1939 slope, DBC floats) and `acq extract` reads them back:
+/// inclinations, gauge stresses, the tip force, and net cylinder forces
+/// equal to the twin's axial forces at the truth.
 #[test]
 fn the_excavator_twin_drives_the_virtual_rig_and_acq_extract_reads_its_levels() {
-    use acq_twins::excavator::geometry::Geometry;
+    use acq_twins::excavator::geometry::GeometryTemplate;
     use acq_twins::excavator::inclinations::Inclinations;
-    use acq_twins::excavator::pose_fit::published_poses;
-    use acq_twins::excavator::CylinderName;
-    use acq_workflows::virtual_rig::{hold_levels, RigSensors, TestPoint};
+    use acq_twins::excavator::{CylinderName, Excavator, Inputs};
 
-    let geometry = Geometry::dx55();
-    let rig_file =
-        acq_drivers::rig::Rig::load(std::path::Path::new("fixtures/rigs/excavator.toml")).unwrap();
-    let rig = RigSensors::of_rig(
-        &acq_analysis::extract::quantities::RigQuantities::of(&rig_file),
-        "tip_force",
-        ["boom_inclination", "arm_inclination", "bucket_inclination"],
-    );
-    assert_eq!((rig.gauges.len(), rig.cylinders.len()), (18, 3));
-    let back: std::collections::BTreeMap<String, f64> = [
-        ("bucket_rod_pressure", 5.0),
-        ("arm_rod_pressure", 5.0),
-        ("boom_rod_pressure", 4.0),
-        ("bucket_head_pressure", 8.0),
-        ("arm_head_pressure", 10.0),
-        ("boom_head_pressure", 20.0),
-    ]
-    .map(|(k, v)| (k.to_string(), v))
-    .into();
-    let direction =
-        |from: [f64; 2], to: [f64; 2]| (to[1] - from[1]).atan2(to[0] - from[0]).to_degrees();
-    let points: Vec<TestPoint> = published_poses()
+    let scenario = std::fs::read_to_string("examples/excavator-rig/hidden_truth.toml").unwrap();
+    let twin: toml::Table = toml::from_str(&scenario).unwrap();
+    let twin = twin["twin"].as_table().unwrap();
+    let truth: Vec<(String, f64)> = twin["truth"]
+        .as_table()
+        .unwrap()
         .iter()
-        .zip([(40.6, -10.0), (25.0, 0.0)])
-        .map(|(pose, (force, angle))| TestPoint {
-            inclinations: Inclinations {
-                boom_deg: direction([0.0, 0.0], pose.b),
-                arm_deg: direction(pose.b, pose.g),
-                bucket_deg: direction(pose.g, pose.j),
-            },
-            tip_force_kn: force,
-            tip_force_angle_deg: angle,
-        })
+        .map(|(k, v)| (k.clone(), v.as_float().unwrap()))
         .collect();
-    let levels: Vec<_> = points
-        .iter()
-        .map(|p| hold_levels(&geometry, &rig, &back, p).unwrap())
-        .collect();
+    let truth: Vec<(&str, f64)> = truth.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let geometry =
+        GeometryTemplate::parse(&std::fs::read_to_string("data/excavator/dx55.toml").unwrap())
+            .unwrap()
+            .with(&truth)
+            .unwrap();
+    let excavator = Excavator::new(geometry.clone()).unwrap();
 
-    // The scenario: idle at the back pressures and the first pose, one hold per point.
     let dir = tempfile::tempdir().unwrap();
-    let mut text = String::from(
-        "name = \"twin-driven\"\n[timeline]\nidle_s = 1.0\nbuild_up_s = 1.5\nhold_s = 6.0\nrelease_s = 1.5\nafter_s = 1.0\n",
+    let text = simulate_and_extract_file(
+        dir.path(),
+        std::path::Path::new("examples/excavator-rig/hidden_truth.toml"),
     );
-    for (name, value) in &levels[0] {
-        let idle = back
-            .get(name)
-            .copied()
-            .unwrap_or(if name.contains("inclination") {
-                *value
-            } else {
-                0.0
-            });
-        let noise = if name.contains("pressure") { 0.2 } else { 0.05 };
-        text.push_str(&format!(
-            "[sensor.{name}]\nidle = {idle}\nnoise = {noise}\n"
-        ));
-    }
-    for hold in &levels {
-        let level: Vec<String> = hold.iter().map(|(k, v)| format!("{k} = {v}")).collect();
-        text.push_str(&format!("[[hold]]\nlevel = {{ {} }}\n", level.join(", ")));
-    }
-    let text = simulate_and_extract(dir.path(), &text);
     let mean = |window: &str, quantity: &str| measured_mean(&text, window, quantity);
-    for (k, (point, hold)) in points.iter().zip(&levels).enumerate() {
+    let points = twin["point"].as_array().unwrap();
+    for (k, point) in points.iter().enumerate() {
         let window = format!("hold{}", k + 1);
-        // Every driven sensor reads its level within a few standard errors
-        // (and the devices' resolution: 0.01 bar, 3e-5 deg, float32).
-        for (name, level) in hold {
+        let value = |key: &str| point[key].as_float().unwrap();
+        let inclinations = Inclinations {
+            boom_deg: value("boom_inclination_deg"),
+            arm_deg: value("arm_inclination_deg"),
+            bucket_deg: value("bucket_inclination_deg"),
+        };
+        // The pose and load read back within the devices' resolution and
+        // the noise averaged over the hold.
+        for (name, level) in [
+            ("boom_inclination", inclinations.boom_deg),
+            ("arm_inclination", inclinations.arm_deg),
+            ("bucket_inclination", inclinations.bucket_deg),
+            ("tip_force", value("force_kN")),
+        ] {
             let got = mean(&window, name);
-            let tolerance = if name.contains("pressure") { 0.1 } else { 0.03 };
             assert!(
-                (got - level).abs() < tolerance,
+                (got - level).abs() < 0.02,
                 "{window} {name}: {got} vs {level}"
             );
         }
-        // acq extract's net force from both chambers' measured means (over
-        // the rig file's bores) is the twin's axial force, whatever bore the
-        // twin's geometry has.
-        let strokes = point.inclinations.strokes(&geometry).unwrap();
-        let twin = acq_twins::excavator::Excavator::new(geometry.clone()).unwrap();
-        let evaluation = twin
-            .evaluate(&acq_twins::excavator::Inputs {
-                strokes,
-                tip_force_kn: point.tip_force_kn,
-                tip_force_angle_deg: point.tip_force_angle_deg,
+        let evaluation = excavator
+            .evaluate(&Inputs {
+                strokes: inclinations.strokes(&geometry).unwrap(),
+                tip_force_kn: value("force_kN"),
+                tip_force_angle_deg: -10.0,
             })
             .unwrap();
-        for (cylinder, name) in [
-            (CylinderName::Bucket, "bucket"),
-            (CylinderName::Arm, "arm"),
-            (CylinderName::Boom, "boom"),
-        ] {
-            let got = mean(&window, &format!("{name}_net_force"));
+        for gauge in &evaluation.gauges {
+            let got = mean(&window, &format!("sg{:02}", gauge.point));
+            assert!(
+                (got - gauge.stress_mpa).abs() < 0.1,
+                "{window} point {}: {got} MPa, the twin's {} MPa",
+                gauge.point,
+                gauge.stress_mpa
+            );
+        }
+        for cylinder in CylinderName::ALL {
+            let got = mean(&window, &format!("{cylinder}_net_force"));
             let truth = evaluation.cylinder(cylinder).axial_force_kn;
             assert!(
                 (got - truth).abs() < 0.005 * truth.abs().max(1.0),
-                "{window} {name}: net force {got} kN, the twin's {truth} kN"
+                "{window} {cylinder}: net force {got} kN, the twin's {truth} kN"
             );
         }
     }
@@ -717,13 +686,18 @@ fn the_excavator_twin_drives_the_virtual_rig_and_acq_extract_reads_its_levels() 
 fn simulate_and_extract(dir: &std::path::Path, scenario: &str) -> String {
     let path = dir.join("scenario.toml");
     std::fs::write(&path, scenario).unwrap();
+    simulate_and_extract_file(dir, &path)
+}
+
+/// [`simulate_and_extract`] of a scenario file.
+fn simulate_and_extract_file(dir: &std::path::Path, scenario: &std::path::Path) -> String {
     let log = dir.join("simulated.log");
     let output = acq(&[
         "simulate",
         "--rig",
         "fixtures/rigs/excavator.toml",
         "--scenario",
-        path.to_str().unwrap(),
+        scenario.to_str().unwrap(),
         "-o",
         log.to_str().unwrap(),
         "--start",

@@ -85,7 +85,9 @@ pub struct SimulateArgs {
     /// The rig whose sensors are simulated.
     #[arg(long, value_name = "RIG.toml")]
     pub rig: PathBuf,
-    /// What the sensors read over time.
+    /// What the sensors read over time. With a [twin] table the holds'
+    /// levels come from the excavator twin at a stated (hidden) truth, at
+    /// the test points listed (README, "A study at the rig").
     #[arg(long, value_name = "SCENARIO.toml")]
     pub scenario: PathBuf,
     /// Send on these interfaces, in real time: one for all buses, or one per rig bus in order.
@@ -331,7 +333,21 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
 
 pub fn run_simulate(args: SimulateArgs) -> Result<()> {
     let rig = acq_io::input::load_rig(&args.rig)?;
-    let (scenario, curve) = Scenario::load(&args.scenario)?;
+    // A scenario with [twin] has its holds computed by the excavator twin
+    // at the truth it states (acq_workflows::virtual_rig).
+    acq_io::input::note_input(&args.scenario);
+    let text =
+        std::fs::read_to_string(&args.scenario).map_err(|e| AcqError::open(&args.scenario, e))?;
+    let directory = args
+        .scenario
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let quantities = acq_analysis::extract::quantities::RigQuantities::of(&rig);
+    let text = acq_workflows::virtual_rig::expand_twin_scenario(&text, directory, &quantities)
+        .map_err(|e| AcqError::Config(format!("{}: {e}", args.scenario.display())))?
+        .unwrap_or(text);
+    let (scenario, curve) = Scenario::parse(&text, &args.scenario)?;
     let start_ns = match args.start {
         Some(seconds) if seconds.is_finite() && seconds >= 0.0 => (seconds * 1e9).round() as i64,
         Some(seconds) => {

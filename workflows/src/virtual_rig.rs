@@ -147,3 +147,196 @@ pub fn hold_levels(
     }
     Ok(levels)
 }
+
+/// The `[twin]` table of an `acq simulate` scenario: the virtual rig
+/// driven by the excavator twin at a stated (hidden) truth, one hold per
+/// test point.
+///
+/// ```toml
+/// [twin]
+/// study = "study.toml"      # a study at the rig: which sensor reads the
+///                           # load and which inclinometer which link, the
+///                           # geometry file, the load's direction
+/// truth = { "bucket.mass_kg" = 215.0 }   # geometry numbers as they really are
+/// back_pressure_bar = 5.0   # each unloaded chamber [default 0]
+/// [[twin.point]]            # one hold each, in order
+/// boom_inclination_deg = 20.0
+/// arm_inclination_deg = -60.0
+/// bucket_inclination_deg = -90.0
+/// force_kN = 30.0
+/// # force_angle_deg = -10.0 (default: the study's fixed input)
+/// # hold_s = 6.0            (default: the timeline's)
+/// ```
+///
+/// The table becomes a `[[hold]]` per point with every driven sensor's
+/// level, and a `[sensor.NAME]` for each driven sensor the scenario does
+/// not describe itself: idle at the back pressure (pressures), the first
+/// point's angle (inclinometers) or 0, with a noise of 0.3 bar, 0.05 kN,
+/// 0.02 deg or 0.5 MPa (typical transducers' reading noise).
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TwinScenario {
+    pub study: String,
+    #[serde(default)]
+    pub truth: BTreeMap<String, f64>,
+    #[serde(default)]
+    pub back_pressure_bar: f64,
+    #[serde(default, rename = "point")]
+    pub points: Vec<BTreeMap<String, f64>>,
+}
+
+/// A reading's noise by unit, when the scenario gives none.
+fn typical_noise(unit: &str) -> f64 {
+    match unit {
+        "bar" => 0.3,
+        "kN" => 0.05,
+        "deg" => 0.02,
+        _ => 0.5,
+    }
+}
+
+/// A scenario's text with its `[twin]` table expanded into holds (see
+/// [`TwinScenario`]); `None` without one. `directory`: where the
+/// scenario's relative paths start.
+pub fn expand_twin_scenario(
+    text: &str,
+    directory: &std::path::Path,
+    rig: &RigQuantities,
+) -> Result<Option<String>, String> {
+    let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
+    let Some(twin) = table.remove("twin") else {
+        return Ok(None);
+    };
+    let twin: TwinScenario = twin.try_into().map_err(|e| format!("[twin]: {e}"))?;
+    if twin.points.is_empty() {
+        return Err("[twin]: no [[twin.point]]; give the test points to hold, one each".into());
+    }
+    if table.contains_key("hold") {
+        return Err("[twin] sets the holds: leave out [[hold]]".into());
+    }
+    if !(twin.back_pressure_bar.is_finite() && twin.back_pressure_bar >= 0.0) {
+        return Err(format!(
+            "[twin] back_pressure_bar = {}: expected a number >= 0",
+            twin.back_pressure_bar
+        ));
+    }
+    let study_path = directory.join(&twin.study);
+    let study = crate::rig_study::RigStudy::load(&study_path, rig)
+        .map_err(|e| format!("[twin] study: {e}"))?;
+    let quantity_of = |input: &str| {
+        study
+            .mapping
+            .measured_inputs()
+            .find(|(name, _)| *name == input)
+            .map(|(_, from)| from.quantity.clone())
+            .ok_or_else(|| {
+                format!(
+                    "[twin]: the study measures no {input} in a hold; the virtual rig drives the pose and load its [holds.inputs] read"
+                )
+            })
+    };
+    let inclinometers = [
+        quantity_of("boom_inclination_deg")?,
+        quantity_of("arm_inclination_deg")?,
+        quantity_of("bucket_inclination_deg")?,
+    ];
+    let tip_force = quantity_of("force_kN")?;
+    let sensors = RigSensors::of_rig(
+        rig,
+        &tip_force,
+        [&inclinometers[0], &inclinometers[1], &inclinometers[2]],
+    );
+    let truth: Vec<(&str, f64)> = twin.truth.iter().map(|(k, v)| (k.as_str(), *v)).collect();
+    let geometry = study
+        .geometry
+        .with(&truth)
+        .map_err(|e| format!("[twin] truth: {e}"))?;
+    let angle = study
+        .mapping
+        .fixed_inputs()
+        .find(|(name, _)| *name == "force_angle_deg")
+        .map(|(_, x)| x);
+    let back: BTreeMap<String, f64> = sensors
+        .cylinders
+        .iter()
+        .flat_map(|c| [c.head.clone(), c.rod.clone()])
+        .map(|name| (name, twin.back_pressure_bar))
+        .collect();
+    let mut holds = Vec::new();
+    let mut first_levels = None;
+    for (k, point) in twin.points.iter().enumerate() {
+        let here = |message: String| format!("[[twin.point]] {}: {message}", k + 1);
+        let known = [
+            "boom_inclination_deg",
+            "arm_inclination_deg",
+            "bucket_inclination_deg",
+            "force_kN",
+            "force_angle_deg",
+            "hold_s",
+        ];
+        if let Some(key) = point.keys().find(|key| !known.contains(&key.as_str())) {
+            return Err(here(format!(
+                "unknown key {key:?}; it takes {}",
+                known.join(", ")
+            )));
+        }
+        let value = |name: &str| {
+            point
+                .get(name)
+                .copied()
+                .ok_or_else(|| here(format!("give {name}")))
+        };
+        let test_point = TestPoint {
+            inclinations: Inclinations {
+                boom_deg: value("boom_inclination_deg")?,
+                arm_deg: value("arm_inclination_deg")?,
+                bucket_deg: value("bucket_inclination_deg")?,
+            },
+            tip_force_kn: value("force_kN")?,
+            tip_force_angle_deg: match point.get("force_angle_deg").copied().or(angle) {
+                Some(angle) => angle,
+                None => return Err(here("give force_angle_deg (the study fixes none)".into())),
+            },
+        };
+        let levels = hold_levels(&geometry, &sensors, &back, &test_point).map_err(here)?;
+        let mut hold = toml::Table::new();
+        if let Some(hold_s) = point.get("hold_s") {
+            hold.insert("hold_s".into(), toml::Value::Float(*hold_s));
+        }
+        hold.insert(
+            "level".into(),
+            toml::Value::Table(
+                levels
+                    .iter()
+                    .map(|(k, v)| (k.clone(), toml::Value::Float(*v)))
+                    .collect(),
+            ),
+        );
+        holds.push(toml::Value::Table(hold));
+        first_levels.get_or_insert(levels);
+    }
+    let first_levels = first_levels.expect("at least one point");
+    let described = table
+        .entry("sensor")
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+        .as_table_mut()
+        .ok_or("sensor: expected tables [sensor.NAME]")?;
+    for (name, level) in &first_levels {
+        if described.contains_key(name) {
+            continue;
+        }
+        let unit = rig.get(name).map_or("", |q| q.unit);
+        let idle = match back.get(name) {
+            Some(pressure) => *pressure,
+            None if inclinometers.contains(name) => *level,
+            None => 0.0,
+        };
+        let mut sensor = toml::Table::new();
+        sensor.insert("idle".into(), toml::Value::Float(idle));
+        sensor.insert("hold".into(), toml::Value::Float(*level));
+        sensor.insert("noise".into(), toml::Value::Float(typical_noise(unit)));
+        described.insert(name.clone(), toml::Value::Table(sensor));
+    }
+    table.insert("hold".into(), toml::Value::Array(holds));
+    toml::to_string(&table).map(Some).map_err(|e| e.to_string())
+}

@@ -284,7 +284,13 @@ impl Scenario {
     pub fn load(path: &Path) -> Result<(Scenario, Option<Curve>)> {
         acq_io::input::note_input(path);
         let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
-        let scenario: Scenario = toml::from_str(&text)
+        Scenario::parse(&text, path)
+    }
+
+    /// A scenario's text, read as the file at `path` (its curve's CSV is
+    /// relative to it, and errors name it).
+    pub fn parse(text: &str, path: &Path) -> Result<(Scenario, Option<Curve>)> {
+        let scenario: Scenario = toml::from_str(text)
             .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?;
         let bad = |what: String| AcqError::Config(format!("{}: {what}", path.display()));
         for (name, value) in [

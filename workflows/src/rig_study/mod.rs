@@ -49,6 +49,8 @@ pub struct RigStudy {
     /// Shared by every hold, with their priors.
     pub parameters: Vec<StudyParameter>,
     pub settings: PosteriorSettings,
+    /// The twin's geometry file, before any parameter changes it.
+    pub geometry: acq_twins::excavator::geometry::GeometryTemplate,
     model: Box<dyn Model + Send>,
 }
 
@@ -111,7 +113,7 @@ impl RigStudy {
         let directory = spec_directory(path);
         let template =
             geometry_template(&directory, file.geometry.as_deref()).map_err(SpecError::Input)?;
-        let model = ExcavatorModel::new(template, file.refit_poses)
+        let model = ExcavatorModel::new(template.clone(), file.refit_poses)
             .map_err(|e| located(SpecProblem::file(format!("geometry: {e}"))))?;
         let settings = file
             .posterior
@@ -124,6 +126,7 @@ impl RigStudy {
             candidates: Candidates::default(),
             parameters,
             settings,
+            geometry: template,
             model: Box::new(model),
         };
         // The model runs at the nominal parameters, so a wrong input or

@@ -515,3 +515,50 @@ fn the_loop_closes_on_the_in_process_bus() {
         "{last}"
     );
 }
+
+/// `acq calibrate rig SESSION_DIR... --study --next`: the same study over
+/// recorded sessions without the page, the next point on stdout and the
+/// last state as JSON; without candidates `--next` says what is missing.
+#[test]
+fn calibrate_rig_names_the_next_point_for_a_finished_study() {
+    let temp = tempfile::tempdir().unwrap();
+    let one = copy_session("excavator_case1", &temp.path().join("case1"));
+    let two = copy_session("excavator_case2", &temp.path().join("case2"));
+    let json = temp.path().join("study.json");
+    let output = common::acq(&[
+        "calibrate",
+        "rig",
+        path_arg(&one),
+        path_arg(&two),
+        "--study",
+        STUDY,
+        "--next",
+        "-o",
+        path_arg(&json),
+    ]);
+    assert!(output.status.success(), "{}", common::stderr(&output));
+    let said = common::stdout(&output);
+    assert!(said.starts_with("next: set "), "{said}");
+    assert!(said.contains("it should narrow"), "{said}");
+    let state: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(state["holds_used"], 2);
+    assert_eq!(
+        state["next"]["words"].as_str().unwrap().trim(),
+        said.trim(),
+        "the words printed are the state's"
+    );
+
+    let example = std::fs::read_to_string(root().join(STUDY)).unwrap();
+    let without = &example[..example.find("\n[candidates]").unwrap()];
+    let path = study_variant(temp.path(), "no_candidates.toml", without);
+    let output = common::acq(&[
+        "calibrate",
+        "rig",
+        path_arg(&one),
+        "--study",
+        path_arg(&path),
+        "--next",
+    ]);
+    assert_eq!(output.status.code(), Some(2), "{}", common::stderr(&output));
+    assert!(common::stderr(&output).contains("no [candidates]"));
+}

@@ -15,6 +15,17 @@ mod view;
 
 use acq_io::error::Result;
 
+/// `acq calibrate`: the presets and a spec's study, and a study at the rig
+/// over recorded sessions.
+#[derive(Subcommand, Debug)]
+pub enum CalibrateCli {
+    #[command(flatten)]
+    Presets(acq_workflows::calibrate::CalibrateCommand),
+    /// A study at the rig over recorded sessions' holds; --next names the
+    /// test point to run next.
+    Rig(acq_workflows::rig_study::offline::CalibrateRigArgs),
+}
+
 /// The command line as given. Every option that takes a value takes a
 /// negative number too: `--weights 1 1 -1` is a weight that the command
 /// refuses with its reason, not an unknown option `-1`.
@@ -80,7 +91,7 @@ pub enum Command {
     TensileProps(tensile::TensilePropsArgs),
     /// Fit a twin (or your own solver) to measurements: DoE, surrogates, NSGA-II + TOPSIS, BO.
     #[command(subcommand)]
-    Calibrate(acq_workflows::calibrate::CalibrateCommand),
+    Calibrate(CalibrateCli),
     /// Gaussian-process regression on a CSV: fit a model, predict with it.
     #[command(subcommand)]
     Gp(engine::GpCommand),
@@ -106,7 +117,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Twin(command) => twin::run_twin(command),
         Command::Sensitivity(command) => twin::run_sensitivity(command),
         Command::TensileProps(args) => tensile::run_tensile_props(args),
-        Command::Calibrate(command) => acq_workflows::calibrate::run(command),
+        Command::Calibrate(CalibrateCli::Presets(command)) => {
+            acq_workflows::calibrate::run(command)
+        }
+        Command::Calibrate(CalibrateCli::Rig(args)) => acq_workflows::rig_study::offline::run(args),
         Command::Gp(command) => engine::run_gp(command),
         Command::Moo(args) => engine::run_moo(args),
         Command::Demo(args) => acq_demo::run(args),

@@ -340,3 +340,74 @@ pub fn expand_twin_scenario(
     table.insert("hold".into(), toml::Value::Array(holds));
     toml::to_string(&table).map(Some).map_err(|e| e.to_string())
 }
+
+/// What `acq extract` gives for a hold in which every sensor of `rig` with
+/// a level in `levels` is read `samples` times with independent noise of a
+/// typical transducer (0.3 bar, 0.05 kN, 0.02 deg, 0.5 MPa): each mean off
+/// by its standard error, each cylinder's net force from its chambers'
+/// means over the rig's areas. For studies of the loop that need many
+/// holds fast (the benchmark of the next test point): a recording played
+/// on a bus gives the same within its statistics (tests/rig_study.rs plays
+/// one).
+pub fn synthetic_hold(
+    rig: &RigQuantities,
+    levels: &BTreeMap<String, f64>,
+    samples: usize,
+    rng: &mut impl rand::Rng,
+) -> Vec<acq_analysis::extract::measured::MeasuredValue> {
+    use acq_analysis::extract::measured::MeasuredValue;
+    use acq_analysis::extract::stats::WindowStats;
+    use rand_distr::{Distribution, StandardNormal};
+
+    let n = samples.max(2) as f64;
+    let value = |quantity: &str, unit: &str, mean: f64, std: f64| MeasuredValue {
+        window: "hold".into(),
+        start_s: 0.0,
+        end_s: 0.0,
+        quantity: quantity.into(),
+        unit: unit.into(),
+        stats: WindowStats {
+            n: n as u64,
+            mean: Some(mean),
+            std: Some(std),
+            n_eff: n,
+            lag1_autocorrelation: 0.0,
+            ci95_half_width: Some(1.96 * std / n.sqrt()),
+        },
+        flags: Vec::new(),
+        note: String::new(),
+    };
+    let mut values: Vec<MeasuredValue> = Vec::new();
+    for q in &rig.quantities {
+        if let Some(level) = levels.get(&q.name) {
+            let std = typical_noise(q.unit);
+            let error: f64 = StandardNormal.sample(rng);
+            values.push(value(&q.name, q.unit, level + std / n.sqrt() * error, std));
+        }
+    }
+    let mean_of = |values: &[MeasuredValue], name: &str| {
+        values
+            .iter()
+            .find(|v| v.quantity == name)
+            .and_then(|v| v.stats.mean)
+    };
+    for cylinder in &rig.cylinders {
+        let (Some(head), Some(rod)) = (
+            mean_of(&values, &cylinder.head),
+            mean_of(&values, &cylinder.rod),
+        ) else {
+            continue;
+        };
+        // kN: bar x 1e5 Pa x m^2 / 1e3.
+        let net = (head * cylinder.head_area_m2 - rod * cylinder.annulus_area_m2) * 1e2;
+        let std =
+            typical_noise("bar") * 1e2 * cylinder.head_area_m2.hypot(cylinder.annulus_area_m2);
+        values.push(value(
+            &acq_analysis::extract::run::net_force_quantity(&cylinder.name),
+            "kN",
+            net,
+            std,
+        ));
+    }
+    values
+}

@@ -5,18 +5,17 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
+use std::time::Instant;
 
 use acq_analysis::extract::measured::MeasuredValue;
 use acq_analysis::extract::quantities::RigQuantities;
-use acq_analysis::extract::stats::WindowStats;
 use acq_drivers::rig::Rig;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_twins::excavator::inclinations::Inclinations;
 use acq_workflows::rig_study::tracker::Tracker;
 use acq_workflows::rig_study::RigStudy;
-use acq_workflows::virtual_rig::{hold_levels, RigSensors, TestPoint};
+use acq_workflows::virtual_rig::{hold_levels, synthetic_hold, RigSensors, TestPoint};
 use rand::SeedableRng;
-use rand_distr::{Distribution, StandardNormal};
 
 const STUDY: &str = "../examples/excavator-rig/study.toml";
 
@@ -32,22 +31,7 @@ const TRUTH: [(&str, f64); 4] = [
     ("arm.structure.attached_mass[5].mass_kg", 25.0),
 ];
 
-/// Readings per hold and their noise (sd of one reading) by unit.
-const SAMPLES: f64 = 600.0;
-fn noise_of(unit: &str) -> f64 {
-    match unit {
-        "bar" => 0.3,
-        "kN" => 0.05,
-        "deg" => 0.02,
-        _ => 0.5,
-    }
-}
-
-fn normal(rng: &mut rand_chacha::ChaCha8Rng) -> f64 {
-    StandardNormal.sample(rng)
-}
-
-/// What `acq extract` writes for a hold at `point` of the twin at `truth`.
+/// What `acq extract` gives for a hold at `point` of the twin at `truth`.
 fn hold(
     rig: &RigQuantities,
     truth: &[(&str, f64)],
@@ -64,59 +48,8 @@ fn hold(
         "tip_force",
         ["boom_inclination", "arm_inclination", "bucket_inclination"],
     );
-    let back: BTreeMap<String, f64> = BTreeMap::new();
-    let levels = hold_levels(&geometry, &sensors, &back, point).unwrap();
-    let value = |quantity: &str, unit: &str, level: f64, rng: &mut dyn FnMut() -> f64| {
-        let std = noise_of(unit);
-        MeasuredValue {
-            window: "hold".into(),
-            start_s: 0.0,
-            end_s: 6.0,
-            quantity: quantity.into(),
-            unit: unit.into(),
-            stats: WindowStats {
-                n: SAMPLES as u64,
-                mean: Some(level + std / SAMPLES.sqrt() * rng()),
-                std: Some(std),
-                n_eff: SAMPLES,
-                lag1_autocorrelation: 0.0,
-                ci95_half_width: Some(1.96 * std / SAMPLES.sqrt()),
-            },
-            flags: Vec::new(),
-            note: String::new(),
-        }
-    };
-    let mut draw = || normal(rng);
-    let mut values: Vec<MeasuredValue> = rig
-        .quantities
-        .iter()
-        .filter_map(|q| Some(value(&q.name, q.unit, *levels.get(&q.name)?, &mut draw)))
-        .collect();
-    for cylinder in &rig.cylinders {
-        let mean = |name: &str| {
-            values
-                .iter()
-                .find(|v| v.quantity == name)
-                .and_then(|v| v.stats.mean)
-                .unwrap()
-        };
-        // As acq extract computes it: head area x head pressure - annulus
-        // area x rod pressure, over the rig file's areas.
-        let net = (mean(&cylinder.head) * cylinder.head_area_m2
-            - mean(&cylinder.rod) * cylinder.annulus_area_m2)
-            * 1e5
-            / 1e3;
-        let mut net_value = value(
-            &format!("{}_net_force", cylinder.name),
-            "kN",
-            net,
-            &mut || 0.0,
-        );
-        // The head chamber's 0.3 bar of reading noise, in kN.
-        net_value.stats.std = Some(0.3e5 * cylinder.head_area_m2 / 1e3);
-        values.push(net_value);
-    }
-    values
+    let levels = hold_levels(&geometry, &sensors, &BTreeMap::new(), point).unwrap();
+    synthetic_hold(rig, &levels, 600, rng)
 }
 
 /// The test point of a candidate of the study.
@@ -176,7 +109,16 @@ fn holds_at_a_known_truth_narrow_every_interval_around_it() {
     let mut tracker = Tracker::new(study.clone());
     let mut panels = Vec::new();
     let start = std::time::Instant::now();
-    tracker.update(&holds, &mut |panel| panels.push(panel.clone()));
+    let mut last = Instant::now();
+    tracker.update(&holds, &mut |panel| {
+        eprintln!(
+            "update: {:.2} s, posterior {:.2} s",
+            last.elapsed().as_secs_f64(),
+            panel.json["wall_s"].as_f64().unwrap_or(0.0)
+        );
+        last = Instant::now();
+        panels.push(panel.clone())
+    });
     eprintln!(
         "{} holds in {:.2} s",
         holds.len(),

@@ -14,7 +14,8 @@
 //! - [`update`]: the holds so far as a study, its posterior, the verdicts;
 //! - [`next`]: the next test point (expected information gain on the model
 //!   linearised at the posterior mean, [`acq_calib::next_point`]);
-//! - [`tracker`]: hold by hold, what the page and the terminal show.
+//! - [`tracker`]: hold by hold, what the page and the terminal show;
+//! - [`offline`]: `acq calibrate rig`, the same over recorded sessions.
 //!
 //! Everything is a function of the holds and the file: the same holds give
 //! the same posterior live and offline (the chains start from the
@@ -35,6 +36,7 @@ use crate::calibrate::study::{Model, StudyParameter};
 pub mod candidates;
 pub mod mapping;
 pub mod next;
+pub mod offline;
 pub mod tracker;
 pub mod update;
 

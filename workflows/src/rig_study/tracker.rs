@@ -192,6 +192,7 @@ impl Tracker {
         match self.posterior() {
             Ok(posterior) => {
                 json["holds_used"] = json!(posterior.holds_used);
+                json["shrinkage"] = json!(posterior.shrinkage());
                 json["wall_s"] = json!(posterior.wall_s);
                 json["how"] = json!(posterior.how);
                 let mut parameters = Map::new();

@@ -92,6 +92,20 @@ pub struct Posterior {
     pub wall_s: f64,
 }
 
+impl Posterior {
+    /// How far the holds have shrunk the prior: the geometric mean over the
+    /// parameters of the 90 % interval's width over the prior's (1 for the
+    /// prior; 0.5 when each interval is, on average, half its prior's).
+    pub fn shrinkage(&self) -> f64 {
+        let logs: Vec<f64> = self
+            .parameters
+            .iter()
+            .map(|p| p.width_ratio().ln())
+            .collect();
+        (logs.iter().sum::<f64>() / logs.len().max(1) as f64).exp()
+    }
+}
+
 impl RigStudy {
     /// Each parameter's prior 90 % interval and standard deviation: the
     /// quantiles of its prior density (uniform within the bounds, in the

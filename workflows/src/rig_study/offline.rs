@@ -1,0 +1,106 @@
+//! `acq calibrate rig SESSION_DIR... --study STUDY.toml [--next]`: the
+//! study at the rig over recorded sessions, without the page. The holds are
+//! `acq extract`'s (its default rule, every session's in the order given);
+//! the posterior is updated hold by hold as at the rig, and `--next` prints
+//! the test point to run next.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use acq_analysis::extract::holds::HoldOptions;
+use acq_analysis::extract::measured::MeasuredValue;
+use acq_analysis::extract::quantities::RigQuantities;
+use acq_analysis::extract::run::{extract_holds, WindowChoice};
+use acq_analysis::recording::Recording;
+use acq_io::error::{AcqError, Result};
+
+use super::tracker::{next_words, Tracker};
+use super::RigStudy;
+
+#[derive(clap::Args, Debug)]
+pub struct CalibrateRigArgs {
+    /// Session directories written by acq record (their holds, in order).
+    #[arg(value_name = "SESSION_DIR", required = true)]
+    pub sessions: Vec<PathBuf>,
+    /// The study at the rig (README, "A study at the rig").
+    #[arg(long, value_name = "STUDY.toml")]
+    pub study: PathBuf,
+    /// Print the test point to run next: the candidate expected to narrow
+    /// the posterior most.
+    #[arg(long)]
+    pub next: bool,
+    /// Write the study's last state (what the page shows as `study`) as JSON.
+    #[arg(short = 'o', long = "output", value_name = "OUT.json")]
+    pub output: Option<PathBuf>,
+}
+
+pub fn run(args: CalibrateRigArgs) -> Result<()> {
+    let several = args.sessions.len() > 1;
+    let mut holds: Vec<(String, Vec<MeasuredValue>)> = Vec::new();
+    let mut quantities = None;
+    for dir in &args.sessions {
+        let recording = Recording::open(dir, None)?;
+        let report = extract_holds(
+            &recording,
+            &WindowChoice::Auto(HoldOptions::default()),
+            None,
+            &[],
+        )?;
+        let session = dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| dir.display().to_string());
+        for window in &report.windows {
+            let values: Vec<MeasuredValue> = report
+                .values
+                .iter()
+                .filter(|v| v.window == window.name)
+                .cloned()
+                .collect();
+            let name = if several {
+                format!("{session}/{}", window.name)
+            } else {
+                window.name.clone()
+            };
+            holds.push((name, values));
+        }
+        quantities.get_or_insert_with(|| RigQuantities::of(&recording.rig));
+    }
+    let quantities = quantities.expect("at least one session (clap requires it)");
+    let study = Arc::new(RigStudy::load(&args.study, &quantities).map_err(AcqError::from)?);
+    if args.next && study.candidates.points.is_empty() {
+        return Err(no_candidates(&args));
+    }
+    eprintln!(
+        "acq: {} hold(s) in {} session(s); the study updates after each",
+        holds.len(),
+        args.sessions.len()
+    );
+    let mut tracker = Tracker::new(study);
+    tracker.update(&holds, &mut |panel| {
+        for line in panel.words.iter().filter(|l| !l.contains("next: set")) {
+            eprintln!("acq: {line}");
+        }
+    });
+    let panel = tracker.panel();
+    if args.next {
+        match tracker.next() {
+            Ok(Some(next)) => println!("{}", next_words(next)),
+            Ok(None) => return Err(no_candidates(&args)),
+            Err(error) => return Err(AcqError::Config(format!("no next point: {error}"))),
+        }
+    }
+    if let Some(path) = &args.output {
+        let text = serde_json::to_string_pretty(&panel.json)
+            .map_err(|e| AcqError::Config(format!("the study's state: {e}")))?;
+        acq_io::output::Output::write_complete(path, text.as_bytes())?;
+    }
+    Ok(())
+}
+
+fn no_candidates(args: &CalibrateRigArgs) -> AcqError {
+    AcqError::Config(format!(
+        "{}: no [candidates]: give the conditions the operator can set to name a next point",
+        args.study.display()
+    ))
+}

@@ -151,3 +151,76 @@ fn holds_at_a_known_truth_narrow_every_interval_around_it() {
     assert!(json["next"]["inputs"]["boom_inclination_deg"].is_number());
     assert!(json["parameters"]["bucket.mass_kg"]["q05"].is_number());
 }
+
+/// No study file panics the loader: any entry of `[holds.inputs]`,
+/// `[holds.observe]` or `[candidates]` replaced by any TOML value (numbers
+/// out of range or not finite, strings, lists, tables, nested junk) gives
+/// a study or an error, never a panic.
+mod careless_input {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn value() -> impl Strategy<Value = String> {
+        let leaf = prop_oneof![
+            any::<f64>().prop_map(|x| format!("{x:?}").replace("inf", "inf").replace("NaN", "nan")),
+            any::<i64>().prop_map(|x| x.to_string()),
+            "[a-z_\\[\\]0-9.]{0,12}".prop_map(|s| format!("{s:?}")),
+            Just("{ from = 1e308, to = -1e308, steps = 100000 }".to_string()),
+            Just("{ from = 0.0, to = 1.0, steps = 0 }".to_string()),
+            Just("[]".to_string()),
+            Just("{ quantity = \"tip_force\", uncertainty = -1.0 }".to_string()),
+            Just("{ quantity = \"sg01\", instrument = nan }".to_string()),
+            Just("{ quantity = 3 }".to_string()),
+            Just("true".to_string()),
+        ];
+        leaf.prop_recursive(2, 8, 4, |inner| {
+            prop_oneof![
+                prop::collection::vec(inner.clone(), 0..4)
+                    .prop_map(|v| format!("[{}]", v.join(", "))),
+                (inner.clone(), inner)
+                    .prop_map(|(a, b)| format!("{{ quantity = {a}, uncertainty = {b} }}")),
+            ]
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+        #[test]
+        fn any_entry_gives_a_study_or_an_error(line in 0usize..14, replacement in value()) {
+            let geometry = std::fs::canonicalize("../data/excavator/dx55.toml").unwrap();
+            let text = std::fs::read_to_string(STUDY).unwrap().replace(
+                "\"../../data/excavator/dx55.toml\"",
+                &format!("{geometry:?}"),
+            );
+            // The entries of [holds.inputs], [holds.observe] and [candidates].
+            let entries: Vec<usize> = text
+                .lines()
+                .enumerate()
+                .filter(|(_, l)| l.contains(" = ") && (l.contains("_deg") || l.contains("force_kN") || l.starts_with('"')))
+                .map(|(k, _)| k)
+                .collect();
+            prop_assert!(entries.len() >= 12, "the example's entries: {entries:?}");
+            let target = entries[line % entries.len()];
+            let changed: Vec<String> = text
+                .lines()
+                .enumerate()
+                .map(|(k, l)| {
+                    if k == target {
+                        let key = l.split(" = ").next().unwrap();
+                        format!("{key} = {replacement}")
+                    } else {
+                        l.to_string()
+                    }
+                })
+                .collect();
+            let dir = tempfile::tempdir().unwrap();
+            // The file as it is loads: what fails below fails for the entry.
+            let path = dir.path().join("as_is.toml");
+            std::fs::write(&path, &text).unwrap();
+            prop_assert!(RigStudy::load(&path, &rig()).is_ok());
+            let path = dir.path().join("study.toml");
+            std::fs::write(&path, changed.join("\n")).unwrap();
+            let _ = RigStudy::load(&path, &rig());
+        }
+    }
+}

@@ -69,6 +69,28 @@ fn start_acq(
     command.spawn().unwrap()
 }
 
+/// Each file of job `id`'s run directory with its first line (what a
+/// failed check needs to tell a requeue from a run).
+fn job_files(out: &Path, id: u64) -> Vec<(String, String)> {
+    let Some((directory, _)) = submitted(out).into_iter().find(|&(_, job)| job == id) else {
+        return Vec::new();
+    };
+    std::fs::read_dir(&directory)
+        .map(|entries| {
+            entries
+                .filter_map(Result::ok)
+                .map(|e| {
+                    let first = std::fs::read_to_string(e.path())
+                        .ok()
+                        .and_then(|t| t.lines().next().map(str::to_string))
+                        .unwrap_or_default();
+                    (e.file_name().to_string_lossy().into_owned(), first)
+                })
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
 fn said(out: &Path) -> String {
     std::fs::read_to_string(out.with_extension("stderr.txt")).unwrap_or_default()
 }
@@ -434,7 +456,12 @@ fn drained_and_failed_node(cluster: &Cluster) {
     finish_ok(child, &out, Duration::from_secs(120));
     let rows = evaluations(&out);
     assert_eq!(rows.len(), 3);
-    assert!(rows.iter().all(|r| r["status"] == "ok"), "{rows:?}");
+    assert!(
+        rows.iter().all(|r| r["status"] == "ok"),
+        "{rows:?}\nacq said:\n{}\nthe job's files: {:?}",
+        said(&out),
+        job_files(&out, third)
+    );
     assert_eq!(
         cluster.job(third).1,
         1,

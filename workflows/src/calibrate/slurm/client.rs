@@ -97,17 +97,26 @@ pub fn slurm_command(program: &str) -> Command {
 /// The exit code Slurm recorded for the job (its script exits with the
 /// solver's), from `scontrol show job` (`ExitCode=1:0`).
 pub fn slurm_exit_code(id: u64) -> Option<i32> {
+    scontrol_job(id).and_then(|(_, exit)| exit)
+}
+
+/// The job's state and exit code as the controller itself has them
+/// (`scontrol show job`): the authority when `squeue` still shows an
+/// ended run of a job Slurm has requeued.
+pub fn scontrol_job(id: u64) -> Option<(String, Option<i32>)> {
     let output = slurm_command("scontrol")
         .args(["show", "job", &id.to_string()])
         .output()
         .ok()?;
-    String::from_utf8_lossy(&output.stdout)
-        .split_whitespace()
-        .find_map(|word| word.strip_prefix("ExitCode="))?
-        .split(':')
-        .next()?
-        .parse()
-        .ok()
+    let text = String::from_utf8_lossy(&output.stdout);
+    let field = |name: &str| {
+        text.split_whitespace()
+            .find_map(|word| word.strip_prefix(&format!("{name}=")))
+            .map(str::to_string)
+    };
+    let state = field("JobState")?;
+    let exit = field("ExitCode").and_then(|code| code.split(':').next()?.parse().ok());
+    Some((state, exit))
 }
 
 #[cfg(test)]

@@ -39,7 +39,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, UNIX_EPOCH};
 
-use self::client::{cancel, is_stuck, query, slurm_command, slurm_exit_code, JobState};
+use self::client::{
+    cancel, is_stuck, query, scontrol_job, slurm_command, slurm_exit_code, JobState,
+};
 use self::job_files::{
     job_script, now_s, read_exit_status, read_number, read_start, write_whole, CANCELLED_BY_ACQ,
     EXIT_STATUS, JOB_ID, JOB_SCRIPT, STARTED_AT, STATUS_GRACE, SUBMITTED_AT,
@@ -379,10 +381,30 @@ impl SlurmExecutor {
                         // waited for blindly: a node that fails under the
                         // job can show it FAILED for a moment before Slurm
                         // requeues it, and then the rerun's status counts.
+                        if ended_at.is_none() {
+                            eprintln!(
+                                "acq: Slurm job {id} ended as {} and its exit status is not in its directory yet; waiting up to {} s",
+                                state.state,
+                                STATUS_GRACE.as_secs()
+                            );
+                        }
                         let since = *ended_at.get_or_insert_with(Instant::now);
                         // Listing the directory refreshes NFS's cache of it.
                         let _ = std::fs::read_dir(directory).map(|entries| entries.count());
                         if since.elapsed() >= STATUS_GRACE {
+                            // The controller's own view: a requeued job's
+                            // ended run can linger in squeue's answer.
+                            if let Some((now, _)) = scontrol_job(id) {
+                                if !matches!(now.as_str(), "COMPLETED" | "FAILED") {
+                                    eprintln!(
+                                        "acq: Slurm job {id}: squeue says {}, the controller {now}; waiting on",
+                                        state.state
+                                    );
+                                    ended_at = None;
+                                    std::thread::sleep(FILE_POLL);
+                                    continue;
+                                }
+                            }
                             let status = slurm_exit_code(id).ok_or_else(|| {
                                 format!(
                                     "Slurm job {id} ended as {} and its exit status is nowhere: {}",

@@ -445,3 +445,55 @@ fn the_working_envelope_is_the_extreme_of_a_dense_stroke_grid() {
     let error = working_envelope(&unplaced).unwrap_err().to_string();
     assert!(error.contains("base.foot_pin_above_ground_m"), "{error}");
 }
+
+/// A twin re-weighed in place of rebuilt (the rig's sampler changes only
+/// masses from step to step) evaluates to the bit as one built from the
+/// file with those masses; a number that is not a mass is refused.
+#[test]
+fn a_twin_reweighed_equals_one_built_with_the_masses() {
+    use acq_twins::excavator::geometry::GeometryTemplate;
+    let template =
+        GeometryTemplate::parse(&std::fs::read_to_string(data("dx55.toml")).unwrap()).unwrap();
+    let base = Excavator::new(template.with(&[]).unwrap()).unwrap();
+    let sets: [&[(&str, f64)]; 3] = [
+        &[
+            ("bucket.mass_kg", 215.0),
+            ("bucket.centre_of_mass_m[0]", 0.42),
+        ],
+        &[
+            ("boom.structure.attached_mass[4].mass_kg", 70.0),
+            ("arm.structure.attached_mass[5].mass_kg", 0.0),
+            ("side_link.mass_kg", 9.0),
+            ("cylinder.arm.rod_mass_kg", 31.0),
+        ],
+        &[
+            ("bucket.centre_of_mass_m[1]", -0.1),
+            ("connecting_link.mass_kg", 12.5),
+            ("cylinder.boom.barrel_mass_kg", 60.0),
+        ],
+    ];
+    for values in sets {
+        let reweighed = base.with_masses(values).unwrap();
+        let built = Excavator::new(template.with(values).unwrap()).unwrap();
+        assert_eq!(reweighed.structure_masses_kg(), built.structure_masses_kg());
+        for case in [
+            inputs(300.0, 400.0, 500.0, 40.0, -10.0),
+            inputs(100.0, 550.0, 200.0, 5.0, 30.0),
+        ] {
+            assert_eq!(
+                reweighed.evaluate(&case).unwrap(),
+                built.evaluate(&case).unwrap(),
+                "{values:?}"
+            );
+        }
+    }
+    for (path, value) in [
+        ("boom.arm_pin_m[0]", 2.9),
+        ("bucket.mass_kg", -1.0),
+        ("bucket.mass_kg", f64::NAN),
+        ("boom.structure.attached_mass[99].mass_kg", 1.0),
+    ] {
+        let err = base.with_masses(&[(path, value)]).unwrap_err().to_string();
+        assert!(err.contains(path), "{path}: {err}");
+    }
+}

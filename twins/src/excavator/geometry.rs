@@ -474,6 +474,119 @@ impl Geometry {
     }
 }
 
+/// A number of the geometry that only weighs: a mass or the bucket's centre
+/// of mass. It sets loads, never the boom's or arm's stiffness or the
+/// linkage, so a built twin can be re-weighed
+/// ([`crate::excavator::Excavator::with_masses`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum MassNumber {
+    BucketMass,
+    BucketCentreOfMass(usize),
+    SideLinkMass,
+    ConnectingLinkMass,
+    Attached { member: Member, index: usize },
+    CylinderBarrel(CylinderKey),
+    CylinderRod(CylinderKey),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CylinderKey {
+    Boom,
+    Arm,
+    Bucket,
+}
+
+impl MassNumber {
+    fn of(path: &str) -> Option<MassNumber> {
+        use Step::{Index, Key};
+        let cylinder = |name: &str| match name {
+            "boom" => Some(CylinderKey::Boom),
+            "arm" => Some(CylinderKey::Arm),
+            "bucket" => Some(CylinderKey::Bucket),
+            _ => None,
+        };
+        Some(match key_path(path).ok()?.as_slice() {
+            [Key("bucket"), Key("mass_kg")] => MassNumber::BucketMass,
+            [Key("bucket"), Key("centre_of_mass_m"), Index(i)] if *i < 2 => {
+                MassNumber::BucketCentreOfMass(*i)
+            }
+            [Key("side_link"), Key("mass_kg")] => MassNumber::SideLinkMass,
+            [Key("connecting_link"), Key("mass_kg")] => MassNumber::ConnectingLinkMass,
+            [Key(member), Key("structure"), Key("attached_mass"), Index(index), Key("mass_kg")] => {
+                MassNumber::Attached {
+                    member: match *member {
+                        "boom" => Member::Boom,
+                        "arm" => Member::Arm,
+                        _ => return None,
+                    },
+                    index: *index,
+                }
+            }
+            [Key("cylinder"), Key(name), Key("barrel_mass_kg")] => {
+                MassNumber::CylinderBarrel(cylinder(name)?)
+            }
+            [Key("cylinder"), Key(name), Key("rod_mass_kg")] => {
+                MassNumber::CylinderRod(cylinder(name)?)
+            }
+            _ => return None,
+        })
+    }
+}
+
+/// Whether the number at `path` only weighs (a mass or the bucket's centre
+/// of mass): see [`Geometry::set_mass_number`].
+pub fn is_mass_number(path: &str) -> bool {
+    MassNumber::of(path).is_some()
+}
+
+impl Geometry {
+    /// Sets the number at `path` if it only weighs ([`is_mass_number`]).
+    /// `None` when `path` names another number; an error when the value
+    /// is not one the file could hold or the mass is not in the file.
+    pub fn set_mass_number(&mut self, path: &str, value: f64) -> Option<Result<(), String>> {
+        let number = MassNumber::of(path)?;
+        // Masses the file's check wants positive; the others finite.
+        let positive = matches!(
+            number,
+            MassNumber::BucketMass | MassNumber::SideLinkMass | MassNumber::ConnectingLinkMass
+        );
+        fn cylinder(geometry: &mut Geometry, key: CylinderKey) -> &mut Cylinder {
+            match key {
+                CylinderKey::Boom => &mut geometry.cylinder.boom,
+                CylinderKey::Arm => &mut geometry.cylinder.arm,
+                CylinderKey::Bucket => &mut geometry.cylinder.bucket,
+            }
+        }
+        let slot: &mut f64 = match number {
+            MassNumber::BucketMass => &mut self.bucket.mass_kg,
+            MassNumber::BucketCentreOfMass(i) => &mut self.bucket.centre_of_mass_m[i],
+            MassNumber::SideLinkMass => &mut self.side_link.mass_kg,
+            MassNumber::ConnectingLinkMass => &mut self.connecting_link.mass_kg,
+            MassNumber::Attached { member, index } => {
+                let structure = match member {
+                    Member::Boom => &mut self.boom.structure,
+                    Member::Arm => &mut self.arm.structure,
+                };
+                match structure.attached_mass.get_mut(index) {
+                    Some(mass) => &mut mass.mass_kg,
+                    None => return Some(Err(format!("the geometry has no number at {path:?}"))),
+                }
+            }
+            MassNumber::CylinderBarrel(key) => &mut cylinder(self, key).barrel_mass_kg,
+            MassNumber::CylinderRod(key) => &mut cylinder(self, key).rod_mass_kg,
+        };
+        Some(if !value.is_finite() || (positive && value <= 0.0) {
+            Err(format!(
+                "{path} must be {} and finite, got {value}",
+                if positive { "positive" } else { "a number" }
+            ))
+        } else {
+            *slot = value;
+            Ok(())
+        })
+    }
+}
+
 /// A geometry file kept as its TOML table, so any of its numbers can be set
 /// by key path: `bucket.mass_kg`, `base.boom_cylinder_pin_m[1]`,
 /// `gauge[2].station_m` (the file's own names; arrays indexed from 0). A

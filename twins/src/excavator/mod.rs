@@ -24,7 +24,7 @@ use geometry::{Cylinder, Geometry, Member};
 pub use inputs::{CylinderName, Inputs, Strokes, TwinError};
 use kinematics::{vec2, Pose, Vec2};
 use nalgebra::Rotation2;
-use statics::{Body, Pin, PointLoad, Reactions};
+use statics::{Body, FactoredStatics, Pin, PointLoad, Reactions};
 use structure::{BodyStresses, FlexibleBody, GaugeReading};
 
 /// Which chamber carries the load.
@@ -72,6 +72,20 @@ impl Evaluation {
 const BOOM_PINS: [Pin; 4] = [Pin::A, Pin::B, Pin::D, Pin::E];
 /// The arm's: B (pin support) first, G (roller).
 const ARM_PINS: [Pin; 5] = [Pin::B, Pin::G, Pin::F, Pin::H, Pin::I];
+
+/// A pose with its statics factored ([`Excavator::prepare`]).
+#[derive(Debug, Clone)]
+pub struct PreparedPose {
+    strokes: Strokes,
+    pub pose: Pose,
+    statics: FactoredStatics,
+}
+
+impl PreparedPose {
+    pub fn strokes(&self) -> Strokes {
+        self.strokes
+    }
+}
 
 /// A built twin: geometry plus factored boom and arm frame models.
 #[derive(Debug)]
@@ -129,6 +143,34 @@ impl Excavator {
 
     pub fn geometry(&self) -> &Geometry {
         &self.geometry
+    }
+
+    /// The twin with the mass numbers in `values` changed (by key path, as
+    /// [`Geometry::set_mass_number`] takes them), built in microseconds:
+    /// the boom's and arm's factored frames are shared, since a mass sets
+    /// loads, not stiffness. An error names a path that is not a mass
+    /// number, or a value the geometry cannot hold.
+    pub fn with_masses(&self, values: &[(&str, f64)]) -> Result<Excavator, TwinError> {
+        let mut geometry = self.geometry.clone();
+        for &(path, value) in values {
+            geometry
+                .set_mass_number(path, value)
+                .ok_or_else(|| {
+                    TwinError::Geometry(format!(
+                        "{path} is not a mass number: build the twin anew to change it"
+                    ))
+                })?
+                .map_err(TwinError::Geometry)?;
+        }
+        let reweigh = |body: &FlexibleBody, structure: &geometry::Structure, name: &str| {
+            body.reweighed(&structure.attached_mass)
+                .ok_or_else(|| TwinError::Geometry(format!("{name}: its attached masses moved")))
+        };
+        Ok(Excavator {
+            boom: reweigh(&self.boom, &geometry.boom.structure, "boom")?,
+            arm: reweigh(&self.arm, &geometry.arm.structure, "arm")?,
+            geometry,
+        })
     }
 
     /// Mass of the boom and the arm as their frame models carry it, kg.
@@ -205,9 +247,39 @@ impl Excavator {
     /// One full evaluation.
     pub fn evaluate(&self, inputs: &Inputs) -> Result<Evaluation, TwinError> {
         inputs.check()?;
-        let pose = Pose::solve(&self.geometry, &inputs.strokes)?;
+        self.evaluate_at(&self.prepare(&inputs.strokes)?, inputs)
+    }
+
+    /// The pose of `strokes` with its statics factored: what every
+    /// evaluation at those strokes shares, whatever the loads and masses
+    /// (it depends on the linkage alone, so a twin re-weighed with
+    /// [`Excavator::with_masses`] can use it too).
+    pub fn prepare(&self, strokes: &Strokes) -> Result<PreparedPose, TwinError> {
+        let pose = Pose::solve(&self.geometry, strokes)?;
+        Ok(PreparedPose {
+            strokes: *strokes,
+            statics: FactoredStatics::at(&pose),
+            pose,
+        })
+    }
+
+    /// [`Excavator::evaluate`] at a prepared pose; `inputs.strokes` must
+    /// be the pose's.
+    pub fn evaluate_at(
+        &self,
+        prepared: &PreparedPose,
+        inputs: &Inputs,
+    ) -> Result<Evaluation, TwinError> {
+        inputs.check()?;
+        if prepared.strokes != inputs.strokes {
+            return Err(TwinError::InvalidInput(format!(
+                "the pose was prepared for strokes {:?}, not {:?}",
+                prepared.strokes, inputs.strokes
+            )));
+        }
+        let pose = prepared.pose;
         let loads = self.loads(&pose, inputs);
-        let reactions = statics::solve(&pose, &loads).ok_or_else(|| {
+        let reactions = prepared.statics.solve(&loads).ok_or_else(|| {
             TwinError::InvalidInput("the statics are singular at this pose (a dead centre)".into())
         })?;
 

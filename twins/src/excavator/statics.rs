@@ -8,7 +8,7 @@
 //! axial force is the oil's net force on the piston, which is what the
 //! chamber pressure balances.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{Const, SMatrix, SVector, LU};
 
 use super::inputs::CylinderName;
 use super::kinematics::{cross, Pose, Vec2};
@@ -280,91 +280,116 @@ impl Reactions {
 /// Solves for every joint force; None if the system is singular (a dead
 /// centre the kinematics margin let through).
 pub fn solve(pose: &Pose, loads: &[PointLoad]) -> Option<Reactions> {
-    let mut matrix = SMatrix::<f64, EQUATIONS, EQUATIONS>::zeros();
-    let mut rhs = SVector::<f64, EQUATIONS>::zeros();
+    FactoredStatics::at(pose).solve(loads)
+}
 
-    // Column `column` holds a unit force component along `direction` at `at`
-    // acting on `body` with `sign`.
-    type Equations = SMatrix<f64, EQUATIONS, EQUATIONS>;
-    fn put(
-        matrix: &mut Equations,
-        body: Body,
-        column: usize,
-        at: Vec2,
-        direction: Vec2,
-        sign: f64,
-    ) {
-        let row = 3 * body.index();
-        matrix[(row, column)] += sign * direction.x;
-        matrix[(row + 1, column)] += sign * direction.y;
-        matrix[(row + 2, column)] += sign * cross(&at, &direction);
-    }
-    let (unit_y, unit_z) = (Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0));
-    for (k, hinge) in HINGES.iter().enumerate() {
-        let at = hinge.pin.position(pose);
-        for (component, direction) in [unit_y, unit_z].into_iter().enumerate() {
-            put(&mut matrix, hinge.on, 2 * k + component, at, direction, 1.0);
-            if let Some(from) = hinge.from {
-                put(&mut matrix, from, 2 * k + component, at, direction, -1.0);
+/// The equilibrium equations of every body at one pose, factored. Their
+/// left side (where each joint force acts) depends on the pose alone, so
+/// one factorisation serves every load at that pose: a sampler that moves
+/// masses solves each hold's pose once.
+#[derive(Clone, Debug)]
+pub struct FactoredStatics {
+    lu: LU<f64, Const<EQUATIONS>, Const<EQUATIONS>>,
+    axes: [Vec2; 3],
+}
+
+impl FactoredStatics {
+    pub fn at(pose: &Pose) -> FactoredStatics {
+        let mut matrix = SMatrix::<f64, EQUATIONS, EQUATIONS>::zeros();
+
+        // Column `column` holds a unit force component along `direction` at `at`
+        // acting on `body` with `sign`.
+        type Equations = SMatrix<f64, EQUATIONS, EQUATIONS>;
+        fn put(
+            matrix: &mut Equations,
+            body: Body,
+            column: usize,
+            at: Vec2,
+            direction: Vec2,
+            sign: f64,
+        ) {
+            let row = 3 * body.index();
+            matrix[(row, column)] += sign * direction.x;
+            matrix[(row + 1, column)] += sign * direction.y;
+            matrix[(row + 2, column)] += sign * cross(&at, &direction);
+        }
+        let (unit_y, unit_z) = (Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0));
+        for (k, hinge) in HINGES.iter().enumerate() {
+            let at = hinge.pin.position(pose);
+            for (component, direction) in [unit_y, unit_z].into_iter().enumerate() {
+                put(&mut matrix, hinge.on, 2 * k + component, at, direction, 1.0);
+                if let Some(from) = hinge.from {
+                    put(&mut matrix, from, 2 * k + component, at, direction, -1.0);
+                }
             }
         }
-    }
-    let mut axes = [Vec2::zeros(); 3];
-    for name in CylinderName::ALL {
-        let (barrel_pin, rod_pin) = pose.cylinder_pins(name);
-        let axis = (rod_pin - barrel_pin).normalize();
-        axes[name.index()] = axis;
-        let normal = Vec2::new(-axis.y, axis.x);
-        let first = 2 * HINGES.len() + 3 * name.index();
-        for (offset, direction) in [axis, normal].into_iter().enumerate() {
-            put(
-                &mut matrix,
-                Body::Rod(name),
-                first + offset,
-                rod_pin,
-                direction,
-                1.0,
-            );
-            put(
-                &mut matrix,
-                Body::Barrel(name),
-                first + offset,
-                rod_pin,
-                direction,
-                -1.0,
-            );
+        let mut axes = [Vec2::zeros(); 3];
+        for name in CylinderName::ALL {
+            let (barrel_pin, rod_pin) = pose.cylinder_pins(name);
+            let axis = (rod_pin - barrel_pin).normalize();
+            axes[name.index()] = axis;
+            let normal = Vec2::new(-axis.y, axis.x);
+            let first = 2 * HINGES.len() + 3 * name.index();
+            for (offset, direction) in [axis, normal].into_iter().enumerate() {
+                put(
+                    &mut matrix,
+                    Body::Rod(name),
+                    first + offset,
+                    rod_pin,
+                    direction,
+                    1.0,
+                );
+                put(
+                    &mut matrix,
+                    Body::Barrel(name),
+                    first + offset,
+                    rod_pin,
+                    direction,
+                    -1.0,
+                );
+            }
+            matrix[(3 * Body::Rod(name).index() + 2, first + 2)] += 1.0;
+            matrix[(3 * Body::Barrel(name).index() + 2, first + 2)] -= 1.0;
         }
-        matrix[(3 * Body::Rod(name).index() + 2, first + 2)] += 1.0;
-        matrix[(3 * Body::Barrel(name).index() + 2, first + 2)] -= 1.0;
-    }
-    for load in loads {
-        let row = 3 * load.body.index();
-        rhs[row] -= load.force_n.x;
-        rhs[row + 1] -= load.force_n.y;
-        rhs[row + 2] -= cross(&load.at_m, &load.force_n);
+        FactoredStatics {
+            lu: matrix.lu(),
+            axes,
+        }
     }
 
-    let solution = matrix.lu().solve(&rhs)?;
-    if solution.iter().any(|v| !v.is_finite()) {
-        return None;
-    }
-    let mut hinge_force_n = [Vec2::zeros(); 12];
-    for (k, force) in hinge_force_n.iter_mut().enumerate() {
-        *force = Vec2::new(solution[2 * k], solution[2 * k + 1]);
-    }
-    let cylinders = CylinderName::ALL.map(|name| {
-        let first = 2 * HINGES.len() + 3 * name.index();
-        CylinderJoint {
-            axial_force_n: solution[first],
-            normal_force_n: solution[first + 1],
-            couple_nm: solution[first + 2],
-            axis: axes[name.index()],
+    /// Every joint force under `loads`; None if the equations are singular.
+    pub fn solve(&self, loads: &[PointLoad]) -> Option<Reactions> {
+        let axes = self.axes;
+        let mut rhs = SVector::<f64, EQUATIONS>::zeros();
+        for load in loads {
+            let row = 3 * load.body.index();
+            rhs[row] -= load.force_n.x;
+            rhs[row + 1] -= load.force_n.y;
+            rhs[row + 2] -= cross(&load.at_m, &load.force_n);
         }
-    });
-    Some(Reactions {
-        hinge_force_n,
-        cylinders,
-    })
+
+        let solution = self.lu.solve(&rhs)?;
+        if solution.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let mut hinge_force_n = [Vec2::zeros(); 12];
+        for (k, force) in hinge_force_n.iter_mut().enumerate() {
+            *force = Vec2::new(solution[2 * k], solution[2 * k + 1]);
+        }
+        let cylinders = CylinderName::ALL.map(|name| {
+            let first = 2 * HINGES.len() + 3 * name.index();
+            CylinderJoint {
+                axial_force_n: solution[first],
+                normal_force_n: solution[first + 1],
+                couple_nm: solution[first + 2],
+                axis: axes[name.index()],
+            }
+        });
+        Some(Reactions {
+            hinge_force_n,
+            cylinders,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -8,11 +8,13 @@
 //! from the nearest centreline point. The stiffness is factored once when
 //! the body is built; an evaluation is one back-substitution.
 
+use std::sync::Arc;
+
 use crate::frame::{
     BoxSection, ElementId, FrameBuilder, FrameLoads, FrameModel, FrameSolution, NodeId,
 };
 
-use super::geometry::{Face, Gauge, PointM, Structure};
+use super::geometry::{Face, Gauge, PointM, PointMass, Structure};
 use super::kinematics::{cross, vec2, Vec2};
 
 /// Two stations closer than this are one node, m: a gauge written to the
@@ -42,14 +44,21 @@ struct GaugeProbe {
 }
 
 /// A flexible body ready to evaluate.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct FlexibleBody {
-    model: FrameModel,
+    /// Shared by the bodies re-weighed from this one: the stiffness does
+    /// not depend on the attached masses.
+    model: Arc<FrameModel>,
     box_elements: Vec<BoxElement>,
     pin_nodes: Vec<NodeId>,
-    /// Attached masses as (node, offset from node, kg).
+    /// Attached masses as (node, offset from node, kg), and where each is
+    /// in the body frame.
     attached: Vec<(NodeId, Vec2, f64)>,
+    attached_at_m: Vec<PointM>,
     gauges: Vec<GaugeProbe>,
+    /// The plates' own mass and first moment, kg and kg m.
+    plates_mass_kg: f64,
+    plates_first_moment_kg_m: Vec2,
     mass_kg: f64,
     centre_of_mass_m: Vec2,
 }
@@ -184,20 +193,16 @@ impl FlexibleBody {
             })
             .collect::<Vec<_>>();
 
-        let mut mass_kg = 0.0;
-        let mut first_moment = Vec2::zeros();
+        let mut plates_mass_kg = 0.0;
+        let mut plates_first_moment_kg_m = Vec2::zeros();
         for element in &box_elements {
             let middle = 0.5 * (element.start_station_m + element.end_station_m);
             let section = structure.section_at(middle);
             let m = density_kg_m3
                 * section.area_m2()
                 * (element.end_station_m - element.start_station_m);
-            mass_kg += m;
-            first_moment += point_at(&vertices, &vertex_stations, middle) * m;
-        }
-        for mass in &structure.attached_mass {
-            mass_kg += mass.mass_kg;
-            first_moment += vec2(mass.at_m) * mass.mass_kg;
+            plates_mass_kg += m;
+            plates_first_moment_kg_m += point_at(&vertices, &vertex_stations, middle) * m;
         }
 
         let probes = gauges
@@ -228,15 +233,54 @@ impl FlexibleBody {
             .collect();
 
         let model = builder.build().map_err(|e| format!("frame model: {e}"))?;
-        Ok(FlexibleBody {
-            model,
+        let mut body = FlexibleBody {
+            model: Arc::new(model),
             box_elements,
             pin_nodes,
             attached,
+            attached_at_m: structure.attached_mass.iter().map(|m| m.at_m).collect(),
             gauges: probes,
-            mass_kg,
-            centre_of_mass_m: first_moment / mass_kg,
-        })
+            plates_mass_kg,
+            plates_first_moment_kg_m,
+            mass_kg: 0.0,
+            centre_of_mass_m: Vec2::zeros(),
+        };
+        body.weigh();
+        Ok(body)
+    }
+
+    /// The body with the attached masses' values of `attached` (the same
+    /// masses at the same places, other weights), its factored frame
+    /// shared: a back-substitution's loads change, the stiffness does not.
+    /// `None` when a mass was added, removed or moved: build the body anew.
+    pub fn reweighed(&self, attached: &[PointMass]) -> Option<FlexibleBody> {
+        if attached.len() != self.attached_at_m.len()
+            || attached
+                .iter()
+                .zip(&self.attached_at_m)
+                .any(|(mass, at)| mass.at_m != *at)
+        {
+            return None;
+        }
+        let mut body = self.clone();
+        for (slot, mass) in body.attached.iter_mut().zip(attached) {
+            slot.2 = mass.mass_kg;
+        }
+        body.weigh();
+        Some(body)
+    }
+
+    /// The total mass and centre of mass from the plates' and the attached
+    /// masses'.
+    fn weigh(&mut self) {
+        let mut mass_kg = self.plates_mass_kg;
+        let mut first_moment = self.plates_first_moment_kg_m;
+        for (&(_, _, kg), at) in self.attached.iter().zip(&self.attached_at_m) {
+            mass_kg += kg;
+            first_moment += vec2(*at) * kg;
+        }
+        self.mass_kg = mass_kg;
+        self.centre_of_mass_m = first_moment / mass_kg;
     }
 
     pub fn mass_kg(&self) -> f64 {

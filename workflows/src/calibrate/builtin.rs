@@ -36,16 +36,18 @@
 //! (one geometry per sampler chain at work).
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock, RwLock};
 
 use acq_twins::excavator::envelope::working_envelope;
-use acq_twins::excavator::geometry::GeometryTemplate;
+use acq_twins::excavator::geometry::{is_mass_number, GeometryTemplate};
 use acq_twins::excavator::geometry_file::{rewrite_geometry_file, ChangedNumber};
 use acq_twins::excavator::inclinations::Inclinations;
 use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
-use acq_twins::excavator::{CylinderName, Excavator, Inputs, Strokes};
+use acq_twins::excavator::{CylinderName, Excavator, Inputs, PreparedPose, Strokes};
 
-use super::study::{numbers_by_key_path, Model, ModelRun, Study, StudyParameter};
+use super::study::{
+    number_at_key_path, numbers_by_key_path, Model, ModelRun, Study, StudyParameter,
+};
 use crate::excavator_report::{envelope_json, evaluation_json};
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 
@@ -89,6 +91,9 @@ pub struct ExcavatorModel {
     twin: Arc<Excavator>,
     /// The poses a changed geometry is re-fitted to; `None`: no re-fit.
     poses: Option<[ReferencePose; 2]>,
+    /// The unchanged geometry re-fitted to them: what a change of masses
+    /// alone re-weighs.
+    refitted: OnceLock<Result<Arc<Excavator>, String>>,
     /// The last changed geometries (their key paths and values, the newest
     /// first), their twins, and the numbers of each geometry itself once
     /// asked for: one per sampler chain at work.
@@ -96,14 +101,18 @@ pub struct ExcavatorModel {
     /// Strokes solved from inclinations, by the inclinations and the
     /// numbers that move the linkage (their bits): a study at the rig asks
     /// for the same holds' poses at every step of its sampler.
-    strokes: Mutex<HashMap<Vec<u64>, Strokes>>,
+    /// With the pose's statics factored ([`PreparedPose`]): the same for
+    /// every mass.
+    poses_solved: RwLock<HashMap<Vec<u64>, Arc<PreparedPose>>>,
 }
 
 /// Changed geometries kept: more than the threads that evaluate at once.
 const GEOMETRIES_KEPT: usize = 8;
 
-/// How many solved poses are kept before the cache starts again.
-const STROKES_KEPT: usize = 65_536;
+/// How many solved poses are kept before the cache starts again (each
+/// holds its factored statics, about 9 kB): a study at the rig has a pose
+/// per hold; a search that moves the linkage makes one per run.
+const POSES_KEPT: usize = 1024;
 
 /// A twin built for a changed geometry.
 struct Built {
@@ -114,6 +123,9 @@ struct Built {
 
 /// Outputs by key path.
 type Numbers = HashMap<String, f64>;
+
+/// Geometry numbers by key path, as a run changes them.
+type Numbered<'a> = Vec<(&'a str, f64)>;
 
 /// The prefixes of the outputs of the geometry itself (no load case):
 /// the working envelope, and each cylinder's dead length (its retracted
@@ -134,8 +146,9 @@ impl ExcavatorModel {
             template,
             twin: Arc::new(twin),
             poses: refit.then(published_poses),
+            refitted: OnceLock::new(),
             last: Mutex::new(Vec::new()),
-            strokes: Mutex::new(HashMap::new()),
+            poses_solved: RwLock::new(HashMap::new()),
         })
     }
 
@@ -158,59 +171,93 @@ impl ExcavatorModel {
             }
             Ok(Arc::new(numbers))
         };
-        let same = |built: &Built| {
-            built.geometry.len() == geometry.len()
+        let same = |key: &[(&str, f64)], built: &Built| {
+            built.geometry.len() == key.len()
                 && built
                     .geometry
                     .iter()
-                    .zip(geometry)
+                    .zip(key)
                     .all(|((a, x), (b, y))| a == b && x.to_bits() == y.to_bits())
         };
         let lock = || self.last.lock().unwrap_or_else(|e| e.into_inner());
-        let kept = lock()
-            .iter()
-            .find(|built| same(built))
-            .map(|built| (built.twin.clone(), built.of_geometry.clone()));
+        let kept = |key: &[(&str, f64)]| {
+            lock()
+                .iter()
+                .find(|built| same(key, built))
+                .map(|built| (built.twin.clone(), built.of_geometry.clone()))
+        };
+        let keep =
+            |key: &[(&str, f64)], twin: &Arc<Excavator>, of_geometry: &Option<Arc<Numbers>>| {
+                let mut last = lock();
+                match last.iter_mut().find(|built| same(key, built)) {
+                    Some(built) => {
+                        if built.of_geometry.is_none() {
+                            built.of_geometry.clone_from(of_geometry);
+                        }
+                    }
+                    None => {
+                        last.insert(
+                            0,
+                            Built {
+                                geometry: key.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+                                twin: twin.clone(),
+                                of_geometry: of_geometry.clone(),
+                            },
+                        );
+                        last.truncate(GEOMETRIES_KEPT);
+                    }
+                }
+            };
         // Built outside the lock: chains sampled in parallel each build
         // their own point's twin at once. What is returned is what was
         // found or built here, whatever another thread keeps meanwhile.
-        let (twin, of_geometry) = match kept {
+        let (twin, of_geometry) = match kept(geometry) {
             Some(kept) => kept,
             None if geometry.is_empty() => (self.twin.clone(), None),
             None => {
-                let mut changed = self.template.with(geometry)?;
-                if let Some(poses) = &self.poses {
-                    refit_poses(&mut changed, poses)?;
-                }
-                (
-                    Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?),
-                    None,
-                )
+                // Masses only weigh: the twin of the other numbers is
+                // re-weighed, its frames shared (a sampler that moves
+                // masses alone never rebuilds them).
+                let (masses, others): (Numbered, Numbered) =
+                    geometry.iter().partition(|(path, _)| is_mass_number(path));
+                let base = match kept(&others) {
+                    Some((base, _)) if !others.is_empty() => base,
+                    _ if others.is_empty() => match &self.poses {
+                        None => self.twin.clone(),
+                        Some(poses) => self
+                            .refitted
+                            .get_or_init(|| {
+                                let mut unchanged = self.template.with(&[])?;
+                                refit_poses(&mut unchanged, poses)?;
+                                Excavator::new(unchanged)
+                                    .map(Arc::new)
+                                    .map_err(|e| e.to_string())
+                            })
+                            .clone()?,
+                    },
+                    _ => {
+                        let mut changed = self.template.with(&others)?;
+                        if let Some(poses) = &self.poses {
+                            refit_poses(&mut changed, poses)?;
+                        }
+                        let base = Arc::new(Excavator::new(changed).map_err(|e| e.to_string())?);
+                        keep(&others, &base, &None);
+                        base
+                    }
+                };
+                let twin = if masses.is_empty() {
+                    base
+                } else {
+                    Arc::new(base.with_masses(&masses).map_err(|e| e.to_string())?)
+                };
+                (twin, None)
             }
         };
         let of_geometry = match of_geometry {
             None if envelope => Some(envelope_of(&twin)?),
             kept => kept,
         };
-        let mut last = lock();
-        match last.iter_mut().find(|built| same(built)) {
-            Some(built) => {
-                if built.of_geometry.is_none() {
-                    built.of_geometry.clone_from(&of_geometry);
-                }
-            }
-            None => {
-                last.insert(
-                    0,
-                    Built {
-                        geometry: geometry.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
-                        twin: twin.clone(),
-                        of_geometry: of_geometry.clone(),
-                    },
-                );
-                last.truncate(GEOMETRIES_KEPT);
-            }
-        }
+        keep(geometry, &twin, &of_geometry);
         Ok((twin, of_geometry))
     }
 }
@@ -302,42 +349,54 @@ impl ExcavatorModel {
 }
 
 impl ExcavatorModel {
-    /// The strokes of the pose with `inclinations` in `twin`'s geometry
-    /// (`geometry`: the numbers changed in it), cached while no number that
-    /// moves the linkage changes.
-    fn strokes_at(
+    /// The pose of `pose` (strokes, or inclinations solved for strokes in
+    /// `twin`'s geometry; `geometry`: the numbers changed in it) with its
+    /// statics factored, cached while no number that moves the linkage
+    /// changes.
+    fn pose_at(
         &self,
-        inclinations: &Inclinations,
+        pose: PoseBy,
         geometry: &[(&str, f64)],
         twin: &Excavator,
-    ) -> Result<Strokes, String> {
-        let mut key: Vec<u64> = [
-            inclinations.boom_deg,
-            inclinations.arm_deg,
-            inclinations.bucket_deg,
-        ]
-        .iter()
-        .map(|x| x.to_bits())
-        .collect();
+    ) -> Result<Arc<PreparedPose>, String> {
+        let (tag, values) = match pose {
+            PoseBy::Strokes(s) => (0, [s.boom_mm, s.arm_mm, s.bucket_mm]),
+            PoseBy::Inclinations(i) => (1, [i.boom_deg, i.arm_deg, i.bucket_deg]),
+        };
+        let mut key: Vec<u64> = vec![tag];
+        key.extend(values.iter().map(|x| x.to_bits()));
         key.extend(
             geometry
                 .iter()
                 .filter(|(path, _)| moves_the_linkage(path))
                 .map(|(_, value)| value.to_bits()),
         );
-        let mut cache = self.strokes.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some(strokes) = cache.get(&key) {
-            return Ok(*strokes);
+        let read = self.poses_solved.read().unwrap_or_else(|e| e.into_inner());
+        if let Some(prepared) = read.get(&key) {
+            return Ok(prepared.clone());
         }
-        let strokes = inclinations
-            .strokes(twin.geometry())
-            .map_err(|e| format!("the pose of inclinations {inclinations:?}: {e}"))?;
-        if cache.len() >= STROKES_KEPT {
+        drop(read);
+        let strokes = match pose {
+            PoseBy::Strokes(strokes) => strokes,
+            PoseBy::Inclinations(inclinations) => inclinations
+                .strokes(twin.geometry())
+                .map_err(|e| format!("the pose of inclinations {inclinations:?}: {e}"))?,
+        };
+        let prepared = Arc::new(twin.prepare(&strokes).map_err(|e| e.to_string())?);
+        let mut cache = self.poses_solved.write().unwrap_or_else(|e| e.into_inner());
+        if cache.len() >= POSES_KEPT {
             cache.clear();
         }
-        cache.insert(key, strokes);
-        Ok(strokes)
+        cache.insert(key, prepared.clone());
+        Ok(prepared)
     }
+}
+
+/// How a run gives its pose.
+#[derive(Clone, Copy, Debug)]
+enum PoseBy {
+    Strokes(Strokes),
+    Inclinations(Inclinations),
 }
 
 impl Model for ExcavatorModel {
@@ -383,44 +442,57 @@ impl Model for ExcavatorModel {
             let by_inclinations = INCLINATION_INPUTS
                 .iter()
                 .any(|name| operating.contains_key(name));
-            let strokes = if by_inclinations {
-                let inclinations = Inclinations {
+            let pose = if by_inclinations {
+                PoseBy::Inclinations(Inclinations {
                     boom_deg: operating_input("boom_inclination_deg")?,
                     arm_deg: operating_input("arm_inclination_deg")?,
                     bucket_deg: operating_input("bucket_inclination_deg")?,
-                };
-                self.strokes_at(&inclinations, &geometry, &twin)?
+                })
             } else {
-                Strokes {
+                PoseBy::Strokes(Strokes {
                     bucket_mm: operating_input("bucket_stroke_mm")?,
                     arm_mm: operating_input("arm_stroke_mm")?,
                     boom_mm: operating_input("boom_stroke_mm")?,
-                }
+                })
             };
-            let inputs = Inputs {
-                strokes,
-                tip_force_kn: operating_input("force_kN")?,
-                tip_force_angle_deg: operating_input("force_angle_deg")?,
+            let with_strokes = |strokes: Strokes| -> Result<Inputs, String> {
+                Ok(Inputs {
+                    strokes,
+                    tip_force_kn: operating_input("force_kN")?,
+                    tip_force_angle_deg: operating_input("force_angle_deg")?,
+                })
             };
-            let evaluation = twin.evaluate(&inputs).map_err(|e| e.to_string())?;
-            let mut numbers = numbers_by_key_path(&evaluation_json(&evaluation));
-            for (name, cylinder) in CylinderName::ALL.iter().zip(&evaluation.cylinders) {
-                if let Some(excess) = cylinder.over_relief_bar {
-                    numbers.insert(format!("pressure_over_relief_bar.{name}"), excess);
-                }
+            // Strokes given are checked before a pose is solved from them.
+            if let PoseBy::Strokes(strokes) = pose {
+                with_strokes(strokes)?.check().map_err(|e| e.to_string())?;
             }
-            numbers
+            let prepared = self.pose_at(pose, &geometry, &twin)?;
+            let inputs = with_strokes(prepared.strokes())?;
+            let evaluation = twin
+                .evaluate_at(&prepared, &inputs)
+                .map_err(|e| e.to_string())?;
+            let mut json = evaluation_json(&evaluation);
+            let relief: serde_json::Map<String, serde_json::Value> = CylinderName::ALL
+                .iter()
+                .zip(&evaluation.cylinders)
+                .filter_map(|(name, c)| c.over_relief_bar.map(|x| (name.to_string(), x.into())))
+                .collect();
+            if !relief.is_empty() {
+                json["pressure_over_relief_bar"] = relief.into();
+            }
+            json
         } else {
-            HashMap::new()
+            serde_json::Value::Null
         };
         let scalars = scalars
             .iter()
             .map(|name| {
                 let found = match &envelope {
-                    Some(envelope) if of_geometry(name) => envelope.get(*name),
-                    _ => numbers.get(*name),
+                    Some(envelope) if of_geometry(name) => envelope.get(*name).copied(),
+                    _ => number_at_key_path(&numbers, name),
                 };
-                found.copied().ok_or_else(|| {
+                found.ok_or_else(|| {
+                    let numbers = numbers_by_key_path(&numbers);
                     let mut known: Vec<&str> = numbers
                         .keys()
                         .map(String::as_str)

@@ -650,6 +650,23 @@ pub fn errors_json(errors: &[ObservationError]) -> Value {
 /// The numbers of a JSON value by key path: `{"pressure_bar": {"boom":
 /// 73.4}}` gives `pressure_bar.boom`, array items `name[0]`, so a solver's
 /// nested output needs no rewriting.
+/// The number at one key path of `value` (`cylinder_force_kN.boom`,
+/// `gauge_stress_MPa[9]`): what [`numbers_by_key_path`] holds under that
+/// path, found without flattening the rest.
+pub fn number_at_key_path(value: &Value, path: &str) -> Option<f64> {
+    let mut at = value;
+    for part in path.split('.') {
+        let (key, mut rest) = part.split_once('[').map_or((part, ""), |(k, r)| (k, r));
+        at = at.as_object()?.get(key)?;
+        while !rest.is_empty() {
+            let (index, after) = rest.split_once(']')?;
+            at = at.as_array()?.get(index.parse::<usize>().ok()?)?;
+            rest = after.strip_prefix('[').unwrap_or(after);
+        }
+    }
+    at.as_f64()
+}
+
 pub fn numbers_by_key_path(value: &Value) -> std::collections::HashMap<String, f64> {
     let mut numbers = std::collections::HashMap::new();
     flatten_json("", value, &mut numbers);

@@ -22,7 +22,8 @@
 //! truth. Then the next-point search over a grid of more than 1,000
 //! candidates is timed on its own.
 //!
-//! `cargo bench --bench rig_study` (about ten minutes on 2 cores).
+//! `cargo bench --bench rig_study` (about ten minutes on 2 cores);
+//! `ACQ_BENCH_TRUTHS=2` runs the first two truths only.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -40,7 +41,7 @@ use rand::{RngExt, SeedableRng};
 
 const STUDY: &str = "examples/excavator-rig/study.toml";
 const TRUTHS: usize = 10;
-const MAX_HOLDS: usize = 10;
+const MAX_HOLDS: usize = 16;
 const TARGET: f64 = 0.5;
 
 #[derive(Clone, Copy, PartialEq)]
@@ -137,12 +138,17 @@ fn main() {
         tip_force_angle_deg: -10.0,
     };
     let fixed = published(&study.geometry.with(&[]).unwrap());
+    let run_truths = std::env::var("ACQ_BENCH_TRUTHS")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(TRUTHS)
+        .min(TRUTHS);
     println!("truths ({}):", names.join(", "));
     for truth in &truths {
         println!("  {truth:.3?}");
     }
     let mut table: BTreeMap<&str, Vec<Run>> = BTreeMap::new();
-    for (t, truth) in truths.iter().enumerate() {
+    for (t, truth) in truths.iter().enumerate().take(run_truths) {
         let values: Vec<(&str, f64)> = names
             .iter()
             .map(|n| n.as_str())
@@ -185,6 +191,15 @@ fn main() {
                 tracker.update(&holds, &mut |_| {});
                 run.update_s.push(start.elapsed().as_secs_f64());
                 let posterior = tracker.posterior().unwrap();
+                if std::env::var_os("ACQ_BENCH_VERBOSE").is_some() {
+                    println!(
+                        "  {} hold {}: {:.2} s, {}",
+                        operator.name(),
+                        k + 1,
+                        run.update_s[k],
+                        posterior.how
+                    );
+                }
                 if posterior.shrinkage() <= TARGET {
                     run.holds_to_target = Some(k + 1);
                     break;
@@ -226,10 +241,18 @@ fn main() {
             })
             .collect();
         counts.sort_unstable();
-        let median =
-            counts[counts.len() / 2 - 1] as f64 * 0.5 + counts[counts.len() / 2] as f64 * 0.5;
+        let median = if counts.len() % 2 == 1 {
+            counts[counts.len() / 2] as f64
+        } else {
+            counts[counts.len() / 2 - 1] as f64 * 0.5 + counts[counts.len() / 2] as f64 * 0.5
+        };
         let all = runs.iter().filter(|r| r.covered == 4).count();
         let covered: usize = runs.iter().map(|r| r.covered).sum();
+        let median = if median > MAX_HOLDS as f64 {
+            format!("more than {MAX_HOLDS}")
+        } else {
+            median.to_string()
+        };
         println!(
             "| {operator} | {median} | {} | {all}/{} | {covered}/{} |",
             per_truth.join(" "),

@@ -236,6 +236,20 @@ pub struct SamplerProgress {
     pub warming_up: bool,
 }
 
+/// How the chains' proposal begins.
+#[derive(Clone, Copy, Debug)]
+pub enum InitialProposal<'a> {
+    /// A guess of each free coordinate's posterior spread (a tenth of it
+    /// or ten times it costs warmup, not correctness); warmup learns the
+    /// covariance from the chains.
+    Scales(&'a [f64]),
+    /// A covariance of the free coordinates that already has the
+    /// posterior's shape (an earlier posterior's, when each update adds
+    /// data to the last): warmup adapts its scale and re-learns the shape
+    /// only from a long window.
+    Covariance(&'a [Vec<f64>]),
+}
+
 /// Samples `log_density` (of the coordinates in their own units, `-inf`
 /// where zero) over `support`, one chain from each of `starts`.
 /// `initial_scale` is a guess of each free coordinate's posterior spread
@@ -251,82 +265,191 @@ pub fn sample<F>(
 where
     F: Fn(&[f64]) -> f64 + Sync,
 {
-    check(support, starts, initial_scale, settings)?;
-    let target = FreeTarget {
-        log_density: &log_density,
+    let mut chains = warm_up(
+        &log_density,
         support,
+        starts,
+        InitialProposal::Scales(initial_scale),
+        settings,
+        progress,
+    )?;
+    Ok(chains.draw(settings.draws, progress))
+}
+
+/// Chains after warmup: their kernels fixed, ready to draw.
+pub struct WarmChains<'a> {
+    target: FreeTarget<'a>,
+    chains: Vec<ChainState>,
+    /// Steps per kept draw.
+    pub thin: usize,
+    /// Steps taken so far, all chains, warmup included.
+    steps: usize,
+    warmup_steps: usize,
+    kept: Chains,
+}
+
+/// Warms up one chain from each of `starts` on `log_density` over
+/// `support` ([`sample`] is this and one [`WarmChains::draw`]).
+pub fn warm_up<'a>(
+    log_density: &'a (dyn Fn(&[f64]) -> f64 + Sync),
+    support: &'a [Support],
+    starts: &[Vec<f64>],
+    proposal: InitialProposal<'_>,
+    settings: &SamplerSettings,
+    progress: &(dyn Fn(SamplerProgress) + Sync),
+) -> Result<WarmChains<'a>, SamplerError> {
+    check(support, starts, proposal, settings)?;
+    let target = FreeTarget {
+        log_density,
+        support,
+    };
+    let factor = proposal_factor(proposal, support.len());
+    let first_window = match proposal {
+        InitialProposal::Scales(_) => FIRST_WINDOW,
+        InitialProposal::Covariance(_) => FIRST_WINDOW_WARM,
     };
     let steps = std::sync::atomic::AtomicUsize::new(0);
     let warmup_total = settings.chains * settings.warmup;
-    let tick = |total: usize, warming_up: bool| {
+    let tick = || {
         let done = steps.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         if done % 1000 == 0 {
             progress(SamplerProgress {
                 steps: done,
-                total,
-                warming_up,
+                total: warmup_total,
+                warming_up: true,
             });
         }
     };
     let mut chains: Vec<ChainState> = starts
         .iter()
         .enumerate()
-        .map(|(index, start)| ChainState::new(&target, index, start, initial_scale, settings.seed))
+        .map(|(index, start)| ChainState::new(&target, index, start, &factor, settings.seed))
         .collect::<Result<_, _>>()?;
     std::thread::scope(|scope| {
         for chain in chains.iter_mut() {
             let target = &target;
             let tick = &tick;
-            scope.spawn(move || {
-                chain.warm_up(target, settings.warmup, &|| tick(warmup_total, true))
-            });
+            scope.spawn(move || chain.warm_up(target, settings.warmup, first_window, tick));
         }
     });
     let thin = settings.thin.unwrap_or_else(|| {
         let tau = chains.iter().map(|c| c.pilot_tau).fold(1.0f64, f64::max);
         ((tau / 2.0).ceil() as usize).clamp(1, MAX_THIN)
     });
-    let total = warmup_total + settings.chains * settings.draws * thin;
-    let kept: Vec<(Vec<Vec<f64>>, Vec<f64>, f64)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = chains
-            .iter_mut()
-            .map(|chain| {
-                let target = &target;
-                let tick = &tick;
-                scope
-                    .spawn(move || chain.keep(target, settings.draws, thin, &|| tick(total, false)))
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("a chain does not panic"))
-            .collect()
-    });
-    let evaluations = chains.iter().map(|c| c.evaluations).sum();
-    let mut result = Chains {
-        draws: Vec::with_capacity(kept.len()),
-        log_density: Vec::with_capacity(kept.len()),
-        acceptance: Vec::with_capacity(kept.len()),
+    let kept = Chains {
+        draws: vec![Vec::new(); chains.len()],
+        log_density: vec![Vec::new(); chains.len()],
+        acceptance: vec![0.0; chains.len()],
         thin,
-        evaluations,
+        evaluations: 0,
     };
-    for (draws, log_density, acceptance) in kept {
-        result.draws.push(draws);
-        result.log_density.push(log_density);
-        result.acceptance.push(acceptance);
-    }
-    progress(SamplerProgress {
-        steps: total,
-        total,
-        warming_up: false,
-    });
-    Ok(result)
+    Ok(WarmChains {
+        target,
+        chains,
+        thin,
+        steps: warmup_total,
+        warmup_steps: warmup_total,
+        kept,
+    })
 }
+
+impl WarmChains<'_> {
+    /// `draws` more kept draws per chain, one every `thin` steps, after
+    /// those drawn before: every draw so far.
+    pub fn draw(&mut self, draws: usize, progress: &(dyn Fn(SamplerProgress) + Sync)) -> Chains {
+        let thin = self.thin;
+        let before = self.steps;
+        let total = before + self.chains.len() * draws * thin;
+        let steps = std::sync::atomic::AtomicUsize::new(before);
+        let tick = || {
+            let done = steps.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            if done % 1000 == 0 {
+                progress(SamplerProgress {
+                    steps: done,
+                    total,
+                    warming_up: false,
+                });
+            }
+        };
+        let target = &self.target;
+        let kept: Vec<(Vec<Vec<f64>>, Vec<f64>, f64)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = self
+                .chains
+                .iter_mut()
+                .map(|chain| {
+                    let tick = &tick;
+                    scope.spawn(move || chain.keep(target, draws, thin, tick))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("a chain does not panic"))
+                .collect()
+        });
+        let drawn_before = self.kept.draws.first().map_or(0, Vec::len) as f64;
+        for (k, (draws_k, densities, acceptance)) in kept.into_iter().enumerate() {
+            // The acceptance over every kept step, old and new.
+            let weight = draws as f64 / (drawn_before + draws as f64);
+            self.kept.acceptance[k] += weight * (acceptance - self.kept.acceptance[k]);
+            self.kept.draws[k].extend(draws_k);
+            self.kept.log_density[k].extend(densities);
+        }
+        self.steps = total;
+        self.kept.evaluations = self.chains.iter().map(|c| c.evaluations).sum();
+        progress(SamplerProgress {
+            steps: total,
+            total,
+            warming_up: false,
+        });
+        self.kept.clone()
+    }
+
+    /// Steps taken in warmup, all chains.
+    pub fn warmup_steps(&self) -> usize {
+        self.warmup_steps
+    }
+}
+
+/// The proposal's lower Cholesky factor (row-major): of the covariance,
+/// or the diagonal of the scales (a covariance that is not positive
+/// definite falls back to its diagonal's square roots).
+fn proposal_factor(proposal: InitialProposal<'_>, d: usize) -> Vec<f64> {
+    let mut factor = vec![0.0; d * d];
+    let diagonal = |factor: &mut Vec<f64>, scales: &mut dyn Iterator<Item = f64>| {
+        for (i, s) in scales.enumerate() {
+            factor[i * d + i] = s;
+        }
+    };
+    match proposal {
+        InitialProposal::Scales(scales) => diagonal(&mut factor, &mut scales.iter().copied()),
+        InitialProposal::Covariance(covariance) => {
+            let matrix = Mat::<f64>::from_fn(d, d, |i, j| covariance[i][j]);
+            match matrix.llt(Side::Lower) {
+                Ok(llt) => {
+                    let lower = llt.L();
+                    for i in 0..d {
+                        for j in 0..=i {
+                            factor[i * d + j] = lower[(i, j)];
+                        }
+                    }
+                }
+                Err(_) => diagonal(&mut factor, &mut (0..d).map(|i| covariance[i][i].sqrt())),
+            }
+        }
+    }
+    factor
+}
+
+/// The first covariance window's steps: from a guess of scales, and from
+/// a covariance with the posterior's shape (a short window's estimate
+/// would be worse than it).
+const FIRST_WINDOW: usize = 25;
+const FIRST_WINDOW_WARM: usize = 100;
 
 fn check(
     support: &[Support],
     starts: &[Vec<f64>],
-    initial_scale: &[f64],
+    proposal: InitialProposal<'_>,
     settings: &SamplerSettings,
 ) -> Result<(), SamplerError> {
     let problem = |what: &str| Err(SamplerError::Settings(what.into()));
@@ -345,11 +468,31 @@ fn check(
     if starts.len() != settings.chains {
         return problem("give one start per chain");
     }
-    if starts.iter().any(|s| s.len() != support.len()) || initial_scale.len() != support.len() {
-        return problem("every start and the initial scale need one value per coordinate");
+    if starts.iter().any(|s| s.len() != support.len()) {
+        return problem("every start needs one value per coordinate");
     }
-    if initial_scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-        return problem("the initial scale must be finite and above 0");
+    match proposal {
+        InitialProposal::Scales(initial_scale) => {
+            if initial_scale.len() != support.len() {
+                return problem("the initial scale needs one value per coordinate");
+            }
+            if initial_scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+                return problem("the initial scale must be finite and above 0");
+            }
+        }
+        InitialProposal::Covariance(covariance) => {
+            let d = support.len();
+            if covariance.len() != d || covariance.iter().any(|row| row.len() != d) {
+                return problem(
+                    "the initial covariance must be square, one row and column per coordinate",
+                );
+            }
+            if covariance.iter().flatten().any(|c| !c.is_finite())
+                || (0..d).any(|i| covariance[i][i] <= 0.0)
+            {
+                return problem("the initial covariance must be finite with a positive diagonal");
+            }
+        }
     }
     for s in support {
         if let Support::Interval { lower, upper } = s {
@@ -416,7 +559,7 @@ impl ChainState {
         target: &FreeTarget<'_>,
         index: usize,
         start: &[f64],
-        initial_scale: &[f64],
+        factor: &[f64],
         seed: u64,
     ) -> Result<Self, SamplerError> {
         let free: Vec<f64> = start
@@ -432,10 +575,6 @@ impl ChainState {
             });
         }
         let d = free.len();
-        let mut factor = vec![0.0; d * d];
-        for (i, s) in initial_scale.iter().enumerate() {
-            factor[i * d + i] = *s;
-        }
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(index as u64 + 1);
         Ok(ChainState {
@@ -443,7 +582,7 @@ impl ChainState {
             free,
             log_target,
             log_density,
-            factor,
+            factor: factor.to_vec(),
             log_scale: optimal_scale(d).ln(),
             archive: Vec::new(),
             pilot_tau: 1.0,
@@ -507,13 +646,19 @@ impl ChainState {
     /// last stretched to the end), the last 10 % the scale for the final
     /// covariance. Then a pilot with both frozen measures the
     /// autocorrelation time.
-    fn warm_up(&mut self, target: &FreeTarget<'_>, steps: usize, tick: &dyn Fn()) {
+    fn warm_up(
+        &mut self,
+        target: &FreeTarget<'_>,
+        steps: usize,
+        first_window: usize,
+        tick: &dyn Fn(),
+    ) {
         let d = self.free.len();
         let adapting = steps * 7 / 10;
         let (windows_from, windows_to) = (adapting * 15 / 100, adapting * 90 / 100);
         let goal = optimal_acceptance(d);
         let mut window: Vec<Vec<f64>> = Vec::new();
-        let mut window_length = 25;
+        let mut window_length = first_window;
         let mut since_reset = 0usize;
         // From the last quarter of adaptation: the chain has left where it
         // started by then, and its states are the posterior's shape.

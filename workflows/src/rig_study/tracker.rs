@@ -90,7 +90,13 @@ impl Tracker {
             let (posterior, next) = match &reading {
                 Ok(reading) => {
                     readings.push(reading.clone());
-                    let posterior = self.study.posterior(&readings);
+                    let last = self
+                        .steps
+                        .iter()
+                        .rev()
+                        .find_map(|s| s.posterior.as_ref().ok())
+                        .unwrap_or(&self.prior);
+                    let posterior = self.study.posterior(&readings, last);
                     let next = match (&posterior, self.study.expected_noise(&readings)) {
                         (Ok(posterior), Some(noise)) => self.study.next_point(posterior, &noise),
                         (Ok(_), None) => Ok(None),

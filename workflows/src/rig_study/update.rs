@@ -24,7 +24,7 @@ use acq_calib::next_point::draws_moments;
 
 use super::mapping::HoldReading;
 use super::RigStudy;
-use crate::calibrate::posterior::sample_directly;
+use crate::calibrate::posterior::sequential::{sample_sequentially, WarmStart};
 use crate::calibrate::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study};
 
 /// Holds that narrow a parameter's interval to this share of its prior's
@@ -90,6 +90,9 @@ pub struct Posterior {
     /// How it was sampled, in words.
     pub how: String,
     pub wall_s: f64,
+    /// Where the update after the next hold starts (`None`: the prior's
+    /// full warmup).
+    pub next_start: Option<WarmStart>,
 }
 
 impl Posterior {
@@ -194,6 +197,7 @@ impl RigStudy {
             mean,
             how: "the prior".into(),
             wall_s: 0.0,
+            next_start: None,
         }
     }
 
@@ -277,16 +281,28 @@ impl RigStudy {
         study
     }
 
-    /// The posterior after `readings` (the prior without any).
-    pub fn posterior(&self, readings: &[HoldReading]) -> Result<Posterior, String> {
+    /// The posterior after `readings` (the prior without any), sampled
+    /// from `last`, the posterior before the last of them
+    /// ([`sample_sequentially`]).
+    pub fn posterior(
+        &self,
+        readings: &[HoldReading],
+        last: &Posterior,
+    ) -> Result<Posterior, String> {
         if readings.is_empty() {
             return Ok(self.prior());
         }
         let start = Instant::now();
         let study = self.study_of(readings);
-        let (_, chains, extended) =
-            sample_directly(&study, self.model(), &self.settings, &self.nominal())
-                .map_err(|e| e.to_string())?;
+        let update = sample_sequentially(
+            &study,
+            self.model(),
+            &self.settings,
+            &self.nominal(),
+            last.next_start.as_ref(),
+        )
+        .map_err(|e| e.to_string())?;
+        let chains = update.chains;
         let pooled: Vec<Vec<f64>> = chains.pooled().cloned().collect();
         let (mean, covariance) = draws_moments(&pooled)
             .ok_or("the posterior has fewer than two draws; raise [posterior] draws")?;
@@ -318,12 +334,9 @@ impl RigStudy {
             parameters,
             mean,
             covariance,
-            how: format!(
-                "{} chains of {} kept draws{extended}",
-                chains.draws.len(),
-                chains.draws.first().map_or(0, Vec::len)
-            ),
+            how: update.how,
             wall_s: start.elapsed().as_secs_f64(),
+            next_start: Some(update.next),
         })
     }
 }

@@ -35,6 +35,7 @@ pub mod likelihood;
 pub mod predictive;
 pub mod report;
 pub mod scale_grid;
+pub mod sequential;
 pub mod settings;
 pub mod validation;
 
@@ -308,26 +309,23 @@ pub(crate) fn sample_converged(
     Ok((chains, sampler, extended))
 }
 
-/// The posterior of a study on a cheap model ([`Model::is_cheap`]),
-/// sampled directly from `centre` (moved inside the box): no files, no
-/// predictive runs. What a study at the rig runs after each hold; the
-/// chains and the sentence on the extension, if any.
-pub fn sample_directly(
-    study: &Study,
-    model: &dyn Model,
-    settings: &PosteriorSettings,
-    centre: &[f64],
-) -> Result<(StudyPosterior, Chains, String)> {
-    let density = StudyPosterior::new(study, settings.discrepancy, 0).map_err(AcqError::Config)?;
-    let simulator = StudySimulator::new(study, model, Role::Fit);
-    let centre: Vec<f64> = centre
-        .iter()
-        .zip(&density.coordinates)
-        .map(|(&x, c)| inside(c.support, x))
-        .collect();
-    let at = |point: &[f64]| simulator.evaluate(point).ok().map(|o| (o, Vec::new()));
-    let (chains, _, extended) = sample_converged(&density, &at, &centre, settings)?;
-    Ok((density, chains, extended))
+/// The log posterior density at a point: the prior's, plus the
+/// likelihood of the model's outputs there from `at` (`-inf` where the
+/// prior is zero or the model does not run).
+fn log_density_of<'a>(
+    density: &'a StudyPosterior,
+    at: &'a ModelAt<'a>,
+) -> impl Fn(&[f64]) -> f64 + Sync + 'a {
+    move |point: &[f64]| -> f64 {
+        let prior = density.log_prior(point);
+        if prior == f64::NEG_INFINITY {
+            return prior;
+        }
+        match at(point) {
+            Some((outputs, emulator)) => prior + density.log_likelihood(&outputs, &emulator),
+            None => f64::NEG_INFINITY,
+        }
+    }
 }
 
 /// Samples the density with the model's outputs from `at`, the chains
@@ -339,16 +337,7 @@ fn sample_on(
     sampler: &SamplerSettings,
     label: &str,
 ) -> Result<Chains> {
-    let log_density = |point: &[f64]| -> f64 {
-        let prior = density.log_prior(point);
-        if prior == f64::NEG_INFINITY {
-            return prior;
-        }
-        match at(point) {
-            Some((outputs, emulator)) => prior + density.log_likelihood(&outputs, &emulator),
-            None => f64::NEG_INFINITY,
-        }
-    };
+    let log_density = log_density_of(density, at);
     let starts = chain_starts(density, centre, sampler, &log_density)?;
     let start = Instant::now();
     let printed = std::sync::atomic::AtomicUsize::new(0);

@@ -101,6 +101,42 @@ fn prepare_inputs(dir: &Path) {
         dir.join("dbc/somat_excavator.dbc"),
     )
     .unwrap();
+    // The study at the rig and its hidden truth, with the geometry where
+    // the study's relative path finds it.
+    fs::create_dir_all(dir.join("examples/excavator-rig")).unwrap();
+    fs::create_dir_all(dir.join("data/excavator")).unwrap();
+    // The example study, lighter: fewer draws and candidates, so that its
+    // updates fit the one emulated CPU (the check is the recording's, not
+    // the posterior's).
+    let study = fs::read_to_string(root().join("examples/excavator-rig/study.toml")).unwrap();
+    let lighter = [
+        ("draws = 250", "draws = 100"),
+        ("chains = 4", "chains = 2"),
+        ("steps = 7 }", "steps = 3 }"),
+        ("steps = 6 }", "steps = 3 }"),
+        ("steps = 5 }", "steps = 3 }"),
+    ]
+    .iter()
+    .fold(study, |text, (from, to)| {
+        assert!(text.contains(from), "the example study has {from}");
+        text.replace(from, to)
+    });
+    fs::write(dir.join("examples/excavator-rig/study.toml"), lighter).unwrap();
+    // Its hidden truth with shorter holds: the emulated CPU plays the rig
+    // late under the flood, and the holds need only be found.
+    let truth =
+        fs::read_to_string(root().join("examples/excavator-rig/hidden_truth.toml")).unwrap();
+    assert!(truth.contains("hold_s = 6.0"));
+    fs::write(
+        dir.join("examples/excavator-rig/hidden_truth.toml"),
+        truth.replace("hold_s = 6.0", "hold_s = 3.0"),
+    )
+    .unwrap();
+    fs::copy(
+        root().join("data/excavator/dx55.toml"),
+        dir.join("data/excavator/dx55.toml"),
+    )
+    .unwrap();
     let mut scenario = fs::File::create(dir.join("scenarios/short.toml")).unwrap();
     writeln!(
         scenario,
@@ -313,6 +349,47 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         (missing, c7.session.dropped_by_kernel),
         (0, 0),
         "frames candump saw before the signal that are not in raw.log, and kernel drops"
+    );
+
+    // 8. A study at the rig while both buses are busy: nothing lost, and the
+    // posterior was updated during the flood, hold by hold.
+    let (c8, before, recorded, missing) = flood_check(&out, "c8");
+    let said = fs::read_to_string(out.join("c8_stderr_before_stop.txt")).unwrap_or_default();
+    eprintln!(
+        "check 8: the virtual rig said: {}; the study's updates so far, every 5 s: {}",
+        fs::read_to_string(out.join("c8_simulate.txt")).unwrap_or_default(),
+        fs::read_to_string(out.join("c8_progress.txt"))
+            .unwrap_or_default()
+            .replace('\n', "; ")
+    );
+    let stderr8 = fs::read_to_string(out.join("c8_stderr.txt")).unwrap_or_default();
+    eprintln!(
+        "busy buses with a study: candump saw {before} frames before the signal; acq recorded {recorded}, reported {} kernel drops, missing {missing}",
+        c8.session.dropped_by_kernel
+    );
+    assert_eq!(
+        fs::read_to_string(out.join("c8.exit")).unwrap().trim(),
+        "0",
+        "{stderr8}"
+    );
+    assert!(before > 1000, "the flood reached the bus");
+    assert_eq!(
+        (missing, c8.session.dropped_by_kernel),
+        (0, 0),
+        "frames candump saw before the signal that are not in raw.log, and kernel drops; acq said: {stderr8}"
+    );
+    assert!(
+        said.contains("study: after 1 hold(s)"),
+        "the study updated while the buses were busy; before the stop it said: {said}\nafter: {stderr8}"
+    );
+    // The recorder waited for the study to take every hold it found (the
+    // flood still on), none of them skipped.
+    let study: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("c8/study.json")).unwrap()).unwrap();
+    let used = study["holds_used"].as_u64().unwrap_or(0);
+    assert!(
+        used >= 2 && study["holds_seen"] == used && study["skipped"] == serde_json::json!([]),
+        "{study}"
     );
 
     // 5. The interface disappears and comes back: reported, recording resumes.

@@ -5,11 +5,12 @@
 # files in $OUT; tests/vcan.rs compares them and decides pass or fail.
 #
 # Inputs in $IN: variety.log (2000 frames of every kind, candump -L, on
-# can0), rigs/, dbc/, scenarios/short.toml.
+# can0), rigs/, dbc/, scenarios/short.toml, examples/excavator-rig/ (the
+# study at the rig and its hidden truth) with data/excavator/dx55.toml.
 set -eu
 OUT=${OUT:-/out}
 IN=${IN:-/in}
-say() { echo "acq-checks: $*"; }
+say() { echo "acq-checks: $(date +%T) $*"; }
 
 # Wait until a recorder has opened its sockets (it writes session.toml then).
 wait_for_session() {
@@ -141,6 +142,47 @@ wait $gen $gen1 2>/dev/null || true
 sleep 0.3
 kill $dump; wait $dump || true
 kill $viewers $stalled $holder 2>/dev/null || true
+
+say "8: a study at the rig updates while both buses are busy"
+# The twin-driven virtual rig plays three holds at a hidden truth onto the
+# rig's buses while a flood on ids the rig does not use fills both; the
+# study samples its posterior after each hold on the same CPU, below the
+# recorder's priority. The stop comes once the study has updated after
+# the first hold (or after two minutes); the recorder then waits for it to
+# take the last holds, and the flood goes on until the recorder has exited,
+# so every update runs while the buses are busy.
+candump -L can0 can1 > "$OUT/c8_candump.log" &
+dump=$!
+acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c8" --quiet \
+    --study "$IN/examples/excavator-rig/study.toml" 2> "$OUT/c8_stderr.txt" &
+rec=$!
+wait_for_session "$OUT/c8"
+# Every 5 s: the time and how many updates the study has printed.
+( while kill -0 $rec 2>/dev/null; do
+    echo "$(date +%T) $(grep -c 'study: after' "$OUT/c8_stderr.txt")"
+    sleep 5
+done ) > "$OUT/c8_progress.txt" &
+cangen can0 -g 2 -I 7F0 -L 8 -D i -n 400000 &
+gen=$!
+cangen can1 -g 2 -I 7F1 -L 8 -D i -n 400000 &
+gen1=$!
+acq simulate --rig "$IN/rigs/excavator.toml" --scenario "$IN/examples/excavator-rig/hidden_truth.toml" \
+    --iface can0 --iface can1 --seed 8 2> "$OUT/c8_simulate.txt"
+say "8: the virtual rig is done; waiting for the study"
+i=0
+while ! grep -q "study: after 1 hold(s)" "$OUT/c8_stderr.txt" && [ $i -lt 240 ]; do
+    sleep 0.5
+    i=$((i + 1))
+done
+# What the study had said while the buses were busy, before the stop.
+cp "$OUT/c8_stderr.txt" "$OUT/c8_stderr_before_stop.txt"
+kill -INT $rec
+wait $rec && echo "0" > "$OUT/c8.exit" || echo "$?" > "$OUT/c8.exit"
+sleep 0.3
+kill $gen $gen1 2>/dev/null || true
+wait $gen $gen1 2>/dev/null || true
+sleep 0.3
+kill $dump; wait $dump || true
 
 say "6: the disk fills up during a recording"
 mkdir -p /mnt/small

@@ -57,6 +57,18 @@ pub type SharedStudy = Arc<Mutex<StudyPanel>>;
 /// How often the worker looks for changed holds.
 const POLL: Duration = Duration::from_millis(100);
 
+/// The study's nice value: on a CPU the recorder's readers need, a study
+/// thread at nice 10 gets about a tenth of a reader's share, so the
+/// recording never waits for the posterior (threads the study starts
+/// inherit it). Raising one's own nice value needs no privilege.
+pub const STUDY_NICE: i32 = 10;
+
+/// Lowers the calling thread's priority to [`STUDY_NICE`]; a refusal
+/// (a system without per-thread nice values) leaves it as it was.
+fn yield_to_the_recorder() {
+    let _ = rustix::process::setpriority_process(Some(rustix::thread::gettid()), STUDY_NICE);
+}
+
 /// The study's thread.
 pub struct StudyWorker {
     panel: SharedStudy,
@@ -103,6 +115,7 @@ impl StudyWorker {
             std::thread::Builder::new()
                 .name("acq-study".into())
                 .spawn(move || {
+                    yield_to_the_recorder();
                     let mut seen: Option<Vec<u64>> = None;
                     loop {
                         // Read the flag before the versions: a stop asked
@@ -159,5 +172,29 @@ impl StudyWorker {
 impl Drop for StudyWorker {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::SeqCst);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The study runs below the recorder: its thread, and a thread it
+    /// starts (as the sampler's chains are), at nice STUDY_NICE while the
+    /// caller's stays as it was.
+    #[test]
+    fn the_study_and_its_threads_run_below_the_recorder() {
+        let nice = || rustix::process::getpriority_process(Some(rustix::thread::gettid())).unwrap();
+        let caller = nice();
+        let study = move |_: &[(String, Vec<MeasuredValue>)],
+                          publish: &mut dyn FnMut(Value, &[String])| {
+            let chain = std::thread::spawn(nice).join().unwrap();
+            publish(serde_json::json!([nice(), chain]), &[]);
+        };
+        let worker = StudyWorker::start(Box::new(study), Vec::new(), Box::new(|_| {}));
+        let panel = worker.finish();
+        let expected = STUDY_NICE.max(caller);
+        assert_eq!(panel, serde_json::json!([expected, expected]));
+        assert_eq!(nice(), caller, "the caller's priority is its own");
     }
 }

@@ -221,7 +221,7 @@ pub fn expand_twin_scenario(
         ));
     }
     let study_path = directory.join(&twin.study);
-    let study = crate::rig_study::RigStudy::load(&study_path, rig)
+    let study = crate::rig_study::RigStudy::load_without_candidates(&study_path, rig)
         .map_err(|e| format!("[twin] study: {e}"))?;
     let quantity_of = |input: &str| {
         study
@@ -249,6 +249,8 @@ pub fn expand_twin_scenario(
     let truth: Vec<(&str, f64)> = twin.truth.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let geometry = study
         .geometry
+        .as_ref()
+        .ok_or("[twin] drives the excavator twin; the study's model is an emulator")?
         .with(&truth)
         .map_err(|e| format!("[twin] truth: {e}"))?;
     let angle = study

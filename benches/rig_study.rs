@@ -137,7 +137,8 @@ fn main() {
         tip_force_kn: values[index("force_kN")],
         tip_force_angle_deg: -10.0,
     };
-    let fixed = published(&study.geometry.with(&[]).unwrap());
+    let template = study.geometry.as_ref().expect("the excavator twin");
+    let fixed = published(&template.with(&[]).unwrap());
     let run_truths = std::env::var("ACQ_BENCH_TRUTHS")
         .ok()
         .and_then(|n| n.parse().ok())
@@ -154,7 +155,7 @@ fn main() {
             .map(|n| n.as_str())
             .zip(truth.iter().copied())
             .collect();
-        let geometry = study.geometry.with(&values).unwrap();
+        let geometry = template.with(&values).unwrap();
         for operator in [Operator::Adaptive, Operator::Random, Operator::Published] {
             let mut noise = rand_chacha::ChaCha8Rng::seed_from_u64(1000 * t as u64 + 7);
             let mut pick = rand_chacha::ChaCha8Rng::seed_from_u64(1000 * t as u64 + 13);

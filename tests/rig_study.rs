@@ -88,6 +88,14 @@ fn a_bad_study_is_refused_before_recording_with_file_and_line() {
             example.replace("\"gauge_stress_MPa[9]\"", "\"gauge_strain[9]\""),
             "gauge_strain[9]",
         ),
+        (
+            "an emulator that is not there",
+            format!(
+                "{}\n[emulator]\nload = \"no-such-run/emulator.json\"\n",
+                example.replace("model = \"excavator\"", "")
+            ),
+            "no-such-run/emulator.json",
+        ),
     ];
     for (what, text, says) in cases {
         assert_ne!(text, example, "{what}: the example changed under the test");
@@ -561,4 +569,116 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
     ]);
     assert_eq!(output.status.code(), Some(2), "{}", common::stderr(&output));
     assert!(common::stderr(&output).contains("no [candidates]"));
+}
+
+/// The user's solver of fixtures/rig-emulator (boom.sh) at `truth` (its
+/// eight parameters in order) for one hold: the four gauge stresses.
+fn user_solver(dir: &Path, truth: &[f64; 8], incl_deg: f64, force_kn: f64) -> Value {
+    let out = dir.join("truth-out.json");
+    let mut args: Vec<String> = vec!["boom.sh".into()];
+    args.extend(truth.iter().map(|x| x.to_string()));
+    args.extend([incl_deg.to_string(), force_kn.to_string()]);
+    args.push(path_arg(&out).to_string());
+    let status = std::process::Command::new("sh")
+        .args(&args)
+        .current_dir(dir)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap()
+}
+
+/// A user's solver at the rig through the emulator an earlier study of it
+/// saved: `acq calibrate external` of fixtures/rig-emulator/study.toml
+/// (eight unknowns, eight holds of another machine spread over the boom's
+/// inclination and the tooth force) leaves emulator.json; the study at the
+/// rig loads it, and an operator holds the points it names at a hidden
+/// truth, each hold's levels from the solver itself. Every update takes
+/// under 10 s, no solver runs at the rig, and the posterior has moved to
+/// the truth: each parameter within 3 sd of its mean, the narrowed ones
+/// (the bucket's mass) well inside their prior.
+#[test]
+fn a_users_solver_at_the_rig_through_its_saved_emulator() {
+    use rand::SeedableRng;
+    let temp = tempfile::tempdir().unwrap();
+    let dir = temp.path();
+    for file in ["boom.sh", "study.toml", "rig_study.toml"] {
+        std::fs::copy(
+            root().join("fixtures/rig-emulator").join(file),
+            dir.join(file),
+        )
+        .unwrap();
+    }
+    let start = Instant::now();
+    let output = common::acq(&[
+        "calibrate",
+        "external",
+        "--spec",
+        path_arg(&dir.join("study.toml")),
+        "--out",
+        path_arg(&dir.join("run")),
+    ]);
+    assert!(output.status.success(), "{}", common::stderr(&output));
+    let said = String::from_utf8_lossy(&output.stdout).to_string();
+    eprintln!(
+        "the earlier study, {:.1} s: {said}",
+        start.elapsed().as_secs_f64()
+    );
+    assert!(said.contains("emulator.json"), "{said}");
+    let rig = acq_io::input::load_rig(&root().join("fixtures/rigs/excavator.toml")).unwrap();
+    let quantities = RigQuantities::of(&rig);
+    let study = Arc::new(RigStudy::load(&dir.join("rig_study.toml"), &quantities).unwrap());
+    assert!(study.geometry.is_none(), "the emulator is the model");
+
+    // A machine none of the files was made from (each within its prior).
+    let truth = [235.0, 225.0, 455.0, 2.62, 4.42, 0.95, 1.07, 0.38];
+    let mut noise = rand_chacha::ChaCha8Rng::seed_from_u64(37);
+    let mut tracker = Tracker::new(study.clone());
+    let mut holds = Vec::new();
+    let mut slowest: f64 = 0.0;
+    for k in 0..8 {
+        let next = tracker.next().unwrap().expect("candidates").clone();
+        let at = |name: &str| next.inputs.iter().find(|(n, _)| n == name).unwrap().1;
+        let (incl, force) = (at("boom_inclination_deg"), at("force_kN"));
+        let stresses = user_solver(dir, &truth, incl, force);
+        let mut levels = std::collections::BTreeMap::new();
+        levels.insert("boom_inclination".to_string(), incl);
+        levels.insert("tip_force".to_string(), force);
+        for gauge in ["sg01", "sg05", "sg10", "sg14"] {
+            levels.insert(gauge.to_string(), stresses[gauge].as_f64().unwrap());
+        }
+        holds.push((
+            format!("hold{}", k + 1),
+            acq_workflows::virtual_rig::synthetic_hold(&quantities, &levels, 600, &mut noise),
+        ));
+        let update = Instant::now();
+        tracker.update(&holds, &mut |_| {});
+        let took = update.elapsed().as_secs_f64();
+        slowest = slowest.max(took);
+        eprintln!(
+            "hold {} at {incl} deg, {force} kN: update {took:.2} s, {}",
+            k + 1,
+            tracker.posterior().unwrap().how
+        );
+    }
+    for line in tracker.panel().words {
+        eprintln!("{line}");
+    }
+    assert!(slowest < 10.0, "an update took {slowest:.1} s");
+    let posterior = tracker.posterior().unwrap();
+    assert_eq!(posterior.holds_used, 8);
+    for (p, x) in posterior.parameters.iter().zip(truth) {
+        assert!(
+            (p.mean - x).abs() <= 3.0 * p.sd,
+            "{}: truth {x}, posterior {} +- {}",
+            p.name,
+            p.mean,
+            p.sd
+        );
+    }
+    let bucket = &posterior.parameters[0];
+    assert!(
+        bucket.width_ratio() < 0.5 && bucket.q05 <= truth[0] && truth[0] <= bucket.q95,
+        "{bucket:?}"
+    );
 }

@@ -954,3 +954,23 @@ proptest! {
         }
     }
 }
+
+/// The mean alone is the full prediction's mean to the bit, and NaN where
+/// the prediction is.
+#[test]
+fn the_mean_alone_is_the_predictions_mean() {
+    let (inputs, outputs) = branin_data();
+    let gp = Gp::fit(&inputs, &outputs, &GpSettings::default()).expect("fit");
+    for x in [[0.5, 3.0], [-2.0, 11.0], [7.5, 0.25], [f64::NAN, 1.0]] {
+        let full = gp.predict(&x).mean;
+        let alone = gp.predict_mean(&x);
+        assert!(
+            full.to_bits() == alone.to_bits() || (full.is_nan() && alone.is_nan()),
+            "{x:?}: {full} against {alone}"
+        );
+    }
+    assert!(
+        gp.predict_mean(&[1.0]).is_nan(),
+        "a point of the wrong dimension"
+    );
+}

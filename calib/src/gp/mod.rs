@@ -293,6 +293,19 @@ impl Gp {
         self.predict_into(x, &mut buffers)
     }
 
+    /// The mean alone at `x` (data units; NaN for an invalid point): the
+    /// cross-covariance and one dot product, O(n d), where the std needs a
+    /// triangular solve, O(n^2). What a sampler that reads only the mean
+    /// asks at every step.
+    pub fn predict_mean(&self, x: &[f64]) -> f64 {
+        let mut buffers = PredictBuffers::new(self.n_points());
+        if !self.cross_covariance(x, &mut buffers) {
+            return f64::NAN;
+        }
+        let mean = dot(&buffers.covariance, &self.alpha);
+        self.record.output_mean + self.record.output_scale * mean
+    }
+
     /// Predictions at many points. Works in blocks of points so the triangular solve for the
     /// variances is one matrix operation per block (several times faster than point by point
     /// for a few hundred training points); agrees with [`Gp::predict`] to rounding.

@@ -13,10 +13,11 @@ use clap::Args;
 use super::builtin::ExcavatorModel;
 use super::command_model::CommandModel;
 use super::executor::{Executor, LocalExecutor};
-use super::extras::{Extras, NoExtras};
+use super::extras::Extras;
 use super::method::{start_design, RunSettings};
 use super::outcome::StudyOutcome;
 use super::run_directory::{write_text, RunDirectory};
+use super::saved_emulator::{rows_of_study, SavedEmulator};
 use super::slurm::{SlurmExecutor, SlurmSettings};
 use super::spec::schema::{ExecutorKind, ExecutorSpec};
 use super::spec::{ModelKind, Spec};
@@ -88,12 +89,53 @@ pub fn run(args: CalibrateExternalArgs) -> Result<()> {
                 executor,
                 args.resume,
             );
+            let extras = EmulatorExtras {
+                save: spec.save_emulator.clone(),
+                model: command.command.join(" "),
+                seed: args.seed,
+            };
             run_study(
-                study, &model, &method, initial, &directory, &settings, &NoExtras,
+                study, &model, &method, initial, &directory, &settings, &extras,
             )?;
         }
     }
     Ok(())
+}
+
+/// A study of a user's solver with `[emulator] save` leaves an emulator of
+/// it over its parameters and its cases' inputs, fitted to the search's
+/// runs, for a study at the rig to load.
+struct EmulatorExtras {
+    save: Option<String>,
+    model: String,
+    seed: u64,
+}
+
+impl Extras for EmulatorExtras {
+    fn files(&self, study: &Study, outcome: &StudyOutcome, directory: &RunDirectory) -> Result<()> {
+        let Some(name) = &self.save else {
+            return Ok(());
+        };
+        let (columns, rows) = rows_of_study(study, &outcome.evaluations);
+        let emulator = SavedEmulator::fit(&self.model, columns, &rows, self.seed)
+            .map_err(|e| AcqError::Config(format!("[emulator] save: {e}")))?;
+        let path = directory.file(name);
+        emulator
+            .save(&path)
+            .map_err(|e| AcqError::Config(format!("[emulator] save: {e}")))?;
+        let worst = emulator
+            .outputs
+            .iter()
+            .map(|o| format!("{} {:.3e}", o.name, o.error_sd))
+            .collect::<Vec<_>>()
+            .join(", ");
+        println!(
+            "the emulator of {} runs is in {} (its error at runs left out: {worst})",
+            rows.len(),
+            path.display()
+        );
+        Ok(())
+    }
 }
 
 /// The excavator's geometry file named by a spec (relative to its

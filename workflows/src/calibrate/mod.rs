@@ -28,6 +28,7 @@ pub mod posterior;
 pub mod progress;
 pub mod report;
 pub mod run_directory;
+pub mod saved_emulator;
 pub mod search;
 pub mod slurm;
 pub mod spec;

@@ -64,6 +64,13 @@ pub trait Model: Sync {
         None
     }
 
+    /// The model's own standard error of each of `scalars` at `inputs`:
+    /// an emulator's latent standard deviation there, large where its runs
+    /// did not reach. `None` for a model that is the thing itself.
+    fn own_error_sd(&self, _inputs: &[(String, f64)], _scalars: &[&str]) -> Option<Vec<f64>> {
+        None
+    }
+
     /// Whether a run costs so little (microseconds, inside acq) that a
     /// posterior can be sampled on the model itself, hundreds of thousands
     /// of runs, rather than on an emulator of its logged runs.

@@ -6,7 +6,10 @@
 //! posterior most is named.
 //!
 //! The file is a spec ([`crate::calibrate::spec`]: `model`, `geometry`,
-//! `[[parameter]]` with priors, `[posterior]`) without `[[case]]`, plus
+//! `[[parameter]]` with priors, `[posterior]`) without `[[case]]`; its
+//! model is the excavator twin, or a user's solver through the emulator an
+//! earlier study of it saved (`[emulator] load`,
+//! [`crate::calibrate::saved_emulator`]); plus
 //! - `[holds]` ([`mapping`]): which hold quantities are the model's inputs
 //!   (with their spread as input uncertainty) and which its observations;
 //! - `[candidates]` ([`candidates`]): the conditions to choose from.
@@ -28,8 +31,9 @@ use acq_analysis::extract::quantities::RigQuantities;
 use crate::calibrate::builtin::ExcavatorModel;
 use crate::calibrate::external::geometry_template;
 use crate::calibrate::posterior::PosteriorSettings;
+use crate::calibrate::saved_emulator::{EmulatedModel, SavedEmulator};
 use crate::calibrate::spec::build::parameters;
-use crate::calibrate::spec::schema::ModelName;
+use crate::calibrate::spec::schema::{EmulatorSpec, ModelName};
 use crate::calibrate::spec::{checks, read_spec_file, spec_directory, SpecError, SpecProblem};
 use crate::calibrate::study::{Model, StudyParameter};
 
@@ -51,8 +55,13 @@ pub struct RigStudy {
     /// Shared by every hold, with their priors.
     pub parameters: Vec<StudyParameter>,
     pub settings: PosteriorSettings,
-    /// The twin's geometry file, before any parameter changes it.
-    pub geometry: acq_twins::excavator::geometry::GeometryTemplate,
+    /// The twin's geometry file, before any parameter changes it (`None`
+    /// for an emulated model).
+    pub geometry: Option<acq_twins::excavator::geometry::GeometryTemplate>,
+    /// Each observation's model error, standard (an emulator's error at
+    /// runs it has not seen; 0 for the twin itself), in `[holds.observe]`'s
+    /// order: added to the hold's uncertainty.
+    pub model_error_sd: Vec<f64>,
     model: Box<dyn Model + Send>,
 }
 
@@ -62,6 +71,23 @@ impl RigStudy {
     /// every candidate lies in the rig's stated ranges and the model runs
     /// at the nominal parameters there. Errors name the file and line.
     pub fn load(path: &Path, rig: &RigQuantities) -> Result<RigStudy, SpecError> {
+        Self::load_with(path, rig, true)
+    }
+
+    /// [`RigStudy::load`] without its candidates (none are read or run):
+    /// what the virtual rig needs of a study, its mapping and model.
+    pub fn load_without_candidates(
+        path: &Path,
+        rig: &RigQuantities,
+    ) -> Result<RigStudy, SpecError> {
+        Self::load_with(path, rig, false)
+    }
+
+    fn load_with(
+        path: &Path,
+        rig: &RigQuantities,
+        with_candidates: bool,
+    ) -> Result<RigStudy, SpecError> {
         let (text, file) = read_spec_file(path)?;
         let located = |problem: SpecProblem| problem.located(path, &text);
         let Some(holds) = &file.holds else {
@@ -81,12 +107,42 @@ impl RigStudy {
                 "a study at the rig observes what [holds.observe] names; leave out [[output]] and [[curve]]",
             )));
         }
-        if file.model != ModelName::Excavator {
-            return Err(located(SpecProblem::file(
-                "a study at the rig runs the built-in excavator twin (model = \"excavator\"); a user's solver at the rig needs an emulator saved by an earlier study of it, which acq cannot load yet",
-            )));
+        // The model: the built-in twin, or a user's solver through the
+        // emulator an earlier study of it saved (no solver runs at the rig).
+        let emulator = match &file.emulator {
+            Some(EmulatorSpec { save: Some(_), .. }) => {
+                return Err(located(SpecProblem::key(
+                    "[emulator]",
+                    "save",
+                    "[emulator] save belongs to a study of cases (acq calibrate external); at the rig, load the emulator it saved: load = \"runs/.../emulator.json\"",
+                )))
+            }
+            Some(EmulatorSpec { load: None, .. }) => {
+                return Err(located(SpecProblem::file(
+                    "[emulator]: give load = \"PATH\", an emulator saved by an earlier study of the model ([emulator] save)",
+                )))
+            }
+            Some(EmulatorSpec { load: Some(load), .. }) => Some(load.clone()),
+            None => None,
+        };
+        match (&file.model, &emulator) {
+            (ModelName::Excavator, Some(_)) => {
+                return Err(located(SpecProblem::key(
+                    "[emulator]",
+                    "load",
+                    "the excavator twin runs at the rig itself; leave out [emulator]",
+                )))
+            }
+            (ModelName::Excavator, None) => {
+                checks::model(&file).map_err(located)?;
+            }
+            (ModelName::Command, None) => {
+                return Err(located(SpecProblem::file(
+                    "a user's solver runs at the rig through an emulator saved by an earlier study of it: [emulator] load = \"PATH\" (that study's [emulator] save); or model = \"excavator\"",
+                )))
+            }
+            (ModelName::Command, Some(_)) => {}
         }
-        checks::model(&file).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
         if let Some(index) = file.parameters.iter().position(|p| p.case.is_some()) {
             return Err(located(SpecProblem::table(
@@ -113,10 +169,26 @@ impl RigStudy {
             }
         }
         let directory = spec_directory(path);
-        let template =
-            geometry_template(&directory, file.geometry.as_deref()).map_err(SpecError::Input)?;
-        let model = ExcavatorModel::new(template.clone(), file.refit_poses)
-            .map_err(|e| located(SpecProblem::file(format!("geometry: {e}"))))?;
+        let mut model_error_sd = vec![0.0; mapping.observations.len()];
+        let (model, geometry): (Box<dyn Model + Send>, _) = match &emulator {
+            Some(load) => {
+                let emulator = SavedEmulator::load(&directory.join(load))
+                    .map_err(|e| located(SpecProblem::key("[emulator]", "load", e)))?;
+                for ((name, _), error) in mapping.observations.iter().zip(&mut model_error_sd) {
+                    if let Some(output) = emulator.outputs.iter().find(|o| &o.name == name) {
+                        *error = output.error_sd;
+                    }
+                }
+                (Box::new(EmulatedModel { emulator }), None)
+            }
+            None => {
+                let template = geometry_template(&directory, file.geometry.as_deref())
+                    .map_err(SpecError::Input)?;
+                let model = ExcavatorModel::new(template.clone(), file.refit_poses)
+                    .map_err(|e| located(SpecProblem::file(format!("geometry: {e}"))))?;
+                (Box::new(model), Some(template))
+            }
+        };
         let settings = file
             .posterior
             .as_ref()
@@ -128,8 +200,9 @@ impl RigStudy {
             candidates: Candidates::default(),
             parameters,
             settings,
-            geometry: template,
-            model: Box::new(model),
+            geometry,
+            model_error_sd,
+            model,
         };
         // The model runs at the nominal parameters, so a wrong input or
         // output name is refused now, not after the first hold.
@@ -143,6 +216,9 @@ impl RigStudy {
             .iter()
             .map(|p| p.search.name.clone())
             .collect();
+        if !with_candidates {
+            return Ok(study);
+        }
         let range_of = |quantity: &str| rig.get(quantity).and_then(|q| q.range);
         let runs = |candidate: &[(String, f64)]| {
             let mut inputs = nominal_inputs.clone();
@@ -171,6 +247,22 @@ impl RigStudy {
     /// The observed outputs (in `[holds.observe]`'s order) at parameter
     /// values `theta` and the inputs `inputs` (by name).
     pub fn outputs_at(&self, theta: &[f64], inputs: &[(String, f64)]) -> Result<Vec<f64>, String> {
+        let (all, outputs) = self.run_of(theta, inputs);
+        Ok(self.model.run(&all, &outputs, &[])?.scalars)
+    }
+
+    /// The model's own standard error of each observed output at `theta`
+    /// and `inputs` (an emulator's; zeros for the twin itself).
+    pub fn own_error_at(&self, theta: &[f64], inputs: &[(String, f64)]) -> Vec<f64> {
+        let (all, outputs) = self.run_of(theta, inputs);
+        self.model
+            .own_error_sd(&all, &outputs)
+            .unwrap_or_else(|| vec![0.0; outputs.len()])
+    }
+
+    /// A run's inputs (the parameters by the model's names, then `inputs`)
+    /// and the outputs it observes.
+    fn run_of(&self, theta: &[f64], inputs: &[(String, f64)]) -> (Vec<(String, f64)>, Vec<&str>) {
         let mut all: Vec<(String, f64)> = self
             .parameters
             .iter()
@@ -178,13 +270,13 @@ impl RigStudy {
             .map(|(p, &x)| (p.input.clone(), x))
             .collect();
         all.extend_from_slice(inputs);
-        let outputs: Vec<&str> = self
+        let outputs = self
             .mapping
             .observations
             .iter()
             .map(|(name, _)| name.as_str())
             .collect();
-        Ok(self.model.run(&all, &outputs, &[])?.scalars)
+        (all, outputs)
     }
 
     /// The model itself, for the study of the holds.

@@ -85,7 +85,28 @@ impl Tracker {
             .count();
         self.steps.truncate(kept);
         for (name, values) in &holds[kept..] {
-            let reading = self.study.mapping.read(name, values);
+            let last_mean = self
+                .steps
+                .iter()
+                .rev()
+                .find_map(|s| s.posterior.as_ref().ok())
+                .unwrap_or(&self.prior)
+                .mean
+                .clone();
+            // A hold the model cannot run at (an emulator asked past the
+            // conditions its runs covered) is skipped with the reason, not
+            // left to fail every update after it.
+            let reading = self.study.mapping.read(name, values).and_then(|reading| {
+                let inputs: Vec<(String, f64)> = reading
+                    .inputs
+                    .iter()
+                    .map(|(name, value, _)| (name.clone(), *value))
+                    .collect();
+                match self.study.outputs_at(&last_mean, &inputs) {
+                    Ok(_) => Ok(reading),
+                    Err(e) => Err(format!("the model does not run at this hold: {e}")),
+                }
+            });
             let mut readings: Vec<HoldReading> = self.readings().cloned().collect();
             let (posterior, next) = match &reading {
                 Ok(reading) => {

@@ -1,7 +1,9 @@
 //! The holds so far as a study, and its posterior.
 //!
 //! Each hold is a fit case: its measured inputs at their means, each
-//! observation at its mean with its standard uncertainty. An input's own
+//! observation at its mean with its standard uncertainty (and, for an
+//! emulated model, the emulator's error at runs it has not seen and its
+//! own standard deviation at the hold, at the nominal parameters). An input's own
 //! uncertainty (a pose read by inclinometers, a load by a transducer) is
 //! carried into the observations to first order: each observation's
 //! variance gains `((y(u + s) - y(u - s)) / 2)^2` per measured input `u`
@@ -213,10 +215,16 @@ impl RigStudy {
                     .iter()
                     .map(|(name, value, _)| (name.clone(), *value))
                     .collect();
+                // An emulated model's error: at runs it has not seen, and
+                // its own doubt at this hold's conditions (large where its
+                // runs did not reach), at the nominal parameters.
+                let own = self.own_error_at(&nominal, &inputs);
                 let mut variance: Vec<f64> = reading
                     .observations
                     .iter()
-                    .map(|(_, _, sd)| sd * sd)
+                    .zip(&self.model_error_sd)
+                    .zip(&own)
+                    .map(|(((_, _, sd), model), own)| sd * sd + model * model + own * own)
                     .collect();
                 for (k, (_, _, sd)) in reading.inputs.iter().enumerate() {
                     if *sd <= 0.0 {

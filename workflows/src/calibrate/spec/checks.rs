@@ -49,6 +49,31 @@ pub fn model(file: &SpecFile) -> Result<ModelKind, SpecProblem> {
     }
 }
 
+/// `[emulator]` in a study of cases: `save` only, of a user's model whose
+/// cases set inputs for the emulator to span.
+pub fn emulator(file: &SpecFile) -> Result<(), SpecProblem> {
+    let Some(emulator) = &file.emulator else {
+        return Ok(());
+    };
+    let problem = |message: &str| Err(SpecProblem::file(message));
+    if emulator.load.is_some() {
+        return problem("[emulator] load belongs to a study at the rig ([holds]); a study of cases runs its model");
+    }
+    match &emulator.save {
+        None => problem("[emulator]: give save = \"emulator.json\", the file to leave in the run directory"),
+        Some(_) if file.model != ModelName::Command => problem(
+            "[emulator] save emulates a user's solver (command); the built-in twins run at the rig themselves",
+        ),
+        Some(name) if name.is_empty() || name.contains(['/', '\\']) => problem(
+            "[emulator] save is a file name in the run directory (emulator.json), not a path",
+        ),
+        Some(_) if file.cases.is_empty() => problem(
+            "[emulator] save needs [[case]]s that set the inputs the rig will measure: the emulator spans the parameters and the cases' inputs",
+        ),
+        Some(_) => Ok(()),
+    }
+}
+
 /// The observations are given one way: `[[output]]`s and `[[curve]]`s
 /// without cases, or each case's `measured` table; each name once.
 pub fn observations_given(file: &SpecFile) -> Result<(), SpecProblem> {

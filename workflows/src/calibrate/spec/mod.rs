@@ -143,6 +143,9 @@ pub struct Spec {
     pub runs_at_once: usize,
     /// Where the spec's relative paths start.
     pub directory: PathBuf,
+    /// `[emulator] save`: the file name of the emulator to leave in the
+    /// run directory.
+    pub save_emulator: Option<String>,
 }
 
 /// The directory a spec's relative paths start from.
@@ -173,6 +176,7 @@ impl Spec {
         let located = |problem: SpecProblem| problem.located(path, &text);
         let directory = spec_directory(path);
         let model = checks::model(&file).map_err(located)?;
+        checks::emulator(&file).map_err(located)?;
         checks::observations_given(&file).map_err(located)?;
         checks::runs(&file).map_err(located)?;
         let runs_at_once = checks::executor(&file).map_err(located)?;
@@ -193,6 +197,7 @@ impl Spec {
             executor: file.executor,
             runs_at_once,
             directory,
+            save_emulator: file.emulator.and_then(|e| e.save),
         })
     }
 

@@ -66,6 +66,22 @@ pub struct SpecFile {
     /// candidate for the next test point.
     #[serde(default)]
     pub candidates: BTreeMap<String, CandidateValues>,
+    /// `[emulator]`: save an emulator of a user's model after its study,
+    /// or (at the rig) run one in its place.
+    pub emulator: Option<EmulatorSpec>,
+}
+
+/// `[emulator]`: an emulator of a user's model over its parameters and its
+/// cases' inputs ([`crate::calibrate::saved_emulator`]).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmulatorSpec {
+    /// `acq calibrate external`: after the search, fit one to its runs and
+    /// write it into the run directory under this name.
+    pub save: Option<String>,
+    /// A study at the rig: run this saved emulator (a path from the
+    /// spec's directory) in place of the model.
+    pub load: Option<String>,
 }
 
 /// `[holds]`: how a hold's measured values become a case. Each entry is

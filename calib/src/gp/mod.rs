@@ -298,11 +298,35 @@ impl Gp {
     /// triangular solve, O(n^2). What a sampler that reads only the mean
     /// asks at every step.
     pub fn predict_mean(&self, x: &[f64]) -> f64 {
-        let mut buffers = PredictBuffers::new(self.n_points());
-        if !self.cross_covariance(x, &mut buffers) {
+        let d = self.n_inputs();
+        if d == 0 {
+            return self.predict(x).mean;
+        }
+        if x.len() != d || x.iter().any(|v| !v.is_finite()) {
             return f64::NAN;
         }
-        let mean = dot(&buffers.covariance, &self.alpha);
+        // The cross-covariance summed against alpha as it is made, in the
+        // order `cross_covariance` and `dot` take (the same bits), without
+        // the buffers a full prediction needs.
+        let point: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(k, xk)| {
+                (xk - self.record.input_offset[k])
+                    / self.record.input_width[k]
+                    / self.record.length_scale(k)
+            })
+            .collect();
+        let signal = self.record.signal_variance;
+        let mean: f64 = self
+            .scaled_inputs
+            .chunks_exact(d)
+            .zip(&self.alpha)
+            .map(|(row, alpha)| {
+                let r_squared: f64 = row.iter().zip(&point).map(|(a, b)| (a - b) * (a - b)).sum();
+                signal * self.record.kernel.value_and_slope(r_squared).0 * alpha
+            })
+            .sum();
         self.record.output_mean + self.record.output_scale * mean
     }
 

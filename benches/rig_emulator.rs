@@ -25,21 +25,8 @@ use rand::SeedableRng;
 
 const HOLDS: usize = 8;
 
-/// The solver's four stresses at `truth` and one hold's conditions.
-fn solver(dir: &Path, truth: &[f64; 8], incl_deg: f64, force_kn: f64) -> serde_json::Value {
-    let out = dir.join("truth-out.json");
-    let mut args: Vec<String> = vec!["boom.sh".into()];
-    args.extend(truth.iter().map(|x| x.to_string()));
-    args.extend([incl_deg.to_string(), force_kn.to_string()]);
-    args.push(out.display().to_string());
-    let status = std::process::Command::new("sh")
-        .args(&args)
-        .current_dir(dir)
-        .status()
-        .unwrap();
-    assert!(status.success());
-    serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap()
-}
+#[path = "../tests/common/rig_emulator.rs"]
+mod rig_emulator;
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -81,7 +68,7 @@ fn main() {
             let next = tracker.next().unwrap().expect("candidates").clone();
             let at = |name: &str| next.inputs.iter().find(|(n, _)| n == name).unwrap().1;
             let (incl, force) = (at("boom_inclination_deg"), at("force_kN"));
-            let stresses = solver(dir, truth, incl, force);
+            let stresses = rig_emulator::user_solver(dir, truth, incl, force);
             let mut levels = BTreeMap::new();
             levels.insert("boom_inclination".to_string(), incl);
             levels.insert("tip_force".to_string(), force);

@@ -571,23 +571,6 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
     assert!(common::stderr(&output).contains("no [candidates]"));
 }
 
-/// The user's solver of fixtures/rig-emulator (boom.sh) at `truth` (its
-/// eight parameters in order) for one hold: the four gauge stresses.
-fn user_solver(dir: &Path, truth: &[f64; 8], incl_deg: f64, force_kn: f64) -> Value {
-    let out = dir.join("truth-out.json");
-    let mut args: Vec<String> = vec!["boom.sh".into()];
-    args.extend(truth.iter().map(|x| x.to_string()));
-    args.extend([incl_deg.to_string(), force_kn.to_string()]);
-    args.push(path_arg(&out).to_string());
-    let status = std::process::Command::new("sh")
-        .args(&args)
-        .current_dir(dir)
-        .status()
-        .unwrap();
-    assert!(status.success());
-    serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap()
-}
-
 /// A user's solver at the rig through the emulator an earlier study of it
 /// saved: `acq calibrate external` of fixtures/rig-emulator/study.toml
 /// (eight unknowns, eight holds of another machine spread over the boom's
@@ -640,7 +623,7 @@ fn a_users_solver_at_the_rig_through_its_saved_emulator() {
         let next = tracker.next().unwrap().expect("candidates").clone();
         let at = |name: &str| next.inputs.iter().find(|(n, _)| n == name).unwrap().1;
         let (incl, force) = (at("boom_inclination_deg"), at("force_kN"));
-        let stresses = user_solver(dir, &truth, incl, force);
+        let stresses = common::rig_emulator::user_solver(dir, &truth, incl, force);
         let mut levels = std::collections::BTreeMap::new();
         levels.insert("boom_inclination".to_string(), incl);
         levels.insert("tip_force".to_string(), force);

@@ -6,6 +6,7 @@ pub mod browser;
 pub mod calculix;
 pub mod interfaces;
 pub mod pipeline;
+pub mod rig_emulator;
 pub mod running;
 pub mod slurm;
 pub mod toy;

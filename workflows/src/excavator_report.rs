@@ -4,19 +4,79 @@
 
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::envelope::WorkingEnvelope;
-use acq_twins::excavator::{CylinderName, Evaluation, Excavator, Inputs};
+use acq_twins::excavator::kinematics::Pose;
+use acq_twins::excavator::structure::GaugeReading;
+use acq_twins::excavator::{
+    CylinderName, CylinderResult, Evaluation, Excavator, Inputs, Measurables,
+};
 
 /// The fixed `--json` object.
 pub fn evaluation_json(evaluation: &Evaluation) -> serde_json::Value {
+    let mut json = outputs_json(&evaluation.pose, &evaluation.cylinders, &evaluation.gauges);
+    json["max_von_mises_MPa"] = serde_json::json!({"boom": evaluation.boom.max_von_mises_mpa, "arm": evaluation.arm.max_von_mises_mpa});
+    json
+}
+
+/// [`evaluation_json`] of what the rig's transducers see: the same keys
+/// but `max_von_mises_MPa`.
+pub fn measurables_json(measurables: &Measurables) -> serde_json::Value {
+    outputs_json(
+        &measurables.pose,
+        &measurables.cylinders,
+        &measurables.gauges,
+    )
+}
+
+/// One number of [`measurables_json`] by its key path, read without
+/// making the JSON (a study at the rig reads a few per run, millions of
+/// runs an hour). `None` for a path it does not know: look in the JSON
+/// then, which also says what there is.
+pub fn measurable_number(measurables: &Measurables, key_path: &str) -> Option<f64> {
+    let cylinder = |name: &str| -> Option<&CylinderResult> {
+        let name = CylinderName::ALL.into_iter().find(|c| c.as_str() == name)?;
+        Some(&measurables.cylinders[name.index()])
+    };
+    let (head, rest) = key_path.split_once(['.', '['])?;
+    match head {
+        "pressure_bar" => cylinder(rest).map(|c| c.loaded_chamber_pressure_bar),
+        "cylinder_force_kN" => cylinder(rest).map(|c| c.axial_force_kn),
+        "pressure_over_relief_bar" => cylinder(rest).and_then(|c| c.over_relief_bar),
+        "gauge_stress_MPa" => {
+            let index: usize = rest.strip_suffix(']')?.parse().ok()?;
+            measurables.gauges.get(index).map(|g| g.stress_mpa)
+        }
+        "points" => {
+            let (point, axis) = rest.split_once('[')?;
+            let axis: usize = axis.strip_suffix(']')?.parse().ok()?;
+            let pose = &measurables.pose;
+            let at = match point {
+                "A" => pose.a,
+                "B" => pose.b,
+                "G" => pose.g,
+                "J" => pose.j,
+                _ => return None,
+            };
+            (axis < 2).then(|| at[axis])
+        }
+        _ => None,
+    }
+}
+
+fn outputs_json(
+    pose: &Pose,
+    cylinders: &[CylinderResult; 3],
+    gauges: &[GaugeReading],
+) -> serde_json::Value {
     let point = |p: &acq_twins::excavator::kinematics::Vec2| serde_json::json!([p.x, p.y]);
-    let per_cylinder = |f: &dyn Fn(CylinderName) -> f64| serde_json::json!({"bucket": f(CylinderName::Bucket), "arm": f(CylinderName::Arm), "boom": f(CylinderName::Boom)});
-    let pose = &evaluation.pose;
+    let per_cylinder = |f: &dyn Fn(&CylinderResult) -> f64| {
+        let of = |name: CylinderName| f(&cylinders[name.index()]);
+        serde_json::json!({"bucket": of(CylinderName::Bucket), "arm": of(CylinderName::Arm), "boom": of(CylinderName::Boom)})
+    };
     serde_json::json!({
         "points": {"A": point(&pose.a), "B": point(&pose.b), "G": point(&pose.g), "J": point(&pose.j)},
-        "pressure_bar": per_cylinder(&|name| evaluation.cylinder(name).loaded_chamber_pressure_bar),
-        "cylinder_force_kN": per_cylinder(&|name| evaluation.cylinder(name).axial_force_kn),
-        "gauge_stress_MPa": evaluation.gauges.iter().map(|g| g.stress_mpa).collect::<Vec<_>>(),
-        "max_von_mises_MPa": {"boom": evaluation.boom.max_von_mises_mpa, "arm": evaluation.arm.max_von_mises_mpa},
+        "pressure_bar": per_cylinder(&|c| c.loaded_chamber_pressure_bar),
+        "cylinder_force_kN": per_cylinder(&|c| c.axial_force_kn),
+        "gauge_stress_MPa": gauges.iter().map(|g| g.stress_mpa).collect::<Vec<_>>(),
     })
 }
 

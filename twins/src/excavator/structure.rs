@@ -6,9 +6,13 @@
 //! the support reactions are ~0 and the internal forces are those of statics.
 //! Pins off the centreline (cylinder lugs) hang on massless bracket elements
 //! from the nearest centreline point. The stiffness is factored once when
-//! the body is built; an evaluation is one back-substitution.
+//! the body is built; an evaluation is one back-substitution. Where only
+//! the gauges are wanted (a study at the rig), it is less: the frame is
+//! linear, so each gauge's section forces are the sum of its responses to
+//! unit loads at the few loaded nodes, solved once per body
+//! ([`FlexibleBody::gauge_readings`]).
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use crate::frame::{
     BoxSection, ElementId, FrameBuilder, FrameLoads, FrameModel, FrameSolution, NodeId,
@@ -56,6 +60,10 @@ pub struct FlexibleBody {
     attached: Vec<(NodeId, Vec2, f64)>,
     attached_at_m: Vec<PointM>,
     gauges: Vec<GaugeProbe>,
+    /// The gauges' responses to unit loads, made at the first
+    /// [`FlexibleBody::gauge_readings`] and shared by the re-weighed
+    /// bodies (same frame, same loaded nodes).
+    gauge_influence: Arc<OnceLock<GaugeInfluence>>,
     /// The plates' own mass and first moment, kg and kg m.
     plates_mass_kg: f64,
     plates_first_moment_kg_m: Vec2,
@@ -240,6 +248,7 @@ impl FlexibleBody {
             attached,
             attached_at_m: structure.attached_mass.iter().map(|m| m.at_m).collect(),
             gauges: probes,
+            gauge_influence: Arc::default(),
             plates_mass_kg,
             plates_first_moment_kg_m,
             mass_kg: 0.0,
@@ -320,14 +329,7 @@ impl FlexibleBody {
             .iter()
             .map(|probe| {
                 let forces = solution.internal_forces(probe.element, probe.xi);
-                let stress_pa = forces.axial_n / probe.section.area_m2()
-                    - forces.moment_nm * probe.fibre_m / probe.section.second_moment_m4();
-                GaugeReading {
-                    point: probe.point,
-                    axial_force_kn: forces.axial_n * 1e-3,
-                    bending_moment_knm: forces.moment_nm * 1e-3,
-                    stress_mpa: stress_pa * 1e-6,
-                }
+                probe.reading(forces.axial_n, forces.moment_nm)
             })
             .collect();
         let mut max_von_mises_pa: f64 = 0.0;
@@ -356,6 +358,140 @@ impl FlexibleBody {
             max_von_mises_mpa: max_von_mises_pa * 1e-6,
             support_reaction_ratio: largest_reaction / largest_pin_force.max(f64::MIN_POSITIVE),
         }
+    }
+}
+
+impl FlexibleBody {
+    /// The gauges alone, for pin forces (N, body frame, in `pins` order)
+    /// and gravity (m/s^2, body frame): what [`FlexibleBody::stresses`]
+    /// gives in `gauges`, equal to rounding, by superposing the responses
+    /// to unit loads instead of a back-substitution and a scan of every
+    /// element (a few hundred multiplications instead of some 10^5).
+    pub fn gauge_readings(&self, pin_forces_n: &[Vec2], gravity_m_s2: Vec2) -> Vec<GaugeReading> {
+        let influence = self
+            .gauge_influence
+            .get_or_init(|| GaugeInfluence::solve(self));
+        let gauge_count = self.gauges.len();
+        // Each gauge's [axial N, moment N m].
+        let mut section = vec![[0.0; 2]; gauge_count];
+        let mut add = |responses: &[[f64; 2]], amount: f64| {
+            for (sum, response) in section.iter_mut().zip(responses) {
+                sum[0] += response[0] * amount;
+                sum[1] += response[1] * amount;
+            }
+        };
+        for (axis, acceleration) in [gravity_m_s2.x, gravity_m_s2.y].into_iter().enumerate() {
+            add(influence.per_acceleration(axis, gauge_count), acceleration);
+        }
+        for (slot, force) in influence.pin_slots.iter().zip(pin_forces_n) {
+            for (component, amount) in [force.x, force.y].into_iter().enumerate() {
+                add(
+                    influence.per_unit_load(*slot, component, gauge_count),
+                    amount,
+                );
+            }
+        }
+        for (slot, &(_, offset, mass_kg)) in influence.attached_slots.iter().zip(&self.attached) {
+            let weight = gravity_m_s2 * mass_kg;
+            let load = [weight.x, weight.y, cross(&offset, &weight)];
+            for (component, amount) in load.into_iter().enumerate() {
+                add(
+                    influence.per_unit_load(*slot, component, gauge_count),
+                    amount,
+                );
+            }
+        }
+        self.gauges
+            .iter()
+            .zip(section)
+            .map(|(probe, [axial_n, moment_nm])| probe.reading(axial_n, moment_nm))
+            .collect()
+    }
+}
+
+impl GaugeProbe {
+    /// The gauge's reading from its section's axial force and moment.
+    fn reading(&self, axial_n: f64, moment_nm: f64) -> GaugeReading {
+        let stress_pa = axial_n / self.section.area_m2()
+            - moment_nm * self.fibre_m / self.section.second_moment_m4();
+        GaugeReading {
+            point: self.point,
+            axial_force_kn: axial_n * 1e-3,
+            bending_moment_knm: moment_nm * 1e-3,
+            stress_mpa: stress_pa * 1e-6,
+        }
+    }
+}
+
+/// Each gauge's section forces `[axial N, moment N m]` per unit load at
+/// every node a load reaches (the pins and the attached masses' nodes: a
+/// newton along x and y, a newton metre) and per unit body acceleration
+/// (m/s^2 along x and y, the plates' own weight). Solved with the body's
+/// own frame, one back-substitution per unit load.
+#[derive(Debug)]
+struct GaugeInfluence {
+    /// `responses[(slot * 3 + component) * gauges + gauge]`, slots first,
+    /// then the two accelerations at slot `nodes.len()`.
+    responses: Vec<[f64; 2]>,
+    /// The slot of each pin and of each attached mass.
+    pin_slots: Vec<usize>,
+    attached_slots: Vec<usize>,
+}
+
+impl GaugeInfluence {
+    fn solve(body: &FlexibleBody) -> GaugeInfluence {
+        let mut nodes: Vec<NodeId> = Vec::new();
+        let mut slot_of = |node: NodeId| match nodes.iter().position(|&n| n == node) {
+            Some(slot) => slot,
+            None => {
+                nodes.push(node);
+                nodes.len() - 1
+            }
+        };
+        let pin_slots: Vec<usize> = body.pin_nodes.iter().map(|&n| slot_of(n)).collect();
+        let attached_slots: Vec<usize> = body.attached.iter().map(|a| slot_of(a.0)).collect();
+        let section_forces = |loads: &FrameLoads| {
+            let solution = body.model.solve(loads);
+            body.gauges.iter().map(move |probe| {
+                let forces = solution.internal_forces(probe.element, probe.xi);
+                [forces.axial_n, forces.moment_nm]
+            })
+        };
+        let mut responses = Vec::with_capacity((nodes.len() * 3 + 2) * body.gauges.len());
+        for &node in &nodes {
+            for component in 0..3 {
+                let mut unit = [0.0; 3];
+                unit[component] = 1.0;
+                responses.extend(section_forces(&FrameLoads {
+                    nodal: vec![(node, unit)],
+                    ..FrameLoads::default()
+                }));
+            }
+        }
+        for axis in 0..2 {
+            let mut unit = [0.0; 2];
+            unit[axis] = 1.0;
+            responses.extend(section_forces(&FrameLoads {
+                body_acceleration_m_s2: unit,
+                ..FrameLoads::default()
+            }));
+        }
+        GaugeInfluence {
+            responses,
+            pin_slots,
+            attached_slots,
+        }
+    }
+
+    fn per_unit_load(&self, slot: usize, component: usize, gauges: usize) -> &[[f64; 2]] {
+        let start = (slot * 3 + component) * gauges;
+        &self.responses[start..start + gauges]
+    }
+
+    /// Per unit acceleration along `axis`: stored after every slot's three.
+    fn per_acceleration(&self, axis: usize, gauges: usize) -> &[[f64; 2]] {
+        let start = self.responses.len() - (2 - axis) * gauges;
+        &self.responses[start..start + gauges]
     }
 }
 

@@ -43,12 +43,16 @@ use acq_twins::excavator::geometry::{is_mass_number, GeometryTemplate};
 use acq_twins::excavator::geometry_file::{rewrite_geometry_file, ChangedNumber};
 use acq_twins::excavator::inclinations::Inclinations;
 use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose};
-use acq_twins::excavator::{CylinderName, Excavator, Inputs, PreparedPose, Strokes};
+use acq_twins::excavator::{
+    CylinderName, Evaluation, Excavator, Inputs, Measurables, PreparedPose, Strokes,
+};
 
 use super::study::{
     number_at_key_path, numbers_by_key_path, Model, ModelRun, Study, StudyParameter,
 };
-use crate::excavator_report::{envelope_json, evaluation_json};
+use crate::excavator_report::{
+    envelope_json, evaluation_json, measurable_number, measurables_json,
+};
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 
 /// The operating inputs the twin takes by name.
@@ -126,6 +130,10 @@ type Numbers = HashMap<String, f64>;
 
 /// Geometry numbers by key path, as a run changes them.
 type Numbered<'a> = Vec<(&'a str, f64)>;
+
+/// The one output of `acq twin excavator --json` that needs every
+/// element's stresses rather than the gauges'.
+const VON_MISES_KEY: &str = "max_von_mises_MPa";
 
 /// The prefixes of the outputs of the geometry itself (no load case):
 /// the working envelope, and each cylinder's dead length (its retracted
@@ -392,6 +400,36 @@ impl ExcavatorModel {
     }
 }
 
+/// One run's twin outputs: the full evaluation where the von Mises
+/// maximum is asked for, what the transducers see otherwise.
+// One lives on the stack per run and none is stored: the size difference
+// costs nothing.
+#[allow(clippy::large_enum_variant)]
+enum TwinOutputs {
+    Full(Evaluation),
+    Seen(Measurables),
+}
+
+impl TwinOutputs {
+    /// As `acq twin excavator --json` writes them, with the pressures over
+    /// relief where the geometry has a relief pressure.
+    fn json(&self) -> serde_json::Value {
+        let (mut json, cylinders) = match self {
+            TwinOutputs::Full(evaluation) => (evaluation_json(evaluation), &evaluation.cylinders),
+            TwinOutputs::Seen(seen) => (measurables_json(seen), &seen.cylinders),
+        };
+        let relief: serde_json::Map<String, serde_json::Value> = CylinderName::ALL
+            .iter()
+            .zip(cylinders)
+            .filter_map(|(name, c)| c.over_relief_bar.map(|x| (name.to_string(), x.into())))
+            .collect();
+        if !relief.is_empty() {
+            json["pressure_over_relief_bar"] = relief.into();
+        }
+        json
+    }
+}
+
 /// How a run gives its pose.
 #[derive(Clone, Copy, Debug)]
 enum PoseBy {
@@ -433,7 +471,7 @@ impl Model for ExcavatorModel {
         let wants_envelope = scalars.iter().any(|name| of_geometry(name));
         let wants_evaluation = scalars.iter().any(|name| !of_geometry(name));
         let (twin, envelope) = self.twin_for(&geometry, wants_envelope)?;
-        let numbers = if wants_evaluation {
+        let outputs = if wants_evaluation {
             let operating_input = |name: &str| -> Result<f64, String> {
                 operating.get(name).copied().ok_or_else(|| {
                     format!("the excavator twin needs {name}: make it a parameter or a case input")
@@ -468,31 +506,42 @@ impl Model for ExcavatorModel {
             }
             let prepared = self.pose_at(pose, &geometry, &twin)?;
             let inputs = with_strokes(prepared.strokes())?;
-            let evaluation = twin
-                .evaluate_at(&prepared, &inputs)
-                .map_err(|e| e.to_string())?;
-            let mut json = evaluation_json(&evaluation);
-            let relief: serde_json::Map<String, serde_json::Value> = CylinderName::ALL
-                .iter()
-                .zip(&evaluation.cylinders)
-                .filter_map(|(name, c)| c.over_relief_bar.map(|x| (name.to_string(), x.into())))
-                .collect();
-            if !relief.is_empty() {
-                json["pressure_over_relief_bar"] = relief.into();
-            }
-            json
+            // The von Mises maximum scans every element: only when asked.
+            Some(if scalars.iter().any(|s| s.starts_with(VON_MISES_KEY)) {
+                TwinOutputs::Full(
+                    twin.evaluate_at(&prepared, &inputs)
+                        .map_err(|e| e.to_string())?,
+                )
+            } else {
+                TwinOutputs::Seen(
+                    twin.measurable_at(&prepared, &inputs)
+                        .map_err(|e| e.to_string())?,
+                )
+            })
         } else {
-            serde_json::Value::Null
+            None
+        };
+        // The JSON of `acq twin excavator --json` is made only for a number
+        // not read directly, and for the error that lists what there is.
+        let json = std::cell::OnceCell::new();
+        let json_of = || {
+            json.get_or_init(|| {
+                outputs
+                    .as_ref()
+                    .map_or(serde_json::Value::Null, TwinOutputs::json)
+            })
         };
         let scalars = scalars
             .iter()
             .map(|name| {
-                let found = match &envelope {
-                    Some(envelope) if of_geometry(name) => envelope.get(*name).copied(),
-                    _ => number_at_key_path(&numbers, name),
-                };
+                let found = match (&envelope, &outputs) {
+                    (Some(envelope), _) if of_geometry(name) => envelope.get(*name).copied(),
+                    (_, Some(TwinOutputs::Seen(seen))) => measurable_number(seen, name),
+                    _ => None,
+                }
+                .or_else(|| number_at_key_path(json_of(), name));
                 found.ok_or_else(|| {
-                    let numbers = numbers_by_key_path(&numbers);
+                    let numbers = numbers_by_key_path(json_of());
                     let mut known: Vec<&str> = numbers
                         .keys()
                         .map(String::as_str)
@@ -596,6 +645,60 @@ mod tests {
 
     fn inputs(pairs: &[(&str, f64)]) -> Vec<(String, f64)> {
         pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()
+    }
+
+    /// Every number the run reads straight from what the transducers see
+    /// is the number at the same key path of `acq twin excavator --json`,
+    /// to the bit; paths it does not know (the von Mises maximum, a typo)
+    /// are left to the JSON. A load past the relief valve has its
+    /// `pressure_over_relief_bar` above zero, read too.
+    #[test]
+    fn the_numbers_read_directly_are_the_json_s() {
+        let twin = Excavator::new(Geometry::dx55()).unwrap();
+        for force_kn in [20.0, 400.0] {
+            let case = Inputs {
+                strokes: Strokes {
+                    bucket_mm: 300.0,
+                    arm_mm: 400.0,
+                    boom_mm: 500.0,
+                },
+                tip_force_kn: force_kn,
+                tip_force_angle_deg: -10.0,
+            };
+            let prepared = twin.prepare(&case.strokes).unwrap();
+            let seen = TwinOutputs::Seen(twin.measurable_at(&prepared, &case).unwrap());
+            let TwinOutputs::Seen(measurables) = &seen else {
+                unreachable!()
+            };
+            let numbers = numbers_by_key_path(&seen.json());
+            assert!(numbers.len() > 20, "{numbers:?}");
+            let over_relief = numbers
+                .iter()
+                .filter(|(k, _)| k.starts_with("pressure_over_relief_bar"))
+                .map(|(_, v)| *v)
+                .fold(0.0, f64::max);
+            assert_eq!(over_relief > 0.0, force_kn > 100.0, "{over_relief} bar");
+            for (path, value) in &numbers {
+                assert_eq!(
+                    measurable_number(measurables, path).map(f64::to_bits),
+                    Some(value.to_bits()),
+                    "{path}"
+                );
+            }
+            for path in [
+                "max_von_mises_MPa.boom",
+                "pressure_bar.stick",
+                "pressure_bar",
+                "gauge_stress_MPa[99]",
+                "gauge_stress_MPa[0][0]",
+                "points.A[2]",
+                "points.Q[0]",
+            ] {
+                assert_eq!(measurable_number(measurables, path), None, "{path}");
+            }
+            let full = TwinOutputs::Full(twin.evaluate_at(&prepared, &case).unwrap());
+            assert!(number_at_key_path(&full.json(), "max_von_mises_MPa.boom").unwrap() > 0.0);
+        }
     }
 
     /// A pose by the links' inclinations gives the twin's outputs at the

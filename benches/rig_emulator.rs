@@ -9,7 +9,8 @@
 //! operator holds the eight points it names, each hold's levels from the
 //! solver itself with a typical transducer's noise.
 //!
-//! `cargo bench --bench rig_emulator` (about two minutes on 2 cores).
+//! `cargo bench --bench rig_emulator` (about two minutes on 2 cores);
+//! `ACQ_BENCH_VERBOSE=1` prints how each update was sampled.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -39,6 +40,20 @@ fn main() {
         )
         .unwrap();
     }
+    // One run at a time: the search then proposes the same points in the
+    // same order every time (with two, its runs finish in either order),
+    // so the emulator, and every update after it, is the same from build
+    // to build and two builds' times compare.
+    let spec = std::fs::read_to_string(dir.join("study.toml")).unwrap();
+    assert!(
+        spec.contains("parallel = 2"),
+        "the fixture's study runs two at a time"
+    );
+    std::fs::write(
+        dir.join("study.toml"),
+        spec.replace("parallel = 2", "parallel = 1"),
+    )
+    .unwrap();
     let start = Instant::now();
     run(CalibrateExternalArgs {
         spec: dir.join("study.toml"),
@@ -82,6 +97,17 @@ fn main() {
             let update = Instant::now();
             tracker.update(&holds, &mut |_| {});
             updates.push(update.elapsed().as_secs_f64());
+            if std::env::var_os("ACQ_BENCH_VERBOSE").is_some() {
+                if let Ok(posterior) = tracker.posterior() {
+                    println!(
+                        "  truth {} hold {}: {:.2} s, {}",
+                        t + 1,
+                        k + 1,
+                        updates[updates.len() - 1],
+                        posterior.how
+                    );
+                }
+            }
         }
         let posterior = tracker.posterior().unwrap();
         let covered = posterior

@@ -973,4 +973,32 @@ fn the_mean_alone_is_the_predictions_mean() {
         gp.predict_mean(&[1.0]).is_nan(),
         "a point of the wrong dimension"
     );
+    // Every kernel, ten inputs of their own length scales (an emulator of
+    // eight parameters and two conditions), points inside and far out.
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let rows: Vec<Vec<f64>> = (0..80)
+        .map(|_| (0..10).map(|_| rng.random_range(-1.0..1.0)).collect())
+        .collect();
+    let outputs: Vec<f64> = rows
+        .iter()
+        .map(|x| {
+            x.iter()
+                .enumerate()
+                .map(|(k, v)| (v * (k + 1) as f64).sin())
+                .sum()
+        })
+        .collect();
+    let scales: Vec<f64> = (0..10).map(|k| 0.3 + 0.2 * k as f64).collect();
+    for kernel in KERNELS {
+        let gp = Gp::fit(&rows, &outputs, &fixed_settings(kernel, &scales, 1e-4)).expect("fit");
+        for _ in 0..50 {
+            let x: Vec<f64> = (0..10).map(|_| rng.random_range(-3.0..3.0)).collect();
+            let (full, alone) = (gp.predict(&x).mean, gp.predict_mean(&x));
+            assert_eq!(
+                full.to_bits(),
+                alone.to_bits(),
+                "{kernel}: {full} against {alone}"
+            );
+        }
+    }
 }

@@ -192,6 +192,10 @@ pub struct Gp {
     record: GpRecord,
     /// Row-major `n x d`: the modelled inputs divided by their length scales.
     scaled_inputs: Vec<f64>,
+    /// The same, column-major (`d x n`): what [`Gp::predict_mean`] runs
+    /// down, one input at a time over every training point, so that its
+    /// loops vectorise.
+    scaled_columns: Vec<f64>,
     /// Per input, the factor from data units to length-scale units: 1 / (width l_k).
     input_to_scaled: Vec<f64>,
     /// Cholesky factor of the training covariance, column-major, lower triangle.
@@ -296,7 +300,7 @@ impl Gp {
     /// The mean alone at `x` (data units; NaN for an invalid point): the
     /// cross-covariance and one dot product, O(n d), where the std needs a
     /// triangular solve, O(n^2). What a sampler that reads only the mean
-    /// asks at every step.
+    /// asks at every step; the same bits as [`Gp::predict`]'s.
     pub fn predict_mean(&self, x: &[f64]) -> f64 {
         let d = self.n_inputs();
         if d == 0 {
@@ -305,27 +309,29 @@ impl Gp {
         if x.len() != d || x.iter().any(|v| !v.is_finite()) {
             return f64::NAN;
         }
-        // The cross-covariance summed against alpha as it is made, in the
-        // order `cross_covariance` and `dot` take (the same bits), without
-        // the buffers a full prediction needs.
-        let point: Vec<f64> = x
-            .iter()
-            .enumerate()
-            .map(|(k, xk)| {
-                (xk - self.record.input_offset[k])
-                    / self.record.input_width[k]
-                    / self.record.length_scale(k)
-            })
-            .collect();
+        // Each training point's squared distance, an input at a time over
+        // every point, then its correlation, then the sum against alpha:
+        // the same operations in the same order as `cross_covariance` and
+        // `dot` (the same bits), but in loops over the points that
+        // vectorise (the kernel's exp is branch-free for that).
+        let n = self.n_points();
+        let mut r_squared = vec![0.0; n];
+        for (k, xk) in x.iter().enumerate() {
+            let point = (xk - self.record.input_offset[k])
+                / self.record.input_width[k]
+                / self.record.length_scale(k);
+            let column = &self.scaled_columns[k * n..(k + 1) * n];
+            for (sum, a) in r_squared.iter_mut().zip(column) {
+                *sum += (a - point) * (a - point);
+            }
+        }
+        let mut correlation = vec![0.0; n];
+        self.record.kernel.fill_values(&r_squared, &mut correlation);
         let signal = self.record.signal_variance;
-        let mean: f64 = self
-            .scaled_inputs
-            .chunks_exact(d)
+        let mean: f64 = correlation
+            .iter()
             .zip(&self.alpha)
-            .map(|(row, alpha)| {
-                let r_squared: f64 = row.iter().zip(&point).map(|(a, b)| (a - b) * (a - b)).sum();
-                signal * self.record.kernel.value_and_slope(r_squared).0 * alpha
-            })
+            .map(|(k, alpha)| signal * k * alpha)
             .sum();
         self.record.output_mean + self.record.output_scale * mean
     }
@@ -558,8 +564,14 @@ impl Gp {
             .enumerate()
             .map(|(index, z)| z / record.length_scale(index % d))
             .collect();
+        let n = scaled_inputs.len() / d.max(1);
+        let scaled_columns: Vec<f64> = (0..d)
+            .flat_map(|k| (0..n).map(move |i| (k, i)))
+            .map(|(k, i)| scaled_inputs[i * d + k])
+            .collect();
         Ok(Gp {
             scaled_inputs,
+            scaled_columns,
             input_to_scaled,
             cholesky: workspace.cholesky_factor().to_vec(),
             alpha: workspace.alpha().to_vec(),

@@ -338,7 +338,12 @@ pub(crate) fn interp(x: f64, xp: &[f64], fp: &[f64]) -> f64 {
     if x >= xp[last] {
         return fp[last];
     }
-    let j = segment_at(x, xp);
+    lerp(x, xp, fp, segment_at(x, xp))
+}
+
+/// `np.interp`'s value inside knot interval `j`, its NaN fallbacks too.
+#[inline(always)]
+pub(crate) fn lerp(x: f64, xp: &[f64], fp: &[f64], j: usize) -> f64 {
     let slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
     let value = slope * (x - xp[j]) + fp[j];
     if value.is_nan() {

@@ -18,7 +18,7 @@
 //! Not symmetric: which curve is the reference depends on their lengths.
 
 use super::{
-    arc_fractions, direction_at, interp, segment_at, signed_distance, Matched, Pair, Points,
+    arc_fractions, direction_at, interp, lerp, segment_at, signed_distance, Matched, Pair, Points,
 };
 
 /// Offsets tried when the curves' lengths differ.
@@ -88,6 +88,11 @@ struct Mapping {
     other_x: Vec<f64>,
     other_y: Vec<f64>,
     other_fraction: Vec<f64>,
+    /// Per segment of the other curve, `np.interp`'s slopes of x and y
+    /// over the fraction (made once: the same bits as made per point).
+    other_slopes: Vec<[f64; 2]>,
+    /// The other curve's length (normalised units).
+    other_total: f64,
     /// The difference of the totals (unnormalised), the largest offset.
     largest_offset: f64,
 }
@@ -104,7 +109,7 @@ impl Mapping {
         };
         let (mx, my) = columns(measured);
         let (sx, sy) = columns(simulated);
-        if simulated_total > measured_total {
+        let mapping = if simulated_total > measured_total {
             Mapping {
                 reference_is_measured: false,
                 reference_x: sx,
@@ -113,7 +118,9 @@ impl Mapping {
                 other_x: mx,
                 other_y: my,
                 other_fraction: measured_fraction,
+                other_total: measured_total,
                 largest_offset: simulated_total - measured_total,
+                other_slopes: Vec::new(),
             }
         } else {
             Mapping {
@@ -124,38 +131,120 @@ impl Mapping {
                 other_x: sx,
                 other_y: sy,
                 other_fraction: simulated_fraction,
+                other_total: simulated_total,
                 largest_offset: measured_total - simulated_total,
+                other_slopes: Vec::new(),
             }
+        };
+        let fraction = &mapping.other_fraction;
+        let other_slopes = (0..fraction.len() - 1)
+            .map(|j| {
+                let width = fraction[j + 1] - fraction[j];
+                [
+                    (mapping.other_x[j + 1] - mapping.other_x[j]) / width,
+                    (mapping.other_y[j + 1] - mapping.other_y[j]) / width,
+                ]
+            })
+            .collect();
+        Mapping {
+            other_slopes,
+            ..mapping
         }
     }
 
-    /// `(offset, sum)` of the smallest sum (the first of equal ones).
+    /// `(offset, sum)` of the smallest sum over the library's offsets.
+    ///
+    /// Not every offset is summed: as the offset moves by `h`, each
+    /// mapped point moves along the other curve by at most `h` times that
+    /// curve's length, so a sum changes by at most `h` times that length
+    /// times the sum of the weights (a Lipschitz constant). An offset whose
+    /// bound from the sums already known exceeds the best sum cannot be
+    /// the minimum and is skipped; the next summed is the one of lowest
+    /// bound (Piyavskii's rule), and a sum stops as soon as it exceeds the
+    /// best. The minimum found is the library's, whose every offset is
+    /// summed (to rounding: the bound carries a relative slack of 1e-9).
     fn best(&self) -> (f64, f64) {
         let offsets = if self.largest_offset == 0.0 {
             vec![0.0]
         } else {
             linspace(0.0, self.largest_offset, OFFSETS)
         };
-        let n = self.reference_fraction.len();
-        let mut distances = vec![0.0; n];
+        let weights: f64 = self.reference_fraction.iter().skip(1).sum();
+        let lipschitz = self.other_total * weights * (1.0 + 1e-9);
+        let mut lower = vec![f64::NEG_INFINITY; offsets.len()];
+        let mut summed = vec![false; offsets.len()];
         let mut best = (0.0, f64::INFINITY);
-        for offset in offsets {
-            for (k, d) in distances.iter_mut().enumerate() {
-                let at = self.reference_fraction[k] + offset;
-                let x = interp(at, &self.other_fraction, &self.other_x);
-                let y = interp(at, &self.other_fraction, &self.other_y);
-                let (dy, dx) = (self.reference_y[k] - y, self.reference_x[k] - x);
-                *d = (dy * dy + dx * dx).sqrt();
+        let mut best_index = usize::MAX;
+        // The unsummed offset of lowest bound (the first of equal ones),
+        // while it may still beat the best.
+        while let Some(next) = (0..offsets.len())
+            .filter(|&i| !summed[i])
+            .min_by(|&a, &b| lower[a].total_cmp(&lower[b]))
+            .filter(|&i| lower[i] <= best.1)
+        {
+            summed[next] = true;
+            let (sum, complete) = self.sum_at(offsets[next], best.1);
+            if complete && (sum < best.1 || (sum == best.1 && next < best_index)) {
+                best = (offsets[next], sum);
+                best_index = next;
             }
-            let sum: f64 = (1..n)
-                .map(|k| 0.5 * (distances[k - 1] + distances[k]) * self.reference_fraction[k])
-                .sum();
-            // np.min: NaN wins; a NaN sum only from NaN input, refused earlier.
-            if sum < best.1 {
-                best = (offset, sum);
+            // An incomplete sum is still a lower bound of the whole.
+            for (i, bound) in lower.iter_mut().enumerate() {
+                *bound = bound.max(sum - lipschitz * (offsets[i] - offsets[next]).abs());
             }
         }
         best
+    }
+
+    /// The trapezoid sum at `offset`, and whether it is complete: it stops
+    /// once past `stop_above` (its terms are never negative). Summed from
+    /// the end, where the weights are largest, so that a sum that will
+    /// exceed the best does so within its first terms.
+    fn sum_at(&self, offset: f64, stop_above: f64) -> (f64, bool) {
+        let xp = &self.other_fraction;
+        let last = xp.len() - 1;
+        let mut segment = last - 1;
+        let mut next_distance = 0.0;
+        let mut sum = 0.0;
+        for (k, &fraction) in self.reference_fraction.iter().enumerate().rev() {
+            // `np.interp` at `fraction + offset`, which only falls as k
+            // does: the segment is found by walking back, not by a search.
+            let at = fraction + offset;
+            let (x, y) = if at < xp[0] {
+                (self.other_x[0], self.other_y[0])
+            } else if at >= xp[last] {
+                (self.other_x[last], self.other_y[last])
+            } else {
+                while xp[segment] > at {
+                    segment -= 1;
+                }
+                let [slope_x, slope_y] = self.other_slopes[segment];
+                let along = at - xp[segment];
+                let (x, y) = (
+                    slope_x * along + self.other_x[segment],
+                    slope_y * along + self.other_y[segment],
+                );
+                if x.is_nan() || y.is_nan() {
+                    // A segment of (nearly) no length: np.interp's fallbacks.
+                    (
+                        lerp(at, xp, &self.other_x, segment),
+                        lerp(at, xp, &self.other_y, segment),
+                    )
+                } else {
+                    (x, y)
+                }
+            };
+            let (dy, dx) = (self.reference_y[k] - y, self.reference_x[k] - x);
+            let distance = (dy * dy + dx * dx).sqrt();
+            if k + 1 < self.reference_fraction.len() {
+                sum += 0.5 * (distance + next_distance) * self.reference_fraction[k + 1];
+                if sum > stop_above {
+                    return (sum, false);
+                }
+            }
+            next_distance = distance;
+        }
+        (sum, true)
     }
 }
 

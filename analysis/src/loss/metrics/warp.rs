@@ -22,34 +22,64 @@ impl Accumulate {
     fn step(self, before: f64, cost: f64) -> f64 {
         match self {
             Accumulate::Sum => before + cost,
-            Accumulate::Max => before.max(cost),
+            Accumulate::Max => {
+                if cost > before {
+                    cost
+                } else {
+                    before
+                }
+            }
         }
+    }
+}
+
+/// The smaller of two costs. Costs are never NaN (the curves are checked
+/// finite), so this skips `f64::min`'s NaN handling, a third of the
+/// inner loop's instructions.
+#[inline(always)]
+fn smaller(a: f64, b: f64) -> f64 {
+    if b < a {
+        b
+    } else {
+        a
     }
 }
 
 /// Which predecessor a cell took.
 const UP: u8 = 0; // (i - 1, j)
 const LEFT: u8 = 1; // (i, j - 1)
-const DIAGONAL: u8 = 2; // (i - 1, j - 1)
+                    // 2: the diagonal, (i - 1, j - 1): any other choice.
 
 /// The last cell's cumulative cost, in O(n + m) memory.
 pub(super) fn value(a: &Points, b: &Points, accumulate: Accumulate) -> f64 {
     let m = b.len();
     let mut previous = vec![0.0; m];
     let mut current = vec![0.0; m];
-    previous[0] = distance(a[0], b[0]);
+    let mut costs = vec![0.0; m];
+    row_costs(a[0], b, &mut costs);
+    previous[0] = costs[0];
     for j in 1..m {
-        previous[j] = accumulate.step(previous[j - 1], distance(a[0], b[j]));
+        previous[j] = accumulate.step(previous[j - 1], costs[j]);
     }
     for &point in &a[1..] {
-        current[0] = accumulate.step(previous[0], distance(point, b[0]));
+        row_costs(point, b, &mut costs);
+        current[0] = accumulate.step(previous[0], costs[0]);
         for j in 1..m {
-            let best = previous[j].min(current[j - 1]).min(previous[j - 1]);
-            current[j] = accumulate.step(best, distance(point, b[j]));
+            let best = smaller(smaller(previous[j], current[j - 1]), previous[j - 1]);
+            current[j] = accumulate.step(best, costs[j]);
         }
         std::mem::swap(&mut previous, &mut current);
     }
     previous[m - 1]
+}
+
+/// The distances of `point` to every point of `b`: a loop of its own, so
+/// that its square roots vectorise and stay out of the row's chain of
+/// dependent minima.
+fn row_costs(point: [f64; 2], b: &Points, costs: &mut [f64]) {
+    for (cost, &other) in costs.iter_mut().zip(b) {
+        *cost = distance(point, other);
+    }
 }
 
 /// The last cell's cumulative cost and the path to it, from `(0, 0)` to
@@ -73,27 +103,28 @@ pub(super) fn path(
     let mut choices = Choices::new(cells);
     let mut previous = vec![0.0; m];
     let mut current = vec![0.0; m];
-    previous[0] = distance(a[0], b[0]);
+    let mut costs = vec![0.0; m];
+    let mut row_choices = vec![0u8; m];
+    row_costs(a[0], b, &mut costs);
+    previous[0] = costs[0];
     for j in 1..m {
-        previous[j] = accumulate.step(previous[j - 1], distance(a[0], b[j]));
-        choices.set(j, LEFT);
+        previous[j] = accumulate.step(previous[j - 1], costs[j]);
+        row_choices[j] = LEFT;
     }
+    choices.set_row(0, &row_choices);
     for (i, &point) in a.iter().enumerate().skip(1) {
-        current[0] = accumulate.step(previous[0], distance(point, b[0]));
-        choices.set(i * m, UP);
+        row_costs(point, b, &mut costs);
+        current[0] = accumulate.step(previous[0], costs[0]);
+        row_choices[0] = UP;
         for j in 1..m {
             let (up, left, diagonal) = (previous[j], current[j - 1], previous[j - 1]);
-            let best = up.min(left).min(diagonal);
-            let choice = if up == best {
-                UP
-            } else if left == best {
-                LEFT
-            } else {
-                DIAGONAL
-            };
-            choices.set(i * m + j, choice);
-            current[j] = accumulate.step(best, distance(point, b[j]));
+            let best = smaller(smaller(up, left), diagonal);
+            // UP where up is best, else LEFT where left is, else DIAGONAL;
+            // without branches, which the data would keep mispredicting.
+            row_choices[j] = u8::from(up != best) * (1 + u8::from(left != best));
+            current[j] = accumulate.step(best, costs[j]);
         }
+        choices.set_row(i * m, &row_choices);
         std::mem::swap(&mut previous, &mut current);
     }
     let mut path = Vec::with_capacity(n + m);
@@ -122,9 +153,13 @@ impl Choices {
         Choices(vec![0; cells.div_ceil(32)])
     }
 
-    fn set(&mut self, cell: usize, choice: u8) {
-        let (word, shift) = (cell / 32, 2 * (cell % 32));
-        self.0[word] = (self.0[word] & !(3 << shift)) | (u64::from(choice) << shift);
+    /// The choices of the cells from `first` on, in order.
+    fn set_row(&mut self, first: usize, row: &[u8]) {
+        for (k, &choice) in row.iter().enumerate() {
+            let cell = first + k;
+            let (word, shift) = (cell / 32, 2 * (cell % 32));
+            self.0[word] |= u64::from(choice) << shift;
+        }
     }
 
     fn get(&self, cell: usize) -> u8 {

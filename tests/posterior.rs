@@ -19,6 +19,7 @@ mod common;
 
 use std::path::Path;
 
+use acq_analysis::loss::metrics::CurveMetric;
 use acq_calib::mcmc::{quantile, sample, Marginal, SamplerSettings};
 use acq_workflows::calibrate::extras::NoExtras;
 use acq_workflows::calibrate::method::{LeastSquaresMethod, Method, RunSettings};
@@ -583,6 +584,7 @@ fn a_curve_with_correlated_noise_gets_honest_intervals() {
                     measured: Measured::Curve {
                         points: measured,
                         axes: ["x".into(), "y".into()],
+                        metric: CurveMetric::Mape,
                     },
                     weight: 1.0,
                     source: String::new(),

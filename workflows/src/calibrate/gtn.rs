@@ -13,6 +13,7 @@ use acq_analysis::extract::tensile_props::{
     read_test_csv, tensile_properties, SpecimenGeometry, TestPoint,
 };
 use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions, SplitMape};
+use acq_analysis::loss::metrics::CurveMetric;
 use acq_calib::bo::Acquisition;
 use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
@@ -135,6 +136,7 @@ pub fn test_study(parameters: &[Parameter], test: &[TestPoint]) -> Study {
                         .map(|p| (p.displacement_mm, p.force_kn))
                         .collect(),
                     axes: ["displacement [mm]".into(), "force [kN]".into()],
+                    metric: CurveMetric::Mape,
                 },
                 weight: 1.0,
                 source: "the test".into(),

@@ -24,6 +24,7 @@
 use acq_analysis::loss::curve::{
     curve_errors_by_part, curve_mape, CurveLossError, CurveMapeOptions,
 };
+use acq_analysis::loss::metrics::{matched, residuals_by_part, CurveMetric};
 use acq_calib::evaluation::{Parameter, Simulator};
 use serde_json::{json, Map, Value};
 
@@ -131,11 +132,13 @@ pub enum Measured {
         value: f64,
         uncertainty: Option<f64>,
     },
-    /// A curve the model's curve of the same name is compared with, and
-    /// the names of its x and y (columns, or quantities with units).
+    /// A curve the model's curve of the same name is compared with, the
+    /// names of its x and y (columns, or quantities with units), and how
+    /// (MAPE on an x grid unless the spec says otherwise).
     Curve {
         points: Vec<(f64, f64)>,
         axes: [String; 2],
+        metric: CurveMetric,
     },
 }
 
@@ -587,13 +590,27 @@ impl StudySimulator<'_> {
                     Measured::Scalar { .. } => *scalar
                         .next()
                         .ok_or_else(|| in_case("the model returned too few outputs".into()))?,
-                    Measured::Curve { points, .. } => {
+                    Measured::Curve { points, metric, .. } => {
                         let simulated = curve
                             .next()
                             .ok_or_else(|| in_case("the model returned too few curves".into()))?;
-                        let in_curve =
-                            |e: CurveLossError| in_case(format!("curve {}: {e}", observation.name));
-                        if self.curve_parts == 0 {
+                        let in_curve = |e: CurveLossError| {
+                            let hint = if matches!(e, CurveLossError::Decreasing { .. }) {
+                                " (MAPE compares on an x grid; for a curve whose x goes back, give the curve metric = \"pcm\", \"frechet\", \"dtw\" or \"area\")"
+                            } else {
+                                ""
+                            };
+                            in_case(format!("curve {}: {e}{hint}", observation.name))
+                        };
+                        if *metric != CurveMetric::Mape {
+                            let (value, parts) =
+                                coupled_curve(*metric, points, simulated, self.curve_parts)
+                                    .map_err(|e| {
+                                        in_case(format!("curve {}: {e}", observation.name))
+                                    })?;
+                            curve_parts.extend(parts);
+                            value
+                        } else if self.curve_parts == 0 {
                             curve_mape(points, simulated, CurveMapeOptions::default())
                                 .map_err(in_curve)?
                                 .mape_percent
@@ -618,6 +635,30 @@ impl StudySimulator<'_> {
         outputs.extend(curve_parts);
         Ok(outputs)
     }
+}
+
+/// A curve scored by a coupling metric: its value, and `parts` signed
+/// residuals along the measured curve in % of its range (100 times the
+/// mean signed distance over each part: like MAPE's parts in %, so a
+/// local step weighs them alike). `(x, y)` points as the study keeps them.
+pub fn coupled_curve(
+    metric: CurveMetric,
+    measured: &[(f64, f64)],
+    simulated: &[(f64, f64)],
+    parts: usize,
+) -> Result<(f64, Vec<f64>), acq_analysis::loss::metrics::CurveMetricError> {
+    let as_points =
+        |c: &[(f64, f64)]| -> Vec<[f64; 2]> { c.iter().map(|&(x, y)| [x, y]).collect() };
+    let result = matched(metric, &as_points(measured), &as_points(simulated))?;
+    let parts = if parts == 0 {
+        Vec::new()
+    } else {
+        residuals_by_part(&result.pairs, parts)
+            .into_iter()
+            .map(|r| 100.0 * r)
+            .collect()
+    };
+    Ok((result.value, parts))
 }
 
 /// Each run's notes after the notes already there, space-separated per

@@ -10,10 +10,15 @@
 //!   `optimal`, `surrogate_rmse`;
 //! - `least-squares`: `errors_initial_pct`, `errors_optimal_pct`,
 //!   `optimal`, `loss`, `sum_of_squares`, `iterations`, `stop`;
-//! - every method: `evaluations`, `failed`, `wall_s`;
+//! - every method: `evaluations`, `failed`, `wall_s`; with curves,
+//!   `curve_metrics`: `{curve: {metric: value}}`, every metric
+//!   (`mape`, `pcm`, `frechet`, `dtw`, `area`) at the calibrated point
+//!   (null where the curves do not allow one, or the model cannot give
+//!   its curve again), the curve keyed as in `errors_optimal_pct`;
 //! - with the posterior stage: `posterior`, `predictive` and, with a
 //!   discrepancy, `discrepancy` ([`super::posterior::report::summary_keys`]).
 
+use acq_analysis::loss::metrics::{every_metric, CurveMetric};
 use serde_json::{json, Map, Value};
 
 use super::extras::Extras;
@@ -118,6 +123,11 @@ pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Va
             summary.insert(key.into(), json!({"value": chi2, "observations": n}));
         }
     }
+    if !outcome.curves.is_empty() {
+        summary.insert("curve_metrics".into(), curve_metrics_json(study, outcome));
+    }
+    // A preset with a published key set (`acq calibrate gtn`) keeps only
+    // its own.
     let mut summary = extras.summary(study, outcome, summary);
     // The posterior's keys whatever the preset keeps: they are every
     // study's.
@@ -125,4 +135,29 @@ pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Va
         summary.extend(posterior_summary_keys(posterior));
     }
     Value::Object(summary)
+}
+
+/// `{curve: {metric: value}}` at the calibrated point.
+fn curve_metrics_json(study: &Study, outcome: &StudyOutcome) -> Value {
+    let by_curve = outcome.curves.iter().map(|curve| {
+        let key = if study.named_cases {
+            format!("{}/{}", curve.case, curve.name)
+        } else {
+            curve.name.clone()
+        };
+        let values: Map<String, Value> = match &curve.model {
+            Some(model) => every_metric(&curve.measured, model)
+                .into_iter()
+                .map(|(metric, value)| {
+                    (metric.to_string(), value.map_or(Value::Null, |v| json!(v)))
+                })
+                .collect(),
+            None => CurveMetric::ALL
+                .iter()
+                .map(|metric| (metric.to_string(), Value::Null))
+                .collect(),
+        };
+        (key, Value::Object(values))
+    });
+    Value::Object(by_curve.collect())
 }

@@ -25,7 +25,7 @@
 //! zero where the curves cross instead of jumping as the re-ordered area
 //! would.
 
-use super::{arc_fractions, direction_at, distance, interp, Matched, Pair, Points};
+use super::points::{arc_fractions, direction_at, distance, interp, Matched, Pair, Points};
 
 /// The area between two curves (normalised by the measured curve's range).
 pub fn value(measured: &Points, simulated: &Points) -> f64 {

@@ -5,8 +5,8 @@
 //! so a curve that ends early is charged for the distance of the other's
 //! tail to its last point. The value grows with the point counts.
 
+use super::points::{pairs_of_path, CurveMetricError, Matched, Points};
 use super::warp::{self, Accumulate};
-use super::{pairs_of_path, CurveMetricError, Matched, Points};
 
 /// The DTW distance of two curves (as given: normalise first), in O(n m)
 /// time and O(n + m) memory.

@@ -8,8 +8,8 @@
 //! signed residuals need the coupling, and `geo` returns the distance
 //! only; the value shares its dynamic programme with DTW.
 
+use super::points::{pairs_of_path, CurveMetricError, Matched, Points};
 use super::warp::{self, Accumulate};
-use super::{pairs_of_path, CurveMetricError, Matched, Points};
 
 /// The discrete Fréchet distance of two curves (as given: normalise
 /// first), in O(n m) time and O(n + m) memory.

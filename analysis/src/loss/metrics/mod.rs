@@ -34,13 +34,14 @@ pub mod area;
 pub mod dtw;
 pub mod frechet;
 pub mod pcm;
+mod points;
 mod warp;
 
 use std::fmt;
 use std::str::FromStr;
 
-/// A curve as `[x, y]` points in order along it.
-pub type Points = [[f64; 2]];
+use points::arc_fractions;
+pub use points::{CurveMetricError, Matched, Pair, Points, MAX_CELLS};
 
 /// How a simulated curve is scored against a measured one.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
@@ -103,32 +104,10 @@ impl FromStr for CurveMetric {
     }
 }
 
-/// Why two curves cannot be compared.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum CurveMetricError {
-    #[error("the {curve} curve has {points} point(s); at least 2 are needed")]
-    TooFewPoints { curve: &'static str, points: usize },
-    #[error("the {curve} curve's point {index} is not finite ({x}, {y})")]
-    NotFinite {
-        curve: &'static str,
-        index: usize,
-        x: f64,
-        y: f64,
-    },
-    #[error("the measured curve's {axis} does not vary (every point at {value}): there is no range to normalise by")]
-    NoRange { axis: &'static str, value: f64 },
-    #[error("MAPE compares on an x grid, not by coupling points: use curve_mape")]
-    NotCoupling,
-    #[error("{measured} x {simulated} points would need {cells} cells of coupling; thin the curves to at most {MAX_CELLS} (a few thousand points each)")]
-    TooLarge {
-        measured: usize,
-        simulated: usize,
-        cells: usize,
-    },
-}
-
-/// Largest `n x m` a coupling is computed for (2 bits a cell: 32 MB).
-pub const MAX_CELLS: usize = 1 << 27;
+/// How far from the measured curve, in its ranges, a simulated point may
+/// lie: farther, the metrics' sums of squares would overflow, and no fit
+/// is that far off.
+const MAX_NORMALISED: f64 = 1e12;
 
 /// The measured curve's range on both axes: what both curves are divided
 /// by before any metric.
@@ -201,26 +180,6 @@ fn check(curve: &Points, name: &'static str) -> Result<(), CurveMetricError> {
     }
 }
 
-/// A measured point (or a point on a measured segment) coupled to a
-/// simulated one.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pair {
-    /// Where along the measured curve: its arc length up to the point over
-    /// the curve's whole length (normalised units), 0 to 1.
-    pub along: f64,
-    /// The distance between the two points, normalised units; positive
-    /// when the simulated point lies left of the measured curve's
-    /// direction of travel.
-    pub signed_distance: f64,
-}
-
-/// A metric's value and its coupling.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Matched {
-    pub value: f64,
-    pub pairs: Vec<Pair>,
-}
-
 /// `simulated` scored against `measured` (both in their own units) by one
 /// of the coupling metrics; MAPE is not one ([`super::curve::curve_mape`]
 /// computes it on its x grid).
@@ -232,7 +191,18 @@ pub fn matched(
     let scale = Normalisation::of_measured(measured)?;
     check(simulated, "simulated")?;
     let measured = scale.apply(measured);
-    let simulated = scale.apply(simulated);
+    let normalised = scale.apply(simulated);
+    if let Some(index) = normalised
+        .iter()
+        .position(|p| !(p[0].abs() <= MAX_NORMALISED && p[1].abs() <= MAX_NORMALISED))
+    {
+        return Err(CurveMetricError::OutOfScale {
+            index,
+            x: simulated[index][0],
+            y: simulated[index][1],
+        });
+    }
+    let simulated = normalised;
     match metric {
         CurveMetric::Pcm => Ok(pcm::matched(&measured, &simulated)),
         CurveMetric::Frechet => frechet::matched(&measured, &simulated),
@@ -240,6 +210,37 @@ pub fn matched(
         CurveMetric::Mape => Err(CurveMetricError::NotCoupling),
         CurveMetric::Area => Ok(area::matched(&measured, &simulated)),
     }
+}
+
+/// Every metric of `simulated` against `measured`, in
+/// [`CurveMetric::ALL`]'s order: MAPE by [`super::curve::curve_mape`]
+/// (default options), the others by [`matched`]; each an error where the
+/// curves do not allow it (MAPE of a loop, a measured curve with no range).
+pub fn every_metric(
+    measured: &[(f64, f64)],
+    simulated: &[(f64, f64)],
+) -> Vec<(CurveMetric, Result<f64, String>)> {
+    let as_points =
+        |c: &[(f64, f64)]| -> Vec<[f64; 2]> { c.iter().map(|&(x, y)| [x, y]).collect() };
+    let (measured_points, simulated_points) = (as_points(measured), as_points(simulated));
+    CurveMetric::ALL
+        .into_iter()
+        .map(|metric| {
+            let value = match metric {
+                CurveMetric::Mape => super::curve::curve_mape(
+                    measured,
+                    simulated,
+                    super::curve::CurveMapeOptions::default(),
+                )
+                .map(|m| m.mape_percent)
+                .map_err(|e| e.to_string()),
+                _ => matched(metric, &measured_points, &simulated_points)
+                    .map(|m| m.value)
+                    .map_err(|e| e.to_string()),
+            };
+            (metric, value)
+        })
+        .collect()
 }
 
 /// The pairs' signed distances averaged over `parts` equal parts of the
@@ -272,94 +273,49 @@ pub fn residuals_by_part(pairs: &[Pair], parts: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Each point's arc length from the start over the curve's whole length,
-/// and that length (every fraction 0 for a curve of no length).
-fn arc_fractions(curve: &Points) -> (Vec<f64>, f64) {
-    let mut cumulative = Vec::with_capacity(curve.len());
-    let mut total = 0.0;
-    cumulative.push(0.0);
-    for pair in curve.windows(2) {
-        total += distance(pair[0], pair[1]);
-        cumulative.push(total);
+/// How precisely the measured curve itself gives each of the `parts` of
+/// [`residuals_by_part`], in % of its range (as a study scales the parts):
+/// its noise over the square root of its points in the part.
+///
+/// The noise is estimated once from the second differences of the
+/// normalised coordinates (white noise of sd s gives them a variance of
+/// 6 s^2; a smooth curve's are nearly constant within a part, so each
+/// part's mean is taken out), pooled over both axes and the parts, and
+/// taken to be the same across the curve as along it. A noiseless
+/// (simulated) measured curve gets a floor of 1e-9.
+pub fn measured_scatter_by_part(
+    measured: &Points,
+    parts: usize,
+) -> Result<Vec<f64>, CurveMetricError> {
+    let scale = Normalisation::of_measured(measured)?;
+    let curve = scale.apply(measured);
+    let parts = parts.max(1);
+    let along = arc_fractions(&curve).0;
+    let part_of = |f: f64| ((f.clamp(0.0, 1.0) * parts as f64) as usize).min(parts - 1);
+    let mut counts = vec![0usize; parts];
+    for &f in &along {
+        counts[part_of(f)] += 1;
     }
-    if total > 0.0 {
-        for value in &mut cumulative {
-            *value /= total;
+    let (mut squares, mut degrees) = (0.0, 0usize);
+    for axis in 0..2 {
+        let mut by_part: Vec<Vec<f64>> = vec![Vec::new(); parts];
+        for (k, w) in curve.windows(3).enumerate() {
+            by_part[part_of(along[k + 1])].push(w[2][axis] - 2.0 * w[1][axis] + w[0][axis]);
+        }
+        for second in by_part.iter().filter(|d| d.len() >= 2) {
+            let mean = second.iter().sum::<f64>() / second.len() as f64;
+            squares += second.iter().map(|d| (d - mean).powi(2)).sum::<f64>();
+            degrees += second.len() - 1;
         }
     }
-    (cumulative, total)
-}
-
-fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
-    ((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1])).sqrt()
-}
-
-/// `|to - at|`, signed by the side of `direction` (through `at`) that `to`
-/// lies on: positive on its left. A point on the line, or no direction,
-/// counts as left.
-fn signed_distance(at: [f64; 2], direction: [f64; 2], to: [f64; 2]) -> f64 {
-    let offset = [to[0] - at[0], to[1] - at[1]];
-    let side = direction[0] * offset[1] - direction[1] * offset[0];
-    let length = distance(at, to);
-    if side < 0.0 {
-        -length
+    let noise = if degrees > 0 {
+        (squares / degrees as f64 / 6.0).sqrt()
     } else {
-        length
+        0.0
     }
-}
-
-/// The direction of travel at point `i` of a curve: from its previous
-/// point to its next (one-sided at the ends).
-fn direction_at(curve: &Points, i: usize) -> [f64; 2] {
-    let before = curve[i.saturating_sub(1)];
-    let after = curve[(i + 1).min(curve.len() - 1)];
-    [after[0] - before[0], after[1] - before[1]]
-}
-
-/// The pairs of a point-to-point coupling `(measured index, simulated
-/// index)` (DTW's and Fréchet's warping path).
-fn pairs_of_path(measured: &Points, simulated: &Points, path: &[(usize, usize)]) -> Vec<Pair> {
-    let along = arc_fractions(measured).0;
-    path.iter()
-        .map(|&(i, j)| Pair {
-            along: along[i],
-            signed_distance: signed_distance(measured[i], direction_at(measured, i), simulated[j]),
-        })
-        .collect()
-}
-
-/// `np.interp(x, xp, fp)`: linear between the knots, the end values
-/// outside them.
-pub(crate) fn interp(x: f64, xp: &[f64], fp: &[f64]) -> f64 {
-    let last = xp.len() - 1;
-    if x < xp[0] {
-        return fp[0];
-    }
-    if x >= xp[last] {
-        return fp[last];
-    }
-    lerp(x, xp, fp, segment_at(x, xp))
-}
-
-/// `np.interp`'s value inside knot interval `j`, its NaN fallbacks too.
-#[inline(always)]
-pub(crate) fn lerp(x: f64, xp: &[f64], fp: &[f64], j: usize) -> f64 {
-    let slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j]);
-    let value = slope * (x - xp[j]) + fp[j];
-    if value.is_nan() {
-        let again = slope * (x - xp[j + 1]) + fp[j + 1];
-        if again.is_nan() && fp[j] == fp[j + 1] {
-            return fp[j];
-        }
-        return again;
-    }
-    value
-}
-
-/// The knot interval `j` with `xp[j] <= x < xp[j + 1]` (clamped to the
-/// first and last interval).
-pub(crate) fn segment_at(x: f64, xp: &[f64]) -> usize {
-    xp.partition_point(|&k| k <= x)
-        .saturating_sub(1)
-        .min(xp.len() - 2)
+    .max(1e-9);
+    Ok(counts
+        .into_iter()
+        .map(|n| 100.0 * noise / (n.max(1) as f64).sqrt())
+        .collect())
 }

@@ -17,7 +17,7 @@
 //!
 //! Not symmetric: which curve is the reference depends on their lengths.
 
-use super::{
+use super::points::{
     arc_fractions, direction_at, interp, lerp, segment_at, signed_distance, Matched, Pair, Points,
 };
 

@@ -5,7 +5,7 @@
 //! cell's choice in 2 bits (O(n m) bits: 250 kB for two 1,000-point
 //! curves), since the coupling is what the signed residuals are made of.
 
-use super::{distance, CurveMetricError, Points, MAX_CELLS};
+use super::points::{distance, CurveMetricError, Points, MAX_CELLS};
 
 /// How a cell's cumulative cost follows from its best predecessor's and
 /// its own pair distance.

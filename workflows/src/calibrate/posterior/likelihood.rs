@@ -31,6 +31,7 @@
 use std::f64::consts::PI;
 
 use acq_analysis::loss::curve::{test_scatter_by_part, CurveMapeOptions};
+use acq_analysis::loss::metrics::{measured_scatter_by_part, CurveMetric};
 use acq_calib::evaluation::Scale;
 use acq_calib::mcmc::Support;
 use rand::RngExt;
@@ -192,7 +193,7 @@ impl StudyPosterior {
                         curve: None,
                     });
                 }
-                Measured::Curve { points, .. } => {
+                Measured::Curve { points, metric, .. } => {
                     let key = study.key(case, observation);
                     if curve_parts == 0 {
                         return Err(format!(
@@ -214,9 +215,15 @@ impl StudyPosterior {
                             curve: Some(curves.len()),
                         });
                     }
-                    let mut scatter_pct =
+                    let mut scatter_pct = if *metric == CurveMetric::Mape {
                         test_scatter_by_part(points, CurveMapeOptions::default(), curve_parts)
-                            .map_err(|e| format!("{key}: {e}"))?;
+                            .map_err(|e| format!("{key}: {e}"))?
+                    } else {
+                        let as_points: Vec<[f64; 2]> =
+                            points.iter().map(|&(x, y)| [x, y]).collect();
+                        measured_scatter_by_part(&as_points, curve_parts)
+                            .map_err(|e| format!("{key}: {e}"))?
+                    };
                     // A grid shorter than the parts: the last part repeats,
                     // as in the simulator's outputs.
                     let last = scatter_pct.last().copied().unwrap_or(1.0);

@@ -153,7 +153,7 @@ pub fn predictive_runs(
             };
             let (value, uncertainty) = match &observation.measured {
                 Measured::Scalar { value, uncertainty } => (*value, *uncertainty),
-                Measured::Curve { points, axes } => {
+                Measured::Curve { points, axes, .. } => {
                     let case_index = study
                         .cases
                         .iter()

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use acq_calib::evaluation::Parameter;
 
-use super::observations::{case_observation, measured_curve, scalar, weight_of};
+use super::observations::{case_observation, measured_curve, metric_of, scalar, weight_of};
 use super::problem::SpecProblem;
 use super::schema::{ModelName, SpecFile};
 use crate::calibrate::study::{
@@ -87,6 +87,7 @@ fn implicit_case(file: &SpecFile, spec_directory: &Path) -> Result<Case, SpecPro
             )));
         };
         let weight = weight_of(c.weight, &c.name).map_err(here)?;
+        let metric = metric_of(c.metric.as_deref(), &c.name).map_err(here)?;
         observations.push(Observation {
             name: c.name.clone(),
             output: c.name.clone(),
@@ -94,6 +95,7 @@ fn implicit_case(file: &SpecFile, spec_directory: &Path) -> Result<Case, SpecPro
                 points: measured_curve(spec_directory, &c.name, measured_file, x, y)
                     .map_err(SpecProblem::malformed)?,
                 axes: [x.clone(), y.clone()],
+                metric,
             },
             weight,
             source: measured_file.clone(),

@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use acq_analysis::extract::measured::read_measured;
+use acq_analysis::loss::metrics::CurveMetric;
 use acq_calib::doe::read_design_csv;
 use acq_io::error::AcqError;
 
@@ -39,6 +40,13 @@ pub fn measured_curve(
         )));
     }
     Ok(points)
+}
+
+/// A curve's `metric`: MAPE when none is given.
+pub fn metric_of(metric: Option<&str>, curve: &str) -> Result<CurveMetric, String> {
+    metric.map_or(Ok(CurveMetric::Mape), |text| {
+        text.parse().map_err(|e| format!("curve {curve}: {e}"))
+    })
 }
 
 pub fn weight_of(weight: Option<f64>, what: &str) -> Result<f64, String> {
@@ -107,7 +115,7 @@ pub fn case_observation(
     } else if table.contains_key("quantity") {
         &["file", "quantity", "hold", "uncertainty", "weight"]
     } else {
-        &["file", "x", "y", "weight"]
+        &["file", "x", "y", "weight", "metric"]
     };
     if let Some(key) = table.keys().find(|k| !allowed.contains(&k.as_str())) {
         return Err(format!(
@@ -151,11 +159,13 @@ pub fn case_observation(
             "{name}: a measured curve needs x and y (its column names in {file})"
         ));
     };
-    if !curves.iter().any(|c| c.name == name) {
+    let Some(curve) = curves.iter().find(|c| c.name == name) else {
         return Err(format!(
             "{name}: a measured curve, but no [[curve]] named {name:?} says which file the solver writes it to"
         ));
-    }
+    };
+    // The case's own metric, else its [[curve]]'s.
+    let metric = metric_of(text("metric")?.as_deref().or(curve.metric.as_deref()), name)?;
     let points = measured_curve(spec_directory, name, &file, &x, &y).map_err(|e| e.to_string())?;
     Ok(Observation {
         name: name.to_string(),
@@ -163,6 +173,7 @@ pub fn case_observation(
         measured: Measured::Curve {
             points,
             axes: [x, y],
+            metric,
         },
         weight,
         source: file,

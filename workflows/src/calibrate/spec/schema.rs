@@ -272,6 +272,10 @@ pub struct CurveSpec {
     pub measured_x: Option<String>,
     pub measured_y: Option<String>,
     pub weight: Option<f64>,
+    /// How the curve is scored: `"mape"` (the default), `"pcm"`,
+    /// `"frechet"`, `"dtw"` or `"area"` (`acq_analysis::loss::metrics`);
+    /// a case's curve observation may say otherwise.
+    pub metric: Option<String>,
 }
 
 /// `[[case]]`: a load case with its fixed inputs and measured values.

@@ -1,0 +1,124 @@
+//! A curve metric chosen in a study spec, from the outside: a load cycle
+//! (x goes back, so MAPE cannot compare it) fitted by its `metric`, the
+//! truth recovered, every metric at the calibrated point in
+//! `summary.json`'s `curve_metrics`; MAPE refused with the fix; an unknown
+//! metric refused before any run, with file and line.
+
+mod common;
+
+use std::path::Path;
+
+use common::{calibrate_external, external_summary, number, stderr};
+
+/// A load cycle as a solver (sh + awk): x = sin t, y = k x + c cos t over
+/// one turn, an ellipse whose tilt is a stiffness k and whose width a
+/// loss c; the measured one at k = 2, c = 0.6 with another point count.
+fn cycle_study(dir: &Path, metric: &str) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("cycle.sh"),
+        r#"awk -v k="$1" -v c="$2" -v n="$3" 'BEGIN {
+  print "x,y"
+  for (i = 0; i < n; i++) {
+    t = 6.283185307179586 * i / (n - 1)
+    printf "%.12g,%.12g\n", sin(t), k * sin(t) + c * cos(t)
+  }
+}' > "$4"
+"#,
+    )
+    .unwrap();
+    let made = std::process::Command::new("sh")
+        .args(["cycle.sh", "2.0", "0.6", "97", "measured.csv"])
+        .current_dir(dir)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let spec = dir.join(format!("{metric}.toml"));
+    std::fs::write(
+        &spec,
+        format!(
+            r#"command = ["sh", "cycle.sh", "{{k}}", "{{c}}", "121", "curve.csv"]
+parallel = 1
+
+[[curve]]
+name = "cycle"
+file = "curve.csv"
+x = "x"
+y = "y"
+measured_file = "measured.csv"
+measured_x = "x"
+measured_y = "y"
+metric = "{metric}"
+
+[[parameter]]
+name = "k"
+lower = 1.0
+upper = 3.0
+
+[[parameter]]
+name = "c"
+lower = 0.1
+upper = 1.0
+
+[search]
+method = "bo"
+start = "l12"
+max_evals = 24
+"#
+        ),
+    )
+    .unwrap();
+    spec
+}
+
+#[test]
+fn a_load_cycle_is_fitted_by_its_metric_and_every_metric_is_in_the_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    for metric in ["dtw", "frechet"] {
+        let spec = cycle_study(dir.path(), metric);
+        let out = dir.path().join(format!("run-{metric}"));
+        let summary = external_summary(&spec, &out, &["--seed", "1"]);
+        let k = number(&summary, &["best_params", "k"]);
+        let c = number(&summary, &["best_params", "c"]);
+        assert!((k - 2.0).abs() < 0.05, "{metric}: k = {k}");
+        assert!((c - 0.6).abs() < 0.05, "{metric}: c = {c}");
+        let metrics = &summary["curve_metrics"]["cycle"];
+        // The loss the search minimised is the chosen metric's value.
+        let chosen = number(metrics, &[metric]);
+        let loss = number(&summary, &["best_loss_pct"]);
+        assert!(
+            (chosen - loss).abs() <= 1e-12 * loss.abs().max(1.0),
+            "{chosen} against {loss}"
+        );
+        for other in ["pcm", "frechet", "dtw", "area"] {
+            let value = number(metrics, &[other]);
+            assert!(value.is_finite() && value >= 0.0, "{other}: {value}");
+        }
+        // MAPE compares on an x grid: a curve whose x goes back has none.
+        assert!(metrics["mape"].is_null(), "{metrics}");
+    }
+}
+
+#[test]
+fn mape_on_a_load_cycle_says_which_metric_to_use_and_a_typo_is_refused_before_any_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = cycle_study(dir.path(), "mape");
+    let output = calibrate_external(&spec, &dir.path().join("run-mape"), &[]);
+    assert!(!output.status.success());
+    let error = stderr(&output);
+    assert!(error.contains("curve cycle:"), "{error}");
+    assert!(error.contains("decreases"), "{error}");
+    assert!(
+        error.contains(r#"metric = "pcm", "frechet", "dtw" or "area""#),
+        "{error}"
+    );
+
+    let spec = cycle_study(dir.path(), "l2");
+    let run = dir.path().join("run-l2");
+    let output = calibrate_external(&spec, &run, &[]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    let error = stderr(&output);
+    assert!(error.contains("l2.toml:4:"), "{error}");
+    assert!(error.contains(r#"no curve metric "l2""#), "{error}");
+    assert!(error.contains("mape, pcm, frechet, dtw, area"), "{error}");
+    assert!(!run.join("evaluations.csv").exists(), "no run may start");
+}

@@ -1,8 +1,9 @@
 //! A curve metric chosen in a study spec, from the outside: a load cycle
 //! (x goes back, so MAPE cannot compare it) fitted by its `metric`, the
 //! truth recovered, every metric at the calibrated point in
-//! `summary.json`'s `curve_metrics`; MAPE refused with the fix; an unknown
-//! metric refused before any run, with file and line.
+//! `summary.json`'s `curve_metrics`; a Bouc-Wen hysteresis loop with a
+//! known truth calibrated with each metric; MAPE refused with the fix; an
+//! unknown metric refused before any run, with file and line.
 
 mod common;
 
@@ -121,4 +122,104 @@ fn mape_on_a_load_cycle_says_which_metric_to_use_and_a_typo_is_refused_before_an
     assert!(error.contains(r#"no curve metric "l2""#), "{error}");
     assert!(error.contains("mape, pcm, frechet, dtw, area"), "{error}");
     assert!(!run.join("evaluations.csv").exists(), "no run may start");
+}
+
+/// A Bouc-Wen element (`fixtures/hysteresis/boucwen.sh`) at k = 2,
+/// alpha = 0.3, beta = 1.5 (gamma = 0.5 known) gives one measured loop;
+/// each coupling metric calibrates k, alpha and beta from it with 60 runs
+/// of Bayesian optimisation. The measured loop is sampled as the model
+/// writes its own (150 points a cycle), so each metric is 0 at the truth
+/// and the search alone limits the answer. MAPE cannot read the loop.
+#[test]
+fn a_bouc_wen_loop_gives_back_its_truth_with_each_metric_and_not_with_mape() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        common::root().join("fixtures/hysteresis/boucwen.sh"),
+        dir.path().join("boucwen.sh"),
+    )
+    .unwrap();
+    let made = std::process::Command::new("sh")
+        .args([
+            "boucwen.sh",
+            "2.0",
+            "0.3",
+            "1.5",
+            "0.5",
+            "150",
+            "measured.csv",
+        ])
+        .current_dir(dir.path())
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let spec = |metric: &str| {
+        let path = dir.path().join(format!("bw-{metric}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                r#"command = ["sh", "boucwen.sh", "{{k}}", "{{alpha}}", "{{beta}}", "0.5", "150", "curve.csv"]
+parallel = 1
+
+[[curve]]
+name = "loop"
+file = "curve.csv"
+x = "x"
+y = "force"
+measured_file = "measured.csv"
+measured_x = "x"
+measured_y = "force"
+metric = "{metric}"
+
+[[parameter]]
+name = "k"
+lower = 1.0
+upper = 3.0
+
+[[parameter]]
+name = "alpha"
+lower = 0.05
+upper = 0.6
+
+[[parameter]]
+name = "beta"
+lower = 0.5
+upper = 3.0
+
+[search]
+method = "bo"
+start = "l12"
+max_evals = 60
+"#
+            ),
+        )
+        .unwrap();
+        path
+    };
+    for metric in ["pcm", "frechet", "dtw", "area"] {
+        let out = dir.path().join(format!("run-{metric}"));
+        let summary = external_summary(&spec(metric), &out, &["--seed", "1"]);
+        assert!(summary["curve_metrics"]["loop"]["mape"].is_null());
+        if metric == "frechet" {
+            // The largest gap alone is flat along a ridge of (k, alpha,
+            // beta): the search may stop on it (one seed of three found the
+            // truth in a trial by hand), the loops still within 2 % of the
+            // range of each other everywhere. PCM, DTW and the area see
+            // every gap and find the truth.
+            let gap = number(&summary, &["best_loss_pct"]);
+            assert!(gap < 0.02, "Fréchet {gap}");
+            continue;
+        }
+        for (name, truth, tolerance) in
+            [("k", 2.0, 0.01), ("alpha", 0.3, 0.03), ("beta", 1.5, 0.03)]
+        {
+            let found = number(&summary, &["best_params", name]);
+            assert!(
+                (found - truth).abs() <= tolerance * truth,
+                "{metric}: {name} = {found}, the truth {truth}"
+            );
+        }
+    }
+    let output = calibrate_external(&spec("mape"), &dir.path().join("run-mape"), &[]);
+    assert!(!output.status.success());
+    assert!(stderr(&output).contains("decreases"), "{}", stderr(&output));
 }

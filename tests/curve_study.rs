@@ -7,14 +7,67 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::{calibrate_external, external_summary, number, stderr};
+
+/// A study of one measured loop (`measured.csv`, columns x and `y`) by a
+/// solver `command` that writes `curve.csv`, scored by `metric`, the
+/// parameters `(name, lower, upper)` found by `max_evals` runs of Bayesian
+/// optimisation, one run at a time (the same runs every time).
+fn loop_spec(
+    dir: &Path,
+    file: &str,
+    command: &str,
+    y: &str,
+    metric: &str,
+    parameters: &[(&str, f64, f64)],
+    max_evals: usize,
+) -> PathBuf {
+    let mut text = format!(
+        r#"command = {command}
+parallel = 1
+
+[[curve]]
+name = "loop"
+file = "curve.csv"
+x = "x"
+y = "{y}"
+measured_file = "measured.csv"
+measured_x = "x"
+measured_y = "{y}"
+metric = "{metric}"
+
+[search]
+method = "bo"
+start = "l12"
+max_evals = {max_evals}
+"#
+    );
+    for (name, lower, upper) in parameters {
+        text.push_str(&format!(
+            "\n[[parameter]]\nname = \"{name}\"\nlower = {lower:?}\nupper = {upper:?}\n"
+        ));
+    }
+    let path = dir.join(file);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Runs `sh script args...` in `dir`.
+fn sh(dir: &Path, args: &[&str]) {
+    let made = std::process::Command::new("sh")
+        .args(args)
+        .current_dir(dir)
+        .status()
+        .unwrap();
+    assert!(made.success(), "sh {args:?}");
+}
 
 /// A load cycle as a solver (sh + awk): x = sin t, y = k x + c cos t over
 /// one turn, an ellipse whose tilt is a stiffness k and whose width a
 /// loss c; the measured one at k = 2, c = 0.6 with another point count.
-fn cycle_study(dir: &Path, metric: &str) -> std::path::PathBuf {
+fn cycle_study(dir: &Path, metric: &str) -> PathBuf {
     std::fs::write(
         dir.join("cycle.sh"),
         r#"awk -v k="$1" -v c="$2" -v n="$3" 'BEGIN {
@@ -27,48 +80,16 @@ fn cycle_study(dir: &Path, metric: &str) -> std::path::PathBuf {
 "#,
     )
     .unwrap();
-    let made = std::process::Command::new("sh")
-        .args(["cycle.sh", "2.0", "0.6", "97", "measured.csv"])
-        .current_dir(dir)
-        .status()
-        .unwrap();
-    assert!(made.success());
-    let spec = dir.join(format!("{metric}.toml"));
-    std::fs::write(
-        &spec,
-        format!(
-            r#"command = ["sh", "cycle.sh", "{{k}}", "{{c}}", "121", "curve.csv"]
-parallel = 1
-
-[[curve]]
-name = "cycle"
-file = "curve.csv"
-x = "x"
-y = "y"
-measured_file = "measured.csv"
-measured_x = "x"
-measured_y = "y"
-metric = "{metric}"
-
-[[parameter]]
-name = "k"
-lower = 1.0
-upper = 3.0
-
-[[parameter]]
-name = "c"
-lower = 0.1
-upper = 1.0
-
-[search]
-method = "bo"
-start = "l12"
-max_evals = 24
-"#
-        ),
+    sh(dir, &["cycle.sh", "2.0", "0.6", "97", "measured.csv"]);
+    loop_spec(
+        dir,
+        &format!("{metric}.toml"),
+        r#"["sh", "cycle.sh", "{k}", "{c}", "121", "curve.csv"]"#,
+        "y",
+        metric,
+        &[("k", 1.0, 3.0), ("c", 0.1, 1.0)],
+        24,
     )
-    .unwrap();
-    spec
 }
 
 #[test]
@@ -82,7 +103,7 @@ fn a_load_cycle_is_fitted_by_its_metric_and_every_metric_is_in_the_summary() {
         let c = number(&summary, &["best_params", "c"]);
         assert!((k - 2.0).abs() < 0.05, "{metric}: k = {k}");
         assert!((c - 0.6).abs() < 0.05, "{metric}: c = {c}");
-        let metrics = &summary["curve_metrics"]["cycle"];
+        let metrics = &summary["curve_metrics"]["loop"];
         // The loss the search minimised is the chosen metric's value.
         let chosen = number(metrics, &[metric]);
         let loss = number(&summary, &["best_loss_pct"]);
@@ -106,7 +127,7 @@ fn mape_on_a_load_cycle_says_which_metric_to_use_and_a_typo_is_refused_before_an
     let output = calibrate_external(&spec, &dir.path().join("run-mape"), &[]);
     assert!(!output.status.success());
     let error = stderr(&output);
-    assert!(error.contains("curve cycle:"), "{error}");
+    assert!(error.contains("curve loop:"), "{error}");
     assert!(error.contains("decreases"), "{error}");
     assert!(
         error.contains(r#"metric = "pcm", "frechet", "dtw" or "area""#),
@@ -138,8 +159,9 @@ fn a_bouc_wen_loop_gives_back_its_truth_with_each_metric_and_not_with_mape() {
         dir.path().join("boucwen.sh"),
     )
     .unwrap();
-    let made = std::process::Command::new("sh")
-        .args([
+    sh(
+        dir.path(),
+        &[
             "boucwen.sh",
             "2.0",
             "0.3",
@@ -147,53 +169,18 @@ fn a_bouc_wen_loop_gives_back_its_truth_with_each_metric_and_not_with_mape() {
             "0.5",
             "150",
             "measured.csv",
-        ])
-        .current_dir(dir.path())
-        .status()
-        .unwrap();
-    assert!(made.success());
+        ],
+    );
     let spec = |metric: &str| {
-        let path = dir.path().join(format!("bw-{metric}.toml"));
-        std::fs::write(
-            &path,
-            format!(
-                r#"command = ["sh", "boucwen.sh", "{{k}}", "{{alpha}}", "{{beta}}", "0.5", "150", "curve.csv"]
-parallel = 1
-
-[[curve]]
-name = "loop"
-file = "curve.csv"
-x = "x"
-y = "force"
-measured_file = "measured.csv"
-measured_x = "x"
-measured_y = "force"
-metric = "{metric}"
-
-[[parameter]]
-name = "k"
-lower = 1.0
-upper = 3.0
-
-[[parameter]]
-name = "alpha"
-lower = 0.05
-upper = 0.6
-
-[[parameter]]
-name = "beta"
-lower = 0.5
-upper = 3.0
-
-[search]
-method = "bo"
-start = "l12"
-max_evals = 60
-"#
-            ),
+        loop_spec(
+            dir.path(),
+            &format!("bw-{metric}.toml"),
+            r#"["sh", "boucwen.sh", "{k}", "{alpha}", "{beta}", "0.5", "150", "curve.csv"]"#,
+            "force",
+            metric,
+            &[("k", 1.0, 3.0), ("alpha", 0.05, 0.6), ("beta", 0.5, 3.0)],
+            60,
         )
-        .unwrap();
-        path
     };
     for metric in ["pcm", "frechet", "dtw", "area"] {
         let out = dir.path().join(format!("run-{metric}"));

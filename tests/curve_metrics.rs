@@ -4,8 +4,11 @@
 //! curves that end early on either side, random walks, of different
 //! lengths (2 to 150 points). Each value equal to 1e-9 relative, on the
 //! curves normalised by the measured one's range as acq normalises (the
-//! library's PCM normalises so itself). The library lives in a scratch
-//! virtualenv, never in acq's dependencies.
+//! library's PCM normalises so itself). acq's PCM always maps the simulated
+//! curve onto the measured one, the library's the shorter onto the longer:
+//! it is checked against the library's own code without that swap, and
+//! against the library itself where the measured curve is the longer. The
+//! library lives in a scratch virtualenv, never in acq's dependencies.
 
 mod common;
 
@@ -133,21 +136,34 @@ fn each_metric_equals_similaritymeasures_on_random_pairs() {
         .output()
         .unwrap();
     assert!(output.status.success(), "{}", common::stderr(&output));
-    let theirs: Vec<[f64; 4]> = serde_json::from_slice(&output.stdout).unwrap();
+    let theirs: Vec<[f64; 6]> = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(theirs.len(), pairs.len());
-    let metrics = [
-        CurveMetric::Pcm,
-        CurveMetric::Frechet,
-        CurveMetric::Dtw,
-        CurveMetric::Area,
-    ];
     let mut compared = 0;
+    let mut measured_longer = 0;
     for (k, ((measured, simulated), values)) in pairs.iter().zip(&theirs).enumerate() {
-        for (metric, &reference) in metrics.iter().zip(values) {
-            let ours = matched(*metric, measured, simulated).unwrap().value;
+        let [library_pcm, frechet, dtw, area, measured_reference_pcm, longer] = *values;
+        // acq's PCM maps the simulated curve onto the measured one; the
+        // library, the shorter onto the longer. Where the measured curve
+        // is the longer, they are the same.
+        let mut expected = vec![
+            (
+                CurveMetric::Pcm,
+                measured_reference_pcm,
+                "the library's PCM without its swap",
+            ),
+            (CurveMetric::Frechet, frechet, "similaritymeasures"),
+            (CurveMetric::Dtw, dtw, "similaritymeasures"),
+            (CurveMetric::Area, area, "similaritymeasures"),
+        ];
+        if longer == 1.0 {
+            measured_longer += 1;
+            expected.push((CurveMetric::Pcm, library_pcm, "similaritymeasures"));
+        }
+        for (metric, reference, whose) in expected {
+            let ours = matched(metric, measured, simulated).unwrap().value;
             assert!(
                 (ours - reference).abs() <= 1e-9 * reference.abs().max(1e-12),
-                "pair {k} ({} x {} points, kind {}): {metric} {ours} against similaritymeasures' {reference}",
+                "pair {k} ({} x {} points, kind {}): {metric} {ours} against {whose}' {reference}",
                 measured.len(),
                 simulated.len(),
                 k % 5
@@ -155,5 +171,10 @@ fn each_metric_equals_similaritymeasures_on_random_pairs() {
             compared += 1;
         }
     }
-    assert_eq!(compared, 4000);
+    // Both sides of PCM's difference are exercised.
+    assert!(
+        (200..=800).contains(&measured_longer),
+        "{measured_longer} pairs of 1,000 with the measured curve the longer"
+    );
+    assert_eq!(compared, 4000 + measured_longer);
 }

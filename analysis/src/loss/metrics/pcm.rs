@@ -1,24 +1,32 @@
 //! Partial curve mapping (Witowski and Stander 2012), as
-//! `similaritymeasures.pcm` 1.3.0 computes it (`norm_seg_length=False`):
+//! `similaritymeasures.pcm` 1.3.0 computes it (`norm_seg_length=False`),
+//! but for which curve is mapped onto which:
 //!
 //! 1. Each curve's arc lengths (normalised units), each divided by its
 //!    own total: both curves run from 0 to 1.
-//! 2. The curve with the longer total length is the reference; the other
-//!    is mapped onto it at 200 offsets from 0 to the difference of the two
-//!    totals (one offset when they are equal): each reference point at
-//!    fraction `s` meets the other curve at fraction `s + offset`,
-//!    linearly interpolated, its end point past its end.
-//! 3. At each offset, the trapezoid sum over the reference's points of
-//!    the pair distances, each segment weighed by the reference's
+//! 2. The simulated curve is mapped onto the measured one at 200 offsets
+//!    from 0 to the measured total less the simulated total (negative
+//!    when the simulated curve is the longer; one offset when they are
+//!    equal): each measured point at fraction `s` meets the simulated
+//!    curve at fraction `s + offset`, linearly interpolated, its end
+//!    points beyond its ends.
+//! 3. At each offset, the trapezoid sum over the measured points of the
+//!    pair distances, each segment weighed by the measured curve's
 //!    *cumulative* fraction at its end (the library's definition, kept so
 //!    values compare with Jekel et al.; it weighs the end of the curve
 //!    more than its start).
 //! 4. The smallest sum over the offsets.
 //!
-//! Not symmetric: which curve is the reference depends on their lengths.
+//! The library maps the shorter curve onto the longer instead; where the
+//! measured curve is the longer the two are the same (`tests/curve_metrics.rs`
+//! checks both). Where the lengths cross, the library's value jumps: a
+//! simulation that fractures adds the length of its drop, and a search
+//! that moves fracture across the test's would see a step in its loss
+//! (`tests/curve_fracture.rs`). With the measured curve always the
+//! reference, the value moves continuously.
 
 use super::points::{
-    arc_fractions, direction_at, interp, lerp, segment_at, signed_distance, Matched, Pair, Points,
+    arc_fractions, direction_at, interp, lerp, signed_distance, Matched, Pair, Points,
 };
 
 /// Offsets tried when the curves' lengths differ.
@@ -29,12 +37,11 @@ pub fn value(measured: &Points, simulated: &Points) -> f64 {
     Mapping::new(measured, simulated).best().1
 }
 
-/// The value and, at its best offset, each reference point with the point
-/// of the other curve it meets.
+/// The value and, at its best offset, each measured point with the point
+/// of the simulated curve it meets.
 pub fn matched(measured: &Points, simulated: &Points) -> Matched {
     let mapping = Mapping::new(measured, simulated);
     let (offset, value) = mapping.best();
-    let measured_along = arc_fractions(measured).0;
     let pairs = mapping
         .reference_fraction
         .iter()
@@ -45,42 +52,21 @@ pub fn matched(measured: &Points, simulated: &Points) -> Matched {
                 interp(at, &mapping.other_fraction, &mapping.other_x),
                 interp(at, &mapping.other_fraction, &mapping.other_y),
             ];
-            let reference_point = [mapping.reference_x[k], mapping.reference_y[k]];
-            if mapping.reference_is_measured {
-                Pair {
-                    along: measured_along[k],
-                    signed_distance: signed_distance(
-                        reference_point,
-                        direction_at(measured, k),
-                        mapped,
-                    ),
-                }
-            } else {
-                // The mapped point lies on the measured curve: its segment
-                // gives the direction, its fraction the place.
-                let segment = segment_at(at, &mapping.other_fraction);
-                Pair {
-                    along: measured_along[segment]
-                        + (measured_along[segment + 1] - measured_along[segment])
-                            * segment_share(at, &mapping.other_fraction, segment),
-                    signed_distance: signed_distance(
-                        mapped,
-                        [
-                            measured[segment + 1][0] - measured[segment][0],
-                            measured[segment + 1][1] - measured[segment][1],
-                        ],
-                        reference_point,
-                    ),
-                }
+            Pair {
+                along: s,
+                signed_distance: signed_distance(
+                    [mapping.reference_x[k], mapping.reference_y[k]],
+                    direction_at(measured, k),
+                    mapped,
+                ),
             }
         })
         .collect();
     Matched { value, pairs }
 }
 
-/// The two curves as the library lays them out.
+/// The measured curve (the reference) and the simulated one mapped onto it.
 struct Mapping {
-    reference_is_measured: bool,
     reference_x: Vec<f64>,
     reference_y: Vec<f64>,
     /// Cumulative arc length over the total, per point.
@@ -93,7 +79,8 @@ struct Mapping {
     other_slopes: Vec<[f64; 2]>,
     /// The other curve's length (normalised units).
     other_total: f64,
-    /// The difference of the totals (unnormalised), the largest offset.
+    /// The measured total less the simulated (unnormalised): the offset
+    /// farthest from 0.
     largest_offset: f64,
 }
 
@@ -109,32 +96,16 @@ impl Mapping {
         };
         let (mx, my) = columns(measured);
         let (sx, sy) = columns(simulated);
-        let mapping = if simulated_total > measured_total {
-            Mapping {
-                reference_is_measured: false,
-                reference_x: sx,
-                reference_y: sy,
-                reference_fraction: simulated_fraction,
-                other_x: mx,
-                other_y: my,
-                other_fraction: measured_fraction,
-                other_total: measured_total,
-                largest_offset: simulated_total - measured_total,
-                other_slopes: Vec::new(),
-            }
-        } else {
-            Mapping {
-                reference_is_measured: true,
-                reference_x: mx,
-                reference_y: my,
-                reference_fraction: measured_fraction,
-                other_x: sx,
-                other_y: sy,
-                other_fraction: simulated_fraction,
-                other_total: simulated_total,
-                largest_offset: measured_total - simulated_total,
-                other_slopes: Vec::new(),
-            }
+        let mapping = Mapping {
+            reference_x: mx,
+            reference_y: my,
+            reference_fraction: measured_fraction,
+            other_x: sx,
+            other_y: sy,
+            other_fraction: simulated_fraction,
+            other_total: simulated_total,
+            largest_offset: measured_total - simulated_total,
+            other_slopes: Vec::new(),
         };
         let fraction = &mapping.other_fraction;
         let other_slopes = (0..fraction.len() - 1)
@@ -152,7 +123,7 @@ impl Mapping {
         }
     }
 
-    /// `(offset, sum)` of the smallest sum over the library's offsets.
+    /// `(offset, sum)` of the smallest sum over the offsets.
     ///
     /// Not every offset is summed: as the offset moves by `h`, each
     /// mapped point moves along the other curve by at most `h` times that
@@ -161,8 +132,9 @@ impl Mapping {
     /// bound from the sums already known exceeds the best sum cannot be
     /// the minimum and is skipped; the next summed is the one of lowest
     /// bound (Piyavskii's rule), and a sum stops as soon as it exceeds the
-    /// best. The minimum found is the library's, whose every offset is
-    /// summed (to rounding: the bound carries a relative slack of 1e-9).
+    /// best. The minimum found is the one of summing every offset, as the
+    /// library does (to rounding: the bound carries a relative slack of
+    /// 1e-9).
     fn best(&self) -> (f64, f64) {
         let offsets = if self.largest_offset == 0.0 {
             vec![0.0]
@@ -255,14 +227,4 @@ fn linspace(start: f64, stop: f64, count: usize) -> Vec<f64> {
     let mut values: Vec<f64> = (0..count).map(|i| i as f64 * step + start).collect();
     values[count - 1] = stop;
     values
-}
-
-/// How far into interval `j` the fraction `x` lies, 0 to 1.
-fn segment_share(x: f64, xp: &[f64], j: usize) -> f64 {
-    let width = xp[j + 1] - xp[j];
-    if width > 0.0 {
-        ((x - xp[j]) / width).clamp(0.0, 1.0)
-    } else {
-        0.0
-    }
 }

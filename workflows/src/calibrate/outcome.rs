@@ -56,6 +56,8 @@ pub struct CalibratedCurve {
     pub measured: Vec<(f64, f64)>,
     /// The column names or quantities of x and y.
     pub axes: [String; 2],
+    /// How the curve is scored.
+    pub metric: acq_analysis::loss::metrics::CurveMetric,
     /// None when the model cannot give it again without a new run (a
     /// solver's run directory that is gone).
     pub model: Option<Vec<(f64, f64)>>,

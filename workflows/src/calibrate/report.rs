@@ -9,6 +9,7 @@
 //! its SVG files ([`write_report`]), and the Pareto-front plot.
 
 use acq_analysis::loss::curve::{curve_errors_along, CurveMapeOptions};
+use acq_analysis::loss::metrics::{matched, CurveMetric};
 use acq_calib::evaluation::Evaluation;
 use acq_calib::least_squares::Stop as LsStop;
 use acq_calib::sobol_indices::sobol_indices;
@@ -167,10 +168,41 @@ fn write_curves(report: &mut Document, curves: &[CalibratedCurve]) {
             )
             .with_series(Series::new("calibrated model", model.clone()));
         let mut charts = vec![overlay];
-        match curve_errors_along(&curve.measured, model, CurveMapeOptions::default()) {
-            Ok((mape, errors)) => {
-                let largest = errors.iter().map(|e| e.1.abs()).fold(0.0f64, f64::max);
-                report.paragraph(format!(
+        if curve.metric != CurveMetric::Mape {
+            let as_points =
+                |c: &[(f64, f64)]| -> Vec<[f64; 2]> { c.iter().map(|&(x, y)| [x, y]).collect() };
+            match matched(curve.metric, &as_points(&curve.measured), &as_points(model)) {
+                Ok(result) => {
+                    let along: Vec<(f64, f64)> = result
+                        .pairs
+                        .iter()
+                        .map(|p| (100.0 * p.along, 100.0 * p.signed_distance))
+                        .collect();
+                    let largest = along.iter().map(|p| p.1.abs()).fold(0.0f64, f64::max);
+                    report.paragraph(format!(
+                        "{label}: {} {:.4} (both curves divided by the measured one's range); the largest gap between coupled points is {largest:.2} % of that range.",
+                        curve.metric.as_str().to_uppercase(),
+                        result.value
+                    ));
+                    charts.push(
+                        Chart::new(
+                            "gap along the measured curve",
+                            "along the measured curve [% of its length]",
+                            "model - measured [% of range]",
+                        )
+                        .with_series(Series::new("signed gap", along))
+                        .with_reference_line(0.0, "0"),
+                    );
+                }
+                Err(error) => {
+                    report.paragraph(format!("{label}: {error}."));
+                }
+            }
+        } else {
+            match curve_errors_along(&curve.measured, model, CurveMapeOptions::default()) {
+                Ok((mape, errors)) => {
+                    let largest = errors.iter().map(|e| e.1.abs()).fold(0.0f64, f64::max);
+                    report.paragraph(format!(
                     "{label}: MAPE {:.3} % over {} grid points from {x} = {} to {}; largest error {largest:.3} %{}.",
                     mape.mape_percent,
                     mape.grid_points - mape.excluded_points,
@@ -185,14 +217,15 @@ fn write_curves(report: &mut Document, curves: &[CalibratedCurve]) {
                         String::new()
                     }
                 ));
-                charts.push(
-                    Chart::new("error along the curve", x, "model - measured [%]")
-                        .with_series(Series::new("error", errors))
-                        .with_reference_line(0.0, "0"),
-                );
-            }
-            Err(error) => {
-                report.paragraph(format!("{label}: no error along it: {error}."));
+                    charts.push(
+                        Chart::new("error along the curve", x, "model - measured [%]")
+                            .with_series(Series::new("error", errors))
+                            .with_reference_line(0.0, "0"),
+                    );
+                }
+                Err(error) => {
+                    report.paragraph(format!("{label}: no error along it: {error}."));
+                }
             }
         }
         let file = if single {
@@ -521,10 +554,10 @@ fn errors_table(errors: &[ObservationError], nominal: Option<&[ObservationError]
             e.name.clone(),
             e.measured
                 .map_or_else(|| "curve".into(), |m| format!("{m}")),
-            if e.measured.is_some() {
-                format!("{:.6}", e.model)
-            } else {
-                format!("MAPE {:.3} %", e.model)
+            match e.curve_metric {
+                None => format!("{:.6}", e.model),
+                Some(CurveMetric::Mape) => format!("MAPE {:.3} %", e.model),
+                Some(metric) => format!("{} {:.4}", metric.as_str().to_uppercase(), e.model),
             },
             percent(e.error_pct),
         ];

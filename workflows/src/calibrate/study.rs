@@ -282,6 +282,8 @@ pub struct ObservationError {
     pub error_pct: f64,
     /// `(model - measured) / u`, when the uncertainty is known.
     pub normalised: Option<f64>,
+    /// A curve's metric (its value is `model`); `None` for a scalar.
+    pub curve_metric: Option<CurveMetric>,
 }
 
 impl Study {
@@ -335,14 +337,15 @@ impl Study {
             .into_iter()
             .zip(outputs)
             .map(|((case, observation), &model)| {
-                let (measured, error_pct, normalised) = match &observation.measured {
+                let (measured, error_pct, normalised, curve_metric) = match &observation.measured {
                     Measured::Scalar { value, uncertainty } => (
                         Some(*value),
                         100.0 * (model - value).abs() / value.abs(),
                         uncertainty.map(|u| (model - value) / u),
+                        None,
                     ),
-                    // The logged value of a curve is its MAPE already.
-                    Measured::Curve { .. } => (None, model, None),
+                    // The logged value of a curve is its metric's already.
+                    Measured::Curve { metric, .. } => (None, model, None, Some(*metric)),
                 };
                 ObservationError {
                     case: case.name.clone(),
@@ -353,6 +356,7 @@ impl Study {
                     model,
                     error_pct,
                     normalised,
+                    curve_metric,
                 }
             })
             .collect()

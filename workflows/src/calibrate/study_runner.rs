@@ -395,7 +395,12 @@ fn calibrated_curves(study: &Study, model: &dyn Model, calibrated: &[f64]) -> Ve
         let names: Vec<&str> = observed.iter().map(|o| o.output.as_str()).collect();
         let run = model.run_again(&study.inputs_of(index, calibrated), &[], &names);
         for (k, observation) in observed.into_iter().enumerate() {
-            let Measured::Curve { points, axes, .. } = &observation.measured else {
+            let Measured::Curve {
+                points,
+                axes,
+                metric,
+            } = &observation.measured
+            else {
                 continue;
             };
             curves.push(CalibratedCurve {
@@ -403,6 +408,7 @@ fn calibrated_curves(study: &Study, model: &dyn Model, calibrated: &[f64]) -> Ve
                 name: observation.output.clone(),
                 measured: points.clone(),
                 axes: axes.clone(),
+                metric: *metric,
                 model: run.as_ref().and_then(|r| r.curves.get(k).cloned()),
             });
         }

@@ -14,17 +14,27 @@ use common::{calibrate_external, external_summary, number, stderr};
 /// A study of one measured loop (`measured.csv`, columns x and `y`) by a
 /// solver `command` that writes `curve.csv`, scored by `metric`, the
 /// parameters `(name, lower, upper)` found by `max_evals` runs of Bayesian
-/// optimisation, one run at a time (the same runs every time).
-fn loop_spec(
-    dir: &Path,
-    file: &str,
-    command: &str,
-    y: &str,
-    metric: &str,
-    parameters: &[(&str, f64, f64)],
+/// optimisation, one run at a time (the same runs every time); `extra`
+/// tables after.
+struct LoopStudy<'a> {
+    command: &'a str,
+    y: &'a str,
+    metric: &'a str,
+    parameters: &'a [(&'a str, f64, f64)],
     max_evals: usize,
-    extra: &str,
-) -> PathBuf {
+    extra: &'a str,
+}
+
+/// Writes `study` as `file` in `dir`.
+fn loop_spec(dir: &Path, file: &str, study: &LoopStudy) -> PathBuf {
+    let LoopStudy {
+        command,
+        y,
+        metric,
+        parameters,
+        max_evals,
+        extra,
+    } = study;
     let mut text = format!(
         r#"command = {command}
 parallel = 1
@@ -45,7 +55,7 @@ start = "l12"
 max_evals = {max_evals}
 "#
     );
-    for (name, lower, upper) in parameters {
+    for (name, lower, upper) in *parameters {
         text.push_str(&format!(
             "\n[[parameter]]\nname = \"{name}\"\nlower = {lower:?}\nupper = {upper:?}\n"
         ));
@@ -65,6 +75,9 @@ fn sh(dir: &Path, args: &[&str]) {
         .unwrap();
     assert!(made.success(), "sh {args:?}");
 }
+
+/// The load cycle's solver run, 121 points a turn.
+const CYCLE_COMMAND: &str = r#"["sh", "cycle.sh", "{k}", "{c}", "121", "curve.csv"]"#;
 
 /// A load cycle as a solver (sh + awk): x = sin t, y = k x + c cos t over
 /// one turn, an ellipse whose tilt is a stiffness k and whose width a
@@ -86,12 +99,14 @@ fn cycle_study(dir: &Path, metric: &str) -> PathBuf {
     loop_spec(
         dir,
         &format!("{metric}.toml"),
-        r#"["sh", "cycle.sh", "{k}", "{c}", "121", "curve.csv"]"#,
-        "y",
-        metric,
-        &[("k", 1.0, 3.0), ("c", 0.1, 1.0)],
-        24,
-        "",
+        &LoopStudy {
+            command: CYCLE_COMMAND,
+            y: "y",
+            metric,
+            parameters: &[("k", 1.0, 3.0), ("c", 0.1, 1.0)],
+            max_evals: 24,
+            extra: "",
+        },
     )
 }
 
@@ -187,12 +202,14 @@ fn a_bouc_wen_loop_gives_back_its_truth_with_each_metric_and_not_with_mape() {
         loop_spec(
             dir.path(),
             &format!("bw-{metric}.toml"),
-            r#"["sh", "boucwen.sh", "{k}", "{alpha}", "{beta}", "0.5", "150", "curve.csv"]"#,
-            "force",
-            metric,
-            &[("k", 1.0, 3.0), ("alpha", 0.05, 0.6), ("beta", 0.5, 3.0)],
-            60,
-            "",
+            &LoopStudy {
+                command: r#"["sh", "boucwen.sh", "{k}", "{alpha}", "{beta}", "0.5", "150", "curve.csv"]"#,
+                y: "force",
+                metric,
+                parameters: &[("k", 1.0, 3.0), ("alpha", 0.05, 0.6), ("beta", 0.5, 3.0)],
+                max_evals: 60,
+                extra: "",
+            },
         )
     };
     for metric in ["pcm", "frechet", "dtw", "area"] {
@@ -254,12 +271,14 @@ fn the_posterior_of_a_load_cycle_by_dtw_holds_its_truth() {
     let spec = loop_spec(
         dir.path(),
         "posterior.toml",
-        r#"["sh", "cycle.sh", "{k}", "{c}", "121", "curve.csv"]"#,
-        "y",
-        "dtw",
-        &[("k", 1.0, 3.0), ("c", 0.1, 1.0)],
-        24,
-        "\n[posterior]\ndraws = 400\n",
+        &LoopStudy {
+            command: CYCLE_COMMAND,
+            y: "y",
+            metric: "dtw",
+            parameters: &[("k", 1.0, 3.0), ("c", 0.1, 1.0)],
+            max_evals: 24,
+            extra: "\n[posterior]\ndraws = 400\n",
+        },
     );
     let summary = external_summary(&spec, &dir.path().join("run"), &["--seed", "1"]);
     for (name, truth, range) in [("k", 2.0, 2.0), ("c", 0.6, 0.9)] {

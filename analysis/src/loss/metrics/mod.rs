@@ -6,7 +6,9 @@
 //! Each is computed as the `similaritymeasures` Python library (1.3.0;
 //! Jekel et al. 2019, who compared them on such curves) computes it, to
 //! rounding (`tests/curve_metrics.rs` checks 1,000 random pairs against it),
-//! after one step the library leaves to its user:
+//! but for PCM's choice of reference ([`pcm`]: the measured curve always,
+//! so that the value is continuous where a fracture makes the simulated
+//! curve the longer), and after one step the library leaves to its user:
 //!
 //! - **Both axes normalised by the measured curve's range**: `x' = (x -
 //!   min x) / (max x - min x)` with the measured curve's min and max, the

@@ -9,7 +9,7 @@
 //! its SVG files ([`write_report`]), and the Pareto-front plot.
 
 use acq_analysis::loss::curve::{curve_errors_along, CurveMapeOptions};
-use acq_analysis::loss::metrics::{matched, CurveMetric};
+use acq_analysis::loss::metrics::{matched, points_of, CurveMetric};
 use acq_calib::evaluation::Evaluation;
 use acq_calib::least_squares::Stop as LsStop;
 use acq_calib::sobol_indices::sobol_indices;
@@ -169,9 +169,7 @@ fn write_curves(report: &mut Document, curves: &[CalibratedCurve]) {
             .with_series(Series::new("calibrated model", model.clone()));
         let mut charts = vec![overlay];
         if curve.metric != CurveMetric::Mape {
-            let as_points =
-                |c: &[(f64, f64)]| -> Vec<[f64; 2]> { c.iter().map(|&(x, y)| [x, y]).collect() };
-            match matched(curve.metric, &as_points(&curve.measured), &as_points(model)) {
+            match matched(curve.metric, &points_of(&curve.measured), &points_of(model)) {
                 Ok(result) => {
                     let along: Vec<(f64, f64)> = result
                         .pairs

@@ -24,7 +24,7 @@
 use acq_analysis::loss::curve::{
     curve_errors_by_part, curve_mape, CurveLossError, CurveMapeOptions,
 };
-use acq_analysis::loss::metrics::{matched, residuals_by_part, CurveMetric};
+use acq_analysis::loss::metrics::{matched, points_of, residuals_by_part, CurveMetric};
 use acq_calib::evaluation::{Parameter, Simulator};
 use serde_json::{json, Map, Value};
 
@@ -651,9 +651,7 @@ pub fn coupled_curve(
     simulated: &[(f64, f64)],
     parts: usize,
 ) -> Result<(f64, Vec<f64>), acq_analysis::loss::metrics::CurveMetricError> {
-    let as_points =
-        |c: &[(f64, f64)]| -> Vec<[f64; 2]> { c.iter().map(|&(x, y)| [x, y]).collect() };
-    let result = matched(metric, &as_points(measured), &as_points(simulated))?;
+    let result = matched(metric, &points_of(measured), &points_of(simulated))?;
     let parts = if parts == 0 {
         Vec::new()
     } else {

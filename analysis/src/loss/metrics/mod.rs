@@ -214,6 +214,12 @@ pub fn matched(
     }
 }
 
+/// A curve kept as `(x, y)` pairs (as a study and MAPE keep them) as the
+/// metrics take it.
+pub fn points_of(curve: &[(f64, f64)]) -> Vec<[f64; 2]> {
+    curve.iter().map(|&(x, y)| [x, y]).collect()
+}
+
 /// Every metric of `simulated` against `measured`, in
 /// [`CurveMetric::ALL`]'s order: MAPE by [`super::curve::curve_mape`]
 /// (default options), the others by [`matched`]; each an error where the
@@ -222,9 +228,7 @@ pub fn every_metric(
     measured: &[(f64, f64)],
     simulated: &[(f64, f64)],
 ) -> Vec<(CurveMetric, Result<f64, String>)> {
-    let as_points =
-        |c: &[(f64, f64)]| -> Vec<[f64; 2]> { c.iter().map(|&(x, y)| [x, y]).collect() };
-    let (measured_points, simulated_points) = (as_points(measured), as_points(simulated));
+    let (measured_points, simulated_points) = (points_of(measured), points_of(simulated));
     CurveMetric::ALL
         .into_iter()
         .map(|metric| {

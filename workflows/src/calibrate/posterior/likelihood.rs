@@ -31,7 +31,7 @@
 use std::f64::consts::PI;
 
 use acq_analysis::loss::curve::{test_scatter_by_part, CurveMapeOptions};
-use acq_analysis::loss::metrics::{measured_scatter_by_part, CurveMetric};
+use acq_analysis::loss::metrics::{measured_scatter_by_part, points_of, CurveMetric};
 use acq_calib::evaluation::Scale;
 use acq_calib::mcmc::Support;
 use rand::RngExt;
@@ -219,9 +219,7 @@ impl StudyPosterior {
                         test_scatter_by_part(points, CurveMapeOptions::default(), curve_parts)
                             .map_err(|e| format!("{key}: {e}"))?
                     } else {
-                        let as_points: Vec<[f64; 2]> =
-                            points.iter().map(|&(x, y)| [x, y]).collect();
-                        measured_scatter_by_part(&as_points, curve_parts)
+                        measured_scatter_by_part(&points_of(points), curve_parts)
                             .map_err(|e| format!("{key}: {e}"))?
                     };
                     // A grid shorter than the parts: the last part repeats,

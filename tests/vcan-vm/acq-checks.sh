@@ -50,7 +50,10 @@ acq replay "$IN/variety.log" --iface vcan1 2> "$OUT/c2_replay.txt"
 sleep 0.5
 kill $dump; wait $dump || true
 
-say "3: acq simulate -> acq record --rig"
+say "3: acq simulate -> acq record --rig (candump -L beside it)"
+candump -L can0 can1 > "$OUT/c3_candump.log" &
+dump=$!
+sleep 0.5
 acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c3" --status-json > "$OUT/c3_status.jsonl" &
 rec=$!
 wait_for_session "$OUT/c3"
@@ -58,6 +61,7 @@ acq simulate --rig "$IN/rigs/excavator.toml" --scenario "$IN/scenarios/short.tom
 sleep 0.3
 kill -INT $rec
 wait $rec
+kill $dump; wait $dump || true
 
 say "4: Ctrl-C during a flood"
 candump -L vcan2 > "$OUT/c4_candump.log" &

@@ -283,8 +283,9 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     // file on the host (same seed: the same frames, the same drops); what
     // the wire carried from candump -L run beside the recorder (its kernel
     // timestamps). The guest's CPU is emulated on a shared host, so how
-    // closely it keeps the schedule's pace is the host's, not acq's: it is
-    // bounded loosely and printed.
+    // closely it keeps the schedule's pace is the host's, not acq's (the
+    // host replay's timing is benchmarked, BENCHMARKS.md): it is bounded
+    // loosely and printed.
     let c3 = session::read(&out.join("c3")).unwrap();
     assert_eq!(c3.sensor.len(), 28);
     let rig = inputs.join("rigs/excavator.toml");
@@ -323,7 +324,9 @@ fn record_replay_and_simulate_on_a_real_vcan() {
             sensor.observed_rate_hz
         );
         assert!(
-            (0.6..1.1).contains(&(wire_rate_hz / scheduled_rate_hz)),
+            // 0.66 has been seen with the host busy; a pacing bug (all at
+            // once, or a period off by a factor) lands far outside.
+            (0.3..1.1).contains(&(wire_rate_hz / scheduled_rate_hz)),
             "{}: the guest sent at {wire_rate_hz} Hz of {scheduled_rate_hz} Hz",
             sensor.name
         );

@@ -23,7 +23,10 @@
 //!   at the centre (a mean absolute percentage error, not its square).
 //! - **Radius**: a step that lowers the loss moves the centre; the ratio of
 //!   the actual to the predicted decrease of the squares then grows the
-//!   radius (above 0.7, from a step at its edge) or halves it (below 0.1).
+//!   radius (above 0.7: to the larger of twice the radius and four times
+//!   the step, DFO-LS's rule, so a valley the model reads well is followed
+//!   in long strides, whether or not its step reached the edge) or halves
+//!   it (below 0.1).
 //!   A step that does not lower the loss halves it, and the next run is a
 //!   *geometry* step: the centre moved by the radius along the coordinate
 //!   the runs near it span least, so the next model sees that direction
@@ -86,8 +89,8 @@ struct Pending {
     predicted_squares: f64,
     /// The residuals' weights in the squares.
     weights: Vec<f64>,
-    /// The step reached the trust box's edge in some coordinate.
-    at_edge: bool,
+    /// The step's longest coordinate, in the unit box.
+    length: f64,
     /// A step to see a direction no run near the centre spans, not to
     /// lower the loss: its outcome leaves the radius alone.
     geometry: bool,
@@ -158,7 +161,7 @@ impl TrustRegion {
                 centre_squares: 0.0,
                 predicted_squares: 0.0,
                 weights,
-                at_edge: false,
+                length: 0.0,
                 geometry: true,
             });
             return Some(point);
@@ -184,7 +187,7 @@ impl TrustRegion {
             centre_squares: squares(centre.residuals, &weights),
             predicted_squares,
             weights,
-            at_edge: longest >= 0.9 * self.radius,
+            length: longest,
             geometry: false,
         });
         Some(point)
@@ -216,8 +219,10 @@ impl TrustRegion {
         } else {
             0.0
         };
-        if ratio > 0.7 && pending.at_edge {
-            self.radius = (2.0 * self.radius).min(self.settings.max_radius);
+        if ratio > 0.7 {
+            self.radius = (2.0 * self.radius)
+                .max(4.0 * pending.length)
+                .min(self.settings.max_radius);
         } else if ratio < 0.1 {
             self.shrink(loss.unwrap_or(pending.centre_loss));
         }

@@ -524,7 +524,8 @@ fn short(value: f64) -> String {
     }
 }
 
-/// A relative error, or "-" where there is none (a measured 0).
+/// A relative error, or "-" where there is none (a measured 0, a curve
+/// scored by a coupling metric).
 fn percent(error_pct: f64) -> String {
     if error_pct.is_finite() {
         format!("{error_pct:.3}")

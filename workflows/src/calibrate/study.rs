@@ -278,7 +278,9 @@ pub struct ObservationError {
     pub name: String,
     pub measured: Option<f64>,
     pub model: f64,
-    /// Relative error or MAPE, %.
+    /// Relative error or MAPE, %; NaN (null in summary.json) for a curve
+    /// scored by a coupling metric, whose value (in `model`) is no
+    /// percentage.
     pub error_pct: f64,
     /// `(model - measured) / u`, when the uncertainty is known.
     pub normalised: Option<f64>,
@@ -344,8 +346,16 @@ impl Study {
                         uncertainty.map(|u| (model - value) / u),
                         None,
                     ),
-                    // The logged value of a curve is its metric's already.
-                    Measured::Curve { metric, .. } => (None, model, None, Some(*metric)),
+                    // The logged value of a curve is its metric's already;
+                    // only MAPE's is a percentage.
+                    Measured::Curve { metric, .. } => {
+                        let error_pct = if *metric == CurveMetric::Mape {
+                            model
+                        } else {
+                            f64::NAN
+                        };
+                        (None, error_pct, None, Some(*metric))
+                    }
                 };
                 ObservationError {
                     case: case.name.clone(),

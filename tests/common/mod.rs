@@ -4,6 +4,7 @@
 
 pub mod browser;
 pub mod calculix;
+pub mod coverage;
 pub mod interfaces;
 pub mod pipeline;
 pub mod rig_emulator;

@@ -123,6 +123,8 @@ pub struct CurveParts {
     pub parts: Vec<usize>,
     /// Each part's white-noise standard error, %.
     pub scatter_pct: Vec<f64>,
+    /// How the curve is scored (and so which residuals its parts are).
+    pub metric: CurveMetric,
     grid: ScaleGrid,
 }
 
@@ -230,6 +232,7 @@ impl StudyPosterior {
                         key,
                         parts,
                         scatter_pct,
+                        metric: *metric,
                         grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
                     });
                 }
@@ -801,6 +804,7 @@ mod tests {
             key: "c".into(),
             parts: vec![0, 1, 2, 3],
             scatter_pct: vec![0.5, 0.2, 0.1, 0.1],
+            metric: CurveMetric::Mape,
             grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
         };
         let residuals = [0.3, -0.1, 0.05, 0.2];

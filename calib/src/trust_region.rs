@@ -22,7 +22,9 @@
 //!   `w = 1 / |r(c)|` make that sum the loss's own sum of absolute values
 //!   at the centre (a mean absolute percentage error, not its square).
 //! - **Radius**: a step that lowers the loss moves the centre; the ratio of
-//!   the actual to the predicted decrease of the squares then grows the
+//!   the actual to the predicted decrease (of the sum of absolute values
+//!   with `absolute`, the loss the weights stand for; of the squares
+//!   otherwise) then grows the
 //!   radius (above 0.7: to the larger of twice the radius and four times
 //!   the step, DFO-LS's rule, so a valley the model reads well is followed
 //!   in long strides, whether or not its step reached the edge) or halves
@@ -85,8 +87,10 @@ pub struct Run<'a> {
 struct Pending {
     point: Vec<f64>,
     centre_loss: f64,
-    centre_squares: f64,
-    predicted_squares: f64,
+    /// What a step is judged by ([`TrustRegion::measure`]), at the
+    /// centre and as the model predicts it at the step.
+    centre_measure: f64,
+    predicted_measure: f64,
     /// The residuals' weights in the squares.
     weights: Vec<f64>,
     /// The step's longest coordinate, in the unit box.
@@ -158,8 +162,8 @@ impl TrustRegion {
             self.pending = Some(Pending {
                 point: point.clone(),
                 centre_loss: centre.loss,
-                centre_squares: 0.0,
-                predicted_squares: 0.0,
+                centre_measure: 0.0,
+                predicted_measure: 0.0,
                 weights,
                 length: 0.0,
                 geometry: true,
@@ -167,7 +171,7 @@ impl TrustRegion {
             return Some(point);
         }
         let jacobian = fit_jacobian(centre, &neighbours, self.radius);
-        let (step, predicted_squares) = minimise_model(centre, &jacobian, &weights, self.radius);
+        let step = minimise_model(centre, &jacobian, &weights, self.radius);
         let longest = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
         if longest < 1e-6 {
             // The model's minimum is the centre itself: nothing to learn
@@ -181,11 +185,16 @@ impl TrustRegion {
             .zip(&step)
             .map(|(c, s)| (c + s).clamp(0.0, 1.0))
             .collect();
+        let predicted: Vec<f64> = jacobian
+            .iter()
+            .zip(centre.residuals)
+            .map(|(row, r)| r + row.iter().zip(&step).map(|(j, s)| j * s).sum::<f64>())
+            .collect();
         self.pending = Some(Pending {
             point: point.clone(),
             centre_loss: centre.loss,
-            centre_squares: squares(centre.residuals, &weights),
-            predicted_squares,
+            centre_measure: self.measure(centre.residuals, &weights),
+            predicted_measure: self.measure(&predicted, &weights),
             weights,
             length: longest,
             geometry: false,
@@ -208,9 +217,9 @@ impl TrustRegion {
             self.shrink(pending.centre_loss);
             return;
         }
-        let predicted = pending.centre_squares - pending.predicted_squares;
+        let predicted = pending.centre_measure - pending.predicted_measure;
         let actual = if residuals.len() == pending.weights.len() {
-            pending.centre_squares - squares(residuals, &pending.weights)
+            pending.centre_measure - self.measure(residuals, &pending.weights)
         } else {
             f64::NEG_INFINITY
         };
@@ -240,6 +249,20 @@ impl TrustRegion {
 }
 
 impl TrustRegion {
+    /// What a step is judged by (the ratio of its actual to its predicted
+    /// decrease): with [`TrustRegionSettings::absolute`] the residuals'
+    /// sum of absolute values, which the loss is; the weighted squares the
+    /// model minimises could rise for a step that lowers the loss by moving
+    /// misfit from one residual to another, and a step that helped would
+    /// shrink the radius. Otherwise the squares.
+    fn measure(&self, residuals: &[f64], weights: &[f64]) -> f64 {
+        if self.settings.absolute {
+            residuals.iter().map(|r| r.abs()).sum()
+        } else {
+            squares(residuals, weights)
+        }
+    }
+
     /// Each residual's weight in the model's squares (see
     /// [`TrustRegionSettings::absolute`]); a residual near 0 is weighted
     /// as one at a tenth of the mean.
@@ -339,13 +362,14 @@ fn fit_jacobian(centre: &Run<'_>, neighbours: &[&Run<'_>], radius: f64) -> Vec<V
         .collect()
 }
 
-/// The step minimising `sum w (r + J s)^2` in the trust box, and that minimum.
+/// The step minimising `sum w (r + J s)^2` in the trust box (none when no
+/// step lowers it).
 fn minimise_model(
     centre: &Run<'_>,
     jacobian: &[Vec<f64>],
     weights: &[f64],
     radius: f64,
-) -> (Vec<f64>, f64) {
+) -> Vec<f64> {
     let d = centre.unit_point.len();
     // |r + J s|^2 = r.r + 2 (J^T r).s + s^T (J^T J) s
     let mut jtj = vec![vec![0.0; d]; d];
@@ -385,7 +409,42 @@ fn minimise_model(
         ..LbfgsSettings::default()
     };
     match minimize_bounded(model, &vec![0.0; d], &lower, &upper, &settings) {
-        Ok(minimum) if minimum.value < rr => (minimum.x, minimum.value.max(0.0)),
-        _ => (vec![0.0; d], rr),
+        Ok(minimum) if minimum.value < rr => minimum.x,
+        _ => vec![0.0; d],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Pending, TrustRegion, TrustRegionSettings};
+
+    /// With absolute weights, a step that lowers the residuals' sum of
+    /// absolute values as predicted grows the radius, even though it moved
+    /// misfit onto a residual that was small at the centre and so raised
+    /// the weighted squares (which, judged instead, would have halved it).
+    #[test]
+    fn a_step_is_judged_by_the_loss_the_weights_stand_for() {
+        let settings = TrustRegionSettings {
+            absolute: true,
+            ..TrustRegionSettings::default()
+        };
+        let mut region = TrustRegion::new(settings.clone());
+        let centre_residuals = [1.0, 0.1];
+        let weights = region.weights(&centre_residuals);
+        let after = [0.2, 0.5];
+        let squares = |r: &[f64]| -> f64 { r.iter().zip(&weights).map(|(r, w)| w * r * r).sum() };
+        assert!(squares(&after) > squares(&centre_residuals));
+        region.pending = Some(Pending {
+            point: vec![0.6],
+            centre_loss: 1.1,
+            centre_measure: region.measure(&centre_residuals, &weights),
+            predicted_measure: 0.6,
+            weights,
+            length: 0.1,
+            geometry: false,
+        });
+        // Actual decrease 1.1 - 0.7 = 0.4 of a predicted 0.5: a ratio of 0.8.
+        region.record(&[0.6], Some(0.7), &after);
+        assert_eq!(region.radius, 2.0 * settings.initial_radius);
     }
 }

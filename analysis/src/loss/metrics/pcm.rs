@@ -25,9 +25,7 @@
 //! (`tests/curve_fracture.rs`). With the measured curve always the
 //! reference, the value moves continuously.
 
-use super::points::{
-    arc_fractions, direction_at, interp, lerp, signed_distance, Matched, Pair, Points,
-};
+use super::points::{arc_fractions, direction_at, lerp, signed_distance, Matched, Pair, Points};
 
 /// Offsets tried when the curves' lengths differ.
 const OFFSETS: usize = 200;
@@ -42,16 +40,30 @@ pub fn value(measured: &Points, simulated: &Points) -> f64 {
 pub fn matched(measured: &Points, simulated: &Points) -> Matched {
     let mapping = Mapping::new(measured, simulated);
     let (offset, value) = mapping.best();
+    // `np.interp` at each measured fraction plus the offset, which only
+    // grows with k: its segment is found by walking on, not by a search.
+    let xp = &mapping.other_fraction;
+    let last = xp.len() - 1;
+    let mut segment = 0;
     let pairs = mapping
         .reference_fraction
         .iter()
         .enumerate()
         .map(|(k, &s)| {
             let at = s + offset;
-            let mapped = [
-                interp(at, &mapping.other_fraction, &mapping.other_x),
-                interp(at, &mapping.other_fraction, &mapping.other_y),
-            ];
+            let mapped = if at < xp[0] {
+                [mapping.other_x[0], mapping.other_y[0]]
+            } else if at >= xp[last] {
+                [mapping.other_x[last], mapping.other_y[last]]
+            } else {
+                while segment + 1 < last && xp[segment + 1] <= at {
+                    segment += 1;
+                }
+                [
+                    lerp(at, xp, &mapping.other_x, segment),
+                    lerp(at, xp, &mapping.other_y, segment),
+                ]
+            };
             Pair {
                 along: s,
                 signed_distance: signed_distance(
@@ -71,12 +83,20 @@ struct Mapping {
     reference_y: Vec<f64>,
     /// Cumulative arc length over the total, per point.
     reference_fraction: Vec<f64>,
+    /// Each point's distance's weight in the trapezoid sum: half the
+    /// fraction at the end of each of its one or two segments.
+    point_weights: Vec<f64>,
     other_x: Vec<f64>,
     other_y: Vec<f64>,
     other_fraction: Vec<f64>,
-    /// Per segment of the other curve, `np.interp`'s slopes of x and y
-    /// over the fraction (made once: the same bits as made per point).
-    other_slopes: Vec<[f64; 2]>,
+    /// Per segment of the other curve, what the walk and the
+    /// interpolation read, side by side: its start and `np.interp`'s
+    /// slopes of x and y over the fraction (made once: the same bits as
+    /// made per point).
+    segments: Vec<Segment>,
+    /// Every slope finite, so that no interpolated point is NaN and the
+    /// sum needs no check for `np.interp`'s fallbacks.
+    finite_slopes: bool,
     /// The other curve's length (normalised units).
     other_total: f64,
     /// The measured total less the simulated (unnormalised): the offset
@@ -96,30 +116,44 @@ impl Mapping {
         };
         let (mx, my) = columns(measured);
         let (sx, sy) = columns(simulated);
-        let mapping = Mapping {
-            reference_x: mx,
-            reference_y: my,
-            reference_fraction: measured_fraction,
-            other_x: sx,
-            other_y: sy,
-            other_fraction: simulated_fraction,
-            other_total: simulated_total,
-            largest_offset: measured_total - simulated_total,
-            other_slopes: Vec::new(),
-        };
-        let fraction = &mapping.other_fraction;
-        let other_slopes = (0..fraction.len() - 1)
+        let n = measured_fraction.len();
+        let point_weights = (0..n)
+            .map(|k| {
+                let before = if k >= 1 { measured_fraction[k] } else { 0.0 };
+                let after = if k + 1 < n {
+                    measured_fraction[k + 1]
+                } else {
+                    0.0
+                };
+                0.5 * (before + after)
+            })
+            .collect();
+        let segments: Vec<Segment> = (0..simulated_fraction.len() - 1)
             .map(|j| {
-                let width = fraction[j + 1] - fraction[j];
-                [
-                    (mapping.other_x[j + 1] - mapping.other_x[j]) / width,
-                    (mapping.other_y[j + 1] - mapping.other_y[j]) / width,
-                ]
+                let width = simulated_fraction[j + 1] - simulated_fraction[j];
+                Segment {
+                    fraction: simulated_fraction[j],
+                    x: sx[j],
+                    y: sy[j],
+                    slope_x: (sx[j + 1] - sx[j]) / width,
+                    slope_y: (sy[j + 1] - sy[j]) / width,
+                }
             })
             .collect();
         Mapping {
-            other_slopes,
-            ..mapping
+            reference_x: mx,
+            reference_y: my,
+            reference_fraction: measured_fraction,
+            point_weights,
+            other_x: sx,
+            other_y: sy,
+            other_fraction: simulated_fraction,
+            finite_slopes: segments
+                .iter()
+                .all(|s| s.slope_x.is_finite() && s.slope_y.is_finite()),
+            segments,
+            other_total: simulated_total,
+            largest_offset: measured_total - simulated_total,
         }
     }
 
@@ -141,7 +175,7 @@ impl Mapping {
         } else {
             linspace(0.0, self.largest_offset, OFFSETS)
         };
-        let weights: f64 = self.reference_fraction.iter().skip(1).sum();
+        let weights: f64 = self.point_weights.iter().sum();
         let lipschitz = self.other_total * weights * (1.0 + 1e-9);
         let mut lower = vec![f64::NEG_INFINITY; offsets.len()];
         let mut summed = vec![false; offsets.len()];
@@ -155,7 +189,11 @@ impl Mapping {
             .filter(|&i| lower[i] <= best.1)
         {
             summed[next] = true;
-            let (sum, complete) = self.sum_at(offsets[next], best.1);
+            let (sum, complete) = if self.finite_slopes {
+                self.sum_at::<false>(offsets[next], best.1)
+            } else {
+                self.sum_at::<true>(offsets[next], best.1)
+            };
             if complete && (sum < best.1 || (sum == best.1 && next < best_index)) {
                 best = (offsets[next], sum);
                 best_index = next;
@@ -171,53 +209,105 @@ impl Mapping {
     /// The trapezoid sum at `offset`, and whether it is complete: it stops
     /// once past `stop_above` (its terms are never negative). Summed from
     /// the end, where the weights are largest, so that a sum that will
-    /// exceed the best does so within its first terms.
-    fn sum_at(&self, offset: f64, stop_above: f64) -> (f64, bool) {
+    /// exceed the best does so within its first terms. `FALLBACKS`: check
+    /// each interpolated point for `np.interp`'s NaN fallbacks (only a
+    /// curve with a segment of nearly no length needs it; the check costs
+    /// a sixth of the time).
+    ///
+    /// Why this shape (1.65 times faster than one loop over the points
+    /// with np.interp's branches in it, `cargo bench --bench
+    /// curve_metrics`): the measured points whose mapped point lies past
+    /// either end of the other curve meet that end, so they are found by
+    /// two binary searches and summed eight at a time (no walk: the
+    /// square roots vectorise); only those between walk along the other
+    /// curve, reading one `Segment` each.
+    fn sum_at<const FALLBACKS: bool>(&self, offset: f64, stop_above: f64) -> (f64, bool) {
         let xp = &self.other_fraction;
         let last = xp.len() - 1;
-        let mut segment = last - 1;
-        let mut next_distance = 0.0;
+        let fraction = &self.reference_fraction;
+        // The same comparisons as np.interp's, on the same sums: the
+        // points before the other curve's start, on it, past its end.
+        let on_from = fraction.partition_point(|&s| s + offset < xp[0]);
+        let past_from = fraction
+            .partition_point(|&s| s + offset < xp[last])
+            .max(on_from);
         let mut sum = 0.0;
-        for (k, &fraction) in self.reference_fraction.iter().enumerate().rev() {
-            // `np.interp` at `fraction + offset`, which only falls as k
-            // does: the segment is found by walking back, not by a search.
-            let at = fraction + offset;
-            let (x, y) = if at < xp[0] {
-                (self.other_x[0], self.other_y[0])
-            } else if at >= xp[last] {
-                (self.other_x[last], self.other_y[last])
-            } else {
-                while xp[segment] > at {
-                    segment -= 1;
-                }
-                let [slope_x, slope_y] = self.other_slopes[segment];
-                let along = at - xp[segment];
-                let (x, y) = (
-                    slope_x * along + self.other_x[segment],
-                    slope_y * along + self.other_y[segment],
-                );
-                if x.is_nan() || y.is_nan() {
-                    // A segment of (nearly) no length: np.interp's fallbacks.
-                    (
-                        lerp(at, xp, &self.other_x, segment),
-                        lerp(at, xp, &self.other_y, segment),
-                    )
-                } else {
-                    (x, y)
-                }
-            };
-            let (dy, dx) = (self.reference_y[k] - y, self.reference_x[k] - x);
-            let distance = (dy * dy + dx * dx).sqrt();
-            if k + 1 < self.reference_fraction.len() {
-                sum += 0.5 * (distance + next_distance) * self.reference_fraction[k + 1];
-                if sum > stop_above {
-                    return (sum, false);
-                }
+        let end = [self.other_x[last], self.other_y[last]];
+        if !self.add_distances_to(end, past_from..fraction.len(), &mut sum, stop_above) {
+            return (sum, false);
+        }
+        let mut segment = self.segments.len() - 1;
+        let between = on_from..past_from;
+        let points = fraction[between.clone()]
+            .iter()
+            .zip(&self.reference_x[between.clone()])
+            .zip(&self.reference_y[between.clone()])
+            .zip(&self.point_weights[between])
+            .rev();
+        for (((&s, measured_x), measured_y), weight) in points {
+            // At `s + offset`, which only falls as k does: the segment is
+            // found by walking back, not by a search.
+            let at = s + offset;
+            while self.segments[segment].fraction > at {
+                segment -= 1;
             }
-            next_distance = distance;
+            let knot = self.segments[segment];
+            let along = at - knot.fraction;
+            let (mut x, mut y) = (knot.slope_x * along + knot.x, knot.slope_y * along + knot.y);
+            if FALLBACKS && (x.is_nan() || y.is_nan()) {
+                x = lerp(at, xp, &self.other_x, segment);
+                y = lerp(at, xp, &self.other_y, segment);
+            }
+            let (dx, dy) = (measured_x - x, measured_y - y);
+            sum += weight * (dx * dx + dy * dy).sqrt();
+            if sum > stop_above {
+                return (sum, false);
+            }
+        }
+        let start = [self.other_x[0], self.other_y[0]];
+        if !self.add_distances_to(start, 0..on_from, &mut sum, stop_above) {
+            return (sum, false);
         }
         (sum, true)
     }
+
+    /// Adds the weighted distances of the measured points `range` to
+    /// `point`, from the last, eight at a time; `false` once the sum is past
+    /// `stop_above`.
+    fn add_distances_to(
+        &self,
+        point: [f64; 2],
+        range: std::ops::Range<usize>,
+        sum: &mut f64,
+        stop_above: f64,
+    ) -> bool {
+        let chunks = self.reference_x[range.clone()]
+            .rchunks(8)
+            .zip(self.reference_y[range.clone()].rchunks(8))
+            .zip(self.point_weights[range].rchunks(8));
+        for ((xs, ys), weights) in chunks {
+            let mut terms = [0.0; 8];
+            for (term, ((x, y), weight)) in terms.iter_mut().zip(xs.iter().zip(ys).zip(weights)) {
+                let (dx, dy) = (x - point[0], y - point[1]);
+                *term = weight * (dx * dx + dy * dy).sqrt();
+            }
+            *sum += terms.iter().rev().sum::<f64>();
+            if *sum > stop_above {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// A segment of the other curve: its start, and `np.interp`'s slopes.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    fraction: f64,
+    x: f64,
+    y: f64,
+    slope_x: f64,
+    slope_y: f64,
 }
 
 /// `np.linspace(start, stop, count)`: `start + i * step`, the last exactly

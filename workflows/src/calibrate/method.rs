@@ -68,6 +68,17 @@ pub struct RunSettings<'a> {
     pub posterior: Option<PosteriorSettings>,
 }
 
+/// `rows` with each repeated row dropped, in order.
+fn distinct_rows(rows: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+    let mut distinct: Vec<Vec<f64>> = Vec::with_capacity(rows.len());
+    for row in rows {
+        if !distinct.contains(&row) {
+            distinct.push(row);
+        }
+    }
+    distinct
+}
+
 /// The start design in the unit box; read before the run directory exists,
 /// so a refused design leaves nothing behind. None for the methods that
 /// start from their own design.
@@ -85,7 +96,11 @@ pub fn start_design(
     Ok(match bo.start.as_str() {
         "lhs" => latin_hypercube(n, d, bo.seed),
         "sobol" => sobol_points(n, d, Some(bo.seed)).map_err(|e| config(e.to_string()))?,
-        "l12" => two_level_to_unit(&orthogonal_array_l12(d).map_err(|e| config(e.to_string()))?),
+        // Fewer than four factors repeat rows of L12 (only 2^d corners
+        // exist): each corner is run once.
+        "l12" => distinct_rows(two_level_to_unit(
+            &orthogonal_array_l12(d).map_err(|e| config(e.to_string()))?,
+        )),
         "factorial" => full_factorial(&vec![2; d]).map_err(|e| config(e.to_string()))?,
         file => {
             let path = spec_directory.join(file);
@@ -97,4 +112,24 @@ pub fn start_design(
             points.iter().map(|p| to_unit(parameters, p)).collect()
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::distinct_rows;
+
+    #[test]
+    fn a_start_design_runs_each_repeated_row_once_in_order() {
+        let rows = vec![
+            vec![0.0, 1.0],
+            vec![1.0, 0.0],
+            vec![0.0, 1.0],
+            vec![1.0, 1.0],
+            vec![1.0, 0.0],
+        ];
+        assert_eq!(
+            distinct_rows(rows),
+            vec![vec![0.0, 1.0], vec![1.0, 0.0], vec![1.0, 1.0]]
+        );
+    }
 }

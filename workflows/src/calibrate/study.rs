@@ -372,6 +372,24 @@ impl Study {
             .collect()
     }
 
+    /// Whether the local steps should read the residuals as a sum of
+    /// absolute values (a mean or largest error over scalars and MAPE
+    /// curves) rather than of squares.
+    ///
+    /// A curve scored by a coupling metric says no: its residuals are the
+    /// mean signed distances over parts of the curve, while its loss sums
+    /// the distances of every pair (or takes the largest). Near the best
+    /// fit each part's mean is measurement noise, and weighing the parts by
+    /// `1 / |r|` would steer by that noise; their squares are the least
+    /// squares fit of the curve. (`cargo bench --bench
+    /// curve_study_generalisation`, tune set, BENCHMARKS.md.)
+    pub fn local_steps_in_absolute_values(&self) -> bool {
+        self.loss != LossKind::Squares
+            && !self.observations(Role::Fit).iter().any(|(_, o)| {
+                matches!(o.measured, Measured::Curve { metric, .. } if metric != CurveMetric::Mape)
+            })
+    }
+
     /// The costs the search minimises, one per fit observation: relative
     /// errors (%) and MAPEs, or scalars in standard uncertainties.
     ///
@@ -654,18 +672,27 @@ impl StudySimulator<'_> {
 /// A curve scored by a coupling metric: its value, and `parts` signed
 /// residuals along the measured curve in % of its range (100 times the
 /// mean signed distance over each part: like MAPE's parts in %, so a
-/// local step weighs them alike). `(x, y)` points as the study keeps them.
+/// local step weighs them alike), from the coupling of the metric's
+/// [`CurveMetric::residual_coupling`]. `(x, y)` points as the study keeps
+/// them.
 pub fn coupled_curve(
     metric: CurveMetric,
     measured: &[(f64, f64)],
     simulated: &[(f64, f64)],
     parts: usize,
 ) -> Result<(f64, Vec<f64>), acq_analysis::loss::metrics::CurveMetricError> {
-    let result = matched(metric, &points_of(measured), &points_of(simulated))?;
+    let (measured, simulated) = (points_of(measured), points_of(simulated));
+    let result = matched(metric, &measured, &simulated)?;
     let parts = if parts == 0 {
         Vec::new()
     } else {
-        residuals_by_part(&result.pairs, parts)
+        let coupling = metric.residual_coupling();
+        let pairs = if coupling == metric {
+            result.pairs
+        } else {
+            matched(coupling, &measured, &simulated)?.pairs
+        };
+        residuals_by_part(&pairs, parts)
             .into_iter()
             .map(|r| 100.0 * r)
             .collect()
@@ -755,5 +782,36 @@ fn flatten_json(prefix: &str, value: &Value, into: &mut std::collections::HashMa
                 into.insert(prefix.to_string(), number);
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{coupled_curve, matched, points_of, CurveMetric};
+
+    #[test]
+    fn pcm_and_frechet_steer_by_the_dtw_coupling_and_keep_their_own_value() {
+        // A noisy measured arc and a taller simulated one on another grid.
+        let measured: Vec<(f64, f64)> = (0..40)
+            .map(|i| {
+                let t = f64::from(i) / 39.0;
+                (t, (3.0 * t).sin() + 0.02 * (f64::from(i * 7 % 5) - 2.0))
+            })
+            .collect();
+        let simulated: Vec<(f64, f64)> = (0..55)
+            .map(|i| {
+                let t = f64::from(i) / 54.0;
+                (t, 1.1 * (3.0 * t).sin())
+            })
+            .collect();
+        let (_, dtw_parts) = coupled_curve(CurveMetric::Dtw, &measured, &simulated, 8).unwrap();
+        for metric in [CurveMetric::Pcm, CurveMetric::Frechet] {
+            let (value, parts) = coupled_curve(metric, &measured, &simulated, 8).unwrap();
+            assert_eq!(parts, dtw_parts, "{metric}");
+            let own = matched(metric, &points_of(&measured), &points_of(&simulated)).unwrap();
+            assert_eq!(value, own.value, "{metric}");
+        }
+        let (_, area_parts) = coupled_curve(CurveMetric::Area, &measured, &simulated, 8).unwrap();
+        assert_ne!(area_parts, dtw_parts);
     }
 }

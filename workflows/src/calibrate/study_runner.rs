@@ -35,9 +35,7 @@ use super::progress::Progress;
 use super::report::{study_report, write_report};
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::search::{bo_settings, from_unit, minimise_logged, scored, to_unit};
-use super::study::{
-    LossKind, Measured, Model, Observation, ObservationError, Role, Study, StudySimulator,
-};
+use super::study::{Measured, Model, Observation, ObservationError, Role, Study, StudySimulator};
 use super::summary::summary;
 use super::surrogate_moo::surrogate_moo;
 
@@ -273,9 +271,7 @@ fn search(
                 bo.acquisition,
                 bo.seed,
                 bo.local_steps.then(|| TrustRegionSettings {
-                    // A mean or largest error is a sum of absolute values,
-                    // not of squares.
-                    absolute: study.loss != LossKind::Squares,
+                    absolute: study.local_steps_in_absolute_values(),
                     ..TrustRegionSettings::default()
                 }),
             );

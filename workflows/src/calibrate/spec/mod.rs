@@ -70,6 +70,7 @@
 //!                            # one run per parameter per Jacobian)
 //! residuals = "relative"     # or "normalised": scalars in standard uncertainties
 //! start = "lhs"              # bo: lhs, sobol, l12, factorial, or a CSV file of points
+//!                            # (l12 with 3 or fewer parameters: its 2^d distinct corners)
 //! start_runs = 10
 //! max_evals = 60
 //! target_loss_pct = 1.0

@@ -24,6 +24,39 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// A test's scratch directory (the VM's inputs and outputs): removed when
+/// the test passes, kept and named when it fails, so that a failed CI run
+/// leaves the guest's captures to read. `ACQ_KEEP_VM_OUTPUT=1` keeps it
+/// always.
+struct Work(Option<tempfile::TempDir>);
+
+impl Work {
+    fn new() -> Work {
+        Work(Some(
+            tempfile::Builder::new()
+                .prefix("acq-vcan-")
+                .tempdir()
+                .unwrap(),
+        ))
+    }
+
+    fn path(&self) -> &Path {
+        self.0.as_ref().expect("until dropped").path()
+    }
+}
+
+impl Drop for Work {
+    fn drop(&mut self) {
+        let dir = self.0.take().expect("dropped once");
+        if std::thread::panicking() || std::env::var_os("ACQ_KEEP_VM_OUTPUT").is_some() {
+            eprintln!(
+                "vcan: the inputs and the guest's captures are kept in {}",
+                dir.keep().display()
+            );
+        }
+    }
+}
+
 /// 2000 frames, 1 ms apart, of every kind the wire carries.
 fn variety_log() -> Vec<Frame> {
     let can0 = IfaceName::new("can0").unwrap();
@@ -122,14 +155,12 @@ fn prepare_inputs(dir: &Path) {
         text.replace(from, to)
     });
     fs::write(dir.join("examples/excavator-rig/study.toml"), lighter).unwrap();
-    // Its hidden truth with shorter holds: the emulated CPU plays the rig
-    // late under the flood, and the holds need only be found.
-    let truth =
-        fs::read_to_string(root().join("examples/excavator-rig/hidden_truth.toml")).unwrap();
-    assert!(truth.contains("hold_s = 6.0"));
-    fs::write(
+    // Its hidden truth as shipped: 6 s holds, which leave 5 s after the
+    // 0.5 s settling at each end, above the 3 s the hold finder keeps at
+    // any pace the guest keeps (a late guest only stretches them).
+    fs::copy(
+        root().join("examples/excavator-rig/hidden_truth.toml"),
         dir.join("examples/excavator-rig/hidden_truth.toml"),
-        truth.replace("hold_s = 6.0", "hold_s = 3.0"),
     )
     .unwrap();
     fs::copy(
@@ -191,7 +222,7 @@ fn run_guest_script(script: &str, inputs: &Path, out: &Path) {
 
 #[test]
 fn record_replay_and_simulate_on_a_real_vcan() {
-    let work = tempfile::tempdir().unwrap();
+    let work = Work::new();
     let inputs = work.path().join("in");
     let out = work.path().join("out");
     fs::create_dir_all(&inputs).unwrap();
@@ -270,11 +301,31 @@ fn record_replay_and_simulate_on_a_real_vcan() {
             .trim()
     );
     // Loose bounds: the VM emulates its CPU; the 100 us target is measured
-    // on the host (BENCHMARKS.md). An absolute schedule cannot drift.
-    assert!(median < 2000.0, "median inter-frame error {median} us");
+    // on the host (BENCHMARKS.md). An absolute schedule cannot drift, but a
+    // guest that cannot send as fast as the log asks falls behind it: the
+    // pace is the log's span over the capture's.
+    let replay_pace = (sent[sent.len() - 1].timestamp_ns - sent[0].timestamp_ns) as f64
+        / (captured[captured.len() - 1].timestamp_ns - captured[0].timestamp_ns) as f64;
+    eprintln!("vcan replay: the guest kept {replay_pace:.4} of the log's pace (floor {REPLAY_PACE_FLOOR})");
+    assert!(
+        median < 2000.0,
+        "{}",
+        judged(
+            "check 2",
+            replay_pace,
+            REPLAY_PACE_FLOOR,
+            &format!("median inter-frame error {median} us")
+        )
+    );
     assert!(
         median_offset_us < 5000.0,
-        "the replay drifted: offset error spread {median_offset_us} us"
+        "{}",
+        judged(
+            "check 2",
+            replay_pace,
+            REPLAY_PACE_FLOOR,
+            &format!("the replay drifted: offset error spread {median_offset_us} us")
+        )
     );
 
     // 3. acq simulate -> acq record --rig: every sample the simulator
@@ -323,12 +374,19 @@ fn record_replay_and_simulate_on_a_real_vcan() {
             sensor.name,
             sensor.observed_rate_hz
         );
+        let pace = wire_rate_hz / scheduled_rate_hz;
         assert!(
-            // 0.66 has been seen with the host busy; a pacing bug (all at
-            // once, or a period off by a factor) lands far outside.
-            (0.3..1.1).contains(&(wire_rate_hz / scheduled_rate_hz)),
-            "{}: the guest sent at {wire_rate_hz} Hz of {scheduled_rate_hz} Hz",
-            sensor.name
+            (SIMULATE_PACE_FLOOR..1.1).contains(&pace),
+            "{}",
+            judged(
+                "check 3",
+                pace,
+                SIMULATE_PACE_FLOOR,
+                &format!(
+                    "{}: the guest sent at {wire_rate_hz} Hz of the {scheduled_rate_hz} Hz scheduled",
+                    sensor.name
+                )
+            )
         );
     }
     let slowest = c3
@@ -359,12 +417,12 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         "flood: candump saw {before} frames before the signal; acq recorded {recorded}, reported {} kernel drops, missing {missing}",
         c4.session.dropped_by_kernel
     );
-    assert!(before > 1000, "the flood reached the bus: {before} frames");
     assert!(
         missing <= c4.session.dropped_by_kernel,
         "{missing} frames candump saw before the signal are not in raw.log, and only {} drops were reported",
         c4.session.dropped_by_kernel
     );
+    flood_was_busy("check 4", before);
 
     // 7. Both buses busy (a frame every 0.25 ms asked of each) with the
     // live page on and 10 viewers, one stalled, three leaving and three
@@ -385,7 +443,6 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         state["viewers"],
         state["sessions"][0]["frames_not_shown"]
     );
-    assert!(before > 1000, "the flood reached the bus");
     assert!(
         state["viewers"].as_u64().unwrap() >= 10,
         "the viewers were connected: {}",
@@ -396,6 +453,7 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         (0, 0),
         "frames candump saw before the signal that are not in raw.log, and kernel drops"
     );
+    flood_was_busy("check 7", before);
 
     // 8. A study at the rig while both buses are busy: nothing lost, and the
     // posterior was updated during the flood, hold by hold.
@@ -418,24 +476,64 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         "0",
         "{stderr8}"
     );
-    assert!(before > 1000, "the flood reached the bus");
     assert_eq!(
         (missing, c8.session.dropped_by_kernel),
         (0, 0),
         "frames candump saw before the signal that are not in raw.log, and kernel drops; acq said: {stderr8}"
     );
+    flood_was_busy("check 8", before);
+    // What the study may be asked depends on the guest's pace: a guest
+    // that falls behind the virtual rig's schedule stretches its holds (and
+    // sends them in bursts that can split one), and may cut the last one
+    // short. So the holds that count are the ones the wire carried whole:
+    // `acq calibrate rig` over the recorded session after the fact (it
+    // holds every frame candump saw, asserted above), with all the time
+    // it needs. The live study must have seen the same holds, used every
+    // complete one and skipped the same others for the same reasons; a
+    // hold the wire cut short is reported here, not a failure.
+    let pace = rig_pace(&inputs, &out, work.path());
+    eprintln!("check 8: the guest played the virtual rig at {pace:.3} of the schedule's pace (floor {STUDY_PACE_FLOOR})");
+    let offline = offline_study(&inputs, &out.join("c8"), work.path());
+    let complete = offline["holds_used"].as_u64().unwrap_or(0);
+    assert!(
+        complete > 0,
+        "{}",
+        judged(
+            "check 8",
+            pace,
+            STUDY_PACE_FLOOR,
+            &format!("the recording holds no complete hold for the study to take: {offline}")
+        )
+    );
     assert!(
         said.contains("study: after 1 hold(s)"),
-        "the study updated while the buses were busy; before the stop it said: {said}\nafter: {stderr8}"
+        "{}",
+        judged(
+            "check 8",
+            pace,
+            STUDY_PACE_FLOOR,
+            &format!("the study did not update while the buses were busy; before the stop it said: {said}\nafter: {stderr8}")
+        )
     );
     // The recorder waited for the study to take every hold it found (the
-    // flood still on), none of them skipped.
-    let study: serde_json::Value =
+    // flood still on).
+    let live: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(out.join("c8/study.json")).unwrap()).unwrap();
-    let used = study["holds_used"].as_u64().unwrap_or(0);
-    assert!(
-        used >= 2 && study["holds_seen"] == used && study["skipped"] == serde_json::json!([]),
-        "{study}"
+    let holds = |panel: &serde_json::Value| {
+        (
+            panel["holds_seen"].clone(),
+            panel["holds_used"].clone(),
+            panel["skipped"].clone(),
+        )
+    };
+    assert_eq!(
+        holds(&live),
+        holds(&offline),
+        "(holds seen, used, skipped) by the study during the recording against acq calibrate rig over the recording; acq said: {stderr8}"
+    );
+    eprintln!(
+        "check 8: {} hold(s) on the wire, {complete} complete and all used; cut short by the virtual rig's lateness or the end of the recording (reported, not a failure): {}",
+        offline["holds_seen"], offline["skipped"]
     );
 
     // 5. The interface disappears and comes back: reported, recording resumes.
@@ -494,6 +592,114 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         "{} frames before the disk filled",
         frames.len()
     );
+}
+
+/// The slowest pace of the guest (the time the schedule spans over the
+/// time the guest took to play it) at which check 8 means something: at
+/// 0.14 (seen with the host busy) the rig's 33 s took 4 min and every
+/// hold was still found, stretched; below 0.1 the virtual rig alone would
+/// take more than a third of the VM's 900 s.
+const STUDY_PACE_FLOOR: f64 = 0.1;
+
+/// The slowest pace at which check 2's replay timing means something: a
+/// guest that keeps a pace p over the 2 s log ends (1/p - 1) x 2 s behind,
+/// and the spread of its offsets (median |e - median e|, about a quarter
+/// of that) passes the 5 ms bound only above p = 0.99.
+const REPLAY_PACE_FLOOR: f64 = 0.99;
+
+/// The slowest pace at which check 3's rates mean something: a pacing bug
+/// (everything at once, or a period off by a factor) lands far outside;
+/// 0.66 has been seen with the host busy.
+const SIMULATE_PACE_FLOOR: f64 = 0.3;
+
+/// The fewest frames a flood check's generators must have put on the
+/// buses before the stop for the check to mean anything: a guest that
+/// keeps pace puts 9,000 to 12,000 there in checks 4 and 7 and far more in
+/// check 8; 691 have been seen with the host's two cores shared by eight
+/// busy processes.
+const FLOOD_FLOOR_FRAMES: usize = 1000;
+
+/// A flood check's precondition, asked after what acq answers for (no
+/// frame lost, no kernel drop) has passed: the buses were busy.
+fn flood_was_busy(check: &str, frames_before_the_stop: usize) {
+    assert!(
+        frames_before_the_stop >= FLOOD_FLOOR_FRAMES,
+        "{check} cannot judge acq on this host: the emulated guest's generators put only \
+         {frames_before_the_stop} frames on the buses before the stop, below the {FLOOD_FLOOR_FRAMES} \
+         that make a busy bus. The host was too slow (something else loaded its cores); run the \
+         VM tests again on a quieter machine. What acq answers for (frames lost, kernel drops) \
+         held."
+    );
+}
+
+/// The words of a failed real-time check: below its pace floor the host
+/// was too slow for the check to judge acq, above it acq is at fault.
+fn judged(check: &str, pace: f64, floor: f64, what: &str) -> String {
+    if pace < floor {
+        format!(
+            "{check} cannot judge acq on this host: the emulated guest kept {pace:.3} of the schedule's pace, \
+             below the {floor} this check needs. The host was too slow (something else loaded its cores); \
+             run the VM tests again on a quieter machine. What failed: {what}"
+        )
+    } else {
+        format!("{check}: {what} (the guest kept {pace:.3} of the schedule's pace, above the check's floor {floor}: acq is at fault, not the host)")
+    }
+}
+
+/// Check 8's pace: the span of the virtual rig's schedule (the same
+/// simulation written to a file on the host) over the time the guest took
+/// to send it (what `acq simulate` said in the guest).
+fn rig_pace(inputs: &Path, out: &Path, work: &Path) -> f64 {
+    let scheduled_log = work.join("c8_scheduled.log");
+    let simulated = Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(["simulate", "--seed", "8", "--start", "1763719200", "--rig"])
+        .arg(inputs.join("rigs/excavator.toml"))
+        .arg("--scenario")
+        .arg(inputs.join("examples/excavator-rig/hidden_truth.toml"))
+        .arg("--output")
+        .arg(&scheduled_log)
+        .output()
+        .unwrap();
+    assert!(simulated.status.success(), "{simulated:?}");
+    let scheduled = read_log(&scheduled_log);
+    let scheduled_s =
+        (scheduled[scheduled.len() - 1].timestamp_ns - scheduled[0].timestamp_ns) as f64 / 1e9;
+    let said = fs::read_to_string(out.join("c8_simulate.txt")).unwrap_or_default();
+    let played_s: f64 = said
+        .split_once(" frames in ")
+        .and_then(|(_, rest)| rest.split_once(" s"))
+        .and_then(|(seconds, _)| seconds.parse().ok())
+        .unwrap_or_else(|| {
+            panic!("check 8: acq simulate in the guest did not say how long it played: {said}")
+        });
+    scheduled_s / played_s
+}
+
+/// `acq calibrate rig` over a recorded session with check 8's study: its
+/// last panel, or one with no hold when the recording holds none.
+fn offline_study(inputs: &Path, session: &Path, work: &Path) -> serde_json::Value {
+    let panel = work.join("c8_offline_study.json");
+    let output = common::acq(&[
+        "calibrate",
+        "rig",
+        session.to_str().unwrap(),
+        "--study",
+        inputs
+            .join("examples/excavator-rig/study.toml")
+            .to_str()
+            .unwrap(),
+        "-o",
+        panel.to_str().unwrap(),
+    ]);
+    let stderr = common::stderr(&output);
+    if !output.status.success() && stderr.contains("no steady hold") {
+        return serde_json::json!({ "holds_seen": 0, "holds_used": 0, "skipped": [], "why": stderr });
+    }
+    assert!(
+        output.status.success(),
+        "acq calibrate rig over check 8's recording: {stderr}"
+    );
+    serde_json::from_str(&fs::read_to_string(&panel).unwrap()).unwrap()
 }
 
 /// A flood check's session `name`: what candump saw (`NAME_candump.log`)
@@ -555,7 +761,7 @@ fn frames_per_iface(path: &Path) -> usize {
 fn the_shipped_sessions_replayed_on_a_real_vcan_give_the_expected_calibration() {
     // In the VM: acq demo plays the recorded fixtures onto vcan0/vcan1 and
     // records them again (candump watching); here: the rest of the chain.
-    let work = tempfile::tempdir().unwrap();
+    let work = Work::new();
     let inputs = work.path().join("in");
     let out = work.path().join("out");
     let copy = |from: &str| {

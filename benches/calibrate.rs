@@ -1,7 +1,7 @@
 //! The excavator calibration workflow end to end (82 twin runs, 15 surrogate
 //! fits, NSGA-II 400 x 100 on the GPs, TOPSIS, reports), NSGA-II alone on
 //! the three GPs of case 1, and the GTN calibration of Dataset 1 (up to 60
-//! simulations, target 2 %). Targets (issue 7): the workflow under 2 s per
+//! simulations, target 2 %). Targets: the workflow under 2 s per
 //! case, NSGA-II on the GP under 1 s, the GTN calibration under 2 % within
 //! 60 simulations in a few minutes.
 //!
@@ -120,7 +120,7 @@ fn main() {
         times.len()
     );
 
-    // Issue 21's target: every shipped P91 test under 1 % within 30
+    // The GTN search's target: every shipped P91 test under 1 % within 30
     // simulations at the default mesh; with and without the local steps.
     let dir = tempfile::tempdir().expect("temp dir");
     for test in ["P91_20_2_DF_SS.csv", "P91_500_DF_SS.csv"] {

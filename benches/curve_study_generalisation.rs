@@ -1,4 +1,4 @@
-//! An external curve study on tests it was not designed on (issue 38).
+//! An external curve study on tests it was not designed on.
 //!
 //! The user's solver is a Bouc-Wen hysteresis element written as a shell
 //! script (`fixtures/hysteresis/boucwen.sh`, awk; gamma = 0.5 known), and

@@ -6,7 +6,7 @@
 //!    signals, 2 per frame) held in memory, decoded to a discarding sink;
 //!    best of 5 runs, frames/s on the one core the decoder uses;
 //! 2. the real binary fed by a pipe with `ACQ_BENCH_STREAM_GB` GB of log
-//!    (default 1; 5 for the check), peak RSS read from /proc.
+//!    (default 1; 5 for the streaming-memory check), peak RSS read from /proc.
 //!
 //! Results go to stdout in the form BENCHMARKS.md records.
 

@@ -1,4 +1,4 @@
-//! The GTN curve search on tests it was not designed on (issue 38).
+//! The GTN curve search on tests it was not designed on.
 //!
 //! Synthetic tensile tests are made with the twin itself: the flow curve
 //! and Young's modulus of a shipped P91 test, a GTN parameter set from a

@@ -1,5 +1,5 @@
 //! The excavator twin's identification and both case calibrations, end to
-//! end, as a user runs them (issue 20: together under 10 s on this machine):
+//! end, as a user runs them (target: together under 10 s on two cores):
 //!
 //! - `acq calibrate external --spec data/excavator/identify.toml` (least
 //!   squares over 29 geometry numbers and the Case-2 load);

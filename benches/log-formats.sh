@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Reading speed of each log format acq reads, the same frames in each, and
-# python-can's readers on the same files (issue 22).
+# python-can's readers on the same files.
 #
 #   benches/log-formats.sh [FRAMES] [ROUNDS]   (defaults 1,000,000 and 5)
 #

@@ -1,6 +1,6 @@
 //! The posterior stage on the built-in excavator twin, sampled directly:
-//! 4 chains of 1,000 kept draws (issue 35's target: every R-hat below
-//! 1.01 in under 5 s on this machine). Each case is calibrated with and
+//! 4 chains of 1,000 kept draws (the target: every R-hat below
+//! 1.01 in under 5 s on two cores). Each case is calibrated with and
 //! without `--posterior` in the same run; the difference is the stage's
 //! time (sampling, the scales, 50 predictive runs, the files).
 //!
@@ -134,7 +134,7 @@ fn eight_parameter_output(x: &[f64], k: usize) -> f64 {
         + 0.3 * x[k % 8].powi(2)
 }
 
-/// Issue 35's target: the emulated posterior of 8 parameters from 100
+/// The target: the emulated posterior of 8 parameters from 100
 /// logged runs in under 30 s of acq's own time (the model here runs in
 /// microseconds, so the stage's wall time is acq's), with at most 20
 /// refinement runs.

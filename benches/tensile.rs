@@ -1,8 +1,8 @@
 //! One GTN tensile simulation of the Dataset-1 test (P91, 20 C) to its last
 //! displacement with the published parameters, and one to fracture (the
 //! same with coalescence, fc = 0.02, fF = 0.15, which breaks at 1.75 mm):
-//! wall time and peak memory. Target (issue 6): under 1 s and under 100 MB.
-//! Then meshes by element size in the neck (issue 21): 0.33, 0.18 and
+//! wall time and peak memory. Target: under 1 s and under 100 MB.
+//! Then meshes by element size in the neck: 0.33, 0.18 and
 //! 0.09 mm; target for 0.09 mm under 5 s.
 //!
 //! `cargo bench --bench tensile`

@@ -1,4 +1,4 @@
-//! The posterior stage (issue 35) against what it must equal.
+//! The posterior stage against what it must equal.
 //!
 //! - **Closed form**: a straight line `y = a + b t` at five points with
 //!   normal noise of known sd and normal priors has a normal posterior

@@ -875,7 +875,7 @@ fn the_shipped_excavator_geometry_is_what_the_identification_gives() {
     let out = dir.path().join("identify");
     let summary = run_external(&root().join("data/excavator/identify.toml"), &out);
     assert_eq!(summary["stop"], "converged", "{summary:#}");
-    // The published model's six nominal pressures, within the 5 %.
+    // The published model's six nominal pressures, within 5 % (the identification's target).
     for case in ["case1", "case2"] {
         for cylinder in ["bucket", "arm", "boom"] {
             let error = number(

@@ -1,5 +1,5 @@
 //! `acq twin excavator`, `acq twin gtn` and `acq sensitivity excavator` from the outside,
-//! exactly as the issue fixes them.
+//! exactly as their documented interfaces fix them.
 
 mod common;
 

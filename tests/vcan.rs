@@ -272,9 +272,13 @@ fn record_replay_and_simulate_on_a_real_vcan() {
     let median = errors_us[errors_us.len() / 2];
     let p99 = errors_us[errors_us.len() * 99 / 100];
     // Each frame's offset from the first, against the log's. A constant
-    // shift (a slow first send) is harmless; drift spreads the errors out,
-    // so the spread around their median is what an absolute schedule bounds.
-    let mut offset_errors_us: Vec<f64> = captured
+    // shift (a slow first send) is harmless, and so is a stall of the
+    // guest that the schedule catches up on. Drift is what stays: an
+    // absolute schedule ends where it started, one of relative sleeps adds
+    // every sleep's overshoot and ends behind by all of them. So the drift
+    // is the median offset error of the log's last tenth against that of
+    // its first tenth.
+    let offset_errors_us: Vec<f64> = captured
         .iter()
         .zip(&sent)
         .map(|(c, s)| {
@@ -283,16 +287,16 @@ fn record_replay_and_simulate_on_a_real_vcan() {
                 / 1e3
         })
         .collect();
-    offset_errors_us.sort_by(f64::total_cmp);
-    let center = offset_errors_us[offset_errors_us.len() / 2];
-    let mut spread: Vec<f64> = offset_errors_us
-        .iter()
-        .map(|e| (e - center).abs())
-        .collect();
-    spread.sort_by(f64::total_cmp);
-    let median_offset_us = spread[spread.len() / 2];
+    let tenth = offset_errors_us.len() / 10;
+    let median_of = |errors: &[f64]| {
+        let mut sorted = errors.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        sorted[sorted.len() / 2]
+    };
+    let drift_us = median_of(&offset_errors_us[offset_errors_us.len() - tenth..])
+        - median_of(&offset_errors_us[..tenth]);
     eprintln!(
-        "vcan replay timing (candump's kernel timestamps): inter-frame |error| median {median:.1} us, p99 {p99:.1} us; offset error spread (median |e - median e|) {median_offset_us:.1} us"
+        "vcan replay timing (candump's kernel timestamps): inter-frame |error| median {median:.1} us, p99 {p99:.1} us; drift (last tenth's median offset error - first tenth's) {drift_us:.1} us"
     );
     eprintln!(
         "{}",
@@ -318,13 +322,13 @@ fn record_replay_and_simulate_on_a_real_vcan() {
         )
     );
     assert!(
-        median_offset_us < 5000.0,
+        drift_us.abs() < 5000.0,
         "{}",
         judged(
             "check 2",
             replay_pace,
             REPLAY_PACE_FLOOR,
-            &format!("the replay drifted: offset error spread {median_offset_us} us")
+            &format!("the replay drifted: its last tenth is {drift_us} us off the schedule against its first")
         )
     );
 
@@ -602,10 +606,11 @@ fn record_replay_and_simulate_on_a_real_vcan() {
 const STUDY_PACE_FLOOR: f64 = 0.1;
 
 /// The slowest pace at which check 2's replay timing means something: a
-/// guest that keeps a pace p over the 2 s log ends (1/p - 1) x 2 s behind,
-/// and the spread of its offsets (median |e - median e|, about a quarter
-/// of that) passes the 5 ms bound only above p = 0.99.
-const REPLAY_PACE_FLOOR: f64 = 0.99;
+/// guest that keeps a pace p over the 2 s log (the log's span over the
+/// capture's) falls behind by (1/p - 1) x 2 s whatever acq does, 90 % of
+/// that between the first tenth and the last: inside the 5 ms drift bound
+/// only above p = 0.997.
+const REPLAY_PACE_FLOOR: f64 = 0.997;
 
 /// The slowest pace at which check 3's rates mean something: a pacing bug
 /// (everything at once, or a period off by a factor) lands far outside;
@@ -782,7 +787,16 @@ fn the_shipped_sessions_replayed_on_a_real_vcan_give_the_expected_calibration() 
     // Lossless over a real bus: every frame of each fixture is in the new
     // recording, and candump saw as many frames as acq recorded.
     let mut recorded_total = 0;
+    let mut slowest_pace = f64::INFINITY;
     for (name, _) in acq_demo::SHIPPED {
+        let span_s = |dir: &Path| {
+            let frames = read_session_frames(dir);
+            (frames[frames.len() - 1].timestamp_ns - frames[0].timestamp_ns) as f64 / 1e9
+        };
+        slowest_pace = slowest_pace.min(
+            span_s(&root().join("fixtures/sessions").join(name))
+                / span_s(&out.join("demo/sessions").join(name)),
+        );
         let original = session::read(&root().join("fixtures/sessions").join(name)).unwrap();
         let again = session::read(&out.join("demo/sessions").join(name)).unwrap();
         assert_eq!(
@@ -801,7 +815,14 @@ fn the_shipped_sessions_replayed_on_a_real_vcan_give_the_expected_calibration() 
     );
 
     // Align, extract, calibrate on the host, and check against the
-    // scenarios and the expected results.
+    // scenarios and the expected results. What the recordings hold depends
+    // on the guest's pace: a guest that replays late stretches the holds
+    // and sends in bursts, and the holds found in the new recording are
+    // no longer the fixture's (at 0.18 the 8 s hold of case 1 came out as
+    // two).
+    eprintln!(
+        "shipped sessions: the guest replayed them at {slowest_pace:.3} of their pace at the slowest (floor {DEMO_PACE_FLOOR})"
+    );
     let analysis = work.path().join("analysis");
     let output = common::acq(&[
         "demo",
@@ -810,6 +831,39 @@ fn the_shipped_sessions_replayed_on_a_real_vcan_give_the_expected_calibration() 
         "--out",
         analysis.to_str().unwrap(),
     ]);
-    assert!(output.status.success(), "{}", common::stderr(&output));
-    common::pipeline::check_demo_output(&analysis, false);
+    assert!(
+        output.status.success(),
+        "{}",
+        judged(
+            "the shipped sessions' analysis",
+            slowest_pace,
+            DEMO_PACE_FLOOR,
+            &common::stderr(&output)
+        )
+    );
+    let checked =
+        std::panic::catch_unwind(|| common::pipeline::check_demo_output(&analysis, false));
+    if let Err(failure) = checked {
+        let what = failure
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| failure.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_default();
+        panic!(
+            "{}",
+            judged(
+                "the shipped sessions' analysis",
+                slowest_pace,
+                DEMO_PACE_FLOOR,
+                &what
+            )
+        );
+    }
 }
+
+/// The slowest pace (a fixture's span over its new recording's) at which
+/// the shipped sessions recorded again in the guest still hold the
+/// fixtures' holds. Measured: 1.0 with the host idle or one core busy
+/// (five runs), 0.94 beside three busy processes, 0.29 beside eight
+/// (passed), 0.18 beside eight and a build (case 1's hold split in two).
+const DEMO_PACE_FLOOR: f64 = 0.3;

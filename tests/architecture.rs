@@ -512,3 +512,148 @@ fn collect_rs_files(dir: &Path, files: &mut Vec<PathBuf>) {
     }
     files.sort();
 }
+
+/// The project's own pages: README.md, ARCHITECTURE.md and the guide's
+/// chapters (docs/src).
+fn project_pages() -> Vec<PathBuf> {
+    let root = workspace_root();
+    let mut pages = vec![root.join("README.md"), root.join("ARCHITECTURE.md")];
+    let mut chapters: Vec<PathBuf> = std::fs::read_dir(root.join("docs/src"))
+        .expect("docs/src holds the guide")
+        .map(|entry| entry.unwrap().path())
+        .filter(|path| path.extension().is_some_and(|e| e == "md"))
+        .collect();
+    chapters.sort();
+    pages.extend(chapters);
+    pages
+}
+
+/// The link targets of a Markdown page, outside code blocks and spans.
+fn link_targets(markdown: &str) -> Vec<String> {
+    let mut targets = Vec::new();
+    let mut in_fence = false;
+    for line in markdown.lines() {
+        if line.trim_start().starts_with("```") {
+            in_fence = !in_fence;
+            continue;
+        }
+        if in_fence {
+            continue;
+        }
+        // Drop code spans: a link inside one is text.
+        let prose: String = line
+            .split('`')
+            .enumerate()
+            .filter(|(i, _)| i % 2 == 0)
+            .map(|(_, part)| part)
+            .collect::<Vec<_>>()
+            .join(" ");
+        let mut rest = prose.as_str();
+        while let Some(start) = rest.find("](") {
+            let after = &rest[start + 2..];
+            let Some(end) = after.find(')') else { break };
+            targets.push(after[..end].trim().to_string());
+            rest = &after[end..];
+        }
+    }
+    targets
+}
+
+/// A heading's anchor as mdBook and GitHub make it: lower case, letters,
+/// digits, '_' and '-' kept, white space to '-', the rest dropped.
+fn anchor_of(heading: &str) -> String {
+    heading
+        .trim()
+        .chars()
+        .filter_map(|c| {
+            if c.is_alphanumeric() || c == '_' || c == '-' {
+                Some(c.to_lowercase().next().unwrap_or(c))
+            } else if c.is_whitespace() {
+                Some('-')
+            } else {
+                None
+            }
+        })
+        .collect()
+}
+
+/// The anchors of a page's headings, outside code blocks.
+fn anchors_of(markdown: &str) -> BTreeSet<String> {
+    let mut in_fence = false;
+    let mut anchors = BTreeSet::new();
+    for line in markdown.lines() {
+        if line.trim_start().starts_with("```") {
+            in_fence = !in_fence;
+        } else if !in_fence && line.starts_with('#') {
+            anchors.insert(anchor_of(line.trim_start_matches('#')));
+        }
+    }
+    anchors
+}
+
+#[test]
+fn a_heading_s_anchor_is_the_one_mdbook_makes() {
+    assert_eq!(
+        anchor_of(" Parquet and MF4 output"),
+        "parquet-and-mf4-output"
+    );
+    assert_eq!(
+        anchor_of(" A study at the rig: `--study`"),
+        "a-study-at-the-rig---study"
+    );
+    assert_eq!(
+        link_targets("see [a](b.md#c) and `[x](not-a-link)` then [d](https://e)"),
+        ["b.md#c", "https://e"]
+    );
+}
+
+/// Every link between the project's own pages leads to a file that exists
+/// and, with a `#fragment`, to a heading of it; every chapter of the guide
+/// is in its table of contents. `mdbook build docs` (scripts/test) builds
+/// the guide but does not check its links.
+#[test]
+fn every_link_between_the_project_s_pages_leads_somewhere() {
+    let root = workspace_root();
+    let mut dead = Vec::new();
+    for page in project_pages() {
+        let text = std::fs::read_to_string(&page).unwrap();
+        for target in link_targets(&text) {
+            if target.contains("://") || target.starts_with("mailto:") {
+                continue;
+            }
+            let (file, fragment) = match target.split_once('#') {
+                Some((file, fragment)) => (file, Some(fragment)),
+                None => (target.as_str(), None),
+            };
+            let linked = if file.is_empty() {
+                page.clone()
+            } else {
+                page.parent().unwrap().join(file)
+            };
+            let shown = page.strip_prefix(&root).unwrap_or(&page).display();
+            if !linked.exists() {
+                dead.push(format!("{shown}: {target}: no such file"));
+                continue;
+            }
+            if let Some(fragment) = fragment {
+                let linked_text = std::fs::read_to_string(&linked).unwrap_or_default();
+                if !anchors_of(&linked_text).contains(fragment) {
+                    dead.push(format!("{shown}: {target}: no heading makes #{fragment}"));
+                }
+            }
+        }
+    }
+    assert!(dead.is_empty(), "dead links:\n{}", dead.join("\n"));
+    let summary = std::fs::read_to_string(root.join("docs/src/SUMMARY.md")).unwrap();
+    let listed: BTreeSet<String> = link_targets(&summary).into_iter().collect();
+    let unlisted: Vec<String> = project_pages()
+        .iter()
+        .filter(|page| page.parent() == Some(root.join("docs/src").as_path()))
+        .map(|page| page.file_name().unwrap().to_string_lossy().into_owned())
+        .filter(|name| name != "SUMMARY.md" && !listed.contains(name))
+        .collect();
+    assert!(
+        unlisted.is_empty(),
+        "chapters missing from docs/src/SUMMARY.md: {unlisted:?}"
+    );
+}

@@ -49,7 +49,7 @@ pub struct RecordArgs {
     /// twin, the posterior is updated after each, and the next test point
     /// is named (on the page with --view, and here). Checked against the
     /// rig before recording starts; its last state is left in the session
-    /// as study.json. The file's format: README, "A study at the rig".
+    /// as study.json. The file's format: docs/src/study-at-the-rig.md.
     #[arg(long, value_name = "STUDY.toml")]
     pub study: Option<PathBuf>,
     // The page (needs --rig: it decodes through it); it stops serving when
@@ -87,7 +87,7 @@ pub struct SimulateArgs {
     pub rig: PathBuf,
     /// What the sensors read over time. With a [twin] table the holds'
     /// levels come from the excavator twin at a stated (hidden) truth, at
-    /// the test points listed (README, "A study at the rig").
+    /// the test points listed (docs/src/study-at-the-rig.md).
     #[arg(long, value_name = "SCENARIO.toml")]
     pub scenario: PathBuf,
     /// Send on these interfaces, in real time: one for all buses, or one per rig bus in order.

@@ -22,7 +22,7 @@ pub struct CalibrateRigArgs {
     /// Session directories written by acq record (their holds, in order).
     #[arg(value_name = "SESSION_DIR", required = true)]
     pub sessions: Vec<PathBuf>,
-    /// The study at the rig (README, "A study at the rig").
+    /// The study at the rig (docs/src/study-at-the-rig.md).
     #[arg(long, value_name = "STUDY.toml")]
     pub study: PathBuf,
     /// Print the test point to run next: the candidate expected to narrow

@@ -84,6 +84,8 @@ struct Package {
     src_dir: PathBuf,
     /// Workspace crates it depends on, outside dev-dependencies.
     workspace_deps: BTreeSet<String>,
+    /// Every crate it depends on, outside dev-dependencies.
+    deps: BTreeSet<String>,
 }
 
 fn workspace_packages() -> Vec<Package> {
@@ -114,18 +116,23 @@ fn workspace_packages() -> Vec<Package> {
         .iter()
         .map(|p| {
             let manifest = PathBuf::from(p["manifest_path"].as_str().unwrap());
-            let workspace_deps = p["dependencies"]
+            let deps: BTreeSet<String> = p["dependencies"]
                 .as_array()
                 .unwrap()
                 .iter()
                 .filter(|d| d["kind"].as_str() != Some("dev"))
                 .map(|d| d["name"].as_str().unwrap().to_string())
-                .filter(|name| names.contains(name))
+                .collect();
+            let workspace_deps = deps
+                .iter()
+                .filter(|name| names.contains(*name))
+                .cloned()
                 .collect();
             Package {
                 name: p["name"].as_str().unwrap().to_string(),
                 src_dir: manifest.parent().unwrap().join("src"),
                 workspace_deps,
+                deps,
             }
         })
         .collect()
@@ -656,4 +663,149 @@ fn every_link_between_the_project_s_pages_leads_somewhere() {
         unlisted.is_empty(),
         "chapters missing from docs/src/SUMMARY.md: {unlisted:?}"
     );
+}
+
+/// The crates that may name clap: the binary, and the libraries whose
+/// options are still clap types. The list only shrinks (ARCHITECTURE.md,
+/// "Invariants").
+const MAY_NAME_CLAP: &[&str] = &["acq", "acq-workflows", "acq-view", "acq-demo"];
+
+/// Where `process::exit` may be called: the binary, and the run
+/// directory's Ctrl-C handler until it moves there.
+const MAY_EXIT: &[&str] = &["src/", "workflows/src/calibrate/run_directory.rs"];
+
+/// The library code that creates, replaces or renames files itself instead
+/// of through `acq_io::output`, each for its reason.
+const WRITES_DIRECTLY: &[(&str, &str)] = &[
+    (
+        "io/src/",
+        "acq_io::output itself, and the session file it serves",
+    ),
+    (
+        "acquire/src/record/",
+        "the recorder's raw log, written and rotated as it streams, and the session's rig copies",
+    ),
+    (
+        "calib/src/evaluation.rs",
+        "the evaluation log, appended run by run so that a crash loses none",
+    ),
+    (
+        "workflows/src/calibrate/command_model.rs",
+        "a model run's parameter file and copied inputs, in its own directory",
+    ),
+    (
+        "workflows/src/calibrate/executor.rs",
+        "a model run's stdout and stderr, in its own directory",
+    ),
+    (
+        "workflows/src/calibrate/slurm/",
+        "a job's script and the mark that acq cancelled it, in its run's directory",
+    ),
+    (
+        "demo/src/lib.rs",
+        "the mark that lets the next demo clear its own output",
+    ),
+];
+
+/// Each workspace source file's non-test code (up to its first
+/// `#[cfg(test)]`, where acq keeps its unit tests), by its path from the
+/// workspace root.
+fn non_test_sources() -> Vec<(String, String)> {
+    let root = workspace_root();
+    let mut sources = Vec::new();
+    for package in workspace_packages() {
+        let mut files = Vec::new();
+        collect_rs_files(&package.src_dir, &mut files);
+        for file in files {
+            let text = std::fs::read_to_string(&file).unwrap();
+            let code = match text.find("#[cfg(test)]") {
+                Some(i) => &text[..i],
+                None => &text[..],
+            };
+            let relative = file
+                .strip_prefix(&root)
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            sources.push((relative, strip_comments(code)));
+        }
+    }
+    sources
+}
+
+#[test]
+fn only_the_binary_and_the_listed_libraries_name_clap() {
+    let mut offenders: Vec<String> = workspace_packages()
+        .iter()
+        .filter(|p| p.deps.contains("clap") && !MAY_NAME_CLAP.contains(&p.name.as_str()))
+        .map(|p| format!("{} depends on clap", p.name))
+        .collect();
+    let may_name = |path: &str| {
+        MAY_NAME_CLAP.iter().any(|name| {
+            let dir = match name.strip_prefix("acq-") {
+                Some(stage) => format!("{stage}/src/"),
+                None => "src/".to_string(),
+            };
+            path.starts_with(&dir)
+        })
+    };
+    for (path, code) in non_test_sources() {
+        if code.contains("clap::") && !may_name(&path) {
+            offenders.push(format!("{path} names clap"));
+        }
+    }
+    assert!(offenders.is_empty(), "{offenders:#?}");
+}
+
+#[test]
+fn only_the_binary_and_the_listed_places_exit_the_process() {
+    let offenders: Vec<String> = non_test_sources()
+        .into_iter()
+        .filter(|(path, code)| {
+            code.contains("process::exit") && !MAY_EXIT.iter().any(|p| path.starts_with(p))
+        })
+        .map(|(path, _)| path)
+        .collect();
+    assert!(
+        offenders.is_empty(),
+        "process::exit outside {MAY_EXIT:?}: {offenders:?}"
+    );
+}
+
+#[test]
+fn files_are_written_through_acq_io_output_but_where_a_reason_is_listed() {
+    let writes = [
+        "fs::write(",
+        "File::create(",
+        "OpenOptions::new()",
+        "fs::rename(",
+        "fs::copy(",
+    ];
+    let offenders: Vec<String> = non_test_sources()
+        .into_iter()
+        .filter(|(path, _)| !WRITES_DIRECTLY.iter().any(|(p, _)| path.starts_with(p)))
+        .filter_map(|(path, code)| {
+            let found: Vec<&str> = writes
+                .iter()
+                .copied()
+                .filter(|w| names_call(&code, w))
+                .collect();
+            (!found.is_empty()).then(|| format!("{path}: {found:?}"))
+        })
+        .collect();
+    assert!(
+        offenders.is_empty(),
+        "files written other than through acq_io::output, with no reason in WRITES_DIRECTLY: {offenders:#?}"
+    );
+}
+
+/// `code` calls `path` itself, not a function whose name ends like it
+/// (`CompleteOnlyFile::create` is no `File::create`).
+fn names_call(code: &str, path: &str) -> bool {
+    code.match_indices(path).any(|(at, _)| {
+        !code[..at]
+            .chars()
+            .next_back()
+            .is_some_and(|c| c.is_alphanumeric() || c == '_')
+    })
 }

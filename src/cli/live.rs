@@ -196,7 +196,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
                 "--study needs --rig RIG.toml: the study reads the rig's holds".into(),
             ))
         }
-        (Some(path), Some(rig)) => Some(super::study::load(path, rig)?),
+        (Some(path), Some(rig)) => Some(super::rig_study::load(path, rig)?),
         (None, _) => None,
     };
     let mut observer: Option<Box<dyn record::RecordObserver>> = None;
@@ -227,7 +227,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
                     let _ = say.send(line.to_string());
                 })
             };
-            worker = Some(super::study::start(study, vec![shared.clone()], say));
+            worker = Some(super::rig_study::start(study, vec![shared.clone()], say));
         }
         if let Some((addr, access)) = view_address {
             let pages = acq_view::Pages {
@@ -274,7 +274,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         if let Some(words) = panel["next"]["words"].as_str() {
             eprintln!("acq: study: {words}");
         }
-        let path = super::study::write_last(&summary.session_dir, panel)?;
+        let path = super::rig_study::write_last(&summary.session_dir, panel)?;
         eprintln!("acq: the study's last state: {}", path.display());
     }
     let info = &summary.session.session;

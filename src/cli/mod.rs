@@ -8,7 +8,7 @@ mod decode;
 mod engine;
 mod live;
 mod offline;
-mod study;
+mod rig_study;
 mod tensile;
 mod twin;
 mod view;

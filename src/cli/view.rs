@@ -65,9 +65,9 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
         Some(path) => {
             // The first session's own copy of its rig.
             let rig = acq_analysis::recording::Recording::open(&args.sessions[0], None)?.rig;
-            let study = super::study::load(path, &rig)?;
+            let study = super::rig_study::load(path, &rig)?;
             let say: Box<dyn Fn(&str) + Send> = Box::new(|line: &str| eprintln!("acq: {line}"));
-            Some(super::study::start(study, sessions.clone(), say))
+            Some(super::rig_study::start(study, sessions.clone(), say))
         }
         None => None,
     };

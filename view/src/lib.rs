@@ -9,7 +9,7 @@
 //! - [`server`]: the HTTP server (read-only, loopback or token, CSP, events).
 //! - [`host`]: the `--view` options and the page on a runtime of its own.
 //! - [`page`]: the page's HTML skeleton, script, style and vendored uPlot.
-//! - [`study`]: a study fed the holds as they close, shown as `study`.
+//! - [`study_worker`]: a study fed the holds as they close, shown as `study`.
 //!
 //! The view sits after analysis in the data flow: it reads frames, samples
 //! and measured values, and nothing it does reaches back into the recorder
@@ -25,7 +25,7 @@ pub mod recorded;
 pub mod series;
 #[cfg(feature = "server")]
 pub mod server;
-pub mod study;
+pub mod study_worker;
 
 #[cfg(feature = "server")]
 pub use host::{ViewArgs, ViewHost};
@@ -33,7 +33,7 @@ pub use live::{live_session, LiveFeed, SharedSession};
 pub use recorded::{open_session, Source};
 #[cfg(feature = "server")]
 pub use server::{access_for, parse_address, serve, Access, Pages, ViewServer};
-pub use study::{HoldsStudy, SharedStudy, StudyWorker};
+pub use study_worker::{HoldsStudy, SharedStudy, StudyWorker};
 
 /// Where the page is served when `--view` is given without an address.
 pub const DEFAULT_ADDRESS: &str = "127.0.0.1:8750";

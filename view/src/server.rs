@@ -33,7 +33,7 @@ use acq_io::error::{AcqError, Result};
 
 use crate::live::SharedSession;
 use crate::page;
-use crate::study::SharedStudy;
+use crate::study_worker::SharedStudy;
 
 /// Updates are published this often.
 const PUBLISH_PERIOD: Duration = Duration::from_millis(100);

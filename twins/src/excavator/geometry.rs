@@ -11,7 +11,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::frame::BoxSection;
+use crate::plane_frame::BoxSection;
 
 /// A point in a body frame, metres.
 pub type PointM = [f64; 2];

@@ -14,8 +14,9 @@
 
 use std::sync::{Arc, OnceLock};
 
-use crate::frame::{
-    BoxSection, ElementId, FrameBuilder, FrameLoads, FrameModel, FrameSolution, NodeId,
+use crate::plane_frame::{
+    BoxSection, ElementId, NodeId, PlaneFrameBuilder, PlaneFrameLoads, PlaneFrameModel,
+    PlaneFrameSolution,
 };
 
 use super::geometry::{Face, Gauge, PointM, PointMass, Structure};
@@ -52,7 +53,7 @@ struct GaugeProbe {
 pub struct FlexibleBody {
     /// Shared by the bodies re-weighed from this one: the stiffness does
     /// not depend on the attached masses.
-    model: Arc<FrameModel>,
+    model: Arc<PlaneFrameModel>,
     box_elements: Vec<BoxElement>,
     pin_nodes: Vec<NodeId>,
     /// Attached masses as (node, offset from node, kg), and where each is
@@ -136,7 +137,7 @@ impl FlexibleBody {
             }
         }
 
-        let mut builder = FrameBuilder::new(youngs_modulus_pa);
+        let mut builder = PlaneFrameBuilder::new(youngs_modulus_pa);
         builder.density(density_kg_m3);
         let centreline_nodes: Vec<(f64, NodeId)> = refined
             .iter()
@@ -303,8 +304,8 @@ impl FlexibleBody {
 
     /// Solves the frame for pin forces (N, body frame, in `pins` order) and
     /// gravity (m/s^2, body frame).
-    pub fn solve(&self, pin_forces_n: &[Vec2], gravity_m_s2: Vec2) -> FrameSolution {
-        let mut loads = FrameLoads {
+    pub fn solve(&self, pin_forces_n: &[Vec2], gravity_m_s2: Vec2) -> PlaneFrameSolution {
+        let mut loads = PlaneFrameLoads {
             nodal: Vec::with_capacity(pin_forces_n.len() + self.attached.len()),
             body_acceleration_m_s2: [gravity_m_s2.x, gravity_m_s2.y],
             distributed: Vec::new(),
@@ -450,7 +451,7 @@ impl GaugeInfluence {
         };
         let pin_slots: Vec<usize> = body.pin_nodes.iter().map(|&n| slot_of(n)).collect();
         let attached_slots: Vec<usize> = body.attached.iter().map(|a| slot_of(a.0)).collect();
-        let section_forces = |loads: &FrameLoads| {
+        let section_forces = |loads: &PlaneFrameLoads| {
             let solution = body.model.solve(loads);
             body.gauges.iter().map(move |probe| {
                 let forces = solution.internal_forces(probe.element, probe.xi);
@@ -462,18 +463,18 @@ impl GaugeInfluence {
             for component in 0..3 {
                 let mut unit = [0.0; 3];
                 unit[component] = 1.0;
-                responses.extend(section_forces(&FrameLoads {
+                responses.extend(section_forces(&PlaneFrameLoads {
                     nodal: vec![(node, unit)],
-                    ..FrameLoads::default()
+                    ..PlaneFrameLoads::default()
                 }));
             }
         }
         for axis in 0..2 {
             let mut unit = [0.0; 2];
             unit[axis] = 1.0;
-            responses.extend(section_forces(&FrameLoads {
+            responses.extend(section_forces(&PlaneFrameLoads {
                 body_acceleration_m_s2: unit,
-                ..FrameLoads::default()
+                ..PlaneFrameLoads::default()
             }));
         }
         GaugeInfluence {

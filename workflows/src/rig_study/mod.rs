@@ -32,7 +32,7 @@ use crate::calibrate::builtin::ExcavatorModel;
 use crate::calibrate::external::geometry_template;
 use crate::calibrate::posterior::PosteriorSettings;
 use crate::calibrate::saved_emulator::{EmulatedModel, SavedEmulator};
-use crate::calibrate::spec::build::parameters;
+use crate::calibrate::spec::assemble::parameters;
 use crate::calibrate::spec::schema::{EmulatorSpec, ModelName};
 use crate::calibrate::spec::{checks, read_spec_file, spec_directory, SpecError, SpecProblem};
 use crate::calibrate::study::{Model, StudyParameter};

@@ -1,13 +1,13 @@
 //! The spec of `acq calibrate external`: a study on a user's solver or
 //! a built-in twin, as a TOML file. [`Spec::load`] reads it and checks it
 //! section by section ([`checks`]), reads the measured values it names
-//! ([`observations`]) and builds the [`Study`] ([`build`]); every problem
+//! ([`observations`]) and builds the [`Study`] ([`assemble`]); every problem
 //! names the file, and the line of the `[[table]]` at fault.
 //!
 //! - [`schema`]: every key and its default;
 //! - [`checks`]: one check per section;
 //! - [`observations`]: measured values from the spec and from files;
-//! - [`build`]: the cases, parameters and priors of the study.
+//! - [`assemble`]: the cases, parameters and priors of the study.
 //!
 //! ```toml
 //! command = ["sh", "solver.sh", "{params}", "{out}"]
@@ -120,7 +120,7 @@ use super::posterior::{check_posterior, PosteriorSettings};
 use super::study::Study;
 use super::surrogate_moo::SurrogateMooSettings;
 
-pub mod build;
+pub mod assemble;
 pub mod checks;
 pub mod model;
 pub mod observations;
@@ -184,7 +184,7 @@ impl Spec {
         checks::files(&file, &directory).map_err(located)?;
         checks::search(&file.search).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
-        let study = build::study(&file, &directory).map_err(located)?;
+        let study = assemble::study(&file, &directory).map_err(located)?;
         let posterior = file.posterior.as_ref().map(PosteriorSpec::settings);
         if let Some(settings) = &posterior {
             check_posterior(&study, settings)

@@ -20,7 +20,7 @@
 //!
 //! # Sign convention for internal forces
 //!
-//! [`FrameSolution::internal_forces`] reports the stress resultants at a section a
+//! [`PlaneFrameSolution::internal_forces`] reports the stress resultants at a section a
 //! fraction `xi` along an element, as they act on the part between node `a` and
 //! the section (the cut face whose outward normal is local `+x`):
 //!
@@ -39,8 +39,8 @@
 //!
 //! Distributed loads are uniform per unit length *of the element* (not of its
 //! projection), in body axes. Self weight comes from
-//! [`FrameLoads::body_acceleration_m_s2`] times each element's mass per length
-//! (density × area, see [`FrameBuilder::density`]): pass gravity as the field
+//! [`PlaneFrameLoads::body_acceleration_m_s2`] times each element's mass per length
+//! (density × area, see [`PlaneFrameBuilder::density`]): pass gravity as the field
 //! vector in body axes, e.g. `[0.0, -9.81]` when body `+y` is up; for
 //! d'Alembert inertia add minus the body's acceleration.
 //!
@@ -68,18 +68,18 @@
 //!
 //! A body's geometry, sections and supports are fixed while the calibration
 //! evaluates it for thousands of load cases (one per sample of a recording).
-//! [`FrameBuilder::build`] therefore assembles the stiffness matrix and Cholesky
-//! factors it once, O(n³); [`FrameModel::solve`] is then two triangular solves
+//! [`PlaneFrameBuilder::build`] therefore assembles the stiffness matrix and Cholesky
+//! factors it once, O(n³); [`PlaneFrameModel::solve`] is then two triangular solves
 //! (O(n²)) plus a pass over the elements, with a handful of allocations.
 //!
 //! # Example
 //!
 //! ```
-//! use acq_twins::frame::{FrameBuilder, FrameLoads, SectionProperties};
+//! use acq_twins::plane_frame::{PlaneFrameBuilder, PlaneFrameLoads, SectionProperties};
 //!
 //! // A 6 m simply supported beam under 1 kN/m downwards.
 //! let section = SectionProperties { area_m2: 1e-2, second_moment_m4: 1e-4 };
-//! let mut frame = FrameBuilder::new(210e9);
+//! let mut frame = PlaneFrameBuilder::new(210e9);
 //! let left = frame.node([0.0, 0.0]);
 //! let right = frame.node([6.0, 0.0]);
 //! let beam = frame.element(left, right, section);
@@ -87,12 +87,12 @@
 //! frame.roller_support(right, [0.0, 1.0]);
 //! let model = frame.build()?;
 //!
-//! let loads = FrameLoads { distributed: vec![(beam, [0.0, -1e3])], ..FrameLoads::default() };
+//! let loads = PlaneFrameLoads { distributed: vec![(beam, [0.0, -1e3])], ..PlaneFrameLoads::default() };
 //! let solution = model.solve(&loads);
 //! let midspan = solution.internal_forces(beam, 0.5);
 //! assert!((midspan.moment_nm - 1e3 * 6.0 * 6.0 / 8.0).abs() < 1e-6);
 //! assert!((solution.reaction(right)[1] - 3e3).abs() < 1e-6);
-//! # Ok::<(), acq_twins::frame::FrameError>(())
+//! # Ok::<(), acq_twins::plane_frame::PlaneFrameError>(())
 //! ```
 
 use std::fmt;
@@ -119,7 +119,7 @@ const PARALLEL_ROLLER_SIN: f64 = 1e-9;
 /// to rounding.
 const ZERO_LENGTH_RATIO: f64 = 1e-12;
 
-/// An index handed out by a [`FrameBuilder`], in creation order from 0.
+/// An index handed out by a [`PlaneFrameBuilder`], in creation order from 0.
 macro_rules! builder_id {
     ($(#[$doc:meta])* $name:ident, $label:literal) => {
         $(#[$doc])*
@@ -142,17 +142,17 @@ macro_rules! builder_id {
 }
 
 builder_id!(
-    /// Index of a node in the [`FrameBuilder`] that created it.
+    /// Index of a node in the [`PlaneFrameBuilder`] that created it.
     NodeId,
     "node"
 );
 builder_id!(
-    /// Index of an element in the [`FrameBuilder`] that created it.
+    /// Index of an element in the [`PlaneFrameBuilder`] that created it.
     ElementId,
     "element"
 );
 
-/// One nodal degree of freedom, as named in [`FrameError::Mechanism`].
+/// One nodal degree of freedom, as named in [`PlaneFrameError::Mechanism`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dof {
     /// Displacement along body `x`.
@@ -178,7 +178,7 @@ impl fmt::Display for Dof {
 
 /// Why a frame could not be built.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum FrameError {
+pub enum PlaneFrameError {
     /// Young's modulus is not positive and finite.
     #[error("Young's modulus must be positive and finite, got {0} Pa")]
     InvalidYoungsModulus(f64),
@@ -331,7 +331,7 @@ impl BoxSection {
             / (self.second_moment_m4() * 2.0 * self.web_thickness_m)
     }
 
-    /// Area and second moment, for [`FrameBuilder::element`].
+    /// Area and second moment, for [`PlaneFrameBuilder::element`].
     pub fn properties(&self) -> SectionProperties {
         SectionProperties {
             area_m2: self.area_m2(),
@@ -429,11 +429,11 @@ struct ElementSpec {
 }
 
 /// Collects nodes, elements and supports, then assembles and factors the
-/// stiffness once in [`build`](FrameBuilder::build).
+/// stiffness once in [`build`](PlaneFrameBuilder::build).
 ///
 /// Nothing is checked until `build`, which reports the first problem found.
 #[derive(Clone, Debug)]
-pub struct FrameBuilder {
+pub struct PlaneFrameBuilder {
     youngs_modulus_pa: f64,
     density_kg_m3: f64,
     nodes: Vec<[f64; 2]>,
@@ -442,11 +442,11 @@ pub struct FrameBuilder {
     supports: Vec<(NodeId, Support)>,
 }
 
-impl FrameBuilder {
+impl PlaneFrameBuilder {
     /// An empty frame of one material with Young's modulus `youngs_modulus_pa`
-    /// and density 0 (weightless until [`density`](FrameBuilder::density)).
+    /// and density 0 (weightless until [`density`](PlaneFrameBuilder::density)).
     pub fn new(youngs_modulus_pa: f64) -> Self {
-        FrameBuilder {
+        PlaneFrameBuilder {
             youngs_modulus_pa,
             density_kg_m3: 0.0,
             nodes: Vec::new(),
@@ -458,7 +458,7 @@ impl FrameBuilder {
 
     /// Sets the material density, kg/m³: every element's mass per length is
     /// `density_kg_m3 × area_m2` (whether added before or after this call)
-    /// unless overridden by [`element_linear_density`](FrameBuilder::element_linear_density).
+    /// unless overridden by [`element_linear_density`](PlaneFrameBuilder::element_linear_density).
     pub fn density(&mut self, density_kg_m3: f64) -> &mut Self {
         self.density_kg_m3 = density_kg_m3;
         self
@@ -513,16 +513,18 @@ impl FrameBuilder {
     ///
     /// Fails on bad material or geometry data, or when the supports leave a
     /// mechanism (including a node that no element stiffens).
-    pub fn build(self) -> Result<FrameModel, FrameError> {
+    pub fn build(self) -> Result<PlaneFrameModel, PlaneFrameError> {
         if !(self.youngs_modulus_pa.is_finite() && self.youngs_modulus_pa > 0.0) {
-            return Err(FrameError::InvalidYoungsModulus(self.youngs_modulus_pa));
+            return Err(PlaneFrameError::InvalidYoungsModulus(
+                self.youngs_modulus_pa,
+            ));
         }
         if !(self.density_kg_m3.is_finite() && self.density_kg_m3 >= 0.0) {
-            return Err(FrameError::InvalidDensity(self.density_kg_m3));
+            return Err(PlaneFrameError::InvalidDensity(self.density_kg_m3));
         }
         for (i, &position_m) in self.nodes.iter().enumerate() {
             if !position_m.iter().all(|c| c.is_finite()) {
-                return Err(FrameError::InvalidNodePosition {
+                return Err(PlaneFrameError::InvalidNodePosition {
                     node: NodeId(i),
                     position_m,
                 });
@@ -591,7 +593,7 @@ impl FrameBuilder {
                 (1, false) => Dof::Y,
                 _ => Dof::Rotation,
             };
-            FrameError::Mechanism {
+            PlaneFrameError::Mechanism {
                 node: NodeId(node),
                 dof: kind,
             }
@@ -610,7 +612,7 @@ impl FrameBuilder {
             }
         }
 
-        Ok(FrameModel {
+        Ok(PlaneFrameModel {
             nodes: self.nodes,
             elements,
             roller_directions,
@@ -621,14 +623,14 @@ impl FrameBuilder {
         })
     }
 
-    fn build_elements(&self) -> Result<Vec<Element>, FrameError> {
+    fn build_elements(&self) -> Result<Vec<Element>, PlaneFrameError> {
         let mut linear_density_overrides = vec![None; self.elements.len()];
         for &(element, value) in &self.linear_densities {
             let slot = linear_density_overrides
                 .get_mut(element.0)
-                .ok_or(FrameError::UnknownElement(element))?;
+                .ok_or(PlaneFrameError::UnknownElement(element))?;
             if !(value.is_finite() && value >= 0.0) {
-                return Err(FrameError::InvalidLinearDensity { element, value });
+                return Err(PlaneFrameError::InvalidLinearDensity { element, value });
             }
             *slot = Some(value);
         }
@@ -640,12 +642,12 @@ impl FrameBuilder {
             let [a, b] = spec.nodes;
             for node in [a, b] {
                 if node.0 >= self.nodes.len() {
-                    return Err(FrameError::UnknownNode(node));
+                    return Err(PlaneFrameError::UnknownNode(node));
                 }
             }
             spec.section
                 .validate()
-                .map_err(|reason| FrameError::InvalidSection {
+                .map_err(|reason| PlaneFrameError::InvalidSection {
                     element: id,
                     reason,
                 })?;
@@ -653,7 +655,7 @@ impl FrameBuilder {
             let delta = [pb[0] - pa[0], pb[1] - pa[1]];
             let length_m = delta[0].hypot(delta[1]);
             if a == b || length_m <= ZERO_LENGTH_RATIO * extent_m {
-                return Err(FrameError::ZeroLengthElement { element: id, a, b });
+                return Err(PlaneFrameError::ZeroLengthElement { element: id, a, b });
             }
             let linear_density_kg_per_m =
                 linear_density_overrides[i].unwrap_or(self.density_kg_m3 * spec.section.area_m2);
@@ -669,12 +671,12 @@ impl FrameBuilder {
         Ok(elements)
     }
 
-    fn resolve_supports(&self) -> Result<Vec<NodeRestraint>, FrameError> {
+    fn resolve_supports(&self) -> Result<Vec<NodeRestraint>, PlaneFrameError> {
         let mut restraints = vec![NodeRestraint::default(); self.nodes.len()];
         for &(node, support) in &self.supports {
             let restraint = restraints
                 .get_mut(node.0)
-                .ok_or(FrameError::UnknownNode(node))?;
+                .ok_or(PlaneFrameError::UnknownNode(node))?;
             match support {
                 Support::Pin => restraint.translation = Translation::Fixed,
                 Support::Fixed => {
@@ -684,7 +686,7 @@ impl FrameBuilder {
                 Support::Roller { direction } => {
                     let norm = direction[0].hypot(direction[1]);
                     if !(norm.is_finite() && norm > 0.0) {
-                        return Err(FrameError::InvalidRollerDirection { node, direction });
+                        return Err(PlaneFrameError::InvalidRollerDirection { node, direction });
                     }
                     let unit = [direction[0] / norm, direction[1] / norm];
                     restraint.translation = restraint.translation.with_roller(unit);
@@ -853,7 +855,7 @@ fn bounding_box_diagonal_m(points: &[[f64; 2]]) -> f64 {
 
 /// An assembled, supported and factored frame, ready to solve load cases.
 #[derive(Clone, Debug)]
-pub struct FrameModel {
+pub struct PlaneFrameModel {
     nodes: Vec<[f64; 2]>,
     elements: Vec<Element>,
     /// Per node: the roller direction whose frame its translation dofs use.
@@ -868,7 +870,7 @@ pub struct FrameModel {
     free_fixed_stiffness: DMatrix<f64>,
 }
 
-impl FrameModel {
+impl PlaneFrameModel {
     /// Number of nodes.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
@@ -907,7 +909,7 @@ impl FrameModel {
     ///
     /// # Panics
     /// If `loads` names a node or element that does not belong to this model.
-    pub fn solve(&self, loads: &FrameLoads) -> FrameSolution {
+    pub fn solve(&self, loads: &PlaneFrameLoads) -> PlaneFrameSolution {
         let dof_count = DOFS_PER_NODE * self.nodes.len();
 
         // Each element's uniform load per length, body axes for now; the end
@@ -984,7 +986,7 @@ impl FrameModel {
             result.end_forces_local = end_forces.into();
         }
 
-        FrameSolution {
+        PlaneFrameSolution {
             displacement,
             reaction,
             elements,
@@ -1003,12 +1005,12 @@ impl FrameModel {
 
 /// Loads in body axes.
 #[derive(Clone, Debug, Default)]
-pub struct FrameLoads {
+pub struct PlaneFrameLoads {
     /// Nodal loads `[fx_n, fy_n, moment_nm]` (moment counter-clockwise); several
     /// entries for one node add up.
     pub nodal: Vec<(NodeId, [f64; 3])>,
     /// Uniform load per unit length on every element, e.g. gravity: each
-    /// element's mass per length (see [`FrameBuilder::density`]) times this
+    /// element's mass per length (see [`PlaneFrameBuilder::density`]) times this
     /// acceleration field `[ax, ay]`, m/s².
     pub body_acceleration_m_s2: [f64; 2],
     /// Extra uniform loads per unit length of one element `[qx, qy]`, N/m, body
@@ -1040,7 +1042,7 @@ struct ElementResult {
 
 /// The result of one load case.
 #[derive(Clone, Debug)]
-pub struct FrameSolution {
+pub struct PlaneFrameSolution {
     /// Body axes, three entries per node.
     displacement: Vec<f64>,
     /// Body axes, three entries per node; zero where free.
@@ -1048,7 +1050,7 @@ pub struct FrameSolution {
     elements: Vec<ElementResult>,
 }
 
-impl FrameSolution {
+impl PlaneFrameSolution {
     /// A node's `[ux_m, uy_m, rotation_rad]` in body axes (rotation
     /// counter-clockwise).
     ///
@@ -1179,7 +1181,7 @@ mod tests {
 
     impl Member {
         fn add(
-            frame: &mut FrameBuilder,
+            frame: &mut PlaneFrameBuilder,
             origin: [f64; 2],
             axes: Axes,
             length_m: f64,
@@ -1189,7 +1191,7 @@ mod tests {
         }
 
         fn add_with(
-            frame: &mut FrameBuilder,
+            frame: &mut PlaneFrameBuilder,
             origin: [f64; 2],
             axes: Axes,
             length_m: f64,
@@ -1229,7 +1231,7 @@ mod tests {
 
     #[track_caller]
     fn assert_internal(
-        solution: &FrameSolution,
+        solution: &PlaneFrameSolution,
         member: &Member,
         expected: impl Fn(f64) -> [f64; 3],
         force_scale: f64,
@@ -1248,7 +1250,7 @@ mod tests {
     /// also gets the element's index along the member.
     #[track_caller]
     fn assert_internal_by_element(
-        solution: &FrameSolution,
+        solution: &PlaneFrameSolution,
         member: &Member,
         expected: impl Fn(usize, f64) -> [f64; 3],
         force_scale: f64,
@@ -1270,7 +1272,7 @@ mod tests {
 
     #[track_caller]
     fn assert_local_displacements(
-        solution: &FrameSolution,
+        solution: &PlaneFrameSolution,
         member: &Member,
         axes: Axes,
         expected: impl Fn(f64) -> [f64; 3],
@@ -1288,7 +1290,7 @@ mod tests {
 
     #[track_caller]
     fn assert_reaction(
-        solution: &FrameSolution,
+        solution: &PlaneFrameSolution,
         node: NodeId,
         axes: Axes,
         expected_local: [f64; 3],
@@ -1310,11 +1312,11 @@ mod tests {
     fn check_cantilever_tip_load(angle_rad: f64) {
         let (length, p) = (4.0, 1500.0);
         let axes = Axes::at(angle_rad);
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [1.0, -2.0], axes, length, 8);
         frame.fixed_support(member.first());
         let model = frame.build().unwrap();
-        let loads = FrameLoads {
+        let loads = PlaneFrameLoads {
             nodal: vec![(member.last(), axes.load([0.0, p], 0.0))],
             ..Default::default()
         };
@@ -1376,11 +1378,11 @@ mod tests {
     fn check_cantilever_tip_moment(angle_rad: f64) {
         let (length, m0) = (3.0, 2500.0);
         let axes = Axes::at(angle_rad);
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [0.0, 0.0], axes, length, 5);
         frame.fixed_support(member.first());
         let model = frame.build().unwrap();
-        let loads = FrameLoads {
+        let loads = PlaneFrameLoads {
             nodal: vec![(member.last(), [0.0, 0.0, m0])],
             ..Default::default()
         };
@@ -1407,12 +1409,12 @@ mod tests {
     fn check_cantilever_uniform_load(angle_rad: f64) {
         let (length, w) = (5.0, 2000.0);
         let axes = Axes::at(angle_rad);
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [0.0, 0.0], axes, length, 7);
         frame.fixed_support(member.first());
         let model = frame.build().unwrap();
         let q = axes.body([0.0, -w]);
-        let loads = FrameLoads {
+        let loads = PlaneFrameLoads {
             distributed: member.elements.iter().map(|&e| (e, q)).collect(),
             ..Default::default()
         };
@@ -1484,9 +1486,9 @@ mod tests {
         length_m: f64,
         n: usize,
         two_rollers_for_pin: bool,
-    ) -> (FrameModel, Member, Axes) {
+    ) -> (PlaneFrameModel, Member, Axes) {
         let axes = Axes::at(angle_rad);
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [-3.0, 0.5], axes, length_m, n);
         if two_rollers_for_pin {
             frame.roller_support(member.first(), [1.0, 0.0]);
@@ -1505,7 +1507,7 @@ mod tests {
         for (n, two_rollers_for_pin) in [(5, false), (6, false), (5, true)] {
             let (model, member, axes) = simply_supported(angle_rad, l, n, two_rollers_for_pin);
             let q = axes.body([0.0, -w]);
-            let loads = FrameLoads {
+            let loads = PlaneFrameLoads {
                 distributed: member.elements.iter().map(|&e| (e, q)).collect(),
                 ..Default::default()
             };
@@ -1584,7 +1586,7 @@ mod tests {
     fn check_simply_supported_central_load(angle_rad: f64) {
         let (l, p) = (6.0, 8000.0);
         let (model, member, axes) = simply_supported(angle_rad, l, 6, false);
-        let loads = FrameLoads {
+        let loads = PlaneFrameLoads {
             nodal: vec![(member.nodes[3], axes.load([0.0, -p], 0.0))],
             ..Default::default()
         };
@@ -1632,11 +1634,11 @@ mod tests {
         let axes = Axes::at(angle_rad);
 
         // Clamped, end load P: u = Px/EA, N = P.
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [0.0, 1.0], axes, l, 4);
         frame.fixed_support(member.first());
         let model = frame.build().unwrap();
-        let solution = model.solve(&FrameLoads {
+        let solution = model.solve(&PlaneFrameLoads {
             nodal: vec![(member.last(), axes.load([p, 0.0], 0.0))],
             ..Default::default()
         });
@@ -1647,7 +1649,7 @@ mod tests {
         assert_internal(&solution, &member, |_| [p, 0.0, 0.0], p, p * l);
 
         // Clamped, uniform axial load q: u = q(Lx - x²/2)/EA, N = q(L - x).
-        let loads = FrameLoads {
+        let loads = PlaneFrameLoads {
             distributed: member
                 .elements
                 .iter()
@@ -1673,11 +1675,11 @@ mod tests {
         );
 
         // Pin and a roller across the bar: the roller end slides freely along it.
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [0.0, 1.0], axes, l, 3);
         frame.pin_support(member.first());
         frame.roller_support(member.last(), axes.y);
-        let solution = frame.build().unwrap().solve(&FrameLoads {
+        let solution = frame.build().unwrap().solve(&PlaneFrameLoads {
             nodal: vec![(member.last(), axes.load([p, 0.0], 0.0))],
             ..Default::default()
         });
@@ -1726,7 +1728,7 @@ mod tests {
     fn free_body_under_balanced_loads_has_no_reactions_and_hand_statics() {
         let p = 10e3;
         let q = 0.75 * p;
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let ab = Member::add(&mut frame, [0.0, 0.0], Axes::at(0.0), 4.0, 3);
         let bc_nodes: Vec<NodeId> = [1.0, 2.0, 3.0]
             .into_iter()
@@ -1746,7 +1748,7 @@ mod tests {
         frame.pin_support(ab.first());
         frame.roller_support(bc.last(), [0.0, 1.0]);
         let model = frame.build().unwrap();
-        let loads = FrameLoads {
+        let loads = PlaneFrameLoads {
             nodal: vec![
                 (bc.last(), [p, 0.0, 0.0]),
                 (ab.first(), [-p, -q, 0.0]),
@@ -1784,7 +1786,7 @@ mod tests {
                 second_moment_m4: 2e-5,
             },
         ];
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         frame.density(STEEL_KG_M3);
         let nodes = [[0.0, 0.0], [1.5, 1.0], [3.0, 1.2], [4.0, 0.4]].map(|p| frame.node(p));
         let elements: Vec<ElementId> = nodes
@@ -1795,7 +1797,7 @@ mod tests {
         frame.fixed_support(nodes[0]);
         let model = frame.build().unwrap();
 
-        let by_gravity = model.solve(&FrameLoads {
+        let by_gravity = model.solve(&PlaneFrameLoads {
             body_acceleration_m_s2: g,
             ..Default::default()
         });
@@ -1812,7 +1814,7 @@ mod tests {
                 )
             })
             .collect();
-        let by_distributed = model.solve(&FrameLoads {
+        let by_distributed = model.solve(&PlaneFrameLoads {
             distributed,
             ..Default::default()
         });
@@ -1866,13 +1868,13 @@ mod tests {
     fn self_weight_of_a_horizontal_cantilever_and_linear_density_override() {
         let (l, g) = (4.0, 9.81);
         let w = STEEL_KG_M3 * SECTION.area_m2 * g;
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let member = Member::add(&mut frame, [0.0, 0.0], Axes::at(0.0), l, 4);
         frame.fixed_support(member.first());
         // Set after the elements: still applies to them.
         frame.density(STEEL_KG_M3);
         let model = frame.clone().build().unwrap();
-        let solution = model.solve(&FrameLoads {
+        let solution = model.solve(&PlaneFrameLoads {
             body_acceleration_m_s2: [0.0, -g],
             ..Default::default()
         });
@@ -1892,7 +1894,7 @@ mod tests {
         // 100 kg/m on the last element instead of steel.
         frame.element_linear_density(member.elements[3], 100.0);
         let model = frame.build().unwrap();
-        let with_override = model.solve(&FrameLoads {
+        let with_override = model.solve(&PlaneFrameLoads {
             body_acceleration_m_s2: [0.0, -g],
             ..Default::default()
         });
@@ -1901,7 +1903,7 @@ mod tests {
             .map(|&e| (e, [0.0, -w]))
             .collect();
         distributed.push((member.elements[3], [0.0, -100.0 * g]));
-        let by_hand = model.solve(&FrameLoads {
+        let by_hand = model.solve(&PlaneFrameLoads {
             body_acceleration_m_s2: [0.0, 0.0],
             distributed,
             ..Default::default()
@@ -1961,10 +1963,10 @@ mod tests {
                 ROOT.linear_blend(&TIP, (i as f64 + 0.5) / n as f64)
                     .properties()
             };
-            let mut frame = FrameBuilder::new(E_PA);
+            let mut frame = PlaneFrameBuilder::new(E_PA);
             let member = Member::add_with(&mut frame, [0.0, 0.0], axes, l, n, section);
             frame.fixed_support(member.first());
-            let solution = frame.build().unwrap().solve(&FrameLoads {
+            let solution = frame.build().unwrap().solve(&PlaneFrameLoads {
                 nodal: vec![(member.last(), axes.load([0.0, p], 0.0))],
                 ..Default::default()
             });
@@ -2109,9 +2111,9 @@ mod tests {
     // ---- 10: builder errors -----------------------------------------------------------
 
     fn beam(
-        supports: impl FnOnce(&mut FrameBuilder, NodeId, NodeId),
-    ) -> Result<FrameModel, FrameError> {
-        let mut frame = FrameBuilder::new(E_PA);
+        supports: impl FnOnce(&mut PlaneFrameBuilder, NodeId, NodeId),
+    ) -> Result<PlaneFrameModel, PlaneFrameError> {
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([0.0, 0.0]);
         let b = frame.node([2.0, 0.0]);
         frame.element(a, b, SECTION);
@@ -2123,7 +2125,7 @@ mod tests {
     fn mechanisms_are_errors_not_panics() {
         let unsupported = beam(|_, _, _| {}).unwrap_err();
         assert!(
-            matches!(unsupported, FrameError::Mechanism { .. }),
+            matches!(unsupported, PlaneFrameError::Mechanism { .. }),
             "{unsupported}"
         );
         assert!(unsupported.to_string().contains("mechanism"));
@@ -2132,7 +2134,7 @@ mod tests {
         let pin_only = beam(|f, a, _| f.pin_support(a)).unwrap_err();
         assert_eq!(
             pin_only,
-            FrameError::Mechanism {
+            PlaneFrameError::Mechanism {
                 node: NodeId(1),
                 dof: Dof::Rotation
             }
@@ -2144,10 +2146,13 @@ mod tests {
             f.roller_support(b, [1.0, 0.0]);
         })
         .unwrap_err();
-        assert!(matches!(aligned, FrameError::Mechanism { .. }), "{aligned}");
+        assert!(
+            matches!(aligned, PlaneFrameError::Mechanism { .. }),
+            "{aligned}"
+        );
 
         // A node that no element stiffens.
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([0.0, 0.0]);
         let b = frame.node([2.0, 0.0]);
         let loose = frame.node([1.0, 1.0]);
@@ -2156,7 +2161,7 @@ mod tests {
         frame.pin_support(loose);
         assert_eq!(
             frame.build().unwrap_err(),
-            FrameError::Mechanism {
+            PlaneFrameError::Mechanism {
                 node: loose,
                 dof: Dof::Rotation
             }
@@ -2170,7 +2175,7 @@ mod tests {
         })
         .unwrap_err();
         assert!(
-            matches!(parallel, FrameError::Mechanism { .. }),
+            matches!(parallel, PlaneFrameError::Mechanism { .. }),
             "{parallel}"
         );
 
@@ -2183,22 +2188,22 @@ mod tests {
 
     #[test]
     fn bad_data_is_an_error() {
-        let supported = |f: &mut FrameBuilder, a, b| {
+        let supported = |f: &mut PlaneFrameBuilder, a, b| {
             f.pin_support(a);
             f.roller_support(b, [0.0, 1.0]);
         };
 
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([1.0, 1.0]);
         let b = frame.node([1.0, 1.0]);
         frame.element(a, b, SECTION);
         supported(&mut frame, a, b);
         assert!(matches!(
             frame.build(),
-            Err(FrameError::ZeroLengthElement { .. })
+            Err(PlaneFrameError::ZeroLengthElement { .. })
         ));
 
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([0.0, 0.0]);
         let b = frame.node([1.0, 0.0]);
         frame.element(a, b, SECTION);
@@ -2206,7 +2211,7 @@ mod tests {
         supported(&mut frame, a, b);
         assert_eq!(
             frame.build().unwrap_err(),
-            FrameError::ZeroLengthElement {
+            PlaneFrameError::ZeroLengthElement {
                 element: ElementId(1),
                 a: b,
                 b
@@ -2227,31 +2232,34 @@ mod tests {
                 ..SECTION
             },
         ] {
-            let mut frame = FrameBuilder::new(E_PA);
+            let mut frame = PlaneFrameBuilder::new(E_PA);
             let a = frame.node([0.0, 0.0]);
             let b = frame.node([1.0, 0.0]);
             frame.element(a, b, section);
             supported(&mut frame, a, b);
             let error = frame.build().unwrap_err();
             assert!(
-                matches!(error, FrameError::InvalidSection { .. }),
+                matches!(error, PlaneFrameError::InvalidSection { .. }),
                 "{error}"
             );
         }
 
-        let mut frame = FrameBuilder::new(0.0);
+        let mut frame = PlaneFrameBuilder::new(0.0);
         let a = frame.node([0.0, 0.0]);
         let b = frame.node([1.0, 0.0]);
         frame.element(a, b, SECTION);
         supported(&mut frame, a, b);
         assert_eq!(
             frame.clone().build().unwrap_err(),
-            FrameError::InvalidYoungsModulus(0.0)
+            PlaneFrameError::InvalidYoungsModulus(0.0)
         );
 
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         frame.density(-1.0);
-        assert_eq!(frame.build().unwrap_err(), FrameError::InvalidDensity(-1.0));
+        assert_eq!(
+            frame.build().unwrap_err(),
+            PlaneFrameError::InvalidDensity(-1.0)
+        );
 
         let roller = beam(|f, a, b| {
             f.pin_support(a);
@@ -2259,27 +2267,30 @@ mod tests {
         });
         assert!(matches!(
             roller,
-            Err(FrameError::InvalidRollerDirection { .. })
+            Err(PlaneFrameError::InvalidRollerDirection { .. })
         ));
 
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([0.0, 0.0]);
         let b = frame.node([1.0, f64::NAN]);
         frame.element(a, b, SECTION);
         assert!(matches!(
             frame.build(),
-            Err(FrameError::InvalidNodePosition { .. })
+            Err(PlaneFrameError::InvalidNodePosition { .. })
         ));
 
         // An id from another, larger frame.
-        let mut other = FrameBuilder::new(E_PA);
+        let mut other = PlaneFrameBuilder::new(E_PA);
         let foreign = (0..5).map(|i| other.node([i as f64, 0.0])).last().unwrap();
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([0.0, 0.0]);
         frame.element(a, foreign, SECTION);
-        assert_eq!(frame.build().unwrap_err(), FrameError::UnknownNode(foreign));
+        assert_eq!(
+            frame.build().unwrap_err(),
+            PlaneFrameError::UnknownNode(foreign)
+        );
 
-        let mut frame = FrameBuilder::new(E_PA);
+        let mut frame = PlaneFrameBuilder::new(E_PA);
         let a = frame.node([0.0, 0.0]);
         let b = frame.node([1.0, 0.0]);
         let element = frame.element(a, b, SECTION);
@@ -2287,23 +2298,23 @@ mod tests {
         frame.element_linear_density(element, f64::NAN);
         assert!(matches!(
             frame.build(),
-            Err(FrameError::InvalidLinearDensity { .. })
+            Err(PlaneFrameError::InvalidLinearDensity { .. })
         ));
     }
 
     #[test]
     fn solutions_superpose_and_the_model_is_reusable() {
         let (model, member, _) = simply_supported(0.3, 5.0, 4, false);
-        let a = FrameLoads {
+        let a = PlaneFrameLoads {
             nodal: vec![(member.nodes[1], [1e3, -2e3, 500.0])],
             ..Default::default()
         };
-        let b = FrameLoads {
+        let b = PlaneFrameLoads {
             distributed: vec![(member.elements[2], [300.0, -700.0])],
             body_acceleration_m_s2: [1.0, -9.81],
             ..Default::default()
         };
-        let both = FrameLoads {
+        let both = PlaneFrameLoads {
             nodal: a.nodal.clone(),
             distributed: b.distributed.clone(),
             body_acceleration_m_s2: b.body_acceleration_m_s2,
@@ -2508,7 +2519,7 @@ mod tests {
             nodal[0][0] -= total[0] + at_end[0];
             nodal[0][1] -= total[1] + at_end[1];
 
-            let mut frame = FrameBuilder::new(E_PA);
+            let mut frame = PlaneFrameBuilder::new(E_PA);
             frame.density(STEEL_KG_M3);
             let nodes: Vec<NodeId> = positions.iter().map(|&p| frame.node(p)).collect();
             let elements: Vec<ElementId> =
@@ -2517,7 +2528,7 @@ mod tests {
             let roller_angle = span[1].atan2(span[0]) + body.roller_angle_rad;
             frame.roller_support(nodes[n], [roller_angle.cos(), roller_angle.sin()]);
             let model = frame.build().unwrap();
-            let loads = FrameLoads {
+            let loads = PlaneFrameLoads {
                 nodal: nodes.iter().zip(&nodal).map(|(&node, &load)| (node, load)).collect(),
                 distributed: elements.iter().zip(&body.distributed).map(|(&e, &q)| (e, q)).collect(),
                 body_acceleration_m_s2: body.acceleration_m_s2,

@@ -421,353 +421,29 @@ impl Rig {
                 message: e.message().trim().to_string(),
             }],
         })?;
-        let mut problems = Vec::new();
-        let mut warnings = Vec::new();
-        let mut report = |line: usize, message: String| {
-            problems.push(RigProblem {
-                line: Some(line),
-                message,
-            })
+        let mut findings = RigFindings {
+            text,
+            problems: Vec::new(),
+            warnings: Vec::new(),
         };
-
         if file.sensors.is_empty() {
-            report(1, "no [[sensor]] defined: a rig needs at least one".into());
+            findings.report(1, "no [[sensor]] defined: a rig needs at least one".into());
         }
         if file.buses.is_empty() {
-            report(
+            findings.report(
                 1,
                 "no [[bus]] defined: add one with name, iface (e.g. can0) and its dbc files".into(),
             );
         }
-
-        // Buses and their DBC files.
-        let mut buses: Vec<Bus> = Vec::new();
-        for spanned in &file.buses {
-            let line = line_of(text, spanned.span().start);
-            let bus = spanned.get_ref();
-            if buses.iter().any(|b| b.name == bus.name) {
-                report(line, format!("bus '{}' is defined twice", bus.name));
-                continue;
-            }
-            let Some(iface) = IfaceName::new(&bus.iface) else {
-                report(line, format!("bus '{}': iface '{}' is not an interface name (1-15 characters, no spaces)", bus.name, bus.iface));
-                continue;
-            };
-            let mut database = DbcDatabase::new();
-            let mut dbc_files = Vec::new();
-            for relative in &bus.dbc {
-                let dbc_path = base.join(relative);
-                if !dbc_path.is_file() {
-                    report(
-                        line,
-                        format!(
-                            "bus '{}': DBC file {} not found (paths are relative to the rig file)",
-                            bus.name,
-                            dbc_path.display()
-                        ),
-                    );
-                    continue;
-                }
-                match DbcDatabase::load(&dbc_path).and_then(|(one, skipped)| {
-                    database.merge(one)?;
-                    Ok(skipped)
-                }) {
-                    Ok(skipped) => warnings.extend(skipped.into_iter().map(|w| w.0)),
-                    Err(e) => report(line, format!("bus '{}': {e}", bus.name)),
-                }
-                dbc_files.push(dbc_path);
-            }
-            let clock = match (bus.clock_offset_ms, &bus.clock_sync) {
-                (Some(_), Some(_)) => {
-                    report(
-                        line,
-                        format!(
-                            "bus '{}': give clock_offset_ms or clock_sync, not both",
-                            bus.name
-                        ),
-                    );
-                    BusClock::Reference
-                }
-                (Some(ms), None) if !ms.is_finite() => {
-                    report(
-                        line,
-                        format!(
-                            "bus '{}': clock_offset_ms must be a number of milliseconds",
-                            bus.name
-                        ),
-                    );
-                    BusClock::Reference
-                }
-                (Some(ms), None) => BusClock::OffsetMs(ms),
-                // Sensor names are resolved once every sensor is known.
-                (None, _) => BusClock::Reference,
-            };
-            buses.push(Bus {
-                name: bus.name.clone(),
-                iface,
-                bitrate: bus.bitrate,
-                dbc_files,
-                dbc: database,
-                clock,
-            });
-        }
-
-        // Sensors.
-        let mut sensors: Vec<Sensor> = Vec::new();
-        let mut names: HashMap<String, usize> = HashMap::new();
-        for spanned in &file.sensors {
-            let line = line_of(text, spanned.span().start);
-            let sensor = spanned.get_ref();
-            let name = &sensor.name;
-            if let Some(first) = names.insert(name.clone(), line) {
-                report(
-                    line,
-                    format!("sensor '{name}' is defined twice (first on line {first})"),
-                );
-                continue;
-            }
-            if name.is_empty() || name.contains([',', '"', '\n']) {
-                report(line, format!("sensor name '{name}' must be non-empty without commas or quotes (it is a CSV column)"));
-                continue;
-            }
-            if !(sensor.rate_hz > 0.0 && sensor.rate_hz <= MAX_RATE_HZ) {
-                report(line, format!("sensor '{name}': rate_hz must be a number of samples per second above 0 and at most {MAX_RATE_HZ} (a CAN FD bus carries fewer frames), got {}", sensor.rate_hz));
-            }
-            let bus = match (&sensor.bus, buses.len()) {
-                (Some(bus_name), _) => match buses.iter().position(|b| &b.name == bus_name) {
-                    Some(i) => i,
-                    None => {
-                        let known: Vec<&str> = buses.iter().map(|b| b.name.as_str()).collect();
-                        report(
-                            line,
-                            format!(
-                                "sensor '{name}': unknown bus '{bus_name}' (buses: {})",
-                                known.join(", ")
-                            ),
-                        );
-                        continue;
-                    }
-                },
-                (None, 1) => 0,
-                (None, 0) => continue,
-                (None, _) => {
-                    report(line, format!("sensor '{name}': the rig has several buses; say which with bus = \"...\""));
-                    continue;
-                }
-            };
-            let addresses = [
-                sensor.dbc.is_some(),
-                sensor.canopen.is_some(),
-                sensor.j1939.is_some(),
-            ];
-            if addresses.iter().filter(|&&a| a).count() != 1 {
-                report(line, format!("sensor '{name}': give exactly one of dbc = {{ message, signal }}, canopen = {{ node_id, pdo, byte, type }} or j1939 = {{ pgn, start_bit, length_bits, resolution, offset }}"));
-                continue;
-            }
-            let (source, default_unit) = match compile_source(sensor, &buses[bus]) {
-                Ok(compiled) => compiled,
-                Err(message) => {
-                    report(line, format!("sensor '{name}': {message}"));
-                    continue;
-                }
-            };
-            let channel_unit = sensor
-                .unit
-                .clone()
-                .or(default_unit)
-                .unwrap_or_else(|| sensor.kind.output_unit().to_string());
-            let physics = match profile_conversion(sensor, &channel_unit) {
-                Ok(physics) => physics,
-                Err(e) => {
-                    report(line, format!("sensor '{name}': {e}"));
-                    continue;
-                }
-            };
-            let calibration = Linear {
-                gain: sensor.scale.unwrap_or(1.0),
-                offset: sensor.offset.unwrap_or(0.0),
-            };
-            if !(calibration.gain.is_finite()
-                && calibration.gain != 0.0
-                && calibration.offset.is_finite())
-            {
-                report(
-                    line,
-                    format!("sensor '{name}': scale must be a non-zero number and offset a number"),
-                );
-                continue;
-            }
-            if let Some([lo, hi]) = sensor.range {
-                if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                    report(line, format!("sensor '{name}': range must be [low, high] with low < high in {}, got [{lo}, {hi}]", sensor.kind.output_unit()));
-                    continue;
-                }
-            }
-            sensors.push(Sensor {
-                name: name.clone(),
-                kind: sensor.kind,
-                bus,
-                source,
-                channel_unit,
-                rate_hz: sensor.rate_hz,
-                conversion: physics.after(calibration),
-                location: sensor.location,
-                description: sensor.description.clone(),
-                interpolation: sensor.interpolation.unwrap_or_default(),
-                range: sensor.range,
-                line,
-            });
-        }
-        check_overlaps(&sensors, &buses, &mut report);
-
-        // Cylinders.
-        let mut cylinders = Vec::new();
-        for spanned in &file.cylinders {
-            let line = line_of(text, spanned.span().start);
-            let cylinder = spanned.get_ref();
-            let find = |sensor_name: &str, chamber: &str| match sensors
-                .iter()
-                .position(|s| s.name == sensor_name)
-            {
-                Some(i) if sensors[i].kind == SensorKind::Pressure => Ok(i),
-                Some(_) => Err(format!(
-                    "cylinder '{}': {chamber} sensor '{sensor_name}' is not a pressure sensor",
-                    cylinder.name
-                )),
-                None => Err(format!(
-                    "cylinder '{}': no sensor named '{sensor_name}' for the {chamber} chamber",
-                    cylinder.name
-                )),
-            };
-            let bore = pressure::CylinderBore::new(cylinder.bore_mm, cylinder.rod_mm)
-                .map_err(|e| format!("cylinder '{}': {e}", cylinder.name));
-            match (
-                find(&cylinder.head_sensor, "head"),
-                find(&cylinder.rod_sensor, "rod"),
-                bore,
-            ) {
-                (Ok(head_sensor), Ok(rod_sensor), Ok(bore)) => cylinders.push(Cylinder {
-                    name: cylinder.name.clone(),
-                    bore,
-                    head_sensor,
-                    rod_sensor,
-                }),
-                (head, rod, bore) => {
-                    for message in [head.err(), rod.err(), bore.err()].into_iter().flatten() {
-                        report(line, message);
-                    }
-                }
-            }
-        }
-
-        // Clock synchronisation signals.
-        for spanned in &file.buses {
-            let line = line_of(text, spanned.span().start);
-            let bus = spanned.get_ref();
-            let (Some(sync), Some(bus_index)) = (
-                &bus.clock_sync,
-                buses.iter().position(|b| b.name == bus.name),
-            ) else {
-                continue;
-            };
-            let find = |name: &str| sensors.iter().position(|s| s.name == name);
-            match (find(&sync.signal), find(&sync.reference)) {
-                (Some(signal), Some(reference)) => {
-                    if sensors[signal].bus != bus_index {
-                        report(
-                            line,
-                            format!(
-                                "bus '{}': clock_sync signal '{}' is on bus '{}', not on this bus",
-                                bus.name, sync.signal, buses[sensors[signal].bus].name
-                            ),
-                        );
-                    } else if sensors[reference].bus == bus_index {
-                        report(line, format!("bus '{}': clock_sync reference '{}' must be on another bus (it gives the reference clock)", bus.name, sync.reference));
-                    } else {
-                        buses[bus_index].clock = BusClock::Estimate { signal, reference };
-                    }
-                }
-                (signal, reference) => {
-                    for (found, name) in [(signal, &sync.signal), (reference, &sync.reference)] {
-                        if found.is_none() {
-                            report(
-                                line,
-                                format!("bus '{}': clock_sync names no sensor '{name}'", bus.name),
-                            );
-                        }
-                    }
-                }
-            }
-        }
-
-        // Pairs of sensors that should read alike.
-        let mut pairs = Vec::new();
-        for spanned in &file.pairs {
-            let line = line_of(text, spanned.span().start);
-            let pair = spanned.get_ref();
-            let found: Vec<Option<usize>> = pair
-                .sensors
-                .iter()
-                .map(|name| sensors.iter().position(|s| &s.name == name))
-                .collect();
-            let tolerance_pct = pair.tolerance_pct.unwrap_or(PAIR_TOLERANCE_PCT);
-            let tolerance = pair.tolerance.unwrap_or(0.0);
-            if !(tolerance_pct.is_finite()
-                && tolerance_pct >= 0.0
-                && tolerance.is_finite()
-                && tolerance >= 0.0)
-            {
-                report(
-                    line,
-                    "pair: tolerance_pct and tolerance must be numbers >= 0".into(),
-                );
-                continue;
-            }
-            match (found[0], found[1]) {
-                (Some(a), Some(b)) if a == b => report(
-                    line,
-                    format!("pair: '{}' is paired with itself", pair.sensors[0]),
-                ),
-                (Some(a), Some(b)) if sensors[a].kind != sensors[b].kind => report(
-                    line,
-                    format!(
-                    "pair: '{}' measures {} but '{}' measures {}; a pair compares like with like",
-                    pair.sensors[0], sensors[a].kind.name(), pair.sensors[1], sensors[b].kind.name()
-                ),
-                ),
-                (Some(a), Some(b)) => pairs.push(SensorPair {
-                    sensors: [a, b],
-                    tolerance_pct,
-                    tolerance,
-                    line,
-                }),
-                _ => {
-                    for (found, name) in found.iter().zip(&pair.sensors) {
-                        if found.is_none() {
-                            report(line, format!("pair: no sensor named '{name}'"));
-                        }
-                    }
-                }
-            }
-        }
-
-        let specimen = file.specimen.as_ref().and_then(|spanned| {
-            let specimen = *spanned.get_ref();
-            if specimen.diameter_mm > 0.0
-                && specimen.gauge_length_mm > 0.0
-                && specimen.diameter_mm.is_finite()
-                && specimen.gauge_length_mm.is_finite()
-            {
-                Some(specimen)
-            } else {
-                report(
-                    line_of(text, spanned.span().start),
-                    "specimen: diameter_mm and gauge_length_mm must be positive lengths in mm"
-                        .into(),
-                );
-                None
-            }
-        });
+        let mut buses = read_buses(&file.buses, base, &mut findings);
+        let sensors = read_sensors(&file.sensors, &buses, &mut findings);
+        let cylinders = read_cylinders(&file.cylinders, &sensors, &mut findings);
+        resolve_clock_sync(&file.buses, &mut buses, &sensors, &mut findings);
+        let pairs = read_pairs(&file.pairs, &sensors, &mut findings);
+        let specimen = read_specimen(file.specimen.as_ref(), &mut findings);
+        let RigFindings {
+            problems, warnings, ..
+        } = findings;
 
         if !problems.is_empty() {
             return Err(RigError {
@@ -1076,6 +752,415 @@ fn profile_conversion(sensor: &SensorFile, unit: &str) -> Result<Linear, Profile
             },
         ),
     }
+}
+
+/// What reading a rig file found: each problem with its line, and the
+/// warnings of its DBC files (entries they skip).
+struct RigFindings<'t> {
+    text: &'t str,
+    problems: Vec<RigProblem>,
+    warnings: Vec<String>,
+}
+
+impl RigFindings<'_> {
+    fn report(&mut self, line: usize, message: String) {
+        self.problems.push(RigProblem {
+            line: Some(line),
+            message,
+        });
+    }
+}
+
+/// `[[bus]]`: each bus with its interface, its DBC files merged, and its
+/// clock (a `clock_sync`'s sensors are resolved once every sensor is known).
+fn read_buses(entries: &[Spanned<BusFile>], base: &Path, findings: &mut RigFindings) -> Vec<Bus> {
+    let mut buses: Vec<Bus> = Vec::new();
+    for spanned in entries {
+        let line = line_of(findings.text, spanned.span().start);
+        let bus = spanned.get_ref();
+        if buses.iter().any(|b| b.name == bus.name) {
+            findings.report(line, format!("bus '{}' is defined twice", bus.name));
+            continue;
+        }
+        let Some(iface) = IfaceName::new(&bus.iface) else {
+            findings.report(
+                line,
+                format!(
+                    "bus '{}': iface '{}' is not an interface name (1-15 characters, no spaces)",
+                    bus.name, bus.iface
+                ),
+            );
+            continue;
+        };
+        let mut database = DbcDatabase::new();
+        let mut dbc_files = Vec::new();
+        for relative in &bus.dbc {
+            let dbc_path = base.join(relative);
+            if !dbc_path.is_file() {
+                findings.report(
+                    line,
+                    format!(
+                        "bus '{}': DBC file {} not found (paths are relative to the rig file)",
+                        bus.name,
+                        dbc_path.display()
+                    ),
+                );
+                continue;
+            }
+            match DbcDatabase::load(&dbc_path).and_then(|(one, skipped)| {
+                database.merge(one)?;
+                Ok(skipped)
+            }) {
+                Ok(skipped) => findings.warnings.extend(skipped.into_iter().map(|w| w.0)),
+                Err(e) => findings.report(line, format!("bus '{}': {e}", bus.name)),
+            }
+            dbc_files.push(dbc_path);
+        }
+        let clock = match (bus.clock_offset_ms, &bus.clock_sync) {
+            (Some(_), Some(_)) => {
+                findings.report(
+                    line,
+                    format!(
+                        "bus '{}': give clock_offset_ms or clock_sync, not both",
+                        bus.name
+                    ),
+                );
+                BusClock::Reference
+            }
+            (Some(ms), None) if !ms.is_finite() => {
+                findings.report(
+                    line,
+                    format!(
+                        "bus '{}': clock_offset_ms must be a number of milliseconds",
+                        bus.name
+                    ),
+                );
+                BusClock::Reference
+            }
+            (Some(ms), None) => BusClock::OffsetMs(ms),
+            // Sensor names are resolved once every sensor is known.
+            (None, _) => BusClock::Reference,
+        };
+        buses.push(Bus {
+            name: bus.name.clone(),
+            iface,
+            bitrate: bus.bitrate,
+            dbc_files,
+            dbc: database,
+            clock,
+        });
+    }
+    buses
+}
+
+/// `[[sensor]]`: each sensor once, then the sensors that share an address.
+fn read_sensors(
+    entries: &[Spanned<SensorFile>],
+    buses: &[Bus],
+    findings: &mut RigFindings,
+) -> Vec<Sensor> {
+    let mut sensors: Vec<Sensor> = Vec::new();
+    let mut names: HashMap<String, usize> = HashMap::new();
+    for spanned in entries {
+        let line = line_of(findings.text, spanned.span().start);
+        let sensor = spanned.get_ref();
+        let name = &sensor.name;
+        if let Some(first) = names.insert(name.clone(), line) {
+            findings.report(
+                line,
+                format!("sensor '{name}' is defined twice (first on line {first})"),
+            );
+            continue;
+        }
+        if let Some(sensor) = read_sensor(sensor, line, buses, findings) {
+            sensors.push(sensor);
+        }
+    }
+    check_overlaps(&sensors, buses, &mut |line, message| {
+        findings.report(line, message)
+    });
+    sensors
+}
+
+/// One `[[sensor]]` on `line`: its bus, where it is on the bus, its unit,
+/// conversion and range; `None` once a problem is reported.
+fn read_sensor(
+    sensor: &SensorFile,
+    line: usize,
+    buses: &[Bus],
+    findings: &mut RigFindings,
+) -> Option<Sensor> {
+    let name = &sensor.name;
+    if name.is_empty() || name.contains([',', '"', '\n']) {
+        findings.report(line, format!("sensor name '{name}' must be non-empty without commas or quotes (it is a CSV column)"));
+        return None;
+    }
+    if !(sensor.rate_hz > 0.0 && sensor.rate_hz <= MAX_RATE_HZ) {
+        findings.report(line, format!("sensor '{name}': rate_hz must be a number of samples per second above 0 and at most {MAX_RATE_HZ} (a CAN FD bus carries fewer frames), got {}", sensor.rate_hz));
+    }
+    let bus = match (&sensor.bus, buses.len()) {
+        (Some(bus_name), _) => match buses.iter().position(|b| &b.name == bus_name) {
+            Some(i) => i,
+            None => {
+                let known: Vec<&str> = buses.iter().map(|b| b.name.as_str()).collect();
+                findings.report(
+                    line,
+                    format!(
+                        "sensor '{name}': unknown bus '{bus_name}' (buses: {})",
+                        known.join(", ")
+                    ),
+                );
+                return None;
+            }
+        },
+        (None, 1) => 0,
+        (None, 0) => return None,
+        (None, _) => {
+            findings.report(
+                line,
+                format!("sensor '{name}': the rig has several buses; say which with bus = \"...\""),
+            );
+            return None;
+        }
+    };
+    let addresses = [
+        sensor.dbc.is_some(),
+        sensor.canopen.is_some(),
+        sensor.j1939.is_some(),
+    ];
+    if addresses.iter().filter(|&&a| a).count() != 1 {
+        findings.report(line, format!("sensor '{name}': give exactly one of dbc = {{ message, signal }}, canopen = {{ node_id, pdo, byte, type }} or j1939 = {{ pgn, start_bit, length_bits, resolution, offset }}"));
+        return None;
+    }
+    let (source, default_unit) = match compile_source(sensor, &buses[bus]) {
+        Ok(compiled) => compiled,
+        Err(message) => {
+            findings.report(line, format!("sensor '{name}': {message}"));
+            return None;
+        }
+    };
+    let channel_unit = sensor
+        .unit
+        .clone()
+        .or(default_unit)
+        .unwrap_or_else(|| sensor.kind.output_unit().to_string());
+    let physics = match profile_conversion(sensor, &channel_unit) {
+        Ok(physics) => physics,
+        Err(e) => {
+            findings.report(line, format!("sensor '{name}': {e}"));
+            return None;
+        }
+    };
+    let calibration = Linear {
+        gain: sensor.scale.unwrap_or(1.0),
+        offset: sensor.offset.unwrap_or(0.0),
+    };
+    if !(calibration.gain.is_finite() && calibration.gain != 0.0 && calibration.offset.is_finite())
+    {
+        findings.report(
+            line,
+            format!("sensor '{name}': scale must be a non-zero number and offset a number"),
+        );
+        return None;
+    }
+    if let Some([lo, hi]) = sensor.range {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+            findings.report(line, format!("sensor '{name}': range must be [low, high] with low < high in {}, got [{lo}, {hi}]", sensor.kind.output_unit()));
+            return None;
+        }
+    }
+    Some(Sensor {
+        name: name.clone(),
+        kind: sensor.kind,
+        bus,
+        source,
+        channel_unit,
+        rate_hz: sensor.rate_hz,
+        conversion: physics.after(calibration),
+        location: sensor.location,
+        description: sensor.description.clone(),
+        interpolation: sensor.interpolation.unwrap_or_default(),
+        range: sensor.range,
+        line,
+    })
+}
+
+/// `[[cylinder]]`: each cylinder's bore and its two chambers' pressure sensors.
+fn read_cylinders(
+    entries: &[Spanned<CylinderFile>],
+    sensors: &[Sensor],
+    findings: &mut RigFindings,
+) -> Vec<Cylinder> {
+    let mut cylinders = Vec::new();
+    for spanned in entries {
+        let line = line_of(findings.text, spanned.span().start);
+        let cylinder = spanned.get_ref();
+        let find = |sensor_name: &str, chamber: &str| match sensors
+            .iter()
+            .position(|s| s.name == sensor_name)
+        {
+            Some(i) if sensors[i].kind == SensorKind::Pressure => Ok(i),
+            Some(_) => Err(format!(
+                "cylinder '{}': {chamber} sensor '{sensor_name}' is not a pressure sensor",
+                cylinder.name
+            )),
+            None => Err(format!(
+                "cylinder '{}': no sensor named '{sensor_name}' for the {chamber} chamber",
+                cylinder.name
+            )),
+        };
+        let bore = pressure::CylinderBore::new(cylinder.bore_mm, cylinder.rod_mm)
+            .map_err(|e| format!("cylinder '{}': {e}", cylinder.name));
+        match (
+            find(&cylinder.head_sensor, "head"),
+            find(&cylinder.rod_sensor, "rod"),
+            bore,
+        ) {
+            (Ok(head_sensor), Ok(rod_sensor), Ok(bore)) => cylinders.push(Cylinder {
+                name: cylinder.name.clone(),
+                bore,
+                head_sensor,
+                rod_sensor,
+            }),
+            (head, rod, bore) => {
+                for message in [head.err(), rod.err(), bore.err()].into_iter().flatten() {
+                    findings.report(line, message);
+                }
+            }
+        }
+    }
+    cylinders
+}
+
+/// A bus's `clock_sync`: the signal on this bus and the reference on
+/// another, which estimate its clock's offset.
+fn resolve_clock_sync(
+    entries: &[Spanned<BusFile>],
+    buses: &mut [Bus],
+    sensors: &[Sensor],
+    findings: &mut RigFindings,
+) {
+    for spanned in entries {
+        let line = line_of(findings.text, spanned.span().start);
+        let bus = spanned.get_ref();
+        let (Some(sync), Some(bus_index)) = (
+            &bus.clock_sync,
+            buses.iter().position(|b| b.name == bus.name),
+        ) else {
+            continue;
+        };
+        let find = |name: &str| sensors.iter().position(|s| s.name == name);
+        match (find(&sync.signal), find(&sync.reference)) {
+            (Some(signal), Some(reference)) => {
+                if sensors[signal].bus != bus_index {
+                    findings.report(
+                        line,
+                        format!(
+                            "bus '{}': clock_sync signal '{}' is on bus '{}', not on this bus",
+                            bus.name, sync.signal, buses[sensors[signal].bus].name
+                        ),
+                    );
+                } else if sensors[reference].bus == bus_index {
+                    findings.report(line, format!("bus '{}': clock_sync reference '{}' must be on another bus (it gives the reference clock)", bus.name, sync.reference));
+                } else {
+                    buses[bus_index].clock = BusClock::Estimate { signal, reference };
+                }
+            }
+            (signal, reference) => {
+                for (found, name) in [(signal, &sync.signal), (reference, &sync.reference)] {
+                    if found.is_none() {
+                        findings.report(
+                            line,
+                            format!("bus '{}': clock_sync names no sensor '{name}'", bus.name),
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// `[[pair]]`: two sensors of one kind that should read alike.
+fn read_pairs(
+    entries: &[Spanned<PairFile>],
+    sensors: &[Sensor],
+    findings: &mut RigFindings,
+) -> Vec<SensorPair> {
+    let mut pairs = Vec::new();
+    for spanned in entries {
+        let line = line_of(findings.text, spanned.span().start);
+        let pair = spanned.get_ref();
+        let found: Vec<Option<usize>> = pair
+            .sensors
+            .iter()
+            .map(|name| sensors.iter().position(|s| &s.name == name))
+            .collect();
+        let tolerance_pct = pair.tolerance_pct.unwrap_or(PAIR_TOLERANCE_PCT);
+        let tolerance = pair.tolerance.unwrap_or(0.0);
+        if !(tolerance_pct.is_finite()
+            && tolerance_pct >= 0.0
+            && tolerance.is_finite()
+            && tolerance >= 0.0)
+        {
+            findings.report(
+                line,
+                "pair: tolerance_pct and tolerance must be numbers >= 0".into(),
+            );
+            continue;
+        }
+        match (found[0], found[1]) {
+            (Some(a), Some(b)) if a == b => findings.report(
+                line,
+                format!("pair: '{}' is paired with itself", pair.sensors[0]),
+            ),
+            (Some(a), Some(b)) if sensors[a].kind != sensors[b].kind => {
+                findings.report(
+                    line,
+                    format!(
+                "pair: '{}' measures {} but '{}' measures {}; a pair compares like with like",
+                pair.sensors[0], sensors[a].kind.name(), pair.sensors[1], sensors[b].kind.name()
+            ),
+                )
+            }
+            (Some(a), Some(b)) => pairs.push(SensorPair {
+                sensors: [a, b],
+                tolerance_pct,
+                tolerance,
+                line,
+            }),
+            _ => {
+                for (found, name) in found.iter().zip(&pair.sensors) {
+                    if found.is_none() {
+                        findings.report(line, format!("pair: no sensor named '{name}'"));
+                    }
+                }
+            }
+        }
+    }
+    pairs
+}
+
+/// `[specimen]`: a tensile specimen's diameter and gauge length.
+fn read_specimen(
+    entry: Option<&Spanned<Specimen>>,
+    findings: &mut RigFindings,
+) -> Option<Specimen> {
+    entry.and_then(|spanned| {
+        let specimen = *spanned.get_ref();
+        if specimen.diameter_mm > 0.0
+            && specimen.gauge_length_mm > 0.0
+            && specimen.diameter_mm.is_finite()
+            && specimen.gauge_length_mm.is_finite()
+        {
+            Some(specimen)
+        } else {
+            findings.report(
+                line_of(findings.text, spanned.span().start),
+                "specimen: diameter_mm and gauge_length_mm must be positive lengths in mm".into(),
+            );
+            None
+        }
+    })
 }
 
 /// Two sensors reading the same bits, or a CANopen COB-ID that a DBC message

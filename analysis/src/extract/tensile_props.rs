@@ -434,11 +434,66 @@ fn offset_yield(curve: &[Derived], modulus_mpa: f64, uts: usize) -> Option<(usiz
     })
 }
 
-/// Computes every property of a test curve.
+/// Computes every property of a test curve, in stages: the input's
+/// checks, the engineering curve, the UTS, E with Rp0.2, the flow curve,
+/// and the bounds of the post-UTS slope. Each stage adds its notes in turn.
 pub fn tensile_properties(
     points: &[TestPoint],
     geometry: SpecimenGeometry,
 ) -> std::result::Result<TensileProperties, String> {
+    let area = checked_area_mm2(points, geometry)?;
+    let mut notes = Vec::new();
+    let first = points[0];
+    if first.displacement_mm != 0.0 || first.force_kn != 0.0 {
+        notes.push(format!(
+            "the curve starts at ({} mm, {} kN), not at the origin; E is fitted through the origin and assumes a zeroed curve",
+            first.displacement_mm, first.force_kn
+        ));
+    }
+    let curve: Vec<Derived> = points
+        .iter()
+        .map(|p| Derived {
+            strain: p.displacement_mm / geometry.strain_length_mm,
+            stress_mpa: 1000.0 * p.force_kn / area,
+        })
+        .collect();
+    let uts_point = uts_point(points, &curve)?;
+    let at_uts = curve[uts_point];
+    let (modulus, elastic_fit, (after_point, fraction)) =
+        elastic_fit_and_yield(&curve, uts_point, &mut notes)?;
+    let yield_point = yield_point(points, &curve, after_point, fraction);
+    let flow_curve = flow_curve(&curve, modulus, after_point, uts_point, &mut notes);
+    let post_uts_slope = post_uts_slope(&curve, uts_point, &flow_curve, &mut notes)?;
+    Ok(TensileProperties {
+        diameter_mm: geometry.diameter_mm,
+        strain_length_mm: geometry.strain_length_mm,
+        area_mm2: area,
+        test_points: points.len(),
+        youngs_modulus_mpa: modulus,
+        elastic_fit,
+        yield_point,
+        uts: Uts {
+            point: uts_point,
+            force_kn: points[uts_point].force_kn,
+            displacement_mm: points[uts_point].displacement_mm,
+            engineering_stress_mpa: at_uts.stress_mpa,
+            engineering_strain: at_uts.strain,
+            true_stress_mpa: at_uts.true_stress_mpa(),
+            true_strain: at_uts.true_strain(),
+        },
+        flow_curve,
+        post_uts_slope,
+        notes,
+    })
+}
+
+/// The specimen's cross-section, mm^2, once the geometry and the curve
+/// are fit to read: positive sizes, three points or more, a displacement
+/// that runs forward.
+fn checked_area_mm2(
+    points: &[TestPoint],
+    geometry: SpecimenGeometry,
+) -> std::result::Result<f64, String> {
     let area = geometry.area_mm2();
     let positive = |value: f64| value.is_finite() && value > 0.0;
     if !positive(geometry.diameter_mm) || !positive(geometry.strain_length_mm) || !positive(area) {
@@ -475,23 +530,11 @@ pub fn tensile_properties(
             "the displacement runs backwards, from {start} mm to {end} mm: a pull lengthens the specimen (check the extensometer's sign, or the order of the rows)"
         ));
     }
-    let mut notes = Vec::new();
-    let first = points[0];
-    if first.displacement_mm != 0.0 || first.force_kn != 0.0 {
-        notes.push(format!(
-            "the curve starts at ({} mm, {} kN), not at the origin; E is fitted through the origin and assumes a zeroed curve",
-            first.displacement_mm, first.force_kn
-        ));
-    }
-    let curve: Vec<Derived> = points
-        .iter()
-        .map(|p| Derived {
-            strain: p.displacement_mm / geometry.strain_length_mm,
-            stress_mpa: 1000.0 * p.force_kn / area,
-        })
-        .collect();
+    Ok(area)
+}
 
-    // UTS: the first maximum of the force.
+/// The UTS: the first maximum of the force.
+fn uts_point(points: &[TestPoint], curve: &[Derived]) -> std::result::Result<usize, String> {
     let uts_point = points.iter().enumerate().fold(0, |best, (i, p)| {
         if p.force_kn > points[best].force_kn {
             i
@@ -507,16 +550,26 @@ pub fn tensile_properties(
         return Err("the strain at the maximum force is -100 % or less".into());
     }
 
-    // E and Rp0.2, iterated until the elastic points settle.
+    Ok(uts_point)
+}
+
+/// E and Rp0.2, iterated until the elastic points settle: the modulus,
+/// its fit, and the offset line's crossing (point before it, fraction).
+fn elastic_fit_and_yield(
+    curve: &[Derived],
+    uts_point: usize,
+    notes: &mut Vec<String>,
+) -> std::result::Result<(f64, ElasticFit, (usize, f64)), String> {
+    let at_uts = curve[uts_point];
     let uts_limit = ELASTIC_LIMIT_UTS_FRACTION * at_uts.stress_mpa;
     let mut limit = uts_limit;
     let mut previous: Option<Vec<usize>> = None;
     let mut rounds = 0;
     let (modulus, used, fallback, (after_point, fraction)) = loop {
         rounds += 1;
-        let (modulus, used, fallback) = elastic_fit(&curve, uts_point, limit)
+        let (modulus, used, fallback) = elastic_fit(curve, uts_point, limit)
             .ok_or("no loaded point with positive strain before the maximum force: cannot fit E")?;
-        let crossing = offset_yield(&curve, modulus, uts_point).ok_or_else(|| {
+        let crossing = offset_yield(curve, modulus, uts_point).ok_or_else(|| {
             format!(
                 "the curve never falls 0.2 % below the elastic line (E = {modulus:.0} MPa) before the maximum force: no offset yield"
             )
@@ -565,13 +618,23 @@ pub fn tensile_properties(
         ));
     }
 
+    Ok((modulus, elastic_fit, (after_point, fraction)))
+}
+
+/// Rp0.2 read linearly between the measured points around the crossing.
+fn yield_point(
+    points: &[TestPoint],
+    curve: &[Derived],
+    after_point: usize,
+    fraction: f64,
+) -> YieldPoint {
     let lerp = |a: f64, b: f64| a + fraction * (b - a);
     let (before, after) = (curve[after_point], curve[after_point + 1]);
     let yield_derived = Derived {
         strain: lerp(before.strain, after.strain),
         stress_mpa: lerp(before.stress_mpa, after.stress_mpa),
     };
-    let yield_point = YieldPoint {
+    YieldPoint {
         method: "0.2 % offset (Rp0.2), read linearly between measured points".into(),
         stress_mpa: yield_derived.stress_mpa,
         strain: yield_derived.strain,
@@ -586,10 +649,19 @@ pub fn tensile_properties(
         true_stress_mpa: yield_derived.true_stress_mpa(),
         true_strain: yield_derived.true_strain(),
         after_point,
-    };
+    }
+}
 
-    // Flow curve from the onset of plasticity (the last zero crossing of
-    // the plastic strain before Rp0.2) to the UTS, unshifted.
+/// The flow curve from the onset of plasticity (the last zero crossing of
+/// the plastic strain before Rp0.2) to the UTS, unshifted; a noisy one
+/// pooled so it rises and averaged over plastic-strain bins.
+fn flow_curve(
+    curve: &[Derived],
+    modulus: f64,
+    after_point: usize,
+    uts_point: usize,
+    notes: &mut Vec<String>,
+) -> FlowCurve {
     let onset_point = (0..=after_point)
         .rev()
         .find(|&i| curve[i].plastic_strain(modulus) <= 0.0)
@@ -644,6 +716,25 @@ pub fn tensile_properties(
         ));
     }
 
+    FlowCurve {
+        points: flow,
+        onset_after_point: onset_point,
+        onset_strain: onset.strain,
+        dropped_non_increasing,
+        pooled_for_increasing_stress,
+    }
+}
+
+/// The bounds of the post-UTS slope m, fitted on the true curve up to the
+/// UTS, or on a noisy curve's averaged flow table.
+fn post_uts_slope(
+    curve: &[Derived],
+    uts_point: usize,
+    flow_curve: &FlowCurve,
+    notes: &mut Vec<String>,
+) -> std::result::Result<PostUtsSlope, String> {
+    let (flow, pooled_for_increasing_stress) =
+        (&flow_curve.points, flow_curve.pooled_for_increasing_stress);
     let true_curve: Vec<(f64, f64)> = curve[..=uts_point]
         .iter()
         .map(|d| (d.true_strain(), d.true_stress_mpa()))
@@ -672,33 +763,7 @@ pub fn tensile_properties(
             .push("the true stress does not rise before the UTS: the upper bound of m is 0".into());
     }
 
-    Ok(TensileProperties {
-        diameter_mm: geometry.diameter_mm,
-        strain_length_mm: geometry.strain_length_mm,
-        area_mm2: area,
-        test_points: points.len(),
-        youngs_modulus_mpa: modulus,
-        elastic_fit,
-        yield_point,
-        uts: Uts {
-            point: uts_point,
-            force_kn: points[uts_point].force_kn,
-            displacement_mm: points[uts_point].displacement_mm,
-            engineering_stress_mpa: at_uts.stress_mpa,
-            engineering_strain: at_uts.strain,
-            true_stress_mpa: at_uts.true_stress_mpa(),
-            true_strain: at_uts.true_strain(),
-        },
-        flow_curve: FlowCurve {
-            points: flow,
-            onset_after_point: onset_point,
-            onset_strain: onset.strain,
-            dropped_non_increasing,
-            pooled_for_increasing_stress,
-        },
-        post_uts_slope,
-        notes,
-    })
+    Ok(post_uts_slope)
 }
 
 /// Plastic-strain bin of a noisy flow curve's table (0.2 %: about 50 rows

@@ -11,67 +11,55 @@ use acq_twins::excavator::case::{CaseFile, UncertainInput};
 use acq_twins::excavator::envelope::working_envelope;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::{CylinderName, Excavator};
-use clap::Args;
 
 use crate::excavator_report::{envelope_json, evaluation_json, evaluation_report};
 use crate::sensitivity::{one_at_a_time, Factor, Response};
 
-#[derive(Args, Debug)]
-pub struct ExcavatorModelArgs {
-    /// Case file (TOML): tip force, bounds of the uncertain inputs (nominal =
-    /// middle), optionally measured pressures and points.
-    #[arg(long, value_name = "FILE")]
+/// The twin a command runs: a case and the machine's geometry.
+#[derive(Clone, Debug)]
+pub struct ExcavatorModelOptions {
+    /// Case file (TOML): tip force, bounds of the uncertain inputs
+    /// (nominal = middle), optionally measured pressures and points.
     pub case: PathBuf,
-    /// Geometry file [default: the built-in DX55-class data/excavator/dx55.toml].
-    #[arg(long, value_name = "FILE")]
+    /// Geometry file; `None` is the built-in DX55-class data/excavator/dx55.toml.
     pub geometry: Option<PathBuf>,
 }
 
-#[derive(Args, Debug)]
-pub struct TwinExcavatorArgs {
-    #[command(flatten)]
-    pub model: ExcavatorModelArgs,
-    /// Bucket cylinder stroke, mm [default: the case's nominal].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    pub bucket_stroke: Option<f64>,
-    /// Arm cylinder stroke, mm [default: the case's nominal].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    pub arm_stroke: Option<f64>,
-    /// Boom cylinder stroke, mm [default: the case's nominal].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
-    pub boom_stroke: Option<f64>,
-    /// Tip force, kN [default: the case's].
-    #[arg(long, value_name = "KN", allow_negative_numbers = true)]
-    pub force: Option<f64>,
-    /// Tip force direction, degrees from +Y (forward) toward +Z (up) [default: the case's nominal].
-    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
-    pub angle: Option<f64>,
-    /// Print one JSON object instead of the tables.
-    #[arg(long)]
+/// One run of the twin at the case's nominal inputs, any of them set.
+#[derive(Clone, Debug)]
+pub struct TwinExcavatorOptions {
+    pub model: ExcavatorModelOptions,
+    /// Bucket, arm and boom cylinder strokes, mm (`None`: the case's nominal).
+    pub bucket_stroke_mm: Option<f64>,
+    pub arm_stroke_mm: Option<f64>,
+    pub boom_stroke_mm: Option<f64>,
+    /// Tip force, kN (`None`: the case's).
+    pub force_kn: Option<f64>,
+    /// Tip force direction, degrees from +Y (forward) toward +Z (up)
+    /// (`None`: the case's nominal).
+    pub angle_deg: Option<f64>,
+    /// One JSON object on stdout instead of the tables.
     pub json: bool,
-    /// Also give the working envelope over the stroke ranges: maximum
-    /// reach, digging depth and dump height (needs the foot pin's place,
-    /// base.foot_pin_above_ground_m and base.foot_pin_ahead_of_swing_axis_m).
-    #[arg(long)]
+    /// Also the working envelope over the stroke ranges.
     pub envelope: bool,
 }
 
-#[derive(Args, Debug)]
-pub struct SensitivityExcavatorArgs {
-    #[command(flatten)]
-    pub model: ExcavatorModelArgs,
-    /// Values per input, bounds included.
-    #[arg(long, default_value_t = 21, value_parser = clap::value_parser!(u32).range(2..=10_000))]
+/// A one-at-a-time sweep of the case's uncertain inputs.
+#[derive(Clone, Debug)]
+pub struct SensitivityExcavatorOptions {
+    pub model: ExcavatorModelOptions,
+    /// Values per input, bounds included (2 to 10,000).
     pub points: u32,
-    /// The table (CSV) [default: <case name>-sensitivity.csv].
-    #[arg(short = 'o', long = "output", value_name = "CSV")]
+    /// The table (CSV); `None`: `<case name>-sensitivity.csv`.
     pub output: Option<PathBuf>,
-    /// The plot [default: the table's name with .svg].
-    #[arg(long, value_name = "SVG")]
+    /// The plot; `None`: the table's name with .svg.
     pub svg: Option<PathBuf>,
 }
 
-fn load_model(args: &ExcavatorModelArgs) -> Result<(CaseFile, Excavator)> {
+/// The values per input of a sweep that acq accepts.
+pub const SENSITIVITY_POINTS: std::ops::RangeInclusive<u32> = 2..=10_000;
+
+fn load_model(args: &ExcavatorModelOptions) -> Result<(CaseFile, Excavator)> {
     let case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
     acq_io::input::note_input(&args.case);
     let geometry = match &args.geometry {
@@ -82,21 +70,21 @@ fn load_model(args: &ExcavatorModelArgs) -> Result<(CaseFile, Excavator)> {
     Ok((case, twin))
 }
 
-pub fn run_twin(args: TwinExcavatorArgs) -> Result<()> {
+pub fn run_twin(args: TwinExcavatorOptions) -> Result<()> {
     let (case, twin) = load_model(&args.model)?;
     let mut inputs = case.nominal();
     let overrides = [
-        (UncertainInput::BucketStroke, args.bucket_stroke),
-        (UncertainInput::ArmStroke, args.arm_stroke),
-        (UncertainInput::BoomStroke, args.boom_stroke),
-        (UncertainInput::ForceAngle, args.angle),
+        (UncertainInput::BucketStroke, args.bucket_stroke_mm),
+        (UncertainInput::ArmStroke, args.arm_stroke_mm),
+        (UncertainInput::BoomStroke, args.boom_stroke_mm),
+        (UncertainInput::ForceAngle, args.angle_deg),
     ];
     for (input, value) in overrides {
         if let Some(value) = value {
             input.apply(&mut inputs, value);
         }
     }
-    if let Some(force) = args.force {
+    if let Some(force) = args.force_kn {
         inputs.tip_force_kn = force;
     }
     let evaluation = twin
@@ -143,7 +131,15 @@ pub fn run_twin(args: TwinExcavatorArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn run_sensitivity(args: SensitivityExcavatorArgs) -> Result<()> {
+pub fn run_sensitivity(args: SensitivityExcavatorOptions) -> Result<()> {
+    if !SENSITIVITY_POINTS.contains(&args.points) {
+        return Err(AcqError::Config(format!(
+            "a sweep takes {} to {} values per input, got {}",
+            SENSITIVITY_POINTS.start(),
+            SENSITIVITY_POINTS.end(),
+            args.points
+        )));
+    }
     let (case, twin) = load_model(&args.model)?;
     let factors: Vec<Factor> = UncertainInput::ALL
         .iter()

@@ -10,7 +10,6 @@
 use std::path::Path;
 use std::time::Instant;
 
-use acq_calib::bo::Acquisition;
 use acq_calib::doe::latin_hypercube;
 use acq_calib::evaluation::Simulator;
 use acq_calib::gp::{Gp, GpSettings, Kernel};
@@ -18,8 +17,8 @@ use acq_calib::moo::{nsga2, Nsga2Settings};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_workflows::calibrate::builtin::ExcavatorModel;
-use acq_workflows::calibrate::excavator::{case_study, run, CalibrateExcavatorArgs};
-use acq_workflows::calibrate::gtn::CalibrateGtnArgs;
+use acq_workflows::calibrate::excavator::{case_study, run, CalibrateExcavatorOptions};
+use acq_workflows::calibrate::gtn::CalibrateGtnOptions;
 use acq_workflows::calibrate::study::{Role, StudySimulator};
 
 fn median(mut values: Vec<f64>) -> f64 {
@@ -34,7 +33,7 @@ fn main() {
         let mut times = Vec::new();
         for _ in 0..5 {
             let dir = tempfile::tempdir().expect("temp dir");
-            let args = CalibrateExcavatorArgs::defaults(
+            let args = CalibrateExcavatorOptions::published(
                 &root.join(format!("data/excavator/{case}.toml")),
                 &dir.path().join("run"),
             );
@@ -127,21 +126,11 @@ fn main() {
         for global_only in [false, true] {
             let out = dir.path().join(format!("{test}-{global_only}"));
             let start = Instant::now();
-            acq_workflows::calibrate::gtn::run(CalibrateGtnArgs {
-                test: root.join("data/tensile").join(test),
-                out: out.clone(),
+            acq_workflows::calibrate::gtn::run(CalibrateGtnOptions {
                 max_evals: 60,
-                target_mape: 1.0,
-                batch: 1,
-                acquisition: Acquisition::LogExpectedImprovement { xi: 0.0 },
-                patience: None,
-                mesh: Default::default(),
-                seed: 1,
+                target_mape_pct: 1.0,
                 global_only,
-                deterministic: false,
-                resume: false,
-                posterior: false,
-                posterior_draws: 1000,
+                ..CalibrateGtnOptions::new(&root.join("data/tensile").join(test), &out)
             })
             .expect("gtn calibration");
             let summary: serde_json::Value = serde_json::from_str(

@@ -30,7 +30,7 @@ use std::process::Command;
 
 use acq_analysis::loss::metrics::{matched, CurveMetric};
 use acq_calib::doe::latin_hypercube;
-use acq_workflows::calibrate::external::{run, CalibrateExternalArgs};
+use acq_workflows::calibrate::external::{run, CalibrateExternalOptions};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
@@ -200,7 +200,7 @@ fn calibrate(test: &Test, metric: &'static str, kind: CurveMetric, max_evals: us
     if out.exists() {
         std::fs::remove_dir_all(&out).expect("an earlier run");
     }
-    run(CalibrateExternalArgs {
+    run(CalibrateExternalOptions {
         spec: spec(test, metric, target, max_evals),
         out: out.clone(),
         resume: false,

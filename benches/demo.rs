@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use acq_demo::{run, DemoArgs};
+use acq_demo::{run, DemoOptions};
 
 fn main() {
     let root = env!("CARGO_MANIFEST_DIR");
@@ -14,14 +14,17 @@ fn main() {
         let dir = tempfile::tempdir().expect("temp dir");
         let out = dir.path().join("demo");
         let start = Instant::now();
-        run(DemoArgs {
-            out: out.clone(),
-            interfaces: Vec::new(),
-            sessions: None,
-            acquire_only: false,
-            data: Some(root.into()),
-            view: Default::default(),
-        })
+        run(
+            DemoOptions {
+                out: out.clone(),
+                interfaces: Vec::new(),
+                sessions: None,
+                acquire_only: false,
+                data: Some(root.into()),
+                view: Default::default(),
+            },
+            acq_demo::never_interrupted,
+        )
         .expect("the demo runs");
         let wall_s = start.elapsed().as_secs_f64();
         let summary: serde_json::Value = serde_json::from_str(

@@ -31,9 +31,8 @@ use std::time::Instant;
 use acq_analysis::extract::tensile_props::{
     read_test_csv, tensile_properties, SpecimenGeometry, TestPoint,
 };
-use acq_calib::bo::Acquisition;
 use acq_calib::doe::latin_hypercube;
-use acq_workflows::calibrate::gtn::{parameters, CalibrateGtnArgs};
+use acq_workflows::calibrate::gtn::{parameters, CalibrateGtnOptions};
 use acq_workflows::tensile_model::{GtnInputs, ModelSettings, TensileModel, PARAMETER_NAMES};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -196,21 +195,10 @@ struct Row {
 
 fn calibrate(test: &Path, out: &Path, max_evals: u32) -> (f64, Option<usize>, usize, f64) {
     let start = Instant::now();
-    let found = acq_workflows::calibrate::gtn::run(CalibrateGtnArgs {
-        test: test.to_path_buf(),
-        out: out.to_path_buf(),
+    let found = acq_workflows::calibrate::gtn::run(CalibrateGtnOptions {
         max_evals,
-        target_mape: TARGET_MAPE_PCT,
-        batch: 1,
-        acquisition: Acquisition::LogExpectedImprovement { xi: 0.0 },
-        patience: None,
-        mesh: Default::default(),
-        seed: 1,
-        global_only: false,
-        deterministic: false,
-        resume: false,
-        posterior: false,
-        posterior_draws: 1000,
+        target_mape_pct: TARGET_MAPE_PCT,
+        ..CalibrateGtnOptions::new(test, out)
     })
     .expect("gtn calibration");
     (

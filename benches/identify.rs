@@ -13,15 +13,8 @@
 use std::path::Path;
 use std::time::Instant;
 
-use acq_workflows::calibrate::excavator::{run as calibrate_case, CalibrateExcavatorArgs};
-use acq_workflows::calibrate::external::{run as run_study, CalibrateExternalArgs};
-use clap::Parser;
-
-#[derive(Parser)]
-struct Cli {
-    #[command(flatten)]
-    args: CalibrateExcavatorArgs,
-}
+use acq_workflows::calibrate::excavator::{run as calibrate_case, CalibrateExcavatorOptions};
+use acq_workflows::calibrate::external::{run as run_study, CalibrateExternalOptions};
 
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
@@ -34,7 +27,7 @@ fn main() {
     for _ in 0..3 {
         let dir = tempfile::tempdir().expect("temp dir");
         let start = Instant::now();
-        run_study(CalibrateExternalArgs {
+        run_study(CalibrateExternalOptions {
             spec: root.join("data/excavator/identify.toml"),
             out: dir.path().join("identify"),
             resume: false,
@@ -47,17 +40,12 @@ fn main() {
             let case_path = root.join(format!("data/excavator/{case}.toml"));
             let geometry = dir.path().join("identify/geometry.toml");
             let out = dir.path().join(case);
-            // The command line's own defaults.
-            let argv = [
-                "calibrate-excavator".as_ref(),
-                "--case".as_ref(),
-                case_path.as_os_str(),
-                "--geometry".as_ref(),
-                geometry.as_os_str(),
-                "--out".as_ref(),
-                out.as_os_str(),
-            ];
-            calibrate_case(Cli::parse_from(argv).args).expect("calibration");
+            // The published workflow's settings, the command line's defaults.
+            calibrate_case(CalibrateExcavatorOptions {
+                geometry: Some(geometry),
+                ..CalibrateExcavatorOptions::published(&case_path, &out)
+            })
+            .expect("calibration");
             steps[k + 1].push(start.elapsed().as_secs_f64());
         }
         steps[3]

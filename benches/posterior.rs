@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use acq_calib::evaluation::Parameter;
 use acq_calib::mcmc::{sample, SamplerSettings};
-use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorArgs, PosteriorDiscrepancy};
+use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorOptions, ExcavatorPosterior};
 use acq_workflows::calibrate::extras::NoExtras;
 use acq_workflows::calibrate::method::{start_design, BoMethod, Method, RunSettings};
 use acq_workflows::calibrate::posterior::likelihood::StudyPosterior;
@@ -40,20 +40,22 @@ fn median(mut values: Vec<f64>) -> f64 {
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let arguments = |case: &str, out: &Path, posterior: bool, discrepancy| CalibrateExcavatorArgs {
-        posterior,
-        discrepancy,
-        ..CalibrateExcavatorArgs::defaults(&root.join(format!("data/excavator/{case}.toml")), out)
-    };
+    let arguments =
+        |case: &str, out: &Path, posterior: bool, discrepancy| CalibrateExcavatorOptions {
+            posterior: posterior.then_some(ExcavatorPosterior {
+                discrepancy,
+                draws_per_chain: ExcavatorPosterior::DRAWS_PER_CHAIN,
+            }),
+            ..CalibrateExcavatorOptions::published(
+                &root.join(format!("data/excavator/{case}.toml")),
+                out,
+            )
+        };
     println!("posterior of the excavator twin, sampled directly (4 chains x 1,000 draws)");
     for (case, discrepancy, label) in [
-        ("case1", PosteriorDiscrepancy::None, "noise scale estimated"),
-        (
-            "case1",
-            PosteriorDiscrepancy::Constant,
-            "constant discrepancy",
-        ),
-        ("case2", PosteriorDiscrepancy::None, "noise scale estimated"),
+        ("case1", Discrepancy::None, "noise scale estimated"),
+        ("case1", Discrepancy::Constant, "constant discrepancy"),
+        ("case2", Discrepancy::None, "noise scale estimated"),
     ] {
         let mut stage_s = Vec::new();
         let mut worst_rhat = 0.0f64;

@@ -18,7 +18,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use acq_analysis::extract::quantities::RigQuantities;
-use acq_workflows::calibrate::external::{run, CalibrateExternalArgs};
+use acq_workflows::calibrate::external::{run, CalibrateExternalOptions};
 use acq_workflows::rig_study::tracker::Tracker;
 use acq_workflows::rig_study::RigStudy;
 use acq_workflows::virtual_rig::synthetic_hold;
@@ -55,7 +55,7 @@ fn main() {
     )
     .unwrap();
     let start = Instant::now();
-    run(CalibrateExternalArgs {
+    run(CalibrateExternalOptions {
         spec: dir.join("study.toml"),
         out: dir.join("run"),
         resume: false,

@@ -287,7 +287,14 @@ fn the_live_study_equals_the_study_of_the_recorded_sessions() {
         shared.clone(),
         Box::new(|line: &str| eprintln!("live {line}")),
     );
-    acq_demo::acquire::play_and_record(bus, &playbacks, true, observers).unwrap();
+    acq_demo::acquire::play_and_record(
+        bus,
+        &playbacks,
+        true,
+        observers,
+        acq_demo::never_interrupted,
+    )
+    .unwrap();
     let live = worker.finish();
     let not_shown: u64 = shared
         .iter()

@@ -93,13 +93,14 @@ pub fn play_and_record<B: Bus>(
     playbacks: &[Playback],
     together: bool,
     observers: Vec<Box<dyn RecordObserver>>,
+    interrupted: crate::Interrupted,
 ) -> Result<Vec<Played>> {
     let runtime = acq_acquire::runtime(2)?;
     let mut observers: Vec<Option<Box<dyn RecordObserver>>> =
         observers.into_iter().map(Some).collect();
     observers.resize_with(playbacks.len(), || None);
     if together {
-        runtime.block_on(play_all(bus, playbacks, observers))
+        runtime.block_on(play_all(bus, playbacks, observers, interrupted))
     } else {
         let mut played = Vec::new();
         for (playback, observer) in playbacks.iter().zip(observers) {
@@ -107,6 +108,7 @@ pub fn play_and_record<B: Bus>(
                 bus.clone(),
                 std::slice::from_ref(playback),
                 vec![observer],
+                interrupted,
             ))?);
         }
         Ok(played)
@@ -117,6 +119,7 @@ async fn play_all<B: Bus>(
     bus: B,
     playbacks: &[Playback],
     observers: Vec<Option<Box<dyn RecordObserver>>>,
+    interrupted: crate::Interrupted,
 ) -> Result<Vec<Played>> {
     // 1. Every recorder listening before any frame is sent.
     let mut recorders = Vec::new();
@@ -204,9 +207,8 @@ async fn play_all<B: Bus>(
     // Ctrl-C: the players stop sending and the recordings end as after a
     // normal end, every file whole.
     let signal_watch = tokio::spawn(async move {
-        if tokio::signal::ctrl_c().await.is_ok() {
-            let _ = interrupt_tx.send(true);
-        }
+        interrupted().await;
+        let _ = interrupt_tx.send(true);
     });
     let mut summaries = Vec::new();
     for player in players {

@@ -14,11 +14,12 @@
 pub mod acquire;
 pub mod report;
 
+use std::future::Future;
 use std::path::{Path, PathBuf};
+use std::pin::Pin;
 use std::time::Instant;
 
 use acq_drivers::IfaceName;
-use clap::{Args, Parser};
 use serde_json::json;
 
 use acq_acquire::bus::memory::MemoryBus;
@@ -34,35 +35,57 @@ use acq_analysis::recording::Recording;
 use acq_io::error::{AcqError, Result};
 use acq_io::output::{Output, TableOutput};
 use acq_io::session::{self, SessionFile};
-use acq_workflows::calibrate::excavator::{CalibrateExcavatorArgs, ExcavatorCalibration};
-use acq_workflows::calibrate::gtn::{CalibrateGtnArgs, GtnCalibration};
+use acq_workflows::calibrate::excavator::{CalibrateExcavatorOptions, ExcavatorCalibration};
+use acq_workflows::calibrate::gtn::{CalibrateGtnOptions, GtnCalibration};
 use acquire::{play_and_record, Playback, Played};
 
-#[derive(Args, Debug)]
-pub struct DemoArgs {
+/// What `acq demo` does and where.
+#[derive(Clone, Debug)]
+pub struct DemoOptions {
     /// Report directory (a previous demo's output there is replaced).
-    #[arg(long, value_name = "DIR", default_value = "acq-demo")]
     pub out: PathBuf,
-    /// Replay on these SocketCAN interfaces (e.g. vcan0 vcan1: one per bus of
-    /// the excavator rig) instead of the in-process bus; sessions then play
-    /// one after another.
-    #[arg(long = "iface", value_name = "IFACE")]
+    /// Replay on these SocketCAN interfaces (one per bus of the excavator
+    /// rig) instead of the in-process bus; sessions then play one after
+    /// another.
     pub interfaces: Vec<String>,
-    /// Analyse the sessions already recorded in DIR (named as the shipped
-    /// ones, e.g. by an earlier `--acquire-only`) instead of replaying.
-    #[arg(long, value_name = "DIR", conflicts_with_all = ["interfaces", "acquire_only"])]
+    /// Analyse the sessions already recorded in this directory (named as
+    /// the shipped ones) instead of replaying.
     pub sessions: Option<PathBuf>,
-    /// Stop once the sessions are recorded (analyse them later with --sessions).
-    #[arg(long)]
+    /// Stop once the sessions are recorded.
     pub acquire_only: bool,
-    /// Where fixtures/ and data/ are [default: the current directory when it
-    /// has them, else the source tree acq was built from].
-    #[arg(long, value_name = "DIR")]
+    /// Where fixtures/ and data/ are; `None` is the current directory when
+    /// it has them, else the source tree acq was built from.
     pub data: Option<PathBuf>,
-    /// The live page of the sessions as they are replayed; it stays up after
-    /// the demo until Ctrl-C.
-    #[command(flatten)]
-    pub view: acq_view::ViewArgs,
+    /// The live page of the sessions as they are replayed; it stays up
+    /// after the demo until Ctrl-C.
+    pub view: acq_view::ViewOptions,
+}
+
+impl DemoOptions {
+    /// The report directory the demo writes unless told otherwise.
+    pub const DEFAULT_OUT: &str = "acq-demo";
+
+    /// The whole demo on the in-process bus into `out`, no page.
+    pub fn new(out: &Path) -> Self {
+        DemoOptions {
+            out: out.to_path_buf(),
+            interfaces: Vec::new(),
+            sessions: None,
+            acquire_only: false,
+            data: None,
+            view: acq_view::ViewOptions::default(),
+        }
+    }
+}
+
+/// A future that resolves when the user interrupts the demo (Ctrl-C):
+/// the players stop, the recordings end whole, the page stops serving.
+/// The program that takes the signal makes it.
+pub type Interrupted = fn() -> Pin<Box<dyn Future<Output = ()> + Send>>;
+
+/// For a caller that never interrupts the demo.
+pub fn never_interrupted() -> Pin<Box<dyn Future<Output = ()> + Send>> {
+    Box::pin(std::future::pending())
 }
 
 /// What a shipped session is for.
@@ -93,7 +116,14 @@ pub const SHIPPED: [(&str, Purpose); 3] = [
 
 /// The GTN search of the demo: the defaults of `acq calibrate gtn`, with a
 /// budget that keeps the demo within its minute (2 simulations at a time).
-const GTN_ARGS: [&str; 6] = ["--max-evals", "30", "--batch", "2", "--target-mape", "2"];
+fn demo_gtn_search(test: &Path, out: &Path) -> CalibrateGtnOptions {
+    CalibrateGtnOptions {
+        max_evals: 30,
+        batch: 2,
+        target_mape_pct: 2.0,
+        ..CalibrateGtnOptions::new(test, out)
+    }
+}
 
 /// One session, from its recording to its results.
 pub struct SessionResult {
@@ -123,7 +153,7 @@ pub struct Step {
     pub wall_s: f64,
 }
 
-fn data_root(args: &DemoArgs) -> Result<PathBuf> {
+fn data_root(args: &DemoOptions) -> Result<PathBuf> {
     let has_data = |dir: &Path| dir.join("fixtures/sessions").is_dir() && dir.join("data").is_dir();
     let root = match &args.data {
         Some(dir) => dir.clone(),
@@ -176,7 +206,7 @@ fn say(text: impl AsRef<str>) {
     eprintln!("acq demo: {}", text.as_ref());
 }
 
-pub fn run(args: DemoArgs) -> Result<()> {
+pub fn run(args: DemoOptions, interrupted: Interrupted) -> Result<()> {
     let root = data_root(&args)?;
     let interfaces: Vec<IfaceName> = args
         .interfaces
@@ -284,7 +314,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     }
                 }
                 (
-                    play_and_record(bus, &playbacks, true, observers)?,
+                    play_and_record(bus, &playbacks, true, observers, interrupted)?,
                     "the in-process bus".to_string(),
                 )
             } else {
@@ -294,7 +324,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     names.join(", ")
                 ));
                 (
-                    play_and_record(SocketCanBus, &playbacks, false, observers)?,
+                    play_and_record(SocketCanBus, &playbacks, false, observers, interrupted)?,
                     format!("SocketCAN {}", names.join(", ")),
                 )
             };
@@ -313,7 +343,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     };
     if args.acquire_only {
         say(format!("sessions recorded in {}", sessions_dir.display()));
-        return keep_serving(view_host);
+        return keep_serving(view_host, interrupted);
     }
 
     // 2-4. Per session: align, extract, calibrate.
@@ -358,16 +388,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     wall_s: step.elapsed().as_secs_f64(),
                 });
                 let step = Instant::now();
-                let calibration = acq_workflows::calibrate::excavator::run(parse_args::<
-                    CalibrateExcavatorArgs,
-                >(&[
-                    "--case",
-                    &root.join(case_file).to_string_lossy(),
-                    "--measured",
-                    &measured.to_string_lossy(),
-                    "--out",
-                    &work.join("calibration").to_string_lossy(),
-                ])?)?;
+                let calibration =
+                    acq_workflows::calibrate::excavator::run(CalibrateExcavatorOptions {
+                        measured: Some(measured),
+                        ..CalibrateExcavatorOptions::published(
+                            &root.join(case_file),
+                            &work.join("calibration"),
+                        )
+                    })?;
                 steps.push(Step {
                     name: format!("{name}: calibrate the excavator twin"),
                     wall_s: step.elapsed().as_secs_f64(),
@@ -393,16 +421,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
                     curve.curve.points.len()
                 ));
                 let step = Instant::now();
-                let mut gtn_args = vec![
-                    "--test".to_string(),
-                    curve_file.to_string_lossy().into_owned(),
-                    "--out".to_string(),
-                    work.join("calibration").to_string_lossy().into_owned(),
-                ];
-                gtn_args.extend(GTN_ARGS.iter().map(|s| s.to_string()));
-                let gtn_args: Vec<&str> = gtn_args.iter().map(String::as_str).collect();
-                let calibration =
-                    acq_workflows::calibrate::gtn::run(parse_args::<CalibrateGtnArgs>(&gtn_args)?)?;
+                let calibration = acq_workflows::calibrate::gtn::run(demo_gtn_search(
+                    &curve_file,
+                    &work.join("calibration"),
+                ))?;
                 steps.push(Step {
                     name: format!("{name}: calibrate the GTN model"),
                     wall_s: step.elapsed().as_secs_f64(),
@@ -429,14 +451,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
     let html = args.out.join("report.html");
     say(format!("done in {wall_s:.1} s"));
     println!("report: {}", html.display());
-    keep_serving(view_host)
+    keep_serving(view_host, interrupted)
 }
 
 /// With `--view`, the page stays up after the demo's work until Ctrl-C.
-fn keep_serving(host: Option<acq_view::ViewHost>) -> Result<()> {
+fn keep_serving(host: Option<acq_view::ViewHost>, interrupted: Interrupted) -> Result<()> {
     if let Some(host) = host {
         say(format!("the page stays up at {} until Ctrl-C", host.url()));
-        host.serve_until_interrupted();
+        host.serve_until(interrupted());
     }
     Ok(())
 }
@@ -444,20 +466,6 @@ fn keep_serving(host: Option<acq_view::ViewHost>) -> Result<()> {
 /// The in-process interface of bus `bus` of session `session`.
 fn demo_iface(session: usize, bus: usize) -> IfaceName {
     IfaceName::new(&format!("demo{session}can{bus}")).expect("a short interface name")
-}
-
-/// A command's arguments parsed with its own defaults, as on the command line.
-fn parse_args<T: Args>(args: &[&str]) -> Result<T> {
-    #[derive(Parser)]
-    struct Command<T: Args> {
-        #[command(flatten)]
-        args: T,
-    }
-    let mut argv = vec!["acq"];
-    argv.extend_from_slice(args);
-    Command::<T>::try_parse_from(argv)
-        .map(|c| c.args)
-        .map_err(|e| AcqError::Config(format!("demo: {e}")))
 }
 
 /// `demo.json`: the numbers a script or CI compares, with fixed keys.

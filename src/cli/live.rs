@@ -55,7 +55,7 @@ pub struct RecordArgs {
     // The page (needs --rig: it decodes through it); it stops serving when
     // the recording ends.
     #[command(flatten)]
-    pub view: acq_view::ViewArgs,
+    pub view: super::view::ViewArgs,
 }
 
 #[derive(Args, Debug)]
@@ -182,7 +182,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     // With a rig, the view's feed decodes along and writes view-index.bin at
     // the end (acq view then opens the session at once). With --view it also
     // serves the page, bound before recording starts: a taken port fails first.
-    let view_address = args.view.resolve()?;
+    let view_address = args.view.options().resolve()?;
     if view_address.is_some() && rig.is_none() {
         return Err(AcqError::Config(
             "--view needs --rig RIG.toml: the page shows the rig's sensors".into(),
@@ -262,7 +262,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     let summary = acq_acquire::runtime(2)?.block_on(record::record(
         SocketCanBus,
         options,
-        record::stop_on_signal_or(args.duration),
+        super::interrupt::stop_on_signal_or(args.duration),
     ));
     // The study catches up with the last holds before the page stops.
     let last_panel = worker.map(acq_view::StudyWorker::finish);

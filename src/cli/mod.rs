@@ -3,9 +3,12 @@
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
+mod calibrate;
 mod convert;
 mod decode;
+mod demo;
 mod engine;
+mod interrupt;
 mod live;
 mod offline;
 mod rig_study;
@@ -14,17 +17,6 @@ mod twin;
 mod view;
 
 use acq_io::error::Result;
-
-/// `acq calibrate`: the presets and a spec's study, and a study at the rig
-/// over recorded sessions.
-#[derive(Subcommand, Debug)]
-pub enum CalibrateCli {
-    #[command(flatten)]
-    Presets(acq_workflows::calibrate::CalibrateCommand),
-    /// A study at the rig over recorded sessions' holds; --next names the
-    /// test point to run next.
-    Rig(acq_workflows::rig_study::offline::CalibrateRigArgs),
-}
 
 /// The command line as given. Every option that takes a value takes a
 /// negative number too: `--weights 1 1 -1` is a weight that the command
@@ -91,12 +83,12 @@ pub enum Command {
     TensileProps(tensile::TensilePropsArgs),
     /// Fit a twin (or your own solver) to measurements: DoE, surrogates, NSGA-II + TOPSIS, BO.
     #[command(subcommand)]
-    Calibrate(CalibrateCli),
+    Calibrate(calibrate::CalibrateCommand),
     /// Gaussian-process regression on a CSV: fit a model, predict with it.
     #[command(subcommand)]
     Gp(engine::GpCommand),
     /// The whole chain on the shipped sessions: replay, record, align, extract, calibrate, report.
-    Demo(acq_demo::DemoArgs),
+    Demo(demo::DemoArgs),
     /// NSGA-II on a built-in benchmark problem (ZDT1-3, DTLZ2): the final front as CSV.
     Moo(engine::MooArgs),
 }
@@ -117,12 +109,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Twin(command) => twin::run_twin(command),
         Command::Sensitivity(command) => twin::run_sensitivity(command),
         Command::TensileProps(args) => tensile::run_tensile_props(args),
-        Command::Calibrate(CalibrateCli::Presets(command)) => {
-            acq_workflows::calibrate::run(command)
-        }
-        Command::Calibrate(CalibrateCli::Rig(args)) => acq_workflows::rig_study::offline::run(args),
+        Command::Calibrate(command) => calibrate::run_calibrate(command),
         Command::Gp(command) => engine::run_gp(command),
         Command::Moo(args) => engine::run_moo(args),
-        Command::Demo(args) => acq_demo::run(args),
+        Command::Demo(args) => demo::run_demo(args),
     }
 }

@@ -7,7 +7,9 @@ use acq_io::error::Result;
 use acq_workflows::twin_excavator::{
     ExcavatorModelOptions, SensitivityExcavatorOptions, TwinExcavatorOptions,
 };
-use acq_workflows::twin_gtn::TwinGtnArgs;
+use acq_workflows::twin_gtn::TwinGtnOptions;
+
+use super::calibrate::MeshArgs;
 use clap::Subcommand;
 
 #[derive(Subcommand, Debug)]
@@ -27,7 +29,7 @@ pub enum SensitivityCommand {
 pub fn run_twin(command: TwinCommand) -> Result<()> {
     match command {
         TwinCommand::Excavator(args) => acq_workflows::twin_excavator::run_twin(args.into()),
-        TwinCommand::Gtn(args) => acq_workflows::twin_gtn::run(args),
+        TwinCommand::Gtn(args) => acq_workflows::twin_gtn::run(args.into()),
     }
 }
 
@@ -91,6 +93,75 @@ pub struct SensitivityExcavatorArgs {
     pub svg: Option<PathBuf>,
 }
 
+/// `acq twin gtn`: one simulation of a test with given GTN parameters.
+#[derive(clap::Args, Debug)]
+pub struct TwinGtnArgs {
+    /// Test curve CSV with DISPLACEMENT (mm) and FORCE (kN) columns: the
+    /// flow curve and E come from it (unless --flow-curve gives them), and
+    /// the simulation is scored on it.
+    #[arg(long, value_name = "TEST.csv", required_unless_present = "flow_curve")]
+    pub test: Option<PathBuf>,
+    /// An explicit flow curve instead of the test's: a CSV with
+    /// PLASTIC_STRAIN and TRUE_STRESS_MPA columns from plastic strain 0
+    /// (m extends it past its last point). With --test, the test is only
+    /// the reference the curve is scored and drawn against.
+    #[arg(long, value_name = "FLOW.csv")]
+    pub flow_curve: Option<PathBuf>,
+    /// Young's modulus with --flow-curve, MPa.
+    #[arg(
+        long,
+        value_name = "MPA",
+        default_value_t = 210_000.0,
+        requires = "flow_curve"
+    )]
+    pub youngs_mpa: f64,
+    /// How far to pull with --flow-curve, mm [default: the test's last displacement].
+    #[arg(long, value_name = "MM", requires = "flow_curve")]
+    pub end_mm: Option<f64>,
+    /// Radius reduction at the mid-gauge plane that seeds the neck, as a
+    /// fraction of the radius (cosine-shaped along the half length).
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.001)]
+    pub imperfection: f64,
+    /// The eight GTN parameters, e.g.
+    /// q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1
+    /// (m in MPa; add fc=..,fF=.. for coalescence).
+    #[arg(long, value_name = "NAME=VALUE,...")]
+    pub param: String,
+    /// Write the simulated curve (DISPLACEMENT,FORCE,NECK_DIAMETER,FAILED_POINTS).
+    #[arg(short = 'o', long = "output", value_name = "curve.csv")]
+    pub output: Option<PathBuf>,
+    /// Print {"mape", "failed_early", "points", "wall_s"} instead of the report.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the test and simulated curves.
+    #[arg(long, value_name = "FILE.svg")]
+    pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Mesh convergence instead of one run: the same parameters at each of
+    /// these element sizes in the neck (mm, e.g. 0.33,0.18,0.12,0.09); a
+    /// table of MAPE, maximum force and where the bar broke, and with
+    /// --svg the curves overlaid. Needs --test.
+    #[arg(
+        long,
+        value_name = "MM,...",
+        value_delimiter = ',',
+        num_args = 1..,
+        conflicts_with_all = ["mesh", "element_mm", "output", "flow_curve"],
+        requires = "test"
+    )]
+    pub convergence: Vec<f64>,
+    /// Output interval of the simulated curve, also the largest load step, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.01)]
+    pub step_mm: f64,
+    /// Specimen diameter, mm.
+    #[arg(long, value_name = "MM", default_value_t = 4.0)]
+    pub diameter_mm: f64,
+    /// Length the displacement is measured over (the modelled half), mm.
+    #[arg(long, value_name = "MM", default_value_t = 12.5)]
+    pub strain_length_mm: f64,
+}
+
 impl From<ExcavatorModelArgs> for ExcavatorModelOptions {
     fn from(args: ExcavatorModelArgs) -> Self {
         ExcavatorModelOptions {
@@ -122,6 +193,27 @@ impl From<SensitivityExcavatorArgs> for SensitivityExcavatorOptions {
             points: args.points,
             output: args.output,
             svg: args.svg,
+        }
+    }
+}
+
+impl From<TwinGtnArgs> for TwinGtnOptions {
+    fn from(args: TwinGtnArgs) -> Self {
+        TwinGtnOptions {
+            test: args.test,
+            flow_curve: args.flow_curve,
+            youngs_mpa: args.youngs_mpa,
+            end_mm: args.end_mm,
+            imperfection: args.imperfection,
+            param: args.param,
+            output: args.output,
+            json: args.json,
+            svg: args.svg,
+            mesh: args.mesh.into(),
+            convergence: args.convergence,
+            step_mm: args.step_mm,
+            diameter_mm: args.diameter_mm,
+            strain_length_mm: args.strain_length_mm,
         }
     }
 }

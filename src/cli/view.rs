@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use acq_io::error::{AcqError, Result};
-use acq_view::{open_session, Source, ViewArgs, ViewHost, DEFAULT_ADDRESS};
+use acq_view::{open_session, Source, ViewHost, ViewOptions, DEFAULT_ADDRESS};
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -21,12 +21,36 @@ pub struct ViewCommandArgs {
     pub view: ViewArgs,
 }
 
+/// `--view [HOST:PORT]` and `--view-remote`, which every command that
+/// serves the page shares.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ViewArgs {
+    /// Serve a page of every signal, live, at HOST:PORT (127.0.0.1:8750, on
+    /// this machine only, when no address is given). Open the URL printed.
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = DEFAULT_ADDRESS)]
+    pub view: Option<String>,
+    /// Let --view serve an address other machines can reach. Every request
+    /// then needs the random token in the URL printed at start.
+    #[arg(long, requires = "view")]
+    pub view_remote: bool,
+}
+
+impl ViewArgs {
+    pub fn options(&self) -> ViewOptions {
+        ViewOptions {
+            address: self.view.clone(),
+            remote: self.view_remote,
+        }
+    }
+}
+
 pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
     if args.view.view.is_none() {
         args.view.view = Some(DEFAULT_ADDRESS.into());
     }
     let (addr, access) = args
         .view
+        .options()
         .resolve()?
         .ok_or_else(|| AcqError::Config("--view: an address is needed".into()))?;
     let mut sessions = Vec::new();
@@ -77,7 +101,7 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
     };
     let host = ViewHost::start(addr, access, pages)?;
     eprintln!("acq: view at {} (Ctrl-C to stop)", host.url());
-    host.serve_until_interrupted();
+    host.serve_until(super::interrupt::interrupted());
     drop(worker);
     Ok(())
 }

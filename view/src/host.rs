@@ -1,34 +1,32 @@
 //! The page on a runtime of its own, so that serving never takes a worker
-//! from the recorder, and the `--view` options every command shares.
+//! from the recorder, and where it is served.
 
 use std::net::SocketAddr;
 
 use acq_io::error::{AcqError, Result};
 
 use crate::server::{access_for, parse_address, serve, Access, Pages, ViewServer};
-use crate::DEFAULT_ADDRESS;
 
-/// `--view [HOST:PORT]` and `--view-remote`.
-#[derive(clap::Args, Clone, Debug, Default)]
-pub struct ViewArgs {
-    /// Serve a page of every signal, live, at HOST:PORT (127.0.0.1:8750, on
-    /// this machine only, when no address is given). Open the URL printed.
-    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = DEFAULT_ADDRESS)]
-    pub view: Option<String>,
-    /// Let --view serve an address other machines can reach. Every request
-    /// then needs the random token in the URL printed at start.
-    #[arg(long, requires = "view")]
-    pub view_remote: bool,
+/// Where the page is served, if at all (`--view [HOST:PORT]` and
+/// `--view-remote` on the command line).
+#[derive(Clone, Debug, Default)]
+pub struct ViewOptions {
+    /// The page's address ([`crate::DEFAULT_ADDRESS`], this machine only, unless
+    /// told); `None` serves no page.
+    pub address: Option<String>,
+    /// Whether an address other machines can reach is allowed: every
+    /// request then needs the random token in the URL printed at start.
+    pub remote: bool,
 }
 
-impl ViewArgs {
+impl ViewOptions {
     /// The address and who may use it; checked before anything starts.
     pub fn resolve(&self) -> Result<Option<(SocketAddr, Access)>> {
-        let Some(text) = &self.view else {
+        let Some(text) = &self.address else {
             return Ok(None);
         };
         let addr = parse_address(text)?;
-        Ok(Some((addr, access_for(addr, self.view_remote)?)))
+        Ok(Some((addr, access_for(addr, self.remote)?)))
     }
 }
 
@@ -58,22 +56,11 @@ impl ViewHost {
         self.server.as_ref().map_or("", |s| s.url())
     }
 
-    /// Serves until SIGINT or SIGTERM, then stops.
-    pub fn serve_until_interrupted(mut self) {
+    /// Serves until `stop` resolves, then stops.
+    pub fn serve_until(mut self, stop: impl std::future::Future<Output = ()>) {
         let server = self.server.take();
         self.runtime.block_on(async move {
-            use tokio::signal::unix::{signal, SignalKind};
-            if let (Ok(mut interrupt), Ok(mut terminate)) = (
-                signal(SignalKind::interrupt()),
-                signal(SignalKind::terminate()),
-            ) {
-                tokio::select! {
-                    _ = interrupt.recv() => {}
-                    _ = terminate.recv() => {}
-                }
-            } else {
-                let _ = tokio::signal::ctrl_c().await;
-            }
+            stop.await;
             if let Some(server) = server {
                 server.stop().await;
             }

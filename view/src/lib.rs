@@ -28,7 +28,7 @@ pub mod server;
 pub mod study_worker;
 
 #[cfg(feature = "server")]
-pub use host::{ViewArgs, ViewHost};
+pub use host::{ViewHost, ViewOptions};
 pub use live::{live_session, LiveFeed, SharedSession};
 pub use recorded::{open_session, Source};
 #[cfg(feature = "server")]

@@ -14,9 +14,8 @@
 //!
 //! Sits at the end of the data flow: it reads measured values (`acq-analysis`),
 //! runs twins (`acq-twins`) and the engine (`acq-calib`) and writes reports
-//! (`acq-report`). It knows nothing of CAN or live buses. The option structs
-//! of its commands derive `clap::Args`, so the demo takes the same defaults
-//! from the same definitions.
+//! (`acq-report`). It knows nothing of CAN or live buses, nor of the command
+//! line: each command takes an options struct with its defaults.
 
 pub mod abaqus_material;
 pub mod calibrate;

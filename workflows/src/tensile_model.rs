@@ -152,28 +152,22 @@ impl GtnInputs {
     }
 }
 
-/// The mesh options of the GTN commands: element counts, or an element
-/// size at the neck (the size GTN parameters belong to).
-#[derive(Clone, Debug, clap::Args)]
-pub struct MeshArgs {
-    /// Mesh as RADIALxAXIAL elements of the quarter model, graded toward the neck.
-    #[arg(long, value_name = "NRxNZ", default_value = "6x30")]
+/// The mesh of the GTN commands: element counts, or an element size at
+/// the neck (the size GTN parameters belong to).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshOptions {
+    /// RADIALxAXIAL elements of the quarter model, graded toward the neck.
     pub mesh: String,
-    /// Element size in the neck zone, mm (instead of --mesh): square
-    /// elements there, graded coarser toward the pulled end. GTN softening
-    /// depends on it, so calibrate at the size of the model the parameters
-    /// are for.
-    #[arg(long, value_name = "MM", conflicts_with = "mesh")]
+    /// Element size in the neck zone, mm (instead of `mesh`).
     pub element_mm: Option<f64>,
     /// Length of the neck zone from the mid-gauge plane, mm, with
-    /// --element-mm [default: one diameter]
-    #[arg(long, value_name = "MM", requires = "element_mm")]
+    /// `element_mm`; `None` is one diameter.
     pub neck_zone_mm: Option<f64>,
 }
 
-impl Default for MeshArgs {
+impl Default for MeshOptions {
     fn default() -> Self {
-        MeshArgs {
+        MeshOptions {
             mesh: "6x30".into(),
             element_mm: None,
             neck_zone_mm: None,
@@ -181,7 +175,7 @@ impl Default for MeshArgs {
     }
 }
 
-impl MeshArgs {
+impl MeshOptions {
     /// The mesh these options ask for on `geometry`; the message names the
     /// option and what was expected.
     pub fn density(&self, geometry: &BarGeometry) -> Result<MeshDensity, String> {

@@ -9,83 +9,56 @@ use std::path::PathBuf;
 use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
 use acq_io::error::{AcqError, Result};
 use acq_io::output::Output;
-use clap::Args;
 
-use crate::tensile_model::MeshArgs;
+use crate::tensile_model::MeshOptions;
 use crate::tensile_report::{
     comparison_svg, file_name, labelled_comparison_svg, simulated_curve_csv, twin_report,
 };
 
 /// `acq twin gtn`: one simulation of a test with given GTN parameters.
-#[derive(Args, Debug)]
-pub struct TwinGtnArgs {
+#[derive(Clone, Debug)]
+pub struct TwinGtnOptions {
     /// Test curve CSV with DISPLACEMENT (mm) and FORCE (kN) columns: the
-    /// flow curve and E come from it (unless --flow-curve gives them), and
+    /// flow curve and E come from it (unless `flow_curve` gives them), and
     /// the simulation is scored on it.
-    #[arg(long, value_name = "TEST.csv", required_unless_present = "flow_curve")]
     pub test: Option<PathBuf>,
     /// An explicit flow curve instead of the test's: a CSV with
     /// PLASTIC_STRAIN and TRUE_STRESS_MPA columns from plastic strain 0
-    /// (m extends it past its last point). With --test, the test is only
+    /// (m extends it past its last point). With `test`, the test is only
     /// the reference the curve is scored and drawn against.
-    #[arg(long, value_name = "FLOW.csv")]
     pub flow_curve: Option<PathBuf>,
-    /// Young's modulus with --flow-curve, MPa.
-    #[arg(
-        long,
-        value_name = "MPA",
-        default_value_t = 210_000.0,
-        requires = "flow_curve"
-    )]
+    /// Young's modulus with `flow_curve`, MPa (210,000 unless told).
     pub youngs_mpa: f64,
-    /// How far to pull with --flow-curve, mm [default: the test's last displacement].
-    #[arg(long, value_name = "MM", requires = "flow_curve")]
+    /// How far to pull with `flow_curve`, mm [default: the test's last displacement].
     pub end_mm: Option<f64>,
     /// Radius reduction at the mid-gauge plane that seeds the neck, as a
     /// fraction of the radius (cosine-shaped along the half length).
-    #[arg(long, value_name = "FRACTION", default_value_t = 0.001)]
     pub imperfection: f64,
     /// The eight GTN parameters, e.g.
     /// q1=1.332,q2=0.9952,q3=2.295,epsN=0.29,sN=0.1671,fN=0.03869,f0=0.00137,m=534.1
     /// (m in MPa; add fc=..,fF=.. for coalescence).
-    #[arg(long, value_name = "NAME=VALUE,...")]
     pub param: String,
     /// Write the simulated curve (DISPLACEMENT,FORCE,NECK_DIAMETER,FAILED_POINTS).
-    #[arg(short = 'o', long = "output", value_name = "curve.csv")]
     pub output: Option<PathBuf>,
     /// Print {"mape", "failed_early", "points", "wall_s"} instead of the report.
-    #[arg(long)]
     pub json: bool,
     /// Draw the test and simulated curves.
-    #[arg(long, value_name = "FILE.svg")]
     pub svg: Option<PathBuf>,
-    #[command(flatten)]
-    pub mesh: MeshArgs,
+    pub mesh: MeshOptions,
     /// Mesh convergence instead of one run: the same parameters at each of
     /// these element sizes in the neck (mm, e.g. 0.33,0.18,0.12,0.09); a
     /// table of MAPE, maximum force and where the bar broke, and with
-    /// --svg the curves overlaid. Needs --test.
-    #[arg(
-        long,
-        value_name = "MM,...",
-        value_delimiter = ',',
-        num_args = 1..,
-        conflicts_with_all = ["mesh", "element_mm", "output", "flow_curve"],
-        requires = "test"
-    )]
+    /// `svg` the curves overlaid. Needs `test`.
     pub convergence: Vec<f64>,
     /// Output interval of the simulated curve, also the largest load step, mm.
-    #[arg(long, value_name = "MM", default_value_t = 0.01)]
     pub step_mm: f64,
     /// Specimen diameter, mm.
-    #[arg(long, value_name = "MM", default_value_t = 4.0)]
     pub diameter_mm: f64,
     /// Length the displacement is measured over (the modelled half), mm.
-    #[arg(long, value_name = "MM", default_value_t = 12.5)]
     pub strain_length_mm: f64,
 }
 
-pub fn run(args: TwinGtnArgs) -> Result<()> {
+pub fn run(args: TwinGtnOptions) -> Result<()> {
     use crate::tensile_model::{GtnInputs, ModelSettings, TensileModel};
     let inputs =
         GtnInputs::parse(&args.param).map_err(|e| AcqError::Config(format!("--param: {e}")))?;
@@ -122,10 +95,11 @@ pub fn run(args: TwinGtnArgs) -> Result<()> {
     if let Some(flow_path) = &args.flow_curve {
         return run_twin_gtn_with_flow_curve(&args, flow_path, &inputs, settings, geometry);
     }
-    let test = args
-        .test
-        .as_ref()
-        .expect("clap requires --test without --flow-curve");
+    let Some(test) = args.test.as_ref() else {
+        return Err(AcqError::Config(
+            "give the test (--test TEST.csv), or a flow curve (--flow-curve FLOW.csv)".into(),
+        ));
+    };
     let points = read_test_csv(test)?;
     let properties = tensile_properties(&points, geometry)
         .map_err(|e| AcqError::Malformed(format!("{}: {e}", test.display())))?;
@@ -176,7 +150,7 @@ pub fn run(args: TwinGtnArgs) -> Result<()> {
 
 /// `acq twin gtn --convergence SIZES`: the table (or JSON) and the plot.
 fn run_mesh_convergence(
-    args: &TwinGtnArgs,
+    args: &TwinGtnOptions,
     test: &Path,
     model: &crate::tensile_model::TensileModel,
     inputs: &crate::tensile_model::GtnInputs,
@@ -269,7 +243,7 @@ fn say_if_not_converged(outcome: &acq_twins::tensile::solver::Outcome) {
 /// curve (for a comparison with another FE code on the same material),
 /// scored and drawn against `--test` when one is given.
 fn run_twin_gtn_with_flow_curve(
-    args: &TwinGtnArgs,
+    args: &TwinGtnOptions,
     flow_path: &Path,
     inputs: &crate::tensile_model::GtnInputs,
     settings: crate::tensile_model::ModelSettings,

@@ -137,30 +137,6 @@ enum Event {
     },
 }
 
-/// Resolves when SIGINT or SIGTERM arrives, or the duration is reached.
-pub async fn stop_on_signal_or(duration: Option<Duration>) -> StopReason {
-    use tokio::signal::unix::{signal, SignalKind};
-    let (Ok(mut interrupt), Ok(mut terminate)) = (
-        signal(SignalKind::interrupt()),
-        signal(SignalKind::terminate()),
-    ) else {
-        // Without signal handlers Ctrl-C would kill us mid-write; refuse instead of risking it.
-        std::future::pending::<()>().await;
-        unreachable!()
-    };
-    let timeout = async {
-        match duration {
-            Some(d) => tokio::time::sleep(d).await,
-            None => std::future::pending().await,
-        }
-    };
-    tokio::select! {
-        _ = interrupt.recv() => StopReason::Signal("SIGINT"),
-        _ = terminate.recv() => StopReason::Signal("SIGTERM"),
-        _ = timeout => StopReason::Duration,
-    }
-}
-
 /// Opens every interface, then records until `stop` resolves (or the
 /// sources end, or writing fails).
 pub async fn record<B: Bus>(

@@ -29,7 +29,6 @@ use acq_report::document::{Document, Table};
 use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_twins::excavator::CylinderName;
-use clap::Args;
 use serde_json::{json, Map, Value};
 
 use super::builtin::ExcavatorModel;
@@ -44,121 +43,85 @@ use super::study::{
 use super::study_runner::run_study;
 use super::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};
 
-#[derive(Args, Debug)]
-pub struct CalibrateExcavatorArgs {
+/// The settings of `acq calibrate excavator`; [`CalibrateExcavatorOptions::published`]
+/// gives the published workflow's.
+#[derive(Clone, Debug)]
+pub struct CalibrateExcavatorOptions {
     /// Case file (TOML) with bounds and measured pressures.
-    #[arg(long, value_name = "FILE")]
     pub case: PathBuf,
     /// Measured values from `acq extract`: the loaded-chamber pressures
-    /// (`<cylinder>_loaded_pressure`) replace the case's [measured], and the
-    /// load (`--load-quantity`) replaces its force.
-    #[arg(long, value_name = "measured.csv")]
+    /// (`<cylinder>_loaded_pressure`) replace the case's `[measured]`, and
+    /// the load (`load_quantity`) replaces its force.
     pub measured: Option<PathBuf>,
-    /// The hold to use from the measured file [default: its only one].
-    #[arg(long, value_name = "NAME", requires = "measured")]
+    /// The hold to use from the measured file; `None` takes its only one.
     pub window: Option<String>,
     /// The measured quantity that is the force at the bucket tip (kN).
-    #[arg(long, value_name = "QUANTITY", default_value = "tip_force")]
     pub load_quantity: String,
-    /// Geometry file [default: the built-in DX55-class data/excavator/dx55.toml].
-    #[arg(long, value_name = "FILE")]
+    /// Geometry file; `None` is the built-in DX55-class one.
     pub geometry: Option<PathBuf>,
     /// Run directory: evaluations.csv, summary.json, report.md, plots.
-    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Latin-hypercube training runs of the twin.
-    #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(5..=100_000))]
-    pub training: u32,
+    pub training_runs: u32,
     /// Random test runs for the surrogate comparison.
-    #[arg(long, default_value_t = 40, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     pub test_runs: u32,
-    /// NSGA-II population.
-    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(4..=1_000_000))]
+    /// NSGA-II population and generations.
     pub population: u32,
-    /// NSGA-II generations.
-    #[arg(long, default_value_t = 100)]
     pub generations: u32,
-    /// Largest share of the population on the first front.
-    #[arg(long, default_value_t = 0.5)]
+    /// Largest share of the population on the first front, in (0, 1].
     pub pareto_fraction: f64,
-    /// Weights of the bucket, arm and boom errors in the pick (`1 1 2` or
-    /// `1,1,2`; non-negative, not all zero).
-    #[arg(long, value_delimiter = ',', num_args = 1..=3, default_values_t = [1.0, 1.0, 1.0])]
+    /// Weights of the bucket, arm and boom errors in the pick.
     pub weights: Vec<f64>,
-    /// How one point of the Pareto front is picked: `minimax` (the point
-    /// whose largest weighted error is least: what "largest error" judges),
-    /// `topsis` (the published method; each error normalised by its own
-    /// spread over the front, so an error that spreads widely, like the
-    /// boom's, counts least) or `topsis-common` (TOPSIS with one norm for
-    /// the three errors, which share a unit).
-    #[arg(long, default_value = "minimax")]
+    /// How one point of the Pareto front is picked.
     pub pick: Pick,
-    /// GP kernel: se, matern12, matern32, matern52.
-    #[arg(long, default_value = "se")]
     pub kernel: Kernel,
     /// Seed of the designs, the GP fits and NSGA-II.
-    #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Continue the run in DIR: evaluations already in its log are not repeated.
-    #[arg(long)]
+    /// Continue the run in `out`: evaluations already in its log are not repeated.
     pub resume: bool,
-    /// Twin evaluations at once [default: the number of cores].
-    #[arg(long)]
+    /// Twin evaluations at once; `None` is the number of cores.
     pub parallel: Option<usize>,
-    /// After the search, sample the posterior of the inputs (4 chains of
-    /// 1,000 draws, the twin run at every step) given the measured
-    /// pressures' uncertainty: their `std_of_mean` with --measured, else a
-    /// noise scale the posterior estimates. Writes posterior.csv and
-    /// predictive.csv, and adds `posterior` and `predictive` to summary.json.
-    #[arg(long)]
-    pub posterior: bool,
-    /// The model error the posterior allows for: `none`, or `constant` (an
-    /// additive error per pressure, its size estimated). One case has no
-    /// inputs to vary over: `gp` is for specs with several cases.
-    #[arg(long, value_enum, default_value = "none", requires = "posterior")]
-    pub discrepancy: PosteriorDiscrepancy,
-    /// Kept posterior draws per chain (4 chains); an unconverged posterior
-    /// is sampled once more, four times as long.
-    #[arg(long, default_value_t = 1000, requires = "posterior")]
-    pub posterior_draws: usize,
+    /// After the search, the posterior of the inputs with this model error
+    /// and this many kept draws per chain.
+    pub posterior: Option<ExcavatorPosterior>,
 }
 
-impl CalibrateExcavatorArgs {
-    /// The published workflow's settings (every option at its default)
-    /// for `case`, into `out`: the defaults stay where the command line
-    /// reads them.
-    pub fn defaults(case: &Path, out: &Path) -> Self {
-        #[derive(clap::Parser)]
-        struct Command {
-            #[command(flatten)]
-            args: CalibrateExcavatorArgs,
-        }
-        let mut args = <Command as clap::Parser>::parse_from([
-            std::ffi::OsStr::new("calibrate-excavator"),
-            "--case".as_ref(),
-            case.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ])
-        .args;
-        args.case = case.to_path_buf();
-        args.out = out.to_path_buf();
-        args
-    }
+/// The posterior `acq calibrate excavator` samples after its search.
+#[derive(Clone, Copy, Debug)]
+pub struct ExcavatorPosterior {
+    pub discrepancy: Discrepancy,
+    /// Kept draws per chain (4 chains).
+    pub draws_per_chain: usize,
 }
 
-/// `--discrepancy`.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum PosteriorDiscrepancy {
-    None,
-    Constant,
+impl ExcavatorPosterior {
+    /// Kept draws per chain unless told otherwise.
+    pub const DRAWS_PER_CHAIN: usize = 1000;
 }
 
-impl From<PosteriorDiscrepancy> for Discrepancy {
-    fn from(value: PosteriorDiscrepancy) -> Self {
-        match value {
-            PosteriorDiscrepancy::None => Discrepancy::None,
-            PosteriorDiscrepancy::Constant => Discrepancy::Constant,
+impl CalibrateExcavatorOptions {
+    /// The published workflow (Latin-hypercube training runs, GP per
+    /// pressure, NSGA-II, minimax pick) on `case` into `out`.
+    pub fn published(case: &Path, out: &Path) -> Self {
+        CalibrateExcavatorOptions {
+            case: case.to_path_buf(),
+            measured: None,
+            window: None,
+            load_quantity: "tip_force".into(),
+            geometry: None,
+            out: out.to_path_buf(),
+            training_runs: 40,
+            test_runs: 40,
+            population: 400,
+            generations: 100,
+            pareto_fraction: 0.5,
+            weights: vec![1.0; 3],
+            pick: Pick::Minimax,
+            kernel: Kernel::SquaredExponential,
+            seed: 1,
+            resume: false,
+            parallel: None,
+            posterior: None,
         }
     }
 }
@@ -396,7 +359,7 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
     })
 }
 
-pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
+pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
     let mut case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
     acq_io::input::note_input(&args.case);
     let mut force_source = format!("case file {}", args.case.display());
@@ -436,6 +399,11 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             given.join(" ")
         )));
     }
+    super::check_counts(&[
+        ("--training", args.training_runs, 5..=100_000),
+        ("--test-runs", args.test_runs, 1..=100_000),
+        ("--population", args.population, 4..=1_000_000),
+    ])?;
     if !(args.pareto_fraction > 0.0 && args.pareto_fraction <= 1.0) {
         return Err(AcqError::Config(
             "--pareto-fraction must lie in (0, 1]".into(),
@@ -459,7 +427,7 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
     )?;
     let directory = RunDirectory::create(&args.out)?;
     let method = Method::SurrogateMoo(SurrogateMooSettings {
-        training_runs: args.training as usize,
+        training_runs: args.training_runs as usize,
         test_runs: args.test_runs as usize,
         population: args.population as usize,
         generations: args.generations as usize,
@@ -491,9 +459,9 @@ pub fn run(args: CalibrateExcavatorArgs) -> Result<ExcavatorCalibration> {
             spec_directory: Path::new("."),
             parallel: args.parallel.unwrap_or_else(default_parallelism),
             resume: args.resume,
-            posterior: args.posterior.then(|| PosteriorSettings {
-                discrepancy: args.discrepancy.into(),
-                draws: args.posterior_draws,
+            posterior: args.posterior.map(|posterior| PosteriorSettings {
+                discrepancy: posterior.discrepancy,
+                draws: posterior.draws_per_chain,
                 seed: args.seed,
                 ..PosteriorSettings::default()
             }),

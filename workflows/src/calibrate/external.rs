@@ -8,7 +8,6 @@ use std::path::PathBuf;
 
 use acq_io::error::{AcqError, Result};
 use acq_twins::excavator::geometry::GeometryTemplate;
-use clap::Args;
 
 use super::builtin::ExcavatorModel;
 use super::command_model::CommandModel;
@@ -24,22 +23,18 @@ use super::spec::{ModelKind, Spec};
 use super::study::Study;
 use super::study_runner::{check_at_nominal, run_study};
 
-#[derive(Args, Debug)]
-pub struct CalibrateExternalArgs {
+#[derive(Clone, Debug)]
+pub struct CalibrateExternalOptions {
     /// The spec (TOML): command, parameters, cases or outputs with measured values, search.
-    #[arg(long, value_name = "FILE.toml")]
     pub spec: PathBuf,
     /// Run directory: evaluations.csv, runs/, summary.json, report.md, plots.
-    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Continue the run in DIR: evaluations already in its log are not repeated.
-    #[arg(long)]
     pub resume: bool,
-    #[arg(long, default_value_t = 1)]
     pub seed: u64,
 }
 
-pub fn run(args: CalibrateExternalArgs) -> Result<()> {
+pub fn run(args: CalibrateExternalOptions) -> Result<()> {
     let spec = Spec::load(&args.spec)?;
     let method = spec.method(args.seed);
     let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));

@@ -18,7 +18,6 @@ use acq_calib::bo::Acquisition;
 use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 use acq_report::document::Document;
-use clap::Args;
 use serde_json::{json, Map, Value};
 
 use super::builtin::{GtnModel, GTN_CURVE};
@@ -30,61 +29,64 @@ use super::run_directory::{write_text, RunDirectory};
 use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
 use super::study_runner::run_study;
 use crate::abaqus_material::abaqus_material_block;
-use crate::tensile_model::{GtnInputs, MeshArgs, ModelSettings, TensileModel, PARAMETER_NAMES};
+use crate::tensile_model::{GtnInputs, MeshOptions, ModelSettings, TensileModel, PARAMETER_NAMES};
 
-#[derive(Args, Debug)]
-pub struct CalibrateGtnArgs {
+/// The settings of `acq calibrate gtn`; [`CalibrateGtnOptions::new`]
+/// gives the command's defaults.
+#[derive(Clone, Debug)]
+pub struct CalibrateGtnOptions {
     /// Test CSV with DISPLACEMENT [mm] and FORCE [kN] columns.
-    #[arg(long, value_name = "TEST.csv")]
     pub test: PathBuf,
     /// Run directory: evaluations.csv, summary.json, report.md, curve and plots.
-    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Largest number of simulations (the L12 start included).
-    #[arg(long, default_value_t = 200, value_parser = clap::value_parser!(u32).range(13..=100_000))]
+    /// Largest number of simulations (the L12 start included), 13 to 100,000.
     pub max_evals: u32,
     /// Stop once the MAPE is at or below this, %.
-    #[arg(long, default_value_t = 2.0)]
-    pub target_mape: f64,
-    /// Simulations proposed (and run in parallel) per iteration.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub target_mape_pct: f64,
+    /// Simulations proposed (and run in parallel) per iteration, 1 to 64.
     pub batch: u32,
-    /// Acquisition: logei, ei, ucb[:KAPPA] (the published one is ucb:2.5).
-    #[arg(long, default_value = "logei")]
     pub acquisition: Acquisition,
-    /// Also stop when this many simulations in a row improved the best MAPE by
-    /// less than 0.1 % (relative).
-    #[arg(long)]
+    /// Also stop when this many simulations in a row improved the best
+    /// MAPE by less than 0.1 % (relative).
     pub patience: Option<u32>,
-    #[command(flatten)]
-    pub mesh: MeshArgs,
-    #[arg(long, default_value_t = 1)]
+    pub mesh: MeshOptions,
     pub seed: u64,
     /// Global Bayesian-optimisation steps only (the published search),
     /// without the local Gauss-Newton steps on the curve's errors.
-    #[arg(long)]
     pub global_only: bool,
-    /// With --batch above 1: synchronous batches, so the result depends
-    /// only on the test, the options and the seed (slots wait for the
-    /// slowest simulation of each batch) [default: each new point as soon
-    /// as a simulation ends, which machine load can steer].
-    #[arg(long)]
+    /// With `batch` above 1: synchronous batches, so the result depends
+    /// only on the test, the options and the seed.
     pub deterministic: bool,
-    /// Continue the run in DIR: simulations already in its log are not repeated.
-    #[arg(long)]
+    /// Continue the run in `out`: simulations already in its log are not repeated.
     pub resume: bool,
-    /// After the search, sample the posterior of the eight parameters on a
-    /// Gaussian-process emulator of the simulations (refined by at most 100
-    /// more where the posterior lies), the curve read as 20 parts with a
-    /// noise of its own, and run 10 simulations at posterior draws for the
-    /// predictive band. Writes posterior.csv and predictive.csv, and adds
-    /// `posterior` and `predictive` to summary.json.
-    #[arg(long)]
-    pub posterior: bool,
-    /// Kept posterior draws per chain (4 chains); an unconverged posterior
-    /// is sampled once more, four times as long.
-    #[arg(long, default_value_t = 1000, requires = "posterior")]
-    pub posterior_draws: usize,
+    /// After the search, the posterior of the eight parameters with this
+    /// many kept draws per chain (4 chains).
+    pub posterior_draws_per_chain: Option<usize>,
+}
+
+impl CalibrateGtnOptions {
+    /// Kept posterior draws per chain unless told otherwise.
+    pub const POSTERIOR_DRAWS_PER_CHAIN: usize = 1000;
+
+    /// The command's defaults on `test` into `out`: up to 200 simulations
+    /// to a MAPE of 2 %, one at a time, log expected improvement.
+    pub fn new(test: &Path, out: &Path) -> Self {
+        CalibrateGtnOptions {
+            test: test.to_path_buf(),
+            out: out.to_path_buf(),
+            max_evals: 200,
+            target_mape_pct: 2.0,
+            batch: 1,
+            acquisition: Acquisition::LogExpectedImprovement { xi: 0.0 },
+            patience: None,
+            mesh: MeshOptions::default(),
+            seed: 1,
+            global_only: false,
+            deterministic: false,
+            resume: false,
+            posterior_draws_per_chain: None,
+        }
+    }
 }
 
 /// The published search box (reference table); m's upper bound comes from
@@ -162,8 +164,12 @@ pub struct GtnCalibration {
     pub report: Document,
 }
 
-pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
-    if !(args.target_mape.is_finite() && args.target_mape >= 0.0) {
+pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
+    super::check_counts(&[
+        ("--max-evals", args.max_evals, 13..=100_000),
+        ("--batch", args.batch, 1..=64),
+    ])?;
+    if !(args.target_mape_pct.is_finite() && args.target_mape_pct >= 0.0) {
         return Err(AcqError::Config(
             "--target-mape must be a number >= 0".into(),
         ));
@@ -192,7 +198,7 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         start: "l12".into(),
         start_runs: 12,
         max_evals: args.max_evals as usize,
-        target_loss: Some(args.target_mape),
+        target_loss: Some(args.target_mape_pct),
         acquisition: Some(args.acquisition),
         patience: args.patience.map(|p| p as usize),
         batch: args.batch as usize,
@@ -206,22 +212,24 @@ pub fn run(args: CalibrateGtnArgs) -> Result<GtnCalibration> {
         spec_directory: Path::new("."),
         parallel: args.batch as usize,
         resume: args.resume,
-        posterior: args.posterior.then(|| PosteriorSettings {
-            // A simulation takes about a second: ten draws give the band.
-            predictive_runs: 10,
-            // A simulation takes under a second: more runs buy a closer
-            // emulator cheaply.
-            refinement_runs: 100,
-            draws: args.posterior_draws,
-            seed: args.seed,
-            ..PosteriorSettings::default()
-        }),
+        posterior: args
+            .posterior_draws_per_chain
+            .map(|draws| PosteriorSettings {
+                // A simulation takes about a second: ten draws give the band.
+                predictive_runs: 10,
+                // A simulation takes under a second: more runs buy a closer
+                // emulator cheaply.
+                refinement_runs: 100,
+                draws,
+                seed: args.seed,
+                ..PosteriorSettings::default()
+            }),
     };
     let start_design = start_design(&parameters, &method, settings.spec_directory)?;
     let extras = GtnExtras {
         model: &model,
         test: args.test.clone(),
-        target_mape: args.target_mape,
+        target_mape: args.target_mape_pct,
         out: args.out.clone(),
     };
     let run = run_study(

@@ -37,30 +37,19 @@ pub mod study_runner;
 pub mod summary;
 pub mod surrogate_moo;
 
-use clap::Subcommand;
+use acq_io::error::{AcqError, Result};
 
-use acq_io::error::Result;
-
-#[derive(Subcommand, Debug)]
-pub enum CalibrateCommand {
-    /// Excavator front attachment: match the three cylinder pressures of a case.
-    Excavator(excavator::CalibrateExcavatorArgs),
-    /// GTN tensile twin: match a test's force-displacement curve.
-    Gtn(gtn::CalibrateGtnArgs),
-    /// A user's solver, run as a command per evaluation (spec file).
-    External(external::CalibrateExternalArgs),
-}
-
-pub fn run(command: CalibrateCommand) -> Result<()> {
-    let out = match &command {
-        CalibrateCommand::Excavator(args) => &args.out,
-        CalibrateCommand::Gtn(args) => &args.out,
-        CalibrateCommand::External(args) => &args.out,
-    };
-    run_directory::say_how_to_resume_on_interrupt(out);
-    match command {
-        CalibrateCommand::Excavator(args) => excavator::run(args).map(drop),
-        CalibrateCommand::Gtn(args) => gtn::run(args).map(drop),
-        CalibrateCommand::External(args) => external::run(args),
+/// Refuses a count outside its range (`(option, value, range)`), in the
+/// words the command line uses, before anything runs.
+fn check_counts(counts: &[(&str, u32, std::ops::RangeInclusive<u32>)]) -> Result<()> {
+    for (option, value, range) in counts {
+        if !range.contains(value) {
+            return Err(AcqError::Config(format!(
+                "{option} {value}: give a number in {}..={}",
+                range.start(),
+                range.end()
+            )));
+        }
     }
+    Ok(())
 }

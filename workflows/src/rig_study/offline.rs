@@ -17,24 +17,20 @@ use acq_io::error::{AcqError, Result};
 use super::tracker::{next_words, Tracker};
 use super::RigStudy;
 
-#[derive(clap::Args, Debug)]
-pub struct CalibrateRigArgs {
+#[derive(Clone, Debug)]
+pub struct CalibrateRigOptions {
     /// Session directories written by acq record (their holds, in order).
-    #[arg(value_name = "SESSION_DIR", required = true)]
     pub sessions: Vec<PathBuf>,
     /// The study at the rig (docs/src/study-at-the-rig.md).
-    #[arg(long, value_name = "STUDY.toml")]
     pub study: PathBuf,
     /// Print the test point to run next: the candidate expected to narrow
     /// the posterior most.
-    #[arg(long)]
     pub next: bool,
     /// Write the study's last state (what the page shows as `study`) as JSON.
-    #[arg(short = 'o', long = "output", value_name = "OUT.json")]
     pub output: Option<PathBuf>,
 }
 
-pub fn run(args: CalibrateRigArgs) -> Result<()> {
+pub fn run(args: CalibrateRigOptions) -> Result<()> {
     let several = args.sessions.len() > 1;
     let mut holds: Vec<(String, Vec<MeasuredValue>)> = Vec::new();
     let mut quantities = None;
@@ -66,7 +62,11 @@ pub fn run(args: CalibrateRigArgs) -> Result<()> {
         }
         quantities.get_or_insert_with(|| RigQuantities::of(&recording.rig));
     }
-    let quantities = quantities.expect("at least one session (clap requires it)");
+    let Some(quantities) = quantities else {
+        return Err(AcqError::Config(
+            "give at least one session directory written by acq record".into(),
+        ));
+    };
     let study = Arc::new(RigStudy::load(&args.study, &quantities).map_err(AcqError::from)?);
     if args.next && study.candidates.points.is_empty() {
         return Err(no_candidates(&args));
@@ -98,7 +98,7 @@ pub fn run(args: CalibrateRigArgs) -> Result<()> {
     Ok(())
 }
 
-fn no_candidates(args: &CalibrateRigArgs) -> AcqError {
+fn no_candidates(args: &CalibrateRigOptions) -> AcqError {
     AcqError::Config(format!(
         "{}: no [candidates]: give the conditions the operator can set to name a next point",
         args.study.display()

@@ -14,12 +14,12 @@ use acq_calib::doe::latin_hypercube;
 use acq_calib::evaluation::Simulator;
 use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_study::study::{Role, StudySimulator};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_workflows::calibrate::builtin::ExcavatorModel;
 use acq_workflows::calibrate::excavator::{case_study, run, CalibrateExcavatorOptions};
 use acq_workflows::calibrate::gtn::CalibrateGtnOptions;
-use acq_workflows::calibrate::study::{Role, StudySimulator};
 
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);

@@ -15,7 +15,7 @@
 //! `ACQ_BENCH_REPLICATES` (default 400), `ACQ_BENCH_METRICS` (a comma
 //! list, default every metric).
 //!
-//! [`StudyPosterior`]: acq_workflows::calibrate::posterior::likelihood::StudyPosterior
+//! [`StudyPosterior`]: acq_study::posterior::likelihood::StudyPosterior
 
 use std::time::Instant;
 

@@ -18,17 +18,17 @@ use std::time::Instant;
 
 use acq_calib::evaluation::Parameter;
 use acq_calib::mcmc::{sample, SamplerSettings};
-use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorOptions, ExcavatorPosterior};
-use acq_workflows::calibrate::extras::NoExtras;
-use acq_workflows::calibrate::method::{start_design, BoMethod, Method, RunSettings};
-use acq_workflows::calibrate::posterior::likelihood::StudyPosterior;
-use acq_workflows::calibrate::posterior::Discrepancy;
-use acq_workflows::calibrate::posterior::PosteriorSettings;
-use acq_workflows::calibrate::run_directory::RunDirectory;
-use acq_workflows::calibrate::study::{
+use acq_study::extras::NoExtras;
+use acq_study::method::{start_design, BoMethod, Method, RunSettings};
+use acq_study::posterior::likelihood::StudyPosterior;
+use acq_study::posterior::Discrepancy;
+use acq_study::posterior::PosteriorSettings;
+use acq_study::run_directory::RunDirectory;
+use acq_study::study::{
     Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study, StudyParameter,
 };
-use acq_workflows::calibrate::study_runner::run_study;
+use acq_study::study_runner::run_study;
+use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorOptions, ExcavatorPosterior};
 
 #[path = "../tests/common/toy.rs"]
 mod toy;

@@ -16,13 +16,27 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("acq-twins", &[]),
     ("acq-calib", &[]),
     ("acq-report", &[]),
+    // Where a model run happens: an argv, a directory, a time limit.
+    ("acq-exec", &[]),
     // Files in and out, on top of the log and rig formats.
     ("acq-io", &["acq-drivers"]),
     // Live buses; knows nothing of analysis.
     ("acq-acquire", &["acq-drivers", "acq-io"]),
     // Offline analysis; knows nothing of live buses.
     ("acq-analysis", &["acq-drivers", "acq-io"]),
-    // Studies: measured values in, twins and the engine run, reports out; no CAN.
+    // A calibration study on any model: no twin, no CAN, no command line.
+    (
+        "acq-study",
+        &[
+            "acq-io",
+            "acq-analysis",
+            "acq-report",
+            "acq-calib",
+            "acq-exec",
+        ],
+    ),
+    // The twins' studies and the presets: measured values in, twins and
+    // the engine run, reports out; no CAN.
     (
         "acq-workflows",
         &[
@@ -31,6 +45,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-report",
             "acq-twins",
             "acq-calib",
+            "acq-exec",
+            "acq-study",
         ],
     ),
     // The live page: frames, samples and measured values, read only.
@@ -68,6 +84,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-acquire",
             "acq-analysis",
             "acq-report",
+            "acq-exec",
+            "acq-study",
             "acq-workflows",
             "acq-demo",
             "acq-view",
@@ -690,15 +708,15 @@ const WRITES_DIRECTLY: &[(&str, &str)] = &[
         "the evaluation log, appended run by run so that a crash loses none",
     ),
     (
-        "workflows/src/calibrate/command_model.rs",
+        "study/src/command_model.rs",
         "a model run's parameter file and copied inputs, in its own directory",
     ),
     (
-        "workflows/src/calibrate/executor.rs",
+        "exec/src/executor.rs",
         "a model run's stdout and stderr, in its own directory",
     ),
     (
-        "workflows/src/calibrate/slurm/",
+        "exec/src/slurm/",
         "a job's script and the mark that acq cancelled it, in its run's directory",
     ),
     (

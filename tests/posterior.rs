@@ -21,14 +21,14 @@ use std::path::Path;
 
 use acq_analysis::loss::metrics::CurveMetric;
 use acq_calib::mcmc::{quantile, sample, Marginal, SamplerSettings};
-use acq_workflows::calibrate::extras::NoExtras;
-use acq_workflows::calibrate::method::{LeastSquaresMethod, Method, RunSettings};
-use acq_workflows::calibrate::posterior::likelihood::{standard_normal, StudyPosterior};
-use acq_workflows::calibrate::posterior::{Discrepancy, PosteriorSettings};
-use acq_workflows::calibrate::run_directory::RunDirectory;
-use acq_workflows::calibrate::spec::Spec;
-use acq_workflows::calibrate::study::{Case, Measured, Model, ModelRun, Observation, Role, Study};
-use acq_workflows::calibrate::study_runner::run_study;
+use acq_study::extras::NoExtras;
+use acq_study::method::{LeastSquaresMethod, Method, RunSettings};
+use acq_study::posterior::likelihood::{standard_normal, StudyPosterior};
+use acq_study::posterior::{Discrepancy, PosteriorSettings};
+use acq_study::run_directory::RunDirectory;
+use acq_study::spec::Spec;
+use acq_study::study::{Case, Measured, Model, ModelRun, Observation, Role, Study};
+use acq_study::study_runner::run_study;
 use common::coverage::{correlated_curve_hits, truth_from_prior};
 use common::toy::input;
 use common::{external_summary, number};
@@ -194,7 +194,7 @@ fn line_in_process(
     study: &Study,
     out: &Path,
     posterior: PosteriorSettings,
-) -> acq_workflows::calibrate::study_runner::StudyRun {
+) -> acq_study::study_runner::StudyRun {
     let directory = RunDirectory::create(out).unwrap();
     run_study(
         study,
@@ -758,7 +758,7 @@ fn the_emulated_posterior_matches_the_direct_one() {
     let run = |cheap: bool| {
         let out = dir.path().join(if cheap { "direct" } else { "emulated" });
         let directory = RunDirectory::create(&out).unwrap();
-        let method = Method::Bo(acq_workflows::calibrate::method::BoMethod {
+        let method = Method::Bo(acq_study::method::BoMethod {
             start: "lhs".into(),
             start_runs: 20,
             max_evals: 30,
@@ -770,12 +770,9 @@ fn the_emulated_posterior_matches_the_direct_one() {
             local_steps: false,
             deterministic: true,
         });
-        let initial = acq_workflows::calibrate::method::start_design(
-            &study.search_parameters(),
-            &method,
-            dir.path(),
-        )
-        .unwrap();
+        let initial =
+            acq_study::method::start_design(&study.search_parameters(), &method, dir.path())
+                .unwrap();
         let finished = run_study(
             &study,
             &Decay { cheap },
@@ -839,7 +836,7 @@ fn the_emulated_posterior_matches_the_direct_one() {
 /// from 2,000 predictive runs they are within 3 and 5 % of them.
 #[test]
 fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty() {
-    use acq_workflows::calibrate::posterior::validation::validation_statements;
+    use acq_study::posterior::validation::validation_statements;
     let dir = tempfile::tempdir().unwrap();
     let mut study = Spec::load(&line_spec(dir.path(), "")).unwrap().study;
     study.cases.push(Case::new(

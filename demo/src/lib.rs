@@ -558,8 +558,5 @@ fn write_summary(out: &Path, results: &[SessionResult], bus: &str, wall_s: f64) 
         "gtn": gtn,
         "report": "report.html",
     });
-    acq_workflows::calibrate::run_directory::write_text(
-        &out.join("demo.json"),
-        &format!("{summary:#}\n"),
-    )
+    Output::write_complete(&out.join("demo.json"), format!("{summary:#}\n").as_bytes())
 }

@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use acq_io::error::{AcqError, Result};
+use acq_io::output::Output;
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series};
-use acq_workflows::calibrate::run_directory::write_text;
 
 use super::{Analysis, SessionResult, Step};
 
@@ -363,8 +363,11 @@ fn signals_figure(r: &SessionResult, out: &Path) -> Result<Option<Figure>> {
 /// Writes the figures, `report.md` and `report.html` into `out`.
 pub fn write(out: &Path, doc: &Document) -> Result<()> {
     for figure in doc.figures() {
-        write_text(&out.join(&figure.file), &figure.svg)?;
+        Output::write_complete(&out.join(&figure.file), figure.svg.as_bytes())?;
     }
-    write_text(&out.join("report.md"), &doc.to_markdown())?;
-    write_text(&out.join("report.html"), &doc.to_html("acq demo report"))
+    Output::write_complete(&out.join("report.md"), doc.to_markdown().as_bytes())?;
+    Output::write_complete(
+        &out.join("report.html"),
+        doc.to_html("acq demo report").as_bytes(),
+    )
 }

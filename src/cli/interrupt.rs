@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use acq_acquire::record::StopReason;
 
-use acq_workflows::calibrate::run_directory::run_interrupt_hooks;
+use acq_exec::interrupt::run_interrupt_hooks;
 use nix::sys::signal::Signal;
 
 /// From now on Ctrl-C (SIGINT) or SIGTERM ends the run with exit code

@@ -6,9 +6,9 @@
 
 use acq_analysis::loss::metrics::CurveMetric;
 use acq_calib::mcmc::{sample, SamplerSettings};
-use acq_workflows::calibrate::posterior::likelihood::StudyPosterior;
-use acq_workflows::calibrate::posterior::Discrepancy;
-use acq_workflows::calibrate::study::{
+use acq_study::posterior::likelihood::StudyPosterior;
+use acq_study::posterior::Discrepancy;
+use acq_study::study::{
     Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study,
 };
 use rand::SeedableRng;
@@ -51,8 +51,8 @@ impl Model for Saturating {
 /// `metric`.
 pub fn correlated_curve_hits(metric: CurveMetric, points: u32, replicates: u64) -> Vec<[bool; 2]> {
     use acq_calib::evaluation::Simulator;
-    use acq_workflows::calibrate::method::CURVE_PARTS;
-    use acq_workflows::calibrate::study::StudySimulator;
+    use acq_study::method::CURVE_PARTS;
+    use acq_study::study::StudySimulator;
     // Over 0 to 4 (f64::from(points) / 4.0 is exact: the MAPE test's
     // points are i / 60, bit for bit).
     let xs: Vec<f64> = (1..=points)

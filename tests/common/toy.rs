@@ -2,7 +2,7 @@
 //! into `benches/posterior.rs` by path).
 
 use acq_calib::evaluation::Parameter;
-use acq_workflows::calibrate::study::{
+use acq_study::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter,
 };
 

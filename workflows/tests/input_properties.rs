@@ -5,11 +5,11 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+use acq_study::spec::{ModelKind, Spec};
+use acq_study::study::{Measured, Role};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::Excavator;
-use acq_workflows::calibrate::spec::{ModelKind, Spec};
-use acq_workflows::calibrate::study::{Measured, Role};
 use proptest::prelude::*;
 
 /// What careless hands put in a TOML value.

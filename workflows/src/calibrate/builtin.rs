@@ -47,13 +47,13 @@ use acq_twins::excavator::{
     CylinderName, Evaluation, Excavator, Inputs, Measurables, PreparedPose, Strokes,
 };
 
-use super::study::{
-    number_at_key_path, numbers_by_key_path, Model, ModelRun, Study, StudyParameter,
-};
 use crate::excavator_report::{
     envelope_json, evaluation_json, measurable_number, measurables_json,
 };
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
+use acq_study::study::{
+    number_at_key_path, numbers_by_key_path, Model, ModelRun, Study, StudyParameter,
+};
 
 /// The operating inputs the twin takes by name.
 pub const OPERATING_INPUTS: [&str; 8] = [

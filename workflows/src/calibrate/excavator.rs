@@ -32,16 +32,16 @@ use acq_twins::excavator::CylinderName;
 use serde_json::{json, Map, Value};
 
 use super::builtin::ExcavatorModel;
-use super::extras::{Extras, Section};
-use super::method::{Method, RunSettings};
-use super::outcome::{Found, StudyOutcome};
-use super::posterior::{Discrepancy, PosteriorSettings};
-use super::run_directory::{default_parallelism, RunDirectory};
-use super::study::{
+use acq_study::extras::{Extras, Section};
+use acq_study::method::{Method, RunSettings};
+use acq_study::outcome::{Found, StudyOutcome};
+use acq_study::posterior::{Discrepancy, PosteriorSettings};
+use acq_study::run_directory::{default_parallelism, RunDirectory};
+use acq_study::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
 };
-use super::study_runner::run_study;
-use super::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};
+use acq_study::study_runner::run_study;
+use acq_study::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};
 
 /// The settings of `acq calibrate excavator`; [`CalibrateExcavatorOptions::published`]
 /// gives the published workflow's.

@@ -1,8 +1,8 @@
 //! `acq calibrate external --spec FILE.toml --out DIR`: a study on a
 //! user's own solver (a COMSOL or Abaqus batch job, a script) run as a
-//! command once per evaluation and load case ([`super::command_model`]),
+//! command once per evaluation and load case ([`acq_study::command_model`]),
 //! or on the built-in excavator twin (`model = "excavator"`,
-//! [`super::builtin`]). The spec's keys are in [`super::spec`].
+//! [`super::builtin`]). The spec's keys are in [`acq_study::spec`].
 
 use std::path::PathBuf;
 
@@ -10,18 +10,18 @@ use acq_io::error::{AcqError, Result};
 use acq_twins::excavator::geometry::GeometryTemplate;
 
 use super::builtin::ExcavatorModel;
-use super::command_model::CommandModel;
-use super::executor::{Executor, LocalExecutor};
-use super::extras::Extras;
-use super::method::{start_design, RunSettings};
-use super::outcome::StudyOutcome;
-use super::run_directory::{write_text, RunDirectory};
-use super::saved_emulator::{rows_of_study, SavedEmulator};
-use super::slurm::{SlurmExecutor, SlurmSettings};
-use super::spec::schema::{ExecutorKind, ExecutorSpec};
-use super::spec::{ModelKind, Spec};
-use super::study::Study;
-use super::study_runner::{check_at_nominal, run_study};
+use acq_exec::executor::{Executor, LocalExecutor};
+use acq_exec::slurm::{SlurmExecutor, SlurmSettings};
+use acq_study::command_model::CommandModel;
+use acq_study::extras::Extras;
+use acq_study::method::{start_design, RunSettings};
+use acq_study::outcome::StudyOutcome;
+use acq_study::run_directory::{write_text, RunDirectory};
+use acq_study::saved_emulator::{rows_of_study, SavedEmulator};
+use acq_study::spec::schema::{ExecutorKind, ExecutorSpec};
+use acq_study::spec::{ModelKind, Spec};
+use acq_study::study::Study;
+use acq_study::study_runner::{check_at_nominal, run_study};
 
 #[derive(Clone, Debug)]
 pub struct CalibrateExternalOptions {

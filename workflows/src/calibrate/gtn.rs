@@ -21,15 +21,17 @@ use acq_report::document::Document;
 use serde_json::{json, Map, Value};
 
 use super::builtin::{GtnModel, GTN_CURVE};
-use super::extras::{Extras, Section};
-use super::method::{start_design, BoMethod, Method, RunSettings};
-use super::outcome::{Found, StudyOutcome};
-use super::posterior::PosteriorSettings;
-use super::run_directory::{write_text, RunDirectory};
-use super::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter};
-use super::study_runner::run_study;
 use crate::abaqus_material::abaqus_material_block;
 use crate::tensile_model::{GtnInputs, MeshOptions, ModelSettings, TensileModel, PARAMETER_NAMES};
+use acq_study::extras::{Extras, Section};
+use acq_study::method::{start_design, BoMethod, Method, RunSettings};
+use acq_study::outcome::{Found, StudyOutcome};
+use acq_study::posterior::PosteriorSettings;
+use acq_study::run_directory::{write_text, RunDirectory};
+use acq_study::study::{
+    Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter,
+};
+use acq_study::study_runner::run_study;
 
 /// The settings of `acq calibrate gtn`; [`CalibrateGtnOptions::new`]
 /// gives the command's defaults.

@@ -1,41 +1,16 @@
-//! `acq calibrate`: a model fitted to measurements by the engine of
-//! `acq_calib`, and what that leaves in the run directory.
+//! `acq calibrate excavator|gtn|external`: the presets and a spec's entry,
+//! each building a study of `acq_study` and handing it to its one runner.
 //!
-//! Every study goes one way: a preset ([`excavator`], [`gtn`]) or a spec
-//! ([`external`] reading [`spec`]) builds a [`study::Study`] and a
-//! [`study::Model`] (a built-in twin, [`builtin`], or a user's solver,
-//! [`command_model`], run where an [`executor`] says: child processes or
-//! [`slurm`]) and hands them to the one runner, [`study_runner`], with a
-//! method (Bayesian optimisation through [`search`], [`surrogate_moo`], or
-//! least squares). The runner logs every model run in `evaluations.csv`
-//! ([`run_directory`]; resumable with `--resume`), checks the validation
-//! cases, runs the [`identifiability`] analysis, and writes
-//! `summary.json` ([`summary`]) and the report ([`report`]); a preset adds
-//! its own through [`extras`]. Progress goes to stderr ([`progress`]).
+//! A preset ([`excavator`], [`gtn`]) or a spec ([`external`], reading
+//! `acq_study::spec`) builds a `Study` and a model: a built-in twin
+//! ([`builtin`]) or a user's solver (`acq_study::command_model`, run where
+//! an `acq_exec` executor says). What only a preset shows goes through
+//! `acq_study::extras`.
 
 pub mod builtin;
-pub mod command_model;
-pub mod error;
 pub mod excavator;
-pub mod executor;
 pub mod external;
-pub mod extras;
 pub mod gtn;
-pub mod identifiability;
-pub mod method;
-pub mod outcome;
-pub mod posterior;
-pub mod progress;
-pub mod report;
-pub mod run_directory;
-pub mod saved_emulator;
-pub mod search;
-pub mod slurm;
-pub mod spec;
-pub mod study;
-pub mod study_runner;
-pub mod summary;
-pub mod surrogate_moo;
 
 use acq_io::error::{AcqError, Result};
 

@@ -11,8 +11,8 @@
 
 use std::collections::BTreeMap;
 
-use crate::calibrate::spec::schema::CandidateValues;
-use crate::calibrate::spec::SpecProblem;
+use acq_study::spec::schema::CandidateValues;
+use acq_study::spec::SpecProblem;
 
 use super::mapping::HoldMapping;
 

@@ -19,8 +19,8 @@
 use acq_analysis::extract::measured::MeasuredValue;
 use acq_analysis::extract::quantities::RigQuantities;
 
-use crate::calibrate::spec::schema::HoldsSpec;
-use crate::calibrate::spec::SpecProblem;
+use acq_study::spec::schema::HoldsSpec;
+use acq_study::spec::SpecProblem;
 
 /// Where an uncertainty comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]

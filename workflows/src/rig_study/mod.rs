@@ -5,11 +5,11 @@
 //! conditions the operator can set the one expected to narrow the
 //! posterior most is named.
 //!
-//! The file is a spec ([`crate::calibrate::spec`]: `model`, `geometry`,
+//! The file is a spec ([`acq_study::spec`]: `model`, `geometry`,
 //! `[[parameter]]` with priors, `[posterior]`) without `[[case]]`; its
 //! model is the excavator twin, or a user's solver through the emulator an
 //! earlier study of it saved (`[emulator] load`,
-//! [`crate::calibrate::saved_emulator`]); plus
+//! [`acq_study::saved_emulator`]); plus
 //! - `[holds]` ([`mapping`]): which hold quantities are the model's inputs
 //!   (with their spread as input uncertainty) and which its observations;
 //! - `[candidates]` ([`candidates`]): the conditions to choose from.
@@ -30,12 +30,12 @@ use acq_analysis::extract::quantities::RigQuantities;
 
 use crate::calibrate::builtin::ExcavatorModel;
 use crate::calibrate::external::geometry_template;
-use crate::calibrate::posterior::PosteriorSettings;
-use crate::calibrate::saved_emulator::{EmulatedModel, SavedEmulator};
-use crate::calibrate::spec::assemble::parameters;
-use crate::calibrate::spec::schema::{EmulatorSpec, ModelName};
-use crate::calibrate::spec::{checks, read_spec_file, spec_directory, SpecError, SpecProblem};
-use crate::calibrate::study::{Model, StudyParameter};
+use acq_study::posterior::PosteriorSettings;
+use acq_study::saved_emulator::{EmulatedModel, SavedEmulator};
+use acq_study::spec::assemble::parameters;
+use acq_study::spec::schema::{EmulatorSpec, ModelName};
+use acq_study::spec::{checks, read_spec_file, spec_directory, SpecError, SpecProblem};
+use acq_study::study::{Model, StudyParameter};
 
 pub mod candidates;
 pub mod mapping;

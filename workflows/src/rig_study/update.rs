@@ -26,8 +26,8 @@ use acq_calib::next_point::draws_moments;
 
 use super::mapping::HoldReading;
 use super::RigStudy;
-use crate::calibrate::posterior::sequential::{sample_sequentially, WarmStart};
-use crate::calibrate::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study};
+use acq_study::posterior::sequential::{sample_sequentially, WarmStart};
+use acq_study::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study};
 
 /// Holds that narrow a parameter's interval to this share of its prior's
 /// have identified it.
@@ -354,7 +354,7 @@ fn verdict(
     interval: &ParameterInterval,
     j: usize,
     covariance: &[Vec<f64>],
-    parameters: &[crate::calibrate::study::StudyParameter],
+    parameters: &[acq_study::study::StudyParameter],
 ) -> Verdict {
     if interval.width_ratio() <= IDENTIFIED_WIDTH_RATIO {
         return Verdict::Identified;

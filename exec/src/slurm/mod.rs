@@ -46,7 +46,7 @@ use self::job_files::{
     job_script, now_s, read_exit_status, read_number, read_start, write_whole, CANCELLED_BY_ACQ,
     EXIT_STATUS, JOB_ID, JOB_SCRIPT, STARTED_AT, STATUS_GRACE, SUBMITTED_AT,
 };
-use super::executor::{end_of_stderr, Execution, Executor, Job};
+use crate::executor::{end_of_stderr, Execution, Executor, Job};
 
 mod client;
 mod job_files;
@@ -141,7 +141,7 @@ impl SlurmExecutor {
         let live = Arc::new(Mutex::new(LiveJobs::new()));
         let interrupting = Arc::new(AtomicBool::new(false));
         let (on_interrupt, flag) = (Arc::clone(&live), Arc::clone(&interrupting));
-        super::run_directory::on_interrupt(move || {
+        crate::interrupt::on_interrupt(move || {
             // Under the lock, so no submission slips in between.
             flag.store(true, Ordering::SeqCst);
             let ids = cancel_live(&on_interrupt);

@@ -4,7 +4,7 @@
 //! An [`Executor`] runs one prepared command in its run directory and says
 //! whether it succeeded. [`LocalExecutor`] runs it as a child process of
 //! acq (several at once: the study's `parallel`);
-//! [`super::slurm::SlurmExecutor`] submits it as a batch job instead. Everything else about a run (its
+//! [`crate::slurm::SlurmExecutor`] submits it as a batch job instead. Everything else about a run (its
 //! directory, staged files, `params.json`, reading the outputs, retries)
 //! stays with the caller, so every executor runs the same jobs.
 

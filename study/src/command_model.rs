@@ -15,8 +15,8 @@
 //! is that file. A run that exits non-zero, times out (it is killed) or
 //! leaves no readable output is retried `retries` times, then logged as
 //! failed with the reason (the end of its stderr); it never ends the
-//! study. Where a run happens is the [`super::executor`]'s business: a
-//! child process, or a Slurm batch job ([`super::slurm`]), whose notes
+//! study. Where a run happens is the [`acq_exec::executor`]'s business: a
+//! child process, or a Slurm batch job ([`acq_exec::slurm`]), whose notes
 //! (job id, queue wait, run time) `evaluations.csv` adds. A resumed study
 //! re-attaches to the jobs of run directories the interrupted one left
 //! (same `params.json`) instead of starting them again.
@@ -29,11 +29,11 @@ use std::time::Duration;
 
 use serde_json::json;
 
-use super::executor::{Executor, Job};
 use super::spec::observations::read_curve;
 use super::spec::schema::CurveSpec;
 use super::spec::CommandSpec;
 use super::study::{append_notes, numbers_by_key_path, Model, ModelRun};
+use acq_exec::executor::{Executor, Job};
 
 #[derive(Clone, Copy)]
 struct RunRequest<'a> {

@@ -14,7 +14,7 @@ use super::discrepancy::Form;
 use super::predictive::{Predicted, PredictedCurve};
 use super::validation::{validation_statements, COVERAGE_FACTOR};
 use super::{PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
-use crate::calibrate::study::Role;
+use crate::study::Role;
 
 /// A parameter is pinned down when its 90 % interval spans at most this
 /// share of its prior range, and is not identified when it spans at least

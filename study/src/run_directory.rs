@@ -1,7 +1,6 @@
 //! A calibration's run directory and the evaluator that logs into it.
 
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use acq_calib::evaluation::{EvaluationError, Evaluator, Simulator};
 use acq_io::error::{AcqError, Result};
@@ -46,29 +45,6 @@ impl RunDirectory {
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
     acq_io::output::Output::write_complete(path, text.as_bytes())
 }
-
-/// Runs `hook` when the run is interrupted (Ctrl-C, SIGTERM), before acq
-/// exits: a cluster executor cancels the jobs it submitted. The program
-/// that takes the signal calls [`run_interrupt_hooks`].
-pub fn on_interrupt(hook: impl FnOnce() + Send + 'static) {
-    INTERRUPT_HOOKS
-        .lock()
-        .unwrap_or_else(|p| p.into_inner())
-        .push(Box::new(hook));
-}
-
-/// Runs (once) every hook given to [`on_interrupt`]; the caller then ends
-/// the run. Every finished evaluation is already whole in
-/// `evaluations.csv`, so the same command with `--resume` picks up there.
-pub fn run_interrupt_hooks() {
-    let hooks = std::mem::take(&mut *INTERRUPT_HOOKS.lock().unwrap_or_else(|p| p.into_inner()));
-    for hook in hooks {
-        hook();
-    }
-}
-
-type InterruptHook = Box<dyn FnOnce() + Send>;
-static INTERRUPT_HOOKS: Mutex<Vec<InterruptHook>> = Mutex::new(Vec::new());
 
 /// An engine error as the CLI reports it: a bad log or setup is a
 /// configuration problem (exit 2), a failed write an I/O failure.

@@ -10,7 +10,7 @@ use acq_calib::doe::read_design_csv;
 use acq_io::error::AcqError;
 
 use super::schema::CurveSpec;
-use crate::calibrate::study::{Measured, Observation};
+use crate::study::{Measured, Observation};
 
 /// The points of columns `x` and `y` of a CSV with a header row; errors
 /// name the file and line.

@@ -13,8 +13,8 @@ use super::schema::{
     ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
     MAX_EVALUATIONS, MAX_PARALLEL, MAX_PREDICTIVE_RUNS, MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
 };
-use crate::calibrate::study::Role;
-use crate::calibrate::surrogate_moo::Pick;
+use crate::study::Role;
+use crate::surrogate_moo::Pick;
 
 /// `model` and the keys that belong to it: a command, or the built-in
 /// twin's geometry.

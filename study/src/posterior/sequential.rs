@@ -25,7 +25,7 @@ use super::{
     chain_starts, initial_scale, inside, log_density_of, sampler_settings, unconverged,
     PosteriorSettings,
 };
-use crate::calibrate::study::{Model, Role, Study, StudySimulator};
+use crate::study::{Model, Role, Study, StudySimulator};
 
 /// Warmup steps per chain of an update after the first.
 pub const WARM_WARMUP: usize = 600;

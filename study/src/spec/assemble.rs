@@ -10,9 +10,7 @@ use acq_calib::evaluation::Parameter;
 use super::observations::{case_observation, measured_curve, metric_of, scalar, weight_of};
 use super::problem::SpecProblem;
 use super::schema::{ModelName, SpecFile};
-use crate::calibrate::study::{
-    Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter,
-};
+use crate::study::{Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter};
 
 /// The study of a spec whose sections have passed [`super::checks`].
 pub fn study(file: &SpecFile, spec_directory: &Path) -> Result<Study, SpecProblem> {
@@ -174,10 +172,7 @@ fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, Spec
 }
 
 /// The `[[parameter]]`s: shared, or one fit case's own.
-pub(crate) fn parameters(
-    file: &SpecFile,
-    cases: &[Case],
-) -> Result<Vec<StudyParameter>, SpecProblem> {
+pub fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>, SpecProblem> {
     let mut parameters = Vec::new();
     for (index, p) in file.parameters.iter().enumerate() {
         let here = |message: String| {

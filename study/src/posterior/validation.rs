@@ -23,7 +23,7 @@
 
 use super::predictive::Predicted;
 use super::PosteriorOutcome;
-use crate::calibrate::study::Role;
+use crate::study::Role;
 
 /// The coverage factor of the model error's interval.
 pub const COVERAGE_FACTOR: f64 = 2.0;

@@ -7,8 +7,8 @@ use std::collections::BTreeMap;
 use acq_calib::evaluation::Scale;
 use serde::Deserialize;
 
-use crate::calibrate::posterior::{Discrepancy, PosteriorSettings};
-use crate::calibrate::study::{LossKind, Residuals, Role};
+use crate::posterior::{Discrepancy, PosteriorSettings};
+use crate::study::{LossKind, Residuals, Role};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -59,7 +59,7 @@ pub struct SpecFile {
     /// `[posterior]`: sample the posterior after the search.
     pub posterior: Option<PosteriorSpec>,
     /// `[holds]`: a study at the rig, whose cases are the holds of a
-    /// recording ([`crate::rig_study`]).
+    /// recording (`acq_workflows::rig_study`).
     pub holds: Option<HoldsSpec>,
     /// `[candidates]`: the conditions an operator can set, by input name:
     /// a list of values or `{ from, to, steps }`; every combination is a
@@ -72,7 +72,7 @@ pub struct SpecFile {
 }
 
 /// `[emulator]`: an emulator of a user's model over its parameters and its
-/// cases' inputs ([`crate::calibrate::saved_emulator`]).
+/// cases' inputs ([`crate::saved_emulator`]).
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EmulatorSpec {
@@ -85,7 +85,7 @@ pub struct EmulatorSpec {
 }
 
 /// `[holds]`: how a hold's measured values become a case. Each entry is
-/// read by [`crate::rig_study::mapping`]: a number (a fixed input), a
+/// read by `acq_workflows::rig_study::mapping`: a number (a fixed input), a
 /// quantity's name, or `{ quantity, uncertainty, instrument }`.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]

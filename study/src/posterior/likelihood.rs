@@ -147,7 +147,7 @@ impl StudyPosterior {
     /// measured curve as its `curve_parts` signed errors (0 when the study
     /// has no curve).
     ///
-    /// [`StudySimulator::with_curve_parts`]: crate::calibrate::study::StudySimulator::with_curve_parts
+    /// [`StudySimulator::with_curve_parts`]: crate::study::StudySimulator::with_curve_parts
     pub fn new(
         study: &Study,
         discrepancy: Discrepancy,
@@ -709,7 +709,7 @@ pub fn standard_normal(rng: &mut impl rand::Rng) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibrate::study::{Case, LossKind, Observation, Residuals, StudyParameter};
+    use crate::study::{Case, LossKind, Observation, Residuals, StudyParameter};
     use acq_calib::evaluation::Parameter;
     use rand::SeedableRng;
 

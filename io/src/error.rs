@@ -1,10 +1,12 @@
-//! Errors of the `acq` commands, each with the exit code scripts rely on.
+//! Errors of the `acq` commands, by kind: what the binary turns into the
+//! exit code scripts rely on (`src/main.rs`).
 
 use std::io;
 use std::path::Path;
 
-/// Why a command failed. The variant decides the exit code:
-/// usage/configuration 2, malformed input 3, anything else (I/O) 1.
+/// Why a command failed. A caller branches on the kind; the binary maps
+/// it to the exit code (usage/configuration 2, malformed input 3,
+/// interrupted 130, I/O 1).
 #[derive(Debug, thiserror::Error)]
 pub enum AcqError {
     /// Bad command line or configuration (rig, DBC, missing file).
@@ -26,21 +28,6 @@ pub enum AcqError {
 }
 
 impl AcqError {
-    pub const EXIT_FAILURE: u8 = 1;
-    pub const EXIT_CONFIG: u8 = 2;
-    pub const EXIT_MALFORMED: u8 = 3;
-    /// 128 + SIGINT, what a shell reports for a command stopped by Ctrl-C.
-    pub const EXIT_INTERRUPTED: u8 = 130;
-
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            AcqError::Config(_) => Self::EXIT_CONFIG,
-            AcqError::Malformed(_) => Self::EXIT_MALFORMED,
-            AcqError::Interrupted(_) => Self::EXIT_INTERRUPTED,
-            AcqError::Io { .. } => Self::EXIT_FAILURE,
-        }
-    }
-
     pub fn io(context: impl Into<String>, source: io::Error) -> Self {
         AcqError::Io {
             context: context.into(),

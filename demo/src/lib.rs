@@ -208,6 +208,51 @@ fn say(text: impl AsRef<str>) {
 
 pub fn run(args: DemoOptions, interrupted: Interrupted) -> Result<()> {
     let root = data_root(&args)?;
+    let interfaces = checked_interfaces(&args)?;
+    check_recorded_sessions(&args)?;
+    let view_address = args.view.resolve()?;
+    let started = Instant::now();
+    let mut steps = Vec::new();
+    prepare_out(&args.out)?;
+
+    // 1. Acquisition: play and record again, or take recorded sessions.
+    let acquired = acquire_sessions(
+        &args,
+        &root,
+        &interfaces,
+        view_address,
+        interrupted,
+        &mut steps,
+    )?;
+    if args.acquire_only {
+        say(format!(
+            "sessions recorded in {}",
+            acquired.sessions_dir.display()
+        ));
+        return keep_serving(acquired.view_host, interrupted);
+    }
+
+    // 2-4. Per session: align, extract, calibrate.
+    let mut results = Vec::new();
+    for (name, purpose) in SHIPPED {
+        results.push(analyse_session(
+            &args, &root, &acquired, name, purpose, &mut steps,
+        )?);
+    }
+
+    // 5. The report.
+    let wall_s = started.elapsed().as_secs_f64();
+    let document = report::build(&results, &steps, &acquired.bus_text, wall_s, &args.out)?;
+    report::write(&args.out, &document)?;
+    write_summary(&args.out, &results, &acquired.bus_text, wall_s)?;
+    let html = args.out.join("report.html");
+    say(format!("done in {wall_s:.1} s"));
+    println!("report: {}", html.display());
+    keep_serving(acquired.view_host, interrupted)
+}
+
+/// `--iface` checked: none (the in-process bus) or the rig's two buses.
+fn checked_interfaces(args: &DemoOptions) -> Result<Vec<IfaceName>> {
     let interfaces: Vec<IfaceName> = args
         .interfaces
         .iter()
@@ -225,6 +270,12 @@ pub fn run(args: DemoOptions, interrupted: Interrupted) -> Result<()> {
             interfaces.len()
         )));
     }
+    Ok(interfaces)
+}
+
+/// `--sessions` checked before `--out` is touched: a refused demo leaves
+/// nothing.
+fn check_recorded_sessions(args: &DemoOptions) -> Result<()> {
     if let Some(sessions) = &args.sessions {
         let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
         if absolute(sessions).starts_with(absolute(&args.out)) {
@@ -251,13 +302,29 @@ pub fn run(args: DemoOptions, interrupted: Interrupted) -> Result<()> {
             )));
         }
     }
-    let view_address = args.view.resolve()?;
-    let started = Instant::now();
-    let mut steps = Vec::new();
-    prepare_out(&args.out)?;
-    let mut view_host = None;
+    Ok(())
+}
 
-    // 1. Acquisition: play and record again, or take recorded sessions.
+/// The sessions the demo analyses, where they came from, and the page
+/// that shows them.
+struct Acquired {
+    sessions_dir: PathBuf,
+    played: Vec<Played>,
+    bus_text: String,
+    view_host: Option<acq_view::ViewHost>,
+}
+
+/// Plays the shipped sessions and records them again (or takes the ones
+/// `--sessions` names), with the page when asked.
+fn acquire_sessions(
+    args: &DemoOptions,
+    root: &Path,
+    interfaces: &[IfaceName],
+    view_address: Option<(std::net::SocketAddr, acq_view::Access)>,
+    interrupted: Interrupted,
+    steps: &mut Vec<Step>,
+) -> Result<Acquired> {
+    let mut view_host = None;
     let (sessions_dir, played, bus_text) = match &args.sessions {
         Some(dir) => {
             if let Some((addr, access)) = view_address {
@@ -287,7 +354,7 @@ pub fn run(args: DemoOptions, interrupted: Interrupted) -> Result<()> {
                     target: target.join(name),
                     interfaces: match (purpose, interfaces.is_empty()) {
                         (Purpose::Tensile, false) => vec![interfaces[0]],
-                        (Purpose::Excavator { .. }, false) => interfaces.clone(),
+                        (Purpose::Excavator { .. }, false) => interfaces.to_vec(),
                         // In process: interfaces of its own per session, all at once.
                         (Purpose::Tensile, true) => vec![demo_iface(k, 0)],
                         (Purpose::Excavator { .. }, true) => {
@@ -341,117 +408,116 @@ pub fn run(args: DemoOptions, interrupted: Interrupted) -> Result<()> {
             (target, played, bus_text)
         }
     };
-    if args.acquire_only {
-        say(format!("sessions recorded in {}", sessions_dir.display()));
-        return keep_serving(view_host, interrupted);
-    }
+    Ok(Acquired {
+        sessions_dir,
+        played,
+        bus_text,
+        view_host,
+    })
+}
 
-    // 2-4. Per session: align, extract, calibrate.
-    let mut results = Vec::new();
-    for (name, purpose) in SHIPPED {
-        let dir = sessions_dir.join(name);
-        let work = args.out.join(name);
-        std::fs::create_dir_all(&work)
-            .map_err(|e| AcqError::io(format!("creating {}", work.display()), e))?;
-        let session = session::read(&dir)?;
-        let recording = Recording::open(&dir, None)?;
+/// One recorded session aligned, extracted and calibrated: the excavator's
+/// holds calibrate its twin, the tensile curve the GTN model.
+fn analyse_session(
+    args: &DemoOptions,
+    root: &Path,
+    acquired: &Acquired,
+    name: &str,
+    purpose: Purpose,
+    steps: &mut Vec<Step>,
+) -> Result<SessionResult> {
+    let dir = acquired.sessions_dir.join(name);
+    let work = args.out.join(name);
+    std::fs::create_dir_all(&work)
+        .map_err(|e| AcqError::io(format!("creating {}", work.display()), e))?;
+    let session = session::read(&dir)?;
+    let recording = Recording::open(&dir, None)?;
 
-        let step = Instant::now();
-        let aligned = align_recording(
-            &recording,
-            &AlignOptions::default(),
-            TableOutput::Csv(Output::create_complete_only(&work.join("aligned.csv"))?),
-        )?;
-        steps.push(Step {
-            name: format!("{name}: align ({} Hz)", AlignOptions::default().rate_hz),
-            wall_s: step.elapsed().as_secs_f64(),
-        });
-        let step = Instant::now();
-        let analysis = match purpose {
-            Purpose::Excavator { case_file } => {
-                let holds = extract_holds(
-                    &recording,
-                    &WindowChoice::Auto(HoldOptions::default()),
-                    None,
-                    &[],
-                )?;
-                let measured = work.join("measured.csv");
-                write_measured(&measured, &holds.values)?;
-                say(format!(
-                    "{name}: {} hold(s), {} values, {} flagged",
-                    holds.windows.len(),
-                    holds.values.len(),
-                    holds.values.iter().filter(|v| !v.flags.is_empty()).count()
-                ));
-                steps.push(Step {
-                    name: format!("{name}: extract the holds"),
-                    wall_s: step.elapsed().as_secs_f64(),
-                });
-                let step = Instant::now();
-                let calibration =
-                    acq_workflows::calibrate::excavator::run(CalibrateExcavatorOptions {
-                        measured: Some(measured),
-                        ..CalibrateExcavatorOptions::published(
-                            &root.join(case_file),
-                            &work.join("calibration"),
-                        )
-                    })?;
-                steps.push(Step {
-                    name: format!("{name}: calibrate the excavator twin"),
-                    wall_s: step.elapsed().as_secs_f64(),
-                });
-                Analysis::Excavator { holds, calibration }
-            }
-            Purpose::Tensile => {
-                let curve = extract_tensile(&recording, None, None, &[])?;
-                let specimen = recording.rig.specimen.ok_or_else(|| {
-                    AcqError::Config(format!(
-                        "{}: the tensile rig has no [specimen]",
-                        dir.display()
-                    ))
+    let step = Instant::now();
+    let aligned = align_recording(
+        &recording,
+        &AlignOptions::default(),
+        TableOutput::Csv(Output::create_complete_only(&work.join("aligned.csv"))?),
+    )?;
+    steps.push(Step {
+        name: format!("{name}: align ({} Hz)", AlignOptions::default().rate_hz),
+        wall_s: step.elapsed().as_secs_f64(),
+    });
+    let step = Instant::now();
+    let analysis = match purpose {
+        Purpose::Excavator { case_file } => {
+            let holds = extract_holds(
+                &recording,
+                &WindowChoice::Auto(HoldOptions::default()),
+                None,
+                &[],
+            )?;
+            let measured = work.join("measured.csv");
+            write_measured(&measured, &holds.values)?;
+            say(format!(
+                "{name}: {} hold(s), {} values, {} flagged",
+                holds.windows.len(),
+                holds.values.len(),
+                holds.values.iter().filter(|v| !v.flags.is_empty()).count()
+            ));
+            steps.push(Step {
+                name: format!("{name}: extract the holds"),
+                wall_s: step.elapsed().as_secs_f64(),
+            });
+            let step = Instant::now();
+            let calibration =
+                acq_workflows::calibrate::excavator::run(CalibrateExcavatorOptions {
+                    measured: Some(measured),
+                    ..CalibrateExcavatorOptions::published(
+                        &root.join(case_file),
+                        &work.join("calibration"),
+                    )
                 })?;
-                let curve_file = work.join("curve.csv");
-                write_curve(&curve_file, &curve.curve, &specimen)?;
-                steps.push(Step {
-                    name: format!("{name}: extract the force-displacement curve"),
-                    wall_s: step.elapsed().as_secs_f64(),
-                });
-                say(format!(
-                    "{name}: curve of {} points; calibrating the GTN model (about 10 s)",
-                    curve.curve.points.len()
-                ));
-                let step = Instant::now();
-                let calibration = acq_workflows::calibrate::gtn::run(demo_gtn_search(
-                    &curve_file,
-                    &work.join("calibration"),
-                ))?;
-                steps.push(Step {
-                    name: format!("{name}: calibrate the GTN model"),
-                    wall_s: step.elapsed().as_secs_f64(),
-                });
-                Analysis::Tensile { curve, calibration }
-            }
-        };
-        results.push(SessionResult {
-            name: name.to_string(),
-            played: played.iter().find(|p| p.name == name).cloned(),
-            dir,
-            session,
-            recording,
-            aligned,
-            analysis,
-        });
-    }
-
-    // 5. The report.
-    let wall_s = started.elapsed().as_secs_f64();
-    let document = report::build(&results, &steps, &bus_text, wall_s, &args.out)?;
-    report::write(&args.out, &document)?;
-    write_summary(&args.out, &results, &bus_text, wall_s)?;
-    let html = args.out.join("report.html");
-    say(format!("done in {wall_s:.1} s"));
-    println!("report: {}", html.display());
-    keep_serving(view_host, interrupted)
+            steps.push(Step {
+                name: format!("{name}: calibrate the excavator twin"),
+                wall_s: step.elapsed().as_secs_f64(),
+            });
+            Analysis::Excavator { holds, calibration }
+        }
+        Purpose::Tensile => {
+            let curve = extract_tensile(&recording, None, None, &[])?;
+            let specimen = recording.rig.specimen.ok_or_else(|| {
+                AcqError::Config(format!(
+                    "{}: the tensile rig has no [specimen]",
+                    dir.display()
+                ))
+            })?;
+            let curve_file = work.join("curve.csv");
+            write_curve(&curve_file, &curve.curve, &specimen)?;
+            steps.push(Step {
+                name: format!("{name}: extract the force-displacement curve"),
+                wall_s: step.elapsed().as_secs_f64(),
+            });
+            say(format!(
+                "{name}: curve of {} points; calibrating the GTN model (about 10 s)",
+                curve.curve.points.len()
+            ));
+            let step = Instant::now();
+            let calibration = acq_workflows::calibrate::gtn::run(demo_gtn_search(
+                &curve_file,
+                &work.join("calibration"),
+            ))?;
+            steps.push(Step {
+                name: format!("{name}: calibrate the GTN model"),
+                wall_s: step.elapsed().as_secs_f64(),
+            });
+            Analysis::Tensile { curve, calibration }
+        }
+    };
+    Ok(SessionResult {
+        name: name.to_string(),
+        played: acquired.played.iter().find(|p| p.name == name).cloned(),
+        dir,
+        session,
+        recording,
+        aligned,
+        analysis,
+    })
 }
 
 /// With `--view`, the page stays up after the demo's work until Ctrl-C.

@@ -149,50 +149,15 @@ pub async fn record<B: Bus>(
     for &iface in &options.interfaces {
         sources.push(bus.open_source(iface).map_err(open_error)?);
     }
-    let dir = &options.session_dir;
-    prepare_dir(dir)?;
-    let started_ns = now_ns();
-    let mut session = SessionFile {
-        session: SessionInfo {
-            format_version: session::FORMAT_VERSION,
-            software: format!("acq {}", env!("CARGO_PKG_VERSION")),
-            host: session::host_name(),
-            command: options.command_line.clone(),
-            started_utc: session::utc_text(started_ns),
-            started_unix_ns: started_ns,
-            ended: "recording".into(),
-            raw_files: vec![rawlog::SINGLE_NAME.into()],
-            notes: options.notes.clone(),
-            ..Default::default()
-        },
-        interface: options
-            .interfaces
-            .iter()
-            .zip(&sources)
-            .map(|(iface, source)| InterfaceRecord::new(iface.as_str(), source.timestamp_source()))
-            .collect(),
-        rig: options
-            .rig
-            .as_ref()
-            .map(|rig| copy_rig(rig, dir))
-            .transpose()?,
-        sensor: Vec::new(),
-    };
-    // Room kept for the final session.toml: freed at the end, so a full
-    // disk still gets a complete description of what was recorded.
-    let reserve = dir.join(SPACE_RESERVE);
-    fs::write(&reserve, vec![0u8; SPACE_RESERVE_BYTES])
-        .map_err(|e| AcqError::io(format!("creating {}", reserve.display()), e))?;
-    let mut raw = RawLog::create(dir, options.max_file_bytes).map_err(|e| {
-        AcqError::io(
-            format!("creating {}", dir.join(rawlog::SINGLE_NAME).display()),
-            e,
-        )
-    })?;
-    write_session(dir, &session)?;
+    let observer = options.observer.take();
+    let timestamp_sources: Vec<&'static str> = sources
+        .iter()
+        .map(|source| source.timestamp_source())
+        .collect();
+    let (stop_tx, stop_rx) = watch::channel::<Option<i64>>(None);
+    let mut recorder = Recorder::start(&options, &timestamp_sources, observer, stop_tx)?;
 
     let (events_tx, mut events) = mpsc::channel::<Event>(1024);
-    let (stop_tx, stop_rx) = watch::channel::<Option<i64>>(None);
     for (index, source) in sources.into_iter().enumerate() {
         let iface = options.interfaces[index];
         tokio::spawn(read_interface(
@@ -206,183 +171,350 @@ pub async fn record<B: Bus>(
     }
     drop(events_tx);
 
-    let mut display = StatusDisplay::new(options.status);
-    let mut observer = options.observer.take();
-    if let Some(observer) = observer.as_mut() {
-        observer.started(&session);
-    }
+    recorder.observe_start();
     if options.nmt_start {
-        send_nmt_start(&bus, &options, &mut display).await;
+        send_nmt_start(&bus, &options, &mut recorder.display).await;
     }
-    let mut liveness = options
-        .rig
-        .as_ref()
-        .map(|rig| Liveness::new(rig, started_ns));
-    let mut up = vec![true; options.interfaces.len()];
-    let mut last_error: Vec<Option<String>> = vec![None; options.interfaces.len()];
-    let mut dropped: Vec<u64> = vec![0; options.interfaces.len()];
-    let mut frames_at_last_status: Vec<u64> = vec![0; options.interfaces.len()];
-    let mut last_status_ns = started_ns;
-
     let mut flush_tick = interval(FLUSH_PERIOD);
     flush_tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
     let mut status_tick = interval(STATUS_PERIOD);
     status_tick.set_missed_tick_behavior(MissedTickBehavior::Delay);
-    let mut flushes: u32 = 0;
     tokio::pin!(stop);
-    let mut stop_reason: Option<StopReason> = None;
-
     loop {
         tokio::select! {
             // Timers before frames: under a flood the flush (every 100 ms)
             // and the status must still run.
             biased;
-            reason = &mut stop, if stop_reason.is_none() => {
-                let at_ns = now_ns();
-                let _ = stop_tx.send(Some(at_ns));
-                session.session.stop_requested_unix_ns = Some(at_ns);
-                stop_reason = Some(reason);
-            }
-            _ = flush_tick.tick() => {
-                flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
-                flushes = flushes.wrapping_add(1);
-                if flushes % SYNC_EVERY_FLUSHES == 0 && !matches!(stop_reason, Some(StopReason::WriteFailed(_))) {
-                    let _ = raw.sync();
-                }
-                if flushes % SESSION_REFRESH_FLUSHES == 0 && stop_reason.is_none() {
-                    let _ = session::write(dir, &snapshot(&session, &raw, &dropped, &liveness));
-                }
-            }
-            _ = status_tick.tick() => {
-                let now = now_ns();
-                if let Some(live) = liveness.as_mut() {
-                    live.tick(now);
-                }
-                let interval_s = ((now - last_status_ns) as f64 * 1e-9).max(1e-3);
-                last_status_ns = now;
-                let status = Status {
-                    elapsed_s: (now - started_ns) as f64 * 1e-9,
-                    session_dir: dir.display().to_string(),
-                    frames: raw.frames,
-                    bytes_written: raw.bytes,
-                    buses: session.interface.iter().enumerate().map(|(i, record)| {
-                        let rate = (record.frames - frames_at_last_status[i]) as f64 / interval_s;
-                        frames_at_last_status[i] = record.frames;
-                        BusStatus {
-                            iface: record.name.clone(),
-                            state: if up[i] { "up" } else { "down" },
-                            frames_per_s: (rate * 10.0).round() / 10.0,
-                            frames: record.frames,
-                            dropped_by_kernel: dropped[i],
-                            error_frames: record.error_frames,
-                            last_error: last_error[i].clone(),
-                        }
-                    }).collect(),
-                    sensors: liveness.as_ref().map(|live| live.sensors.iter().map(|s| SensorStatus {
-                        name: s.name.clone(),
-                        value: s.last_value,
-                        unit: s.unit,
-                        age_s: s.age_s(now).map(|a| (a * 1000.0).round() / 1000.0),
-                        silent: s.silent,
-                        reason: s.silent.then(|| s.silence_reason()),
-                    }).collect()).unwrap_or_default(),
-                };
-                if let Some(messages) = &options.messages {
-                    let lines: Vec<String> = messages
-                        .lock()
-                        .map(|m| m.try_iter().collect())
-                        .unwrap_or_default();
-                    for line in lines {
-                        display.message(&line);
-                    }
-                }
-                display.show(&status);
-                if let Some(observer) = observer.as_mut() {
-                    observer.status(&status);
-                }
-            }
+            reason = &mut stop, if recorder.stop_reason.is_none() => recorder.stop(reason),
+            _ = flush_tick.tick() => recorder.flush_tick(),
+            _ = status_tick.tick() => recorder.status_tick(),
             event = events.recv() => {
                 let Some(event) = event else { break };
-                match event {
-                    Event::Frames { bus, frames, info } => {
-                        let arrival_ns = now_ns();
-                        if let Some(observer) = observer.as_mut() {
-                            observer.frames(bus, &frames, arrival_ns);
-                        }
-                        let record = &mut session.interface[bus];
-                        for frame in &frames {
-                            if let Some(report) = record.count(frame) {
-                                last_error[bus] = Some(report.describe());
-                            }
-                            if let Some(live) = liveness.as_mut() {
-                                live.on_frame(frame, arrival_ns);
-                            }
-                            raw.push(frame);
-                        }
-                        if let Some(total) = info.dropped_total {
-                            dropped[bus] = total;
-                        }
-                    }
-                    Event::Down { bus, at_ns, reason } => {
-                        up[bus] = false;
-                        session.interface[bus].outage.push(Outage { down_unix_ns: at_ns, up_unix_ns: None, reason: reason.clone() });
-                        display.message(&format!("{}: {reason}; recording goes on and resumes when it returns", options.interfaces[bus]));
-                        write_session(dir, &snapshot(&session, &raw, &dropped, &liveness))?;
-                    }
-                    Event::Up { bus, at_ns } => {
-                        up[bus] = true;
-                        if let Some(outage) = session.interface[bus].outage.last_mut() {
-                            outage.up_unix_ns = Some(at_ns);
-                        }
-                        display.message(&format!("{}: back up, recording resumed", options.interfaces[bus]));
-                    }
-                    Event::Failed { bus, error } => {
-                        display.message(&format!("{}: reader stopped: {error}", options.interfaces[bus]));
-                        session.session.notes.push(format!("{}: reader stopped: {error}", options.interfaces[bus]));
-                    }
-                }
-                if raw.pending_bytes() > 4 << 20 {
-                    flush_or_stop(&mut raw, &mut stop_reason, &stop_tx, &mut display);
-                }
+                recorder.on_event(event)?;
             }
+        }
+    }
+    recorder.finish()
+}
+
+/// The recording's state between the reader tasks and the files: the
+/// session being described, the raw log, what each bus did, the status.
+struct Recorder<'a> {
+    options: &'a RecordOptions,
+    dir: &'a Path,
+    session: SessionFile,
+    raw: RawLog,
+    /// The file that keeps room for the final `session.toml`.
+    reserve: PathBuf,
+    display: StatusDisplay,
+    observer: Option<Box<dyn RecordObserver>>,
+    /// Each sensor's last value and silence, with a rig.
+    liveness: Option<Liveness<'a>>,
+    buses: Vec<BusState>,
+    started_ns: i64,
+    last_status_ns: i64,
+    flushes: u32,
+    /// Tells the readers the time of the stop, so they drain and end.
+    stop_tx: watch::Sender<Option<i64>>,
+    stop_reason: Option<StopReason>,
+}
+
+/// What the status shows of one bus besides its session record.
+struct BusState {
+    up: bool,
+    last_error: Option<String>,
+    dropped_by_kernel: u64,
+    frames_at_last_status: u64,
+}
+
+impl<'a> Recorder<'a> {
+    /// The session directory with its `session.toml`, the reserve and an
+    /// empty raw log.
+    fn start(
+        options: &'a RecordOptions,
+        timestamp_sources: &[&'static str],
+        observer: Option<Box<dyn RecordObserver>>,
+        stop_tx: watch::Sender<Option<i64>>,
+    ) -> Result<Self> {
+        let dir = options.session_dir.as_path();
+        prepare_dir(dir)?;
+        let started_ns = now_ns();
+        let session = SessionFile {
+            session: SessionInfo {
+                format_version: session::FORMAT_VERSION,
+                software: format!("acq {}", env!("CARGO_PKG_VERSION")),
+                host: session::host_name(),
+                command: options.command_line.clone(),
+                started_utc: session::utc_text(started_ns),
+                started_unix_ns: started_ns,
+                ended: "recording".into(),
+                raw_files: vec![rawlog::SINGLE_NAME.into()],
+                notes: options.notes.clone(),
+                ..Default::default()
+            },
+            interface: options
+                .interfaces
+                .iter()
+                .zip(timestamp_sources)
+                .map(|(iface, source)| InterfaceRecord::new(iface.as_str(), source))
+                .collect(),
+            rig: options
+                .rig
+                .as_ref()
+                .map(|rig| copy_rig(rig, dir))
+                .transpose()?,
+            sensor: Vec::new(),
+        };
+        // Room kept for the final session.toml: freed at the end, so a full
+        // disk still gets a complete description of what was recorded.
+        let reserve = dir.join(SPACE_RESERVE);
+        fs::write(&reserve, vec![0u8; SPACE_RESERVE_BYTES])
+            .map_err(|e| AcqError::io(format!("creating {}", reserve.display()), e))?;
+        let raw = RawLog::create(dir, options.max_file_bytes).map_err(|e| {
+            AcqError::io(
+                format!("creating {}", dir.join(rawlog::SINGLE_NAME).display()),
+                e,
+            )
+        })?;
+        write_session(dir, &session)?;
+        Ok(Recorder {
+            options,
+            dir,
+            session,
+            raw,
+            reserve,
+            display: StatusDisplay::new(options.status),
+            observer,
+            liveness: options
+                .rig
+                .as_ref()
+                .map(|rig| Liveness::new(rig, started_ns)),
+            buses: options
+                .interfaces
+                .iter()
+                .map(|_| BusState {
+                    up: true,
+                    last_error: None,
+                    dropped_by_kernel: 0,
+                    frames_at_last_status: 0,
+                })
+                .collect(),
+            started_ns,
+            last_status_ns: started_ns,
+            flushes: 0,
+            stop_tx,
+            stop_reason: None,
+        })
+    }
+
+    fn observe_start(&mut self) {
+        if let Some(observer) = self.observer.as_mut() {
+            observer.started(&self.session);
         }
     }
 
-    // Every reader has finished: write and sync the rest.
-    let stop = stop_reason.unwrap_or(StopReason::SourcesEnded);
-    let mut final_stop = stop.clone();
-    if !matches!(stop, StopReason::WriteFailed(_)) {
-        if let Err(error) = raw.flush().and_then(|()| raw.sync()) {
-            final_stop = StopReason::WriteFailed(error.to_string());
+    /// The caller asked to stop: the readers drain what came before now.
+    fn stop(&mut self, reason: StopReason) {
+        let at_ns = now_ns();
+        let _ = self.stop_tx.send(Some(at_ns));
+        self.session.session.stop_requested_unix_ns = Some(at_ns);
+        self.stop_reason = Some(reason);
+    }
+
+    fn write_failed(&self) -> bool {
+        matches!(self.stop_reason, Some(StopReason::WriteFailed(_)))
+    }
+
+    /// Raw lines to the operating system; now and then to the disk, and
+    /// `session.toml` refreshed.
+    fn flush_tick(&mut self) {
+        self.flush_or_stop();
+        self.flushes = self.flushes.wrapping_add(1);
+        if self.flushes % SYNC_EVERY_FLUSHES == 0 && !self.write_failed() {
+            let _ = self.raw.sync();
+        }
+        if self.flushes % SESSION_REFRESH_FLUSHES == 0 && self.stop_reason.is_none() {
+            let _ = session::write(self.dir, &self.snapshot());
         }
     }
-    if let StopReason::WriteFailed(_) = final_stop {
-        let lost = raw.pending_lines();
-        session.session.notes.push(format!(
-            "{lost} frames received after the write failure could not be written"
-        ));
+
+    fn flush_or_stop(&mut self) {
+        flush_or_stop(
+            &mut self.raw,
+            &mut self.stop_reason,
+            &self.stop_tx,
+            &mut self.display,
+        );
     }
-    let stopped_ns = now_ns();
-    let mut finished = snapshot(&session, &raw, &dropped, &liveness);
-    finished.session.stopped_unix_ns = Some(stopped_ns);
-    finished.session.stopped_utc = Some(session::utc_text(stopped_ns));
-    finished.session.ended = final_stop.describe();
-    if raw.clamped_timestamps > 0 {
-        finished.session.notes.push(format!(
-            "{} frames had timestamps before 1970 (a hardware clock counting from power-on) and were written with time 0",
-            raw.clamped_timestamps
-        ));
+
+    fn snapshot(&self) -> SessionFile {
+        let dropped: Vec<u64> = self.buses.iter().map(|b| b.dropped_by_kernel).collect();
+        snapshot(&self.session, &self.raw, &dropped, &self.liveness)
     }
-    let _ = fs::remove_file(&reserve);
-    write_session(dir, &finished)?;
-    if let Some(observer) = observer.as_mut() {
-        observer.finished(&finished);
+
+    /// The status, to the terminal and the observer.
+    fn status_tick(&mut self) {
+        let now = now_ns();
+        if let Some(live) = self.liveness.as_mut() {
+            live.tick(now);
+        }
+        let interval_s = ((now - self.last_status_ns) as f64 * 1e-9).max(1e-3);
+        self.last_status_ns = now;
+        let status = Status {
+            elapsed_s: (now - self.started_ns) as f64 * 1e-9,
+            session_dir: self.dir.display().to_string(),
+            frames: self.raw.frames,
+            bytes_written: self.raw.bytes,
+            buses: self
+                .session
+                .interface
+                .iter()
+                .zip(self.buses.iter_mut())
+                .map(|(record, bus)| {
+                    let rate = (record.frames - bus.frames_at_last_status) as f64 / interval_s;
+                    bus.frames_at_last_status = record.frames;
+                    BusStatus {
+                        iface: record.name.clone(),
+                        state: if bus.up { "up" } else { "down" },
+                        frames_per_s: (rate * 10.0).round() / 10.0,
+                        frames: record.frames,
+                        dropped_by_kernel: bus.dropped_by_kernel,
+                        error_frames: record.error_frames,
+                        last_error: bus.last_error.clone(),
+                    }
+                })
+                .collect(),
+            sensors: self
+                .liveness
+                .as_ref()
+                .map(|live| {
+                    live.sensors
+                        .iter()
+                        .map(|s| SensorStatus {
+                            name: s.name.clone(),
+                            value: s.last_value,
+                            unit: s.unit,
+                            age_s: s.age_s(now).map(|a| (a * 1000.0).round() / 1000.0),
+                            silent: s.silent,
+                            reason: s.silent.then(|| s.silence_reason()),
+                        })
+                        .collect()
+                })
+                .unwrap_or_default(),
+        };
+        if let Some(messages) = &self.options.messages {
+            let lines: Vec<String> = messages
+                .lock()
+                .map(|m| m.try_iter().collect())
+                .unwrap_or_default();
+            for line in lines {
+                self.display.message(&line);
+            }
+        }
+        self.display.show(&status);
+        if let Some(observer) = self.observer.as_mut() {
+            observer.status(&status);
+        }
     }
-    Ok(RecordSummary {
-        session_dir: dir.clone(),
-        session: finished,
-        stop: final_stop,
-    })
+
+    /// What a reader reported: frames to the raw log (and the observer),
+    /// or its interface going down, coming back, or failing.
+    fn on_event(&mut self, event: Event) -> Result<()> {
+        let interfaces = &self.options.interfaces;
+        match event {
+            Event::Frames { bus, frames, info } => {
+                let arrival_ns = now_ns();
+                if let Some(observer) = self.observer.as_mut() {
+                    observer.frames(bus, &frames, arrival_ns);
+                }
+                let record = &mut self.session.interface[bus];
+                for frame in &frames {
+                    if let Some(report) = record.count(frame) {
+                        self.buses[bus].last_error = Some(report.describe());
+                    }
+                    if let Some(live) = self.liveness.as_mut() {
+                        live.on_frame(frame, arrival_ns);
+                    }
+                    self.raw.push(frame);
+                }
+                if let Some(total) = info.dropped_total {
+                    self.buses[bus].dropped_by_kernel = total;
+                }
+            }
+            Event::Down { bus, at_ns, reason } => {
+                self.buses[bus].up = false;
+                self.session.interface[bus].outage.push(Outage {
+                    down_unix_ns: at_ns,
+                    up_unix_ns: None,
+                    reason: reason.clone(),
+                });
+                self.display.message(&format!(
+                    "{}: {reason}; recording goes on and resumes when it returns",
+                    interfaces[bus]
+                ));
+                write_session(self.dir, &self.snapshot())?;
+            }
+            Event::Up { bus, at_ns } => {
+                self.buses[bus].up = true;
+                if let Some(outage) = self.session.interface[bus].outage.last_mut() {
+                    outage.up_unix_ns = Some(at_ns);
+                }
+                self.display
+                    .message(&format!("{}: back up, recording resumed", interfaces[bus]));
+            }
+            Event::Failed { bus, error } => {
+                self.display
+                    .message(&format!("{}: reader stopped: {error}", interfaces[bus]));
+                self.session
+                    .session
+                    .notes
+                    .push(format!("{}: reader stopped: {error}", interfaces[bus]));
+            }
+        }
+        if self.raw.pending_bytes() > 4 << 20 {
+            self.flush_or_stop();
+        }
+        Ok(())
+    }
+
+    /// Every reader has finished: write and sync the rest, and complete
+    /// `session.toml`.
+    fn finish(mut self) -> Result<RecordSummary> {
+        let stop = self.stop_reason.clone().unwrap_or(StopReason::SourcesEnded);
+        let mut final_stop = stop.clone();
+        if !matches!(stop, StopReason::WriteFailed(_)) {
+            if let Err(error) = self.raw.flush().and_then(|()| self.raw.sync()) {
+                final_stop = StopReason::WriteFailed(error.to_string());
+            }
+        }
+        if let StopReason::WriteFailed(_) = final_stop {
+            let lost = self.raw.pending_lines();
+            self.session.session.notes.push(format!(
+                "{lost} frames received after the write failure could not be written"
+            ));
+        }
+        let stopped_ns = now_ns();
+        let mut finished = self.snapshot();
+        finished.session.stopped_unix_ns = Some(stopped_ns);
+        finished.session.stopped_utc = Some(session::utc_text(stopped_ns));
+        finished.session.ended = final_stop.describe();
+        if self.raw.clamped_timestamps > 0 {
+            finished.session.notes.push(format!(
+                "{} frames had timestamps before 1970 (a hardware clock counting from power-on) and were written with time 0",
+                self.raw.clamped_timestamps
+            ));
+        }
+        let _ = fs::remove_file(&self.reserve);
+        write_session(self.dir, &finished)?;
+        if let Some(observer) = self.observer.as_mut() {
+            observer.finished(&finished);
+        }
+        Ok(RecordSummary {
+            session_dir: self.dir.to_path_buf(),
+            session: finished,
+            stop: final_stop,
+        })
+    }
 }
 
 fn flush_or_stop(

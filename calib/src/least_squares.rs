@@ -154,46 +154,6 @@ pub fn least_squares<E>(
         return Err(LeastSquaresError::NotFinite);
     }
     let mut cost = sum_of_squares(&r);
-    let h = settings.difference_step;
-
-    // Forward-difference Jacobians (outputs and residuals) at `x`.
-    let jacobians = |x: &[f64],
-                     outputs: &[f64],
-                     r: &[f64],
-                     run_batch: &mut BatchRunner<'_, E>|
-     -> Result<(Mat<f64>, Mat<f64>), LeastSquaresError<E>> {
-        let steps: Vec<f64> = x
-            .iter()
-            .map(|&u| if u + h <= 1.0 { h } else { -h })
-            .collect();
-        let points: Vec<Vec<f64>> = (0..d)
-            .map(|i| {
-                let mut p = x.to_vec();
-                p[i] += steps[i];
-                p
-            })
-            .collect();
-        let shifted = run_batch(&points)?;
-        let mut output_jacobian = Mat::<f64>::zeros(outputs.len(), d);
-        let mut residual_jacobian = Mat::<f64>::zeros(r.len(), d);
-        for (i, result) in shifted.into_iter().enumerate() {
-            let Some(y) = result else { continue };
-            let ry = residuals(&y);
-            if y.len() != outputs.len() || ry.len() != r.len() {
-                continue;
-            }
-            if ry.iter().chain(&y).any(|v| !v.is_finite()) {
-                continue;
-            }
-            for k in 0..outputs.len() {
-                output_jacobian[(k, i)] = (y[k] - outputs[k]) / steps[i];
-            }
-            for k in 0..r.len() {
-                residual_jacobian[(k, i)] = (ry[k] - r[k]) / steps[i];
-            }
-        }
-        Ok((output_jacobian, residual_jacobian))
-    };
 
     let mut lambda = 1e-3;
     let mut iterations = 0;
@@ -205,46 +165,25 @@ pub fn least_squares<E>(
         }
         if jacobian_at_x.is_none() {
             let mut batch = |p: &[Vec<f64>]| run_batch(p, &mut evaluations);
-            jacobian_at_x = Some(jacobians(&x, &outputs, &r, &mut batch)?);
+            jacobian_at_x = Some(forward_jacobians(
+                &x,
+                &outputs,
+                &r,
+                settings.difference_step,
+                &residuals,
+                &mut batch,
+            )?);
         }
         let (_, j) = jacobian_at_x.as_ref().expect("just computed");
         iterations += 1;
         let r_column = Mat::from_fn(r.len(), 1, |k, _| r[k]);
         let gradient = j.transpose() * &r_column;
         let normal = j.transpose() * j;
-        // Held at a bound: the descent direction (-gradient) leaves the box.
-        let free: Vec<usize> = (0..d)
-            .filter(|&i| {
-                let g = gradient[(i, 0)];
-                let seen = normal[(i, i)] > 0.0;
-                let held = (x[i] <= 0.0 && g > 0.0) || (x[i] >= 1.0 && g < 0.0);
-                seen && !held
-            })
-            .collect();
+        let free = free_parameters(&x, &gradient, &normal);
         if free.is_empty() {
             break Stop::NoDescent;
         }
-        let scale_floor = free.iter().map(|&i| normal[(i, i)]).fold(0.0f64, f64::max) * 1e-12;
-        let step_for = |lambda: f64| -> Vec<f64> {
-            let n = free.len();
-            let system = Mat::from_fn(n, n, |a, b| {
-                let (i, k) = (free[a], free[b]);
-                let damping = if a == b {
-                    lambda * normal[(i, i)].max(scale_floor)
-                } else {
-                    0.0
-                };
-                normal[(i, k)] + damping
-            });
-            let rhs = Mat::from_fn(n, 1, |a, _| -gradient[(free[a], 0)]);
-            let solution = system.partial_piv_lu().solve(&rhs);
-            let mut delta = vec![0.0; d];
-            for (a, &i) in free.iter().enumerate() {
-                delta[i] = solution[(a, 0)];
-            }
-            delta
-        };
-        let delta = step_for(lambda);
+        let delta = damped_step(&free, &normal, &gradient, lambda);
         if delta.iter().any(|v| !v.is_finite()) {
             lambda *= 4.0;
             if lambda > 1e12 {
@@ -312,11 +251,129 @@ pub fn least_squares<E>(
             }
         }
     };
-    // The Jacobian returned (for the parameters' spread) is taken by
-    // central differences over a wider step: a model smooth only at some
-    // scale (an inner search, a tolerance) must not turn a tiny jump into
-    // a huge slope there.
-    let s = settings.spread_step;
+    let (output_jacobian, residual_jacobian) = {
+        let mut batch = |p: &[Vec<f64>]| run_batch(p, &mut evaluations);
+        spread_jacobians(
+            &x,
+            &outputs,
+            &r,
+            settings.spread_step,
+            &residuals,
+            &mut batch,
+        )?
+    };
+    Ok(LeastSquaresResult {
+        point: x,
+        outputs,
+        residuals: r,
+        cost,
+        output_jacobian,
+        residual_jacobian,
+        iterations,
+        evaluations,
+        stop,
+    })
+}
+
+/// Forward-difference Jacobians of the outputs and the residuals at `x`
+/// (unit box), stepping `h` inward at an upper bound. A shifted run that
+/// failed or gave non-finite values leaves its column zero.
+fn forward_jacobians<E>(
+    x: &[f64],
+    outputs: &[f64],
+    r: &[f64],
+    h: f64,
+    residuals: &impl Fn(&[f64]) -> Vec<f64>,
+    run_batch: &mut BatchRunner<'_, E>,
+) -> Result<(Mat<f64>, Mat<f64>), LeastSquaresError<E>> {
+    let d = x.len();
+    let steps: Vec<f64> = x
+        .iter()
+        .map(|&u| if u + h <= 1.0 { h } else { -h })
+        .collect();
+    let points: Vec<Vec<f64>> = (0..d)
+        .map(|i| {
+            let mut p = x.to_vec();
+            p[i] += steps[i];
+            p
+        })
+        .collect();
+    let shifted = run_batch(&points)?;
+    let mut output_jacobian = Mat::<f64>::zeros(outputs.len(), d);
+    let mut residual_jacobian = Mat::<f64>::zeros(r.len(), d);
+    for (i, result) in shifted.into_iter().enumerate() {
+        let Some(y) = result else { continue };
+        let ry = residuals(&y);
+        if y.len() != outputs.len() || ry.len() != r.len() {
+            continue;
+        }
+        if ry.iter().chain(&y).any(|v| !v.is_finite()) {
+            continue;
+        }
+        for k in 0..outputs.len() {
+            output_jacobian[(k, i)] = (y[k] - outputs[k]) / steps[i];
+        }
+        for k in 0..r.len() {
+            residual_jacobian[(k, i)] = (ry[k] - r[k]) / steps[i];
+        }
+    }
+    Ok((output_jacobian, residual_jacobian))
+}
+
+/// The parameters a step may move: seen by the residuals, and not held at
+/// a bound that the descent direction (-gradient) would leave.
+fn free_parameters(x: &[f64], gradient: &Mat<f64>, normal: &Mat<f64>) -> Vec<usize> {
+    (0..x.len())
+        .filter(|&i| {
+            let g = gradient[(i, 0)];
+            let seen = normal[(i, i)] > 0.0;
+            let held = (x[i] <= 0.0 && g > 0.0) || (x[i] >= 1.0 && g < 0.0);
+            seen && !held
+        })
+        .collect()
+}
+
+/// The Levenberg-Marquardt step over the free parameters, damped by
+/// `lambda` times the normal matrix's diagonal (floored, so a parameter
+/// the residuals barely see is still damped); zero for the others.
+fn damped_step(free: &[usize], normal: &Mat<f64>, gradient: &Mat<f64>, lambda: f64) -> Vec<f64> {
+    let scale_floor = free.iter().map(|&i| normal[(i, i)]).fold(0.0f64, f64::max) * 1e-12;
+    let n = free.len();
+    let system = Mat::from_fn(n, n, |a, b| {
+        let (i, k) = (free[a], free[b]);
+        let damping = if a == b {
+            lambda * normal[(i, i)].max(scale_floor)
+        } else {
+            0.0
+        };
+        normal[(i, k)] + damping
+    });
+    let rhs = Mat::from_fn(n, 1, |a, _| -gradient[(free[a], 0)]);
+    let solution = system.partial_piv_lu().solve(&rhs);
+    let mut delta = vec![0.0; normal.nrows()];
+    for (a, &i) in free.iter().enumerate() {
+        delta[i] = solution[(a, 0)];
+    }
+    delta
+}
+
+/// A matrix as its rows.
+type Rows = Vec<Vec<f64>>;
+
+/// The Jacobians returned (for the parameters' spread), as rows: central
+/// differences over a wider step `s`, since a model smooth only at some
+/// scale (an inner search, a tolerance) must not turn a tiny jump into a
+/// huge slope there. Both sides where both ran; else the side that ran
+/// and the centre.
+fn spread_jacobians<E>(
+    x: &[f64],
+    outputs: &[f64],
+    r: &[f64],
+    s: f64,
+    residuals: &impl Fn(&[f64]) -> Vec<f64>,
+    run_batch: &mut BatchRunner<'_, E>,
+) -> Result<(Rows, Rows), LeastSquaresError<E>> {
+    let d = x.len();
     let stencil: Vec<(f64, f64)> = x
         .iter()
         .map(|&u| {
@@ -328,13 +385,13 @@ pub fn least_squares<E>(
         .flat_map(|i| {
             let (low, high) = stencil[i];
             [low, high].map(|v| {
-                let mut p = x.clone();
+                let mut p = x.to_vec();
                 p[i] = v;
                 p
             })
         })
         .collect();
-    let shifted = run_batch(&points, &mut evaluations)?;
+    let shifted = run_batch(&points)?;
     let mut output_jacobian = Mat::<f64>::zeros(outputs.len(), d);
     let mut residual_jacobian = Mat::<f64>::zeros(r.len(), d);
     fn usable(y: &Option<Vec<f64>>, length: usize) -> Option<&Vec<f64>> {
@@ -349,8 +406,8 @@ pub fn least_squares<E>(
             usable(&shifted[2 * i + 1], outputs.len()),
         ) {
             (Some(a), Some(b)) => Some((a.clone(), low, b.clone(), high)),
-            (Some(a), None) => Some((a.clone(), low, outputs.clone(), x[i])),
-            (None, Some(b)) => Some((outputs.clone(), x[i], b.clone(), high)),
+            (Some(a), None) => Some((a.clone(), low, outputs.to_vec(), x[i])),
+            (None, Some(b)) => Some((outputs.to_vec(), x[i], b.clone(), high)),
             (None, None) => None,
         };
         let Some((ya, ua, yb, ub)) = sides else {
@@ -372,17 +429,7 @@ pub fn least_squares<E>(
             .map(|k| (0..m.ncols()).map(|i| m[(k, i)]).collect())
             .collect()
     };
-    Ok(LeastSquaresResult {
-        point: x,
-        outputs,
-        residuals: r,
-        cost,
-        output_jacobian: rows(&output_jacobian),
-        residual_jacobian: rows(&residual_jacobian),
-        iterations,
-        evaluations,
-        stop,
-    })
+    Ok((rows(&output_jacobian), rows(&residual_jacobian)))
 }
 
 #[cfg(test)]

@@ -833,3 +833,207 @@ fn names_call(code: &str, path: &str) -> bool {
             .is_some_and(|c| c.is_alphanumeric() || c == '_')
     })
 }
+
+/// The non-test functions longer than [`LONGEST_FUNCTION_LINES`], each
+/// with why it stays whole or that it is still to be split. The list only
+/// shrinks (ARCHITECTURE.md, "Invariants").
+const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
+    ("twins/src/tensile/gtn.rs", "update_with_start", "the GTN return mapping: one Newton iteration over the yield condition, its local state, in the order of the published algorithm"),
+    ("calib/src/optim.rs", "minimize_bounded", "the L-BFGS-B iteration: its history, the projected search and the line search share one state"),
+    ("calib/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
+    ("drivers/src/dbc.rs", "build_multiplexing", "to split"),
+    ("study/src/posterior/likelihood.rs", "new", "to split"),
+    ("demo/src/report.rs", "build", "to split"),
+    ("twins/src/excavator/structure.rs", "build", "to split"),
+    ("workflows/src/rig_study/mod.rs", "load_with", "to split"),
+    ("study/src/surrogate_moo.rs", "surrogate_moo", "to split"),
+    ("study/src/posterior/predictive.rs", "predictive_runs", "to split"),
+    ("study/src/identifiability.rs", "identifiability", "to split"),
+    ("study/src/identifiability.rs", "write_identifiability", "to split"),
+    ("workflows/src/virtual_rig.rs", "expand_twin_scenario", "to split"),
+    ("src/cli/live.rs", "run_record", "to split"),
+    ("demo/src/acquire.rs", "play_all", "to split"),
+    ("study/src/posterior/report.rs", "write_section", "to split"),
+    ("acquire/src/simulate/mod.rs", "build_streams", "to split"),
+    ("study/src/study_runner.rs", "calibrate_study", "to split"),
+    ("study/src/saved_emulator.rs", "fit", "to split"),
+    ("workflows/src/rig_study/tracker.rs", "panel", "to split"),
+    ("workflows/src/calibrate/excavator.rs", "run", "to split"),
+];
+
+/// About the longest a function reads whole on one screen and a half.
+const LONGEST_FUNCTION_LINES: usize = 120;
+
+/// The braces and semicolons of `code` outside comments, strings and
+/// character literals, with their line numbers (from 1).
+fn structure_of(code: &str) -> Vec<(usize, char)> {
+    let chars: Vec<char> = code.chars().collect();
+    let (mut i, mut line, mut found) = (0, 1, Vec::new());
+    let at = |i: usize| chars.get(i).copied().unwrap_or('\0');
+    while i < chars.len() {
+        let c = chars[i];
+        match c {
+            '\n' => line += 1,
+            '/' if at(i + 1) == '/' => {
+                while i < chars.len() && chars[i] != '\n' {
+                    i += 1;
+                }
+                continue;
+            }
+            '/' if at(i + 1) == '*' => {
+                i += 2;
+                while i < chars.len() && !(chars[i] == '*' && at(i + 1) == '/') {
+                    line += usize::from(chars[i] == '\n');
+                    i += 1;
+                }
+                i += 2;
+                continue;
+            }
+            'r' if (at(i + 1) == '"' || (at(i + 1) == '#' && matches!(at(i + 2), '"' | '#')))
+                && !(i > 0 && (chars[i - 1].is_alphanumeric() || chars[i - 1] == '_')) =>
+            {
+                let mut hashes = 0;
+                i += 1;
+                while at(i) == '#' {
+                    hashes += 1;
+                    i += 1;
+                }
+                i += 1; // the opening quote
+                loop {
+                    if i >= chars.len() {
+                        break;
+                    }
+                    if chars[i] == '"' && (1..=hashes).all(|k| at(i + k) == '#') {
+                        i += 1 + hashes;
+                        break;
+                    }
+                    line += usize::from(chars[i] == '\n');
+                    i += 1;
+                }
+                continue;
+            }
+            '"' => {
+                i += 1;
+                while i < chars.len() && chars[i] != '"' {
+                    if chars[i] == '\\' {
+                        i += 1;
+                    }
+                    line += usize::from(at(i) == '\n');
+                    i += 1;
+                }
+            }
+            '\'' if at(i + 1) == '\\' => {
+                i += 2;
+                while i < chars.len() && chars[i] != '\'' {
+                    i += 1;
+                }
+            }
+            '\'' if at(i + 2) == '\'' => i += 2,
+            '{' | '}' | ';' => found.push((line, c)),
+            _ => {}
+        }
+        i += 1;
+    }
+    found
+}
+
+/// Each function of `code` (before its tests) with its length in lines.
+fn function_lengths(code: &str) -> Vec<(String, usize)> {
+    let code = match code.find("#[cfg(test)]") {
+        Some(i) => &code[..i],
+        None => code,
+    };
+    let structure = structure_of(code);
+    let mut lengths = Vec::new();
+    for (index, text) in code.lines().enumerate() {
+        let words: Vec<&str> = text.split_whitespace().collect();
+        let Some(at) = words.iter().position(|w| *w == "fn") else {
+            continue;
+        };
+        let before_ok = words[..at].iter().all(|w| {
+            w.starts_with("pub") || matches!(*w, "async" | "const" | "unsafe" | "extern" | "\"C\"")
+        });
+        if !before_ok || at + 1 >= words.len() {
+            continue;
+        }
+        let name: String = words[at + 1]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        let start = index + 1;
+        let mut depth = 0usize;
+        let mut end = None;
+        for &(line, c) in structure.iter().filter(|(line, _)| *line >= start) {
+            match c {
+                ';' if depth == 0 => break, // a declaration without a body
+                '{' => depth += 1,
+                '}' => {
+                    depth = depth.saturating_sub(1);
+                    if depth == 0 {
+                        end = Some(line);
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        if let Some(end) = end {
+            lengths.push((name, end - start + 1));
+        }
+    }
+    lengths
+}
+
+#[test]
+fn the_length_of_a_function_is_counted_from_its_signature_to_its_closing_brace() {
+    let code = "fn short() {\n    let s = \"}{\";\n    let c = '}';\n}\n\npub(crate) fn declared();\n\nasync fn long<'a>(x: &'a str) {\n    // }\n    if x.is_empty() {\n    }\n}\n";
+    assert_eq!(
+        function_lengths(code),
+        vec![("short".to_string(), 4), ("long".to_string(), 5)]
+    );
+}
+
+#[test]
+fn no_function_is_longer_than_a_screen_and_a_half_unless_listed() {
+    let root = workspace_root();
+    let mut long = Vec::new();
+    for package in workspace_packages() {
+        let mut files = Vec::new();
+        collect_rs_files(&package.src_dir, &mut files);
+        for file in files {
+            let relative = file
+                .strip_prefix(&root)
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            let text = std::fs::read_to_string(&file).unwrap();
+            for (name, lines) in function_lengths(&text) {
+                if lines > LONGEST_FUNCTION_LINES {
+                    long.push((relative.clone(), name, lines));
+                }
+            }
+        }
+    }
+    let unlisted: Vec<String> = long
+        .iter()
+        .filter(|(path, name, _)| {
+            !LONG_FUNCTIONS
+                .iter()
+                .any(|(p, n, _)| p == path && n == name)
+        })
+        .map(|(path, name, lines)| format!("{path}: {name} ({lines} lines)"))
+        .collect();
+    assert!(
+        unlisted.is_empty(),
+        "functions over {LONGEST_FUNCTION_LINES} lines: split them by what they do, or list them in LONG_FUNCTIONS with why they stay whole: {unlisted:#?}"
+    );
+    let stale: Vec<String> = LONG_FUNCTIONS
+        .iter()
+        .filter(|(p, n, _)| !long.iter().any(|(path, name, _)| path == p && name == n))
+        .map(|(path, name, _)| format!("{path}: {name}"))
+        .collect();
+    assert!(
+        stale.is_empty(),
+        "no longer over {LONGEST_FUNCTION_LINES} lines: take them off LONG_FUNCTIONS: {stale:?}"
+    );
+}

@@ -12,7 +12,11 @@ use std::process::Command;
 /// the data flow: a crate sees only the stages before it and the leaves.
 const ALLOWED: &[(&str, &[&str])] = &[
     // Leaves: one job each, nothing of the rest of acq.
-    ("acq-drivers", &[]),
+    // The GUM's arithmetic: budgets and calibration curves.
+    ("acq-metrology", &[]),
+    // Frames, formats and the rig; a sensor's certificate points become
+    // its conversion through acq-metrology's curve.
+    ("acq-drivers", &["acq-metrology"]),
     ("acq-twins", &[]),
     ("acq-calib", &[]),
     ("acq-report", &[]),
@@ -23,7 +27,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // Live buses; knows nothing of analysis.
     ("acq-acquire", &["acq-drivers", "acq-io"]),
     // Offline analysis; knows nothing of live buses.
-    ("acq-analysis", &["acq-drivers", "acq-io"]),
+    ("acq-analysis", &["acq-drivers", "acq-io", "acq-metrology"]),
     // A calibration study on any model: no twin, no CAN, no command line.
     (
         "acq-study",
@@ -77,6 +81,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "acq",
         &[
+            "acq-metrology",
             "acq-drivers",
             "acq-twins",
             "acq-calib",

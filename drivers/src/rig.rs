@@ -40,6 +40,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use acq_metrology::curve::CalibrationCurve;
 use serde::Deserialize;
 use toml::Spanned;
 
@@ -126,6 +127,37 @@ struct SensorFile {
     description: Option<String>,
     interpolation: Option<Interpolation>,
     range: Option<[f64; 2]>,
+    /// The certificate: points (reading, value), their uncertainties, dates.
+    calibration: Option<CalibrationFile>,
+    /// The data sheet's accuracy limit (rectangular).
+    accuracy: Option<AccuracyFile>,
+    /// The smallest step of the value, in the kind's unit.
+    resolution: Option<f64>,
+}
+
+/// `calibration = { points = [[reading, value], ...], ... }` of a sensor.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CalibrationFile {
+    points: Vec<[f64; 2]>,
+    /// One per point, in the kind's unit: standard uncertainties, or
+    /// expanded ones with `k` and `level`.
+    uncertainties: Option<Vec<f64>>,
+    k: Option<f64>,
+    level: Option<f64>,
+    lab: Option<String>,
+    certificate: Option<String>,
+    /// `YYYY-MM-DD`.
+    date: Option<String>,
+    due: Option<String>,
+}
+
+/// `accuracy = { percent_of_full_scale = 0.5 }` or `{ percent_of_reading = 0.2 }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AccuracyFile {
+    percent_of_full_scale: Option<f64>,
+    percent_of_reading: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -307,8 +339,50 @@ pub struct Sensor {
     pub interpolation: Interpolation,
     /// Full scale `[lo, hi]` in the output unit, if declared.
     pub range: Option<[f64; 2]>,
+    /// What is known of the transducer's accuracy: its certificate and
+    /// data sheet. Empty for a sensor without a record.
+    pub record: SensorRecord,
     /// 1-based line of the sensor in the rig file.
     pub line: usize,
+}
+
+/// A transducer's certificate and data-sheet limits, as the rig states them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SensorRecord {
+    /// The line through the certificate's points; it is the sensor's
+    /// conversion (reading to value) where given.
+    pub curve: Option<CalibrationCurve>,
+    pub certificate: Option<Certificate>,
+    /// The data sheet's limit, rectangular.
+    pub accuracy: Option<Accuracy>,
+    /// The smallest step of the value, in the kind's unit.
+    pub resolution: Option<f64>,
+}
+
+impl SensorRecord {
+    /// Whether anything is known beyond the readings' own scatter.
+    pub fn is_empty(&self) -> bool {
+        self.curve.is_none() && self.accuracy.is_none() && self.resolution.is_none()
+    }
+}
+
+/// Where a calibration was made, and until when it holds.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Certificate {
+    pub lab: Option<String>,
+    pub id: Option<String>,
+    /// `YYYY-MM-DD`.
+    pub date: Option<String>,
+    pub due: Option<String>,
+}
+
+/// A data sheet's accuracy limit, `+-` this share.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Accuracy {
+    /// Of the full scale (the `range`'s span), %.
+    PercentOfFullScale(f64),
+    /// Of the reading, %.
+    PercentOfReading(f64),
 }
 
 impl Sensor {
@@ -951,6 +1025,13 @@ fn read_sensor(
             return None;
         }
     };
+    let record = match read_record(sensor) {
+        Ok(record) => record,
+        Err(message) => {
+            findings.report(line, format!("sensor '{name}': {message}"));
+            return None;
+        }
+    };
     let calibration = Linear {
         gain: sensor.scale.unwrap_or(1.0),
         offset: sensor.offset.unwrap_or(0.0),
@@ -976,13 +1057,125 @@ fn read_sensor(
         source,
         channel_unit,
         rate_hz: sensor.rate_hz,
-        conversion: physics.after(calibration),
+        // The certificate's points take the reading to the kind's unit
+        // themselves: the physics is in them.
+        conversion: match &record.curve {
+            Some(curve) => Linear {
+                gain: curve.slope,
+                offset: curve.intercept - curve.slope * curve.reading_mean,
+            },
+            None => physics.after(calibration),
+        },
         location: sensor.location,
         description: sensor.description.clone(),
         interpolation: sensor.interpolation.unwrap_or_default(),
         range: sensor.range,
+        record,
         line,
     })
+}
+
+/// A sensor's certificate and data-sheet limits, checked.
+fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
+    let unit = sensor.kind.output_unit();
+    let mut record = SensorRecord::default();
+    if let Some(calibration) = &sensor.calibration {
+        if sensor.scale.is_some() || sensor.offset.is_some() {
+            return Err("give either calibration points or scale and offset, not both (the points are the conversion)".into());
+        }
+        let standard = match (&calibration.uncertainties, calibration.k, calibration.level) {
+            (_, Some(_), None) => {
+                return Err("calibration: k needs the level of confidence it is for (e.g. level = 0.95)".into())
+            }
+            (_, None, Some(_)) => {
+                return Err("calibration: level needs the coverage factor k the certificate states".into())
+            }
+            (None, Some(_), Some(_)) => {
+                return Err("calibration: k and level are for the points' uncertainties; give uncertainties = [...] too".into())
+            }
+            (Some(_), Some(k), Some(level)) if !(k.is_finite() && k >= 1.0 && level > 0.0 && level < 1.0) => {
+                return Err(format!("calibration: k = {k} at level = {level}: give k of at least 1 and a level between 0 and 1"))
+            }
+            (Some(u), Some(k), Some(_)) => Some(u.iter().map(|u| u / k).collect::<Vec<f64>>()),
+            (Some(u), None, None) => Some(u.clone()),
+            (None, None, None) => None,
+        };
+        let curve = CalibrationCurve::fit(&calibration.points, standard.as_deref())
+            .map_err(|e| format!("calibration: {e} ({unit} for values)"))?;
+        if curve.slope == 0.0 || !curve.slope.is_finite() {
+            return Err("calibration: the points' values do not change with the reading; a sensor needs a slope".into());
+        }
+        for (key, date) in [("date", &calibration.date), ("due", &calibration.due)] {
+            if let Some(date) = date {
+                if !is_date(date) {
+                    return Err(format!(
+                        "calibration: {key} = \"{date}\": give a date as YYYY-MM-DD"
+                    ));
+                }
+            }
+        }
+        if let (Some(date), Some(due)) = (&calibration.date, &calibration.due) {
+            if due < date {
+                return Err(format!(
+                    "calibration: due {due} is before the calibration's date {date}"
+                ));
+            }
+        }
+        record.curve = Some(curve);
+        record.certificate = Some(Certificate {
+            lab: calibration.lab.clone(),
+            id: calibration.certificate.clone(),
+            date: calibration.date.clone(),
+            due: calibration.due.clone(),
+        });
+    }
+    if let Some(accuracy) = &sensor.accuracy {
+        record.accuracy = Some(
+            match (accuracy.percent_of_full_scale, accuracy.percent_of_reading) {
+                (Some(pct), None) if pct.is_finite() && pct > 0.0 => {
+                    if sensor.range.is_none() {
+                        return Err(format!("accuracy: percent_of_full_scale needs the sensor's range = [low, high] in {unit}"));
+                    }
+                    Accuracy::PercentOfFullScale(pct)
+                }
+                (None, Some(pct)) if pct.is_finite() && pct > 0.0 => {
+                    Accuracy::PercentOfReading(pct)
+                }
+                (Some(pct), None) | (None, Some(pct)) => {
+                    return Err(format!("accuracy: {pct} %: give a share above 0"))
+                }
+                _ => {
+                    return Err(
+                        "accuracy: give one of percent_of_full_scale or percent_of_reading".into(),
+                    )
+                }
+            },
+        );
+    }
+    if let Some(step) = sensor.resolution {
+        if !(step.is_finite() && step > 0.0) {
+            return Err(format!(
+                "resolution = {step}: give the value's smallest step in {unit}, above 0"
+            ));
+        }
+        record.resolution = Some(step);
+    }
+    Ok(record)
+}
+
+/// `YYYY-MM-DD` with a month 1-12 and a day 1-31 (string order is then
+/// date order).
+fn is_date(text: &str) -> bool {
+    let parts: Vec<&str> = text.split('-').collect();
+    let number = |part: &str, digits: usize, range: std::ops::RangeInclusive<u32>| {
+        part.len() == digits
+            && part.bytes().all(|b| b.is_ascii_digit())
+            && part.parse::<u32>().is_ok_and(|n| range.contains(&n))
+    };
+    parts.len() == 3
+        && number(parts[0], 4, 1900..=9999)
+        && number(parts[1], 2, 1..=12)
+        && number(parts[2], 2, 1..=31)
 }
 
 /// `[[cylinder]]`: each cylinder's bore and its two chambers' pressure sensors.

@@ -176,6 +176,15 @@ pub fn for_each_record(
 /// its records with their 1-based line numbers. Errors name the file and
 /// line and say what was expected.
 pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv::StringRecord)>> {
+    read_csv_records_of_any(path, &[expected]).map(|(_, records)| records)
+}
+
+/// As [`read_csv_records`], for a file whose header is one of `headers`
+/// (a format that gained columns, newest first): which one, and the rows.
+pub fn read_csv_records_of_any(
+    path: &Path,
+    headers: &[&[&str]],
+) -> Result<(usize, Vec<(u64, csv::StringRecord)>)> {
     note_input(path);
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
@@ -188,15 +197,15 @@ pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv:
         .iter()
         .map(str::to_string)
         .collect();
-    if header != expected {
+    let Some(which) = headers.iter().position(|expected| header == *expected) else {
         return Err(AcqError::Malformed(format!(
             "{}:1: expected the header {}, found {}",
             path.display(),
-            expected.join(","),
+            headers.first().map(|h| h.join(",")).unwrap_or_default(),
             header.join(",")
         )));
-    }
-    reader
+    };
+    let records = reader
         .records()
         .map(|record| {
             let record = record.map_err(|e| {
@@ -205,7 +214,8 @@ pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv:
             })?;
             Ok((record.position().map_or(0, |p| p.line()), record))
         })
-        .collect()
+        .collect::<Result<_>>()?;
+    Ok((which, records))
 }
 
 /// Loads a rig; every problem in it is a configuration error (exit 2).

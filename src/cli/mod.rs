@@ -3,6 +3,7 @@
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
+mod budget;
 mod calibrate;
 mod convert;
 mod decode;
@@ -58,6 +59,8 @@ pub enum Command {
     Convert(convert::ConvertArgs),
     /// Validate a rig file and explain every problem found.
     CheckRig(decode::CheckRigArgs),
+    /// The uncertainty budget of one value of a sensor, as its rig states it.
+    Budget(budget::BudgetArgs),
     /// Record CAN interfaces into a session directory, with live status.
     Record(live::RecordArgs),
     /// Serve the live page over recorded sessions: every signal, holds marked.
@@ -101,6 +104,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Align(args) => offline::run_align(args),
         Command::Extract(args) => offline::run_extract(args),
         Command::CheckRig(args) => decode::run_check_rig(args),
+        Command::Budget(args) => budget::run_budget(args),
         Command::Record(args) => live::run_record(args),
         Command::Replay(args) => live::run_replay(args),
         Command::View(args) => view::run_view(args),

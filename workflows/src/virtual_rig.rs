@@ -378,6 +378,10 @@ pub fn synthetic_hold(
         },
         flags: Vec::new(),
         note: String::new(),
+        // The synthetic hold's scatter is its only uncertainty.
+        budget: Default::default(),
+        u_c: None,
+        k: None,
     };
     let mut values: Vec<MeasuredValue> = Vec::new();
     for q in &rig.quantities {

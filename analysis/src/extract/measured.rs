@@ -2,10 +2,9 @@
 //! reads. One CSV row per window and quantity:
 //!
 //! ```text
-//! window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,flags,note
-//! hold1,4.5,11.5,bucket_head_pressure,bar,116.893,0.301,700,700,116.871,116.915,,
-//! hold1,4.5,11.5,sg03,MPa,17.83,0.15,700,700,17.82,17.84,pair:sg04,"differs from sg04 (75.46 MPa) by 76 %"
-//! hold1,4.5,11.5,bucket_loaded_pressure,bar,116.893,0.301,700,700,116.871,116.915,,head side (cylinder pushes)
+//! window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,u_c,k,U95,flags,note
+//! hold1,4.5,11.5,bucket_head_pressure,bar,116.893,0.301,700,700,116.871,116.915,1.1557,1.96,2.2651,,
+//! hold1,4.5,11.5,sg03,MPa,17.83,0.15,700,700,17.82,17.84,0.0057,1.963,0.0112,pair:sg04,"differs from sg04 (75.46 MPa) by 76 %"
 //! ```
 //!
 //! - `start_s`, `end_s`: seconds from the session start (reference clock).
@@ -16,6 +15,13 @@
 //! - `std`: sample standard deviation; `n`: samples; `n_eff`: n corrected
 //!   for lag-1 autocorrelation; `ci95_*`: Student-t 95 % interval of the
 //!   mean with n_eff - 1 degrees of freedom. Empty when undefined (n < 2).
+//! - `u_c`, `k`, `U95`: the value's combined standard uncertainty
+//!   (JCGM 100): the readings' scatter (Type A, `std / sqrt(n_eff)` with
+//!   `n_eff - 1` degrees of freedom) with the sensor's certificate,
+//!   accuracy and resolution at the mean (Type B, [`crate::extract::budget`]); a
+//!   derived quantity's from its sensors' by propagation. `k` is Student's
+//!   t for 95 % at the effective degrees of freedom, `U95 = k u_c`. Files
+//!   written before these columns are read as before, without them.
 //! - `flags`: empty when the value is fit to use, else `;`-separated codes:
 //!   `no_samples`, `few_samples` (n_eff < 2), `stuck`, `saturated`, `noisy`,
 //!   `pair:<partner>`. `note` says why in words.
@@ -23,15 +29,21 @@
 use std::path::Path;
 
 use acq_io::error::{AcqError, Result};
-use acq_io::input::read_csv_records;
+use acq_io::input::read_csv_records_of_any;
 use acq_io::output::{csv_field, Output};
 use acq_io::output::{refuse_mf4_table, TableFormat};
 use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+
+use acq_metrology::budget::{Budget, LEVEL_95};
 
 use crate::extract::stats::WindowStats;
 
 /// The header of the measured-values file.
 pub const MEASURED_HEADER: &str =
+    "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,u_c,k,U95,flags,note";
+
+/// The header of files written before the uncertainty budget's columns.
+const MEASURED_HEADER_WITHOUT_BUDGET: &str =
     "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,flags,note";
 
 /// One quantity in one window.
@@ -45,9 +57,36 @@ pub struct MeasuredValue {
     pub stats: WindowStats,
     pub flags: Vec<String>,
     pub note: String,
+    /// What the value's uncertainty is made of; empty for a value read
+    /// from a file (which keeps only `u_c` and `k`).
+    #[serde(skip)]
+    pub budget: Budget,
+    /// The combined standard uncertainty and the coverage factor for
+    /// 95 %: the budget's, or the file's.
+    #[serde(default)]
+    pub u_c: Option<f64>,
+    #[serde(default)]
+    pub k: Option<f64>,
 }
 
 impl MeasuredValue {
+    /// The value with `budget` as what its uncertainty is made of.
+    pub fn with_budget(mut self, budget: Budget) -> Self {
+        if budget.contributions.is_empty() {
+            (self.u_c, self.k) = (None, None);
+        } else {
+            self.u_c = Some(budget.combined());
+            self.k = Some(budget.coverage_factor(LEVEL_95));
+        }
+        self.budget = budget;
+        self
+    }
+
+    /// `U95 = k u_c`.
+    pub fn expanded_95(&self) -> Option<f64> {
+        self.u_c.zip(self.k).map(|(u, k)| u * k)
+    }
+
     /// Fit to be used: a mean and no flag.
     pub fn is_usable(&self) -> bool {
         self.stats.mean.is_some() && self.flags.is_empty()
@@ -97,6 +136,12 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
         text.push(',');
         number(&mut text, s.mean.zip(half).map(|(m, h)| m + h));
         text.push(',');
+        number(&mut text, v.u_c);
+        text.push(',');
+        number(&mut text, v.k);
+        text.push(',');
+        number(&mut text, v.expanded_95());
+        text.push(',');
         text.push_str(&csv_field(&v.flags.join(";")));
         text.push(',');
         text.push_str(&csv_field(&v.note));
@@ -124,6 +169,9 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
         float("n_eff"),
         float("ci95_low"),
         float("ci95_high"),
+        float("u_c"),
+        float("k"),
+        float("U95"),
         text("flags"),
         text("note"),
     ];
@@ -147,8 +195,11 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
         table.float(8, finite((s.n > 0).then_some(s.n_eff)));
         table.float(9, finite(s.mean.zip(half).map(|(m, h)| m - h)));
         table.float(10, finite(s.mean.zip(half).map(|(m, h)| m + h)));
-        table.text(11, Some(&v.flags.join(";")));
-        table.text(12, Some(&v.note));
+        table.float(11, finite(v.u_c));
+        table.float(12, finite(v.k));
+        table.float(13, finite(v.expanded_95()));
+        table.text(14, Some(&v.flags.join(";")));
+        table.text(15, Some(&v.note));
         table.end_row()?;
     }
     table.finish().map(|_| ())
@@ -157,10 +208,16 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
 /// Reads a measured-values file; errors name the file and line.
 pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
     let columns: Vec<&str> = MEASURED_HEADER.split(',').collect();
+    let older: Vec<&str> = MEASURED_HEADER_WITHOUT_BUDGET.split(',').collect();
+    let (which, records) = read_csv_records_of_any(path, &[&columns, &older])?;
+    // Where the flags and the note are: after the budget's columns, or
+    // where they were before them.
+    let has_budget = which == 0;
+    let (flags_at, note_at) = if has_budget { (14, 15) } else { (11, 12) };
     let mut values: Vec<MeasuredValue> = Vec::new();
     // (window, quantity) -> the line it was first given on.
     let mut seen: std::collections::HashMap<(String, String), u64> = Default::default();
-    for (line, record) in read_csv_records(path, &columns)? {
+    for (line, record) in records {
         let key = (record[0].to_string(), record[3].to_string());
         if let Some(first) = seen.insert(key.clone(), line) {
             return Err(AcqError::Malformed(format!(
@@ -210,12 +267,23 @@ pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
                 lag1_autocorrelation: 0.0,
                 ci95_half_width: low.zip(high).map(|(l, h)| 0.5 * (h - l)),
             },
-            flags: record[11]
+            flags: record[flags_at]
                 .split(';')
                 .filter(|f| !f.is_empty())
                 .map(str::to_string)
                 .collect(),
-            note: record[12].to_string(),
+            note: record[note_at].to_string(),
+            budget: Budget::default(),
+            u_c: if has_budget {
+                optional(11, "u_c (a number or empty)")?
+            } else {
+                None
+            },
+            k: if has_budget {
+                optional(12, "k (a number or empty)")?
+            } else {
+                None
+            },
         });
     }
     Ok(values)
@@ -246,7 +314,20 @@ mod tests {
                 },
                 flags: vec!["pair:sg04".into(), "noisy".into()],
                 note: "differs from sg04, by 76 %".into(),
-            },
+                budget: Budget::default(),
+                u_c: None,
+                k: None,
+            }
+            .with_budget(Budget {
+                contributions: vec![
+                    acq_metrology::budget::Contribution::direct(
+                        "readings_scatter",
+                        0.0059,
+                        Some(649.5),
+                    ),
+                    acq_metrology::budget::Contribution::direct("accuracy_class", 0.1, None),
+                ],
+            }),
             MeasuredValue {
                 window: "hold1".into(),
                 start_s: 4.5,
@@ -256,6 +337,9 @@ mod tests {
                 stats: WindowStats::default(),
                 flags: vec!["no_samples".into()],
                 note: String::new(),
+                budget: Budget::default(),
+                u_c: None,
+                k: None,
             },
         ];
         write_measured(&path, &values).unwrap();
@@ -268,8 +352,29 @@ mod tests {
         assert!((back[0].stats.ci95_half_width.unwrap() - 0.0115).abs() < 1e-12);
         assert_eq!(back[1].stats.mean, None);
         assert!(!back[1].is_usable());
+        // The budget's u_c and k round-trip (shortest round-trip text); its
+        // sources stay with the run that computed them.
+        assert_eq!((back[0].u_c, back[0].k), (values[0].u_c, values[0].k));
+        assert_eq!(back[0].expanded_95(), values[0].expanded_95());
+        assert_eq!((back[1].u_c, back[1].k), (None, None));
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(!text.contains("NaN"));
+    }
+
+    #[test]
+    fn a_file_written_before_the_budget_columns_reads_as_before() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("measured.csv");
+        std::fs::write(
+            &path,
+            format!("{MEASURED_HEADER_WITHOUT_BUDGET}\nhold1,0,1,p,bar,10,0.5,100,100,9.9,10.1,stuck,a note\n"),
+        )
+        .unwrap();
+        let back = read_measured(&path).unwrap();
+        assert_eq!(back[0].stats.mean, Some(10.0));
+        assert_eq!(back[0].flags, vec!["stuck".to_string()]);
+        assert_eq!(back[0].note, "a note");
+        assert_eq!(back[0].u_c, None);
     }
 
     proptest::proptest! {
@@ -297,7 +402,7 @@ mod tests {
         let path = dir.path().join("m.csv");
         std::fs::write(
             &path,
-            format!("{MEASURED_HEADER}\nhold1,1,2,p,bar,1.0,0.1,10,10,0.9,1.1,,\nhold1,1,2,q,bar,abc,0.1,10,10,,,,\n"),
+            format!("{MEASURED_HEADER}\nhold1,1,2,p,bar,1.0,0.1,10,10,0.9,1.1,0.03,2.26,0.07,,\nhold1,1,2,q,bar,abc,0.1,10,10,,,,,,,\n"),
         )
         .unwrap();
         let error = read_measured(&path).unwrap_err().to_string();

@@ -4,6 +4,8 @@
 //!
 //! - [`holds`]: where the load is held (rolling standard deviation).
 //! - [`stats`]: mean, std, effective n, 95 % interval of one window.
+//! - [`budget`]: a value's uncertainty budget: the scatter, and the sensor's
+//!   certificate, accuracy class and resolution (JCGM 100).
 //! - [`plausibility`]: stuck, saturated, noisy, partner disagreement.
 //! - [`measured`]: the measured-values CSV (written here, read by calibrate).
 //! - [`tensile`]: force-displacement curve, zeroed and cut at fracture.
@@ -11,6 +13,7 @@
 //! - [`run`]: both workflows over a recording.
 //! - [`live`]: the holds and their values as a stream, while recording.
 
+pub mod budget;
 pub mod holds;
 pub mod live;
 pub mod measured;

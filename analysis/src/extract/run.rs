@@ -14,6 +14,9 @@ use super::measured::MeasuredValue;
 use super::plausibility::check_window;
 use super::stats::{WindowAccumulator, WindowStats};
 use super::tensile::{extract_curve, TensileCurve};
+use acq_metrology::budget::Budget;
+
+use super::budget::{hold_budget, propagated};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
 use acq_drivers::sensors::Sample;
@@ -280,20 +283,26 @@ impl<'a> WindowSummariser<'a> {
             let start_s = (window.start_ns - t0_ns) as f64 / 1e9;
             let end_s = (window.end_ns - t0_ns) as f64 / 1e9;
             for (i, sensor) in rig.sensors.iter().enumerate() {
-                values.push(MeasuredValue {
-                    window: window.name.clone(),
-                    start_s,
-                    end_s,
-                    quantity: sensor.name.clone(),
-                    unit: sensor.unit().to_string(),
-                    stats: stats[i],
-                    flags: flags[i].iter().map(|f| f.code.clone()).collect(),
-                    note: flags[i]
-                        .iter()
-                        .map(|f| f.note.as_str())
-                        .collect::<Vec<_>>()
-                        .join("; "),
-                });
+                values.push(
+                    MeasuredValue {
+                        window: window.name.clone(),
+                        start_s,
+                        end_s,
+                        quantity: sensor.name.clone(),
+                        unit: sensor.unit().to_string(),
+                        stats: stats[i],
+                        flags: flags[i].iter().map(|f| f.code.clone()).collect(),
+                        note: flags[i]
+                            .iter()
+                            .map(|f| f.note.as_str())
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                        budget: Budget::default(),
+                        u_c: None,
+                        k: None,
+                    }
+                    .with_budget(hold_budget(sensor, &stats[i])),
+                );
             }
             values.extend(cylinder_values(
                 rig,
@@ -341,37 +350,65 @@ fn cylinder_values(
                 .map(|(a, b)| ((head_kn_per_bar * a).powi(2) + (rod_kn_per_bar * b).powi(2)).sqrt())
         };
         let n = head.n.min(rod.n);
-        values.push(MeasuredValue {
-            window: window.to_string(),
-            start_s,
-            end_s,
-            quantity: net_force_quantity(&cylinder.name),
-            unit: "kN".into(),
-            stats: WindowStats {
-                n,
-                mean: net,
-                std: quadrature(head.std, rod.std),
-                n_eff: head.n_eff.min(rod.n_eff),
-                lag1_autocorrelation: 0.0,
-                ci95_half_width: quadrature(head.ci95_half_width, rod.ci95_half_width),
-            },
-            flags: inherited.clone(),
-            note: "head area x head pressure - annulus area x rod pressure".into(),
-        });
+        let (head_sensor, rod_sensor) = (
+            &rig.sensors[cylinder.head_sensor],
+            &rig.sensors[cylinder.rod_sensor],
+        );
+        let (head_budget, rod_budget) =
+            (hold_budget(head_sensor, head), hold_budget(rod_sensor, rod));
+        // Both pressures, each through its chamber's area.
+        let net_force_budget = Budget {
+            contributions: propagated(&head_budget, head_kn_per_bar, &head_sensor.name)
+                .chain(propagated(&rod_budget, -rod_kn_per_bar, &rod_sensor.name))
+                .collect(),
+        };
+        values.push(
+            MeasuredValue {
+                window: window.to_string(),
+                start_s,
+                end_s,
+                quantity: net_force_quantity(&cylinder.name),
+                unit: "kN".into(),
+                stats: WindowStats {
+                    n,
+                    mean: net,
+                    std: quadrature(head.std, rod.std),
+                    n_eff: head.n_eff.min(rod.n_eff),
+                    lag1_autocorrelation: 0.0,
+                    ci95_half_width: quadrature(head.ci95_half_width, rod.ci95_half_width),
+                },
+                flags: inherited.clone(),
+                note: "head area x head pressure - annulus area x rod pressure".into(),
+                budget: Budget::default(),
+                u_c: None,
+                k: None,
+            }
+            .with_budget(net_force_budget),
+        );
         let (loaded, chamber, sensor) = match net {
             Some(force) if force < 0.0 => (*rod, "rod side (cylinder pulls)", cylinder.rod_sensor),
             _ => (*head, "head side (cylinder pushes)", cylinder.head_sensor),
         };
-        values.push(MeasuredValue {
-            window: window.to_string(),
-            start_s,
-            end_s,
-            quantity: loaded_pressure_quantity(&cylinder.name),
-            unit: "bar".into(),
-            stats: loaded,
-            flags: flags[sensor].iter().map(|f| f.code.clone()).collect(),
-            note: format!("{chamber}: {}", rig.sensors[sensor].name),
-        });
+        values.push(
+            MeasuredValue {
+                window: window.to_string(),
+                start_s,
+                end_s,
+                quantity: loaded_pressure_quantity(&cylinder.name),
+                unit: "bar".into(),
+                stats: loaded,
+                flags: flags[sensor].iter().map(|f| f.code.clone()).collect(),
+                note: format!("{chamber}: {}", rig.sensors[sensor].name),
+                budget: Budget::default(),
+                u_c: None,
+                k: None,
+            }
+            .with_budget(if sensor == cylinder.rod_sensor {
+                rod_budget
+            } else {
+                head_budget
+            }),
+        );
     }
     values
 }

@@ -3,7 +3,7 @@
 //! into an effective sample count, the longest run of bit-identical
 //! readings (a stuck channel) and the readings at full scale.
 
-use statrs::distribution::{ContinuousCDF, StudentsT};
+use acq_metrology::budget::LEVEL_95;
 
 /// Accumulates the samples of one sensor in one window.
 #[derive(Clone, Debug, Default)]
@@ -114,9 +114,7 @@ impl WindowAccumulator {
             n as f64
         };
         let ci95_half_width = (n_eff >= 2.0).then(|| {
-            let t = StudentsT::new(0.0, 1.0, n_eff - 1.0)
-                .map(|d| d.inverse_cdf(0.975))
-                .unwrap_or(1.959_963_984_540_054);
+            let t = acq_metrology::budget::coverage_factor(Some(n_eff - 1.0), LEVEL_95);
             t * std / n_eff.sqrt()
         });
         WindowStats {

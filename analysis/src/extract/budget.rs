@@ -1,0 +1,103 @@
+//! The uncertainty budget of one value of a sensor as its rig states it
+//! (JCGM 100): the certificate's curve at the reading that gives the
+//! value, the data sheet's accuracy limit and the resolution, all Type B.
+//! A sensor without a record has an empty budget: its only uncertainty
+//! is then the readings' scatter in a hold (Type A, `extract`).
+
+use acq_drivers::rig::{Accuracy, Sensor};
+use acq_metrology::budget::{rectangular, resolution, Budget, Contribution};
+
+use super::stats::WindowStats;
+
+/// The source names of a sensor's Type B contributions, as the JSON and
+/// the report name them.
+pub const CALIBRATION_CURVE: &str = "calibration_curve";
+pub const ACCURACY_CLASS: &str = "accuracy_class";
+pub const RESOLUTION: &str = "resolution";
+/// The Type A source: the spread of a hold's readings about their mean.
+pub const READINGS_SCATTER: &str = "readings_scatter";
+
+/// One value of a sensor with what its uncertainty is made of.
+#[derive(Clone, Debug)]
+pub struct ValueBudget {
+    pub sensor: String,
+    /// The kind's unit.
+    pub unit: &'static str,
+    pub value: f64,
+    /// The channel's reading that gives the value, through the sensor's
+    /// conversion (the certificate's line where given).
+    pub reading: Option<f64>,
+    pub budget: Budget,
+}
+
+/// The budget of `value` (in the sensor's unit) of `sensor`.
+pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
+    let record = &sensor.record;
+    let mut contributions = Vec::new();
+    let reading = sensor.conversion.invert(value);
+    if let Some(curve) = &record.curve {
+        let at = curve.reading_at(value);
+        contributions.push(Contribution::direct(
+            CALIBRATION_CURVE,
+            curve.standard_uncertainty_at(at),
+            curve.dof,
+        ));
+    }
+    if let Some(accuracy) = record.accuracy {
+        let half_width = match (accuracy, sensor.range) {
+            (Accuracy::PercentOfFullScale(pct), Some([low, high])) => pct / 100.0 * (high - low),
+            // The rig's check asks for a range with a share of full scale.
+            (Accuracy::PercentOfFullScale(_), None) => 0.0,
+            (Accuracy::PercentOfReading(pct), _) => pct / 100.0 * value.abs(),
+        };
+        contributions.push(Contribution::direct(
+            ACCURACY_CLASS,
+            rectangular(half_width),
+            None,
+        ));
+    }
+    if let Some(step) = record.resolution {
+        contributions.push(Contribution::direct(RESOLUTION, resolution(step), None));
+    }
+    ValueBudget {
+        sensor: sensor.name.clone(),
+        unit: sensor.unit(),
+        value,
+        reading,
+        budget: Budget { contributions },
+    }
+}
+
+/// The budget of a hold's mean of `sensor`: the readings' scatter (Type
+/// A: the standard deviation of the mean over the effective sample count,
+/// with `n_eff - 1` degrees of freedom) and the sensor's Type B sources at
+/// the mean. Empty without a mean.
+pub fn hold_budget(sensor: &Sensor, stats: &WindowStats) -> Budget {
+    let Some(mean) = stats.mean else {
+        return Budget::default();
+    };
+    let mut contributions = Vec::new();
+    if let Some(scatter) = stats.std_of_mean().filter(|_| stats.n_eff >= 2.0) {
+        contributions.push(Contribution::direct(
+            READINGS_SCATTER,
+            scatter,
+            Some(stats.n_eff - 1.0),
+        ));
+    }
+    contributions.extend(value_budget(sensor, mean).budget.contributions);
+    Budget { contributions }
+}
+
+/// `budget`'s contributions as parts of a result that moves by
+/// `sensitivity` per unit of its quantity, each named `quantity: source`.
+pub fn propagated<'a>(
+    budget: &'a Budget,
+    sensitivity: f64,
+    quantity: &'a str,
+) -> impl Iterator<Item = Contribution> + 'a {
+    budget.contributions.iter().map(move |c| Contribution {
+        source: format!("{quantity}: {}", c.source),
+        sensitivity: c.sensitivity * sensitivity,
+        ..c.clone()
+    })
+}

@@ -1,0 +1,15 @@
+//! The arithmetic of JCGM 100:2008 (the GUM) that a measurement chain
+//! needs, and nothing of CAN, rigs or studies.
+//!
+//! - [`budget`]: contributions (a standard uncertainty, its sensitivity
+//!   coefficient and degrees of freedom), the Type B conversions (a stated
+//!   expanded uncertainty, a rectangular limit, a resolution), the combined
+//!   standard uncertainty, Welch-Satterthwaite's effective degrees of
+//!   freedom and the coverage factor for 95 % from Student's t.
+//! - [`curve`]: a calibration curve fitted by least squares to a
+//!   certificate's points, with the curve's own standard uncertainty at
+//!   every reading (from the points' stated uncertainties, or from the
+//!   residual scatter when they state none, as JCGM 100 example H.3 does).
+
+pub mod budget;
+pub mod curve;

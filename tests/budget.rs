@@ -1,0 +1,325 @@
+//! `acq budget`: the uncertainty budget of one value of a sensor from its
+//! rig's certificate and data sheet, checked against JCGM 100's worked
+//! example H.3 and against the GUM's formulas evaluated here by hand.
+
+mod common;
+use common::{acq, path_arg, stderr, stdout};
+use std::path::{Path, PathBuf};
+
+/// A one-sensor rig (a CANopen pressure transducer) with `record` added
+/// under its `[[sensor]]`.
+fn rig_with(dir: &Path, record: &str) -> PathBuf {
+    let path = dir.join("rig.toml");
+    std::fs::write(
+        &path,
+        format!(
+            "[rig]\nname = \"budget test\"\n\n[[bus]]\nname = \"hydraulics\"\niface = \"can0\"\nbitrate = 250000\n\n[[sensor]]\nname = \"p\"\nkind = \"pressure\"\nrate_hz = 100\ncanopen = {{ node_id = 0x25, pdo = 1, byte = 0, type = \"int32\", decimal_digits = 2 }}\n{record}\n"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+fn budget_json(rig: &Path, at: f64) -> serde_json::Value {
+    let output = acq(&[
+        "budget",
+        path_arg(rig),
+        "--sensor",
+        "p",
+        "--at",
+        &at.to_string(),
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    serde_json::from_str(&stdout(&output)).unwrap()
+}
+
+/// JCGM 100:2008 H.3, table H.6: thermometer readings t_k and the
+/// corrections b_k, here as a sensor's points (t_k, t_k + b_k): the
+/// reference's value at each reading.
+const H3: [[f64; 2]; 11] = [
+    [21.521, -0.171],
+    [22.012, -0.169],
+    [22.512, -0.166],
+    [23.003, -0.159],
+    [23.507, -0.164],
+    [23.999, -0.165],
+    [24.513, -0.156],
+    [25.002, -0.157],
+    [25.503, -0.159],
+    [26.010, -0.161],
+    [26.511, -0.160],
+];
+
+#[test]
+fn jcgm_100_h3_as_a_sensors_certificate_gives_the_published_curve_uncertainty() {
+    let dir = tempfile::tempdir().unwrap();
+    let points: Vec<String> = H3
+        .iter()
+        .map(|[t, b]| format!("[{t}, {}]", t + b))
+        .collect();
+    let rig = rig_with(
+        dir.path(),
+        &format!("calibration = {{ points = [{}] }}", points.join(", ")),
+    );
+    // The value at a reading of 30 C: 30 + b(30) = 30 - 0.1494 (H.3).
+    let json = budget_json(&rig, 30.0 - 0.1494);
+    let curve = &json["contributions"]["calibration_curve"];
+    // H.3 gives u(b(30)) = 0.0041 C with 11 - 2 = 9 degrees of freedom.
+    // Tolerance: half the published last digit.
+    let u = curve["u"].as_f64().unwrap();
+    assert!((u - 0.0041).abs() <= 0.00005, "u = {u}");
+    assert_eq!(curve["dof"].as_f64(), Some(9.0));
+    assert_eq!(json["dof"].as_f64(), Some(9.0));
+    // Student's t at 9 degrees of freedom, 95 %: 2.262 (any t table).
+    let k = json["k"].as_f64().unwrap();
+    assert!((k - 2.262).abs() < 5e-4, "k = {k}");
+    let (u_c, u95) = (json["u_c"].as_f64().unwrap(), json["U95"].as_f64().unwrap());
+    assert!((u_c - u).abs() < 1e-15 && (u95 - k * u_c).abs() < 1e-12);
+}
+
+#[test]
+fn a_certificate_an_accuracy_class_and_a_resolution_combine_as_the_gum_says() {
+    let rig = common::root().join("examples/measurement-chain/rig.toml");
+    let output = acq(&[
+        "budget",
+        path_arg(&rig),
+        "--sensor",
+        "boom_head_pressure",
+        "--at",
+        "150",
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&output)).unwrap();
+    // By hand: five points with expanded uncertainty 0.2 bar at k = 2, so
+    // u_i = 0.1 bar each; the line's uncertainty at reading x is
+    // u_i sqrt(1/n + (x - mean)^2 / Sxx).
+    let readings = [0.12, 100.35, 200.41, 300.30, 400.02];
+    let values = [0.0, 100.0, 200.0, 300.0, 400.0];
+    let n = readings.len() as f64;
+    let mean_x = readings.iter().sum::<f64>() / n;
+    let mean_y = values.iter().sum::<f64>() / n;
+    let sxx: f64 = readings.iter().map(|x| (x - mean_x).powi(2)).sum();
+    let sxy: f64 = readings
+        .iter()
+        .zip(values)
+        .map(|(x, y)| (x - mean_x) * (y - mean_y))
+        .sum();
+    let slope = sxy / sxx;
+    let reading_at_150 = mean_x + (150.0 - mean_y) / slope;
+    let curve = 0.1 * (1.0 / n + (reading_at_150 - mean_x).powi(2) / sxx).sqrt();
+    // +-0.5 % of 400 bar, rectangular; a 0.01 bar step, q / sqrt(12).
+    let accuracy = 0.005 * 400.0 / 3f64.sqrt();
+    let resolution = 0.01 / 12f64.sqrt();
+    let u_c = (curve.powi(2) + accuracy.powi(2) + resolution.powi(2)).sqrt();
+    let got = |path: &[&str]| path.iter().fold(&json, |v, key| &v[key]).as_f64().unwrap();
+    for (what, expected, actual) in [
+        (
+            "curve",
+            curve,
+            got(&["contributions", "calibration_curve", "u"]),
+        ),
+        (
+            "accuracy",
+            accuracy,
+            got(&["contributions", "accuracy_class", "u"]),
+        ),
+        (
+            "resolution",
+            resolution,
+            got(&["contributions", "resolution", "u"]),
+        ),
+        ("u_c", u_c, got(&["u_c"])),
+    ] {
+        assert!(
+            (actual - expected).abs() < 1e-12 * expected.max(1.0),
+            "{what}: {actual} vs {expected}"
+        );
+    }
+    // Every source is Type B with infinite degrees of freedom: k is the
+    // normal distribution's.
+    assert!(json["dof"].is_null());
+    assert!((got(&["k"]) - 1.959_964).abs() < 1e-6);
+    assert_eq!(json["unit"], "bar");
+    assert_eq!(json["sensor"], "boom_head_pressure");
+    // The table says the same, with each source's share of the variance.
+    let table = acq(&[
+        "budget",
+        path_arg(&rig),
+        "--sensor",
+        "boom_head_pressure",
+        "--at",
+        "150",
+    ]);
+    let text = stdout(&table);
+    assert!(
+        text.contains("accuracy_class") && text.contains("99.8%"),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_sensor_without_a_record_has_an_empty_budget_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = rig_with(dir.path(), "");
+    let json = budget_json(&rig, 10.0);
+    assert_eq!(json["u_c"].as_f64(), Some(0.0));
+    assert_eq!(json["contributions"], serde_json::json!({}));
+    let text = stdout(&acq(&[
+        "budget",
+        path_arg(&rig),
+        "--sensor",
+        "p",
+        "--at",
+        "10",
+    ]));
+    assert!(text.contains("the readings' scatter only"), "{text}");
+}
+
+#[test]
+fn a_bad_record_is_refused_with_its_line_and_what_to_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    for (record, expected) in [
+        ("calibration = { points = [[0.0, 0.0], [2.0, 2.0], [1.0, 1.0]] }", "point 3 ([1, 1]) breaks that order"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0]] }", "2 calibration point(s); a line needs at least 3"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0]], uncertainties = [0.1, 0.1], k = 2.0 }", "k needs the level of confidence"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0]], uncertainties = [0.1, -0.1] }", "uncertainty of calibration point 2 is -0.1"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"2026-05-01\", due = \"2025-05-01\" }", "due 2025-05-01 is before the calibration's date 2026-05-01"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"1.5.2026\" }", "give a date as YYYY-MM-DD"),
+        ("accuracy = { percent_of_full_scale = 0.5 }", "needs the sensor's range"),
+        ("accuracy = { percent_of_reading = -1.0 }", "give a share above 0"),
+        ("resolution = 0.0", "resolution = 0"),
+        ("scale = 2.0\ncalibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]] }", "either calibration points or scale"),
+    ] {
+        let rig = rig_with(dir.path(), record);
+        let output = acq(&["budget", path_arg(&rig), "--sensor", "p", "--at", "1"]);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{record}: {message}");
+        assert!(message.contains(expected), "{record}: {message}");
+        // The sensor's line in the rig file.
+        assert!(message.contains("line 9") || message.contains(":9"), "{record}: {message}");
+    }
+    let rig = rig_with(dir.path(), "");
+    let output = acq(&["budget", path_arg(&rig), "--sensor", "q", "--at", "1"]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(stderr(&output).contains("no sensor 'q' (sensors: p)"));
+}
+
+/// `acq extract`'s rows as maps from column to text.
+fn measured_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let mut reader = csv::Reader::from_path(path).unwrap();
+    let header: Vec<String> = reader
+        .headers()
+        .unwrap()
+        .iter()
+        .map(str::to_string)
+        .collect();
+    reader
+        .records()
+        .map(|r| {
+            header
+                .iter()
+                .cloned()
+                .zip(r.unwrap().iter().map(str::to_string))
+                .collect()
+        })
+        .collect()
+}
+
+fn number_in(row: &std::collections::HashMap<String, String>, column: &str) -> f64 {
+    row[column]
+        .parse()
+        .unwrap_or_else(|_| panic!("{column}: {:?}", row[column]))
+}
+
+#[test]
+fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case1", &dir.path().join("case1"));
+    let shipped = dir.path().join("shipped.csv");
+    let output = acq(&["extract", path_arg(&session), "-o", path_arg(&shipped)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let rows = measured_rows(&shipped);
+    let row = |window: &str, quantity: &str| {
+        rows.iter()
+            .find(|r| r["window"] == window && r["quantity"] == quantity)
+            .unwrap_or_else(|| panic!("{window} {quantity}"))
+            .clone()
+    };
+    // No sensor of the shipped rig has a record: the scatter is the whole
+    // budget, so U95 is the Student-t interval's half-width computed by
+    // the statistics on their own.
+    for r in rows
+        .iter()
+        .filter(|r| !r["u_c"].is_empty() && !r["quantity"].ends_with("net_force"))
+    {
+        let half = 0.5 * (number_in(r, "ci95_high") - number_in(r, "ci95_low"));
+        let u95 = number_in(r, "U95");
+        assert!(
+            (u95 - half).abs() <= 1e-9 * half.max(1e-12),
+            "{}: {u95} vs {half}",
+            r["quantity"]
+        );
+        let u_a = number_in(r, "std") / number_in(r, "n_eff").sqrt();
+        assert!((number_in(r, "u_c") - u_a).abs() <= 1e-12 * u_a.max(1e-12));
+    }
+    // The arm's net force: both pressures through their areas (bore 90,
+    // rod 55 mm; kN per bar = area mm^2 x 0.1 / 1000).
+    let (head, rod, net) = (
+        row("hold1", "arm_head_pressure"),
+        row("hold1", "arm_rod_pressure"),
+        row("hold1", "arm_net_force"),
+    );
+    let head_kn_per_bar = std::f64::consts::PI / 4.0 * 90f64.powi(2) * 1e-4;
+    let rod_kn_per_bar = std::f64::consts::PI / 4.0 * (90f64.powi(2) - 55f64.powi(2)) * 1e-4;
+    let expected = ((head_kn_per_bar * number_in(&head, "u_c")).powi(2)
+        + (rod_kn_per_bar * number_in(&rod, "u_c")).powi(2))
+    .sqrt();
+    let u_net = number_in(&net, "u_c");
+    assert!(
+        (u_net - expected).abs() <= 1e-9 * expected,
+        "{u_net} vs {expected}"
+    );
+
+    // The same session with the arm's head transducer's data sheet: +-0.5 %
+    // of 400 bar (rectangular) and a 0.01 bar step join its scatter.
+    let rig_text = std::fs::read_to_string(session.join("rig/excavator.toml")).unwrap();
+    let with_record = rig_text.replace(
+        "name = \"arm_head_pressure\"\n",
+        "name = \"arm_head_pressure\"\nrange = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }\nresolution = 0.01\n",
+    );
+    assert_ne!(with_record, rig_text);
+    let rig = session.join("rig/with-record.toml");
+    std::fs::write(&rig, with_record).unwrap();
+    let recorded = dir.path().join("with-record.csv");
+    let output = acq(&[
+        "extract",
+        path_arg(&session),
+        "--rig",
+        path_arg(&rig),
+        "-o",
+        path_arg(&recorded),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let again = measured_rows(&recorded);
+    let head_again = again
+        .iter()
+        .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_head_pressure")
+        .unwrap();
+    let u_a = number_in(&head, "u_c");
+    let type_b = ((0.005 * 400.0) / 3f64.sqrt()).powi(2) + (0.01 / 12f64.sqrt()).powi(2);
+    let u_c = number_in(head_again, "u_c");
+    assert!((u_c - (u_a * u_a + type_b).sqrt()).abs() < 1e-12, "{u_c}");
+    // Welch-Satterthwaite: the scatter's n_eff - 1 degrees of freedom
+    // weigh by (u_A / u_c)^4, so k is the normal's to a part in 1e9.
+    let dof = (u_c / u_a).powi(4) * (number_in(&head, "n_eff") - 1.0);
+    assert!(dof > 1e9, "{dof}");
+    assert!((number_in(head_again, "k") - 1.959_964).abs() < 1e-6);
+    // The loaded-chamber pressure is that transducer's value, with its budget.
+    let loaded = again
+        .iter()
+        .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_loaded_pressure")
+        .unwrap();
+    assert_eq!(loaded["u_c"], head_again["u_c"]);
+}

@@ -848,7 +848,6 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("calib/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
     ("drivers/src/dbc.rs", "build_multiplexing", "to split"),
     ("study/src/posterior/likelihood.rs", "new", "to split"),
-    ("demo/src/report.rs", "build", "to split"),
     ("twins/src/excavator/structure.rs", "build", "to split"),
     ("workflows/src/rig_study/mod.rs", "load_with", "to split"),
     ("study/src/surrogate_moo.rs", "surrogate_moo", "to split"),
@@ -856,14 +855,11 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("study/src/identifiability.rs", "identifiability", "to split"),
     ("study/src/identifiability.rs", "write_identifiability", "to split"),
     ("workflows/src/virtual_rig.rs", "expand_twin_scenario", "to split"),
-    ("src/cli/live.rs", "run_record", "to split"),
     ("demo/src/acquire.rs", "play_all", "to split"),
     ("study/src/posterior/report.rs", "write_section", "to split"),
     ("acquire/src/simulate/mod.rs", "build_streams", "to split"),
-    ("study/src/study_runner.rs", "calibrate_study", "to split"),
     ("study/src/saved_emulator.rs", "fit", "to split"),
     ("workflows/src/rig_study/tracker.rs", "panel", "to split"),
-    ("workflows/src/calibrate/excavator.rs", "run", "to split"),
 ];
 
 /// About the longest a function reads whole on one screen and a half.

@@ -36,7 +36,30 @@ pub fn build(
             wall_s
         ));
 
-    // At a glance.
+    at_a_glance(&mut doc, results, steps);
+    sessions_table(&mut doc, results);
+    for r in results {
+        session_section(&mut doc, r, out)?;
+    }
+    measured_values(&mut doc, results);
+    // Calibrations.
+    for r in results {
+        let directory = format!("{}/calibration", r.name);
+        doc.heading(2, format!("Calibration: {}", r.name)).paragraph(format!(
+            "Run directory `{directory}`: every model run in `evaluations.csv`, the fixed numbers in \
+             `summary.json`, this section as `report.md` / `report.html`."
+        ));
+        let report = match &r.analysis {
+            Analysis::Excavator { calibration, .. } => &calibration.report,
+            Analysis::Tensile { calibration, .. } => &calibration.report,
+        };
+        doc.include(report, 2, &directory);
+    }
+    Ok(doc)
+}
+
+/// The results at a glance, and where the time went.
+fn at_a_glance(doc: &mut Document, results: &[SessionResult], steps: &[Step]) {
     doc.heading(2, "Results at a glance");
     let mut table = Table::new(&[
         "session",
@@ -84,8 +107,10 @@ pub fn build(
         table.row(vec![step.name.clone(), format!("{:.2}", step.wall_s)]);
     }
     doc.paragraph("Where the time went:").table(table);
+}
 
-    // Sessions.
+/// Each session's duration, frames and interfaces.
+fn sessions_table(doc: &mut Document, results: &[SessionResult]) {
     doc.heading(2, "Sessions");
     let mut table = Table::new(&[
         "session",
@@ -129,11 +154,10 @@ pub fn build(
         ]);
     }
     doc.table(table);
-    for r in results {
-        session_section(&mut doc, r, out)?;
-    }
+}
 
-    // Measured values.
+/// The measured values of every excavator hold.
+fn measured_values(doc: &mut Document, results: &[SessionResult]) {
     for r in results {
         if let Analysis::Excavator { holds, .. } = &r.analysis {
             doc.heading(2, format!("Measured values: {}", r.name));
@@ -179,21 +203,6 @@ pub fn build(
             }
         }
     }
-
-    // Calibrations.
-    for r in results {
-        let directory = format!("{}/calibration", r.name);
-        doc.heading(2, format!("Calibration: {}", r.name)).paragraph(format!(
-            "Run directory `{directory}`: every model run in `evaluations.csv`, the fixed numbers in \
-             `summary.json`, this section as `report.md` / `report.html`."
-        ));
-        let report = match &r.analysis {
-            Analysis::Excavator { calibration, .. } => &calibration.report,
-            Analysis::Tensile { calibration, .. } => &calibration.report,
-        };
-        doc.include(report, 2, &directory);
-    }
-    Ok(doc)
 }
 
 /// One session: its sensors with rates, gaps and flags, and a plot.

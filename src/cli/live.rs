@@ -199,46 +199,12 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         (Some(path), Some(rig)) => Some(super::rig_study::load(path, rig)?),
         (None, _) => None,
     };
-    let mut observer: Option<Box<dyn record::RecordObserver>> = None;
-    let mut host = None;
-    let mut worker = None;
-    let mut messages = None;
-    if let Some(rig) = &rig {
-        let name = session_dir
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "session".into());
-        let (feed, shared) = acq_view::live_session(
-            &name,
-            rig,
-            acq_analysis::extract::holds::HoldOptions::default(),
-            None,
-            Some(&session_dir),
-        );
-        observer = Some(Box::new(feed));
-        if let Some(study) = study {
-            // The study's lines go above the status table, never under it.
-            let (say, said) = std::sync::mpsc::channel::<String>();
-            let say: Box<dyn Fn(&str) + Send> = if args.quiet || args.status_json {
-                Box::new(|line: &str| eprintln!("acq: {line}"))
-            } else {
-                messages = Some(std::sync::Mutex::new(said));
-                Box::new(move |line: &str| {
-                    let _ = say.send(line.to_string());
-                })
-            };
-            worker = Some(super::rig_study::start(study, vec![shared.clone()], say));
-        }
-        if let Some((addr, access)) = view_address {
-            let pages = acq_view::Pages {
-                sessions: vec![shared],
-                study: worker.as_ref().map(acq_view::StudyWorker::panel),
-            };
-            let started = acq_view::ViewHost::start(addr, access, pages)?;
-            eprintln!("acq: view at {} (served while recording)", started.url());
-            host = Some(started);
-        }
-    }
+    let Watchers {
+        observer,
+        host,
+        worker,
+        messages,
+    } = watchers(&args, rig.as_ref(), &session_dir, study, view_address)?;
     let status = if args.quiet {
         StatusMode::Quiet
     } else if args.status_json {
@@ -269,8 +235,80 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     if let Some(host) = host {
         host.stop();
     }
-    let summary = summary?;
-    if let Some(panel) = &last_panel {
+    say_how_it_ended(summary?, status, last_panel.as_ref())
+}
+
+/// Who watches a recording besides the terminal: the live page's feed
+/// (with a rig), the study at the rig and the page's server.
+struct Watchers {
+    observer: Option<Box<dyn record::RecordObserver>>,
+    host: Option<acq_view::ViewHost>,
+    worker: Option<acq_view::StudyWorker>,
+    messages: Option<std::sync::Mutex<std::sync::mpsc::Receiver<String>>>,
+}
+
+fn watchers(
+    args: &RecordArgs,
+    rig: Option<&acq_drivers::rig::Rig>,
+    session_dir: &Path,
+    study: Option<std::sync::Arc<acq_workflows::rig_study::RigStudy>>,
+    view_address: Option<(std::net::SocketAddr, acq_view::Access)>,
+) -> Result<Watchers> {
+    let mut observer: Option<Box<dyn record::RecordObserver>> = None;
+    let mut host = None;
+    let mut worker = None;
+    let mut messages = None;
+    if let Some(rig) = rig {
+        let name = session_dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "session".into());
+        let (feed, shared) = acq_view::live_session(
+            &name,
+            rig,
+            acq_analysis::extract::holds::HoldOptions::default(),
+            None,
+            Some(session_dir),
+        );
+        observer = Some(Box::new(feed));
+        if let Some(study) = study {
+            // The study's lines go above the status table, never under it.
+            let (say, said) = std::sync::mpsc::channel::<String>();
+            let say: Box<dyn Fn(&str) + Send> = if args.quiet || args.status_json {
+                Box::new(|line: &str| eprintln!("acq: {line}"))
+            } else {
+                messages = Some(std::sync::Mutex::new(said));
+                Box::new(move |line: &str| {
+                    let _ = say.send(line.to_string());
+                })
+            };
+            worker = Some(super::rig_study::start(study, vec![shared.clone()], say));
+        }
+        if let Some((addr, access)) = view_address {
+            let pages = acq_view::Pages {
+                sessions: vec![shared],
+                study: worker.as_ref().map(acq_view::StudyWorker::panel),
+            };
+            let started = acq_view::ViewHost::start(addr, access, pages)?;
+            eprintln!("acq: view at {} (served while recording)", started.url());
+            host = Some(started);
+        }
+    }
+    Ok(Watchers {
+        observer,
+        host,
+        worker,
+        messages,
+    })
+}
+
+/// The session's summary on stderr, and a failed write as the error.
+fn say_how_it_ended(
+    summary: record::RecordSummary,
+    status: StatusMode,
+    last_panel: Option<&serde_json::Value>,
+) -> Result<()> {
+    if let Some(panel) = last_panel {
         if let Some(words) = panel["next"]["words"].as_str() {
             eprintln!("acq: study: {words}");
         }

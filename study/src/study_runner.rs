@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use acq_calib::bo::Outcome;
-use acq_calib::evaluation::{Evaluator, Parameter};
+use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
 use acq_calib::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
 use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
@@ -120,6 +120,40 @@ pub fn run_study(
     Ok(StudyRun { outcome, report })
 }
 
+/// The calibrated parameters and the model's outputs there: the pick of
+/// the Pareto front, the least-squares point, or the best run of a
+/// Bayesian search.
+fn calibrated_point(
+    study: &Study,
+    found: &Found,
+    parameters: &[Parameter],
+    evaluations: &[Evaluation],
+    directory: &RunDirectory,
+) -> Result<(Vec<f64>, Vec<f64>), StudyError> {
+    Ok(match found {
+        Found::Moo(moo) => (moo.optimal.clone(), moo.optimal_outputs.clone()),
+        Found::LeastSquares(ls) => (
+            from_unit(parameters, &ls.result.point),
+            ls.result.outputs.clone(),
+        ),
+        Found::Bo(_) => {
+            let scored = scored(evaluations, |y| study.loss(y));
+            let Some(&(best, _)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
+                return Err(StudyError::NoRunSucceeded {
+                    runs: evaluations.len(),
+                    first_reason: "no run gave a loss".into(),
+                    runs_directory: directory.file("runs"),
+                    log: directory.file("evaluations.csv"),
+                });
+            };
+            (
+                best.parameters.clone(),
+                best.outcome.clone().unwrap_or_default(),
+            )
+        }
+    })
+}
+
 /// Runs the search on the fit cases, then the validate cases at the
 /// calibrated point, then the identifiability analysis.
 pub fn calibrate_study(
@@ -204,28 +238,8 @@ pub fn calibrate_study(
         }
     }
     let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
-    let (calibrated, calibrated_outputs) = match &found {
-        Found::Moo(moo) => (moo.optimal.clone(), moo.optimal_outputs.clone()),
-        Found::LeastSquares(ls) => (
-            from_unit(&parameters, &ls.result.point),
-            ls.result.outputs.clone(),
-        ),
-        Found::Bo(_) => {
-            let scored = scored(&evaluations, |y| study.loss(y));
-            let Some(&(best, _)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
-                return Err(StudyError::NoRunSucceeded {
-                    runs: evaluations.len(),
-                    first_reason: "no run gave a loss".into(),
-                    runs_directory: directory.file("runs"),
-                    log: directory.file("evaluations.csv"),
-                });
-            };
-            (
-                best.parameters.clone(),
-                best.outcome.clone().unwrap_or_default(),
-            )
-        }
-    };
+    let (calibrated, calibrated_outputs) =
+        calibrated_point(study, &found, &parameters, &evaluations, directory)?;
     let fit_errors = study.errors(Role::Fit, &calibrated_outputs);
     let validation_errors = validate(study, model, &calibrated, directory, settings)?;
     let local = match &found {

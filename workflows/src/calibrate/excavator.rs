@@ -359,6 +359,32 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
     })
 }
 
+/// The search's settings checked before any run: three usable weights,
+/// the run counts in their ranges, a Pareto fraction in (0, 1].
+fn check_search_settings(args: &CalibrateExcavatorOptions) -> Result<()> {
+    if args.weights.len() != 3
+        || args.weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
+        || args.weights.iter().sum::<f64>() <= 0.0
+    {
+        let given: Vec<String> = args.weights.iter().map(f64::to_string).collect();
+        return Err(AcqError::Config(format!(
+            "--weights {}: give three weights (bucket, arm, boom) that are non-negative and not all zero, e.g. --weights 1 1 2",
+            given.join(" ")
+        )));
+    }
+    super::check_counts(&[
+        ("--training", args.training_runs, 5..=100_000),
+        ("--test-runs", args.test_runs, 1..=100_000),
+        ("--population", args.population, 4..=1_000_000),
+    ])?;
+    if !(args.pareto_fraction > 0.0 && args.pareto_fraction <= 1.0) {
+        return Err(AcqError::Config(
+            "--pareto-fraction must lie in (0, 1]".into(),
+        ));
+    }
+    Ok(())
+}
+
 pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
     let mut case = CaseFile::load(&args.case).map_err(AcqError::Config)?;
     acq_io::input::note_input(&args.case);
@@ -389,26 +415,7 @@ pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
             args.case.display()
         ))
     })?;
-    if args.weights.len() != 3
-        || args.weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
-        || args.weights.iter().sum::<f64>() <= 0.0
-    {
-        let given: Vec<String> = args.weights.iter().map(f64::to_string).collect();
-        return Err(AcqError::Config(format!(
-            "--weights {}: give three weights (bucket, arm, boom) that are non-negative and not all zero, e.g. --weights 1 1 2",
-            given.join(" ")
-        )));
-    }
-    super::check_counts(&[
-        ("--training", args.training_runs, 5..=100_000),
-        ("--test-runs", args.test_runs, 1..=100_000),
-        ("--population", args.population, 4..=1_000_000),
-    ])?;
-    if !(args.pareto_fraction > 0.0 && args.pareto_fraction <= 1.0) {
-        return Err(AcqError::Config(
-            "--pareto-fraction must lie in (0, 1]".into(),
-        ));
-    }
+    check_search_settings(&args)?;
     let template = match &args.geometry {
         Some(path) => {
             let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;

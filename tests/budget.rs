@@ -323,3 +323,148 @@ fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
         .unwrap();
     assert_eq!(loaded["u_c"], head_again["u_c"]);
 }
+
+/// GTC, pinned: the GUM Tree Calculator of the Measurement Standards
+/// Laboratory of New Zealand.
+const GTC: &str = "GTC==1.5.1";
+
+#[test]
+fn a_net_forces_budget_agrees_with_the_gum_tree_calculator() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case1", &dir.path().join("case1"));
+    // The arm's head transducer with a certificate that states no point
+    // uncertainties (its line's scatter, 3 degrees of freedom), its rod
+    // transducer with an accuracy class: a budget whose effective degrees
+    // of freedom are few, so Welch-Satterthwaite is tested, not skipped.
+    let points = [
+        [0.0, 0.3],
+        [100.0, 100.1],
+        [200.0, 199.6],
+        [300.0, 300.4],
+        [400.0, 399.9],
+    ];
+    let points_toml: Vec<String> = points.iter().map(|[r, v]| format!("[{r}, {v}]")).collect();
+    let rig_text = std::fs::read_to_string(session.join("rig/excavator.toml")).unwrap();
+    let with_records = rig_text
+        .replace(
+            "name = \"arm_head_pressure\"\n",
+            &format!("name = \"arm_head_pressure\"\ncalibration = {{ points = [{}] }}\n", points_toml.join(", ")),
+        )
+        .replace(
+            "name = \"arm_rod_pressure\"\n",
+            "name = \"arm_rod_pressure\"\nrange = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.05 }\n",
+        );
+    let rig = session.join("rig/with-records.toml");
+    std::fs::write(&rig, with_records).unwrap();
+    let measured = dir.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        path_arg(&session),
+        "--rig",
+        path_arg(&rig),
+        "-o",
+        path_arg(&measured),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let rows = measured_rows(&measured);
+    let row = |quantity: &str| {
+        rows.iter()
+            .find(|r| r["window"] == "hold1" && r["quantity"] == quantity)
+            .unwrap()
+            .clone()
+    };
+    let (head, rod, net) = (
+        row("arm_head_pressure"),
+        row("arm_rod_pressure"),
+        row("arm_net_force"),
+    );
+    let hold = |r: &std::collections::HashMap<String, String>| {
+        serde_json::json!({
+            "mean": number_in(r, "mean"),
+            "std": number_in(r, "std"),
+            "n_eff": number_in(r, "n_eff"),
+        })
+    };
+    let mut rod_hold = hold(&rod);
+    rod_hold["accuracy_half_width"] = serde_json::json!(0.0005 * 400.0);
+    // Bore 90 mm, rod 55 mm: kN per bar of each chamber.
+    let input = serde_json::json!({
+        "curve_points": points,
+        "head": hold(&head),
+        "rod": rod_hold,
+        "head_kn_per_bar": std::f64::consts::PI / 4.0 * 90f64.powi(2) * 1e-4,
+        "rod_kn_per_bar": std::f64::consts::PI / 4.0 * (90f64.powi(2) - 55f64.powi(2)) * 1e-4,
+    });
+    let input_path = dir.path().join("gtc-input.json");
+    std::fs::write(&input_path, input.to_string()).unwrap();
+    let python = common::scratch_python("acq-gtc-1.5.1", &[GTC]);
+    let peer = std::process::Command::new(python)
+        .arg(common::root().join("tests/peers/gtc_net_force.py"))
+        .arg(&input_path)
+        .output()
+        .unwrap();
+    assert!(
+        peer.status.success(),
+        "{}",
+        String::from_utf8_lossy(&peer.stderr)
+    );
+    let gtc: serde_json::Value = serde_json::from_slice(&peer.stdout).unwrap();
+    // The tolerances: u_c within 1 %, degrees of freedom within 1.
+    // acq's file holds k, not the degrees of freedom: k within the t
+    // quantiles at GTC's dof - 1 and dof + 1 is the same statement.
+    let (u_acq, u_gtc) = (number_in(&net, "u_c"), gtc["u_c"].as_f64().unwrap());
+    assert!(
+        (u_acq - u_gtc).abs() <= 0.01 * u_gtc,
+        "u_c: acq {u_acq}, GTC {u_gtc}"
+    );
+    let dof = gtc["dof"].as_f64().unwrap();
+    eprintln!(
+        "net force: acq u_c {u_acq} kN, k {}; GTC u_c {u_gtc} kN, {dof} degrees of freedom, k {}",
+        number_in(&net, "k"),
+        gtc["k"]
+    );
+    assert!(
+        dof > 2.0 && dof < 100.0,
+        "a budget with few degrees of freedom: {dof}"
+    );
+    let k_acq = number_in(&net, "k");
+    let t = |dof: f64| acq_metrology::budget::coverage_factor(Some(dof), 0.95);
+    assert!(
+        t(dof + 1.0) <= k_acq && k_acq <= t(dof - 1.0),
+        "k: acq {k_acq}, GTC {} at {dof} degrees of freedom",
+        gtc["k"]
+    );
+}
+
+#[test]
+fn check_rig_states_each_certificate_and_flags_one_past_its_due_date() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = rig_with(
+        dir.path(),
+        "calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], certificate = \"C-1\", lab = \"a lab\", date = \"2019-01-10\", due = \"2020-01-10\" }",
+    );
+    let output = acq(&["check-rig", path_arg(&rig)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stdout(&output);
+    assert!(
+        text.contains("sensor 'p': PAST DUE: its calibration was due on 2020-01-10"),
+        "{text}"
+    );
+    let current = rig_with(
+        dir.path(),
+        "calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], certificate = \"C-2\", lab = \"a lab\", date = \"2026-01-10\", due = \"9999-01-10\" }",
+    );
+    let text = stdout(&acq(&["check-rig", path_arg(&current)]));
+    assert!(
+        text.contains(
+            "sensor 'p': certificate C-2 of a lab, calibrated 2026-01-10, due 9999-01-10"
+        ),
+        "{text}"
+    );
+    let none = rig_with(dir.path(), "");
+    let text = stdout(&acq(&["check-rig", path_arg(&none)]));
+    assert!(
+        text.contains("sensor 'p': no certificate: its uncertainty is the readings' scatter only"),
+        "{text}"
+    );
+}

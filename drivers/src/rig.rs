@@ -359,6 +359,40 @@ pub struct SensorRecord {
     pub resolution: Option<f64>,
 }
 
+impl Rig {
+    /// What each sensor's record says of its calibration on `today`
+    /// (`YYYY-MM-DD`): a certificate past its due date, or no certificate
+    /// at all, as lines a test engineer acts on.
+    pub fn calibration_status(&self, today: &str) -> Vec<String> {
+        self.sensors
+            .iter()
+            .map(|sensor| match &sensor.record.certificate {
+                Some(Certificate { due: Some(due), .. }) if due.as_str() < today => format!(
+                    "sensor '{}': PAST DUE: its calibration was due on {due}; recalibrate it, or know that its certificate no longer vouches for it",
+                    sensor.name
+                ),
+                Some(certificate) => format!(
+                    "sensor '{}': certificate {} of {}, calibrated {}, due {}",
+                    sensor.name,
+                    certificate.id.as_deref().unwrap_or("(no number)"),
+                    certificate.lab.as_deref().unwrap_or("(no lab)"),
+                    certificate.date.as_deref().unwrap_or("(no date)"),
+                    certificate.due.as_deref().unwrap_or("(no due date)"),
+                ),
+                None => format!(
+                    "sensor '{}': no certificate{}",
+                    sensor.name,
+                    if sensor.record.is_empty() {
+                        ": its uncertainty is the readings' scatter only"
+                    } else {
+                        ""
+                    }
+                ),
+            })
+            .collect()
+    }
+}
+
 impl SensorRecord {
     /// Whether anything is known beyond the readings' own scatter.
     pub fn is_empty(&self) -> bool {

@@ -92,5 +92,18 @@ pub fn run_decode(args: DecodeArgs) -> Result<()> {
 pub fn run_check_rig(args: CheckRigArgs) -> Result<()> {
     let rig = load_rig(&args.rig)?;
     print!("{}", rig.explain());
+    println!("calibration (today {}):", today());
+    for line in rig.calibration_status(&today()) {
+        println!("  {line}");
+    }
     Ok(())
+}
+
+/// Today's date in UTC, `YYYY-MM-DD`: what a certificate's due date is
+/// compared with.
+pub fn today() -> String {
+    let now = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX));
+    acq_io::session::utc_text(now).chars().take(10).collect()
 }

@@ -169,6 +169,12 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         None => None,
         Some(path) => {
             let mut rig = acq_io::input::load_rig(path)?;
+            // A transducer past its due date is said before the test, not after.
+            for line in rig.calibration_status(&super::decode::today()) {
+                if line.contains("PAST DUE") {
+                    eprintln!("acq: warning: {line}");
+                }
+            }
             notes.extend(
                 rig.assign_interfaces(&interfaces)
                     .map_err(AcqError::Config)?,

@@ -10,6 +10,9 @@
 //!   certificate's points, with the curve's own standard uncertainty at
 //!   every reading (from the points' stated uncertainties, or from the
 //!   residual scatter when they state none, as JCGM 100 example H.3 does).
+//! - [`monte_carlo`]: propagation of distributions (JCGM 101, GUM
+//!   Supplement 1), the check of the first-order law on a non-linear model.
 
 pub mod budget;
 pub mod curve;
+pub mod monte_carlo;

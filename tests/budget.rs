@@ -409,7 +409,8 @@ fn a_net_forces_budget_agrees_with_the_gum_tree_calculator() {
         String::from_utf8_lossy(&peer.stderr)
     );
     let gtc: serde_json::Value = serde_json::from_slice(&peer.stdout).unwrap();
-    // The tolerances: u_c within 1 %, degrees of freedom within 1.
+    // u_c within 1 % and the degrees of freedom within 1: what a budget
+    // reported to two significant digits needs.
     // acq's file holds k, not the degrees of freedom: k within the t
     // quantiles at GTC's dof - 1 and dof + 1 is the same statement.
     let (u_acq, u_gtc) = (number_in(&net, "u_c"), gtc["u_c"].as_f64().unwrap());

@@ -227,6 +227,33 @@ fn measured_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> 
         .collect()
 }
 
+/// `acq extract` of `session` through a copy of its rig with `records`
+/// (sensor name, the keys to add under its `[[sensor]]`): the rows.
+fn extract_with_records(
+    session: &Path,
+    records: &[(&str, &str)],
+) -> Vec<std::collections::HashMap<String, String>> {
+    let mut rig_text = std::fs::read_to_string(session.join("rig/excavator.toml")).unwrap();
+    for (sensor, keys) in records {
+        let name = format!("name = \"{sensor}\"\n");
+        assert!(rig_text.contains(&name), "{sensor}");
+        rig_text = rig_text.replace(&name, &format!("{name}{keys}\n"));
+    }
+    let rig = session.join("rig/with-records.toml");
+    std::fs::write(&rig, rig_text).unwrap();
+    let measured = session.join("with-records.csv");
+    let output = acq(&[
+        "extract",
+        path_arg(session),
+        "--rig",
+        path_arg(&rig),
+        "-o",
+        path_arg(&measured),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    measured_rows(&measured)
+}
+
 fn number_in(row: &std::collections::HashMap<String, String>, column: &str) -> f64 {
     row[column]
         .parse()
@@ -284,25 +311,13 @@ fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
 
     // The same session with the arm's head transducer's data sheet: +-0.5 %
     // of 400 bar (rectangular) and a 0.01 bar step join its scatter.
-    let rig_text = std::fs::read_to_string(session.join("rig/excavator.toml")).unwrap();
-    let with_record = rig_text.replace(
-        "name = \"arm_head_pressure\"\n",
-        "name = \"arm_head_pressure\"\nrange = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }\nresolution = 0.01\n",
+    let again = extract_with_records(
+        &session,
+        &[(
+            "arm_head_pressure",
+            "range = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }\nresolution = 0.01",
+        )],
     );
-    assert_ne!(with_record, rig_text);
-    let rig = session.join("rig/with-record.toml");
-    std::fs::write(&rig, with_record).unwrap();
-    let recorded = dir.path().join("with-record.csv");
-    let output = acq(&[
-        "extract",
-        path_arg(&session),
-        "--rig",
-        path_arg(&rig),
-        "-o",
-        path_arg(&recorded),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let again = measured_rows(&recorded);
     let head_again = again
         .iter()
         .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_head_pressure")
@@ -344,29 +359,17 @@ fn a_net_forces_budget_agrees_with_the_gum_tree_calculator() {
         [400.0, 399.9],
     ];
     let points_toml: Vec<String> = points.iter().map(|[r, v]| format!("[{r}, {v}]")).collect();
-    let rig_text = std::fs::read_to_string(session.join("rig/excavator.toml")).unwrap();
-    let with_records = rig_text
-        .replace(
-            "name = \"arm_head_pressure\"\n",
-            &format!("name = \"arm_head_pressure\"\ncalibration = {{ points = [{}] }}\n", points_toml.join(", ")),
-        )
-        .replace(
-            "name = \"arm_rod_pressure\"\n",
-            "name = \"arm_rod_pressure\"\nrange = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.05 }\n",
-        );
-    let rig = session.join("rig/with-records.toml");
-    std::fs::write(&rig, with_records).unwrap();
-    let measured = dir.path().join("measured.csv");
-    let output = acq(&[
-        "extract",
-        path_arg(&session),
-        "--rig",
-        path_arg(&rig),
-        "-o",
-        path_arg(&measured),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let rows = measured_rows(&measured);
+    let calibration = format!("calibration = {{ points = [{}] }}", points_toml.join(", "));
+    let rows = extract_with_records(
+        &session,
+        &[
+            ("arm_head_pressure", calibration.as_str()),
+            (
+                "arm_rod_pressure",
+                "range = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.05 }",
+            ),
+        ],
+    );
     let row = |quantity: &str| {
         rows.iter()
             .find(|r| r["window"] == "hold1" && r["quantity"] == quantity)

@@ -859,7 +859,6 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("study/src/posterior/report.rs", "write_section", "to split"),
     ("acquire/src/simulate/mod.rs", "build_streams", "to split"),
     ("study/src/saved_emulator.rs", "fit", "to split"),
-    ("workflows/src/rig_study/tracker.rs", "panel", "to split"),
 ];
 
 /// About the longest a function reads whole on one screen and a half.

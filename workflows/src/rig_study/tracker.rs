@@ -169,8 +169,8 @@ impl Tracker {
         next.as_ref().map(Option::as_ref).map_err(String::as_str)
     }
 
-    /// The panel now.
-    pub fn panel(&self) -> Panel {
+    /// The holds not used, each with why, and each used hold's intervals.
+    fn skipped_and_history(&self) -> (Vec<Value>, Vec<Value>) {
         let skipped: Vec<Value> = self
             .steps
             .iter()
@@ -204,6 +204,12 @@ impl Tracker {
                 }))
             })
             .collect();
+        (skipped, history)
+    }
+
+    /// The panel now.
+    pub fn panel(&self) -> Panel {
+        let (skipped, history) = self.skipped_and_history();
         let mut words = Vec::new();
         let mut json = json!({
             "file": self.study.path.display().to_string(),
@@ -222,41 +228,7 @@ impl Tracker {
                 json["shrinkage"] = json!(posterior.shrinkage());
                 json["wall_s"] = json!(posterior.wall_s);
                 json["how"] = json!(posterior.how);
-                let mut parameters = Map::new();
-                let mut said = Vec::new();
-                for p in &posterior.parameters {
-                    let confounded = match &p.verdict {
-                        Verdict::Confounded { with, correlation } => {
-                            json!({ "with": with, "correlation": correlation })
-                        }
-                        _ => Value::Null,
-                    };
-                    parameters.insert(
-                        p.name.clone(),
-                        json!({
-                            "mean": p.mean,
-                            "sd": p.sd,
-                            "q05": p.q05,
-                            "q95": p.q95,
-                            "prior_q05": p.prior_q05,
-                            "prior_q95": p.prior_q95,
-                            "verdict": p.verdict.word(),
-                            "confounded": confounded,
-                        }),
-                    );
-                    let with = match &p.verdict {
-                        Verdict::Confounded { with, .. } => format!(" with {with}"),
-                        _ => String::new(),
-                    };
-                    said.push(format!(
-                        "{} {} [{}, {}] {}{with}",
-                        p.name,
-                        significant(p.mean),
-                        significant(p.q05),
-                        significant(p.q95),
-                        p.verdict.word()
-                    ));
-                }
+                let (parameters, said) = parameters_of(posterior);
                 json["parameters"] = Value::Object(parameters);
                 words.push(format!(
                     "study: after {} hold(s): {}",
@@ -323,4 +295,44 @@ fn significant(x: f64) -> String {
     }
     let digits = (3 - x.abs().log10().floor() as i32).max(0) as usize;
     format!("{x:.digits$}")
+}
+
+/// Each parameter's interval and verdict for the page, and in words.
+fn parameters_of(posterior: &Posterior) -> (Map<String, Value>, Vec<String>) {
+    let mut parameters = Map::new();
+    let mut said = Vec::new();
+    for p in &posterior.parameters {
+        let confounded = match &p.verdict {
+            Verdict::Confounded { with, correlation } => {
+                json!({ "with": with, "correlation": correlation })
+            }
+            _ => Value::Null,
+        };
+        parameters.insert(
+            p.name.clone(),
+            json!({
+                "mean": p.mean,
+                "sd": p.sd,
+                "q05": p.q05,
+                "q95": p.q95,
+                "prior_q05": p.prior_q05,
+                "prior_q95": p.prior_q95,
+                "verdict": p.verdict.word(),
+                "confounded": confounded,
+            }),
+        );
+        let with = match &p.verdict {
+            Verdict::Confounded { with, .. } => format!(" with {with}"),
+            _ => String::new(),
+        };
+        said.push(format!(
+            "{} {} [{}, {}] {}{with}",
+            p.name,
+            significant(p.mean),
+            significant(p.q05),
+            significant(p.q95),
+            p.verdict.word()
+        ));
+    }
+    (parameters, said)
 }

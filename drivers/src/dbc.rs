@@ -729,114 +729,132 @@ fn build_multiplexing(
     signals: &mut [SignalCodec],
     warnings: &mut Vec<DbcWarning>,
 ) -> Vec<Switch> {
-    let is_multiplexor = |indicator: &MultiplexIndicator| {
-        matches!(
-            indicator,
-            MultiplexIndicator::Multiplexor
-                | MultiplexIndicator::MultiplexorAndMultiplexedSignal(_)
-        )
+    let context = MessageContext {
+        message,
+        id,
+        source,
     };
-    let multiplexors: Vec<&str> = message
+    let lists = MuxValueLists::read(dbc, &context, warnings);
+    let nodes = multiplexing_nodes(&context, &lists, warnings);
+    let parent_index = parent_indices(&nodes, signals);
+    let (order, resolved) = resolution_order(&nodes, &parent_index);
+    let switches = assign_presence(&nodes, &parent_index, &order, signals);
+    warn_about_never_decoded(&context, &nodes, &resolved, signals, warnings);
+    switches
+}
+
+/// The message a multiplexing warning speaks of: its name, id and file.
+struct MessageContext<'a> {
+    message: &'a can_dbc::Message,
+    id: CanId,
+    source: &'a Arc<str>,
+}
+
+/// Whether a signal's marker makes it a multiplexor (`M` or `m<v>M`).
+fn is_multiplexor(indicator: &MultiplexIndicator) -> bool {
+    matches!(
+        indicator,
+        MultiplexIndicator::Multiplexor | MultiplexIndicator::MultiplexorAndMultiplexedSignal(_)
+    )
+}
+
+/// The `SG_MUL_VAL_` lines of one message: multiplexor -> [(signal, values)],
+/// in first-seen order; a later line for the same pair replaces the earlier
+/// one (cantools keeps them in dicts).
+struct MuxValueLists<'a>(Vec<(&'a str, Vec<(&'a str, Ranges)>)>);
+
+impl<'a> MuxValueLists<'a> {
+    /// Reads the message's lines, warning of one that names a signal the
+    /// message does not have.
+    fn read(dbc: &'a Dbc, context: &MessageContext<'_>, warnings: &mut Vec<DbcWarning>) -> Self {
+        let MessageContext {
+            message,
+            id,
+            source,
+        } = context;
+        let mut lists: Vec<(&str, Vec<(&str, Ranges)>)> = Vec::new();
+        for list in dbc
+            .extended_multiplex
+            .iter()
+            .filter(|list| list.message_id == message.id)
+        {
+            if !message.signals.iter().any(|s| s.name == list.signal_name) {
+                warnings.push(DbcWarning(format!(
+                    "{source}: message {} ({id}): the value list (SG_MUL_VAL_) names signal {}, which the message does not have; ignored",
+                    message.name, list.signal_name
+                )));
+            }
+            // A range written high-low selects nothing (cantools: `range(low, high + 1)`).
+            let values: Vec<(i128, i128)> = list
+                .mappings
+                .iter()
+                .filter(|m| m.min_value <= m.max_value)
+                .map(|m| (i128::from(m.min_value), i128::from(m.max_value)))
+                .collect();
+            let switch = list.multiplexor_signal_name.as_str();
+            let entries = match lists.iter_mut().find(|(name, _)| *name == switch) {
+                Some((_, entries)) => entries,
+                None => {
+                    lists.push((switch, Vec::new()));
+                    &mut lists.last_mut().expect("just pushed").1
+                }
+            };
+            match entries
+                .iter_mut()
+                .find(|(name, _)| *name == list.signal_name)
+            {
+                Some(entry) => entry.1 = values,
+                None => entries.push((list.signal_name.as_str(), values)),
+            }
+        }
+        Self(lists)
+    }
+
+    /// The values at which `switch` selects `signal`, if a line lists them.
+    fn listed(&self, switch: &str, signal: &str) -> Option<&Ranges> {
+        self.0
+            .iter()
+            .find(|(name, _)| *name == switch)
+            .and_then(|(_, entries)| entries.iter().find(|(name, _)| *name == signal))
+            .map(|(_, values)| values)
+    }
+
+    /// Extended multiplexing: the last multiplexor listing a signal switches it.
+    fn switch_of(&self, signal: &str) -> Option<&'a str> {
+        self.0
+            .iter()
+            .rfind(|(_, entries)| entries.iter().any(|(name, _)| *name == signal))
+            .map(|(switch, _)| *switch)
+    }
+}
+
+/// Each signal's unresolved place in the tree, by plain multiplexing when
+/// the message has exactly one multiplexor and by extended otherwise.
+fn multiplexing_nodes(
+    context: &MessageContext<'_>,
+    lists: &MuxValueLists<'_>,
+    warnings: &mut Vec<DbcWarning>,
+) -> Vec<Node> {
+    let multiplexors: Vec<&str> = context
+        .message
         .signals
         .iter()
         .filter(|s| is_multiplexor(&s.multiplexer_indicator))
         .map(|s| s.name.as_str())
         .collect();
-    let multiplexor_count = multiplexors.len();
     let plain_multiplexor = match multiplexors[..] {
         [only] => Some(only),
         _ => None,
     };
-
-    // SG_MUL_VAL_ lines of this message: multiplexor -> [(signal, values)],
-    // in first-seen order; a later line for the same pair replaces the
-    // earlier one (cantools keeps them in dicts).
-    let mut lists: Vec<(&str, Vec<(&str, Ranges)>)> = Vec::new();
-    for list in dbc
-        .extended_multiplex
-        .iter()
-        .filter(|list| list.message_id == message.id)
-    {
-        if !message.signals.iter().any(|s| s.name == list.signal_name) {
-            warnings.push(DbcWarning(format!(
-                "{source}: message {} ({id}): the value list (SG_MUL_VAL_) names signal {}, which the message does not have; ignored",
-                message.name, list.signal_name
-            )));
-        }
-        // A range written high-low selects nothing (cantools: `range(low, high + 1)`).
-        let values: Vec<(i128, i128)> = list
-            .mappings
-            .iter()
-            .filter(|m| m.min_value <= m.max_value)
-            .map(|m| (i128::from(m.min_value), i128::from(m.max_value)))
-            .collect();
-        let switch = list.multiplexor_signal_name.as_str();
-        let entries = match lists.iter_mut().find(|(name, _)| *name == switch) {
-            Some((_, entries)) => entries,
-            None => {
-                lists.push((switch, Vec::new()));
-                &mut lists.last_mut().expect("just pushed").1
-            }
-        };
-        match entries
-            .iter_mut()
-            .find(|(name, _)| *name == list.signal_name)
-        {
-            Some(entry) => entry.1 = values,
-            None => entries.push((list.signal_name.as_str(), values)),
-        }
-    }
-    let listed = |switch: &str, signal: &str| -> Option<&Vec<(i128, i128)>> {
-        lists
-            .iter()
-            .find(|(name, _)| *name == switch)
-            .and_then(|(_, entries)| entries.iter().find(|(name, _)| *name == signal))
-            .map(|(_, values)| values)
-    };
-    // Extended multiplexing: the last multiplexor listing a signal switches it.
-    let switch_of = |signal: &str| -> Option<&str> {
-        lists
-            .iter()
-            .rfind(|(_, entries)| entries.iter().any(|(name, _)| *name == signal))
-            .map(|(switch, _)| *switch)
-    };
-
-    let nodes: Vec<Node> = message
+    context
+        .message
         .signals
         .iter()
         .map(|signal| {
-            let marked = signal.multiplexer_indicator != MultiplexIndicator::Plain;
             let (parent, values) = match plain_multiplexor {
-                Some(switch) => {
-                    let mut values = Vec::new();
-                    if let MultiplexIndicator::MultiplexedSignal(v) = signal.multiplexer_indicator {
-                        values.push((i128::from(v), i128::from(v)));
-                    }
-                    values.extend(listed(switch, &signal.name).into_iter().flatten());
-                    let parent = (marked && signal.name != switch).then(|| switch.to_string());
-                    (parent, values)
-                }
+                Some(switch) => plain_parent_and_values(signal, switch, lists),
                 None => {
-                    let switch = switch_of(&signal.name);
-                    let values = switch
-                        .and_then(|switch| listed(switch, &signal.name))
-                        .cloned()
-                        .unwrap_or_default();
-                    let parent = switch.filter(|_| marked).map(str::to_string);
-                    let has_value = matches!(
-                        signal.multiplexer_indicator,
-                        MultiplexIndicator::MultiplexedSignal(_)
-                            | MultiplexIndicator::MultiplexorAndMultiplexedSignal(_)
-                    );
-                    if has_value && parent.is_none() {
-                        warnings.push(DbcWarning(format!(
-                            "{source}: message {} ({id}): signal {} is marked multiplexed, but the message has {} multiplexors and no SG_MUL_VAL_ line switches it: decoded in every frame, as cantools does",
-                            message.name,
-                            signal.name,
-                            if multiplexor_count == 0 { "no" } else { "several" }
-                        )));
-                    }
-                    (parent, values)
+                    extended_parent_and_values(signal, multiplexors.len(), lists, context, warnings)
                 }
             };
             Node {
@@ -845,26 +863,85 @@ fn build_multiplexing(
                 is_multiplexor: is_multiplexor(&signal.multiplexer_indicator),
             }
         })
-        .collect();
+        .collect()
+}
 
-    // Resolve parents: a signal's multiplexor is a multiplexor signal of
-    // the message (the first of that name) that is itself resolved; what is
-    // left (a missing multiplexor, a cycle) is in no frame. Each pass
-    // resolves at least one more level of the tree.
-    let parent_index: Vec<Option<usize>> = nodes
+/// Plain multiplexing: a marked signal is switched by the one multiplexor at
+/// its marker's value and at the values its `SG_MUL_VAL_` line adds.
+fn plain_parent_and_values(
+    signal: &can_dbc::Signal,
+    switch: &str,
+    lists: &MuxValueLists<'_>,
+) -> (Option<String>, Ranges) {
+    let marked = signal.multiplexer_indicator != MultiplexIndicator::Plain;
+    let mut values = Vec::new();
+    if let MultiplexIndicator::MultiplexedSignal(v) = signal.multiplexer_indicator {
+        values.push((i128::from(v), i128::from(v)));
+    }
+    values.extend(lists.listed(switch, &signal.name).into_iter().flatten());
+    let parent = (marked && signal.name != switch).then(|| switch.to_string());
+    (parent, values)
+}
+
+/// Extended multiplexing: only `SG_MUL_VAL_` says who switches a marked
+/// signal; one marked with a value that no line switches is warned of.
+fn extended_parent_and_values(
+    signal: &can_dbc::Signal,
+    multiplexor_count: usize,
+    lists: &MuxValueLists<'_>,
+    context: &MessageContext<'_>,
+    warnings: &mut Vec<DbcWarning>,
+) -> (Option<String>, Ranges) {
+    let MessageContext {
+        message,
+        id,
+        source,
+    } = context;
+    let marked = signal.multiplexer_indicator != MultiplexIndicator::Plain;
+    let switch = lists.switch_of(&signal.name);
+    let values = switch
+        .and_then(|switch| lists.listed(switch, &signal.name))
+        .cloned()
+        .unwrap_or_default();
+    let parent = switch.filter(|_| marked).map(str::to_string);
+    let has_value = matches!(
+        signal.multiplexer_indicator,
+        MultiplexIndicator::MultiplexedSignal(_)
+            | MultiplexIndicator::MultiplexorAndMultiplexedSignal(_)
+    );
+    if has_value && parent.is_none() {
+        warnings.push(DbcWarning(format!(
+            "{source}: message {} ({id}): signal {} is marked multiplexed, but the message has {} multiplexors and no SG_MUL_VAL_ line switches it: decoded in every frame, as cantools does",
+            message.name,
+            signal.name,
+            if multiplexor_count == 0 { "no" } else { "several" }
+        )));
+    }
+    (parent, values)
+}
+
+/// Each node's multiplexor as a signal index: the first multiplexor signal
+/// of the message with that name, or none.
+fn parent_indices(nodes: &[Node], signals: &[SignalCodec]) -> Vec<Option<usize>> {
+    nodes
         .iter()
         .map(|node| {
             node.parent.as_ref().and_then(|parent| {
                 signals
                     .iter()
-                    .zip(&nodes)
+                    .zip(nodes)
                     .position(|(s, n)| n.is_multiplexor && s.name == *parent)
             })
         })
-        .collect();
-    let mut switch_of_signal: Vec<Option<usize>> = vec![None; signals.len()];
-    let mut resolved = vec![false; signals.len()];
-    let mut switches: Vec<Switch> = Vec::new();
+        .collect()
+}
+
+/// The signals in the order their multiplexors resolve, and which resolve
+/// at all: a signal is resolved when its multiplexor is; what is left (a
+/// missing multiplexor, a cycle) is in no frame. Each pass resolves at
+/// least one more level of the tree.
+fn resolution_order(nodes: &[Node], parent_index: &[Option<usize>]) -> (Vec<usize>, Vec<bool>) {
+    let mut resolved = vec![false; nodes.len()];
     let mut order: Vec<usize> = Vec::new();
     loop {
         let before = order.len();
@@ -886,7 +963,20 @@ fn build_multiplexing(
             break;
         }
     }
-    for &index in &order {
+    (order, resolved)
+}
+
+/// Sets the [`Presence`] of the resolved signals, in resolution order, and
+/// returns a switch for each multiplexor that frames carry.
+fn assign_presence(
+    nodes: &[Node],
+    parent_index: &[Option<usize>],
+    order: &[usize],
+    signals: &mut [SignalCodec],
+) -> Vec<Switch> {
+    let mut switch_of_signal: Vec<Option<usize>> = vec![None; signals.len()];
+    let mut switches: Vec<Switch> = Vec::new();
+    for &index in order {
         let node = &nodes[index];
         signals[index].presence = match parent_index[index].and_then(|p| switch_of_signal[p]) {
             Some(switch) => Presence::Switched {
@@ -898,27 +988,49 @@ fn build_multiplexing(
         };
         if node.is_multiplexor && signals[index].presence != Presence::Never {
             switch_of_signal[index] = Some(switches.len());
-            let name = &signals[index].name;
-            let mut pages: Vec<(i128, i128)> = nodes
-                .iter()
-                .filter(|n| n.parent.as_deref() == Some(name.as_str()))
-                .flat_map(|n| n.values.iter().copied())
-                .collect();
-            // Value-table keys are pages even when they hold no signal.
-            pages.extend(
-                signals[index]
-                    .labels
-                    .iter()
-                    .map(|&(key, _)| (i128::from(key), i128::from(key))),
-            );
-            pages.sort_unstable();
-            pages.dedup();
             switches.push(Switch {
                 signal: index,
-                pages,
+                pages: multiplexor_pages(nodes, &signals[index]),
             });
         }
     }
+    switches
+}
+
+/// A multiplexor's pages: its signals' values and its value-table keys
+/// (which are pages even when they hold no signal), sorted and unique.
+fn multiplexor_pages(nodes: &[Node], multiplexor: &SignalCodec) -> Ranges {
+    let name = &multiplexor.name;
+    let mut pages: Vec<(i128, i128)> = nodes
+        .iter()
+        .filter(|n| n.parent.as_deref() == Some(name.as_str()))
+        .flat_map(|n| n.values.iter().copied())
+        .collect();
+    pages.extend(
+        multiplexor
+            .labels
+            .iter()
+            .map(|&(key, _)| (i128::from(key), i128::from(key))),
+    );
+    pages.sort_unstable();
+    pages.dedup();
+    pages
+}
+
+/// Marks the unresolved signals as in no frame and warns of every signal
+/// that is never decoded.
+fn warn_about_never_decoded(
+    context: &MessageContext<'_>,
+    nodes: &[Node],
+    resolved: &[bool],
+    signals: &mut [SignalCodec],
+    warnings: &mut Vec<DbcWarning>,
+) {
+    let MessageContext {
+        message,
+        id,
+        source,
+    } = context;
     for (index, signal) in signals.iter_mut().enumerate() {
         if !resolved[index] {
             signal.presence = Presence::Never;
@@ -934,7 +1046,6 @@ fn build_multiplexing(
             )));
         }
     }
-    switches
 }
 
 /// An error when `raw * factor + offset` is not a finite number for some raw

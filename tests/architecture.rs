@@ -847,7 +847,6 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("calib/src/optim.rs", "minimize_bounded", "the L-BFGS-B iteration: its history, the projected search and the line search share one state"),
     ("calib/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
     ("study/src/posterior/likelihood.rs", "new", "to split"),
-    ("twins/src/excavator/structure.rs", "build", "to split"),
     ("workflows/src/rig_study/mod.rs", "load_with", "to split"),
     ("study/src/surrogate_moo.rs", "surrogate_moo", "to split"),
     ("study/src/posterior/predictive.rs", "predictive_runs", "to split"),

@@ -107,139 +107,41 @@ impl FlexibleBody {
         youngs_modulus_pa: f64,
         density_kg_m3: f64,
     ) -> Result<FlexibleBody, String> {
-        let vertices: Vec<Vec2> = structure.centreline_m.iter().map(|&p| vec2(p)).collect();
-        let vertex_stations = cumulative_lengths(&vertices);
-
-        let projections: Vec<(f64, Vec2)> = pins
-            .iter()
-            .map(|&p| project(&vertices, &vertex_stations, vec2(p)))
-            .collect();
-        // Vertices keep their exact stations; other stations near one snap to it.
-        let mut stations: Vec<f64> = vertex_stations.clone();
-        let extra = projections
-            .iter()
-            .map(|&(s, _)| s)
-            .chain(gauges.iter().map(|g| g.station_m));
-        stations.extend(extra.filter(|s| {
-            vertex_stations
-                .iter()
-                .all(|v| (v - s).abs() >= SAME_STATION_M)
-        }));
-        stations.sort_by(f64::total_cmp);
-        stations.dedup_by(|b, a| (*b - *a).abs() < SAME_STATION_M);
-        let mut refined = vec![stations[0]];
-        for pair in stations.windows(2) {
-            let parts = ((pair[1] - pair[0]) / structure.element_length_m)
-                .ceil()
-                .max(1.0) as usize;
-            for k in 1..=parts {
-                refined.push(pair[0] + (pair[1] - pair[0]) * k as f64 / parts as f64);
-            }
-        }
+        let centreline = Centreline::of(structure);
+        let projections: Vec<(f64, Vec2)> =
+            pins.iter().map(|&p| centreline.project(vec2(p))).collect();
+        let stations_m = mesh_stations_m(structure, &centreline, &projections, gauges);
 
         let mut builder = PlaneFrameBuilder::new(youngs_modulus_pa);
         builder.density(density_kg_m3);
-        let centreline_nodes: Vec<(f64, NodeId)> = refined
+        let centreline_nodes: Vec<(f64, NodeId)> = stations_m
             .iter()
             .map(|&s| {
-                let p = point_at(&vertices, &vertex_stations, s);
+                let p = centreline.point_at(s);
                 (s, builder.node([p.x, p.y]))
             })
             .collect();
-        let node_at = |station: f64| -> NodeId {
-            let k = centreline_nodes.partition_point(|&(s, _)| s < station - SAME_STATION_M);
-            centreline_nodes[k.min(centreline_nodes.len() - 1)].1
-        };
-        let mut box_elements = Vec::new();
-        for pair in centreline_nodes.windows(2) {
-            let (start, a) = pair[0];
-            let (end, b) = pair[1];
-            let section = structure.section_at(0.5 * (start + end));
-            let element = builder.element(a, b, section.properties());
-            let check_sections =
-                VON_MISES_XI.map(|xi| structure.section_at(start + xi * (end - start)));
-            box_elements.push(BoxElement {
-                element,
-                start_station_m: start,
-                end_station_m: end,
-                check_sections,
-            });
-        }
-
-        let mut pin_nodes = Vec::new();
-        for (&pin, &(station, foot)) in pins.iter().zip(&projections) {
-            let on_line = node_at(station);
-            if (vec2(pin) - foot).norm() < 1e-6 {
-                pin_nodes.push(on_line);
-            } else {
-                let lug = builder.node(pin);
-                let bracket =
-                    builder.element(on_line, lug, structure.section_at(station).properties());
-                builder.element_linear_density(bracket, 0.0);
-                pin_nodes.push(lug);
-            }
-        }
+        let box_elements = box_elements(&mut builder, structure, &centreline_nodes);
+        let pin_nodes = pin_nodes(
+            &mut builder,
+            structure,
+            pins,
+            &projections,
+            &centreline_nodes,
+        );
         builder.pin_support(pin_nodes[0]);
         let span = vec2(pins[roller_pin]) - vec2(pins[0]);
         builder.roller_support(pin_nodes[roller_pin], [-span.y, span.x]);
 
-        // Attached masses go to the nearest node with their transfer moment.
         let node_positions: Vec<(NodeId, Vec2)> = centreline_nodes
             .iter()
-            .map(|&(s, n)| (n, point_at(&vertices, &vertex_stations, s)))
+            .map(|&(s, n)| (n, centreline.point_at(s)))
             .chain(pin_nodes.iter().zip(pins).map(|(&n, &p)| (n, vec2(p))))
             .collect();
-        let attached = structure
-            .attached_mass
-            .iter()
-            .map(|mass| {
-                let at = vec2(mass.at_m);
-                let (node, position) = node_positions
-                    .iter()
-                    .min_by(|x, y| (x.1 - at).norm().total_cmp(&(y.1 - at).norm()))
-                    .expect("nodes exist");
-                (*node, at - position, mass.mass_kg)
-            })
-            .collect::<Vec<_>>();
-
-        let mut plates_mass_kg = 0.0;
-        let mut plates_first_moment_kg_m = Vec2::zeros();
-        for element in &box_elements {
-            let middle = 0.5 * (element.start_station_m + element.end_station_m);
-            let section = structure.section_at(middle);
-            let m = density_kg_m3
-                * section.area_m2()
-                * (element.end_station_m - element.start_station_m);
-            plates_mass_kg += m;
-            plates_first_moment_kg_m += point_at(&vertices, &vertex_stations, middle) * m;
-        }
-
-        let probes = gauges
-            .iter()
-            .map(|gauge| {
-                let k = box_elements
-                    .iter()
-                    .position(|e| gauge.station_m < e.end_station_m - SAME_STATION_M)
-                    .unwrap_or(box_elements.len() - 1);
-                let element = box_elements[k];
-                let xi = ((gauge.station_m - element.start_station_m)
-                    / (element.end_station_m - element.start_station_m))
-                    .clamp(0.0, 1.0);
-                let section = structure.section_at(gauge.station_m);
-                let fibre_m = match gauge.face {
-                    Face::Top => 0.5 * section.height_m,
-                    Face::Bottom => -0.5 * section.height_m,
-                    Face::LeftSide | Face::RightSide => gauge.offset_m,
-                };
-                GaugeProbe {
-                    point: gauge.point,
-                    element: element.element,
-                    xi,
-                    section,
-                    fibre_m,
-                }
-            })
-            .collect();
+        let attached = attached_masses(structure, &node_positions);
+        let (plates_mass_kg, plates_first_moment_kg_m) =
+            plates_mass_and_first_moment(structure, &centreline, &box_elements, density_kg_m3);
+        let probes = gauge_probes(structure, gauges, &box_elements);
 
         let model = builder.build().map_err(|e| format!("frame model: {e}"))?;
         let mut body = FlexibleBody {
@@ -511,6 +413,200 @@ pub fn section_von_mises_pa(
     let fibres = axial_pa.abs() + bending_pa;
     let neutral_axis = (axial_pa * axial_pa + 3.0 * shear_pa * shear_pa).sqrt();
     fibres.max(neutral_axis)
+}
+
+/// A body's centreline: the polyline and its vertices' arc-length stations, m.
+struct Centreline {
+    vertices: Vec<Vec2>,
+    vertex_stations_m: Vec<f64>,
+}
+
+impl Centreline {
+    /// The centreline of `structure`, its stations measured from the first vertex.
+    fn of(structure: &Structure) -> Centreline {
+        let vertices: Vec<Vec2> = structure.centreline_m.iter().map(|&p| vec2(p)).collect();
+        let vertex_stations_m = cumulative_lengths(&vertices);
+        Centreline {
+            vertices,
+            vertex_stations_m,
+        }
+    }
+
+    /// The point at an arc-length station.
+    fn point_at(&self, station_m: f64) -> Vec2 {
+        point_at(&self.vertices, &self.vertex_stations_m, station_m)
+    }
+
+    /// Closest point to `p`: (station, foot).
+    fn project(&self, p: Vec2) -> (f64, Vec2) {
+        project(&self.vertices, &self.vertex_stations_m, p)
+    }
+}
+
+/// The stations of the centreline's nodes, m: the vertices, the pins' feet
+/// and the gauges, each interval cut into elements no longer than the
+/// structure's element length. Vertices keep their exact stations; other
+/// stations near one snap to it.
+fn mesh_stations_m(
+    structure: &Structure,
+    centreline: &Centreline,
+    projections: &[(f64, Vec2)],
+    gauges: &[&Gauge],
+) -> Vec<f64> {
+    let vertex_stations = &centreline.vertex_stations_m;
+    let mut stations: Vec<f64> = vertex_stations.clone();
+    let extra = projections
+        .iter()
+        .map(|&(s, _)| s)
+        .chain(gauges.iter().map(|g| g.station_m));
+    stations.extend(extra.filter(|s| {
+        vertex_stations
+            .iter()
+            .all(|v| (v - s).abs() >= SAME_STATION_M)
+    }));
+    stations.sort_by(f64::total_cmp);
+    stations.dedup_by(|b, a| (*b - *a).abs() < SAME_STATION_M);
+    let mut refined = vec![stations[0]];
+    for pair in stations.windows(2) {
+        let parts = ((pair[1] - pair[0]) / structure.element_length_m)
+            .ceil()
+            .max(1.0) as usize;
+        for k in 1..=parts {
+            refined.push(pair[0] + (pair[1] - pair[0]) * k as f64 / parts as f64);
+        }
+    }
+    refined
+}
+
+/// The centreline node at `station_m` (the first not before it, or the last).
+fn centreline_node_at(centreline_nodes: &[(f64, NodeId)], station_m: f64) -> NodeId {
+    let k = centreline_nodes.partition_point(|&(s, _)| s < station_m - SAME_STATION_M);
+    centreline_nodes[k.min(centreline_nodes.len() - 1)].1
+}
+
+/// One box-section element between each pair of consecutive centreline
+/// nodes, its section taken at its middle and at the von Mises check points.
+fn box_elements(
+    builder: &mut PlaneFrameBuilder,
+    structure: &Structure,
+    centreline_nodes: &[(f64, NodeId)],
+) -> Vec<BoxElement> {
+    let mut box_elements = Vec::new();
+    for pair in centreline_nodes.windows(2) {
+        let (start, a) = pair[0];
+        let (end, b) = pair[1];
+        let section = structure.section_at(0.5 * (start + end));
+        let element = builder.element(a, b, section.properties());
+        let check_sections =
+            VON_MISES_XI.map(|xi| structure.section_at(start + xi * (end - start)));
+        box_elements.push(BoxElement {
+            element,
+            start_station_m: start,
+            end_station_m: end,
+            check_sections,
+        });
+    }
+    box_elements
+}
+
+/// Each pin's node: the centreline node at its foot when it lies on the
+/// centreline, else a lug node hung on a massless bracket from there.
+fn pin_nodes(
+    builder: &mut PlaneFrameBuilder,
+    structure: &Structure,
+    pins: &[PointM],
+    projections: &[(f64, Vec2)],
+    centreline_nodes: &[(f64, NodeId)],
+) -> Vec<NodeId> {
+    let mut pin_nodes = Vec::new();
+    for (&pin, &(station, foot)) in pins.iter().zip(projections) {
+        let on_line = centreline_node_at(centreline_nodes, station);
+        if (vec2(pin) - foot).norm() < 1e-6 {
+            pin_nodes.push(on_line);
+        } else {
+            let lug = builder.node(pin);
+            let bracket = builder.element(on_line, lug, structure.section_at(station).properties());
+            builder.element_linear_density(bracket, 0.0);
+            pin_nodes.push(lug);
+        }
+    }
+    pin_nodes
+}
+
+/// Attached masses go to the nearest node with their transfer moment:
+/// (node, offset from the node, kg).
+fn attached_masses(
+    structure: &Structure,
+    node_positions: &[(NodeId, Vec2)],
+) -> Vec<(NodeId, Vec2, f64)> {
+    structure
+        .attached_mass
+        .iter()
+        .map(|mass| {
+            let at = vec2(mass.at_m);
+            let (node, position) = node_positions
+                .iter()
+                .min_by(|x, y| (x.1 - at).norm().total_cmp(&(y.1 - at).norm()))
+                .expect("nodes exist");
+            (*node, at - position, mass.mass_kg)
+        })
+        .collect()
+}
+
+/// The plates' own mass and first moment, kg and kg m, element by element
+/// at each element's middle section.
+fn plates_mass_and_first_moment(
+    structure: &Structure,
+    centreline: &Centreline,
+    box_elements: &[BoxElement],
+    density_kg_m3: f64,
+) -> (f64, Vec2) {
+    let mut plates_mass_kg = 0.0;
+    let mut plates_first_moment_kg_m = Vec2::zeros();
+    for element in box_elements {
+        let middle = 0.5 * (element.start_station_m + element.end_station_m);
+        let section = structure.section_at(middle);
+        let m =
+            density_kg_m3 * section.area_m2() * (element.end_station_m - element.start_station_m);
+        plates_mass_kg += m;
+        plates_first_moment_kg_m += centreline.point_at(middle) * m;
+    }
+    (plates_mass_kg, plates_first_moment_kg_m)
+}
+
+/// Each gauge's place in the mesh: its element, where along it, its section
+/// and the fibre it reads.
+fn gauge_probes(
+    structure: &Structure,
+    gauges: &[&Gauge],
+    box_elements: &[BoxElement],
+) -> Vec<GaugeProbe> {
+    gauges
+        .iter()
+        .map(|gauge| {
+            let k = box_elements
+                .iter()
+                .position(|e| gauge.station_m < e.end_station_m - SAME_STATION_M)
+                .unwrap_or(box_elements.len() - 1);
+            let element = box_elements[k];
+            let xi = ((gauge.station_m - element.start_station_m)
+                / (element.end_station_m - element.start_station_m))
+                .clamp(0.0, 1.0);
+            let section = structure.section_at(gauge.station_m);
+            let fibre_m = match gauge.face {
+                Face::Top => 0.5 * section.height_m,
+                Face::Bottom => -0.5 * section.height_m,
+                Face::LeftSide | Face::RightSide => gauge.offset_m,
+            };
+            GaugeProbe {
+                point: gauge.point,
+                element: element.element,
+                xi,
+                section,
+                fibre_m,
+            }
+        })
+        .collect()
 }
 
 fn cumulative_lengths(vertices: &[Vec2]) -> Vec<f64> {

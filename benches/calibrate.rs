@@ -55,7 +55,7 @@ fn main() {
     let study = case_study(
         &case,
         &case.measured.expect("case 1 has measured pressures"),
-        [None; 3],
+        [None, None, None],
     );
     let simulator = StudySimulator::new(&study, &model, Role::Fit);
     let bounds: Vec<(f64, f64)> = simulator

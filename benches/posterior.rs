@@ -167,6 +167,7 @@ fn emulated_eight_parameters() {
                     },
                     weight: 1.0,
                     source: String::new(),
+                    shared: Vec::new(),
                 })
                 .collect(),
         )],

@@ -20,6 +20,21 @@ pub struct Contribution {
     /// Degrees of freedom of the standard uncertainty; `None` is infinite
     /// (a Type B estimate taken as exactly known).
     pub dof: Option<f64>,
+    /// The source whose error this is, where that error is the same in
+    /// every value the source gives (a transducer's calibration, in every
+    /// hold it measured): averaging values does not reduce it, and a
+    /// posterior must treat it as one error (JCGM 100 5.2). `None`: an
+    /// error of this value alone (a hold's scatter, rounding).
+    pub shared_by: Option<String>,
+}
+
+/// A part of a value's error that recurs, the same, in every value its
+/// source gives: the source, and how far the value moves for one standard
+/// uncertainty of it (`c_i u_i`, signed, in the value's unit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedError {
+    pub source: String,
+    pub effect: f64,
 }
 
 impl Contribution {
@@ -30,6 +45,15 @@ impl Contribution {
             standard_uncertainty,
             sensitivity: 1.0,
             dof,
+            shared_by: None,
+        }
+    }
+
+    /// The same source, its error the same in every value `source` gives.
+    pub fn shared_by(self, source: &str) -> Self {
+        Contribution {
+            shared_by: Some(source.to_string()),
+            ..self
         }
     }
 
@@ -95,6 +119,34 @@ impl Budget {
     /// `U = k u_c` for `level`.
     pub fn expanded(&self, level: f64) -> f64 {
         self.coverage_factor(level) * self.combined()
+    }
+
+    /// The errors this value shares with others, one per source: the
+    /// contributions of one source combined in quadrature (independent
+    /// of each other, all the same in every value), with the sign of
+    /// their sensitivity; in the order the sources first appear.
+    pub fn shared_errors(&self) -> Vec<SharedError> {
+        let mut shared: Vec<(String, f64, f64)> = Vec::new();
+        for c in &self.contributions {
+            let Some(source) = &c.shared_by else { continue };
+            let part = c.sensitivity * c.standard_uncertainty;
+            match shared.iter_mut().find(|(s, _, _)| s == source) {
+                Some((_, variance, sign)) => {
+                    *variance += part * part;
+                    if *sign == 0.0 {
+                        *sign = part.signum();
+                    }
+                }
+                None => shared.push((source.clone(), part * part, part.signum())),
+            }
+        }
+        shared
+            .into_iter()
+            .map(|(source, variance, sign)| SharedError {
+                source,
+                effect: sign * variance.sqrt(),
+            })
+            .collect()
     }
 
     /// Each contribution's share of the combined variance, in the order
@@ -189,6 +241,7 @@ mod tests {
                     standard_uncertainty: 0.2,
                     sensitivity: -2.0,
                     dof: None,
+                    shared_by: None,
                 },
             ],
         };
@@ -201,5 +254,33 @@ mod tests {
             contributions: vec![Contribution::direct("b", 0.1, None)],
         };
         assert_eq!(only_type_b.effective_dof(), None);
+    }
+
+    /// A net force of two transducers' pressures: each transducer's
+    /// calibration is shared (with the sign of its sensitivity), its two
+    /// sources in quadrature; the scatter is not.
+    #[test]
+    fn shared_errors_are_one_per_source_with_the_sign_of_its_sensitivity() {
+        let head = |source: &str, u: f64| Contribution {
+            sensitivity: 2.0,
+            ..Contribution::direct(source, u, None).shared_by("head")
+        };
+        let budget = Budget {
+            contributions: vec![
+                Contribution::direct("scatter", 0.5, Some(9.0)),
+                head("curve", 0.3),
+                Contribution {
+                    sensitivity: -1.5,
+                    ..Contribution::direct("accuracy", 0.2, None).shared_by("rod")
+                },
+                head("accuracy", 0.4),
+            ],
+        };
+        let shared = budget.shared_errors();
+        assert_eq!(shared.len(), 2);
+        assert_eq!(shared[0].source, "head");
+        assert!((shared[0].effect - 2.0 * 0.5).abs() < 1e-15);
+        assert_eq!(shared[1].source, "rod");
+        assert!((shared[1].effect + 0.3).abs() < 1e-15);
     }
 }

@@ -117,12 +117,14 @@ mod tests {
                     standard_uncertainty: 0.1,
                     sensitivity: 2.0,
                     dof: None,
+                    shared_by: None,
                 },
                 Contribution {
                     source: "b".into(),
                     standard_uncertainty: rectangular(0.2),
                     sensitivity: -3.0,
                     dof: None,
+                    shared_by: None,
                 },
             ],
         }

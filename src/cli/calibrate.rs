@@ -5,6 +5,7 @@
 
 use std::path::PathBuf;
 
+use acq_analysis::extract::measured::UncertaintyBasis;
 use acq_calib::bo::Acquisition;
 use acq_calib::gp::Kernel;
 use acq_io::error::Result;
@@ -115,8 +116,9 @@ pub struct CalibrateExcavatorArgs {
     pub parallel: Option<usize>,
     /// After the search, sample the posterior of the inputs (4 chains of
     /// 1,000 draws, the twin run at every step) given the measured
-    /// pressures' uncertainty: their `std_of_mean` with --measured, else a
-    /// noise scale the posterior estimates. Writes posterior.csv and
+    /// pressures' uncertainty: with --measured their budget (`u_c`: the
+    /// transducers' certificates and accuracy with the readings' scatter;
+    /// see --measurement-error), else a noise scale the posterior estimates. Writes posterior.csv and
     /// predictive.csv, and adds `posterior` and `predictive` to summary.json.
     #[arg(long)]
     pub posterior: bool,
@@ -129,6 +131,28 @@ pub struct CalibrateExcavatorArgs {
     /// is sampled once more, four times as long.
     #[arg(long, default_value_t = 1000, requires = "posterior")]
     pub posterior_draws: usize,
+    /// Which uncertainty of the measured pressures the study takes:
+    /// `budget` (the file's `u_c`, where the rig states the transducers'
+    /// accuracy or certificates; else the scatter) or `scatter` (the
+    /// readings' scatter in the hold alone).
+    #[arg(long, value_enum, default_value = "budget", requires = "measured")]
+    pub measurement_error: MeasurementErrorArg,
+}
+
+/// `--measurement-error`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum MeasurementErrorArg {
+    Budget,
+    Scatter,
+}
+
+impl From<MeasurementErrorArg> for UncertaintyBasis {
+    fn from(arg: MeasurementErrorArg) -> Self {
+        match arg {
+            MeasurementErrorArg::Budget => UncertaintyBasis::Budget,
+            MeasurementErrorArg::Scatter => UncertaintyBasis::ReadingsScatter,
+        }
+    }
 }
 
 /// `--discrepancy`.
@@ -251,6 +275,7 @@ impl From<CalibrateExcavatorArgs> for CalibrateExcavatorOptions {
             measured: args.measured,
             window: args.window,
             load_quantity: args.load_quantity,
+            measurement_error: args.measurement_error.into(),
             geometry: args.geometry,
             out: args.out,
             training_runs: args.training,

@@ -26,6 +26,7 @@ use acq_analysis::loss::curve::{
 };
 use acq_analysis::loss::metrics::{matched, points_of, residuals_by_part, CurveMetric};
 use acq_calib::evaluation::{Parameter, Simulator};
+pub use acq_metrology::budget::SharedError;
 use serde_json::{json, Map, Value};
 
 /// A model a study calibrates: named inputs in, the requested scalar
@@ -142,6 +143,11 @@ pub enum Measured {
     },
 }
 
+/// The old meaning of `"std_of_mean"`: the readings' scatter in the hold
+/// only (std over the square root of the effective sample count), each
+/// hold's error independent of every other's.
+pub const SCATTER_OF_MEAN: &str = "scatter_of_mean";
+
 /// One observation of a case.
 #[derive(Clone, Debug)]
 pub struct Observation {
@@ -154,6 +160,11 @@ pub struct Observation {
     pub weight: f64,
     /// Where the measured value came from, for the report.
     pub source: String,
+    /// The parts of its uncertainty that recur in other observations
+    /// (a transducer's calibration, the same in every hold it measured;
+    /// part of the stated uncertainty, not added to it). A posterior takes
+    /// each source's as one error over every observation it is in.
+    pub shared: Vec<SharedError>,
 }
 
 /// One load case.
@@ -208,6 +219,7 @@ impl Case {
                     },
                     weight: 1.0,
                     source: "prior".into(),
+                    shared: Vec::new(),
                 })
             })
             .collect();

@@ -89,6 +89,7 @@ pub fn correlated_curve_hits(metric: CurveMetric, points: u32, replicates: u64) 
                     },
                     weight: 1.0,
                     source: String::new(),
+                    shared: Vec::new(),
                 }],
             )],
             named_cases: false,

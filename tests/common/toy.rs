@@ -28,6 +28,7 @@ pub fn toy_study(parameters: &[(&str, f64, f64)], measured: &[(f64, f64)], sd: f
                         },
                         weight: 1.0,
                         source: String::new(),
+                        shared: Vec::new(),
                     }],
                 )
             })

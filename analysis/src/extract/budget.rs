@@ -3,6 +3,11 @@
 //! value, the data sheet's accuracy limit and the resolution, all Type B.
 //! A sensor without a record has an empty budget: its only uncertainty
 //! is then the readings' scatter in a hold (Type A, `extract`).
+//!
+//! The certificate's and the accuracy class's errors are the sensor's:
+//! the same in every value it gives (every hold, every session), so they
+//! are marked shared by the sensor's name and a posterior takes each
+//! sensor's as one error. Resolution and scatter are each value's own.
 
 use acq_drivers::rig::{Accuracy, Sensor};
 use acq_metrology::budget::{rectangular, resolution, Budget, Contribution};
@@ -37,11 +42,14 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
     let reading = sensor.conversion.invert(value);
     if let Some(curve) = &record.curve {
         let at = curve.reading_at(value);
-        contributions.push(Contribution::direct(
-            CALIBRATION_CURVE,
-            curve.standard_uncertainty_at(at),
-            curve.dof,
-        ));
+        contributions.push(
+            Contribution::direct(
+                CALIBRATION_CURVE,
+                curve.standard_uncertainty_at(at),
+                curve.dof,
+            )
+            .shared_by(&sensor.name),
+        );
     }
     if let Some(accuracy) = record.accuracy {
         let half_width = match (accuracy, sensor.range) {
@@ -50,11 +58,10 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
             (Accuracy::PercentOfFullScale(_), None) => 0.0,
             (Accuracy::PercentOfReading(pct), _) => pct / 100.0 * value.abs(),
         };
-        contributions.push(Contribution::direct(
-            ACCURACY_CLASS,
-            rectangular(half_width),
-            None,
-        ));
+        contributions.push(
+            Contribution::direct(ACCURACY_CLASS, rectangular(half_width), None)
+                .shared_by(&sensor.name),
+        );
     }
     if let Some(step) = record.resolution {
         contributions.push(Contribution::direct(RESOLUTION, resolution(step), None));

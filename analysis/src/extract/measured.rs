@@ -2,9 +2,9 @@
 //! reads. One CSV row per window and quantity:
 //!
 //! ```text
-//! window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,u_c,k,U95,flags,note
-//! hold1,4.5,11.5,bucket_head_pressure,bar,116.893,0.301,700,700,116.871,116.915,1.1557,1.96,2.2651,,
-//! hold1,4.5,11.5,sg03,MPa,17.83,0.15,700,700,17.82,17.84,0.0057,1.963,0.0112,pair:sg04,"differs from sg04 (75.46 MPa) by 76 %"
+//! window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,u_c,k,U95,shared,flags,note
+//! hold1,4.5,11.5,bucket_head_pressure,bar,116.893,0.301,700,700,116.871,116.915,1.1557,1.96,2.2651,bucket_head_pressure=1.1547,,
+//! hold1,4.5,11.5,sg03,MPa,17.83,0.15,700,700,17.82,17.84,0.0057,1.963,0.0112,,pair:sg04,"differs from sg04 (75.46 MPa) by 76 %"
 //! ```
 //!
 //! - `start_s`, `end_s`: seconds from the session start (reference clock).
@@ -20,8 +20,13 @@
 //!   `n_eff - 1` degrees of freedom) with the sensor's certificate,
 //!   accuracy and resolution at the mean (Type B, [`crate::extract::budget`]); a
 //!   derived quantity's from its sensors' by propagation. `k` is Student's
-//!   t for 95 % at the effective degrees of freedom, `U95 = k u_c`. Files
-//!   written before these columns are read as before, without them.
+//!   t for 95 % at the effective degrees of freedom, `U95 = k u_c`.
+//! - `shared`: the parts of `u_c` that are the same in every hold recorded
+//!   with the same sensor (its certificate and accuracy class: averaging
+//!   holds does not reduce them), `;`-separated `sensor=effect`, the effect
+//!   `c u` signed and in the value's unit (a net force's rod pressure
+//!   counts negative). A posterior treats each sensor's as one error.
+//!   Files written before these columns are read as before, without them.
 //! - `flags`: empty when the value is fit to use, else `;`-separated codes:
 //!   `no_samples`, `few_samples` (n_eff < 2), `stuck`, `saturated`, `noisy`,
 //!   `pair:<partner>`. `note` says why in words.
@@ -34,17 +39,35 @@ use acq_io::output::{csv_field, Output};
 use acq_io::output::{refuse_mf4_table, TableFormat};
 use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
 
-use acq_metrology::budget::{Budget, LEVEL_95};
+use acq_metrology::budget::{Budget, Contribution, SharedError, LEVEL_95};
 
 use crate::extract::stats::WindowStats;
 
 /// The header of the measured-values file.
 pub const MEASURED_HEADER: &str =
+    "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,u_c,k,U95,shared,flags,note";
+
+/// The header of files written before the shared errors' column.
+const MEASURED_HEADER_WITHOUT_SHARED: &str =
     "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,u_c,k,U95,flags,note";
 
 /// The header of files written before the uncertainty budget's columns.
 const MEASURED_HEADER_WITHOUT_BUDGET: &str =
     "window,start_s,end_s,quantity,unit,mean,std,n,n_eff,ci95_low,ci95_high,flags,note";
+
+/// Which of a measured value's uncertainty a calibration takes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UncertaintyBasis {
+    /// Its budget, `u_c`: the readings' scatter with its sensors'
+    /// certificates, accuracy and resolution, each sensor's part shared
+    /// by every value it gave.
+    #[default]
+    Budget,
+    /// The readings' scatter in the hold alone (the standard error of the
+    /// mean), each value independent: what calibrations took before
+    /// budgets, and what a value without one has anyway.
+    ReadingsScatter,
+}
 
 /// One quantity in one window.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -57,8 +80,9 @@ pub struct MeasuredValue {
     pub stats: WindowStats,
     pub flags: Vec<String>,
     pub note: String,
-    /// What the value's uncertainty is made of; empty for a value read
-    /// from a file (which keeps only `u_c` and `k`).
+    /// What the value's uncertainty is made of: every source for a value
+    /// just extracted; for one read from a file, its shared sources only
+    /// (the file keeps `u_c`, `k` and those).
     #[serde(skip)]
     pub budget: Budget,
     /// The combined standard uncertainty and the coverage factor for
@@ -85,6 +109,25 @@ impl MeasuredValue {
     /// `U95 = k u_c`.
     pub fn expanded_95(&self) -> Option<f64> {
         self.u_c.zip(self.k).map(|(u, k)| u * k)
+    }
+
+    /// The value's standard uncertainty as `basis` takes it, with the
+    /// parts of it that recur in other values (its sensors'); `None`
+    /// without a spread (fewer than 2 samples and no budget). The budget
+    /// falls back to the readings' scatter where the file has none.
+    pub fn standard_uncertainty(&self, basis: UncertaintyBasis) -> Option<(f64, Vec<SharedError>)> {
+        let scatter = || {
+            self.stats
+                .std_of_mean()
+                .or(self.stats.std)
+                .map(|u| (u, Vec::new()))
+        };
+        match (basis, self.u_c) {
+            (UncertaintyBasis::Budget, Some(u_c)) if u_c > 0.0 && u_c.is_finite() => {
+                Some((u_c, self.budget.shared_errors()))
+            }
+            _ => scatter(),
+        }
     }
 
     /// Fit to be used: a mean and no flag.
@@ -142,6 +185,8 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
         text.push(',');
         number(&mut text, v.expanded_95());
         text.push(',');
+        text.push_str(&csv_field(&shared_text(&v.budget.shared_errors())));
+        text.push(',');
         text.push_str(&csv_field(&v.flags.join(";")));
         text.push(',');
         text.push_str(&csv_field(&v.note));
@@ -172,6 +217,7 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
         float("u_c"),
         float("k"),
         float("U95"),
+        text("shared"),
         text("flags"),
         text("note"),
     ];
@@ -198,22 +244,68 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
         table.float(11, finite(v.u_c));
         table.float(12, finite(v.k));
         table.float(13, finite(v.expanded_95()));
-        table.text(14, Some(&v.flags.join(";")));
-        table.text(15, Some(&v.note));
+        table.text(14, Some(&shared_text(&v.budget.shared_errors())));
+        table.text(15, Some(&v.flags.join(";")));
+        table.text(16, Some(&v.note));
         table.end_row()?;
     }
     table.finish().map(|_| ())
 }
 
+/// The `shared` column: `source=effect;...`.
+fn shared_text(shared: &[SharedError]) -> String {
+    let mut buffer = ryu::Buffer::new();
+    shared
+        .iter()
+        .filter(|s| s.effect.is_finite())
+        .map(|s| format!("{}={}", s.source, buffer.format(s.effect)))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// The budget a `shared` column gives: one shared contribution per source
+/// (sensitivity 1, its sign on the uncertainty's side kept as the
+/// sensitivity's); the part of the text that is not a `source=number`
+/// when it is not.
+fn shared_budget(text: &str) -> std::result::Result<Budget, String> {
+    let contributions = text
+        .split(';')
+        .filter(|part| !part.trim().is_empty())
+        .map(|part| {
+            let (source, effect) = part.split_once('=').ok_or_else(|| part.to_string())?;
+            let effect: f64 = effect
+                .trim()
+                .parse()
+                .ok()
+                .filter(|e: &f64| e.is_finite())
+                .ok_or_else(|| part.to_string())?;
+            let source = source.trim();
+            if source.is_empty() {
+                return Err(part.to_string());
+            }
+            Ok(Contribution {
+                sensitivity: if effect < 0.0 { -1.0 } else { 1.0 },
+                ..Contribution::direct(source, effect.abs(), None).shared_by(source)
+            })
+        })
+        .collect::<std::result::Result<Vec<_>, String>>()?;
+    Ok(Budget { contributions })
+}
+
 /// Reads a measured-values file; errors name the file and line.
 pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
     let columns: Vec<&str> = MEASURED_HEADER.split(',').collect();
+    let without_shared: Vec<&str> = MEASURED_HEADER_WITHOUT_SHARED.split(',').collect();
     let older: Vec<&str> = MEASURED_HEADER_WITHOUT_BUDGET.split(',').collect();
-    let (which, records) = read_csv_records_of_any(path, &[&columns, &older])?;
+    let (which, records) = read_csv_records_of_any(path, &[&columns, &without_shared, &older])?;
     // Where the flags and the note are: after the budget's columns, or
     // where they were before them.
-    let has_budget = which == 0;
-    let (flags_at, note_at) = if has_budget { (14, 15) } else { (11, 12) };
+    let (has_budget, has_shared) = (which <= 1, which == 0);
+    let (flags_at, note_at) = match which {
+        0 => (15, 16),
+        1 => (14, 15),
+        _ => (11, 12),
+    };
     let mut values: Vec<MeasuredValue> = Vec::new();
     // (window, quantity) -> the line it was first given on.
     let mut seen: std::collections::HashMap<(String, String), u64> = Default::default();
@@ -273,7 +365,13 @@ pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
                 .map(str::to_string)
                 .collect(),
             note: record[note_at].to_string(),
-            budget: Budget::default(),
+            budget: if has_shared {
+                shared_budget(&record[14]).map_err(|text| {
+                    bad("shared errors as sensor=effect;... (a number each)", &text)
+                })?
+            } else {
+                Budget::default()
+            },
             u_c: if has_budget {
                 optional(11, "u_c (a number or empty)")?
             } else {
@@ -325,7 +423,12 @@ mod tests {
                         0.0059,
                         Some(649.5),
                     ),
-                    acq_metrology::budget::Contribution::direct("accuracy_class", 0.1, None),
+                    acq_metrology::budget::Contribution::direct("accuracy_class", 0.1, None)
+                        .shared_by("sg03"),
+                    Contribution {
+                        sensitivity: -2.0,
+                        ..Contribution::direct("calibration_curve", 0.02, None).shared_by("sg04")
+                    },
                 ],
             }),
             MeasuredValue {
@@ -357,6 +460,13 @@ mod tests {
         assert_eq!((back[0].u_c, back[0].k), (values[0].u_c, values[0].k));
         assert_eq!(back[0].expanded_95(), values[0].expanded_95());
         assert_eq!((back[1].u_c, back[1].k), (None, None));
+        // The shared parts come back, each sensor's with its sign.
+        assert_eq!(
+            back[0].budget.shared_errors(),
+            values[0].budget.shared_errors()
+        );
+        assert_eq!(back[0].budget.shared_errors()[1].effect, -0.04);
+        assert!(back[1].budget.shared_errors().is_empty());
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(!text.contains("NaN"));
     }
@@ -402,11 +512,21 @@ mod tests {
         let path = dir.path().join("m.csv");
         std::fs::write(
             &path,
-            format!("{MEASURED_HEADER}\nhold1,1,2,p,bar,1.0,0.1,10,10,0.9,1.1,0.03,2.26,0.07,,\nhold1,1,2,q,bar,abc,0.1,10,10,,,,,,,\n"),
+            format!("{MEASURED_HEADER}\nhold1,1,2,p,bar,1.0,0.1,10,10,0.9,1.1,0.03,2.26,0.07,p=0.02,,\nhold1,1,2,q,bar,abc,0.1,10,10,,,,,,,,\n"),
         )
         .unwrap();
         let error = read_measured(&path).unwrap_err().to_string();
         assert!(error.contains("m.csv:3"), "{error}");
         assert!(error.contains("'abc'"), "{error}");
+        std::fs::write(
+            &path,
+            format!("{MEASURED_HEADER}\nhold1,1,2,p,bar,1.0,0.1,10,10,0.9,1.1,0.03,2.26,0.07,p=a lot,,\n"),
+        )
+        .unwrap();
+        let error = read_measured(&path).unwrap_err().to_string();
+        assert!(
+            error.contains("m.csv:2") && error.contains("'p=a lot'"),
+            "{error}"
+        );
     }
 }

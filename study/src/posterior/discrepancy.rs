@@ -28,6 +28,7 @@ use std::f64::consts::PI;
 use nalgebra::{DMatrix, DVector};
 
 use super::scale_grid::ScaleGrid;
+use super::shared_errors::ErrorCovariance;
 
 /// The half-Cauchy scale of the discrepancy's standard deviation,
 /// relative to the output's size, and the range its integral covers (below
@@ -52,6 +53,9 @@ pub struct OutputDiscrepancy {
     pub tau_range: [f64; 2],
     pub tau_grid: ScaleGrid,
     pub form: Form,
+    /// Its observations' loadings on the errors they share (a row each, a
+    /// column per source; no column when they share none).
+    pub loadings: DMatrix<f64>,
 }
 
 /// How the discrepancy varies over the cases.
@@ -79,9 +83,19 @@ pub struct GpDiscrepancy {
     fixed: Option<(DVector<f64>, Vec<Whitened>)>,
 }
 
-/// `diag(v)^-1/2 K diag(v)^-1/2 = Q diag(lambda) Q'`, kept as `lambda` and
-/// `Q' diag(v)^-1/2`: then for every `tau` the density under
-/// `diag(v) + tau^2 K` is a sum over the eigenvalues, with no
+/// One output's observations as its density reads them: their residuals,
+/// their own error variances, and the covariance of their errors (the
+/// variances with the errors they share).
+pub(super) struct Group {
+    residuals: DVector<f64>,
+    variances: DVector<f64>,
+    errors: ErrorCovariance,
+}
+
+/// `W K W' = Q diag(lambda) Q'` with `W` the measurement errors' whitening
+/// (`diag(v)^-1/2`, or `L^-1` of `C = diag(v) + S S' = L L'` when they
+/// share errors), kept as `lambda` and `Q' W`: then for every `tau` the
+/// density under `C + tau^2 K` is a sum over the eigenvalues, with no
 /// factorisation per `tau`.
 #[derive(Clone, Debug)]
 struct Whitened {
@@ -91,18 +105,29 @@ struct Whitened {
 }
 
 impl Whitened {
-    fn new(correlation: &DMatrix<f64>, variances: &DVector<f64>) -> Self {
-        let scale = variances.map(|v| 1.0 / v.sqrt());
-        let scaled = DMatrix::from_fn(correlation.nrows(), correlation.ncols(), |i, j| {
-            scale[i] * correlation[(i, j)] * scale[j]
-        });
+    fn new(correlation: &DMatrix<f64>, errors: &ErrorCovariance) -> Self {
+        let (scaled, whitening) = match errors {
+            ErrorCovariance::Diagonal(variances) => {
+                let scale = variances.map(|v| 1.0 / v.sqrt());
+                let scaled = DMatrix::from_fn(correlation.nrows(), correlation.ncols(), |i, j| {
+                    scale[i] * correlation[(i, j)] * scale[j]
+                });
+                (scaled, DMatrix::from_diagonal(&scale))
+            }
+            ErrorCovariance::Full { .. } => {
+                let whitening = errors.inverse_factor();
+                let scaled = &whitening * correlation * whitening.transpose();
+                // Symmetric up to rounding; the eigen solver reads one half.
+                (0.5 * (&scaled + scaled.transpose()), whitening)
+            }
+        };
         let eigen = scaled.symmetric_eigen();
         Whitened {
             // Rounding can leave a zero eigenvalue of a near-singular K
             // slightly negative; K is positive semi-definite.
             eigenvalues: eigen.eigenvalues.map(|l| l.max(0.0)),
-            rotation: eigen.eigenvectors.transpose() * DMatrix::from_diagonal(&scale),
-            log_det_variances: variances.iter().map(|v| v.ln()).sum(),
+            rotation: eigen.eigenvectors.transpose() * whitening,
+            log_det_variances: errors.log_det(),
         }
     }
 
@@ -207,32 +232,32 @@ impl GpDiscrepancy {
     }
 
     /// Keeps the whitened forms at `variances` (the observations' stated
-    /// ones), for every evaluation that has exactly these.
-    pub fn fix_variances(&mut self, variances: Vec<f64>) {
+    /// ones) with the errors they share (`loadings`), for every
+    /// evaluation that has exactly these.
+    pub fn fix_variances(&mut self, variances: Vec<f64>, loadings: &DMatrix<f64>) {
         let variances = DVector::from_vec(variances);
+        let Some(errors) = ErrorCovariance::new(variances.clone(), loadings) else {
+            return;
+        };
         let whitened = self
             .correlations
             .iter()
-            .map(|k| Whitened::new(k, &variances))
+            .map(|k| Whitened::new(k, &errors))
             .collect();
         self.fixed = Some((variances, whitened));
     }
 
     /// The log likelihood of one output's residuals, tau and length
     /// integrated out.
-    fn log_density(
-        &self,
-        tau_grid: &ScaleGrid,
-        (residuals, variances): &(DVector<f64>, DVector<f64>),
-    ) -> f64 {
+    fn log_density(&self, tau_grid: &ScaleGrid, group: &Group) -> f64 {
         let integrate =
-            |whitened: &Whitened| tau_grid.log_integral(whitened.log_density(residuals));
+            |whitened: &Whitened| tau_grid.log_integral(whitened.log_density(&group.residuals));
         match &self.fixed {
-            Some((fixed, whitened)) if fixed == variances => self
+            Some((fixed, whitened)) if *fixed == group.variances => self
                 .length_grid
                 .log_integral_by_node(|k| integrate(&whitened[k])),
             _ => self.length_grid.log_integral_by_node(|k| {
-                integrate(&Whitened::new(&self.correlations[k], variances))
+                integrate(&Whitened::new(&self.correlations[k], &group.errors))
             }),
         }
     }
@@ -264,7 +289,10 @@ impl OutputDiscrepancy {
             Form::Constant => self
                 .tau_grid
                 .log_integral(|tau| self.constant_log_density(residuals, variances, tau)),
-            Form::Gp(gp) => gp.log_density(&self.tau_grid, &self.group(residuals, variances)),
+            Form::Gp(gp) => match self.group(residuals, variances) {
+                Some(group) => gp.log_density(&self.tau_grid, &group),
+                None => f64::NEG_INFINITY,
+            },
         }
     }
 
@@ -282,11 +310,8 @@ impl OutputDiscrepancy {
                     |tau| self.constant_log_density(residuals, variances, tau),
                     rng,
                 );
-                let (mut sum_r, mut precision) = (0.0, 1.0 / (tau * tau));
-                for &i in &self.observations {
-                    sum_r += residuals[i] / variances[i];
-                    precision += 1.0 / variances[i];
-                }
+                let (_, sum_r, precision, _) = self.constant_terms(residuals, variances);
+                let precision = precision + 1.0 / (tau * tau);
                 DrawnDiscrepancy {
                     tau,
                     length: None,
@@ -294,17 +319,27 @@ impl OutputDiscrepancy {
                 }
             }
             Form::Gp(gp) => {
-                let group = self.group(residuals, variances);
+                let Some(group) = self.group(residuals, variances) else {
+                    return DrawnDiscrepancy {
+                        tau: f64::NAN,
+                        length: None,
+                        at_sites: vec![(f64::NAN, f64::NAN); gp.sites.len()],
+                    };
+                };
                 let length = gp.length_grid.draw(
                     |length| {
-                        let whitened = Whitened::new(&self.correlation_at(gp, length), &group.1);
-                        self.tau_grid.log_integral(whitened.log_density(&group.0))
+                        let whitened =
+                            Whitened::new(&self.correlation_at(gp, length), &group.errors);
+                        self.tau_grid
+                            .log_integral(whitened.log_density(&group.residuals))
                     },
                     rng,
                 );
                 let correlation = self.correlation_at(gp, length);
-                let whitened = Whitened::new(&correlation, &group.1);
-                let tau = self.tau_grid.draw(whitened.log_density(&group.0), rng);
+                let whitened = Whitened::new(&correlation, &group.errors);
+                let tau = self
+                    .tau_grid
+                    .draw(whitened.log_density(&group.residuals), rng);
                 DrawnDiscrepancy {
                     tau,
                     length: Some(length),
@@ -314,7 +349,36 @@ impl OutputDiscrepancy {
         }
     }
 
-    /// `constant`: the density of the residuals under `diag(v) + tau^2 1 1'`.
+    /// `r' C^-1 r`, `1' C^-1 r`, `1' C^-1 1` and `ln det C` of its
+    /// observations, `C` their errors' covariance (`diag(v)` when they
+    /// share none); NaN where `C` is not positive definite.
+    fn constant_terms(&self, residuals: &[f64], variances: &[f64]) -> (f64, f64, f64, f64) {
+        if self.loadings.ncols() == 0 {
+            let (mut r2, mut sum_r, mut precision, mut log_det) = (0.0, 0.0, 0.0, 0.0);
+            for &i in &self.observations {
+                let (r, v) = (residuals[i], variances[i]);
+                r2 += r * r / v;
+                sum_r += r / v;
+                precision += 1.0 / v;
+                log_det += v.ln();
+            }
+            return (r2, sum_r, precision, log_det);
+        }
+        let Some(group) = self.group(residuals, variances) else {
+            return (f64::NAN, f64::NAN, f64::NAN, f64::NAN);
+        };
+        let ones = DVector::from_element(self.observations.len(), 1.0);
+        let solved = group.errors.solve(&group.residuals);
+        (
+            group.residuals.dot(&solved),
+            ones.dot(&solved),
+            ones.dot(&group.errors.solve(&ones)),
+            group.errors.log_det(),
+        )
+    }
+
+    /// `constant`: the density of the residuals under `C + tau^2 1 1'`,
+    /// `C` the measurement errors' covariance (Sherman-Morrison).
     pub(super) fn constant_log_density(
         &self,
         residuals: &[f64],
@@ -322,14 +386,7 @@ impl OutputDiscrepancy {
         tau: f64,
     ) -> f64 {
         let tau2 = tau * tau;
-        let (mut r2, mut sum_r, mut precision, mut log_det) = (0.0, 0.0, 0.0, 0.0);
-        for &i in &self.observations {
-            let (r, v) = (residuals[i], variances[i]);
-            r2 += r * r / v;
-            sum_r += r / v;
-            precision += 1.0 / v;
-            log_det += v.ln();
-        }
+        let (r2, sum_r, precision, log_det) = self.constant_terms(residuals, variances);
         let shrink = 1.0 + tau2 * precision;
         let quadratic = r2 - tau2 * sum_r * sum_r / shrink;
         -0.5 * (quadratic
@@ -338,18 +395,16 @@ impl OutputDiscrepancy {
             + self.observations.len() as f64 * (2.0 * PI).ln())
     }
 
-    /// Its observations' residuals and variances.
-    fn group(&self, residuals: &[f64], variances: &[f64]) -> (DVector<f64>, DVector<f64>) {
-        (
-            DVector::from_iterator(
-                self.observations.len(),
-                self.observations.iter().map(|&i| residuals[i]),
-            ),
-            DVector::from_iterator(
-                self.observations.len(),
-                self.observations.iter().map(|&i| variances[i]),
-            ),
-        )
+    /// Its observations' residuals, variances and errors' covariance;
+    /// `None` when that is not positive definite.
+    fn group(&self, residuals: &[f64], variances: &[f64]) -> Option<Group> {
+        let n = self.observations.len();
+        let variances = DVector::from_iterator(n, self.observations.iter().map(|&i| variances[i]));
+        Some(Group {
+            residuals: DVector::from_iterator(n, self.observations.iter().map(|&i| residuals[i])),
+            errors: ErrorCovariance::new(variances.clone(), &self.loadings)?,
+            variances,
+        })
     }
 
     fn correlation_at(&self, gp: &GpDiscrepancy, length: f64) -> DMatrix<f64> {
@@ -378,13 +433,14 @@ fn correlation_matrix(rows: &[&[f64]], columns: &[&[f64]], length: f64) -> DMatr
 /// residuals: `tau^2 k' C^-1 r` and `tau^2 - tau^4 k' C^-1 k`.
 fn gp_conditional(
     gp: &GpDiscrepancy,
-    (residuals, variances): &(DVector<f64>, DVector<f64>),
+    group: &Group,
     correlation: &DMatrix<f64>,
     tau: f64,
     length: f64,
 ) -> Vec<(f64, f64)> {
     let tau2 = tau * tau;
-    let covariance = correlation * tau2 + DMatrix::from_diagonal(variances);
+    let residuals = &group.residuals;
+    let covariance = correlation * tau2 + group.errors.matrix();
     let Some(cholesky) = covariance.cholesky() else {
         return vec![(0.0, tau2); gp.sites.len()];
     };
@@ -424,6 +480,16 @@ mod tests {
             tau_range: [0.01, 10.0],
             tau_grid: ScaleGrid::new([0.01, 10.0], 40, |t| 1.0 / (1.0 + t * t)),
             form: Form::Gp(Box::new(gp)),
+            loadings: DMatrix::zeros(2, 0),
+        }
+    }
+
+    fn group_of(residuals: Vec<f64>, variances: Vec<f64>, loadings: &DMatrix<f64>) -> Group {
+        let variances = DVector::from_vec(variances);
+        Group {
+            residuals: DVector::from_vec(residuals),
+            errors: ErrorCovariance::new(variances.clone(), loadings).unwrap(),
+            variances,
         }
     }
 
@@ -444,16 +510,12 @@ mod tests {
         let quadratic = (c * r0 * r0 - 2.0 * b * r0 * r1 + a * r1 * r1) / det;
         let expected = -0.5 * (quadratic + det.ln() + 2.0 * (2.0 * PI).ln());
         let correlation = output.correlation_at(gp, length);
-        let (residuals, variances) = (
-            DVector::from_vec(vec![r0, r1]),
-            DVector::from_vec(vec![v0, v1]),
-        );
-        let got = Whitened::new(&correlation, &variances).log_density(&residuals)(tau);
+        let group = group_of(vec![r0, r1], vec![v0, v1], &DMatrix::zeros(2, 0));
+        let got = Whitened::new(&correlation, &group.errors).log_density(&group.residuals)(tau);
         assert!((got - expected).abs() < 1e-12, "{got} {expected}");
         // The integral by the kept forms equals the one computed afresh.
         let mut fixed = gp.clone();
-        fixed.fix_variances(vec![v0, v1]);
-        let group = (residuals, variances);
+        fixed.fix_variances(vec![v0, v1], &DMatrix::zeros(2, 0));
         let (kept, afresh) = (
             fixed.log_density(&output.tau_grid, &group),
             gp.log_density(&output.tau_grid, &group),
@@ -474,10 +536,7 @@ mod tests {
         let Form::Gp(gp) = &output.form else {
             unreachable!()
         };
-        let group = (
-            DVector::from_vec(vec![0.4, 0.6]),
-            DVector::from_vec(vec![1e-10, 1e-10]),
-        );
+        let group = group_of(vec![0.4, 0.6], vec![1e-10, 1e-10], &DMatrix::zeros(2, 0));
         let (tau, length) = (1.0, 0.005);
         let correlation = output.correlation_at(gp, length);
         let at = gp_conditional(gp, &group, &correlation, tau, length);
@@ -489,10 +548,7 @@ mod tests {
         );
 
         // A long length: the constant discrepancy, Sherman-Morrison's form.
-        let group = (
-            DVector::from_vec(vec![0.4, 0.6]),
-            DVector::from_vec(vec![0.01, 0.04]),
-        );
+        let group = group_of(vec![0.4, 0.6], vec![0.01, 0.04], &DMatrix::zeros(2, 0));
         let length = 1e4;
         let correlation = output.correlation_at(gp, length);
         let at = gp_conditional(gp, &group, &correlation, tau, length);
@@ -510,5 +566,39 @@ mod tests {
         ];
         let error = GpDiscrepancy::new(sites, vec![0, 1]).unwrap_err();
         assert!(error.contains("discrepancy = \"constant\""), "{error}");
+    }
+
+    /// With a shared error the GP's whitened density and the constant's
+    /// Sherman-Morrison form are the normal density under
+    /// `diag(v) + s s' + tau^2 K`, written out for two observations.
+    #[test]
+    fn a_shared_error_adds_its_covariance_to_both_discrepancies() {
+        let (r0, r1, v0, v1, s0, s1): (f64, f64, f64, f64, f64, f64) =
+            (-0.2, 0.5, 0.01, 0.04, 0.3, -0.2);
+        let (tau, length): (f64, f64) = (0.4, 0.5);
+        let loadings = DMatrix::from_row_slice(2, 1, &[s0, s1]);
+        let density = |rho: f64| {
+            let (a, b, c) = (
+                v0 + s0 * s0 + tau * tau,
+                s0 * s1 + rho * tau * tau,
+                v1 + s1 * s1 + tau * tau,
+            );
+            let det = a * c - b * b;
+            let quadratic = (c * r0 * r0 - 2.0 * b * r0 * r1 + a * r1 * r1) / det;
+            -0.5 * (quadratic + det.ln() + 2.0 * (2.0 * PI).ln())
+        };
+        let mut output = gp_output(&[0.0, 2.0], vec![0, 1]);
+        output.loadings = loadings.clone();
+        let Form::Gp(gp) = &output.form else {
+            unreachable!()
+        };
+        let group = group_of(vec![r0, r1], vec![v0, v1], &loadings);
+        let whitened = Whitened::new(&output.correlation_at(gp, length), &group.errors);
+        let got = whitened.log_density(&group.residuals)(tau);
+        let rho = (-0.5 / (length * length)).exp();
+        assert!((got - density(rho)).abs() < 1e-12, "{got} {}", density(rho));
+        output.form = Form::Constant;
+        let got = output.constant_log_density(&[r0, r1], &[v0, v1], tau);
+        assert!((got - density(1.0)).abs() < 1e-12, "{got} {}", density(1.0));
     }
 }

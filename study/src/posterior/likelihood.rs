@@ -34,16 +34,18 @@ use acq_analysis::loss::curve::{test_scatter_by_part, CurveMapeOptions};
 use acq_analysis::loss::metrics::{measured_scatter_by_part, points_of, CurveMetric};
 use acq_calib::evaluation::Scale;
 use acq_calib::mcmc::Support;
+use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::super::study::{Measured, Role, Study};
+use super::super::study::{Measured, Observation, Role, Study};
 use super::discrepancy::{
     DrawnDiscrepancy, Form, GpDiscrepancy, OutputDiscrepancy, DISCREPANCY_RANGE, DISCREPANCY_SCALE,
     LENGTH_RANGE,
 };
 use super::scale_grid::{log_sum_exp, ScaleGrid};
 use super::settings::Discrepancy;
+use super::shared_errors::{loadings_of, ErrorCovariance, LEAST_OWN_SHARE};
 
 /// The lower and upper relative size of the measurement noise when a study
 /// states no uncertainty, %.
@@ -67,6 +69,14 @@ pub struct StudyPosterior {
     pub outputs: Vec<OutputDiscrepancy>,
     /// The measured curves, each read as its parts.
     pub curves: Vec<CurveParts>,
+    /// The sources of errors observations share (a transducer each).
+    pub shared_sources: Vec<String>,
+    /// The scalar observations outside every discrepancy's output, and
+    /// their loadings on the errors they share ([`shared_errors`]).
+    ///
+    /// [`shared_errors`]: super::shared_errors
+    ungrouped: Vec<usize>,
+    ungrouped_loadings: DMatrix<f64>,
     /// The midpoint rule of the noise's integral.
     noise_grid: ScaleGrid,
 }
@@ -100,6 +110,10 @@ pub struct FitObservation {
     pub uncertainty: Option<f64>,
     /// The curve (index into [`StudyPosterior::curves`]) this is a part of.
     pub curve: Option<usize>,
+    /// The errors it shares with other observations: `(source, effect)`,
+    /// the source an index into [`StudyPosterior::shared_sources`], the
+    /// effect `c u` (signed, part of `uncertainty`).
+    pub shared: Vec<(usize, f64)>,
 }
 
 /// A measured curve as the likelihood reads it: the signed errors (%) of
@@ -153,181 +167,52 @@ impl StudyPosterior {
         discrepancy: Discrepancy,
         curve_parts: usize,
     ) -> Result<Self, String> {
-        let coordinates: Vec<Coordinate> = study
-            .parameters
-            .iter()
-            .map(|p| {
-                let search = &p.search;
-                Coordinate {
-                    name: search.name.clone(),
-                    support: Support::Interval {
-                        lower: search.lower,
-                        upper: search.upper,
-                    },
-                    log_uniform: search.scale == Scale::Log,
-                    normal: p.prior.map(|prior| (prior.value, prior.uncertainty)),
-                }
-            })
-            .collect();
-        let mut observations = Vec::new();
-        let mut curves: Vec<CurveParts> = Vec::new();
-        let fit_observations = study.observations(Role::Fit);
-        let observed = fit_observations.len();
-        for (output_index, (case, observation)) in fit_observations.into_iter().enumerate() {
-            if case.priors {
-                continue;
-            }
-            match &observation.measured {
-                Measured::Scalar { value, uncertainty } => {
-                    if uncertainty.is_none() && *value == 0.0 {
-                        return Err(format!(
-                            "{}: the measured value is 0 and states no uncertainty, so its error has no scale; give it an uncertainty",
-                            study.key(case, observation)
-                        ));
-                    }
-                    observations.push(FitObservation {
-                        output_index,
-                        key: study.key(case, observation),
-                        case: case.name.clone(),
-                        output: observation.output.clone(),
-                        measured: *value,
-                        uncertainty: *uncertainty,
-                        curve: None,
-                    });
-                }
-                Measured::Curve { points, metric, .. } => {
-                    let key = study.key(case, observation);
-                    if curve_parts == 0 {
-                        return Err(format!(
-                            "{key}: the posterior reads a curve by its parts; the fit outputs have none"
-                        ));
-                    }
-                    // The parts follow the observations, curve after curve.
-                    let first = observed + curves.len() * curve_parts;
-                    let mut parts = Vec::with_capacity(curve_parts);
-                    for part in 0..curve_parts {
-                        parts.push(observations.len());
-                        observations.push(FitObservation {
-                            output_index: first + part,
-                            key: format!("{key}.part{:02}", part + 1),
-                            case: case.name.clone(),
-                            output: format!("{}.part{:02}", observation.output, part + 1),
-                            measured: 0.0,
-                            uncertainty: None,
-                            curve: Some(curves.len()),
-                        });
-                    }
-                    let mut scatter_pct = if *metric == CurveMetric::Mape {
-                        test_scatter_by_part(points, CurveMapeOptions::default(), curve_parts)
-                            .map_err(|e| format!("{key}: {e}"))?
-                    } else {
-                        measured_scatter_by_part(&points_of(points), curve_parts)
-                            .map_err(|e| format!("{key}: {e}"))?
-                    };
-                    // A grid shorter than the parts: the last part repeats,
-                    // as in the simulator's outputs.
-                    let last = scatter_pct.last().copied().unwrap_or(1.0);
-                    scatter_pct.resize(curve_parts, last);
-                    curves.push(CurveParts {
-                        key,
-                        parts,
-                        scatter_pct,
-                        metric: *metric,
-                        grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
-                    });
-                }
-            }
-        }
+        let read = read_observations(study, curve_parts)?;
+        let (observations, mut curves) = (read.observations, read.curves);
         if observations.is_empty() {
             return Err("the fit cases measure nothing the posterior can read".into());
         }
-        // Nodes closer than the peak's width in the logarithm: the
-        // likelihood of m values in one scale peaks with a width of about
-        // 1 / sqrt(2 m) there.
-        let nodes = |range: [f64; 2], count: usize| {
-            let width = 1.0 / (2.0 * count.max(1) as f64).sqrt();
-            (((range[1] / range[0]).ln() / width).ceil() as usize).max(32)
-        };
         for curve in &mut curves {
             // Log-uniform: the density of the logarithm is flat.
             curve.grid = ScaleGrid::new(
                 CURVE_FACTOR_RANGE,
-                nodes(CURVE_FACTOR_RANGE, curve.parts.len()),
+                scale_nodes(CURVE_FACTOR_RANGE, curve.parts.len()),
                 |x| 1.0 / x,
             );
         }
-        let mut outputs: Vec<OutputDiscrepancy> = Vec::new();
-        if discrepancy != Discrepancy::None {
-            // A curve's parts carry their own noise, which takes up the
-            // model's error along it too.
-            for (index, observation) in observations
-                .iter()
-                .enumerate()
-                .filter(|(_, o)| o.curve.is_none())
-            {
-                match outputs.iter_mut().find(|o| o.output == observation.output) {
-                    Some(output) => output.observations.push(index),
-                    None => outputs.push(OutputDiscrepancy {
-                        output: observation.output.clone(),
-                        observations: vec![index],
-                        tau_range: [0.0; 2],
-                        tau_grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
-                        form: Form::Constant,
-                    }),
-                }
-            }
-            for output in &mut outputs {
-                let size = output
-                    .observations
-                    .iter()
-                    .map(|&i| observations[i].measured.abs())
-                    .sum::<f64>()
-                    / output.observations.len() as f64;
-                let largest_uncertainty = output
-                    .observations
-                    .iter()
-                    .filter_map(|&i| observations[i].uncertainty)
-                    .fold(0.0f64, f64::max);
-                let size = size.max(10.0 * largest_uncertainty);
-                if !(size > 0.0 && size.is_finite()) {
-                    return Err(format!(
-                        "{}: measured as 0 without an uncertainty, so its discrepancy has no scale; give it an uncertainty",
-                        output.output
-                    ));
-                }
-                output.tau_range = DISCREPANCY_RANGE.map(|r| r * size);
-                let half_cauchy_scale = DISCREPANCY_SCALE * size;
-                output.tau_grid = ScaleGrid::new(
-                    output.tau_range,
-                    nodes(output.tau_range, output.observations.len()),
-                    |tau| 1.0 / (1.0 + (tau / half_cauchy_scale).powi(2)),
-                );
-                if discrepancy == Discrepancy::Gp {
-                    let mut gp = gp_sites(study, output, &observations)?;
-                    let stated: Option<Vec<f64>> = output
-                        .observations
-                        .iter()
-                        .map(|&i| observations[i].uncertainty.map(|u| u * u))
-                        .collect();
-                    if let Some(variances) = stated {
-                        gp.fix_variances(variances);
-                    }
-                    output.form = Form::Gp(Box::new(gp));
-                }
-            }
-        }
+        let outputs = if discrepancy == Discrepancy::None {
+            Vec::new()
+        } else {
+            output_discrepancies(study, discrepancy, &observations)?
+        };
+        let own_errors = observations
+            .iter()
+            .enumerate()
+            .filter(|(i, o)| {
+                o.curve.is_none() && !outputs.iter().any(|d| d.observations.contains(i))
+            })
+            .map(|(i, _)| i)
+            .collect::<Vec<_>>();
+        check_shared_within_groups(&observations, &read.shared_sources, &outputs, &own_errors)?;
+        let shared: Vec<Vec<(usize, f64)>> =
+            observations.iter().map(|o| o.shared.clone()).collect();
         let relative = observations
             .iter()
             .filter(|o| o.uncertainty.is_none() && o.curve.is_none())
             .count();
         Ok(StudyPosterior {
-            coordinates,
+            coordinates: coordinates_of(study),
             curves,
             noise: relative > 0,
             // Log-uniform: the density of the logarithm is flat.
-            noise_grid: ScaleGrid::new(NOISE_RANGE_PCT, nodes(NOISE_RANGE_PCT, relative), |x| {
-                1.0 / x
-            }),
+            noise_grid: ScaleGrid::new(
+                NOISE_RANGE_PCT,
+                scale_nodes(NOISE_RANGE_PCT, relative),
+                |x| 1.0 / x,
+            ),
+            ungrouped_loadings: loadings_of(&own_errors, &shared),
+            ungrouped: own_errors,
+            shared_sources: read.shared_sources,
             observations,
             outputs,
         })
@@ -424,7 +309,7 @@ impl StudyPosterior {
             .enumerate()
             .map(|(i, o)| {
                 let measurement = match (o.uncertainty, o.curve) {
-                    (Some(u), _) => u * u,
+                    (Some(_), _) => own_variance(o),
                     // A curve's part: its curve's noise, added by the caller.
                     (None, Some(_)) => 0.0,
                     (None, None) => (noise_pct.unwrap_or(0.0) / 100.0 * o.measured).powi(2),
@@ -474,18 +359,26 @@ impl StudyPosterior {
         emulator: &[f64],
     ) -> f64 {
         let variances = self.variances(noise_pct, emulator);
-        let mut in_group = vec![false; residuals.len()];
-        let mut total = 0.0;
-        for output in &self.outputs {
-            for &i in &output.observations {
-                in_group[i] = true;
-            }
-            total += output.log_density(residuals, &variances);
-        }
-        for (i, (&r, &v)) in residuals.iter().zip(&variances).enumerate() {
-            if !in_group[i] && self.observations[i].curve.is_none() {
+        let mut total: f64 = self
+            .outputs
+            .iter()
+            .map(|output| output.log_density(residuals, &variances))
+            .sum();
+        if self.ungrouped_loadings.ncols() == 0 {
+            for &i in &self.ungrouped {
+                let (r, v) = (residuals[i], variances[i]);
                 total -= 0.5 * (r * r / v + v.ln() + (2.0 * PI).ln());
             }
+        } else {
+            let n = self.ungrouped.len();
+            let own = DVector::from_iterator(n, self.ungrouped.iter().map(|&i| variances[i]));
+            total += match ErrorCovariance::new(own, &self.ungrouped_loadings) {
+                Some(errors) => errors.log_density(&DVector::from_iterator(
+                    n,
+                    self.ungrouped.iter().map(|&i| residuals[i]),
+                )),
+                None => f64::NEG_INFINITY,
+            };
         }
         total
     }
@@ -576,6 +469,298 @@ impl StudyPosterior {
             None => noise_pct.unwrap_or(0.0) / 100.0 * measured.abs(),
         }
     }
+}
+
+/// A study's fit observations as the likelihood reads them.
+struct ReadObservations {
+    observations: Vec<FitObservation>,
+    curves: Vec<CurveParts>,
+    /// The shared error sources, in the order they first appear.
+    shared_sources: Vec<String>,
+}
+
+/// The sampled coordinates: the study's parameters with their priors.
+fn coordinates_of(study: &Study) -> Vec<Coordinate> {
+    study
+        .parameters
+        .iter()
+        .map(|p| {
+            let search = &p.search;
+            Coordinate {
+                name: search.name.clone(),
+                support: Support::Interval {
+                    lower: search.lower,
+                    upper: search.upper,
+                },
+                log_uniform: search.scale == Scale::Log,
+                normal: p.prior.map(|prior| (prior.value, prior.uncertainty)),
+            }
+        })
+        .collect()
+}
+
+/// Midpoint-rule nodes of a log-uniform scale over `range` read by `count`
+/// values: closer than the peak's width in the logarithm (the likelihood
+/// of m values in one scale peaks with a width of about 1 / sqrt(2 m)).
+fn scale_nodes(range: [f64; 2], count: usize) -> usize {
+    let width = 1.0 / (2.0 * count.max(1) as f64).sqrt();
+    (((range[1] / range[0]).ln() / width).ceil() as usize).max(32)
+}
+
+/// Every fit scalar, and each fit curve as its `curve_parts` parts (which
+/// follow the scalars in the fit outputs, curve after curve).
+fn read_observations(study: &Study, curve_parts: usize) -> Result<ReadObservations, String> {
+    let mut read = ReadObservations {
+        observations: Vec::new(),
+        curves: Vec::new(),
+        shared_sources: Vec::new(),
+    };
+    let fit_observations = study.observations(Role::Fit);
+    let observed = fit_observations.len();
+    for (output_index, (case, observation)) in fit_observations.into_iter().enumerate() {
+        if case.priors {
+            continue;
+        }
+        let key = study.key(case, observation);
+        match &observation.measured {
+            Measured::Scalar { value, uncertainty } => {
+                if uncertainty.is_none() && *value == 0.0 {
+                    return Err(format!(
+                        "{key}: the measured value is 0 and states no uncertainty, so its error has no scale; give it an uncertainty"
+                    ));
+                }
+                let shared = shared_of(&key, observation, *uncertainty, &mut read.shared_sources)?;
+                read.observations.push(FitObservation {
+                    output_index,
+                    key,
+                    case: case.name.clone(),
+                    output: observation.output.clone(),
+                    measured: *value,
+                    uncertainty: *uncertainty,
+                    curve: None,
+                    shared,
+                });
+            }
+            Measured::Curve { points, metric, .. } => {
+                if curve_parts == 0 {
+                    return Err(format!(
+                        "{key}: the posterior reads a curve by its parts; the fit outputs have none"
+                    ));
+                }
+                let first = observed + read.curves.len() * curve_parts;
+                let curve = curve_parts_of_observation(
+                    &mut read,
+                    (&key, &case.name, &observation.output),
+                    points,
+                    *metric,
+                    (first, curve_parts),
+                )?;
+                read.curves.push(curve);
+            }
+        }
+    }
+    Ok(read)
+}
+
+/// `observation`'s shared errors as `(source index, effect)`, each source
+/// added to `sources` when new; refused where they take more than its
+/// stated uncertainty or it states none.
+fn shared_of(
+    key: &str,
+    observation: &Observation,
+    uncertainty: Option<f64>,
+    sources: &mut Vec<String>,
+) -> Result<Vec<(usize, f64)>, String> {
+    if observation.shared.is_empty() {
+        return Ok(Vec::new());
+    }
+    let Some(u) = uncertainty else {
+        return Err(format!(
+            "{key}: errors shared with other values but no uncertainty stated; the shared errors are parts of it"
+        ));
+    };
+    let shared_variance: f64 = observation.shared.iter().map(|s| s.effect * s.effect).sum();
+    if !(shared_variance.is_finite() && shared_variance <= u * u * (1.0 + 1e-9)) {
+        return Err(format!(
+            "{key}: its shared errors ({:.4e} combined) exceed its uncertainty {u:.4e}; they are parts of it",
+            shared_variance.sqrt()
+        ));
+    }
+    Ok(observation
+        .shared
+        .iter()
+        .map(|s| {
+            let index = match sources.iter().position(|t| *t == s.source) {
+                Some(index) => index,
+                None => {
+                    sources.push(s.source.clone());
+                    sources.len() - 1
+                }
+            };
+            (index, s.effect)
+        })
+        .collect())
+}
+
+/// A measured curve's parts as observations (appended to `read`), and the
+/// curve that reads them; `first` is the first part's output index.
+fn curve_parts_of_observation(
+    read: &mut ReadObservations,
+    (key, case, output): (&str, &str, &str),
+    points: &[(f64, f64)],
+    metric: CurveMetric,
+    (first, curve_parts): (usize, usize),
+) -> Result<CurveParts, String> {
+    let mut parts = Vec::with_capacity(curve_parts);
+    for part in 0..curve_parts {
+        parts.push(read.observations.len());
+        read.observations.push(FitObservation {
+            output_index: first + part,
+            key: format!("{key}.part{:02}", part + 1),
+            case: case.to_string(),
+            output: format!("{output}.part{:02}", part + 1),
+            measured: 0.0,
+            uncertainty: None,
+            curve: Some(read.curves.len()),
+            shared: Vec::new(),
+        });
+    }
+    let mut scatter_pct = if metric == CurveMetric::Mape {
+        test_scatter_by_part(points, CurveMapeOptions::default(), curve_parts)
+            .map_err(|e| format!("{key}: {e}"))?
+    } else {
+        measured_scatter_by_part(&points_of(points), curve_parts)
+            .map_err(|e| format!("{key}: {e}"))?
+    };
+    // A grid shorter than the parts: the last part repeats, as in the
+    // simulator's outputs.
+    let last = scatter_pct.last().copied().unwrap_or(1.0);
+    scatter_pct.resize(curve_parts, last);
+    Ok(CurveParts {
+        key: key.to_string(),
+        parts,
+        scatter_pct,
+        metric,
+        grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+    })
+}
+
+/// Each model output's discrepancy over its scalar observations (a
+/// curve's parts carry their own noise, which takes up the model's error
+/// along it too).
+fn output_discrepancies(
+    study: &Study,
+    discrepancy: Discrepancy,
+    observations: &[FitObservation],
+) -> Result<Vec<OutputDiscrepancy>, String> {
+    let mut outputs: Vec<OutputDiscrepancy> = Vec::new();
+    for (index, observation) in observations
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.curve.is_none())
+    {
+        match outputs.iter_mut().find(|o| o.output == observation.output) {
+            Some(output) => output.observations.push(index),
+            None => outputs.push(OutputDiscrepancy {
+                output: observation.output.clone(),
+                observations: vec![index],
+                tau_range: [0.0; 2],
+                tau_grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+                form: Form::Constant,
+                loadings: DMatrix::zeros(0, 0),
+            }),
+        }
+    }
+    let shared: Vec<Vec<(usize, f64)>> = observations.iter().map(|o| o.shared.clone()).collect();
+    for output in &mut outputs {
+        output.loadings = loadings_of(&output.observations, &shared);
+        let size = output
+            .observations
+            .iter()
+            .map(|&i| observations[i].measured.abs())
+            .sum::<f64>()
+            / output.observations.len() as f64;
+        let largest_uncertainty = output
+            .observations
+            .iter()
+            .filter_map(|&i| observations[i].uncertainty)
+            .fold(0.0f64, f64::max);
+        let size = size.max(10.0 * largest_uncertainty);
+        if !(size > 0.0 && size.is_finite()) {
+            return Err(format!(
+                "{}: measured as 0 without an uncertainty, so its discrepancy has no scale; give it an uncertainty",
+                output.output
+            ));
+        }
+        output.tau_range = DISCREPANCY_RANGE.map(|r| r * size);
+        let half_cauchy_scale = DISCREPANCY_SCALE * size;
+        output.tau_grid = ScaleGrid::new(
+            output.tau_range,
+            scale_nodes(output.tau_range, output.observations.len()),
+            |tau| 1.0 / (1.0 + (tau / half_cauchy_scale).powi(2)),
+        );
+        if discrepancy == Discrepancy::Gp {
+            let mut gp = gp_sites(study, output, observations)?;
+            let stated: Option<Vec<f64>> = output
+                .observations
+                .iter()
+                .map(|&i| {
+                    observations[i]
+                        .uncertainty
+                        .map(|_| own_variance(&observations[i]))
+                })
+                .collect();
+            if let Some(variances) = stated {
+                gp.fix_variances(variances, &output.loadings);
+            }
+            output.form = Form::Gp(Box::new(gp));
+        }
+    }
+    Ok(outputs)
+}
+
+/// Each shared source lies in one group the likelihood integrates as one
+/// (an output's discrepancy, or the values without one): a transducer
+/// shared by two outputs with a discrepancy each would couple their
+/// scales, which are integrated one output at a time.
+fn check_shared_within_groups(
+    observations: &[FitObservation],
+    sources: &[String],
+    outputs: &[OutputDiscrepancy],
+    ungrouped: &[usize],
+) -> Result<(), String> {
+    for (source_index, source) in sources.iter().enumerate() {
+        let groups: Vec<&str> = outputs
+            .iter()
+            .map(|o| (o.output.as_str(), o.observations.as_slice()))
+            .chain(std::iter::once(("values without a discrepancy", ungrouped)))
+            .filter(|(_, members)| {
+                members.iter().any(|&i| {
+                    observations[i]
+                        .shared
+                        .iter()
+                        .any(|(s, _)| *s == source_index)
+                })
+            })
+            .map(|(name, _)| name)
+            .collect();
+        if groups.len() > 1 {
+            return Err(format!(
+                "{source}'s error is shared by {}: with a discrepancy each output needs its own sensors; use discrepancy = \"none\", or the readings' scatter alone (\"{}\") for one of them",
+                groups.join(" and "),
+                crate::study::SCATTER_OF_MEAN
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// An observation's own error variance: its stated uncertainty's square
+/// less the parts it shares (at least [`LEAST_OWN_SHARE`] of it).
+fn own_variance(observation: &FitObservation) -> f64 {
+    let u2 = observation.uncertainty.map_or(0.0, |u| u * u);
+    let shared: f64 = observation.shared.iter().map(|(_, e)| e * e).sum();
+    (u2 - shared).max(LEAST_OWN_SHARE * u2)
 }
 
 /// A `gp` discrepancy's sites: every case, fit and validate, that
@@ -720,6 +905,7 @@ mod tests {
             measured: Measured::Scalar { value, uncertainty },
             weight: 1.0,
             source: String::new(),
+            shared: Vec::new(),
         };
         Study {
             parameters: vec![StudyParameter {
@@ -837,5 +1023,47 @@ mod tests {
             assert!((range[0]..=range[1]).contains(&scales.discrepancy[0].tau));
         }
         assert!(posterior.log_prior(&[3.0]).is_infinite());
+    }
+
+    /// Two holds read by one transducer whose error is shared, plus a
+    /// value of another: the likelihood is the normal density under the
+    /// covariance with the shared error's square off the diagonal.
+    #[test]
+    fn a_shared_transducer_error_correlates_the_holds_it_measured() {
+        use crate::study::SharedError;
+        let mut study = study(&[(10.0, Some(0.5)), (12.0, Some(0.5)), (3.0, Some(0.2))]);
+        for case in &mut study.cases[..2] {
+            case.observations[0].shared = vec![SharedError {
+                source: "boom_head_pressure".into(),
+                effect: 0.4,
+            }];
+        }
+        let posterior = StudyPosterior::new(&study, Discrepancy::None, 0).unwrap();
+        assert_eq!(posterior.shared_sources, ["boom_head_pressure"]);
+        let outputs = [9.5, 11.0, 3.1];
+        let (r0, r1, r2): (f64, f64, f64) = (0.5, 1.0, -0.1);
+        // Own variance 0.25 - 0.16 = 0.09, shared 0.16.
+        let (a, b) = (0.25, 0.16);
+        let det = a * a - b * b;
+        let quadratic = (a * r0 * r0 - 2.0 * b * r0 * r1 + a * r1 * r1) / det;
+        let expected = -0.5 * (quadratic + det.ln() + 2.0 * (2.0 * PI).ln())
+            - 0.5 * (r2 * r2 / 0.04 + 0.04f64.ln() + (2.0 * PI).ln());
+        let got = posterior.log_likelihood(&outputs, &[]);
+        assert!((got - expected).abs() < 1e-12, "{got} {expected}");
+        // Shared by two outputs that each have a discrepancy: refused.
+        study.cases[2].observations[0].output = "z".into();
+        study.cases[2].observations[0].shared = vec![SharedError {
+            source: "boom_head_pressure".into(),
+            effect: 0.1,
+        }];
+        let error = StudyPosterior::new(&study, Discrepancy::Constant, 0).unwrap_err();
+        assert!(
+            error.contains("boom_head_pressure") && error.contains("y and z"),
+            "{error}"
+        );
+        // A shared part larger than the value's uncertainty: refused.
+        study.cases[2].observations[0].shared[0].effect = 0.3;
+        let error = StudyPosterior::new(&study, Discrepancy::None, 0).unwrap_err();
+        assert!(error.contains("exceed its uncertainty"), "{error}");
     }
 }

@@ -37,6 +37,7 @@ pub mod report;
 pub mod scale_grid;
 pub mod sequential;
 pub mod settings;
+pub mod shared_errors;
 pub mod validation;
 
 pub use settings::{Discrepancy, PosteriorSettings};

@@ -97,6 +97,7 @@ fn implicit_case(file: &SpecFile, spec_directory: &Path) -> Result<Case, SpecPro
             },
             weight,
             source: measured_file.clone(),
+            shared: Vec::new(),
         });
     }
     Ok(Case {

@@ -106,9 +106,14 @@
 //!
 //! A measured value read from an `acq extract` file takes the hold's mean;
 //! its uncertainty is a number, `"std"` (the spread of the readings in the
-//! hold) or `"std_of_mean"` (the standard error of the mean, std over the
-//! square root of the effective sample count). Any observation may have a
-//! `weight` (1 by default) in the loss and in TOPSIS.
+//! hold), `"std_of_mean"` (the value's uncertainty budget, `u_c`: the
+//! standard error of the mean with the sensors' certificates and accuracy;
+//! each sensor's part shared by every hold it measured) or
+//! `"scatter_of_mean"` (the standard error of the mean alone, std over the
+//! square root of the effective sample count, each hold independent: what
+//! `"std_of_mean"` was before budgets; the same where the rig states no
+//! sensor record). Any observation may have a `weight` (1 by default) in
+//! the loss and in TOPSIS.
 
 use std::path::{Path, PathBuf};
 

@@ -4,13 +4,13 @@
 
 use std::path::Path;
 
-use acq_analysis::extract::measured::read_measured;
+use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
 use acq_analysis::loss::metrics::CurveMetric;
 use acq_calib::doe::read_design_csv;
 use acq_io::error::AcqError;
 
 use super::schema::CurveSpec;
-use crate::study::{Measured, Observation};
+use crate::study::{Measured, Observation, SCATTER_OF_MEAN};
 
 /// The points of columns `x` and `y` of a CSV with a header row; errors
 /// name the file and line.
@@ -84,6 +84,7 @@ pub fn scalar(
         measured: Measured::Scalar { value, uncertainty },
         weight,
         source,
+        shared: Vec::new(),
     })
 }
 
@@ -177,6 +178,7 @@ pub fn case_observation(
         },
         weight,
         source: file,
+        shared: Vec::new(),
     })
 }
 
@@ -233,32 +235,42 @@ fn measured_value_from_file(
         .stats
         .mean
         .ok_or_else(|| format!("{name}: {quantity} in {hold} has no mean"))?;
-    let standard = |what: &str| -> Result<f64, String> {
-        let std = value.stats.std.ok_or_else(|| {
-            format!("{name}: {quantity} in {hold} has no std (fewer than 2 samples)")
-        })?;
-        Ok(match what {
-            "std" => std,
-            _ => value.stats.std_of_mean().unwrap_or(std),
+    let spread = |basis: UncertaintyBasis| {
+        value.standard_uncertainty(basis).ok_or_else(|| {
+            format!("{name}: {quantity} in {hold} has no spread (fewer than 2 samples)")
         })
     };
-    let uncertainty = match uncertainty {
-        None => None,
-        Some(toml::Value::String(s)) if s == "std" || s == "std_of_mean" => Some(standard(s)?),
+    let (uncertainty, shared) = match uncertainty {
+        None => (None, Vec::new()),
+        Some(toml::Value::String(s)) if s == "std_of_mean" => {
+            let (u, shared) = spread(UncertaintyBasis::Budget)?;
+            (Some(u), shared)
+        }
+        Some(toml::Value::String(s)) if s == SCATTER_OF_MEAN => {
+            (Some(spread(UncertaintyBasis::ReadingsScatter)?.0), Vec::new())
+        }
+        Some(toml::Value::String(s)) if s == "std" => {
+            let std = value.stats.std.ok_or_else(|| {
+                format!("{name}: {quantity} in {hold} has no std (fewer than 2 samples)")
+            })?;
+            (Some(std), Vec::new())
+        }
         Some(v) => match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
-            Some(u) => Some(u),
+            Some(u) => (Some(u), Vec::new()),
             None => {
                 return Err(format!(
-                    "{name}: uncertainty = {v}; give a number, \"std\" or \"std_of_mean\""
+                    "{name}: uncertainty = {v}; give a number, \"std_of_mean\" (the value's budget), \"{SCATTER_OF_MEAN}\" (the readings' scatter only) or \"std\""
                 ))
             }
         },
     };
-    scalar(
+    let mut observation = scalar(
         name,
         mean,
         uncertainty,
         weight,
         format!("{} ({hold}, {quantity} [{}])", path.display(), value.unit),
-    )
+    )?;
+    observation.shared = shared;
+    Ok(observation)
 }

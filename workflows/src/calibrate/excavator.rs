@@ -21,7 +21,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acq_analysis::extract::measured::read_measured;
+use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
 use acq_calib::evaluation::{Parameter, Simulator};
 use acq_calib::gp::Kernel;
 use acq_io::error::{AcqError, Result};
@@ -38,7 +38,8 @@ use acq_study::outcome::{Found, StudyOutcome};
 use acq_study::posterior::{Discrepancy, PosteriorSettings};
 use acq_study::run_directory::{default_parallelism, RunDirectory};
 use acq_study::study::{
-    Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter, StudySimulator,
+    Case, LossKind, Measured, Observation, Residuals, Role, SharedError, Study, StudyParameter,
+    StudySimulator,
 };
 use acq_study::study_runner::run_study;
 use acq_study::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};
@@ -57,6 +58,10 @@ pub struct CalibrateExcavatorOptions {
     pub window: Option<String>,
     /// The measured quantity that is the force at the bucket tip (kN).
     pub load_quantity: String,
+    /// Which uncertainty of the measured pressures the study takes: their
+    /// budget (the transducers' accuracy with the readings' scatter) or
+    /// the scatter alone.
+    pub measurement_error: UncertaintyBasis,
     /// Geometry file; `None` is the built-in DX55-class one.
     pub geometry: Option<PathBuf>,
     /// Run directory: evaluations.csv, summary.json, report.md, plots.
@@ -108,6 +113,7 @@ impl CalibrateExcavatorOptions {
             measured: None,
             window: None,
             load_quantity: "tip_force".into(),
+            measurement_error: UncertaintyBasis::Budget,
             geometry: None,
             out: out.to_path_buf(),
             training_runs: 40,
@@ -133,12 +139,12 @@ const FORCE_PARAMETER: &str = "force_kN";
 /// the load, when bounded) as parameters with the bounds' middles (the
 /// case's force) as nominal, and the three loaded-chamber pressures
 /// (`<cylinder>_pressure_bar`) as the observations of one fit case, with
-/// their standard uncertainties where known (in [`CylinderName::ALL`]'s
-/// order).
+/// their standard uncertainties where known, each with the parts its
+/// transducers share (in [`CylinderName::ALL`]'s order).
 pub fn case_study(
     case: &CaseFile,
     measured: &MeasuredPressures,
-    uncertainties_bar: [Option<f64>; 3],
+    uncertainties_bar: [Option<(f64, Vec<SharedError>)>; 3],
 ) -> Study {
     let mut parameters: Vec<StudyParameter> = UncertainInput::ALL
         .iter()
@@ -181,10 +187,11 @@ pub fn case_study(
                     output: format!("pressure_bar.{cylinder}"),
                     measured: Measured::Scalar {
                         value: measured.get(cylinder),
-                        uncertainty,
+                        uncertainty: uncertainty.as_ref().map(|(u, _)| *u),
                     },
                     weight: 1.0,
                     source: format!("measured {cylinder} pressure"),
+                    shared: uncertainty.map(|(_, shared)| shared).unwrap_or_default(),
                 })
                 .collect(),
         }],
@@ -281,13 +288,18 @@ pub struct ExcavatorCalibration {
 struct MeasuredHold {
     window: String,
     pressures: MeasuredPressures,
-    /// Each pressure's standard error of the mean, in the order of
-    /// [`CylinderName::ALL`].
-    std_of_mean_bar: [Option<f64>; 3],
+    /// Each pressure's standard uncertainty with its shared parts, in the
+    /// order of [`CylinderName::ALL`].
+    uncertainties_bar: [Option<(f64, Vec<SharedError>)>; 3],
     force_kn: Option<f64>,
 }
 
-fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Result<MeasuredHold> {
+fn measured_hold(
+    path: &Path,
+    window: Option<&str>,
+    load_quantity: &str,
+    basis: UncertaintyBasis,
+) -> Result<MeasuredHold> {
     let values = read_measured(path)?;
     let mut windows: Vec<&str> = values.iter().map(|v| v.window.as_str()).collect();
     windows.dedup();
@@ -310,7 +322,8 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
             )))
         }
     };
-    let mean = |quantity: &str, unit: &str| -> Result<Option<(f64, Option<f64>)>> {
+    type WithUncertainty = (f64, Option<(f64, Vec<SharedError>)>);
+    let mean = |quantity: &str, unit: &str| -> Result<Option<WithUncertainty>> {
         let Some(value) = values
             .iter()
             .find(|v| v.window == window && v.quantity == quantity)
@@ -333,9 +346,12 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
                 value.note
             )));
         }
-        Ok(value.stats.mean.map(|m| (m, value.stats.std_of_mean())))
+        Ok(value
+            .stats
+            .mean
+            .map(|m| (m, value.standard_uncertainty(basis))))
     };
-    let pressure = |cylinder: CylinderName| -> Result<(f64, Option<f64>)> {
+    let pressure = |cylinder: CylinderName| -> Result<WithUncertainty> {
         let quantity = format!("{cylinder}_loaded_pressure");
         mean(&quantity, "bar")?.ok_or_else(|| {
             AcqError::Config(format!(
@@ -353,7 +369,7 @@ fn measured_hold(path: &Path, window: Option<&str>, load_quantity: &str) -> Resu
             arm_bar: arm.0,
             boom_bar: boom.0,
         },
-        std_of_mean_bar: [bucket.1, arm.1, boom.1],
+        uncertainties_bar: [bucket.1, arm.1, boom.1],
         force_kn: mean(load_quantity, "kN")?.map(|(m, _)| m),
         window,
     })
@@ -390,12 +406,17 @@ pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
     acq_io::input::note_input(&args.case);
     let mut force_source = format!("case file {}", args.case.display());
     let mut measured_source = force_source.clone();
-    let mut uncertainties_bar = [None; 3];
+    let mut uncertainties_bar = [None, None, None];
     if let Some(path) = &args.measured {
-        let hold = measured_hold(path, args.window.as_deref(), &args.load_quantity)?;
+        let hold = measured_hold(
+            path,
+            args.window.as_deref(),
+            &args.load_quantity,
+            args.measurement_error,
+        )?;
         measured_source = format!("{} ({})", path.display(), hold.window);
         case.measured = Some(hold.pressures);
-        uncertainties_bar = hold.std_of_mean_bar;
+        uncertainties_bar = hold.uncertainties_bar;
         match hold.force_kn {
             Some(force) if force > 0.0 => {
                 case.force_kn = force;

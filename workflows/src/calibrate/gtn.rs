@@ -144,6 +144,7 @@ pub fn test_study(parameters: &[Parameter], test: &[TestPoint]) -> Study {
                 },
                 weight: 1.0,
                 source: "the test".into(),
+                shared: Vec::new(),
             }],
         }],
         named_cases: false,

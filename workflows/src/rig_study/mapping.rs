@@ -5,19 +5,26 @@
 //! - a number: an input fixed for every hold (inputs only);
 //! - a quantity's name: its mean in the hold, with its standard error;
 //! - `{ quantity, uncertainty, instrument }`: `uncertainty` is
-//!   `"std_of_mean"` (the default: the std over the square root of the
-//!   effective sample count, what the hold knows of its mean), `"std"` (the
-//!   spread of the readings) or a number in the quantity's unit;
-//!   `instrument` (0 by default) is the transducer's own standard
-//!   uncertainty (calibration, linearity, zero offset), which no averaging
-//!   removes, added in quadrature.
+//!   `"std_of_mean"` (the default: the value's budget, the std over the
+//!   square root of the effective sample count with the sensors'
+//!   certificates and accuracy where the rig states them),
+//!   `"scatter_of_mean"` (that standard error alone), `"std"` (the spread
+//!   of the readings) or a number in the quantity's unit; `instrument` (0
+//!   by default) is the transducer's own standard uncertainty
+//!   (calibration, linearity, zero offset), added in quadrature.
+//!
+//! A sensor's certificate and accuracy error and a stated `instrument`
+//! are the same in every hold: they are shared errors of every hold's
+//! value (one error per sensor, or per quantity for `instrument`), which
+//! the posterior does not average away.
 //!
 //! The quantities are those of `acq extract` (each sensor, and each
 //! cylinder's `_net_force` and `_loaded_pressure`); a hold in which one of
 //! them is missing or flagged is not used, and the page says why.
 
-use acq_analysis::extract::measured::MeasuredValue;
+use acq_analysis::extract::measured::{MeasuredValue, UncertaintyBasis};
 use acq_analysis::extract::quantities::RigQuantities;
+use acq_metrology::budget::SharedError;
 
 use acq_study::spec::schema::HoldsSpec;
 use acq_study::spec::SpecProblem;
@@ -25,8 +32,11 @@ use acq_study::spec::SpecProblem;
 /// Where an uncertainty comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Spread {
-    /// The standard error of the hold's mean.
+    /// The value's budget (the standard error of the hold's mean with the
+    /// sensors' Type B sources, each sensor's shared by every hold).
     StdOfMean,
+    /// The standard error of the hold's mean alone.
+    ScatterOfMean,
     /// The spread of the readings in the hold.
     Std,
     /// A stated standard uncertainty, in the quantity's unit.
@@ -38,8 +48,18 @@ pub enum Spread {
 pub struct FromHold {
     pub quantity: String,
     pub spread: Spread,
-    /// The transducer's standard uncertainty, added in quadrature.
+    /// The transducer's standard uncertainty, added in quadrature, the
+    /// same error in every hold.
     pub instrument: f64,
+}
+
+/// A value read from a hold: its mean, its standard uncertainty, and the
+/// parts of that which every hold shares.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HoldValue {
+    pub mean: f64,
+    pub standard_uncertainty: f64,
+    pub shared: Vec<SharedError>,
 }
 
 /// Where an input's value comes from.
@@ -66,6 +86,9 @@ pub struct HoldReading {
     pub inputs: Vec<(String, f64, f64)>,
     /// Each observation: its mean and standard uncertainty.
     pub observations: Vec<(String, f64, f64)>,
+    /// Each observation's errors shared with every other hold (its
+    /// sensors'), in the order of `observations`.
+    pub shared: Vec<Vec<SharedError>>,
 }
 
 const INPUTS: &str = "[holds.inputs]";
@@ -96,12 +119,15 @@ impl FromHold {
                 let spread = match table.get("uncertainty") {
                     None => Spread::StdOfMean,
                     Some(toml::Value::String(s)) if s == "std_of_mean" => Spread::StdOfMean,
+                    Some(toml::Value::String(s)) if s == "scatter_of_mean" => {
+                        Spread::ScatterOfMean
+                    }
                     Some(toml::Value::String(s)) if s == "std" => Spread::Std,
                     Some(value) => match number(value) {
                         Some(u) if u > 0.0 && u.is_finite() => Spread::Stated(u),
                         _ => {
                             return Err(format!(
-                                "uncertainty = {value}; give \"std_of_mean\", \"std\" or a positive number in the quantity's unit"
+                                "uncertainty = {value}; give \"std_of_mean\", \"scatter_of_mean\", \"std\" or a positive number in the quantity's unit"
                             ))
                         }
                     },
@@ -130,7 +156,7 @@ impl FromHold {
     }
 
     /// Its mean and standard uncertainty in a hold's values.
-    pub fn read(&self, values: &[MeasuredValue]) -> Result<(f64, f64), String> {
+    pub fn read(&self, values: &[MeasuredValue]) -> Result<HoldValue, String> {
         let value = values
             .iter()
             .find(|v| v.quantity == self.quantity)
@@ -147,10 +173,16 @@ impl FromHold {
             .mean
             .filter(|m| m.is_finite())
             .ok_or_else(|| format!("{} has no value in the hold", self.quantity))?;
-        let spread = match self.spread {
-            Spread::Stated(u) => u,
-            Spread::Std => value.stats.std.unwrap_or(0.0),
-            Spread::StdOfMean => value.stats.std_of_mean().unwrap_or(0.0),
+        let basis = |basis| {
+            value
+                .standard_uncertainty(basis)
+                .unwrap_or((0.0, Vec::new()))
+        };
+        let (spread, mut shared) = match self.spread {
+            Spread::Stated(u) => (u, Vec::new()),
+            Spread::Std => (value.stats.std.unwrap_or(0.0), Vec::new()),
+            Spread::StdOfMean => basis(UncertaintyBasis::Budget),
+            Spread::ScatterOfMean => basis(UncertaintyBasis::ReadingsScatter),
         };
         let total = spread.hypot(self.instrument);
         if !(total > 0.0 && total.is_finite()) {
@@ -159,7 +191,17 @@ impl FromHold {
                 self.quantity
             ));
         }
-        Ok((mean, total))
+        if self.instrument > 0.0 {
+            shared.push(SharedError {
+                source: format!("{} instrument", self.quantity),
+                effect: self.instrument,
+            });
+        }
+        Ok(HoldValue {
+            mean,
+            standard_uncertainty: total,
+            shared,
+        })
     }
 }
 
@@ -273,23 +315,29 @@ impl HoldMapping {
             .map(|(input, source)| match source {
                 InputSource::Fixed(x) => Ok((input.clone(), *x, 0.0)),
                 InputSource::Measured(from) => {
-                    let (mean, sd) = from.read(values)?;
-                    Ok((input.clone(), mean, sd))
+                    let value = from.read(values)?;
+                    Ok((input.clone(), value.mean, value.standard_uncertainty))
                 }
             })
             .collect::<Result<Vec<_>, String>>()?;
-        let observations = self
+        let (observations, shared) = self
             .observations
             .iter()
             .map(|(output, from)| {
-                let (mean, sd) = from.read(values)?;
-                Ok((output.clone(), mean, sd))
+                let value = from.read(values)?;
+                Ok((
+                    (output.clone(), value.mean, value.standard_uncertainty),
+                    value.shared,
+                ))
             })
-            .collect::<Result<Vec<_>, String>>()?;
+            .collect::<Result<Vec<_>, String>>()?
+            .into_iter()
+            .unzip();
         Ok(HoldReading {
             name: name.to_string(),
             inputs,
             observations,
+            shared,
         })
     }
 }

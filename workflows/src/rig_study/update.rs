@@ -261,7 +261,8 @@ impl RigStudy {
                         .observations
                         .iter()
                         .zip(&variance)
-                        .map(|((output, value, _), variance)| Observation {
+                        .enumerate()
+                        .map(|(k, ((output, value, _), variance))| Observation {
                             name: output.clone(),
                             output: output.clone(),
                             measured: Measured::Scalar {
@@ -270,6 +271,7 @@ impl RigStudy {
                             },
                             weight: 1.0,
                             source: format!("hold {}", reading.name),
+                            shared: reading.shared.get(k).cloned().unwrap_or_default(),
                         })
                         .collect(),
                     priors: false,

@@ -233,7 +233,17 @@ fn extract_with_records(
     session: &Path,
     records: &[(&str, &str)],
 ) -> Vec<std::collections::HashMap<String, String>> {
-    let mut rig_text = std::fs::read_to_string(session.join("rig/excavator.toml")).unwrap();
+    // The shipped rig without its data sheets' records, then `records`.
+    let mut rig_text: String = std::fs::read_to_string(session.join("rig/excavator.toml"))
+        .unwrap()
+        .lines()
+        .filter(|line| {
+            !["range = ", "accuracy = ", "resolution = "]
+                .iter()
+                .any(|key| line.starts_with(key))
+        })
+        .map(|line| format!("{line}\n"))
+        .collect();
     for (sensor, keys) in records {
         let name = format!("name = \"{sensor}\"\n");
         assert!(rig_text.contains(&name), "{sensor}");
@@ -264,17 +274,14 @@ fn number_in(row: &std::collections::HashMap<String, String>, column: &str) -> f
 fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
     let dir = tempfile::tempdir().unwrap();
     let session = common::copy_session("excavator_case1", &dir.path().join("case1"));
-    let shipped = dir.path().join("shipped.csv");
-    let output = acq(&["extract", path_arg(&session), "-o", path_arg(&shipped)]);
-    assert!(output.status.success(), "{}", stderr(&output));
-    let rows = measured_rows(&shipped);
+    let rows = extract_with_records(&session, &[]);
     let row = |window: &str, quantity: &str| {
         rows.iter()
             .find(|r| r["window"] == window && r["quantity"] == quantity)
             .unwrap_or_else(|| panic!("{window} {quantity}"))
             .clone()
     };
-    // No sensor of the shipped rig has a record: the scatter is the whole
+    // No sensor of the bare rig has a record: the scatter is the whole
     // budget, so U95 is the Student-t interval's half-width computed by
     // the statistics on their own.
     for r in rows
@@ -337,6 +344,50 @@ fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
         .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_loaded_pressure")
         .unwrap();
     assert_eq!(loaded["u_c"], head_again["u_c"]);
+    // Its data sheet's part is the transducer's own error, the same in
+    // every hold: written as shared by it (the accuracy class alone; the
+    // resolution is each reading's own).
+    let shared = shared_effect(head_again, "arm_head_pressure");
+    assert!(
+        (shared - 0.005 * 400.0 / 3f64.sqrt()).abs() < 1e-12,
+        "{shared}"
+    );
+    assert!(head["shared"].is_empty(), "{}", head["shared"]);
+    // The net force shares both chambers' errors, the rod's with a minus
+    // (net = head area x head pressure - annulus area x rod pressure).
+    let again_rows = extract_with_records(
+        &session,
+        &[
+            (
+                "arm_head_pressure",
+                "range = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }",
+            ),
+            (
+                "arm_rod_pressure",
+                "range = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }",
+            ),
+        ],
+    );
+    let net = again_rows
+        .iter()
+        .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_net_force")
+        .unwrap();
+    let accuracy_bar = 0.005 * 400.0 / 3f64.sqrt();
+    assert!(
+        (shared_effect(net, "arm_head_pressure") - head_kn_per_bar * accuracy_bar).abs() < 1e-12
+    );
+    assert!((shared_effect(net, "arm_rod_pressure") + rod_kn_per_bar * accuracy_bar).abs() < 1e-12);
+}
+
+/// The effect of `sensor`'s shared error on a row's value (its `shared`
+/// column: `sensor=effect;...`).
+fn shared_effect(row: &std::collections::HashMap<String, String>, sensor: &str) -> f64 {
+    row["shared"]
+        .split(';')
+        .find_map(|part| part.strip_prefix(&format!("{sensor}=")))
+        .unwrap_or_else(|| panic!("{sensor} not in {:?}", row["shared"]))
+        .parse()
+        .unwrap()
 }
 
 /// GTC, pinned: the GUM Tree Calculator of the Measurement Standards

@@ -59,7 +59,7 @@ fn a_bad_study_is_refused_before_recording_with_file_and_line() {
     let cases: Vec<(&str, String, &str)> = vec![
         (
             "an unknown sensor",
-            example.replace("quantity = \"tip_force\"", "quantity = \"tooth_force\""),
+            example.replace("force_kN = \"tip_force\"", "force_kN = \"tooth_force\""),
             "tooth_force",
         ),
         (
@@ -584,9 +584,15 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
 /// inclination and the tooth force) leaves emulator.json; the study at the
 /// rig loads it, and an operator holds the points it names at a hidden
 /// truth, each hold's levels from the solver itself. No solver runs at the
-/// rig, and the posterior has moved to the truth: each parameter within 3
-/// sd of its mean, the bucket's mass identified with the truth in its 90 %
-/// interval.
+/// rig, and the posterior holds the truth: each parameter within 3 sd of
+/// its mean (the bucket's 235 kg lies beyond its prior's 90 % interval,
+/// 96-217 kg, as a machine none of the files was made from may). The
+/// gauges' 1 MPa instrument error is the same in every hold (a bridge's
+/// zero and calibration), so what acts like a constant on a gauge cannot
+/// be told from it: the masses' dead weight mostly does (the holds are at
+/// the boom's lowest pose, where the tooth force acts on the longest lever),
+/// and stays near its prior. What scales with the tooth force is told: the
+/// lever arms, the reach and the section factors are identified.
 #[test]
 fn a_users_solver_at_the_rig_through_its_saved_emulator() {
     use rand::SeedableRng;
@@ -667,9 +673,7 @@ fn a_users_solver_at_the_rig_through_its_saved_emulator() {
             p.sd
         );
     }
-    let bucket = &posterior.parameters[0];
-    assert!(
-        bucket.width_ratio() < 0.5 && bucket.q05 <= truth[0] && truth[0] <= bucket.q95,
-        "{bucket:?}"
-    );
+    for p in &posterior.parameters[3..] {
+        assert_eq!(p.verdict.word(), "identified", "{p:?}");
+    }
 }

@@ -448,7 +448,7 @@
     const x = (v) => 4 + 232 * (v - lo) / span;
     const bar = svg('svg', { width: 240, height: 18, viewBox: '0 0 240 18', class: 'interval' });
     bar.append(svg('rect', { x: x(p.prior_q05), y: 6, width: Math.max(1, x(p.prior_q95) - x(p.prior_q05)), height: 6, fill: '#d0d7de' }));
-    const colour = p.verdict === 'identified' ? '#1a7f37' : p.verdict === 'confounded' ? '#bf8700' : '#0969da';
+    const colour = { identified: '#1a7f37', confounded: '#bf8700', conflict: '#cf222e', 'not converged': '#6e7781' }[p.verdict] || '#0969da';
     bar.append(svg('rect', { x: x(p.q05), y: 3, width: Math.max(1, x(p.q95) - x(p.q05)), height: 12, fill: colour, 'fill-opacity': 0.75 }));
     bar.append(svg('line', { x1: x(p.mean), x2: x(p.mean), y1: 1, y2: 17, stroke: '#1b1f24', 'stroke-width': 1.5 }));
     return bar;
@@ -493,7 +493,9 @@
     for (const skipped of study.skipped) parts.push(el('p', { class: 'note', text: `${skipped.hold} not used: ${skipped.why}` }));
     const rows = study.order.filter((name) => study.parameters[name]).map((name) => {
       const p = study.parameters[name];
-      const verdict = p.verdict === 'confounded' && p.confounded ? `confounded with ${p.confounded.with} (r = ${p.confounded.correlation.toFixed(2)})` : p.verdict;
+      const verdict = p.verdict === 'confounded' && p.confounded
+        ? `confounded with ${p.confounded.with} (r = ${p.confounded.correlation.toFixed(2)})`
+        : p.why ? `${p.verdict}: ${p.why}` : p.verdict;
       return el('tr', { class: `verdict-${p.verdict.replace(' ', '-')}` }, cell(name), cell(fmt(p.mean), 'num'),
         cell(`${fmt(p.q05)} \u2026 ${fmt(p.q95)}`, 'num'), cell(`${fmt(p.prior_q05)} \u2026 ${fmt(p.prior_q95)}`, 'num'),
         el('td', {}, intervalBar(p)), cell(verdict));

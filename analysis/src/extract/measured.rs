@@ -82,8 +82,8 @@ pub struct MeasuredValue {
     pub note: String,
     /// What the value's uncertainty is made of: every source for a value
     /// just extracted; for one read from a file, its shared sources only
-    /// (the file keeps `u_c`, `k` and those).
-    #[serde(skip)]
+    /// (the file keeps `u_c`, `k` and those; so does serde).
+    #[serde(with = "shared_parts", default)]
     pub budget: Budget,
     /// The combined standard uncertainty and the coverage factor for
     /// 95 %: the budget's, or the file's.
@@ -252,6 +252,43 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
     table.finish().map(|_| ())
 }
 
+/// A budget through serde as its shared parts, `[(source, effect)]` (what
+/// a posterior needs beyond `u_c`), read back as
+/// [`shared_budget`]'s: one shared contribution per source.
+mod shared_parts {
+    use acq_metrology::budget::Budget;
+
+    pub fn serialize<S: serde::Serializer>(budget: &Budget, to: S) -> Result<S::Ok, S::Error> {
+        use serde::Serialize;
+        let parts: Vec<(String, f64)> = budget
+            .shared_errors()
+            .into_iter()
+            .map(|s| (s.source, s.effect))
+            .collect();
+        parts.serialize(to)
+    }
+
+    pub fn deserialize<'de, D: serde::Deserializer<'de>>(from: D) -> Result<Budget, D::Error> {
+        use serde::Deserialize;
+        let parts = Vec::<(String, f64)>::deserialize(from)?;
+        Ok(super::budget_of_shared(parts))
+    }
+}
+
+/// A budget of shared parts alone: one contribution per source, its sign
+/// the sensitivity's.
+fn budget_of_shared(parts: Vec<(String, f64)>) -> Budget {
+    Budget {
+        contributions: parts
+            .into_iter()
+            .map(|(source, effect)| Contribution {
+                sensitivity: if effect < 0.0 { -1.0 } else { 1.0 },
+                ..Contribution::direct(&source, effect.abs(), None).shared_by(&source)
+            })
+            .collect(),
+    }
+}
+
 /// The `shared` column: `source=effect;...`.
 fn shared_text(shared: &[SharedError]) -> String {
     let mut buffer = ryu::Buffer::new();
@@ -268,7 +305,7 @@ fn shared_text(shared: &[SharedError]) -> String {
 /// sensitivity's); the part of the text that is not a `source=number`
 /// when it is not.
 fn shared_budget(text: &str) -> std::result::Result<Budget, String> {
-    let contributions = text
+    let parts = text
         .split(';')
         .filter(|part| !part.trim().is_empty())
         .map(|part| {
@@ -283,13 +320,10 @@ fn shared_budget(text: &str) -> std::result::Result<Budget, String> {
             if source.is_empty() {
                 return Err(part.to_string());
             }
-            Ok(Contribution {
-                sensitivity: if effect < 0.0 { -1.0 } else { 1.0 },
-                ..Contribution::direct(source, effect.abs(), None).shared_by(source)
-            })
+            Ok((source.to_string(), effect))
         })
         .collect::<std::result::Result<Vec<_>, String>>()?;
-    Ok(Budget { contributions })
+    Ok(budget_of_shared(parts))
 }
 
 /// Reads a measured-values file; errors name the file and line.

@@ -7,7 +7,17 @@
 use acq_drivers::profiles::SensorKind;
 use acq_drivers::rig::Rig;
 
+use super::budget::value_budget;
 use super::run::{loaded_pressure_quantity, net_force_quantity};
+
+/// What `sensor`'s record gives a value at the middle of its range (0
+/// without one); `None` without a record.
+fn stated_uncertainty(sensor: &acq_drivers::rig::Sensor) -> Option<f64> {
+    let middle = sensor.range.map_or(0.0, |[low, high]| 0.5 * (low + high));
+    let budget = value_budget(sensor, middle).budget;
+    let u = budget.combined();
+    (!budget.contributions.is_empty() && u > 0.0).then_some(u)
+}
 
 /// One quantity of a hold.
 #[derive(Clone, Debug, PartialEq)]
@@ -21,6 +31,11 @@ pub struct HoldQuantity {
     pub location: Option<u32>,
     /// The full scale the rig file states, in the unit.
     pub range: Option<[f64; 2]>,
+    /// The standard uncertainty the rig's sensor records give a value of
+    /// it before any hold is seen (the data sheets and certificates at the
+    /// middle of the range, or at 0 without one; a net force through its
+    /// areas); `None` where no record says.
+    pub stated_uncertainty: Option<f64>,
 }
 
 /// A cylinder: its chambers' sensors and areas as the rig file states them.
@@ -51,12 +66,26 @@ impl RigQuantities {
                 kind: Some(s.kind),
                 location: s.location,
                 range: s.range,
+                stated_uncertainty: stated_uncertainty(s),
             })
             .collect();
         for cylinder in &rig.cylinders {
-            for (name, unit) in [
-                (net_force_quantity(&cylinder.name), "kN"),
-                (loaded_pressure_quantity(&cylinder.name), "bar"),
+            let (head, rod) = (
+                stated_uncertainty(&rig.sensors[cylinder.head_sensor]),
+                stated_uncertainty(&rig.sensors[cylinder.rod_sensor]),
+            );
+            // kN per bar: mm^2 x 0.1 N/mm^2 per bar / 1000.
+            let net_force = head.zip(rod).map(|(head, rod)| {
+                (cylinder.bore.head_area_mm2() * 1e-4 * head)
+                    .hypot(cylinder.bore.annulus_area_mm2() * 1e-4 * rod)
+            });
+            for (name, unit, stated_uncertainty) in [
+                (net_force_quantity(&cylinder.name), "kN", net_force),
+                (
+                    loaded_pressure_quantity(&cylinder.name),
+                    "bar",
+                    head.zip(rod).map(|(h, r)| h.max(r)),
+                ),
             ] {
                 quantities.push(HoldQuantity {
                     name,
@@ -64,6 +93,7 @@ impl RigQuantities {
                     kind: None,
                     location: None,
                     range: None,
+                    stated_uncertainty,
                 });
             }
         }

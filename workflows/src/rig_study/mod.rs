@@ -62,6 +62,10 @@ pub struct RigStudy {
     /// runs it has not seen; 0 for the twin itself), in `[holds.observe]`'s
     /// order: added to the hold's uncertainty.
     pub model_error_sd: Vec<f64>,
+    /// Each observation's standard uncertainty as the rig's sensor records
+    /// state it (`None` where none does), in `[holds.observe]`'s order: what
+    /// the first hold is expected to have.
+    pub stated_noise: Vec<Option<f64>>,
     model: Box<dyn Model + Send>,
 }
 
@@ -194,8 +198,19 @@ impl RigStudy {
             .as_ref()
             .map(|p| p.settings())
             .unwrap_or_default();
+        let stated_noise = mapping
+            .observations
+            .iter()
+            .map(|(_, from)| {
+                rig.quantities
+                    .iter()
+                    .find(|q| q.name == from.quantity)
+                    .and_then(|q| q.stated_uncertainty)
+            })
+            .collect();
         let mut study = RigStudy {
             path: path.to_path_buf(),
+            stated_noise,
             mapping,
             candidates: Candidates::default(),
             parameters,

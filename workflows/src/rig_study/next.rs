@@ -60,8 +60,9 @@ const STEP_OF_PRIOR_WIDTH: f64 = 1e-3;
 
 impl RigStudy {
     /// Each observation's expected standard uncertainty in a new hold: the
-    /// median of the holds so far, else what the file states (a number as
-    /// `uncertainty`, and `instrument`); `None` when neither says.
+    /// median of the holds so far, else what the files state (a number as
+    /// `uncertainty`, and `instrument`, with the rig's sensor records);
+    /// `None` when none says.
     pub fn expected_noise(&self, readings: &[HoldReading]) -> Option<Vec<f64>> {
         self.mapping
             .observations
@@ -78,7 +79,7 @@ impl RigStudy {
                 }
                 let stated = match from.spread {
                     Spread::Stated(u) => u,
-                    _ => 0.0,
+                    _ => self.stated_noise.get(k).copied().flatten().unwrap_or(0.0),
                 };
                 let total = stated.hypot(from.instrument);
                 (total > 0.0).then_some(total)

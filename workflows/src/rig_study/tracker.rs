@@ -15,7 +15,7 @@ use serde_json::{json, Map, Value};
 
 use super::mapping::HoldReading;
 use super::next::NextTestPoint;
-use super::update::{Posterior, Verdict};
+use super::update::{significant, Posterior, Verdict};
 use super::RigStudy;
 
 /// One hold's step.
@@ -288,15 +288,6 @@ pub fn next_words(next: &NextTestPoint) -> String {
     sentence
 }
 
-/// A number to four significant figures, for words.
-fn significant(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let digits = (3 - x.abs().log10().floor() as i32).max(0) as usize;
-    format!("{x:.digits$}")
-}
-
 /// Each parameter's interval and verdict for the page, and in words.
 fn parameters_of(posterior: &Posterior) -> (Map<String, Value>, Vec<String>) {
     let mut parameters = Map::new();
@@ -319,10 +310,12 @@ fn parameters_of(posterior: &Posterior) -> (Map<String, Value>, Vec<String>) {
                 "prior_q95": p.prior_q95,
                 "verdict": p.verdict.word(),
                 "confounded": confounded,
+                "why": p.verdict.why(),
             }),
         );
-        let with = match &p.verdict {
-            Verdict::Confounded { with, .. } => format!(" with {with}"),
+        let with = match (&p.verdict, p.verdict.why()) {
+            (Verdict::Confounded { with, .. }, _) => format!(" with {with}"),
+            (_, Some(why)) => format!(": {why}"),
             _ => String::new(),
         };
         said.push(format!(

@@ -17,16 +17,26 @@
 //! it is most correlated with when |correlation| > 0.9 (the holds pin down
 //! a combination of the two), else **weak**. These are the thresholds of
 //! the search's identifiability analysis.
+//!
+//! Two things come before any of those. A parameter whose chains have not
+//! converged (R-hat at least 1.01 or too few effective draws) gets **not
+//! converged** and no verdict: its interval is not yet the posterior's. And
+//! a **conflict** is named, not read as knowledge: the posterior's median
+//! outside the prior's 90 % interval (the holds and the prior disagree), or
+//! an interval that does not overlap the one before the last hold (that hold
+//! and the earlier ones disagree). Either points at the model, the prior or
+//! a transducer, which the words say.
 
 use std::time::Instant;
 
 use acq_calib::evaluation::Scale;
-use acq_calib::mcmc::quantile;
+use acq_calib::mcmc::{quantile, Marginal};
 use acq_calib::next_point::draws_moments;
 
 use super::mapping::HoldReading;
 use super::RigStudy;
 use acq_study::posterior::sequential::{sample_sequentially, WarmStart};
+use acq_study::posterior::{ESS_PER_CHAIN, RHAT_LIMIT};
 use acq_study::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study};
 
 /// Holds that narrow a parameter's interval to this share of its prior's
@@ -49,6 +59,15 @@ pub enum Verdict {
         with: String,
         correlation: f64,
     },
+    /// Its chains have not converged: no verdict yet.
+    NotConverged {
+        rhat: f64,
+        ess_bulk: f64,
+    },
+    /// The holds disagree with the prior or with each other: why, in words.
+    Conflict {
+        why: String,
+    },
 }
 
 impl Verdict {
@@ -58,6 +77,19 @@ impl Verdict {
             Verdict::Identified => "identified",
             Verdict::Weak => "weak",
             Verdict::Confounded { .. } => "confounded",
+            Verdict::NotConverged { .. } => "not converged",
+            Verdict::Conflict { .. } => "conflict",
+        }
+    }
+
+    /// What it means and what to check, where a word is not enough.
+    pub fn why(&self) -> Option<String> {
+        match self {
+            Verdict::NotConverged { rhat, ess_bulk } => Some(format!(
+                "its chains have not converged (R-hat {rhat:.3}, bulk ESS {ess_bulk:.0}): no verdict until they do; raise [posterior] draws"
+            )),
+            Verdict::Conflict { why } => Some(why.clone()),
+            _ => None,
         }
     }
 }
@@ -313,6 +345,7 @@ impl RigStudy {
         )
         .map_err(|e| e.to_string())?;
         let chains = update.chains;
+        let marginals = chains.summaries();
         let pooled: Vec<Vec<f64>> = chains.pooled().cloned().collect();
         let (mean, covariance) = draws_moments(&pooled)
             .ok_or("the posterior has fewer than two draws; raise [posterior] draws")?;
@@ -335,7 +368,15 @@ impl RigStudy {
                     prior_q95,
                     verdict: Verdict::Weak,
                 };
-                interval.verdict = verdict(&interval, j, &covariance, &self.parameters);
+                let median = quantile(&column, 0.5);
+                interval.verdict = match (
+                    not_converged(&marginals[j], self.settings.chains),
+                    conflict(&interval, median, last.parameters.get(j), readings.len()),
+                ) {
+                    (Some(unconverged), _) => unconverged,
+                    (None, Some(conflict)) => conflict,
+                    (None, None) => verdict(&interval, j, &covariance, &self.parameters),
+                };
                 interval
             })
             .collect();
@@ -349,6 +390,56 @@ impl RigStudy {
             next_start: Some(update.next),
         })
     }
+}
+
+/// `NotConverged` when the parameter's chains have not (R-hat at least
+/// [`RHAT_LIMIT`] or a bulk ESS under [`ESS_PER_CHAIN`] per chain).
+fn not_converged(marginal: &Marginal, chains: usize) -> Option<Verdict> {
+    let rhat_ok = marginal.rhat < RHAT_LIMIT || chains < 2;
+    let ess_ok = marginal.ess_bulk >= ESS_PER_CHAIN * chains as f64;
+    (!(rhat_ok && ess_ok)).then_some(Verdict::NotConverged {
+        rhat: marginal.rhat,
+        ess_bulk: marginal.ess_bulk,
+    })
+}
+
+/// A conflict the interval shows after `holds` holds: its median outside
+/// the prior's 90 % interval, or no overlap with `before` (the interval
+/// before the last hold).
+fn conflict(
+    interval: &ParameterInterval,
+    median: f64,
+    before: Option<&ParameterInterval>,
+    holds: usize,
+) -> Option<Verdict> {
+    let range = |a: f64, b: f64| format!("{}..{}", significant(a), significant(b));
+    if !(interval.prior_q05..=interval.prior_q95).contains(&median) {
+        return Some(Verdict::Conflict {
+            why: format!(
+                "the holds put it at {} (90 %), outside its prior's 90 % interval {}: the data and the prior disagree. Check the prior, the twin (geometry, masses) and the transducers (zero, range, certificate)",
+                range(interval.q05, interval.q95),
+                range(interval.prior_q05, interval.prior_q95)
+            ),
+        });
+    }
+    let before = before.filter(|b| b.verdict != Verdict::Prior)?;
+    (interval.q95 < before.q05 || interval.q05 > before.q95).then(|| Verdict::Conflict {
+        why: format!(
+            "its 90 % interval jumped from {} after {} hold(s) to {} after hold {holds}, without overlap: that hold and the earlier ones disagree. Check its sensors (flags, zero) and the twin at its pose",
+            range(before.q05, before.q95),
+            holds - 1,
+            range(interval.q05, interval.q95)
+        ),
+    })
+}
+
+/// A number to four significant figures, for words.
+pub(super) fn significant(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = (3 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
 }
 
 /// The verdict of parameter `j` with `interval`.

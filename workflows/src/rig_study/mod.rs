@@ -41,6 +41,7 @@ pub mod candidates;
 pub mod mapping;
 pub mod next;
 pub mod offline;
+pub mod shared;
 pub mod tracker;
 pub mod update;
 

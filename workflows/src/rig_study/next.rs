@@ -12,10 +12,19 @@
 //! where a sampled (nested Monte-Carlo) gain would need thousands of runs
 //! per candidate. Each candidate's noise is the observations' expected
 //! standard uncertainty: the median over the holds so far (before the
-//! first hold, what the file states). Its input uncertainty is left out:
+//! first hold, what the files state). Its input uncertainty is left out:
 //! it is the same for every candidate to first order.
+//!
+//! Where the holds share errors (a transducer's calibration), the part of
+//! a new hold's error that is shared is not fresh noise: the shared errors
+//! join the parameters as coordinates with their joint posterior
+//! ([`super::shared`]), a candidate moves them by its loadings, and only its
+//! own error is noise. A repeat of a hold then gains only what its own
+//! scatter adds.
 
 use acq_calib::next_point::{next_point, Candidate};
+
+use acq_study::posterior::shared_errors::LEAST_OWN_SHARE;
 
 use super::mapping::{HoldReading, Spread};
 use super::update::Posterior;
@@ -151,24 +160,39 @@ impl RigStudy {
         if usable.is_empty() {
             return Err("the twin runs at no candidate at the posterior mean".into());
         }
-        let weighed: Vec<Candidate> = usable
+        let shared = posterior.shared.as_ref();
+        let own_noise_sd: Vec<f64> = noise_sd
             .iter()
-            .map(|&c| {
-                let outputs = noise_sd.len();
-                Candidate {
-                    jacobian: (0..outputs)
-                        .map(|k| {
-                            columns
-                                .iter()
-                                .map(|col| col[c].as_ref().map_or(0.0, |d| d[k]))
-                                .collect()
-                        })
-                        .collect(),
-                    noise_sd: noise_sd.to_vec(),
-                }
+            .enumerate()
+            .map(|(k, sd)| {
+                let shared_variance: f64 = shared
+                    .and_then(|s| s.loadings.get(k))
+                    .map_or(0.0, |l| l.iter().map(|e| e * e).sum());
+                (sd * sd - shared_variance)
+                    .max(LEAST_OWN_SHARE * sd * sd)
+                    .sqrt()
             })
             .collect();
-        let chosen = next_point(&posterior.covariance, &weighed).map_err(|e| e.to_string())?;
+        let weighed: Vec<Candidate> = usable
+            .iter()
+            .map(|&c| Candidate {
+                jacobian: (0..noise_sd.len())
+                    .map(|k| {
+                        let mut row: Vec<f64> = columns
+                            .iter()
+                            .map(|col| col[c].as_ref().map_or(0.0, |d| d[k]))
+                            .collect();
+                        if let Some(shared) = shared {
+                            row.extend(shared.loadings.get(k).cloned().unwrap_or_default());
+                        }
+                        row
+                    })
+                    .collect(),
+                noise_sd: own_noise_sd.clone(),
+            })
+            .collect();
+        let covariance = shared.map_or(&posterior.covariance, |s| &s.joint_covariance);
+        let chosen = next_point(covariance, &weighed).map_err(|e| e.to_string())?;
         let best = usable[chosen.best];
         let gain = &chosen.gains[chosen.best];
         Ok(Some(NextTestPoint {

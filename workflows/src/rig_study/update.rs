@@ -34,6 +34,7 @@ use acq_calib::mcmc::{quantile, Marginal};
 use acq_calib::next_point::draws_moments;
 
 use super::mapping::HoldReading;
+use super::shared::SharedErrorsPosterior;
 use super::RigStudy;
 use acq_study::posterior::sequential::{sample_sequentially, WarmStart};
 use acq_study::posterior::{ESS_PER_CHAIN, RHAT_LIMIT};
@@ -127,6 +128,9 @@ pub struct Posterior {
     /// Where the update after the next hold starts (`None`: the prior's
     /// full warmup).
     pub next_start: Option<WarmStart>,
+    /// The errors the holds share, jointly with the parameters (`None`
+    /// when they share none, and for the prior).
+    pub shared: Option<SharedErrorsPosterior>,
 }
 
 impl Posterior {
@@ -232,6 +236,7 @@ impl RigStudy {
             how: "the prior".into(),
             wall_s: 0.0,
             next_start: None,
+            shared: None,
         }
     }
 
@@ -386,6 +391,7 @@ impl RigStudy {
             mean,
             covariance,
             how: update.how,
+            shared: self.shared_errors_posterior(&study, &pooled),
             wall_s: start.elapsed().as_secs_f64(),
             next_start: Some(update.next),
         })

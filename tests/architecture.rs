@@ -856,7 +856,6 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("workflows/src/virtual_rig.rs", "expand_twin_scenario", "to split"),
     ("demo/src/acquire.rs", "play_all", "to split"),
     ("study/src/posterior/report.rs", "write_section", "to split"),
-    ("acquire/src/simulate/mod.rs", "build_streams", "to split"),
     ("study/src/saved_emulator.rs", "fit", "to split"),
 ];
 

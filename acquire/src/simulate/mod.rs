@@ -14,7 +14,7 @@ use std::collections::{BTreeMap, BinaryHeap};
 
 use acq_drivers::canopen::heartbeat_cob_id;
 use acq_drivers::j1939::{J1939Id, GLOBAL_ADDRESS};
-use acq_drivers::rig::{Rig, SensorSource};
+use acq_drivers::rig::{Rig, Sensor, SensorSource};
 use acq_drivers::{CanId, Frame, IfaceName};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -331,85 +331,8 @@ fn build_streams(
     devices: &scenario::Devices,
     master: &mut ChaCha8Rng,
 ) -> Result<Vec<Stream>> {
-    let mut messages: BTreeMap<(usize, u32), MessagePlan> = BTreeMap::new();
-    let mut nodes: BTreeMap<(usize, u8), Option<f64>> = BTreeMap::new();
-    for (index, sensor) in rig.sensors.iter().enumerate() {
-        let (id, len, fill) = match &sensor.source {
-            SensorSource::Dbc {
-                id, signal_index, ..
-            } => {
-                let message = rig.buses[sensor.bus].dbc.message(*id).ok_or_else(|| {
-                    AcqError::Config(format!("sensor {}: DBC message {id} missing", sensor.name))
-                })?;
-                if message.signals[*signal_index].multiplexer_value.is_some() {
-                    return Err(AcqError::Config(format!(
-                        "sensor {}: simulating multiplexed DBC signals is not supported",
-                        sensor.name
-                    )));
-                }
-                (*id, message.size, 0x00)
-            }
-            SensorSource::Canopen {
-                cob_id,
-                node_id,
-                mapping,
-                heartbeat_ms,
-                ..
-            } => {
-                nodes.insert((sensor.bus, *node_id), *heartbeat_ms);
-                (*cob_id, mapping.field.end_byte(), 0x00)
-            }
-            SensorSource::J1939 {
-                pgn,
-                source_address,
-                ..
-            } => {
-                let id = J1939Id {
-                    priority: J1939_PRIORITY,
-                    pgn: *pgn,
-                    source_address: source_address.unwrap_or(0x80),
-                    destination_address: GLOBAL_ADDRESS,
-                }
-                .to_can_id()
-                .ok_or_else(|| {
-                    AcqError::Config(format!("sensor {}: PGN {pgn} has no J1939 id", sensor.name))
-                })?;
-                // Unused J1939 bytes are 0xFF ("not available").
-                (id, 8, 0xFF)
-            }
-        };
-        let plan = messages
-            .entry((sensor.bus, id.key()))
-            .or_insert(MessagePlan {
-                id,
-                sensors: Vec::new(),
-                len: 0,
-                fill,
-                rate_hz: 0.0,
-            });
-        plan.sensors.push(index);
-        plan.len = plan.len.max(len);
-        plan.rate_hz = plan.rate_hz.max(sensor.rate_hz);
-    }
-    let mut device = |period_s: f64, phase_s: f64, droppable: bool, iface, id, payload| {
-        let ppm = master.random_range(-devices.clock_ppm..=devices.clock_ppm.max(0.0));
-        let period_ns = period_s * 1e9 * (1.0 + ppm * 1e-6);
-        let jitter_ns = devices.jitter_us * 1e3;
-        Stream {
-            iface,
-            id,
-            payload,
-            period_ns,
-            phase_ns: phase_s * 1e9,
-            jitter: Normal::new(0.0, jitter_ns)
-                .unwrap_or_else(|_| Normal::new(0.0, 0.0).expect("zero std is valid")),
-            // Never reorder a device's own frames.
-            jitter_limit_ns: (3.0 * jitter_ns).min(0.4 * period_ns),
-            droppable,
-            index: 0,
-            rng: ChaCha8Rng::seed_from_u64(master.random()),
-        }
-    };
+    let (messages, nodes) = plan_messages(rig)?;
+    let mut clocks = DeviceClocks { devices, master };
     let mut streams = Vec::new();
     let mut boot_s: BTreeMap<(usize, u8), f64> = BTreeMap::new();
     for (&(bus, node), heartbeat_ms) in &nodes {
@@ -420,7 +343,7 @@ fn build_streams(
         boot_s.insert((bus, node), boot);
         // A node without heartbeat sends only its boot-up (one period longer than any test).
         let period_s = heartbeat_ms.map_or(1e9, |ms| ms * 1e-3);
-        streams.push(device(
+        streams.push(clocks.stream(
             period_s,
             boot,
             false,
@@ -445,16 +368,132 @@ fn build_streams(
         // PDOs start after their node booted; others anywhere in their first period.
         let phase = node_boot.map_or(0.0, |b| b + 0.005) + period_s * (id.raw() % 97) as f64 / 97.0;
         let payload = Payload::Sensors { sensors, len, fill };
-        streams.push(device(
-            period_s,
-            phase,
-            true,
-            rig.buses[bus].iface,
-            id,
-            payload,
-        ));
+        streams.push(clocks.stream(period_s, phase, true, rig.buses[bus].iface, id, payload));
     }
     Ok(streams)
+}
+
+/// The rig's device frames by (bus, CAN id key), and its CANopen nodes by
+/// (bus, node id) with their heartbeat period, ms (`None`: no heartbeat).
+type MessagesAndNodes = (
+    BTreeMap<(usize, u32), MessagePlan>,
+    BTreeMap<(usize, u8), Option<f64>>,
+);
+
+/// Groups the rig's sensors into device frames (the largest length and
+/// rate among a frame's sensors) and collects its CANopen nodes.
+fn plan_messages(rig: &Rig) -> Result<MessagesAndNodes> {
+    let mut messages: BTreeMap<(usize, u32), MessagePlan> = BTreeMap::new();
+    let mut nodes: BTreeMap<(usize, u8), Option<f64>> = BTreeMap::new();
+    for (index, sensor) in rig.sensors.iter().enumerate() {
+        if let SensorSource::Canopen {
+            node_id,
+            heartbeat_ms,
+            ..
+        } = &sensor.source
+        {
+            nodes.insert((sensor.bus, *node_id), *heartbeat_ms);
+        }
+        let (id, len, fill) = sensor_frame(rig, sensor)?;
+        let plan = messages
+            .entry((sensor.bus, id.key()))
+            .or_insert(MessagePlan {
+                id,
+                sensors: Vec::new(),
+                len: 0,
+                fill,
+                rate_hz: 0.0,
+            });
+        plan.sensors.push(index);
+        plan.len = plan.len.max(len);
+        plan.rate_hz = plan.rate_hz.max(sensor.rate_hz);
+    }
+    Ok((messages, nodes))
+}
+
+/// The frame a sensor's device sends it in: (CAN id, bytes it needs, what
+/// unused bytes hold); an error for a DBC message the bus lacks, a
+/// multiplexed DBC signal or a PGN without a J1939 id.
+fn sensor_frame(rig: &Rig, sensor: &Sensor) -> Result<(CanId, usize, u8)> {
+    Ok(match &sensor.source {
+        SensorSource::Dbc {
+            id, signal_index, ..
+        } => {
+            let message = rig.buses[sensor.bus].dbc.message(*id).ok_or_else(|| {
+                AcqError::Config(format!("sensor {}: DBC message {id} missing", sensor.name))
+            })?;
+            if message.signals[*signal_index].multiplexer_value.is_some() {
+                return Err(AcqError::Config(format!(
+                    "sensor {}: simulating multiplexed DBC signals is not supported",
+                    sensor.name
+                )));
+            }
+            (*id, message.size, 0x00)
+        }
+        SensorSource::Canopen {
+            cob_id, mapping, ..
+        } => (*cob_id, mapping.field.end_byte(), 0x00),
+        SensorSource::J1939 {
+            pgn,
+            source_address,
+            ..
+        } => {
+            let id = J1939Id {
+                priority: J1939_PRIORITY,
+                pgn: *pgn,
+                source_address: source_address.unwrap_or(0x80),
+                destination_address: GLOBAL_ADDRESS,
+            }
+            .to_can_id()
+            .ok_or_else(|| {
+                AcqError::Config(format!("sensor {}: PGN {pgn} has no J1939 id", sensor.name))
+            })?;
+            // Unused J1939 bytes are 0xFF ("not available").
+            (id, 8, 0xFF)
+        }
+    })
+}
+
+/// Gives each device its own clock error, jitter and random stream, drawn
+/// from the master generator in the order the streams are made.
+struct DeviceClocks<'a> {
+    devices: &'a scenario::Devices,
+    master: &'a mut ChaCha8Rng,
+}
+
+impl DeviceClocks<'_> {
+    /// A device's stream of one message: nominal `period_s` off by a clock
+    /// error in ±`clock_ppm`, first sent at `phase_s`.
+    fn stream(
+        &mut self,
+        period_s: f64,
+        phase_s: f64,
+        droppable: bool,
+        iface: IfaceName,
+        id: CanId,
+        payload: Payload,
+    ) -> Stream {
+        let devices = self.devices;
+        let ppm = self
+            .master
+            .random_range(-devices.clock_ppm..=devices.clock_ppm.max(0.0));
+        let period_ns = period_s * 1e9 * (1.0 + ppm * 1e-6);
+        let jitter_ns = devices.jitter_us * 1e3;
+        Stream {
+            iface,
+            id,
+            payload,
+            period_ns,
+            phase_ns: phase_s * 1e9,
+            jitter: Normal::new(0.0, jitter_ns)
+                .unwrap_or_else(|_| Normal::new(0.0, 0.0).expect("zero std is valid")),
+            // Never reorder a device's own frames.
+            jitter_limit_ns: (3.0 * jitter_ns).min(0.4 * period_ns),
+            droppable,
+            index: 0,
+            rng: ChaCha8Rng::seed_from_u64(self.master.random()),
+        }
+    }
 }
 
 /// Writes sensor `index`'s engineering `value` into its frame's payload, as

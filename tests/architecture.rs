@@ -849,14 +849,8 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("calib/src/optim.rs", "minimize_bounded", "the L-BFGS-B iteration: its history, the projected search and the line search share one state"),
     ("calib/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
     ("workflows/src/rig_study/mod.rs", "load_with", "to split"),
-    ("study/src/surrogate_moo.rs", "surrogate_moo", "to split"),
-    ("study/src/posterior/predictive.rs", "predictive_runs", "to split"),
-    ("study/src/identifiability.rs", "identifiability", "to split"),
-    ("study/src/identifiability.rs", "write_identifiability", "to split"),
     ("workflows/src/virtual_rig.rs", "expand_twin_scenario", "to split"),
     ("demo/src/acquire.rs", "play_all", "to split"),
-    ("study/src/posterior/report.rs", "write_section", "to split"),
-    ("study/src/saved_emulator.rs", "fit", "to split"),
 ];
 
 /// About the longest a function reads whole on one screen and a half.

@@ -25,7 +25,7 @@ use acq_calib::evaluation::{Evaluation, Parameter};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series};
-use nalgebra::{DMatrix, SymmetricEigen};
+use nalgebra::{DMatrix, Dyn, SymmetricEigen};
 
 use super::search::to_unit;
 use super::study::{Measured, Role, Study};
@@ -92,49 +92,9 @@ pub fn identifiability(
     let parameters = study.search_parameters();
     let d = parameters.len();
     let at = to_unit(&parameters, calibrated);
-    let fitted;
-    // Outputs near the calibrated point, and their Jacobian there.
     let on_the_model = matches!(local, Local::Jacobian(_));
-    let (predicted, jacobian): (Box<Predictor<'_>>, DMatrix<f64>) = match local {
-        Local::Surrogates(gps) => {
-            let gps = match gps {
-                Some(gps) => gps,
-                None => {
-                    fitted = fit_gps(&parameters, evaluations)?;
-                    &fitted
-                }
-            };
-            let mut jacobian = DMatrix::<f64>::zeros(gps.len(), d);
-            for (i, gp) in gps.iter().enumerate() {
-                let gradient = gp.predict_with_gradient(&at).mean_gradient;
-                for (j, g) in gradient.iter().enumerate() {
-                    jacobian[(i, j)] = *g;
-                }
-            }
-            (
-                Box::new(move |u: &[f64]| gps.iter().map(|gp| gp.predict(u).mean).collect()),
-                jacobian,
-            )
-        }
-        Local::Jacobian(rows) => {
-            let jacobian = DMatrix::from_fn(rows.len(), d, |i, j| rows[i][j]);
-            let centre = at.clone();
-            let outputs = calibrated_outputs.to_vec();
-            let linear = jacobian.clone();
-            (
-                Box::new(move |u: &[f64]| {
-                    let shift = DMatrix::from_fn(d, 1, |j, _| u[j] - centre[j]);
-                    let change = &linear * shift;
-                    outputs
-                        .iter()
-                        .enumerate()
-                        .map(|(i, y)| y + change[(i, 0)])
-                        .collect()
-                }),
-                jacobian,
-            )
-        }
-    };
+    let (predicted, jacobian) =
+        local_outputs(local, &parameters, evaluations, &at, calibrated_outputs)?;
     let observations = study.observations(Role::Fit);
     let in_uncertainties = observations.iter().all(|(_, o)| {
         matches!(
@@ -158,45 +118,10 @@ pub fn identifiability(
     // Directions the data barely see are left out of the inverse: their
     // spread is reported as infinite instead of as a huge number.
     let cutoff = largest * 1e-10;
-    let slices: Vec<Vec<(f64, f64)>> = (0..d)
-        .map(|j| {
-            (0..=40)
-                .map(|step| {
-                    let mut u = at.clone();
-                    u[j] = step as f64 / 40.0;
-                    (u[j], study.loss(&predicted(&u)))
-                })
-                .collect()
-        })
-        .collect();
-    // How much the loss changes along each parameter's whole range.
-    let sensitivity: Vec<f64> = slices
-        .iter()
-        .map(|slice| {
-            let (low, high) = slice
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, l)| {
-                    (lo.min(l), hi.max(l))
-                });
-            high - low
-        })
-        .collect();
-    let mut covariance = DMatrix::<f64>::zeros(d, d);
-    for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
-        if lambda > cutoff && lambda > 0.0 {
-            let v = eigen.eigenvectors.column(k);
-            covariance += (v * v.transpose()) / lambda;
-        }
-    }
-    let unseen: Vec<bool> = (0..d)
-        .map(|j| {
-            eigen.eigenvalues.iter().enumerate().any(|(k, &l)| {
-                // Below the cutoff, negative, or NaN: a direction the data do not see.
-                l.partial_cmp(&cutoff) != Some(std::cmp::Ordering::Greater)
-                    && eigen.eigenvectors[(j, k)].abs() > 0.1
-            })
-        })
-        .collect();
+    let slices = loss_slices(study, &*predicted, &at);
+    let sensitivity = loss_change_along_range(&slices);
+    let covariance = covariance_of_seen_directions(&eigen, cutoff);
+    let unseen = in_unseen_directions(&eigen, cutoff);
     let spread_of_range: Vec<f64> = (0..d)
         .map(|j| {
             if unseen[j] || sensitivity[j] == 0.0 {
@@ -206,7 +131,142 @@ pub fn identifiability(
             }
         })
         .collect();
-    let correlation = (0..d)
+    let correlation = correlation_of_identified(&covariance, &spread_of_range);
+    Some(Identifiability {
+        sensitivity,
+        spread_of_range,
+        correlation,
+        in_uncertainties: in_uncertainties && !has_curve,
+        from_loss_curvature: has_curve,
+        slices,
+        on_the_model,
+    })
+}
+
+/// Outputs near the calibrated point `at`, and their Jacobian there: the
+/// GPs' means and gradients (the given GPs, or GPs fitted to the logged
+/// runs; `None` when too few runs succeeded), or the model linearised.
+fn local_outputs<'a>(
+    local: Local<'a>,
+    parameters: &[Parameter],
+    evaluations: &[Evaluation],
+    at: &[f64],
+    calibrated_outputs: &[f64],
+) -> Option<(Box<Predictor<'a>>, DMatrix<f64>)> {
+    let d = parameters.len();
+    Some(match local {
+        Local::Surrogates(Some(gps)) => (
+            Box::new(move |u: &[f64]| gp_means(gps, u)),
+            gp_jacobian(gps, at, d),
+        ),
+        Local::Surrogates(None) => {
+            let fitted = fit_gps(parameters, evaluations)?;
+            let jacobian = gp_jacobian(&fitted, at, d);
+            (Box::new(move |u: &[f64]| gp_means(&fitted, u)), jacobian)
+        }
+        Local::Jacobian(rows) => {
+            let jacobian = DMatrix::from_fn(rows.len(), d, |i, j| rows[i][j]);
+            let centre = at.to_vec();
+            let outputs = calibrated_outputs.to_vec();
+            let linear = jacobian.clone();
+            (
+                Box::new(move |u: &[f64]| {
+                    let shift = DMatrix::from_fn(d, 1, |j, _| u[j] - centre[j]);
+                    let change = &linear * shift;
+                    outputs
+                        .iter()
+                        .enumerate()
+                        .map(|(i, y)| y + change[(i, 0)])
+                        .collect()
+                }),
+                jacobian,
+            )
+        }
+    })
+}
+
+/// The GPs' means at a unit-box point: the outputs they stand for.
+fn gp_means(gps: &[Gp], u: &[f64]) -> Vec<f64> {
+    gps.iter().map(|gp| gp.predict(u).mean).collect()
+}
+
+/// d GP mean / d unit-box position at `at`, one row per GP, `d` columns.
+fn gp_jacobian(gps: &[Gp], at: &[f64], d: usize) -> DMatrix<f64> {
+    let mut jacobian = DMatrix::<f64>::zeros(gps.len(), d);
+    for (i, gp) in gps.iter().enumerate() {
+        let gradient = gp.predict_with_gradient(at).mean_gradient;
+        for (j, g) in gradient.iter().enumerate() {
+            jacobian[(i, j)] = *g;
+        }
+    }
+    jacobian
+}
+
+/// The loss along each parameter through `at` (the others held), at 41
+/// evenly spaced unit positions: (unit position, loss).
+fn loss_slices(study: &Study, predicted: &Predictor<'_>, at: &[f64]) -> Vec<Vec<(f64, f64)>> {
+    (0..at.len())
+        .map(|j| {
+            (0..=40)
+                .map(|step| {
+                    let mut u = at.to_vec();
+                    u[j] = step as f64 / 40.0;
+                    (u[j], study.loss(&predicted(&u)))
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// How much the loss changes along each parameter's whole range: the
+/// spread of its slice.
+fn loss_change_along_range(slices: &[Vec<(f64, f64)>]) -> Vec<f64> {
+    slices
+        .iter()
+        .map(|slice| {
+            let (low, high) = slice
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &(_, l)| {
+                    (lo.min(l), hi.max(l))
+                });
+            high - low
+        })
+        .collect()
+}
+
+/// The inverse of the information over the directions the data see (an
+/// eigenvalue above `cutoff` and positive).
+fn covariance_of_seen_directions(eigen: &SymmetricEigen<f64, Dyn>, cutoff: f64) -> DMatrix<f64> {
+    let d = eigen.eigenvectors.nrows();
+    let mut covariance = DMatrix::<f64>::zeros(d, d);
+    for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
+        if lambda > cutoff && lambda > 0.0 {
+            let v = eigen.eigenvectors.column(k);
+            covariance += (v * v.transpose()) / lambda;
+        }
+    }
+    covariance
+}
+
+/// Per parameter: whether it takes part (a component over 0.1) in a
+/// direction the data do not see.
+fn in_unseen_directions(eigen: &SymmetricEigen<f64, Dyn>, cutoff: f64) -> Vec<bool> {
+    (0..eigen.eigenvectors.nrows())
+        .map(|j| {
+            eigen.eigenvalues.iter().enumerate().any(|(k, &l)| {
+                // Below the cutoff, negative, or NaN: a direction the data do not see.
+                l.partial_cmp(&cutoff) != Some(std::cmp::Ordering::Greater)
+                    && eigen.eigenvectors[(j, k)].abs() > 0.1
+            })
+        })
+        .collect()
+}
+
+/// The correlation matrix of the parameters, NaN where one of the pair
+/// has no finite spread.
+fn correlation_of_identified(covariance: &DMatrix<f64>, spread_of_range: &[f64]) -> Vec<Vec<f64>> {
+    let d = spread_of_range.len();
+    (0..d)
         .map(|a| {
             (0..d)
                 .map(|b| {
@@ -218,16 +278,7 @@ pub fn identifiability(
                 })
                 .collect()
         })
-        .collect();
-    Some(Identifiability {
-        sensitivity,
-        spread_of_range,
-        correlation,
-        in_uncertainties: in_uncertainties && !has_curve,
-        from_loss_curvature: has_curve,
-        slices,
-        on_the_model,
-    })
+        .collect()
 }
 
 /// `J^T J` of the scalar residuals, from the outputs' Jacobian.
@@ -359,6 +410,20 @@ pub fn write_identifiability(
         report.paragraph("Too few successful model runs for the surrogates this analysis needs.");
         return;
     };
+    report.paragraph(how_the_spread_was_found(analysis));
+    let (table, verdicts) = verdict_table(analysis, parameters);
+    report
+        .table(table)
+        .paragraph(verdict_sentences(&verdicts, analysis, parameters).join(" "));
+    if parameters.len() > 1 {
+        report.table(correlation_table(analysis, parameters));
+    }
+    report.figure(loss_slices_figure(analysis, parameters));
+}
+
+/// The sentence that says where the analysis was made and what its spread
+/// is a spread for.
+fn how_the_spread_was_found(analysis: &Identifiability) -> String {
     let unit = if analysis.from_loss_curvature {
         "a rise of the loss by one point"
     } else if analysis.in_uncertainties {
@@ -366,7 +431,7 @@ pub fn write_identifiability(
     } else {
         "1 % of relative error per observation"
     };
-    report.paragraph(format!(
+    format!(
         "At the calibrated point, {}{}. The spread is how far a parameter can move for {unit}, as a share of its range{}.",
         if analysis.on_the_model {
             "on the model itself (central differences)"
@@ -383,7 +448,26 @@ pub fn write_identifiability(
         } else {
             ""
         }
-    ));
+    )
+}
+
+/// The parameters that are not (or weakly) identified, by name, by why.
+#[derive(Default)]
+struct Verdicts<'a> {
+    /// Not identified, and the loss barely changes along them.
+    flat: Vec<&'a str>,
+    /// Not identified though the loss changes along them.
+    confounded: Vec<&'a str>,
+    /// Spread between 10 and 50 % of the range.
+    weak: Vec<&'a str>,
+}
+
+/// The table of each parameter's loss change, spread and verdict, and the
+/// parameters sorted by verdict.
+fn verdict_table<'a>(
+    analysis: &Identifiability,
+    parameters: &'a [Parameter],
+) -> (Table, Verdicts<'a>) {
     let mut table = Table::new(&[
         "parameter",
         "loss change along its range",
@@ -391,18 +475,18 @@ pub fn write_identifiability(
         "verdict",
     ]);
     let largest = analysis.sensitivity.iter().fold(0.0f64, |a, &b| a.max(b));
-    let (mut flat, mut confounded, mut weak) = (Vec::new(), Vec::new(), Vec::new());
+    let mut verdicts = Verdicts::default();
     for (j, p) in parameters.iter().enumerate() {
         let spread = analysis.spread_of_range[j];
         let verdict = if !spread.is_finite() || spread > 0.5 {
             if analysis.sensitivity[j] <= 1e-3 * largest {
-                flat.push(p.name.as_str());
+                verdicts.flat.push(p.name.as_str());
             } else {
-                confounded.push(p.name.as_str());
+                verdicts.confounded.push(p.name.as_str());
             }
             "not identified"
         } else if spread > 0.1 {
-            weak.push(p.name.as_str());
+            verdicts.weak.push(p.name.as_str());
             "weakly identified"
         } else {
             "identified"
@@ -419,23 +503,33 @@ pub fn write_identifiability(
             verdict.into(),
         ]);
     }
+    (table, verdicts)
+}
+
+/// The verdicts and the strongly correlated pairs in words, or that every
+/// parameter is pinned down.
+fn verdict_sentences(
+    verdicts: &Verdicts<'_>,
+    analysis: &Identifiability,
+    parameters: &[Parameter],
+) -> Vec<String> {
     let mut sentences = Vec::new();
-    if !flat.is_empty() {
+    if !verdicts.flat.is_empty() {
         sentences.push(format!(
             "Flat in the data, so not identified: {}. Fix them at a value from elsewhere, or add an observation they move.",
-            flat.join(", ")
+            verdicts.flat.join(", ")
         ));
     }
-    if !confounded.is_empty() {
+    if !verdicts.confounded.is_empty() {
         sentences.push(format!(
             "Seen by the data but not identified on their own: {}. Combinations of them leave every observation unchanged (more parameters than independent observations, or parameters that act alike); the values found are one of many equally good answers.",
-            confounded.join(", ")
+            verdicts.confounded.join(", ")
         ));
     }
-    if !weak.is_empty() {
+    if !verdicts.weak.is_empty() {
         sentences.push(format!(
             "Weakly identified (spread 10-50 % of the range): {}.",
-            weak.join(", ")
+            verdicts.weak.join(", ")
         ));
     }
     for a in 0..parameters.len() {
@@ -455,25 +549,31 @@ pub fn write_identifiability(
                 .into(),
         );
     }
-    report.table(table).paragraph(sentences.join(" "));
-    if parameters.len() > 1 {
-        let mut header = vec![String::from("correlation")];
-        header.extend(parameters.iter().map(|p| p.name.clone()));
-        let header: Vec<&str> = header.iter().map(String::as_str).collect();
-        let mut table = Table::new(&header);
-        for (a, p) in parameters.iter().enumerate() {
-            let mut cells = vec![p.name.clone()];
-            cells.extend(analysis.correlation[a].iter().map(|r| {
-                if r.is_finite() {
-                    format!("{r:+.2}")
-                } else {
-                    "-".into()
-                }
-            }));
-            table.row(cells);
-        }
-        report.table(table);
+    sentences
+}
+
+/// The correlation matrix as a table, "-" where it is not defined.
+fn correlation_table(analysis: &Identifiability, parameters: &[Parameter]) -> Table {
+    let mut header = vec![String::from("correlation")];
+    header.extend(parameters.iter().map(|p| p.name.clone()));
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut table = Table::new(&header);
+    for (a, p) in parameters.iter().enumerate() {
+        let mut cells = vec![p.name.clone()];
+        cells.extend(analysis.correlation[a].iter().map(|r| {
+            if r.is_finite() {
+                format!("{r:+.2}")
+            } else {
+                "-".into()
+            }
+        }));
+        table.row(cells);
     }
+    table
+}
+
+/// The figure of the loss along each parameter through the optimum.
+fn loss_slices_figure(analysis: &Identifiability, parameters: &[Parameter]) -> Figure {
     let mut chart = Chart::new(
         "Loss along each parameter through the optimum (GP, others held)",
         "position in the parameter's range (0 = lower, 1 = upper)",
@@ -482,9 +582,9 @@ pub fn write_identifiability(
     for (p, slice) in parameters.iter().zip(&analysis.slices) {
         chart = chart.with_series(Series::new(p.name.clone(), slice.clone()));
     }
-    report.figure(Figure {
+    Figure {
         file: "identifiability.svg".into(),
         caption: "loss along each parameter through the optimum".into(),
         svg: chart_svg(&chart, 720.0, 420.0),
-    });
+    }
 }

@@ -125,118 +125,13 @@ impl SavedEmulator {
         rows: &[EmulatorRow],
         seed: u64,
     ) -> Result<SavedEmulator, String> {
-        if let Some(row) = rows.iter().find(|r| r.columns.len() != columns.len()) {
-            return Err(format!(
-                "a run has {} column values, the emulator {} columns",
-                row.columns.len(),
-                columns.len()
-            ));
-        }
-        if let Some((k, _)) = rows
-            .iter()
-            .flat_map(|r| r.columns.iter().enumerate())
-            .find(|(_, v)| !v.is_finite())
-        {
-            return Err(format!("a run has no finite value of {}", columns[k].name));
-        }
-        for (k, column) in columns.iter_mut().enumerate() {
-            for row in rows {
-                column.lower = column.lower.min(row.columns[k]);
-                column.upper = column.upper.max(row.columns[k]);
-            }
-        }
-        // A column every run had at one value is no input of a GP.
-        let varied: Vec<bool> = columns.iter().map(|c| c.upper > c.lower).collect();
-        let fixed: Vec<(String, f64)> = columns
-            .iter()
-            .zip(&varied)
-            .filter(|(c, &v)| !v && c.lower.is_finite())
-            .map(|(c, _)| (c.name.clone(), c.lower))
-            .collect();
-        let columns: Vec<Column> = columns
+        check_row_values(&columns, rows)?;
+        widen_to_rows(&mut columns, rows);
+        let (columns, fixed, rows) = drop_fixed_columns(columns, rows);
+        let settings = emulator_gp_settings(&columns, seed);
+        let outputs = output_names(&rows)
             .into_iter()
-            .zip(&varied)
-            .filter(|(_, &v)| v)
-            .map(|(c, _)| c)
-            .collect();
-        let rows: Vec<EmulatorRow> = rows
-            .iter()
-            .map(|row| EmulatorRow {
-                run: row.run,
-                columns: row
-                    .columns
-                    .iter()
-                    .zip(&varied)
-                    .filter(|(_, &v)| v)
-                    .map(|(x, _)| *x)
-                    .collect(),
-                outputs: row.outputs.clone(),
-            })
-            .collect();
-        let rows = &rows;
-        let mut names: Vec<&str> = Vec::new();
-        for row in rows {
-            for (name, _) in &row.outputs {
-                if !names.contains(&name.as_str()) {
-                    names.push(name);
-                }
-            }
-        }
-        let settings = GpSettings {
-            kernel: Kernel::Matern52,
-            ard: true,
-            restarts: 3,
-            seed,
-            input_bounds: Some(columns.iter().map(|c| (c.lower, c.upper)).collect()),
-            // A floor on the noise (a thousandth of the outputs' spread, as
-            // an sd): on a deterministic model's runs the likelihood
-            // otherwise drives the noise to nothing and the signal to its
-            // bound, an interpolant too ill-conditioned to trust between
-            // its runs (seen on a smooth three-column model: off by a
-            // fifth of its range one unit from a run).
-            noise_bounds: (NOISE_FLOOR, 1.0),
-            ..GpSettings::default()
-        };
-        let outputs = names
-            .iter()
-            .map(|&name| {
-                let mut runs: Vec<usize> = Vec::new();
-                let (xs, ys): (Vec<Vec<f64>>, Vec<f64>) = rows
-                    .iter()
-                    .filter_map(|row| {
-                        let y = row.outputs.iter().find(|(n, _)| n == name)?.1;
-                        y.is_finite().then(|| {
-                            runs.push(row.run);
-                            (row.columns.clone(), y)
-                        })
-                    })
-                    .unzip();
-                if xs.len() < columns.len() + 2 {
-                    return Err(format!(
-                        "output {name}: {} runs gave it, the emulator needs at least {} (one per column and two more)",
-                        xs.len(),
-                        columns.len() + 2
-                    ));
-                }
-                let first = ys[0];
-                if ys.iter().all(|&y| y == first) {
-                    return Ok(EmulatedOutput {
-                        name: name.to_string(),
-                        emulated: Emulated::Constant(first),
-                        runs: ys.len(),
-                        error_sd: 0.0,
-                    });
-                }
-                let gp = Gp::fit(&xs, &ys, &settings)
-                    .map_err(|e| format!("output {name}: the GP does not fit its runs: {e}"))?;
-                let error_sd = error_by_run(&gp, &xs, &ys, &runs);
-                Ok(EmulatedOutput {
-                    name: name.to_string(),
-                    emulated: Emulated::Gp(Box::new(gp)),
-                    runs: ys.len(),
-                    error_sd,
-                })
-            })
+            .map(|name| fit_output(name, &rows, columns.len(), &settings))
             .collect::<Result<Vec<_>, String>>()?;
         Ok(SavedEmulator {
             format: FORMAT,
@@ -369,6 +264,153 @@ impl SavedEmulator {
             })
             .collect()
     }
+}
+
+/// An error when a row has another number of column values than the
+/// emulator has columns, or a value that is not finite.
+fn check_row_values(columns: &[Column], rows: &[EmulatorRow]) -> Result<(), String> {
+    if let Some(row) = rows.iter().find(|r| r.columns.len() != columns.len()) {
+        return Err(format!(
+            "a run has {} column values, the emulator {} columns",
+            row.columns.len(),
+            columns.len()
+        ));
+    }
+    if let Some((k, _)) = rows
+        .iter()
+        .flat_map(|r| r.columns.iter().enumerate())
+        .find(|(_, v)| !v.is_finite())
+    {
+        return Err(format!("a run has no finite value of {}", columns[k].name));
+    }
+    Ok(())
+}
+
+/// Widens each column's range to the values the rows have of it.
+fn widen_to_rows(columns: &mut [Column], rows: &[EmulatorRow]) {
+    for (k, column) in columns.iter_mut().enumerate() {
+        for row in rows {
+            column.lower = column.lower.min(row.columns[k]);
+            column.upper = column.upper.max(row.columns[k]);
+        }
+    }
+}
+
+/// Takes out the columns every run had at one value (no input of a GP):
+/// the varied columns, the fixed ones with their value, and the rows with
+/// the varied columns' values only.
+fn drop_fixed_columns(
+    columns: Vec<Column>,
+    rows: &[EmulatorRow],
+) -> (Vec<Column>, Vec<(String, f64)>, Vec<EmulatorRow>) {
+    let varied: Vec<bool> = columns.iter().map(|c| c.upper > c.lower).collect();
+    let fixed: Vec<(String, f64)> = columns
+        .iter()
+        .zip(&varied)
+        .filter(|(c, &v)| !v && c.lower.is_finite())
+        .map(|(c, _)| (c.name.clone(), c.lower))
+        .collect();
+    let columns: Vec<Column> = columns
+        .into_iter()
+        .zip(&varied)
+        .filter(|(_, &v)| v)
+        .map(|(c, _)| c)
+        .collect();
+    let rows: Vec<EmulatorRow> = rows
+        .iter()
+        .map(|row| EmulatorRow {
+            run: row.run,
+            columns: row
+                .columns
+                .iter()
+                .zip(&varied)
+                .filter(|(_, &v)| v)
+                .map(|(x, _)| *x)
+                .collect(),
+            outputs: row.outputs.clone(),
+        })
+        .collect();
+    (columns, fixed, rows)
+}
+
+/// The outputs the rows name, in first-seen order.
+fn output_names(rows: &[EmulatorRow]) -> Vec<&str> {
+    let mut names: Vec<&str> = Vec::new();
+    for row in rows {
+        for (name, _) in &row.outputs {
+            if !names.contains(&name.as_str()) {
+                names.push(name);
+            }
+        }
+    }
+    names
+}
+
+/// The GP settings of every output: Matérn 5/2 with ARD over the columns'
+/// ranges, seeded, with a floor on the noise.
+fn emulator_gp_settings(columns: &[Column], seed: u64) -> GpSettings {
+    GpSettings {
+        kernel: Kernel::Matern52,
+        ard: true,
+        restarts: 3,
+        seed,
+        input_bounds: Some(columns.iter().map(|c| (c.lower, c.upper)).collect()),
+        // A floor on the noise (a thousandth of the outputs' spread, as
+        // an sd): on a deterministic model's runs the likelihood
+        // otherwise drives the noise to nothing and the signal to its
+        // bound, an interpolant too ill-conditioned to trust between
+        // its runs (seen on a smooth three-column model: off by a
+        // fifth of its range one unit from a run).
+        noise_bounds: (NOISE_FLOOR, 1.0),
+        ..GpSettings::default()
+    }
+}
+
+/// One output emulated from the rows that gave it a finite value: a
+/// constant when they all gave the same, else a GP with its error by run;
+/// an error when fewer rows than the columns and two more gave it.
+fn fit_output(
+    name: &str,
+    rows: &[EmulatorRow],
+    column_count: usize,
+    settings: &GpSettings,
+) -> Result<EmulatedOutput, String> {
+    let mut runs: Vec<usize> = Vec::new();
+    let (xs, ys): (Vec<Vec<f64>>, Vec<f64>) = rows
+        .iter()
+        .filter_map(|row| {
+            let y = row.outputs.iter().find(|(n, _)| n == name)?.1;
+            y.is_finite().then(|| {
+                runs.push(row.run);
+                (row.columns.clone(), y)
+            })
+        })
+        .unzip();
+    if xs.len() < column_count + 2 {
+        return Err(format!(
+            "output {name}: {} runs gave it, the emulator needs at least {} (one per column and two more)",
+            xs.len(),
+            column_count + 2
+        ));
+    }
+    let first = ys[0];
+    if ys.iter().all(|&y| y == first) {
+        return Ok(EmulatedOutput {
+            name: name.to_string(),
+            emulated: Emulated::Constant(first),
+            runs: ys.len(),
+            error_sd: 0.0,
+        });
+    }
+    let gp = Gp::fit(&xs, &ys, settings)
+        .map_err(|e| format!("output {name}: the GP does not fit its runs: {e}"))?;
+    let error_sd = error_by_run(&gp, &xs, &ys, &runs);
+    Ok(EmulatedOutput {
+        name: name.to_string(),
+        emulated: Emulated::Gp(Box::new(gp)),
+        runs: ys.len(),
+        error_sd,
+    })
 }
 
 /// The root mean square error of `gp`'s hyperparameters at runs left out:

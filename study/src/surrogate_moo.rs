@@ -19,7 +19,7 @@ use acq_calib::doe::{latin_hypercube, random_uniform};
 use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_calib::minimax::minimax_ranking;
-use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_calib::moo::{nsga2, Nsga2Result, Nsga2Settings};
 use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
 use acq_calib::topsis::{topsis_normalised, Criterion, Normalisation};
 use acq_io::error::{AcqError, Result};
@@ -182,11 +182,11 @@ pub struct SurrogateMoo {
     pub rounds: Vec<Round>,
 }
 
+/// Runs as (unit-box inputs, outputs), one row each.
+type UnitRuns = (Vec<Vec<f64>>, Vec<Vec<f64>>);
+
 /// The successful runs among `evaluations`: (unit-box inputs, outputs).
-fn successful(
-    parameters: &[Parameter],
-    evaluations: &[Evaluation],
-) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+fn successful(parameters: &[Parameter], evaluations: &[Evaluation]) -> UnitRuns {
     evaluations
         .iter()
         .filter_map(|e| {
@@ -213,36 +213,13 @@ pub fn surrogate_moo(
     let dimensions = parameters.len();
     let output_names = evaluator.simulator().outputs().to_vec();
     let unit_box = vec![(0.0, 1.0); dimensions];
-    let to_values = |units: &[Vec<f64>]| -> Vec<Vec<f64>> {
-        units.iter().map(|u| from_unit(parameters, u)).collect()
-    };
-    let training_points = to_values(&latin_hypercube(
-        settings.training_runs,
-        dimensions,
-        settings.seed,
-    ));
-    let test_points = to_values(&random_uniform(
-        settings.test_runs,
-        dimensions,
-        settings.seed.wrapping_add(1),
-    ));
-    let mut batch = vec![nominal.to_vec()];
-    batch.extend(training_points.iter().cloned());
-    batch.extend(test_points.iter().cloned());
-    let results = evaluator.evaluate(&batch).map_err(evaluation_error)?;
-    let nominal_outputs = results[0].outcome.clone().map_err(|reason| {
-        AcqError::Config(format!("the model fails at the nominal point: {reason}"))
-    })?;
-    let (mut train_x, mut train_y) = successful(parameters, &results[1..1 + training_points.len()]);
-    let (test_x, test_y) = successful(parameters, &results[1 + training_points.len()..]);
-    if train_x.len() < dimensions + 2 {
-        return Err(AcqError::Config(format!(
-            "only {} of {} training runs of the model succeeded; a surrogate needs at least {}. Check the bounds",
-            train_x.len(),
-            training_points.len(),
-            dimensions + 2
-        )));
-    }
+    let InitialRuns {
+        nominal_outputs,
+        mut train_x,
+        mut train_y,
+        test_x,
+        test_y,
+    } = initial_runs(evaluator, parameters, nominal, settings)?;
     let gp_settings = GpSettings {
         kernel: settings.kernel,
         ard: true,
@@ -251,48 +228,14 @@ pub fn surrogate_moo(
         input_bounds: Some(unit_box.clone()),
         ..GpSettings::default()
     };
-    let fit_gps = |x: &[Vec<f64>], y: &[Vec<f64>]| -> Result<Vec<Gp>> {
-        (0..output_names.len())
-            .map(|k| {
-                Gp::fit(x, &column(y, k), &gp_settings)
-                    .map_err(|e| AcqError::Config(format!("GP of output {}: {e}", output_names[k])))
-            })
-            .collect()
-    };
-    let mut gps = fit_gps(&train_x, &train_y)?;
+    let mut gps = fit_output_gps(&output_names, &gp_settings, &train_x, &train_y)?;
     let surrogate_rmse = compare_surrogates(&gps, &train_x, &train_y, &test_x, &test_y);
 
     let mut rounds = Vec::new();
     loop {
         let round = rounds.len();
-        let predicted =
-            |u: &[f64]| -> Vec<f64> { gps.iter().map(|gp| gp.predict(u).mean).collect() };
-        let nsga_settings = Nsga2Settings {
-            population: settings.population,
-            generations: settings.generations,
-            pareto_fraction: settings.pareto_fraction,
-            seed: settings.seed.wrapping_add(round as u64),
-            ..Nsga2Settings::default()
-        };
-        let moo = nsga2(|u| objectives(&predicted(u)), &unit_box, &nsga_settings)
-            .map_err(|e| AcqError::Config(e.to_string()))?;
-        if moo.front.is_empty() {
-            return Err(AcqError::Config(
-                "NSGA-II found no finite Pareto point".into(),
-            ));
-        }
-        let front: Vec<Vec<f64>> = moo.front.iter().map(|i| i.objectives.clone()).collect();
-        let criteria = vec![Criterion::Cost; front[0].len()];
-        // The front's rows best first, and the TOPSIS closeness of the first.
-        let (ranking, closeness) = match settings.pick {
-            Pick::Topsis(normalisation) => {
-                topsis_normalised(&front, &settings.weights, &criteria, normalisation)
-                    .map(|t| (t.ranking, Some(t.closeness[t.best])))
-            }
-            Pick::Minimax => minimax_ranking(&front, &settings.weights).map(|r| (r, None)),
-        }
-        .map_err(|e| AcqError::Config(e.to_string()))?;
-        let pick_unit = moo.front[ranking[0]].x.clone();
+        let front = pick_on_gp_front(&gps, objectives, &unit_box, settings, round)?;
+        let pick_unit = front.moo.front[front.ranking[0]].x.clone();
         let pick = from_unit(parameters, &pick_unit);
         let rerun = evaluator
             .evaluate(std::slice::from_ref(&pick))
@@ -300,7 +243,7 @@ pub fn surrogate_moo(
         let optimal_outputs = rerun[0].outcome.clone().map_err(|reason| {
             AcqError::Config(format!("the model fails at the calibrated point: {reason}"))
         })?;
-        let surrogate_at_optimal = predicted(&pick_unit);
+        let surrogate_at_optimal = gp_means(&gps, &pick_unit);
         let disagreement = objectives(&optimal_outputs)
             .iter()
             .zip(objectives(&surrogate_at_optimal))
@@ -324,34 +267,176 @@ pub fn surrogate_moo(
                 optimal_outputs,
                 surrogate_at_optimal,
                 surrogate_rmse,
-                front,
-                pick: ranking[0],
+                front: front.objectives,
+                pick: front.ranking[0],
                 picked_by: settings.pick,
-                closeness,
+                closeness: front.closeness,
                 gps,
                 test_runs: test_x.len(),
                 failed_runs,
                 rounds,
             });
         }
-        // Teach the GPs where the front is: the pick's run and the front's
-        // best other points by the pick's ranking.
-        let mut extra: Vec<Vec<f64>> = ranking
-            .iter()
-            .skip(1)
-            .map(|&row| from_unit(parameters, &moo.front[row].x))
-            .filter(|x| !train_x.contains(&to_unit(parameters, x)))
-            .take(refine_runs(dimensions))
-            .collect();
-        extra.dedup();
-        let added = evaluator.evaluate(&extra).map_err(evaluation_error)?;
-        let (x, y) = successful(parameters, &added);
+        let (x, y) = runs_near_the_front(evaluator, parameters, &front, &train_x)?;
         train_x.extend(x);
         train_y.extend(y);
         train_x.push(pick_unit);
         train_y.push(optimal_outputs);
-        gps = fit_gps(&train_x, &train_y)?;
+        gps = fit_output_gps(&output_names, &gp_settings, &train_x, &train_y)?;
     }
+}
+
+/// The runs before any surrogate: the model at the nominal point, and the
+/// successful training and test runs (unit-box inputs, outputs).
+struct InitialRuns {
+    nominal_outputs: Vec<f64>,
+    train_x: Vec<Vec<f64>>,
+    train_y: Vec<Vec<f64>>,
+    test_x: Vec<Vec<f64>>,
+    test_y: Vec<Vec<f64>>,
+}
+
+/// Runs the nominal point, the seeded Latin-hypercube training design and
+/// the uniform test design as one batch; an error when the nominal run
+/// fails or too few training runs succeed for a surrogate.
+fn initial_runs(
+    evaluator: &mut Evaluator<'_>,
+    parameters: &[Parameter],
+    nominal: &[f64],
+    settings: &SurrogateMooSettings,
+) -> Result<InitialRuns> {
+    let dimensions = parameters.len();
+    let to_values = |units: &[Vec<f64>]| -> Vec<Vec<f64>> {
+        units.iter().map(|u| from_unit(parameters, u)).collect()
+    };
+    let training_points = to_values(&latin_hypercube(
+        settings.training_runs,
+        dimensions,
+        settings.seed,
+    ));
+    let test_points = to_values(&random_uniform(
+        settings.test_runs,
+        dimensions,
+        settings.seed.wrapping_add(1),
+    ));
+    let mut batch = vec![nominal.to_vec()];
+    batch.extend(training_points.iter().cloned());
+    batch.extend(test_points.iter().cloned());
+    let results = evaluator.evaluate(&batch).map_err(evaluation_error)?;
+    let nominal_outputs = results[0].outcome.clone().map_err(|reason| {
+        AcqError::Config(format!("the model fails at the nominal point: {reason}"))
+    })?;
+    let (train_x, train_y) = successful(parameters, &results[1..1 + training_points.len()]);
+    let (test_x, test_y) = successful(parameters, &results[1 + training_points.len()..]);
+    if train_x.len() < dimensions + 2 {
+        return Err(AcqError::Config(format!(
+            "only {} of {} training runs of the model succeeded; a surrogate needs at least {}. Check the bounds",
+            train_x.len(),
+            training_points.len(),
+            dimensions + 2
+        )));
+    }
+    Ok(InitialRuns {
+        nominal_outputs,
+        train_x,
+        train_y,
+        test_x,
+        test_y,
+    })
+}
+
+/// One GP per output, fitted to the training runs.
+fn fit_output_gps(
+    output_names: &[String],
+    gp_settings: &GpSettings,
+    x: &[Vec<f64>],
+    y: &[Vec<f64>],
+) -> Result<Vec<Gp>> {
+    (0..output_names.len())
+        .map(|k| {
+            Gp::fit(x, &column(y, k), gp_settings)
+                .map_err(|e| AcqError::Config(format!("GP of output {}: {e}", output_names[k])))
+        })
+        .collect()
+}
+
+/// The GP means at a unit-box point: the surrogate's outputs.
+fn gp_means(gps: &[Gp], unit: &[f64]) -> Vec<f64> {
+    gps.iter().map(|gp| gp.predict(unit).mean).collect()
+}
+
+/// One round's Pareto front on the GPs and its rows best first.
+struct GpFront {
+    moo: Nsga2Result,
+    /// The front as objective vectors.
+    objectives: Vec<Vec<f64>>,
+    /// The front's rows best first by the pick.
+    ranking: Vec<usize>,
+    /// The TOPSIS closeness of the first (TOPSIS picks only).
+    closeness: Option<f64>,
+}
+
+/// NSGA-II over the objectives of the GP means (seeded by the round), and
+/// the front ranked by TOPSIS or minimax.
+fn pick_on_gp_front(
+    gps: &[Gp],
+    objectives: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    unit_box: &[(f64, f64)],
+    settings: &SurrogateMooSettings,
+    round: usize,
+) -> Result<GpFront> {
+    let nsga_settings = Nsga2Settings {
+        population: settings.population,
+        generations: settings.generations,
+        pareto_fraction: settings.pareto_fraction,
+        seed: settings.seed.wrapping_add(round as u64),
+        ..Nsga2Settings::default()
+    };
+    let moo = nsga2(|u| objectives(&gp_means(gps, u)), unit_box, &nsga_settings)
+        .map_err(|e| AcqError::Config(e.to_string()))?;
+    if moo.front.is_empty() {
+        return Err(AcqError::Config(
+            "NSGA-II found no finite Pareto point".into(),
+        ));
+    }
+    let front: Vec<Vec<f64>> = moo.front.iter().map(|i| i.objectives.clone()).collect();
+    let criteria = vec![Criterion::Cost; front[0].len()];
+    let (ranking, closeness) = match settings.pick {
+        Pick::Topsis(normalisation) => {
+            topsis_normalised(&front, &settings.weights, &criteria, normalisation)
+                .map(|t| (t.ranking, Some(t.closeness[t.best])))
+        }
+        Pick::Minimax => minimax_ranking(&front, &settings.weights).map(|r| (r, None)),
+    }
+    .map_err(|e| AcqError::Config(e.to_string()))?;
+    Ok(GpFront {
+        moo,
+        objectives: front,
+        ranking,
+        closeness,
+    })
+}
+
+/// Teaches the GPs where the front is: runs the front's best points after
+/// the pick, by the pick's ranking, that are not training runs yet, and
+/// returns the successful ones (unit-box inputs, outputs).
+fn runs_near_the_front(
+    evaluator: &mut Evaluator<'_>,
+    parameters: &[Parameter],
+    front: &GpFront,
+    train_x: &[Vec<f64>],
+) -> Result<UnitRuns> {
+    let mut extra: Vec<Vec<f64>> = front
+        .ranking
+        .iter()
+        .skip(1)
+        .map(|&row| from_unit(parameters, &front.moo.front[row].x))
+        .filter(|x| !train_x.contains(&to_unit(parameters, x)))
+        .take(refine_runs(parameters.len()))
+        .collect();
+    extra.dedup();
+    let added = evaluator.evaluate(&extra).map_err(evaluation_error)?;
+    Ok(successful(parameters, &added))
 }
 
 /// RMSE on the test runs of each surrogate kind, per output.

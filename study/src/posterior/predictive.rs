@@ -17,7 +17,7 @@ use acq_calib::mcmc::{quantile, Chains};
 use acq_io::error::Result;
 
 use super::super::run_directory::{evaluation_error, write_text, RunDirectory};
-use super::super::study::{Measured, Model, Role, Study, StudySimulator};
+use super::super::study::{Case, Measured, Model, Observation, Role, Study, StudySimulator};
 use super::likelihood::{standard_normal, Scales, StudyPosterior};
 use super::settings::PosteriorSettings;
 
@@ -96,6 +96,62 @@ pub fn predictive_runs(
     let runs = settings.predictive_runs.min(draws.len());
     let picked: Vec<usize> = (0..runs).map(|i| i * draws.len() / runs).collect();
     let points: Vec<Vec<f64>> = picked.iter().map(|&i| draws[i].clone()).collect();
+    let outputs_by_role = model_runs_by_role(study, model, &points, directory, parallel, resume)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(7));
+    let delta = discrepancy_draws(&picked, scales, &mut rng);
+    let mut predictions = Predictions::default();
+    for (role, outputs) in [Role::Fit, Role::Validate]
+        .into_iter()
+        .zip(&outputs_by_role)
+    {
+        let runs = RoleRuns {
+            role,
+            picked: &picked,
+            draws: &draws,
+            outputs,
+        };
+        for (index, (case, observation)) in study.observations(role).into_iter().enumerate() {
+            if case.priors {
+                continue;
+            }
+            let at = ObservationAt {
+                case,
+                observation,
+                index,
+                case_name: if study.named_cases {
+                    case.name.clone()
+                } else {
+                    MAIN_CASE.into()
+                },
+            };
+            match &observation.measured {
+                Measured::Scalar { value, uncertainty } => {
+                    let mut entry = at.predicted(role, *value, *uncertainty);
+                    add_scalar_runs(&mut entry, &at, &runs, density, scales, &delta, &mut rng);
+                    predictions.scalars.push(entry);
+                }
+                Measured::Curve { points, axes, .. } => predictions
+                    .curves
+                    .push(predicted_curve(study, model, &at, &runs, points, axes)),
+            }
+        }
+    }
+    write_predictive_csv(directory, &predictions)?;
+    Ok(predictions)
+}
+
+/// The model's outputs at `points` through the logging evaluator of each
+/// role (fit, then validate), `None` for a run that failed; all `None`
+/// for a role without cases.
+fn model_runs_by_role(
+    study: &Study,
+    model: &dyn Model,
+    points: &[Vec<f64>],
+    directory: &RunDirectory,
+    parallel: usize,
+    resume: bool,
+) -> Result<Vec<Vec<Option<Vec<f64>>>>> {
+    let runs = points.len();
     let mut outputs_by_role = Vec::new();
     for (role, log) in [
         (Role::Fit, "posterior_runs_fit.csv"),
@@ -114,13 +170,20 @@ pub fn predictive_runs(
             Evaluator::create(&simulator, &path, parallel)
         }
         .map_err(evaluation_error)?;
-        let evaluations = evaluator.evaluate(&points).map_err(evaluation_error)?;
+        let evaluations = evaluator.evaluate(points).map_err(evaluation_error)?;
         outputs_by_role.push(evaluations.into_iter().map(|e| e.outcome.ok()).collect());
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed.wrapping_add(7));
-    // Each run's discrepancy per output of the density and site, drawn
-    // from its conditional normal at that draw.
-    let delta: Vec<Vec<Vec<f64>>> = picked
+    Ok(outputs_by_role)
+}
+
+/// Each run's discrepancy per output of the density and site, drawn from
+/// its conditional normal at that draw.
+fn discrepancy_draws(
+    picked: &[usize],
+    scales: &[Scales],
+    rng: &mut ChaCha8Rng,
+) -> Vec<Vec<Vec<f64>>> {
+    picked
         .iter()
         .map(|&i| {
             scales[i]
@@ -130,104 +193,123 @@ pub fn predictive_runs(
                     output
                         .at_sites
                         .iter()
-                        .map(|(mean, variance)| mean + variance.sqrt() * standard_normal(&mut rng))
+                        .map(|(mean, variance)| mean + variance.sqrt() * standard_normal(rng))
                         .collect()
                 })
                 .collect()
         })
-        .collect();
-    let mut predicted = Vec::new();
-    let mut curves = Vec::new();
-    for (role, outputs) in [Role::Fit, Role::Validate]
-        .into_iter()
-        .zip(&outputs_by_role)
-    {
-        for (index, (case, observation)) in study.observations(role).into_iter().enumerate() {
-            if case.priors {
-                continue;
-            }
-            let case_name = if study.named_cases {
-                case.name.clone()
-            } else {
-                MAIN_CASE.into()
-            };
-            let (value, uncertainty) = match &observation.measured {
-                Measured::Scalar { value, uncertainty } => (*value, *uncertainty),
-                Measured::Curve { points, axes, .. } => {
-                    let case_index = study
-                        .cases
-                        .iter()
-                        .position(|c| std::ptr::eq(c, case))
-                        .unwrap_or(0);
-                    // The runs that succeeded, given again by the model (a
-                    // solver's from the run directory the run left).
-                    let curve_runs = picked
-                        .iter()
-                        .zip(outputs)
-                        .filter(|(_, run)| run.is_some())
-                        .filter_map(|(&draw, _)| {
-                            let inputs = study.inputs_of(case_index, draws[draw]);
-                            let run =
-                                model.run_again(&inputs, &[], &[observation.output.as_str()])?;
-                            run.curves.into_iter().next()
-                        })
-                        .collect();
-                    curves.push(PredictedCurve {
-                        case: case_name,
-                        role,
-                        name: observation.name.clone(),
-                        axes: axes.clone(),
-                        measured: points.clone(),
-                        mape_pct: outputs.iter().flatten().map(|o| o[index]).collect(),
-                        runs: curve_runs,
-                    });
-                    continue;
-                }
-            };
-            // The output's discrepancy at this case (`constant`: at every case).
-            let group = density
-                .outputs
-                .iter()
-                .enumerate()
-                .find(|(_, o)| o.output == observation.output)
-                .and_then(|(k, o)| Some((k, o.site_of(&case.name)?)));
-            let mut entry = Predicted {
-                case: case_name,
-                role,
-                name: observation.name.clone(),
-                measured: value,
-                uncertainty,
-                model: Vec::new(),
-                with_error: Vec::new(),
-            };
-            for (run, run_outputs) in outputs.iter().enumerate() {
-                let Some(run_outputs) = run_outputs else {
-                    continue;
-                };
-                let model_value = run_outputs[index];
-                let discrepancy = group.map_or(0.0, |(k, site)| {
-                    delta[run]
-                        .get(k)
-                        .and_then(|at| at.get(site))
-                        .copied()
-                        .unwrap_or(0.0)
-                });
-                let noise_pct = scales[picked[run]].noise_pct;
-                let sd = density.measurement_sd(noise_pct, value, uncertainty);
-                entry.model.push(model_value);
-                entry
-                    .with_error
-                    .push(model_value + discrepancy + sd * standard_normal(&mut rng));
-            }
-            predicted.push(entry);
+        .collect()
+}
+
+/// The predictive runs of one role: which draws they were and what each gave.
+struct RoleRuns<'a> {
+    role: Role,
+    /// Each run's index into `draws`.
+    picked: &'a [usize],
+    draws: &'a [&'a Vec<f64>],
+    /// Each run's outputs, `None` where it failed.
+    outputs: &'a [Option<Vec<f64>>],
+}
+
+/// One observation of a case, with its place among the role's outputs.
+struct ObservationAt<'a> {
+    case: &'a Case,
+    observation: &'a Observation,
+    /// Its index among the outputs of the role's simulator.
+    index: usize,
+    case_name: String,
+}
+
+impl ObservationAt<'_> {
+    /// A scalar observation's prediction, before any run is added.
+    fn predicted(&self, role: Role, measured: f64, uncertainty: Option<f64>) -> Predicted {
+        Predicted {
+            case: self.case_name.clone(),
+            role,
+            name: self.observation.name.clone(),
+            measured,
+            uncertainty,
+            model: Vec::new(),
+            with_error: Vec::new(),
         }
     }
-    let predictions = Predictions {
-        scalars: predicted,
-        curves,
-    };
-    write_predictive_csv(directory, &predictions)?;
-    Ok(predictions)
+}
+
+/// Adds each successful run's model value to `entry`, and the same plus a
+/// draw of the output's discrepancy at the case (`constant`: at every
+/// case) and of the measurement error.
+fn add_scalar_runs(
+    entry: &mut Predicted,
+    at: &ObservationAt<'_>,
+    runs: &RoleRuns<'_>,
+    density: &StudyPosterior,
+    scales: &[Scales],
+    delta: &[Vec<Vec<f64>>],
+    rng: &mut ChaCha8Rng,
+) {
+    let group = density
+        .outputs
+        .iter()
+        .enumerate()
+        .find(|(_, o)| o.output == at.observation.output)
+        .and_then(|(k, o)| Some((k, o.site_of(&at.case.name)?)));
+    for (run, run_outputs) in runs.outputs.iter().enumerate() {
+        let Some(run_outputs) = run_outputs else {
+            continue;
+        };
+        let model_value = run_outputs[at.index];
+        let discrepancy = group.map_or(0.0, |(k, site)| {
+            delta[run]
+                .get(k)
+                .and_then(|at| at.get(site))
+                .copied()
+                .unwrap_or(0.0)
+        });
+        let noise_pct = scales[runs.picked[run]].noise_pct;
+        let sd = density.measurement_sd(noise_pct, entry.measured, entry.uncertainty);
+        entry.model.push(model_value);
+        entry
+            .with_error
+            .push(model_value + discrepancy + sd * standard_normal(rng));
+    }
+}
+
+/// A measured curve's prediction: its MAPE at each successful run, and the
+/// model's curve at each of those runs it gives again (a solver's from the
+/// run directory the run left).
+fn predicted_curve(
+    study: &Study,
+    model: &dyn Model,
+    at: &ObservationAt<'_>,
+    runs: &RoleRuns<'_>,
+    measured: &[(f64, f64)],
+    axes: &[String; 2],
+) -> PredictedCurve {
+    let case_index = study
+        .cases
+        .iter()
+        .position(|c| std::ptr::eq(c, at.case))
+        .unwrap_or(0);
+    let curve_runs = runs
+        .picked
+        .iter()
+        .zip(runs.outputs)
+        .filter(|(_, run)| run.is_some())
+        .filter_map(|(&draw, _)| {
+            let inputs = study.inputs_of(case_index, runs.draws[draw]);
+            let run = model.run_again(&inputs, &[], &[at.observation.output.as_str()])?;
+            run.curves.into_iter().next()
+        })
+        .collect();
+    PredictedCurve {
+        case: at.case_name.clone(),
+        role: runs.role,
+        name: at.observation.name.clone(),
+        axes: axes.clone(),
+        measured: measured.to_vec(),
+        mape_pct: runs.outputs.iter().flatten().map(|o| o[at.index]).collect(),
+        runs: curve_runs,
+    }
 }
 
 /// `predictive.csv`: `run`, `case`, `output`, `value` (the model's; a

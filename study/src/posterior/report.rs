@@ -8,7 +8,7 @@ use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{grid_svg, sparse_grid_svg, Chart, Series, SeriesStyle};
 use serde_json::{json, Map, Value};
 
-use acq_calib::mcmc::{quantile, Support};
+use acq_calib::mcmc::{quantile, Marginal, Support};
 
 use super::discrepancy::Form;
 use super::predictive::{Predicted, PredictedCurve};
@@ -77,32 +77,63 @@ fn finite_or_null(value: f64) -> Value {
 
 /// The report's posterior section.
 pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
-    let density = &posterior.density;
     report.heading(2, "Posterior: how far the parameters can move");
-    report.paragraph(format!(
+    report.paragraph(sampling_sentence(posterior));
+    report.paragraph(convergence_sentence(posterior));
+    write_coverage_caveat(report, posterior);
+    let (table, verdicts) = marginals_table(posterior);
+    report.table(table);
+    report.paragraph(verdicts_in_words(&verdicts));
+    write_discrepancy(report, posterior);
+    write_predictive(report, &posterior.predicted.scalars);
+    write_validation_statement(report, posterior);
+    write_curve_bands(report, &posterior.predicted.curves);
+    report.figure(Figure {
+        file: "posterior_corner.svg".into(),
+        caption: "posterior draws: each parameter's histogram over its prior range (diagonal) and each pair's draws (below it)".into(),
+        svg: corner_svg(posterior),
+    });
+}
+
+/// What was sampled, how long it took and the prior.
+fn sampling_sentence(posterior: &PosteriorOutcome) -> String {
+    format!(
         "The posterior of the parameters given the fit cases' measured values and their uncertainty, {} ({:.1} s). Prior: uniform over the bounds{}.",
         posterior.path,
         posterior.wall_s,
-        if density.coordinates.iter().any(|c| c.normal.is_some()) {
+        if posterior
+            .density
+            .coordinates
+            .iter()
+            .any(|c| c.normal.is_some())
+        {
             ", times the stated normal priors"
         } else {
             ""
         }
-    ));
+    )
+}
+
+/// Whether the chains converged, and what to do when they did not.
+fn convergence_sentence(posterior: &PosteriorOutcome) -> String {
     let unconverged = posterior.unconverged();
     if unconverged.is_empty() {
-        report.paragraph(format!(
+        format!(
             "Converged: every R-hat is below {RHAT_LIMIT} and every bulk ESS at least {:.0}.",
             ESS_PER_CHAIN * posterior.settings.chains as f64
-        ));
+        )
     } else {
-        report.paragraph(format!(
+        format!(
             "**Not converged**: {}. The numbers below are not to be trusted yet: sample longer (`draws` under `[posterior]` in a spec, `--posterior-draws` with a preset, e.g. {}) or with more chains.",
             unconverged.join(", "),
             posterior.settings.draws * 4
-        ));
+        )
     }
-    write_coverage_caveat(report, posterior);
+}
+
+/// The table of each coordinate's marginal and verdict, and the verdicts
+/// of the parameters (the discrepancy's scales are stated with it, below).
+fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'static str)>) {
     let mut table = Table::new(&[
         "parameter",
         "prior range",
@@ -123,47 +154,19 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
         .zip(&posterior.supports)
         .zip(&posterior.marginals)
     {
-        let log_uniform = match density.coordinates.iter().find(|c| &c.name == name) {
+        let log_uniform = match posterior
+            .density
+            .coordinates
+            .iter()
+            .find(|c| &c.name == name)
+        {
             Some(coordinate) => coordinate.log_uniform,
             // The scales are log-uniform, the correlations uniform.
             None => !name.starts_with("curve_error_correlation."),
         };
-        let (range, share) = match *support {
-            Support::Interval { lower, upper } if log_uniform => (
-                format!("{} .. {} (log)", short(lower), short(upper)),
-                (m.q95 / m.q05).ln() / (upper / lower).ln(),
-            ),
-            Support::Interval { lower, upper } => (
-                format!("{} .. {}", short(lower), short(upper)),
-                (m.q95 - m.q05) / (upper - lower),
-            ),
-            _ => ("-".into(), f64::NAN),
-        };
-        let against_bound = match *support {
-            Support::Interval { lower, upper } if !name.starts_with("discrepancy_sd.") => {
-                // Measured along the coordinate the prior is uniform in.
-                let along = |x: f64| if log_uniform { x.ln() } else { x };
-                let (lower, upper, q05, q95) =
-                    (along(lower), along(upper), along(m.q05), along(m.q95));
-                let near = 0.01 * (upper - lower);
-                q05 - lower < near && q95 - lower < 2.0 * near
-                    || upper - q95 < near && upper - q05 < 2.0 * near
-            }
-            _ => false,
-        };
-        let verdict = if name.starts_with("discrepancy_sd.") {
-            "see the discrepancy below"
-        } else if against_bound {
-            "against a bound: the data push it out of its range (a model error?)"
-        } else if share <= PINNED_SHARE {
-            "pinned down"
-        } else if share >= UNIDENTIFIED_SHARE {
-            "not identified: the data leave it near its prior"
-        } else {
-            "narrowed"
-        };
+        let (range, share) = prior_range_and_interval_share(support, m, log_uniform);
+        let verdict = marginal_verdict(name, support, m, log_uniform, share);
         if !name.starts_with("discrepancy_sd.") {
-            // The discrepancy's scales are stated with it, below.
             verdicts.push((name.clone(), verdict));
         }
         table.row(vec![
@@ -180,7 +183,66 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
             verdict.into(),
         ]);
     }
-    report.table(table);
+    (table, verdicts)
+}
+
+/// The prior range as written in the table, and the share of it the 90 %
+/// interval spans (along the log for a log-uniform prior; NaN without a
+/// bounded range).
+fn prior_range_and_interval_share(
+    support: &Support,
+    m: &Marginal,
+    log_uniform: bool,
+) -> (String, f64) {
+    match *support {
+        Support::Interval { lower, upper } if log_uniform => (
+            format!("{} .. {} (log)", short(lower), short(upper)),
+            (m.q95 / m.q05).ln() / (upper / lower).ln(),
+        ),
+        Support::Interval { lower, upper } => (
+            format!("{} .. {}", short(lower), short(upper)),
+            (m.q95 - m.q05) / (upper - lower),
+        ),
+        _ => ("-".into(), f64::NAN),
+    }
+}
+
+/// A coordinate's verdict: against a bound, pinned down, narrowed or not
+/// identified (a discrepancy scale is stated with the discrepancy).
+fn marginal_verdict(
+    name: &str,
+    support: &Support,
+    m: &Marginal,
+    log_uniform: bool,
+    share: f64,
+) -> &'static str {
+    let against_bound = match *support {
+        Support::Interval { lower, upper } if !name.starts_with("discrepancy_sd.") => {
+            // Measured along the coordinate the prior is uniform in.
+            let along = |x: f64| if log_uniform { x.ln() } else { x };
+            let (lower, upper, q05, q95) = (along(lower), along(upper), along(m.q05), along(m.q95));
+            let near = 0.01 * (upper - lower);
+            q05 - lower < near && q95 - lower < 2.0 * near
+                || upper - q95 < near && upper - q05 < 2.0 * near
+        }
+        _ => false,
+    };
+    if name.starts_with("discrepancy_sd.") {
+        "see the discrepancy below"
+    } else if against_bound {
+        "against a bound: the data push it out of its range (a model error?)"
+    } else if share <= PINNED_SHARE {
+        "pinned down"
+    } else if share >= UNIDENTIFIED_SHARE {
+        "not identified: the data leave it near its prior"
+    } else {
+        "narrowed"
+    }
+}
+
+/// Which parameters the measured values pin down and which they leave
+/// near their prior, in words.
+fn verdicts_in_words(verdicts: &[(String, &str)]) -> String {
     let pinned: Vec<&str> = verdicts
         .iter()
         .filter(|(_, v)| *v == "pinned down")
@@ -191,23 +253,14 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
         .filter(|(_, v)| v.starts_with("not identified"))
         .map(|(n, _)| n.as_str())
         .collect();
-    report.paragraph(format!(
+    format!(
         "In words: the measured values pin down {}; they leave {} near {} prior range. A parameter is pinned down when its 90 % interval spans at most {:.0} % of its range, not identified from {:.0} %.",
         list_or(&pinned, "no parameter"),
         list_or(&loose, "no parameter"),
         if loose.len() == 1 { "its" } else { "their" },
         100.0 * PINNED_SHARE,
         100.0 * UNIDENTIFIED_SHARE
-    ));
-    write_discrepancy(report, posterior);
-    write_predictive(report, &posterior.predicted.scalars);
-    write_validation_statement(report, posterior);
-    write_curve_bands(report, &posterior.predicted.curves);
-    report.figure(Figure {
-        file: "posterior_corner.svg".into(),
-        caption: "posterior draws: each parameter's histogram over its prior range (diagonal) and each pair's draws (below it)".into(),
-        svg: corner_svg(posterior),
-    });
+    )
 }
 
 /// Each output's discrepancy next to its measurement uncertainty, and the

@@ -204,48 +204,13 @@ pub fn expand_twin_scenario(
     rig: &RigQuantities,
 ) -> Result<Option<String>, String> {
     let mut table: toml::Table = toml::from_str(text).map_err(|e| e.to_string())?;
-    let Some(twin) = table.remove("twin") else {
+    let Some(twin) = take_twin_scenario(&mut table)? else {
         return Ok(None);
     };
-    let twin: TwinScenario = twin.try_into().map_err(|e| format!("[twin]: {e}"))?;
-    if twin.points.is_empty() {
-        return Err("[twin]: no [[twin.point]]; give the test points to hold, one each".into());
-    }
-    if table.contains_key("hold") {
-        return Err("[twin] sets the holds: leave out [[hold]]".into());
-    }
-    if !(twin.back_pressure_bar.is_finite() && twin.back_pressure_bar >= 0.0) {
-        return Err(format!(
-            "[twin] back_pressure_bar = {}: expected a number >= 0",
-            twin.back_pressure_bar
-        ));
-    }
     let study_path = directory.join(&twin.study);
     let study = crate::rig_study::RigStudy::load_without_candidates(&study_path, rig)
         .map_err(|e| format!("[twin] study: {e}"))?;
-    let quantity_of = |input: &str| {
-        study
-            .mapping
-            .measured_inputs()
-            .find(|(name, _)| *name == input)
-            .map(|(_, from)| from.quantity.clone())
-            .ok_or_else(|| {
-                format!(
-                    "[twin]: the study measures no {input} in a hold; the virtual rig drives the pose and load its [holds.inputs] read"
-                )
-            })
-    };
-    let inclinometers = [
-        quantity_of("boom_inclination_deg")?,
-        quantity_of("arm_inclination_deg")?,
-        quantity_of("bucket_inclination_deg")?,
-    ];
-    let tip_force = quantity_of("force_kN")?;
-    let sensors = RigSensors::of_rig(
-        rig,
-        &tip_force,
-        [&inclinometers[0], &inclinometers[1], &inclinometers[2]],
-    );
+    let sensors = sensors_the_study_reads(&study, rig)?;
     let truth: Vec<(&str, f64)> = twin.truth.iter().map(|(k, v)| (k.as_str(), *v)).collect();
     let geometry = study
         .geometry
@@ -268,69 +233,150 @@ pub fn expand_twin_scenario(
     let mut first_levels = None;
     for (k, point) in twin.points.iter().enumerate() {
         let here = |message: String| format!("[[twin.point]] {}: {message}", k + 1);
-        let known = [
-            "boom_inclination_deg",
-            "arm_inclination_deg",
-            "bucket_inclination_deg",
-            "force_kN",
-            "force_angle_deg",
-            "hold_s",
-        ];
-        if let Some(key) = point.keys().find(|key| !known.contains(&key.as_str())) {
-            return Err(here(format!(
-                "unknown key {key:?}; it takes {}",
-                known.join(", ")
-            )));
-        }
-        let value = |name: &str| {
-            point
-                .get(name)
-                .copied()
-                .ok_or_else(|| here(format!("give {name}")))
-        };
-        let test_point = TestPoint {
-            inclinations: Inclinations {
-                boom_deg: value("boom_inclination_deg")?,
-                arm_deg: value("arm_inclination_deg")?,
-                bucket_deg: value("bucket_inclination_deg")?,
-            },
-            tip_force_kn: value("force_kN")?,
-            tip_force_angle_deg: match point.get("force_angle_deg").copied().or(angle) {
-                Some(angle) => angle,
-                None => return Err(here("give force_angle_deg (the study fixes none)".into())),
-            },
-        };
+        let test_point = test_point_of(point, angle).map_err(here)?;
         let levels = hold_levels(&geometry, &sensors, &back, &test_point).map_err(here)?;
-        let mut hold = toml::Table::new();
-        if let Some(hold_s) = point.get("hold_s") {
-            hold.insert("hold_s".into(), toml::Value::Float(*hold_s));
-        }
-        hold.insert(
-            "level".into(),
-            toml::Value::Table(
-                levels
-                    .iter()
-                    .map(|(k, v)| (k.clone(), toml::Value::Float(*v)))
-                    .collect(),
-            ),
-        );
-        holds.push(toml::Value::Table(hold));
+        holds.push(hold_of(point, &levels));
         first_levels.get_or_insert(levels);
     }
     let first_levels = first_levels.expect("at least one point");
+    describe_undescribed_sensors(&mut table, &first_levels, rig, &back, &sensors)?;
+    table.insert("hold".into(), toml::Value::Array(holds));
+    toml::to_string(&table).map(Some).map_err(|e| e.to_string())
+}
+
+/// Takes the `[twin]` table out of a scenario and checks it: at least one
+/// point, no `[[hold]]` beside it, a back pressure of at least 0 bar.
+fn take_twin_scenario(table: &mut toml::Table) -> Result<Option<TwinScenario>, String> {
+    let Some(twin) = table.remove("twin") else {
+        return Ok(None);
+    };
+    let twin: TwinScenario = twin.try_into().map_err(|e| format!("[twin]: {e}"))?;
+    if twin.points.is_empty() {
+        return Err("[twin]: no [[twin.point]]; give the test points to hold, one each".into());
+    }
+    if table.contains_key("hold") {
+        return Err("[twin] sets the holds: leave out [[hold]]".into());
+    }
+    if !(twin.back_pressure_bar.is_finite() && twin.back_pressure_bar >= 0.0) {
+        return Err(format!(
+            "[twin] back_pressure_bar = {}: expected a number >= 0",
+            twin.back_pressure_bar
+        ));
+    }
+    Ok(Some(twin))
+}
+
+/// The rig's sensors the twin drives: the inclinometers and the tip force
+/// are those the study's holds read the pose and load from.
+fn sensors_the_study_reads(
+    study: &crate::rig_study::RigStudy,
+    rig: &RigQuantities,
+) -> Result<RigSensors, String> {
+    let quantity_of = |input: &str| {
+        study
+            .mapping
+            .measured_inputs()
+            .find(|(name, _)| *name == input)
+            .map(|(_, from)| from.quantity.clone())
+            .ok_or_else(|| {
+                format!(
+                    "[twin]: the study measures no {input} in a hold; the virtual rig drives the pose and load its [holds.inputs] read"
+                )
+            })
+    };
+    let inclinometers = [
+        quantity_of("boom_inclination_deg")?,
+        quantity_of("arm_inclination_deg")?,
+        quantity_of("bucket_inclination_deg")?,
+    ];
+    let tip_force = quantity_of("force_kN")?;
+    Ok(RigSensors::of_rig(
+        rig,
+        &tip_force,
+        [&inclinometers[0], &inclinometers[1], &inclinometers[2]],
+    ))
+}
+
+/// One `[[twin.point]]` as a test point; `angle`: the study's fixed force
+/// angle, used where the point gives none.
+fn test_point_of(point: &BTreeMap<String, f64>, angle: Option<f64>) -> Result<TestPoint, String> {
+    let known = [
+        "boom_inclination_deg",
+        "arm_inclination_deg",
+        "bucket_inclination_deg",
+        "force_kN",
+        "force_angle_deg",
+        "hold_s",
+    ];
+    if let Some(key) = point.keys().find(|key| !known.contains(&key.as_str())) {
+        return Err(format!(
+            "unknown key {key:?}; it takes {}",
+            known.join(", ")
+        ));
+    }
+    let value = |name: &str| {
+        point
+            .get(name)
+            .copied()
+            .ok_or_else(|| format!("give {name}"))
+    };
+    Ok(TestPoint {
+        inclinations: Inclinations {
+            boom_deg: value("boom_inclination_deg")?,
+            arm_deg: value("arm_inclination_deg")?,
+            bucket_deg: value("bucket_inclination_deg")?,
+        },
+        tip_force_kn: value("force_kN")?,
+        tip_force_angle_deg: match point.get("force_angle_deg").copied().or(angle) {
+            Some(angle) => angle,
+            None => return Err("give force_angle_deg (the study fixes none)".into()),
+        },
+    })
+}
+
+/// A `[[hold]]` of the scenario: the point's `hold_s`, if any, and every
+/// driven sensor's level.
+fn hold_of(point: &BTreeMap<String, f64>, levels: &BTreeMap<String, f64>) -> toml::Value {
+    let mut hold = toml::Table::new();
+    if let Some(hold_s) = point.get("hold_s") {
+        hold.insert("hold_s".into(), toml::Value::Float(*hold_s));
+    }
+    hold.insert(
+        "level".into(),
+        toml::Value::Table(
+            levels
+                .iter()
+                .map(|(k, v)| (k.clone(), toml::Value::Float(*v)))
+                .collect(),
+        ),
+    );
+    toml::Value::Table(hold)
+}
+
+/// A `[sensor.NAME]` for each driven sensor the scenario does not describe:
+/// idle at its back pressure (a pressure sensor), at the first hold's level
+/// (an inclinometer) or at 0, its hold level the first hold's, and the
+/// typical noise of its unit.
+fn describe_undescribed_sensors(
+    table: &mut toml::Table,
+    first_levels: &BTreeMap<String, f64>,
+    rig: &RigQuantities,
+    back: &BTreeMap<String, f64>,
+    sensors: &RigSensors,
+) -> Result<(), String> {
     let described = table
         .entry("sensor")
         .or_insert_with(|| toml::Value::Table(toml::Table::new()))
         .as_table_mut()
         .ok_or("sensor: expected tables [sensor.NAME]")?;
-    for (name, level) in &first_levels {
+    for (name, level) in first_levels {
         if described.contains_key(name) {
             continue;
         }
         let unit = rig.get(name).map_or("", |q| q.unit);
         let idle = match back.get(name) {
             Some(pressure) => *pressure,
-            None if inclinometers.contains(name) => *level,
+            None if sensors.inclinometers.contains(name) => *level,
             None => 0.0,
         };
         let mut sensor = toml::Table::new();
@@ -339,8 +385,7 @@ pub fn expand_twin_scenario(
         sensor.insert("noise".into(), toml::Value::Float(typical_noise(unit)));
         described.insert(name.clone(), toml::Value::Table(sensor));
     }
-    table.insert("hold".into(), toml::Value::Array(holds));
-    toml::to_string(&table).map(Some).map_err(|e| e.to_string())
+    Ok(())
 }
 
 /// What `acq extract` gives for a hold in which every sensor of `rig` with

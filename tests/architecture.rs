@@ -849,7 +849,6 @@ const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("calib/src/optim.rs", "minimize_bounded", "the L-BFGS-B iteration: its history, the projected search and the line search share one state"),
     ("calib/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
     ("workflows/src/rig_study/mod.rs", "load_with", "to split"),
-    ("demo/src/acquire.rs", "play_all", "to split"),
 ];
 
 /// About the longest a function reads whole on one screen and a half.

@@ -115,6 +115,8 @@ pub fn play_and_record<B: Bus>(
     }
 }
 
+/// Plays `playbacks` onto `bus` while recording them again: the recorders
+/// first, then the players, then the recorders stopped once the players end.
 async fn play_all<B: Bus>(
     bus: B,
     playbacks: &[Playback],
@@ -122,6 +124,48 @@ async fn play_all<B: Bus>(
     interrupted: crate::Interrupted,
 ) -> Result<Vec<Played>> {
     // 1. Every recorder listening before any frame is sent.
+    let (recorders, routings) = start_recorders(&bus, playbacks, observers)?;
+    wait_until_recorders_started(playbacks).await?;
+
+    // 2. The players, each on a thread of its own: they wait on the wall
+    // clock with blocking sleeps, and the recorders must never wait behind them.
+    let (interrupt_tx, interrupt_rx) = tokio::sync::watch::channel(false);
+    let players = start_players(&bus, playbacks, routings, &interrupt_rx)?;
+    // Ctrl-C: the players stop sending and the recordings end as after a
+    // normal end, every file whole.
+    let signal_watch = tokio::spawn(async move {
+        interrupted().await;
+        let _ = interrupt_tx.send(true);
+    });
+    let summaries = join_players(players).await?;
+    signal_watch.abort();
+    let interrupted = *interrupt_rx.borrow();
+    tokio::time::sleep(DRAIN).await;
+
+    // 3. The recorders stop and complete their sessions.
+    let played = stop_recorders(playbacks, recorders, summaries, interrupted).await?;
+    if interrupted {
+        return Err(AcqError::Interrupted(
+            "interrupted during the replay; the sessions recorded so far are whole".into(),
+        ));
+    }
+    Ok(played)
+}
+
+/// A recording under way: its task and the sender that stops it.
+type Recorder = (
+    tokio::task::JoinHandle<Result<record::RecordSummary>>,
+    tokio::sync::oneshot::Sender<StopReason>,
+);
+
+/// Starts a recorder on each playback's interfaces, with the session's own
+/// rig, and returns them with each playback's routing; an error when a
+/// rig's buses and the interfaces given do not pair up.
+fn start_recorders<B: Bus>(
+    bus: &B,
+    playbacks: &[Playback],
+    observers: Vec<Option<Box<dyn RecordObserver>>>,
+) -> Result<(Vec<Recorder>, Vec<Routing>)> {
     let mut recorders = Vec::new();
     let mut routings = Vec::new();
     for (playback, observer) in playbacks.iter().zip(observers) {
@@ -158,8 +202,13 @@ async fn play_all<B: Bus>(
         });
         recorders.push((task, stop_tx));
     }
+    Ok((recorders, routings))
+}
+
+/// Waits until every recorder has written its session.toml (its interfaces
+/// are open), 10 s at most each.
+async fn wait_until_recorders_started(playbacks: &[Playback]) -> Result<()> {
     for playback in playbacks {
-        // The recorder writes session.toml once its interfaces are open.
         let started = std::time::Instant::now();
         while !playback.target.join("session.toml").exists() {
             if started.elapsed() > Duration::from_secs(10) {
@@ -171,10 +220,17 @@ async fn play_all<B: Bus>(
             tokio::time::sleep(Duration::from_millis(10)).await;
         }
     }
+    Ok(())
+}
 
-    // 2. The players, each on a thread of its own: they wait on the wall
-    // clock with blocking sleeps, and the recorders must never wait behind them.
-    let (interrupt_tx, interrupt_rx) = tokio::sync::watch::channel(false);
+/// Starts a player thread per playback, replaying its raw logs in real
+/// time along its routing until they end or `interrupted` turns true.
+fn start_players<B: Bus>(
+    bus: &B,
+    playbacks: &[Playback],
+    routings: Vec<Routing>,
+    interrupted: &tokio::sync::watch::Receiver<bool>,
+) -> Result<Vec<std::thread::JoinHandle<Result<PlaySummary>>>> {
     let mut players = Vec::new();
     for (playback, routing) in playbacks.iter().zip(routings) {
         let raw_files = session::raw_files(&playback.source)?;
@@ -185,7 +241,7 @@ async fn play_all<B: Bus>(
             )));
         }
         let player_bus = bus.clone();
-        let interrupted = interrupt_rx.clone();
+        let interrupted = interrupted.clone();
         players.push(std::thread::spawn(move || -> Result<PlaySummary> {
             let mut log = LogFiles::open(raw_files)?;
             let runtime = acq_acquire::runtime(1)?;
@@ -204,12 +260,13 @@ async fn play_all<B: Bus>(
             ))
         }));
     }
-    // Ctrl-C: the players stop sending and the recordings end as after a
-    // normal end, every file whole.
-    let signal_watch = tokio::spawn(async move {
-        interrupted().await;
-        let _ = interrupt_tx.send(true);
-    });
+    Ok(players)
+}
+
+/// Each player's summary, in order, waited for off the runtime's threads.
+async fn join_players(
+    players: Vec<std::thread::JoinHandle<Result<PlaySummary>>>,
+) -> Result<Vec<PlaySummary>> {
     let mut summaries = Vec::new();
     for player in players {
         let summary = tokio::task::spawn_blocking(move || player.join())
@@ -218,11 +275,17 @@ async fn play_all<B: Bus>(
             .map_err(|_| AcqError::Config("the player panicked".into()))??;
         summaries.push(summary);
     }
-    signal_watch.abort();
-    let interrupted = *interrupt_rx.borrow();
-    tokio::time::sleep(DRAIN).await;
+    Ok(summaries)
+}
 
-    // 3. The recorders stop and complete their sessions.
+/// Stops every recorder (as interrupted, or as the replay finished), waits
+/// for its session, and says what each playback did.
+async fn stop_recorders(
+    playbacks: &[Playback],
+    recorders: Vec<Recorder>,
+    summaries: Vec<PlaySummary>,
+    interrupted: bool,
+) -> Result<Vec<Played>> {
     let mut played = Vec::new();
     for ((playback, (task, stop)), summary) in playbacks.iter().zip(recorders).zip(summaries) {
         let _ = stop.send(if interrupted {
@@ -241,11 +304,6 @@ async fn play_all<B: Bus>(
             dropped_by_kernel: info.dropped_by_kernel,
             timing_error_us: summary.timing.interval_error_us(),
         });
-    }
-    if interrupted {
-        return Err(AcqError::Interrupted(
-            "interrupted during the replay; the sessions recorded so far are whole".into(),
-        ));
     }
     Ok(played)
 }

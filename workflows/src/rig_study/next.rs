@@ -160,37 +160,8 @@ impl RigStudy {
         if usable.is_empty() {
             return Err("the twin runs at no candidate at the posterior mean".into());
         }
+        let weighed = weighed_candidates(posterior, noise_sd, &columns, &usable);
         let shared = posterior.shared.as_ref();
-        let own_noise_sd: Vec<f64> = noise_sd
-            .iter()
-            .enumerate()
-            .map(|(k, sd)| {
-                let shared_variance: f64 = shared
-                    .and_then(|s| s.loadings.get(k))
-                    .map_or(0.0, |l| l.iter().map(|e| e * e).sum());
-                (sd * sd - shared_variance)
-                    .max(LEAST_OWN_SHARE * sd * sd)
-                    .sqrt()
-            })
-            .collect();
-        let weighed: Vec<Candidate> = usable
-            .iter()
-            .map(|&c| Candidate {
-                jacobian: (0..noise_sd.len())
-                    .map(|k| {
-                        let mut row: Vec<f64> = columns
-                            .iter()
-                            .map(|col| col[c].as_ref().map_or(0.0, |d| d[k]))
-                            .collect();
-                        if let Some(shared) = shared {
-                            row.extend(shared.loadings.get(k).cloned().unwrap_or_default());
-                        }
-                        row
-                    })
-                    .collect(),
-                noise_sd: own_noise_sd.clone(),
-            })
-            .collect();
         let covariance = shared.map_or(&posterior.covariance, |s| &s.joint_covariance);
         let chosen = next_point(covariance, &weighed).map_err(|e| e.to_string())?;
         let best = usable[chosen.best];
@@ -230,4 +201,47 @@ impl RigStudy {
             candidates: usable.len(),
         }))
     }
+}
+
+/// Each usable candidate (`usable`, indices into `columns[j]`, the
+/// outputs' derivatives by parameter `j` there) as the next-point search
+/// weighs it: its Jacobian, with the loadings of the errors the holds share
+/// as further columns, and only its own error as noise.
+fn weighed_candidates(
+    posterior: &Posterior,
+    noise_sd: &[f64],
+    columns: &[Vec<Option<Vec<f64>>>],
+    usable: &[usize],
+) -> Vec<Candidate> {
+    let shared = posterior.shared.as_ref();
+    let own_noise_sd: Vec<f64> = noise_sd
+        .iter()
+        .enumerate()
+        .map(|(k, sd)| {
+            let shared_variance: f64 = shared
+                .and_then(|s| s.loadings.get(k))
+                .map_or(0.0, |l| l.iter().map(|e| e * e).sum());
+            (sd * sd - shared_variance)
+                .max(LEAST_OWN_SHARE * sd * sd)
+                .sqrt()
+        })
+        .collect();
+    usable
+        .iter()
+        .map(|&c| Candidate {
+            jacobian: (0..noise_sd.len())
+                .map(|k| {
+                    let mut row: Vec<f64> = columns
+                        .iter()
+                        .map(|col| col[c].as_ref().map_or(0.0, |d| d[k]))
+                        .collect();
+                    if let Some(shared) = shared {
+                        row.extend(shared.loadings.get(k).cloned().unwrap_or_default());
+                    }
+                    row
+                })
+                .collect(),
+            noise_sd: own_noise_sd.clone(),
+        })
+        .collect()
 }

@@ -38,7 +38,7 @@ use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::super::study::{Measured, Observation, Role, Study};
+use super::super::study::{Measured, Observation, Role, Study, StudyParameter};
 use super::discrepancy::{
     DrawnDiscrepancy, Form, GpDiscrepancy, OutputDiscrepancy, DISCREPANCY_RANGE, DISCREPANCY_SCALE,
     LENGTH_RANGE,
@@ -91,6 +91,75 @@ pub struct Coordinate {
     pub log_uniform: bool,
     /// A normal prior `(value, sd)` on top of the bounds.
     pub normal: Option<(f64, f64)>,
+}
+
+/// A prior's 90 % interval (its 5 % and 95 % quantiles) and standard
+/// deviation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PriorInterval {
+    pub q05: f64,
+    pub q95: f64,
+    pub sd: f64,
+}
+
+/// The grid [`Coordinate::prior_interval`] integrates the prior on.
+const PRIOR_GRID: usize = 4001;
+
+impl Coordinate {
+    /// The quantiles and standard deviation of its prior density (uniform
+    /// within the bounds, in the logarithm for a log-uniform one, times the
+    /// normal prior when given), by the trapezoid rule on a grid of
+    /// [`PRIOR_GRID`] points; NaN without bounds.
+    pub fn prior_interval(&self) -> PriorInterval {
+        let Support::Interval { lower, upper } = self.support else {
+            return PriorInterval {
+                q05: f64::NAN,
+                q95: f64::NAN,
+                sd: f64::NAN,
+            };
+        };
+        let density = |x: f64| {
+            let uniform = if self.log_uniform { 1.0 / x } else { 1.0 };
+            let normal = self
+                .normal
+                .map_or(1.0, |(value, sd)| (-0.5 * ((x - value) / sd).powi(2)).exp());
+            uniform * normal
+        };
+        let step = (upper - lower) / (PRIOR_GRID - 1) as f64;
+        let xs: Vec<f64> = (0..PRIOR_GRID).map(|k| lower + step * k as f64).collect();
+        let ps: Vec<f64> = xs.iter().map(|&x| density(x)).collect();
+        // The trapezoid rule's cumulative mass, normalised.
+        let mut cumulative = vec![0.0; PRIOR_GRID];
+        for k in 1..PRIOR_GRID {
+            cumulative[k] = cumulative[k - 1] + 0.5 * (ps[k] + ps[k - 1]) * step;
+        }
+        let total = cumulative[PRIOR_GRID - 1];
+        let quantile_at = |q: f64| {
+            let target = q * total;
+            let k = cumulative
+                .partition_point(|&c| c < target)
+                .clamp(1, PRIOR_GRID - 1);
+            let (c0, c1) = (cumulative[k - 1], cumulative[k]);
+            let t = if c1 > c0 {
+                (target - c0) / (c1 - c0)
+            } else {
+                0.0
+            };
+            xs[k - 1] + t * step
+        };
+        let mean = xs.iter().zip(&ps).map(|(x, p)| x * p).sum::<f64>() / ps.iter().sum::<f64>();
+        let variance = xs
+            .iter()
+            .zip(&ps)
+            .map(|(x, p)| (x - mean).powi(2) * p)
+            .sum::<f64>()
+            / ps.iter().sum::<f64>();
+        PriorInterval {
+            q05: quantile_at(0.05),
+            q95: quantile_at(0.95),
+            sd: variance.sqrt(),
+        }
+    }
 }
 
 /// A measured scalar the likelihood reads.
@@ -201,7 +270,7 @@ impl StudyPosterior {
             .filter(|o| o.uncertainty.is_none() && o.curve.is_none())
             .count();
         Ok(StudyPosterior {
-            coordinates: coordinates_of(study),
+            coordinates: coordinates_of(&study.parameters),
             curves,
             noise: relative > 0,
             // Log-uniform: the density of the logarithm is flat.
@@ -479,10 +548,9 @@ struct ReadObservations {
     shared_sources: Vec<String>,
 }
 
-/// The sampled coordinates: the study's parameters with their priors.
-fn coordinates_of(study: &Study) -> Vec<Coordinate> {
-    study
-        .parameters
+/// The sampled coordinates: a study's parameters with their priors.
+pub fn coordinates_of(parameters: &[StudyParameter]) -> Vec<Coordinate> {
+    parameters
         .iter()
         .map(|p| {
             let search = &p.search;

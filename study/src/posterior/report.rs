@@ -11,9 +11,10 @@ use serde_json::{json, Map, Value};
 use acq_calib::mcmc::{quantile, Marginal, Support};
 
 use super::discrepancy::Form;
+use super::likelihood::PriorInterval;
 use super::predictive::{Predicted, PredictedCurve};
 use super::validation::{validation_statements, COVERAGE_FACTOR};
-use super::{PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
+use super::{unconverged, PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
 use crate::study::Role;
 
 /// A parameter is pinned down when its 90 % interval spans at most this
@@ -165,7 +166,23 @@ fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'stati
             None => !name.starts_with("curve_error_correlation."),
         };
         let (range, share) = prior_range_and_interval_share(support, m, log_uniform);
-        let verdict = marginal_verdict(name, support, m, log_uniform, share);
+        let prior_90 = posterior
+            .density
+            .coordinates
+            .iter()
+            .find(|c| &c.name == name)
+            .map(|c| c.prior_interval());
+        let unsettled = !unconverged(
+            std::slice::from_ref(name),
+            std::slice::from_ref(m),
+            posterior.settings.chains,
+        )
+        .is_empty();
+        let verdict = if unsettled {
+            "not converged: no verdict until its chains agree"
+        } else {
+            marginal_verdict(name, support, m, log_uniform, share, prior_90)
+        };
         if !name.starts_with("discrepancy_sd.") {
             verdicts.push((name.clone(), verdict));
         }
@@ -215,6 +232,7 @@ fn marginal_verdict(
     m: &Marginal,
     log_uniform: bool,
     share: f64,
+    prior_90: Option<PriorInterval>,
 ) -> &'static str {
     let against_bound = match *support {
         Support::Interval { lower, upper } if !name.starts_with("discrepancy_sd.") => {
@@ -227,10 +245,15 @@ fn marginal_verdict(
         }
         _ => false,
     };
+    // The data and the prior disagree: the posterior's median outside
+    // the prior's own 90 % interval.
+    let outside_prior = prior_90.is_some_and(|p| !(p.q05..=p.q95).contains(&m.q50));
     if name.starts_with("discrepancy_sd.") {
         "see the discrepancy below"
     } else if against_bound {
-        "against a bound: the data push it out of its range (a model error?)"
+        "conflict: the data push it against its bound (the model misses, or the range is too narrow)"
+    } else if outside_prior {
+        "conflict: the data pull it outside its prior's 90 % interval (check the model and the prior)"
     } else if share <= PINNED_SHARE {
         "pinned down"
     } else if share >= UNIDENTIFIED_SHARE {
@@ -243,6 +266,27 @@ fn marginal_verdict(
 /// Which parameters the measured values pin down and which they leave
 /// near their prior, in words.
 fn verdicts_in_words(verdicts: &[(String, &str)]) -> String {
+    let named = |prefix: &str| -> Vec<&str> {
+        verdicts
+            .iter()
+            .filter(|(_, v)| v.starts_with(prefix))
+            .map(|(n, _)| n.as_str())
+            .collect()
+    };
+    let (conflicts, unsettled) = (named("conflict"), named("not converged"));
+    let mut caveats = String::new();
+    if !unsettled.is_empty() {
+        caveats.push_str(&format!(
+            " No verdict for {}: the chains have not converged.",
+            list_or(&unsettled, "")
+        ));
+    }
+    if !conflicts.is_empty() {
+        caveats.push_str(&format!(
+            " The data conflict with the prior or the model for {}: their intervals say where a model that misses is pushed, not where the parameter lies.",
+            list_or(&conflicts, "")
+        ));
+    }
     let pinned: Vec<&str> = verdicts
         .iter()
         .filter(|(_, v)| *v == "pinned down")
@@ -254,7 +298,7 @@ fn verdicts_in_words(verdicts: &[(String, &str)]) -> String {
         .map(|(n, _)| n.as_str())
         .collect();
     format!(
-        "In words: the measured values pin down {}; they leave {} near {} prior range. A parameter is pinned down when its 90 % interval spans at most {:.0} % of its range, not identified from {:.0} %.",
+        "In words: the measured values pin down {}; they leave {} near {} prior range. A parameter is pinned down when its 90 % interval spans at most {:.0} % of its range, not identified from {:.0} %.{caveats}",
         list_or(&pinned, "no parameter"),
         list_or(&loose, "no parameter"),
         if loose.len() == 1 { "its" } else { "their" },
@@ -517,6 +561,9 @@ fn write_predictive(report: &mut Document, predicted: &[Predicted]) {
         ]);
     }
     report.table(table);
+    let fit_outside = predicted
+        .iter()
+        .any(|p| p.role == Role::Fit && !p.holds_measured());
     let mut words = if outside.is_empty() {
         "Every measured value lies inside its 90 % predictive interval (model runs at posterior draws, plus the discrepancy and the measurement's error).".to_string()
     } else {
@@ -525,6 +572,9 @@ fn write_predictive(report: &mut Document, predicted: &[Predicted]) {
             outside.join(", ")
         )
     };
+    if fit_outside {
+        words.push_str(" The model cannot reproduce the fit values within their measurement uncertainty: the parameters' intervals above are those of a model that misses, so read no verdict from them. Allow a model error (`--discrepancy constant`, or `discrepancy` under `[posterior]`), or look for the input or the part of the model that is wrong.");
+    }
     if validation > 0 {
         words.push_str(&if validation_outside == 0 {
             " Validation carries over: every validation case's measured value is predicted within the stated uncertainty.".to_string()

@@ -29,13 +29,13 @@
 
 use std::time::Instant;
 
-use acq_calib::evaluation::Scale;
 use acq_calib::mcmc::{quantile, Marginal};
 use acq_calib::next_point::draws_moments;
 
 use super::mapping::HoldReading;
 use super::shared::SharedErrorsPosterior;
 use super::RigStudy;
+use acq_study::posterior::likelihood::coordinates_of;
 use acq_study::posterior::sequential::{sample_sequentially, WarmStart};
 use acq_study::posterior::{ESS_PER_CHAIN, RHAT_LIMIT};
 use acq_study::study::{Case, LossKind, Measured, Observation, Residuals, Role, Study};
@@ -45,8 +45,6 @@ use acq_study::study::{Case, LossKind, Measured, Observation, Residuals, Role, S
 pub const IDENTIFIED_WIDTH_RATIO: f64 = 0.5;
 /// A pair this correlated is pinned down only as a combination.
 pub const CONFOUNDED_CORRELATION: f64 = 0.9;
-/// Points of the grid a prior's quantiles are read on.
-const PRIOR_GRID: usize = 4001;
 
 /// What the holds say of a parameter.
 #[derive(Clone, Debug, PartialEq)]
@@ -148,56 +146,14 @@ impl Posterior {
 }
 
 impl RigStudy {
-    /// Each parameter's prior 90 % interval and standard deviation: the
-    /// quantiles of its prior density (uniform within the bounds, in the
-    /// logarithm for a log scale, times the normal prior when given) on a
-    /// grid of [`PRIOR_GRID`] points.
+    /// Each parameter's prior 90 % interval and standard deviation
+    /// ([`acq_study::posterior::likelihood::Coordinate::prior_interval`]).
     fn prior_intervals(&self) -> Vec<(f64, f64, f64)> {
-        self.parameters
+        coordinates_of(&self.parameters)
             .iter()
-            .map(|p| {
-                let (lower, upper) = (p.search.lower, p.search.upper);
-                let density = |x: f64| {
-                    let uniform = match p.search.scale {
-                        Scale::Log => 1.0 / x,
-                        Scale::Linear => 1.0,
-                    };
-                    let normal = p.prior.map_or(1.0, |prior| {
-                        (-0.5 * ((x - prior.value) / prior.uncertainty).powi(2)).exp()
-                    });
-                    uniform * normal
-                };
-                let step = (upper - lower) / (PRIOR_GRID - 1) as f64;
-                let xs: Vec<f64> = (0..PRIOR_GRID).map(|k| lower + step * k as f64).collect();
-                let ps: Vec<f64> = xs.iter().map(|&x| density(x)).collect();
-                // The trapezoid rule's cumulative mass, normalised.
-                let mut cumulative = vec![0.0; PRIOR_GRID];
-                for k in 1..PRIOR_GRID {
-                    cumulative[k] = cumulative[k - 1] + 0.5 * (ps[k] + ps[k - 1]) * step;
-                }
-                let total = cumulative[PRIOR_GRID - 1];
-                let quantile_at = |q: f64| {
-                    let target = q * total;
-                    let k = cumulative
-                        .partition_point(|&c| c < target)
-                        .clamp(1, PRIOR_GRID - 1);
-                    let (c0, c1) = (cumulative[k - 1], cumulative[k]);
-                    let t = if c1 > c0 {
-                        (target - c0) / (c1 - c0)
-                    } else {
-                        0.0
-                    };
-                    xs[k - 1] + t * step
-                };
-                let mean =
-                    xs.iter().zip(&ps).map(|(x, p)| x * p).sum::<f64>() / ps.iter().sum::<f64>();
-                let variance = xs
-                    .iter()
-                    .zip(&ps)
-                    .map(|(x, p)| (x - mean).powi(2) * p)
-                    .sum::<f64>()
-                    / ps.iter().sum::<f64>();
-                (quantile_at(0.05), quantile_at(0.95), variance.sqrt())
+            .map(|c| {
+                let prior = c.prior_interval();
+                (prior.q05, prior.q95, prior.sd)
             })
             .collect()
     }

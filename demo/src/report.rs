@@ -42,6 +42,7 @@ pub fn build(
         session_section(&mut doc, r, out)?;
     }
     measured_values(&mut doc, results);
+    measurement_chain(&mut doc, results);
     // Calibrations.
     for r in results {
         let directory = format!("{}/calibration", r.name);
@@ -179,6 +180,9 @@ fn measured_values(doc: &mut Document, results: &[SessionResult]) {
                     "n",
                     "n_eff",
                     "95 % interval",
+                    "u_c",
+                    "k",
+                    "U95",
                     "flags",
                     "note",
                 ]);
@@ -195,6 +199,9 @@ fn measured_values(doc: &mut Document, results: &[SessionResult]) {
                             (Some(m), Some(h)) => format!("{:.3} .. {:.3}", m - h, m + h),
                             _ => String::new(),
                         },
+                        optional(v.u_c, 4),
+                        optional(v.k, 3),
+                        optional(v.expanded_95(), 4),
                         v.flags.join(";"),
                         v.note.clone(),
                     ]);
@@ -202,6 +209,87 @@ fn measured_values(doc: &mut Document, results: &[SessionResult]) {
                 doc.table(table);
             }
         }
+    }
+}
+
+/// Each excavator session's measurement chain: where each sensor's
+/// calibration comes from (against the day it was recorded), and each
+/// hold's budget as a metrology lab presents it: every source's part of the
+/// value's uncertainty, its degrees of freedom, its share of the variance
+/// and whether it is the same in every hold (shared by a sensor).
+fn measurement_chain(doc: &mut Document, results: &[SessionResult]) {
+    for r in results {
+        let Analysis::Excavator { holds, .. } = &r.analysis else {
+            continue;
+        };
+        let recorded_on = r.session.session.started_utc.get(..10).unwrap_or("");
+        doc.heading(2, format!("Measurement chain: {}", r.name));
+        doc.paragraph(format!(
+            "Each sensor's calibration as the session's rig copy states it, on the day it was recorded ({recorded_on}):"
+        ));
+        let mut traceability = Table::new(&["calibration"]);
+        for line in r.recording.rig.calibration_status(recorded_on) {
+            traceability.row(vec![line]);
+        }
+        doc.table(traceability);
+        let mut table = Table::new(&[
+            "hold",
+            "quantity",
+            "value",
+            "source",
+            "its part of u",
+            "dof",
+            "share of the variance",
+            "same in every hold",
+        ]);
+        // Past ten thousand the coverage factor is the normal's to 1e-4.
+        let dof_text = |dof: Option<f64>| match dof {
+            None => "inf".to_string(),
+            Some(d) if d > 1e4 => "> 10^4".to_string(),
+            Some(d) => format!("{d:.0}"),
+        };
+        let has_type_b = |v: &&acq_analysis::extract::measured::MeasuredValue| {
+            v.budget.contributions.iter().any(|c| c.dof.is_none())
+        };
+        for v in holds.values.iter().filter(has_type_b) {
+            let budget = &v.budget;
+            for (c, share) in budget.contributions.iter().zip(budget.variance_shares()) {
+                table.row(vec![
+                    v.window.clone(),
+                    v.quantity.clone(),
+                    format!("{} {}", optional(v.stats.mean, 3), v.unit),
+                    c.source.clone(),
+                    format!("{:.4} {}", c.in_result(), v.unit),
+                    dof_text(c.dof),
+                    format!("{:.1} %", 100.0 * share),
+                    c.shared_by
+                        .clone()
+                        .map_or("no".into(), |by| format!("yes ({by})")),
+                ]);
+            }
+            table.row(vec![
+                v.window.clone(),
+                v.quantity.clone(),
+                String::new(),
+                "**combined**".into(),
+                format!("u_c {} {}", optional(v.u_c, 4), v.unit),
+                dof_text(budget.effective_dof()),
+                format!(
+                    "k {}, U95 {}",
+                    optional(v.k, 3),
+                    optional(v.expanded_95(), 4)
+                ),
+                String::new(),
+            ]);
+        }
+        doc.paragraph(concat!(
+            "Each value's budget (JCGM 100) where its sensors have a record: the readings' ",
+            "scatter (Type A) with each sensor's certificate, accuracy class and resolution ",
+            "(Type B); a net force's through both chambers' areas. A part the same in every hold ",
+            "is its sensor's: averaging holds does not reduce it, and every posterior takes it ",
+            "as one error per sensor. The other values' uncertainty is their scatter alone."
+        ));
+        doc.table(table);
     }
 }
 

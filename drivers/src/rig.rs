@@ -385,7 +385,7 @@ impl Rig {
                     if sensor.record.is_empty() {
                         ": its uncertainty is the readings' scatter only"
                     } else {
-                        ""
+                        ": its data sheet's accuracy and resolution only"
                     }
                 ),
             })

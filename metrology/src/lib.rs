@@ -1,6 +1,10 @@
 //! The arithmetic of JCGM 100:2008 (the GUM) that a measurement chain
 //! needs, and nothing of CAN, rigs or studies.
 //!
+//! - [`bridge`]: Wheatstone bridges of strain gauges: the strain a shunt
+//!   resistor simulates (the bridge's exact output, read as the channel
+//!   converts it), and the gain correction a shunt check gives, with its
+//!   budget, refused when the step is too far off to be a gain error.
 //! - [`budget`]: contributions (a standard uncertainty, its sensitivity
 //!   coefficient and degrees of freedom), the Type B conversions (a stated
 //!   expanded uncertainty, a rectangular limit, a resolution), the combined
@@ -13,6 +17,7 @@
 //! - [`monte_carlo`]: propagation of distributions (JCGM 101, GUM
 //!   Supplement 1), the check of the first-order law on a non-linear model.
 
+pub mod bridge;
 pub mod budget;
 pub mod curve;
 pub mod monte_carlo;

@@ -115,6 +115,29 @@ pub struct EmulatedValue {
     pub sd: f64,
 }
 
+/// Why a saved emulator cannot be read: a caller can tell a file that is
+/// not there yet (run the study that saves it) from one that is damaged or
+/// from another acq.
+#[derive(Debug, thiserror::Error)]
+pub enum EmulatorFileError {
+    #[error("{}: {source}", path.display())]
+    Read {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{}:{line}: not an emulator acq saved: {message}", path.display())]
+    NotAnEmulator {
+        path: std::path::PathBuf,
+        line: usize,
+        message: String,
+    },
+    #[error("{}: an emulator of format {found}; this acq reads format {FORMAT}: save it again with this acq", path.display())]
+    Format {
+        path: std::path::PathBuf,
+        found: u32,
+    },
+}
+
 impl SavedEmulator {
     /// Fits one GP per output named in `rows` over `columns` (their ranges
     /// are widened to the rows' values). An output needs at least one row
@@ -151,21 +174,22 @@ impl SavedEmulator {
 
     /// Reads a saved emulator; an error names the file and, for JSON that
     /// does not parse, the line.
-    pub fn load(path: &Path) -> Result<SavedEmulator, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let emulator: SavedEmulator = serde_json::from_str(&text).map_err(|e| {
-            format!(
-                "{}:{}: not an emulator acq saved: {e}",
-                path.display(),
-                e.line()
-            )
+    pub fn load(path: &Path) -> Result<SavedEmulator, EmulatorFileError> {
+        let text = std::fs::read_to_string(path).map_err(|source| EmulatorFileError::Read {
+            path: path.to_path_buf(),
+            source,
         })?;
+        let emulator: SavedEmulator =
+            serde_json::from_str(&text).map_err(|e| EmulatorFileError::NotAnEmulator {
+                path: path.to_path_buf(),
+                line: e.line(),
+                message: e.to_string(),
+            })?;
         if emulator.format != FORMAT {
-            return Err(format!(
-                "{}: an emulator of format {}; this acq reads format {FORMAT}: save it again with this acq",
-                path.display(),
-                emulator.format
-            ));
+            return Err(EmulatorFileError::Format {
+                path: path.to_path_buf(),
+                found: emulator.format,
+            });
         }
         Ok(emulator)
     }
@@ -707,10 +731,24 @@ mod tests {
         let mut other = emulator.clone();
         other.format = 7;
         other.save(&path).unwrap();
-        assert!(SavedEmulator::load(&path).unwrap_err().contains("format 7"));
+        let other = SavedEmulator::load(&path).unwrap_err();
+        assert!(
+            matches!(other, EmulatorFileError::Format { found: 7, .. })
+                && other.to_string().contains("format 7"),
+            "{other}"
+        );
         std::fs::write(&path, "{\n  \"format\": 1,\n  oops").unwrap();
         let bad = SavedEmulator::load(&path).unwrap_err();
-        assert!(bad.contains("emulator.json:3"), "{bad}");
+        assert!(
+            matches!(bad, EmulatorFileError::NotAnEmulator { line: 3, .. })
+                && bad.to_string().contains("emulator.json:3"),
+            "{bad}"
+        );
+        let missing = SavedEmulator::load(&path.with_file_name("none.json")).unwrap_err();
+        assert!(
+            matches!(missing, EmulatorFileError::Read { .. }),
+            "{missing}"
+        );
         let spread: Vec<EmulatorRow> = rows().into_iter().step_by(23).take(4).collect();
         let few = SavedEmulator::fit("a smooth model", columns(), &spread, 1).unwrap_err();
         assert!(few.contains("at least 5"), "{few}");

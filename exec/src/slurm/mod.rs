@@ -116,27 +116,37 @@ pub struct SlurmExecutor {
     ended: Mutex<(usize, usize)>,
 }
 
+/// Why Slurm cannot take acq's jobs here: a caller may fall back to the
+/// local executor, or say where to run acq instead.
+#[derive(Debug, thiserror::Error)]
+pub enum SlurmUnavailable {
+    /// Its client commands are not installed here.
+    #[error("executor kind = \"slurm\": cannot run squeue ({source}); run acq where Slurm's client commands are installed (a login node)")]
+    NotInstalled { source: std::io::Error },
+    /// They are, but the controller does not answer.
+    #[error("executor kind = \"slurm\": Slurm does not answer: {said}{}", slurm_conf.as_ref().map(|conf| format!(" (SLURM_CONF={conf})")).unwrap_or_default())]
+    NotAnswering {
+        said: String,
+        slurm_conf: Option<String>,
+    },
+}
+
 impl SlurmExecutor {
     /// Checks that Slurm answers (its commands are installed and the
     /// controller is up, `SLURM_CONF` honoured) and arranges for acq's jobs
     /// to be cancelled on Ctrl-C or SIGTERM.
-    pub fn new(settings: SlurmSettings) -> Result<Self, String> {
+    pub fn new(settings: SlurmSettings) -> Result<Self, SlurmUnavailable> {
         let probe = Command::new("squeue")
             .args(["-h", "-o", "%i", "-j", "1"])
             .stdin(Stdio::null())
             .output()
-            .map_err(|e| {
-                format!("executor kind = \"slurm\": cannot run squeue ({e}); run acq where Slurm's client commands are installed (a login node)")
-            })?;
+            .map_err(|source| SlurmUnavailable::NotInstalled { source })?;
         let said = String::from_utf8_lossy(&probe.stderr);
         if !probe.status.success() && !said.contains("Invalid job id") {
-            return Err(format!(
-                "executor kind = \"slurm\": Slurm does not answer: {}{}",
-                said.trim(),
-                std::env::var("SLURM_CONF")
-                    .map(|conf| format!(" (SLURM_CONF={conf})"))
-                    .unwrap_or_default()
-            ));
+            return Err(SlurmUnavailable::NotAnswering {
+                said: said.trim().to_string(),
+                slurm_conf: std::env::var("SLURM_CONF").ok(),
+            });
         }
         let live = Arc::new(Mutex::new(LiveJobs::new()));
         let interrupting = Arc::new(AtomicBool::new(false));

@@ -155,15 +155,18 @@ pub(crate) fn geometry_template(
 fn executor(spec: &ExecutorSpec) -> std::result::Result<Box<dyn Executor>, String> {
     Ok(match spec.kind {
         ExecutorKind::Local => Box::new(LocalExecutor),
-        ExecutorKind::Slurm => Box::new(SlurmExecutor::new(SlurmSettings {
-            partition: spec.partition.clone(),
-            account: spec.account.clone(),
-            time_limit: spec.time_limit.clone(),
-            cpus_per_job: spec.cpus_per_job,
-            memory_per_job: spec.memory_per_job.clone(),
-            sbatch_args: spec.sbatch_args.clone(),
-            prelude: spec.prelude.clone(),
-        })?),
+        ExecutorKind::Slurm => Box::new(
+            SlurmExecutor::new(SlurmSettings {
+                partition: spec.partition.clone(),
+                account: spec.account.clone(),
+                time_limit: spec.time_limit.clone(),
+                cpus_per_job: spec.cpus_per_job,
+                memory_per_job: spec.memory_per_job.clone(),
+                sbatch_args: spec.sbatch_args.clone(),
+                prelude: spec.prelude.clone(),
+            })
+            .map_err(|e| e.to_string())?,
+        ),
     })
 }
 

@@ -88,6 +88,52 @@ pub fn candidates(
     if given.is_empty() {
         return Ok(Candidates::default());
     }
+    let axes = candidate_axes(given, mapping, parameters, range_of)?;
+    let total = axes
+        .iter()
+        .try_fold(1usize, |n, (_, v)| n.checked_mul(v.len()))
+        .filter(|&n| n <= MAX_CANDIDATES)
+        .ok_or_else(|| {
+            SpecProblem::file(format!(
+                "[candidates]: more than {MAX_CANDIDATES} combinations; give fewer values"
+            ))
+        })?;
+    let reached = reached_combinations(&axes, total, runs);
+    if reached.points.is_empty() {
+        return Err(SpecProblem::file(format!(
+            "[candidates]: the model runs at none of the {total} candidates; at the first it says: {}",
+            reached.why_not.unwrap_or_default()
+        )));
+    }
+    for (((name, values), ran), said) in axes.iter().zip(&reached.ran_at).zip(&reached.said) {
+        if let Some(k) = ran.iter().position(|r| !r) {
+            return Err(SpecProblem::key(
+                TABLE,
+                name,
+                format!(
+                    "{name} = {}: the model runs at no candidate with it (a pose the linkage does not reach, or a load it cannot take); leave it out. The model says of one: {}",
+                    values[k],
+                    said[k].as_deref().unwrap_or_default()
+                ),
+            ));
+        }
+    }
+    Ok(Candidates {
+        names: axes.iter().map(|(name, _)| name.clone()).collect(),
+        points: reached.points,
+        dropped: reached.dropped,
+    })
+}
+
+/// Each measured input's values as `[candidates]` gives them, checked:
+/// an input the rig measures (not a parameter), within the range the rig
+/// file states, and every measured input given.
+fn candidate_axes(
+    given: &BTreeMap<String, CandidateValues>,
+    mapping: &HoldMapping,
+    parameters: &[String],
+    range_of: &dyn Fn(&str) -> Option<[f64; 2]>,
+) -> Result<Vec<(String, Vec<f64>)>, SpecProblem> {
     let measured: Vec<(&str, &str)> = mapping
         .measured_inputs()
         .map(|(name, from)| (name, from.quantity.as_str()))
@@ -132,23 +178,30 @@ pub fn candidates(
             ),
         ));
     }
-    let total = axes
-        .iter()
-        .try_fold(1usize, |n, (_, v)| n.checked_mul(v.len()))
-        .filter(|&n| n <= MAX_CANDIDATES)
-        .ok_or_else(|| {
-            SpecProblem::file(format!(
-                "[candidates]: more than {MAX_CANDIDATES} combinations; give fewer values"
-            ))
-        })?;
+    Ok(axes)
+}
+
+/// The combinations of the axes where the model runs, and per value
+/// whether it ran at any and what it said where it did not.
+struct Reached {
+    points: Vec<Vec<f64>>,
+    ran_at: Vec<Vec<bool>>,
+    said: Vec<Vec<Option<String>>>,
+    dropped: usize,
+    why_not: Option<String>,
+}
+
+/// Every one of the `total` combinations of `axes` (the last axis
+/// fastest), run once.
+fn reached_combinations(axes: &[(String, Vec<f64>)], total: usize, runs: &RunsAt<'_>) -> Reached {
     let names: Vec<String> = axes.iter().map(|(name, _)| name.clone()).collect();
-    let mut points = Vec::with_capacity(total);
-    let mut ran_at: Vec<Vec<bool>> = axes.iter().map(|(_, v)| vec![false; v.len()]).collect();
-    // Per value, what the model said at a candidate with it.
-    let mut said: Vec<Vec<Option<String>>> =
-        axes.iter().map(|(_, v)| vec![None; v.len()]).collect();
-    let mut dropped = 0;
-    let mut why_not: Option<String> = None;
+    let mut reached = Reached {
+        points: Vec::with_capacity(total),
+        ran_at: axes.iter().map(|(_, v)| vec![false; v.len()]).collect(),
+        said: axes.iter().map(|(_, v)| vec![None; v.len()]).collect(),
+        dropped: 0,
+        why_not: None,
+    };
     for index in 0..total {
         let mut rest = index;
         let mut picks = Vec::with_capacity(axes.len());
@@ -159,48 +212,25 @@ pub fn candidates(
         picks.reverse();
         let point: Vec<f64> = picks
             .iter()
-            .zip(&axes)
+            .zip(axes)
             .map(|(&k, (_, values))| values[k])
             .collect();
         let inputs: Vec<(String, f64)> = names.iter().cloned().zip(point.iter().copied()).collect();
         match runs(&inputs) {
             Ok(()) => {
                 for (axis, &k) in picks.iter().enumerate() {
-                    ran_at[axis][k] = true;
+                    reached.ran_at[axis][k] = true;
                 }
-                points.push(point);
+                reached.points.push(point);
             }
             Err(error) => {
-                dropped += 1;
+                reached.dropped += 1;
                 for (axis, &k) in picks.iter().enumerate() {
-                    said[axis][k].get_or_insert_with(|| error.clone());
+                    reached.said[axis][k].get_or_insert_with(|| error.clone());
                 }
-                why_not.get_or_insert(error);
+                reached.why_not.get_or_insert(error);
             }
         }
     }
-    if points.is_empty() {
-        return Err(SpecProblem::file(format!(
-            "[candidates]: the model runs at none of the {total} candidates; at the first it says: {}",
-            why_not.unwrap_or_default()
-        )));
-    }
-    for (((name, values), ran), said) in axes.iter().zip(&ran_at).zip(&said) {
-        if let Some(k) = ran.iter().position(|r| !r) {
-            return Err(SpecProblem::key(
-                TABLE,
-                name,
-                format!(
-                    "{name} = {}: the model runs at no candidate with it (a pose the linkage does not reach, or a load it cannot take); leave it out. The model says of one: {}",
-                    values[k],
-                    said[k].as_deref().unwrap_or_default()
-                ),
-            ));
-        }
-    }
-    Ok(Candidates {
-        names,
-        points,
-        dropped,
-    })
+    reached
 }

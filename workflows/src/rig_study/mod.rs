@@ -31,9 +31,9 @@ use acq_analysis::extract::quantities::RigQuantities;
 use crate::calibrate::builtin::ExcavatorModel;
 use crate::calibrate::external::geometry_template;
 use acq_study::posterior::PosteriorSettings;
-use acq_study::saved_emulator::{EmulatedModel, SavedEmulator};
+use acq_study::saved_emulator::{EmulatedModel, EmulatorFileError, SavedEmulator};
 use acq_study::spec::assemble::parameters;
-use acq_study::spec::schema::{EmulatorSpec, ModelName};
+use acq_study::spec::schema::{EmulatorSpec, HoldsSpec, ModelName, SpecFile};
 use acq_study::spec::{checks, read_spec_file, spec_directory, SpecError, SpecProblem};
 use acq_study::study::{Model, StudyParameter};
 
@@ -95,73 +95,8 @@ impl RigStudy {
     ) -> Result<RigStudy, SpecError> {
         let (text, file) = read_spec_file(path)?;
         let located = |problem: SpecProblem| problem.located(path, &text);
-        let Some(holds) = &file.holds else {
-            return Err(located(SpecProblem::file(
-                "a study at the rig needs a [holds] table: which hold quantities are the model's inputs ([holds.inputs]) and which its observations ([holds.observe])",
-            )));
-        };
-        if let Some(index) = (!file.cases.is_empty()).then_some(0) {
-            return Err(located(SpecProblem::table(
-                "[[case]]",
-                index,
-                "a study at the rig takes its cases from the holds; leave out [[case]] (run a study of them with acq calibrate external)",
-            )));
-        }
-        if !file.outputs.is_empty() || !file.curves.is_empty() {
-            return Err(located(SpecProblem::file(
-                "a study at the rig observes what [holds.observe] names; leave out [[output]] and [[curve]]",
-            )));
-        }
-        // The model: the built-in twin, or a user's solver through the
-        // emulator an earlier study of it saved (no solver runs at the rig).
-        let emulator = match &file.emulator {
-            Some(EmulatorSpec { save: Some(_), .. }) => {
-                return Err(located(SpecProblem::key(
-                    "[emulator]",
-                    "save",
-                    "[emulator] save belongs to a study of cases (acq calibrate external); at the rig, load the emulator it saved: load = \"runs/.../emulator.json\"",
-                )))
-            }
-            Some(EmulatorSpec { load: None, .. }) => {
-                return Err(located(SpecProblem::file(
-                    "[emulator]: give load = \"PATH\", an emulator saved by an earlier study of the model ([emulator] save)",
-                )))
-            }
-            Some(EmulatorSpec { load: Some(load), .. }) => Some(load.clone()),
-            None => None,
-        };
-        match (&file.model, &emulator) {
-            (ModelName::Excavator, Some(_)) => {
-                return Err(located(SpecProblem::key(
-                    "[emulator]",
-                    "load",
-                    "the excavator twin runs at the rig itself; leave out [emulator]",
-                )))
-            }
-            (ModelName::Excavator, None) => {
-                checks::model(&file).map_err(located)?;
-            }
-            (ModelName::Command, None) => {
-                return Err(located(SpecProblem::file(
-                    "a user's solver runs at the rig through an emulator saved by an earlier study of it: [emulator] load = \"PATH\" (that study's [emulator] save); or model = \"excavator\"",
-                )))
-            }
-            (ModelName::Command, Some(_)) => {}
-        }
-        checks::posterior(&file).map_err(located)?;
-        if let Some(index) = file.parameters.iter().position(|p| p.case.is_some()) {
-            return Err(located(SpecProblem::table(
-                "[[parameter]]",
-                index,
-                "a parameter of one case has no place at the rig, where every hold is a case; leave out case",
-            )));
-        }
-        let parameters = parameters(&file, &[]).map_err(located)?;
-        if parameters.is_empty() {
-            return Err(located(SpecProblem::file(
-                "no [[parameter]]: name what the holds are to find",
-            )));
-        }
+        let (holds, emulator) = what_the_rig_runs(&file).map_err(located)?;
+        let parameters = rig_parameters(&file).map_err(located)?;
         let mapping = HoldMapping::parse(holds).map_err(located)?;
         mapping.check_quantities(rig).map_err(located)?;
         for (name, _) in &mapping.inputs {
@@ -174,26 +109,8 @@ impl RigStudy {
             }
         }
         let directory = spec_directory(path);
-        let mut model_error_sd = vec![0.0; mapping.observations.len()];
-        let (model, geometry): (Box<dyn Model + Send>, _) = match &emulator {
-            Some(load) => {
-                let emulator = SavedEmulator::load(&directory.join(load))
-                    .map_err(|e| located(SpecProblem::key("[emulator]", "load", e)))?;
-                for ((name, _), error) in mapping.observations.iter().zip(&mut model_error_sd) {
-                    if let Some(output) = emulator.outputs.iter().find(|o| &o.name == name) {
-                        *error = output.error_sd;
-                    }
-                }
-                (Box::new(EmulatedModel { emulator }), None)
-            }
-            None => {
-                let template = geometry_template(&directory, file.geometry.as_deref())
-                    .map_err(SpecError::Input)?;
-                let model = ExcavatorModel::new(template.clone(), file.refit_poses)
-                    .map_err(|e| located(SpecProblem::file(format!("geometry: {e}"))))?;
-                (Box::new(model), Some(template))
-            }
-        };
+        let (model, geometry, model_error_sd) =
+            the_model(&directory, &file, emulator.as_deref(), &mapping, &located)?;
         let settings = file
             .posterior
             .as_ref()
@@ -220,39 +137,45 @@ impl RigStudy {
             model_error_sd,
             model,
         };
-        // The model runs at the nominal parameters, so a wrong input or
-        // output name is refused now, not after the first hold.
-        let nominal_inputs: Vec<(String, f64)> = study
+        if with_candidates {
+            study.attach_candidates(&file, rig).map_err(located)?;
+        }
+        Ok(study)
+    }
+
+    /// `[candidates]`, each checked for reach: the model runs at the
+    /// nominal parameters there, so a wrong input or output name is refused
+    /// now, not after the first hold.
+    fn attach_candidates(
+        &mut self,
+        file: &SpecFile,
+        rig: &RigQuantities,
+    ) -> Result<(), SpecProblem> {
+        let nominal_inputs: Vec<(String, f64)> = self
             .mapping
             .fixed_inputs()
             .map(|(name, x)| (name.to_string(), x))
             .collect();
-        let parameter_names: Vec<String> = study
+        let parameter_names: Vec<String> = self
             .parameters
             .iter()
             .map(|p| p.search.name.clone())
             .collect();
-        if !with_candidates {
-            return Ok(study);
-        }
         let range_of = |quantity: &str| rig.get(quantity).and_then(|q| q.range);
         let runs = |candidate: &[(String, f64)]| {
             let mut inputs = nominal_inputs.clone();
             inputs.extend_from_slice(candidate);
-            study.outputs_at(&study.nominal(), &inputs).map(|_| ())
+            self.outputs_at(&self.nominal(), &inputs).map(|_| ())
         };
-        study.candidates = candidates::candidates(
+        let candidates = candidates::candidates(
             &file.candidates,
-            &study.mapping,
+            &self.mapping,
             &parameter_names,
             &range_of,
             &runs,
-        )
-        .map_err(located)?;
-        if let Err(error) = study.check_names() {
-            return Err(located(error));
-        }
-        Ok(study)
+        )?;
+        self.candidates = candidates;
+        self.check_names()
     }
 
     /// Each parameter's nominal value.
@@ -319,3 +242,132 @@ impl RigStudy {
             .map_err(|e| SpecProblem::file(format!("[holds]: at the nominal parameters and the first candidate the model says: {e}")))
     }
 }
+
+/// What a study at the rig runs: its `[holds]` (which must be there) and
+/// the emulator to load, if any; refused where the file is a study of
+/// cases, or names a model the rig cannot run.
+fn what_the_rig_runs(file: &SpecFile) -> Result<(&HoldsSpec, Option<String>), SpecProblem> {
+    let Some(holds) = &file.holds else {
+        return Err(SpecProblem::file(
+                "a study at the rig needs a [holds] table: which hold quantities are the model's inputs ([holds.inputs]) and which its observations ([holds.observe])",
+            ));
+    };
+    if let Some(index) = (!file.cases.is_empty()).then_some(0) {
+        return Err(SpecProblem::table(
+                "[[case]]",
+                index,
+                "a study at the rig takes its cases from the holds; leave out [[case]] (run a study of them with acq calibrate external)",
+            ));
+    }
+    if !file.outputs.is_empty() || !file.curves.is_empty() {
+        return Err(SpecProblem::file(
+                "a study at the rig observes what [holds.observe] names; leave out [[output]] and [[curve]]",
+            ));
+    }
+    // The model: the built-in twin, or a user's solver through the
+    // emulator an earlier study of it saved (no solver runs at the rig).
+    let emulator = match &file.emulator {
+            Some(EmulatorSpec { save: Some(_), .. }) => {
+                return Err(SpecProblem::key(
+                    "[emulator]",
+                    "save",
+                    "[emulator] save belongs to a study of cases (acq calibrate external); at the rig, load the emulator it saved: load = \"runs/.../emulator.json\"",
+                ))
+            }
+            Some(EmulatorSpec { load: None, .. }) => {
+                return Err(SpecProblem::file(
+                    "[emulator]: give load = \"PATH\", an emulator saved by an earlier study of the model ([emulator] save)",
+                ))
+            }
+            Some(EmulatorSpec { load: Some(load), .. }) => Some(load.clone()),
+            None => None,
+        };
+    match (&file.model, &emulator) {
+            (ModelName::Excavator, Some(_)) => {
+                return Err(SpecProblem::key(
+                    "[emulator]",
+                    "load",
+                    "the excavator twin runs at the rig itself; leave out [emulator]",
+                ))
+            }
+            (ModelName::Excavator, None) => {
+                checks::model(file)?;
+            }
+            (ModelName::Command, None) => {
+                return Err(SpecProblem::file(
+                    "a user's solver runs at the rig through an emulator saved by an earlier study of it: [emulator] load = \"PATH\" (that study's [emulator] save); or model = \"excavator\"",
+                ))
+            }
+            (ModelName::Command, Some(_)) => {}
+        }
+    Ok((holds, emulator))
+}
+
+/// The study's parameters, each shared by every hold.
+fn rig_parameters(file: &SpecFile) -> Result<Vec<StudyParameter>, SpecProblem> {
+    checks::posterior(file)?;
+    if let Some(index) = file.parameters.iter().position(|p| p.case.is_some()) {
+        return Err(SpecProblem::table(
+                "[[parameter]]",
+                index,
+                "a parameter of one case has no place at the rig, where every hold is a case; leave out case",
+            ));
+    }
+    let parameters = parameters(file, &[])?;
+    if parameters.is_empty() {
+        return Err(SpecProblem::file(
+            "no [[parameter]]: name what the holds are to find",
+        ));
+    }
+    Ok(parameters)
+}
+
+/// The rig's model and its geometry (the built-in twin), or a user's
+/// solver through the emulator an earlier study of it saved (no solver
+/// runs at the rig), with each observation's model error.
+fn the_model(
+    directory: &Path,
+    file: &SpecFile,
+    emulator: Option<&str>,
+    mapping: &HoldMapping,
+    located: &dyn Fn(SpecProblem) -> SpecError,
+) -> Result<RigModel, SpecError> {
+    let mut model_error_sd = vec![0.0; mapping.observations.len()];
+    let (model, geometry): (Box<dyn Model + Send>, _) = match emulator {
+        Some(load) => {
+            let emulator = SavedEmulator::load(&directory.join(load)).map_err(|e| {
+                    let why = match &e {
+                        EmulatorFileError::Read { source, .. }
+                            if source.kind() == std::io::ErrorKind::NotFound =>
+                        {
+                            format!("{e}: run the study that saves it first (acq calibrate external with [emulator] save = \"{load}\"), or give its path relative to this file")
+                        }
+                        _ => e.to_string(),
+                    };
+                    located(SpecProblem::key("[emulator]", "load", why))
+                })?;
+            for ((name, _), error) in mapping.observations.iter().zip(&mut model_error_sd) {
+                if let Some(output) = emulator.outputs.iter().find(|o| &o.name == name) {
+                    *error = output.error_sd;
+                }
+            }
+            (Box::new(EmulatedModel { emulator }), None)
+        }
+        None => {
+            let template =
+                geometry_template(directory, file.geometry.as_deref()).map_err(SpecError::Input)?;
+            let model = ExcavatorModel::new(template.clone(), file.refit_poses)
+                .map_err(|e| located(SpecProblem::file(format!("geometry: {e}"))))?;
+            (Box::new(model), Some(template))
+        }
+    };
+    Ok((model, geometry, model_error_sd))
+}
+
+/// A rig's model, its geometry when it is the twin, and each
+/// observation's model error.
+type RigModel = (
+    Box<dyn Model + Send>,
+    Option<acq_twins::excavator::geometry::GeometryTemplate>,
+    Vec<f64>,
+);

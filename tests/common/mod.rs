@@ -135,16 +135,19 @@ pub const EVERY_KIND_OF_FRAME: &str = "\
 (1763719200.006000) can0 010#DEADBEEF
 ";
 
-/// The Python of a scratch virtualenv `name` (under the temp directory)
-/// holding `packages`, made once per machine from the package registry.
+/// The Python of a scratch virtualenv `name` holding `packages`, made once
+/// per build directory from the package registry: under cargo's
+/// `CARGO_TARGET_TMPDIR`, which a fresh clone's CI shares with the checkout
+/// (the build cache), so its run installs nothing a run before it did.
 /// Tests of a run wait on a lock file instead of making it twice at once.
 /// The reference tools (python-can, pyarrow, asammdf) live there, never in
 /// acq's dependencies; without them a test fails.
 pub fn scratch_python(name: &str, packages: &[&str]) -> PathBuf {
-    let venv = std::env::temp_dir().join(name);
+    let scratch = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let venv = scratch.join(name);
     let python = venv.join("bin/python");
     let ready = venv.join("acq-ready");
-    let lock = std::fs::File::create(std::env::temp_dir().join(format!("{name}.lock"))).unwrap();
+    let lock = std::fs::File::create(scratch.join(format!("{name}.lock"))).unwrap();
     // Held until this function returns (std's File::lock needs Rust 1.89).
     let _lock = nix::fcntl::Flock::lock(lock, nix::fcntl::FlockArg::LockExclusive)
         .map_err(|(_, e)| e)

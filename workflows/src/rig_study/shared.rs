@@ -82,6 +82,21 @@ fn shared_rows(study: &Study) -> (Vec<SharedRow>, Vec<String>) {
     (rows, sources)
 }
 
+/// The standardised shared errors `z` given the residuals `r`, with
+/// loadings `S` (a row per observation) and the observations' own
+/// variances `D`: covariance `(I + S' D^-1 S)^-1` and the gain `K` whose
+/// `K r` is the mean (`None` when that matrix is singular).
+fn shared_error_conditional(
+    loading: &DMatrix<f64>,
+    own_variances: &[f64],
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let (n, t) = loading.shape();
+    let weighted = DMatrix::from_fn(t, n, |s, i| loading[(i, s)] / own_variances[i]); // S' D^-1
+    let conditional = (DMatrix::identity(t, t) + &weighted * loading).try_inverse()?;
+    let gain = &conditional * &weighted;
+    Some((conditional, gain))
+}
+
 impl RigStudy {
     /// The shared errors' joint posterior with the parameters' `draws`, for
     /// `study` (the holds as cases); `None` when no error is shared or no
@@ -104,9 +119,8 @@ impl RigStudy {
                 .map(|(_, e)| e)
                 .sum::<f64>()
         });
-        let weighted = DMatrix::from_fn(t, n, |s, i| loading[(i, s)] / rows[i].own_variance); // S' D^-1
-        let conditional = (DMatrix::identity(t, t) + &weighted * &loading).try_inverse()?;
-        let gain = &conditional * &weighted;
+        let own: Vec<f64> = rows.iter().map(|r| r.own_variance).collect();
+        let (conditional, gain) = shared_error_conditional(&loading, &own)?;
         let step = draws.len().div_ceil(DRAWS_FOR_SHARED).max(1);
         let joint: Vec<Vec<f64>> = draws
             .iter()
@@ -153,5 +167,28 @@ impl RigStudy {
             loadings,
             joint_covariance: covariance,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One transducer read in two holds, `r_i = s z + e_i`, `z ~ N(0, 1)`,
+    /// `e_i ~ N(0, v)`: by hand, `z | r` has variance `1 / (1 + 2 s^2 / v)`
+    /// and mean that times `s (r_1 + r_2) / v`.
+    #[test]
+    fn one_shared_error_in_two_holds_has_its_closed_form_conditional() {
+        let (s, v): (f64, f64) = (1.2, 0.09);
+        let loading = DMatrix::from_row_slice(2, 1, &[s, s]);
+        let (conditional, gain) = shared_error_conditional(&loading, &[v, v]).unwrap();
+        let variance = 1.0 / (1.0 + 2.0 * s * s / v);
+        assert!((conditional[(0, 0)] - variance).abs() < 1e-15);
+        let residuals = DVector::from_vec(vec![0.7, 1.1]);
+        let mean = (&gain * residuals)[0];
+        assert!(
+            (mean - variance * s * (0.7 + 1.1) / v).abs() < 1e-14,
+            "{mean}"
+        );
     }
 }

@@ -271,7 +271,7 @@ fn measurement_chain(doc: &mut Document, results: &[SessionResult]) {
                 v.window.clone(),
                 v.quantity.clone(),
                 String::new(),
-                "**combined**".into(),
+                "combined".into(),
                 format!("u_c {} {}", optional(v.u_c, 4), v.unit),
                 dof_text(budget.effective_dof()),
                 format!(

@@ -34,22 +34,10 @@ fn budget_json(rig: &Path, at: f64) -> serde_json::Value {
     serde_json::from_str(&stdout(&output)).unwrap()
 }
 
-/// JCGM 100:2008 H.3, table H.6: thermometer readings t_k and the
-/// corrections b_k, here as a sensor's points (t_k, t_k + b_k): the
+/// JCGM 100:2008 H.3, table H.6 (thermometer readings t_k and the
+/// corrections b_k), here as a sensor's points (t_k, t_k + b_k): the
 /// reference's value at each reading.
-const H3: [[f64; 2]; 11] = [
-    [21.521, -0.171],
-    [22.012, -0.169],
-    [22.512, -0.166],
-    [23.003, -0.159],
-    [23.507, -0.164],
-    [23.999, -0.165],
-    [24.513, -0.156],
-    [25.002, -0.157],
-    [25.503, -0.159],
-    [26.010, -0.161],
-    [26.511, -0.160],
-];
+use acq_metrology::curve::JCGM_100_H3 as H3;
 
 #[test]
 fn jcgm_100_h3_as_a_sensors_certificate_gives_the_published_curve_uncertainty() {
@@ -264,6 +252,16 @@ fn extract_with_records(
     measured_rows(&measured)
 }
 
+/// The row of `quantity` in the window `hold1`.
+fn hold1<'a>(
+    rows: &'a [std::collections::HashMap<String, String>],
+    quantity: &str,
+) -> &'a std::collections::HashMap<String, String> {
+    rows.iter()
+        .find(|r| r["window"] == "hold1" && r["quantity"] == quantity)
+        .unwrap_or_else(|| panic!("hold1 {quantity}"))
+}
+
 fn number_in(row: &std::collections::HashMap<String, String>, column: &str) -> f64 {
     row[column]
         .parse()
@@ -325,10 +323,7 @@ fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
             "range = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }\nresolution = 0.01",
         )],
     );
-    let head_again = again
-        .iter()
-        .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_head_pressure")
-        .unwrap();
+    let head_again = hold1(&again, "arm_head_pressure");
     let u_a = number_in(&head, "u_c");
     let type_b = ((0.005 * 400.0) / 3f64.sqrt()).powi(2) + (0.01 / 12f64.sqrt()).powi(2);
     let u_c = number_in(head_again, "u_c");
@@ -339,10 +334,7 @@ fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
     assert!(dof > 1e9, "{dof}");
     assert!((number_in(head_again, "k") - 1.959_964).abs() < 1e-6);
     // The loaded-chamber pressure is that transducer's value, with its budget.
-    let loaded = again
-        .iter()
-        .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_loaded_pressure")
-        .unwrap();
+    let loaded = hold1(&again, "arm_loaded_pressure");
     assert_eq!(loaded["u_c"], head_again["u_c"]);
     // Its data sheet's part is the transducer's own error, the same in
     // every hold: written as shared by it (the accuracy class alone; the
@@ -368,10 +360,7 @@ fn extract_writes_each_holds_budget_and_a_record_adds_to_the_scatter() {
             ),
         ],
     );
-    let net = again_rows
-        .iter()
-        .find(|r| r["window"] == "hold1" && r["quantity"] == "arm_net_force")
-        .unwrap();
+    let net = hold1(&again_rows, "arm_net_force");
     let accuracy_bar = 0.005 * 400.0 / 3f64.sqrt();
     assert!(
         (shared_effect(net, "arm_head_pressure") - head_kn_per_bar * accuracy_bar).abs() < 1e-12

@@ -206,31 +206,33 @@ fn check_monotonic(points: &[[f64; 2]]) -> Result<(), CurveError> {
     Ok(())
 }
 
+/// JCGM 100:2008 example H.3, table H.6: a thermometer's readings t_k
+/// (degrees C) and their corrections b_k = t_ref - t_k, the published
+/// worked example of a calibration line whose uncertainty comes from its
+/// residual scatter (the curve's and `acq budget`'s tests reproduce it).
+pub const JCGM_100_H3: [[f64; 2]; 11] = [
+    [21.521, -0.171],
+    [22.012, -0.169],
+    [22.512, -0.166],
+    [23.003, -0.159],
+    [23.507, -0.164],
+    [23.999, -0.165],
+    [24.513, -0.156],
+    [25.002, -0.157],
+    [25.503, -0.159],
+    [26.010, -0.161],
+    [26.511, -0.160],
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// JCGM 100:2008 example H.3, table H.6: the thermometer's readings
-    /// t_k (degrees C) and the corrections b_k = t_ref - t_k.
-    const H3: [[f64; 2]; 11] = [
-        [21.521, -0.171],
-        [22.012, -0.169],
-        [22.512, -0.166],
-        [23.003, -0.159],
-        [23.507, -0.164],
-        [23.999, -0.165],
-        [24.513, -0.156],
-        [25.002, -0.157],
-        [25.503, -0.159],
-        [26.010, -0.161],
-        [26.511, -0.160],
-    ];
 
     #[test]
     fn jcgm_100_h3_the_correction_at_30_degrees_and_its_uncertainty() {
         // As a sensor's points: the reading, and the reference's value
         // t_ref = t + b.
-        let points: Vec<[f64; 2]> = H3.iter().map(|&[t, b]| [t, t + b]).collect();
+        let points: Vec<[f64; 2]> = JCGM_100_H3.iter().map(|&[t, b]| [t, t + b]).collect();
         let curve = CalibrationCurve::fit(&points, None).unwrap();
         // H.3: b(30) = -0.1494 C with u = 0.0041 C, 9 degrees of freedom;
         // y1 = -0.1712 C at t0 = 20 C, y2 = 0.00218 per C, s = 0.0035 C.
@@ -243,7 +245,7 @@ mod tests {
         assert!(((curve.slope - 1.0) - 0.00218).abs() < 5e-6);
         assert!((curve.residual_std - 0.0035).abs() < 5e-5);
         // The corrections themselves as the values: the same line, less 1.
-        let corrections = CalibrationCurve::fit(&H3, None).unwrap();
+        let corrections = CalibrationCurve::fit(&JCGM_100_H3, None).unwrap();
         assert!((corrections.value_at(30.0) - -0.1494).abs() < 5e-5);
         assert!((corrections.standard_uncertainty_at(30.0) - u).abs() < 1e-12);
     }

@@ -91,6 +91,7 @@ fn record_run(seconds: f64, view: bool, viewers: usize, arrivals: Option<Arrival
             HoldOptions::default(),
             Some("tip_force_0"),
             None,
+            None,
         );
         observer = Some(Box::new(feed));
         let address = "127.0.0.1:0".parse().unwrap();

@@ -512,3 +512,278 @@ fn check_rig_states_each_certificate_and_flags_one_past_its_due_date() {
         "{text}"
     );
 }
+
+/// A rest state, a hold and a rest state again, on the excavator rig: the
+/// pressures and the strain read an offset at rest (a transducer's zero
+/// error), the inclinations their angle; each value at the hold is the
+/// rest value plus the load's.
+const RESTING_SCENARIO: &str = r#"
+name = "zeroed"
+[timeline]
+idle_s = 2.0
+build_up_s = 1.0
+hold_s = 6.0
+release_s = 1.0
+after_s = 2.0
+[sensor.boom_head_pressure]
+idle = 0.6
+hold = 80.6
+noise = 0.2
+[sensor.boom_rod_pressure]
+idle = -0.3
+hold = 4.7
+noise = 0.05
+[sensor.tip_force]
+idle = 0.25
+hold = 40.25
+noise = 0.08
+[sensor.sg01]
+idle = 1.5
+hold = 11.5
+noise = 0.15
+[sensor.boom_inclination]
+idle = 12.0
+hold = 12.0
+noise = 0.02
+"#;
+
+/// Records `RESTING_SCENARIO` on the in-process bus as `acq record --rig
+/// --zero-before 1.5s --zero-after 1.5s` does, into `session_dir`.
+fn record_zeroed_live(session_dir: &Path) {
+    use acq_acquire::replay::Routing;
+    use acq_acquire::simulate::scenario::Scenario;
+    use acq_acquire::simulate::Simulation;
+
+    let (bus, interfaces) = common::memory_recorder::memory_bus(&["zero0", "zero1"]);
+    let root = common::root();
+    let mut rig = acq_io::input::load_rig(&root.join("fixtures/rigs/excavator.toml")).unwrap();
+    let notes = rig.assign_interfaces(&interfaces).unwrap();
+    let windows = acq_analysis::zero::ZeroWindows::new(1.5, Some(1.5)).unwrap();
+    let (feed, _shared) = acq_view::live_session(
+        "zeroed",
+        &rig,
+        acq_analysis::extract::holds::HoldOptions::default(),
+        None,
+        Some(session_dir),
+        Some(windows),
+    );
+    let recorder = common::memory_recorder::MemoryRecorder::start(
+        &bus,
+        &rig,
+        &interfaces,
+        notes,
+        session_dir,
+        Box::new(feed),
+        "acq record --zero-before 1.5s --zero-after 1.5s",
+    );
+    let (scenario, curve) = Scenario::parse(RESTING_SCENARIO, Path::new("zeroed.toml")).unwrap();
+    let mut simulation =
+        Simulation::new(&rig, scenario, curve, 5, acq_acquire::bus::now_ns()).unwrap();
+    let routing = Routing::for_rig(&rig, &interfaces).unwrap();
+    recorder.play_live(&bus, &routing, &mut simulation);
+    recorder.stop();
+}
+
+/// The issue's check: a recording zeroed live equals the same recording
+/// zeroed offline, value for value. The recorder's view thread takes the
+/// zero from the samples as they arrive; `acq zero` takes it from a copy of
+/// the session without its record. The records are equal bit for bit
+/// (only who took them differs), and so are the two sessions' extracts.
+/// The zeroed values are then checked against the physics the scenario
+/// states: a hold's pressure is its rest value plus the load's (80 bar on
+/// boom_head_pressure over a 0.6 bar zero), so the zeroed hold must read
+/// 80 bar within the noise (std 0.2 bar over some 400 samples, and the
+/// zero's over 150: 0.1 bar is more than five standard errors); the
+/// inclination, which reads its angle at rest, is not zeroed.
+#[test]
+fn a_recording_zeroed_live_equals_the_same_recording_zeroed_offline() {
+    let temp = tempfile::tempdir().unwrap();
+    let live = temp.path().join("live");
+    record_zeroed_live(&live);
+    let live_record = acq_io::zero_record::read(&live)
+        .unwrap()
+        .expect("the recorder wrote zero.toml");
+    assert_eq!(live_record.taken_by, "acq record --zero-before");
+
+    let offline = temp.path().join("offline");
+    std::fs::create_dir(&offline).unwrap();
+    for entry in std::fs::read_dir(&live).unwrap() {
+        let entry = entry.unwrap();
+        let name = entry.file_name();
+        if name == "zero.toml" || name == "view-index.bin" {
+            continue;
+        }
+        if entry.file_type().unwrap().is_dir() {
+            let to = offline.join(&name);
+            std::fs::create_dir(&to).unwrap();
+            for inner in std::fs::read_dir(entry.path()).unwrap() {
+                let inner = inner.unwrap();
+                std::fs::copy(inner.path(), to.join(inner.file_name())).unwrap();
+            }
+        } else {
+            std::fs::copy(entry.path(), offline.join(&name)).unwrap();
+        }
+    }
+    let extracted = |session: &Path, name: &str| {
+        let csv = temp.path().join(name);
+        let output = acq(&["extract", path_arg(session), "-o", path_arg(&csv)]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        std::fs::read_to_string(&csv).unwrap()
+    };
+    extracted(&offline, "unzeroed.csv");
+    let output = acq(&[
+        "zero",
+        path_arg(&offline),
+        "--before",
+        "1.5s",
+        "--after",
+        "1.5s",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let said = stderr(&output);
+    assert!(said.contains("boom_head_pressure: zero "), "{said}");
+    let offline_record = acq_io::zero_record::read(&offline).unwrap().unwrap();
+    // The rest value, 0.6 bar, within four standard errors of a 1.5 s mean.
+    let boom_zero = offline_record.sensor("boom_head_pressure").unwrap();
+    assert!(
+        (boom_zero.offset() - 0.6).abs() < 4.0 * boom_zero.before.std_of_mean().unwrap(),
+        "{boom_zero:?}"
+    );
+    assert_eq!(offline_record.taken_by, "acq zero");
+    assert_eq!(
+        acq_io::zero_record::ZeroRecord {
+            taken_by: String::new(),
+            ..live_record.clone()
+        },
+        acq_io::zero_record::ZeroRecord {
+            taken_by: String::new(),
+            ..offline_record
+        }
+    );
+
+    let (live_csv, offline_csv) = (
+        extracted(&live, "live.csv"),
+        extracted(&offline, "offline.csv"),
+    );
+    assert_eq!(
+        live_csv, offline_csv,
+        "the two zeroed sessions extract differently"
+    );
+
+    let rows = measured_rows(&temp.path().join("live.csv"));
+    let hold = |quantity: &str| {
+        rows.iter()
+            .find(|r| r["quantity"] == quantity)
+            .unwrap_or_else(|| panic!("no {quantity} in {rows:?}"))
+    };
+    let zero_of = |name: &str| live_record.sensor(name).map(|z| z.offset());
+    for (quantity, load, tolerance) in [
+        ("boom_head_pressure", 80.0, 0.1),
+        ("boom_rod_pressure", 5.0, 0.05),
+        ("tip_force", 40.0, 0.05),
+        ("sg01", 10.0, 0.1),
+    ] {
+        let mean = number_in(hold(quantity), "mean");
+        assert!(
+            (mean - load).abs() < tolerance,
+            "{quantity}: zeroed hold {mean}, the load alone is {load} (zero {:?})",
+            zero_of(quantity)
+        );
+        assert!(
+            hold(quantity)["shared"].contains("zero of"),
+            "{:?}",
+            hold(quantity)
+        );
+    }
+    assert_eq!(
+        zero_of("boom_inclination"),
+        None,
+        "an inclination is not zeroed"
+    );
+    assert!((number_in(hold("boom_inclination"), "mean") - 12.0).abs() < 0.05);
+    // The zero's two parts add to the budget in quadrature: the mean of
+    // the zero window (its std of the mean) and the zero return (a
+    // rectangle of that half-width). The data sheet's accuracy of a
+    // pressure is a share of full scale, the same at any value, so the
+    // unzeroed hold's u_c holds every other part.
+    let zero = live_record.sensor("boom_head_pressure").unwrap();
+    let drift = zero.zero_return().expect("a zero after the test");
+    assert!(drift.abs() < 0.1, "{zero:?}");
+    let unzeroed = measured_rows(&temp.path().join("unzeroed.csv"));
+    let unzeroed_hold = unzeroed
+        .iter()
+        .find(|r| r["quantity"] == "boom_head_pressure")
+        .unwrap();
+    let expected = (number_in(unzeroed_hold, "u_c").powi(2)
+        + zero.before.std_of_mean().unwrap().powi(2)
+        + drift.powi(2) / 3.0)
+        .sqrt();
+    let u_c = number_in(hold("boom_head_pressure"), "u_c");
+    assert!(
+        (u_c - expected).abs() < 1e-6 * expected,
+        "u_c {u_c}, expected {expected}"
+    );
+    assert!(
+        (number_in(unzeroed_hold, "mean")
+            - number_in(hold("boom_head_pressure"), "mean")
+            - zero.offset())
+        .abs()
+            < 1e-9
+    );
+}
+
+/// `acq zero` refuses what it cannot zero, with what to give instead:
+/// a log (a zero is kept beside a session), a window of no length, and it
+/// names a channel that was plainly not at rest in its window.
+#[test]
+fn acq_zero_refuses_a_log_and_an_empty_window_and_names_a_channel_not_at_rest() {
+    let log = common::root().join("fixtures/sessions/excavator_case1/raw.log");
+    let output = acq(&["zero", path_arg(&log), "--before", "1s"]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("give a session directory"),
+        "{}",
+        stderr(&output)
+    );
+
+    let temp = tempfile::tempdir().unwrap();
+    let session = temp.path().join("case1");
+    std::fs::create_dir_all(session.join("rig")).unwrap();
+    let source = common::root().join("fixtures/sessions/excavator_case1");
+    for name in ["raw.log", "session.toml"] {
+        std::fs::copy(source.join(name), session.join(name)).unwrap();
+    }
+    for entry in std::fs::read_dir(source.join("rig")).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), session.join("rig").join(entry.file_name())).unwrap();
+    }
+    let output = acq(&["zero", path_arg(&session), "--before", "0s"]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(
+        stderr(&output).contains("zero window"),
+        "{}",
+        stderr(&output)
+    );
+    // The shipped session idles with the engine running: the boom's head
+    // chamber holds 20 bar, 3.3 % of its 600 bar range. Zeroing it is a
+    // mistake acq names.
+    let output = acq(&["zero", path_arg(&session), "--before", "0.8s"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let said = stderr(&output);
+    let boom = said
+        .lines()
+        .find(|l| l.contains("boom_head_pressure: zero"))
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(
+        boom.contains("WARNING") && boom.contains("was it at rest?"),
+        "{boom}"
+    );
+    let bucket = said
+        .lines()
+        .find(|l| l.contains("bucket_rod_pressure: zero"))
+        .unwrap();
+    assert!(
+        !bucket.contains("WARNING"),
+        "5 bar of 600 is within 2 %: {bucket}"
+    );
+}

@@ -380,10 +380,7 @@ fn the_live_study_equals_the_study_of_the_recorded_sessions() {
 /// coverage over ten truths), and the bucket's mass is identified.
 #[test]
 fn the_loop_closes_on_the_in_process_bus() {
-    use acq_acquire::bus::memory::MemoryBus;
-    use acq_acquire::record::status::StatusMode;
-    use acq_acquire::record::{self, RecordOptions, StopReason};
-    use acq_acquire::replay::{play, Pacing, Routing};
+    use acq_acquire::replay::Routing;
     use acq_acquire::simulate::scenario::Scenario;
     use acq_acquire::simulate::Simulation;
 
@@ -395,14 +392,7 @@ fn the_loop_closes_on_the_in_process_bus() {
         ("arm.structure.attached_mass[5].mass_kg", 8.0),
     ];
     let temp = tempfile::tempdir().unwrap();
-    let interfaces: Vec<acq_drivers::frame::IfaceName> = ["loop0", "loop1"]
-        .iter()
-        .map(|n| acq_drivers::frame::IfaceName::new(n).unwrap())
-        .collect();
-    let bus = MemoryBus::new(1 << 16);
-    for iface in &interfaces {
-        bus.add(*iface);
-    }
+    let (bus, interfaces) = common::memory_recorder::memory_bus(&["loop0", "loop1"]);
     let mut rig = acq_io::input::load_rig(&root().join("fixtures/rigs/excavator.toml")).unwrap();
     let notes = rig.assign_interfaces(&interfaces).unwrap();
     let quantities = RigQuantities::of(&rig);
@@ -413,6 +403,7 @@ fn the_loop_closes_on_the_in_process_bus() {
         acq_analysis::extract::holds::HoldOptions::default(),
         None,
         Some(&session_dir),
+        None,
     );
     let study = Arc::new(RigStudy::load(&root().join(STUDY), &quantities).unwrap());
     let mut tracker = Tracker::new(study.clone());
@@ -427,31 +418,15 @@ fn the_loop_closes_on_the_in_process_bus() {
         Box::new(|line: &str| eprintln!("loop {line}")),
     );
     let panel = worker.panel();
-    let runtime = acq_acquire::runtime(2).unwrap();
-    let options = RecordOptions {
-        interfaces: interfaces.clone(),
-        rig: Some(rig.clone()),
-        session_dir: session_dir.clone(),
-        max_file_bytes: 1 << 30,
-        nmt_start: false,
-        status: StatusMode::Quiet,
-        command_line: "the loop test".into(),
+    let recorder = common::memory_recorder::MemoryRecorder::start(
+        &bus,
+        &rig,
+        &interfaces,
         notes,
-        observer: Some(Box::new(feed)),
-        messages: None,
-    };
-    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<StopReason>();
-    let recorder = runtime.spawn(record::record(bus.clone(), options, async move {
-        stop_rx.await.unwrap_or(StopReason::Signal("SIGINT"))
-    }));
-    let started = Instant::now();
-    while !session_dir.join("session.toml").exists() {
-        assert!(
-            started.elapsed() < Duration::from_secs(10),
-            "the recorder did not start"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
+        &session_dir,
+        Box::new(feed),
+        "the loop test",
+    );
     let routing = Routing::for_rig(&rig, &interfaces).unwrap();
     let truth_table: Vec<String> = truth.iter().map(|(k, v)| format!("{k:?} = {v}")).collect();
     for k in 0..HOLDS {
@@ -484,15 +459,7 @@ fn the_loop_closes_on_the_in_process_bus() {
             acq_acquire::bus::now_ns(),
         )
         .unwrap();
-        runtime
-            .block_on(play(
-                &bus,
-                |_| Ok(simulation.next_frame()),
-                &routing,
-                Pacing::Timed { speed: 1.0 },
-                1,
-            ))
-            .unwrap();
+        recorder.play_live(&bus, &routing, &mut simulation);
         // The hold closes once the load has left it; the study then updates.
         let deadline = Instant::now() + Duration::from_secs(120);
         loop {
@@ -509,8 +476,7 @@ fn the_loop_closes_on_the_in_process_bus() {
             std::thread::sleep(Duration::from_millis(200));
         }
     }
-    let _ = stop_tx.send(StopReason::Duration);
-    runtime.block_on(recorder).unwrap().unwrap();
+    recorder.stop();
     let last = worker.finish();
     assert_eq!(last["holds_used"], HOLDS, "{last}");
     for (name, value) in truth {

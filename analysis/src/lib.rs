@@ -4,6 +4,8 @@
 //! - [`decode`]: `acq decode`, logs to CSV through DBC files or a rig.
 //! - [`recording`]: a session directory (or log) as samples through its rig,
 //!   each bus's clock offset removed.
+//! - [`zero`]: a rest state before (and after) the test sets each channel's
+//!   offset; the session keeps the record and every reader applies it.
 //! - [`align`]: every sensor on one time base, gaps flagged (`acq align`).
 //! - [`extract`]: steady holds to measured values with their uncertainty and
 //!   plausibility flags; a tensile test to its curve and its material
@@ -20,3 +22,4 @@ pub mod extract;
 pub mod interp;
 pub mod loss;
 pub mod recording;
+pub mod zero;

@@ -77,6 +77,7 @@ pub fn live_views(playbacks: &[Playback]) -> Result<LiveViews> {
             acq_analysis::extract::holds::HoldOptions::default(),
             None,
             Some(&playback.target),
+            None,
         );
         feeds.push(Box::new(feed));
         shared.push(session);

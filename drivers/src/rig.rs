@@ -133,6 +133,10 @@ struct SensorFile {
     accuracy: Option<AccuracyFile>,
     /// The smallest step of the value, in the kind's unit.
     resolution: Option<f64>,
+    /// Whether the channel reads its kind's zero at rest, so that a zero
+    /// window sets its offset; by default pressures, forces, strains and
+    /// displacements do and inclinations do not.
+    zero_at_rest: Option<bool>,
 }
 
 /// `calibration = { points = [[reading, value], ...], ... }` of a sensor.
@@ -342,6 +346,9 @@ pub struct Sensor {
     /// What is known of the transducer's accuracy: its certificate and
     /// data sheet. Empty for a sensor without a record.
     pub record: SensorRecord,
+    /// A zero window (`acq zero`, `acq record --zero-before`) sets this
+    /// channel's offset: it reads its kind's zero at rest.
+    pub zero_at_rest: bool,
     /// 1-based line of the sensor in the rig file.
     pub line: usize,
 }
@@ -1105,6 +1112,9 @@ fn read_sensor(
         interpolation: sensor.interpolation.unwrap_or_default(),
         range: sensor.range,
         record,
+        zero_at_rest: sensor
+            .zero_at_rest
+            .unwrap_or(sensor.kind.reads_zero_at_rest()),
         line,
     })
 }

@@ -9,6 +9,8 @@
 //!   streamed, with units in the column metadata and time as a timestamp.
 //! - [`session`]: the session directory a recording leaves (`session.toml`,
 //!   raw logs), read by the offline analysis and written by the recorder.
+//! - [`zero_record`]: a session's `zero.toml`, each channel's reading at
+//!   rest before (and after) the test.
 //!
 //! Depends only on `acq-drivers` (log and rig formats); never on acquisition,
 //! analysis, twins, calibration or reports.
@@ -18,3 +20,4 @@ pub mod input;
 pub mod output;
 pub mod parquet_table;
 pub mod session;
+pub mod zero_record;

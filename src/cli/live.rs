@@ -52,6 +52,17 @@ pub struct RecordArgs {
     /// as study.json. The file's format: docs/src/study-at-the-rig.md.
     #[arg(long, value_name = "STUDY.toml")]
     pub study: Option<PathBuf>,
+    /// Take each channel's zero over the recording's first DURATION (needs
+    /// --rig; the machine at rest, hydraulics released): the session keeps
+    /// it in zero.toml, and the page, the holds and the study show zeroed
+    /// values once the window has closed. The raw frames are untouched.
+    #[arg(long, value_name = "DURATION", value_parser = acq_io::input::parse_duration)]
+    pub zero_before: Option<Duration>,
+    /// With --zero-before: read the zero again over the last DURATION
+    /// before the recording ends (the machine at rest again); the drift
+    /// between the two enters every budget.
+    #[arg(long, value_name = "DURATION", requires = "zero_before", value_parser = acq_io::input::parse_duration)]
+    pub zero_after: Option<Duration>,
     // The page (needs --rig: it decodes through it); it stops serving when
     // the recording ends.
     #[command(flatten)]
@@ -189,6 +200,12 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     // the end (acq view then opens the session at once). With --view it also
     // serves the page, bound before recording starts: a taken port fails first.
     let view_address = args.view.options().resolve()?;
+    if args.zero_before.is_some() && rig.is_none() {
+        return Err(AcqError::Config(
+            "--zero-before needs --rig RIG.toml: the rig says which channels read zero at rest"
+                .into(),
+        ));
+    }
     if view_address.is_some() && rig.is_none() {
         return Err(AcqError::Config(
             "--view needs --rig RIG.toml: the page shows the rig's sensors".into(),
@@ -218,6 +235,8 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     } else {
         StatusMode::Human
     };
+    // The zero record is described with the rig's ranges at the end.
+    let rig_at_end = rig.clone();
     let options = RecordOptions {
         interfaces,
         rig,
@@ -241,7 +260,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
     if let Some(host) = host {
         host.stop();
     }
-    say_how_it_ended(summary?, status, last_panel.as_ref())
+    say_how_it_ended(summary?, rig_at_end.as_ref(), status, last_panel.as_ref())
 }
 
 /// Who watches a recording besides the terminal: the live page's feed
@@ -269,12 +288,17 @@ fn watchers(
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "session".into());
+        let zero = args
+            .zero_before
+            .map(|before| super::zero::windows(before, args.zero_after))
+            .transpose()?;
         let (feed, shared) = acq_view::live_session(
             &name,
             rig,
             acq_analysis::extract::holds::HoldOptions::default(),
             None,
             Some(session_dir),
+            zero,
         );
         observer = Some(Box::new(feed));
         if let Some(study) = study {
@@ -311,6 +335,7 @@ fn watchers(
 /// The session's summary on stderr, and a failed write as the error.
 fn say_how_it_ended(
     summary: record::RecordSummary,
+    rig: Option<&acq_drivers::rig::Rig>,
     status: StatusMode,
     last_panel: Option<&serde_json::Value>,
 ) -> Result<()> {
@@ -322,6 +347,11 @@ fn say_how_it_ended(
         eprintln!("acq: the study's last state: {}", path.display());
     }
     let info = &summary.session.session;
+    if let (Ok(Some(zero)), Some(rig)) = (acq_io::zero_record::read(&summary.session_dir), rig) {
+        for line in super::zero::describe(&zero, rig) {
+            eprintln!("acq: {line}");
+        }
+    }
     if status != StatusMode::Quiet {
         eprintln!(
             "acq: session {}: {} frames in {}, {} dropped by the kernel, ended: {}",

@@ -16,6 +16,7 @@ mod rig_study;
 mod tensile;
 mod twin;
 mod view;
+mod zero;
 
 use acq_io::error::Result;
 
@@ -73,6 +74,8 @@ pub enum Command {
     Align(offline::AlignArgs),
     /// Measured values per steady hold (or a tensile curve) from a session.
     Extract(offline::ExtractArgs),
+    /// Take a session's zero from a rest state before (and after) the test.
+    Zero(zero::ZeroArgs),
     /// Work on recorded session directories.
     #[command(subcommand)]
     Session(live::SessionCommand),
@@ -103,6 +106,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Convert(args) => convert::run_convert(args),
         Command::Align(args) => offline::run_align(args),
         Command::Extract(args) => offline::run_extract(args),
+        Command::Zero(args) => zero::run_zero(args),
         Command::CheckRig(args) => decode::run_check_rig(args),
         Command::Budget(args) => budget::run_budget(args),
         Command::Record(args) => live::run_record(args),

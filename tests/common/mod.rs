@@ -6,6 +6,7 @@ pub mod browser;
 pub mod calculix;
 pub mod coverage;
 pub mod interfaces;
+pub mod memory_recorder;
 pub mod pipeline;
 pub mod rig_emulator;
 pub mod running;

@@ -18,11 +18,13 @@ use acq_acquire::record::status::Status;
 use acq_acquire::record::RecordObserver;
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::live::LiveHoldStream;
+use acq_analysis::zero::{ZeroTaker, ZeroWindows, Zeroing};
 use acq_drivers::log::candump::logged_timestamp_ns;
 use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{SensorDecoder, SensorEvent};
+use acq_drivers::sensors::{Sample, SensorDecoder, SensorEvent};
 use acq_drivers::Frame;
 use acq_io::session::SessionFile;
+use acq_io::zero_record::ZeroRecord;
 
 use crate::index;
 use crate::model::finish_recorded;
@@ -56,13 +58,17 @@ pub struct LiveFeed {
 
 /// A live view of one recording: the feed to give the recorder and the
 /// model to give the server.
-/// `session_dir`: where the index is written when the recording ends.
+/// `session_dir`: where the index (and the zero record) is written.
+/// `zero`: take each channel's zero in these windows (`acq record
+/// --zero-before`); the page, the holds and the index then show zeroed
+/// values, the first only once the before window has closed.
 pub fn live_session(
     name: &str,
     rig: &Rig,
     hold_options: HoldOptions,
     load: Option<&str>,
     session_dir: Option<&Path>,
+    zero: Option<ZeroWindows>,
 ) -> (LiveFeed, SharedSession) {
     let mut view = SessionView::new(name, rig, 0, BUCKET_NS, LIVE_BUCKETS);
     view.live = true;
@@ -85,6 +91,7 @@ pub fn live_session(
                     hold_options,
                     load,
                     session_dir,
+                    zero,
                 };
                 feed.run(events)
             })
@@ -144,9 +151,140 @@ struct Feed {
     hold_options: HoldOptions,
     load: Option<String>,
     session_dir: Option<PathBuf>,
+    zero: Option<ZeroWindows>,
+}
+
+/// The zero being taken live: samples wait in `pending` until the before
+/// window has closed, then go on zeroed.
+struct LiveZero {
+    taker: ZeroTaker,
+    pending: Vec<Sample>,
+    zeroing: Option<Zeroing>,
+}
+
+/// What the zero's record is called in a session written by the recorder.
+const TAKEN_LIVE: &str = "acq record --zero-before";
+
+impl LiveZero {
+    /// `samples` as they may be shown: none while the before window is
+    /// open, then the ones waiting and these, zeroed. `closed` is called
+    /// once with the record when the window closes.
+    fn pass(&mut self, samples: &mut Vec<Sample>, mut closed: impl FnMut(ZeroRecord)) {
+        for sample in samples.iter() {
+            self.taker.push(sample);
+        }
+        if self.zeroing.is_none() {
+            self.pending.append(samples);
+            if !self.taker.before_closed() {
+                return;
+            }
+            let record = self.taker.record(TAKEN_LIVE);
+            self.zeroing = Some(Zeroing::new(self.taker.rig(), &record));
+            closed(record);
+            *samples = std::mem::take(&mut self.pending);
+        }
+        if let Some(zeroing) = &self.zeroing {
+            samples.iter_mut().for_each(|s| zeroing.apply(s));
+        }
+    }
+
+    /// After the last frame: the samples still waiting, zeroed, and the
+    /// record if it is not the one [`LiveZero::pass`] gave (the before
+    /// window closed only now, or an after window was asked for).
+    fn finish(mut self) -> (Vec<Sample>, Option<ZeroRecord>) {
+        let mut pending = std::mem::take(&mut self.pending);
+        let record = self.taker.record(TAKEN_LIVE);
+        let changed = self.zeroing.is_none() || record.after_s.is_some();
+        let zeroing = self
+            .zeroing
+            .get_or_insert_with(|| Zeroing::new(self.taker.rig(), &record));
+        pending.iter_mut().for_each(|s| zeroing.apply(s));
+        (pending, changed.then_some(record))
+    }
+}
+
+/// `frames`' samples into `samples` (cleared first), at the times raw.log
+/// keeps, so that the holds equal acq extract's.
+fn decode(decoder: &mut SensorDecoder, frames: &[Frame], samples: &mut Vec<Sample>) {
+    samples.clear();
+    for frame in frames {
+        let mut frame = *frame;
+        frame.timestamp_ns = logged_timestamp_ns(frame.timestamp_ns);
+        decoder.decode(&frame, |event| {
+            if let SensorEvent::Sample(sample) = event {
+                samples.push(sample);
+            }
+        });
+    }
+}
+
+/// The recorder's status on the page: the buses and each sensor's silence.
+fn show_status(view: &mut SessionView, status: &Status, frames_not_shown: u64) {
+    view.elapsed_s = status.elapsed_s;
+    view.frames_not_shown = frames_not_shown;
+    view.buses = status
+        .buses
+        .iter()
+        .map(|b| BusView {
+            iface: b.iface.clone(),
+            state: b.state.to_string(),
+            frames_per_s: b.frames_per_s,
+            frames: b.frames,
+            kernel_drops: b.dropped_by_kernel,
+            error_frames: b.error_frames,
+        })
+        .collect();
+    for (sensor, live) in view.sensors.iter_mut().zip(&status.sensors) {
+        sensor.silent = live.silent;
+        sensor.silence_reason = live.reason;
+    }
+}
+
+/// What the feed keeps of every sample it shows: each sensor's whole span
+/// (for the index) and its last sample's time.
+struct Shown {
+    whole: Vec<MinMaxSeries>,
+    last_sample_ns: Vec<Option<i64>>,
+}
+
+impl Shown {
+    fn show(
+        &mut self,
+        samples: &[Sample],
+        t0: i64,
+        view: &mut SessionView,
+        mut holds: Option<&mut LiveHoldStream>,
+    ) {
+        for sample in samples {
+            self.last_sample_ns[sample.sensor] = Some(sample.time_ns);
+            if let Some(value) = sample.value {
+                self.whole[sample.sensor].push(sample.time_ns - t0, value);
+            }
+            view.push(sample.sensor, sample.time_ns, sample.value);
+            if let Some(stream) = holds.as_deref_mut() {
+                stream.push(*sample);
+            }
+        }
+    }
 }
 
 impl Feed {
+    /// Writes the zero record into the session (at once: a crash later
+    /// keeps it), and hands it to the hold stream.
+    fn keep_zero(&self, record: ZeroRecord, holds: Option<&mut LiveHoldStream>) {
+        if let Some(dir) = &self.session_dir {
+            if let Err(e) = acq_io::zero_record::write(dir, &record) {
+                eprintln!(
+                    "acq: warning: cannot write {}: {e}; take the zero again offline with acq zero",
+                    dir.join(acq_io::zero_record::ZERO_FILE).display()
+                );
+            }
+        }
+        if let Some(stream) = holds {
+            stream.set_zero(record);
+        }
+    }
+
     fn run(self, events: Receiver<FeedEvent>) {
         let Feed {
             rig,
@@ -158,13 +296,16 @@ impl Feed {
         } = &self;
         let mut decoder = SensorDecoder::new(rig);
         let mut holds: Option<LiveHoldStream> = None;
+        let mut zero: Option<LiveZero> = None;
         let mut samples = Vec::new();
-        let mut whole: Vec<MinMaxSeries> = rig
-            .sensors
-            .iter()
-            .map(|_| MinMaxSeries::whole(BUCKET_NS, WHOLE_SPAN_BUCKETS as usize))
-            .collect();
-        let mut last_sample_ns: Vec<Option<i64>> = vec![None; rig.sensors.len()];
+        let mut shown = Shown {
+            whole: rig
+                .sensors
+                .iter()
+                .map(|_| MinMaxSeries::whole(BUCKET_NS, WHOLE_SPAN_BUCKETS as usize))
+                .collect(),
+            last_sample_ns: vec![None; rig.sensors.len()],
+        };
         let mut t0 = 0;
         let mut last_check = Instant::now();
         loop {
@@ -186,55 +327,36 @@ impl Feed {
                         }
                         Err(error) => view.holds_note = Some(format!("no holds: {error}")),
                     }
+                    zero = self.zero.map(|windows| LiveZero {
+                        taker: ZeroTaker::new(rig, windows, t0),
+                        pending: Vec::new(),
+                        zeroing: None,
+                    });
                 }
                 Some(FeedEvent::Frames(frames)) => {
-                    samples.clear();
-                    for frame in &frames {
-                        // Times as raw.log keeps them, so that holds equal acq extract's.
-                        let mut frame = *frame;
-                        frame.timestamp_ns = logged_timestamp_ns(frame.timestamp_ns);
-                        decoder.decode(&frame, |event| {
-                            if let SensorEvent::Sample(sample) = event {
-                                samples.push(sample);
-                            }
+                    decode(&mut decoder, &frames, &mut samples);
+                    if let Some(zero) = zero.as_mut() {
+                        zero.pass(&mut samples, |record| {
+                            self.keep_zero(record, holds.as_mut())
                         });
                     }
-                    for sample in &samples {
-                        last_sample_ns[sample.sensor] = Some(sample.time_ns);
-                        if let Some(value) = sample.value {
-                            whole[sample.sensor].push(sample.time_ns - t0, value);
-                        }
-                    }
-                    let mut view = lock();
-                    for sample in &samples {
-                        view.push(sample.sensor, sample.time_ns, sample.value);
-                        if let Some(stream) = holds.as_mut() {
-                            stream.push(*sample);
-                        }
-                    }
+                    shown.show(&samples, t0, &mut lock(), holds.as_mut());
                 }
                 Some(FeedEvent::Status(status)) => {
-                    let mut view = lock();
-                    view.elapsed_s = status.elapsed_s;
-                    view.frames_not_shown = frames_not_shown.load(Ordering::Relaxed);
-                    view.buses = status
-                        .buses
-                        .iter()
-                        .map(|b| BusView {
-                            iface: b.iface.clone(),
-                            state: b.state.to_string(),
-                            frames_per_s: b.frames_per_s,
-                            frames: b.frames,
-                            kernel_drops: b.dropped_by_kernel,
-                            error_frames: b.error_frames,
-                        })
-                        .collect();
-                    for (sensor, live) in view.sensors.iter_mut().zip(&status.sensors) {
-                        sensor.silent = live.silent;
-                        sensor.silence_reason = live.reason;
-                    }
+                    show_status(
+                        &mut lock(),
+                        &status,
+                        frames_not_shown.load(Ordering::Relaxed),
+                    );
                 }
                 Some(FeedEvent::Finished(session)) => {
+                    if let Some(zero) = zero.take() {
+                        let (pending, record) = zero.finish();
+                        if let Some(record) = record {
+                            self.keep_zero(record, holds.as_mut());
+                        }
+                        shown.show(&pending, t0, &mut lock(), holds.as_mut());
+                    }
                     let mut view = lock();
                     if let Some(stream) = holds.as_mut() {
                         stream.finish();
@@ -243,7 +365,13 @@ impl Feed {
                     view.live = false;
                     view.frames_not_shown = frames_not_shown.load(Ordering::Relaxed);
                     if let (Some(session), Some(stream)) = (session, &holds) {
-                        self.write_index(&view, whole, stream, &session, &last_sample_ns);
+                        self.write_index(
+                            &view,
+                            shown.whole,
+                            stream,
+                            &session,
+                            &shown.last_sample_ns,
+                        );
                     }
                     return;
                 }

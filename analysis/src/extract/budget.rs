@@ -10,6 +10,7 @@
 //! sensor's as one error. Resolution and scatter are each value's own.
 
 use acq_drivers::rig::{Accuracy, Sensor};
+use acq_io::zero_record::{SensorZero, ZeroRecord};
 use acq_metrology::budget::{rectangular, resolution, Budget, Contribution};
 
 use super::stats::WindowStats;
@@ -21,6 +22,10 @@ pub const ACCURACY_CLASS: &str = "accuracy_class";
 pub const RESOLUTION: &str = "resolution";
 /// The Type A source: the spread of a hold's readings about their mean.
 pub const READINGS_SCATTER: &str = "readings_scatter";
+/// The zero window's mean, subtracted from every value (Type A).
+pub const ZERO: &str = "zero";
+/// How far the zero moved between the windows before and after the test.
+pub const ZERO_RETURN: &str = "zero_return";
 
 /// One value of a sensor with what its uncertainty is made of.
 #[derive(Clone, Debug)]
@@ -75,11 +80,56 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
     }
 }
 
+/// What a session's zero adds to every value of a zeroed channel: the
+/// uncertainty of the zero window's mean (Type A, `n_eff - 1` degrees of
+/// freedom) and, when the zero was read again after the test, its drift
+/// (rectangular, half-width the zero return: the zero may have been
+/// anywhere between the two readings when a hold was taken). Both are the
+/// same in every hold of the session, so they are shared by
+/// `"<sensor> zero of <session start>"`; another session's zero is
+/// another error.
+pub fn zero_contributions(zero: &SensorZero, session_start: &str) -> Vec<Contribution> {
+    let shared = format!("{} zero of {session_start}", zero.name);
+    let mut contributions = Vec::new();
+    if let Some(u) = zero
+        .before
+        .std_of_mean()
+        .filter(|_| zero.before.n_eff >= 2.0)
+    {
+        contributions
+            .push(Contribution::direct(ZERO, u, Some(zero.before.n_eff - 1.0)).shared_by(&shared));
+    }
+    if let Some(drift) = zero.zero_return() {
+        contributions
+            .push(Contribution::direct(ZERO_RETURN, rectangular(drift), None).shared_by(&shared));
+    }
+    contributions
+}
+
+/// Each of `sensors`' zero contributions from `record` (empty for a
+/// channel not zeroed, or without a record).
+pub fn zero_parts(sensors: &[Sensor], record: Option<&ZeroRecord>) -> Vec<Vec<Contribution>> {
+    sensors
+        .iter()
+        .map(|sensor| {
+            record
+                .and_then(|r| {
+                    Some(zero_contributions(
+                        r.sensor(&sensor.name)?,
+                        &r.session_start,
+                    ))
+                })
+                .unwrap_or_default()
+        })
+        .collect()
+}
+
 /// The budget of a hold's mean of `sensor`: the readings' scatter (Type
 /// A: the standard deviation of the mean over the effective sample count,
-/// with `n_eff - 1` degrees of freedom) and the sensor's Type B sources at
-/// the mean. Empty without a mean.
-pub fn hold_budget(sensor: &Sensor, stats: &WindowStats) -> Budget {
+/// with `n_eff - 1` degrees of freedom), the sensor's Type B sources at
+/// the mean and its session's `zero` parts ([`zero_contributions`]). Empty
+/// without a mean.
+pub fn hold_budget(sensor: &Sensor, stats: &WindowStats, zero: &[Contribution]) -> Budget {
     let Some(mean) = stats.mean else {
         return Budget::default();
     };
@@ -92,6 +142,7 @@ pub fn hold_budget(sensor: &Sensor, stats: &WindowStats) -> Budget {
         ));
     }
     contributions.extend(value_budget(sensor, mean).budget.contributions);
+    contributions.extend(zero.iter().cloned());
     Budget { contributions }
 }
 

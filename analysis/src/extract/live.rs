@@ -17,13 +17,15 @@
 
 use std::collections::VecDeque;
 
-use acq_drivers::rig::{BusClock, Rig};
+use acq_drivers::rig::Rig;
 use acq_drivers::sensors::Sample;
 use acq_io::error::Result;
+use acq_io::zero_record::ZeroRecord;
 
 use super::holds::{HoldDetector, HoldOptions, Window, BLOCK_NS};
 use super::measured::MeasuredValue;
 use super::run::{rig_load_sensor, WindowSummariser};
+use crate::recording::clocks::given_offsets_ns;
 
 /// How long decoded samples are kept for the values of a hold: a hold
 /// longer than this, or revised after this, has no live values.
@@ -58,6 +60,8 @@ pub struct LiveHoldStream {
     holds: Vec<LiveHold>,
     /// How many times a reported hold changed or vanished.
     pub revisions: u64,
+    /// The session's zero, once taken: its parts enter every budget.
+    zero: Option<ZeroRecord>,
 }
 
 impl LiveHoldStream {
@@ -71,14 +75,7 @@ impl LiveHoldStream {
             })?,
             None => rig_load_sensor(rig)?,
         };
-        let offsets_ns = rig
-            .buses
-            .iter()
-            .map(|bus| match bus.clock {
-                BusClock::OffsetMs(ms) => (ms * 1e6).round() as i64,
-                _ => 0,
-            })
-            .collect();
+        let offsets_ns = given_offsets_ns(rig);
         Ok(LiveHoldStream {
             rig: rig.clone(),
             load,
@@ -90,7 +87,19 @@ impl LiveHoldStream {
             latest_load_ns: None,
             holds: Vec::new(),
             revisions: 0,
+            zero: None,
         })
+    }
+
+    /// The session's zero record (the caller pushes zeroed samples): the
+    /// holds' budgets carry its parts as `acq extract`'s do. A record that
+    /// changes (the zero after the test, read at the end) makes every hold
+    /// be summarised again.
+    pub fn set_zero(&mut self, record: ZeroRecord) {
+        if self.zero.as_ref().is_some_and(|known| *known != record) {
+            self.holds.clear();
+        }
+        self.zero = Some(record);
     }
 
     pub fn load_sensor(&self) -> &str {
@@ -161,7 +170,8 @@ impl LiveHoldStream {
             }
             let values = (window.start_ns >= oldest_kept).then(|| {
                 let one = std::slice::from_ref(&window);
-                let mut summariser = WindowSummariser::new(&self.rig, one);
+                let mut summariser =
+                    WindowSummariser::new(&self.rig, one).with_zero(self.zero.as_ref());
                 for sample in &self.kept {
                     summariser.push(sample);
                 }

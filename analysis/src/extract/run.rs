@@ -14,9 +14,10 @@ use super::measured::MeasuredValue;
 use super::plausibility::check_window;
 use super::stats::{WindowAccumulator, WindowStats};
 use super::tensile::{extract_curve, TensileCurve};
-use acq_metrology::budget::Budget;
+use acq_io::zero_record::ZeroRecord;
+use acq_metrology::budget::{Budget, Contribution};
 
-use super::budget::{hold_budget, propagated};
+use super::budget::{hold_budget, propagated, zero_parts};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
 use acq_drivers::sensors::Sample;
@@ -203,7 +204,7 @@ pub fn extract_holds(
     };
 
     // Pass 2: every sensor in every window.
-    let mut summariser = WindowSummariser::new(rig, &windows);
+    let mut summariser = WindowSummariser::new(rig, &windows).with_zero(recording.zero.as_ref());
     let mut second_counts = SampleCounts::default();
     recording.for_each_sample(&offsets, &mut second_counts, |sample| {
         summariser.push(&sample);
@@ -242,6 +243,8 @@ pub struct WindowSummariser<'a> {
     accumulators: Vec<WindowAccumulator>,
     /// Sensors that sent at least one sample (a value or a missing one).
     pub seen: Vec<bool>,
+    /// Each sensor's zero contributions, when its session was zeroed.
+    zero_parts: Vec<Vec<Contribution>>,
 }
 
 impl<'a> WindowSummariser<'a> {
@@ -254,7 +257,14 @@ impl<'a> WindowSummariser<'a> {
                 .flat_map(|_| rig.sensors.iter().map(|s| WindowAccumulator::new(s.range)))
                 .collect(),
             seen: vec![false; rig.sensors.len()],
+            zero_parts: vec![Vec::new(); rig.sensors.len()],
         }
+    }
+
+    /// Each value's budget gains its channel's zero from `record`.
+    pub fn with_zero(mut self, record: Option<&ZeroRecord>) -> Self {
+        self.zero_parts = zero_parts(&self.rig.sensors, record);
+        self
     }
 
     pub fn push(&mut self, sample: &Sample) {
@@ -301,7 +311,11 @@ impl<'a> WindowSummariser<'a> {
                         u_c: None,
                         k: None,
                     }
-                    .with_budget(hold_budget(sensor, &stats[i])),
+                    .with_budget(hold_budget(
+                        sensor,
+                        &stats[i],
+                        &self.zero_parts[i],
+                    )),
                 );
             }
             values.extend(cylinder_values(
@@ -311,6 +325,7 @@ impl<'a> WindowSummariser<'a> {
                 end_s,
                 &stats,
                 &flags,
+                &self.zero_parts,
             ));
         }
         values
@@ -325,6 +340,7 @@ fn cylinder_values(
     end_s: f64,
     stats: &[WindowStats],
     flags: &[Vec<super::plausibility::Flag>],
+    zero_parts: &[Vec<Contribution>],
 ) -> Vec<MeasuredValue> {
     let mut values = Vec::new();
     for cylinder in &rig.cylinders {
@@ -354,8 +370,10 @@ fn cylinder_values(
             &rig.sensors[cylinder.head_sensor],
             &rig.sensors[cylinder.rod_sensor],
         );
-        let (head_budget, rod_budget) =
-            (hold_budget(head_sensor, head), hold_budget(rod_sensor, rod));
+        let (head_budget, rod_budget) = (
+            hold_budget(head_sensor, head, &zero_parts[cylinder.head_sensor]),
+            hold_budget(rod_sensor, rod, &zero_parts[cylinder.rod_sensor]),
+        );
         // Both pressures, each through its chamber's area.
         let net_force_budget = Budget {
             contributions: propagated(&head_budget, head_kn_per_bar, &head_sensor.name)

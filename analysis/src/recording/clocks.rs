@@ -4,7 +4,7 @@
 //! (align, extract) removes these offsets first, so every sample is on the
 //! reference clock.
 
-use acq_drivers::rig::BusClock;
+use acq_drivers::rig::{BusClock, Rig};
 use acq_io::error::{AcqError, Result};
 
 use super::offset::{estimate_offset, OffsetEstimate, DEFAULT_MAX_LAG_NS, MAX_WINDOW_NS};
@@ -142,6 +142,19 @@ impl Recording {
         }
         Ok(offsets)
     }
+}
+
+/// Each rig bus's clock offset as the rig gives it: what a live reader
+/// can remove, with no recording to estimate one from (0 where it is to be
+/// estimated or is the reference), ns.
+pub fn given_offsets_ns(rig: &Rig) -> Vec<i64> {
+    rig.buses
+        .iter()
+        .map(|bus| match bus.clock {
+            BusClock::OffsetMs(ms) => (ms * 1e6).round() as i64,
+            _ => 0,
+        })
+        .collect()
 }
 
 /// The offsets to remove, per bus, ns.

@@ -7,9 +7,11 @@
 //! downstream (align, extract) sees only [`Sample`]s.
 //!
 //! - [`clocks`]: each bus's clock offset (given, or estimated by [`offset`]).
+//! - [`zeroing`]: the session's zero record subtracted from every sample.
 
 pub mod clocks;
 pub mod offset;
+pub mod zeroing;
 
 use std::path::{Path, PathBuf};
 
@@ -19,6 +21,9 @@ use acq_drivers::IfaceName;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, open_log, BadLines, ScanCounts};
 use acq_io::session::{self, SessionFile};
+use acq_io::zero_record::{self, ZeroRecord};
+
+use zeroing::Zeroing;
 
 /// A session directory or a log, with the rig that decodes it.
 pub struct Recording {
@@ -29,6 +34,10 @@ pub struct Recording {
     pub rig: Rig,
     /// How the rig was matched to the recording (remapped interfaces).
     pub notes: Vec<String>,
+    /// The session's zero record (`zero.toml`), if it was zeroed.
+    pub zero: Option<ZeroRecord>,
+    /// Its offsets, subtracted from every sample [`Recording::for_each_sample`] gives.
+    pub zeroing: Zeroing,
 }
 
 impl Recording {
@@ -86,12 +95,22 @@ impl Recording {
                     .map_err(|e| AcqError::Config(format!("{}: {e}", rig_file.display())))?;
             }
         }
+        let zero = match &session {
+            Some(_) => zero_record::read(path)?,
+            None => None,
+        };
+        let zeroing = zero
+            .as_ref()
+            .map(|record| Zeroing::new(&rig, record))
+            .unwrap_or_default();
         Ok(Recording {
             label,
             logs,
             session,
             rig,
             notes,
+            zero,
+            zeroing,
         })
     }
 
@@ -122,8 +141,26 @@ impl Recording {
     }
 
     /// Decodes every frame and calls `on_sample` with each sample, its time
-    /// moved onto the reference clock: `t - clock_offset_ns[bus]`.
+    /// moved onto the reference clock (`t - clock_offset_ns[bus]`) and its
+    /// channel's zero subtracted when the session was zeroed.
     pub fn for_each_sample(
+        &self,
+        clock_offset_ns: &[i64],
+        counts: &mut SampleCounts,
+        mut on_sample: impl FnMut(Sample) -> Result<()>,
+    ) -> Result<()> {
+        if self.zeroing.is_empty() {
+            return self.for_each_raw_sample(clock_offset_ns, counts, on_sample);
+        }
+        self.for_each_raw_sample(clock_offset_ns, counts, |mut sample| {
+            self.zeroing.apply(&mut sample);
+            on_sample(sample)
+        })
+    }
+
+    /// [`Recording::for_each_sample`] without the zero: the values as the
+    /// channels sent them (through the rig's conversion).
+    pub fn for_each_raw_sample(
         &self,
         clock_offset_ns: &[i64],
         counts: &mut SampleCounts,

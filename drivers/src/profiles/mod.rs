@@ -36,6 +36,21 @@ pub enum SensorKind {
 }
 
 impl SensorKind {
+    /// Whether a channel of this kind reads zero with the machine at rest,
+    /// so that a zero window may set its offset: released hydraulics read
+    /// gauge zero, an unloaded transducer or gauge zero force and strain,
+    /// a displacement starts at zero; a machine at rest still stands at an
+    /// angle.
+    pub fn reads_zero_at_rest(self) -> bool {
+        match self {
+            SensorKind::Pressure
+            | SensorKind::Force
+            | SensorKind::Strain
+            | SensorKind::Displacement => true,
+            SensorKind::Inclination => false,
+        }
+    }
+
     pub const ALL: [SensorKind; 5] = [
         SensorKind::Pressure,
         SensorKind::Force,

@@ -1,0 +1,259 @@
+//! Zero and tare: a rest state before the test (and optionally after it)
+//! sets each channel's offset, without touching the raw frames.
+//!
+//! [`ZeroTaker`] is fed the decoded samples in recording order, live (the
+//! recorder's view thread) or offline ([`take`] over a session); both feed
+//! it the same samples in the same order, so both give the same record bit
+//! for bit. [`Zeroing`] subtracts a record's offsets from samples; a
+//! [`crate::recording::Recording`] applies its session's record to every
+//! sample it gives, so `extract`, `align` and the view all see zeroed values.
+//!
+//! Times are on the reference clock with only the rig's given clock
+//! offsets removed: the live side cannot estimate offsets, and a zero window
+//! is seconds long where clock offsets are milliseconds.
+
+use std::collections::VecDeque;
+
+use acq_drivers::rig::Rig;
+use acq_drivers::sensors::Sample;
+use acq_io::error::Result;
+use acq_io::zero_record::{SensorZero, ZeroReading, ZeroRecord};
+
+use crate::extract::stats::WindowAccumulator;
+use crate::recording::clocks::given_offsets_ns;
+pub use crate::recording::zeroing::Zeroing;
+use crate::recording::{Recording, SampleCounts};
+
+/// How long past the before window's end a late frame (another bus, a
+/// slow device) is still taken into it: far more than buses drift apart,
+/// and the live view waits this long before it shows zeroed values.
+pub const LATE_FRAME_GRACE_NS: i64 = 1_000_000_000;
+
+/// The zero windows to take: the first `before_ns` of the session and,
+/// optionally, the last `after_ns` before its last sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZeroWindows {
+    pub before_ns: i64,
+    pub after_ns: Option<i64>,
+}
+
+impl ZeroWindows {
+    /// Windows of at least one sample period; a message otherwise.
+    pub fn new(before_s: f64, after_s: Option<f64>) -> std::result::Result<Self, String> {
+        let to_ns = |what: &str, s: f64| {
+            if s.is_finite() && s > 0.0 && s < 3600.0 {
+                Ok((s * 1e9).round() as i64)
+            } else {
+                Err(format!(
+                    "the {what} zero window must be between 0 and 1 h long, got {s} s"
+                ))
+            }
+        };
+        Ok(ZeroWindows {
+            before_ns: to_ns("before", before_s)?,
+            after_ns: after_s.map(|s| to_ns("after", s)).transpose()?,
+        })
+    }
+}
+
+/// One zeroed channel's readings so far.
+struct Channel {
+    before: WindowAccumulator,
+    /// The samples of the last `after_ns` (time, value), for the after window.
+    tail: VecDeque<(i64, f64)>,
+}
+
+/// Takes the zero of every channel that reads zero at rest.
+pub struct ZeroTaker {
+    rig: Rig,
+    windows: ZeroWindows,
+    offsets_ns: Vec<i64>,
+    /// The session's start (unix ns): the before window begins here.
+    t0_ns: i64,
+    /// Per rig sensor; `None` for a channel not zeroed.
+    channels: Vec<Option<Channel>>,
+    latest_ns: Option<i64>,
+    before_closed: bool,
+}
+
+impl ZeroTaker {
+    pub fn new(rig: &Rig, windows: ZeroWindows, t0_ns: i64) -> Self {
+        ZeroTaker {
+            rig: rig.clone(),
+            windows,
+            offsets_ns: given_offsets_ns(rig),
+            t0_ns,
+            channels: rig
+                .sensors
+                .iter()
+                .map(|s| {
+                    s.zero_at_rest.then(|| Channel {
+                        before: WindowAccumulator::new(None),
+                        tail: VecDeque::new(),
+                    })
+                })
+                .collect(),
+            latest_ns: None,
+            before_closed: false,
+        }
+    }
+
+    pub fn rig(&self) -> &Rig {
+        &self.rig
+    }
+
+    fn before_end_ns(&self) -> i64 {
+        self.t0_ns + self.windows.before_ns
+    }
+
+    /// One decoded sample, on its bus's clock (the rig's given offset is
+    /// removed here).
+    pub fn push(&mut self, sample: &Sample) {
+        let bus = self.rig.sensors[sample.sensor].bus;
+        let time_ns = sample.time_ns - self.offsets_ns.get(bus).copied().unwrap_or(0);
+        let latest = self.latest_ns.map_or(time_ns, |t| t.max(time_ns));
+        self.latest_ns = Some(latest);
+        if latest >= self.before_end_ns() + LATE_FRAME_GRACE_NS {
+            self.before_closed = true;
+        }
+        let before = self.t0_ns..self.before_end_ns();
+        let (Some(channel), Some(value)) = (&mut self.channels[sample.sensor], sample.value) else {
+            return;
+        };
+        if !self.before_closed && before.contains(&time_ns) {
+            channel.before.push(time_ns, value);
+        }
+        if let Some(after_ns) = self.windows.after_ns {
+            channel.tail.push_back((time_ns, value));
+            while channel
+                .tail
+                .front()
+                .is_some_and(|(t, _)| *t < latest - after_ns)
+            {
+                channel.tail.pop_front();
+            }
+        }
+    }
+
+    /// Whether the before window is complete: the offsets are known.
+    pub fn before_closed(&self) -> bool {
+        self.before_closed
+    }
+
+    /// The record as it stands: the before window (complete or not), and
+    /// the after window up to the latest sample when one is asked for.
+    pub fn record(&self, taken_by: &str) -> ZeroRecord {
+        let seconds = |ns: i64| (ns - self.t0_ns) as f64 / 1e9;
+        let latest = self.latest_ns.unwrap_or(self.t0_ns);
+        let sensors = self
+            .rig
+            .sensors
+            .iter()
+            .zip(&self.channels)
+            .filter_map(|(sensor, channel)| {
+                let channel = channel.as_ref()?;
+                let before = reading(
+                    &channel.before,
+                    seconds(self.t0_ns),
+                    seconds(self.before_end_ns()),
+                )?;
+                let after = self.windows.after_ns.and_then(|after_ns| {
+                    let mut accumulator = WindowAccumulator::new(None);
+                    for &(t, value) in channel.tail.iter().filter(|(t, _)| *t >= latest - after_ns)
+                    {
+                        accumulator.push(t, value);
+                    }
+                    reading(&accumulator, seconds(latest - after_ns), seconds(latest))
+                });
+                Some(SensorZero {
+                    name: sensor.name.clone(),
+                    unit: sensor.unit().to_string(),
+                    before,
+                    after,
+                })
+            })
+            .collect();
+        ZeroRecord {
+            taken_by: taken_by.to_string(),
+            session_start: acq_io::session::utc_text(self.t0_ns),
+            before_s: self.windows.before_ns as f64 / 1e9,
+            after_s: self.windows.after_ns.map(|ns| ns as f64 / 1e9),
+            sensors,
+        }
+    }
+
+    /// The channels that should have been zeroed but sent no value in the
+    /// before window.
+    pub fn missing(&self) -> Vec<String> {
+        self.rig
+            .sensors
+            .iter()
+            .zip(&self.channels)
+            .filter(|(_, c)| c.as_ref().is_some_and(|c| c.before.n() == 0))
+            .map(|(s, _)| s.name.clone())
+            .collect()
+    }
+}
+
+fn reading(accumulator: &WindowAccumulator, from_s: f64, to_s: f64) -> Option<ZeroReading> {
+    let stats = accumulator.summary();
+    Some(ZeroReading {
+        from_s,
+        to_s,
+        samples: stats.n,
+        mean: stats.mean?,
+        std: stats.std,
+        n_eff: stats.n_eff,
+    })
+}
+
+/// What [`take`] found.
+pub struct TakenZero {
+    pub record: ZeroRecord,
+    /// Channels to zero that sent no value in the before window.
+    pub missing: Vec<String>,
+    pub counts: SampleCounts,
+}
+
+/// Takes the zero of a recorded session offline, from its raw values (any
+/// zero it already has is not applied), exactly as the recorder takes it
+/// live.
+pub fn take(recording: &Recording, windows: ZeroWindows, taken_by: &str) -> Result<TakenZero> {
+    let t0_ns = recording.session_start_unix_ns().ok_or_else(|| {
+        acq_io::error::AcqError::Config(format!(
+            "{}: a zero window starts at the session's start; give a session directory written by acq record",
+            recording.label
+        ))
+    })?;
+    let mut taker = ZeroTaker::new(&recording.rig, windows, t0_ns);
+    let mut counts = SampleCounts::default();
+    let raw = vec![0; recording.rig.buses.len()];
+    recording.for_each_raw_sample(&raw, &mut counts, |sample| {
+        taker.push(&sample);
+        Ok(())
+    })?;
+    Ok(TakenZero {
+        record: taker.record(taken_by),
+        missing: taker.missing(),
+        counts,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_must_have_a_length() {
+        assert!(ZeroWindows::new(0.0, None).is_err());
+        assert!(ZeroWindows::new(3.0, Some(-1.0)).is_err());
+        assert!(ZeroWindows::new(f64::NAN, None).is_err());
+        assert_eq!(
+            ZeroWindows::new(3.0, Some(0.5)).unwrap(),
+            ZeroWindows {
+                before_ns: 3_000_000_000,
+                after_ns: Some(500_000_000)
+            }
+        );
+    }
+}

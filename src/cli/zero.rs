@@ -1,0 +1,110 @@
+//! `acq zero`: a recorded session's zero record, taken offline as the
+//! recorder takes it live (`acq record --zero-before`), and what it says.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use acq_analysis::recording::Recording;
+use acq_analysis::zero::{take, ZeroWindows};
+use acq_drivers::rig::Rig;
+use acq_io::error::{AcqError, Result};
+use acq_io::zero_record::{self, ZeroRecord};
+use clap::Args;
+
+#[derive(Args, Debug)]
+pub struct ZeroArgs {
+    /// A session directory written by acq record.
+    #[arg(value_name = "SESSION_DIR")]
+    pub session: PathBuf,
+    /// The rest state before the test: the session's first DURATION (`3s`).
+    #[arg(long, value_name = "DURATION", value_parser = acq_io::input::parse_duration)]
+    pub before: Duration,
+    /// The rest state after the test: the last DURATION before the last
+    /// sample. The zero's drift between the two enters every budget.
+    #[arg(long, value_name = "DURATION", value_parser = acq_io::input::parse_duration)]
+    pub after: Option<Duration>,
+}
+
+/// The zero windows of `--before` / `--after` (and of `acq record`'s
+/// `--zero-before` / `--zero-after`).
+pub fn windows(before: Duration, after: Option<Duration>) -> Result<ZeroWindows> {
+    ZeroWindows::new(before.as_secs_f64(), after.map(|d| d.as_secs_f64())).map_err(AcqError::Config)
+}
+
+pub fn run_zero(args: ZeroArgs) -> Result<()> {
+    if !args.session.is_dir() {
+        return Err(AcqError::Config(format!(
+            "{}: give a session directory written by acq record; a zero is kept beside the recording",
+            args.session.display()
+        )));
+    }
+    let windows = windows(args.before, args.after)?;
+    let recording = Recording::open(&args.session, None)?;
+    let taken = take(&recording, windows, "acq zero")?;
+    if taken.record.sensors.is_empty() {
+        return Err(AcqError::Config(format!(
+            "{}: no channel to zero sent a value in the first {:?} ({}); a channel is zeroed when its rig sensor reads zero at rest (zero_at_rest)",
+            recording.label, args.before, taken.counts
+        )));
+    }
+    zero_record::write(&args.session, &taken.record).map_err(|e| {
+        AcqError::io(
+            format!("writing the zero record into {}", args.session.display()),
+            e,
+        )
+    })?;
+    for line in describe(&taken.record, &recording.rig) {
+        eprintln!("acq: {line}");
+    }
+    for name in &taken.missing {
+        eprintln!("acq: warning: {name}: no value in the zero window; it is not zeroed");
+    }
+    eprintln!(
+        "acq: zero record written to {}; acq extract, align and view now give zeroed values",
+        args.session.join(zero_record::ZERO_FILE).display()
+    );
+    Ok(())
+}
+
+/// A line per zeroed channel: its zero, its zero return, and a warning
+/// where the channel was plainly not at rest (a zero beyond 2 % of its
+/// range).
+pub fn describe(record: &ZeroRecord, rig: &Rig) -> Vec<String> {
+    let mut lines = vec![format!(
+        "zero of {} channels, taken by {} over the first {} s{}",
+        record.sensors.len(),
+        record.taken_by,
+        record.before_s,
+        record
+            .after_s
+            .map(|s| format!(" and the last {s} s"))
+            .unwrap_or_default()
+    )];
+    for zero in &record.sensors {
+        let unit = &zero.unit;
+        let mut line = format!(
+            "  {}: zero {:.4} {unit} +- {:.4} ({} samples)",
+            zero.name,
+            zero.offset(),
+            zero.before.std_of_mean().unwrap_or(0.0),
+            zero.before.samples
+        );
+        if let Some(drift) = zero.zero_return() {
+            line.push_str(&format!(", zero return {drift:+.4} {unit}"));
+        }
+        let range = rig
+            .sensor(&zero.name)
+            .and_then(|(_, s)| s.range)
+            .map(|[low, high]| high - low);
+        if let Some(span) = range {
+            if zero.offset().abs() > 0.02 * span {
+                line.push_str(&format!(
+                    "; WARNING: {:.1} % of its range: was it at rest? Take the zero again over a rest state",
+                    100.0 * zero.offset().abs() / span
+                ));
+            }
+        }
+        lines.push(line);
+    }
+    lines
+}

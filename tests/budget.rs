@@ -179,6 +179,7 @@ fn a_bad_record_is_refused_with_its_line_and_what_to_fix() {
         ("accuracy = { percent_of_reading = -1.0 }", "give a share above 0"),
         ("resolution = 0.0", "resolution = 0"),
         ("scale = 2.0\ncalibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]] }", "either calibration points or scale"),
+        ("shunt = { resistor_ohm = 100000.0, gauge_ohm = 350.0 }", "a shunt check is for a strain channel"),
     ] {
         let rig = rig_with(dir.path(), record);
         let output = acq(&["budget", path_arg(&rig), "--sensor", "p", "--at", "1"]);
@@ -786,4 +787,143 @@ fn acq_zero_refuses_a_log_and_an_empty_window_and_names_a_channel_not_at_rest() 
         !bucket.contains("WARNING"),
         "5 bar of 600 is within 2 %: {bucket}"
     );
+}
+
+/// The excavator rig with a shunt on gauge sg01's quarter bridge: 350 ohm
+/// gauge (+-0.3 %), 100 kohm shunt (+-0.1 %), gauge factor 2.0, across arm 1.
+fn rig_with_shunt(dir: &Path) -> PathBuf {
+    let root = common::root();
+    let text = std::fs::read_to_string(root.join("fixtures/rigs/excavator.toml"))
+        .unwrap()
+        .replace(
+            "\"../dbc/somat_excavator.dbc\"",
+            &format!("{:?}", root.join("fixtures/dbc/somat_excavator.dbc")),
+        )
+        .replace(
+            "dbc = { message = \"DAQ_SG_01_02\", signal = \"SG01\" }",
+            "dbc = { message = \"DAQ_SG_01_02\", signal = \"SG01\" }\ngauge_factor = 2.0\nbridge = \"quarter\"\nshunt = { resistor_ohm = 100000.0, resistor_tolerance_pct = 0.1, gauge_ohm = 350.0, gauge_tolerance_pct = 0.3 }",
+        );
+    let path = dir.join("rig.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The stress a 100 kohm shunt across a 350 ohm quarter-bridge arm shows
+/// on a linear channel (gauge factor 2, E = 210 GPa), from the closed form
+/// `eps = x / ((1 + x/2) GF)` with `x = -R_g / (R_g + R_s)` (Vishay TN-514's
+/// simulated strain with the quarter bridge's non-linearity): -366.86 MPa.
+fn shunt_stress_mpa() -> f64 {
+    let x = -350.0 / (350.0 + 100_000.0);
+    x / ((1.0 + x / 2.0) * 2.0) * 210e3
+}
+
+/// A session whose sg01 reads 0 at rest, then the shunt's step times
+/// `channel_gain` (a span error of the channel), with the tip loaded
+/// meanwhile so that extract finds the hold.
+fn shunt_session(dir: &Path, rig: &Path, channel_gain: f64) -> PathBuf {
+    let scenario = dir.join("shunt.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "name = \"shunt\"\n[timeline]\nidle_s = 3.0\nbuild_up_s = 0.02\nhold_s = 6.0\nrelease_s = 0.02\nafter_s = 1.0\n\
+             [sensor.sg01]\nidle = 0.0\nhold = {}\nnoise = 0.3\n[sensor.tip_force]\nidle = 0.0\nhold = 40.0\nnoise = 0.05\n",
+            shunt_stress_mpa() * channel_gain
+        ),
+    )
+    .unwrap();
+    let session = dir.join("session");
+    std::fs::create_dir_all(&session).unwrap();
+    let output = acq(&[
+        "simulate",
+        "--rig",
+        path_arg(rig),
+        "--scenario",
+        path_arg(&scenario),
+        "-o",
+        path_arg(&session.join("raw.log")),
+        "--start",
+        "1800000000",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let output = acq(&["session", "repair", path_arg(&session)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    session
+}
+
+/// `acq shunt`: the channel's gain is 0.4 % high; the recorded step against
+/// the closed-form one gives a gain of 1/1.004 (within 5e-4: the step's
+/// standard error over some 300 readings a side is about 1e-4 of it), and
+/// every value extract then gives is corrected: the hold reads the shunt's
+/// stress within 0.1 MPa, with the gain's uncertainty shared by the
+/// session's holds. A 3 % error is refused with both steps; a window with
+/// no step says so.
+#[test]
+fn a_shunt_step_corrects_the_gain_and_a_faulty_one_is_refused_with_its_numbers() {
+    let temp = tempfile::tempdir().unwrap();
+    let rig = rig_with_shunt(temp.path());
+    let session = shunt_session(temp.path(), &rig, 1.004);
+    let shunt = |session: &Path, from: &str, to: &str| {
+        acq(&[
+            "shunt",
+            path_arg(session),
+            "--rig",
+            path_arg(&rig),
+            "--sensor",
+            "sg01",
+            "--from",
+            from,
+            "--to",
+            to,
+        ])
+    };
+    let output = shunt(&session, "1s", "6s");
+    assert!(output.status.success(), "{}", stderr(&output));
+    let record = acq_io::shunt_record::read(&session).unwrap().unwrap();
+    let check = record.sensor("sg01").unwrap();
+    assert!((check.gain - 1.0 / 1.004).abs() < 5e-4, "{check:?}");
+    assert!((check.switched_s - 3.0).abs() < 0.1, "{check:?}");
+    assert!(
+        check.gain_standard_uncertainty > 0.0017 && check.gain_standard_uncertainty < 0.0020,
+        "{check:?}"
+    );
+
+    let csv = temp.path().join("measured.csv");
+    let output = acq(&[
+        "extract",
+        path_arg(&session),
+        "--rig",
+        path_arg(&rig),
+        "-o",
+        path_arg(&csv),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let rows = measured_rows(&csv);
+    let sg01 = rows.iter().find(|r| r["quantity"] == "sg01").unwrap();
+    let mean = number_in(sg01, "mean");
+    assert!(
+        (mean - shunt_stress_mpa()).abs() < 0.1,
+        "{mean} against {}",
+        shunt_stress_mpa()
+    );
+    assert!(sg01["shared"].contains("sg01 shunt of"), "{sg01:?}");
+    // The gain's part is u_gain times the uncorrected value.
+    assert!(number_in(sg01, "u_c") > check.gain_standard_uncertainty * mean.abs() / check.gain);
+
+    let output = shunt(&session, "0.5s", "2.5s");
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("no step"), "{}", stderr(&output));
+
+    let faulty_dir = temp.path().join("faulty");
+    std::fs::create_dir(&faulty_dir).unwrap();
+    let faulty = shunt_session(&faulty_dir, &rig, 1.03);
+    let output = shunt(&faulty, "1s", "6s");
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    let said = stderr(&output);
+    assert!(
+        said.contains("-1799.")
+            && said.contains("-1746.9")
+            && said.contains("beyond the 1 % tolerance"),
+        "{said}"
+    );
+    assert!(!faulty.join("shunt.toml").exists());
 }

@@ -6,6 +6,8 @@
 //!   each bus's clock offset removed.
 //! - [`zero`]: a rest state before (and after) the test sets each channel's
 //!   offset; the session keeps the record and every reader applies it.
+//! - [`shunt`]: a strain channel's recorded shunt step against the one its
+//!   shunt simulates: the gain correction the session keeps.
 //! - [`align`]: every sensor on one time base, gaps flagged (`acq align`).
 //! - [`extract`]: steady holds to measured values with their uncertainty and
 //!   plausibility flags; a tensile test to its curve and its material
@@ -22,4 +24,5 @@ pub mod extract;
 pub mod interp;
 pub mod loss;
 pub mod recording;
+pub mod shunt;
 pub mod zero;

@@ -40,6 +40,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use acq_metrology::bridge::{BridgeArm, BridgeType, ShuntCheck, StrainConversion};
 use acq_metrology::curve::CalibrationCurve;
 use serde::Deserialize;
 use toml::Spanned;
@@ -133,6 +134,9 @@ struct SensorFile {
     accuracy: Option<AccuracyFile>,
     /// The smallest step of the value, in the kind's unit.
     resolution: Option<f64>,
+    /// The shunt resistor a strain channel's amplifier switches in, and the
+    /// arm it goes across (`acq shunt`).
+    shunt: Option<ShuntFile>,
     /// Whether the channel reads its kind's zero at rest, so that a zero
     /// window sets its offset; by default pressures, forces, strains and
     /// displacements do and inclinations do not.
@@ -154,6 +158,42 @@ struct CalibrationFile {
     /// `YYYY-MM-DD`.
     date: Option<String>,
     due: Option<String>,
+}
+
+/// `shunt = { resistor_ohm = 100000, gauge_ohm = 350, ... }` of a strain sensor.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShuntFile {
+    resistor_ohm: f64,
+    /// `+-%`, rectangular.
+    #[serde(default)]
+    resistor_tolerance_pct: f64,
+    /// The shunted arm's resistance (the gauge's, with its leads where the
+    /// shunt is switched in at the amplifier).
+    gauge_ohm: f64,
+    #[serde(default)]
+    gauge_tolerance_pct: f64,
+    /// 1-4: arms 1 and 3 raise the output when their resistance rises.
+    #[serde(default = "first_arm")]
+    arm: u8,
+    /// `"linear"` (default) or `"bridge_law"` (the amplifier inverts the
+    /// bridge's exact law).
+    conversion: Option<String>,
+    /// How far the step may be off the expected one before the check is
+    /// refused, %.
+    #[serde(default = "default_shunt_tolerance_pct")]
+    tolerance_pct: f64,
+}
+
+fn first_arm() -> u8 {
+    1
+}
+
+/// A healthy channel shows the shunt's step within a fraction of a per
+/// cent; 1 % leaves room for lead resistance and still catches a wrong
+/// gauge factor (2.0 against 2.1 is 5 %) or bridge type (a factor of 2).
+fn default_shunt_tolerance_pct() -> f64 {
+    1.0
 }
 
 /// `accuracy = { percent_of_full_scale = 0.5 }` or `{ percent_of_reading = 0.2 }`.
@@ -364,6 +404,33 @@ pub struct SensorRecord {
     pub accuracy: Option<Accuracy>,
     /// The smallest step of the value, in the kind's unit.
     pub resolution: Option<f64>,
+    /// A strain channel's shunt calibration set-up.
+    pub shunt: Option<ShuntSetup>,
+}
+
+/// What a strain channel's shunt check needs besides the recorded step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShuntSetup {
+    /// The bridge, the shunt and the gauge; its measured step is 0 until
+    /// [`ShuntSetup::check`] gives it one.
+    pub bridge: ShuntCheck,
+    /// The channel's values are stress: MPa per unit strain (`E`).
+    pub stress_mpa_per_strain: f64,
+    /// The largest `|measured / expected - 1|` corrected, %.
+    pub tolerance_pct: f64,
+}
+
+impl ShuntSetup {
+    /// The check of a measured step of the channel's value (MPa) with its
+    /// standard error and degrees of freedom.
+    pub fn check(&self, step_mpa: f64, standard_error_mpa: f64, dof: Option<f64>) -> ShuntCheck {
+        ShuntCheck {
+            measured_strain: step_mpa / self.stress_mpa_per_strain,
+            measured_standard_error_strain: standard_error_mpa / self.stress_mpa_per_strain,
+            measured_dof: dof,
+            ..self.bridge
+        }
+    }
 }
 
 impl Rig {
@@ -1196,6 +1263,9 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
             },
         );
     }
+    if let Some(shunt) = &sensor.shunt {
+        record.shunt = Some(read_shunt(sensor, shunt)?);
+    }
     if let Some(step) = sensor.resolution {
         if !(step.is_finite() && step > 0.0) {
             return Err(format!(
@@ -1205,6 +1275,78 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
         record.resolution = Some(step);
     }
     Ok(record)
+}
+
+/// A strain channel's shunt set-up, checked: the gauge factor, bridge and
+/// Young's modulus come from the sensor's own keys.
+fn read_shunt(sensor: &SensorFile, shunt: &ShuntFile) -> Result<ShuntSetup, String> {
+    if sensor.kind != SensorKind::Strain {
+        return Err("shunt: a shunt check is for a strain channel (kind = \"strain\")".into());
+    }
+    let (Some(gauge_factor), Some(bridge), Some(youngs_modulus_gpa)) = (
+        sensor.gauge_factor,
+        sensor.bridge,
+        sensor.youngs_modulus_gpa,
+    ) else {
+        return Err(
+            "shunt: the check needs the sensor's gauge_factor, bridge and youngs_modulus_gpa"
+                .into(),
+        );
+    };
+    let arm = match shunt.arm {
+        1 => BridgeArm::R1,
+        2 => BridgeArm::R2,
+        3 => BridgeArm::R3,
+        4 => BridgeArm::R4,
+        other => {
+            return Err(format!(
+                "shunt: arm = {other}: give the arm the shunt goes across, 1 to 4"
+            ))
+        }
+    };
+    let conversion = match shunt.conversion.as_deref() {
+        None | Some("linear") => StrainConversion::Linear,
+        Some("bridge_law") => StrainConversion::InverseOfBridgeLaw,
+        Some(other) => {
+            return Err(format!(
+                "shunt: conversion = \"{other}\": give \"linear\" (strain = 4 V/V / (GF k)) or \"bridge_law\" (the bridge's exact law inverted)"
+            ))
+        }
+    };
+    if !(shunt.tolerance_pct > 0.0 && shunt.tolerance_pct < 100.0) {
+        return Err(format!(
+            "shunt: tolerance_pct = {}: give how far the step may be off, in % above 0 and below 100",
+            shunt.tolerance_pct
+        ));
+    }
+    let setup = ShuntSetup {
+        bridge: ShuntCheck {
+            bridge: match bridge {
+                strain::Bridge::Quarter => BridgeType::Quarter,
+                strain::Bridge::Half => BridgeType::HalfBending,
+                strain::Bridge::Full => BridgeType::FullBending,
+            },
+            conversion,
+            arm,
+            gauge_ohm: shunt.gauge_ohm,
+            gauge_tolerance_pct: shunt.gauge_tolerance_pct,
+            shunt_ohm: shunt.resistor_ohm,
+            shunt_tolerance_pct: shunt.resistor_tolerance_pct,
+            gauge_factor,
+            measured_strain: 0.0,
+            measured_standard_error_strain: 0.0,
+            measured_dof: None,
+        },
+        stress_mpa_per_strain: strain::uniaxial_stress_mpa(1.0, youngs_modulus_gpa),
+        tolerance_pct: shunt.tolerance_pct,
+    };
+    // The expected step with its budget: every input checked here, at
+    // the rig's line, rather than when a session is read.
+    setup
+        .bridge
+        .expected_budget()
+        .map_err(|e| format!("shunt: {e}"))?;
+    Ok(setup)
 }
 
 /// `YYYY-MM-DD` with a month 1-12 and a day 1-31 (string order is then

@@ -9,6 +9,8 @@
 //!   streamed, with units in the column metadata and time as a timestamp.
 //! - [`session`]: the session directory a recording leaves (`session.toml`,
 //!   raw logs), read by the offline analysis and written by the recorder.
+//! - [`shunt_record`]: a session's `shunt.toml`, each strain channel's
+//!   shunt check and the gain it corrects.
 //! - [`zero_record`]: a session's `zero.toml`, each channel's reading at
 //!   rest before (and after) the test.
 //!
@@ -20,4 +22,5 @@ pub mod input;
 pub mod output;
 pub mod parquet_table;
 pub mod session;
+pub mod shunt_record;
 pub mod zero_record;

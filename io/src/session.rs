@@ -199,17 +199,51 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 
 /// Writes `session.toml` atomically and durably.
 pub fn write(dir: &Path, session: &SessionFile) -> io::Result<()> {
-    let text = toml::to_string(session).map_err(io::Error::other)?;
-    let temporary = dir.join(".session.toml.tmp");
+    write_toml_file(
+        dir,
+        SESSION_FILE,
+        "# Written by acq record; see README.md \"Session directory\".\n",
+        session,
+    )
+}
+
+/// Writes `value` as TOML to `dir/name` after a `header` comment,
+/// atomically (a temporary file renamed) and durably (file and directory
+/// synced): a crash leaves the old file or the new one, never half of one.
+pub fn write_toml_file<T: serde::Serialize>(
+    dir: &Path,
+    name: &str,
+    header: &str,
+    value: &T,
+) -> io::Result<()> {
+    let text = toml::to_string(value).map_err(io::Error::other)?;
+    let temporary = dir.join(format!(".{name}.tmp"));
     {
         let mut file = File::create(&temporary)?;
-        file.write_all(b"# Written by acq record; see README.md \"Session directory\".\n")?;
+        file.write_all(header.as_bytes())?;
         file.write_all(text.as_bytes())?;
         file.sync_all()?;
     }
-    fs::rename(&temporary, dir.join(SESSION_FILE))?;
-    // The rename itself is durable only once the directory is synced.
+    fs::rename(&temporary, dir.join(name))?;
     File::open(dir)?.sync_all()
+}
+
+/// Reads `dir/name` written by [`write_toml_file`]; `None` when it is not
+/// there. A damaged file's error ends with `remedy`.
+pub fn read_toml_file<T: serde::de::DeserializeOwned>(
+    dir: &Path,
+    name: &str,
+    remedy: &str,
+) -> Result<Option<T>> {
+    let path = dir.join(name);
+    let text = match fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(AcqError::open(&path, e)),
+    };
+    toml::from_str(&text)
+        .map(Some)
+        .map_err(|e| AcqError::Malformed(format!("{}: {e}; {remedy}", path.display())))
 }
 
 /// Reads `session.toml`.

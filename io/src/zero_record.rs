@@ -6,13 +6,13 @@
 //! Written by `acq zero` (offline) and `acq record --zero-before` (live);
 //! read by everything that opens the session.
 
-use std::fs::{self, File};
-use std::io::{self, Write};
+use std::io;
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{AcqError, Result};
+use crate::error::Result;
+use crate::session::{read_toml_file, write_toml_file};
 
 pub const ZERO_FILE: &str = "zero.toml";
 
@@ -81,37 +81,23 @@ impl ZeroRecord {
     }
 }
 
-/// Writes `zero.toml` into the session directory atomically and durably: a
-/// crash leaves the old record or the new one, never half of one.
+/// Writes the record into the session directory atomically and durably.
 pub fn write(dir: &Path, record: &ZeroRecord) -> io::Result<()> {
-    let text = toml::to_string(record).map_err(io::Error::other)?;
-    let temporary = dir.join(".zero.toml.tmp");
-    {
-        let mut file = File::create(&temporary)?;
-        file.write_all(
-            b"# Written by acq; each value the session gives is its reading minus `before.mean`.\n",
-        )?;
-        file.write_all(text.as_bytes())?;
-        file.sync_all()?;
-    }
-    fs::rename(&temporary, dir.join(ZERO_FILE))?;
-    File::open(dir)?.sync_all()
+    write_toml_file(
+        dir,
+        ZERO_FILE,
+        "# Written by acq; each value the session gives is its reading minus `before.mean`.\n",
+        record,
+    )
 }
 
-/// Reads the session's `zero.toml`; `None` when the session was not zeroed.
+/// Reads the session's record; `None` when there is none.
 pub fn read(dir: &Path) -> Result<Option<ZeroRecord>> {
-    let path = dir.join(ZERO_FILE);
-    let text = match fs::read_to_string(&path) {
-        Ok(text) => text,
-        Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(AcqError::open(&path, e)),
-    };
-    toml::from_str(&text).map(Some).map_err(|e| {
-        AcqError::Malformed(format!(
-            "{}: {e}; remove it and zero the session again with acq zero",
-            path.display()
-        ))
-    })
+    read_toml_file(
+        dir,
+        ZERO_FILE,
+        "remove it and zero the session again with acq zero",
+    )
 }
 
 #[cfg(test)]
@@ -153,7 +139,7 @@ mod tests {
     #[test]
     fn a_broken_record_says_how_to_mend_it() {
         let dir = tempfile::tempdir().unwrap();
-        fs::write(dir.path().join(ZERO_FILE), "before_s = [").unwrap();
+        std::fs::write(dir.path().join(ZERO_FILE), "before_s = [").unwrap();
         let message = read(dir.path()).unwrap_err().to_string();
         assert!(
             message.contains("zero.toml") && message.contains("acq zero"),

@@ -13,6 +13,7 @@ mod interrupt;
 mod live;
 mod offline;
 mod rig_study;
+mod shunt;
 mod tensile;
 mod twin;
 mod view;
@@ -76,6 +77,8 @@ pub enum Command {
     Extract(offline::ExtractArgs),
     /// Take a session's zero from a rest state before (and after) the test.
     Zero(zero::ZeroArgs),
+    /// Check a strain channel's recorded shunt step; a session keeps the gain.
+    Shunt(shunt::ShuntArgs),
     /// Work on recorded session directories.
     #[command(subcommand)]
     Session(live::SessionCommand),
@@ -107,6 +110,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Align(args) => offline::run_align(args),
         Command::Extract(args) => offline::run_extract(args),
         Command::Zero(args) => zero::run_zero(args),
+        Command::Shunt(args) => shunt::run_shunt(args),
         Command::CheckRig(args) => decode::run_check_rig(args),
         Command::Budget(args) => budget::run_budget(args),
         Command::Record(args) => live::run_record(args),

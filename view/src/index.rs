@@ -5,7 +5,7 @@
 //! from, the holds, the buses, each sensor's state) and then every sensor's
 //! buckets as little-endian `f32` pairs (NaN: no sample). It is used only if
 //! the recording is the one it was made from (raw files' names and sizes,
-//! frame count, start, rig copy, zero record, acq version); anything else, a damaged file
+//! frame count, start, rig copy, zero and shunt records, acq version); anything else, a damaged file
 //! included, is read again from the recording and the index rewritten.
 
 use std::path::Path;
@@ -29,8 +29,9 @@ pub struct Key {
     frames: u64,
     started_unix_ns: i64,
     rig_sha256: Option<String>,
-    /// The zero record's (`acq zero` may change it after the recording).
-    zero_sha256: Option<String>,
+    /// The zero and shunt records' (`acq zero` and `acq shunt` may change
+    /// them after the recording).
+    corrections_sha256: Vec<Option<String>>,
 }
 
 /// The recording in `dir` as it is now.
@@ -49,9 +50,17 @@ pub fn key(dir: &Path, session: &SessionFile) -> Key {
         frames: session.session.frames,
         started_unix_ns: session.session.started_unix_ns,
         rig_sha256: session.rig.as_ref().map(|r| r.file.sha256.clone()),
-        zero_sha256: std::fs::read(dir.join(acq_io::zero_record::ZERO_FILE))
-            .ok()
-            .map(|bytes| acq_io::session::sha256_hex(&bytes)),
+        corrections_sha256: [
+            acq_io::zero_record::ZERO_FILE,
+            acq_io::shunt_record::SHUNT_FILE,
+        ]
+        .iter()
+        .map(|name| {
+            std::fs::read(dir.join(name))
+                .ok()
+                .map(|bytes| acq_io::session::sha256_hex(&bytes))
+        })
+        .collect(),
     }
 }
 

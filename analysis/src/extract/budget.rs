@@ -10,6 +10,7 @@
 //! sensor's as one error. Resolution and scatter are each value's own.
 
 use acq_drivers::rig::{Accuracy, Sensor};
+use acq_io::shunt_record::ShuntRecord;
 use acq_io::zero_record::{SensorZero, ZeroRecord};
 use acq_metrology::budget::{rectangular, resolution, Budget, Contribution};
 
@@ -106,30 +107,74 @@ pub fn zero_contributions(zero: &SensorZero, session_start: &str) -> Vec<Contrib
     contributions
 }
 
-/// Each of `sensors`' zero contributions from `record` (empty for a
-/// channel not zeroed, or without a record).
-pub fn zero_parts(sensors: &[Sensor], record: Option<&ZeroRecord>) -> Vec<Vec<Contribution>> {
-    sensors
-        .iter()
-        .map(|sensor| {
-            record
-                .and_then(|r| {
-                    Some(zero_contributions(
-                        r.sensor(&sensor.name)?,
-                        &r.session_start,
-                    ))
-                })
-                .unwrap_or_default()
-        })
-        .collect()
+/// A shunt check's gain applied to every value of a channel.
+pub const SHUNT_GAIN: &str = "shunt_gain";
+
+/// What a session's own corrections of a channel add to each of its
+/// values: its zero's parts and its shunt check's gain.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SessionParts {
+    pub zero: Vec<Contribution>,
+    pub gain: Option<GainPart>,
+}
+
+/// A channel's gain correction: its value and standard uncertainty, and
+/// the shared source its error is (the same in every hold of the session).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GainPart {
+    pub gain: f64,
+    pub standard_uncertainty: f64,
+    pub shared_by: String,
+}
+
+impl SessionParts {
+    /// Each of `sensors`' parts from the session's zero and shunt records.
+    pub fn of(
+        sensors: &[Sensor],
+        zero: Option<&ZeroRecord>,
+        shunt: Option<&ShuntRecord>,
+    ) -> Vec<SessionParts> {
+        sensors
+            .iter()
+            .map(|sensor| SessionParts {
+                zero: zero
+                    .and_then(|r| {
+                        Some(zero_contributions(
+                            r.sensor(&sensor.name)?,
+                            &r.session_start,
+                        ))
+                    })
+                    .unwrap_or_default(),
+                gain: shunt.and_then(|r| {
+                    let check = r.sensor(&sensor.name)?;
+                    Some(GainPart {
+                        gain: check.gain,
+                        standard_uncertainty: check.gain_standard_uncertainty,
+                        shared_by: format!("{} shunt of {}", sensor.name, r.session_start),
+                    })
+                }),
+            })
+            .collect()
+    }
+
+    /// The contributions to a value `value` (corrected) of the channel: a
+    /// value `g v` moves by `v = value / g` per unit of the gain `g`.
+    fn contributions(&self, value: f64) -> impl Iterator<Item = Contribution> + '_ {
+        let gain = self.gain.as_ref().map(|part| Contribution {
+            sensitivity: value / part.gain,
+            ..Contribution::direct(SHUNT_GAIN, part.standard_uncertainty, None)
+                .shared_by(&part.shared_by)
+        });
+        self.zero.iter().cloned().chain(gain)
+    }
 }
 
 /// The budget of a hold's mean of `sensor`: the readings' scatter (Type
 /// A: the standard deviation of the mean over the effective sample count,
 /// with `n_eff - 1` degrees of freedom), the sensor's Type B sources at
-/// the mean and its session's `zero` parts ([`zero_contributions`]). Empty
-/// without a mean.
-pub fn hold_budget(sensor: &Sensor, stats: &WindowStats, zero: &[Contribution]) -> Budget {
+/// the mean and its session's own parts (its zero, [`zero_contributions`],
+/// and its shunt check's gain). Empty without a mean.
+pub fn hold_budget(sensor: &Sensor, stats: &WindowStats, session: &SessionParts) -> Budget {
     let Some(mean) = stats.mean else {
         return Budget::default();
     };
@@ -142,7 +187,7 @@ pub fn hold_budget(sensor: &Sensor, stats: &WindowStats, zero: &[Contribution]) 
         ));
     }
     contributions.extend(value_budget(sensor, mean).budget.contributions);
-    contributions.extend(zero.iter().cloned());
+    contributions.extend(session.contributions(mean));
     Budget { contributions }
 }
 

@@ -170,8 +170,8 @@ impl LiveHoldStream {
             }
             let values = (window.start_ns >= oldest_kept).then(|| {
                 let one = std::slice::from_ref(&window);
-                let mut summariser =
-                    WindowSummariser::new(&self.rig, one).with_zero(self.zero.as_ref());
+                let mut summariser = WindowSummariser::new(&self.rig, one)
+                    .with_session_records(self.zero.as_ref(), None);
                 for sample in &self.kept {
                     summariser.push(sample);
                 }

@@ -14,10 +14,11 @@ use super::measured::MeasuredValue;
 use super::plausibility::check_window;
 use super::stats::{WindowAccumulator, WindowStats};
 use super::tensile::{extract_curve, TensileCurve};
+use acq_io::shunt_record::ShuntRecord;
 use acq_io::zero_record::ZeroRecord;
-use acq_metrology::budget::{Budget, Contribution};
+use acq_metrology::budget::Budget;
 
-use super::budget::{hold_budget, propagated, zero_parts};
+use super::budget::{hold_budget, propagated, SessionParts};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
 use acq_drivers::sensors::Sample;
@@ -204,7 +205,8 @@ pub fn extract_holds(
     };
 
     // Pass 2: every sensor in every window.
-    let mut summariser = WindowSummariser::new(rig, &windows).with_zero(recording.zero.as_ref());
+    let mut summariser = WindowSummariser::new(rig, &windows)
+        .with_session_records(recording.zero.as_ref(), recording.shunt.as_ref());
     let mut second_counts = SampleCounts::default();
     recording.for_each_sample(&offsets, &mut second_counts, |sample| {
         summariser.push(&sample);
@@ -243,8 +245,8 @@ pub struct WindowSummariser<'a> {
     accumulators: Vec<WindowAccumulator>,
     /// Sensors that sent at least one sample (a value or a missing one).
     pub seen: Vec<bool>,
-    /// Each sensor's zero contributions, when its session was zeroed.
-    zero_parts: Vec<Vec<Contribution>>,
+    /// Each sensor's parts of its session's zero and shunt check.
+    session_parts: Vec<SessionParts>,
 }
 
 impl<'a> WindowSummariser<'a> {
@@ -257,13 +259,18 @@ impl<'a> WindowSummariser<'a> {
                 .flat_map(|_| rig.sensors.iter().map(|s| WindowAccumulator::new(s.range)))
                 .collect(),
             seen: vec![false; rig.sensors.len()],
-            zero_parts: vec![Vec::new(); rig.sensors.len()],
+            session_parts: vec![SessionParts::default(); rig.sensors.len()],
         }
     }
 
-    /// Each value's budget gains its channel's zero from `record`.
-    pub fn with_zero(mut self, record: Option<&ZeroRecord>) -> Self {
-        self.zero_parts = zero_parts(&self.rig.sensors, record);
+    /// Each value's budget gains its channel's zero and shunt gain from
+    /// the session's records.
+    pub fn with_session_records(
+        mut self,
+        zero: Option<&ZeroRecord>,
+        shunt: Option<&ShuntRecord>,
+    ) -> Self {
+        self.session_parts = SessionParts::of(&self.rig.sensors, zero, shunt);
         self
     }
 
@@ -314,7 +321,7 @@ impl<'a> WindowSummariser<'a> {
                     .with_budget(hold_budget(
                         sensor,
                         &stats[i],
-                        &self.zero_parts[i],
+                        &self.session_parts[i],
                     )),
                 );
             }
@@ -325,7 +332,7 @@ impl<'a> WindowSummariser<'a> {
                 end_s,
                 &stats,
                 &flags,
-                &self.zero_parts,
+                &self.session_parts,
             ));
         }
         values
@@ -340,7 +347,7 @@ fn cylinder_values(
     end_s: f64,
     stats: &[WindowStats],
     flags: &[Vec<super::plausibility::Flag>],
-    zero_parts: &[Vec<Contribution>],
+    session_parts: &[SessionParts],
 ) -> Vec<MeasuredValue> {
     let mut values = Vec::new();
     for cylinder in &rig.cylinders {
@@ -371,8 +378,8 @@ fn cylinder_values(
             &rig.sensors[cylinder.rod_sensor],
         );
         let (head_budget, rod_budget) = (
-            hold_budget(head_sensor, head, &zero_parts[cylinder.head_sensor]),
-            hold_budget(rod_sensor, rod, &zero_parts[cylinder.rod_sensor]),
+            hold_budget(head_sensor, head, &session_parts[cylinder.head_sensor]),
+            hold_budget(rod_sensor, rod, &session_parts[cylinder.rod_sensor]),
         );
         // Both pressures, each through its chamber's area.
         let net_force_budget = Budget {

@@ -21,6 +21,7 @@ use acq_drivers::IfaceName;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, open_log, BadLines, ScanCounts};
 use acq_io::session::{self, SessionFile};
+use acq_io::shunt_record::{self, ShuntRecord};
 use acq_io::zero_record::{self, ZeroRecord};
 
 use zeroing::Zeroing;
@@ -38,6 +39,11 @@ pub struct Recording {
     pub zero: Option<ZeroRecord>,
     /// Its offsets, subtracted from every sample [`Recording::for_each_sample`] gives.
     pub zeroing: Zeroing,
+    /// The session's shunt checks (`shunt.toml`), if any channel was checked.
+    pub shunt: Option<ShuntRecord>,
+    /// Their gains, per rig sensor: each value is multiplied by its
+    /// channel's after the zero is subtracted.
+    gains: Vec<Option<f64>>,
 }
 
 impl Recording {
@@ -95,10 +101,15 @@ impl Recording {
                     .map_err(|e| AcqError::Config(format!("{}: {e}", rig_file.display())))?;
             }
         }
-        let zero = match &session {
-            Some(_) => zero_record::read(path)?,
-            None => None,
+        let (zero, shunt) = match &session {
+            Some(_) => (zero_record::read(path)?, shunt_record::read(path)?),
+            None => (None, None),
         };
+        let gains = rig
+            .sensors
+            .iter()
+            .map(|s| Some(shunt.as_ref()?.sensor(&s.name)?.gain))
+            .collect();
         let zeroing = zero
             .as_ref()
             .map(|record| Zeroing::new(&rig, record))
@@ -111,6 +122,8 @@ impl Recording {
             notes,
             zero,
             zeroing,
+            shunt,
+            gains,
         })
     }
 
@@ -141,25 +154,31 @@ impl Recording {
     }
 
     /// Decodes every frame and calls `on_sample` with each sample, its time
-    /// moved onto the reference clock (`t - clock_offset_ns[bus]`) and its
-    /// channel's zero subtracted when the session was zeroed.
+    /// moved onto the reference clock (`t - clock_offset_ns[bus]`), its
+    /// channel's zero subtracted when the session was zeroed, then its
+    /// shunt check's gain applied when the channel was checked.
     pub fn for_each_sample(
         &self,
         clock_offset_ns: &[i64],
         counts: &mut SampleCounts,
         mut on_sample: impl FnMut(Sample) -> Result<()>,
     ) -> Result<()> {
-        if self.zeroing.is_empty() {
+        if self.zeroing.is_empty() && self.gains.iter().all(Option::is_none) {
             return self.for_each_raw_sample(clock_offset_ns, counts, on_sample);
         }
         self.for_each_raw_sample(clock_offset_ns, counts, |mut sample| {
             self.zeroing.apply(&mut sample);
+            if let (Some(Some(gain)), Some(value)) =
+                (self.gains.get(sample.sensor), sample.value.as_mut())
+            {
+                *value *= gain;
+            }
             on_sample(sample)
         })
     }
 
-    /// [`Recording::for_each_sample`] without the zero: the values as the
-    /// channels sent them (through the rig's conversion).
+    /// [`Recording::for_each_sample`] without the zero and the gains: the
+    /// values as the channels sent them (through the rig's conversion).
     pub fn for_each_raw_sample(
         &self,
         clock_offset_ns: &[i64],

@@ -748,16 +748,7 @@ fn acq_zero_refuses_a_log_and_an_empty_window_and_names_a_channel_not_at_rest() 
     );
 
     let temp = tempfile::tempdir().unwrap();
-    let session = temp.path().join("case1");
-    std::fs::create_dir_all(session.join("rig")).unwrap();
-    let source = common::root().join("fixtures/sessions/excavator_case1");
-    for name in ["raw.log", "session.toml"] {
-        std::fs::copy(source.join(name), session.join(name)).unwrap();
-    }
-    for entry in std::fs::read_dir(source.join("rig")).unwrap() {
-        let entry = entry.unwrap();
-        std::fs::copy(entry.path(), session.join("rig").join(entry.file_name())).unwrap();
-    }
+    let session = common::copy_session("excavator_case1", &temp.path().join("case1"));
     let output = acq(&["zero", path_arg(&session), "--before", "0s"]);
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert!(
@@ -926,4 +917,141 @@ fn a_shunt_step_corrects_the_gain_and_a_faulty_one_is_refused_with_its_numbers()
         "{said}"
     );
     assert!(!faulty.join("shunt.toml").exists());
+}
+
+/// A strain gauge's own sources, against the GUM's formulas by hand at
+/// 200 MPa: a gauge factor of +-1 % (a span error, rectangular: 200 x
+/// 0.01 / sqrt 3), a modulus of 210 +- 4 GPa (standard: the stress is
+/// E eps, so 200 x 4 / 210), and a data sheet's zero drift of 0.02 % of
+/// its 1000 MPa span and span drift of 0.01 % of the reading per kelvin
+/// over 5-35 C against a 20 C calibration (15 K at most, rectangular).
+#[test]
+fn a_gauges_span_errors_and_temperature_drift_are_its_own_and_scale_as_the_gum_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(
+        &rig,
+        "[rig]\nname = \"gauge\"\n\n[[bus]]\nname = \"daq\"\niface = \"can0\"\n\n[[sensor]]\nname = \"sg\"\nkind = \"strain\"\nunit = \"um/m\"\nrate_hz = 100\nyoungs_modulus_gpa = 210.0\nyoungs_modulus_uncertainty_gpa = 4.0\ngauge_factor_tolerance_pct = 1.0\nrange = [-500.0, 500.0]\ntemperature = { zero_pct_fs_per_k = 0.02, span_pct_per_k = 0.01, range_c = [5.0, 35.0] }\ncanopen = { node_id = 0x25, pdo = 1, byte = 0, type = \"int32\" }\n",
+    )
+    .unwrap();
+    let output = acq(&[
+        "budget",
+        path_arg(&rig),
+        "--sensor",
+        "sg",
+        "--at",
+        "200",
+        "--json",
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&output)).unwrap();
+    let u = |source: &str| {
+        json["contributions"][source]["u"]
+            .as_f64()
+            .unwrap_or(f64::NAN)
+    };
+    let expected = [
+        ("gauge_factor", 200.0 * 0.01 / 3f64.sqrt()),
+        ("youngs_modulus", 200.0 * 4.0 / 210.0),
+        ("temperature_zero", 0.0002 * 1000.0 * 15.0 / 3f64.sqrt()),
+        ("temperature_span", 0.0001 * 200.0 * 15.0 / 3f64.sqrt()),
+    ];
+    for (source, by_hand) in expected {
+        assert!(
+            (u(source) - by_hand).abs() < 1e-12 * by_hand,
+            "{source}: {} vs {by_hand}",
+            u(source)
+        );
+    }
+    let u_c = expected.iter().map(|(_, u)| u * u).sum::<f64>().sqrt();
+    assert!((json["u_c"].as_f64().unwrap() - u_c).abs() < 1e-12 * u_c);
+
+    // Each key is refused where it means nothing, with the sensor's line.
+    for (bad, says) in [
+        (
+            "gauge_factor_tolerance_pct = -1.0",
+            "gauge_factor_tolerance_pct = -1",
+        ),
+        (
+            "temperature = { zero_pct_fs_per_k = 0.02, range_c = [35.0, 5.0] }",
+            "lowest first",
+        ),
+    ] {
+        let text = std::fs::read_to_string(&rig)
+            .unwrap()
+            .replace("gauge_factor_tolerance_pct = 1.0\n", "")
+            .replace("temperature = { zero_pct_fs_per_k = 0.02, span_pct_per_k = 0.01, range_c = [5.0, 35.0] }\n", "")
+            .replace("rate_hz = 100\n", &format!("rate_hz = 100\n{bad}\n"));
+        let bad_rig = dir.path().join("bad.toml");
+        std::fs::write(&bad_rig, text).unwrap();
+        let output = acq(&["check-rig", path_arg(&bad_rig)]);
+        assert_eq!(output.status.code(), Some(2), "{bad}: {}", stderr(&output));
+        assert!(
+            stderr(&output).contains(says) && stderr(&output).contains(":8"),
+            "{bad}: {}",
+            stderr(&output)
+        );
+    }
+}
+
+/// A cylinder's bore and rod tolerances enter its net force as the
+/// derivative of `F = (p_h - p_r) pi D^2 / 4 + p_r pi d^2 / 4` says, on the
+/// shipped Case 1 session with its rig's boom cylinder stated +-0.05 mm
+/// (bore 100 mm) and +-0.03 mm (rod 60 mm): the net force's variance grows
+/// by exactly those two parts, computed here from the hold's means.
+#[test]
+fn a_cylinders_diameter_tolerances_enter_its_net_force_as_the_derivative_says() {
+    let temp = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case1", &temp.path().join("case1"));
+    let plain = temp.path().join("plain.csv");
+    let output = acq(&["extract", path_arg(&session), "-o", path_arg(&plain)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let rig_copy = std::fs::read_dir(session.join("rig"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "toml"))
+        .unwrap();
+    let text = std::fs::read_to_string(&rig_copy).unwrap();
+    let stated = text.replacen(
+        "name = \"boom\"\n",
+        "name = \"boom\"\nbore_tolerance_mm = 0.05\nrod_tolerance_mm = 0.03\n",
+        1,
+    );
+    assert_ne!(stated, text, "the rig copy names its boom cylinder");
+    // Beside the copy: its DBC paths are local to the session's rig folder.
+    let tolerant_rig = session.join("rig/tolerant.toml");
+    std::fs::write(&tolerant_rig, &stated).unwrap();
+    let tolerant = temp.path().join("tolerant.csv");
+    let output = acq(&[
+        "extract",
+        path_arg(&session),
+        "--rig",
+        path_arg(&tolerant_rig),
+        "-o",
+        path_arg(&tolerant),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let row = |path: &Path, quantity: &str| {
+        measured_rows(path)
+            .into_iter()
+            .find(|r| r["quantity"] == quantity)
+            .unwrap()
+    };
+    let (head, rod) = (
+        number_in(&row(&plain, "boom_head_pressure"), "mean"),
+        number_in(&row(&plain, "boom_rod_pressure"), "mean"),
+    );
+    let pi = std::f64::consts::PI;
+    let bore_part = 1e-4 * (head - rod) * pi * 100.0 / 2.0 * 0.05 / 3f64.sqrt();
+    let rod_part = 1e-4 * rod * pi * 60.0 / 2.0 * 0.03 / 3f64.sqrt();
+    let (before, after) = (
+        number_in(&row(&plain, "boom_net_force"), "u_c"),
+        number_in(&row(&tolerant, "boom_net_force"), "u_c"),
+    );
+    let expected = (before.powi(2) + bore_part.powi(2) + rod_part.powi(2)).sqrt();
+    assert!(
+        (after - expected).abs() < 1e-9 * expected,
+        "u_c {after}, by hand {expected}"
+    );
+    assert!(row(&tolerant, "boom_net_force")["shared"].contains("boom cylinder's diameters"));
 }

@@ -137,6 +137,12 @@ struct SensorFile {
     /// The shunt resistor a strain channel's amplifier switches in, and the
     /// arm it goes across (`acq shunt`).
     shunt: Option<ShuntFile>,
+    /// The data sheet's temperature coefficients and the rig's temperatures.
+    temperature: Option<TemperatureFile>,
+    /// The gauge factor's tolerance, `+-%` (the gauge maker's lot value).
+    gauge_factor_tolerance_pct: Option<f64>,
+    /// The standard uncertainty of `youngs_modulus_gpa`, GPa.
+    youngs_modulus_uncertainty_gpa: Option<f64>,
     /// Whether the channel reads its kind's zero at rest, so that a zero
     /// window sets its offset; by default pressures, forces, strains and
     /// displacements do and inclinations do not.
@@ -158,6 +164,29 @@ struct CalibrationFile {
     /// `YYYY-MM-DD`.
     date: Option<String>,
     due: Option<String>,
+}
+
+/// `temperature = { zero_pct_fs_per_k, span_pct_per_k, range_c, reference_c }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TemperatureFile {
+    /// The zero's drift, % of full scale per kelvin (needs `range`).
+    #[serde(default)]
+    zero_pct_fs_per_k: f64,
+    /// The span's drift, % of the reading per kelvin.
+    #[serde(default)]
+    span_pct_per_k: f64,
+    /// The lowest and highest temperature at the rig during a test, C.
+    range_c: [f64; 2],
+    /// The temperature the sensor was calibrated at, C.
+    #[serde(default = "room_temperature_c")]
+    reference_c: f64,
+}
+
+/// Data sheets and certificates state their coefficients against 20 C
+/// unless they say otherwise.
+fn room_temperature_c() -> f64 {
+    20.0
 }
 
 /// `shunt = { resistor_ohm = 100000, gauge_ohm = 350, ... }` of a strain sensor.
@@ -242,6 +271,9 @@ struct CylinderFile {
     name: String,
     bore_mm: f64,
     rod_mm: f64,
+    /// The bore's and the rod's diameter tolerance, `+-mm` (rectangular).
+    bore_tolerance_mm: Option<f64>,
+    rod_tolerance_mm: Option<f64>,
     head_sensor: String,
     rod_sensor: String,
 }
@@ -406,6 +438,23 @@ pub struct SensorRecord {
     pub resolution: Option<f64>,
     /// A strain channel's shunt calibration set-up.
     pub shunt: Option<ShuntSetup>,
+    /// How far the rig's temperature may move the value.
+    pub temperature: Option<TemperatureEffect>,
+    /// A strain channel's gauge factor tolerance, `+-%`: a span error.
+    pub gauge_factor_tolerance_pct: Option<f64>,
+    /// A strain channel's Young's modulus and its standard uncertainty,
+    /// GPa: the stress is the strain times it.
+    pub youngs_modulus_gpa: Option<(f64, f64)>,
+}
+
+/// A data sheet's temperature coefficients over the rig's temperatures:
+/// the largest departure from the reference temperature bounds the drift.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TemperatureEffect {
+    pub zero_pct_fs_per_k: f64,
+    pub span_pct_per_k: f64,
+    /// `max |T - T_ref|` over the rig's range, K.
+    pub largest_departure_k: f64,
 }
 
 /// What a strain channel's shunt check needs besides the recorded step.
@@ -510,6 +559,9 @@ impl Sensor {
 pub struct Cylinder {
     pub name: String,
     pub bore: pressure::CylinderBore,
+    /// The bore's and the rod's diameter tolerances, `+-mm` (0 when not stated).
+    pub bore_tolerance_mm: f64,
+    pub rod_tolerance_mm: f64,
     /// Sensor indices.
     pub head_sensor: usize,
     pub rod_sensor: usize,
@@ -1266,6 +1318,10 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
     if let Some(shunt) = &sensor.shunt {
         record.shunt = Some(read_shunt(sensor, shunt)?);
     }
+    if let Some(temperature) = &sensor.temperature {
+        record.temperature = Some(read_temperature(sensor, temperature)?);
+    }
+    read_strain_uncertainties(sensor, &mut record)?;
     if let Some(step) = sensor.resolution {
         if !(step.is_finite() && step > 0.0) {
             return Err(format!(
@@ -1275,6 +1331,71 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
         record.resolution = Some(step);
     }
     Ok(record)
+}
+
+/// The temperature coefficients, checked: non-negative, a range in order,
+/// and a share of full scale only with the sensor's `range`.
+fn read_temperature(
+    sensor: &SensorFile,
+    temperature: &TemperatureFile,
+) -> Result<TemperatureEffect, String> {
+    let [low, high] = temperature.range_c;
+    let reference = temperature.reference_c;
+    if !(low.is_finite() && high.is_finite() && reference.is_finite() && low <= high) {
+        return Err(format!(
+            "temperature: range_c = [{low}, {high}] with reference_c = {reference}: give the lowest and highest temperature at the rig, in C, lowest first"
+        ));
+    }
+    for (key, value) in [
+        ("zero_pct_fs_per_k", temperature.zero_pct_fs_per_k),
+        ("span_pct_per_k", temperature.span_pct_per_k),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(format!(
+                "temperature: {key} = {value}: give the data sheet's coefficient as a limit of at least 0"
+            ));
+        }
+    }
+    if temperature.zero_pct_fs_per_k > 0.0 && sensor.range.is_none() {
+        return Err(format!(
+            "temperature: zero_pct_fs_per_k needs the sensor's range = [low, high] in {}",
+            sensor.kind.output_unit()
+        ));
+    }
+    Ok(TemperatureEffect {
+        zero_pct_fs_per_k: temperature.zero_pct_fs_per_k,
+        span_pct_per_k: temperature.span_pct_per_k,
+        largest_departure_k: (low - reference).abs().max((high - reference).abs()),
+    })
+}
+
+/// A strain channel's gauge factor tolerance and Young's modulus
+/// uncertainty, checked.
+fn read_strain_uncertainties(sensor: &SensorFile, record: &mut SensorRecord) -> Result<(), String> {
+    let strain_only = |key: &str| format!("{key} is a strain channel's (kind = \"strain\")");
+    if let Some(pct) = sensor.gauge_factor_tolerance_pct {
+        if sensor.kind != SensorKind::Strain {
+            return Err(strain_only("gauge_factor_tolerance_pct"));
+        }
+        if !(0.0..100.0).contains(&pct) {
+            return Err(format!(
+                "gauge_factor_tolerance_pct = {pct}: give the gauge maker's tolerance in %, at least 0 (foil gauges: about 1)"
+            ));
+        }
+        record.gauge_factor_tolerance_pct = Some(pct);
+    }
+    if let Some(u) = sensor.youngs_modulus_uncertainty_gpa {
+        let (SensorKind::Strain, Some(modulus)) = (sensor.kind, sensor.youngs_modulus_gpa) else {
+            return Err(strain_only("youngs_modulus_uncertainty_gpa"));
+        };
+        if !(u.is_finite() && u >= 0.0 && u < modulus) {
+            return Err(format!(
+                "youngs_modulus_uncertainty_gpa = {u}: give a standard uncertainty of at least 0 and below the modulus ({modulus} GPa)"
+            ));
+        }
+        record.youngs_modulus_gpa = Some((modulus, u));
+    }
+    Ok(())
 }
 
 /// A strain channel's shunt set-up, checked: the gauge factor, bridge and
@@ -1389,7 +1510,22 @@ fn read_cylinders(
             )),
         };
         let bore = pressure::CylinderBore::new(cylinder.bore_mm, cylinder.rod_mm)
-            .map_err(|e| format!("cylinder '{}': {e}", cylinder.name));
+            .map_err(|e| format!("cylinder '{}': {e}", cylinder.name))
+            .and_then(|bore| {
+                for (key, tolerance) in [
+                    ("bore_tolerance_mm", cylinder.bore_tolerance_mm),
+                    ("rod_tolerance_mm", cylinder.rod_tolerance_mm),
+                ] {
+                    if tolerance.is_some_and(|t| !(t.is_finite() && t >= 0.0 && t < cylinder.rod_mm)) {
+                        return Err(format!(
+                            "cylinder '{}': {key} = {}: give the diameter's tolerance in mm, at least 0 and well below the rod's diameter",
+                            cylinder.name,
+                            tolerance.unwrap_or_default()
+                        ));
+                    }
+                }
+                Ok(bore)
+            });
         match (
             find(&cylinder.head_sensor, "head"),
             find(&cylinder.rod_sensor, "rod"),
@@ -1398,6 +1534,8 @@ fn read_cylinders(
             (Ok(head_sensor), Ok(rod_sensor), Ok(bore)) => cylinders.push(Cylinder {
                 name: cylinder.name.clone(),
                 bore,
+                bore_tolerance_mm: cylinder.bore_tolerance_mm.unwrap_or(0.0),
+                rod_tolerance_mm: cylinder.rod_tolerance_mm.unwrap_or(0.0),
                 head_sensor,
                 rod_sensor,
             }),

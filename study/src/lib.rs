@@ -9,7 +9,8 @@
 //! or least squares). The runner logs every model run in `evaluations.csv`
 //! ([`run_directory`]; resumable), checks the validation cases, runs the
 //! [`identifiability`] analysis, samples the [`posterior`] when asked, and
-//! writes `summary.json` ([`summary`]) and the report ([`report`]); a
+//! writes `summary.json` ([`summary`]) and the report ([`report`], with the
+//! measured values' budgets from [`measurement_report`]); a
 //! preset adds its own through [`extras`]. Progress goes to stderr
 //! ([`progress`]). [`saved_emulator`] keeps a user's solver as GPs for a
 //! study at the rig.
@@ -21,6 +22,7 @@ pub mod command_model;
 pub mod error;
 pub mod extras;
 pub mod identifiability;
+pub mod measurement_report;
 pub mod method;
 pub mod outcome;
 pub mod posterior;

@@ -64,6 +64,7 @@ pub fn study_report(
         report.paragraph(sentence);
     }
     write_curves(&mut report, &outcome.curves);
+    super::measurement_report::write_measurement_uncertainty(&mut report, study);
     write_parameters(&mut report, study, &outcome.calibrated, extras);
     write_identifiability(&mut report, &outcome.identifiability, &parameters);
     if let Some(posterior) = &outcome.posterior {

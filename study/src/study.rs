@@ -167,6 +167,19 @@ pub struct Observation {
     pub shared: Vec<SharedError>,
 }
 
+impl Observation {
+    /// A scalar's measured value and its stated standard uncertainty.
+    pub fn stated_scalar(&self) -> Option<(f64, f64)> {
+        match self.measured {
+            Measured::Scalar {
+                value,
+                uncertainty: Some(u),
+            } => Some((value, u)),
+            _ => None,
+        }
+    }
+}
+
 /// One load case.
 #[derive(Clone, Debug)]
 pub struct Case {

@@ -21,6 +21,14 @@ use super::stats::WindowStats;
 pub const CALIBRATION_CURVE: &str = "calibration_curve";
 pub const ACCURACY_CLASS: &str = "accuracy_class";
 pub const RESOLUTION: &str = "resolution";
+/// The data sheet's temperature coefficients of zero and span over the
+/// rig's temperatures.
+pub const TEMPERATURE_ZERO: &str = "temperature_zero";
+pub const TEMPERATURE_SPAN: &str = "temperature_span";
+/// A strain channel's gauge factor tolerance (a span error).
+pub const GAUGE_FACTOR: &str = "gauge_factor";
+/// The Young's modulus a strain becomes a stress through.
+pub const YOUNGS_MODULUS: &str = "youngs_modulus";
 /// The Type A source: the spread of a hold's readings about their mean.
 pub const READINGS_SCATTER: &str = "readings_scatter";
 /// The zero window's mean, subtracted from every value (Type A).
@@ -72,6 +80,7 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
     if let Some(step) = record.resolution {
         contributions.push(Contribution::direct(RESOLUTION, resolution(step), None));
     }
+    contributions.extend(span_and_drift(sensor, value));
     ValueBudget {
         sensor: sensor.name.clone(),
         unit: sensor.unit(),
@@ -167,6 +176,45 @@ impl SessionParts {
         });
         self.zero.iter().cloned().chain(gain)
     }
+}
+
+/// The sources that scale with the value or the rig's temperature, all
+/// the sensor's own in every value it gives: the temperature coefficients
+/// of zero (a share of full scale per kelvin) and span (a share of the
+/// reading per kelvin) over the largest departure from the reference
+/// temperature, the gauge factor's tolerance (the strain, and so the
+/// stress, scales as `1 / GF`) and the Young's modulus (the stress is
+/// `E eps`). All limits rectangular; the modulus's a standard
+/// uncertainty, shared by every gauge on the same modulus (one material).
+fn span_and_drift(sensor: &Sensor, value: f64) -> Vec<Contribution> {
+    let record = &sensor.record;
+    let mut parts = Vec::new();
+    if let Some(t) = record.temperature {
+        let span = sensor.range.map_or(0.0, |[low, high]| high - low);
+        let zero = t.zero_pct_fs_per_k / 100.0 * span * t.largest_departure_k;
+        let gain = t.span_pct_per_k / 100.0 * value.abs() * t.largest_departure_k;
+        for (source, half_width) in [(TEMPERATURE_ZERO, zero), (TEMPERATURE_SPAN, gain)] {
+            if half_width > 0.0 {
+                parts.push(
+                    Contribution::direct(source, rectangular(half_width), None)
+                        .shared_by(&sensor.name),
+                );
+            }
+        }
+    }
+    if let Some(pct) = record.gauge_factor_tolerance_pct {
+        parts.push(
+            Contribution::direct(GAUGE_FACTOR, rectangular(pct / 100.0 * value.abs()), None)
+                .shared_by(&sensor.name),
+        );
+    }
+    if let Some((modulus, u)) = record.youngs_modulus_gpa {
+        parts.push(
+            Contribution::direct(YOUNGS_MODULUS, u / modulus * value.abs(), None)
+                .shared_by(&format!("Young's modulus of {modulus} GPa")),
+        );
+    }
+    parts
 }
 
 /// The budget of a hold's mean of `sensor`: the readings' scatter (Type

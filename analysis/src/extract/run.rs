@@ -385,6 +385,12 @@ fn cylinder_values(
         let net_force_budget = Budget {
             contributions: propagated(&head_budget, head_kn_per_bar, &head_sensor.name)
                 .chain(propagated(&rod_budget, -rod_kn_per_bar, &rod_sensor.name))
+                .chain(
+                    head.mean
+                        .zip(rod.mean)
+                        .into_iter()
+                        .flat_map(|(h, r)| diameter_parts(cylinder, h, r)),
+                )
                 .collect(),
         };
         values.push(
@@ -436,6 +442,45 @@ fn cylinder_values(
         );
     }
     values
+}
+
+/// The bore's and the rod's diameter tolerances in a net force `F = (p_h -
+/// p_r) pi D^2 / 4 + p_r pi d^2 / 4` (bar and mm^2 to kN: 1e-4): `dF/dD =
+/// (p_h - p_r) pi D / 2` and `dF/dd = p_r pi d / 2`, each diameter
+/// rectangular within its tolerance and the same in every hold.
+fn diameter_parts(
+    cylinder: &acq_drivers::rig::Cylinder,
+    head_bar: f64,
+    rod_bar: f64,
+) -> Vec<acq_metrology::budget::Contribution> {
+    use acq_metrology::budget::{rectangular, Contribution};
+    let kn_per_bar_mm2 = 1e-4;
+    let bore = &cylinder.bore;
+    let shared = format!("{} cylinder's diameters", cylinder.name);
+    [
+        (
+            "bore diameter",
+            cylinder.bore_tolerance_mm,
+            (head_bar - rod_bar) * std::f64::consts::PI * bore.bore_diameter_mm / 2.0,
+        ),
+        (
+            "rod diameter",
+            cylinder.rod_tolerance_mm,
+            rod_bar * std::f64::consts::PI * bore.rod_diameter_mm / 2.0,
+        ),
+    ]
+    .into_iter()
+    .filter(|(_, tolerance, _)| *tolerance > 0.0)
+    .map(|(source, tolerance, per_mm)| Contribution {
+        sensitivity: per_mm * kn_per_bar_mm2,
+        ..Contribution::direct(
+            &format!("{}: {source}", cylinder.name),
+            rectangular(tolerance),
+            None,
+        )
+        .shared_by(&shared)
+    })
+    .collect()
 }
 
 /// The quantity of a cylinder's net force (kN) in a hold.

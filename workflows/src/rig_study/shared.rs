@@ -14,7 +14,7 @@
 
 use acq_calib::next_point::draws_moments;
 use acq_study::posterior::shared_errors::LEAST_OWN_SHARE;
-use acq_study::study::{Measured, Study};
+use acq_study::study::Study;
 use nalgebra::{DMatrix, DVector};
 
 use super::RigStudy;
@@ -52,11 +52,7 @@ fn shared_rows(study: &Study) -> (Vec<SharedRow>, Vec<String>) {
     let mut rows = Vec::new();
     for (case, holds) in study.cases.iter().enumerate().filter(|(_, c)| !c.priors) {
         for observation in &holds.observations {
-            let Measured::Scalar {
-                value,
-                uncertainty: Some(u),
-            } = observation.measured
-            else {
+            let Some((value, u)) = observation.stated_scalar() else {
                 continue;
             };
             let mut shared = Vec::new();

@@ -203,6 +203,7 @@ fn long_session(dir: &Path, hours: f64) -> u64 {
                 copy: "rig/somat_excavator.dbc".into(),
                 sha256: sha(&dbc),
             }],
+            sensor_file: None,
         }),
         sensor: Vec::new(),
     };

@@ -1055,3 +1055,67 @@ fn a_cylinders_diameter_tolerances_enter_its_net_force_as_the_derivative_says() 
     );
     assert!(row(&tolerant, "boom_net_force")["shared"].contains("boom cylinder's diameters"));
 }
+
+/// A sensor file's mistakes are refused with the rig's line (or the
+/// file's) and what to do: a serial not in the file, a key stated in both
+/// places, a serial with no sensor file, one serial entered twice, one
+/// transducer named by two channels.
+#[test]
+fn a_sensor_files_mistakes_are_refused_with_their_line_and_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let entry = "[[transducer]]\nserial = \"A1\"\nrange = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5 }\n";
+    let sensor = |name: &str, node: u8, extra: &str| {
+        format!("[[sensor]]\nname = \"{name}\"\nkind = \"pressure\"\nrate_hz = 100\ncanopen = {{ node_id = {node}, pdo = 1, byte = 0, type = \"int32\" }}\n{extra}\n")
+    };
+    let head = "[rig]\nname = \"records\"\nsensor_file = \"sensors.toml\"\n\n[[bus]]\nname = \"h\"\niface = \"can0\"\n\n";
+    for (sensors_text, rig_text, says) in [
+        (
+            entry.to_string(),
+            format!("{head}{}", sensor("p", 1, "serial = \"B2\"")),
+            "serial 'B2' is not in",
+        ),
+        (
+            entry.to_string(),
+            format!(
+                "{head}{}",
+                sensor(
+                    "p",
+                    1,
+                    "serial = \"A1\"\nresolution = 0.1\naccuracy = { percent_of_reading = 1.0 }"
+                )
+            ),
+            "both the rig and the transducer's record",
+        ),
+        (
+            entry.to_string(),
+            format!(
+                "[[bus]]\nname = \"h\"\niface = \"can0\"\n\n{}",
+                sensor("p", 1, "serial = \"A1\"")
+            ),
+            "needs the rig's sensor file",
+        ),
+        (
+            format!("{entry}{entry}"),
+            format!("{head}{}", sensor("p", 1, "serial = \"A1\"")),
+            "entered twice (first at line 1)",
+        ),
+        (
+            entry.to_string(),
+            format!(
+                "{head}{}{}",
+                sensor("p", 1, "serial = \"A1\""),
+                sensor("q", 2, "serial = \"A1\"")
+            ),
+            "serial 'A1' is sensor 'p' already",
+        ),
+    ] {
+        std::fs::write(dir.path().join("sensors.toml"), &sensors_text).unwrap();
+        let rig = dir.path().join("rig.toml");
+        std::fs::write(&rig, &rig_text).unwrap();
+        let output = acq(&["check-rig", path_arg(&rig)]);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{says}: {message}");
+        assert!(message.contains(says), "{says}: {message}");
+        assert!(message.contains("rig.toml:"), "the rig's line: {message}");
+    }
+}

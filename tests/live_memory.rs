@@ -372,3 +372,39 @@ async fn a_timed_replay_never_sends_early_and_holds_its_schedule() {
     let wire_got: Vec<_> = received.iter().map(wire).collect();
     assert_eq!(wire_got, wire_sent);
 }
+
+/// A rig whose records come from a sensor file: the session keeps a copy
+/// of the file beside the rig's, with its hash, and the copied rig reads
+/// the transducer's record from it on its own (the original may change or
+/// go after the test).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_sensor_file_is_copied_into_the_session_beside_the_rig() {
+    let bus = MemoryBus::new(1 << 10);
+    bus.add(iface("vcan0"));
+    let dir = tempfile::tempdir().unwrap();
+    let session_dir = dir.path().join("session");
+    let mut recording_rig = Rig::load(&root().join("examples/measurement-chain/rig.toml")).unwrap();
+    let notes = recording_rig.assign_interfaces(&[iface("vcan0")]).unwrap();
+    let mut opts = options(&["vcan0"], Some(recording_rig), &session_dir);
+    opts.notes = notes;
+    let (stop, recording) = start_recording(&bus, opts);
+    tokio::time::sleep(Duration::from_millis(50)).await;
+    stop.send(()).unwrap();
+    let summary = recording.await.unwrap();
+    let copy = summary.session.rig.as_ref().unwrap();
+    let sensor_file = copy
+        .sensor_file
+        .as_ref()
+        .expect("the sensor file is copied");
+    assert_eq!(sensor_file.copy, "rig/sensors.toml");
+    let bytes = fs::read(session_dir.join(&sensor_file.copy)).unwrap();
+    assert_eq!(session::sha256_hex(&bytes), sensor_file.sha256);
+    let copied = Rig::load(&session_dir.join(&copy.file.copy)).expect("the copy loads on its own");
+    let transducer = copied.sensors[0].record.transducer.as_ref().unwrap();
+    assert_eq!(transducer.serial, "EX-400-0001");
+    assert!(
+        transducer.entered_at.contains("session/rig/sensors.toml"),
+        "{transducer:?}"
+    );
+    assert!(copied.sensors[0].record.curve.is_some());
+}

@@ -109,6 +109,9 @@ pub struct RigCopy {
     pub file: CopiedFile,
     #[serde(default)]
     pub dbc: Vec<CopiedFile>,
+    /// The sensor file its sensors' records come from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_file: Option<CopiedFile>,
 }
 
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]

@@ -713,35 +713,39 @@ fn prepare_dir(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Copies the rig and its DBC files into `DIR/rig/`, rewriting the DBC
-/// paths in the copy so that `--rig DIR/rig/NAME.toml` works on its own.
+/// Copies the rig, its DBC files and its sensor file into `DIR/rig/`,
+/// rewriting their paths in the copy so that `--rig DIR/rig/NAME.toml`
+/// works on its own.
 fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
     let rig_dir = dir.join("rig");
     fs::create_dir_all(&rig_dir)
         .map_err(|e| AcqError::io(format!("creating {}", rig_dir.display()), e))?;
     let read = |path: &Path| fs::read(path).map_err(|e| AcqError::open(path, e));
+    let copy_beside = |path: &Path| -> Result<CopiedFile> {
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let bytes = read(path)?;
+        let copy = rig_dir.join(&name);
+        fs::write(&copy, &bytes)
+            .map_err(|e| AcqError::io(format!("writing {}", copy.display()), e))?;
+        Ok(CopiedFile {
+            source: path.display().to_string(),
+            copy: format!("rig/{name}"),
+            sha256: session::sha256_hex(&bytes),
+        })
+    };
     let mut dbc = Vec::new();
-    let mut seen = std::collections::BTreeMap::new();
+    let mut seen = std::collections::BTreeSet::new();
     for bus in &rig.buses {
         for path in &bus.dbc_files {
-            let name = path
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            if seen.insert(name.clone(), path.clone()).is_some() {
-                continue;
+            if seen.insert(path.file_name().map(|n| n.to_os_string())) {
+                dbc.push(copy_beside(path)?);
             }
-            let bytes = read(path)?;
-            let copy = rig_dir.join(&name);
-            fs::write(&copy, &bytes)
-                .map_err(|e| AcqError::io(format!("writing {}", copy.display()), e))?;
-            dbc.push(CopiedFile {
-                source: path.display().to_string(),
-                copy: format!("rig/{name}"),
-                sha256: session::sha256_hex(&bytes),
-            });
         }
     }
+    let sensor_file = rig.sensor_file.as_deref().map(copy_beside).transpose()?;
     let bytes = read(&rig.path)?;
     let name = rig
         .path
@@ -761,10 +765,12 @@ fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
             sha256: session::sha256_hex(&bytes),
         },
         dbc,
+        sensor_file,
     })
 }
 
-/// The rig text with every `[[bus]] dbc` path reduced to its file name.
+/// The rig text with every `[[bus]] dbc` path and its `[rig] sensor_file`
+/// reduced to its file name.
 fn rewrite_dbc_paths(text: &str) -> Option<String> {
     let mut document: toml_edit::DocumentMut = text.parse().ok()?;
     let buses = document.get_mut("bus")?.as_array_of_tables_mut()?;
@@ -790,6 +796,20 @@ fn rewrite_dbc_paths(text: &str) -> Option<String> {
             } else if let Some(name) = base(value) {
                 *value = toml_edit::Value::from(name);
             }
+        }
+    }
+    // The sensor file is copied beside the rig too.
+    if let Some(value) = document
+        .get_mut("rig")
+        .and_then(|rig| rig.get_mut("sensor_file"))
+        .and_then(|item| item.as_value_mut())
+    {
+        if let Some(name) = value
+            .as_str()
+            .and_then(|p| Path::new(p).file_name())
+            .map(|n| n.to_string_lossy().into_owned())
+        {
+            *value = toml_edit::Value::from(name);
         }
     }
     Some(document.to_string())

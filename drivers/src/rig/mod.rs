@@ -45,6 +45,9 @@ use acq_metrology::curve::CalibrationCurve;
 use serde::Deserialize;
 use toml::Spanned;
 
+mod sensor_file;
+pub use sensor_file::Transducer;
+
 use crate::bits::BitField;
 use crate::canopen::{self, PdoMapping, PdoType};
 use crate::dbc::DbcDatabase;
@@ -91,6 +94,8 @@ struct ClockSyncFile {
 struct RigMetaFile {
     name: Option<String>,
     description: Option<String>,
+    /// Transducers' records shared by rigs, keyed by serial number.
+    sensor_file: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -109,6 +114,9 @@ struct BusFile {
 #[serde(deny_unknown_fields)]
 struct SensorFile {
     name: String,
+    /// The transducer's serial number: its record comes from the rig's
+    /// sensor file.
+    serial: Option<String>,
     kind: SensorKind,
     bus: Option<String>,
     unit: Option<String>,
@@ -445,6 +453,8 @@ pub struct SensorRecord {
     /// A strain channel's Young's modulus and its standard uncertainty,
     /// GPa: the stress is the strain times it.
     pub youngs_modulus_gpa: Option<(f64, f64)>,
+    /// Which transducer it is, when the record came from a sensor file.
+    pub transducer: Option<Transducer>,
 }
 
 /// A data sheet's temperature coefficients over the rig's temperatures:
@@ -489,28 +499,43 @@ impl Rig {
     pub fn calibration_status(&self, today: &str) -> Vec<String> {
         self.sensors
             .iter()
-            .map(|sensor| match &sensor.record.certificate {
-                Some(Certificate { due: Some(due), .. }) if due.as_str() < today => format!(
-                    "sensor '{}': PAST DUE: its calibration was due on {due}; recalibrate it, or know that its certificate no longer vouches for it",
-                    sensor.name
-                ),
-                Some(certificate) => format!(
-                    "sensor '{}': certificate {} of {}, calibrated {}, due {}",
-                    sensor.name,
-                    certificate.id.as_deref().unwrap_or("(no number)"),
-                    certificate.lab.as_deref().unwrap_or("(no lab)"),
-                    certificate.date.as_deref().unwrap_or("(no date)"),
-                    certificate.due.as_deref().unwrap_or("(no due date)"),
-                ),
-                None => format!(
-                    "sensor '{}': no certificate{}",
-                    sensor.name,
-                    if sensor.record.is_empty() {
-                        ": its uncertainty is the readings' scatter only"
-                    } else {
-                        ": its data sheet's accuracy and resolution only"
+            .map(|sensor| {
+                let who = match &sensor.record.transducer {
+                    Some(t) => {
+                        let made: Vec<&str> = [t.maker.as_deref(), t.model.as_deref()]
+                            .into_iter()
+                            .flatten()
+                            .collect();
+                        format!(
+                            "sensor '{}' ({}serial {}, {})",
+                            sensor.name,
+                            if made.is_empty() { String::new() } else { format!("{}, ", made.join(" ")) },
+                            t.serial,
+                            t.entered_at
+                        )
                     }
-                ),
+                    None => format!("sensor '{}'", sensor.name),
+                };
+                match &sensor.record.certificate {
+                    Some(Certificate { due: Some(due), .. }) if due.as_str() < today => format!(
+                        "{who}: PAST DUE: its calibration was due on {due}; recalibrate it, or know that its certificate no longer vouches for it"
+                    ),
+                    Some(certificate) => format!(
+                        "{who}: certificate {} of {}, calibrated {}, due {}",
+                        certificate.id.as_deref().unwrap_or("(no number)"),
+                        certificate.lab.as_deref().unwrap_or("(no lab)"),
+                        certificate.date.as_deref().unwrap_or("(no date)"),
+                        certificate.due.as_deref().unwrap_or("(no due date)"),
+                    ),
+                    None => format!(
+                        "{who}: no certificate{}",
+                        if sensor.record.is_empty() {
+                            ": its uncertainty is the readings' scatter only"
+                        } else {
+                            ": its data sheet's accuracy and resolution only"
+                        }
+                    ),
+                }
             })
             .collect()
     }
@@ -519,7 +544,12 @@ impl Rig {
 impl SensorRecord {
     /// Whether anything is known beyond the readings' own scatter.
     pub fn is_empty(&self) -> bool {
-        self.curve.is_none() && self.accuracy.is_none() && self.resolution.is_none()
+        self.curve.is_none()
+            && self.accuracy.is_none()
+            && self.resolution.is_none()
+            && self.temperature.is_none()
+            && self.gauge_factor_tolerance_pct.is_none()
+            && self.youngs_modulus_gpa.is_none()
     }
 }
 
@@ -573,6 +603,8 @@ pub struct Rig {
     pub name: String,
     pub description: Option<String>,
     pub path: PathBuf,
+    /// The sensor file its sensors' records come from, if it names one.
+    pub sensor_file: Option<PathBuf>,
     pub buses: Vec<Bus>,
     pub sensors: Vec<Sensor>,
     pub cylinders: Vec<Cylinder>,
@@ -580,6 +612,51 @@ pub struct Rig {
     pub specimen: Option<Specimen>,
     /// Non-fatal remarks (skipped DBC messages and the like).
     pub warnings: Vec<String>,
+}
+
+/// Each `[[sensor]]` that names a `serial` takes its transducer's record
+/// from the sensor file; what each sensor is, by name.
+fn take_transducer_records(
+    sensors: &mut [Spanned<SensorFile>],
+    sensor_file: Option<&Path>,
+    findings: &mut RigFindings,
+) -> HashMap<String, Transducer> {
+    let mut transducers = HashMap::new();
+    let mut records = None;
+    for spanned in sensors.iter_mut() {
+        let line = line_of(findings.text, spanned.span().start);
+        let sensor = spanned.get_mut();
+        let Some(serial) = sensor.serial.clone() else {
+            continue;
+        };
+        let Some(path) = sensor_file else {
+            findings.report(line, format!("sensor '{}': serial = \"{serial}\" needs the rig's sensor file: add sensor_file = \"sensors.toml\" under [rig]", sensor.name));
+            continue;
+        };
+        if let Some((other, _)) = transducers
+            .iter()
+            .find(|(_, t): &(&String, &Transducer)| t.serial == serial)
+        {
+            findings.report(line, format!("sensor '{}': serial '{serial}' is sensor '{other}' already; one transducer cannot be two channels", sensor.name));
+            continue;
+        }
+        let loaded = records.get_or_insert_with(|| sensor_file::SensorRecords::load(path));
+        match loaded {
+            Ok(records) => match records.merge_into(&serial, sensor) {
+                Ok(transducer) => {
+                    transducers.insert(sensor.name.clone(), transducer);
+                }
+                Err(message) => {
+                    findings.report(line, format!("sensor '{}': {message}", sensor.name))
+                }
+            },
+            Err(message) => {
+                findings.report(line, format!("sensor '{}': {message}", sensor.name));
+                break;
+            }
+        }
+    }
+    transducers
 }
 
 /// The highest sensor rate a rig may declare, Hz: more frames per second
@@ -648,7 +725,7 @@ impl Rig {
 
     /// Parses rig text; DBC paths are resolved against `base`.
     pub fn parse(text: &str, path: &Path, base: &Path) -> Result<Rig, RigError> {
-        let file: RigFile = toml::from_str(text).map_err(|e| RigError {
+        let mut file: RigFile = toml::from_str(text).map_err(|e| RigError {
             path: path.to_path_buf(),
             problems: vec![RigProblem {
                 line: e.span().map(|s| line_of(text, s.start)),
@@ -670,7 +747,17 @@ impl Rig {
             );
         }
         let mut buses = read_buses(&file.buses, base, &mut findings);
-        let sensors = read_sensors(&file.sensors, &buses, &mut findings);
+        let sensor_file = file
+            .rig
+            .as_ref()
+            .and_then(|meta| meta.sensor_file.as_deref())
+            .map(|name| base.join(name));
+        let transducers =
+            take_transducer_records(&mut file.sensors, sensor_file.as_deref(), &mut findings);
+        let mut sensors = read_sensors(&file.sensors, &buses, &mut findings);
+        for sensor in &mut sensors {
+            sensor.record.transducer = transducers.get(&sensor.name).cloned();
+        }
         let cylinders = read_cylinders(&file.cylinders, &sensors, &mut findings);
         resolve_clock_sync(&file.buses, &mut buses, &sensors, &mut findings);
         let pairs = read_pairs(&file.pairs, &sensors, &mut findings);
@@ -688,6 +775,7 @@ impl Rig {
         let meta = file.rig.unwrap_or(RigMetaFile {
             name: None,
             description: None,
+            sensor_file: None,
         });
         Ok(Rig {
             name: meta.name.unwrap_or_else(|| {
@@ -697,6 +785,7 @@ impl Rig {
             }),
             description: meta.description,
             path: path.to_path_buf(),
+            sensor_file,
             buses,
             sensors,
             cylinders,

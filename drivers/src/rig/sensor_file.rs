@@ -1,0 +1,154 @@
+//! A sensor file: each transducer's record entered once, keyed by its
+//! serial number, and shared by every rig that names the serial. A rig
+//! points at it with `[rig] sensor_file = "sensors.toml"` (relative to the
+//! rig) and a `[[sensor]]` takes a transducer's record with `serial =
+//! "..."`:
+//!
+//! ```toml
+//! [[transducer]]
+//! serial = "P8AP-1234567"
+//! maker = "HBK"
+//! model = "P8AP 500 bar"
+//! range = [0.0, 500.0]
+//! accuracy = { percent_of_full_scale = 0.3 }
+//! resolution = 0.01
+//! calibration = { points = [[...], ...], lab = "...", certificate = "...", date = "...", due = "..." }
+//! temperature = { zero_pct_fs_per_k = 0.015, span_pct_per_k = 0.01, range_c = [5.0, 40.0] }
+//! ```
+//!
+//! A key the rig states itself and the transducer states too is refused:
+//! one place says it.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use super::{line_of, AccuracyFile, CalibrationFile, SensorFile, TemperatureFile};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SensorRecordsFile {
+    #[serde(default, rename = "transducer")]
+    transducers: Vec<Spanned<TransducerFile>>,
+}
+
+/// One transducer's record.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransducerFile {
+    serial: String,
+    maker: Option<String>,
+    model: Option<String>,
+    range: Option<[f64; 2]>,
+    calibration: Option<CalibrationFile>,
+    accuracy: Option<AccuracyFile>,
+    resolution: Option<f64>,
+    temperature: Option<TemperatureFile>,
+    gauge_factor_tolerance_pct: Option<f64>,
+}
+
+/// Which transducer a sensor is, as its record names it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Transducer {
+    pub serial: String,
+    pub maker: Option<String>,
+    pub model: Option<String>,
+    /// The sensor file and the line of its `[[transducer]]`.
+    pub entered_at: String,
+}
+
+/// A sensor file, read.
+pub(super) struct SensorRecords {
+    path: PathBuf,
+    entries: Vec<(usize, TransducerFile)>,
+}
+
+impl SensorRecords {
+    /// Reads `path`: each problem as a message with the file and line.
+    pub(super) fn load(path: &Path) -> Result<SensorRecords, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            format!(
+                "sensor_file: cannot read {}: {e}; give the path of the sensor file relative to the rig",
+                path.display()
+            )
+        })?;
+        let file: SensorRecordsFile = toml::from_str(&text).map_err(|e| {
+            let line = e.span().map_or(1, |s| line_of(&text, s.start));
+            format!("{}:{line}: {}", path.display(), e.message().trim())
+        })?;
+        let mut entries: Vec<(usize, TransducerFile)> = Vec::new();
+        for spanned in file.transducers {
+            let line = line_of(&text, spanned.span().start);
+            let entry = spanned.into_inner();
+            if let Some((first, _)) = entries.iter().find(|(_, e)| e.serial == entry.serial) {
+                return Err(format!(
+                    "{}:{line}: serial '{}' is entered twice (first at line {first}); a transducer has one record",
+                    path.display(),
+                    entry.serial
+                ));
+            }
+            entries.push((line, entry));
+        }
+        Ok(SensorRecords {
+            path: path.to_path_buf(),
+            entries,
+        })
+    }
+
+    /// Gives `sensor` the record of the transducer `serial`: every key the
+    /// rig leaves out. A key both state is refused.
+    pub(super) fn merge_into(
+        &mut self,
+        serial: &str,
+        sensor: &mut SensorFile,
+    ) -> Result<Transducer, String> {
+        let path = self.path.display().to_string();
+        let Some((line, entry)) = self.entries.iter_mut().find(|(_, e)| e.serial == serial) else {
+            let known: Vec<&str> = self
+                .entries
+                .iter()
+                .map(|(_, e)| e.serial.as_str())
+                .collect();
+            return Err(format!(
+                "serial '{serial}' is not in {path} (serials there: {}); enter its record there or correct the serial",
+                if known.is_empty() { "none".to_string() } else { known.join(", ") }
+            ));
+        };
+        let at = format!("{path}:{line}");
+        let both = |key: &str| {
+            format!("both the rig and the transducer's record ({at}) state {key}; keep one")
+        };
+        take(&mut sensor.range, &mut entry.range).map_err(|_| both("range"))?;
+        take(&mut sensor.calibration, &mut entry.calibration).map_err(|_| both("calibration"))?;
+        take(&mut sensor.accuracy, &mut entry.accuracy).map_err(|_| both("accuracy"))?;
+        take(&mut sensor.resolution, &mut entry.resolution).map_err(|_| both("resolution"))?;
+        take(&mut sensor.temperature, &mut entry.temperature).map_err(|_| both("temperature"))?;
+        take(
+            &mut sensor.gauge_factor_tolerance_pct,
+            &mut entry.gauge_factor_tolerance_pct,
+        )
+        .map_err(|_| both("gauge_factor_tolerance_pct"))?;
+        Ok(Transducer {
+            serial: serial.to_string(),
+            maker: entry.maker.clone(),
+            model: entry.model.clone(),
+            entered_at: at,
+        })
+    }
+}
+
+/// Moves `from` into `into` when only `from` holds a value; an error when
+/// both do. (Each rig sensor names a serial once, so a record's key is
+/// taken at most once... unless two sensors name the same serial, which
+/// the caller refuses first.)
+fn take<T>(into: &mut Option<T>, from: &mut Option<T>) -> Result<(), ()> {
+    match (into.is_some(), from.is_some()) {
+        (true, true) => Err(()),
+        (false, true) => {
+            *into = from.take();
+            Ok(())
+        }
+        _ => Ok(()),
+    }
+}

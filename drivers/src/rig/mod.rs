@@ -45,8 +45,13 @@ use acq_metrology::curve::CalibrationCurve;
 use serde::Deserialize;
 use toml::Spanned;
 
+mod lines;
+mod record_keys;
 mod sensor_file;
 pub use sensor_file::Transducer;
+
+use lines::line_of;
+use record_keys::{AccuracyFile, CalibrationFile, TemperatureFile};
 
 use crate::bits::BitField;
 use crate::canopen::{self, PdoMapping, PdoType};
@@ -157,46 +162,6 @@ struct SensorFile {
     zero_at_rest: Option<bool>,
 }
 
-/// `calibration = { points = [[reading, value], ...], ... }` of a sensor.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CalibrationFile {
-    points: Vec<[f64; 2]>,
-    /// One per point, in the kind's unit: standard uncertainties, or
-    /// expanded ones with `k` and `level`.
-    uncertainties: Option<Vec<f64>>,
-    k: Option<f64>,
-    level: Option<f64>,
-    lab: Option<String>,
-    certificate: Option<String>,
-    /// `YYYY-MM-DD`.
-    date: Option<String>,
-    due: Option<String>,
-}
-
-/// `temperature = { zero_pct_fs_per_k, span_pct_per_k, range_c, reference_c }`.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TemperatureFile {
-    /// The zero's drift, % of full scale per kelvin (needs `range`).
-    #[serde(default)]
-    zero_pct_fs_per_k: f64,
-    /// The span's drift, % of the reading per kelvin.
-    #[serde(default)]
-    span_pct_per_k: f64,
-    /// The lowest and highest temperature at the rig during a test, C.
-    range_c: [f64; 2],
-    /// The temperature the sensor was calibrated at, C.
-    #[serde(default = "room_temperature_c")]
-    reference_c: f64,
-}
-
-/// Data sheets and certificates state their coefficients against 20 C
-/// unless they say otherwise.
-fn room_temperature_c() -> f64 {
-    20.0
-}
-
 /// `shunt = { resistor_ohm = 100000, gauge_ohm = 350, ... }` of a strain sensor.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -231,14 +196,6 @@ fn first_arm() -> u8 {
 /// gauge factor (2.0 against 2.1 is 5 %) or bridge type (a factor of 2).
 fn default_shunt_tolerance_pct() -> f64 {
     1.0
-}
-
-/// `accuracy = { percent_of_full_scale = 0.5 }` or `{ percent_of_reading = 0.2 }`.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AccuracyFile {
-    percent_of_full_scale: Option<f64>,
-    percent_of_reading: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -641,22 +598,59 @@ fn take_transducer_records(
             continue;
         }
         let loaded = records.get_or_insert_with(|| sensor_file::SensorRecords::load(path));
-        match loaded {
-            Ok(records) => match records.merge_into(&serial, sensor) {
-                Ok(transducer) => {
-                    transducers.insert(sensor.name.clone(), transducer);
-                }
-                Err(message) => {
-                    findings.report(line, format!("sensor '{}': {message}", sensor.name))
-                }
-            },
+        let merged = match loaded {
+            Ok(records) => records.take(&serial).and_then(|(record, transducer)| {
+                merge_record(sensor, record, &transducer.entered_at)?;
+                Ok(transducer)
+            }),
             Err(message) => {
                 findings.report(line, format!("sensor '{}': {message}", sensor.name));
                 break;
             }
+        };
+        match merged {
+            Ok(transducer) => {
+                transducers.insert(sensor.name.clone(), transducer);
+            }
+            Err(message) => findings.report(line, format!("sensor '{}': {message}", sensor.name)),
         }
     }
     transducers
+}
+
+/// Gives `sensor` every key of a transducer's `record` that the rig
+/// leaves out; a key both state is refused (one place says it).
+fn merge_record(
+    sensor: &mut SensorFile,
+    mut record: sensor_file::TransducerRecord,
+    entered_at: &str,
+) -> Result<(), String> {
+    let both = |key: &str| {
+        format!("both the rig and the transducer's record ({entered_at}) state {key}; keep one")
+    };
+    fill(&mut sensor.range, &mut record.range).map_err(|_| both("range"))?;
+    fill(&mut sensor.calibration, &mut record.calibration).map_err(|_| both("calibration"))?;
+    fill(&mut sensor.accuracy, &mut record.accuracy).map_err(|_| both("accuracy"))?;
+    fill(&mut sensor.resolution, &mut record.resolution).map_err(|_| both("resolution"))?;
+    fill(&mut sensor.temperature, &mut record.temperature).map_err(|_| both("temperature"))?;
+    fill(
+        &mut sensor.gauge_factor_tolerance_pct,
+        &mut record.gauge_factor_tolerance_pct,
+    )
+    .map_err(|_| both("gauge_factor_tolerance_pct"))
+}
+
+/// Moves `from` into `into` when only `from` holds a value; an error when
+/// both do.
+fn fill<T>(into: &mut Option<T>, from: &mut Option<T>) -> Result<(), ()> {
+    match (into.is_some(), from.is_some()) {
+        (true, true) => Err(()),
+        (false, true) => {
+            *into = from.take();
+            Ok(())
+        }
+        _ => Ok(()),
+    }
 }
 
 /// The highest sensor rate a rig may declare, Hz: more frames per second
@@ -698,14 +692,6 @@ impl std::fmt::Display for RigError {
 }
 
 impl std::error::Error for RigError {}
-
-fn line_of(text: &str, offset: usize) -> usize {
-    text.as_bytes()[..offset.min(text.len())]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
-        + 1
-}
 
 impl Rig {
     /// Reads, parses and validates a rig file (and the DBC files it names).

@@ -24,7 +24,8 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::{line_of, AccuracyFile, CalibrationFile, SensorFile, TemperatureFile};
+use super::lines::line_of;
+use super::record_keys::{AccuracyFile, CalibrationFile, TemperatureFile};
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -33,19 +34,26 @@ struct SensorRecordsFile {
     transducers: Vec<Spanned<TransducerFile>>,
 }
 
-/// One transducer's record.
+/// One transducer's entry: who it is and its record.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TransducerFile {
     serial: String,
     maker: Option<String>,
     model: Option<String>,
-    range: Option<[f64; 2]>,
-    calibration: Option<CalibrationFile>,
-    accuracy: Option<AccuracyFile>,
-    resolution: Option<f64>,
-    temperature: Option<TemperatureFile>,
-    gauge_factor_tolerance_pct: Option<f64>,
+    #[serde(flatten)]
+    record: TransducerRecord,
+}
+
+/// The keys of a transducer's record a rig's sensor takes from it.
+#[derive(Deserialize)]
+pub(super) struct TransducerRecord {
+    pub(super) range: Option<[f64; 2]>,
+    pub(super) calibration: Option<CalibrationFile>,
+    pub(super) accuracy: Option<AccuracyFile>,
+    pub(super) resolution: Option<f64>,
+    pub(super) temperature: Option<TemperatureFile>,
+    pub(super) gauge_factor_tolerance_pct: Option<f64>,
 }
 
 /// Which transducer a sensor is, as its record names it.
@@ -96,15 +104,11 @@ impl SensorRecords {
         })
     }
 
-    /// Gives `sensor` the record of the transducer `serial`: every key the
-    /// rig leaves out. A key both state is refused.
-    pub(super) fn merge_into(
-        &mut self,
-        serial: &str,
-        sensor: &mut SensorFile,
-    ) -> Result<Transducer, String> {
+    /// The record of the transducer `serial`, taken out of the file (a
+    /// transducer is one channel of a rig), and who it is.
+    pub(super) fn take(&mut self, serial: &str) -> Result<(TransducerRecord, Transducer), String> {
         let path = self.path.display().to_string();
-        let Some((line, entry)) = self.entries.iter_mut().find(|(_, e)| e.serial == serial) else {
+        let Some(index) = self.entries.iter().position(|(_, e)| e.serial == serial) else {
             let known: Vec<&str> = self
                 .entries
                 .iter()
@@ -115,40 +119,15 @@ impl SensorRecords {
                 if known.is_empty() { "none".to_string() } else { known.join(", ") }
             ));
         };
-        let at = format!("{path}:{line}");
-        let both = |key: &str| {
-            format!("both the rig and the transducer's record ({at}) state {key}; keep one")
-        };
-        take(&mut sensor.range, &mut entry.range).map_err(|_| both("range"))?;
-        take(&mut sensor.calibration, &mut entry.calibration).map_err(|_| both("calibration"))?;
-        take(&mut sensor.accuracy, &mut entry.accuracy).map_err(|_| both("accuracy"))?;
-        take(&mut sensor.resolution, &mut entry.resolution).map_err(|_| both("resolution"))?;
-        take(&mut sensor.temperature, &mut entry.temperature).map_err(|_| both("temperature"))?;
-        take(
-            &mut sensor.gauge_factor_tolerance_pct,
-            &mut entry.gauge_factor_tolerance_pct,
-        )
-        .map_err(|_| both("gauge_factor_tolerance_pct"))?;
-        Ok(Transducer {
-            serial: serial.to_string(),
-            maker: entry.maker.clone(),
-            model: entry.model.clone(),
-            entered_at: at,
-        })
-    }
-}
-
-/// Moves `from` into `into` when only `from` holds a value; an error when
-/// both do. (Each rig sensor names a serial once, so a record's key is
-/// taken at most once... unless two sensors name the same serial, which
-/// the caller refuses first.)
-fn take<T>(into: &mut Option<T>, from: &mut Option<T>) -> Result<(), ()> {
-    match (into.is_some(), from.is_some()) {
-        (true, true) => Err(()),
-        (false, true) => {
-            *into = from.take();
-            Ok(())
-        }
-        _ => Ok(()),
+        let (line, entry) = self.entries.swap_remove(index);
+        Ok((
+            entry.record,
+            Transducer {
+                serial: entry.serial,
+                maker: entry.maker,
+                model: entry.model,
+                entered_at: format!("{path}:{line}"),
+            },
+        ))
     }
 }

@@ -1,0 +1,53 @@
+//! The keys of a transducer's record, as the rig's `[[sensor]]` and a
+//! sensor file's `[[transducer]]` both write them: its certificate, its
+//! data sheet's accuracy and its temperature coefficients.
+
+use serde::Deserialize;
+
+/// `calibration = { points = [[reading, value], ...], ... }` of a sensor.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct CalibrationFile {
+    pub(super) points: Vec<[f64; 2]>,
+    /// One per point, in the kind's unit: standard uncertainties, or
+    /// expanded ones with `k` and `level`.
+    pub(super) uncertainties: Option<Vec<f64>>,
+    pub(super) k: Option<f64>,
+    pub(super) level: Option<f64>,
+    pub(super) lab: Option<String>,
+    pub(super) certificate: Option<String>,
+    /// `YYYY-MM-DD`.
+    pub(super) date: Option<String>,
+    pub(super) due: Option<String>,
+}
+
+/// `temperature = { zero_pct_fs_per_k, span_pct_per_k, range_c, reference_c }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct TemperatureFile {
+    /// The zero's drift, % of full scale per kelvin (needs `range`).
+    #[serde(default)]
+    pub(super) zero_pct_fs_per_k: f64,
+    /// The span's drift, % of the reading per kelvin.
+    #[serde(default)]
+    pub(super) span_pct_per_k: f64,
+    /// The lowest and highest temperature at the rig during a test, C.
+    pub(super) range_c: [f64; 2],
+    /// The temperature the sensor was calibrated at, C.
+    #[serde(default = "room_temperature_c")]
+    pub(super) reference_c: f64,
+}
+
+/// Data sheets and certificates state their coefficients against 20 C
+/// unless they say otherwise.
+pub(super) fn room_temperature_c() -> f64 {
+    20.0
+}
+
+/// `accuracy = { percent_of_full_scale = 0.5 }` or `{ percent_of_reading = 0.2 }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct AccuracyFile {
+    pub(super) percent_of_full_scale: Option<f64>,
+    pub(super) percent_of_reading: Option<f64>,
+}

@@ -178,7 +178,7 @@ fn a_bad_record_is_refused_with_its_line_and_what_to_fix() {
         ("accuracy = { percent_of_full_scale = 0.5 }", "needs the sensor's range"),
         ("accuracy = { percent_of_reading = -1.0 }", "give a share above 0"),
         ("resolution = 0.0", "resolution = 0"),
-        ("scale = 2.0\ncalibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]] }", "either calibration points or scale"),
+        ("scale = 2.0\ncalibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]] }", "either a certificate's calibration or scale"),
         ("shunt = { resistor_ohm = 100000.0, gauge_ohm = 350.0 }", "a shunt check is for a strain channel"),
     ] {
         let rig = rig_with(dir.path(), record);
@@ -1117,5 +1117,44 @@ fn a_sensor_files_mistakes_are_refused_with_their_line_and_what_to_do() {
         assert_eq!(output.status.code(), Some(2), "{says}: {message}");
         assert!(message.contains(says), "{says}: {message}");
         assert!(message.contains("rig.toml:"), "the rig's line: {message}");
+    }
+}
+
+/// A certificate that states a polynomial: the value is the polynomial
+/// of the reading (here v = 0.05 + 1.002 r + 2e-5 r^2, so 150.8 bar reads
+/// 150 exactly: the quadratic's root), its expanded uncertainty 0.3 bar
+/// at k = 2 is the curve's 0.15 bar everywhere; points beside it, or no
+/// uncertainty, are refused.
+#[test]
+fn a_polynomial_certificate_converts_and_states_its_uncertainty() {
+    let dir = tempfile::tempdir().unwrap();
+    let certificate = "range = [0.0, 400.0]\ncalibration = { polynomial = [0.05, 1.002, 2e-5], expanded_uncertainty = 0.3, k = 2.0, level = 0.95, certificate = \"P-1\" }";
+    let rig = rig_with(dir.path(), certificate);
+    let json = budget_json(&rig, 150.8);
+    assert!(
+        (json["contributions"]["calibration_curve"]["u"]
+            .as_f64()
+            .unwrap()
+            - 0.15)
+            .abs()
+            < 1e-15
+    );
+    let table = acq(&["budget", path_arg(&rig), "--sensor", "p", "--at", "150.8"]);
+    assert!(
+        stdout(&table).contains("(channel reading 150)")
+            || stdout(&table).contains("(channel reading 150.000000)"),
+        "{}",
+        stdout(&table)
+    );
+    for (record, says) in [
+        ("range = [0.0, 400.0]\ncalibration = { polynomial = [0.05, 1.002], points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], expanded_uncertainty = 0.3, k = 2.0, level = 0.95 }", "points or its polynomial, not both"),
+        ("calibration = { polynomial = [0.05, 1.002] }", "needs the certificate's expanded_uncertainty"),
+        ("range = [0.0, 400.0]\ncalibration = { polynomial = [0.0, 1.0, -0.002], expanded_uncertainty = 0.3, k = 2.0, level = 0.95 }", "the polynomial"),
+        ("calibration = { polynomial = [5.0], expanded_uncertainty = 0.3, k = 2.0, level = 0.95 }", "with a term in r"),
+    ] {
+        let rig = rig_with(dir.path(), record);
+        let output = acq(&["check-rig", path_arg(&rig)]);
+        assert_eq!(output.status.code(), Some(2), "{record}: {}", stderr(&output));
+        assert!(stderr(&output).contains(says), "{record}: {}", stderr(&output));
     }
 }

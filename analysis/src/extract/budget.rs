@@ -65,6 +65,13 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
             .shared_by(&sensor.name),
         );
     }
+    if let Some(polynomial) = &record.polynomial {
+        // One stated uncertainty over the certificate's range.
+        contributions.push(
+            Contribution::direct(CALIBRATION_CURVE, polynomial.standard_uncertainty, None)
+                .shared_by(&sensor.name),
+        );
+    }
     if let Some(accuracy) = record.accuracy {
         let half_width = match (accuracy, sensor.range) {
             (Accuracy::PercentOfFullScale(pct), Some([low, high])) => pct / 100.0 * (high - low),

@@ -3,11 +3,13 @@
 //!
 //! Every conversion here is linear, so each sensor compiles into one
 //! [`Linear`] map applied after protocol decoding and the rig's own
-//! calibration (scale, offset).
+//! calibration (scale, offset); a certificate's polynomial replaces it
+//! ([`Conversion`]).
 //!
 //! [`linear`] holds what every kind shares (the map and its errors); each kind
 //! module uses only it, and [`SensorKind`] here dispatches to the kinds.
 
+pub mod conversion;
 pub mod displacement;
 pub mod force;
 pub mod inclination;
@@ -17,6 +19,7 @@ pub mod strain;
 
 use serde::{Deserialize, Serialize};
 
+pub use conversion::Conversion;
 pub use linear::{Linear, ProfileError};
 
 /// What a sensor measures, which fixes the unit of its output.

@@ -59,7 +59,8 @@ use crate::dbc::DbcDatabase;
 use crate::frame::{CanId, IfaceName};
 use crate::j1939::Spn;
 use crate::profiles::{
-    displacement, force, inclination, pressure, strain, Linear, ProfileError, SensorKind,
+    displacement, force, inclination, pressure, strain, Conversion, Linear, ProfileError,
+    SensorKind,
 };
 
 // ---- The file as written ----------------------------------------------------
@@ -374,7 +375,7 @@ pub struct Sensor {
     /// Expected sample rate.
     pub rate_hz: f64,
     /// Channel value -> output (calibration, then the kind's physics).
-    pub conversion: Linear,
+    pub conversion: Conversion,
     pub location: Option<u32>,
     pub description: Option<String>,
     pub interpolation: Interpolation,
@@ -396,6 +397,8 @@ pub struct SensorRecord {
     /// The line through the certificate's points; it is the sensor's
     /// conversion (reading to value) where given.
     pub curve: Option<CalibrationCurve>,
+    /// A certificate's polynomial instead, with its stated uncertainty.
+    pub polynomial: Option<PolynomialCertificate>,
     pub certificate: Option<Certificate>,
     /// The data sheet's limit, rectangular.
     pub accuracy: Option<Accuracy>,
@@ -412,6 +415,16 @@ pub struct SensorRecord {
     pub youngs_modulus_gpa: Option<(f64, f64)>,
     /// Which transducer it is, when the record came from a sensor file.
     pub transducer: Option<Transducer>,
+}
+
+/// A certificate that states a polynomial (reading to value) and one
+/// expanded uncertainty for it over its range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PolynomialCertificate {
+    /// `c0, c1, ...`: value `= sum c_i r^i`.
+    pub coefficients: Vec<f64>,
+    /// The stated expanded uncertainty over its `k`.
+    pub standard_uncertainty: f64,
 }
 
 /// A data sheet's temperature coefficients over the rig's temperatures:
@@ -502,6 +515,7 @@ impl SensorRecord {
     /// Whether anything is known beyond the readings' own scatter.
     pub fn is_empty(&self) -> bool {
         self.curve.is_none()
+            && self.polynomial.is_none()
             && self.accuracy.is_none()
             && self.resolution.is_none()
             && self.temperature.is_none()
@@ -1294,12 +1308,13 @@ fn read_sensor(
         rate_hz: sensor.rate_hz,
         // The certificate's points take the reading to the kind's unit
         // themselves: the physics is in them.
-        conversion: match &record.curve {
-            Some(curve) => Linear {
+        conversion: match (&record.polynomial, &record.curve) {
+            (Some(polynomial), _) => Conversion::Polynomial(polynomial.coefficients.clone()),
+            (None, Some(curve)) => Conversion::Linear(Linear {
                 gain: curve.slope,
                 offset: curve.intercept - curve.slope * curve.reading_mean,
-            },
-            None => physics.after(calibration),
+            }),
+            (None, None) => Conversion::Linear(physics.after(calibration)),
         },
         location: sensor.location,
         description: sensor.description.clone(),
@@ -1319,47 +1334,15 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
     let mut record = SensorRecord::default();
     if let Some(calibration) = &sensor.calibration {
         if sensor.scale.is_some() || sensor.offset.is_some() {
-            return Err("give either calibration points or scale and offset, not both (the points are the conversion)".into());
+            return Err("give either a certificate's calibration or scale and offset, not both (the certificate is the conversion)".into());
         }
-        let standard = match (&calibration.uncertainties, calibration.k, calibration.level) {
-            (_, Some(_), None) => {
-                return Err("calibration: k needs the level of confidence it is for (e.g. level = 0.95)".into())
+        read_certificate_dates(calibration)?;
+        match &calibration.polynomial {
+            Some(coefficients) => {
+                record.polynomial = Some(read_polynomial(sensor, calibration, coefficients)?)
             }
-            (_, None, Some(_)) => {
-                return Err("calibration: level needs the coverage factor k the certificate states".into())
-            }
-            (None, Some(_), Some(_)) => {
-                return Err("calibration: k and level are for the points' uncertainties; give uncertainties = [...] too".into())
-            }
-            (Some(_), Some(k), Some(level)) if !(k.is_finite() && k >= 1.0 && level > 0.0 && level < 1.0) => {
-                return Err(format!("calibration: k = {k} at level = {level}: give k of at least 1 and a level between 0 and 1"))
-            }
-            (Some(u), Some(k), Some(_)) => Some(u.iter().map(|u| u / k).collect::<Vec<f64>>()),
-            (Some(u), None, None) => Some(u.clone()),
-            (None, None, None) => None,
-        };
-        let curve = CalibrationCurve::fit(&calibration.points, standard.as_deref())
-            .map_err(|e| format!("calibration: {e} ({unit} for values)"))?;
-        if curve.slope == 0.0 || !curve.slope.is_finite() {
-            return Err("calibration: the points' values do not change with the reading; a sensor needs a slope".into());
+            None => record.curve = Some(read_points(calibration, unit)?),
         }
-        for (key, date) in [("date", &calibration.date), ("due", &calibration.due)] {
-            if let Some(date) = date {
-                if !is_date(date) {
-                    return Err(format!(
-                        "calibration: {key} = \"{date}\": give a date as YYYY-MM-DD"
-                    ));
-                }
-            }
-        }
-        if let (Some(date), Some(due)) = (&calibration.date, &calibration.due) {
-            if due < date {
-                return Err(format!(
-                    "calibration: due {due} is before the calibration's date {date}"
-                ));
-            }
-        }
-        record.curve = Some(curve);
         record.certificate = Some(Certificate {
             lab: calibration.lab.clone(),
             id: calibration.certificate.clone(),
@@ -1469,6 +1452,116 @@ fn read_strain_uncertainties(sensor: &SensorFile, record: &mut SensorRecord) -> 
             ));
         }
         record.youngs_modulus_gpa = Some((modulus, u));
+    }
+    Ok(())
+}
+
+/// A certificate's points: their stated uncertainties (standard, or
+/// expanded with `k` at `level`), and the line through them.
+fn read_points(calibration: &CalibrationFile, unit: &str) -> Result<CalibrationCurve, String> {
+    let standard = match (&calibration.uncertainties, calibration.k, calibration.level) {
+        (_, Some(_), None) => {
+            return Err("calibration: k needs the level of confidence it is for (e.g. level = 0.95)".into())
+        }
+        (_, None, Some(_)) => {
+            return Err("calibration: level needs the coverage factor k the certificate states".into())
+        }
+        (None, Some(_), Some(_)) => {
+            return Err("calibration: k and level are for the points' uncertainties; give uncertainties = [...] too".into())
+        }
+        (Some(_), Some(k), Some(level)) if !(k.is_finite() && k >= 1.0 && level > 0.0 && level < 1.0) => {
+            return Err(format!("calibration: k = {k} at level = {level}: give k of at least 1 and a level between 0 and 1"))
+        }
+        (Some(u), Some(k), Some(_)) => Some(u.iter().map(|u| u / k).collect::<Vec<f64>>()),
+        (Some(u), None, None) => Some(u.clone()),
+        (None, None, None) => None,
+    };
+    let curve = CalibrationCurve::fit(&calibration.points, standard.as_deref())
+        .map_err(|e| format!("calibration: {e} ({unit} for values)"))?;
+    if curve.slope == 0.0 || !curve.slope.is_finite() {
+        return Err("calibration: the points' values do not change with the reading; a sensor needs a slope".into());
+    }
+    Ok(curve)
+}
+
+/// A certificate's polynomial with its stated expanded uncertainty: finite
+/// coefficients of at least a line, and (with the sensor's `range`) a
+/// slope of one sign over the readings of the range, so that every value
+/// has one reading.
+fn read_polynomial(
+    sensor: &SensorFile,
+    calibration: &CalibrationFile,
+    coefficients: &[f64],
+) -> Result<PolynomialCertificate, String> {
+    let unit = sensor.kind.output_unit();
+    if !calibration.points.is_empty() || calibration.uncertainties.is_some() {
+        return Err(
+            "calibration: give the certificate's points or its polynomial, not both".into(),
+        );
+    }
+    if coefficients.len() < 2
+        || coefficients.iter().any(|c| !c.is_finite())
+        || coefficients[1..].iter().all(|&c| c == 0.0)
+    {
+        return Err(format!("calibration: polynomial = {coefficients:?}: give finite coefficients c0, c1, ... (value = c0 + c1 r + c2 r^2 ..., r the reading) with a term in r"));
+    }
+    let (Some(expanded), Some(k), Some(level)) = (
+        calibration.expanded_uncertainty,
+        calibration.k,
+        calibration.level,
+    ) else {
+        return Err(format!("calibration: a polynomial needs the certificate's expanded_uncertainty (in {unit}) with its k and level"));
+    };
+    if !(expanded.is_finite()
+        && expanded >= 0.0
+        && k.is_finite()
+        && k >= 1.0
+        && level > 0.0
+        && level < 1.0)
+    {
+        return Err(format!("calibration: expanded_uncertainty = {expanded} with k = {k} at level = {level}: give an uncertainty of at least 0, k of at least 1 and a level between 0 and 1"));
+    }
+    let conversion = Conversion::Polynomial(coefficients.to_vec());
+    if let Some([low, high]) = sensor.range {
+        let ends = (conversion.invert(low), conversion.invert(high));
+        let (Some(from), Some(to)) = ends else {
+            return Err(format!("calibration: the polynomial gives no reading for the range's ends {low} and {high} {unit}; check its coefficients"));
+        };
+        let sign = conversion.slope(from).signum();
+        let steps = 200;
+        if (0..=steps).any(|i| {
+            conversion
+                .slope(from + (to - from) * i as f64 / steps as f64)
+                .signum()
+                != sign
+        }) {
+            return Err(format!("calibration: the polynomial turns back within the range {low} to {high} {unit}: a value there would have two readings"));
+        }
+    }
+    Ok(PolynomialCertificate {
+        coefficients: coefficients.to_vec(),
+        standard_uncertainty: expanded / k,
+    })
+}
+
+/// A certificate's dates: `YYYY-MM-DD`, the due date not before the
+/// calibration's.
+fn read_certificate_dates(calibration: &CalibrationFile) -> Result<(), String> {
+    for (key, date) in [("date", &calibration.date), ("due", &calibration.due)] {
+        if let Some(date) = date {
+            if !is_date(date) {
+                return Err(format!(
+                    "calibration: {key} = \"{date}\": give a date as YYYY-MM-DD"
+                ));
+            }
+        }
+    }
+    if let (Some(date), Some(due)) = (&calibration.date, &calibration.due) {
+        if due < date {
+            return Err(format!(
+                "calibration: due {due} is before the calibration's date {date}"
+            ));
+        }
     }
     Ok(())
 }

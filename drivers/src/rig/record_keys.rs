@@ -4,11 +4,19 @@
 
 use serde::Deserialize;
 
-/// `calibration = { points = [[reading, value], ...], ... }` of a sensor.
+/// `calibration = { points = [[reading, value], ...], ... }` of a sensor, or
+/// `calibration = { polynomial = [c0, c1, ...], expanded_uncertainty, k, level, ... }`.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct CalibrationFile {
+    #[serde(default)]
     pub(super) points: Vec<[f64; 2]>,
+    /// A certificate's polynomial instead of points: `c0, c1, ...`, value
+    /// `= sum c_i r^i` for a reading `r`.
+    pub(super) polynomial: Option<Vec<f64>>,
+    /// The polynomial's expanded uncertainty, in the kind's unit, with `k`
+    /// and `level`.
+    pub(super) expanded_uncertainty: Option<f64>,
     /// One per point, in the kind's unit: standard uncertainties, or
     /// expanded ones with `k` and `level`.
     pub(super) uncertainties: Option<Vec<f64>>,

@@ -56,6 +56,9 @@ pub(super) struct TransducerRecord {
     pub(super) gauge_factor_tolerance_pct: Option<f64>,
 }
 
+/// Far more than the records of every transducer a lab owns.
+pub const MAX_SENSOR_FILE_BYTES: u64 = 16 << 20;
+
 /// Which transducer a sensor is, as its record names it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Transducer {
@@ -75,6 +78,24 @@ pub(super) struct SensorRecords {
 impl SensorRecords {
     /// Reads `path`: each problem as a message with the file and line.
     pub(super) fn load(path: &Path) -> Result<SensorRecords, String> {
+        // A FIFO or a device would block or never end: a sensor file is a
+        // regular file of a size a person writes.
+        match std::fs::metadata(path) {
+            Ok(meta) if !meta.is_file() => {
+                return Err(format!(
+                    "sensor_file: {} is not a regular file; give the sensor file's path relative to the rig",
+                    path.display()
+                ))
+            }
+            Ok(meta) if meta.len() > MAX_SENSOR_FILE_BYTES => {
+                return Err(format!(
+                    "sensor_file: {} holds {} bytes; a sensor file of more than {MAX_SENSOR_FILE_BYTES} bytes is not one",
+                    path.display(),
+                    meta.len()
+                ))
+            }
+            _ => {}
+        }
         let text = std::fs::read_to_string(path).map_err(|e| {
             format!(
                 "sensor_file: cannot read {}: {e}; give the path of the sensor file relative to the rig",

@@ -1,12 +1,16 @@
 //! `acq budget RIG --sensor NAME --at VALUE [--json]`: the uncertainty
-//! budget of one value of a sensor as the rig states it (no session).
+//! budget of one value of a sensor as the rig states it (no session); with
+//! `--cylinder NAME --head BAR --rod BAR` a cylinder's net force, checked
+//! by Monte Carlo with `--monte-carlo DRAWS`.
 
 use std::path::PathBuf;
 
 use acq_analysis::extract::budget::value_budget;
+use acq_analysis::extract::net_force::{net_force_budget, net_force_monte_carlo};
 use acq_io::error::{AcqError, Result};
 use acq_io::input::load_rig;
 use acq_metrology::budget::LEVEL_95;
+use acq_metrology::monte_carlo::MonteCarloResult;
 use clap::Args;
 
 #[derive(Args, Debug)]
@@ -15,11 +19,30 @@ pub struct BudgetArgs {
     #[arg(value_name = "RIG.toml")]
     pub rig: PathBuf,
     /// The sensor's name in the rig.
-    #[arg(long, value_name = "NAME")]
-    pub sensor: String,
+    #[arg(
+        long,
+        value_name = "NAME",
+        required_unless_present = "cylinder",
+        requires = "at"
+    )]
+    pub sensor: Option<String>,
     /// The value, in the sensor's unit (bar, kN, µε, ...).
-    #[arg(long, value_name = "VALUE")]
-    pub at: f64,
+    #[arg(long, value_name = "VALUE", requires = "sensor")]
+    pub at: Option<f64>,
+    /// A rig cylinder: the budget of its net force (kN) at --head and --rod.
+    #[arg(long, value_name = "NAME", conflicts_with = "sensor", requires_all = ["head", "rod"])]
+    pub cylinder: Option<String>,
+    /// The head chamber's pressure, bar.
+    #[arg(long, value_name = "BAR", requires = "cylinder")]
+    pub head: Option<f64>,
+    /// The rod chamber's pressure, bar.
+    #[arg(long, value_name = "BAR", requires = "cylinder")]
+    pub rod: Option<f64>,
+    /// Check the net force's budget by Monte Carlo (JCGM 101) with this
+    /// many draws: every source drawn from its own distribution through
+    /// the exact law.
+    #[arg(long, value_name = "DRAWS", requires = "cylinder", value_parser = clap::value_parser!(u64).range(1000..=10_000_000))]
+    pub monte_carlo: Option<u64>,
     /// Print one JSON object instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -27,30 +50,72 @@ pub struct BudgetArgs {
 
 pub fn run_budget(args: BudgetArgs) -> Result<()> {
     let rig = load_rig(&args.rig)?;
-    let Some(sensor) = rig.sensors.iter().find(|s| s.name == args.sensor) else {
+    if let Some(cylinder) = &args.cylinder {
+        return run_net_force(&args, &rig, cylinder);
+    }
+    let (Some(name), Some(at)) = (&args.sensor, args.at) else {
+        return Err(AcqError::Config(
+            "give --sensor NAME --at VALUE, or --cylinder NAME --head BAR --rod BAR".into(),
+        ));
+    };
+    let Some(sensor) = rig.sensors.iter().find(|s| &s.name == name) else {
         let known: Vec<&str> = rig.sensors.iter().map(|s| s.name.as_str()).collect();
         return Err(AcqError::Config(format!(
-            "{}: no sensor '{}' (sensors: {})",
+            "{}: no sensor '{name}' (sensors: {})",
             args.rig.display(),
-            args.sensor,
             known.join(", ")
         )));
     };
-    if !args.at.is_finite() {
+    if !at.is_finite() {
         return Err(AcqError::Config(format!(
-            "--at {}: give a finite value in {}",
-            args.at,
+            "--at {at}: give a finite value in {}",
             sensor.unit()
         )));
     }
-    let value = value_budget(sensor, args.at);
+    print_budget(&value_budget(sensor, at), args.json, None);
+    Ok(())
+}
+
+/// `--cylinder`: the net force's budget, and its Monte Carlo check.
+fn run_net_force(args: &BudgetArgs, rig: &acq_drivers::rig::Rig, cylinder: &str) -> Result<()> {
+    let (head, rod) = (args.head.unwrap_or(f64::NAN), args.rod.unwrap_or(f64::NAN));
+    if !(head.is_finite() && rod.is_finite()) {
+        return Err(AcqError::Config(format!(
+            "--head {head} --rod {rod}: give both chambers' pressures in bar"
+        )));
+    }
+    let Some(value) = net_force_budget(rig, cylinder, head, rod) else {
+        let known: Vec<&str> = rig.cylinders.iter().map(|c| c.name.as_str()).collect();
+        return Err(AcqError::Config(format!(
+            "{}: no cylinder '{cylinder}' (cylinders: {})",
+            args.rig.display(),
+            if known.is_empty() {
+                "none".to_string()
+            } else {
+                known.join(", ")
+            }
+        )));
+    };
+    let monte_carlo = args
+        .monte_carlo
+        .and_then(|draws| net_force_monte_carlo(rig, cylinder, head, rod, draws as usize));
+    print_budget(&value, args.json, monte_carlo.as_ref());
+    Ok(())
+}
+
+/// The budget as JSON or as a table, with the Monte Carlo check if any.
+fn print_budget(
+    value: &acq_analysis::extract::budget::ValueBudget,
+    json: bool,
+    monte_carlo: Option<&MonteCarloResult>,
+) {
     let budget = &value.budget;
     let (combined, dof, k) = (
         budget.combined(),
         budget.effective_dof(),
         budget.coverage_factor(LEVEL_95),
     );
-    if args.json {
+    if json {
         let contributions: serde_json::Map<String, serde_json::Value> = budget
             .contributions
             .iter()
@@ -61,7 +126,7 @@ pub fn run_budget(args: BudgetArgs) -> Result<()> {
                 )
             })
             .collect();
-        let json = serde_json::json!({
+        let mut json = serde_json::json!({
             "sensor": value.sensor,
             "unit": value.unit,
             "value": value.value,
@@ -71,11 +136,32 @@ pub fn run_budget(args: BudgetArgs) -> Result<()> {
             "U95": k * combined,
             "contributions": contributions,
         });
+        if let Some(mc) = monte_carlo {
+            json["monte_carlo"] = serde_json::json!({
+                "draws": mc.draws,
+                "mean": mc.mean,
+                "u": mc.standard_uncertainty,
+                "interval_95": mc.interval_95,
+            });
+        }
         println!("{json}");
-        return Ok(());
+        return;
     }
-    print!("{}", budget_table(&value, combined, dof, k));
-    Ok(())
+    print!("{}", budget_table(value, combined, dof, k));
+    if let Some(mc) = monte_carlo {
+        let half = (mc.interval_95[1] - mc.interval_95[0]) / 2.0;
+        println!(
+            "Monte Carlo (JCGM 101, {} draws): mean {:.6}, u {:.6} ({:+.2} % of u_c), 95 % interval [{:.6}, {:.6}], half-width {:.6} ({:+.2} % of U95)",
+            mc.draws,
+            mc.mean,
+            mc.standard_uncertainty,
+            100.0 * (mc.standard_uncertainty / combined - 1.0),
+            mc.interval_95[0],
+            mc.interval_95[1],
+            half,
+            100.0 * (half / (k * combined) - 1.0)
+        );
+    }
 }
 
 /// The budget as a metrology lab presents it: each source's standard
@@ -97,8 +183,16 @@ fn budget_table(
         text.push_str("no certificate, accuracy or resolution in the rig: the uncertainty is the readings' scatter only (a hold's, in acq extract)\n");
         return text;
     }
+    let width = value
+        .budget
+        .contributions
+        .iter()
+        .map(|c| c.source.len())
+        .max()
+        .unwrap_or(0)
+        .max(20);
     text.push_str(&format!(
-        "{:<20} {:>14} {:>8} {:>8}\n",
+        "{:<width$} {:>14} {:>8} {:>8}\n",
         "source",
         format!("u ({unit})"),
         "dof",
@@ -111,7 +205,7 @@ fn budget_table(
         .zip(value.budget.variance_shares())
     {
         text.push_str(&format!(
-            "{:<20} {:>14.6} {:>8} {:>7.1}%\n",
+            "{:<width$} {:>14.6} {:>8} {:>7.1}%\n",
             contribution.source,
             contribution.in_result(),
             dof_text(contribution.dof),

@@ -9,7 +9,7 @@
 //! are marked shared by the sensor's name and a posterior takes each
 //! sensor's as one error. Resolution and scatter are each value's own.
 
-use acq_drivers::rig::{Accuracy, Sensor};
+use acq_drivers::rig::{Accuracy, Cylinder, Sensor};
 use acq_io::shunt_record::ShuntRecord;
 use acq_io::zero_record::{SensorZero, ZeroRecord};
 use acq_metrology::budget::{rectangular, resolution, Budget, Contribution};
@@ -258,4 +258,46 @@ pub fn propagated<'a>(
         sensitivity: c.sensitivity * sensitivity,
         ..c.clone()
     })
+}
+
+/// The bore's and the rod's diameter tolerances in a net force `F = (p_h -
+/// p_r) pi D^2 / 4 + p_r pi d^2 / 4` (bar and mm^2 to kN: 1e-4): `dF/dD =
+/// (p_h - p_r) pi D / 2` and `dF/dd = p_r pi d / 2`, each diameter
+/// rectangular within its tolerance and the same in every hold.
+pub fn diameter_parts(cylinder: &Cylinder, head_bar: f64, rod_bar: f64) -> Vec<Contribution> {
+    let kn_per_bar_mm2 = 1e-4;
+    let bore = &cylinder.bore;
+    let shared = format!("{} cylinder's diameters", cylinder.name);
+    [
+        (
+            "bore diameter",
+            cylinder.bore_tolerance_mm,
+            (head_bar - rod_bar) * std::f64::consts::PI * bore.bore_diameter_mm / 2.0,
+        ),
+        (
+            "rod diameter",
+            cylinder.rod_tolerance_mm,
+            rod_bar * std::f64::consts::PI * bore.rod_diameter_mm / 2.0,
+        ),
+    ]
+    .into_iter()
+    .filter(|(_, tolerance, _)| *tolerance > 0.0)
+    .map(|(source, tolerance, per_mm)| Contribution {
+        sensitivity: per_mm * kn_per_bar_mm2,
+        ..Contribution::direct(
+            &format!("{}: {source}", cylinder.name),
+            rectangular(tolerance),
+            None,
+        )
+        .shared_by(&shared)
+    })
+    .collect()
+}
+
+/// kN per bar of the head chamber and of the annulus.
+pub fn kn_per_bar(cylinder: &Cylinder) -> (f64, f64) {
+    (
+        cylinder.bore.head_area_mm2() * 1e-4,
+        cylinder.bore.annulus_area_mm2() * 1e-4,
+    )
 }

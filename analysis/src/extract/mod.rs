@@ -6,6 +6,7 @@
 //! - [`stats`]: mean, std, effective n, 95 % interval of one window.
 //! - [`budget`]: a value's uncertainty budget: the scatter, and the sensor's
 //!   certificate, accuracy class and resolution (JCGM 100).
+//! - [`net_force`]: a cylinder's net force budget and its Monte Carlo check.
 //! - [`plausibility`]: stuck, saturated, noisy, partner disagreement.
 //! - [`measured`]: the measured-values CSV (written here, read by calibrate).
 //! - [`tensile`]: force-displacement curve, zeroed and cut at fracture.
@@ -17,6 +18,7 @@ pub mod budget;
 pub mod holds;
 pub mod live;
 pub mod measured;
+pub mod net_force;
 pub mod plausibility;
 pub mod quantities;
 pub mod run;

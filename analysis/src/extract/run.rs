@@ -18,7 +18,7 @@ use acq_io::shunt_record::ShuntRecord;
 use acq_io::zero_record::ZeroRecord;
 use acq_metrology::budget::Budget;
 
-use super::budget::{hold_budget, propagated, SessionParts};
+use super::budget::{diameter_parts, hold_budget, kn_per_bar, propagated, SessionParts};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
 use acq_drivers::sensors::Sample;
@@ -361,9 +361,7 @@ fn cylinder_values(
             })
             .collect();
         let bore = &cylinder.bore;
-        // kN per bar of each chamber.
-        let head_kn_per_bar = bore.head_area_mm2() * 0.1 / 1000.0;
-        let rod_kn_per_bar = bore.annulus_area_mm2() * 0.1 / 1000.0;
+        let (head_kn_per_bar, rod_kn_per_bar) = kn_per_bar(cylinder);
         let net = head
             .mean
             .zip(rod.mean)
@@ -442,45 +440,6 @@ fn cylinder_values(
         );
     }
     values
-}
-
-/// The bore's and the rod's diameter tolerances in a net force `F = (p_h -
-/// p_r) pi D^2 / 4 + p_r pi d^2 / 4` (bar and mm^2 to kN: 1e-4): `dF/dD =
-/// (p_h - p_r) pi D / 2` and `dF/dd = p_r pi d / 2`, each diameter
-/// rectangular within its tolerance and the same in every hold.
-fn diameter_parts(
-    cylinder: &acq_drivers::rig::Cylinder,
-    head_bar: f64,
-    rod_bar: f64,
-) -> Vec<acq_metrology::budget::Contribution> {
-    use acq_metrology::budget::{rectangular, Contribution};
-    let kn_per_bar_mm2 = 1e-4;
-    let bore = &cylinder.bore;
-    let shared = format!("{} cylinder's diameters", cylinder.name);
-    [
-        (
-            "bore diameter",
-            cylinder.bore_tolerance_mm,
-            (head_bar - rod_bar) * std::f64::consts::PI * bore.bore_diameter_mm / 2.0,
-        ),
-        (
-            "rod diameter",
-            cylinder.rod_tolerance_mm,
-            rod_bar * std::f64::consts::PI * bore.rod_diameter_mm / 2.0,
-        ),
-    ]
-    .into_iter()
-    .filter(|(_, tolerance, _)| *tolerance > 0.0)
-    .map(|(source, tolerance, per_mm)| Contribution {
-        sensitivity: per_mm * kn_per_bar_mm2,
-        ..Contribution::direct(
-            &format!("{}: {source}", cylinder.name),
-            rectangular(tolerance),
-            None,
-        )
-        .shared_by(&shared)
-    })
-    .collect()
 }
 
 /// The quantity of a cylinder's net force (kN) in a hold.

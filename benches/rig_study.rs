@@ -15,7 +15,10 @@
 //! A hold's measured values are the twin-driven virtual rig's levels at the
 //! truth, each mean off by its standard error of 600 readings of a typical
 //! transducer (`virtual_rig::synthetic_hold`; tests/rig_study.rs plays such
-//! holds on the in-process bus). The target: the posterior's shrinkage
+//! holds on the in-process bus), each value's budget the rig's (its
+//! transducers' data sheets: the errors shared by every hold, as an
+//! extracted hold carries them; `ACQ_BENCH_SCATTER_ONLY=1` leaves them
+//! out, as the bench did before 2026-11-29). The target: the posterior's shrinkage
 //! (the geometric mean of the parameters' 90 % widths over their prior's)
 //! at most `TARGET`. Each operator stops at the target or after
 //! `MAX_HOLDS`; at its end, how many parameters' 90 % intervals hold the
@@ -96,6 +99,47 @@ fn published(geometry: &acq_twins::excavator::geometry::Geometry) -> Vec<Inclina
         .unwrap();
     poses.push(Inclinations::of(&case3.pose));
     poses
+}
+
+/// The hold's values as `acq extract` writes them from a recording on
+/// `rig`: the same statistics, each value's budget from the rig's records
+/// (net forces through both chambers). Unchanged with
+/// `ACQ_BENCH_SCATTER_ONLY`.
+fn with_rig_budgets(
+    rig: &acq_drivers::rig::Rig,
+    hold: Vec<acq_analysis::extract::measured::MeasuredValue>,
+) -> Vec<acq_analysis::extract::measured::MeasuredValue> {
+    use acq_analysis::extract::budget::SessionParts;
+    use acq_analysis::extract::run::{hold_values, HoldWindow};
+    if std::env::var_os("ACQ_BENCH_SCATTER_ONLY").is_some() {
+        return hold;
+    }
+    let stats: Vec<_> = rig
+        .sensors
+        .iter()
+        .map(|s| {
+            hold.iter()
+                .find(|v| v.quantity == s.name)
+                .map(|v| v.stats)
+                .unwrap_or_default()
+        })
+        .collect();
+    let width = rig.sensors.len();
+    let window = HoldWindow {
+        name: "hold",
+        start_s: 0.0,
+        end_s: 0.0,
+    };
+    hold_values(
+        rig,
+        &window,
+        &stats,
+        &vec![Vec::new(); width],
+        &vec![SessionParts::default(); width],
+    )
+    .into_iter()
+    .filter(|v| v.stats.mean.is_some())
+    .collect()
 }
 
 fn main() {
@@ -186,7 +230,7 @@ fn main() {
                 let levels = hold_levels(&geometry, &sensors, &BTreeMap::new(), &point).unwrap();
                 holds.push((
                     format!("hold{}", k + 1),
-                    synthetic_hold(&quantities, &levels, 600, &mut noise),
+                    with_rig_budgets(&rig, synthetic_hold(&quantities, &levels, 600, &mut noise)),
                 ));
                 let start = Instant::now();
                 tracker.update(&holds, &mut |_| {});

@@ -297,46 +297,67 @@ impl<'a> WindowSummariser<'a> {
             let accs = &self.accumulators[w * width..(w + 1) * width];
             let stats: Vec<WindowStats> = accs.iter().map(|a| a.summary()).collect();
             let flags = check_window(rig, accs, &stats);
-            let start_s = (window.start_ns - t0_ns) as f64 / 1e9;
-            let end_s = (window.end_ns - t0_ns) as f64 / 1e9;
-            for (i, sensor) in rig.sensors.iter().enumerate() {
-                values.push(
-                    MeasuredValue {
-                        window: window.name.clone(),
-                        start_s,
-                        end_s,
-                        quantity: sensor.name.clone(),
-                        unit: sensor.unit().to_string(),
-                        stats: stats[i],
-                        flags: flags[i].iter().map(|f| f.code.clone()).collect(),
-                        note: flags[i]
-                            .iter()
-                            .map(|f| f.note.as_str())
-                            .collect::<Vec<_>>()
-                            .join("; "),
-                        budget: Budget::default(),
-                        u_c: None,
-                        k: None,
-                    }
-                    .with_budget(hold_budget(
-                        sensor,
-                        &stats[i],
-                        &self.session_parts[i],
-                    )),
-                );
-            }
-            values.extend(cylinder_values(
-                rig,
-                &window.name,
-                start_s,
-                end_s,
-                &stats,
-                &flags,
-                &self.session_parts,
-            ));
+            let hold = HoldWindow {
+                name: &window.name,
+                start_s: (window.start_ns - t0_ns) as f64 / 1e9,
+                end_s: (window.end_ns - t0_ns) as f64 / 1e9,
+            };
+            values.extend(hold_values(rig, &hold, &stats, &flags, &self.session_parts));
         }
         values
     }
+}
+
+/// A hold's name and its span in session seconds.
+pub struct HoldWindow<'a> {
+    pub name: &'a str,
+    pub start_s: f64,
+    pub end_s: f64,
+}
+
+/// Every sensor's value in one hold from its statistics (per rig sensor),
+/// each with its budget, then each cylinder's net force and loaded-chamber
+/// pressure: what `acq extract` writes for the hold.
+pub fn hold_values(
+    rig: &Rig,
+    hold: &HoldWindow<'_>,
+    stats: &[WindowStats],
+    flags: &[Vec<super::plausibility::Flag>],
+    session_parts: &[SessionParts],
+) -> Vec<MeasuredValue> {
+    let mut values = Vec::new();
+    for (i, sensor) in rig.sensors.iter().enumerate() {
+        values.push(
+            MeasuredValue {
+                window: hold.name.to_string(),
+                start_s: hold.start_s,
+                end_s: hold.end_s,
+                quantity: sensor.name.clone(),
+                unit: sensor.unit().to_string(),
+                stats: stats[i],
+                flags: flags[i].iter().map(|f| f.code.clone()).collect(),
+                note: flags[i]
+                    .iter()
+                    .map(|f| f.note.as_str())
+                    .collect::<Vec<_>>()
+                    .join("; "),
+                budget: Budget::default(),
+                u_c: None,
+                k: None,
+            }
+            .with_budget(hold_budget(sensor, &stats[i], &session_parts[i])),
+        );
+    }
+    values.extend(cylinder_values(
+        rig,
+        hold.name,
+        hold.start_s,
+        hold.end_s,
+        stats,
+        flags,
+        session_parts,
+    ));
+    values
 }
 
 /// Net force and loaded-chamber pressure of each rig cylinder in a window.

@@ -146,6 +146,61 @@ fn no_output_replaces_an_input_of_the_same_command() {
     assert!(!files_in(&session).iter().any(|n| n.ends_with(".partial")));
 }
 
+/// What a command reads without naming it on its command line is an
+/// input too: a log on standard input (redirected from the file the output
+/// names), the DBC files and sensor file a rig names, a session's own
+/// copies of its rig and DBC, and its zero record. Each is refused (exit
+/// 2) and kept byte for byte.
+#[test]
+fn files_reached_through_stdin_a_rig_or_a_session_are_inputs_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("mine.log");
+    std::fs::copy(root().join("fixtures/logs/excavator_case1.log"), &log).unwrap();
+    let rig_dir = dir.path().join("rigs");
+    std::fs::create_dir(&rig_dir).unwrap();
+    let dbc = rig_dir.join("somat_excavator.dbc");
+    std::fs::copy(root().join("fixtures/dbc/somat_excavator.dbc"), &dbc).unwrap();
+    let rig = rig_dir.join("mine.toml");
+    std::fs::write(
+        &rig,
+        std::fs::read_to_string(root().join("fixtures/rigs/excavator.toml"))
+            .unwrap()
+            .replace("../dbc/somat_excavator.dbc", "somat_excavator.dbc"),
+    )
+    .unwrap();
+    let session = copy_session("excavator_case2", dir.path());
+    let zeroed = acq(&["zero", path_arg(&session), "--before", "0.5s"]);
+    assert!(zeroed.status.success(), "{}", stderr(&zeroed));
+    let kept: Vec<PathBuf> = vec![
+        log.clone(),
+        dbc.clone(),
+        session.join("rig/excavator.toml"),
+        session.join("rig/somat_excavator.dbc"),
+        session.join("zero.toml"),
+    ];
+    let before: Vec<Vec<u8>> = kept.iter().map(|p| std::fs::read(p).unwrap()).collect();
+
+    let stdin = std::process::Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(["decode", "-", "--rig", path_arg(&rig), "-o", path_arg(&log)])
+        .stdin(std::fs::File::open(&log).unwrap())
+        .output()
+        .unwrap();
+    assert_eq!(stdin.status.code(), Some(2), "{}", stderr(&stdin));
+    assert!(stderr(&stdin).contains("an input of this command"), "{}", stderr(&stdin));
+    for args in [
+        vec!["decode", path_arg(&log), "--rig", path_arg(&rig), "-o", path_arg(&dbc)],
+        vec!["extract", path_arg(&session), "-o", path_arg(&kept[2])],
+        vec!["align", path_arg(&session), "-o", path_arg(&kept[3])],
+        vec!["extract", path_arg(&session), "-o", path_arg(&kept[4])],
+    ] {
+        let message = refused(&args, 2);
+        assert!(message.contains("an input of this command"), "{args:?}: {message}");
+    }
+    for (path, bytes) in kept.iter().zip(&before) {
+        assert_eq!(&std::fs::read(path).unwrap(), bytes, "{} changed", path.display());
+    }
+}
+
 // ---- a refused command leaves nothing behind ----------------------------------------------
 
 #[test]

@@ -33,6 +33,9 @@ static INPUTS: Mutex<Vec<InputFile>> = Mutex::new(Vec::new());
 /// paths that do not exist are ignored.
 pub fn note_input(path: &Path) {
     if path.as_os_str() == "-" {
+        // Standard input redirected from a file is that file: an output
+        // must not replace it either. /dev/stdin names whatever fd 0 is.
+        note_input(Path::new("/dev/stdin"));
         return;
     }
     let Ok(metadata) = std::fs::metadata(path) else {
@@ -91,6 +94,7 @@ pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result
 
 pub fn open_log(path: &Path) -> Result<LogInput> {
     let (name, raw): (String, Box<dyn BufRead>) = if path.as_os_str() == "-" {
+        note_input(path);
         (
             "<stdin>".into(),
             Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, io::stdin())),
@@ -218,10 +222,25 @@ pub fn read_csv_records_of_any(
     Ok((which, records))
 }
 
+/// Notes every file a loaded rig was read from as an input: the rig, its
+/// DBC files and its sensor file (a session's copies of them included).
+pub fn note_rig_inputs(rig: &Rig) {
+    note_input(&rig.path);
+    for bus in &rig.buses {
+        for dbc in &bus.dbc_files {
+            note_input(dbc);
+        }
+    }
+    if let Some(sensor_file) = &rig.sensor_file {
+        note_input(sensor_file);
+    }
+}
+
 /// Loads a rig; every problem in it is a configuration error (exit 2).
 pub fn load_rig(path: &Path) -> Result<Rig> {
     note_input(path);
     let rig = Rig::load(path).map_err(|e| AcqError::Config(e.to_string()))?;
+    note_rig_inputs(&rig);
     for warning in &rig.warnings {
         eprintln!("acq: warning: {warning}");
     }

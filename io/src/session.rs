@@ -240,7 +240,10 @@ pub fn read_toml_file<T: serde::de::DeserializeOwned>(
 ) -> Result<Option<T>> {
     let path = dir.join(name);
     let text = match fs::read_to_string(&path) {
-        Ok(text) => text,
+        Ok(text) => {
+            crate::input::note_input(&path);
+            text
+        }
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(AcqError::open(&path, e)),
     };

@@ -88,6 +88,7 @@ impl Recording {
             }
         };
         let mut rig = Rig::load(&rig_file).map_err(|e| AcqError::Config(e.to_string()))?;
+        acq_io::input::note_rig_inputs(&rig);
         let mut notes = Vec::new();
         if let Some(session) = &session {
             let interfaces: Vec<IfaceName> = session

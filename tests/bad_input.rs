@@ -186,19 +186,133 @@ fn files_reached_through_stdin_a_rig_or_a_session_are_inputs_too() {
         .output()
         .unwrap();
     assert_eq!(stdin.status.code(), Some(2), "{}", stderr(&stdin));
-    assert!(stderr(&stdin).contains("an input of this command"), "{}", stderr(&stdin));
+    assert!(
+        stderr(&stdin).contains("an input of this command"),
+        "{}",
+        stderr(&stdin)
+    );
     for args in [
-        vec!["decode", path_arg(&log), "--rig", path_arg(&rig), "-o", path_arg(&dbc)],
+        vec![
+            "decode",
+            path_arg(&log),
+            "--rig",
+            path_arg(&rig),
+            "-o",
+            path_arg(&dbc),
+        ],
         vec!["extract", path_arg(&session), "-o", path_arg(&kept[2])],
         vec!["align", path_arg(&session), "-o", path_arg(&kept[3])],
         vec!["extract", path_arg(&session), "-o", path_arg(&kept[4])],
     ] {
         let message = refused(&args, 2);
-        assert!(message.contains("an input of this command"), "{args:?}: {message}");
+        assert!(
+            message.contains("an input of this command"),
+            "{args:?}: {message}"
+        );
     }
     for (path, bytes) in kept.iter().zip(&before) {
-        assert_eq!(&std::fs::read(path).unwrap(), bytes, "{} changed", path.display());
+        assert_eq!(
+            &std::fs::read(path).unwrap(),
+            bytes,
+            "{} changed",
+            path.display()
+        );
     }
+}
+
+/// A session's own files cannot lead a reader astray: session.toml's
+/// rig copy may not point outside the session (the rig there is never
+/// loaded), and a raw log that is a FIFO is refused at once rather than
+/// read for ever (the command is given ten seconds).
+#[test]
+fn a_session_file_cannot_lead_outside_its_directory_nor_block_on_a_fifo() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = copy_session("excavator_case1", dir.path());
+    let outside = dir.path().join("outside");
+    std::fs::create_dir(&outside).unwrap();
+    std::fs::copy(session.join("rig/excavator.toml"), outside.join("rig.toml")).unwrap();
+    let toml_path = session.join("session.toml");
+    let text = std::fs::read_to_string(&toml_path).unwrap();
+    std::fs::write(
+        &toml_path,
+        text.replace(
+            "copy = \"rig/excavator.toml\"",
+            "copy = \"../outside/rig.toml\"",
+        ),
+    )
+    .unwrap();
+    let message = refused(&["extract", path_arg(&session), "-o", "-"], 2);
+    assert!(
+        message.contains("[rig.file] copy") && message.contains("no '..'"),
+        "{message}"
+    );
+
+    let fifo_session = copy_session("excavator_case2", dir.path());
+    let raw = fifo_session.join("raw.log");
+    std::fs::remove_file(&raw).unwrap();
+    nix::unistd::mkfifo(&raw, nix::sys::stat::Mode::S_IRWXU).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args(["view", path_arg(&fifo_session), "--view", "127.0.0.1:0"])
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("acq view waited on a FIFO raw.log for 10 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let mut said = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut said).unwrap();
+    assert_eq!(status.code(), Some(2), "{said}");
+    assert!(said.contains("not a regular file"), "{said}");
+}
+
+/// A preset's posterior is bounded as a spec's is: 100 to a million kept
+/// draws per chain, refused before any model run.
+#[test]
+fn a_presets_posterior_draws_are_bounded_as_a_specs() {
+    for draws in ["0", "99", "1000001", "10000000000"] {
+        let message = refused(
+            &[
+                "calibrate",
+                "gtn",
+                "--test",
+                "data/tensile/P91_20_2_DF_SS.csv",
+                "--posterior",
+                "--posterior-draws",
+                draws,
+                "--out",
+                "/nonexistent/never",
+            ],
+            2,
+        );
+        assert!(
+            message.contains("give 100 to 1000000"),
+            "{draws}: {message}"
+        );
+    }
+    let message = refused(
+        &[
+            "calibrate",
+            "excavator",
+            "--case",
+            "data/excavator/case1.toml",
+            "--posterior",
+            "--posterior-draws",
+            "5",
+            "--out",
+            "/nonexistent/never",
+        ],
+        2,
+    );
+    assert!(message.contains("give 100 to 1000000"), "{message}");
 }
 
 // ---- a refused command leaves nothing behind ----------------------------------------------

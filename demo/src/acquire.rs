@@ -55,7 +55,11 @@ pub fn session_rig(source: &Path) -> Result<Rig> {
             source.display()
         ))
     })?;
-    acq_io::input::load_rig(&source.join(&copy.file.copy))
+    acq_io::input::load_rig(&acq_io::output::inside(
+        source,
+        &copy.file.copy,
+        "session.toml [rig.file] copy",
+    )?)
 }
 
 /// Each playback's live feed and page model.

@@ -239,6 +239,12 @@ pub fn read_toml_file<T: serde::de::DeserializeOwned>(
     remedy: &str,
 ) -> Result<Option<T>> {
     let path = dir.join(name);
+    if fs::metadata(&path).is_ok_and(|m| !m.is_file()) {
+        return Err(AcqError::Config(format!(
+            "{}: not a regular file; {remedy}",
+            path.display()
+        )));
+    }
     let text = match fs::read_to_string(&path) {
         Ok(text) => {
             crate::input::note_input(&path);
@@ -255,6 +261,12 @@ pub fn read_toml_file<T: serde::de::DeserializeOwned>(
 /// Reads `session.toml`.
 pub fn read(dir: &Path) -> Result<SessionFile> {
     let path = dir.join(SESSION_FILE);
+    if fs::metadata(&path).is_ok_and(|m| !m.is_file()) {
+        return Err(AcqError::Config(format!(
+            "{}: not a regular file; a session's session.toml is the file acq record wrote",
+            path.display()
+        )));
+    }
     let text = fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
     toml::from_str(&text).map_err(|e| AcqError::Malformed(format!("{}: {e}", path.display())))
 }
@@ -280,6 +292,13 @@ pub fn raw_files(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = rotated.into_iter().map(|(_, p)| p).collect();
     files.extend(single);
     for file in &files {
+        // A FIFO or a device would block the reader or never end.
+        if !fs::metadata(file).is_ok_and(|m| m.is_file()) {
+            return Err(AcqError::Config(format!(
+                "{}: not a regular file; a session's raw logs are the files acq record wrote",
+                file.display()
+            )));
+        }
         crate::input::note_input(file);
     }
     crate::input::note_input(&dir.join(SESSION_FILE));

@@ -129,7 +129,7 @@ pub struct CalibrateExcavatorArgs {
     pub discrepancy: PosteriorDiscrepancy,
     /// Kept posterior draws per chain (4 chains); an unconverged posterior
     /// is sampled once more, four times as long.
-    #[arg(long, default_value_t = 1000, requires = "posterior")]
+    #[arg(long, default_value_t = 1000, requires = "posterior", value_parser = parse_draws)]
     pub posterior_draws: usize,
     /// Which uncertainty of the measured pressures the study takes:
     /// `budget` (the file's `u_c`, where the rig states the transducers'
@@ -213,7 +213,7 @@ pub struct CalibrateGtnArgs {
     pub posterior: bool,
     /// Kept posterior draws per chain (4 chains); an unconverged posterior
     /// is sampled once more, four times as long.
-    #[arg(long, default_value_t = 1000, requires = "posterior")]
+    #[arg(long, default_value_t = 1000, requires = "posterior", value_parser = parse_draws)]
     pub posterior_draws: usize,
 }
 
@@ -349,6 +349,18 @@ impl From<CalibrateRigArgs> for CalibrateRigOptions {
             next: args.next,
             output: args.output,
         }
+    }
+}
+
+/// `--posterior-draws`: as a spec's `[posterior] draws`, 100 (R-hat and
+/// the ESS need a hundred at least) to the spec's largest.
+fn parse_draws(text: &str) -> std::result::Result<usize, String> {
+    let max = acq_study::posterior::settings::MAX_DRAWS;
+    match text.parse::<usize>() {
+        Ok(draws) if (100..=max).contains(&draws) => Ok(draws),
+        _ => Err(format!(
+            "give 100 to {max} kept draws per chain (R-hat and ESS need a hundred at least; a million per chain is already hours)"
+        )),
     }
 }
 

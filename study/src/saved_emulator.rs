@@ -136,6 +136,12 @@ pub enum EmulatorFileError {
         path: std::path::PathBuf,
         found: u32,
     },
+    /// Parses, but holds numbers no fit gives (a hand edit, a damaged file).
+    #[error("{}: {message}; save it again with the study that made it", path.display())]
+    Invalid {
+        path: std::path::PathBuf,
+        message: String,
+    },
 }
 
 impl SavedEmulator {
@@ -191,7 +197,47 @@ impl SavedEmulator {
                 found: emulator.format,
             });
         }
+        emulator
+            .check_numbers()
+            .map_err(|message| EmulatorFileError::Invalid {
+                path: path.to_path_buf(),
+                message,
+            })?;
         Ok(emulator)
+    }
+
+    /// What a fit always gives: each column's range finite and in order,
+    /// each output's cross-validated error a finite standard deviation of
+    /// at least 0, a constant output finite.
+    fn check_numbers(&self) -> Result<(), String> {
+        for column in &self.columns {
+            if !(column.lower.is_finite()
+                && column.upper.is_finite()
+                && column.lower <= column.upper)
+            {
+                return Err(format!(
+                    "column {}: range {} .. {} is not finite and in order",
+                    column.name, column.lower, column.upper
+                ));
+            }
+        }
+        for output in &self.outputs {
+            if !(output.error_sd.is_finite() && output.error_sd >= 0.0) {
+                return Err(format!(
+                    "output {}: error_sd = {} is not a standard deviation (finite, at least 0)",
+                    output.name, output.error_sd
+                ));
+            }
+            if let Emulated::Constant(value) = output.emulated {
+                if !value.is_finite() {
+                    return Err(format!(
+                        "output {}: constant {value} is not finite",
+                        output.name
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The output `name` at the column values `values` (by name; every
@@ -743,6 +789,16 @@ mod tests {
             matches!(bad, EmulatorFileError::NotAnEmulator { line: 3, .. })
                 && bad.to_string().contains("emulator.json:3"),
             "{bad}"
+        );
+        // A hand-edited error that is no standard deviation.
+        let mut edited = emulator.clone();
+        edited.outputs[0].error_sd = -0.5;
+        edited.save(&path).unwrap();
+        let invalid = SavedEmulator::load(&path).unwrap_err();
+        assert!(
+            matches!(invalid, EmulatorFileError::Invalid { .. })
+                && invalid.to_string().contains("error_sd = -0.5"),
+            "{invalid}"
         );
         let missing = SavedEmulator::load(&path.with_file_name("none.json")).unwrap_err();
         assert!(

@@ -56,8 +56,12 @@ pub fn key(dir: &Path, session: &SessionFile) -> Key {
         ]
         .iter()
         .map(|name| {
-            std::fs::read(dir.join(name))
-                .ok()
+            let path = dir.join(name);
+            // Not a FIFO: the page must never wait on one.
+            std::fs::metadata(&path)
+                .is_ok_and(|m| m.is_file())
+                .then(|| std::fs::read(&path).ok())
+                .flatten()
                 .map(|bytes| acq_io::session::sha256_hex(&bytes))
         })
         .collect(),
@@ -137,7 +141,12 @@ pub fn save(dir: &Path, key: &Key, view: &SessionView) -> Result<()> {
 /// The view from `dir`'s index, if there is one made from this recording;
 /// `fresh` is the view of the rig's sensors with nothing in it yet.
 pub fn load(dir: &Path, key: &Key, fresh: SessionView) -> Option<SessionView> {
-    let bytes = std::fs::read(dir.join(FILE)).ok()?;
+    // Only a regular file: a FIFO would block the page for ever.
+    let path = dir.join(FILE);
+    if !std::fs::metadata(&path).is_ok_and(|m| m.is_file()) {
+        return None;
+    }
+    let bytes = std::fs::read(&path).ok()?;
     let (stored, view) = parse(&bytes, fresh)?;
     (stored == *key).then_some(view)
 }

@@ -74,7 +74,15 @@ impl Recording {
         let rig_file = match (rig_path, &session) {
             (Some(rig), _) => rig.to_path_buf(),
             (None, Some(session)) => match &session.rig {
-                Some(copy) => path.join(&copy.file.copy),
+                // A path from session.toml stays inside the session.
+                Some(copy) => acq_io::output::inside(
+                    path,
+                    &copy.file.copy,
+                    &format!(
+                        "{} [rig.file] copy",
+                        path.join(session::SESSION_FILE).display()
+                    ),
+                )?,
                 None => {
                     return Err(AcqError::Config(format!(
                         "session {label} was recorded without a rig; give one with --rig RIG.toml"

@@ -127,7 +127,7 @@ fn convergence_sentence(posterior: &PosteriorOutcome) -> String {
         format!(
             "**Not converged**: {}. The numbers below are not to be trusted yet: sample longer (`draws` under `[posterior]` in a spec, `--posterior-draws` with a preset, e.g. {}) or with more chains.",
             unconverged.join(", "),
-            posterior.settings.draws * 4
+            (posterior.settings.draws * 4).clamp(100, super::settings::MAX_DRAWS)
         )
     }
 }

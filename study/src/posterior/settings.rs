@@ -19,6 +19,11 @@ pub enum Discrepancy {
 /// unless a preset whose model is cheap enough allows more.
 pub const MAX_REFINEMENT_RUNS: usize = 20;
 
+/// The most kept draws per chain a posterior is asked for (a spec's
+/// `[posterior] draws`, a preset's `--posterior-draws`): a million per
+/// chain is already hours of model runs.
+pub const MAX_DRAWS: usize = 1_000_000;
+
 /// How the posterior is sampled.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PosteriorSettings {

@@ -384,7 +384,7 @@ pub const MAX_PARALLEL: usize = 256;
 pub const MAX_EVALUATIONS: usize = 100_000;
 /// `[posterior]`: at most this many draws per chain, chains, and
 /// predictive runs per case.
-pub const MAX_DRAWS: usize = 1_000_000;
+pub use crate::posterior::settings::MAX_DRAWS;
 pub const MAX_CHAINS: usize = 64;
 pub const MAX_PREDICTIVE_RUNS: usize = 100_000;
 /// The built-in start designs of `search.start`.

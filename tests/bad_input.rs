@@ -272,6 +272,18 @@ fn a_session_file_cannot_lead_outside_its_directory_nor_block_on_a_fifo() {
     std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut said).unwrap();
     assert_eq!(status.code(), Some(2), "{said}");
     assert!(said.contains("not a regular file"), "{said}");
+
+    // The same for what a user names: a spec, a rig, a measured curve.
+    let fifo = dir.path().join("fifo.toml");
+    nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
+    for args in [
+        vec!["calibrate", "external", "--spec", path_arg(&fifo), "--out", "/nonexistent/never"],
+        vec!["check-rig", path_arg(&fifo)],
+        vec!["tensile-props", path_arg(&fifo)],
+    ] {
+        let message = refused(&args, 2);
+        assert!(message.contains("not a regular file"), "{args:?}: {message}");
+    }
 }
 
 /// A preset's posterior is bounded as a spec's is: 100 to a million kept

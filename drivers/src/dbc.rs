@@ -494,6 +494,13 @@ impl DbcDatabase {
     /// often write it).
     pub fn load(path: &std::path::Path) -> Result<(Self, Vec<DbcWarning>), DbcError> {
         let name = path.display().to_string();
+        // A FIFO or a device would block or never end.
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+            return Err(DbcError::Unreadable {
+                source_name: name,
+                detail: "not a regular file; give the DBC file's path".into(),
+            });
+        }
         let bytes = std::fs::read(path).map_err(|e| DbcError::Unreadable {
             source_name: name.clone(),
             detail: e.to_string(),

@@ -183,12 +183,50 @@ pub fn read_csv_records(path: &Path, expected: &[&str]) -> Result<Vec<(u64, csv:
     read_csv_records_of_any(path, &[expected]).map(|(_, records)| records)
 }
 
+/// The largest text file acq reads whole (a spec, a measured curve, a
+/// case, a saved emulator): far above any real one, far below memory.
+pub const MAX_TEXT_BYTES: u64 = 1 << 30;
+
+/// A text file the user named, read whole: only a regular file (a FIFO or
+/// a device would block or never end) of at most [`MAX_TEXT_BYTES`]. The
+/// drop-in for `std::fs::read_to_string` wherever a path comes from the
+/// user or a file of theirs.
+pub fn read_text(path: &Path) -> io::Result<String> {
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(io::Error::other(
+            "not a regular file (a FIFO or a device would block or never end); give a file",
+        ));
+    }
+    if meta.len() > MAX_TEXT_BYTES {
+        return Err(io::Error::other(format!(
+            "{} bytes, more than the {MAX_TEXT_BYTES} a text input of acq may hold",
+            meta.len()
+        )));
+    }
+    std::fs::read_to_string(path)
+}
+
+/// Refuses a path that names something other than a regular file (a
+/// FIFO, a device, a directory) before it is read: such a read blocks or
+/// never ends. A path that does not exist passes: opening it says so.
+pub fn refuse_non_file(path: &Path, what: &str) -> Result<()> {
+    match std::fs::metadata(path) {
+        Ok(meta) if !meta.is_file() => Err(AcqError::Config(format!(
+            "{}: not a regular file; give the {what} as a file",
+            path.display()
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// As [`read_csv_records`], for a file whose header is one of `headers`
 /// (a format that gained columns, newest first): which one, and the rows.
 pub fn read_csv_records_of_any(
     path: &Path,
     headers: &[&[&str]],
 ) -> Result<(usize, Vec<(u64, csv::StringRecord)>)> {
+    refuse_non_file(path, "table")?;
     note_input(path);
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)

@@ -104,7 +104,7 @@ pub fn start_design(
         "factorial" => full_factorial(&vec![2; d]).map_err(|e| config(e.to_string()))?,
         file => {
             let path = spec_directory.join(file);
-            let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
+            let text = acq_io::input::read_text(&path).map_err(|e| AcqError::open(&path, e))?;
             acq_io::input::note_input(&path);
             let names: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
             let points = read_design_csv(&text, &names)

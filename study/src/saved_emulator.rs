@@ -181,7 +181,7 @@ impl SavedEmulator {
     /// Reads a saved emulator; an error names the file and, for JSON that
     /// does not parse, the line.
     pub fn load(path: &Path) -> Result<SavedEmulator, EmulatorFileError> {
-        let text = std::fs::read_to_string(path).map_err(|source| EmulatorFileError::Read {
+        let text = acq_io::input::read_text(path).map_err(|source| EmulatorFileError::Read {
             path: path.to_path_buf(),
             source,
         })?;

@@ -284,7 +284,7 @@ pub const FLOW_CURVE_COLUMNS: [&str; 2] = ["PLASTIC_STRAIN", "TRUE_STRESS_MPA"];
 /// `TRUE_STRESS_MPA` columns (others ignored), the first row at plastic
 /// strain 0. Errors name the file and line.
 pub fn read_flow_curve(path: &std::path::Path) -> Result<Vec<(f64, f64)>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = acq_io::input::read_text(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let rows = acq_calib::doe::read_design_csv(&text, &FLOW_CURVE_COLUMNS)
         .map_err(|e| format!("{}: {e}", path.display()))?;
     let table: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], r[1])).collect();

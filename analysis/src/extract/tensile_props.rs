@@ -240,7 +240,7 @@ pub struct PostUtsSlope {
 /// Reads a test CSV; malformed content is [`AcqError::Malformed`] with
 /// `file:line`, a file that cannot be opened [`AcqError::Config`].
 pub fn read_test_csv(path: &Path) -> Result<Vec<TestPoint>> {
-    let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+    let text = acq_io::input::read_text(path).map_err(|e| AcqError::open(path, e))?;
     acq_io::input::note_input(path);
     parse_test_csv(&text, &path.display().to_string()).map_err(AcqError::Malformed)
 }

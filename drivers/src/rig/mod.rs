@@ -717,6 +717,12 @@ impl Rig {
                 message,
             }],
         };
+        // A FIFO or a device would block or never end.
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+            return Err(fail(
+                "not a regular file; give the rig file's path".to_string(),
+            ));
+        }
         let text = std::fs::read_to_string(path)
             .map_err(|e| fail(format!("cannot read the rig file: {e}")))?;
         let base = path.parent().unwrap_or(Path::new("."));

@@ -164,7 +164,7 @@ pub fn spec_directory(spec: &Path) -> PathBuf {
 /// A spec file's text and its tables as written (types checked, nothing
 /// else).
 pub fn read_spec_file(path: &Path) -> Result<(String, SpecFile), SpecError> {
-    let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+    let text = acq_io::input::read_text(path).map_err(|e| AcqError::open(path, e))?;
     acq_io::input::note_input(path);
     let file: SpecFile = toml::from_str(&text).map_err(|e| SpecError::Invalid {
         path: path.to_path_buf(),

@@ -15,7 +15,7 @@ use crate::study::{Measured, Observation, SCATTER_OF_MEAN};
 /// The points of columns `x` and `y` of a CSV with a header row; errors
 /// name the file and line.
 pub fn read_curve(path: &Path, x: &str, y: &str) -> Result<Vec<(f64, f64)>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = acq_io::input::read_text(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let rows = read_design_csv(&text, &[x, y]).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(rows.iter().map(|row| (row[0], row[1])).collect())
 }

@@ -439,7 +439,7 @@ pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
     check_search_settings(&args)?;
     let template = match &args.geometry {
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| AcqError::open(path, e))?;
+            let text = acq_io::input::read_text(path).map_err(|e| AcqError::open(path, e))?;
             GeometryTemplate::parse(&text)
                 .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))?
         }

@@ -142,7 +142,7 @@ pub(crate) fn geometry_template(
     match geometry {
         Some(file) => {
             let path = spec_directory.join(file);
-            let text = std::fs::read_to_string(&path).map_err(|e| AcqError::open(&path, e))?;
+            let text = acq_io::input::read_text(&path).map_err(|e| AcqError::open(&path, e))?;
             acq_io::input::note_input(&path);
             GeometryTemplate::parse(&text)
                 .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))

@@ -277,12 +277,22 @@ fn a_session_file_cannot_lead_outside_its_directory_nor_block_on_a_fifo() {
     let fifo = dir.path().join("fifo.toml");
     nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::S_IRWXU).unwrap();
     for args in [
-        vec!["calibrate", "external", "--spec", path_arg(&fifo), "--out", "/nonexistent/never"],
+        vec![
+            "calibrate",
+            "external",
+            "--spec",
+            path_arg(&fifo),
+            "--out",
+            "/nonexistent/never",
+        ],
         vec!["check-rig", path_arg(&fifo)],
         vec!["tensile-props", path_arg(&fifo)],
     ] {
         let message = refused(&args, 2);
-        assert!(message.contains("not a regular file"), "{args:?}: {message}");
+        assert!(
+            message.contains("not a regular file"),
+            "{args:?}: {message}"
+        );
     }
 }
 

@@ -427,6 +427,37 @@ fn the_page_only_reads_escapes_names_and_keeps_strangers_out() {
         403,
         "a page elsewhere (DNS rebinding) is refused"
     );
+    // An absolute-form request line (a proxy's) is refused even with the
+    // right Host header.
+    let absolute = format!("http://{addr}/api/state");
+    let (status, _, body) = http(&addr, "GET", &absolute, None);
+    assert_eq!(status, 400, "{body}");
+    assert!(body.contains("no proxy"), "{body}");
+    // Clients that never finish their headers are closed once the header
+    // timeout has passed, and the page still answers meanwhile.
+    let slow: Vec<TcpStream> = (0..30)
+        .map(|_| {
+            let mut stream = TcpStream::connect(&addr).unwrap();
+            write!(stream, "GET / HTTP/1.1\r\nHost: {addr}\r\nX-Slow: ").unwrap();
+            stream
+        })
+        .collect();
+    assert_eq!(http(&addr, "GET", "/api/state", None).0, 200);
+    std::thread::sleep(acq_view::server::HEADER_READ_TIMEOUT + Duration::from_secs(2));
+    for mut stream in slow {
+        stream
+            .set_read_timeout(Some(Duration::from_secs(5)))
+            .unwrap();
+        let mut answer = Vec::new();
+        let read = stream.read_to_end(&mut answer);
+        assert!(
+            read.is_ok()
+                || read
+                    .as_ref()
+                    .is_err_and(|e| e.kind() == std::io::ErrorKind::ConnectionReset),
+            "a slow client is still held after the header timeout: {read:?}"
+        );
+    }
 
     // In Chromium the names are text: no script of theirs runs, nothing is
     // refused by the policy, and the name reads as it is.

@@ -246,13 +246,7 @@ pub async fn serve(
         .layer(middleware::from_fn_with_state(app.clone(), guard))
         .with_state(app);
     let (stop, stopped) = oneshot::channel::<()>();
-    let task = tokio::spawn(async move {
-        let _ = axum::serve(listener, router)
-            .with_graceful_shutdown(async {
-                let _ = stopped.await;
-            })
-            .await;
-    });
+    let task = tokio::spawn(accept_until(listener, router, stopped));
     Ok(ViewServer {
         url,
         closing,
@@ -262,8 +256,64 @@ pub async fn serve(
     })
 }
 
+/// How long a client may take to send a request's headers: a browser
+/// sends them at once; a client that dribbles them holds a connection
+/// (and its memory) until this passes, then it is closed.
+pub const HEADER_READ_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Accepts connections until `stopped`, each served by hyper's HTTP/1
+/// with [`HEADER_READ_TIMEOUT`]; on stop every connection finishes its
+/// answer and closes.
+async fn accept_until(
+    listener: tokio::net::TcpListener,
+    router: Router,
+    mut stopped: oneshot::Receiver<()>,
+) {
+    use hyper_util::rt::{TokioIo, TokioTimer};
+    use hyper_util::service::TowerToHyperService;
+    let (shutdown, _) = tokio::sync::watch::channel(());
+    loop {
+        let stream = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok((stream, _)) => stream,
+                // Out of file descriptors and the like: wait, go on.
+                Err(_) => {
+                    tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+                    continue;
+                }
+            },
+            _ = &mut stopped => break,
+        };
+        let service = TowerToHyperService::new(router.clone());
+        let mut shutting = shutdown.subscribe();
+        tokio::spawn(async move {
+            let mut http = hyper::server::conn::http1::Builder::new();
+            http.timer(TokioTimer::new())
+                .header_read_timeout(HEADER_READ_TIMEOUT);
+            let connection = http.serve_connection(TokioIo::new(stream), service);
+            tokio::pin!(connection);
+            tokio::select! {
+                _ = connection.as_mut() => {}
+                _ = shutting.changed() => {
+                    connection.as_mut().graceful_shutdown();
+                    let _ = connection.await;
+                }
+            }
+        });
+    }
+    let _ = shutdown.send(());
+}
+
 /// Host and token checks, and the headers every answer carries.
 async fn guard(State(app): State<App>, request: Request, next: Next) -> Response {
+    // `GET http://host/ HTTP/1.1` is a request to a proxy: this server is
+    // none, and the absolute URI would sidestep the Host check's meaning.
+    if request.uri().scheme().is_some() || request.uri().authority().is_some() {
+        return refuse(
+            StatusCode::BAD_REQUEST,
+            "this view is no proxy: ask for a path (GET /), not an absolute URI",
+        );
+    }
     if let Some(hosts) = &app.access.hosts {
         let host = request
             .headers()

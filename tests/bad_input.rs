@@ -1093,3 +1093,60 @@ fn a_run_with_several_slots_is_reproducible_when_asked() {
     assert_eq!(evaluated(&runs[0]), evaluated(&runs[1]));
     assert_eq!(evaluated(&runs[0]).len(), 18);
 }
+
+/// A measured curve its metric cannot score is refused when the spec is
+/// read, before any model run: a constant force under DTW (no range to
+/// normalise by) and a curve that goes back in x under MAPE (no function
+/// of x to interpolate). Nothing runs: no evaluations.csv.
+#[test]
+fn a_measured_curve_its_metric_cannot_score_is_refused_before_any_run() {
+    for (rows, metric, says) in [
+        (
+            (1..=10)
+                .map(|i| format!("{},5.0\n", 0.5 * f64::from(i)))
+                .collect::<String>(),
+            "dtw",
+            "cannot be scored by dtw",
+        ),
+        (
+            (1..=10)
+                .map(|i| {
+                    format!(
+                        "{},{}\n",
+                        if i % 2 == 0 {
+                            0.5 * f64::from(i)
+                        } else {
+                            5.0 - 0.4 * f64::from(i)
+                        },
+                        f64::from(i)
+                    )
+                })
+                .collect::<String>(),
+            "mape",
+            "cannot be scored by mape",
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = common::parabola_study(
+            dir.path(),
+            "start = \"lhs\"\nstart_runs = 4\nmax_evals = 6\n",
+        );
+        std::fs::write(
+            dir.path().join("test.csv"),
+            format!("DISPLACEMENT,FORCE\n{rows}"),
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&spec).unwrap().replace(
+            "measured_y = \"FORCE\"",
+            &format!("measured_y = \"FORCE\"\nmetric = \"{metric}\""),
+        );
+        std::fs::write(&spec, text).unwrap();
+        let out = dir.path().join("run");
+        let message = refused_external(&spec, &out);
+        assert!(message.contains(says), "{metric}: {message}");
+        assert!(
+            !out.join("evaluations.csv").exists(),
+            "{metric}: a model ran"
+        );
+    }
+}

@@ -7,7 +7,9 @@ use std::path::Path;
 
 use acq_calib::evaluation::Parameter;
 
-use super::observations::{case_observation, measured_curve, metric_of, scalar, weight_of};
+use super::observations::{
+    case_observation, measured_curve, metric_of, scalar, scoreable, weight_of,
+};
 use super::problem::SpecProblem;
 use super::schema::{ModelName, SpecFile};
 use crate::study::{Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter};
@@ -86,12 +88,14 @@ fn implicit_case(file: &SpecFile, spec_directory: &Path) -> Result<Case, SpecPro
         };
         let weight = weight_of(c.weight, &c.name).map_err(here)?;
         let metric = metric_of(c.metric.as_deref(), &c.name).map_err(here)?;
+        let points = measured_curve(spec_directory, &c.name, measured_file, x, y)
+            .map_err(SpecProblem::malformed)?;
+        scoreable(&c.name, measured_file, metric, &points).map_err(here)?;
         observations.push(Observation {
             name: c.name.clone(),
             output: c.name.clone(),
             measured: Measured::Curve {
-                points: measured_curve(spec_directory, &c.name, measured_file, x, y)
-                    .map_err(SpecProblem::malformed)?,
+                points,
                 axes: [x.clone(), y.clone()],
                 metric,
             },

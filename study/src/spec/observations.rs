@@ -43,6 +43,29 @@ pub fn measured_curve(
 }
 
 /// A curve's `metric`: MAPE when none is given.
+/// A curve its metric cannot score (no range to normalise by, no function
+/// of x for MAPE) would fail every model run: refused now, before the
+/// first, by scoring the measured curve against itself.
+pub fn scoreable(
+    name: &str,
+    file: &str,
+    metric: CurveMetric,
+    points: &[(f64, f64)],
+) -> Result<(), String> {
+    acq_analysis::loss::metrics::score(metric, points, points)
+        .map(|_| ())
+        .map_err(|e| {
+            let advice = match metric {
+                CurveMetric::Mape => "a loop, or a curve that goes back, needs a metric that pairs points: metric = \"pcm\", \"frechet\", \"dtw\" or \"area\"",
+                _ => "each axis of the measured curve needs a range, every point finite",
+            };
+            format!(
+                "curve {name}: the measured curve in {file} cannot be scored by {}: {e}; {advice}",
+                metric.as_str()
+            )
+        })
+}
+
 pub fn metric_of(metric: Option<&str>, curve: &str) -> Result<CurveMetric, String> {
     metric.map_or(Ok(CurveMetric::Mape), |text| {
         text.parse().map_err(|e| format!("curve {curve}: {e}"))
@@ -168,6 +191,7 @@ pub fn case_observation(
     // The case's own metric, else its [[curve]]'s.
     let metric = metric_of(text("metric")?.as_deref().or(curve.metric.as_deref()), name)?;
     let points = measured_curve(spec_directory, name, &file, &x, &y).map_err(|e| e.to_string())?;
+    scoreable(name, &file, metric, &points)?;
     Ok(Observation {
         name: name.to_string(),
         output: name.to_string(),

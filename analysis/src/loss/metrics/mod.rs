@@ -250,25 +250,32 @@ pub fn every_metric(
     measured: &[(f64, f64)],
     simulated: &[(f64, f64)],
 ) -> Vec<(CurveMetric, Result<f64, String>)> {
-    let (measured_points, simulated_points) = (points_of(measured), points_of(simulated));
     CurveMetric::ALL
         .into_iter()
-        .map(|metric| {
-            let value = match metric {
-                CurveMetric::Mape => super::curve::curve_mape(
-                    measured,
-                    simulated,
-                    super::curve::CurveMapeOptions::default(),
-                )
-                .map(|m| m.mape_percent)
-                .map_err(|e| e.to_string()),
-                _ => matched(metric, &measured_points, &simulated_points)
-                    .map(|m| m.value)
-                    .map_err(|e| e.to_string()),
-            };
-            (metric, value)
-        })
+        .map(|metric| (metric, score(metric, measured, simulated)))
         .collect()
+}
+
+/// `simulated` scored against `measured` by `metric`: MAPE by
+/// [`super::curve::curve_mape`] (default options), the others by
+/// [`matched`]; the error says why the curves do not allow it.
+pub fn score(
+    metric: CurveMetric,
+    measured: &[(f64, f64)],
+    simulated: &[(f64, f64)],
+) -> Result<f64, String> {
+    match metric {
+        CurveMetric::Mape => super::curve::curve_mape(
+            measured,
+            simulated,
+            super::curve::CurveMapeOptions::default(),
+        )
+        .map(|m| m.mape_percent)
+        .map_err(|e| e.to_string()),
+        _ => matched(metric, &points_of(measured), &points_of(simulated))
+            .map(|m| m.value)
+            .map_err(|e| e.to_string()),
+    }
 }
 
 /// The pairs' signed distances averaged over `parts` equal parts of the

@@ -1220,3 +1220,35 @@ fn a_net_forces_monte_carlo_interval_is_the_trapezoids_in_closed_form() {
     );
     assert!(half < 0.97 * json["U95"].as_f64().unwrap());
 }
+
+/// A data sheet that states its accuracy class's parts: non-linearity
+/// 0.2 %, hysteresis 0.1 % and repeatability 0.05 % of a 400 bar span,
+/// each rectangular; the first two are the transducer's in every hold,
+/// repeatability each reading's own. Stating the class beside its parts is
+/// refused (it would count them twice).
+#[test]
+fn a_data_sheets_parts_of_its_class_are_each_a_source() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = rig_with(
+        dir.path(),
+        "range = [0.0, 400.0]\naccuracy = { nonlinearity_pct_fs = 0.2, hysteresis_pct_fs = 0.1, repeatability_pct_fs = 0.05 }",
+    );
+    let json = budget_json(&rig, 150.0);
+    for (source, pct) in [
+        ("nonlinearity", 0.2),
+        ("hysteresis", 0.1),
+        ("repeatability", 0.05),
+    ] {
+        let by_hand = pct / 100.0 * 400.0 / 3f64.sqrt();
+        let u = json["contributions"][source]["u"].as_f64().unwrap();
+        assert!((u - by_hand).abs() < 1e-12, "{source}: {u} vs {by_hand}");
+    }
+    assert!(json["contributions"]["accuracy_class"].is_null());
+    let both = rig_with(
+        dir.path(),
+        "range = [0.0, 400.0]\naccuracy = { percent_of_full_scale = 0.5, nonlinearity_pct_fs = 0.2 }",
+    );
+    let output = acq(&["check-rig", path_arg(&both)]);
+    assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
+    assert!(stderr(&output).contains("not both"), "{}", stderr(&output));
+}

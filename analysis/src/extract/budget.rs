@@ -29,6 +29,10 @@ pub const TEMPERATURE_SPAN: &str = "temperature_span";
 pub const GAUGE_FACTOR: &str = "gauge_factor";
 /// The Young's modulus a strain becomes a stress through.
 pub const YOUNGS_MODULUS: &str = "youngs_modulus";
+/// A data sheet's parts of its accuracy class, each a share of full scale.
+pub const NONLINEARITY: &str = "nonlinearity";
+pub const HYSTERESIS: &str = "hysteresis";
+pub const REPEATABILITY: &str = "repeatability";
 /// The Type A source: the spread of a hold's readings about their mean.
 pub const READINGS_SCATTER: &str = "readings_scatter";
 /// The zero window's mean, subtracted from every value (Type A).
@@ -73,16 +77,39 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
         );
     }
     if let Some(accuracy) = record.accuracy {
-        let half_width = match (accuracy, sensor.range) {
-            (Accuracy::PercentOfFullScale(pct), Some([low, high])) => pct / 100.0 * (high - low),
-            // The rig's check asks for a range with a share of full scale.
-            (Accuracy::PercentOfFullScale(_), None) => 0.0,
-            (Accuracy::PercentOfReading(pct), _) => pct / 100.0 * value.abs(),
+        let span = sensor.range.map_or(0.0, |[low, high]| high - low);
+        // The rig's check asks for a range with a share of full scale.
+        let of_span = |pct: f64| pct / 100.0 * span;
+        // A class is stated even where it is 0 (a reading of 0); a part
+        // the data sheet leaves out is not.
+        let mut limit = |source: &str, half_width: f64, shared: bool| {
+            if half_width > 0.0 || source == ACCURACY_CLASS {
+                let part = Contribution::direct(source, rectangular(half_width), None);
+                contributions.push(if shared {
+                    part.shared_by(&sensor.name)
+                } else {
+                    part
+                });
+            }
         };
-        contributions.push(
-            Contribution::direct(ACCURACY_CLASS, rectangular(half_width), None)
-                .shared_by(&sensor.name),
-        );
+        match accuracy {
+            Accuracy::PercentOfFullScale(pct) => limit(ACCURACY_CLASS, of_span(pct), true),
+            Accuracy::PercentOfReading(pct) => {
+                limit(ACCURACY_CLASS, pct / 100.0 * value.abs(), true)
+            }
+            Accuracy::PartsOfFullScale {
+                nonlinearity,
+                hysteresis,
+                repeatability,
+            } => {
+                // The curve's shape and its loop are the transducer's, the
+                // same in every hold; repeatability differs from one
+                // approach to the next.
+                limit(NONLINEARITY, of_span(nonlinearity), true);
+                limit(HYSTERESIS, of_span(hysteresis), true);
+                limit(REPEATABILITY, of_span(repeatability), false);
+            }
+        }
     }
     if let Some(step) = record.resolution {
         contributions.push(Contribution::direct(RESOLUTION, resolution(step), None));

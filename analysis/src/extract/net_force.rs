@@ -8,7 +8,8 @@ use acq_metrology::monte_carlo::{propagate, InputDistribution, MonteCarloResult}
 
 use super::budget::{
     diameter_parts, kn_per_bar, propagated, value_budget, ValueBudget, ACCURACY_CLASS,
-    GAUGE_FACTOR, RESOLUTION, TEMPERATURE_SPAN, TEMPERATURE_ZERO, ZERO_RETURN,
+    GAUGE_FACTOR, HYSTERESIS, NONLINEARITY, REPEATABILITY, RESOLUTION, TEMPERATURE_SPAN,
+    TEMPERATURE_ZERO, ZERO_RETURN,
 };
 use super::run::net_force_quantity;
 
@@ -60,6 +61,9 @@ fn is_rectangular(source: &str) -> bool {
         TEMPERATURE_SPAN,
         GAUGE_FACTOR,
         ZERO_RETURN,
+        NONLINEARITY,
+        HYSTERESIS,
+        REPEATABILITY,
     ]
     .contains(&source)
         || source.ends_with("diameter")

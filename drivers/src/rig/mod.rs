@@ -541,6 +541,13 @@ pub enum Accuracy {
     PercentOfFullScale(f64),
     /// Of the reading, %.
     PercentOfReading(f64),
+    /// The class's parts as a data sheet states them, each % of full
+    /// scale (0 where not stated).
+    PartsOfFullScale {
+        nonlinearity: f64,
+        hysteresis: f64,
+        repeatability: f64,
+    },
 }
 
 impl Sensor {
@@ -1357,27 +1364,7 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
         });
     }
     if let Some(accuracy) = &sensor.accuracy {
-        record.accuracy = Some(
-            match (accuracy.percent_of_full_scale, accuracy.percent_of_reading) {
-                (Some(pct), None) if pct.is_finite() && pct > 0.0 => {
-                    if sensor.range.is_none() {
-                        return Err(format!("accuracy: percent_of_full_scale needs the sensor's range = [low, high] in {unit}"));
-                    }
-                    Accuracy::PercentOfFullScale(pct)
-                }
-                (None, Some(pct)) if pct.is_finite() && pct > 0.0 => {
-                    Accuracy::PercentOfReading(pct)
-                }
-                (Some(pct), None) | (None, Some(pct)) => {
-                    return Err(format!("accuracy: {pct} %: give a share above 0"))
-                }
-                _ => {
-                    return Err(
-                        "accuracy: give one of percent_of_full_scale or percent_of_reading".into(),
-                    )
-                }
-            },
-        );
+        record.accuracy = Some(read_accuracy(sensor, accuracy)?);
     }
     if let Some(shunt) = &sensor.shunt {
         record.shunt = Some(read_shunt(sensor, shunt)?);
@@ -1395,6 +1382,59 @@ fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
         record.resolution = Some(step);
     }
     Ok(record)
+}
+
+/// The data sheet's accuracy: one class (a share of full scale or of the
+/// reading) or its parts (non-linearity, hysteresis, repeatability, each
+/// a share of full scale), not both.
+fn read_accuracy(sensor: &SensorFile, accuracy: &AccuracyFile) -> Result<Accuracy, String> {
+    let unit = sensor.kind.output_unit();
+    let parts = [
+        accuracy.nonlinearity_pct_fs,
+        accuracy.hysteresis_pct_fs,
+        accuracy.repeatability_pct_fs,
+    ];
+    let needs_range = || {
+        if sensor.range.is_none() {
+            Err(format!(
+                "accuracy: a share of full scale needs the sensor's range = [low, high] in {unit}"
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    if parts.iter().any(Option::is_some) {
+        if accuracy.percent_of_full_scale.is_some() || accuracy.percent_of_reading.is_some() {
+            return Err("accuracy: give the class (percent_of_full_scale or percent_of_reading) or its parts (nonlinearity_pct_fs, hysteresis_pct_fs, repeatability_pct_fs), not both: the class already holds its parts".into());
+        }
+        if let Some(bad) = parts
+            .iter()
+            .flatten()
+            .find(|p| !(p.is_finite() && **p >= 0.0))
+        {
+            return Err(format!(
+                "accuracy: {bad} %: give each part as a share of at least 0"
+            ));
+        }
+        needs_range()?;
+        let [nonlinearity, hysteresis, repeatability] = parts.map(|p| p.unwrap_or(0.0));
+        return Ok(Accuracy::PartsOfFullScale {
+            nonlinearity,
+            hysteresis,
+            repeatability,
+        });
+    }
+    match (accuracy.percent_of_full_scale, accuracy.percent_of_reading) {
+        (Some(pct), None) if pct.is_finite() && pct > 0.0 => {
+            needs_range()?;
+            Ok(Accuracy::PercentOfFullScale(pct))
+        }
+        (None, Some(pct)) if pct.is_finite() && pct > 0.0 => Ok(Accuracy::PercentOfReading(pct)),
+        (Some(pct), None) | (None, Some(pct)) => {
+            Err(format!("accuracy: {pct} %: give a share above 0"))
+        }
+        _ => Err("accuracy: give one of percent_of_full_scale or percent_of_reading (or the parts nonlinearity_pct_fs, hysteresis_pct_fs, repeatability_pct_fs)".into()),
+    }
 }
 
 /// The temperature coefficients, checked: non-negative, a range in order,

@@ -52,10 +52,16 @@ pub(super) fn room_temperature_c() -> f64 {
     20.0
 }
 
-/// `accuracy = { percent_of_full_scale = 0.5 }` or `{ percent_of_reading = 0.2 }`.
+/// `accuracy = { percent_of_full_scale = 0.5 }`, `{ percent_of_reading = 0.2 }`
+/// or its parts `{ nonlinearity_pct_fs, hysteresis_pct_fs, repeatability_pct_fs }`.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct AccuracyFile {
     pub(super) percent_of_full_scale: Option<f64>,
     pub(super) percent_of_reading: Option<f64>,
+    /// A data sheet that states the class's parts instead, each a share
+    /// of full scale.
+    pub(super) nonlinearity_pct_fs: Option<f64>,
+    pub(super) hysteresis_pct_fs: Option<f64>,
+    pub(super) repeatability_pct_fs: Option<f64>,
 }

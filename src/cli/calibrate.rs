@@ -92,7 +92,9 @@ pub struct CalibrateExcavatorArgs {
     pub pareto_fraction: f64,
     /// Weights of the bucket, arm and boom errors in the pick (`1 1 2` or
     /// `1,1,2`; non-negative, not all zero).
-    #[arg(long, value_delimiter = ',', num_args = 1..=3, default_values_t = [1.0, 1.0, 1.0])]
+    // Negative numbers allowed: `--weights -1 1 1` reaches the check that
+    // says what a weight may be, not clap's "unexpected argument".
+    #[arg(long, value_delimiter = ',', num_args = 1..=3, allow_negative_numbers = true, default_values_t = [1.0, 1.0, 1.0])]
     pub weights: Vec<f64>,
     /// How one point of the Pareto front is picked: `minimax` (the point
     /// whose largest weighted error is least: what "largest error" judges),

@@ -1150,3 +1150,58 @@ fn a_measured_curve_its_metric_cannot_score_is_refused_before_any_run() {
         );
     }
 }
+
+/// A study at the rig without `[candidates]` is still checked against
+/// the twin before anything is read or recorded: an input or an output the
+/// twin does not have, or a gauge past its gauges, is refused with what
+/// the twin has (exit 2), instead of a study whose every hold is "not
+/// used". The example study without its candidates still loads.
+#[test]
+fn a_rig_study_without_candidates_is_checked_against_the_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = copy_session("excavator_case1", dir.path());
+    let example =
+        std::fs::read_to_string(root().join("examples/excavator-rig/study.toml")).unwrap();
+    let without_candidates = example[..example.find("\n[candidates]").unwrap()].replace(
+        "geometry = \"../../data/excavator/dx55.toml\"",
+        &format!("geometry = {:?}", root().join("data/excavator/dx55.toml")),
+    );
+    let study = dir.path().join("study.toml");
+    let run = |text: &str| {
+        std::fs::write(&study, text).unwrap();
+        acq(&[
+            "calibrate",
+            "rig",
+            path_arg(&session),
+            "--study",
+            path_arg(&study),
+            "-o",
+            path_arg(&dir.path().join("state.json")),
+        ])
+    };
+    let fine = run(&without_candidates);
+    assert!(fine.status.success(), "{}", stderr(&fine));
+    for (from, to, says) in [
+        (
+            "force_kN = \"tip_force\"",
+            "force_kn = \"tip_force\"",
+            "takes no input \"force_kn\"",
+        ),
+        (
+            "\"gauge_stress_MPa[9]\"",
+            "\"gauge_stress_MPa[99]\"",
+            "no output \"gauge_stress_MPa[99]\"",
+        ),
+        (
+            "\"cylinder_force_kN.boom\"",
+            "\"cylinder_force_kN.stick\"",
+            "no output \"cylinder_force_kN.stick\"",
+        ),
+    ] {
+        let bad = without_candidates.replace(from, to);
+        assert_ne!(bad, without_candidates, "{from}");
+        let output = run(&bad);
+        assert_eq!(output.status.code(), Some(2), "{to}: {}", stderr(&output));
+        assert!(stderr(&output).contains(says), "{to}: {}", stderr(&output));
+    }
+}

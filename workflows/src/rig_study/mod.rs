@@ -233,13 +233,72 @@ impl RigStudy {
             .fixed_inputs()
             .map(|(name, x)| (name.to_string(), x))
             .collect();
-        match self.candidates.points.first() {
-            Some(point) => inputs.extend(self.candidates.names.iter().cloned().zip(point.clone())),
-            None => return Ok(()),
-        }
+        let at = match self.candidates.points.first() {
+            Some(point) => {
+                inputs.extend(self.candidates.names.iter().cloned().zip(point.clone()));
+                "the first candidate"
+            }
+            // Without candidates the twin's pose in the middle of its
+            // strokes, so that a name it does not have is refused now and
+            // not by every hold ("not used").
+            None => match self.probe_inputs() {
+                Some(probe) => {
+                    inputs.extend(probe);
+                    "a pose in the middle of its strokes"
+                }
+                None => return Ok(()),
+            },
+        };
         self.outputs_at(&self.nominal(), &inputs)
             .map(|_| ())
-            .map_err(|e| SpecProblem::file(format!("[holds]: at the nominal parameters and the first candidate the model says: {e}")))
+            .map_err(|e| {
+                SpecProblem::file(format!(
+                    "[holds]: at the nominal parameters and {at} the model says: {e}"
+                ))
+            })
+    }
+
+    /// The measured inputs at the excavator twin's pose with every stroke
+    /// in the middle of its range (10 kN, angle 0): a point every twin
+    /// reaches. An input the twin has no value for here gets 1, so that the
+    /// twin names it. `None` for a model without the twin's geometry.
+    fn probe_inputs(&self) -> Option<Vec<(String, f64)>> {
+        use acq_twins::excavator::inclinations::Inclinations;
+        use acq_twins::excavator::{CylinderName, Excavator, Strokes};
+        let geometry = self.geometry.as_ref()?.with(&[]).ok()?;
+        let mut strokes = Strokes {
+            bucket_mm: 0.0,
+            arm_mm: 0.0,
+            boom_mm: 0.0,
+        };
+        for name in CylinderName::ALL {
+            let [low, high] = geometry.cylinder(name).stroke_range_mm;
+            strokes.set(name, 0.5 * (low + high));
+        }
+        let pose = Excavator::new(geometry).ok()?.pose(&strokes).ok()?;
+        let inclinations = Inclinations::of(&pose);
+        let fixed: Vec<&str> = self.mapping.fixed_inputs().map(|(name, _)| name).collect();
+        Some(
+            self.mapping
+                .inputs
+                .iter()
+                .filter(|(name, _)| !fixed.contains(&name.as_str()))
+                .map(|(name, _)| {
+                    let value = match name.as_str() {
+                        "boom_inclination_deg" => inclinations.boom_deg,
+                        "arm_inclination_deg" => inclinations.arm_deg,
+                        "bucket_inclination_deg" => inclinations.bucket_deg,
+                        "bucket_stroke_mm" => strokes.bucket_mm,
+                        "arm_stroke_mm" => strokes.arm_mm,
+                        "boom_stroke_mm" => strokes.boom_mm,
+                        "force_kN" => 10.0,
+                        "force_angle_deg" => 0.0,
+                        _ => 1.0,
+                    };
+                    (name.clone(), value)
+                })
+                .collect(),
+        )
     }
 }
 

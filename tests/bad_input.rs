@@ -1205,3 +1205,27 @@ fn a_rig_study_without_candidates_is_checked_against_the_twin() {
         assert!(stderr(&output).contains(says), "{to}: {}", stderr(&output));
     }
 }
+
+/// A spec's parameters and weights are refused where they could only
+/// give NaN or nothing, each naming the key and the fix: bounds of 1e308
+/// (their range overflows), a log scale from 0, a prior's value outside
+/// the bounds where no nominal was written, and every weight 0.
+#[test]
+fn a_specs_parameters_and_weights_that_give_nan_or_nothing_are_refused_by_name() {
+    for (from, to, says) in [
+        ("lower = 1.0\nupper = 3.0", "lower = -1e308\nupper = 1e308", "at most 1e100 in size"),
+        ("lower = 1.0\nupper = 3.0", "lower = 0.0\nupper = 3.0\nscale = \"log\"", "scale = \"log\" needs lower above 0"),
+        ("lower = 1.0\nupper = 3.0", "lower = 1.0\nupper = 3.0\nprior = { value = 100.0, uncertainty = 1.0 }", "the prior's value (the nominal where none is given) = 100 lies outside the bounds 1 .. 3"),
+        ("measured_y = \"FORCE\"", "measured_y = \"FORCE\"\nweight = 0.0", "every measured value and curve has weight 0"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let spec = common::parabola_study(dir.path(), "start = \"lhs\"\nstart_runs = 4\nmax_evals = 6\n");
+        let text = std::fs::read_to_string(&spec).unwrap();
+        assert!(text.contains(from), "{from}");
+        std::fs::write(&spec, text.replace(from, to)).unwrap();
+        let out = dir.path().join("run");
+        let message = refused_external(&spec, &out);
+        assert!(message.contains(says), "{to}: {message}");
+        assert!(!out.join("evaluations.csv").exists(), "{to}: a model ran");
+    }
+}

@@ -60,7 +60,7 @@ pub struct Access {
 /// `HOST:PORT` to serve on. A non-loopback address is refused unless
 /// `remote` (the user's explicit flag), and then needs a token.
 pub fn access_for(addr: SocketAddr, remote: bool) -> Result<Access> {
-    if addr.ip().is_loopback() {
+    if addr.ip().to_canonical().is_loopback() {
         return Ok(Access {
             token: None,
             hosts: Some(loopback_hosts(addr)),
@@ -107,8 +107,11 @@ pub fn parse_address(text: &str) -> Result<SocketAddr> {
             "--view {text}: expected HOST:PORT, e.g. 127.0.0.1:8750 ({e})"
         ))
     })?;
+    // An IPv4 address written as IPv6 (`[::ffff:127.0.0.1]`) is that IPv4
+    // address: loopback where it is.
     addresses
         .next()
+        .map(|a| SocketAddr::new(a.ip().to_canonical(), a.port()))
         .ok_or_else(|| AcqError::Config(format!("--view {text}: the host resolves to no address")))
 }
 
@@ -561,5 +564,21 @@ async fn publish(app: App) {
             tails.join(",")
         );
         let _ = app.updates.send(Arc::from(update));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An IPv4 loopback written as IPv6 is loopback: served without a
+    /// token, bound as the IPv4 address it is.
+    #[test]
+    fn an_ipv4_mapped_loopback_is_loopback() {
+        let addr = parse_address("[::ffff:127.0.0.1]:0").unwrap();
+        assert_eq!(addr, "127.0.0.1:0".parse().unwrap());
+        let access = access_for(addr, false).unwrap();
+        assert!(access.token.is_none());
+        assert!(access_for("[::ffff:192.0.2.1]:0".parse().unwrap(), false).is_err());
     }
 }

@@ -177,6 +177,9 @@ fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, Spec
 }
 
 /// The `[[parameter]]`s: shared, or one fit case's own.
+/// The largest bound a parameter may have, in size.
+pub const MAX_BOUND: f64 = 1e100;
+
 pub fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>, SpecProblem> {
     let mut parameters = Vec::new();
     for (index, p) in file.parameters.iter().enumerate() {
@@ -209,10 +212,23 @@ pub fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>
             }
         };
         // The bounds first: a nominal outside them may be their mistake.
-        if !(p.lower.is_finite() && p.upper.is_finite() && p.lower < p.upper) {
+        // A bound past 1e100 is no physical number, and its arithmetic
+        // (the range, the midpoint) overflows to inf and NaN.
+        if !(p.lower.is_finite()
+            && p.upper.is_finite()
+            && p.lower < p.upper
+            && p.lower.abs() <= MAX_BOUND
+            && p.upper.abs() <= MAX_BOUND)
+        {
             return Err(here(format!(
-                "lower = {}, upper = {}: give finite bounds with lower below upper",
+                "lower = {}, upper = {}: give finite bounds with lower below upper, each at most {MAX_BOUND:e} in size",
                 p.lower, p.upper
+            )));
+        }
+        if p.scale == acq_calib::evaluation::Scale::Log && p.lower <= 0.0 {
+            return Err(here(format!(
+                "scale = \"log\" needs lower above 0 (equal steps in ratio), got lower = {}; give a positive lower bound or scale = \"linear\"",
+                p.lower
             )));
         }
         let search_name = match &p.case {
@@ -227,8 +243,15 @@ pub fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>
             .or(p.prior.as_ref().map(|prior| prior.value))
             .unwrap_or_else(|| search.midpoint());
         if !(nominal >= p.lower && nominal <= p.upper) {
+            // Name where the value came from: the user may not have
+            // written a nominal at all.
+            let from = if p.nominal.is_some() {
+                "nominal"
+            } else {
+                "the prior's value (the nominal where none is given)"
+            };
             return Err(here(format!(
-                "nominal = {nominal} lies outside {} .. {}",
+                "{from} = {nominal} lies outside the bounds {} .. {}",
                 p.lower, p.upper
             )));
         }

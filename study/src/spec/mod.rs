@@ -190,6 +190,12 @@ impl Spec {
         checks::search(&file.search).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
         let study = assemble::study(&file, &directory).map_err(located)?;
+        let fit = study.observations(crate::study::Role::Fit);
+        if !fit.is_empty() && fit.iter().all(|(case, o)| case.priors || o.weight == 0.0) {
+            return Err(located(SpecProblem::file(
+                "every measured value and curve has weight 0: the search would have nothing to fit; give at least one a weight above 0",
+            )));
+        }
         let posterior = file.posterior.as_ref().map(PosteriorSpec::settings);
         if let Some(settings) = &posterior {
             check_posterior(&study, settings)

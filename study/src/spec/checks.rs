@@ -160,6 +160,13 @@ fn executor_section(executor: &ExecutorSpec, top_parallel: Option<usize>) -> Res
             ));
         }
     }
+    if let Some(memory) = &executor.memory_per_job {
+        if !is_slurm_memory(memory) {
+            return Err(format!(
+                "[executor] memory_per_job = {memory:?}: give Slurm's --mem size, a whole number with an optional unit K, M, G or T (\"8G\", \"512M\"; no unit is megabytes)"
+            ));
+        }
+    }
     if executor.cpus_per_job == Some(0) {
         return Err("[executor] cpus_per_job = 0: give at least 1".into());
     }
@@ -179,12 +186,23 @@ fn executor_section(executor: &ExecutorSpec, top_parallel: Option<usize>) -> Res
     Ok(parallel)
 }
 
+/// A memory size as `sbatch --mem` takes it: digits, then optionally one
+/// of K, M, G, T (either case).
+pub fn is_slurm_memory(text: &str) -> bool {
+    let digits = text.trim_end_matches(['K', 'M', 'G', 'T', 'k', 'm', 'g', 't']);
+    text.len() - digits.len() <= 1
+        && !digits.is_empty()
+        && digits.len() <= 12
+        && digits.bytes().all(|b| b.is_ascii_digit())
+}
+
 /// A time in one of Slurm's formats (`sbatch --time`): minutes, MM:SS,
 /// HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS, or UNLIMITED / INFINITE. Checked
 /// here, so a malformed one is refused before any run directory exists
 /// rather than by `sbatch` for every job.
 pub fn is_slurm_time(text: &str) -> bool {
-    if matches!(text, "UNLIMITED" | "INFINITE") {
+    // Slurm's own words for no limit, in any case, and its -1.
+    if text == "-1" || matches!(text.to_ascii_uppercase().as_str(), "UNLIMITED" | "INFINITE") {
         return true;
     }
     let number = |part: &str, below: Option<u64>| {
@@ -361,7 +379,7 @@ fn search_section(search: &Search) -> Result<(), String> {
 
 #[cfg(test)]
 mod tests {
-    use super::is_slurm_time;
+    use super::{is_slurm_memory, is_slurm_time};
 
     #[test]
     fn slurm_times_in_each_documented_format_and_nothing_else() {
@@ -376,6 +394,9 @@ mod tests {
             "2-12:30:15",
             "0",
             "UNLIMITED",
+            "unlimited",
+            "Infinite",
+            "-1",
         ] {
             assert!(is_slurm_time(good), "{good}");
         }
@@ -396,6 +417,16 @@ mod tests {
             "99999999999",
         ] {
             assert!(!is_slurm_time(bad), "{bad}");
+        }
+    }
+
+    #[test]
+    fn slurm_memory_sizes_as_sbatch_takes_them_and_nothing_else() {
+        for good in ["8G", "512M", "1024", "2t", "0"] {
+            assert!(is_slurm_memory(good), "{good}");
+        }
+        for bad in ["lots", "", "8GB", "G", "-1", "1.5G", " 8G", "9999999999999"] {
+            assert!(!is_slurm_memory(bad), "{bad}");
         }
     }
 }

@@ -50,9 +50,10 @@ pub fn net_force_budget(
     })
 }
 
-/// The sources whose limits are rectangular (data sheets, rounding,
-/// tolerances, a drift between two readings); the rest are normal, or
-/// Student's t with their degrees of freedom.
+/// The pressures' sources whose limits are rectangular (data sheets,
+/// rounding, a drift between two readings); the rest are normal, or
+/// Student's t with their degrees of freedom. (The diameters are drawn
+/// as inputs of their own, rectangular within their tolerances.)
 fn is_rectangular(source: &str) -> bool {
     [
         ACCURACY_CLASS,
@@ -66,7 +67,6 @@ fn is_rectangular(source: &str) -> bool {
         REPEATABILITY,
     ]
     .contains(&source)
-        || source.ends_with("diameter")
 }
 
 /// The net force's distribution by Monte Carlo (JCGM 101), every source

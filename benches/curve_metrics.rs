@@ -1,4 +1,4 @@
-//! Each curve metric against `similaritymeasures` 1.3.0 on 1,000-point
+//! Each curve metric against `similaritymeasures` 1.5.0 on 1,000-point
 //! curves, in the same run (BENCHMARKS.md, "Curve metrics"): a pull to
 //! fracture against a stiffer one that breaks earlier, a hysteresis loop
 //! against one of another phase, and a pull against a simulation that ends
@@ -68,8 +68,8 @@ fn main() {
         ),
     ];
     let python = common::scratch_python(
-        "acq-similaritymeasures-1.3.0",
-        &["similaritymeasures==1.3.0", "numpy==2.4.6", "scipy==1.17.1"],
+        "acq-similaritymeasures-1.5.0",
+        &["similaritymeasures==1.5.0", "numpy==2.4.6", "scipy==1.17.1"],
     );
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("pairs.json");

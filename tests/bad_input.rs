@@ -993,7 +993,7 @@ fn messages_name_the_real_mistake() {
     );
     assert!(message.contains("force sensor in kN"), "{message}");
     // A negative weight is a weight, refused as one.
-    for weights in [&["1", "1", "-1"][..], &["1,1,-1"], &["1", "1"]] {
+    for weights in [&["1", "1", "-1"][..], &["1,1,-1"], &["-1,1,1"], &["1", "1"]] {
         let mut args = vec![
             "calibrate",
             "excavator",
@@ -1160,12 +1160,8 @@ fn a_measured_curve_its_metric_cannot_score_is_refused_before_any_run() {
 fn a_rig_study_without_candidates_is_checked_against_the_twin() {
     let dir = tempfile::tempdir().unwrap();
     let session = copy_session("excavator_case1", dir.path());
-    let example =
-        std::fs::read_to_string(root().join("examples/excavator-rig/study.toml")).unwrap();
-    let without_candidates = example[..example.find("\n[candidates]").unwrap()].replace(
-        "geometry = \"../../data/excavator/dx55.toml\"",
-        &format!("geometry = {:?}", root().join("data/excavator/dx55.toml")),
-    );
+    let example = example_rig_study();
+    let without_candidates = &example[..example.find("\n[candidates]").unwrap()];
     let study = dir.path().join("study.toml");
     let run = |text: &str| {
         std::fs::write(&study, text).unwrap();
@@ -1179,7 +1175,7 @@ fn a_rig_study_without_candidates_is_checked_against_the_twin() {
             path_arg(&dir.path().join("state.json")),
         ])
     };
-    let fine = run(&without_candidates);
+    let fine = run(without_candidates);
     assert!(fine.status.success(), "{}", stderr(&fine));
     for (from, to, says) in [
         (
@@ -1206,6 +1202,17 @@ fn a_rig_study_without_candidates_is_checked_against_the_twin() {
     }
 }
 
+/// The example study at the rig, its geometry's path made absolute (so it
+/// loads from a temporary directory).
+fn example_rig_study() -> String {
+    std::fs::read_to_string(root().join("examples/excavator-rig/study.toml"))
+        .unwrap()
+        .replace(
+            "geometry = \"../../data/excavator/dx55.toml\"",
+            &format!("geometry = {:?}", root().join("data/excavator/dx55.toml")),
+        )
+}
+
 /// A spec's parameters and weights are refused where they could only
 /// give NaN or nothing, each naming the key and the fix: bounds of 1e308
 /// (their range overflows), a log scale from 0, a prior's value outside
@@ -1228,4 +1235,143 @@ fn a_specs_parameters_and_weights_that_give_nan_or_nothing_are_refused_by_name()
         assert!(message.contains(says), "{to}: {message}");
         assert!(!out.join("evaluations.csv").exists(), "{to}: a model ran");
     }
+}
+
+/// A session's raw log damaged after recording: read as the candump acq
+/// record wrote (its lines reported as candump, not guessed to be another
+/// format), refused when it holds none of the frames session.toml counts
+/// (replaced by other bytes, or emptied), and said when it holds fewer.
+#[test]
+fn a_session_log_damaged_after_recording_is_named_against_its_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = copy_session("tensile_p91_20c", dir.path());
+    let raw = session.join("raw.log");
+    let original = std::fs::read_to_string(&raw).unwrap();
+    let counted = original.lines().count();
+    // Bytes of another kind (a text that is no log), then nothing at all.
+    let other: String = (0..200)
+        .map(|k| format!("line {k} of some other file\n"))
+        .collect();
+    for (what, text) in [("replaced", other.as_str()), ("emptied", "")] {
+        std::fs::write(&raw, text).unwrap();
+        let message = refused(&["extract", path_arg(&session), "--tensile"], 3);
+        assert!(
+            message.contains(&format!(
+                "holds no frame where session.toml counts {counted}"
+            )) && message.contains("restore raw.log"),
+            "{what}: {message}"
+        );
+        assert!(
+            !message.contains("Triggerblock"),
+            "{what}: read as ASC: {message}"
+        );
+        if what == "replaced" {
+            assert!(
+                message.contains("200 line(s) could not be read as candump"),
+                "{message}"
+            );
+            // Each bad line is not reported one by one past the first ten.
+            assert!(message.matches("acq: skipped").count() <= 10, "{message}");
+        }
+    }
+    // Cut to its first half: read, and the cut said once.
+    let half: String = original
+        .lines()
+        .take(counted / 2)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(&raw, half).unwrap();
+    let output = acq(&["extract", path_arg(&session), "--tensile"]);
+    let message = stderr(&output);
+    assert!(output.status.success(), "{message}");
+    let said = format!(
+        "holds {} frames where session.toml counts {counted}",
+        counted / 2
+    );
+    assert_eq!(message.matches(&said).count(), 1, "{message}");
+}
+
+/// Messages that name the form a value takes and the fix: a `[candidates]`
+/// entry of the wrong form, a posterior whose emulator the search's budget
+/// cannot feed, an empty measured curve (not a "design").
+#[test]
+fn messages_name_the_form_and_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = copy_session("excavator_case1", dir.path());
+    let example = example_rig_study();
+    let forces = "force_kN = [5.0, 20.0, 40.0]";
+    assert!(example.contains(forces));
+    let study = dir.path().join("study.toml");
+    for (given, says) in [
+        (
+            "force_kN = { from = 5.0, to = 40.0, steps = -3 }",
+            "steps = -3: give a whole number",
+        ),
+        (
+            "force_kN = [5.0, \"twenty\"]",
+            "value 2 = \"twenty\" is not a number",
+        ),
+        (
+            "force_kN = { from = 5.0, to = 40.0, steps = 3, step = 1 }",
+            "unknown key \"step\"",
+        ),
+        ("force_kN = \"all\"", "neither a list nor a range"),
+    ] {
+        std::fs::write(&study, example.replace(forces, given)).unwrap();
+        let message = refused(
+            &[
+                "calibrate",
+                "rig",
+                path_arg(&session),
+                "--study",
+                path_arg(&study),
+            ],
+            2,
+        );
+        assert!(
+            message.contains(says) && message.contains("{ from = 5.0, to = 40.0, steps = 8 }"),
+            "{given}: {message}"
+        );
+        assert!(!message.contains("untagged"), "{message}");
+    }
+    // Two parameters need four runs for the posterior's emulator; a search
+    // of three is refused before it starts.
+    let spec = common::parabola_study(
+        dir.path(),
+        "start = \"lhs\"\nstart_runs = 2\nmax_evals = 3\n",
+    );
+    let text = std::fs::read_to_string(&spec)
+        .unwrap()
+        .replace("\"{a}\"]", "\"{a}\", \"{b}\"]")
+        .replace(
+            "[[curve]]",
+            "[[parameter]]\nname = \"b\"\nlower = 0.0\nupper = 1.0\n\n[[curve]]",
+        );
+    std::fs::write(&spec, format!("{text}\n[posterior]\ndraws = 100\n")).unwrap();
+    let out = dir.path().join("run");
+    let message = refused_external(&spec, &out);
+    assert!(
+        message.contains("needs at least 4") && message.contains("search.max_evals = 3"),
+        "{message}"
+    );
+    assert!(
+        !out.join("evaluations.csv").exists(),
+        "a model ran: {message}"
+    );
+    // A measured curve with its header alone.
+    let spec = common::parabola_study(
+        dir.path(),
+        "start = \"lhs\"\nstart_runs = 2\nmax_evals = 3\n",
+    );
+    std::fs::write(dir.path().join("test.csv"), "DISPLACEMENT,FORCE\n").unwrap();
+    let output = calibrate_external(&spec, &dir.path().join("empty"), &[]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(3), "malformed input: {message}");
+    assert!(
+        message.contains("test.csv")
+            && message
+                .contains("a header but no rows of values; add one row per point of the curve"),
+        "{message}"
+    );
+    assert!(!message.contains("design"), "{message}");
 }

@@ -1,4 +1,4 @@
-//! acq's curve metrics against `similaritymeasures` 1.3.0 (Jekel et al.
+//! acq's curve metrics against `similaritymeasures` 1.5.0 (Jekel et al.
 //! 2019), the library that compared them on curves like these: 1,000
 //! random pairs of rising curves, loops, curves that drop at fracture,
 //! curves that end early on either side, random walks, of different
@@ -17,7 +17,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 pub const SIMILARITYMEASURES: [&str; 3] =
-    ["similaritymeasures==1.3.0", "numpy==2.4.6", "scipy==1.17.1"];
+    ["similaritymeasures==1.5.0", "numpy==2.4.6", "scipy==1.17.1"];
 
 type Curve = Vec<[f64; 2]>;
 
@@ -126,7 +126,7 @@ fn random_pair(rng: &mut ChaCha8Rng, kind: usize) -> (Curve, Curve) {
 fn each_metric_equals_similaritymeasures_on_random_pairs() {
     let mut rng = ChaCha8Rng::seed_from_u64(2019);
     let pairs: Vec<(Curve, Curve)> = (0..1000).map(|k| random_pair(&mut rng, k)).collect();
-    let python = common::scratch_python("acq-similaritymeasures-1.3.0", &SIMILARITYMEASURES);
+    let python = common::scratch_python("acq-similaritymeasures-1.5.0", &SIMILARITYMEASURES);
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("pairs.json");
     std::fs::write(&data, serde_json::json!(pairs).to_string()).unwrap();
@@ -136,12 +136,17 @@ fn each_metric_equals_similaritymeasures_on_random_pairs() {
         .output()
         .unwrap();
     assert!(output.status.success(), "{}", common::stderr(&output));
-    let theirs: Vec<[f64; 6]> = serde_json::from_slice(&output.stdout).unwrap();
+    let theirs: Vec<[f64; 7]> = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(theirs.len(), pairs.len());
     let mut compared = 0;
     let mut measured_longer = 0;
+    let mut crossing = 0;
     for (k, ((measured, simulated), values)) in pairs.iter().zip(&theirs).enumerate() {
-        let [library_pcm, frechet, dtw, area, measured_reference_pcm, longer] = *values;
+        let [library_pcm, frechet, dtw, area, measured_reference_pcm, longer, area_unordered] =
+            *values;
+        if (area - area_unordered).abs() > 1e-9 * area.abs() {
+            crossing += 1;
+        }
         // acq's PCM maps the simulated curve onto the measured one; the
         // library, the shorter onto the longer. Where the measured curve
         // is the longer, they are the same.
@@ -177,4 +182,11 @@ fn each_metric_equals_similaritymeasures_on_random_pairs() {
         "{measured_longer} pairs of 1,000 with the measured curve the longer"
     );
     assert_eq!(compared, 4000 + measured_longer);
+    // The area's re-ordering of self-crossing quadrilaterals is exercised:
+    // in the loops, the load-unload cycles and the random walks, curves
+    // cross between two points.
+    assert!(
+        crossing >= 200,
+        "{crossing} pairs of 1,000 with a crossing quadrilateral"
+    );
 }

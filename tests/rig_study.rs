@@ -506,17 +506,13 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
     let one = copy_session("excavator_case1", &temp.path().join("case1"));
     let two = copy_session("excavator_case2", &temp.path().join("case2"));
     let json = temp.path().join("study.json");
-    let output = common::acq(&[
-        "calibrate",
-        "rig",
-        path_arg(&one),
-        path_arg(&two),
-        "--study",
-        STUDY,
-        "--next",
-        "-o",
-        path_arg(&json),
-    ]);
+    let next_of = |sessions: &[&Path], study: &str| {
+        let mut args = vec!["calibrate", "rig"];
+        args.extend(sessions.iter().map(|s| path_arg(s)));
+        args.extend(["--study", study, "--next", "-o", path_arg(&json)]);
+        common::acq(&args)
+    };
+    let output = next_of(&[&one, &two], STUDY);
     assert!(output.status.success(), "{}", common::stderr(&output));
     let said = common::stdout(&output);
     assert!(said.starts_with("next: set "), "{said}");
@@ -532,16 +528,31 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
     let example = std::fs::read_to_string(root().join(STUDY)).unwrap();
     let without = &example[..example.find("\n[candidates]").unwrap()];
     let path = study_variant(temp.path(), "no_candidates.toml", without);
-    let output = common::acq(&[
-        "calibrate",
-        "rig",
-        path_arg(&one),
-        "--study",
-        path_arg(&path),
-        "--next",
-    ]);
+    let output = next_of(&[&one], path_arg(&path));
     assert_eq!(output.status.code(), Some(2), "{}", common::stderr(&output));
     assert!(common::stderr(&output).contains("no [candidates]"));
+
+    // The documented most candidates (100,000): the choice weighs a spread
+    // subset within its bound of twin runs and says so, rather than
+    // running a million times per hold.
+    let grid = "[candidates]\nboom_inclination_deg = { from = -10.0, to = 50.0, steps = 20 }\narm_inclination_deg = { from = -110.0, to = -10.0, steps = 20 }\nbucket_inclination_deg = { from = -150.0, to = -30.0, steps = 25 }\nforce_kN = { from = 0.0, to = 45.0, steps = 10 }\n";
+    let path = study_variant(temp.path(), "many.toml", &format!("{without}\n{grid}"));
+    let output = next_of(&[&one], path_arg(&path));
+    assert!(output.status.success(), "{}", common::stderr(&output));
+    let said = common::stdout(&output);
+    assert!(
+        said.contains("candidates, spread over them")
+            && said.contains("bounded at 100000 twin runs"),
+        "{said}"
+    );
+    let state: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let weighed = state["next"]["candidates"].as_u64().unwrap();
+    let of = state["next"]["of_candidates"].as_u64().unwrap();
+    // Four parameters: nine runs a candidate, so at most 11,111 weighed.
+    assert!(
+        of > 11_111 && weighed <= 11_111 && weighed > 1_000,
+        "{weighed} of {of}"
+    );
 }
 
 /// A user's solver at the rig through the emulator an earlier study of it

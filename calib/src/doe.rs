@@ -58,8 +58,9 @@ pub enum DoeError {
         /// The largest design built.
         max: usize,
     },
-    /// A problem in a design CSV, at a 1-based line.
-    #[error("design CSV line {line}: {message}")]
+    /// A problem in a CSV of values (a design, a measured curve), at a
+    /// 1-based line.
+    #[error("CSV line {line}: {message}")]
     Csv {
         /// 1-based line number in the text.
         line: u64,
@@ -461,6 +462,13 @@ pub fn scale_to_unit(point: &[f64], bounds: &[(f64, f64)]) -> Vec<f64> {
 /// finite number are errors that carry the 1-based line number. Values are returned as
 /// written (physical units); pass them through [`scale_to_unit`] if the unit box is wanted.
 pub fn read_design_csv(text: &str, names: &[&str]) -> Result<Vec<Vec<f64>>, DoeError> {
+    read_csv_columns(text, names, "run")
+}
+
+/// The columns `names` of CSV text with a header row, as
+/// [`read_design_csv`] reads them; `row` names what a row is (a "run" of a
+/// design, a "point" of a curve) in the error of a file without one.
+pub fn read_csv_columns(text: &str, names: &[&str], row: &str) -> Result<Vec<Vec<f64>>, DoeError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     if names.is_empty() {
         return Err(DoeError::Csv {
@@ -543,7 +551,7 @@ pub fn read_design_csv(text: &str, names: &[&str]) -> Result<Vec<Vec<f64>>, DoeE
     if design.is_empty() {
         return Err(DoeError::Csv {
             line: 2,
-            message: "the design has a header but no runs; add one row per run".into(),
+            message: format!("a header but no rows of values; add one row per {row}"),
         });
     }
     Ok(design)

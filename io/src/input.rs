@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 use acq_drivers::rig::Rig;
-use acq_drivers::{LogReader, LogRecord, ReadError};
+use acq_drivers::{LogFormat, LogReader, LogRecord, ReadError};
 
 use crate::error::{AcqError, Result};
 
@@ -92,7 +92,19 @@ pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result
     Ok(LogInput { name, reader })
 }
 
+/// A log whose format is detected from its first bytes.
 pub fn open_log(path: &Path) -> Result<LogInput> {
+    open_log_as(path, None)
+}
+
+/// A session's raw file: candump, as `acq record` writes it, whatever its
+/// first bytes look like (a damaged one is then reported as candump, not
+/// guessed to be another format).
+pub fn open_session_log(path: &Path) -> Result<LogInput> {
+    open_log_as(path, Some(LogFormat::Candump))
+}
+
+fn open_log_as(path: &Path, format: Option<LogFormat>) -> Result<LogInput> {
     let (name, raw): (String, Box<dyn BufRead>) = if path.as_os_str() == "-" {
         note_input(path);
         (
@@ -107,7 +119,13 @@ pub fn open_log(path: &Path) -> Result<LogInput> {
             Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
         )
     };
-    log_from_reader(name, raw)
+    match format {
+        Some(format) => Ok(LogInput {
+            name,
+            reader: LogReader::with_format(raw, format),
+        }),
+        None => log_from_reader(name, raw),
+    }
 }
 
 impl LogInput {

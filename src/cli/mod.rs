@@ -25,8 +25,41 @@ use acq_io::error::Result;
 /// negative number too: `--weights 1 1 -1` is a weight that the command
 /// refuses with its reason, not an unknown option `-1`.
 pub fn parse() -> Cli {
-    let matches = numbers_may_be_negative(Cli::command()).get_matches();
+    let argv = negative_lists_attached(std::env::args_os().collect());
+    let matches = numbers_may_be_negative(Cli::command()).get_matches_from(argv);
     Cli::from_arg_matches(&matches).unwrap_or_else(|error| error.exit())
+}
+
+/// `--weights -1,1,1` as `--weights=-1,1,1`: clap takes `-1` alone for a
+/// negative number, but a comma list starting with a minus for a flag it
+/// does not know. Joined, the list reaches the check that says what a
+/// value may be. No flag of acq looks like a number.
+fn negative_lists_attached(argv: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let is_negative_list = |token: &str| {
+        token.starts_with('-')
+            && token.contains(',')
+            && token.split(',').all(|n| n.trim().parse::<f64>().is_ok())
+    };
+    let mut joined: Vec<std::ffi::OsString> = Vec::with_capacity(argv.len());
+    for token in argv {
+        let attach = match (joined.last().and_then(|p| p.to_str()), token.to_str()) {
+            (Some(option), Some(value)) => {
+                option.starts_with("--")
+                    && option != "--"
+                    && !option.contains('=')
+                    && is_negative_list(value)
+            }
+            _ => false,
+        };
+        match joined.last_mut() {
+            Some(option) if attach => {
+                option.push("=");
+                option.push(&token);
+            }
+            _ => joined.push(token),
+        }
+    }
+    joined
 }
 
 fn numbers_may_be_negative(command: clap::Command) -> clap::Command {
@@ -125,5 +158,28 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Gp(command) => engine::run_gp(command),
         Command::Moo(args) => engine::run_moo(args),
         Command::Demo(args) => demo::run_demo(args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::negative_lists_attached;
+
+    #[test]
+    fn a_negative_comma_list_is_attached_to_its_option_and_nothing_else_is() {
+        let args =
+            |line: &str| -> Vec<std::ffi::OsString> { line.split(' ').map(Into::into).collect() };
+        assert_eq!(
+            negative_lists_attached(args("acq calibrate excavator --weights -1,1,1 --out x")),
+            args("acq calibrate excavator --weights=-1,1,1 --out x")
+        );
+        for unchanged in [
+            "acq calibrate excavator --weights -1 1 1",
+            "acq calibrate excavator --weights=1,-1,1",
+            "acq decode -- -1,2",
+            "acq decode x.log -o -1,a",
+        ] {
+            assert_eq!(negative_lists_attached(args(unchanged)), args(unchanged));
+        }
     }
 }

@@ -208,7 +208,7 @@ impl SavedEmulator {
 
     /// What a fit always gives: each column's range finite and in order,
     /// each output's cross-validated error a finite standard deviation of
-    /// at least 0, a constant output finite.
+    /// at least 0, a constant output finite, a GP over every column.
     fn check_numbers(&self) -> Result<(), String> {
         for column in &self.columns {
             if !(column.lower.is_finite()
@@ -228,13 +228,22 @@ impl SavedEmulator {
                     output.name, output.error_sd
                 ));
             }
-            if let Emulated::Constant(value) = output.emulated {
-                if !value.is_finite() {
+            match &output.emulated {
+                Emulated::Constant(value) if !value.is_finite() => {
                     return Err(format!(
                         "output {}: constant {value} is not finite",
                         output.name
                     ));
                 }
+                Emulated::Gp(gp) if gp.n_inputs() != self.columns.len() => {
+                    return Err(format!(
+                        "output {}: its GP takes {} input(s), the file has {} column(s); the file was edited or mixed from two emulators: save it again with the study that made it",
+                        output.name,
+                        gp.n_inputs(),
+                        self.columns.len()
+                    ));
+                }
+                _ => {}
             }
         }
         Ok(())
@@ -800,6 +809,17 @@ mod tests {
                 && invalid.to_string().contains("error_sd = -0.5"),
             "{invalid}"
         );
+        // A column taken away: its GPs still take every column.
+        let mut narrower = emulator.clone();
+        narrower.columns.pop();
+        narrower.save(&path).unwrap();
+        let wrong = SavedEmulator::load(&path).unwrap_err();
+        let said = format!(
+            "its GP takes {} input(s), the file has {} column(s)",
+            emulator.columns.len(),
+            emulator.columns.len() - 1
+        );
+        assert!(wrong.to_string().contains(&said), "{wrong}");
         let missing = SavedEmulator::load(&path.with_file_name("none.json")).unwrap_err();
         assert!(
             matches!(missing, EmulatorFileError::Read { .. }),

@@ -1,7 +1,7 @@
 """similaritymeasures' value of each metric for each pair of curves in the
 JSON file argv[1] ([[measured, simulated], ...], each [[x, y], ...]),
 printed as JSON [[pcm, frechet, dtw, area, pcm_measured_reference,
-measured_longer], ...].
+measured_longer, area_unordered], ...].
 
 As acq computes them: both curves normalised by the measured curve's
 range on each axis first (PCM normalises so itself, on the raw curves).
@@ -9,7 +9,9 @@ acq's PCM always maps the simulated curve onto the measured one; the
 library maps the shorter onto the longer. `pcm_measured_reference` is the
 library's own code without that swap (the one line marked below); where
 the measured curve is the longer (`measured_longer`) it is the library's
-value.
+value. `area_unordered` is the area without the re-ordering of crossing
+quadrilaterals (what 1.3.0 computed): where it differs from `area`, a
+quadrilateral crossed itself.
 Written for tests/curve_metrics.rs and benches/curve_metrics.rs; the
 library lives in a scratch virtualenv, never in acq's dependencies.
 """
@@ -28,7 +30,7 @@ def normalised(measured, simulated):
 
 
 def pcm_measured_reference(exp_data, num_data):
-    """similaritymeasures.pcm (1.3.0, norm_seg_length=False) with the
+    """similaritymeasures.pcm (1.5.0, norm_seg_length=False) with the
     measured curve always the reference."""
     lib = sm.similaritymeasures
     xi1, eta1, xi2, eta2 = lib.normalizeTwoCurves(
@@ -60,6 +62,18 @@ def pcm_measured_reference(exp_data, num_data):
     return np.min(pcm_dists), le_nj >= lc_nj
 
 
+def area_unordered(exp_data, num_data):
+    """area_between_two_curves with each quadrilateral's shoelace area as
+    its vertices come (no makeQuad re-ordering)."""
+    lib = sm.similaritymeasures
+    make_quad = lib.makeQuad
+    lib.makeQuad = lambda x, y: lib.poly_area(x, y)
+    try:
+        return sm.area_between_two_curves(exp_data, num_data)
+    finally:
+        lib.makeQuad = make_quad
+
+
 def metrics(measured, simulated):
     m, s = normalised(measured, simulated)
     reference, measured_longer = pcm_measured_reference(measured, simulated)
@@ -70,6 +84,7 @@ def metrics(measured, simulated):
         float(sm.area_between_two_curves(m, s)),
         float(reference),
         1.0 if measured_longer else 0.0,
+        float(area_unordered(m, s)),
     ]
 
 

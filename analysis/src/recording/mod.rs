@@ -19,7 +19,7 @@ use acq_drivers::rig::Rig;
 use acq_drivers::sensors::{Sample, SensorDecoder, SensorEvent};
 use acq_drivers::IfaceName;
 use acq_io::error::{AcqError, Result};
-use acq_io::input::{for_each_record, open_log, BadLines, ScanCounts};
+use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, ScanCounts};
 use acq_io::session::{self, SessionFile};
 use acq_io::shunt_record::{self, ShuntRecord};
 use acq_io::zero_record::{self, ZeroRecord};
@@ -44,6 +44,9 @@ pub struct Recording {
     /// Their gains, per rig sensor: each value is multiplied by its
     /// channel's after the zero is subtracted.
     gains: Vec<Option<f64>>,
+    /// Whether a pass has said that the raw log holds fewer frames than
+    /// session.toml counts (said once, not once a pass).
+    said_short: std::sync::atomic::AtomicBool,
 }
 
 impl Recording {
@@ -133,6 +136,7 @@ impl Recording {
             zeroing,
             shunt,
             gains,
+            said_short: std::sync::atomic::AtomicBool::new(false),
         })
     }
 
@@ -194,10 +198,15 @@ impl Recording {
         counts: &mut SampleCounts,
         mut on_sample: impl FnMut(Sample) -> Result<()>,
     ) -> Result<()> {
+        // A session's raw files are candump, as acq record wrote them: read
+        // as such, not guessed from their first bytes.
         let mut inputs = self
             .logs
             .iter()
-            .map(|p| open_log(p))
+            .map(|p| match self.session {
+                Some(_) => open_session_log(p),
+                None => open_log(p),
+            })
             .collect::<Result<Vec<_>>>()?;
         let mut decoder = SensorDecoder::new(&self.rig);
         let mut scan = ScanCounts::default();
@@ -227,6 +236,43 @@ impl Recording {
         })?;
         counts.frames = scan.frames;
         counts.malformed_lines = scan.malformed_lines;
+        self.check_frame_count(&scan)
+    }
+
+    /// A session's raw log against the frames its session.toml counts: a
+    /// log with none of them is refused (it was emptied or replaced, and
+    /// would show an empty recording); one with fewer is said, once.
+    fn check_frame_count(&self, scan: &ScanCounts) -> Result<()> {
+        let Some(session) = &self.session else {
+            return Ok(());
+        };
+        let counted = session.session.frames;
+        if scan.frames >= counted {
+            return Ok(());
+        }
+        let unread = if scan.malformed_lines > 0 {
+            format!(
+                " ({} line(s) could not be read as candump)",
+                scan.malformed_lines
+            )
+        } else {
+            String::new()
+        };
+        if scan.frames == 0 {
+            return Err(AcqError::Malformed(format!(
+                "session {}: its raw log holds no frame where session.toml counts {counted}{unread}: the log was emptied or replaced after recording; restore raw.log from a copy of the session",
+                self.label
+            )));
+        }
+        if !self
+            .said_short
+            .swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            eprintln!(
+                "acq: warning: session {}: its raw log holds {} frames where session.toml counts {counted}{unread}: the log was cut after recording; what follows reads the frames it holds",
+                self.label, scan.frames
+            );
+        }
         Ok(())
     }
 }

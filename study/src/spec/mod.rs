@@ -174,6 +174,28 @@ pub fn read_spec_file(path: &Path) -> Result<(String, SpecFile), SpecError> {
     Ok((text, file))
 }
 
+/// A solver's posterior is sampled on an emulator of the search's runs,
+/// which needs one run per parameter and two more: a search whose budget
+/// cannot leave that many is refused before its first run, not after it.
+fn emulator_has_runs(
+    file: &SpecFile,
+    model: &ModelKind,
+    parameters: usize,
+) -> Result<(), SpecProblem> {
+    let needed = parameters + 2;
+    let budget = match file.search.method {
+        MethodName::Bo | MethodName::LeastSquares => file.search.max_evals,
+        // Its training runs alone are checked against its own minimum.
+        MethodName::SurrogateMoo => return Ok(()),
+    };
+    if matches!(model, ModelKind::Command(_)) && budget < needed {
+        return Err(SpecProblem::file(format!(
+            "[posterior] samples on an emulator of the search's runs, which needs at least {needed} (one per parameter and two more); search.max_evals = {budget} leaves fewer: raise it to {needed} or more"
+        )));
+    }
+    Ok(())
+}
+
 impl Spec {
     /// Reads and checks a spec and the measured files it names; errors
     /// name the file (and the line of the table at fault) and what to fix.
@@ -200,6 +222,7 @@ impl Spec {
         if let Some(settings) = &posterior {
             check_posterior(&study, settings)
                 .map_err(|message| located(SpecProblem::file(format!("[posterior]: {message}"))))?;
+            emulator_has_runs(&file, &model, study.parameters.len()).map_err(located)?;
         }
         Ok(Spec {
             model,

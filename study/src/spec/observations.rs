@@ -6,7 +6,7 @@ use std::path::Path;
 
 use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_calib::doe::read_design_csv;
+use acq_calib::doe::read_csv_columns;
 use acq_io::error::AcqError;
 
 use super::schema::CurveSpec;
@@ -16,7 +16,8 @@ use crate::study::{Measured, Observation, SCATTER_OF_MEAN};
 /// name the file and line.
 pub fn read_curve(path: &Path, x: &str, y: &str) -> Result<Vec<(f64, f64)>, String> {
     let text = acq_io::input::read_text(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let rows = read_design_csv(&text, &[x, y]).map_err(|e| format!("{}: {e}", path.display()))?;
+    let rows = read_csv_columns(&text, &[x, y], "point of the curve")
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(rows.iter().map(|row| (row[0], row[1])).collect())
 }
 

@@ -99,20 +99,83 @@ pub struct HoldsSpec {
 }
 
 /// One input's candidate values.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(untagged)]
+#[derive(Clone, Debug)]
 pub enum CandidateValues {
     List(Vec<f64>),
     Range(CandidateRange),
 }
 
 /// `{ from, to, steps }`: `steps` values evenly from `from` to `to`.
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug)]
 pub struct CandidateRange {
     pub from: f64,
     pub to: f64,
     pub steps: usize,
+}
+
+/// Read by hand rather than as an untagged enum, whose one message for
+/// every mistake ("did not match any variant") names neither the form nor
+/// the value at fault.
+impl<'de> Deserialize<'de> for CandidateValues {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let value = toml::Value::deserialize(deserializer)?;
+        candidate_values(&value).map_err(serde::de::Error::custom)
+    }
+}
+
+const CANDIDATE_FORMS: &str =
+    "give a list of numbers ([5.0, 20.0]) or { from = 5.0, to = 40.0, steps = 8 }";
+
+fn candidate_number(value: &toml::Value, what: &str) -> Result<f64, String> {
+    match value {
+        toml::Value::Float(x) => Ok(*x),
+        toml::Value::Integer(i) => Ok(*i as f64),
+        other => Err(format!(
+            "{what} = {other} is not a number; {CANDIDATE_FORMS}"
+        )),
+    }
+}
+
+fn candidate_values(value: &toml::Value) -> Result<CandidateValues, String> {
+    match value {
+        toml::Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .map(|(k, item)| candidate_number(item, &format!("value {}", k + 1)))
+            .collect::<Result<_, _>>()
+            .map(CandidateValues::List),
+        toml::Value::Table(table) => {
+            if let Some(unknown) = table
+                .keys()
+                .find(|k| !["from", "to", "steps"].contains(&k.as_str()))
+            {
+                return Err(format!("unknown key {unknown:?}; {CANDIDATE_FORMS}"));
+            }
+            let number = |key: &str| {
+                table
+                    .get(key)
+                    .ok_or_else(|| format!("{key} is missing; {CANDIDATE_FORMS}"))
+                    .and_then(|v| candidate_number(v, key))
+            };
+            let steps = match table.get("steps") {
+                Some(toml::Value::Integer(n)) if *n >= 1 => *n as usize,
+                Some(other) => {
+                    return Err(format!(
+                        "steps = {other}: give a whole number of values from 1, both ends included, as in {{ from = 5.0, to = 40.0, steps = 8 }}"
+                    ))
+                }
+                None => return Err(format!("steps is missing; {CANDIDATE_FORMS}")),
+            };
+            Ok(CandidateValues::Range(CandidateRange {
+                from: number("from")?,
+                to: number("to")?,
+                steps,
+            }))
+        }
+        other => Err(format!(
+            "{other} is neither a list nor a range; {CANDIDATE_FORMS}"
+        )),
+    }
 }
 
 /// `[posterior]`: the posterior stage after the search.

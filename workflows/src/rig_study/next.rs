@@ -48,8 +48,13 @@ pub struct NextTestPoint {
     /// Per parameter, in the study's order.
     pub narrows: Vec<Narrowing>,
     pub information_nats: f64,
-    /// Candidates weighed.
+    /// Candidates weighed (those where the twin ran, of the subset).
     pub candidates: usize,
+    /// Candidates in the study.
+    pub of_candidates: usize,
+    /// Whether only a spread subset was weighed, the work being bounded at
+    /// [`MAX_RUNS_PER_CHOICE`] twin runs.
+    pub bounded: bool,
 }
 
 impl NextTestPoint {
@@ -66,6 +71,34 @@ impl NextTestPoint {
 /// interval: small against the posterior's width, large against the
 /// twin's rounding.
 const STEP_OF_PRIOR_WIDTH: f64 = 1e-3;
+
+/// At most this many twin runs choose one next point (one per candidate
+/// at the mean, two per parameter for its Jacobian): about a second of the
+/// excavator twin (12 us a run, release build), so the live page's study
+/// answers each hold promptly whatever `[candidates]` holds. Beyond it a
+/// spread subset of the candidates is weighed ([`spread_subset`]).
+pub const MAX_RUNS_PER_CHOICE: usize = 100_000;
+
+/// `wanted` of the indices `0..total`, spread over them by the golden
+/// ratio's additive recurrence (low discrepancy, and no stride that could
+/// fall in step with one axis of the candidates' grid, as an even stride
+/// would with the last axis), in increasing order; all of them when
+/// `wanted >= total`.
+pub fn spread_subset(total: usize, wanted: usize) -> Vec<usize> {
+    if wanted >= total {
+        return (0..total).collect();
+    }
+    const GOLDEN_FRACTION: f64 = 0.618_033_988_749_895;
+    let mut picked: Vec<usize> = (0..wanted)
+        .map(|i| {
+            let fraction = (0.5 + i as f64 * GOLDEN_FRACTION).fract();
+            ((fraction * total as f64) as usize).min(total - 1)
+        })
+        .collect();
+    picked.sort_unstable();
+    picked.dedup();
+    picked
+}
 
 impl RigStudy {
     /// Each observation's expected standard uncertainty in a new hold: the
@@ -107,6 +140,14 @@ impl RigStudy {
         if candidates.points.is_empty() {
             return Ok(None);
         }
+        let runs_per_candidate = 1 + 2 * posterior.mean.len();
+        let weighed_points: Vec<&Vec<f64>> = spread_subset(
+            candidates.points.len(),
+            (MAX_RUNS_PER_CHOICE / runs_per_candidate).max(1),
+        )
+        .into_iter()
+        .map(|c| &candidates.points[c])
+        .collect();
         let fixed: Vec<(String, f64)> = self
             .mapping
             .fixed_inputs()
@@ -120,8 +161,7 @@ impl RigStudy {
         // Outer loop over the parameter values, inner over the candidates:
         // the twin keeps the last geometry it built.
         let at = |theta: &[f64]| -> Vec<Option<Vec<f64>>> {
-            candidates
-                .points
+            weighed_points
                 .iter()
                 .map(|point| self.outputs_at(theta, &inputs_of(point)).ok())
                 .collect()
@@ -154,7 +194,7 @@ impl RigStudy {
             );
         }
         // The candidates where every run went through.
-        let usable: Vec<usize> = (0..candidates.points.len())
+        let usable: Vec<usize> = (0..weighed_points.len())
             .filter(|&c| centre[c].is_some() && columns.iter().all(|col| col[c].is_some()))
             .collect();
         if usable.is_empty() {
@@ -171,7 +211,7 @@ impl RigStudy {
                 .names
                 .iter()
                 .cloned()
-                .zip(candidates.points[best].iter().copied())
+                .zip(weighed_points[best].iter().copied())
                 .collect(),
             predicted: self
                 .mapping
@@ -199,6 +239,8 @@ impl RigStudy {
                 .collect(),
             information_nats: gain.information_nats,
             candidates: usable.len(),
+            of_candidates: candidates.points.len(),
+            bounded: weighed_points.len() < candidates.points.len(),
         }))
     }
 }
@@ -244,4 +286,47 @@ fn weighed_candidates(
             noise_sd: own_noise_sd.clone(),
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spread_subset;
+
+    /// A subset of a grid (the last axis fastest, as `[candidates]` is
+    /// laid out) whose size is a multiple of the last axis's, where an even
+    /// stride would take one value of that axis only: every value of every
+    /// axis is still reached, each about equally often.
+    #[test]
+    fn a_spread_subset_reaches_every_value_of_every_axis() {
+        let axes = [20usize, 20, 25, 10];
+        let total: usize = axes.iter().product();
+        let picked = spread_subset(total, total / 10);
+        assert!(
+            picked.windows(2).all(|w| w[0] < w[1]),
+            "increasing, no repeats"
+        );
+        assert!(
+            picked.len() > total / 10 * 95 / 100,
+            "{} picked",
+            picked.len()
+        );
+        let mut stride = 1;
+        for &size in axes.iter().rev() {
+            let mut seen = vec![0usize; size];
+            for &index in &picked {
+                seen[index / stride % size] += 1;
+            }
+            let expected = picked.len() as f64 / size as f64;
+            for count in &seen {
+                // Within 20 % of an equal share (a low-discrepancy sequence
+                // keeps it far closer; 20 % catches an axis left out).
+                assert!(
+                    (*count as f64 - expected).abs() < 0.2 * expected,
+                    "axis of {size}: counts {seen:?}"
+                );
+            }
+            stride *= size;
+        }
+        assert_eq!(spread_subset(7, 100), (0..7).collect::<Vec<_>>());
+    }
 }

@@ -14,7 +14,7 @@ use acq_analysis::extract::measured::MeasuredValue;
 use serde_json::{json, Map, Value};
 
 use super::mapping::HoldReading;
-use super::next::NextTestPoint;
+use super::next::{NextTestPoint, MAX_RUNS_PER_CHOICE};
 use super::update::{significant, Posterior, Verdict};
 use super::RigStudy;
 
@@ -256,6 +256,7 @@ impl Tracker {
                     "predicted": next.predicted.iter().map(|(k, v)| (k.clone(), json!(v))).collect::<Map<_, _>>(),
                     "information_nats": next.information_nats,
                     "candidates": next.candidates,
+                    "of_candidates": next.of_candidates,
                     "words": sentence,
                 });
             }
@@ -283,6 +284,12 @@ pub fn next_words(next: &NextTestPoint) -> String {
             most.parameter,
             significant(most.from_width),
             significant(most.to_width)
+        ));
+    }
+    if next.bounded {
+        sentence.push_str(&format!(
+            " (chosen from {} of the {} candidates, spread over them: a choice is bounded at {} twin runs; give fewer [candidates] to weigh them all)",
+            next.candidates, next.of_candidates, MAX_RUNS_PER_CHOICE
         ));
     }
     sentence

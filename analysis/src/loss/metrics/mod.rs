@@ -3,7 +3,7 @@
 //! dynamic time warping ([`dtw`]) and the area between the curves
 //! ([`area`]), beside the MAPE of [`super::curve`].
 //!
-//! Each is computed as the `similaritymeasures` Python library (1.3.0;
+//! Each is computed as the `similaritymeasures` Python library (1.5.0;
 //! Jekel et al. 2019, who compared them on such curves) computes it, to
 //! rounding (`tests/curve_metrics.rs` checks 1,000 random pairs against it),
 //! but for PCM's choice of reference ([`pcm`]: the measured curve always,

@@ -1,5 +1,5 @@
 //! Partial curve mapping (Witowski and Stander 2012), as
-//! `similaritymeasures.pcm` 1.3.0 computes it (`norm_seg_length=False`),
+//! `similaritymeasures.pcm` 1.5.0 computes it (`norm_seg_length=False`),
 //! but for which curve is mapped onto which:
 //!
 //! 1. Each curve's arc lengths (normalised units), each divided by its

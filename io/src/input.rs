@@ -47,7 +47,14 @@ pub fn note_input(path: &Path) {
         identity: Some((metadata.dev(), metadata.ino())),
     };
     if let Ok(mut inputs) = INPUTS.lock() {
-        inputs.push(file);
+        // Noted once: a file read again (the live page's every refresh, a
+        // fuzzer's every input) does not grow the list.
+        if !inputs
+            .iter()
+            .any(|known| known.identity == file.identity && known.path == file.path)
+        {
+            inputs.push(file);
+        }
     }
 }
 
@@ -330,4 +337,29 @@ pub fn parse_duration(text: &str) -> std::result::Result<std::time::Duration, St
         return Err(expected());
     }
     Ok(std::time::Duration::from_secs_f64(seconds))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{input_at, note_input, INPUTS};
+
+    /// A file read again and again (each refresh of the live page, each
+    /// input of a fuzzer) is noted once: the list does not grow.
+    #[test]
+    fn a_file_noted_again_is_noted_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("rig.toml");
+        std::fs::write(&path, "x").unwrap();
+        for _ in 0..1000 {
+            note_input(&path);
+        }
+        let noted = INPUTS
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|input| input.path == path)
+            .count();
+        assert_eq!(noted, 1);
+        assert_eq!(input_at(&path), Some(path));
+    }
 }

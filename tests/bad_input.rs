@@ -479,6 +479,45 @@ fn numbers_outside_what_physics_or_the_machine_allows_are_refused_with_the_limit
         assert!(!out.exists());
     }
 
+    // Command-line counts: each has a bound, and says it.
+    let case = "data/excavator/case1.toml";
+    for (option, value, said) in [
+        ("--generations", "4000000000", "1..=100000"),
+        ("--parallel", "100000", "1..=256"),
+    ] {
+        let out = dir.path().join("counts");
+        let message = refused(
+            &[
+                "calibrate",
+                "excavator",
+                "--case",
+                case,
+                "--out",
+                path_arg(&out),
+                option,
+                value,
+            ],
+            2,
+        );
+        assert!(message.contains(said), "{option} {value}: {message}");
+        assert!(!out.exists());
+    }
+    // A budget beyond the transducer's full scale has nothing behind it.
+    let rig = "fixtures/rigs/excavator.toml";
+    for args in [
+        &["--cylinder", "boom", "--head", "1e300", "--rod", "5"][..],
+        &["--cylinder", "boom", "--head", "100", "--rod", "-50"],
+        &["--sensor", "boom_head_pressure", "--at", "601"],
+    ] {
+        let mut line = vec!["budget", rig];
+        line.extend(args);
+        let message = refused(&line, 2);
+        assert!(
+            message.contains("pressure's range, 0 to 600 bar (the rig file's)"),
+            "{args:?}: {message}"
+        );
+    }
+
     // Scenario levels and durations.
     let scenario =
         std::fs::read_to_string(root().join("fixtures/scenarios/excavator_case1.toml")).unwrap();

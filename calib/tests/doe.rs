@@ -292,7 +292,10 @@ fn csv_design_errors_name_the_line_and_the_expectation() {
     assert!(message.contains("more than once"), "{message}");
 
     let (_, message) = csv_error("a,b\n", &["a"]);
-    assert!(message.contains("no rows of values; add one row per run"), "{message}");
+    assert!(
+        message.contains("no rows of values; add one row per run"),
+        "{message}"
+    );
     let (line, _) = csv_error("", &["a"]);
     assert_eq!(line, 1);
     let (_, message) = csv_error("a\n1\n", &[]);

@@ -72,8 +72,23 @@ pub fn run_budget(args: BudgetArgs) -> Result<()> {
             sensor.unit()
         )));
     }
+    within_range(sensor, "--at", at)?;
     print_budget(&value_budget(sensor, at), args.json, None);
     Ok(())
+}
+
+/// A value within the range the rig file states for `sensor` (its full
+/// scale): beyond it neither its certificate nor its data sheet says
+/// anything, and a budget there would be a number with nothing behind it.
+fn within_range(sensor: &acq_drivers::rig::Sensor, option: &str, value: f64) -> Result<()> {
+    match sensor.range {
+        Some([low, high]) if !(low..=high).contains(&value) => Err(AcqError::Config(format!(
+            "{option} {value}: outside {}'s range, {low} to {high} {} (the rig file's); its certificate and data sheet say nothing there",
+            sensor.name,
+            sensor.unit()
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// `--cylinder`: the net force's budget, and its Monte Carlo check.
@@ -83,6 +98,10 @@ fn run_net_force(args: &BudgetArgs, rig: &acq_drivers::rig::Rig, cylinder: &str)
         return Err(AcqError::Config(format!(
             "--head {head} --rod {rod}: give both chambers' pressures in bar"
         )));
+    }
+    if let Some(known) = rig.cylinders.iter().find(|c| c.name == *cylinder) {
+        within_range(&rig.sensors[known.head_sensor], "--head", head)?;
+        within_range(&rig.sensors[known.rod_sensor], "--rod", rod)?;
     }
     let Some(value) = net_force_budget(rig, cylinder, head, rod) else {
         let known: Vec<&str> = rig.cylinders.iter().map(|c| c.name.as_str()).collect();

@@ -84,8 +84,8 @@ pub struct CalibrateExcavatorArgs {
     /// NSGA-II population.
     #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(4..=1_000_000))]
     pub population: u32,
-    /// NSGA-II generations.
-    #[arg(long, default_value_t = 100)]
+    /// NSGA-II generations (1 to 100,000).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     pub generations: u32,
     /// Largest share of the population on the first front.
     #[arg(long, default_value_t = 0.5)]
@@ -113,9 +113,9 @@ pub struct CalibrateExcavatorArgs {
     /// Continue the run in DIR: evaluations already in its log are not repeated.
     #[arg(long)]
     pub resume: bool,
-    /// Twin evaluations at once [default: the number of cores].
-    #[arg(long)]
-    pub parallel: Option<usize>,
+    /// Twin evaluations at once, 1 to 256 (a spec's limit) [default: the number of cores].
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=256))]
+    pub parallel: Option<u16>,
     /// After the search, sample the posterior of the inputs (4 chains of
     /// 1,000 draws, the twin run at every step) given the measured
     /// pressures' uncertainty: with --measured their budget (`u_c`: the
@@ -290,7 +290,7 @@ impl From<CalibrateExcavatorArgs> for CalibrateExcavatorOptions {
             kernel: args.kernel,
             seed: args.seed,
             resume: args.resume,
-            parallel: args.parallel,
+            parallel: args.parallel.map(usize::from),
             posterior: args.posterior.then_some(ExcavatorPosterior {
                 discrepancy: match args.discrepancy {
                     PosteriorDiscrepancy::None => Discrepancy::None,

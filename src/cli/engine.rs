@@ -46,9 +46,9 @@ pub struct GpFitArgs {
         allow_negative_numbers = true
     )]
     pub fixed: Option<Vec<f64>>,
-    /// Multistart L-BFGS starts of the fit.
-    #[arg(long, default_value_t = 5)]
-    pub restarts: usize,
+    /// Multistart L-BFGS starts of the fit (1 to 1,000).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u16).range(1..=1000))]
+    pub restarts: u16,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// The model (JSON).
@@ -112,7 +112,7 @@ pub fn run_gp(command: GpCommand) -> Result<()> {
             let settings = GpSettings {
                 kernel: args.kernel,
                 ard: args.ard,
-                restarts: args.restarts.max(1),
+                restarts: usize::from(args.restarts),
                 seed: args.seed,
                 fixed,
                 ..GpSettings::default()

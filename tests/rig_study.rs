@@ -600,6 +600,24 @@ fn a_users_solver_at_the_rig_through_its_saved_emulator() {
     let rig = acq_io::input::load_rig(&root().join("fixtures/rigs/excavator.toml")).unwrap();
     let quantities = RigQuantities::of(&rig);
     let study = Arc::new(RigStudy::load(&dir.join("rig_study.toml"), &quantities).unwrap());
+    // A parameter the emulator does not take could never be learnt: refused
+    // with what it takes.
+    let text = std::fs::read_to_string(dir.join("rig_study.toml")).unwrap();
+    let more = text.replacen(
+        "[[parameter]]",
+        "[[parameter]]\nname = \"paint_mass_kg\"\nlower = 0.0\nupper = 10.0\n\n[[parameter]]",
+        1,
+    );
+    std::fs::write(dir.join("more.toml"), more).unwrap();
+    let refused = RigStudy::load(&dir.join("more.toml"), &quantities)
+        .err()
+        .expect("a parameter the emulator does not take")
+        .to_string();
+    assert!(
+        refused.contains("the emulator takes no \"paint_mass_kg\"")
+            && refused.contains("it takes bucket_mass_kg"),
+        "{refused}"
+    );
     assert!(study.geometry.is_none(), "the emulator is the model");
 
     // A machine none of the files was made from (each within its prior).

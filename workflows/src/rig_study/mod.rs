@@ -405,6 +405,13 @@ fn the_model(
                     };
                     located(SpecProblem::key("[emulator]", "load", why))
                 })?;
+            emulator_takes_the_study(&emulator, file, mapping).map_err(|why| {
+                located(SpecProblem::key(
+                    "[emulator]",
+                    "load",
+                    format!("{load}: {why}"),
+                ))
+            })?;
             for ((name, _), error) in mapping.observations.iter().zip(&mut model_error_sd) {
                 if let Some(output) = emulator.outputs.iter().find(|o| &o.name == name) {
                     *error = output.error_sd;
@@ -421,6 +428,35 @@ fn the_model(
         }
     };
     Ok((model, geometry, model_error_sd))
+}
+
+/// Every parameter of the study and every measured input of its holds is
+/// a column of the emulator: one it does not take would be accepted and
+/// never learnt (a parameter), or ignored in every hold (an input).
+fn emulator_takes_the_study(
+    emulator: &SavedEmulator,
+    file: &SpecFile,
+    mapping: &HoldMapping,
+) -> Result<(), String> {
+    let columns: Vec<&str> = emulator.columns.iter().map(|c| c.name.as_str()).collect();
+    let wanted = file
+        .parameters
+        .iter()
+        .map(|p| (p.name.as_str(), "[[parameter]]"))
+        .chain(
+            mapping
+                .measured_inputs()
+                .map(|(name, _)| (name, "[holds.inputs]")),
+        );
+    for (name, table) in wanted {
+        if !columns.contains(&name) {
+            return Err(format!(
+                "{table} {name:?}: the emulator takes no {name:?}, so no hold could tell anything of it; it takes {} (those of the study that saved it): leave {name:?} out, or save the emulator again from a study that has it",
+                columns.join(", ")
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A rig's model, its geometry when it is the twin, and each

@@ -295,7 +295,7 @@ fn excavator_summary_has_the_fixed_shape_and_does_not_worsen_the_fit() {
         );
     }
 
-    let report = text(&out.join("report.md"));
+    let report = common::report::read(&out);
     for (_, measured) in MEASURED_BAR {
         assert!(
             report.contains(&format!("{measured:.2}")),
@@ -323,10 +323,8 @@ fn excavator_picks_minimax_by_default_and_topsis_on_request() {
     assert!(output.status.success(), "{}", stderr(&output));
     let output = calibrate_excavator(&topsis, &["--pick", "topsis"]);
     assert!(output.status.success(), "{}", stderr(&output));
-    assert!(text(&minimax.join("report.md")).contains("the minimax pick"));
-    assert!(
-        text(&topsis.join("report.md")).contains("the TOPSIS pick (per-objective normalisation")
-    );
+    assert!(common::report::read(&minimax).contains("the minimax pick"));
+    assert!(common::report::read(&topsis).contains("the TOPSIS pick (per-objective normalisation"));
     // The minimax pick has the least largest error on the GPs' front; the twin
     // re-run there agrees with the GPs within a few hundredths of a percent.
     let largest_minimax = largest(&json(&minimax.join("summary.json"))["errors_optimal_pct"]);
@@ -591,7 +589,7 @@ fn gtn_calibrates_at_the_element_size_asked_and_says_so() {
     assert_eq!(number(&mesh["neck_zone_mm"]), 2.0);
     let axial = mesh["axial_elements"].as_u64().unwrap();
     assert!((9..30).contains(&axial), "{axial} axial elements");
-    let report = text(&out.join("report.md"));
+    let report = common::report::read(&out);
     assert!(
         report.contains("square elements of 0.2500 mm over a neck zone of 2 mm"),
         "{report}"
@@ -915,7 +913,7 @@ fn external_solver_failures_and_timeouts_are_logged_not_fatal() {
     assert_eq!(given, logged);
     assert!(!out.join("runs/000021").exists());
     assert!(text(&out.join("loss.svg")).starts_with("<svg"));
-    assert!(text(&out.join("report.md")).contains("out1"));
+    assert!(common::report::read(&out).contains("out1"));
 }
 
 #[test]
@@ -1683,7 +1681,7 @@ fn an_external_solver_can_return_a_curve_scored_by_the_curve_mape() {
     // back from the best run's directory (no extra run), and says how far
     // it misses along it: everywhere |2 - a| / 2, so the largest error is
     // the MAPE.
-    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let report = common::report::read(&out);
     let line = report
         .lines()
         .find(|l| l.starts_with("force_displacement (the test): MAPE"))

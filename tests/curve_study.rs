@@ -136,7 +136,7 @@ fn a_load_cycle_is_fitted_by_its_metric_and_every_metric_is_in_the_summary() {
         // MAPE compares on an x grid: a curve whose x goes back has none.
         assert!(metrics["mape"].is_null(), "{metrics}");
         // The report names the metric and draws the gap along the curve.
-        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        let report = common::report::read(&out);
         let label = metric.to_uppercase();
         assert!(report.contains(&format!("| {label} ")), "{report}");
         assert!(

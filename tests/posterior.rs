@@ -264,7 +264,7 @@ fn a_straight_line_through_a_solver_script_has_the_closed_form_posterior_by_the_
     // The refinement's runs are logged apart from the search's, and the
     // report says how the posterior was sampled.
     assert!(out.join("posterior_refinement.csv").exists());
-    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let report = common::report::read(&out);
     eprintln!(
         "{}",
         report
@@ -984,6 +984,6 @@ fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty
     assert!((s.comparison_error - (s.simulated - 6.3)).abs() < 1e-12);
     let u_val = (0.09 + s.u_input.powi(2) + 0.16).sqrt();
     assert!((s.u_val - u_val).abs() < 1e-12);
-    let report = std::fs::read_to_string(dir.path().join("validated/report.md")).unwrap();
+    let report = common::report::read(&dir.path().join("validated"));
     assert!(report.contains("Validation (ASME V&V 20)"));
 }

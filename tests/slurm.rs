@@ -262,7 +262,7 @@ fn calculix_example_on_slurm(cluster: &Cluster) {
                 }
             }
         }
-        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        let report = common::report::read(&out);
         assert!(
             report.contains("## Where the runs ran"),
             "the report gives each run's queue wait and run time"

@@ -135,7 +135,7 @@ parallel = 2
         );
     }
     assert_eq!(expected["evaluations"], got["evaluations"]);
-    let report = std::fs::read_to_string(wrapped.join("report.md")).unwrap();
+    let report = common::report::read(&wrapped);
     assert!(report.contains("Identifiability"), "{report}");
     assert!(wrapped.join("pareto.svg").exists());
 }
@@ -167,7 +167,7 @@ parallel = 1
         params = params.join(",")
     );
     // The bounds as the built-in run reports them (m's comes from the test).
-    let report = std::fs::read_to_string(builtin.join("report.md")).unwrap();
+    let report = common::report::read(&builtin);
     let bound = |name: &str| -> (f64, f64) {
         let row = report
             .lines()
@@ -313,7 +313,7 @@ fn a_shared_parameter_is_recovered_from_two_fit_cases_and_checked_on_a_validate_
     assert!(!log.contains("C/"), "{}", log.lines().next().unwrap());
     let validation_log = std::fs::read_to_string(out.join("validation.csv")).unwrap();
     assert_eq!(validation_log.lines().count(), 2, "{validation_log}");
-    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let report = common::report::read(&out);
     assert!(report.contains("Validation cases"), "{report}");
     assert!(report.contains("about as well"), "{report}");
 
@@ -375,7 +375,7 @@ fn a_wrong_model_fits_its_cases_but_fails_its_validate_case_and_the_report_says_
     let validation = number(&got, &["cases", "C", "errors_pct", "u_high_mm"]);
     assert!(fit < 3.0, "fit error {fit} %");
     assert!(validation > 10.0, "validate error {validation} %");
-    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let report = common::report::read(&out);
     assert!(report.contains("does not carry over"), "{report}");
 }
 
@@ -490,7 +490,7 @@ max_evals = 60
             "chi2 {chi2}, least squares {}",
             chi2_min * scale
         );
-        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        let report = common::report::read(&out);
         assert_eq!(
             report.contains("within what the instruments can tell"),
             agrees,
@@ -846,7 +846,7 @@ max_evals = 60
         );
         // The prior is scored and reported like a measured value.
         assert_eq!(got["chi_square"]["observations"], 4);
-        let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+        let report = common::report::read(&out);
         assert!(
             report.contains("| prior | b | 3 |"),
             "{method}: the report lists the prior"
@@ -929,4 +929,21 @@ fn the_shipped_excavator_geometry_is_what_the_identification_gives() {
             "{path}: identified {a}, shipped {b}"
         );
     }
+}
+
+/// The report check's number finder: a raw float is found, a short one, a
+/// small one with few digits, a version and an identifier are not.
+#[test]
+fn long_numbers_are_found_and_versions_are_not() {
+    assert_eq!(
+        common::report::long_numbers(
+            "a 116.88459379999991 b 116.9 c 0.000012345678 d 1.5.0 e x1.123456789"
+        ),
+        vec!["116.88459379999991".to_string()]
+    );
+    assert_eq!(
+        common::report::long_numbers("12345678.9"),
+        vec!["12345678.9".to_string()]
+    );
+    assert!(common::report::long_numbers("1234567.8 and 1795295563").is_empty());
 }

@@ -3,8 +3,10 @@
 //! to one self-contained HTML page (figures inline, no script, no network).
 //!
 //! One model for both, so the Markdown and the HTML of a report never say
-//! different things. Paragraph text may hold `code` spans; everything else is
-//! plain text and is escaped for HTML.
+//! different things. Text (headings, paragraphs, list items, table cells)
+//! is Markdown: `code`, **strong** and *emphasis* render in HTML as they
+//! read in the Markdown (CommonMark, through `pulldown-cmark`); raw HTML in
+//! it (a parameter's name, a path) is shown as text, never interpreted.
 
 use std::fmt::Write as _;
 
@@ -63,7 +65,7 @@ impl Table {
     fn to_html(&self, out: &mut String) {
         out.push_str("<table>\n<thead><tr>");
         for cell in &self.header {
-            let _ = write!(out, "<th>{}</th>", escape(cell));
+            let _ = write!(out, "<th>{}</th>", inline(cell));
         }
         out.push_str("</tr></thead>\n<tbody>\n");
         for row in &self.rows {
@@ -74,7 +76,7 @@ impl Table {
                 } else {
                     ""
                 };
-                let _ = write!(out, "<td{class}>{}</td>", escape(cell));
+                let _ = write!(out, "<td{class}>{}</td>", inline(cell));
             }
             out.push_str("</tr>\n");
         }
@@ -280,21 +282,38 @@ pub fn escape(text: &str) -> String {
     out
 }
 
-/// Escaped text with `code` spans (an unpaired backtick stays as it is).
+/// Markdown text as inline HTML: its spans (code, strong, emphasis, links)
+/// rendered, HTML in it escaped, and the paragraph CommonMark would wrap
+/// it in left off (the caller's element holds it). Text a block would
+/// start with (`1. `, `- `, `# `) is kept as text: a line of a report is
+/// never re-read as a list or a heading.
 fn inline(text: &str) -> String {
-    let parts: Vec<&str> = text.split('`').collect();
-    if parts.len() % 2 == 0 {
+    use pulldown_cmark::{Event, Parser, Tag, TagEnd};
+    let events = Parser::new(text).filter_map(|event| match event {
+        // A name or a path that holds markup is text.
+        Event::Html(raw) | Event::InlineHtml(raw) => Some(Event::Text(raw)),
+        Event::Start(Tag::Paragraph) | Event::End(TagEnd::Paragraph) => None,
+        other => Some(other),
+    });
+    let block_start = |event: &Event<'_>| {
+        matches!(
+            event,
+            Event::Start(
+                Tag::List(_)
+                    | Tag::Item
+                    | Tag::Heading { .. }
+                    | Tag::BlockQuote(_)
+                    | Tag::CodeBlock(_)
+                    | Tag::Table(_)
+            ) | Event::Rule
+        )
+    };
+    if Parser::new(text).any(|e| block_start(&e)) {
         return escape(text);
     }
     let mut out = String::new();
-    for (i, part) in parts.iter().enumerate() {
-        if i % 2 == 1 {
-            let _ = write!(out, "<code>{}</code>", escape(part));
-        } else {
-            out.push_str(&escape(part));
-        }
-    }
-    out
+    pulldown_cmark::html::push_html(&mut out, events);
+    out.trim_end().to_string()
 }
 
 /// A heading's id: lower-case letters and digits, dashes between words.
@@ -369,6 +388,30 @@ mod tests {
         assert!(md.contains("## Report <1>"));
         assert!(md.contains("![loss](case1/loss.svg)"));
         assert_eq!(top.figures().count(), 1);
+    }
+
+    /// What a report's text says in Markdown reads the same in HTML:
+    /// strong and emphasis rendered, markup in names shown as text, a line
+    /// that would start a list or a heading left as it is written.
+    #[test]
+    fn markdown_spans_render_and_markup_stays_text() {
+        assert_eq!(
+            inline("**Not converged**: sample *longer*"),
+            "<strong>Not converged</strong>: sample <em>longer</em>"
+        );
+        assert_eq!(inline("**no**"), "<strong>no</strong>");
+        assert_eq!(
+            inline("name <script>alert(1)</script>"),
+            "name &lt;script&gt;alert(1)&lt;/script&gt;"
+        );
+        assert_eq!(inline("1. first"), "1. first");
+        assert_eq!(inline("- 3 bar"), "- 3 bar");
+        assert_eq!(inline("# not a heading"), "# not a heading");
+        assert_eq!(
+            inline("k_top and k_side, f_u* and f_c*"),
+            "k_top and k_side, f_u* and f_c*"
+        );
+        assert_eq!(inline("-"), "-");
     }
 
     #[test]

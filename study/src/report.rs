@@ -274,11 +274,11 @@ fn write_parameters(report: &mut Document, study: &Study, calibrated: &[f64], ex
         let unit = search.to_unit(*v);
         table.row(vec![
             search.name.clone(),
-            format!("{}", search.lower),
-            format!("{}", search.upper),
+            short(search.lower),
+            short(search.upper),
             format!("{:?}", search.scale).to_lowercase(),
             short(p.nominal),
-            format!("{v:.6}"),
+            short(*v),
             format!("{:.0} %", 100.0 * unit),
             if !(0.01..=0.99).contains(&unit) {
                 "on a bound: the optimum may lie outside the range".into()
@@ -513,16 +513,7 @@ fn write_runs_section(report: &mut Document, columns: &[String], evaluations: &[
 /// A number to 6 significant digits, without trailing zeros: the
 /// bounds and nominals as a reader would write them.
 fn short(value: f64) -> String {
-    if !value.is_finite() || value == 0.0 {
-        return format!("{value}");
-    }
-    let decimals = (5.0 - value.abs().log10().floor()).clamp(0.0, 12.0) as usize;
-    let text = format!("{value:.decimals$}");
-    if text.contains('.') {
-        text.trim_end_matches('0').trim_end_matches('.').to_string()
-    } else {
-        text
-    }
+    acq_report::number::plain(value, 6)
 }
 
 /// A relative error, or "-" where there is none (a measured 0, a curve
@@ -552,10 +543,9 @@ fn errors_table(errors: &[ObservationError], nominal: Option<&[ObservationError]
         let mut cells = vec![
             e.case.clone(),
             e.name.clone(),
-            e.measured
-                .map_or_else(|| "curve".into(), |m| format!("{m}")),
+            e.measured.map_or_else(|| "curve".into(), short),
             match e.curve_metric {
-                None => format!("{:.6}", e.model),
+                None => short(e.model),
                 Some(CurveMetric::Mape) => format!("MAPE {:.3} %", e.model),
                 Some(metric) => format!("{} {:.4}", metric.as_str().to_uppercase(), e.model),
             },

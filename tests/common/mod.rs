@@ -8,6 +8,7 @@ pub mod coverage;
 pub mod interfaces;
 pub mod memory_recorder;
 pub mod pipeline;
+pub mod report;
 pub mod rig_emulator;
 pub mod running;
 pub mod slurm;

@@ -397,11 +397,7 @@ fn conflict(
 
 /// A number to four significant figures, for words.
 pub(super) fn significant(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let digits = (3 - x.abs().log10().floor() as i32).max(0) as usize;
-    format!("{x:.digits$}")
+    acq_report::number::significant(x, 4)
 }
 
 /// The verdict of parameter `j` with `interval`.

@@ -1414,3 +1414,37 @@ fn messages_name_the_form_and_the_fix() {
     );
     assert!(!message.contains("design"), "{message}");
 }
+
+/// What acq says of itself is true: `--help` names every format decode and
+/// convert read, and a command that takes no rig, given a log, does not
+/// suggest a `--rig` it would refuse.
+#[test]
+fn help_and_suggestions_are_true_to_the_commands() {
+    let output = acq(&["--help"]);
+    let help = common::stdout(&output);
+    for command in ["decode", "convert"] {
+        let line = help
+            .lines()
+            .find(|l| l.trim_start().starts_with(command))
+            .unwrap_or_else(|| panic!("{command} in {help}"));
+        for format in ["candump", "ASC", "BLF", "MF4"] {
+            assert!(line.contains(format), "{command}: {line}");
+        }
+    }
+    let log = "fixtures/sessions/tensile_p91_20c/raw.log";
+    for args in [
+        &[
+            "calibrate",
+            "rig",
+            log,
+            "--study",
+            "examples/excavator-rig/study.toml",
+        ][..],
+        &["zero", log, "--before", "1s"],
+        &["view", log],
+    ] {
+        let message = refused(args, 2);
+        assert!(message.contains("session directory"), "{args:?}: {message}");
+        assert!(!message.contains("--rig"), "{args:?}: {message}");
+    }
+}

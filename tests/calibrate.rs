@@ -204,6 +204,24 @@ fn excavator_summary_has_the_fixed_shape_and_does_not_worsen_the_fit() {
     assert_eq!(keys(&summary["errors_initial_pct"]), cylinders);
     assert_eq!(keys(&summary["errors_optimal_pct"]), cylinders);
     assert_eq!(keys(&summary["optimal"]), sorted(&EXCAVATOR_INPUTS));
+    // The last line gives each calibrated input with its value, as the
+    // summary has it to 6 significant figures.
+    let said = stdout(&output);
+    let last = said.lines().last().unwrap();
+    assert!(last.starts_with("calibrated: "), "{last}");
+    for input in EXCAVATOR_INPUTS {
+        let value = summary["optimal"][input].as_f64().unwrap();
+        let shown = last
+            .split(&format!("{input} = "))
+            .nth(1)
+            .and_then(|rest| rest.split([',', ' ']).next())
+            .unwrap_or_else(|| panic!("{input} in {last}"));
+        let shown: f64 = shown.parse().unwrap();
+        assert!(
+            (shown - value).abs() <= 1e-5 * value.abs().max(1.0),
+            "{input}: {last}"
+        );
+    }
     let rmse = &summary["surrogate_rmse_bar"];
     assert_eq!(
         keys(rmse),

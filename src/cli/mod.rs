@@ -88,9 +88,9 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
-    /// Decode CAN logs (candump -L or Vector ASC) to CSV, through DBC files or a rig.
+    /// Decode CAN logs (candump -L, Vector ASC or BLF, ASAM MF4) to CSV, Parquet or MF4, through DBC files or a rig.
     Decode(decode::DecodeArgs),
-    /// Convert a CAN log to another format (candump -L, Vector ASC), by OUT's extension.
+    /// Convert a CAN log (candump -L, Vector ASC or BLF, ASAM MF4) to candump -L, ASC or MF4, by OUT's extension.
     Convert(convert::ConvertArgs),
     /// Validate a rig file and explain every problem found.
     CheckRig(decode::CheckRigArgs),

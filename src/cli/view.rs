@@ -88,7 +88,7 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
     let worker = match &args.study {
         Some(path) => {
             // The first session's own copy of its rig.
-            let rig = acq_analysis::recording::Recording::open(&args.sessions[0], None)?.rig;
+            let rig = acq_analysis::recording::Recording::open_session(&args.sessions[0])?.rig;
             let study = super::rig_study::load(path, &rig)?;
             let say: Box<dyn Fn(&str) + Send> = Box::new(|line: &str| eprintln!("acq: {line}"));
             Some(super::rig_study::start(study, sessions.clone(), say))

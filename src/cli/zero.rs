@@ -39,7 +39,7 @@ pub fn run_zero(args: ZeroArgs) -> Result<()> {
         )));
     }
     let windows = windows(args.before, args.after)?;
-    let recording = Recording::open(&args.session, None)?;
+    let recording = Recording::open_session(&args.session)?;
     let taken = take(&recording, windows, "acq zero")?;
     if taken.record.sensors.is_empty() {
         return Err(AcqError::Config(format!(

@@ -116,8 +116,37 @@ pub fn run_study(
                 directory.file("report.md").display()
             ))
     );
+    println!("{}", parameters_line(study, &outcome));
     extras.files(study, &outcome, directory)?;
     Ok(StudyRun { outcome, report })
+}
+
+/// The last line of a calibration: each parameter at the calibrated point,
+/// with its 90 % posterior interval when the study sampled one (and a
+/// word when that has not converged), so the answer is on the terminal
+/// without opening the report.
+fn parameters_line(study: &Study, outcome: &StudyOutcome) -> String {
+    use acq_report::number::plain;
+    let posterior = outcome.posterior.as_ref();
+    let parameters: Vec<String> = outcome
+        .calibrated_by_name(study)
+        .into_iter()
+        .map(|(name, value)| {
+            let interval = posterior
+                .and_then(|p| p.marginals.get(p.names.iter().position(|n| *n == name)?))
+                .map(|m| format!(" [{} .. {}]", plain(m.q05, 4), plain(m.q95, 4)))
+                .unwrap_or_default();
+            format!("{name} = {}{interval}", plain(value, 6))
+        })
+        .collect();
+    let heading = match posterior {
+        Some(p) if !p.unconverged().is_empty() => {
+            "calibrated (90 % posterior interval, NOT CONVERGED: see the report)"
+        }
+        Some(_) => "calibrated (90 % posterior interval)",
+        None => "calibrated",
+    };
+    format!("{heading}: {}", parameters.join(", "))
 }
 
 /// The calibrated parameters and the model's outputs there: the pick of

@@ -60,6 +60,17 @@ pub fn calibrate_external(spec: &Path, out: &Path, extra: &[&str]) -> Output {
 pub fn external_summary(spec: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
     let output = calibrate_external(spec, out, extra);
     assert!(output.status.success(), "{}", stderr(&output));
+    // Its last line names the answer: the parameters, with their 90 %
+    // intervals when a posterior was sampled.
+    let said = String::from_utf8_lossy(&output.stdout);
+    let last = said.lines().last().unwrap_or_default();
+    assert!(last.starts_with("calibrated"), "last line: {last}");
+    if out.join("posterior.csv").exists() {
+        assert!(
+            last.contains("90 % posterior interval") && last.contains(" .. "),
+            "{last}"
+        );
+    }
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }
 

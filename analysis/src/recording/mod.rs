@@ -50,6 +50,20 @@ pub struct Recording {
 }
 
 impl Recording {
+    /// Opens the session directory `path` with the rig it was recorded
+    /// with, for a command that takes no rig of its own: a log (which
+    /// carries none) is refused as not a session, without suggesting a
+    /// `--rig` the command does not have.
+    pub fn open_session(path: &Path) -> Result<Recording> {
+        if !path.is_dir() {
+            return Err(AcqError::Config(format!(
+                "{}: not a session directory; give a directory acq record wrote (it keeps the rig the log was recorded with; a log alone has no rig)",
+                path.display()
+            )));
+        }
+        Recording::open(path, None)
+    }
+
     /// Opens `path` (a session directory or a log). The rig is `rig_path`,
     /// else the session's own copy of the rig it was recorded with.
     pub fn open(path: &Path, rig_path: Option<&Path>) -> Result<Recording> {

@@ -35,7 +35,7 @@ pub fn run(args: CalibrateRigOptions) -> Result<()> {
     let mut holds: Vec<(String, Vec<MeasuredValue>)> = Vec::new();
     let mut quantities = None;
     for dir in &args.sessions {
-        let recording = Recording::open(dir, None)?;
+        let recording = Recording::open_session(dir)?;
         let report = extract_holds(
             &recording,
             &WindowChoice::Auto(HoldOptions::default()),

@@ -320,6 +320,36 @@ fn excavator_summary_has_the_fixed_shape_and_does_not_worsen_the_fit() {
             "{measured} not in\n{report}"
         );
     }
+    // One verdict per input: each input's row there carries the local
+    // verdict of the identifiability table, its largest Sobol index, and
+    // words that agree with both.
+    let section = &report[report
+        .find("### One verdict per input")
+        .expect("the section")..];
+    let cells = |text: &str, name: &str| -> Vec<String> {
+        let row = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} |")))
+            .unwrap_or_else(|| panic!("{name}"));
+        row.trim_matches('|')
+            .split('|')
+            .map(|c| c.trim().to_string())
+            .collect()
+    };
+    let local_table = &report[report
+        .find("| parameter | loss change along its range")
+        .unwrap()..];
+    for name in EXCAVATOR_INPUTS {
+        let one = cells(section, name);
+        let local = cells(local_table, name);
+        assert_eq!(one[2], local[3], "{name}: {one:?} against {local:?}");
+        let sobol: f64 = one[1].split(' ').next().unwrap().parse().unwrap();
+        assert!(one[3].starts_with(&one[2]), "{name}: {one:?}");
+        if one[2] == "not identified" {
+            let says_it_matters = one[3].contains("it moves the outputs, but");
+            assert_eq!(says_it_matters, sobol >= 0.05, "{name}: {one:?}");
+        }
+    }
     for svg in ["pareto.svg", "loss.svg"] {
         let plot = text(&out.join(svg));
         assert!(

@@ -478,32 +478,63 @@ fn verdict_table<'a>(
     let mut verdicts = Verdicts::default();
     for (j, p) in parameters.iter().enumerate() {
         let spread = analysis.spread_of_range[j];
-        let verdict = if !spread.is_finite() || spread > 0.5 {
-            if analysis.sensitivity[j] <= 1e-3 * largest {
-                verdicts.flat.push(p.name.as_str());
-            } else {
-                verdicts.confounded.push(p.name.as_str());
+        let verdict = local_verdict(analysis, j);
+        match verdict {
+            "not identified" if analysis.sensitivity[j] <= 1e-3 * largest => {
+                verdicts.flat.push(p.name.as_str())
             }
-            "not identified"
-        } else if spread > 0.1 {
-            verdicts.weak.push(p.name.as_str());
-            "weakly identified"
-        } else {
-            "identified"
-        };
+            "not identified" => verdicts.confounded.push(p.name.as_str()),
+            "weakly identified" => verdicts.weak.push(p.name.as_str()),
+            _ => {}
+        }
         let value_spread = spread * (p.upper - p.lower);
         table.row(vec![
             p.name.clone(),
-            format!("{:.4}", analysis.sensitivity[j]),
-            if spread.is_finite() {
-                format!("{:.1} % (±{value_spread:.4})", 100.0 * spread)
-            } else {
-                "unbounded".into()
-            },
+            acq_report::number::plain(analysis.sensitivity[j], 4),
+            spread_words(spread, value_spread),
             verdict.into(),
         ]);
     }
     (table, verdicts)
+}
+
+/// A spread as a share of the range and in the parameter's unit; beyond
+/// the range it is no number worth reading (thousands of percent), only
+/// that the data do not bound it there.
+fn spread_words(spread_of_range: f64, value_spread: f64) -> String {
+    if !spread_of_range.is_finite() {
+        "unbounded".into()
+    } else if spread_of_range > 1.0 {
+        "beyond its range".into()
+    } else {
+        format!(
+            "{:.1} % (±{})",
+            100.0 * spread_of_range,
+            acq_report::number::plain(value_spread, 4)
+        )
+    }
+}
+
+/// The local verdict of parameter `j` in one word, as the table gives it.
+pub fn local_verdict(analysis: &Identifiability, j: usize) -> &'static str {
+    let spread = analysis.spread_of_range[j];
+    if !spread.is_finite() || spread > 0.5 {
+        "not identified"
+    } else if spread > 0.1 {
+        "weakly identified"
+    } else {
+        "identified"
+    }
+}
+
+/// The parameter most correlated with `j` (|ρ| above 0.5), if any.
+pub fn strongest_partner(analysis: &Identifiability, j: usize) -> Option<(usize, f64)> {
+    analysis.correlation[j]
+        .iter()
+        .enumerate()
+        .filter(|&(k, rho)| k != j && rho.is_finite() && rho.abs() > 0.5)
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        .map(|(k, rho)| (k, *rho))
 }
 
 /// The verdicts and the strongly correlated pairs in words, or that every
@@ -586,5 +617,19 @@ fn loss_slices_figure(analysis: &Identifiability, parameters: &[Parameter]) -> F
         file: "identifiability.svg".into(),
         caption: "loss along each parameter through the optimum".into(),
         svg: chart_svg(&chart, 720.0, 420.0),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spread_words;
+
+    /// A spread past the range is said as such, not as thousands of
+    /// percent; within it, as a share and in the parameter's unit.
+    #[test]
+    fn a_spread_beyond_the_range_is_not_a_percentage() {
+        assert_eq!(spread_words(39.15, 3915.0), "beyond its range");
+        assert_eq!(spread_words(f64::INFINITY, f64::INFINITY), "unbounded");
+        assert_eq!(spread_words(0.573, 5.7311), "57.3 % (±5.731)");
     }
 }

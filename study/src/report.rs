@@ -18,7 +18,7 @@ use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
 
 use super::extras::{Extras, Section};
-use super::identifiability::write_identifiability;
+use super::identifiability::{write_identifiability, Identifiability};
 use super::method::{Method, RunSettings};
 use super::outcome::{CalibratedCurve, Found, StudyOutcome};
 use super::run_directory::{write_text, RunDirectory};
@@ -72,7 +72,10 @@ pub fn study_report(
     }
     match (&outcome.found, method) {
         (Found::Moo(moo), Method::SurrogateMoo(settings)) => {
-            write_surrogates(&mut report, study, moo, settings, extras)
+            let totals = write_surrogates(&mut report, study, moo, settings, extras);
+            if let Some(analysis) = &outcome.identifiability {
+                write_one_verdict(&mut report, analysis, &parameters, &totals);
+            }
         }
         (Found::Bo(result), _) => write_candidates(&mut report, study, outcome, result, extras),
         _ => {}
@@ -298,7 +301,7 @@ fn write_surrogates(
     moo: &super::surrogate_moo::SurrogateMoo,
     settings: &super::surrogate_moo::SurrogateMooSettings,
     extras: &dyn Extras,
-) {
+) -> Vec<Option<(f64, String)>> {
     let keys = study.output_keys(Role::Fit);
     let parameters = study.search_parameters();
     report.heading(
@@ -356,6 +359,8 @@ fn write_surrogates(
     let mut header = vec!["observation"];
     header.extend(parameters.iter().map(|p| p.name.as_str()));
     let mut table = Table::new(&header);
+    // Per parameter: its largest total index and the observation it is of.
+    let mut totals: Vec<Option<(f64, String)>> = vec![None; parameters.len()];
     for (key, gp) in keys.iter().zip(&moo.gps) {
         let indices = sobol_indices(
             |u| gp.predict(u).mean,
@@ -364,6 +369,13 @@ fn write_surrogates(
             settings.seed,
         );
         let mut cells = vec![key.clone()];
+        if let Ok(indices) = &indices {
+            for (largest, total) in totals.iter_mut().zip(&indices.total) {
+                if total.is_finite() && largest.as_ref().is_none_or(|(t, _)| total > t) {
+                    *largest = Some((*total, key.clone()));
+                }
+            }
+        }
         match indices {
             Ok(indices) => cells.extend(
                 indices
@@ -375,6 +387,63 @@ fn write_surrogates(
             Err(error) => cells.push(error.to_string()),
         }
         table.row(cells);
+    }
+    report.table(table);
+    totals
+}
+
+/// A total Sobol index at or above this share of an observation's variance
+/// is a parameter that matters over its range.
+const MATTERS: f64 = 0.05;
+
+/// One verdict per input, where the two sensitivities could seem to
+/// disagree: the global one (Sobol on the GPs, over the whole range: does
+/// the input move the outputs?) and the local one (at the calibrated
+/// point: can the measured values fix it?). The local one decides whether
+/// the value found can be trusted; the global one says whether it matters.
+fn write_one_verdict(
+    report: &mut Document,
+    analysis: &Identifiability,
+    parameters: &[acq_calib::evaluation::Parameter],
+    totals: &[Option<(f64, String)>],
+) {
+    use crate::identifiability::{local_verdict, strongest_partner};
+    report.heading(3, "One verdict per input");
+    report.paragraph(
+        "The Sobol index asks whether an input moves the outputs over its whole range; the identifiability asks whether the measured values fix it at the calibrated point. The verdict is the identifiability's, since it judges the value found; the Sobol index says why.",
+    );
+    let mut table = Table::new(&[
+        "parameter",
+        "largest total Sobol index",
+        "at the calibrated point",
+        "verdict",
+    ]);
+    for (j, p) in parameters.iter().enumerate() {
+        let local = local_verdict(analysis, j);
+        let (total, of) = totals[j].clone().unwrap_or((f64::NAN, String::new()));
+        let matters = total >= MATTERS;
+        let partner = strongest_partner(analysis, j)
+            .map(|(k, rho)| format!("{} (ρ = {rho:+.2})", parameters[k].name));
+        let verdict = match (local, matters) {
+            ("identified", true) => "identified: it moves the outputs and the data fix it".to_string(),
+            ("identified", false) => "identified near the calibrated point, though over its whole range it moves the outputs little".to_string(),
+            ("weakly identified", _) => "weakly identified: the data bound it to 10-50 % of its range".to_string(),
+            (_, true) => format!(
+                "not identified on its own: it moves the outputs, but the data fix only its combination with {}; the value found is one of many equally good",
+                partner.unwrap_or_else(|| "the other inputs".into())
+            ),
+            (_, false) => "not identified: over its range it moves the outputs little next to the other inputs, and the data cannot fix it; fix it from elsewhere".to_string(),
+        };
+        table.row(vec![
+            p.name.clone(),
+            if total.is_finite() {
+                format!("{} ({of})", acq_report::number::plain(total, 2))
+            } else {
+                "-".into()
+            },
+            local.to_string(),
+            verdict,
+        ]);
     }
     report.table(table);
 }

@@ -178,34 +178,35 @@ pub struct AlignSummary {
 impl AlignSummary {
     /// One line per problem, in words.
     pub fn problems(&self) -> Vec<String> {
-        let mut lines = Vec::new();
+        let mut findings: Vec<(&str, String)> = Vec::new();
         for (name, stats) in self.sensors.iter().zip(&self.channels) {
+            let mut say = |finding: String| findings.push((name.as_str(), finding));
             if stats.samples == 0 {
-                lines.push(format!("{name}: never seen in the recording; its column is empty and flagged (is the sensor wired and in the rig as sent?)"));
+                say("never seen in the recording; its column is empty and flagged (is the sensor wired and in the rig as sent?)".into());
                 continue;
             }
             if stats.backwards > 0 {
-                lines.push(format!(
-                    "{name}: {} sample(s) went back in time (by up to {:.3} s) and were dropped; a log merged from two recordings? Sort it by time or align the parts separately",
+                say(format!(
+                    "{} sample(s) went back in time (by up to {:.3} s) and were dropped; a log merged from two recordings? Sort it by time or align the parts separately",
                     stats.backwards,
                     stats.largest_step_back_ns as f64 / 1e9
                 ));
             }
             if stats.duplicates > 0 {
-                lines.push(format!("{name}: {} sample(s) with the same time as the one before were dropped (duplicated frames?)", stats.duplicates));
+                say(format!("{} sample(s) with the same time as the one before were dropped (duplicated frames?)", stats.duplicates));
             }
             if stats.late > 0 {
-                lines.push(format!("{name}: {} sample(s) arrived after their rows were written (more than the lateness out of order); they filled only later rows", stats.late));
+                say(format!("{} sample(s) arrived after their rows were written (more than the lateness out of order); they filled only later rows", stats.late));
             }
             if stats.gaps > 0 {
-                lines.push(format!(
-                    "{name}: {} silence(s) longer than the gap tolerance (longest {:.3} s); flagged, not interpolated",
+                say(format!(
+                    "{} silence(s) longer than the gap tolerance (longest {:.3} s); flagged, not interpolated",
                     stats.gaps,
                     stats.longest_gap_ns as f64 / 1e9
                 ));
             }
         }
-        lines
+        grouped(findings)
     }
 }
 
@@ -403,4 +404,47 @@ fn header_comments(
         lines.push(format!("note: {note}"));
     }
     lines
+}
+
+/// Findings of many sensors, one line per distinct finding: the sensors
+/// that share it named together with their count (24 gauges silent at
+/// once are one line, not 24), in the order first seen.
+fn grouped(findings: Vec<(&str, String)>) -> Vec<String> {
+    let mut groups: Vec<(Vec<&str>, String)> = Vec::new();
+    for (name, finding) in findings {
+        match groups.iter_mut().find(|(_, f)| *f == finding) {
+            Some((names, _)) => names.push(name),
+            None => groups.push((vec![name], finding)),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(names, finding)| match names.len() {
+            1 => format!("{}: {finding}", names[0]),
+            n => format!("{} ({n} sensors): {finding}", names.join(", ")),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::grouped;
+
+    #[test]
+    fn sensors_with_the_same_finding_share_one_line() {
+        let silent = "1 silence(s) longer than the gap tolerance (longest 2.000 s)".to_string();
+        let lines = grouped(vec![
+            ("sg01", silent.clone()),
+            ("load", "3 sample(s) dropped".into()),
+            ("sg02", silent.clone()),
+            ("sg03", silent.clone()),
+        ]);
+        assert_eq!(
+            lines,
+            vec![
+                format!("sg01, sg02, sg03 (3 sensors): {silent}"),
+                "load: 3 sample(s) dropped".to_string()
+            ]
+        );
+    }
 }

@@ -11,7 +11,17 @@
 //! - it disagrees with its partner (`[[pair]]` in the rig): the means
 //!   differ by more than `tolerance_pct` of the larger magnitude and by more
 //!   than `tolerance`. Both partners are flagged: a pair alone cannot say
-//!   which one is wrong.
+//!   which one is wrong;
+//! - it spikes: readings that jump away from both their neighbours and
+//!   back ([`crate::extract::stats::SPIKE_FACTOR`]), a glitch the mean
+//!   would carry;
+//! - it is unlike its neighbours: a gauge whose mean lies farther from the
+//!   line through the nearest gauges of its kind on either side (by the
+//!   rig's `location`) than [`NEIGHBOUR_FACTOR`] times what those two
+//!   differ by (or a tenth of their size, if more): one gauge at 103 MPa
+//!   between neighbours at 34 and 40 MPa is a bonding, wiring or gauge
+//!   factor fault far more often than a stress peak that narrow. Check it
+//!   (`acq shunt`, the installation) before trusting it.
 
 use acq_drivers::rig::Rig;
 
@@ -20,6 +30,7 @@ use crate::extract::stats::{WindowAccumulator, WindowStats};
 pub const STUCK_MIN_RUN: u64 = 20;
 pub const STUCK_MIN_SPAN_NS: i64 = 2_000_000_000;
 pub const NOISY_FACTOR: f64 = 5.0;
+pub const NEIGHBOUR_FACTOR: f64 = 5.0;
 
 /// A flag code and the reason in words.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,6 +85,15 @@ pub fn check_window(
                 });
             }
         }
+        if acc.spikes > 0 {
+            flags[index].push(Flag {
+                code: "spikes".into(),
+                note: format!(
+                    "{} reading(s) jump away from both neighbours and back, by up to {:.4} {unit}: a glitch on the line? The mean carries them",
+                    acc.spikes, acc.largest_spike
+                ),
+            });
+        }
         let mut peers: Vec<f64> = rig
             .sensors
             .iter()
@@ -96,6 +116,9 @@ pub fn check_window(
                 }
             }
         }
+    }
+    for (index, flag) in unlike_neighbours(rig, stats) {
+        flags[index].push(flag);
     }
     for pair in &rig.pairs {
         let [a, b] = pair.sensors;
@@ -124,4 +147,53 @@ pub fn check_window(
         }
     }
     flags
+}
+
+/// Each located sensor whose mean is unlike its neighbours' (see the
+/// module's doc), with its flag.
+fn unlike_neighbours(rig: &Rig, stats: &[WindowStats]) -> Vec<(usize, Flag)> {
+    let located: Vec<(usize, u32, f64)> = rig
+        .sensors
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| Some((i, s.location?, stats[i].mean?)))
+        .collect();
+    let mut flagged = Vec::new();
+    for &(index, location, mean) in &located {
+        let kind = rig.sensors[index].kind;
+        let same_kind = located
+            .iter()
+            .filter(|(other, _, _)| rig.sensors[*other].kind == kind && *other != index);
+        let below = same_kind
+            .clone()
+            .filter(|(_, l, _)| *l < location)
+            .max_by_key(|(_, l, _)| *l);
+        let above = same_kind
+            .filter(|(_, l, _)| *l > location)
+            .min_by_key(|(_, l, _)| *l);
+        let (Some(&(_, l_below, m_below)), Some(&(_, l_above, m_above))) = (below, above) else {
+            continue;
+        };
+        let along = f64::from(location - l_below) / f64::from(l_above - l_below);
+        let expected = m_below + along * (m_above - m_below);
+        let scale = (m_above - m_below)
+            .abs()
+            .max(0.1 * m_below.abs().max(m_above.abs()));
+        let off = (mean - expected).abs();
+        if scale > 0.0 && off > NEIGHBOUR_FACTOR * scale {
+            let unit = rig.sensors[index].unit();
+            flagged.push((
+                index,
+                Flag {
+                    code: "unlike_neighbours".into(),
+                    note: format!(
+                        "{mean:.4} {unit} where its neighbours {} ({m_below:.4}) and {} ({m_above:.4}) put it near {expected:.4}: check the gauge (bonding, wiring, gauge factor; acq shunt) before trusting it",
+                        rig.sensors[below.unwrap().0].name,
+                        rig.sensors[above.unwrap().0].name
+                    ),
+                },
+            ));
+        }
+    }
+    flagged
 }

@@ -27,7 +27,23 @@ pub struct WindowAccumulator {
     /// Readings within the top or bottom 0.1 % of the declared range.
     pub at_full_scale: u64,
     range: Option<[f64; 2]>,
+    /// The reading before `previous`, for spikes.
+    before_previous: Option<f64>,
+    /// Readings that jump away from both neighbours and back
+    /// ([`SPIKE_FACTOR`]), and the largest jump.
+    pub spikes: u64,
+    pub largest_spike: f64,
 }
+
+/// A spike: a reading farther than this many of the window's standard
+/// deviations from both its neighbours, on one side of both, while the two
+/// neighbours agree within half that jump. Gaussian noise does that about
+/// once in 1e15 readings; a glitch on the line (a bit error, a ground
+/// loop's pulse) does it every time.
+pub const SPIKE_FACTOR: f64 = 8.0;
+
+/// Readings a window needs before a spike can be told from its noise.
+const SPIKE_MIN_READINGS: u64 = 10;
 
 /// Fraction of the span near each end of the range that counts as full scale.
 const FULL_SCALE_MARGIN: f64 = 0.001;
@@ -41,6 +57,7 @@ impl WindowAccumulator {
     }
 
     pub fn push(&mut self, time_ns: i64, value: f64) {
+        self.check_spike(value);
         if self.n == 0 {
             self.shift = value;
         }
@@ -73,12 +90,36 @@ impl WindowAccumulator {
         self.longest_identical_span_ns = self
             .longest_identical_span_ns
             .max(time_ns - self.run_start_ns);
+        self.before_previous = self.previous;
         self.previous = Some(value);
         if let Some([lo, hi]) = self.range {
             let margin = (hi - lo) * FULL_SCALE_MARGIN;
             if value >= hi - margin || value <= lo + margin {
                 self.at_full_scale += 1;
             }
+        }
+    }
+
+    /// Whether the previous reading, now that `next` follows it, was a
+    /// spike ([`SPIKE_FACTOR`]).
+    fn check_spike(&mut self, next: f64) {
+        let (Some(before), Some(middle)) = (self.before_previous, self.previous) else {
+            return;
+        };
+        if self.n < SPIKE_MIN_READINGS {
+            return;
+        }
+        let std = (self.m2 / (self.n - 1) as f64).max(0.0).sqrt();
+        let (up, down) = (middle - before, middle - next);
+        let jump = up.abs().min(down.abs());
+        if up.signum() == down.signum()
+            && jump > SPIKE_FACTOR * std
+            && (next - before).abs() < 0.5 * jump
+        {
+            self.spikes += 1;
+            self.largest_spike = self
+                .largest_spike
+                .max((middle - 0.5 * (before + next)).abs());
         }
     }
 
@@ -155,6 +196,38 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
+
+    /// A hold of Gaussian noise (sd 0.15 MPa around 30 MPa) with two
+    /// glitches (+5 and -3 MPa for one reading each) gives exactly those
+    /// two spikes and the larger's size; 200,000 readings of the noise
+    /// alone, a step (a load change) and a slow ramp give none.
+    #[test]
+    fn a_glitch_is_a_spike_and_noise_steps_and_ramps_are_not() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let noise = Normal::new(0.0, 0.15).unwrap();
+        let mut acc = WindowAccumulator::new(None);
+        for i in 0..500 {
+            let glitch = match i {
+                200 => 5.0,
+                350 => -3.0,
+                _ => 0.0,
+            };
+            acc.push(i, 30.0 + noise.sample(&mut rng) + glitch);
+        }
+        assert_eq!(acc.spikes, 2);
+        assert!(
+            (acc.largest_spike - 5.0).abs() < 1.0,
+            "{}",
+            acc.largest_spike
+        );
+        let mut quiet = WindowAccumulator::new(None);
+        for i in 0..200_000 {
+            let step = if i > 100_000 { 20.0 } else { 0.0 };
+            let ramp = 1e-4 * i as f64;
+            quiet.push(i, 30.0 + noise.sample(&mut rng) + step + ramp);
+        }
+        assert_eq!(quiet.spikes, 0);
+    }
 
     #[test]
     fn mean_and_std_of_known_values() {

@@ -1,13 +1,15 @@
 //! acq's chain diagnostics (`acq_calib::chain_diagnostics`) against ArviZ
 //! 0.23.4, the definitions a posterior's readers expect: the rank-normalised
 //! split R-hat (`az.rhat(method="rank")`) and the bulk ESS
-//! (`az.ess(method="bulk")`) of chains that mix well, mix slowly, drift,
+//! (`az.ess(method="bulk")`), the tail ESS (`az.ess(method="tail")`), the
+//! Monte-Carlo standard errors (`az.mcse(method="mean" | "sd")`) and the 90 %
+//! HDI (`az.hdi(hdi_prob=0.9)`) of chains that mix well, mix slowly, drift,
 //! have heavy tails, ties, an odd draw count, or sit in different places.
 //! ArviZ lives in a scratch virtualenv, never in acq's dependencies.
 
 mod common;
 
-use acq_calib::chain_diagnostics::{ess_bulk, rank_rhat};
+use acq_calib::chain_diagnostics::{ess_bulk, ess_tail, hdi, mcse_mean, mcse_sd, rank_rhat};
 use rand::{RngExt, SeedableRng};
 
 const ARVIZ: &str = "arviz==0.23.4";
@@ -64,15 +66,32 @@ fn rank_rhat_and_bulk_ess_equal_arviz() {
                   out = []\n\
                   for chains in json.load(open(sys.argv[1])):\n\
                   \x20   a = np.array(chains, dtype=float)\n\
-                  \x20   out.append([float(az.rhat(a, method='rank')), float(az.ess(a, method='bulk'))])\n\
+                  \x20   h = az.hdi(a.ravel(), hdi_prob=0.9)\n\
+                  \x20   out.append([float(az.rhat(a, method='rank')), float(az.ess(a, method='bulk')), float(az.ess(a, method='tail')), float(az.mcse(a, method='mean')), float(az.mcse(a, method='sd')), float(h[0]), float(h[1])])\n\
                   print(json.dumps(out))\n";
     let output = std::process::Command::new(&python)
         .args(["-c", script, common::path_arg(&data)])
         .output()
         .unwrap();
     assert!(output.status.success(), "{}", common::stderr(&output));
-    let theirs: Vec<[f64; 2]> = serde_json::from_slice(&output.stdout).unwrap();
-    for ((name, chains), [rhat, ess]) in cases.iter().zip(theirs) {
+    let theirs: Vec<[f64; 7]> = serde_json::from_slice(&output.stdout).unwrap();
+    for ((name, chains), [rhat, ess, tail, se_mean, se_sd, hdi_low, hdi_high]) in
+        cases.iter().zip(theirs)
+    {
+        let mut sorted: Vec<f64> = chains.iter().flatten().copied().collect();
+        sorted.sort_by(f64::total_cmp);
+        let (low, high) = hdi(&sorted, 0.9).unwrap();
+        for (what, ours, arviz) in [
+            ("tail ESS", ess_tail(chains).unwrap(), tail),
+            ("MCSE of the mean", mcse_mean(chains).unwrap(), se_mean),
+            ("MCSE of the sd", mcse_sd(chains).unwrap(), se_sd),
+        ] {
+            assert!(
+                (ours - arviz).abs() <= 1e-8 * arviz.abs(),
+                "{name}: {what} {ours}, ArviZ {arviz}"
+            );
+        }
+        assert_eq!((low, high), (hdi_low, hdi_high), "{name}: 90 % HDI");
         let ours_rhat = rank_rhat(chains).unwrap();
         let ours_ess = ess_bulk(chains).unwrap();
         assert!(

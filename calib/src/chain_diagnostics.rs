@@ -15,6 +15,13 @@
 //! - The bulk ESS sums the chains' autocorrelations (variance-weighted
 //!   across chains) with Geyer's initial positive and monotone sequences.
 //!
+//! - The tail ESS is the smaller of the ESS of the indicators `x <= q05`
+//!   and `x <= q95` (split chains, not rank-normalised); the Monte-Carlo
+//!   standard errors of the mean and the sd use the ESS of the draws and
+//!   of their squared deviations; the HDI is the narrowest interval
+//!   holding the share of the sorted draws (ArviZ's `ess(method="tail")`,
+//!   `mcse(method="mean" | "sd")` and `hdi`).
+//!
 //! Written here: the `mcmc` crate (0.1) implements Stan's classic split
 //! R-hat and ESS, not the rank-normalised ones. Checked against ArviZ in
 //! `tests/chain_diagnostics.rs` of the workspace root.
@@ -49,6 +56,85 @@ pub fn ess_bulk(chains: &[Vec<f64>]) -> Option<f64> {
         return None;
     }
     Some(ess(&rank_normalise(&split_chains(chains))))
+}
+
+/// The tail effective sample size: the smaller of the ESS of the 5 % and
+/// the 95 % quantile's indicator. `None` as [`ess_bulk`].
+pub fn ess_tail(chains: &[Vec<f64>]) -> Option<f64> {
+    if chains.is_empty() || !valid(chains) {
+        return None;
+    }
+    let mut sorted: Vec<f64> = chains.iter().flatten().copied().collect();
+    sorted.sort_by(f64::total_cmp);
+    let ess_below = |p: f64| {
+        let q = quantile(&sorted, p);
+        let indicators: Vec<Vec<f64>> = chains
+            .iter()
+            .map(|c| c.iter().map(|x| if *x <= q { 1.0 } else { 0.0 }).collect())
+            .collect();
+        ess(&split_chains(&indicators))
+    };
+    Some(ess_below(0.05).min(ess_below(0.95)))
+}
+
+/// The Monte-Carlo standard error of the mean: the draws' sd over the root
+/// of their ESS (split chains, not rank-normalised). `None` as
+/// [`ess_bulk`].
+pub fn mcse_mean(chains: &[Vec<f64>]) -> Option<f64> {
+    if chains.is_empty() || !valid(chains) {
+        return None;
+    }
+    let pooled: Vec<f64> = chains.iter().flatten().copied().collect();
+    Some(sample_variance(&pooled).sqrt() / ess(&split_chains(chains)).sqrt())
+}
+
+/// The Monte-Carlo standard error of the sd, from the ESS of the squared
+/// deviations (the delta method on the variance's). `None` as
+/// [`ess_bulk`].
+pub fn mcse_sd(chains: &[Vec<f64>]) -> Option<f64> {
+    if chains.is_empty() || !valid(chains) {
+        return None;
+    }
+    let pooled: Vec<f64> = chains.iter().flatten().copied().collect();
+    let m = mean(&pooled);
+    let squared: Vec<Vec<f64>> = chains
+        .iter()
+        .map(|c| c.iter().map(|x| (x - m).powi(2)).collect())
+        .collect();
+    let pooled_squared: Vec<f64> = squared.iter().flatten().copied().collect();
+    let variance = mean(&pooled_squared);
+    let fourth = mean(&pooled_squared.iter().map(|s| s * s).collect::<Vec<_>>());
+    let variance_of_variance = (fourth - variance * variance) / ess(&split_chains(&squared));
+    Some((variance_of_variance / variance / 4.0).sqrt())
+}
+
+/// The narrowest interval holding `share` of the sorted draws `sorted`
+/// (the first of the narrowest, as ArviZ's `hdi`); `None` with too few.
+pub fn hdi(sorted: &[f64], share: f64) -> Option<(f64, f64)> {
+    let n = sorted.len();
+    let inside = (share * n as f64).floor() as usize;
+    if n == 0 || inside >= n {
+        return None;
+    }
+    let narrowest = (0..n - inside).min_by(|&a, &b| {
+        (sorted[a + inside] - sorted[a]).total_cmp(&(sorted[b + inside] - sorted[b]))
+    })?;
+    Some((sorted[narrowest], sorted[narrowest + inside]))
+}
+
+/// The `p` quantile of sorted values, interpolated linearly between order
+/// statistics (numpy's default and R's type 7, as ArviZ takes them).
+pub fn quantile(sorted: &[f64], p: f64) -> f64 {
+    match sorted.len() {
+        0 => f64::NAN,
+        1 => sorted[0],
+        n => {
+            let h = p.clamp(0.0, 1.0) * (n - 1) as f64;
+            let below = h.floor() as usize;
+            let above = (below + 1).min(n - 1);
+            sorted[below] + (h - below as f64) * (sorted[above] - sorted[below])
+        }
+    }
 }
 
 /// At least 4 draws in each chain, all of one length, all finite.

@@ -38,7 +38,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use crate::chain_diagnostics::{ess_bulk, rank_rhat};
+use crate::chain_diagnostics::{ess_bulk, ess_tail, hdi, mcse_mean, mcse_sd, rank_rhat};
 
 /// Where one coordinate may lie.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -172,6 +172,13 @@ pub struct Marginal {
     pub rhat: f64,
     /// Bulk effective sample size; NaN when it cannot be computed.
     pub ess_bulk: f64,
+    /// Tail effective sample size (of the 5 % and 95 % quantiles).
+    pub ess_tail: f64,
+    /// Monte-Carlo standard errors of the mean and of the sd.
+    pub mcse_mean: f64,
+    pub mcse_sd: f64,
+    /// The 90 % highest-density interval.
+    pub hdi90: (f64, f64),
 }
 
 impl Marginal {
@@ -191,29 +198,15 @@ impl Marginal {
             q95: quantile(&sorted, 0.95),
             rhat: rank_rhat(chains).unwrap_or(f64::NAN),
             ess_bulk: ess_bulk(chains).unwrap_or(f64::NAN),
-        }
-    }
-
-    /// The Monte-Carlo standard error of the mean: `sd / sqrt(ess_bulk)`.
-    pub fn mcse_mean(&self) -> f64 {
-        self.sd / self.ess_bulk.sqrt()
-    }
-}
-
-/// The `p` quantile of sorted values, interpolated linearly between order
-/// statistics (numpy's default, so a reader's check agrees).
-pub fn quantile(sorted: &[f64], p: f64) -> f64 {
-    match sorted.len() {
-        0 => f64::NAN,
-        1 => sorted[0],
-        n => {
-            let h = p.clamp(0.0, 1.0) * (n - 1) as f64;
-            let below = h.floor() as usize;
-            let above = (below + 1).min(n - 1);
-            sorted[below] + (h - below as f64) * (sorted[above] - sorted[below])
+            ess_tail: ess_tail(chains).unwrap_or(f64::NAN),
+            mcse_mean: mcse_mean(chains).unwrap_or(f64::NAN),
+            mcse_sd: mcse_sd(chains).unwrap_or(f64::NAN),
+            hdi90: hdi(&sorted, 0.9).unwrap_or((f64::NAN, f64::NAN)),
         }
     }
 }
+
+pub use crate::chain_diagnostics::quantile;
 
 /// Why no chain could be run.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -856,7 +849,7 @@ mod tests {
             assert!(s.rhat < 1.01, "R-hat {}", s.rhat);
             assert!(s.ess_bulk > 400.0, "ESS {}", s.ess_bulk);
             assert!(
-                (s.mean - mean[i]).abs() < 4.0 * s.mcse_mean(),
+                (s.mean - mean[i]).abs() < 4.0 * s.mcse_mean,
                 "mean {} of {}",
                 s.mean,
                 mean[i]
@@ -898,7 +891,7 @@ mod tests {
         .unwrap();
         let s = chains.summaries()[0];
         // Uniform on [2, 4]: mean 3, sd 2 / sqrt(12), 5 % and 95 % at 2.1 and 3.9.
-        assert!((s.mean - 3.0).abs() < 4.0 * s.mcse_mean());
+        assert!((s.mean - 3.0).abs() < 4.0 * s.mcse_mean);
         assert!((s.sd - 2.0 / 12f64.sqrt()).abs() < 0.03);
         assert!((s.q05 - 2.1).abs() < 0.05 && (s.q95 - 3.9).abs() < 0.05);
     }

@@ -116,8 +116,8 @@ pub fn run_study(
                 directory.file("report.md").display()
             ))
     );
-    println!("{}", parameters_line(study, &outcome));
     extras.files(study, &outcome, directory)?;
+    println!("{}", parameters_line(study, &outcome));
     Ok(StudyRun { outcome, report })
 }
 

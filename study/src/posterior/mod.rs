@@ -47,7 +47,7 @@ use likelihood::{standard_normal, Scales, StudyPosterior};
 use predictive::Predictions;
 
 /// The convergence a posterior's numbers need (Vehtari et al. 2021):
-/// every R-hat below 1.01 and a bulk ESS of at least 100 per chain.
+/// every R-hat below 1.01 and a bulk and a tail ESS of at least 100 per chain.
 pub const RHAT_LIMIT: f64 = 1.01;
 pub const ESS_PER_CHAIN: f64 = 100.0;
 
@@ -115,7 +115,7 @@ pub fn check_posterior(
 const EXTENSION: usize = 4;
 
 /// Each of `names` whose marginal has not converged, with its R-hat and
-/// bulk ESS.
+/// bulk and tail ESS.
 fn unconverged(names: &[String], marginals: &[Marginal], chains: usize) -> Vec<String> {
     let needed = ESS_PER_CHAIN * chains as f64;
     names
@@ -123,9 +123,15 @@ fn unconverged(names: &[String], marginals: &[Marginal], chains: usize) -> Vec<S
         .zip(marginals)
         .filter_map(|(name, m)| {
             let rhat_ok = m.rhat < RHAT_LIMIT || chains < 2;
-            let ess_ok = m.ess_bulk >= needed;
-            (!(rhat_ok && ess_ok))
-                .then(|| format!("{name} (R-hat {:.3}, bulk ESS {:.0})", m.rhat, m.ess_bulk))
+            // Both ESS, as Vehtari et al. (2021) ask: the bulk for the
+            // centre, the tail for the 90 % intervals the verdicts read.
+            let ess_ok = m.ess_bulk >= needed && m.ess_tail >= needed;
+            (!(rhat_ok && ess_ok)).then(|| {
+                format!(
+                    "{name} (R-hat {:.3}, bulk ESS {:.0}, tail ESS {:.0})",
+                    m.rhat, m.ess_bulk, m.ess_tail
+                )
+            })
         })
         .collect()
 }

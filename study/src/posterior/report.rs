@@ -90,6 +90,11 @@ pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
     write_validation_statement(report, posterior);
     write_curve_bands(report, &posterior.predicted.curves);
     report.figure(Figure {
+        file: "posterior_trace_rank.svg".into(),
+        caption: "each parameter's chains: the draws in order (left; chains that mix overlap, none drifts) and the ranks of each chain's draws among all (right; chains that sample one posterior spread their ranks evenly, near the dotted line), as ArviZ's plot_trace and plot_rank".into(),
+        svg: trace_and_rank_svg(posterior),
+    });
+    report.figure(Figure {
         file: "posterior_corner.svg".into(),
         caption: "posterior draws: each parameter's histogram over its prior range (diagonal) and each pair's draws (below it)".into(),
         svg: corner_svg(posterior),
@@ -120,7 +125,7 @@ fn convergence_sentence(posterior: &PosteriorOutcome) -> String {
     let unconverged = posterior.unconverged();
     if unconverged.is_empty() {
         format!(
-            "Converged: every R-hat is below {RHAT_LIMIT} and every bulk ESS at least {:.0}.",
+            "Converged: every R-hat is below {RHAT_LIMIT} and every bulk and tail ESS at least {:.0} (the MCSE of each mean is its sd over the root of the ESS; the HDI is the narrowest interval holding 90 % of the draws, as ArviZ computes them).",
             ESS_PER_CHAIN * posterior.settings.chains as f64
         )
     } else {
@@ -144,8 +149,11 @@ fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'stati
         "50 %",
         "95 %",
         "90 % interval / range",
+        "90 % HDI",
+        "MCSE of the mean",
         "R-hat",
         "bulk ESS",
+        "tail ESS",
         "verdict",
     ]);
     let mut verdicts = Vec::new();
@@ -195,8 +203,11 @@ fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'stati
             short(m.q50),
             short(m.q95),
             format!("{:.0} %", 100.0 * share),
+            format!("{} .. {}", short(m.hdi90.0), short(m.hdi90.1)),
+            short(m.mcse_mean),
             format!("{:.3}", m.rhat),
             format!("{:.0}", m.ess_bulk),
+            format!("{:.0}", m.ess_tail),
             verdict.into(),
         ]);
     }
@@ -692,6 +703,66 @@ fn value_at(curve: &[(f64, f64)], x: f64) -> f64 {
             }
         }
     }
+}
+
+/// Points drawn per chain in a trace: enough to see a drift or a stuck
+/// stretch, few enough for a light page.
+const TRACE_POINTS: usize = 400;
+/// Bins of a rank plot.
+const RANK_BINS: usize = 20;
+
+/// Per parameter, a trace (draw index against value, a line per chain)
+/// and a rank plot (each chain's count of draws per bin of their ranks
+/// among all draws, with the count a uniform spread gives).
+fn trace_and_rank_svg(posterior: &PosteriorOutcome) -> String {
+    let shown: Vec<usize> = (0..posterior.names.len())
+        .filter(|&i| !posterior.names[i].starts_with("discrepancy_sd."))
+        .collect();
+    let chains = posterior.draws.len();
+    let draws = posterior.draws.first().map_or(0, Vec::len);
+    let step = (draws / TRACE_POINTS).max(1);
+    let mut panels = Vec::new();
+    for &i in &shown {
+        let name = &posterior.names[i];
+        let mut trace = Chart::new(format!("{name}: trace"), "draw", name.clone());
+        for (c, chain) in posterior.draws.iter().enumerate() {
+            let points = chain
+                .iter()
+                .enumerate()
+                .step_by(step)
+                .map(|(k, d)| (k as f64, d[i]))
+                .collect();
+            trace = trace.with_series(Series::new(format!("chain {}", c + 1), points));
+        }
+        panels.push(trace);
+        let mut pooled: Vec<(f64, usize)> = posterior
+            .draws
+            .iter()
+            .enumerate()
+            .flat_map(|(c, chain)| chain.iter().map(move |d| (d[i], c)))
+            .collect();
+        pooled.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let total = pooled.len().max(1);
+        let mut counts = vec![vec![0usize; RANK_BINS]; chains];
+        for (rank, (_, c)) in pooled.iter().enumerate() {
+            counts[*c][rank * RANK_BINS / total] += 1;
+        }
+        let mut rank = Chart::new(format!("{name}: ranks"), "rank bin (of all draws)", "draws")
+            .with_reference_line(draws as f64 / RANK_BINS as f64, "uniform");
+        for (c, bins) in counts.iter().enumerate() {
+            let points = bins
+                .iter()
+                .enumerate()
+                .flat_map(|(b, n)| [(b as f64, *n as f64), ((b + 1) as f64, *n as f64)])
+                .collect();
+            rank = rank.with_series(Series::new(format!("chain {}", c + 1), points));
+        }
+        let top = counts.iter().flatten().copied().max().unwrap_or(0) as f64;
+        let uniform = draws as f64 / RANK_BINS as f64;
+        // From zero, so a chain's shortfall shows at its true size.
+        panels.push(rank.with_y_range(0.0, 1.1 * top.max(uniform).max(1.0)));
+    }
+    grid_svg("chains", &panels, 2, 360.0, 200.0)
 }
 
 /// Pairwise draws and marginal histograms over each coordinate's prior

@@ -193,6 +193,41 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
     let (status, _, body) = http(&addr, "GET", "/api/state", None);
     assert_eq!(status, 200);
     let state: Value = serde_json::from_str(&body).unwrap();
+    // Once the replay has ended, each session says how it ended, its
+    // buses are recorded ones, and no sensor is called silent for the bus
+    // going quiet (only one that stopped before the others, as acq view
+    // has it); the tensile pull is a curve, not a hold.
+    for session in state["sessions"].as_array().unwrap() {
+        assert!(session["ended"].is_string(), "{session}");
+        assert_eq!(session["live"], false, "{session}");
+    }
+    for bus in state["buses"].as_array().unwrap() {
+        assert_eq!(bus["state"], "recorded", "{bus}");
+    }
+    for sensor in state["sensors"].as_array().unwrap() {
+        assert!(
+            sensor["silent"] == false || sensor["silence_reason"] != "heartbeat lost",
+            "{sensor}"
+        );
+    }
+    let tensile = state["sessions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["name"] == "tensile_p91_20c")
+        .unwrap();
+    assert!(
+        tensile["holds_note"]
+            .as_str()
+            .unwrap()
+            .starts_with("a tensile test"),
+        "{tensile}"
+    );
+    assert!(state["holds"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|h| h["session"] != "tensile_p91_20c"));
     let shown = seen["holds"].as_array().unwrap().clone();
     for name in ["excavator_case1", "excavator_case2"] {
         let live: Vec<&Value> = state["holds"]

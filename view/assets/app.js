@@ -79,8 +79,9 @@
       if (!groups.has(sensor.group)) groups.set(sensor.group, []);
       groups.get(sensor.group).push(k);
     });
+    s.title = el('h2', { text: info.name + (info.live ? ' (recording)' : ' (recorded)') });
     const section = el('section', { class: 'session', 'data-session': String(index) },
-      el('h2', { text: info.name + (info.live ? ' (recording)' : ' (recorded)') }), controls, charts);
+      s.title, controls, charts);
     document.getElementById('sessions').append(section);
     for (const [group, members] of groups) {
       const box = el('div', { class: 'chart' }, el('h3', { text: group }));
@@ -311,7 +312,14 @@
       if (!s) return;
       if (s.live && !info.live) {
         s.live = false;
-        s.mode.textContent = 'recording ended';
+        s.mode.textContent = info.ended ? `recording ended (${info.ended})` : 'recording ended';
+        s.title.textContent = `${info.name} (recorded)`;
+        s.pauseButton.textContent = 'Whole session';
+        if (!view.sessions.some((x) => x.live)) {
+          const connection = document.getElementById('connection');
+          connection.textContent = 'recording ended: the page shows the whole session';
+          connection.className = '';
+        }
       }
       s.holdsNote = info.holds_note;
       s.framesNotShown = info.frames_not_shown;
@@ -550,7 +558,8 @@
     await refreshXy();
     const connection = document.getElementById('connection');
     if (!view.sessions.some((s) => s.live)) {
-      connection.textContent = 'recorded session';
+      const ended = state.sessions.map((info) => info.ended).filter(Boolean);
+      connection.textContent = ended.length ? `recorded session (ended: ${ended.join(', ')})` : 'recorded session';
       // A study over recorded holds goes hold by hold: follow it until done.
       if (state.study) {
         const poll = setInterval(async () => {
@@ -566,6 +575,8 @@
     const events = new EventSource(url('/api/events'));
     events.onopen = () => { connection.textContent = 'live'; connection.className = ''; };
     events.onerror = () => {
+      // After the recording ended, the stream closing is no fault.
+      if (!view.sessions.some((s) => s.live)) return;
       connection.textContent = 'disconnected: the recording ended or acq stopped serving (retrying)';
       connection.className = 'down';
     };

@@ -27,7 +27,7 @@ use acq_io::session::SessionFile;
 use acq_io::zero_record::ZeroRecord;
 
 use crate::index;
-use crate::model::finish_recorded;
+use crate::model::{finish_recorded, TENSILE_NOTE};
 use crate::model::{BusView, SessionView};
 use crate::series::{MinMaxSeries, BUCKET_NS, WHOLE_SPAN_BUCKETS};
 
@@ -320,12 +320,16 @@ impl Feed {
                     t0 = started;
                     let mut view = lock();
                     view.started_unix_ns = t0;
-                    match LiveHoldStream::new(rig, load.as_deref(), *hold_options, t0) {
-                        Ok(stream) => {
-                            view.load_sensor = Some(stream.load_sensor().to_string());
-                            holds = Some(stream);
+                    if view.xy.is_some() && load.is_none() {
+                        view.holds_note = Some(TENSILE_NOTE.into());
+                    } else {
+                        match LiveHoldStream::new(rig, load.as_deref(), *hold_options, t0) {
+                            Ok(stream) => {
+                                view.load_sensor = Some(stream.load_sensor().to_string());
+                                holds = Some(stream);
+                            }
+                            Err(error) => view.holds_note = Some(format!("no holds: {error}")),
                         }
-                        Err(error) => view.holds_note = Some(format!("no holds: {error}")),
                     }
                     zero = self.zero.map(|windows| LiveZero {
                         taker: ZeroTaker::new(rig, windows, t0),
@@ -364,11 +368,18 @@ impl Feed {
                     }
                     view.live = false;
                     view.frames_not_shown = frames_not_shown.load(Ordering::Relaxed);
-                    if let (Some(session), Some(stream)) = (session, &holds) {
+                    // Once it has ended, the session reads as acq view reads
+                    // it: each bus's mean rate, and silent only the sensors
+                    // that stopped before the others (not every one, as the
+                    // last live status has it once the bus went quiet).
+                    if let Some(session) = &session {
+                        finish_recorded(&mut view, &self.rig, session, &shown.last_sample_ns);
+                    }
+                    if let Some(session) = session {
                         self.write_index(
                             &view,
                             shown.whole,
-                            stream,
+                            holds.as_ref(),
                             &session,
                             &shown.last_sample_ns,
                         );
@@ -391,22 +402,26 @@ impl Feed {
     /// The recorded session's page, as `acq view` would build it from the
     /// recording, into its `view-index.bin`. Not written when a hold lost
     /// its values or none was found (acq view then reads the recording),
-    /// or when the view missed frames.
+    /// or when the view missed frames. A tensile test has no holds
+    /// (`stream` is `None`): its page is the curve.
     fn write_index(
         &self,
         live: &SessionView,
         mut whole: Vec<MinMaxSeries>,
-        stream: &LiveHoldStream,
+        stream: Option<&LiveHoldStream>,
         session: &SessionFile,
         last_sample_ns: &[Option<i64>],
     ) {
         let Some(dir) = &self.session_dir else {
             return;
         };
-        if stream.holds().is_empty()
-            || stream.holds().iter().any(|h| h.values.is_none())
-            || live.frames_not_shown > 0
-        {
+        let holds_lost = match stream {
+            Some(stream) => {
+                stream.holds().is_empty() || stream.holds().iter().any(|h| h.values.is_none())
+            }
+            None => live.xy.is_none(),
+        };
+        if holds_lost || live.frames_not_shown > 0 {
             return;
         }
         let bucket_ns = whole
@@ -425,7 +440,10 @@ impl Feed {
             sensor.series = series;
             sensor.last_value = shown.last_value;
         }
-        view.set_holds(stream.holds());
+        match stream {
+            Some(stream) => view.set_holds(stream.holds()),
+            None => view.holds_note = live.holds_note.clone(),
+        }
         view.load_sensor = live.load_sensor.clone();
         if let (Some(xy), Some(shown)) = (view.xy.as_mut(), live.xy.as_ref()) {
             xy.points = shown.points.clone();

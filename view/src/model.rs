@@ -16,6 +16,11 @@ use serde_json::{json, Value};
 
 use crate::series::{Column, MinMaxSeries};
 
+/// What the page says instead of holds on a tensile test: its result is
+/// a curve, and the pull is no steady hold.
+pub const TENSILE_NOTE: &str =
+    "a tensile test: its result is the force-displacement curve (the XY plot; acq extract --tensile), not holds";
+
 /// Why a recorded sensor is silent.
 pub const NEVER_SEEN: &str = "never seen";
 pub const STOPPED_EARLY: &str = "stopped before the end of the session";
@@ -98,6 +103,9 @@ pub struct SessionView {
     pub frames_not_shown: u64,
     /// Why the session has no holds, if it has none (e.g. no load sensor).
     pub holds_note: Option<String>,
+    /// How the recording ended, once it has (session.toml's `ended`:
+    /// `signal SIGINT`, `duration reached`, ...).
+    pub ended: Option<String>,
 }
 
 impl SessionView {
@@ -159,6 +167,7 @@ impl SessionView {
             xy,
             frames_not_shown: 0,
             holds_note: None,
+            ended: None,
         }
     }
 
@@ -375,6 +384,7 @@ pub fn finish_recorded(
     let duration_s = duration_ns as f64 / 1e9;
     view.live = false;
     view.elapsed_s = duration_s;
+    view.ended = Some(session.session.ended.clone());
     let end_ns = last_sample_ns.iter().flatten().copied().max().unwrap_or(t0);
     for ((sensor, rig_sensor), last) in view
         .sensors

@@ -12,7 +12,7 @@ use acq_analysis::recording::{Recording, SampleCounts};
 use acq_io::error::{AcqError, Result};
 
 use crate::index;
-use crate::model::{finish_recorded, session_span, SessionView};
+use crate::model::{finish_recorded, session_span, SessionView, TENSILE_NOTE};
 use crate::series::{BUCKET_NS, WHOLE_SPAN_BUCKETS};
 
 /// Where a recorded session's view came from.
@@ -46,7 +46,8 @@ pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
     let buckets = (duration_ns / bucket_ns + 2) as usize;
     let mut view = SessionView::new(name, &recording.rig, t0, bucket_ns, buckets);
     let key = index::key(dir, &session);
-    if let Some(indexed) = index::load(dir, &key, view.clone()) {
+    if let Some(mut indexed) = index::load(dir, &key, view.clone()) {
+        indexed.ended = Some(session.session.ended.clone());
         return Ok((indexed, Source::Index));
     }
     let offsets = offsets_ns(&recording.clock_offsets(&[])?);
@@ -58,6 +59,11 @@ pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
         Ok(())
     })?;
     finish_recorded(&mut view, &recording.rig, &session, &last_sample_ns);
+    if view.xy.is_some() {
+        view.holds_note = Some(TENSILE_NOTE.into());
+        let saved = index::save(dir, &key, &view).map_err(|e| e.to_string());
+        return Ok((view, Source::Recording(saved)));
+    }
     match extract_holds(
         &recording,
         &WindowChoice::Auto(HoldOptions::default()),

@@ -414,6 +414,7 @@ fn state_json(app: &App, with_holds: bool) -> Value {
             "holds_note": view.holds_note,
             "frames_not_shown": view.frames_not_shown,
             "has_xy": view.xy.is_some(),
+            "ended": view.ended,
         }));
         sensors.extend(view.sensors_json(tag));
         buses.extend(view.buses_json(tag));

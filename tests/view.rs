@@ -91,6 +91,17 @@ fn release_s(session: &Path, load: &str, end_s: f64, mean: f64) -> f64 {
 
 /// What the page has drawn, from its own record (`window.acqView`).
 const WATCH_JS: &str = r#"JSON.stringify({
+  legendBlank: window.acqView.sessions.flatMap((s) => s.groups.flatMap((g) => {
+    const rows = g.plot.root.querySelectorAll('.u-legend tr.u-series');
+    return g.plot.series.map((x, k) => [k, x.label]).filter(([k]) => k > 0
+      && g.plot.data[k].some((v) => v != null)
+      && rows[k] && rows[k].querySelector('.u-value').textContent.trim() === '--').map(([, label]) => label);
+  })),
+  sharedColours: window.acqView.sessions.flatMap((s) => s.groups.filter((g) => {
+    const strokes = g.plot.series.slice(1).map((x, i) => (typeof x.stroke === 'function' ? x.stroke(g.plot, i + 1) : x.stroke));
+    return new Set(strokes).size !== strokes.length;
+  }).map((g) => g.group)),
+  xyTicks: window.acqView.sessions.map((s) => s.xyTicks || null),
   lastX: window.acqView.lastX,
   holds: window.acqView.holdsShown,
   silent: Array.from(document.querySelectorAll('tr.silent')).map((r) => r.textContent),
@@ -161,6 +172,21 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
         "the page logged errors"
     );
     assert_eq!(seen["errors"], Value::Array(vec![]));
+    // Every signal with data in view gives its value in the legend (the
+    // newest, with the cursor off the chart), no two signals of a chart
+    // share a colour (18 gauges in one), and the force-displacement plot
+    // has ticks on both axes.
+    assert_eq!(seen["legendBlank"], Value::Array(vec![]), "legend values");
+    assert_eq!(seen["sharedColours"], Value::Array(vec![]), "colours");
+    let ticks = seen["xyTicks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| !t.is_null())
+        .expect("the tensile session's XY plot was drawn");
+    for axis in ["x", "y"] {
+        assert!(ticks[axis].as_array().unwrap().len() >= 3, "{ticks}");
+    }
     assert!(
         moved,
         "the plots' last points did not move: {first_last_x:?} -> {}",

@@ -9,6 +9,13 @@
   const KEEP_LIVE_S = 600;
   const COLORS = ['#0969da', '#cf222e', '#1a7f37', '#8250df', '#bf8700', '#1b7c83',
     '#e16f24', '#57606a', '#a40e26', '#116329', '#953800', '#0550ae'];
+  // The k-th signal's colour: the palette, then hues a golden angle apart
+  // at alternating lightness, so 18 gauges in one chart never share one.
+  function colour(k) {
+    if (k < COLORS.length) return COLORS[k];
+    const hue = Math.round((k * 137.508) % 360);
+    return `hsl(${hue}, 70%, ${k % 2 ? 35 : 48}%)`;
+  }
 
   // What the page has drawn, for the browser checks (and the curious).
   const view = { sessions: [], holdsShown: [], lastX: [], updates: 0, lost: 0, errors: [] };
@@ -97,7 +104,7 @@
         },
         axes: [{ label: 'session time (s)' }, {}],
         series: [{ label: 't (s)' }].concat(members.map((k, j) => ({
-          label: sensors[k].name, stroke: COLORS[j % COLORS.length], width: 1, spanGaps: false,
+          label: sensors[k].name, stroke: colour(j), width: 1, spanGaps: false,
           points: { show: false },
         }))),
         // A drag selects a span; the page then reads it at the chart's resolution.
@@ -106,6 +113,8 @@
         hooks: {
           drawClear: [(u) => shadeHolds(s, u)],
           setSelect: [(u) => onSelect(s, u)],
+          // Off the chart, back to the newest values.
+          setCursor: [(u) => { if (u.cursor.left < 0) showLatest(u); }],
         },
       }, [[], ...members.map(() => [])], box);
       s.groups.push({ group, members, plot });
@@ -274,12 +283,27 @@
       // setData rescales y (and x, which setRange then sets).
       for (const g of s.groups) {
         g.plot.setData(chartData(s, g.members));
+        showLatest(g.plot);
       }
       if (s.range) setRange(s, s.range);
       let last = null;
       for (const m of s.columns) for (const key of m.keys()) last = last === null ? key : Math.max(last, key);
       view.lastX[s.index] = last === null ? null : last / 1000;
     });
+  }
+
+  // The legend gives each signal's newest value in view while the cursor is
+  // off the chart (uPlot's own legend says "--" then): per series, the
+  // last index that holds a value.
+  function showLatest(u) {
+    if (u.cursor.idx != null && u.cursor.left >= 0) return;
+    const idxs = u.data.map((ys, k) => {
+      if (k === 0) return null;
+      for (let i = ys.length - 1; i >= 0; i--) if (ys[i] != null) return i;
+      return null;
+    });
+    idxs[0] = idxs.slice(1).reduce((m, i) => (i == null ? m : Math.max(m == null ? i : m, i)), null);
+    u.setLegend({ idxs });
   }
 
   // ---- live updates -----------------------------------------------------
@@ -398,34 +422,71 @@
     }
   }
 
+  // Round tick values (1, 2 or 5 times a power of ten) covering lo..hi.
+  function niceTicks(lo, hi, count) {
+    if (!(hi > lo)) return [lo];
+    const raw = (hi - lo) / Math.max(1, count);
+    const power = Math.pow(10, Math.floor(Math.log10(raw)));
+    const step = [1, 2, 5, 10].map((m) => m * power).find((v) => v >= raw) || 10 * power;
+    const ticks = [];
+    for (let v = Math.ceil(lo / step) * step; v <= hi + step * 1e-9; v += step) ticks.push(Math.abs(v) < step * 1e-9 ? 0 : v);
+    return ticks;
+  }
+
+  // An XY plot on a canvas: the curve in drawing order (a loop stays a
+  // loop), a grid at round values, tick labels and both axes named with
+  // their units.
   function drawXy(s, xy) {
     const canvas = s.xyCanvas;
     if (!canvas || !xy || !xy.points.length) return;
     const ctx = canvas.getContext('2d');
     const w = canvas.width;
     const h = canvas.height;
-    const pad = 48;
+    const [left, right, top, bottom] = [62, 16, 12, 44];
     ctx.clearRect(0, 0, w, h);
     const xs = xy.points.map((p) => p[0]);
     const ys = xy.points.map((p) => p[1]);
-    const [x0, x1] = [Math.min(...xs), Math.max(...xs)];
-    const [y0, y1] = [Math.min(0, ...ys), Math.max(...ys)];
-    const px = (x) => pad + ((x - x0) / (x1 - x0 || 1)) * (w - 1.5 * pad);
-    const py = (y) => h - pad + -((y - y0) / (y1 - y0 || 1)) * (h - 1.5 * pad);
+    const xTicks = niceTicks(Math.min(...xs), Math.max(...xs), 6);
+    const yTicks = niceTicks(Math.min(0, ...ys), Math.max(...ys), 5);
+    const [x0, x1] = [Math.min(xTicks[0], ...xs), Math.max(xTicks[xTicks.length - 1], ...xs)];
+    const [y0, y1] = [Math.min(yTicks[0], ...ys), Math.max(yTicks[yTicks.length - 1], ...ys)];
+    const px = (x) => left + ((x - x0) / (x1 - x0 || 1)) * (w - left - right);
+    const py = (y) => h - bottom - ((y - y0) / (y1 - y0 || 1)) * (h - top - bottom);
+    ctx.font = '11px system-ui, sans-serif';
+    ctx.lineWidth = 1;
+    ctx.fillStyle = '#57606a';
+    ctx.strokeStyle = '#e1e4e8';
+    ctx.textAlign = 'center';
+    ctx.textBaseline = 'top';
+    for (const t of xTicks) {
+      ctx.beginPath(); ctx.moveTo(px(t), top); ctx.lineTo(px(t), h - bottom); ctx.stroke();
+      ctx.fillText(String(Number(t.toPrecision(6))), px(t), h - bottom + 4);
+    }
+    ctx.textAlign = 'right';
+    ctx.textBaseline = 'middle';
+    for (const t of yTicks) {
+      ctx.beginPath(); ctx.moveTo(left, py(t)); ctx.lineTo(w - right, py(t)); ctx.stroke();
+      ctx.fillText(String(Number(t.toPrecision(6))), left - 4, py(t));
+    }
     ctx.strokeStyle = '#57606a';
-    ctx.strokeRect(pad, pad / 2, w - 1.5 * pad, h - 1.5 * pad);
+    ctx.strokeRect(left, top, w - left - right, h - top - bottom);
     ctx.fillStyle = '#1b1f24';
     ctx.font = '12px system-ui, sans-serif';
-    ctx.fillText(`${xy.x} (${xy.x_unit}): ${fmt(x0)} to ${fmt(x1)}`, pad, h - 12);
+    ctx.textAlign = 'center';
+    ctx.textBaseline = 'bottom';
+    ctx.fillText(`${xy.x} (${xy.x_unit})`, left + (w - left - right) / 2, h - 4);
     ctx.save();
-    ctx.translate(14, h - pad);
+    ctx.translate(14, top + (h - top - bottom) / 2);
     ctx.rotate(-Math.PI / 2);
-    ctx.fillText(`${xy.y} (${xy.y_unit}): ${fmt(y0)} to ${fmt(y1)}`, 0, 0);
+    ctx.textBaseline = 'middle';
+    ctx.fillText(`${xy.y} (${xy.y_unit})`, 0, 0);
     ctx.restore();
     ctx.strokeStyle = COLORS[0];
+    ctx.lineWidth = 1.5;
     ctx.beginPath();
     xy.points.forEach(([x, y], i) => (i ? ctx.lineTo(px(x), py(y)) : ctx.moveTo(px(x), py(y))));
     ctx.stroke();
+    s.xyTicks = { x: xTicks, y: yTicks };
   }
 
   async function refreshXy() {

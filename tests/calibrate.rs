@@ -1684,6 +1684,12 @@ fn an_external_solver_can_return_a_curve_scored_by_the_curve_mape() {
         &model,
         "start = \"lhs\"\nstart_runs = 4\nmax_evals = 12\ntarget_loss_pct = 0.5\n",
     );
+    // The units name the report's axes.
+    let text = std::fs::read_to_string(&spec).unwrap().replace(
+        "measured_y = \"FORCE\"\n",
+        "measured_y = \"FORCE\"\nx_unit = \"mm\"\ny_unit = \"kN\"\n",
+    );
+    std::fs::write(&spec, text).unwrap();
     let out = dir.path().join("run");
     let output = calibrate_external(&spec, &out, &[]);
     assert!(output.status.success(), "{}", stderr(&output));
@@ -1747,6 +1753,10 @@ fn an_external_solver_can_return_a_curve_scored_by_the_curve_mape() {
     }
     let svg = std::fs::read_to_string(out.join("curve.svg")).unwrap();
     assert!(svg.contains("measured") && svg.contains("calibrated model"));
+    assert!(
+        svg.contains("DISPLACEMENT [mm]") && svg.contains("FORCE [kN]"),
+        "axes without their units"
+    );
     let runs = std::fs::read_dir(out.join("runs")).unwrap().count();
     assert_eq!(runs, log.rows.len(), "a run was made for the report");
 }

@@ -96,7 +96,7 @@ fn implicit_case(file: &SpecFile, spec_directory: &Path) -> Result<Case, SpecPro
             output: c.name.clone(),
             measured: Measured::Curve {
                 points,
-                axes: [x.clone(), y.clone()],
+                axes: c.axes(x, y),
                 metric,
             },
             weight,

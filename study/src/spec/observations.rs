@@ -198,7 +198,7 @@ pub fn case_observation(
         output: name.to_string(),
         measured: Measured::Curve {
             points,
-            axes: [x, y],
+            axes: curve.axes(&x, &y),
             metric,
         },
         weight,

@@ -339,6 +339,22 @@ pub struct CurveSpec {
     /// `"frechet"`, `"dtw"` or `"area"` (`acq_analysis::loss::metrics`);
     /// a case's curve observation may say otherwise.
     pub metric: Option<String>,
+    /// The units of x and y (`"mm"`, `"kN"`), for the axes of the report's
+    /// plots; without them an axis is named by its column alone.
+    pub x_unit: Option<String>,
+    pub y_unit: Option<String>,
+}
+
+impl CurveSpec {
+    /// The axes' titles: each column with its unit when given
+    /// (`DISPLACEMENT [mm]`).
+    pub fn axes(&self, x: &str, y: &str) -> [String; 2] {
+        let title = |column: &str, unit: &Option<String>| match unit {
+            Some(unit) => format!("{column} [{unit}]"),
+            None => column.to_string(),
+        };
+        [title(x, &self.x_unit), title(y, &self.y_unit)]
+    }
 }
 
 /// `[[case]]`: a load case with its fixed inputs and measured values.

@@ -987,3 +987,40 @@ fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty
     let report = common::report::read(&dir.path().join("validated"));
     assert!(report.contains("Validation (ASME V&V 20)"));
 }
+
+/// The shipped validation example (`examples/validation/`) gives the V&V 20
+/// statement it is there to show: both values of its validate case, each
+/// with the u_num the spec states, E = S - D, and the model error's
+/// interval. Its measured values come from the spring's true stiffness
+/// (2.5 kN/mm) with the model's own softening, so the model must agree
+/// with them within u_val: a verdict that it does not would be a fault.
+#[test]
+fn the_shipped_validation_example_states_v_and_v_20() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let spec = common::root().join("examples/validation/spec.toml");
+    let summary = common::external_summary(&spec, &out, &[]);
+    let k = summary["posterior"]["k_kn_per_mm"]["mean"]
+        .as_f64()
+        .unwrap();
+    assert!((k - 2.5).abs() < 0.05, "k = {k}");
+    let report = common::report::read(&out);
+    let section = &report[report
+        .find("### Validation (ASME V&V 20)")
+        .expect("the V&V 20 section")..];
+    for (output, u_num) in [("u_low_mm", "0.005000"), ("u_high_mm", "0.01000")] {
+        let row = section
+            .lines()
+            .find(|l| l.starts_with(&format!("| C | {output} |")))
+            .unwrap_or_else(|| panic!("{output} in\n{section}"));
+        let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
+        assert_eq!(cells[5], u_num, "{row}");
+        let (s, d, e): (f64, f64, f64) = (
+            cells[2].parse().unwrap(),
+            cells[3].parse().unwrap(),
+            cells[4].parse().unwrap(),
+        );
+        assert!((s - d - e).abs() <= 1e-3 * s.abs(), "E = S - D: {row}");
+        assert_eq!(cells[10], "within u_val", "{row}");
+    }
+}

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use acq_analysis::recording::{Recording, SampleCounts};
 use common::browser::LivePage;
 use common::running::Running;
-use common::{copy_session, path_arg, root};
+use common::{acq, copy_session, path_arg, root, stderr};
 use serde_json::Value;
 
 fn artefacts() -> PathBuf {
@@ -671,5 +671,122 @@ fn view_arguments_that_cannot_work_are_refused_with_the_fix() {
         &["view", path_arg(&session), "--view", &taken],
         1,
         "give another port",
+    );
+}
+
+/// The page's plots as the user sets them out: a layout file puts chosen
+/// signals of different kinds in one plot, a signal added on the page
+/// appears in its plot, "Save layout" gives a file that sets out the same
+/// page when loaded again, and "Export CSV" gives the window in view. A
+/// layout naming a signal no session has is refused before serving.
+#[test]
+fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
+    let temp = tempfile::tempdir().unwrap();
+    let session = copy_session("excavator_case1", &temp.path().join("case1"));
+    let layout = temp.path().join("layout.json");
+    std::fs::write(
+        &layout,
+        r#"{"format": 1, "plots": [
+            {"title": "boom, hydraulics and steel", "signals": ["boom_head_pressure", "sg09"]},
+            {"title": "load", "signals": ["tip_force"]}]}"#,
+    )
+    .unwrap();
+    let plots_js = "JSON.stringify(window.acqView.sessions.length ? window.acqView.sessions[0].groups.map((g) => [g.group, g.plot.series.slice(1).map((x) => x.label)]) : null)";
+    let open = |layout: &Path| {
+        let mut view = Running::start(&[
+            "view",
+            path_arg(&session),
+            "--view",
+            "127.0.0.1:0",
+            "--layout",
+            path_arg(layout),
+        ]);
+        let url = url_in(&view.wait_for("view at", Duration::from_secs(60)));
+        let mut page = LivePage::open(&url, Duration::from_secs(60)).expect("the page opens");
+        let started = Instant::now();
+        let plots = loop {
+            let plots: Value =
+                serde_json::from_str(page.evaluate(plots_js).unwrap().as_str().unwrap()).unwrap();
+            if !plots.is_null() {
+                break plots;
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(30),
+                "the page never built its plots"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        };
+        (view, page, plots)
+    };
+    let (view, mut page, plots) = open(&layout);
+    assert_eq!(
+        plots,
+        serde_json::json!([
+            ["boom, hydraulics and steel", ["boom_head_pressure", "sg09"]],
+            ["load", ["tip_force"]]
+        ])
+    );
+    // A signal added through the plot's own "add a signal" list.
+    page.evaluate(
+        "(() => { const g = window.acqView.sessions[0].groups[1]; const k = window.acqView.sessions[0].sensors.findIndex((x) => x.name === 'arm_inclination'); g.add.value = String(k); g.add.dispatchEvent(new Event('change')); })()",
+    )
+    .unwrap();
+    let plots: Value =
+        serde_json::from_str(page.evaluate(plots_js).unwrap().as_str().unwrap()).unwrap();
+    assert_eq!(
+        plots[1],
+        serde_json::json!(["load", ["tip_force", "arm_inclination"]])
+    );
+    let csv = page.evaluate("window.acqView.exportCsv(0)").unwrap();
+    let csv = csv.as_str().unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "time_s,boom_head_pressure_min [bar],boom_head_pressure_max [bar],sg09_min [MPa],sg09_max [MPa],tip_force_min [kN],tip_force_max [kN],arm_inclination_min [deg],arm_inclination_max [deg]"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|c| c.parse().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert!(rows.len() > 100, "{} rows", rows.len());
+    assert!(rows.windows(2).all(|w| w[0][0] < w[1][0]), "time rises");
+    // sg09 holds at 103 MPa in its hold: the export carries the values.
+    assert!(
+        rows.iter().any(|r| (r[3] - 103.18).abs() < 1.0),
+        "no sg09 hold value"
+    );
+    let saved = page.evaluate("window.acqView.layoutJson(0)").unwrap();
+    assert_eq!(page.console_errors(), &[] as &[String]);
+    page.close();
+    assert_eq!(view.interrupt(), 0);
+
+    let again = temp.path().join("saved.json");
+    std::fs::write(&again, saved.as_str().unwrap()).unwrap();
+    let (view, page, reloaded) = open(&again);
+    assert_eq!(reloaded, plots, "the saved layout sets out the same page");
+    page.close();
+    assert_eq!(view.interrupt(), 0);
+
+    std::fs::write(
+        &layout,
+        r#"{"format": 1, "plots": [{"title": "x", "signals": ["sg99"]}]}"#,
+    )
+    .unwrap();
+    let output = acq(&[
+        "view",
+        path_arg(&session),
+        "--view",
+        "127.0.0.1:0",
+        "--layout",
+        path_arg(&layout),
+    ]);
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        stderr(&output).contains("no session has a signal \"sg99\""),
+        "{}",
+        stderr(&output)
     );
 }

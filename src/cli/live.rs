@@ -315,9 +315,11 @@ fn watchers(
             worker = Some(super::rig_study::start(study, vec![shared.clone()], say));
         }
         if let Some((addr, access)) = view_address {
+            let names: Vec<&str> = rig.sensors.iter().map(|s| s.name.as_str()).collect();
             let pages = acq_view::Pages {
                 sessions: vec![shared],
                 study: worker.as_ref().map(acq_view::StudyWorker::panel),
+                layout: args.view.layout(&names)?,
             };
             let started = acq_view::ViewHost::start(addr, access, pages)?;
             eprintln!("acq: view at {} (served while recording)", started.url());

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use acq_io::error::{AcqError, Result};
+use acq_view::layout::Layout;
 use acq_view::{open_session, Source, ViewHost, ViewOptions, DEFAULT_ADDRESS};
 use clap::Args;
 
@@ -33,9 +34,31 @@ pub struct ViewArgs {
     /// then needs the random token in the URL printed at start.
     #[arg(long, requires = "view")]
     pub view_remote: bool,
+    /// The page's plots as a layout file sets them out (which signals in
+    /// which plot; the page's "Save layout" writes one), instead of one
+    /// plot per sensor kind.
+    #[arg(long, value_name = "LAYOUT.json")]
+    pub layout: Option<PathBuf>,
 }
 
 impl ViewArgs {
+    /// `--layout`'s file, checked against the signals the page shows.
+    pub fn layout(&self, known: &[&str]) -> Result<Option<Layout>> {
+        let Some(path) = &self.layout else {
+            return Ok(None);
+        };
+        if self.view.is_none() {
+            return Err(AcqError::Config(
+                "--layout sets out the page of --view; give --view too".into(),
+            ));
+        }
+        let text = acq_io::input::read_text(path).map_err(|e| AcqError::open(path, e))?;
+        acq_io::input::note_input(path);
+        Layout::parse(&text, known)
+            .map(Some)
+            .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))
+    }
+
     pub fn options(&self) -> ViewOptions {
         ViewOptions {
             address: self.view.clone(),
@@ -95,9 +118,23 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
         }
         None => None,
     };
+    let names: Vec<String> = sessions
+        .iter()
+        .flat_map(|s| {
+            let view = s.lock().unwrap_or_else(|p| p.into_inner());
+            view.sensors
+                .iter()
+                .map(|x| x.name.clone())
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let layout = args
+        .view
+        .layout(&names.iter().map(String::as_str).collect::<Vec<_>>())?;
     let pages = acq_view::Pages {
         sessions,
         study: worker.as_ref().map(acq_view::StudyWorker::panel),
+        layout,
     };
     let host = ViewHost::start(addr, access, pages)?;
     eprintln!("acq: view at {} (Ctrl-C to stop)", host.url());

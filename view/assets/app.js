@@ -20,6 +20,9 @@
   // What the page has drawn, for the browser checks (and the curious).
   const view = { sessions: [], holdsShown: [], lastX: [], updates: 0, lost: 0, errors: [] };
   window.acqView = view;
+  view.layoutJson = (i) => layoutJson(view.sessions[i]);
+  view.exportCsv = (i) => exportCsv(view.sessions[i]);
+  view.addPlot = (i, title, names) => addPlot(view.sessions[i], title, names.map((n) => view.sessions[i].sensors.findIndex((x) => x.name === n)));
 
   function url(path, params = {}) {
     const u = new URL(path, location.href);
@@ -65,7 +68,24 @@
     return state.sensors.filter((s) => !several || s.session === info.name);
   }
 
-  function buildSession(index, info, sensors) {
+  // The plots of a session: a layout file's (each plot's signals this
+  // session has, in its order), else one per sensor kind.
+  function plotsOf(sensors, layout) {
+    if (layout) {
+      return layout.plots.map((p) => ({
+        title: p.title,
+        members: p.signals.map((name) => sensors.findIndex((x) => x.name === name)).filter((k) => k >= 0),
+      })).filter((p) => p.members.length);
+    }
+    const groups = new Map();
+    sensors.forEach((sensor, k) => {
+      if (!groups.has(sensor.group)) groups.set(sensor.group, []);
+      groups.get(sensor.group).push(k);
+    });
+    return Array.from(groups, ([title, members]) => ({ title, members }));
+  }
+
+  function buildSession(index, info, sensors, layout) {
     const s = {
       index, name: info.name, live: info.live, follow: info.live,
       range: null, sensors, groups: [], holds: [], holdsNote: info.holds_note,
@@ -77,55 +97,136 @@
     const controls = el('div', { class: 'controls' },
       button(info.live ? 'Pause' : 'Whole session', () => (s.live ? toggleFollow(s) : showWhole(s))),
       button('\u25c0', () => pan(s, -0.5)), button('\u25b6', () => pan(s, 0.5)),
-      button('Zoom out', () => zoom(s, 2)), mode);
+      button('Zoom out', () => zoom(s, 2)),
+      button('New plot', () => { addPlot(s, 'new plot', []); }),
+      button('Save layout', () => download('layout.json', layoutJson(s), 'application/json')),
+      button('Export CSV', () => download(`${s.name}.csv`, exportCsv(s), 'text/csv')),
+      mode);
     s.mode = mode;
     s.pauseButton = controls.firstChild;
-    const charts = el('div', { class: 'charts' });
-    const groups = new Map();
-    sensors.forEach((sensor, k) => {
-      if (!groups.has(sensor.group)) groups.set(sensor.group, []);
-      groups.get(sensor.group).push(k);
-    });
+    s.charts = el('div', { class: 'charts' });
     s.title = el('h2', { text: info.name + (info.live ? ' (recording)' : ' (recorded)') });
     const section = el('section', { class: 'session', 'data-session': String(index) },
-      s.title, controls, charts);
+      s.title, controls, s.charts);
     document.getElementById('sessions').append(section);
-    for (const [group, members] of groups) {
-      const box = el('div', { class: 'chart' }, el('h3', { text: group }));
-      charts.append(box);
-      const width = Math.max(400, box.clientWidth - 12);
-      const plot = new uPlot({
-        width, height: 220,
-        // Without data (or with one value) uPlot finds no axis ticks: give
-        // such scales a span of their own.
-        scales: {
-          x: { time: false, range: (u, min, max) => (min === null || !(max > min) ? [0, 1] : [min, max]) },
-          y: { range: (u, min, max) => (min === null ? [0, 1] : uPlot.rangeNum(min, max, 0.1, true)) },
-        },
-        axes: [{ label: 'session time (s)' }, {}],
-        series: [{ label: 't (s)' }].concat(members.map((k, j) => ({
-          label: sensors[k].name, stroke: colour(j), width: 1, spanGaps: false,
-          points: { show: false },
-        }))),
-        // A drag selects a span; the page then reads it at the chart's resolution.
-        cursor: { drag: { x: true, y: false, setScale: false } },
-        legend: { live: true },
-        hooks: {
-          drawClear: [(u) => shadeHolds(s, u)],
-          setSelect: [(u) => onSelect(s, u)],
-          // Off the chart, back to the newest values.
-          setCursor: [(u) => { if (u.cursor.left < 0) showLatest(u); }],
-        },
-      }, [[], ...members.map(() => [])], box);
-      s.groups.push({ group, members, plot });
-    }
+    for (const { title, members } of plotsOf(sensors, layout)) addPlot(s, title, members);
     if (info.has_xy) {
       s.xyCanvas = el('canvas', { class: 'xy', width: '560', height: '320' });
-      charts.append(el('div', { class: 'chart' }, el('h3', { text: 'force against displacement' }), s.xyCanvas));
+      s.xyBox = el('div', { class: 'chart' }, el('h3', { text: 'force against displacement' }), s.xyCanvas);
+      s.charts.append(s.xyBox);
     }
     s.tables = el('div', { class: 'tables' });
     section.append(s.tables);
     return s;
+  }
+
+  // A plot of `members` (sensor indices) titled `title`, with its own
+  // controls: add a signal, remove one, export it as PNG, close it.
+  function addPlot(s, title, members) {
+    const g = { group: title, members: members.slice(), plot: null };
+    const heading = el('h3', { text: title });
+    const add = el('select', { class: 'add-signal', title: 'add a signal to this plot' });
+    const remove = el('select', { class: 'remove-signal', title: 'remove a signal from this plot' });
+    const tools = el('div', { class: 'plot-tools' }, add, remove,
+      el('button', { type: 'button', text: 'PNG', title: 'this plot as it is now, as an image', onclick: () => downloadUrl(`${s.name}-${g.group}.png`, g.plot.ctx.canvas.toDataURL('image/png')) }),
+      el('button', { type: 'button', text: '\u00d7', title: 'close this plot', onclick: () => closePlot(s, g) }));
+    g.box = el('div', { class: 'chart' }, heading, tools);
+    add.onchange = () => { const k = Number(add.value); if (add.value !== '') { g.members.push(k); rebuildPlot(s, g); } };
+    remove.onchange = () => { const k = Number(remove.value); if (remove.value !== '') { g.members = g.members.filter((m) => m !== k); rebuildPlot(s, g); } };
+    g.add = add;
+    g.remove = remove;
+    if (s.xyBox && s.xyBox.parentNode === s.charts) s.charts.insertBefore(g.box, s.xyBox);
+    else s.charts.append(g.box);
+    s.groups.push(g);
+    rebuildPlot(s, g);
+    return g;
+  }
+
+  function closePlot(s, g) {
+    if (g.plot) g.plot.destroy();
+    g.box.remove();
+    s.groups = s.groups.filter((x) => x !== g);
+  }
+
+  function rebuildPlot(s, g) {
+    const { sensors } = s;
+    const options = (select, label, ks) => {
+      select.replaceChildren(el('option', { value: '', text: label }),
+        ...ks.map((k) => el('option', { value: String(k), text: sensors[k].name })));
+    };
+    options(g.add, 'add a signal\u2026', sensors.map((_, k) => k).filter((k) => !g.members.includes(k)));
+    options(g.remove, 'remove\u2026', g.members);
+    if (g.plot) g.plot.destroy();
+    const width = Math.max(400, g.box.clientWidth - 12);
+    g.plot = new uPlot({
+      width, height: 220,
+      // Without data (or with one value) uPlot finds no axis ticks: give
+      // such scales a span of their own.
+      scales: {
+        x: { time: false, range: (u, min, max) => (min === null || !(max > min) ? [0, 1] : [min, max]) },
+        y: { range: (u, min, max) => (min === null ? [0, 1] : uPlot.rangeNum(min, max, 0.1, true)) },
+      },
+      axes: [{ label: 'session time (s)' }, { label: unitsOf(s, g.members) }],
+      series: [{ label: 't (s)' }].concat(g.members.map((k, j) => ({
+        label: sensors[k].name, stroke: colour(j), width: 1, spanGaps: false,
+        points: { show: false },
+      }))),
+      // A drag selects a span; the page then reads it at the chart's resolution.
+      cursor: { drag: { x: true, y: false, setScale: false } },
+      legend: { live: true },
+      hooks: {
+        drawClear: [(u) => shadeHolds(s, u)],
+        setSelect: [(u) => onSelect(s, u)],
+        // Off the chart, back to the newest values.
+        setCursor: [(u) => { if (u.cursor.left < 0) showLatest(u); }],
+      },
+    }, chartData(s, g.members), g.box);
+    if (s.range) g.plot.setScale('x', { min: s.range[0], max: s.range[1] });
+    showLatest(g.plot);
+  }
+
+  // The y axis's units: those of the plot's signals, once each.
+  function unitsOf(s, members) {
+    return Array.from(new Set(members.map((k) => s.sensors[k].unit))).join(', ');
+  }
+
+  // The plots as a layout file (`acq view --layout FILE` loads it).
+  function layoutJson(s) {
+    return JSON.stringify({
+      format: 1,
+      plots: s.groups.map((g) => ({ title: g.group, signals: g.members.map((k) => s.sensors[k].name) })),
+    }, null, 2);
+  }
+
+  // What the plots show now, as CSV: one row per time column in view, each
+  // signal's min and max there (the page's own resolution), in the units
+  // the header names.
+  function exportCsv(s) {
+    const members = Array.from(new Set(s.groups.flatMap((g) => g.members)));
+    const [x, ...ys] = chartData(s, members);
+    const header = ['time_s'].concat(members.flatMap((k) => {
+      const { name, unit } = s.sensors[k];
+      return [`${name}_min [${unit}]`, `${name}_max [${unit}]`];
+    }));
+    const lines = [header.join(',')];
+    const [a, b] = s.range || [-Infinity, Infinity];
+    const value = (v) => (v == null ? '' : v);
+    for (let i = 0; i + 1 < x.length; i += 2) {
+      if (x[i] < a || x[i] > b) continue;
+      lines.push([x[i]].concat(ys.flatMap((y) => [value(y[i]), value(y[i + 1])])).join(','));
+    }
+    return lines.join('\n') + '\n';
+  }
+
+  function download(name, text, type) {
+    downloadUrl(name, URL.createObjectURL(new Blob([text], { type })));
+  }
+
+  function downloadUrl(name, href) {
+    const a = el('a', { href, download: name });
+    document.body.append(a);
+    a.click();
+    a.remove();
   }
 
   function shadeHolds(s, u) {
@@ -600,7 +701,7 @@
     const state = await getJson('/api/state');
     const several = state.sessions.length > 1;
     state.sessions.forEach((info, i) => {
-      const s = buildSession(i, info, sessionSensors(state, info, several));
+      const s = buildSession(i, info, sessionSensors(state, info, several), state.layout);
       view.sessions.push(s);
     });
     applyState(state);

@@ -6,6 +6,7 @@
 //! - [`live`]: the recorder's observer; a thread decodes and finds holds.
 //! - [`recorded`]: a session read from disk, with `acq extract`'s holds.
 //! - [`index`]: a recorded session's view kept beside it for the next open.
+//! - [`layout`]: which signals go in which plot, as a file (`--layout`).
 //! - [`server`]: the HTTP server (read-only, loopback or token, CSP, events).
 //! - [`host`]: the `--view` options and the page on a runtime of its own.
 //! - [`page`]: the page's HTML skeleton, script, style and vendored uPlot.
@@ -18,6 +19,7 @@
 #[cfg(feature = "server")]
 pub mod host;
 pub mod index;
+pub mod layout;
 pub mod live;
 pub mod model;
 pub mod page;

@@ -119,6 +119,7 @@ pub fn parse_address(text: &str) -> Result<SocketAddr> {
 struct App {
     sessions: Arc<Vec<SharedSession>>,
     study: Option<SharedStudy>,
+    layout: Arc<Option<crate::layout::Layout>>,
     access: Arc<Access>,
     updates: broadcast::Sender<Arc<str>>,
     viewers: Arc<AtomicUsize>,
@@ -168,6 +169,8 @@ impl ViewServer {
 pub struct Pages {
     pub sessions: Vec<SharedSession>,
     pub study: Option<SharedStudy>,
+    /// The plots as a layout file sets them out, else one per sensor kind.
+    pub layout: Option<crate::layout::Layout>,
 }
 
 impl From<Vec<SharedSession>> for Pages {
@@ -175,6 +178,7 @@ impl From<Vec<SharedSession>> for Pages {
         Pages {
             sessions,
             study: None,
+            layout: None,
         }
     }
 }
@@ -184,7 +188,11 @@ pub async fn serve(
     access: Access,
     pages: impl Into<Pages>,
 ) -> Result<ViewServer> {
-    let Pages { sessions, study } = pages.into();
+    let Pages {
+        sessions,
+        study,
+        layout,
+    } = pages.into();
     let listener = tokio::net::TcpListener::bind(addr).await.map_err(|e| {
         let hint = match e.kind() {
             std::io::ErrorKind::AddrInUse => {
@@ -215,6 +223,7 @@ pub async fn serve(
         closing: closing_rx,
         sessions: Arc::new(sessions),
         study,
+        layout: Arc::new(layout),
         access: Arc::new(access),
         updates,
         viewers: Arc::new(AtomicUsize::new(0)),
@@ -427,6 +436,7 @@ fn state_json(app: &App, with_holds: bool) -> Value {
         "sensors": sensors,
         "buses": buses,
         "viewers": app.viewers.load(Ordering::Relaxed),
+        "layout": *app.layout,
     });
     if with_holds {
         state["holds"] = Value::Array(holds);

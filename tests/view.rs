@@ -737,6 +737,52 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         plots[1],
         serde_json::json!(["load", ["tip_force", "arm_inclination"]])
     );
+    // A click on a plot places cursor A where it was clicked; A and B read
+    // out each signal and their difference: the tip force while idle (0.5 s,
+    // about 0) and in the hold (7 s, 40.6 kN in this case).
+    let rect: Value = serde_json::from_str(
+        page.evaluate("JSON.stringify(window.acqView.sessions[0].groups[1].plot.over.getBoundingClientRect())")
+            .unwrap()
+            .as_str()
+            .unwrap(),
+    )
+    .unwrap();
+    let at = (
+        rect["x"].as_f64().unwrap() + 0.5 * rect["width"].as_f64().unwrap(),
+        rect["y"].as_f64().unwrap() + 0.5 * rect["height"].as_f64().unwrap(),
+    );
+    page.drag(at, at).unwrap();
+    let placed: Value = serde_json::from_str(
+        page.evaluate("JSON.stringify(window.acqView.sessions[0].cursors)")
+            .unwrap()
+            .as_str()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        placed.as_array().map(Vec::len),
+        Some(1),
+        "a click places A: {placed}"
+    );
+    page.evaluate("window.acqView.setCursors(0, [0.5, 7.0])")
+        .unwrap();
+    let readout: Value = serde_json::from_str(
+        page.evaluate("JSON.stringify(Array.from(document.querySelectorAll('section[data-session=\"0\"] table.cursor-values tr')).map((r) => Array.from(r.children).map((c) => c.textContent)))")
+            .unwrap()
+            .as_str()
+            .unwrap(),
+    )
+    .unwrap();
+    let force = readout
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r[0] == "tip_force")
+        .unwrap_or_else(|| panic!("{readout}"));
+    let number = |v: &Value| v.as_str().unwrap().parse::<f64>().unwrap();
+    let (a, b, difference) = (number(&force[2]), number(&force[3]), number(&force[4]));
+    assert!(a.abs() < 1.0 && (b - 40.6).abs() < 1.0, "{force}");
+    assert!((difference - (b - a)).abs() < 2e-3, "{force}");
     let csv = page.evaluate("window.acqView.exportCsv(0)").unwrap();
     let csv = csv.as_str().unwrap();
     let mut lines = csv.lines();

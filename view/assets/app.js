@@ -22,6 +22,7 @@
   window.acqView = view;
   view.layoutJson = (i) => layoutJson(view.sessions[i]);
   view.exportCsv = (i) => exportCsv(view.sessions[i]);
+  view.setCursors = (i, times) => setCursors(view.sessions[i], times);
   view.addPlot = (i, title, names) => addPlot(view.sessions[i], title, names.map((n) => view.sessions[i].sensors.findIndex((x) => x.name === n)));
 
   function url(path, params = {}) {
@@ -101,13 +102,16 @@
       button('New plot', () => { addPlot(s, 'new plot', []); }),
       button('Save layout', () => download('layout.json', layoutJson(s), 'application/json')),
       button('Export CSV', () => download(`${s.name}.csv`, exportCsv(s), 'text/csv')),
+      button('Clear cursors', () => setCursors(s, [])),
       mode);
+    s.cursors = [];
+    s.cursorBox = el('div', { class: 'cursors' });
     s.mode = mode;
     s.pauseButton = controls.firstChild;
     s.charts = el('div', { class: 'charts' });
     s.title = el('h2', { text: info.name + (info.live ? ' (recording)' : ' (recorded)') });
     const section = el('section', { class: 'session', 'data-session': String(index) },
-      s.title, controls, s.charts);
+      s.title, controls, s.cursorBox, s.charts);
     document.getElementById('sessions').append(section);
     for (const { title, members } of plotsOf(sensors, layout)) addPlot(s, title, members);
     if (info.has_xy) {
@@ -117,6 +121,7 @@
     }
     s.tables = el('div', { class: 'tables' });
     section.append(s.tables);
+    renderCursors(s);
     return s;
   }
 
@@ -176,13 +181,83 @@
       legend: { live: true },
       hooks: {
         drawClear: [(u) => shadeHolds(s, u)],
+        draw: [(u) => drawCursors(s, u)],
         setSelect: [(u) => onSelect(s, u)],
         // Off the chart, back to the newest values.
         setCursor: [(u) => { if (u.cursor.left < 0) showLatest(u); }],
+        // A click (not a drag) places cursor A, the next B.
+        ready: [(u) => u.over.addEventListener('click', (e) => {
+          if (s.dragged) { s.dragged = false; return; }
+          const t = u.posToVal(e.offsetX, 'x');
+          setCursors(s, s.cursors.length === 1 ? [s.cursors[0], t] : [t]);
+        })],
       },
     }, chartData(s, g.members), g.box);
     if (s.range) g.plot.setScale('x', { min: s.range[0], max: s.range[1] });
     showLatest(g.plot);
+  }
+
+  // ---- two cursors ---------------------------------------------------------
+
+  // Cursors A and B at session times `times` (0, 1 or 2 of them), drawn on
+  // every plot of the session and read out with their differences.
+  function setCursors(s, times) {
+    s.cursors = times.slice(0, 2);
+    for (const g of s.groups) g.plot.redraw(false);
+    renderCursors(s);
+  }
+
+  function drawCursors(s, u) {
+    const ctx = u.ctx;
+    const { left, top, width, height } = u.bbox;
+    ctx.save();
+    ctx.font = `${11 * devicePixelRatio}px system-ui, sans-serif`;
+    s.cursors.forEach((t, i) => {
+      const x = u.valToPos(t, 'x', true);
+      if (x < left || x > left + width) return;
+      ctx.strokeStyle = i ? '#cf222e' : '#0969da';
+      ctx.setLineDash([4 * devicePixelRatio, 3 * devicePixelRatio]);
+      ctx.beginPath(); ctx.moveTo(x, top); ctx.lineTo(x, top + height); ctx.stroke();
+      ctx.fillStyle = ctx.strokeStyle;
+      ctx.fillText(i ? 'B' : 'A', x + 3 * devicePixelRatio, top + 12 * devicePixelRatio);
+    });
+    ctx.restore();
+  }
+
+  // A signal's value at session time t: the middle of the page's column
+  // nearest t, within two column widths (else none).
+  function valueAt(s, k, t) {
+    const source = s.follow || !s.zoomColumns ? s.columns : s.zoomColumns;
+    let best = null;
+    for (const [key, c] of source[k]) {
+      const d = Math.abs(key / 1000 - t);
+      if (d <= 2 * c[2] && (!best || d < best.d)) best = { d, v: (c[0] + c[1]) / 2 };
+    }
+    return best ? best.v : null;
+  }
+
+  function renderCursors(s) {
+    const [a, b] = s.cursors;
+    if (a === undefined) {
+      s.cursorBox.replaceChildren(el('p', { class: 'hint', text: 'Click a plot to place cursor A, again for B.' }));
+      return;
+    }
+    const members = Array.from(new Set(s.groups.flatMap((g) => g.members)));
+    const head = ['signal', 'unit', `A at ${fmt(a)} s`].concat(b === undefined ? [] : [`B at ${fmt(b)} s`, 'B \u2212 A']);
+    const rows = members.map((k) => {
+      const va = valueAt(s, k, a);
+      const cells = [cell(s.sensors[k].name), cell(s.sensors[k].unit), cell(fmt(va), 'num')];
+      if (b !== undefined) {
+        const vb = valueAt(s, k, b);
+        cells.push(cell(fmt(vb), 'num'), cell(va === null || vb === null ? '-' : fmt(vb - va), 'num'));
+      }
+      return el('tr', {}, ...cells);
+    });
+    s.cursorBox.replaceChildren(
+      el('p', { text: b === undefined ? `A at ${fmt(a)} s; click again for B` : `A at ${fmt(a)} s, B at ${fmt(b)} s: \u0394t = ${fmt(b - a)} s` }),
+      el('table', { class: 'cursor-values' },
+        el('thead', {}, el('tr', {}, ...head.map((t) => el('th', { text: t })))),
+        el('tbody', {}, ...rows)));
   }
 
   // The y axis's units: those of the plot's signals, once each.
@@ -247,6 +322,7 @@
   function onSelect(s, u) {
     const { left, width } = u.select;
     if (width < 2) return;
+    s.dragged = true;
     const range = [u.posToVal(left, 'x'), u.posToVal(left + width, 'x')];
     u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
     s.follow = false;

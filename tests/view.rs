@@ -688,10 +688,11 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         &layout,
         r#"{"format": 1, "plots": [
             {"title": "boom, hydraulics and steel", "signals": ["boom_head_pressure", "sg09"]},
-            {"title": "load", "signals": ["tip_force"]}]}"#,
+            {"title": "load", "signals": ["tip_force"]},
+            {"title": "boom pressure against tip force", "xy": ["tip_force", "boom_head_pressure"]}]}"#,
     )
     .unwrap();
-    let plots_js = "JSON.stringify(window.acqView.sessions.length ? window.acqView.sessions[0].groups.map((g) => [g.group, g.plot.series.slice(1).map((x) => x.label)]) : null)";
+    let plots_js = "JSON.stringify(window.acqView.sessions.length ? window.acqView.sessions[0].groups.map((g) => [g.group, g.plot.series.slice(1).map((x) => x.label)]).concat(window.acqView.sessions[0].xyPlots.map((p) => [p.title, [window.acqView.sessions[0].sensors[p.x].name, window.acqView.sessions[0].sensors[p.y].name]])) : null)";
     let open = |layout: &Path| {
         let mut view = Running::start(&[
             "view",
@@ -723,9 +724,37 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         plots,
         serde_json::json!([
             ["boom, hydraulics and steel", ["boom_head_pressure", "sg09"]],
-            ["load", ["tip_force"]]
+            ["load", ["tip_force"]],
+            [
+                "boom pressure against tip force",
+                ["tip_force", "boom_head_pressure"]
+            ]
         ])
     );
+    // The XY plot: a point per time column both signals have, with ticks
+    // on both axes, reaching the hold's 40.6 kN.
+    let started = Instant::now();
+    let xy = loop {
+        let xy: Value = serde_json::from_str(
+            page.evaluate("JSON.stringify(window.acqView.sessions[0].xyPlots.map((p) => ({ points: p.points, ticks: p.ticks })))")
+                .unwrap()
+                .as_str()
+                .unwrap(),
+        )
+        .unwrap();
+        if xy[0]["points"].as_u64().unwrap_or(0) > 0 || started.elapsed() > Duration::from_secs(20)
+        {
+            break xy;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(xy[0]["points"].as_u64().unwrap() > 100, "{xy}");
+    let x_ticks = xy[0]["ticks"]["x"].as_array().unwrap();
+    assert!(
+        x_ticks.len() >= 3 && xy[0]["ticks"]["y"].as_array().unwrap().len() >= 3,
+        "{xy}"
+    );
+    assert!(x_ticks.last().unwrap().as_f64().unwrap() >= 40.0, "{xy}");
     // A signal added through the plot's own "add a signal" list.
     page.evaluate(
         "(() => { const g = window.acqView.sessions[0].groups[1]; const k = window.acqView.sessions[0].sensors.findIndex((x) => x.name === 'arm_inclination'); g.add.value = String(k); g.add.dispatchEvent(new Event('change')); })()",
@@ -783,6 +812,7 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     let (a, b, difference) = (number(&force[2]), number(&force[3]), number(&force[4]));
     assert!(a.abs() < 1.0 && (b - 40.6).abs() < 1.0, "{force}");
     assert!((difference - (b - a)).abs() < 2e-3, "{force}");
+    page.screenshot(&artefacts().join("layout-cursors-xy.png")).unwrap();
     let csv = page.evaluate("window.acqView.exportCsv(0)").unwrap();
     let csv = csv.as_str().unwrap();
     let mut lines = csv.lines();

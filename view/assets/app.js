@@ -73,10 +73,12 @@
   // session has, in its order), else one per sensor kind.
   function plotsOf(sensors, layout) {
     if (layout) {
+      const index = (name) => sensors.findIndex((x) => x.name === name);
       return layout.plots.map((p) => ({
         title: p.title,
-        members: p.signals.map((name) => sensors.findIndex((x) => x.name === name)).filter((k) => k >= 0),
-      })).filter((p) => p.members.length);
+        members: (p.signals || []).map(index).filter((k) => k >= 0),
+        xy: p.xy ? p.xy.map(index) : null,
+      })).filter((p) => (p.xy ? p.xy.every((k) => k >= 0) : p.members.length));
     }
     const groups = new Map();
     sensors.forEach((sensor, k) => {
@@ -100,6 +102,7 @@
       button('\u25c0', () => pan(s, -0.5)), button('\u25b6', () => pan(s, 0.5)),
       button('Zoom out', () => zoom(s, 2)),
       button('New plot', () => { addPlot(s, 'new plot', []); }),
+      button('New XY plot', () => { addXyPlot(s, 0, Math.min(1, s.sensors.length - 1)); }),
       button('Save layout', () => download('layout.json', layoutJson(s), 'application/json')),
       button('Export CSV', () => download(`${s.name}.csv`, exportCsv(s), 'text/csv')),
       button('Clear cursors', () => setCursors(s, [])),
@@ -113,7 +116,11 @@
     const section = el('section', { class: 'session', 'data-session': String(index) },
       s.title, controls, s.cursorBox, s.charts);
     document.getElementById('sessions').append(section);
-    for (const { title, members } of plotsOf(sensors, layout)) addPlot(s, title, members);
+    s.xyPlots = [];
+    for (const { title, members, xy } of plotsOf(sensors, layout)) {
+      if (xy) addXyPlot(s, xy[0], xy[1], title);
+      else addPlot(s, title, members);
+    }
     if (info.has_xy) {
       s.xyCanvas = el('canvas', { class: 'xy', width: '560', height: '320' });
       s.xyBox = el('div', { class: 'chart' }, el('h3', { text: 'force against displacement' }), s.xyCanvas);
@@ -197,6 +204,56 @@
     showLatest(g.plot);
   }
 
+  // ---- XY plots of any two signals ------------------------------------------
+
+  // A plot of signal `y` against signal `x` over the window in view: each
+  // time column both have is a point (the middle of each's min and max),
+  // joined in time order, so a hysteresis loop stays a loop.
+  function addXyPlot(s, x, y, title) {
+    const p = { x, y, title: title || 'XY', canvas: el('canvas', { class: 'xy', width: '560', height: '320' }) };
+    const pick = (label, chosen, set) => {
+      const select = el('select', { title: label });
+      select.replaceChildren(...s.sensors.map((x, k) => el('option', { value: String(k), text: `${label}: ${x.name}` })));
+      select.value = String(chosen);
+      select.onchange = () => { set(Number(select.value)); drawXyPlot(s, p); };
+      return select;
+    };
+    p.box = el('div', { class: 'chart' }, el('h3', { text: p.title }),
+      el('div', { class: 'plot-tools' },
+        pick('x', x, (k) => { p.x = k; }), pick('y', y, (k) => { p.y = k; }),
+        el('button', { type: 'button', text: 'PNG', onclick: () => downloadUrl(`${s.name}-xy.png`, p.canvas.toDataURL('image/png')) }),
+        el('button', { type: 'button', text: '\u00d7', title: 'close this plot', onclick: () => { p.box.remove(); s.xyPlots = s.xyPlots.filter((q) => q !== p); } })),
+      p.canvas);
+    s.charts.append(p.box);
+    s.xyPlots.push(p);
+    drawXyPlot(s, p);
+    return p;
+  }
+
+  function drawXyPlot(s, p) {
+    const source = s.follow || !s.zoomColumns ? s.columns : s.zoomColumns;
+    const [a, b] = s.range || [-Infinity, Infinity];
+    const mid = (c) => (c[0] + c[1]) / 2;
+    // A column is keyed by its first sample's time, which differs between
+    // signals: pair each x column with the y column nearest it in time,
+    // within half a column.
+    const sorted = (m) => Array.from(m).sort((u, v) => u[0] - v[0]);
+    const xs = sorted(source[p.x]);
+    const ys = sorted(source[p.y]);
+    const points = [];
+    let j = 0;
+    for (const [key, cx] of xs) {
+      const t = key / 1000;
+      if (t < a || t > b) continue;
+      while (j + 1 < ys.length && Math.abs(ys[j + 1][0] - key) <= Math.abs(ys[j][0] - key)) j += 1;
+      if (ys[j] && Math.abs(ys[j][0] - key) <= 500 * cx[2]) points.push([mid(cx), mid(ys[j][1])]);
+    }
+    const { name: xName, unit: xUnit } = s.sensors[p.x];
+    const { name: yName, unit: yUnit } = s.sensors[p.y];
+    p.ticks = drawXy(s, { x: xName, x_unit: xUnit, y: yName, y_unit: yUnit, points }, p.canvas) || null;
+    p.points = points.length;
+  }
+
   // ---- two cursors ---------------------------------------------------------
 
   // Cursors A and B at session times `times` (0, 1 or 2 of them), drawn on
@@ -269,7 +326,8 @@
   function layoutJson(s) {
     return JSON.stringify({
       format: 1,
-      plots: s.groups.map((g) => ({ title: g.group, signals: g.members.map((k) => s.sensors[k].name) })),
+      plots: s.groups.map((g) => ({ title: g.group, signals: g.members.map((k) => s.sensors[k].name) }))
+        .concat(s.xyPlots.map((p) => ({ title: p.title, xy: [s.sensors[p.x].name, s.sensors[p.y].name] }))),
     }, null, 2);
   }
 
@@ -463,6 +521,7 @@
         showLatest(g.plot);
       }
       if (s.range) setRange(s, s.range);
+      for (const p of s.xyPlots) drawXyPlot(s, p);
       let last = null;
       for (const m of s.columns) for (const key of m.keys()) last = last === null ? key : Math.max(last, key);
       view.lastX[s.index] = last === null ? null : last / 1000;
@@ -613,8 +672,7 @@
   // An XY plot on a canvas: the curve in drawing order (a loop stays a
   // loop), a grid at round values, tick labels and both axes named with
   // their units.
-  function drawXy(s, xy) {
-    const canvas = s.xyCanvas;
+  function drawXy(s, xy, canvas = s.xyCanvas) {
     if (!canvas || !xy || !xy.points.length) return;
     const ctx = canvas.getContext('2d');
     const w = canvas.width;
@@ -663,7 +721,8 @@
     ctx.beginPath();
     xy.points.forEach(([x, y], i) => (i ? ctx.lineTo(px(x), py(y)) : ctx.moveTo(px(x), py(y))));
     ctx.stroke();
-    s.xyTicks = { x: xTicks, y: yTicks };
+    if (canvas === s.xyCanvas) s.xyTicks = { x: xTicks, y: yTicks };
+    return { x: xTicks, y: yTicks };
   }
 
   async function refreshXy() {

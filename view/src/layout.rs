@@ -5,7 +5,8 @@
 //!
 //! ```json
 //! { "format": 1,
-//!   "plots": [ { "title": "boom", "signals": ["boom_head_pressure", "sg09"] } ] }
+//!   "plots": [ { "title": "boom", "signals": ["boom_head_pressure", "sg09"] },
+//!              { "title": "pull", "xy": ["extension", "load"] } ] }
 //! ```
 //!
 //! A signal is a rig sensor's name; a plot lists those of every session
@@ -29,11 +30,16 @@ pub struct Layout {
     pub plots: Vec<PlotLayout>,
 }
 
+/// One plot: signals over time, or (`xy`) one signal against another.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlotLayout {
     pub title: String,
+    #[serde(default)]
     pub signals: Vec<String>,
+    /// `[x, y]`: the second signal against the first.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub xy: Option<[String; 2]>,
 }
 
 impl Layout {
@@ -72,7 +78,13 @@ impl Layout {
                     plot.signals.len()
                 ));
             }
-            if let Some(unknown) = plot.signals.iter().find(|s| !known.contains(&s.as_str())) {
+            if plot.xy.is_some() && !plot.signals.is_empty() {
+                return Err(format!(
+                    "{which}: give either signals (over time) or xy (one against another), not both"
+                ));
+            }
+            let mut named = plot.signals.iter().chain(plot.xy.iter().flatten());
+            if let Some(unknown) = named.find(|s| !known.contains(&s.as_str())) {
                 return Err(format!(
                     "{which}: no session has a signal {unknown:?}; the signals are {}",
                     known.join(", ")
@@ -91,8 +103,7 @@ mod tests {
 
     #[test]
     fn a_layout_round_trips_and_mistakes_are_named() {
-        let text =
-            r#"{"format": 1, "plots": [{"title": "pull", "signals": ["load", "extension"]}]}"#;
+        let text = r#"{"format": 1, "plots": [{"title": "pull", "signals": ["load", "extension"]}, {"title": "curve", "xy": ["extension", "load"]}]}"#;
         let layout = Layout::parse(text, &KNOWN).unwrap();
         assert_eq!(layout.plots[0].signals, ["load", "extension"]);
         let again = Layout::parse(&serde_json::to_string(&layout).unwrap(), &KNOWN).unwrap();
@@ -112,6 +123,14 @@ mod tests {
                 "line 2",
             ),
             ("not json", "line 1"),
+            (
+                r#"{"format": 1, "plots": [{"title": "x", "xy": ["load", "strain"]}]}"#,
+                "no session has a signal \"strain\"",
+            ),
+            (
+                r#"{"format": 1, "plots": [{"title": "x", "signals": ["load"], "xy": ["load", "extension"]}]}"#,
+                "not both",
+            ),
         ] {
             let error = Layout::parse(text, &KNOWN).unwrap_err();
             assert!(error.contains(says), "{text}: {error}");

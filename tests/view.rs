@@ -812,7 +812,29 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     let (a, b, difference) = (number(&force[2]), number(&force[3]), number(&force[4]));
     assert!(a.abs() < 1.0 && (b - 40.6).abs() < 1.0, "{force}");
     assert!((difference - (b - a)).abs() < 2e-3, "{force}");
-    page.screenshot(&artefacts().join("layout-cursors-xy.png")).unwrap();
+    // A y span chosen on a plot holds through redraws until cleared.
+    let y_of = |page: &mut LivePage| -> Vec<f64> {
+        serde_json::from_str::<Vec<f64>>(
+            page.evaluate("JSON.stringify([window.acqView.sessions[0].groups[0].plot.scales.y.min, window.acqView.sessions[0].groups[0].plot.scales.y.max])")
+                .unwrap()
+                .as_str()
+                .unwrap(),
+        )
+        .unwrap()
+    };
+    page.evaluate("window.acqView.setY(0, 0, [60, 80])")
+        .unwrap();
+    page.evaluate("window.acqView.setCursors(0, [0.5, 7.0])")
+        .unwrap();
+    assert_eq!(y_of(&mut page), vec![60.0, 80.0]);
+    page.evaluate("window.acqView.setY(0, 0, null)").unwrap();
+    let auto = y_of(&mut page);
+    assert!(
+        auto[0] < 10.0 && auto[1] > 100.0,
+        "back to the data's span: {auto:?}"
+    );
+    page.screenshot(&artefacts().join("layout-cursors-xy.png"))
+        .unwrap();
     let csv = page.evaluate("window.acqView.exportCsv(0)").unwrap();
     let csv = csv.as_str().unwrap();
     let mut lines = csv.lines();

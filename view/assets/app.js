@@ -23,6 +23,7 @@
   view.layoutJson = (i) => layoutJson(view.sessions[i]);
   view.exportCsv = (i) => exportCsv(view.sessions[i]);
   view.setCursors = (i, times) => setCursors(view.sessions[i], times);
+  view.setY = (i, plot, span) => setY(view.sessions[i].groups[plot], span);
   view.addPlot = (i, title, names) => addPlot(view.sessions[i], title, names.map((n) => view.sessions[i].sensors.findIndex((x) => x.name === n)));
 
   function url(path, params = {}) {
@@ -176,7 +177,8 @@
       // such scales a span of their own.
       scales: {
         x: { time: false, range: (u, min, max) => (min === null || !(max > min) ? [0, 1] : [min, max]) },
-        y: { range: (u, min, max) => (min === null ? [0, 1] : uPlot.rangeNum(min, max, 0.1, true)) },
+        // A y span the user chose (Shift + drag) holds until a double click.
+        y: { range: (u, min, max) => g.y || (min === null ? [0, 1] : uPlot.rangeNum(min, max, 0.1, true)) },
       },
       axes: [{ label: 'session time (s)' }, { label: unitsOf(s, g.members) }],
       series: [{ label: 't (s)' }].concat(g.members.map((k, j) => ({
@@ -193,11 +195,22 @@
         // Off the chart, back to the newest values.
         setCursor: [(u) => { if (u.cursor.left < 0) showLatest(u); }],
         // A click (not a drag) places cursor A, the next B.
-        ready: [(u) => u.over.addEventListener('click', (e) => {
-          if (s.dragged) { s.dragged = false; return; }
-          const t = u.posToVal(e.offsetX, 'x');
-          setCursors(s, s.cursors.length === 1 ? [s.cursors[0], t] : [t]);
-        })],
+        ready: [(u) => {
+          u.over.addEventListener('click', (e) => {
+            if (s.dragged) { s.dragged = false; return; }
+            const t = u.posToVal(e.offsetX, 'x');
+            setCursors(s, s.cursors.length === 1 ? [s.cursors[0], t] : [t]);
+          });
+          // Shift + drag: zoom the y axis to the span dragged over.
+          u.over.addEventListener('mousedown', (e) => { g.yFrom = e.shiftKey ? e.offsetY : null; });
+          u.over.addEventListener('mouseup', (e) => {
+            if (g.yFrom == null || Math.abs(e.offsetY - g.yFrom) < 3) return;
+            const [a, b] = [u.posToVal(g.yFrom, 'y'), u.posToVal(e.offsetY, 'y')];
+            s.dragged = true;
+            setY(g, [Math.min(a, b), Math.max(a, b)]);
+          });
+          u.over.addEventListener('dblclick', () => setY(g, null));
+        }],
       },
     }, chartData(s, g.members), g.box);
     if (s.range) g.plot.setScale('x', { min: s.range[0], max: s.range[1] });
@@ -317,6 +330,16 @@
         el('tbody', {}, ...rows)));
   }
 
+  // A plot's y axis: fixed to `span`, or (null) following its data.
+  function setY(g, span) {
+    g.y = span;
+    const { min, max } = g.plot.scales.x;
+    // Setting the data again runs the y range (fixed, or the data's) and
+    // resets x, which is put back.
+    g.plot.setData(g.plot.data, true);
+    g.plot.setScale('x', { min, max });
+  }
+
   // The y axis's units: those of the plot's signals, once each.
   function unitsOf(s, members) {
     return Array.from(new Set(members.map((k) => s.sensors[k].unit))).join(', ');
@@ -381,6 +404,11 @@
     const { left, width } = u.select;
     if (width < 2) return;
     s.dragged = true;
+    // A Shift + drag is the y axis's, not a span of time.
+    if (s.groups.some((g) => g.plot === u && g.yFrom != null)) {
+      u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
+      return;
+    }
     const range = [u.posToVal(left, 'x'), u.posToVal(left + width, 'x')];
     u.setSelect({ left: 0, top: 0, width: 0, height: 0 }, false);
     s.follow = false;

@@ -38,10 +38,10 @@ pub fn write_measurement_uncertainty(report: &mut Document, study: &Study) {
             table.row(vec![
                 case.name.clone(),
                 observation.name.clone(),
-                format!("{value:.4}"),
-                format!("{u:.4}"),
+                acq_report::number::plain(value, 6),
+                acq_report::number::plain(u, 3),
                 source,
-                format!("{part:.4}"),
+                acq_report::number::plain(part, 3),
                 format!("{:.1} %", 100.0 * (part / u).powi(2)),
             ]);
         };

@@ -316,7 +316,7 @@ fn write_surrogates(
     let mut table = Table::new(&header);
     for (name, row) in &moo.surrogate_rmse {
         let mut cells = vec![name.clone()];
-        cells.extend(row.iter().map(|v| format!("{v:.4}")));
+        cells.extend(row.iter().map(|v| acq_report::number::plain(*v, 4)));
         table.row(cells);
     }
     report.table(table).paragraph(format!(
@@ -485,8 +485,8 @@ fn write_candidates(
     let header: Vec<&str> = header.iter().map(String::as_str).collect();
     let mut table = Table::new(&header);
     for c in &candidates {
-        let mut cells = vec![c.evaluation_id.to_string(), format!("{:.4}", c.loss)];
-        cells.extend(c.parameters.iter().map(|v| format!("{v:.5}")));
+        let mut cells = vec![c.evaluation_id.to_string(), short(c.loss)];
+        cells.extend(c.parameters.iter().map(|v| short(*v)));
         table.row(cells);
     }
     report.table(table);
@@ -515,8 +515,8 @@ fn write_candidates(
             });
         spread.row(vec![
             p.name.clone(),
-            format!("{low:.4}"),
-            format!("{high:.4}"),
+            short(low),
+            short(high),
             format!("{:.0} %", 100.0 * (p.to_unit(high) - p.to_unit(low)).abs()),
         ]);
     }

@@ -15,13 +15,15 @@
 //! - it spikes: readings that jump away from both their neighbours and
 //!   back ([`crate::extract::stats::SPIKE_FACTOR`]), a glitch the mean
 //!   would carry;
-//! - it is unlike its neighbours: a gauge whose mean lies farther from the
-//!   line through the nearest gauges of its kind on either side (by the
-//!   rig's `location`) than [`NEIGHBOUR_FACTOR`] times what those two
-//!   differ by (or a tenth of their size, if more): one gauge at 103 MPa
+//! - it is unlike its neighbours: in a rig `[[row]]` (sensors in order
+//!   along one member), a gauge whose mean lies farther from the line
+//!   through its two neighbours than [`NEIGHBOUR_FACTOR`] times what those
+//!   two differ by (or a tenth of their size, if more): one gauge at 103 MPa
 //!   between neighbours at 34 and 40 MPa is a bonding, wiring or gauge
 //!   factor fault far more often than a stress peak that narrow. Check it
-//!   (`acq shunt`, the installation) before trusting it.
+//!   (`acq shunt`, the installation) before trusting it. Only declared
+//!   rows: `location` numbers alone do not say which gauges are neighbours
+//!   on the structure.
 
 use acq_drivers::rig::Rig;
 
@@ -149,50 +151,55 @@ pub fn check_window(
     flags
 }
 
-/// Each located sensor whose mean is unlike its neighbours' (see the
-/// module's doc), with its flag.
+/// Each sensor of a rig `[[row]]` whose mean is unlike its neighbours' in
+/// the row (see the module's doc), with its flag. Positions along the row
+/// are the sensors' `location` numbers when all three have one, else
+/// their places in the row.
 fn unlike_neighbours(rig: &Rig, stats: &[WindowStats]) -> Vec<(usize, Flag)> {
-    let located: Vec<(usize, u32, f64)> = rig
-        .sensors
-        .iter()
-        .enumerate()
-        .filter_map(|(i, s)| Some((i, s.location?, stats[i].mean?)))
-        .collect();
     let mut flagged = Vec::new();
-    for &(index, location, mean) in &located {
-        let kind = rig.sensors[index].kind;
-        let same_kind = located
-            .iter()
-            .filter(|(other, _, _)| rig.sensors[*other].kind == kind && *other != index);
-        let below = same_kind
-            .clone()
-            .filter(|(_, l, _)| *l < location)
-            .max_by_key(|(_, l, _)| *l);
-        let above = same_kind
-            .filter(|(_, l, _)| *l > location)
-            .min_by_key(|(_, l, _)| *l);
-        let (Some(&(_, l_below, m_below)), Some(&(_, l_above, m_above))) = (below, above) else {
-            continue;
-        };
-        let along = f64::from(location - l_below) / f64::from(l_above - l_below);
-        let expected = m_below + along * (m_above - m_below);
-        let scale = (m_above - m_below)
-            .abs()
-            .max(0.1 * m_below.abs().max(m_above.abs()));
-        let off = (mean - expected).abs();
-        if scale > 0.0 && off > NEIGHBOUR_FACTOR * scale {
-            let unit = rig.sensors[index].unit();
-            flagged.push((
-                index,
-                Flag {
-                    code: "unlike_neighbours".into(),
-                    note: format!(
-                        "{mean:.4} {unit} where its neighbours {} ({m_below:.4}) and {} ({m_above:.4}) put it near {expected:.4}: check the gauge (bonding, wiring, gauge factor; acq shunt) before trusting it",
-                        rig.sensors[below.unwrap().0].name,
-                        rig.sensors[above.unwrap().0].name
-                    ),
-                },
-            ));
+    for row in &rig.rows {
+        for (place, trio) in row.sensors.windows(3).enumerate() {
+            let [below, index, above] = [trio[0], trio[1], trio[2]];
+            let (Some(m_below), Some(mean), Some(m_above)) =
+                (stats[below].mean, stats[index].mean, stats[above].mean)
+            else {
+                continue;
+            };
+            let position = |k: usize, fallback: usize| match (
+                rig.sensors[below].location,
+                rig.sensors[index].location,
+                rig.sensors[above].location,
+            ) {
+                (Some(_), Some(_), Some(_)) => f64::from(rig.sensors[k].location.unwrap_or(0)),
+                _ => fallback as f64,
+            };
+            let (p_below, p, p_above) = (
+                position(below, place),
+                position(index, place + 1),
+                position(above, place + 2),
+            );
+            if p_above == p_below {
+                continue;
+            }
+            let along = (p - p_below) / (p_above - p_below);
+            let expected = m_below + along * (m_above - m_below);
+            let scale = (m_above - m_below)
+                .abs()
+                .max(0.1 * m_below.abs().max(m_above.abs()));
+            if scale > 0.0 && (mean - expected).abs() > NEIGHBOUR_FACTOR * scale {
+                let unit = rig.sensors[index].unit();
+                flagged.push((
+                    index,
+                    Flag {
+                        code: "unlike_neighbours".into(),
+                        note: format!(
+                            "{mean:.4} {unit} where its neighbours in the row {} ({m_below:.4}) and {} ({m_above:.4}) put it near {expected:.4}: check the gauge (bonding, wiring, gauge factor; acq shunt) before trusting it",
+                            rig.sensors[below].name,
+                            rig.sensors[above].name
+                        ),
+                    },
+                ));
+            }
         }
     }
     flagged

@@ -26,6 +26,8 @@
 //! reference }` (estimate it by cross-correlating a sensor of this bus with
 //! one on another bus that sees the same event). `[[pair]] sensors = ["sg03",
 //! "sg04"]` declares gauges that should read alike (symmetric points);
+//! `[[row]] sensors = [...]` gauges in order along one member, each
+//! expected near the line through its neighbours;
 //! `[specimen] diameter_mm, gauge_length_mm` describes a tensile bar.
 //!
 //! Exactly one of `dbc = { message, signal }`, `canopen = {...}` or
@@ -47,7 +49,9 @@ use toml::Spanned;
 
 mod lines;
 mod record_keys;
+mod rows;
 mod sensor_file;
+pub use rows::SensorRow;
 pub use sensor_file::Transducer;
 
 use lines::line_of;
@@ -77,6 +81,8 @@ struct RigFile {
     cylinders: Vec<Spanned<CylinderFile>>,
     #[serde(default, rename = "pair")]
     pairs: Vec<Spanned<PairFile>>,
+    #[serde(default, rename = "row")]
+    rows: Vec<Spanned<rows::RowFile>>,
     specimen: Option<Spanned<Specimen>>,
 }
 
@@ -587,6 +593,8 @@ pub struct Rig {
     pub sensors: Vec<Sensor>,
     pub cylinders: Vec<Cylinder>,
     pub pairs: Vec<SensorPair>,
+    /// `[[row]]`: sensors in order along one member.
+    pub rows: Vec<SensorRow>,
     pub specimen: Option<Specimen>,
     /// Non-fatal remarks (skipped DBC messages and the like).
     pub warnings: Vec<String>,
@@ -774,6 +782,7 @@ impl Rig {
         let cylinders = read_cylinders(&file.cylinders, &sensors, &mut findings);
         resolve_clock_sync(&file.buses, &mut buses, &sensors, &mut findings);
         let pairs = read_pairs(&file.pairs, &sensors, &mut findings);
+        let rows = rows::read_rows(&file.rows, &sensors, &mut findings);
         let specimen = read_specimen(file.specimen.as_ref(), &mut findings);
         let RigFindings {
             problems, warnings, ..
@@ -803,6 +812,7 @@ impl Rig {
             sensors,
             cylinders,
             pairs,
+            rows,
             specimen,
             warnings,
         })
@@ -909,6 +919,18 @@ impl Rig {
                 cylinder.bore.rod_diameter_mm,
                 self.sensors[cylinder.head_sensor].name,
                 self.sensors[cylinder.rod_sensor].name
+            );
+        }
+        for row in &self.rows {
+            let names: Vec<&str> = row
+                .sensors
+                .iter()
+                .map(|&k| self.sensors[k].name.as_str())
+                .collect();
+            let _ = writeln!(
+                text,
+                "row {}: each expected near the line through its neighbours",
+                names.join(", ")
             );
         }
         for pair in &self.pairs {

@@ -782,7 +782,12 @@ impl Rig {
         let cylinders = read_cylinders(&file.cylinders, &sensors, &mut findings);
         resolve_clock_sync(&file.buses, &mut buses, &sensors, &mut findings);
         let pairs = read_pairs(&file.pairs, &sensors, &mut findings);
-        let rows = rows::read_rows(&file.rows, &sensors, &mut findings);
+        let named: Vec<(&str, SensorKind)> =
+            sensors.iter().map(|s| (s.name.as_str(), s.kind)).collect();
+        let (rows, row_problems) = rows::read_rows(&file.rows, &named, findings.text);
+        for (line, message) in row_problems {
+            findings.report(line, message);
+        }
         let specimen = read_specimen(file.specimen.as_ref(), &mut findings);
         let RigFindings {
             problems, warnings, ..

@@ -9,7 +9,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::lines::line_of;
-use super::{RigFindings, Sensor};
+use crate::profiles::SensorKind;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -26,51 +26,53 @@ pub struct SensorRow {
 }
 
 /// The rig's rows, each checked: at least three sensors, all of one kind,
-/// none twice.
+/// none twice. `sensors` are the rig's names and kinds, `text` the rig
+/// file's (for line numbers); the problems come back with their lines.
 pub(super) fn read_rows(
     entries: &[Spanned<RowFile>],
-    sensors: &[Sensor],
-    findings: &mut RigFindings,
-) -> Vec<SensorRow> {
+    sensors: &[(&str, SensorKind)],
+    text: &str,
+) -> (Vec<SensorRow>, Vec<(usize, String)>) {
     let mut rows = Vec::new();
+    let mut problems = Vec::new();
     for spanned in entries {
-        let line = line_of(findings.text, spanned.span().start);
+        let line = line_of(text, spanned.span().start);
         let names = &spanned.get_ref().sensors;
         if names.len() < 3 {
-            findings.report(
+            problems.push((
                 line,
                 format!(
                     "row: {} sensor(s); a row needs three or more in order along the member (two that should agree are a [[pair]])",
                     names.len()
                 ),
-            );
+            ));
             continue;
         }
         let mut found = Vec::with_capacity(names.len());
         for name in names {
-            match sensors.iter().position(|s| &s.name == name) {
+            match sensors.iter().position(|(s, _)| s == name) {
                 Some(index) if found.contains(&index) => {
-                    findings.report(line, format!("row: '{name}' is in it twice"))
+                    problems.push((line, format!("row: '{name}' is in it twice")))
                 }
                 Some(index) => found.push(index),
-                None => findings.report(line, format!("row: no sensor named '{name}'")),
+                None => problems.push((line, format!("row: no sensor named '{name}'"))),
             }
         }
         if found.len() != names.len() {
             continue;
         }
-        let kind = sensors[found[0]].kind;
-        if let Some(&other) = found.iter().find(|&&k| sensors[k].kind != kind) {
-            findings.report(
+        let kind = sensors[found[0]].1;
+        if let Some(&other) = found.iter().find(|&&k| sensors[k].1 != kind) {
+            problems.push((
                 line,
                 format!(
                     "row: '{}' measures {} but '{}' measures {}; a row compares like with like",
-                    sensors[found[0]].name,
+                    sensors[found[0]].0,
                     kind.name(),
-                    sensors[other].name,
-                    sensors[other].kind.name()
+                    sensors[other].0,
+                    sensors[other].1.name()
                 ),
-            );
+            ));
             continue;
         }
         rows.push(SensorRow {
@@ -78,5 +80,5 @@ pub(super) fn read_rows(
             line,
         });
     }
-    rows
+    (rows, problems)
 }

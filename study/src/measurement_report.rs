@@ -132,12 +132,13 @@ mod tests {
         write_measurement_uncertainty(&mut report, &study);
         let text = report.to_markdown();
         assert!(
-            text.contains(
-                "| hold1 | p | 80.0000 | 2.0000 | boom_head_pressure (shared) | 1.6000 | 64.0 % |"
-            ),
+            text.contains("| hold1 | p | 80 | 2 | boom_head_pressure (shared) | 1.6 | 64.0 % |"),
             "{text}"
         );
-        assert!(text.contains("| hold2 | p | 80.0000 | 2.0000 | its own (scatter, resolution) | 1.2000 | 36.0 % |"), "{text}");
+        assert!(
+            text.contains("| hold2 | p | 80 | 2 | its own (scatter, resolution) | 1.2 | 36.0 % |"),
+            "{text}"
+        );
         assert!(
             text.contains("Shared sources: boom_head_pressure (2 values)"),
             "{text}"

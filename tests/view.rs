@@ -106,9 +106,36 @@ const WATCH_JS: &str = r#"JSON.stringify({
   holds: window.acqView.holdsShown,
   silent: Array.from(document.querySelectorAll('tr.silent')).map((r) => r.textContent),
   updates: window.acqView.updates,
+  changedBytes: document.querySelectorAll('table.frames span.changed').length,
+  frameRows: Array.from(document.querySelectorAll('section.session')).map((s) => s.querySelectorAll('table.frames > tbody > tr').length),
   errors: window.acqView.errors,
   now: Date.now(),
 })"#;
+
+/// Case 1's load plot with case 2 overlaid: its labels, when each
+/// session's tip force first passes 20 kN (case 2 on case 1's plot and on
+/// its own), the shift, both first holds' starts, and case 2's overlaid tip
+/// force in the middle of case 1's first hold with the mean of case 2's.
+const OVERLAY_JS: &str = r#"JSON.stringify((() => {
+  const [s, o] = window.acqView.sessions;
+  const g = s.groups[1];
+  const u = g.plot;
+  const riseOf = (plot, k) => { const i = plot.data[k].findIndex((v) => v != null && v > 20); return i < 0 ? null : plot.data[0][i]; };
+  const overlaid = 1 + g.members.length;
+  const mid = (s.holds[0].start_s + s.holds[0].end_s) / 2;
+  let nearest = null;
+  u.data[0].forEach((t, i) => { const v = u.data[overlaid][i]; if (v != null && (nearest === null || Math.abs(t - mid) < Math.abs(u.data[0][nearest] - mid))) nearest = i; });
+  return {
+    labels: u.series.slice(1).map((x) => x.label),
+    overlaid_rise: riseOf(u, overlaid),
+    other_rise: riseOf(o.groups[1].plot, 1),
+    loaded: !!(s.overlay && s.overlay.columns),
+    shift: s.overlay && s.overlay.shift,
+    hold_starts: [s.holds[0].start_s, o.holds[0].start_s],
+    overlaid_mid_hold: nearest === null ? null : u.data[overlaid][nearest],
+    other_hold_mean: o.holds[0].values.find((v) => v.quantity === 'tip_force').mean,
+  };
+})())"#;
 
 #[test]
 fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
@@ -125,6 +152,7 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
     let mut silent_seen: Vec<String> = Vec::new();
     let mut shot_live = false;
     let mut zoomed = None;
+    let mut changed_bytes_seen = 0;
     let started = Instant::now();
     while !demo.has_said("the page stays up") {
         assert!(
@@ -135,6 +163,7 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
         let seen: Value =
             serde_json::from_str(page.evaluate(WATCH_JS).unwrap().as_str().unwrap()).unwrap();
         let last_x = seen["lastX"].clone();
+        changed_bytes_seen = changed_bytes_seen.max(seen["changedBytes"].as_u64().unwrap());
         match &first_last_x {
             None if last_x
                 .as_array()
@@ -234,6 +263,53 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
         assert!(
             sensor["silent"] == false || sensor["silence_reason"] != "heartbeat lost",
             "{sensor}"
+        );
+    }
+    // The raw frames beside the signals: every frame of a session is in
+    // its trace's counts, every sensor's id is in it with the sensor's
+    // name, and the page lists one row per id (bytes changing while live).
+    assert!(
+        changed_bytes_seen > 0,
+        "no payload byte was shown changing live"
+    );
+    for (k, session) in state["sessions"].as_array().unwrap().iter().enumerate() {
+        let name = &session["name"];
+        assert_eq!(session["frames_not_shown"], 0, "{session}");
+        let rows: Vec<&Value> = state["frames"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| &f["session"] == name)
+            .collect();
+        let traced: u64 = rows.iter().map(|f| f["count"].as_u64().unwrap()).sum();
+        let recorded: u64 = state["buses"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|b| &b["session"] == name)
+            .map(|b| b["frames"].as_u64().unwrap())
+            .sum();
+        assert_eq!(
+            traced, recorded,
+            "{name}: frames in the trace against the recording"
+        );
+        for sensor in state["sensors"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|x| &x["session"] == name)
+        {
+            assert!(
+                rows.iter()
+                    .any(|f| f["signals"].as_array().unwrap().contains(&sensor["name"])),
+                "{name}: {} is on no id of the trace",
+                sensor["name"]
+            );
+        }
+        assert_eq!(
+            seen["frameRows"][k].as_u64(),
+            Some(rows.len() as u64),
+            "{name}: rows on the page"
         );
     }
     let tensile = state["sessions"]
@@ -358,13 +434,14 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
 }
 
 /// Everything the page reads of a session.
-fn look(view: &acq_view::model::SessionView) -> (String, String, String, String, String) {
+fn look(view: &acq_view::model::SessionView) -> (String, String, String, String, String, String) {
     (
         view.series_json(0.0, 30.0, 700),
         serde_json::to_string(&view.holds_json(None)).unwrap(),
         serde_json::to_string(&view.sensors_json(None)).unwrap(),
         serde_json::to_string(&view.buses_json(None)).unwrap(),
         view.xy_json().to_string(),
+        serde_json::to_string(&view.frames_json(None)).unwrap(),
     )
 }
 
@@ -683,6 +760,7 @@ fn view_arguments_that_cannot_work_are_refused_with_the_fix() {
 fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     let temp = tempfile::tempdir().unwrap();
     let session = copy_session("excavator_case1", &temp.path().join("case1"));
+    let other = copy_session("excavator_case2", &temp.path().join("case2"));
     let layout = temp.path().join("layout.json");
     std::fs::write(
         &layout,
@@ -697,6 +775,7 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         let mut view = Running::start(&[
             "view",
             path_arg(&session),
+            path_arg(&other),
             "--view",
             "127.0.0.1:0",
             "--layout",
@@ -856,6 +935,67 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         rows.iter().any(|r| (r[3] - 103.18).abs() < 1.0),
         "no sg09 hold value"
     );
+    // Another session overlaid: case 2's signals of the same names, dashed
+    // in case 1's plots, each at its time plus the shift.
+    page.evaluate("window.acqView.setOverlay(0, 1, 2.5)")
+        .unwrap();
+    // Drawn at the browser's next animation frame: wait for it.
+    let overlay_drawn = |page: &mut LivePage, done: &dyn Fn(&Value) -> bool| {
+        let started = Instant::now();
+        loop {
+            let overlay: Value =
+                serde_json::from_str(page.evaluate(OVERLAY_JS).unwrap().as_str().unwrap()).unwrap();
+            if done(&overlay) {
+                return overlay;
+            }
+            assert!(
+                started.elapsed() < Duration::from_secs(20),
+                "never drawn: {overlay}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    };
+    let overlay = overlay_drawn(&mut page, &|o| o["overlaid_rise"].is_number());
+    assert!(
+        overlay["labels"]
+            .as_array()
+            .unwrap()
+            .contains(&Value::from("tip_force (case2, +2.500 s)")),
+        "{overlay}"
+    );
+    let rise = |key: &str| {
+        overlay[key]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{key}: {overlay}"))
+    };
+    assert!(
+        (rise("overlaid_rise") - rise("other_rise") - 2.5).abs() < 0.1,
+        "case 2's load rises 2.5 s later on case 1's plot: {overlay}"
+    );
+    // "Align first holds" shifts case 2 by the difference of the first
+    // holds' starts: in the middle of case 1's hold, case 2 is in its own
+    // hold (its tip force within 2 % of that hold's mean).
+    page.evaluate(
+        "(() => { const section = document.querySelector('section[data-session=\"0\"]'); const pick = section.querySelector('select.overlay'); pick.value = '1'; pick.dispatchEvent(new Event('change')); Array.from(section.querySelectorAll('button')).find((b) => b.textContent === 'Align first holds').click(); })()",
+    )
+    .unwrap();
+    let aligned = overlay_drawn(&mut page, &|o| {
+        o["shift"] != 2.5 && o["overlaid_mid_hold"].is_number()
+    });
+    let expected =
+        aligned["hold_starts"][0].as_f64().unwrap() - aligned["hold_starts"][1].as_f64().unwrap();
+    assert!(
+        (aligned["shift"].as_f64().unwrap() - expected).abs() < 1e-3,
+        "{aligned}"
+    );
+    let (in_hold, mean) = (
+        aligned["overlaid_mid_hold"].as_f64().unwrap(),
+        aligned["other_hold_mean"].as_f64().unwrap(),
+    );
+    assert!((in_hold - mean).abs() < 0.02 * mean, "{aligned}");
+    page.screenshot(&artefacts().join("overlay.png")).unwrap();
+    page.evaluate("window.acqView.setOverlay(0, null, 0)")
+        .unwrap();
     let saved = page.evaluate("window.acqView.layoutJson(0)").unwrap();
     assert_eq!(page.console_errors(), &[] as &[String]);
     page.close();

@@ -24,6 +24,7 @@
   view.exportCsv = (i) => exportCsv(view.sessions[i]);
   view.setCursors = (i, times) => setCursors(view.sessions[i], times);
   view.setY = (i, plot, span) => setY(view.sessions[i].groups[plot], span);
+  view.setOverlay = (i, from, shift) => setOverlay(view.sessions[i], from, shift);
   view.addPlot = (i, title, names) => addPlot(view.sessions[i], title, names.map((n) => view.sessions[i].sensors.findIndex((x) => x.name === n)));
 
   function url(path, params = {}) {
@@ -108,6 +109,8 @@
       button('Export CSV', () => download(`${s.name}.csv`, exportCsv(s), 'text/csv')),
       button('Clear cursors', () => setCursors(s, [])),
       mode);
+    s.controls = controls;
+    s.overlay = null;
     s.cursors = [];
     s.cursorBox = el('div', { class: 'cursors' });
     s.mode = mode;
@@ -184,7 +187,7 @@
       series: [{ label: 't (s)' }].concat(g.members.map((k, j) => ({
         label: sensors[k].name, stroke: colour(j), width: 1, spanGaps: false,
         points: { show: false },
-      }))),
+      })), overlaySeries(s, g)),
       // A drag selects a span; the page then reads it at the chart's resolution.
       cursor: { drag: { x: true, y: false, setScale: false } },
       legend: { live: true },
@@ -212,7 +215,7 @@
           u.over.addEventListener('dblclick', () => setY(g, null));
         }],
       },
-    }, chartData(s, g.members), g.box);
+    }, plotData(s, g), g.box);
     if (s.range) g.plot.setScale('x', { min: s.range[0], max: s.range[1] });
     showLatest(g.plot);
   }
@@ -359,7 +362,7 @@
   // the header names.
   function exportCsv(s) {
     const members = Array.from(new Set(s.groups.flatMap((g) => g.members)));
-    const [x, ...ys] = chartData(s, members);
+    const [x, ...ys] = chartData(s, linesOf(s, members));
     const header = ['time_s'].concat(members.flatMap((k) => {
       const { name, unit } = s.sensors[k];
       return [`${name}_min [${unit}]`, `${name}_max [${unit}]`];
@@ -429,6 +432,7 @@
       const width = (range[1] - range[0]) / px;
       s.zoomColumns = data.series.map((cols) => toMap(cols, width));
       redraw(s);
+      refreshOverlay(s);
     } catch (e) {
       banner(`could not read the series: ${e.message}`);
     }
@@ -501,40 +505,139 @@
   }
 
   // Min and max of each column as two points half a column apart: the
-  // envelope a line through every sample would fill. A column a sensor has
-  // no sample in is bridged (undefined) unless the sensor was silent for
+  // envelope a line through every sample would fill. A column a line has
+  // no sample in is bridged (undefined) unless its sensor was silent for
   // three of its periods and two columns (null: a gap is drawn).
-  function chartData(s, members) {
-    const source = s.follow || !s.zoomColumns ? s.columns : s.zoomColumns;
+  // `lines`: [{ map: time key (ms) -> [min, max, width], periodMs }].
+  function chartData(s, lines) {
     const [a, b] = s.range || [-Infinity, Infinity];
     const keys = new Set();
-    for (const k of members) {
-      for (const key of source[k].keys()) if (key / 1000 >= a - 1 && key / 1000 <= b + 1) keys.add(key);
+    for (const { map } of lines) {
+      for (const key of map.keys()) if (key / 1000 >= a - 1 && key / 1000 <= b + 1) keys.add(key);
     }
     const sorted = Array.from(keys).sort((p, q) => p - q);
     const x = new Array(sorted.length * 2);
-    const ys = members.map(() => new Array(sorted.length * 2).fill(undefined));
-    const lastSeen = members.map(() => -Infinity);
+    const ys = lines.map(() => new Array(sorted.length * 2).fill(undefined));
+    const lastSeen = lines.map(() => -Infinity);
     sorted.forEach((key, i) => {
       let width = LIVE_COLUMN_S;
-      members.forEach((k, j) => {
-        const c = source[k].get(key);
+      lines.forEach(({ map, periodMs }, j) => {
+        const c = map.get(key);
         if (c) {
           ys[j][2 * i] = c[0];
           ys[j][2 * i + 1] = c[1];
           width = c[2];
           lastSeen[j] = key;
-        } else {
-          const period = s.sensors[k].expected_rate_hz > 0 ? 1000 / s.sensors[k].expected_rate_hz : 0;
-          if (key - lastSeen[j] > Math.max(3 * period, 2000 * width) && lastSeen[j] > -Infinity) {
-            ys[j][2 * i] = null;
-          }
+        } else if (key - lastSeen[j] > Math.max(3 * periodMs, 2000 * width) && lastSeen[j] > -Infinity) {
+          ys[j][2 * i] = null;
         }
       });
       x[2 * i] = key / 1000;
       x[2 * i + 1] = key / 1000 + width / 2;
     });
     return [x, ...ys];
+  }
+
+  function periodMs(sensor) {
+    return sensor.expected_rate_hz > 0 ? 1000 / sensor.expected_rate_hz : 0;
+  }
+
+  // The session's own signals `members` as lines of a chart.
+  function linesOf(s, members) {
+    const source = s.follow || !s.zoomColumns ? s.columns : s.zoomColumns;
+    return members.map((k) => ({ map: source[k], periodMs: periodMs(s.sensors[k]) }));
+  }
+
+  // A plot's data: its signals, then the overlaid session's of the same names.
+  function plotData(s, g) {
+    const o = s.overlay;
+    const other = o ? view.sessions[o.from] : null;
+    const overlaid = (g.overlaid || []).map((k) => ({
+      map: (o && o.columns && o.columns[k]) || new Map(), periodMs: periodMs(other.sensors[k]),
+    }));
+    return chartData(s, linesOf(s, g.members).concat(overlaid));
+  }
+
+  // ---- another session overlaid, shifted in time -------------------------
+
+  // The overlaid session's signals that this plot's signals are named as,
+  // dashed in their colours, labelled with the session and the shift.
+  function overlaySeries(s, g) {
+    const o = s.overlay;
+    g.overlaid = [];
+    if (!o) return [];
+    const other = view.sessions[o.from];
+    const series = [];
+    g.members.forEach((k, j) => {
+      const match = other.sensors.findIndex((x) => x.name === s.sensors[k].name);
+      if (match < 0) return;
+      g.overlaid.push(match);
+      const shift = `${o.shift < 0 ? '\u2212' : '+'}${fmt(Math.abs(o.shift))} s`;
+      series.push({ label: `${s.sensors[k].name} (${other.name}, ${shift})`, stroke: colour(j), dash: [6, 4],
+        width: 1, spanGaps: false, points: { show: false } });
+    });
+    return series;
+  }
+
+  // Session `from` drawn in this session's plots, its time t at t + shift
+  // (null: no overlay).
+  function setOverlay(s, from, shift) {
+    const valid = from !== null && from !== s.index && view.sessions[from];
+    s.overlay = valid ? { from, shift: Number(shift) || 0, columns: null, span: null } : null;
+    for (const g of s.groups) rebuildPlot(s, g);
+    return s.overlay ? refreshOverlay(s) : Promise.resolve();
+  }
+
+  // Reads the overlaid session over the span in view and half of it on
+  // each side (a pan or a live window's step needs no new read), at twice
+  // the plot's columns.
+  async function refreshOverlay(s) {
+    const o = s.overlay;
+    if (!o || o.fetching) return;
+    const [a, b] = s.range || liveWindow(s);
+    if (o.span && o.span[0] <= a && o.span[1] >= b) return;
+    const pad = (b - a) / 2;
+    const [from, to] = [a - pad - o.shift, b + pad - o.shift];
+    const px = Math.max(400, Math.round(2 * (s.groups[0] ? s.groups[0].plot.bbox.width / devicePixelRatio : 1000)));
+    o.fetching = true;
+    try {
+      const data = await getJson('/api/series', { session: o.from, from, to, px });
+      if (s.overlay !== o) return;
+      const width = (to - from) / px;
+      o.columns = data.series.map((cols) => {
+        const m = new Map();
+        for (const [t, min, max] of cols) m.set(Math.round((t + o.shift) * 1000), [min, max, width]);
+        return m;
+      });
+      o.span = [a - pad, b + pad];
+      redraw(s);
+    } catch (e) {
+      banner(`could not read the overlaid session: ${e.message}`);
+    } finally {
+      o.fetching = false;
+    }
+  }
+
+  // With several sessions: a session to overlay, its shift, and a button
+  // that sets the shift so that both sessions' first holds start together.
+  function addOverlayControls(s) {
+    const pick = el('select', { class: 'overlay', title: 'draw the signals of the same names of another session in these plots, dashed' },
+      el('option', { value: '', text: 'overlay: none' }),
+      ...view.sessions.filter((o) => o !== s).map((o) => el('option', { value: String(o.index), text: `overlay: ${o.name}` })));
+    const shift = el('input', { type: 'number', step: '0.1', value: '0', class: 'shift', title: 'the overlaid session\'s time t is drawn at t + shift' });
+    const apply = () => setOverlay(s, pick.value === '' ? null : Number(pick.value), Number(shift.value));
+    pick.onchange = apply;
+    shift.onchange = apply;
+    const align = el('button', { type: 'button', text: 'Align first holds', onclick: () => {
+      const other = pick.value === '' ? null : view.sessions[Number(pick.value)];
+      if (!other || !s.holds.length || !other.holds.length) {
+        banner('Align first holds: both sessions need a hold (choose a session to overlay first).');
+        return;
+      }
+      shift.value = String(Number((s.holds[0].start_s - other.holds[0].start_s).toFixed(3)));
+      apply();
+    } });
+    s.controls.insertBefore(el('span', { class: 'overlay-tools' }, pick, el('label', {}, ' shift (s) ', shift), align), s.mode);
   }
 
   let pending = new Set();
@@ -545,7 +648,7 @@
       pending.delete(s);
       // setData rescales y (and x, which setRange then sets).
       for (const g of s.groups) {
-        g.plot.setData(chartData(s, g.members));
+        g.plot.setData(plotData(s, g));
         showLatest(g.plot);
       }
       if (s.range) setRange(s, s.range);
@@ -591,6 +694,7 @@
     });
     if (s.follow) s.range = liveWindow(s);
     redraw(s);
+    refreshOverlay(s);
   }
 
   function applyState(state) {
@@ -603,6 +707,8 @@
         s.mode.textContent = info.ended ? `recording ended (${info.ended})` : 'recording ended';
         s.title.textContent = `${info.name} (recorded)`;
         s.pauseButton.textContent = 'Whole session';
+        // A page that was following the recording now shows all of it.
+        if (s.follow) showWhole(s);
         if (!view.sessions.some((x) => x.live)) {
           const connection = document.getElementById('connection');
           connection.textContent = 'recording ended: the page shows the whole session';
@@ -624,7 +730,8 @@
         }
       }
       s.state = { info, sensors: sessionSensors(state, info, several),
-        buses: state.buses.filter((b) => !several || b.session === info.name), holds };
+        buses: state.buses.filter((b) => !several || b.session === info.name), holds,
+        frames: (state.frames || []).filter((f) => !several || f.session === info.name) };
     });
     renderStudy(state.study);
     renderTablesSoon();
@@ -674,16 +781,48 @@
     const holdTable = el('table', { class: 'holds' },
       el('thead', {}, el('tr', {}, ...['hold', 'start (s)', 'end (s)', 'length (s)', 'measured values'].map((t) => el('th', { text: t })))),
       el('tbody', {}, ...holdRows));
+    const frameTable = renderFrames(s, s.state.frames, info.frames_not_listed);
     const notes = [];
     if (s.holdsNote) notes.push(el('p', { class: 'note', text: s.holdsNote }));
     if (info.load_sensor) notes.push(el('p', { class: 'note', text: `holds: steady stretches of ${info.load_sensor}, found as acq extract finds them` }));
     if (info.frames_not_shown > 0) notes.push(el('p', { class: 'fault', text: `this view fell behind: ${info.frames_not_shown} frames not shown (all of them recorded)` }));
     // Keep open the hold details a reader opened.
     const open = new Set(Array.from(s.tables.querySelectorAll('table.holds details[open]')).map((d) => d.closest('tr').firstChild.textContent));
-    s.tables.replaceChildren(el('div', {}, busTable, ...notes), sensorTable, holdTable);
+    s.tables.replaceChildren(el('div', {}, busTable, ...notes), sensorTable, holdTable, frameTable);
     for (const d of s.tables.querySelectorAll('table.holds > tbody > tr')) {
       if (open.has(d.firstChild.textContent)) d.querySelector('details').open = true;
     }
+  }
+
+  // The raw frames, one row per bus and CAN id (a fixed-position trace):
+  // the newest payload, its bytes that changed since the last look marked,
+  // the count, the rate over the whole span and the newest gap, and the
+  // signals the id carries. Kept open or closed as the reader left it.
+  function renderFrames(s, frames, notListed) {
+    const previous = s.frameData || new Map();
+    s.frameData = new Map();
+    const rows = frames.map((f) => {
+      const key = `${f.bus} ${f.id} ${f.kind}`;
+      const before = previous.get(key);
+      s.frameData.set(key, f.data);
+      const old = before === undefined ? [] : before.split(' ');
+      const bytes = el('td', { class: 'bytes' }, ...f.data.split(' ').filter(Boolean).map((b, i) =>
+        el('span', before !== undefined && old[i] !== b ? { class: 'changed', text: b } : { text: b })));
+      return el('tr', f.used === 'decoded' || f.used === 'protocol' ? {} : { class: 'unused' },
+        cell(f.bus), cell(f.id, 'num'), cell(f.kind), cell(String(f.dlc), 'num'), bytes,
+        cell(String(f.count), 'num'), cell(f.rate_hz === null ? '-' : fmt(f.rate_hz), 'num'),
+        cell(f.last_gap_s === null ? '-' : fmt(1000 * f.last_gap_s), 'num'), cell(fmt(f.last_s), 'num'),
+        cell(f.signals.length ? f.signals.join(', ') : f.used));
+    });
+    const summary = `Raw frames: ${frames.length} id(s)` + (notListed > 0 ? `, ${notListed} frames of further ids not listed` : '');
+    const details = el('details', { class: 'frames' }, el('summary', { text: summary }),
+      el('p', { class: 'note', text: 'One row per bus and CAN id. Bytes in bold changed since the page last looked; an id in grey gave the rig no value.' }),
+      el('table', { class: 'frames' },
+        el('thead', {}, el('tr', {}, ...['bus', 'id (hex)', 'kind', 'bytes', 'newest payload (hex)', 'frames', 'rate (Hz)', 'last gap (ms)', 'newest at (s)', 'signals'].map((t) => el('th', { text: t })))),
+        el('tbody', {}, ...rows)));
+    details.open = s.framesOpen === undefined ? frames.length <= 40 : s.framesOpen;
+    details.addEventListener('toggle', () => { s.framesOpen = details.open; });
+    return details;
   }
 
   // Round tick values (1, 2 or 5 times a power of ten) covering lo..hi.
@@ -867,6 +1006,7 @@
       const s = buildSession(i, info, sessionSensors(state, info, several), state.layout);
       view.sessions.push(s);
     });
+    if (view.sessions.length > 1) view.sessions.forEach(addOverlayControls);
     applyState(state);
     for (const s of view.sessions) {
       const info = state.sessions[s.index];

@@ -2,7 +2,7 @@
 //! next `acq view` opens it without reading the recording again.
 //!
 //! The file holds a JSON header (what identifies the recording it was made
-//! from, the holds, the buses, each sensor's state) and then every sensor's
+//! from, the holds, the buses, each sensor's state, the raw frames per id) and then every sensor's
 //! buckets as little-endian `f32` pairs (NaN: no sample). It is used only if
 //! the recording is the one it was made from (raw files' names and sizes,
 //! frame count, start, rig copy, zero and shunt records, acq version); anything else, a damaged file
@@ -15,11 +15,12 @@ use acq_io::output::Output;
 use acq_io::session::SessionFile;
 use serde::{Deserialize, Serialize};
 
+use crate::frames::FrameTable;
 use crate::model::{silence_reason, BusView, HoldView, SessionView};
 use crate::series::{MinMax, MinMaxSeries};
 
 pub const FILE: &str = "view-index.bin";
-const MAGIC: &[u8] = b"ACQ-VIEW-INDEX 1\n";
+const MAGIC: &[u8] = b"ACQ-VIEW-INDEX 2\n";
 
 /// What the index was made from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -89,6 +90,7 @@ struct Header {
     holds: Vec<HoldView>,
     xy: Option<Vec<(f64, f64)>>,
     sensors: Vec<SensorHeader>,
+    frames: FrameTable,
 }
 
 /// Writes the view's index into `dir` (whole or not at all).
@@ -128,6 +130,7 @@ pub fn save(dir: &Path, key: &Key, view: &SessionView) -> Result<()> {
         holds: view.holds.clone(),
         xy: view.xy.as_ref().map(|xy| xy.points.clone()),
         sensors,
+        frames: view.frames.clone(),
     };
     let header = serde_json::to_vec(&header).unwrap_or_default();
     let mut bytes = Vec::with_capacity(MAGIC.len() + 8 + header.len() + payload.len());
@@ -200,6 +203,7 @@ pub fn parse(bytes: &[u8], mut fresh: SessionView) -> Option<(Key, SessionView)>
     fresh.holds_note = header.holds_note;
     fresh.buses = header.buses;
     fresh.holds = header.holds;
+    fresh.frames = header.frames.reindexed(fresh.sensors.len())?;
     if let (Some(xy), Some(points)) = (fresh.xy.as_mut(), header.xy) {
         xy.points = points;
     }

@@ -3,6 +3,7 @@
 //!
 //! - [`series`]: a signal as min/max buckets, folded per pixel column.
 //! - [`model`]: what the page shows of one session.
+//! - [`frames`]: the raw frames per bus and CAN id, beside the signals.
 //! - [`live`]: the recorder's observer; a thread decodes and finds holds.
 //! - [`recorded`]: a session read from disk, with `acq extract`'s holds.
 //! - [`index`]: a recorded session's view kept beside it for the next open.
@@ -16,6 +17,7 @@
 //! and measured values, and nothing it does reaches back into the recorder
 //! except the counting of frames it could not show.
 
+pub mod frames;
 #[cfg(feature = "server")]
 pub mod host;
 pub mod index;

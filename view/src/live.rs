@@ -26,6 +26,7 @@ use acq_drivers::Frame;
 use acq_io::session::SessionFile;
 use acq_io::zero_record::ZeroRecord;
 
+use crate::frames::FrameTable;
 use crate::index;
 use crate::model::{finish_recorded, TENSILE_NOTE};
 use crate::model::{BusView, SessionView};
@@ -204,17 +205,33 @@ impl LiveZero {
 }
 
 /// `frames`' samples into `samples` (cleared first), at the times raw.log
-/// keeps, so that the holds equal acq extract's.
-fn decode(decoder: &mut SensorDecoder, frames: &[Frame], samples: &mut Vec<Sample>) {
+/// keeps, so that the holds equal acq extract's; each frame into `table`
+/// (session time from `t0_ns`).
+fn decode(
+    decoder: &mut SensorDecoder,
+    frames: &[Frame],
+    samples: &mut Vec<Sample>,
+    table: &mut FrameTable,
+    t0_ns: i64,
+) {
     samples.clear();
+    let mut sensors = Vec::new();
     for frame in frames {
         let mut frame = *frame;
         frame.timestamp_ns = logged_timestamp_ns(frame.timestamp_ns);
-        decoder.decode(&frame, |event| {
+        sensors.clear();
+        let used = decoder.decode(&frame, |event| {
             if let SensorEvent::Sample(sample) = event {
+                sensors.push(sample.sensor);
                 samples.push(sample);
             }
         });
+        table.see(
+            &frame,
+            (frame.timestamp_ns - t0_ns) as f64 / 1e9,
+            used,
+            &sensors,
+        );
     }
 }
 
@@ -307,6 +324,7 @@ impl Feed {
             last_sample_ns: vec![None; rig.sensors.len()],
         };
         let mut t0 = 0;
+        let mut table = FrameTable::default();
         let mut last_check = Instant::now();
         loop {
             let event = match events.recv_timeout(HOLD_CHECK) {
@@ -338,7 +356,7 @@ impl Feed {
                     });
                 }
                 Some(FeedEvent::Frames(frames)) => {
-                    decode(&mut decoder, &frames, &mut samples);
+                    decode(&mut decoder, &frames, &mut samples, &mut table, t0);
                     if let Some(zero) = zero.as_mut() {
                         zero.pass(&mut samples, |record| {
                             self.keep_zero(record, holds.as_mut())
@@ -362,6 +380,7 @@ impl Feed {
                         shown.show(&pending, t0, &mut lock(), holds.as_mut());
                     }
                     let mut view = lock();
+                    view.frames = table.clone();
                     if let Some(stream) = holds.as_mut() {
                         stream.finish();
                         view.set_holds(stream.holds());
@@ -390,6 +409,9 @@ impl Feed {
             }
             if last_check.elapsed() >= HOLD_CHECK {
                 last_check = Instant::now();
+                // The trace is copied, not shared: its rows change with
+                // every frame, the page looks ten times a second.
+                lock().frames = table.clone();
                 if let Some(stream) = holds.as_mut() {
                     if stream.update() {
                         lock().set_holds(stream.holds());
@@ -445,6 +467,7 @@ impl Feed {
             None => view.holds_note = live.holds_note.clone(),
         }
         view.load_sensor = live.load_sensor.clone();
+        view.frames = live.frames.clone();
         if let (Some(xy), Some(shown)) = (view.xy.as_mut(), live.xy.as_ref()) {
             xy.points = shown.points.clone();
         }

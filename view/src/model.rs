@@ -14,6 +14,7 @@ use acq_io::session::SessionFile;
 use serde::Serialize;
 use serde_json::{json, Value};
 
+use crate::frames::FrameTable;
 use crate::series::{Column, MinMaxSeries};
 
 /// What the page says instead of holds on a tensile test: its result is
@@ -106,6 +107,9 @@ pub struct SessionView {
     /// How the recording ended, once it has (session.toml's `ended`:
     /// `signal SIGINT`, `duration reached`, ...).
     pub ended: Option<String>,
+    /// The raw frames per bus and id (a live one: as of the view's last
+    /// look, every 100 ms).
+    pub frames: FrameTable,
 }
 
 impl SessionView {
@@ -168,6 +172,7 @@ impl SessionView {
             frames_not_shown: 0,
             holds_note: None,
             ended: None,
+            frames: FrameTable::default(),
         }
     }
 
@@ -275,6 +280,12 @@ impl SessionView {
                 object
             })
             .collect()
+    }
+
+    /// The raw frames as `/api/state` lists them.
+    pub fn frames_json(&self, session: Option<&str>) -> Vec<Value> {
+        let names: Vec<String> = self.sensors.iter().map(|s| s.name.clone()).collect();
+        self.frames.json(&names, session)
     }
 
     /// The span of the data, session seconds.

@@ -8,9 +8,10 @@ use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::live::LiveHold;
 use acq_analysis::extract::run::{extract_holds, WindowChoice};
 use acq_analysis::recording::clocks::offsets_ns;
-use acq_analysis::recording::{Recording, SampleCounts};
+use acq_analysis::recording::{Recording, RecordingEvent, SampleCounts};
 use acq_io::error::{AcqError, Result};
 
+use crate::frames::FrameTable;
 use crate::index;
 use crate::model::{finish_recorded, session_span, SessionView, TENSILE_NOTE};
 use crate::series::{BUCKET_NS, WHOLE_SPAN_BUCKETS};
@@ -53,11 +54,24 @@ pub fn open_session(dir: &Path, name: &str) -> Result<(SessionView, Source)> {
     let offsets = offsets_ns(&recording.clock_offsets(&[])?);
     let mut counts = SampleCounts::default();
     let mut last_sample_ns: Vec<Option<i64>> = vec![None; recording.rig.sensors.len()];
-    recording.for_each_sample(&offsets, &mut counts, |sample| {
-        view.push(sample.sensor, sample.time_ns, sample.value);
-        last_sample_ns[sample.sensor] = Some(sample.time_ns);
+    let mut frame_sensors = Vec::new();
+    let mut table = FrameTable::default();
+    recording.for_each_event(&offsets, &mut counts, |event| {
+        match event {
+            RecordingEvent::Sample(sample) => {
+                view.push(sample.sensor, sample.time_ns, sample.value);
+                last_sample_ns[sample.sensor] = Some(sample.time_ns);
+                frame_sensors.push(sample.sensor);
+            }
+            RecordingEvent::Frame(frame, used) => {
+                let time_s = (frame.timestamp_ns - t0) as f64 / 1e9;
+                table.see(frame, time_s, used, &frame_sensors);
+                frame_sensors.clear();
+            }
+        }
         Ok(())
     })?;
+    view.frames = table;
     finish_recorded(&mut view, &recording.rig, &session, &last_sample_ns);
     if view.xy.is_some() {
         view.holds_note = Some(TENSILE_NOTE.into());

@@ -410,6 +410,7 @@ fn lock(session: &SharedSession) -> std::sync::MutexGuard<'_, crate::model::Sess
 fn state_json(app: &App, with_holds: bool) -> Value {
     let several = app.sessions.len() > 1;
     let (mut sessions, mut sensors, mut buses, mut holds) = (vec![], vec![], vec![], vec![]);
+    let mut frames = vec![];
     for shared in app.sessions.iter() {
         let view = lock(shared);
         let tag = several.then_some(view.name.as_str());
@@ -424,9 +425,11 @@ fn state_json(app: &App, with_holds: bool) -> Value {
             "frames_not_shown": view.frames_not_shown,
             "has_xy": view.xy.is_some(),
             "ended": view.ended,
+            "frames_not_listed": view.frames.frames_not_listed,
         }));
         sensors.extend(view.sensors_json(tag));
         buses.extend(view.buses_json(tag));
+        frames.extend(view.frames_json(tag));
         if with_holds {
             holds.extend(view.holds_json(tag));
         }
@@ -435,6 +438,7 @@ fn state_json(app: &App, with_holds: bool) -> Value {
         "sessions": sessions,
         "sensors": sensors,
         "buses": buses,
+        "frames": frames,
         "viewers": app.viewers.load(Ordering::Relaxed),
         "layout": *app.layout,
     });

@@ -16,8 +16,8 @@ pub mod zeroing;
 use std::path::{Path, PathBuf};
 
 use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{Sample, SensorDecoder, SensorEvent};
-use acq_drivers::IfaceName;
+use acq_drivers::sensors::{FrameUse, Sample, SensorDecoder, SensorEvent};
+use acq_drivers::{Frame, IfaceName};
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, ScanCounts};
 use acq_io::session::{self, SessionFile};
@@ -190,17 +190,34 @@ impl Recording {
         counts: &mut SampleCounts,
         mut on_sample: impl FnMut(Sample) -> Result<()>,
     ) -> Result<()> {
+        self.for_each_event(clock_offset_ns, counts, |event| match event {
+            RecordingEvent::Sample(sample) => on_sample(sample),
+            RecordingEvent::Frame(..) => Ok(()),
+        })
+    }
+
+    /// [`Recording::for_each_sample`], and after each frame's samples the
+    /// frame itself (as logged, on its own bus's clock) with what it was
+    /// to the rig: for a view of the raw frames beside the signals.
+    pub fn for_each_event(
+        &self,
+        clock_offset_ns: &[i64],
+        counts: &mut SampleCounts,
+        mut on_event: impl FnMut(RecordingEvent<'_>) -> Result<()>,
+    ) -> Result<()> {
         if self.zeroing.is_empty() && self.gains.iter().all(Option::is_none) {
-            return self.for_each_raw_sample(clock_offset_ns, counts, on_sample);
+            return self.for_each_raw_event(clock_offset_ns, counts, on_event);
         }
-        self.for_each_raw_sample(clock_offset_ns, counts, |mut sample| {
-            self.zeroing.apply(&mut sample);
-            if let (Some(Some(gain)), Some(value)) =
-                (self.gains.get(sample.sensor), sample.value.as_mut())
-            {
-                *value *= gain;
+        self.for_each_raw_event(clock_offset_ns, counts, |mut event| {
+            if let RecordingEvent::Sample(sample) = &mut event {
+                self.zeroing.apply(sample);
+                if let (Some(Some(gain)), Some(value)) =
+                    (self.gains.get(sample.sensor), sample.value.as_mut())
+                {
+                    *value *= gain;
+                }
             }
-            on_sample(sample)
+            on_event(event)
         })
     }
 
@@ -211,6 +228,18 @@ impl Recording {
         clock_offset_ns: &[i64],
         counts: &mut SampleCounts,
         mut on_sample: impl FnMut(Sample) -> Result<()>,
+    ) -> Result<()> {
+        self.for_each_raw_event(clock_offset_ns, counts, |event| match event {
+            RecordingEvent::Sample(sample) => on_sample(sample),
+            RecordingEvent::Frame(..) => Ok(()),
+        })
+    }
+
+    fn for_each_raw_event(
+        &self,
+        clock_offset_ns: &[i64],
+        counts: &mut SampleCounts,
+        mut on_event: impl FnMut(RecordingEvent<'_>) -> Result<()>,
     ) -> Result<()> {
         // A session's raw files are candump, as acq record wrote them: read
         // as such, not guessed from their first bytes.
@@ -227,7 +256,7 @@ impl Recording {
         let mut failure = None;
         // A recording cut by a crash can end in half a line: count, go on.
         for_each_record(&mut inputs, BadLines::Skip, &mut scan, |_, record| {
-            decoder.decode(&record.frame, |event| {
+            let used = decoder.decode(&record.frame, |event| {
                 if failure.is_some() {
                     return;
                 }
@@ -238,11 +267,16 @@ impl Recording {
                     if sample.value.is_none() {
                         counts.missing_values += 1;
                     }
-                    if let Err(e) = on_sample(sample) {
+                    if let Err(e) = on_event(RecordingEvent::Sample(sample)) {
                         failure = Some(e);
                     }
                 }
             });
+            if failure.is_none() {
+                if let Err(e) = on_event(RecordingEvent::Frame(&record.frame, used)) {
+                    failure = Some(e);
+                }
+            }
             match failure.take() {
                 Some(e) => Err(e),
                 None => Ok(()),
@@ -289,6 +323,15 @@ impl Recording {
         }
         Ok(())
     }
+}
+
+/// What a pass over a recording gives, in recording order: a frame's
+/// samples, then the frame.
+#[derive(Clone, Copy, Debug)]
+pub enum RecordingEvent<'a> {
+    Sample(Sample),
+    /// A frame as logged (its own bus's clock), and what it was to the rig.
+    Frame(&'a Frame, FrameUse),
 }
 
 /// What reading a recording saw.

@@ -1,6 +1,6 @@
 //! The view index reader (`view-index.bin`, beside a session) over
 //! arbitrary bytes: it must never panic, and a view it accepts must be
-//! drawable: its series, span, holds, sensors and curve as JSON. (Seed: the
+//! drawable: its series, span, holds, sensors, curve and raw frames as JSON. (Seed: the
 //! index `acq view` writes for the shipped tensile session.)
 
 #![no_main]
@@ -30,5 +30,6 @@ fuzz_target!(|data: &[u8]| {
         let _ = view.holds_json(None);
         let _ = view.sensors_json(Some("s"));
         let _ = view.xy_json();
+        let _ = view.frames_json(None);
     }
 });

@@ -17,9 +17,22 @@
 //!    the index (target under 2 s); then a zoom into 10 s and the whole hour
 //!    at 1,000 columns, which read only the buckets held.
 //!
+//! 4. The page in a real browser (headless Chromium, as `tests/view.rs`
+//!    drives it): 30 signals in 6 plots (a layout file's), live at 8,000
+//!    frames/s. Frame to pixel: the page notes, at the animation frame that
+//!    draws it, the newest marker value on screen; for every millisecond of
+//!    sent traffic, the wait until a drawn frame held it (target: median
+//!    under 250 ms). The browser's CPU: every process of its tree, user and
+//!    system time from /proc over the window (target: under 25 % of one
+//!    core). The recorder must still record every frame sent.
+//!
 //! `cargo bench --bench view` (ACQ_BENCH_SECONDS sets each window, default
-//! 10; ACQ_BENCH_VIEW_HOURS the long session, default 1).
+//! 10; ACQ_BENCH_VIEW_HOURS the long session, default 1;
+//! ACQ_BENCH_BROWSER_SECONDS the browser's, default 30;
+//! ACQ_BENCH_VIEW_ONLY=browser runs the fourth case alone).
 
+#[path = "../tests/common/browser.rs"]
+mod browser;
 mod common;
 
 use std::io::{BufRead, BufReader, Write};
@@ -73,6 +86,18 @@ fn probe(url: &str, epoch: Instant, arrivals: Arrivals) {
     });
 }
 
+/// The page's live session of the bench rig, holds on bus 0's force.
+fn bench_session(rig: &Rig) -> (acq_view::LiveFeed, acq_view::SharedSession) {
+    acq_view::live_session(
+        "bench",
+        rig,
+        HoldOptions::default(),
+        Some("tip_force_0"),
+        None,
+        None,
+    )
+}
+
 struct Run {
     cpu_share: f64,
     frames: u64,
@@ -85,14 +110,7 @@ fn record_run(seconds: f64, view: bool, viewers: usize, arrivals: Option<Arrival
     let mut host = None;
     let mut clients: Vec<Child> = Vec::new();
     if view {
-        let (feed, shared) = acq_view::live_session(
-            "bench",
-            &rig,
-            HoldOptions::default(),
-            Some("tip_force_0"),
-            None,
-            None,
-        );
+        let (feed, shared) = bench_session(&rig);
         observer = Some(Box::new(feed));
         let address = "127.0.0.1:0".parse().unwrap();
         let access = acq_view::access_for(address, false).unwrap();
@@ -261,6 +279,178 @@ fn long_session_open(hours: f64) {
     );
 }
 
+/// For every millisecond of sent traffic (marker values, s), the wait (s)
+/// until the first arrival that held it; `arrivals` are (arrival s, newest
+/// marker value) on the marker's clock.
+fn waits_per_ms(arrivals: &[(f64, f64)]) -> Vec<f64> {
+    let (first, last) = (arrivals[0].1, arrivals[arrivals.len() - 1].1);
+    let mut waits: Vec<f64> = Vec::new();
+    let mut s = first;
+    let mut k = 0;
+    while s < last {
+        while k < arrivals.len() && arrivals[k].1 < s {
+            k += 1;
+        }
+        if k < arrivals.len() {
+            waits.push(arrivals[k].0 - s);
+        }
+        s += 0.001;
+    }
+    waits
+}
+
+/// User and system CPU seconds of process `root` and of each descendant,
+/// by kind (Chromium's `--type=`: renderer, gpu-process, utility; the
+/// browser process itself), from /proc (in USER_HZ ticks: 100 a second on
+/// Linux, whatever the kernel's HZ).
+fn tree_cpu_seconds(root: u32) -> std::collections::BTreeMap<String, f64> {
+    let mut processes: Vec<(u32, u32, f64)> = Vec::new();
+    for entry in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(pid) = entry.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(entry.path().join("stat")) else {
+            continue;
+        };
+        // After "pid (name) ": state, ppid, ... utime and stime are the
+        // 14th and 15th fields of the whole line.
+        let Some(rest) = stat.rfind(')').map(|i| &stat[i + 1..]) else {
+            continue;
+        };
+        let fields: Vec<&str> = rest.split_whitespace().collect();
+        if fields.len() < 13 {
+            continue;
+        }
+        let number = |k: usize| fields[k].parse::<f64>().unwrap_or(0.0);
+        let ppid = fields[1].parse().unwrap_or(0);
+        processes.push((pid, ppid, (number(11) + number(12)) / 100.0));
+    }
+    let mut tree = vec![root];
+    let mut k = 0;
+    while k < tree.len() {
+        let parent = tree[k];
+        for &(pid, ppid, _) in &processes {
+            if ppid == parent && !tree.contains(&pid) {
+                tree.push(pid);
+            }
+        }
+        k += 1;
+    }
+    let mut by_kind = std::collections::BTreeMap::new();
+    for &(pid, _, seconds) in processes.iter().filter(|(pid, ..)| tree.contains(pid)) {
+        let command = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+        let kind = String::from_utf8_lossy(&command)
+            .split(['\0', ' '])
+            .find_map(|a| a.strip_prefix("--type=").map(str::to_owned))
+            .unwrap_or_else(|| "browser".into());
+        *by_kind.entry(kind).or_insert(0.0) += seconds;
+    }
+    by_kind
+}
+
+/// The fourth case, the page in headless Chromium: the first 30 sensors of the four-bus
+/// rig in 6 plots of 5, live at 8,000 frames/s.
+fn browser_run(seconds: f64) {
+    let rig = four_bus_rig();
+    let epoch = Instant::now();
+    let epoch_unix_s = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap()
+        .as_secs_f64()
+        - epoch.elapsed().as_secs_f64();
+    let (feed, shared) = bench_session(&rig);
+    let names: Vec<&str> = rig.sensors.iter().map(|s| s.name.as_str()).collect();
+    let plots: Vec<serde_json::Value> = names[..30]
+        .chunks(5)
+        .enumerate()
+        .map(|(k, signals)| serde_json::json!({"title": format!("plot {}", k + 1), "signals": signals}))
+        .collect();
+    let layout_text = serde_json::json!({"format": 1, "plots": plots}).to_string();
+    let layout = acq_view::layout::Layout::parse(&layout_text, &names).unwrap();
+    let address = "127.0.0.1:0".parse().unwrap();
+    let access = acq_view::access_for(address, false).unwrap();
+    let pages = acq_view::Pages {
+        sessions: vec![shared.clone()],
+        study: None,
+        layout: Some(layout),
+    };
+    let host = acq_view::ViewHost::start(address, access, pages).unwrap();
+    let limit = std::time::Duration::from_secs_f64(seconds + 120.0);
+    let mut page = browser::LivePage::open(host.url(), limit).expect("Chromium opens the page");
+    let started = Instant::now();
+    let built = loop {
+        let built = page
+            .evaluate("window.acqView.sessions.length ? window.acqView.sessions[0].groups.map((g) => g.members.length).join(',') : ''")
+            .unwrap();
+        if built != "" || started.elapsed().as_secs() > 30 {
+            break built;
+        }
+        thread::sleep(std::time::Duration::from_millis(100));
+    };
+    assert_eq!(built, "5,5,5,5,5,5", "6 plots of 5 signals");
+    page.evaluate("window.acqView.watch = 'tip_force_0'")
+        .unwrap();
+    let pid = page.browser_pid();
+    let window_s = seconds - 3.0;
+    let browser_cpu = thread::spawn(move || {
+        thread::sleep(std::time::Duration::from_secs(2));
+        let (cpu0, wall0) = (tree_cpu_seconds(pid), Instant::now());
+        thread::sleep(std::time::Duration::from_secs_f64(window_s));
+        let wall = wall0.elapsed().as_secs_f64();
+        tree_cpu_seconds(pid)
+            .into_iter()
+            .map(|(kind, seconds)| {
+                (
+                    kind.clone(),
+                    (seconds - cpu0.get(&kind).unwrap_or(&0.0)) / wall,
+                )
+            })
+            .collect::<Vec<(String, f64)>>()
+    });
+    let (recorder_share, sent) =
+        record_while_producing(&rig, Some(Box::new(feed)), seconds, 4, Some(epoch));
+    let shares = browser_cpu.join().unwrap();
+    let browser_share: f64 = shares.iter().map(|(_, share)| share).sum();
+    let by_kind: Vec<String> = shares
+        .iter()
+        .map(|(kind, share)| format!("{kind} {:.1} %", 100.0 * share))
+        .collect();
+    let log: Vec<(f64, f64)> = serde_json::from_str(
+        page.evaluate("JSON.stringify(window.acqView.drawLog)")
+            .unwrap()
+            .as_str()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        page.console_errors(),
+        &[] as &[String],
+        "the page logged errors"
+    );
+    page.close();
+    host.stop();
+    let not_shown = shared.lock().unwrap().frames_not_shown;
+    let drawn: Vec<(f64, f64)> = log
+        .iter()
+        .map(|&(unix_ms, value)| (unix_ms / 1e3 - epoch_unix_s, value))
+        .collect();
+    let mut waits = waits_per_ms(&drawn);
+    waits.sort_by(f64::total_cmp);
+    println!(
+        "the page in headless Chromium, 30 signals in 6 plots, 4 buses x 2,000 frames/s ({sent} frames in {seconds:.0} s, every one recorded; {not_shown} not shown): \
+         frame on the bus to pixel median {:.0} ms, p95 {:.0} ms, max {:.0} ms ({} draws, {} ms of traffic); \
+         the browser's processes {:.1} % of one core over {window_s:.0} s ({}); the recorder with the page {:.1} %",
+        1e3 * waits[waits.len() / 2],
+        1e3 * waits[waits.len() * 95 / 100],
+        1e3 * waits[waits.len() - 1],
+        drawn.len(),
+        waits.len(),
+        100.0 * browser_share,
+        by_kind.join(", "),
+        100.0 * recorder_share,
+    );
+}
+
 fn main() {
     let hours: f64 = std::env::var("ACQ_BENCH_VIEW_HOURS")
         .ok()
@@ -271,6 +461,14 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(10.0);
 
+    let browser_seconds: f64 = std::env::var("ACQ_BENCH_BROWSER_SECONDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30.0);
+    if std::env::var("ACQ_BENCH_VIEW_ONLY").as_deref() == Ok("browser") {
+        browser_run(browser_seconds.max(10.0));
+        return;
+    }
     // 1. CPU, alternating so that the machine's drift hits both alike.
     let (mut alone, mut with_view) = (Vec::new(), Vec::new());
     for _ in 0..2 {
@@ -291,19 +489,7 @@ fn main() {
     let arrivals = Arc::new(Mutex::new(Vec::new()));
     record_run(seconds, true, 1, Some(arrivals.clone()));
     let arrivals = arrivals.lock().unwrap().clone();
-    let (first, last) = (arrivals[0].1, arrivals[arrivals.len() - 1].1);
-    let mut waits: Vec<f64> = Vec::new();
-    let mut s = first;
-    let mut k = 0;
-    while s < last {
-        while k < arrivals.len() && arrivals[k].1 < s {
-            k += 1;
-        }
-        if k < arrivals.len() {
-            waits.push(arrivals[k].0 - s);
-        }
-        s += 0.001;
-    }
+    let mut waits = waits_per_ms(&arrivals);
     waits.sort_by(f64::total_cmp);
     println!(
         "frame on the bus to point in a viewer: median {:.0} ms, p95 {:.0} ms, max {:.0} ms ({} updates, {} ms of traffic)",
@@ -316,4 +502,7 @@ fn main() {
 
     // 3. A long recorded session.
     long_session_open(hours);
+
+    // 4. The page in a browser.
+    browser_run(browser_seconds.max(10.0));
 }

@@ -69,7 +69,7 @@ pub fn record_options(
 }
 
 /// Sends every `every`-th frame of the four-bus simulation in real time
-/// from its own thread for `seconds`. With `mark`, bus 0's force frames
+/// from its own thread for `seconds` (the scenario repeated as needed). With `mark`, bus 0's force frames
 /// carry their send time as the value (s since `mark`, mod 90).
 pub fn produce(
     bus: MemoryBus,
@@ -82,7 +82,6 @@ pub fn produce(
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
         let (scenario, curve) =
             Scenario::load(&root.join("fixtures/scenarios/bench_four_buses.toml")).unwrap();
-        let mut simulation = Simulation::new(&rig, scenario, curve, 1, 0).unwrap();
         let runtime = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()
@@ -95,29 +94,37 @@ pub fn produce(
             let start = Instant::now();
             let mut sent = 0u64;
             let mut index = 0u64;
-            while let Some(mut frame) = simulation.next_frame() {
-                index += 1;
-                if index % every != 0 {
-                    continue;
+            // The scenario (11 s) again and again for a longer window.
+            let mut start_ns = 0;
+            'window: loop {
+                let mut simulation =
+                    Simulation::new(&rig, scenario.clone(), curve.clone(), 1, start_ns).unwrap();
+                while let Some(mut frame) = simulation.next_frame() {
+                    index += 1;
+                    start_ns = frame.timestamp_ns + 1_000_000;
+                    if index % every != 0 {
+                        continue;
+                    }
+                    let due = Duration::from_nanos(frame.timestamp_ns as u64);
+                    if due.as_secs_f64() > seconds {
+                        break 'window;
+                    }
+                    // Sleep in 1 ms steps: frames go out in small bursts, as from a DAQ.
+                    let now = start.elapsed();
+                    if due > now + Duration::from_millis(1) {
+                        thread::sleep(due - now);
+                    }
+                    let bus_index = usize::from(frame.iface.as_str().as_bytes()[4] - b'0');
+                    if let (0, true, Some(epoch)) = (bus_index, frame.id == MARKER_ID, mark) {
+                        let value = (epoch.elapsed().as_secs_f64() % 90.0) as f32;
+                        let mut data = frame.payload().to_vec();
+                        data[..4].copy_from_slice(&value.to_le_bytes());
+                        frame =
+                            Frame::data(frame.timestamp_ns, frame.iface, frame.id, &data).unwrap();
+                    }
+                    sinks[bus_index].send(&frame).await.unwrap();
+                    sent += 1;
                 }
-                let due = Duration::from_nanos(frame.timestamp_ns as u64);
-                if due.as_secs_f64() > seconds {
-                    break;
-                }
-                // Sleep in 1 ms steps: frames go out in small bursts, as from a DAQ.
-                let now = start.elapsed();
-                if due > now + Duration::from_millis(1) {
-                    thread::sleep(due - now);
-                }
-                let bus_index = usize::from(frame.iface.as_str().as_bytes()[4] - b'0');
-                if let (0, true, Some(epoch)) = (bus_index, frame.id == MARKER_ID, mark) {
-                    let value = (epoch.elapsed().as_secs_f64() % 90.0) as f32;
-                    let mut data = frame.payload().to_vec();
-                    data[..4].copy_from_slice(&value.to_le_bytes());
-                    frame = Frame::data(frame.timestamp_ns, frame.iface, frame.id, &data).unwrap();
-                }
-                sinks[bus_index].send(&frame).await.unwrap();
-                sent += 1;
             }
             sent
         })

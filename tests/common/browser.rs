@@ -565,6 +565,12 @@ impl LivePage {
         })
     }
 
+    /// The browser's process id (its renderers and helpers are its
+    /// descendants): for a benchmark of its CPU time.
+    pub fn browser_pid(&self) -> u32 {
+        self.browser.child.id()
+    }
+
     /// Evaluates `expression` in the page; its value as JSON.
     pub fn evaluate(&mut self, expression: &str) -> Result<Value, String> {
         let mut errors = std::mem::take(&mut self.console_errors);

@@ -6,7 +6,9 @@
   const token = document.querySelector('meta[name="acq-token"]').content;
   const LIVE_WINDOW_S = 60;
   const LIVE_COLUMN_S = 0.05;
-  const KEEP_LIVE_S = 600;
+  // Live columns kept in the page: twice the window followed (a paused or
+  // zoomed view reads its span from acq again). Every update walks them.
+  const KEEP_LIVE_S = 2 * LIVE_WINDOW_S;
   const COLORS = ['#0969da', '#cf222e', '#1a7f37', '#8250df', '#bf8700', '#1b7c83',
     '#e16f24', '#57606a', '#a40e26', '#116329', '#953800', '#0550ae'];
   // The k-th signal's colour: the palette, then hues a golden angle apart
@@ -18,7 +20,7 @@
   }
 
   // What the page has drawn, for the browser checks (and the curious).
-  const view = { sessions: [], holdsShown: [], lastX: [], updates: 0, lost: 0, errors: [] };
+  const view = { sessions: [], holdsShown: [], lastX: [], updates: 0, lost: 0, errors: [], watch: null, drawLog: [] };
   window.acqView = view;
   view.layoutJson = (i) => layoutJson(view.sessions[i]);
   view.exportCsv = (i) => exportCsv(view.sessions[i]);
@@ -656,7 +658,23 @@
       let last = null;
       for (const m of s.columns) for (const key of m.keys()) last = last === null ? key : Math.max(last, key);
       view.lastX[s.index] = last === null ? null : last / 1000;
+      if (view.watch) noteDrawn(s);
     });
+  }
+
+  // For a benchmark: when the newest value of the signal named
+  // `view.watch` reached the screen (this animation frame), as
+  // [unix ms, value] in `view.drawLog`.
+  function noteDrawn(s) {
+    for (const g of s.groups) {
+      const j = g.members.findIndex((k) => s.sensors[k].name === view.watch);
+      if (j < 0) continue;
+      const ys = g.plot.data[j + 1];
+      for (let i = ys.length - 1; i >= 0; i--) {
+        if (ys[i] != null) { view.drawLog.push([Date.now(), ys[i]]); return; }
+      }
+      return;
+    }
   }
 
   // The legend gives each signal's newest value in view while the cursor is
@@ -680,7 +698,8 @@
     const fromKey = Math.round(tail.from_s * 1000);
     tail.series.forEach((cols, k) => {
       const m = s.columns[k];
-      for (const key of Array.from(m.keys())) if (key >= fromKey) m.delete(key);
+      // A Map may lose entries while it is walked (no copy of its keys).
+      for (const key of m.keys()) if (key >= fromKey) m.delete(key);
       for (const [t, min, max] of cols) {
         const key = Math.round(t * 1000);
         m.set(key, [min, max, LIVE_COLUMN_S]);
@@ -751,21 +770,92 @@
 
   function cell(text, cls) { return el('td', cls ? { class: cls, text } : { text }); }
 
+  // A table body brought to `rows` in place: each row { cells, cls }, each
+  // cell [text, class] or { bytes, before } (a payload, its changed bytes
+  // marked). Only what changed is written: rebuilding the tables every
+  // look cost the browser more than the six live plots together.
+  function syncBody(tbody, rows) {
+    while (tbody.rows.length > rows.length) tbody.deleteRow(-1);
+    rows.forEach((row, i) => {
+      const tr = tbody.rows[i] || tbody.insertRow();
+      if (tr.className !== (row.cls || '')) tr.className = row.cls || '';
+      row.cells.forEach((c, j) => {
+        const td = tr.cells[j] || tr.insertCell();
+        if (c.bytes !== undefined) {
+          const key = `${c.before}|${c.bytes}`;
+          if (td.dataset.bytes === key) return;
+          td.dataset.bytes = key;
+          td.className = 'bytes';
+          const old = c.before === undefined ? null : c.before.split(' ');
+          td.replaceChildren(...c.bytes.split(' ').filter(Boolean).map((byte, k) =>
+            el('span', old && old[k] !== byte ? { class: 'changed', text: byte } : { text: byte })));
+          return;
+        }
+        const [text, cls] = c;
+        if (td.textContent !== text) td.textContent = text;
+        if (td.className !== (cls || '')) td.className = cls || '';
+      });
+    });
+  }
+
+  function table(cls, heads) {
+    const body = el('tbody');
+    return { table: el('table', { class: cls }, el('thead', {}, el('tr', {}, ...heads.map((h) => el('th', { text: h })))), body), body };
+  }
+
+  // The session's tables, built once and then updated in place: the buses,
+  // the sensors, the holds (rebuilt only when they change) and the raw
+  // frames.
+  function buildTables(s) {
+    const t = {
+      buses: table('buses', ['bus', 'state', 'frames/s', 'frames', 'kernel drops', 'error frames']),
+      sensors: table('sensors', ['sensor', 'last value', 'unit', 'state']),
+      holds: table('holds', ['hold', 'start (s)', 'end (s)', 'length (s)', 'measured values']),
+      frames: table('frames', ['bus', 'id (hex)', 'kind', 'bytes', 'newest payload (hex)', 'frames', 'rate (Hz)', 'last gap (ms)', 'newest at (s)', 'signals']),
+      notes: el('div'),
+      holdsKey: null,
+    };
+    t.framesSummary = el('summary');
+    t.framesBox = el('details', { class: 'frames' }, t.framesSummary,
+      el('p', { class: 'note', text: 'One row per bus and CAN id. Bytes in bold changed since the page last looked; an id in grey gave the rig no value.' }),
+      t.frames.table);
+    s.tables.replaceChildren(el('div', {}, t.buses.table, t.notes), t.sensors.table, t.holds.table, t.framesBox);
+    s.tableParts = t;
+    return t;
+  }
+
   function renderTables(s) {
     if (!s.state) return;
     const { info, sensors, buses, holds } = s.state;
-    const busTable = el('table', { class: 'buses' },
-      el('thead', {}, el('tr', {}, ...['bus', 'state', 'frames/s', 'frames', 'kernel drops', 'error frames'].map((h) => el('th', { text: h })))),
-      el('tbody', {}, ...buses.map((b) => el('tr', {},
-        cell(b.iface), cell(b.state, b.state === 'down' ? 'fault' : ''), cell(fmt(b.frames_per_s), 'num'),
-        cell(String(b.frames), 'num'), cell(String(b.kernel_drops), b.kernel_drops > 0 ? 'num fault' : 'num'),
-        cell(String(b.error_frames), b.error_frames > 0 ? 'num fault' : 'num')))));
-    const sensorTable = el('table', { class: 'sensors' },
-      el('thead', {}, el('tr', {}, ...['sensor', 'last value', 'unit', 'state'].map((h) => el('th', { text: h })))),
-      el('tbody', {}, ...sensors.map((x) => el('tr', x.silent ? { class: 'silent' } : {},
-        cell(x.name), cell(fmt(x.last_value), 'num'), cell(x.unit),
-        cell(x.silent ? `SILENT${x.silence_reason ? ': ' + x.silence_reason : ''}` : 'alive')))));
-    const holdRows = holds.map((h) => {
+    const t = s.tableParts || buildTables(s);
+    syncBody(t.buses.body, buses.map((b) => ({ cells: [
+      [b.iface], [b.state, b.state === 'down' ? 'fault' : ''], [fmt(b.frames_per_s), 'num'],
+      [String(b.frames), 'num'], [String(b.kernel_drops), b.kernel_drops > 0 ? 'num fault' : 'num'],
+      [String(b.error_frames), b.error_frames > 0 ? 'num fault' : 'num']] })));
+    syncBody(t.sensors.body, sensors.map((x) => ({ cls: x.silent ? 'silent' : '', cells: [
+      [x.name], [fmt(x.last_value), 'num'], [x.unit],
+      [x.silent ? `SILENT${x.silence_reason ? ': ' + x.silence_reason : ''}` : 'alive']] })));
+    const holdsKey = JSON.stringify(holds.map((h) => [h.name, h.start_s, h.end_s, h.values && h.values.map((v) => [v.mean, v.flags])]));
+    if (holdsKey !== t.holdsKey) {
+      t.holdsKey = holdsKey;
+      renderHolds(t.holds.body, holds);
+    }
+    renderFrames(s, t, s.state.frames, info.frames_not_listed);
+    const notes = [];
+    if (s.holdsNote) notes.push(el('p', { class: 'note', text: s.holdsNote }));
+    if (info.load_sensor) notes.push(el('p', { class: 'note', text: `holds: steady stretches of ${info.load_sensor}, found as acq extract finds them` }));
+    if (info.frames_not_shown > 0) notes.push(el('p', { class: 'fault', text: `this view fell behind: ${info.frames_not_shown} frames not shown (all of them recorded)` }));
+    const notesKey = notes.map((n) => n.textContent).join('\n');
+    if (t.notesKey !== notesKey) {
+      t.notesKey = notesKey;
+      t.notes.replaceChildren(...notes);
+    }
+  }
+
+  // The holds with their values; the details a reader opened stay open.
+  function renderHolds(body, holds) {
+    const open = new Set(Array.from(body.querySelectorAll('details[open]')).map((d) => d.closest('tr').firstChild.textContent));
+    body.replaceChildren(...holds.map((h) => {
       const details = el('details', {}, el('summary', { text: h.values ? `${h.values.length} values` : 'values: see acq extract' }));
       if (h.values) {
         details.append(el('table', {},
@@ -775,54 +865,35 @@
             cell(v.ci95_half_width === null ? '-' : '\u00b1 ' + fmt(v.ci95_half_width), 'num'), cell(v.unit),
             cell(v.flags.join(', '), v.flags.length ? 'fault' : ''))))));
       }
+      details.open = open.has(h.name);
       return el('tr', { class: 'hold' }, cell(h.name), cell(fmt(h.start_s), 'num'), cell(fmt(h.end_s), 'num'),
         cell(fmt(h.end_s - h.start_s), 'num'), el('td', {}, details));
-    });
-    const holdTable = el('table', { class: 'holds' },
-      el('thead', {}, el('tr', {}, ...['hold', 'start (s)', 'end (s)', 'length (s)', 'measured values'].map((t) => el('th', { text: t })))),
-      el('tbody', {}, ...holdRows));
-    const frameTable = renderFrames(s, s.state.frames, info.frames_not_listed);
-    const notes = [];
-    if (s.holdsNote) notes.push(el('p', { class: 'note', text: s.holdsNote }));
-    if (info.load_sensor) notes.push(el('p', { class: 'note', text: `holds: steady stretches of ${info.load_sensor}, found as acq extract finds them` }));
-    if (info.frames_not_shown > 0) notes.push(el('p', { class: 'fault', text: `this view fell behind: ${info.frames_not_shown} frames not shown (all of them recorded)` }));
-    // Keep open the hold details a reader opened.
-    const open = new Set(Array.from(s.tables.querySelectorAll('table.holds details[open]')).map((d) => d.closest('tr').firstChild.textContent));
-    s.tables.replaceChildren(el('div', {}, busTable, ...notes), sensorTable, holdTable, frameTable);
-    for (const d of s.tables.querySelectorAll('table.holds > tbody > tr')) {
-      if (open.has(d.firstChild.textContent)) d.querySelector('details').open = true;
-    }
+    }));
   }
 
   // The raw frames, one row per bus and CAN id (a fixed-position trace):
   // the newest payload, its bytes that changed since the last look marked,
   // the count, the rate over the whole span and the newest gap, and the
-  // signals the id carries. Kept open or closed as the reader left it.
-  function renderFrames(s, frames, notListed) {
+  // signals the id carries. Open at first when it is short; then as the
+  // reader left it.
+  function renderFrames(s, t, frames, notListed) {
     const previous = s.frameData || new Map();
     s.frameData = new Map();
-    const rows = frames.map((f) => {
+    syncBody(t.frames.body, frames.map((f) => {
       const key = `${f.bus} ${f.id} ${f.kind}`;
-      const before = previous.get(key);
       s.frameData.set(key, f.data);
-      const old = before === undefined ? [] : before.split(' ');
-      const bytes = el('td', { class: 'bytes' }, ...f.data.split(' ').filter(Boolean).map((b, i) =>
-        el('span', before !== undefined && old[i] !== b ? { class: 'changed', text: b } : { text: b })));
-      return el('tr', f.used === 'decoded' || f.used === 'protocol' ? {} : { class: 'unused' },
-        cell(f.bus), cell(f.id, 'num'), cell(f.kind), cell(String(f.dlc), 'num'), bytes,
-        cell(String(f.count), 'num'), cell(f.rate_hz === null ? '-' : fmt(f.rate_hz), 'num'),
-        cell(f.last_gap_s === null ? '-' : fmt(1000 * f.last_gap_s), 'num'), cell(fmt(f.last_s), 'num'),
-        cell(f.signals.length ? f.signals.join(', ') : f.used));
-    });
+      return { cls: f.used === 'decoded' || f.used === 'protocol' ? '' : 'unused', cells: [
+        [f.bus], [f.id, 'num'], [f.kind], [String(f.dlc), 'num'], { bytes: f.data, before: previous.get(key) },
+        [String(f.count), 'num'], [f.rate_hz === null ? '-' : fmt(f.rate_hz), 'num'],
+        [f.last_gap_s === null ? '-' : fmt(1000 * f.last_gap_s), 'num'], [fmt(f.last_s), 'num'],
+        [f.signals.length ? f.signals.join(', ') : f.used]] };
+    }));
     const summary = `Raw frames: ${frames.length} id(s)` + (notListed > 0 ? `, ${notListed} frames of further ids not listed` : '');
-    const details = el('details', { class: 'frames' }, el('summary', { text: summary }),
-      el('p', { class: 'note', text: 'One row per bus and CAN id. Bytes in bold changed since the page last looked; an id in grey gave the rig no value.' }),
-      el('table', { class: 'frames' },
-        el('thead', {}, el('tr', {}, ...['bus', 'id (hex)', 'kind', 'bytes', 'newest payload (hex)', 'frames', 'rate (Hz)', 'last gap (ms)', 'newest at (s)', 'signals'].map((t) => el('th', { text: t })))),
-        el('tbody', {}, ...rows)));
-    details.open = s.framesOpen === undefined ? frames.length <= 40 : s.framesOpen;
-    details.addEventListener('toggle', () => { s.framesOpen = details.open; });
-    return details;
+    if (t.framesSummary.textContent !== summary) t.framesSummary.textContent = summary;
+    if (t.framesOpened === undefined && frames.length) {
+      t.framesOpened = true;
+      t.framesBox.open = frames.length <= 40;
+    }
   }
 
   // Round tick values (1, 2 or 5 times a power of ten) covering lo..hi.

@@ -464,17 +464,7 @@ fn excavator_case_without_measured_pressures_exits_2() {
 // ---- acq calibrate gtn --------------------------------------------------------------
 
 const TEST_CSV: &str = "data/tensile/P91_20_2_DF_SS.csv";
-/// The published search box; m's upper bound comes from the test (800 MPa for this one).
-const GTN_BOUNDS: [(&str, f64, f64); 8] = [
-    ("q1", 0.9, 1.6),
-    ("q2", 0.9, 1.1),
-    ("q3", 0.81, 2.56),
-    ("epsN", 0.25, 0.40),
-    ("sN", 0.10, 0.20),
-    ("fN", 0.03, 0.09),
-    ("f0", 0.0013, 0.0015),
-    ("m", 0.0, 800.0),
-];
+use common::GTN_BOUNDS;
 /// The standard L12 array, first 8 columns (1 = lower bound, 2 = upper).
 const L12: [[u8; 8]; 12] = [
     [1, 1, 1, 1, 1, 1, 1, 1],

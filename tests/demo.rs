@@ -19,6 +19,7 @@ fn the_demo_runs_the_whole_chain_and_its_report_renders() {
         "it says where the report is"
     );
     common::pipeline::check_demo_output(&out, true);
+    gtn_line_marks_the_bounds(&stdout(&output), &out);
 
     // A second run replaces its own earlier output...
     let output = acq(&[
@@ -89,4 +90,61 @@ fn bad_demo_arguments_say_what_is_expected() {
         "{}",
         stderr(&output)
     );
+}
+
+/// The GTN stage's last line marks each parameter calibrated within 1 % of
+/// a bound of its published range (tensile-gtn.md's table; m is left out,
+/// its upper bound comes from the test's own curve), and the line before
+/// it counts them: a point on six bounds is no estimate, and the terminal
+/// must not read as if it were one.
+fn gtn_line_marks_the_bounds(said: &str, out: &std::path::Path) {
+    let lines: Vec<&str> = said.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.starts_with("calibrated: q1 = "))
+        .unwrap_or_else(|| panic!("no GTN parameters line in:\n{said}"));
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("tensile_p91_20c/calibration/summary.json")).unwrap(),
+    )
+    .unwrap();
+    let mut on_bounds = 0;
+    for &(name, lower, upper) in common::GTN_BOUNDS.iter().filter(|(name, ..)| *name != "m") {
+        let value = summary["best_params"][name].as_f64().unwrap();
+        let unit = (value - lower) / (upper - lower);
+        let item = lines[at]
+            .split(", ")
+            .map(|i| i.trim_start_matches("calibrated: "))
+            .find(|i| i.starts_with(&format!("{name} = ")))
+            .unwrap_or_else(|| panic!("{name} missing: {}", lines[at]));
+        let expected = if unit < 0.01 {
+            Some("(lower bound)")
+        } else if unit > 0.99 {
+            Some("(upper bound)")
+        } else {
+            None
+        };
+        on_bounds += usize::from(expected.is_some());
+        match expected {
+            Some(mark) => assert!(
+                item.ends_with(mark),
+                "{item}: {value} in [{lower}, {upper}]"
+            ),
+            None => assert!(
+                !item.contains("bound"),
+                "{item}: {value} in [{lower}, {upper}]"
+            ),
+        }
+    }
+    // m as the line marks it (its range is the preset's, from the curve).
+    let m_marked = lines[at]
+        .split(", ")
+        .any(|i| i.starts_with("m = ") && i.ends_with("bound)"));
+    let counted = on_bounds + usize::from(m_marked);
+    if counted > 0 {
+        assert!(
+            lines[at - 1].starts_with(&format!("{counted} of 8 parameters on a bound")),
+            "{}",
+            lines[at - 1]
+        );
+    }
 }

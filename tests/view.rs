@@ -906,6 +906,10 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     page.evaluate("window.acqView.setCursors(0, [0.5, 7.0])")
         .unwrap();
     assert_eq!(y_of(&mut page), vec![60.0, 80.0]);
+    // Shift + wheel pans it: down a tenth of its span per notch up.
+    page.evaluate("window.acqView.sessions[0].groups[0].plot.over.dispatchEvent(new WheelEvent('wheel', { deltaY: -100, shiftKey: true, bubbles: true, cancelable: true }))")
+        .unwrap();
+    assert_eq!(y_of(&mut page), vec![62.0, 82.0]);
     page.evaluate("window.acqView.setY(0, 0, null)").unwrap();
     let auto = y_of(&mut page);
     assert!(

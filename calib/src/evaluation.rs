@@ -81,6 +81,20 @@ impl Parameter {
         }
     }
 
+    /// Which bound `value` sits on, if it is within 1 % of the range of
+    /// one (on the parameter's scale): there the optimum may lie outside
+    /// the range, or the data may not pin the parameter at all.
+    pub fn bound_reached(&self, value: f64) -> Option<&'static str> {
+        let unit = self.to_unit(value);
+        if unit < 0.01 {
+            Some("lower bound")
+        } else if unit > 0.99 {
+            Some("upper bound")
+        } else {
+            None
+        }
+    }
+
     /// `x` mapped from the range onto the unit interval.
     pub fn to_unit(&self, value: f64) -> f64 {
         // A range that is empty (or NaN) maps to the middle.

@@ -283,10 +283,9 @@ fn write_parameters(report: &mut Document, study: &Study, calibrated: &[f64], ex
             short(p.nominal),
             short(*v),
             format!("{:.0} %", 100.0 * unit),
-            if !(0.01..=0.99).contains(&unit) {
-                "on a bound: the optimum may lie outside the range".into()
-            } else {
-                String::new()
+            match search.bound_reached(*v) {
+                Some(_) => "on a bound: the optimum may lie outside the range".into(),
+                None => String::new(),
             },
         ]);
     }

@@ -136,9 +136,25 @@ fn parameters_line(study: &Study, outcome: &StudyOutcome) -> String {
                 .and_then(|p| p.marginals.get(p.names.iter().position(|n| *n == name)?))
                 .map(|m| format!(" [{} .. {}]", plain(m.q05, 4), plain(m.q95, 4)))
                 .unwrap_or_default();
-            format!("{name} = {}{interval}", plain(value, 6))
+            let bound = study
+                .parameters
+                .iter()
+                .find(|p| p.search.name == name)
+                .and_then(|p| p.search.bound_reached(value))
+                .map(|side| format!(" ({side})"))
+                .unwrap_or_default();
+            format!("{name} = {}{interval}{bound}", plain(value, 6))
         })
         .collect();
+    let on_bounds = parameters.iter().filter(|p| p.ends_with("bound)")).count();
+    let bounds_note = if on_bounds > 0 {
+        format!(
+            "{on_bounds} of {} parameters on a bound of their range: the optimum may lie beyond it, or the data do not pin the parameter (the report's identifiability section says which)\n",
+            parameters.len()
+        )
+    } else {
+        String::new()
+    };
     let heading = match posterior {
         Some(p) if !p.unconverged().is_empty() => {
             "calibrated (90 % posterior interval, NOT CONVERGED: see the report)"
@@ -146,7 +162,8 @@ fn parameters_line(study: &Study, outcome: &StudyOutcome) -> String {
         Some(_) => "calibrated (90 % posterior interval)",
         None => "calibrated",
     };
-    format!("{heading}: {}", parameters.join(", "))
+    // The note first: the last line stays the answer.
+    format!("{bounds_note}{heading}: {}", parameters.join(", "))
 }
 
 /// The calibrated parameters and the model's outputs there: the pick of

@@ -203,3 +203,16 @@ pub fn copy_session(name: &str, dir: &Path) -> std::path::PathBuf {
     }
     dir.to_path_buf()
 }
+
+/// The published GTN search box (tensile-gtn.md); m's upper bound comes
+/// from the test (800 MPa for data/tensile/P91_20_2_DF_SS.csv).
+pub const GTN_BOUNDS: [(&str, f64, f64); 8] = [
+    ("q1", 0.9, 1.6),
+    ("q2", 0.9, 1.1),
+    ("q3", 0.81, 2.56),
+    ("epsN", 0.25, 0.40),
+    ("sN", 0.10, 0.20),
+    ("fN", 0.03, 0.09),
+    ("f0", 0.0013, 0.0015),
+    ("m", 0.0, 800.0),
+];

@@ -215,6 +215,17 @@
             setY(g, [Math.min(a, b), Math.max(a, b)]);
           });
           u.over.addEventListener('dblclick', () => setY(g, null));
+          // Shift + wheel: pan the y axis by a tenth of its span (Chromium
+          // turns a Shift + wheel into a horizontal scroll: either delta).
+          u.over.addEventListener('wheel', (e) => {
+            if (!e.shiftKey) return;
+            const delta = e.deltaY || e.deltaX;
+            if (!delta) return;
+            e.preventDefault();
+            const [lo, hi] = g.y || [u.scales.y.min, u.scales.y.max];
+            const step = (hi - lo) * 0.1 * Math.sign(delta);
+            setY(g, [lo - step, hi - step]);
+          }, { passive: false });
         }],
       },
     }, plotData(s, g), g.box);

@@ -20,7 +20,9 @@ use acq_drivers::LogRecord;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
 use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+use acq_io::parquet_table::{
+    ArrowBatch as RecordBatch, ArrowSchema as SchemaRef, ColumnSpec, ColumnType, ParquetTable,
+};
 
 /// The fixed header of the DBC route.
 pub const DBC_HEADER: &str = "time_s,iface,can_id,message,signal,value,unit";
@@ -150,6 +152,28 @@ pub struct DbcParquet {
 
 impl DbcParquet {
     pub fn create(output: Output, database: &DbcDatabase, labels: bool) -> Result<Self> {
+        Self::with_table(database, labels, |columns| {
+            ParquetTable::new(output, columns, &[])
+        })
+    }
+
+    /// The same table kept in memory as Arrow record batches.
+    pub fn in_memory(database: &DbcDatabase, labels: bool) -> Result<Self> {
+        Self::with_table(database, labels, |columns| {
+            Ok(ParquetTable::in_memory(columns))
+        })
+    }
+
+    /// An in-memory table's schema and batches.
+    pub fn into_batches(self) -> Result<(SchemaRef, Vec<RecordBatch>)> {
+        self.table.into_batches()
+    }
+
+    fn with_table(
+        database: &DbcDatabase,
+        labels: bool,
+        table: impl FnOnce(&[ColumnSpec]) -> Result<ParquetTable>,
+    ) -> Result<Self> {
         let mut columns = vec![
             ColumnSpec::new("time_s", ColumnType::Time),
             ColumnSpec::new("iface", ColumnType::Text),
@@ -163,7 +187,7 @@ impl DbcParquet {
             columns.push(ColumnSpec::new("label", ColumnType::Text).nullable());
         }
         Ok(DbcParquet {
-            table: ParquetTable::new(output, &columns, &[])?,
+            table: table(&columns)?,
             messages: database
                 .messages()
                 .iter()
@@ -453,6 +477,33 @@ pub fn decode_dbc(
     }
 }
 
+/// Every frame of `inputs` through the rig's sensors as Arrow record
+/// batches: the table `acq decode --rig RIG -o FILE.parquet` writes
+/// (`time_s`, `sensor`, `value`, `unit`), for a caller that takes Arrow.
+pub fn decode_rig_to_arrow(
+    inputs: &mut [LogInput],
+    rig: &Rig,
+    bad_lines: BadLines,
+) -> Result<(SchemaRef, Vec<RecordBatch>, DecodeSummary)> {
+    let mut sink = RigParquet::in_memory(rig);
+    let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink)?;
+    let (schema, batches) = sink.into_batches()?;
+    Ok((schema, batches, summary))
+}
+
+/// Every frame of `inputs` through `database` as Arrow record batches: the
+/// table `acq decode --dbc DBC -o FILE.parquet` writes.
+pub fn decode_dbc_to_arrow(
+    inputs: &mut [LogInput],
+    database: &DbcDatabase,
+    options: DbcDecodeOptions,
+) -> Result<(SchemaRef, Vec<RecordBatch>, DecodeSummary)> {
+    let mut sink = DbcParquet::in_memory(database, options.labels)?;
+    let summary = decode_dbc_frames(inputs, database, options, &mut sink)?;
+    let (schema, batches) = sink.into_batches()?;
+    Ok((schema, batches, summary))
+}
+
 /// The decode's summary once its output is finished. A decode that
 /// stopped leaves no file under the output's name (a derived file appears
 /// only when complete; the unfinished output is dropped with its
@@ -524,21 +575,53 @@ pub struct RigParquet {
 }
 
 impl RigParquet {
+    const COLUMNS: [(&'static str, ColumnType, bool); 4] = [
+        ("time_s", ColumnType::Time, false),
+        ("sensor", ColumnType::Text, false),
+        ("value", ColumnType::Float, true),
+        ("unit", ColumnType::Text, false),
+    ];
+
+    fn columns() -> Vec<ColumnSpec> {
+        Self::COLUMNS
+            .iter()
+            .map(|&(name, column_type, nullable)| {
+                let column = ColumnSpec::new(name, column_type);
+                if nullable {
+                    column.nullable()
+                } else {
+                    column
+                }
+            })
+            .collect()
+    }
+
     pub fn create(output: Output, rig: &Rig) -> Result<Self> {
-        let columns = [
-            ColumnSpec::new("time_s", ColumnType::Time),
-            ColumnSpec::new("sensor", ColumnType::Text),
-            ColumnSpec::new("value", ColumnType::Float).nullable(),
-            ColumnSpec::new("unit", ColumnType::Text),
-        ];
-        Ok(RigParquet {
-            table: ParquetTable::new(output, &columns, &[])?,
+        Ok(Self::with_table(
+            rig,
+            ParquetTable::new(output, &Self::columns(), &[])?,
+        ))
+    }
+
+    /// The same table kept in memory as Arrow record batches.
+    pub fn in_memory(rig: &Rig) -> Self {
+        Self::with_table(rig, ParquetTable::in_memory(&Self::columns()))
+    }
+
+    /// An in-memory table's schema and batches.
+    pub fn into_batches(self) -> Result<(SchemaRef, Vec<RecordBatch>)> {
+        self.table.into_batches()
+    }
+
+    fn with_table(rig: &Rig, table: ParquetTable) -> Self {
+        RigParquet {
+            table,
             sensors: rig
                 .sensors
                 .iter()
                 .map(|s| (s.name.clone(), s.unit().to_string()))
                 .collect(),
-        })
+        }
     }
 
     /// Writes the footer; the file is complete.

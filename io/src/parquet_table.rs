@@ -8,6 +8,10 @@
 //! - the CSV's `#` comment lines as the file's key-value metadata
 //!   (`acq.comments`).
 //!
+//! The same rows can stay in memory as Arrow record batches
+//! ([`ParquetTable::in_memory`]): the Python package hands them to pyarrow
+//! through the Arrow C data interface, the table a file would have held.
+//!
 //! It streams, as the CSV path does. Rows go into Arrow builders; every
 //! [`BATCH_ROWS`] rows they become a record batch for the Parquet writer, which
 //! writes a row group out once it holds about [`ROW_GROUP_CELLS`] cells. So
@@ -40,6 +44,10 @@ use parquet::schema::types::ColumnPath;
 
 use crate::error::{AcqError, Result};
 use crate::output::Output;
+
+/// What an in-memory table gives, for a crate that does not name Arrow.
+pub use arrow_array::RecordBatch as ArrowBatch;
+pub use arrow_schema::SchemaRef as ArrowSchema;
 
 /// Rows collected in the builders before they go to the Parquet writer.
 pub const BATCH_ROWS: usize = 16 * 1024;
@@ -150,23 +158,73 @@ impl ColumnBuilder {
 /// Calling a column's setter with the wrong type is a bug in the caller
 /// (the columns are fixed by code, never by input) and panics.
 pub struct ParquetTable {
-    writer: ArrowWriter<Vec<u8>>,
+    destination: Destination,
     schema: SchemaRef,
     columns: Vec<ColumnBuilder>,
     rows_in_batch: usize,
     rows: u64,
-    output: Output,
     /// A failure met where it could not be returned ([`ParquetTable::end_row_in_callback`]).
     failed: Option<AcqError>,
 }
 
+/// Where the record batches go.
+enum Destination {
+    /// Encoded as Parquet into a file.
+    File {
+        writer: Box<ArrowWriter<Vec<u8>>>,
+        output: Output,
+    },
+    /// Kept, for a caller that takes Arrow itself.
+    Memory(Vec<RecordBatch>),
+}
+
+impl Destination {
+    fn name(&self) -> &str {
+        match self {
+            Destination::File { output, .. } => output.name(),
+            Destination::Memory(_) => "<memory>",
+        }
+    }
+}
+
+fn schema_of(columns: &[ColumnSpec]) -> SchemaRef {
+    Arc::new(Schema::new(
+        columns.iter().map(ColumnSpec::field).collect::<Vec<_>>(),
+    ))
+}
+
 impl ParquetTable {
+    /// A table whose batches stay in memory (the same columns, units and
+    /// types as the file): [`ParquetTable::into_batches`] gives them.
+    pub fn in_memory(columns: &[ColumnSpec]) -> Self {
+        ParquetTable {
+            destination: Destination::Memory(Vec::new()),
+            schema: schema_of(columns),
+            columns: columns
+                .iter()
+                .map(|c| ColumnBuilder::new(c.column_type))
+                .collect(),
+            rows_in_batch: 0,
+            rows: 0,
+            failed: None,
+        }
+    }
+
+    /// An in-memory table's schema and batches (a file's: none, its rows
+    /// are in the file).
+    pub fn into_batches(mut self) -> Result<(SchemaRef, Vec<RecordBatch>)> {
+        self.check()?;
+        self.write_batch()?;
+        match self.destination {
+            Destination::Memory(batches) => Ok((self.schema, batches)),
+            Destination::File { .. } => Ok((self.schema, Vec::new())),
+        }
+    }
+
     /// Starts a table in `output` with these columns; `comments` are the
     /// CSV's `#` lines (file metadata).
     pub fn new(output: Output, columns: &[ColumnSpec], comments: &[String]) -> Result<Self> {
-        let schema: SchemaRef = Arc::new(Schema::new(
-            columns.iter().map(ColumnSpec::field).collect::<Vec<_>>(),
-        ));
+        let schema = schema_of(columns);
         let rows_per_group = (ROW_GROUP_CELLS / columns.len().max(1)).clamp(BATCH_ROWS, 1 << 20);
         let mut properties = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))
@@ -192,7 +250,10 @@ impl ParquetTable {
         let writer = ArrowWriter::try_new(Vec::new(), schema.clone(), Some(properties.build()))
             .map_err(|e| parquet_error(&output, e))?;
         Ok(ParquetTable {
-            writer,
+            destination: Destination::File {
+                writer: Box::new(writer),
+                output,
+            },
             columns: columns
                 .iter()
                 .map(|c| ColumnBuilder::new(c.column_type))
@@ -200,7 +261,6 @@ impl ParquetTable {
             schema,
             rows_in_batch: 0,
             rows: 0,
-            output,
             failed: None,
         })
     }
@@ -256,7 +316,7 @@ impl ParquetTable {
             "bug: column {} ({}) of {} is not {what}",
             column,
             self.schema.field(column).name(),
-            self.output.name()
+            self.destination.name()
         )
     }
 
@@ -292,34 +352,42 @@ impl ParquetTable {
         let arrays: Vec<ArrayRef> = self.columns.iter_mut().map(ColumnBuilder::finish).collect();
         self.rows_in_batch = 0;
         let batch = RecordBatch::try_new(self.schema.clone(), arrays)
-            .map_err(|e| AcqError::Malformed(format!("{}: {e}", self.output.name())))?;
-        self.writer
-            .write(&batch)
-            .map_err(|e| parquet_error(&self.output, e))?;
-        self.pass_on_encoded()
-    }
-
-    /// Moves what the Parquet writer has encoded into the output, in order.
-    fn pass_on_encoded(&mut self) -> Result<()> {
-        let encoded = self.writer.inner_mut();
-        if !encoded.is_empty() {
-            self.output.buffer.append(encoded);
-            self.output.maybe_flush()?;
+            .map_err(|e| AcqError::Malformed(format!("{}: {e}", self.destination.name())))?;
+        match &mut self.destination {
+            Destination::File { writer, output } => {
+                writer.write(&batch).map_err(|e| parquet_error(output, e))?;
+                pass_on_encoded(writer, output)
+            }
+            Destination::Memory(batches) => {
+                batches.push(batch);
+                Ok(())
+            }
         }
-        Ok(())
     }
 
-    /// Writes the last rows and the footer, and completes the file.
+    /// Writes the last rows and the footer, and completes the file (an
+    /// in-memory table keeps its batches: [`ParquetTable::into_batches`]).
     pub fn finish(mut self) -> Result<u64> {
         self.check()?;
         self.write_batch()?;
-        self.writer
-            .finish()
-            .map_err(|e| parquet_error(&self.output, e))?;
-        self.pass_on_encoded()?;
-        self.output.finish()?;
+        if let Destination::File { writer, mut output } = self.destination {
+            let mut writer = *writer;
+            writer.finish().map_err(|e| parquet_error(&output, e))?;
+            pass_on_encoded(&mut writer, &mut output)?;
+            output.finish()?;
+        }
         Ok(self.rows)
     }
+}
+
+/// Moves what the Parquet writer has encoded into the output, in order.
+fn pass_on_encoded(writer: &mut ArrowWriter<Vec<u8>>, output: &mut Output) -> Result<()> {
+    let encoded = writer.inner_mut();
+    if !encoded.is_empty() {
+        output.buffer.append(encoded);
+        output.maybe_flush()?;
+    }
+    Ok(())
 }
 
 fn parquet_error(output: &Output, error: parquet::errors::ParquetError) -> AcqError {

@@ -1,0 +1,129 @@
+//! The Python package's binding, the extension module `acq._acq`: acq's
+//! libraries called from Python. Tables cross as Arrow record batches
+//! through the C data interface (pyarrow takes the buffers, nothing is
+//! copied or printed in between); everything else as plain values. It
+//! holds no logic of its own: what it calls is what the command line
+//! calls, and the package's Python side (`python/acq/`) only names and
+//! shapes the results.
+
+use std::path::{Path, PathBuf};
+
+use acq_analysis::decode::{decode_dbc_to_arrow, decode_rig_to_arrow, DbcDecodeOptions};
+use acq_analysis::recording::Recording;
+use acq_drivers::dbc::DbcDatabase;
+use acq_io::error::AcqError;
+use acq_io::input::{load_rig, open_logs, open_session_log, BadLines, LogInput};
+use acq_workflows::calibrate::external::{self, CalibrateExternalOptions};
+use arrow_pyarrow::{IntoPyArrow, Table};
+use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyValueError};
+use pyo3::prelude::*;
+
+/// acq's errors as Python's: a bad argument, rig or spec and malformed
+/// input are `ValueError`s (their messages name the file and line), a
+/// failed read or write an `OSError`, an interrupted run a
+/// `KeyboardInterrupt`.
+fn python_error(error: AcqError) -> PyErr {
+    let message = error.to_string();
+    match error {
+        AcqError::Config(_) | AcqError::Malformed(_) => PyValueError::new_err(message),
+        AcqError::Interrupted(_) => PyKeyboardInterrupt::new_err(message),
+        AcqError::Io { .. } => PyOSError::new_err(message),
+    }
+}
+
+/// The logs to read and the rig that decodes them: a session directory's
+/// raw logs and its copy of the rig (unless `rig` is given), else the log
+/// file itself.
+fn inputs_of(
+    log: &Path,
+    rig: Option<&Path>,
+) -> Result<(Vec<LogInput>, Option<acq_drivers::rig::Rig>), AcqError> {
+    if log.is_dir() {
+        let recording = Recording::open_session(log)?;
+        let inputs = recording
+            .logs
+            .iter()
+            .map(|path| open_session_log(path))
+            .collect::<Result<Vec<_>, _>>()?;
+        let rig = match rig {
+            Some(path) => load_rig(path)?,
+            None => recording.rig,
+        };
+        return Ok((inputs, Some(rig)));
+    }
+    let inputs = open_logs(&[log.to_path_buf()])?;
+    Ok((inputs, rig.map(load_rig).transpose()?))
+}
+
+/// Decodes a log (candump, ASC, BLF, MF4) or a session directory through a
+/// rig (`time_s`, `sensor`, `value`, `unit`) or DBC files (`time_s`,
+/// `iface`, `can_id`, `message`, `signal`, `value`, `unit`[, `label`]):
+/// the table `acq decode -o FILE.parquet` writes, as a `pyarrow.Table`.
+#[pyfunction]
+#[pyo3(signature = (log, rig=None, dbc=Vec::new(), labels=false, skip_bad=false))]
+fn decode(
+    py: Python<'_>,
+    log: PathBuf,
+    rig: Option<PathBuf>,
+    dbc: Vec<PathBuf>,
+    labels: bool,
+    skip_bad: bool,
+) -> PyResult<Py<PyAny>> {
+    let bad_lines = if skip_bad {
+        BadLines::Skip
+    } else {
+        BadLines::Stop
+    };
+    let decoded = py.detach(|| {
+        let (mut inputs, rig) = inputs_of(&log, rig.as_deref())?;
+        match (rig, dbc.is_empty()) {
+            (Some(rig), true) => decode_rig_to_arrow(&mut inputs, &rig, bad_lines),
+            (None, false) => {
+                let (database, _warnings) =
+                    DbcDatabase::load_all(&dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+                let options = DbcDecodeOptions { bad_lines, labels };
+                decode_dbc_to_arrow(&mut inputs, &database, options)
+            }
+            (Some(_), false) => Err(AcqError::Config(
+                "decode: give rig= or dbc=, not both (a session directory brings its rig)".into(),
+            )),
+            (None, true) => Err(AcqError::Config(format!(
+                "decode: {} is a log: give rig= (a rig file) or dbc= (DBC files) to decode it",
+                log.display()
+            ))),
+        }
+    });
+    let (schema, batches, _summary) = decoded.map_err(python_error)?;
+    let table =
+        Table::try_new(batches, schema).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(table.into_pyarrow(py)?.unbind())
+}
+
+/// Runs the study a spec describes into `out` (as `acq calibrate external
+/// --spec SPEC --out OUT`): its progress on the terminal, its files in
+/// `out`.
+#[pyfunction]
+#[pyo3(signature = (spec, out, seed=1, resume=false))]
+fn calibrate(py: Python<'_>, spec: PathBuf, out: PathBuf, seed: u64, resume: bool) -> PyResult<()> {
+    let options = CalibrateExternalOptions {
+        spec,
+        out,
+        resume,
+        seed,
+    };
+    py.detach(|| external::run(options)).map_err(python_error)
+}
+
+/// The package's version: acq's.
+#[pyfunction]
+fn version() -> &'static str {
+    env!("CARGO_PKG_VERSION")
+}
+
+#[pymodule]
+fn _acq(module: &Bound<'_, PyModule>) -> PyResult<()> {
+    module.add_function(wrap_pyfunction!(decode, module)?)?;
+    module.add_function(wrap_pyfunction!(calibrate, module)?)?;
+    module.add_function(wrap_pyfunction!(version, module)?)?;
+    Ok(())
+}

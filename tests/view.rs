@@ -272,10 +272,13 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
         changed_bytes_seen > 0,
         "no payload byte was shown changing live"
     );
+    let (status, _, body) = http(&addr, "GET", "/api/frames", None);
+    assert_eq!(status, 200);
+    let traced: Value = serde_json::from_str(&body).unwrap();
     for (k, session) in state["sessions"].as_array().unwrap().iter().enumerate() {
         let name = &session["name"];
         assert_eq!(session["frames_not_shown"], 0, "{session}");
-        let rows: Vec<&Value> = state["frames"]
+        let rows: Vec<&Value> = traced["frames"]
             .as_array()
             .unwrap()
             .iter()

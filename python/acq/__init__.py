@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
-from typing import Any, Dict, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Union
 
 import pyarrow as pa
 import pyarrow.csv as pa_csv
@@ -65,10 +65,13 @@ def decode(
     )
 
 
+ModelFunction = Callable[[Dict[str, float]], Mapping[str, Any]]
+
+
 def calibrate(
     spec: PathLike,
     out: PathLike,
-    model: Any = None,
+    model: Optional[ModelFunction] = None,
     *,
     seed: int = 1,
     resume: bool = False,
@@ -80,14 +83,14 @@ def calibrate(
     ``summary.json`` at the end; ``resume=True`` continues a run directory
     without repeating its runs. Returns the finished :class:`Run`.
 
-    ``model`` (a Python callable as the model) is not available yet: the
-    spec's ``command`` (or built-in model) runs.
+    ``model``: a Python function as the model, called in this process. It
+    takes the parameters and the case's inputs as a dict of floats and
+    returns a dict with every output the spec observes: a float, or for a
+    curve a pair ``(x, y)`` of sequences. The spec then needs no
+    ``command`` (one it has is not run). An exception in it is a failed
+    run, its traceback in the log's ``reason``; the study goes on.
     """
-    if model is not None:
-        raise NotImplementedError(
-            "calibrate(model=callable) is not available yet: give the spec a command"
-        )
-    _acq.calibrate(os.fspath(spec), os.fspath(out), seed, resume)
+    _acq.calibrate(os.fspath(spec), os.fspath(out), seed, resume, model)
     return Run(out)
 
 

@@ -13,10 +13,12 @@ use acq_analysis::recording::Recording;
 use acq_drivers::dbc::DbcDatabase;
 use acq_io::error::AcqError;
 use acq_io::input::{load_rig, open_logs, open_session_log, BadLines, LogInput};
+use acq_study::study::{Model, ModelRun};
 use acq_workflows::calibrate::external::{self, CalibrateExternalOptions};
 use arrow_pyarrow::{IntoPyArrow, Table};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 /// acq's errors as Python's: a bad argument, rig or spec and malformed
 /// input are `ValueError`s (their messages name the file and line), a
@@ -99,19 +101,110 @@ fn decode(
     Ok(table.into_pyarrow(py)?.unbind())
 }
 
+/// A Python callable as the study's model: called with the parameters and
+/// the case's inputs as a dict of floats, it returns a dict of outputs (a
+/// float, or for a curve a pair of sequences x and y). An exception is a
+/// failed run, its traceback the log's reason.
+struct PythonModel {
+    callable: Py<PyAny>,
+}
+
+impl PythonModel {
+    fn call(
+        &self,
+        py: Python<'_>,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> PyResult<ModelRun> {
+        let arguments = PyDict::new(py);
+        for (name, value) in inputs {
+            arguments.set_item(name, value)?;
+        }
+        let outputs = self.callable.bind(py).call1((arguments,))?;
+        let output = |name: &str| {
+            outputs.get_item(name).map_err(|_| {
+                PyValueError::new_err(format!(
+                    "the model returned no output {name:?}: return a dict with a value for every output the spec observes"
+                ))
+            })
+        };
+        let scalars = scalars
+            .iter()
+            .map(|name| output(name)?.extract::<f64>())
+            .collect::<PyResult<Vec<f64>>>()?;
+        let curves = curves
+            .iter()
+            .map(|name| {
+                let curve = output(name)?;
+                let x: Vec<f64> = curve.get_item(0)?.extract()?;
+                let y: Vec<f64> = curve.get_item(1)?.extract()?;
+                if x.len() != y.len() {
+                    return Err(PyValueError::new_err(format!(
+                        "curve {name:?}: {} x values and {} y values",
+                        x.len(),
+                        y.len()
+                    )));
+                }
+                Ok(x.into_iter().zip(y).collect())
+            })
+            .collect::<PyResult<Vec<Vec<(f64, f64)>>>>()?;
+        Ok(ModelRun { scalars, curves })
+    }
+}
+
+impl Model for PythonModel {
+    fn run(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Result<ModelRun, String> {
+        Python::attach(|py| {
+            self.call(py, inputs, scalars, curves).map_err(|error| {
+                let traceback = error
+                    .traceback(py)
+                    .and_then(|t| t.format().ok())
+                    .unwrap_or_default();
+                format!("Python: {traceback}{error}")
+            })
+        })
+    }
+}
+
 /// Runs the study a spec describes into `out` (as `acq calibrate external
 /// --spec SPEC --out OUT`): its progress on the terminal, its files in
-/// `out`.
+/// `out`. With `model`, a Python callable is the model and the spec's
+/// command (if any) is not run.
 #[pyfunction]
-#[pyo3(signature = (spec, out, seed=1, resume=false))]
-fn calibrate(py: Python<'_>, spec: PathBuf, out: PathBuf, seed: u64, resume: bool) -> PyResult<()> {
+#[pyo3(signature = (spec, out, seed=1, resume=false, model=None))]
+fn calibrate(
+    py: Python<'_>,
+    spec: PathBuf,
+    out: PathBuf,
+    seed: u64,
+    resume: bool,
+    model: Option<Py<PyAny>>,
+) -> PyResult<()> {
     let options = CalibrateExternalOptions {
         spec,
         out,
         resume,
         seed,
     };
-    py.detach(|| external::run(options)).map_err(python_error)
+    match model {
+        None => py.detach(|| external::run(options)),
+        Some(callable) => {
+            let name = callable
+                .bind(py)
+                .getattr("__qualname__")
+                .and_then(|n| n.extract::<String>())
+                .unwrap_or_else(|_| "a Python callable".into());
+            let model = PythonModel { callable };
+            py.detach(|| external::run_with_model(options, &model, &format!("Python: {name}")))
+        }
+    }
+    .map_err(python_error)
 }
 
 /// The package's version: acq's.

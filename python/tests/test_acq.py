@@ -88,6 +88,13 @@ def spring_run(tmp_path_factory: pytest.TempPathFactory) -> "acq.Run":
     example = tmp_path_factory.mktemp("example")
     for name in ("spec.toml", "spring.sh"):
         shutil.copy(REPO / "examples/validation" / name, example / name)
+    # One run at a time: runs at once finish in either order, and the
+    # search fits its GP to the log in that order; one at a time, two
+    # models that compute the same numbers take the same path.
+    spec = example / "spec.toml"
+    text = spec.read_text()
+    assert "parallel = 2" in text
+    spec.write_text(text.replace("parallel = 2", "parallel = 1"))
     return acq.calibrate(example / "spec.toml", out=example / "run")
 
 
@@ -118,3 +125,57 @@ def test_the_posterior_as_arviz_matches_the_summary(spring_run: "acq.Run") -> No
     first = names[0]
     column = posterior.column(first).to_pylist()
     assert float(idata.posterior[first][0, 0]) == column[0]
+
+
+def spring(inputs: dict) -> dict:
+    """spring.sh in Python: a seated spring's deflection at two loads."""
+    k, d = inputs["k_kn_per_mm"], inputs["offset_mm"]
+    f1, f2, s = inputs["f_low_kn"], inputs["f_high_kn"], inputs["softening_per_kn"]
+    return {"u_low_mm": f1 / k + d + s * f1 * f1, "u_high_mm": f2 / k + d + s * f2 * f2}
+
+
+def runs_of(run: "acq.Run") -> list:
+    """The log's runs as (case, parameters, outputs) rows, in a fixed order
+    (parallel runs finish in either order)."""
+    table = run.evaluations.to_pylist()
+    keep = [c for c in run.evaluations.column_names if c not in ("id", "status", "wall_s", "reason")]
+    assert all(row["status"] == "ok" for row in table)
+    return sorted(tuple(float(row[c]) for c in keep) for row in table)
+
+
+def test_a_python_model_is_the_command_run_for_run(
+    spring_run: "acq.Run", tmp_path: Path
+) -> None:
+    run = acq.calibrate(spring_run.path.parent / "spec.toml", out=tmp_path / "python", model=spring)
+    python_runs, command_runs = runs_of(run), runs_of(spring_run)
+    assert len(python_runs) == len(command_runs) > 20
+    for ours, theirs in zip(python_runs, command_runs):
+        assert ours == pytest.approx(theirs, rel=1e-12), (ours, theirs)
+    assert run.summary["posterior"].keys() == spring_run.summary["posterior"].keys()
+
+
+def test_an_exception_in_the_model_is_a_failed_run_with_its_traceback(
+    spring_run: "acq.Run", tmp_path: Path
+) -> None:
+    def stiff_only(inputs: dict) -> dict:
+        if inputs["k_kn_per_mm"] < 1.5:
+            raise ZeroDivisionError("too soft for this model")
+        return spring(inputs)
+
+    run = acq.calibrate(spring_run.path.parent / "spec.toml", out=tmp_path / "failing", model=stiff_only)
+    reasons = [r for r in run.evaluations.column("reason").to_pylist() if r]
+    assert reasons, "the latin hypercube puts one of its 8 runs below k = 1.5"
+    for reason in reasons:
+        assert "Traceback (most recent call last)" in reason
+        assert "ZeroDivisionError: too soft for this model" in reason
+        assert "stiff_only" in reason
+
+
+def test_a_model_that_misses_an_output_says_which(spring_run: "acq.Run", tmp_path: Path) -> None:
+    run = acq.calibrate(
+        spring_run.path.parent / "spec.toml",
+        out=tmp_path / "missing",
+        model=lambda inputs: spring(inputs) if inputs["k_kn_per_mm"] < 4.0 else {"u_low_mm": 1.0},
+    )
+    reasons = set(run.evaluations.column("reason").to_pylist())
+    assert any('ValueError: the model returned no output "u_high_mm"' in (r or "") for r in reasons), reasons

@@ -760,8 +760,7 @@
         }
       }
       s.state = { info, sensors: sessionSensors(state, info, several),
-        buses: state.buses.filter((b) => !several || b.session === info.name), holds,
-        frames: (state.frames || []).filter((f) => !several || f.session === info.name) };
+        buses: state.buses.filter((b) => !several || b.session === info.name), holds };
     });
     renderStudy(state.study);
     renderTablesSoon();
@@ -851,7 +850,7 @@
       t.holdsKey = holdsKey;
       renderHolds(t.holds.body, holds);
     }
-    renderFrames(s, t, s.state.frames, info.frames_not_listed);
+    if (s.frames) renderFrames(s, t, s.frames, info.frames_not_listed);
     const notes = [];
     if (s.holdsNote) notes.push(el('p', { class: 'note', text: s.holdsNote }));
     if (info.load_sensor) notes.push(el('p', { class: 'note', text: `holds: steady stretches of ${info.load_sensor}, found as acq extract finds them` }));
@@ -905,6 +904,22 @@
       t.framesOpened = true;
       t.framesBox.open = frames.length <= 40;
     }
+  }
+
+  // The raw frames are read, not pushed: once a second while a session
+  // records and its trace is open (or not yet shown), and once for a
+  // recorded one.
+  async function refreshFrames() {
+    const wanted = view.sessions.filter((s) => (s.live || !s.framesRead)
+      && (!s.tableParts || s.tableParts.framesOpened === undefined || s.tableParts.framesBox.open));
+    if (!wanted.length) return;
+    const { frames } = await getJson('/api/frames');
+    const several = view.sessions.length > 1;
+    for (const s of view.sessions) {
+      s.frames = frames.filter((f) => !several || f.session === s.name);
+      s.framesRead = true;
+    }
+    renderTablesSoon();
   }
 
   // Round tick values (1, 2 or 5 times a power of ten) covering lo..hi.
@@ -1103,6 +1118,8 @@
       updateMode(s);
     }
     await refreshXy();
+    await refreshFrames().catch(() => {});
+    setInterval(() => { refreshFrames().catch(() => {}); }, 1000);
     const connection = document.getElementById('connection');
     if (!view.sessions.some((s) => s.live)) {
       const ended = state.sessions.map((info) => info.ended).filter(Boolean);

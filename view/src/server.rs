@@ -254,6 +254,7 @@ pub async fn serve(
         .route("/api/state", get(state))
         .route("/api/series", get(series))
         .route("/api/xy", get(xy))
+        .route("/api/frames", get(frames))
         .route("/api/events", get(events))
         .layer(middleware::from_fn_with_state(app.clone(), guard))
         .with_state(app);
@@ -410,7 +411,6 @@ fn lock(session: &SharedSession) -> std::sync::MutexGuard<'_, crate::model::Sess
 fn state_json(app: &App, with_holds: bool) -> Value {
     let several = app.sessions.len() > 1;
     let (mut sessions, mut sensors, mut buses, mut holds) = (vec![], vec![], vec![], vec![]);
-    let mut frames = vec![];
     for shared in app.sessions.iter() {
         let view = lock(shared);
         let tag = several.then_some(view.name.as_str());
@@ -429,7 +429,6 @@ fn state_json(app: &App, with_holds: bool) -> Value {
         }));
         sensors.extend(view.sensors_json(tag));
         buses.extend(view.buses_json(tag));
-        frames.extend(view.frames_json(tag));
         if with_holds {
             holds.extend(view.holds_json(tag));
         }
@@ -438,7 +437,6 @@ fn state_json(app: &App, with_holds: bool) -> Value {
         "sessions": sessions,
         "sensors": sensors,
         "buses": buses,
-        "frames": frames,
         "viewers": app.viewers.load(Ordering::Relaxed),
         "layout": *app.layout,
     });
@@ -502,6 +500,20 @@ async fn xy(State(app): State<App>, Query(query): Query<HashMap<String, String>>
         Some(shared) => axum::Json(lock(shared).xy_json()).into_response(),
         None => refuse(StatusCode::NOT_FOUND, "no such session"),
     }
+}
+
+/// The raw frames of every session, one row per bus and id: asked for by
+/// a page that shows them (once a second while the trace is open), never
+/// pushed with every update (a bus of random ids has 2,048 rows, and ten
+/// viewers on a busy rig would carry them ten times a second).
+async fn frames(State(app): State<App>) -> Response {
+    let several = app.sessions.len() > 1;
+    let mut rows = Vec::new();
+    for shared in app.sessions.iter() {
+        let view = lock(shared);
+        rows.extend(view.frames_json(several.then_some(view.name.as_str())));
+    }
+    axum::Json(json!({ "frames": rows })).into_response()
 }
 
 /// Counts a viewer while its event stream lives.

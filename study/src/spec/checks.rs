@@ -18,9 +18,18 @@ use crate::surrogate_moo::Pick;
 
 /// `model` and the keys that belong to it: a command, or the built-in
 /// twin's geometry.
-pub fn model(file: &SpecFile) -> Result<ModelKind, SpecProblem> {
+pub fn model(file: &SpecFile, given: bool) -> Result<ModelKind, SpecProblem> {
     let problem = |message: &str| Err(SpecProblem::file(message));
     match file.model {
+        ModelName::Command if given && file.geometry.is_some() => problem(
+            "geometry belongs to model = \"excavator\"; a model given to the study reads its own",
+        ),
+        // The caller's model takes the command's place: one spec serves
+        // both, so the two can be compared run for run.
+        ModelName::Command if given => Ok(ModelKind::Given),
+        ModelName::Excavator if given => problem(
+            "model = \"excavator\" runs the built-in twin: leave out the model given to the study, or model = \"excavator\"",
+        ),
         ModelName::Command if file.command.is_empty() => {
             problem("command is empty; give the program and its arguments")
         }

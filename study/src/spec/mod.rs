@@ -188,7 +188,7 @@ fn emulator_has_runs(
         // Its training runs alone are checked against its own minimum.
         MethodName::SurrogateMoo => return Ok(()),
     };
-    if matches!(model, ModelKind::Command(_)) && budget < needed {
+    if matches!(model, ModelKind::Command(_) | ModelKind::Given) && budget < needed {
         return Err(SpecProblem::file(format!(
             "[posterior] samples on an emulator of the search's runs, which needs at least {needed} (one per parameter and two more); search.max_evals = {budget} leaves fewer: raise it to {needed} or more"
         )));
@@ -200,10 +200,21 @@ impl Spec {
     /// Reads and checks a spec and the measured files it names; errors
     /// name the file (and the line of the table at fault) and what to fix.
     pub fn load(path: &Path) -> Result<Spec, SpecError> {
+        Self::load_for(path, false)
+    }
+
+    /// [`Spec::load`] for a study whose caller brings the model (the
+    /// Python package's `model=`): the spec needs no `command`, and one it
+    /// has is not run.
+    pub fn load_with_given_model(path: &Path) -> Result<Spec, SpecError> {
+        Self::load_for(path, true)
+    }
+
+    fn load_for(path: &Path, given: bool) -> Result<Spec, SpecError> {
         let (text, file) = read_spec_file(path)?;
         let located = |problem: SpecProblem| problem.located(path, &text);
         let directory = spec_directory(path);
-        let model = checks::model(&file).map_err(located)?;
+        let model = checks::model(&file, given).map_err(located)?;
         checks::emulator(&file).map_err(located)?;
         checks::observations_given(&file).map_err(located)?;
         checks::runs(&file).map_err(located)?;

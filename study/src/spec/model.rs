@@ -1,5 +1,5 @@
 //! The model a spec calibrates, as checked: a user's solver run as a
-//! command, or a built-in twin.
+//! command, a built-in twin, or a model its caller brings.
 
 use super::schema::CurveSpec;
 
@@ -14,6 +14,9 @@ pub enum ModelKind {
         geometry: Option<String>,
         refit_poses: bool,
     },
+    /// A model the caller brings (a Python function, through the Python
+    /// package): the spec's command, if it has one, is not run.
+    Given,
 }
 
 /// How a user's solver is run and read.

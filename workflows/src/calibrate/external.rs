@@ -20,7 +20,7 @@ use acq_study::run_directory::{write_text, RunDirectory};
 use acq_study::saved_emulator::{rows_of_study, SavedEmulator};
 use acq_study::spec::schema::{ExecutorKind, ExecutorSpec};
 use acq_study::spec::{ModelKind, Spec};
-use acq_study::study::Study;
+use acq_study::study::{Model, Study};
 use acq_study::study_runner::{check_at_nominal, run_study};
 
 #[derive(Clone, Debug)]
@@ -35,7 +35,26 @@ pub struct CalibrateExternalOptions {
 }
 
 pub fn run(args: CalibrateExternalOptions) -> Result<()> {
-    let spec = Spec::load(&args.spec)?;
+    run_spec(&args, Spec::load(&args.spec)?, None)
+}
+
+/// A study of a model the caller brings (the Python package's `model=`,
+/// named `name` in the report): the spec's cases, observations, search
+/// and posterior on `model`; the spec needs no command, and one it has is
+/// not run.
+pub fn run_with_model(args: CalibrateExternalOptions, model: &dyn Model, name: &str) -> Result<()> {
+    run_spec(
+        &args,
+        Spec::load_with_given_model(&args.spec)?,
+        Some((model, name)),
+    )
+}
+
+fn run_spec(
+    args: &CalibrateExternalOptions,
+    spec: Spec,
+    given: Option<(&dyn Model, &str)>,
+) -> Result<()> {
     let method = spec.method(args.seed);
     let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
     // The start design is read before the run directory exists: a refused
@@ -91,6 +110,23 @@ pub fn run(args: CalibrateExternalOptions) -> Result<()> {
             };
             run_study(
                 study, &model, &method, initial, &directory, &settings, &extras,
+            )?;
+        }
+        ModelKind::Given => {
+            let Some((model, name)) = given else {
+                return Err(AcqError::Config(format!(
+                    "{}: a spec for a given model was read without one",
+                    args.spec.display()
+                )));
+            };
+            let directory = RunDirectory::create(&args.out)?;
+            let extras = EmulatorExtras {
+                save: spec.save_emulator.clone(),
+                model: name.to_string(),
+                seed: args.seed,
+            };
+            run_study(
+                study, model, &method, initial, &directory, &settings, &extras,
             )?;
         }
     }

@@ -350,7 +350,7 @@ fn what_the_rig_runs(file: &SpecFile) -> Result<(&HoldsSpec, Option<String>), Sp
                 ))
             }
             (ModelName::Excavator, None) => {
-                checks::model(file)?;
+                checks::model(file, false)?;
             }
             (ModelName::Command, None) => {
                 return Err(SpecProblem::file(

@@ -83,7 +83,14 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // libraries a notebook calls.
     (
         "acq-python",
-        &["acq-drivers", "acq-io", "acq-analysis", "acq-workflows"],
+        &[
+            "acq-calib",
+            "acq-drivers",
+            "acq-io",
+            "acq-analysis",
+            "acq-study",
+            "acq-workflows",
+        ],
     ),
     // The binary is glue over all of them.
     (

@@ -185,6 +185,11 @@ pub struct Evaluation {
 pub enum EvaluationError {
     #[error("{0}")]
     Setup(String),
+    /// [`request_stop`] was called: every finished run is in the log.
+    #[error(
+        "stopped on request; every finished run is in the log, and resuming continues from there"
+    )]
+    Stopped,
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -273,6 +278,27 @@ impl Log {
         // A whole line survives a power cut, not just a crash.
         self.file.sync_data().map_err(io)
     }
+}
+
+/// Set by [`request_stop`]: no evaluator starts another run.
+static STOP_REQUESTED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Asks every evaluator to start no further run and to end with
+/// [`EvaluationError::Stopped`] once the runs under way are done (a run
+/// that fails after the request is not logged: it was cut short, and a
+/// resumed study runs it again). For a host that cannot end the process
+/// on Ctrl-C, as the command line does: a Python session.
+pub fn request_stop() {
+    STOP_REQUESTED.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
+/// Takes back [`request_stop`], before the next study starts.
+pub fn clear_stop_request() {
+    STOP_REQUESTED.store(false, std::sync::atomic::Ordering::SeqCst);
+}
+
+fn stop_requested() -> bool {
+    STOP_REQUESTED.load(std::sync::atomic::Ordering::SeqCst)
 }
 
 /// Runs a simulator on batches of points, in parallel, logging each result.
@@ -449,11 +475,24 @@ impl<'a> Evaluator<'a> {
         std::thread::scope(|scope| {
             for _ in 0..workers {
                 scope.spawn(|| {
+                    let stopped = || {
+                        if let Ok(mut slot) = failure.lock() {
+                            slot.get_or_insert(EvaluationError::Stopped);
+                        }
+                    };
                     while let Some(index) = queue.lock().map_or(None, |mut q| q.next()) {
+                        if stop_requested() {
+                            stopped();
+                            break;
+                        }
                         let point = &points[index];
                         let start = Instant::now();
                         let (outcome, notes) = run_simulator(self.simulator, point);
                         let wall_s = start.elapsed().as_secs_f64();
+                        if outcome.is_err() && stop_requested() {
+                            stopped();
+                            break;
+                        }
                         // The id and the log line are taken together so the log
                         // is in id order.
                         let Ok(mut id) = next_id.lock() else { break };
@@ -595,6 +634,9 @@ impl AsyncRuns<'_, '_> {
 
     /// Starts `point` (answered from the log when it is there).
     pub fn start(&mut self, point: Vec<f64>) -> Result<(), EvaluationError> {
+        if stop_requested() {
+            return Err(EvaluationError::Stopped);
+        }
         let n_parameters = self.evaluator.simulator.parameters().len();
         if point.len() != n_parameters {
             return Err(EvaluationError::Setup(format!(
@@ -653,6 +695,9 @@ impl AsyncRuns<'_, '_> {
                 let (ticket, outcome, wall_s, notes) = self.results.recv().map_err(|_| {
                     EvaluationError::Setup("the evaluation workers stopped unexpectedly".into())
                 })?;
+                if outcome.is_err() && stop_requested() {
+                    return Err(EvaluationError::Stopped);
+                }
                 let index = self
                     .in_flight
                     .iter()

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 
 use acq_analysis::decode::{decode_dbc_to_arrow, decode_rig_to_arrow, DbcDecodeOptions};
 use acq_analysis::recording::Recording;
+use acq_calib::evaluation::{clear_stop_request, request_stop};
 use acq_drivers::dbc::DbcDatabase;
 use acq_io::error::AcqError;
 use acq_io::input::{load_rig, open_logs, open_session_log, BadLines, LogInput};
@@ -162,6 +163,11 @@ impl Model for PythonModel {
     ) -> Result<ModelRun, String> {
         Python::attach(|py| {
             self.call(py, inputs, scalars, curves).map_err(|error| {
+                // The function itself ended with KeyboardInterrupt: the
+                // user wants the study to stop, not a failed run.
+                if error.is_instance_of::<PyKeyboardInterrupt>(py) {
+                    request_stop();
+                }
                 let traceback = error
                     .traceback(py)
                     .and_then(|t| t.format().ok())
@@ -192,8 +198,9 @@ fn calibrate(
         resume,
         seed,
     };
-    match model {
-        None => py.detach(|| external::run(options)),
+    let out_dir = options.out.display().to_string();
+    let result = match model {
+        None => until_done_or_interrupted(py, || external::run(options)),
         Some(callable) => {
             let name = callable
                 .bind(py)
@@ -201,10 +208,39 @@ fn calibrate(
                 .and_then(|n| n.extract::<String>())
                 .unwrap_or_else(|_| "a Python callable".into());
             let model = PythonModel { callable };
-            py.detach(|| external::run_with_model(options, &model, &format!("Python: {name}")))
+            let name = format!("Python: {name}");
+            until_done_or_interrupted(py, || external::run_with_model(options, &model, &name))
         }
-    }
-    .map_err(python_error)
+    };
+    result.map_err(|error| match error {
+        AcqError::Interrupted(_) => PyKeyboardInterrupt::new_err(format!(
+            "the study stopped; every finished run is in {out_dir}/evaluations.csv: calibrate(..., resume=True) continues it"
+        )),
+        other => python_error(other),
+    })
+}
+
+/// Runs `work` (a study) on a thread of its own while this one, which
+/// Python's signals reach, looks for Ctrl-C every 100 ms: then the study
+/// starts no further run, the runs under way finish and are logged, and
+/// the study ends as interrupted (resumable).
+fn until_done_or_interrupted<W>(py: Python<'_>, work: W) -> Result<(), AcqError>
+where
+    W: FnOnce() -> Result<(), AcqError> + Send,
+{
+    clear_stop_request();
+    let result = std::thread::scope(|scope| {
+        let study = scope.spawn(work);
+        while !study.is_finished() {
+            if py.check_signals().is_err() {
+                request_stop();
+            }
+            py.detach(|| std::thread::sleep(std::time::Duration::from_millis(100)));
+        }
+        study.join()
+    });
+    clear_stop_request();
+    result.unwrap_or_else(|_| Err(AcqError::Config("the study's thread panicked".into())))
 }
 
 /// The package's version: acq's.

@@ -179,3 +179,29 @@ def test_a_model_that_misses_an_output_says_which(spring_run: "acq.Run", tmp_pat
     )
     reasons = set(run.evaluations.column("reason").to_pylist())
     assert any('ValueError: the model returned no output "u_high_mm"' in (r or "") for r in reasons), reasons
+
+
+def test_ctrl_c_stops_the_study_and_resume_finishes_it_as_if_never_stopped(
+    spring_run: "acq.Run", tmp_path: Path
+) -> None:
+    import signal
+    import threading
+    import time
+
+    def slow_spring(inputs: dict) -> dict:
+        time.sleep(0.05)
+        return spring(inputs)
+
+    spec = spring_run.path.parent / "spec.toml"
+    out = tmp_path / "interrupted"
+    # Ctrl-C, as a notebook's interrupt button sends it, into a running study.
+    timer = threading.Timer(0.6, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    with pytest.raises(KeyboardInterrupt, match="resume=True"):
+        acq.calibrate(spec, out=out, model=slow_spring)
+    timer.join()
+    logged = (out / "evaluations.csv").read_text().splitlines()
+    assert 2 <= len(logged) < 31, "stopped inside the search, its finished runs logged"
+    assert not (out / "summary.json").exists()
+    resumed = acq.calibrate(spec, out=out, model=slow_spring, resume=True)
+    assert runs_of(resumed) == runs_of(spring_run), "the same runs as a study never stopped"

@@ -51,6 +51,7 @@ pub fn write_text(path: &Path, text: &str) -> Result<()> {
 pub fn evaluation_error(error: EvaluationError) -> AcqError {
     match error {
         EvaluationError::Io { path, source } => AcqError::io(path.display().to_string(), source),
+        EvaluationError::Stopped => AcqError::Interrupted(EvaluationError::Stopped.to_string()),
         other => AcqError::Config(other.to_string()),
     }
 }

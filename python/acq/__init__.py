@@ -33,7 +33,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 
 def decode(
-    log: PathLike,
+    log_path: PathLike,
     rig: Optional[PathLike] = None,
     dbc: Union[PathLike, Sequence[PathLike], None] = None,
     *,
@@ -57,7 +57,7 @@ def decode(
     else:
         dbc_files = [os.fspath(d) for d in dbc]
     return _acq.decode(
-        os.fspath(log),
+        os.fspath(log_path),
         None if rig is None else os.fspath(rig),
         dbc_files,
         labels,
@@ -69,14 +69,14 @@ ModelFunction = Callable[[Dict[str, float]], Mapping[str, Any]]
 
 
 def calibrate(
-    spec: PathLike,
+    spec_path: PathLike,
     out: PathLike,
     model: Optional[ModelFunction] = None,
     *,
     seed: int = 1,
     resume: bool = False,
 ) -> "Run":
-    """Run the study ``spec`` (TOML) describes into the directory ``out``.
+    """Run the study ``spec_path`` (TOML) describes into the directory ``out``.
 
     As ``acq calibrate external --spec SPEC --out OUT``: progress on the
     terminal, every run logged in ``out/evaluations.csv``, the report and
@@ -90,7 +90,7 @@ def calibrate(
     ``command`` (one it has is not run). An exception in it is a failed
     run, its traceback in the log's ``reason``; the study goes on.
     """
-    _acq.calibrate(os.fspath(spec), os.fspath(out), seed, resume, model)
+    _acq.calibrate(os.fspath(spec_path), os.fspath(out), seed, resume, model)
     return Run(out)
 
 

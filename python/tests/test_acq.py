@@ -48,6 +48,8 @@ def test_decode_through_a_rig_is_the_clis_parquet(tmp_path: Path) -> None:
     assert plain(table).equals(plain(cli))
     # A session directory brings its own rig: the same table.
     assert acq.decode(SESSION).equals(table)
+    # The interface as the issue writes it: keywords included.
+    assert acq.decode(log_path=raw, rig=RIG).equals(table)
     # Units as the rig gives them, and pandas reads it as it is.
     frame = table.to_pandas()
     assert set(frame.loc[frame.sensor == "tip_force", "unit"]) == {"kN"}
@@ -146,7 +148,14 @@ def runs_of(run: "acq.Run") -> list:
 def test_a_python_model_is_the_command_run_for_run(
     spring_run: "acq.Run", tmp_path: Path
 ) -> None:
-    run = acq.calibrate(spring_run.path.parent / "spec.toml", out=tmp_path / "python", model=spring)
+    # The spec without its command: a model given to the study needs none.
+    text = (spring_run.path.parent / "spec.toml").read_text()
+    kept = [l for l in text.splitlines() if not l.startswith(("command", "output_file", "copy_files"))]
+    spec = tmp_path / "spec.toml"
+    spec.write_text("\n".join(kept) + "\n")
+    with pytest.raises(ValueError, match="command is empty"):
+        acq.calibrate(spec, out=tmp_path / "no-model")
+    run = acq.calibrate(spec_path=spec, out=tmp_path / "python", model=spring)
     python_runs, command_runs = runs_of(run), runs_of(spring_run)
     assert len(python_runs) == len(command_runs) > 20
     for ours, theirs in zip(python_runs, command_runs):

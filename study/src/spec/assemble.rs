@@ -11,11 +11,13 @@ use super::observations::{
     case_observation, measured_curve, metric_of, scalar, scoreable, weight_of,
 };
 use super::problem::SpecProblem;
-use super::schema::{ModelName, SpecFile};
+use super::schema::SpecFile;
 use crate::study::{Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter};
 
-/// The study of a spec whose sections have passed [`super::checks`].
-pub fn study(file: &SpecFile, spec_directory: &Path) -> Result<Study, SpecProblem> {
+/// The study of a spec whose sections have passed [`super::checks`];
+/// `command`: its model is the spec's command (which needs its
+/// `output_file`), not a built-in twin or a model the caller brings.
+pub fn study(file: &SpecFile, spec_directory: &Path, command: bool) -> Result<Study, SpecProblem> {
     let mut cases = if file.cases.is_empty() {
         vec![implicit_case(file, spec_directory)?]
     } else {
@@ -31,7 +33,7 @@ pub fn study(file: &SpecFile, spec_directory: &Path) -> Result<Study, SpecProble
             .iter()
             .any(|o| matches!(o.measured, Measured::Scalar { .. }))
     });
-    if needs_output_file && file.output_file.is_empty() && file.model == ModelName::Command {
+    if needs_output_file && file.output_file.is_empty() && command {
         return Err(SpecProblem::file(
             "output_file: name the file the command writes its outputs to",
         ));

@@ -222,7 +222,8 @@ impl Spec {
         checks::files(&file, &directory).map_err(located)?;
         checks::search(&file.search).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
-        let study = assemble::study(&file, &directory).map_err(located)?;
+        let command = matches!(model, ModelKind::Command(_));
+        let study = assemble::study(&file, &directory, command).map_err(located)?;
         let fit = study.observations(crate::study::Role::Fit);
         if !fit.is_empty() && fit.iter().all(|(case, o)| case.priors || o.weight == 0.0) {
             return Err(located(SpecProblem::file(

@@ -202,6 +202,7 @@ fn emulated_eight_parameters() {
             spec_directory: dir.path(),
             parallel: 1,
             resume: false,
+            progress: None,
             posterior: Some(PosteriorSettings {
                 predictive_runs: 10,
                 seed: 3,

@@ -89,6 +89,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-io",
             "acq-analysis",
             "acq-study",
+            "acq-twins",
             "acq-workflows",
         ],
     ),

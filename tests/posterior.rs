@@ -213,6 +213,7 @@ fn line_in_process(
             parallel: 1,
             resume: false,
             posterior: Some(posterior),
+            progress: None,
         },
         &NoExtras,
     )
@@ -881,6 +882,7 @@ fn the_emulated_posterior_matches_the_direct_one() {
                 spec_directory: dir.path(),
                 parallel: 1,
                 resume: false,
+                progress: None,
                 // 4 x 10,000 draws: each quantile's Monte-Carlo error is
                 // then about 2 % of the sd, so the difference measures
                 // the emulator, not the sampling.

@@ -18,11 +18,12 @@ const PACKAGES: &[&str] = &[
     "arviz==0.23.4",
     "pytest==9.2.0",
     "mypy==2.4.1",
+    "tqdm==4.70.1",
 ];
 
 #[test]
 fn pip_installs_the_package_and_its_checks_pass() {
-    let python = common::scratch_python("acq-python-package-1", PACKAGES);
+    let python = common::scratch_python("acq-python-package-2", PACKAGES);
     let installed = Command::new(&python)
         .args([
             "-m",
@@ -65,7 +66,7 @@ fn pip_installs_the_package_and_its_checks_pass() {
     );
     // Every check ran (none skipped for a missing tool).
     assert!(
-        said.contains("9 passed") && !said.contains("skipped"),
+        said.contains("17 passed") && !said.contains("skipped"),
         "{said}"
     );
 

@@ -20,15 +20,13 @@ use acq_drivers::LogRecord;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
 use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
-use acq_io::parquet_table::{
-    ArrowBatch as RecordBatch, ArrowSchema as SchemaRef, ColumnSpec, ColumnType, ParquetTable,
-};
+use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 
 /// The fixed header of the DBC route.
 pub const DBC_HEADER: &str = "time_s,iface,can_id,message,signal,value,unit";
 
 /// What a decode run saw; printed to stderr as the summary.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct DecodeSummary {
     pub scan: ScanCounts,
     /// Frames with at least one value written.
@@ -40,6 +38,9 @@ pub struct DecodeSummary {
     pub error_frames: u64,
     pub remote_frames: u64,
     pub rows: u64,
+    /// What the devices said of themselves (CANopen heartbeats: a node's
+    /// state changed, or it fell silent), in time order, for the user.
+    pub notes: Vec<String>,
 }
 
 impl DecodeSummary {
@@ -157,16 +158,15 @@ impl DbcParquet {
         })
     }
 
-    /// The same table kept in memory as Arrow record batches.
-    pub fn in_memory(database: &DbcDatabase, labels: bool) -> Result<Self> {
+    /// The same table as Arrow record batches, handed to `sink`.
+    pub fn to_arrow(
+        database: &DbcDatabase,
+        labels: bool,
+        sink: Box<dyn ArrowSink>,
+    ) -> Result<Self> {
         Self::with_table(database, labels, |columns| {
-            Ok(ParquetTable::in_memory(columns))
+            ParquetTable::to_arrow(columns, &[], sink)
         })
-    }
-
-    /// An in-memory table's schema and batches.
-    pub fn into_batches(self) -> Result<(SchemaRef, Vec<RecordBatch>)> {
-        self.table.into_batches()
     }
 
     fn with_table(
@@ -469,39 +469,18 @@ pub fn decode_dbc(
             let summary = decode_dbc_frames(inputs, database, options, &mut sink);
             written(summary, name, false, || sink.finish().map(drop))
         }
+        TableOutput::Arrow(arrow) => {
+            let mut sink = DbcParquet::to_arrow(database, options.labels, arrow)?;
+            let summary = decode_dbc_frames(inputs, database, options, &mut sink);
+            // Streamed: the rows before an error went out; the error is as is.
+            written(summary, name, true, || sink.finish().map(drop))
+        }
         TableOutput::Mf4(file) => {
             let mut sink = DbcMf4::create(file, name, database)?;
             let summary = decode_dbc_frames(inputs, database, options, &mut sink);
             written(summary, name, false, || sink.finish())
         }
     }
-}
-
-/// Every frame of `inputs` through the rig's sensors as Arrow record
-/// batches: the table `acq decode --rig RIG -o FILE.parquet` writes
-/// (`time_s`, `sensor`, `value`, `unit`), for a caller that takes Arrow.
-pub fn decode_rig_to_arrow(
-    inputs: &mut [LogInput],
-    rig: &Rig,
-    bad_lines: BadLines,
-) -> Result<(SchemaRef, Vec<RecordBatch>, DecodeSummary)> {
-    let mut sink = RigParquet::in_memory(rig);
-    let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink)?;
-    let (schema, batches) = sink.into_batches()?;
-    Ok((schema, batches, summary))
-}
-
-/// Every frame of `inputs` through `database` as Arrow record batches: the
-/// table `acq decode --dbc DBC -o FILE.parquet` writes.
-pub fn decode_dbc_to_arrow(
-    inputs: &mut [LogInput],
-    database: &DbcDatabase,
-    options: DbcDecodeOptions,
-) -> Result<(SchemaRef, Vec<RecordBatch>, DecodeSummary)> {
-    let mut sink = DbcParquet::in_memory(database, options.labels)?;
-    let summary = decode_dbc_frames(inputs, database, options, &mut sink)?;
-    let (schema, batches) = sink.into_batches()?;
-    Ok((schema, batches, summary))
 }
 
 /// The decode's summary once its output is finished. A decode that
@@ -529,7 +508,11 @@ fn written(
 
 /// Prints the summary line to stderr.
 pub fn report(summary: &DecodeSummary) {
-    let _ = writeln!(std::io::stderr(), "acq decode: {summary}");
+    let mut stderr = std::io::stderr().lock();
+    for note in &summary.notes {
+        let _ = writeln!(stderr, "acq decode: {note}");
+    }
+    let _ = writeln!(stderr, "acq decode: {summary}");
 }
 
 /// The fixed header of the rig route.
@@ -603,14 +586,12 @@ impl RigParquet {
         ))
     }
 
-    /// The same table kept in memory as Arrow record batches.
-    pub fn in_memory(rig: &Rig) -> Self {
-        Self::with_table(rig, ParquetTable::in_memory(&Self::columns()))
-    }
-
-    /// An in-memory table's schema and batches.
-    pub fn into_batches(self) -> Result<(SchemaRef, Vec<RecordBatch>)> {
-        self.table.into_batches()
+    /// The same table as Arrow record batches, handed to `sink`.
+    pub fn to_arrow(rig: &Rig, sink: Box<dyn ArrowSink>) -> Result<Self> {
+        Ok(Self::with_table(
+            rig,
+            ParquetTable::to_arrow(&Self::columns(), &[], sink)?,
+        ))
     }
 
     fn with_table(rig: &Rig, table: ParquetTable) -> Self {
@@ -747,6 +728,12 @@ pub fn decode_rig(
             let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
             written(summary, name, false, || sink.finish().map(drop))
         }
+        TableOutput::Arrow(arrow) => {
+            let mut sink = RigParquet::to_arrow(rig, arrow)?;
+            let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
+            // Streamed: the rows before an error went out; the error is as is.
+            written(summary, name, true, || sink.finish().map(drop))
+        }
         TableOutput::Mf4(file) => {
             let mut sink = RigMf4::create(file, name, rig)?;
             let summary = decode_rig_frames(inputs, rig, bad_lines, &mut sink);
@@ -795,12 +782,10 @@ pub fn decode_rig_frames(
             }
         });
     }
-    for (bus, event) in heartbeats {
-        eprintln!(
-            "acq decode: {}",
-            describe_heartbeat(rig, &decoder, bus, event)
-        );
-    }
+    summary.notes = heartbeats
+        .into_iter()
+        .map(|(bus, event)| describe_heartbeat(rig, &decoder, bus, event))
+        .collect();
     Ok(summary)
 }
 

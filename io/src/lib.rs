@@ -1,5 +1,7 @@
 //! Files in and out, the ground floor every other `acq` stage stands on.
 //!
+//! - [`arrow_sink`]: a table handed over as Arrow record batches as it is
+//!   made, for a reader that takes Arrow itself (the Python package).
 //! - [`error`]: [`error::AcqError`], the one error of the commands, and its exit codes.
 //! - [`input`]: logs and rig files opened by name (`-` is stdin), the bad-line
 //!   policy, small CSV tables read with file and line in every message.
@@ -17,6 +19,7 @@
 //! Depends only on `acq-drivers` (log and rig formats); never on acquisition,
 //! analysis, twins, calibration or reports.
 
+pub mod arrow_sink;
 pub mod error;
 pub mod input;
 pub mod output;

@@ -176,6 +176,9 @@ pub enum TableOutput {
     Csv(Output),
     Parquet(Output),
     Mf4(CompleteOnlyFile),
+    /// The Parquet file's columns as Arrow record batches, handed over as
+    /// they are made (the Python package's tables).
+    Arrow(Box<dyn crate::arrow_sink::ArrowSink>),
 }
 
 impl TableOutput {

@@ -8,9 +8,10 @@
 //! - the CSV's `#` comment lines as the file's key-value metadata
 //!   (`acq.comments`).
 //!
-//! The same rows can stay in memory as Arrow record batches
-//! ([`ParquetTable::in_memory`]): the Python package hands them to pyarrow
-//! through the Arrow C data interface, the table a file would have held.
+//! The same rows can go to an [`ArrowSink`] as Arrow record batches
+//! instead ([`ParquetTable::to_arrow`]), as they are made: the Python
+//! package hands them to pyarrow through the Arrow C data interface, the
+//! table a file would have held, streamed.
 //!
 //! It streams, as the CSV path does. Rows go into Arrow builders; every
 //! [`BATCH_ROWS`] rows they become a record batch for the Parquet writer, which
@@ -45,9 +46,7 @@ use parquet::schema::types::ColumnPath;
 use crate::error::{AcqError, Result};
 use crate::output::Output;
 
-/// What an in-memory table gives, for a crate that does not name Arrow.
-pub use arrow_array::RecordBatch as ArrowBatch;
-pub use arrow_schema::SchemaRef as ArrowSchema;
+pub use crate::arrow_sink::{ArrowBatch, ArrowSchema, ArrowSink};
 
 /// Rows collected in the builders before they go to the Parquet writer.
 pub const BATCH_ROWS: usize = 16 * 1024;
@@ -174,15 +173,15 @@ enum Destination {
         writer: Box<ArrowWriter<Vec<u8>>>,
         output: Output,
     },
-    /// Kept, for a caller that takes Arrow itself.
-    Memory(Vec<RecordBatch>),
+    /// Handed over as they are made, for a caller that takes Arrow itself.
+    Arrow(Box<dyn ArrowSink>),
 }
 
 impl Destination {
     fn name(&self) -> &str {
         match self {
             Destination::File { output, .. } => output.name(),
-            Destination::Memory(_) => "<memory>",
+            Destination::Arrow(_) => "the Arrow table",
         }
     }
 }
@@ -194,12 +193,23 @@ fn schema_of(columns: &[ColumnSpec]) -> SchemaRef {
 }
 
 impl ParquetTable {
-    /// A table whose batches stay in memory (the same columns, units and
-    /// types as the file): [`ParquetTable::into_batches`] gives them.
-    pub fn in_memory(columns: &[ColumnSpec]) -> Self {
-        ParquetTable {
-            destination: Destination::Memory(Vec::new()),
-            schema: schema_of(columns),
+    /// A table whose batches go to `sink` (the same columns, units and
+    /// types as the file), its schema first; `comments` (the CSV's `#`
+    /// lines) in the schema's metadata, where pyarrow also puts a file's.
+    pub fn to_arrow(
+        columns: &[ColumnSpec],
+        comments: &[String],
+        mut sink: Box<dyn ArrowSink>,
+    ) -> Result<Self> {
+        let mut schema = schema_of(columns);
+        if !comments.is_empty() {
+            let metadata = HashMap::from([(COMMENTS_KEY.to_string(), comments.join("\n"))]);
+            schema = Arc::new(schema.as_ref().clone().with_metadata(metadata));
+        }
+        sink.schema(schema.clone())?;
+        Ok(ParquetTable {
+            destination: Destination::Arrow(sink),
+            schema,
             columns: columns
                 .iter()
                 .map(|c| ColumnBuilder::new(c.column_type))
@@ -207,18 +217,7 @@ impl ParquetTable {
             rows_in_batch: 0,
             rows: 0,
             failed: None,
-        }
-    }
-
-    /// An in-memory table's schema and batches (a file's: none, its rows
-    /// are in the file).
-    pub fn into_batches(mut self) -> Result<(SchemaRef, Vec<RecordBatch>)> {
-        self.check()?;
-        self.write_batch()?;
-        match self.destination {
-            Destination::Memory(batches) => Ok((self.schema, batches)),
-            Destination::File { .. } => Ok((self.schema, Vec::new())),
-        }
+        })
     }
 
     /// Starts a table in `output` with these columns; `comments` are the
@@ -358,15 +357,12 @@ impl ParquetTable {
                 writer.write(&batch).map_err(|e| parquet_error(output, e))?;
                 pass_on_encoded(writer, output)
             }
-            Destination::Memory(batches) => {
-                batches.push(batch);
-                Ok(())
-            }
+            Destination::Arrow(sink) => sink.batch(batch),
         }
     }
 
     /// Writes the last rows and the footer, and completes the file (an
-    /// in-memory table keeps its batches: [`ParquetTable::into_batches`]).
+    /// Arrow table: hands over its last batch).
     pub fn finish(mut self) -> Result<u64> {
         self.check()?;
         self.write_batch()?;

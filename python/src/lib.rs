@@ -6,20 +6,20 @@
 //! calls, and the package's Python side (`python/acq/`) only names and
 //! shapes the results.
 
-use std::path::{Path, PathBuf};
+mod tables;
+mod twins;
 
-use acq_analysis::decode::{decode_dbc_to_arrow, decode_rig_to_arrow, DbcDecodeOptions};
-use acq_analysis::recording::Recording;
+use std::path::PathBuf;
+
 use acq_calib::evaluation::{clear_stop_request, request_stop};
-use acq_drivers::dbc::DbcDatabase;
 use acq_io::error::AcqError;
-use acq_io::input::{load_rig, open_logs, open_session_log, BadLines, LogInput};
+use acq_study::progress::ProgressSnapshot;
 use acq_study::study::{Model, ModelRun};
 use acq_workflows::calibrate::external::{self, CalibrateExternalOptions};
-use arrow_pyarrow::{IntoPyArrow, Table};
 use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use tables::{AlignRequest, CurveRequest, DecodeRequest, HoldsRequest};
 
 /// acq's errors as Python's: a bad argument, rig or spec and malformed
 /// input are `ValueError`s (their messages name the file and line), a
@@ -34,36 +34,11 @@ fn python_error(error: AcqError) -> PyErr {
     }
 }
 
-/// The logs to read and the rig that decodes them: a session directory's
-/// raw logs and its copy of the rig (unless `rig` is given), else the log
-/// file itself.
-fn inputs_of(
-    log: &Path,
-    rig: Option<&Path>,
-) -> Result<(Vec<LogInput>, Option<acq_drivers::rig::Rig>), AcqError> {
-    if log.is_dir() {
-        let recording = Recording::open_session(log)?;
-        let inputs = recording
-            .logs
-            .iter()
-            .map(|path| open_session_log(path))
-            .collect::<Result<Vec<_>, _>>()?;
-        let rig = match rig {
-            Some(path) => load_rig(path)?,
-            None => recording.rig,
-        };
-        return Ok((inputs, Some(rig)));
-    }
-    let inputs = open_logs(&[log.to_path_buf()])?;
-    Ok((inputs, rig.map(load_rig).transpose()?))
-}
-
-/// Decodes a log (candump, ASC, BLF, MF4) or a session directory through a
-/// rig (`time_s`, `sensor`, `value`, `unit`) or DBC files (`time_s`,
-/// `iface`, `can_id`, `message`, `signal`, `value`, `unit`[, `label`]):
-/// the table `acq decode -o FILE.parquet` writes, as a `pyarrow.Table`.
+/// Decodes a log or a session directory: one `pyarrow.Table` (the table
+/// `acq decode -o FILE.parquet` writes), or with `stream` the same rows as
+/// a `pyarrow.RecordBatchReader`, decoded while Python reads them.
 #[pyfunction]
-#[pyo3(signature = (log, rig=None, dbc=Vec::new(), labels=false, skip_bad=false))]
+#[pyo3(signature = (log, rig=None, dbc=Vec::new(), labels=false, skip_bad=false, stream=false))]
 fn decode(
     py: Python<'_>,
     log: PathBuf,
@@ -71,35 +46,111 @@ fn decode(
     dbc: Vec<PathBuf>,
     labels: bool,
     skip_bad: bool,
+    stream: bool,
 ) -> PyResult<Py<PyAny>> {
-    let bad_lines = if skip_bad {
-        BadLines::Skip
-    } else {
-        BadLines::Stop
+    let request = DecodeRequest {
+        log,
+        rig,
+        dbc,
+        labels,
+        skip_bad,
     };
-    let decoded = py.detach(|| {
-        let (mut inputs, rig) = inputs_of(&log, rig.as_deref())?;
-        match (rig, dbc.is_empty()) {
-            (Some(rig), true) => decode_rig_to_arrow(&mut inputs, &rig, bad_lines),
-            (None, false) => {
-                let (database, _warnings) =
-                    DbcDatabase::load_all(&dbc).map_err(|e| AcqError::Config(e.to_string()))?;
-                let options = DbcDecodeOptions { bad_lines, labels };
-                decode_dbc_to_arrow(&mut inputs, &database, options)
-            }
-            (Some(_), false) => Err(AcqError::Config(
-                "decode: give rig= or dbc=, not both (a session directory brings its rig)".into(),
-            )),
-            (None, true) => Err(AcqError::Config(format!(
-                "decode: {} is a log: give rig= (a rig file) or dbc= (DBC files) to decode it",
-                log.display()
-            ))),
-        }
-    });
-    let (schema, batches, _summary) = decoded.map_err(python_error)?;
-    let table =
-        Table::try_new(batches, schema).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    Ok(table.into_pyarrow(py)?.unbind())
+    let table = tables::decode_stream(py, request)?;
+    if stream {
+        table.into_reader(py)
+    } else {
+        table.collect(py)
+    }
+}
+
+/// A session on one time base, as `acq align -o FILE.parquet` writes it.
+#[pyfunction]
+#[pyo3(signature = (input, rig, rate_hz, method, max_gap, start, end, filter_hz, clock_offsets_ms))]
+#[allow(clippy::too_many_arguments)]
+fn align(
+    py: Python<'_>,
+    input: PathBuf,
+    rig: Option<PathBuf>,
+    rate_hz: f64,
+    method: Option<String>,
+    max_gap: String,
+    start: Option<String>,
+    end: Option<String>,
+    filter_hz: Option<f64>,
+    clock_offsets_ms: Vec<(String, f64)>,
+) -> PyResult<Py<PyAny>> {
+    let request = AlignRequest {
+        input,
+        rig,
+        rate_hz,
+        method,
+        max_gap,
+        start,
+        end,
+        filter_hz,
+        clock_offsets_ms,
+    };
+    tables::align_stream(py, request)?.collect(py)
+}
+
+/// A session's holds as measured values, as `acq extract -o FILE.parquet`
+/// writes them.
+#[pyfunction]
+#[pyo3(signature = (input, rig, windows, load, steady_std, steady_window_s, min_hold_s, settle_s, min_load, clock_offsets_ms))]
+#[allow(clippy::too_many_arguments)]
+fn holds(
+    py: Python<'_>,
+    input: PathBuf,
+    rig: Option<PathBuf>,
+    windows: Option<PathBuf>,
+    load: Option<String>,
+    steady_std: Option<f64>,
+    steady_window_s: Option<f64>,
+    min_hold_s: Option<f64>,
+    settle_s: Option<f64>,
+    min_load: Option<f64>,
+    clock_offsets_ms: Vec<(String, f64)>,
+) -> PyResult<Py<PyAny>> {
+    let request = HoldsRequest {
+        input,
+        rig,
+        windows,
+        load,
+        steady_std,
+        steady_window_s,
+        min_hold_s,
+        settle_s,
+        min_load,
+        clock_offsets_ms,
+    };
+    tables::holds_table(py, request)?.collect(py)
+}
+
+/// A tensile test's curve, as `acq extract --tensile -o FILE.parquet`
+/// writes it.
+#[pyfunction]
+#[pyo3(signature = (input, rig, force, displacement, diameter_mm, gauge_length_mm, clock_offsets_ms))]
+#[allow(clippy::too_many_arguments)]
+fn tensile_curve(
+    py: Python<'_>,
+    input: PathBuf,
+    rig: Option<PathBuf>,
+    force: Option<String>,
+    displacement: Option<String>,
+    diameter_mm: Option<f64>,
+    gauge_length_mm: Option<f64>,
+    clock_offsets_ms: Vec<(String, f64)>,
+) -> PyResult<Py<PyAny>> {
+    let request = CurveRequest {
+        input,
+        rig,
+        force,
+        displacement,
+        diameter_mm,
+        gauge_length_mm,
+        clock_offsets_ms,
+    };
+    tables::curve_table(py, request)?.collect(py)
 }
 
 /// A Python callable as the study's model: called with the parameters and
@@ -183,7 +234,7 @@ impl Model for PythonModel {
 /// `out`. With `model`, a Python callable is the model and the spec's
 /// command (if any) is not run.
 #[pyfunction]
-#[pyo3(signature = (spec, out, seed=1, resume=false, model=None))]
+#[pyo3(signature = (spec, out, seed=1, resume=false, model=None, progress=None))]
 fn calibrate(
     py: Python<'_>,
     spec: PathBuf,
@@ -191,6 +242,7 @@ fn calibrate(
     seed: u64,
     resume: bool,
     model: Option<Py<PyAny>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<()> {
     let options = CalibrateExternalOptions {
         spec,
@@ -199,25 +251,53 @@ fn calibrate(
         seed,
     };
     let out_dir = options.out.display().to_string();
-    let result = match model {
-        None => until_done_or_interrupted(py, || external::run(options)),
-        Some(callable) => {
-            let name = callable
-                .bind(py)
-                .getattr("__qualname__")
-                .and_then(|n| n.extract::<String>())
-                .unwrap_or_else(|_| "a Python callable".into());
-            let model = PythonModel { callable };
-            let name = format!("Python: {name}");
-            until_done_or_interrupted(py, || external::run_with_model(options, &model, &name))
+    let model = model.map(|callable| {
+        let name = callable
+            .bind(py)
+            .getattr("__qualname__")
+            .and_then(|n| n.extract::<String>())
+            .unwrap_or_else(|_| "a Python callable".into());
+        (PythonModel { callable }, format!("Python: {name}"))
+    });
+    let observer = progress.map(|callable| {
+        move |snapshot: &ProgressSnapshot| {
+            Python::attach(|py| tell_progress(py, &callable, snapshot));
         }
-    };
+    });
+    let result = until_done_or_interrupted(py, || {
+        let given = model
+            .as_ref()
+            .map(|(model, name)| (model as &dyn Model, name.as_str()));
+        let observer = observer
+            .as_ref()
+            .map(|o| o as &(dyn Fn(&ProgressSnapshot) + Sync));
+        external::run_with_model(options, given, observer)
+    });
     result.map_err(|error| match error {
         AcqError::Interrupted(_) => PyKeyboardInterrupt::new_err(format!(
             "the study stopped; every finished run is in {out_dir}/evaluations.csv: calibrate(..., resume=True) continues it"
         )),
         other => python_error(other),
     })
+}
+
+/// Calls the user's progress function with the line's numbers as a dict.
+/// An exception in it is reported as unraisable (printed, as Python does
+/// for one in a callback) and the study goes on.
+fn tell_progress(py: Python<'_>, callable: &Py<PyAny>, snapshot: &ProgressSnapshot) {
+    let told = (|| {
+        let numbers = PyDict::new(py);
+        numbers.set_item("done", snapshot.done)?;
+        numbers.set_item("total", snapshot.total)?;
+        numbers.set_item("failed", snapshot.failed)?;
+        numbers.set_item("reused", snapshot.reused)?;
+        numbers.set_item("best_loss", snapshot.best_loss)?;
+        numbers.set_item("elapsed_s", snapshot.elapsed_s)?;
+        callable.bind(py).call1((numbers,)).map(drop)
+    })();
+    if let Err(error) = told {
+        error.write_unraisable(py, Some(callable.bind(py)));
+    }
 }
 
 /// Runs `work` (a study) on a thread of its own while this one, which
@@ -252,6 +332,11 @@ fn version() -> &'static str {
 #[pymodule]
 fn _acq(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(decode, module)?)?;
+    module.add_function(wrap_pyfunction!(align, module)?)?;
+    module.add_function(wrap_pyfunction!(holds, module)?)?;
+    module.add_function(wrap_pyfunction!(tensile_curve, module)?)?;
+    module.add_function(wrap_pyfunction!(twins::twin_excavator, module)?)?;
+    module.add_function(wrap_pyfunction!(twins::twin_gtn, module)?)?;
     module.add_function(wrap_pyfunction!(calibrate, module)?)?;
     module.add_function(wrap_pyfunction!(version, module)?)?;
     Ok(())

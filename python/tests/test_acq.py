@@ -214,3 +214,226 @@ def test_ctrl_c_stops_the_study_and_resume_finishes_it_as_if_never_stopped(
     assert not (out / "summary.json").exists()
     resumed = acq.calibrate(spec, out=out, model=slow_spring, resume=True)
     assert runs_of(resumed) == runs_of(spring_run), "the same runs as a study never stopped"
+
+
+@pytest.mark.filterwarnings("ignore:acq. .*CANopen node")  # the nodes boot 60 times
+def test_a_long_log_streams_in_batches_in_bounded_memory(tmp_path: Path) -> None:
+    """decode_batches gives decode's table in batches, and its memory does
+    not grow with the log: measured in fresh interpreters, against
+    decode() of the same log."""
+    import sys
+
+    raw = (SESSION / "raw.log").read_text().splitlines()
+    first, last = (float(line[1 : line.index(")")]) for line in (raw[0], raw[-1]))
+    span = last - first + 0.01
+    big = tmp_path / "long.log"
+    repeats = 60  # 1.37 M frames, 14 minutes of the session again and again
+    with open(big, "w") as f:
+        for k in range(repeats):
+            shift = k * span
+            f.write(
+                "\n".join(
+                    f"({float(line[1:line.index(')')]) + shift:.6f}){line[line.index(')') + 1:]}"
+                    for line in raw
+                )
+                + "\n"
+            )
+    streamed = acq.decode_batches(big, rig=RIG)
+    sizes = [batch.num_rows for batch in streamed]
+    whole = acq.decode(big, rig=RIG)
+    assert sum(sizes) == whole.num_rows == repeats * acq.decode(SESSION).num_rows
+    assert max(sizes) == 16_384 and len(sizes) > 100
+    assert pa.Table.from_batches(
+        list(acq.decode_batches(big, rig=RIG)), schema=whole.schema
+    ).equals(whole)
+    table_mb = whole.nbytes / 1e6
+    del whole
+
+    def peak_mb(code: str) -> float:
+        # VmHWM, the peak of this process's memory since its exec
+        # (getrusage's ru_maxrss keeps the forking pytest's peak).
+        script = (
+            "import re, sys, acq\n"
+            f"log, rig = sys.argv[1], sys.argv[2]\n{code}\n"
+            "status = open('/proc/self/status').read()\n"
+            "print(int(re.search(r'VmHWM:\\s+(\\d+) kB', status).group(1)) / 1e3)\n"
+        )
+        out = subprocess.run(
+            [sys.executable, "-c", script, str(big), str(RIG)],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,  # not the source tree, whose acq/ has no extension module
+        )
+        assert out.returncode == 0, out.stderr
+        return float(out.stdout.split()[-1])
+
+    baseline = peak_mb("import pyarrow")
+    streaming = peak_mb("rows = sum(b.num_rows for b in acq.decode_batches(log, rig=rig))")
+    collected = peak_mb("table = acq.decode(log, rig=rig)")
+    # The whole table costs its size; the stream a few batches (16 Ki rows,
+    # 0.4 MB each) and the decoder's buffers, whatever the log's length.
+    assert collected - baseline > 0.8 * table_mb, (baseline, collected, table_mb)
+    assert streaming - baseline < 0.25 * table_mb, (baseline, streaming, table_mb)
+
+
+def test_a_stream_stopped_early_and_a_bad_line_in_a_stream(tmp_path: Path) -> None:
+    reader = acq.decode_batches(SESSION)
+    assert reader.read_next_batch().num_rows > 0
+    reader.close()  # the decoding thread stops at its next batch
+    broken = tmp_path / "broken.log"
+    lines = LOG.read_text().splitlines()
+    broken.write_text("\n".join(lines[:50] + ["(1763719200.5) can0 123#zz"]) + "\n")
+    with pytest.raises(ValueError, match="broken.log:51"):
+        acq.decode_batches(broken, dbc=DBC).read_all()
+
+
+def test_device_notes_are_python_warnings() -> None:
+    with pytest.warns(UserWarning, match="CANopen node 0x23 .arm_head_pressure. is Operational"):
+        acq.decode(SESSION)
+
+
+def cli_table(tmp_path: Path, *args: str) -> pa.Table:
+    out = tmp_path / "cli.parquet"
+    subprocess.run([ACQ_BIN, *args, "-o", str(out)], check=True, capture_output=True)
+    return pq.read_table(out)
+
+
+def test_align_holds_and_curve_are_the_clis_parquet(tmp_path: Path) -> None:
+    aligned = acq.align(SESSION, rate_hz=50, max_gap="100ms", start=2.0, end=12.5)
+    cli = cli_table(
+        tmp_path, "align", str(SESSION), "--rate", "50", "--max-gap", "100ms",
+        "--from", "2", "--to", "12.5",
+    )
+    # Units in each field's metadata; the file's notes (clocks, options),
+    # which a Parquet file keeps in its footer, in the schema's metadata.
+    assert aligned.schema.remove_metadata().equals(cli.schema.remove_metadata(), check_metadata=True)
+    footer = pq.ParquetFile(tmp_path / "cli.parquet").metadata.metadata
+    assert aligned.schema.metadata[b"acq.comments"] == footer[b"acq.comments"]
+    assert plain(aligned).equals(plain(cli))
+    assert aligned.num_rows == 526  # 2.0 .. 12.5 s at 50 Hz, both ends in
+    with pytest.raises(ValueError, match='method="cubic"'):
+        acq.align(SESSION, method="cubic")
+
+    values = acq.holds(SESSION)
+    cli = cli_table(tmp_path, "extract", str(SESSION))
+    assert values.schema.equals(cli.schema, check_metadata=True)
+    assert plain(values).equals(plain(cli))
+    # The session replays the published case 1: its first hold's arm
+    # pressure is the published measured value (data/excavator/case1.toml)
+    # within the transducer's expanded uncertainty, which is the budget's
+    # (about a bar of accuracy), not the hold's 0.02 bar of scatter.
+    rows = values.to_pandas().set_index(["window", "quantity"])
+    arm = rows.loc[("hold1", "arm_head_pressure")]
+    assert abs(arm["mean"] - 193.46) < arm["U95"]
+    assert arm["u_c"] > 20 * arm["std"] / arm["n_eff"] ** 0.5
+
+    curve = acq.tensile_curve(REPO / "fixtures/sessions/tensile_p91_20c")
+    cli = cli_table(tmp_path, "extract", "--tensile", str(REPO / "fixtures/sessions/tensile_p91_20c"))
+    assert curve.schema.equals(cli.schema, check_metadata=True)
+    assert curve.equals(cli)
+    # Engineering stress is force over the rig's 4 mm bar's area.
+    frame = curve.to_pandas()
+    import math
+
+    area_mm2 = math.pi * 4.0**2 / 4
+    peak = frame["FORCE"].idxmax()
+    assert frame["STRESS"][peak] == pytest.approx(frame["FORCE"][peak] * 1e3 / area_mm2, rel=1e-12)
+
+
+def test_the_twins_from_python_are_the_commands(tmp_path: Path) -> None:
+    import numpy as np
+
+    case = REPO / "data/excavator/case1.toml"
+    outputs = acq.twin_excavator(case, arm_stroke_mm=208.0)
+    cli = subprocess.run(
+        [ACQ_BIN, "twin", "excavator", "--case", str(case), "--arm-stroke", "208", "--json"],
+        check=True, capture_output=True, text=True,
+    )
+    assert outputs == json.loads(cli.stdout)
+    # Every cylinder holds the load in its loaded chamber: a positive
+    # pressure, below the DX55's relief pressure.
+    for cylinder, bar in outputs["pressure_bar"].items():
+        assert 0 < bar < 300, (cylinder, bar)
+
+    test = REPO / "data/tensile/P91_20_2_DF_SS.csv"
+    params = dict(q1=1.332, q2=0.9952, q3=2.295, epsN=0.29, sN=0.1671, fN=0.03869, f0=0.00137, m=534.1)
+    run = acq.twin_gtn(test, params)
+    out = tmp_path / "curve.csv"
+    param = ",".join(f"{k}={v}" for k, v in params.items())
+    cli = subprocess.run(
+        [ACQ_BIN, "twin", "gtn", "--test", str(test), "--param", param, "-o", str(out), "--json"],
+        check=True, capture_output=True, text=True,
+    )
+    summary = json.loads(cli.stdout)
+    assert run["mape_pct"] == summary["mape"]
+    assert run["failed_early"] == summary["failed_early"]
+    written = np.genfromtxt(out, delimiter=",", names=True)
+    assert isinstance(run["curve"]["force_kn"], np.ndarray)
+    np.testing.assert_array_equal(run["curve"]["displacement_mm"], written["DISPLACEMENT"])
+    np.testing.assert_array_equal(run["curve"]["force_kn"], written["FORCE"])
+    # The published parameters' bar carries the test's maximum force
+    # within 3 % (tensile-gtn.md: MAPE below 2 % after calibration).
+    assert run["curve"]["force_kn"].max() == pytest.approx(run["test"]["force_kn"].max(), rel=0.03)
+    with pytest.raises(ValueError, match="q1"):
+        acq.twin_gtn(test, {**params, "q1": -1.0})
+
+
+def test_the_posterior_predictive_and_the_observed_data_in_arviz(spring_run: "acq.Run") -> None:
+    import numpy as np
+
+    idata = spring_run.to_arviz()
+    summary = spring_run.summary["predictive"]
+    names = {f"{case}.{output}" for case, outputs in summary.items() for output in outputs}
+    assert set(idata.posterior_predictive.data_vars) == names
+    assert set(idata.observed_data.data_vars) == names
+    for name in names:
+        case, output = name.split(".")
+        stats = summary[case][output]
+        draws = idata.posterior_predictive[name]
+        assert draws.dims == ("chain", "draw", "observation")
+        assert draws.shape == (1, 20, 1)  # [posterior] predictive_runs = 20
+        values = draws.values.ravel()
+        assert values.mean() == pytest.approx(stats["mean"], rel=1e-12)
+        assert np.quantile(values, [0.05, 0.95]) == pytest.approx([stats["q05"], stats["q95"]], rel=1e-12)
+        assert float(idata.observed_data[name][0]) == stats["measured"]
+    # The validate case C, which the calibration never saw, lies inside
+    # its own predictive band (the spring's physics carries to ten times
+    # the load).
+    c_high = idata.posterior_predictive["C.u_high_mm"].values.ravel()
+    assert c_high.min() < float(idata.observed_data["C.u_high_mm"][0]) < c_high.max()
+
+
+def test_progress_is_told_of_every_run(
+    spring_run: "acq.Run", tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sys
+
+    told: list = []
+    run = acq.calibrate(
+        spring_run.path.parent / "spec.toml", out=tmp_path / "told", model=spring, progress=told.append
+    )
+    assert [n["done"] for n in told] == list(range(1, run.summary["evaluations"] + 1))
+    assert {n["total"] for n in told} == {30}  # the spec's max_evals
+    best = [n["best_loss"] for n in told]
+    assert all(b is None or a is None or b <= a for a, b in zip(best, best[1:])), "best only improves"
+    assert best[-1] == pytest.approx(run.summary["best_loss_pct"], rel=1e-9)
+    # A progress function that raises is reported, and the study goes on.
+    def broken(numbers: dict) -> None:
+        raise RuntimeError("a broken bar")
+
+    reported: list = []
+    monkeypatch.setattr(sys, "unraisablehook", reported.append)
+    run = acq.calibrate(
+        spring_run.path.parent / "spec.toml", out=tmp_path / "broken", model=spring, progress=broken
+    )
+    assert run.summary["evaluations"] == len(told)
+    assert len(reported) == len(told)
+    assert str(reported[0].exc_value) == "a broken bar"
+
+
+def test_a_progress_bar_with_tqdm(
+    spring_run: "acq.Run", tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    run = acq.calibrate(spring_run.path.parent / "spec.toml", out=tmp_path / "bar", model=spring, progress=True)
+    bar = capsys.readouterr().err
+    assert f"{run.summary['evaluations']}/30" in bar, bar[-300:]

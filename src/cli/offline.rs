@@ -6,7 +6,7 @@ use acq_analysis::align::run::{align_recording, AlignOptions, GapTolerance, Time
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::recording::Recording;
 use acq_drivers::rig::Interpolation;
-use acq_io::error::{AcqError, Result};
+use acq_io::error::Result;
 use acq_io::output::TableOutput;
 use clap::{Args, ValueEnum};
 
@@ -94,14 +94,7 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
         filter_hz: args.filter,
         clock_offsets_ms: args.clock_offsets,
     };
-    if let Some(cutoff) = options.filter_hz {
-        if !(cutoff > 0.0 && cutoff < options.rate_hz / 2.0) {
-            return Err(AcqError::Config(format!(
-                "--filter {cutoff}: the cut-off must be above 0 and below half of --rate ({} Hz)",
-                options.rate_hz / 2.0
-            )));
-        }
-    }
+    options.check()?;
     let to_a_file = args.output.as_os_str() != "-";
     if let Some(bytes) =
         acq_analysis::align::run::expected_output_bytes(&recording, args.rate).filter(|_| to_a_file)
@@ -276,10 +269,8 @@ pub fn run_extract(args: ExtractArgs) -> Result<()> {
             eprintln!("acq: {clock}");
         }
     }
-    for name in &report.never_seen {
-        eprintln!(
-            "acq: {name}: never seen in the recording; its values are empty and flagged no_samples"
-        );
+    for note in report.notes() {
+        eprintln!("acq: {note}");
     }
     let flagged: Vec<_> = report
         .values

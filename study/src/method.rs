@@ -66,6 +66,8 @@ pub struct RunSettings<'a> {
     pub resume: bool,
     /// The posterior stage after the search, when asked for.
     pub posterior: Option<PosteriorSettings>,
+    /// Told of every evaluation, beside the progress line.
+    pub progress: Option<crate::progress::ProgressObserver<'a>>,
 }
 
 /// `rows` with each repeated row dropped, in order.

@@ -6,6 +6,23 @@ use std::io::{IsTerminal, Write};
 use std::sync::Mutex;
 use std::time::Instant;
 
+/// The numbers of the progress line, for a host that draws its own bar
+/// (a notebook's).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProgressSnapshot {
+    pub done: usize,
+    /// The evaluation budget (a study may end short of it).
+    pub total: usize,
+    pub failed: usize,
+    /// Runs taken from the log of a resumed study.
+    pub reused: usize,
+    pub best_loss: Option<f64>,
+    pub elapsed_s: f64,
+}
+
+/// Told of every evaluation, after the line's own numbers are updated.
+pub type ProgressObserver<'a> = &'a (dyn Fn(&ProgressSnapshot) + Sync);
+
 pub struct Progress<'a> {
     label: String,
     total: usize,
@@ -13,6 +30,7 @@ pub struct Progress<'a> {
     state: Mutex<State>,
     /// What the runs under way are doing (a cluster's job counts).
     status: Option<Box<dyn Fn() -> Option<String> + Sync + 'a>>,
+    observer: Option<ProgressObserver<'a>>,
 }
 
 struct State {
@@ -43,7 +61,14 @@ impl<'a> Progress<'a> {
                 start: Instant::now(),
             }),
             status: None,
+            observer: None,
         }
+    }
+
+    /// Tells `observer` of every evaluation too.
+    pub fn with_observer(mut self, observer: Option<ProgressObserver<'a>>) -> Self {
+        self.observer = observer;
+        self
     }
 
     /// Adds `status` (when it says something) to every line.
@@ -62,6 +87,16 @@ impl<'a> Progress<'a> {
         state.reused += usize::from(reused);
         if let Some(loss) = loss.filter(|l| l.is_finite()) {
             state.best = Some(state.best.map_or(loss, |b| b.min(loss)));
+        }
+        if let Some(observer) = self.observer {
+            observer(&ProgressSnapshot {
+                done: state.done,
+                total: self.total,
+                failed: state.failed,
+                reused: state.reused,
+                best_loss: state.best,
+                elapsed_s: state.start.elapsed().as_secs_f64(),
+            });
         }
         let line = self.line(&state);
         if self.terminal {

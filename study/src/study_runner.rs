@@ -221,7 +221,9 @@ pub fn calibrate_study(
         Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
         Method::LeastSquares(ls) => ls.max_evals + parameters.len(),
     };
-    let progress = Progress::new(settings.label.clone(), budget).with_status(|| model.status());
+    let progress = Progress::new(settings.label.clone(), budget)
+        .with_status(|| model.status())
+        .with_observer(settings.progress);
     let start = Instant::now();
     let mut evaluator = directory
         .evaluator(&simulator, settings.parallel, settings.resume)?

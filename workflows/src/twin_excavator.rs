@@ -70,7 +70,29 @@ fn load_model(args: &ExcavatorModelOptions) -> Result<(CaseFile, Excavator)> {
     Ok((case, twin))
 }
 
-pub fn run_twin(args: TwinExcavatorOptions) -> Result<()> {
+/// The twin at a case's nominal inputs with the overrides of
+/// [`TwinExcavatorOptions`]: its pressures, forces and gauge stresses as
+/// `acq twin excavator --json` prints them (with the working envelope if
+/// asked), and what the text report needs.
+pub struct CaseRun {
+    pub case: CaseFile,
+    pub twin: Excavator,
+    pub inputs: acq_twins::excavator::Inputs,
+    pub evaluation: acq_twins::excavator::Evaluation,
+    pub envelope: Option<acq_twins::excavator::envelope::WorkingEnvelope>,
+}
+
+impl CaseRun {
+    pub fn json(&self) -> serde_json::Value {
+        let mut json = evaluation_json(&self.evaluation);
+        if let Some(envelope) = &self.envelope {
+            json["envelope"] = envelope_json(envelope)["envelope"].take();
+        }
+        json
+    }
+}
+
+pub fn run_case(args: &TwinExcavatorOptions) -> Result<CaseRun> {
     let (case, twin) = load_model(&args.model)?;
     let mut inputs = case.nominal();
     let overrides = [
@@ -95,14 +117,28 @@ pub fn run_twin(args: TwinExcavatorOptions) -> Result<()> {
     } else {
         None
     };
+    Ok(CaseRun {
+        case,
+        twin,
+        inputs,
+        evaluation,
+        envelope,
+    })
+}
+
+pub fn run_twin(args: TwinExcavatorOptions) -> Result<()> {
+    let run = run_case(&args)?;
+    let CaseRun {
+        case,
+        twin,
+        inputs,
+        evaluation,
+        envelope,
+    } = &run;
     if args.json {
-        let mut json = evaluation_json(&evaluation);
-        if let Some(envelope) = &envelope {
-            json["envelope"] = envelope_json(envelope)["envelope"].take();
-        }
-        println!("{json}");
+        println!("{}", run.json());
     } else {
-        print!("{}", evaluation_report(&case, &inputs, &twin, &evaluation));
+        print!("{}", evaluation_report(case, inputs, twin, evaluation));
         if let Some(e) = &envelope {
             let strokes = |s: &acq_twins::excavator::Strokes| {
                 format!(

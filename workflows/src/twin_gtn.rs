@@ -58,8 +58,16 @@ pub struct TwinGtnOptions {
     pub strain_length_mm: f64,
 }
 
-pub fn run(args: TwinGtnOptions) -> Result<()> {
-    use crate::tensile_model::{GtnInputs, ModelSettings, TensileModel};
+/// The parameters, the model's settings and the specimen `args` give,
+/// checked before any work.
+fn prepared(
+    args: &TwinGtnOptions,
+) -> Result<(
+    crate::tensile_model::GtnInputs,
+    crate::tensile_model::ModelSettings,
+    SpecimenGeometry,
+)> {
+    use crate::tensile_model::{GtnInputs, ModelSettings};
     let inputs =
         GtnInputs::parse(&args.param).map_err(|e| AcqError::Config(format!("--param: {e}")))?;
     if !(args.step_mm > 0.0 && args.step_mm <= 1.0) {
@@ -92,29 +100,71 @@ pub fn run(args: TwinGtnOptions) -> Result<()> {
         .geometry
         .validate()
         .map_err(|e| AcqError::Config(format!("--imperfection: {e}")))?;
-    if let Some(flow_path) = &args.flow_curve {
-        return run_twin_gtn_with_flow_curve(&args, flow_path, &inputs, settings, geometry);
-    }
-    let Some(test) = args.test.as_ref() else {
-        return Err(AcqError::Config(
-            "give the test (--test TEST.csv), or a flow curve (--flow-curve FLOW.csv)".into(),
-        ));
-    };
+    Ok((inputs, settings, geometry))
+}
+
+/// The twin of `test` (its flow curve and E from the test itself), with
+/// the parameters checked against their ranges.
+fn test_model(
+    test: &Path,
+    settings: crate::tensile_model::ModelSettings,
+    geometry: SpecimenGeometry,
+    inputs: &crate::tensile_model::GtnInputs,
+) -> Result<crate::tensile_model::TensileModel> {
     let points = read_test_csv(test)?;
     let properties = tensile_properties(&points, geometry)
         .map_err(|e| AcqError::Malformed(format!("{}: {e}", test.display())))?;
-    let model = TensileModel::new(points, properties, settings);
+    let model = crate::tensile_model::TensileModel::new(points, properties, settings);
     // Parameters out of range are a usage error (exit 2), before any work.
     model
-        .twin(&inputs)
+        .twin(inputs)
         .map_err(|e| AcqError::Config(format!("--param: {e}")))?;
+    Ok(model)
+}
+
+fn no_test() -> AcqError {
+    AcqError::Config(
+        "give the test (--test TEST.csv), or a flow curve (--flow-curve FLOW.csv)".into(),
+    )
+}
+
+/// One simulation of `args.test` with `args.param` (what `acq twin gtn
+/// --test` reports): the model, with the test it is scored on, and the run.
+pub fn simulate_test(
+    args: &TwinGtnOptions,
+) -> Result<(
+    crate::tensile_model::TensileModel,
+    crate::tensile_model::TensileRun,
+)> {
+    let (inputs, settings, geometry) = prepared(args)?;
+    let test = args.test.as_deref().ok_or_else(no_test)?;
+    let model = test_model(test, settings, geometry, &inputs)?;
+    let run = run_once(&model, &inputs)?;
+    Ok((model, run))
+}
+
+fn run_once(
+    model: &crate::tensile_model::TensileModel,
+    inputs: &crate::tensile_model::GtnInputs,
+) -> Result<crate::tensile_model::TensileRun> {
+    let run = model
+        .run(inputs)
+        .map_err(|e| AcqError::Config(e.to_string()))?;
+    say_if_not_converged(&run.result.outcome);
+    Ok(run)
+}
+
+pub fn run(args: TwinGtnOptions) -> Result<()> {
+    let (inputs, settings, geometry) = prepared(&args)?;
+    if let Some(flow_path) = &args.flow_curve {
+        return run_twin_gtn_with_flow_curve(&args, flow_path, &inputs, settings, geometry);
+    }
+    let test = args.test.as_deref().ok_or_else(no_test)?;
+    let model = test_model(test, settings, geometry, &inputs)?;
     if !args.convergence.is_empty() {
         return run_mesh_convergence(&args, test, &model, &inputs);
     }
-    let run = model
-        .run(&inputs)
-        .map_err(|e| AcqError::Config(e.to_string()))?;
-    say_if_not_converged(&run.result.outcome);
+    let run = run_once(&model, &inputs)?;
     if let Some(path) = &args.output {
         Output::write_complete(path, simulated_curve_csv(&run.result.curve).as_bytes())?;
     }

@@ -133,6 +133,27 @@ pub struct AlignOptions {
     pub clock_offsets_ms: Vec<(String, f64)>,
 }
 
+impl AlignOptions {
+    /// Refuses a rate or a filter that cannot make a table.
+    pub fn check(&self) -> Result<()> {
+        if !(self.rate_hz > 0.0 && self.rate_hz.is_finite() && self.rate_hz <= 1e6) {
+            return Err(AcqError::Config(format!(
+                "--rate must be a positive number of rows per second up to 1e6, got {}",
+                self.rate_hz
+            )));
+        }
+        if let Some(cutoff) = self.filter_hz {
+            if !(cutoff > 0.0 && cutoff < self.rate_hz / 2.0) {
+                return Err(AcqError::Config(format!(
+                    "--filter {cutoff}: the cut-off must be above 0 and below half of --rate ({} Hz)",
+                    self.rate_hz / 2.0
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Default for AlignOptions {
     fn default() -> Self {
         AlignOptions {
@@ -231,12 +252,7 @@ pub fn align_recording(
     options: &AlignOptions,
     output: TableOutput,
 ) -> Result<AlignSummary> {
-    if !(options.rate_hz > 0.0 && options.rate_hz.is_finite() && options.rate_hz <= 1e6) {
-        return Err(AcqError::Config(format!(
-            "--rate must be a positive number of rows per second up to 1e6, got {}",
-            options.rate_hz
-        )));
-    }
+    options.check()?;
     let rig = &recording.rig;
     let clocks = recording.clock_offsets(&options.clock_offsets_ms)?;
     let offsets = offsets_ns(&clocks);
@@ -290,21 +306,7 @@ pub fn align_recording(
             });
         }
         let comments = header_comments(recording, options, &clocks, t0_ns, session_start.is_some());
-        let table: Box<dyn RowSink<Error = AcqError>> = match output {
-            TableOutput::Csv(output) => {
-                Box::new(CsvTable::new(output, &comments, &columns, options.rate_hz)?)
-            }
-            TableOutput::Parquet(output) => {
-                Box::new(ParquetAlignedTable::new(output, &comments, &columns, grid)?)
-            }
-            TableOutput::Mf4(file) => Box::new(Mf4AlignedTable::new(
-                file,
-                format!("{} (aligned)", recording.label),
-                &comments,
-                &columns,
-                grid,
-            )?),
-        };
+        let table = table_of(output, recording, &comments, &columns, grid)?;
         let sink: Box<dyn RowSink<Error = AcqError>> = match options.filter_hz {
             Some(cutoff) => Box::new(
                 GaussianFilter::new(table, cutoff, options.rate_hz).map_err(AcqError::Config)?,
@@ -343,6 +345,34 @@ pub fn align_recording(
         rows,
         t0_unix_ns: t0,
         notes: recording.notes.clone(),
+    })
+}
+
+/// The table the aligned rows go to, by the output's kind.
+fn table_of(
+    output: TableOutput,
+    recording: &Recording,
+    comments: &[String],
+    columns: &[Column],
+    grid: GridSpec,
+) -> Result<Box<dyn RowSink<Error = AcqError>>> {
+    Ok(match output {
+        TableOutput::Csv(output) => {
+            Box::new(CsvTable::new(output, comments, columns, grid.rate_hz)?)
+        }
+        TableOutput::Parquet(output) => {
+            Box::new(ParquetAlignedTable::new(output, comments, columns, grid)?)
+        }
+        TableOutput::Arrow(sink) => Box::new(ParquetAlignedTable::to_arrow(
+            sink, comments, columns, grid,
+        )?),
+        TableOutput::Mf4(file) => Box::new(Mf4AlignedTable::new(
+            file,
+            format!("{} (aligned)", recording.label),
+            comments,
+            columns,
+            grid,
+        )?),
     })
 }
 

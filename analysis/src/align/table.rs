@@ -14,7 +14,7 @@ use acq_drivers::dbc::push_shortest_f64;
 use acq_drivers::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_io::error::AcqError;
 use acq_io::output::{csv_field, CompleteOnlyFile, Output};
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 
 use super::{GridSpec, RowSink};
 
@@ -114,6 +114,31 @@ impl ParquetAlignedTable {
         columns: &[Column],
         grid: GridSpec,
     ) -> Result<Self, AcqError> {
+        Ok(ParquetAlignedTable {
+            table: Some(ParquetTable::new(out, &Self::specs(columns), comments)?),
+            grid,
+        })
+    }
+
+    /// The same table as Arrow record batches, handed to `sink`.
+    pub fn to_arrow(
+        sink: Box<dyn ArrowSink>,
+        comments: &[String],
+        columns: &[Column],
+        grid: GridSpec,
+    ) -> Result<Self, AcqError> {
+        Ok(ParquetAlignedTable {
+            table: Some(ParquetTable::to_arrow(
+                &Self::specs(columns),
+                comments,
+                sink,
+            )?),
+            grid,
+        })
+    }
+
+    /// `time_s`, then per sensor its value (`NAME [UNIT]`) and gap flag.
+    fn specs(columns: &[Column]) -> Vec<ColumnSpec> {
         let mut specs = vec![ColumnSpec::new("time_s", ColumnType::Time)];
         for column in columns {
             specs.push(
@@ -129,10 +154,7 @@ impl ParquetAlignedTable {
                 ColumnType::Flag,
             ));
         }
-        Ok(ParquetAlignedTable {
-            table: Some(ParquetTable::new(out, &specs, comments)?),
-            grid,
-        })
+        specs
     }
 }
 

@@ -37,7 +37,7 @@ use acq_io::error::{AcqError, Result};
 use acq_io::input::read_csv_records_of_any;
 use acq_io::output::{csv_field, Output};
 use acq_io::output::{refuse_mf4_table, TableFormat};
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 
 use acq_metrology::budget::{Budget, Contribution, SharedError, LEVEL_95};
 
@@ -200,6 +200,20 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
 /// not a finite number is null (an empty cell in the CSV). The values'
 /// units differ per row, so they stay in the `unit` column.
 fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()> {
+    fill_measured(ParquetTable::new(output, &measured_columns(), &[])?, values)
+}
+
+/// The measured values `acq extract -o FILE.parquet` writes, as Arrow
+/// record batches handed to `sink`.
+pub fn measured_to_arrow(values: &[MeasuredValue], sink: Box<dyn ArrowSink>) -> Result<()> {
+    fill_measured(
+        ParquetTable::to_arrow(&measured_columns(), &[], sink)?,
+        values,
+    )
+}
+
+/// The CSV's columns, with units where they are fixed.
+fn measured_columns() -> Vec<ColumnSpec> {
     let float = |name: &str| ColumnSpec::new(name, ColumnType::Float).nullable();
     let text = |name: &str| ColumnSpec::new(name, ColumnType::Text);
     let columns = [
@@ -225,8 +239,12 @@ fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()
         columns.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
         MEASURED_HEADER.split(',').collect::<Vec<_>>()
     );
+    columns.to_vec()
+}
+
+/// The values' rows into `table`, which is then finished.
+fn fill_measured(mut table: ParquetTable, values: &[MeasuredValue]) -> Result<()> {
     let finite = |v: Option<f64>| v.filter(|v| v.is_finite());
-    let mut table = ParquetTable::new(output, &columns, &[])?;
     for v in values {
         let s = &v.stats;
         let half = s.ci95_half_width;

@@ -47,6 +47,19 @@ pub struct HoldsReport {
     pub never_seen: Vec<String>,
 }
 
+impl HoldsReport {
+    /// What the user should know beside the values: the sensors never
+    /// seen, whose values are empty.
+    pub fn notes(&self) -> Vec<String> {
+        self.never_seen
+            .iter()
+            .map(|name| {
+                format!("{name}: never seen in the recording; its values are empty and flagged no_samples")
+            })
+            .collect()
+    }
+}
+
 /// The rig's load sensor: `name`, else its only force sensor.
 pub fn load_sensor(recording: &Recording, name: Option<&str>) -> Result<usize> {
     match name {

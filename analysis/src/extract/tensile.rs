@@ -28,7 +28,7 @@ use acq_drivers::rig::Specimen;
 use acq_io::error::Result;
 use acq_io::output::Output;
 use acq_io::output::{refuse_mf4_table, TableFormat};
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 
 /// Header of the curve file, as in the test files.
 pub const CURVE_HEADER: &str = "DISPLACEMENT,FORCE,STRAIN,STRESS,TRUE_STRAIN,TRUE_STRESS";
@@ -207,33 +207,58 @@ pub fn extract_curve(
 
 /// Writes the curve with the test files' columns: CSV, or Parquet for a
 /// `.parquet` path (units in the column metadata).
+/// The curve's columns as Parquet and Arrow tables give them: the CSV's,
+/// with units.
+fn curve_columns() -> Vec<ColumnSpec> {
+    CURVE_HEADER
+        .split(',')
+        .zip(["mm", "kN", "", "MPa", "", "MPa"])
+        .map(|(name, unit)| {
+            ColumnSpec::new(name, ColumnType::Float)
+                .unit(unit)
+                .nullable()
+        })
+        .collect()
+}
+
+/// The curve's rows into `table`, which is then finished: true strain and
+/// stress only up to the maximum force (uniform elongation).
+fn fill_curve(mut table: ParquetTable, curve: &TensileCurve, specimen: &Specimen) -> Result<()> {
+    for (i, p) in curve.points.iter().enumerate() {
+        let strain = p.displacement_mm / specimen.gauge_length_mm;
+        let stress = p.force_kn * 1000.0 / specimen.area_mm2();
+        let uniform = i <= curve.max_index;
+        table.float(0, Some(p.displacement_mm));
+        table.float(1, Some(p.force_kn));
+        table.float(2, Some(strain));
+        table.float(3, Some(stress));
+        table.float(4, uniform.then(|| (1.0 + strain).ln()));
+        table.float(5, uniform.then_some(stress * (1.0 + strain)));
+        table.end_row()?;
+    }
+    table.finish().map(|_| ())
+}
+
+/// The curve `acq extract --tensile -o FILE.parquet` writes, as Arrow
+/// record batches handed to `sink`.
+pub fn curve_to_arrow(
+    curve: &TensileCurve,
+    specimen: &Specimen,
+    sink: Box<dyn ArrowSink>,
+) -> Result<()> {
+    fill_curve(
+        ParquetTable::to_arrow(&curve_columns(), &[], sink)?,
+        curve,
+        specimen,
+    )
+}
+
 pub fn write_curve(path: &Path, curve: &TensileCurve, specimen: &Specimen) -> Result<()> {
     refuse_mf4_table(path, "curve")?;
     let mut output = Output::create_complete_only(path)?;
     if TableFormat::of(path) == TableFormat::Parquet {
-        let columns: Vec<ColumnSpec> = CURVE_HEADER
-            .split(',')
-            .zip(["mm", "kN", "", "MPa", "", "MPa"])
-            .map(|(name, unit)| {
-                ColumnSpec::new(name, ColumnType::Float)
-                    .unit(unit)
-                    .nullable()
-            })
-            .collect();
-        let mut table = ParquetTable::new(output, &columns, &[])?;
-        for (i, p) in curve.points.iter().enumerate() {
-            let strain = p.displacement_mm / specimen.gauge_length_mm;
-            let stress = p.force_kn * 1000.0 / specimen.area_mm2();
-            let uniform = i <= curve.max_index;
-            table.float(0, Some(p.displacement_mm));
-            table.float(1, Some(p.force_kn));
-            table.float(2, Some(strain));
-            table.float(3, Some(stress));
-            table.float(4, uniform.then(|| (1.0 + strain).ln()));
-            table.float(5, uniform.then_some(stress * (1.0 + strain)));
-            table.end_row()?;
-        }
-        return table.finish().map(|_| ());
+        let table = ParquetTable::new(output, &curve_columns(), &[])?;
+        return fill_curve(table, curve, specimen);
     }
     let mut text = String::with_capacity(96 * (curve.points.len() + 1));
     text.push_str(CURVE_HEADER);

@@ -487,6 +487,7 @@ pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
             spec_directory: Path::new("."),
             parallel: args.parallel.unwrap_or_else(default_parallelism),
             resume: args.resume,
+            progress: None,
             posterior: args.posterior.map(|posterior| PosteriorSettings {
                 discrepancy: posterior.discrepancy,
                 draws: posterior.draws_per_chain,

@@ -16,6 +16,7 @@ use acq_study::command_model::CommandModel;
 use acq_study::extras::Extras;
 use acq_study::method::{start_design, RunSettings};
 use acq_study::outcome::StudyOutcome;
+use acq_study::progress::ProgressObserver;
 use acq_study::run_directory::{write_text, RunDirectory};
 use acq_study::saved_emulator::{rows_of_study, SavedEmulator};
 use acq_study::spec::schema::{ExecutorKind, ExecutorSpec};
@@ -35,25 +36,30 @@ pub struct CalibrateExternalOptions {
 }
 
 pub fn run(args: CalibrateExternalOptions) -> Result<()> {
-    run_spec(&args, Spec::load(&args.spec)?, None)
+    run_spec(&args, Spec::load(&args.spec)?, None, None)
 }
 
 /// A study of a model the caller brings (the Python package's `model=`,
 /// named `name` in the report): the spec's cases, observations, search
 /// and posterior on `model`; the spec needs no command, and one it has is
 /// not run.
-pub fn run_with_model(args: CalibrateExternalOptions, model: &dyn Model, name: &str) -> Result<()> {
-    run_spec(
-        &args,
-        Spec::load_with_given_model(&args.spec)?,
-        Some((model, name)),
-    )
+pub fn run_with_model(
+    args: CalibrateExternalOptions,
+    given: Option<(&dyn Model, &str)>,
+    progress: Option<ProgressObserver<'_>>,
+) -> Result<()> {
+    let spec = match given {
+        Some(_) => Spec::load_with_given_model(&args.spec)?,
+        None => Spec::load(&args.spec)?,
+    };
+    run_spec(&args, spec, given, progress)
 }
 
 fn run_spec(
     args: &CalibrateExternalOptions,
     spec: Spec,
     given: Option<(&dyn Model, &str)>,
+    progress: Option<ProgressObserver<'_>>,
 ) -> Result<()> {
     let method = spec.method(args.seed);
     let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
@@ -67,6 +73,7 @@ fn run_spec(
         parallel: spec.runs_at_once.max(1),
         resume: args.resume,
         posterior: spec.posterior.clone(),
+        progress,
     };
     let study = &spec.study;
     match &spec.model {

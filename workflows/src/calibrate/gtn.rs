@@ -215,6 +215,7 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
         spec_directory: Path::new("."),
         parallel: args.batch as usize,
         resume: args.resume,
+        progress: None,
         posterior: args
             .posterior_draws_per_chain
             .map(|draws| PosteriorSettings {

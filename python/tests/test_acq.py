@@ -437,3 +437,24 @@ def test_a_progress_bar_with_tqdm(
     run = acq.calibrate(spring_run.path.parent / "spec.toml", out=tmp_path / "bar", model=spring, progress=True)
     bar = capsys.readouterr().err
     assert f"{run.summary['evaluations']}/30" in bar, bar[-300:]
+
+
+def test_the_guides_worked_example_runs(tmp_path: Path) -> None:
+    """docs/src/python.md's cells, as one script, from the repository root."""
+    import re
+    import sys
+
+    page = (REPO / "docs/src/python.md").read_text()
+    cells = re.findall(r"```python\n(.*?)```", page, flags=re.S)
+    assert len(cells) == 1, "the guide shows one worked example"
+    script = cells[0].replace('"target/guide-spring"', repr(str(tmp_path / "spring")))
+    script += "\nassert rows == table.num_rows and len(arm) > 0 and gtn['mape_pct'] < 5\n"
+    script += "assert set(idata.groups()) >= {'posterior', 'posterior_predictive', 'observed_data'}\n"
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        cwd=REPO,
+        env={**os.environ, "MPLBACKEND": "Agg"},
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]

@@ -1017,12 +1017,16 @@ fn the_shipped_validation_example_states_v_and_v_20() {
             .unwrap_or_else(|| panic!("{output} in\n{section}"));
         let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
         assert_eq!(cells[5], u_num, "{row}");
+        assert_eq!(
+            cells[6], "stated in the spec",
+            "where u_num came from: {row}"
+        );
         let (s, d, e): (f64, f64, f64) = (
             cells[2].parse().unwrap(),
             cells[3].parse().unwrap(),
             cells[4].parse().unwrap(),
         );
         assert!((s - d - e).abs() <= 1e-3 * s.abs(), "E = S - D: {row}");
-        assert_eq!(cells[10], "within u_val", "{row}");
+        assert_eq!(cells[11], "within u_val", "{row}");
     }
 }

@@ -10,6 +10,10 @@
 //!   expanded uncertainty, a rectangular limit, a resolution), the combined
 //!   standard uncertainty, Welch-Satterthwaite's effective degrees of
 //!   freedom and the coverage factor for 95 % from Student's t.
+//! - [`grid_convergence`]: a solver's discretisation error from runs at
+//!   several element sizes (Celik et al. 2008; Eça and Hoekstra 2014 with
+//!   more sizes): the observed order, the extrapolated value and the fine
+//!   grid's convergence index, whose `u_num` V&V 20 takes.
 //! - [`curve`]: a calibration curve fitted by least squares to a
 //!   certificate's points, with the curve's own standard uncertainty at
 //!   every reading (from the points' stated uncertainties, or from the
@@ -20,4 +24,5 @@
 pub mod bridge;
 pub mod budget;
 pub mod curve;
+pub mod grid_convergence;
 pub mod monte_carlo;

@@ -253,6 +253,44 @@ pub struct CalibrateExternalArgs {
     pub seed: u64,
 }
 
+/// `acq mesh-study --spec SPEC --out DIR`.
+#[derive(Args, Debug)]
+pub struct MeshStudyArgs {
+    /// The spec (TOML) with [mesh_study] sizes and a command that takes {mesh}.
+    #[arg(long, value_name = "FILE.toml")]
+    pub spec: PathBuf,
+    /// Run directory: evaluations.csv, runs/, summary.json (mesh_study), report.md, plots.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Continue the run in DIR: sizes already in its log are not run again.
+    #[arg(long)]
+    pub resume: bool,
+}
+
+pub fn run_mesh_study(args: MeshStudyArgs) -> Result<()> {
+    super::interrupt::say_how_to_resume_on_interrupt(&args.out);
+    let options = CalibrateExternalOptions {
+        spec: args.spec,
+        out: args.out,
+        resume: args.resume,
+        seed: 1,
+    };
+    let outcome = acq_workflows::calibrate::external::run_mesh_study(&options, None)?;
+    for output in &outcome.outputs {
+        match &output.convergence {
+            Some(study) => println!("{}: {study}", output.key),
+            None => println!("{}: fewer than three sizes gave a value", output.key),
+        }
+    }
+    println!(
+        "{} runs ({} failed); summary.json and report.md in {}",
+        outcome.evaluations,
+        outcome.failed,
+        options.out.display()
+    );
+    Ok(())
+}
+
 #[derive(Args, Debug)]
 pub struct CalibrateRigArgs {
     /// Session directories written by acq record (their holds, in order).

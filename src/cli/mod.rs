@@ -126,6 +126,8 @@ pub enum Command {
     /// Fit a twin (or your own solver) to measurements: DoE, surrogates, NSGA-II + TOPSIS, BO.
     #[command(subcommand)]
     Calibrate(calibrate::CalibrateCommand),
+    /// A spec's solver at several element sizes ([mesh_study] sizes, its {mesh}): each output's observed order, extrapolated value and GCI, the u_num of V&V 20.
+    MeshStudy(calibrate::MeshStudyArgs),
     /// Gaussian-process regression on a CSV: fit a model, predict with it.
     #[command(subcommand)]
     Gp(engine::GpCommand),
@@ -155,6 +157,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Sensitivity(command) => twin::run_sensitivity(command),
         Command::TensileProps(args) => tensile::run_tensile_props(args),
         Command::Calibrate(command) => calibrate::run_calibrate(command),
+        Command::MeshStudy(args) => calibrate::run_mesh_study(args),
         Command::Gp(command) => engine::run_gp(command),
         Command::Moo(args) => engine::run_moo(args),
         Command::Demo(args) => demo::run_demo(args),

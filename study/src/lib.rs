@@ -13,7 +13,8 @@
 //! measured values' budgets from [`measurement_report`]); a
 //! preset adds its own through [`extras`]. Progress goes to stderr
 //! ([`progress`]). [`saved_emulator`] keeps a user's solver as GPs for a
-//! study at the rig.
+//! study at the rig. [`mesh_study`] runs a spec's model at several element
+//! sizes and gives each output's grid convergence, the `u_num` of V&V 20.
 //!
 //! Knows nothing of twins, CAN or the command line: a model is a trait, and
 //! what it computes is named outputs.
@@ -23,6 +24,7 @@ pub mod error;
 pub mod extras;
 pub mod identifiability;
 pub mod measurement_report;
+pub mod mesh_study;
 pub mod method;
 pub mod outcome;
 pub mod posterior;

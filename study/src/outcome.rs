@@ -5,6 +5,7 @@
 
 use acq_calib::evaluation::Evaluation;
 use acq_calib::least_squares::LeastSquaresResult;
+use acq_metrology::grid_convergence::GridConvergence;
 
 use super::identifiability::Identifiability;
 use super::posterior::PosteriorOutcome;
@@ -84,4 +85,25 @@ pub struct LeastSquaresFound {
     pub result: LeastSquaresResult,
     /// The fit outputs at the nominal point (the search's start).
     pub nominal_outputs: Vec<f64>,
+}
+
+/// One output's study, with where its values came from.
+#[derive(Clone, Debug)]
+pub struct OutputConvergence {
+    /// The output's key (`name`, or `case/name`).
+    pub key: String,
+    /// `None` where fewer than three sizes gave a value.
+    pub convergence: Option<GridConvergence>,
+    /// The sizes whose run failed.
+    pub failed_sizes: Vec<f64>,
+}
+
+/// What a mesh study found.
+#[derive(Clone, Debug)]
+pub struct MeshStudyOutcome {
+    pub outputs: Vec<OutputConvergence>,
+    /// The parameter point, by search name.
+    pub at: Vec<(String, f64)>,
+    pub evaluations: usize,
+    pub failed: usize,
 }

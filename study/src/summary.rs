@@ -17,6 +17,11 @@
 //!   its curve again), the curve keyed as in `errors_optimal_pct`;
 //! - with the posterior stage: `posterior`, `predictive` and, with a
 //!   discrepancy, `discrepancy` ([`super::posterior::report::summary_keys`]).
+//!
+//! A mesh study's ([`mesh_study_summary`]): `mesh_study` (per scalar
+//! output `sizes`, `values`, `order`, `extrapolated`, `e_a_pct`,
+//! `e_ext_pct`, `gci_fine_pct`, `u_num`, `convergence`, `note`), `at`,
+//! `evaluations`, `failed`, `wall_s`.
 
 use acq_analysis::loss::metrics::{every_metric, CurveMetric};
 use serde_json::{json, Map, Value};
@@ -160,4 +165,74 @@ fn curve_metrics_json(study: &Study, outcome: &StudyOutcome) -> Value {
         (key, Value::Object(values))
     });
     Value::Object(by_curve.collect())
+}
+
+/// The summary of a mesh study; sizes and values in `spec_sizes`' order.
+pub fn mesh_study_summary(
+    outcome: &super::outcome::MeshStudyOutcome,
+    spec_sizes: &[f64],
+    wall_s: f64,
+) -> Value {
+    let studies: Map<String, Value> = outcome
+        .outputs
+        .iter()
+        .map(|o| (o.key.clone(), output_json(o, spec_sizes)))
+        .collect();
+    json!({
+        "mesh_study": studies,
+        "at": outcome.at.iter().map(|(n, v)| (n.clone(), json!(v))).collect::<Map<_, _>>(),
+        "evaluations": outcome.evaluations,
+        "failed": outcome.failed,
+        "wall_s": wall_s,
+    })
+}
+
+/// A number for JSON: `null` for none or not finite.
+fn number(value: Option<f64>) -> Value {
+    value
+        .filter(|v| v.is_finite())
+        .map_or(Value::Null, Value::from)
+}
+
+/// One output's entry of `summary.json`'s `mesh_study`: sizes and values
+/// in the spec's order, as `[mesh_study] sizes` lists them (a size whose
+/// run failed is left out, and the note names it).
+fn output_json(output: &super::outcome::OutputConvergence, spec_sizes: &[f64]) -> Value {
+    let Some(study) = &output.convergence else {
+        return json!({
+            "sizes": spec_sizes,
+            "values": Value::Null,
+            "order": Value::Null,
+            "extrapolated": Value::Null,
+            "e_a_pct": Value::Null,
+            "e_ext_pct": Value::Null,
+            "gci_fine_pct": Value::Null,
+            "u_num": Value::Null,
+            "convergence": Value::Null,
+            "note": format!("runs failed at sizes {:?}: fewer than three values", output.failed_sizes),
+        });
+    };
+    let ordered: Vec<(f64, f64)> = spec_sizes
+        .iter()
+        .filter_map(|h| {
+            let at = study.sizes.iter().position(|s| s == h)?;
+            Some((*h, study.values[at]))
+        })
+        .collect();
+    json!({
+        "sizes": ordered.iter().map(|p| p.0).collect::<Vec<_>>(),
+        "values": ordered.iter().map(|p| p.1).collect::<Vec<_>>(),
+        "order": number(study.order),
+        "extrapolated": number(study.extrapolated),
+        "e_a_pct": number(study.e_a_pct),
+        "e_ext_pct": number(study.e_ext_pct),
+        "gci_fine_pct": number(study.gci_fine_pct),
+        "u_num": number(study.standard_uncertainty()),
+        "convergence": study.convergence.name(),
+        "note": if output.failed_sizes.is_empty() {
+            study.note.clone()
+        } else {
+            format!("{}; runs failed at sizes {:?}", study.note, output.failed_sizes)
+        },
+    })
 }

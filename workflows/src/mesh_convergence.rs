@@ -107,6 +107,41 @@ pub fn convergence_table(runs: &[SizeRun]) -> String {
     text
 }
 
+/// The grid convergence of each scalar the runs give (the maximum force,
+/// the MAPE, where the bar broke), with three sizes or more: a line each,
+/// the convergence named (Celik et al. 2008; least squares beyond three
+/// sizes).
+pub fn grid_convergence_lines(runs: &[SizeRun]) -> String {
+    use acq_metrology::grid_convergence::grid_convergence;
+    if runs.len() < 3 {
+        return String::new();
+    }
+    let sizes: Vec<f64> = runs.iter().map(|r| r.element_mm).collect();
+    let fractures: Option<Vec<f64>> = runs.iter().map(|r| r.fracture_mm).collect();
+    let mut outputs = vec![
+        (
+            "max force kN",
+            runs.iter().map(|r| r.max_force_kn).collect::<Vec<_>>(),
+        ),
+        ("MAPE %", runs.iter().map(|r| r.mape_pct).collect()),
+    ];
+    if let Some(fractures) = fractures {
+        outputs.push(("broke at mm", fractures));
+    }
+    let mut text = String::from(
+        "grid convergence (the finest size's GCI):
+",
+    );
+    for (name, values) in outputs {
+        let line = match grid_convergence(&sizes, &values) {
+            Ok(study) => study.to_string(),
+            Err(e) => e,
+        };
+        let _ = writeln!(text, "  {name:<13} {line}");
+    }
+    text
+}
+
 /// The test's points and each size's curve in one plot.
 pub fn convergence_svg(title: &str, test: &[(f64, f64)], runs: &[SizeRun]) -> String {
     let mut chart = Chart::new(title, "displacement (half gauge), mm", "force, kN");

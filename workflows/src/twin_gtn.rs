@@ -205,7 +205,9 @@ fn run_mesh_convergence(
     model: &crate::tensile_model::TensileModel,
     inputs: &crate::tensile_model::GtnInputs,
 ) -> Result<()> {
-    use crate::mesh_convergence::{convergence_svg, convergence_table, mesh_convergence};
+    use crate::mesh_convergence::{
+        convergence_svg, convergence_table, grid_convergence_lines, mesh_convergence,
+    };
     // Every size is checked before the first (slow) run.
     for &size in &args.convergence {
         acq_twins::tensile::mesh::MeshDensity::by_element_size(
@@ -266,9 +268,10 @@ fn run_mesh_convergence(
         format!("{}\n", serde_json::Value::Array(sizes))
     } else {
         format!(
-            "GTN twin mesh convergence: {}\n{}",
+            "GTN twin mesh convergence: {}\n{}{}",
             file_name(test),
-            convergence_table(&runs)
+            convergence_table(&runs),
+            grid_convergence_lines(&runs)
         )
     };
     let mut stdout = Output::create(None)?;

@@ -466,9 +466,9 @@ fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcom
     }
     report.heading(3, "Validation (ASME V&V 20)");
     let numerical = if posterior.settings.numerical_uncertainty.is_empty() {
-        "u_num is taken as 0 (the study states no numerical uncertainty: `numerical_uncertainty` under `[posterior]`, from a mesh study of the solver)"
+        "u_num is taken as 0 (the study states no numerical uncertainty: `mesh_study` or `numerical_uncertainty` under `[posterior]`)"
     } else {
-        "u_num the solver's numerical uncertainty the study states (from its mesh study; 0 where it states none)"
+        "u_num the solver's numerical uncertainty (\"u_num from\" says where each came from; 0 where none is stated)"
     };
     report.paragraph(format!(
         "E = S - D, S the model's mean at the predictive runs, D the measured value; u_val = sqrt(u_num^2 + u_input^2 + u_D^2), u_input the spread of the model's values over the posterior's parameters, u_D the measurement's uncertainty, {numerical}. The model's error lies in E +- {COVERAGE_FACTOR} u_val."
@@ -480,6 +480,7 @@ fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcom
         "D",
         "E",
         "u_num",
+        "u_num from",
         "u_input",
         "u_D",
         "u_val",
@@ -497,6 +498,7 @@ fn write_validation_statement(report: &mut Document, posterior: &PosteriorOutcom
             short(s.measured),
             short(s.comparison_error),
             short(s.u_num),
+            s.u_num_source.clone(),
             short(s.u_input),
             short(s.u_measured),
             short(s.u_val),

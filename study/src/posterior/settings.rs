@@ -38,8 +38,11 @@ pub struct PosteriorSettings {
     pub refinement_runs: usize,
     pub seed: u64,
     /// Validate observations' numerical uncertainty (u_num of ASME V&V
-    /// 20), by observation name; 0 for the others.
+    /// 20), by observation name or `case/name` (a mesh study's key); 0 for
+    /// the others.
     pub numerical_uncertainty: Vec<(String, f64)>,
+    /// Where each of them came from, by the same key.
+    pub numerical_uncertainty_sources: Vec<(String, String)>,
 }
 
 impl Default for PosteriorSettings {
@@ -52,6 +55,7 @@ impl Default for PosteriorSettings {
             refinement_runs: MAX_REFINEMENT_RUNS,
             seed: 1,
             numerical_uncertainty: Vec::new(),
+            numerical_uncertainty_sources: Vec::new(),
         }
     }
 }

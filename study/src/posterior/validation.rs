@@ -39,6 +39,8 @@ pub struct ValidationStatement {
     /// `E = S - D`.
     pub comparison_error: f64,
     pub u_num: f64,
+    /// Where `u_num` came from: the spec, a mesh study, or nowhere (0).
+    pub u_num_source: String,
     pub u_input: f64,
     pub u_measured: f64,
     /// `sqrt(u_num^2 + u_input^2 + u_D^2)`.
@@ -84,12 +86,31 @@ fn statement(
         posterior
             .density
             .measurement_sd(noise_pct, predicted.measured, predicted.uncertainty);
-    let u_num = posterior
-        .settings
-        .numerical_uncertainty
-        .iter()
-        .find(|(name, _)| *name == predicted.name)
-        .map_or(0.0, |(_, u)| *u);
+    // A mesh study's u_num is the case's own (`case/name`); one stated in
+    // the spec is by name.
+    let settings = &posterior.settings;
+    let key = [
+        format!("{}/{}", predicted.case, predicted.name),
+        predicted.name.clone(),
+    ]
+    .into_iter()
+    .find(|key| settings.numerical_uncertainty.iter().any(|(k, _)| k == key));
+    let u_num = key.as_ref().map_or(0.0, |key| {
+        settings
+            .numerical_uncertainty
+            .iter()
+            .find(|(k, _)| k == key)
+            .map_or(0.0, |(_, u)| *u)
+    });
+    let u_num_source = key
+        .and_then(|key| {
+            settings
+                .numerical_uncertainty_sources
+                .iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, source)| source.clone())
+        })
+        .unwrap_or_else(|| "none stated (0)".into());
     let u_val = (u_num * u_num + u_input * u_input + u_measured * u_measured).sqrt();
     let comparison_error = simulated - predicted.measured;
     ValidationStatement {
@@ -99,6 +120,7 @@ fn statement(
         measured: predicted.measured,
         comparison_error,
         u_num,
+        u_num_source,
         u_input,
         u_measured,
         u_val,

@@ -386,6 +386,92 @@ fn search_section(search: &Search) -> Result<(), String> {
     Ok(())
 }
 
+/// `[mesh_study]`: at least three distinct positive sizes, `at` naming
+/// parameters within their ranges, and `{mesh}` where the sizes go; a
+/// command that takes `{mesh}` needs the section.
+pub fn mesh_study(
+    file: &SpecFile,
+    model: &ModelKind,
+) -> Result<Option<crate::mesh_study::MeshStudySettings>, SpecProblem> {
+    use crate::mesh_study::{MeshStudySettings, MESH_INPUT};
+    let placeholder = format!("{{{MESH_INPUT}}}");
+    let takes_mesh = file.command.iter().any(|a| a.contains(&placeholder));
+    let Some(section) = &file.mesh_study else {
+        if takes_mesh && matches!(model, ModelKind::Command(_)) {
+            return Err(SpecProblem::file(format!(
+                "the command takes {placeholder}, but the spec has no [mesh_study]: add [mesh_study] with sizes = [...] (the element sizes; a calibration runs at the smallest)"
+            )));
+        }
+        return Ok(None);
+    };
+    let problem = |message: String| SpecProblem::file(format!("[mesh_study] {message}"));
+    match model {
+        ModelKind::Command(_) if !takes_mesh => {
+            return Err(problem(format!(
+                "needs {placeholder} in the command: the element size each run takes"
+            )))
+        }
+        ModelKind::Excavator { .. } => {
+            return Err(problem(
+                "runs a user's solver (a command with {mesh}); the excavator twin is a beam model without a mesh".into(),
+            ))
+        }
+        _ => {}
+    }
+    let sizes = &section.sizes;
+    if sizes.len() < 3 {
+        return Err(problem(format!(
+            "sizes = {sizes:?}: give at least three element sizes (Celik et al. 2008 needs three; more are fitted by least squares)"
+        )));
+    }
+    if let Some(bad) = sizes.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+        return Err(problem(format!(
+            "sizes: {bad} is not a positive element size"
+        )));
+    }
+    let mut sorted = sizes.clone();
+    sorted.sort_by(f64::total_cmp);
+    if sorted.windows(2).any(|w| w[0] == w[1]) {
+        return Err(problem(format!("sizes = {sizes:?}: each size once")));
+    }
+    if file.parameters.iter().any(|p| p.name == MESH_INPUT)
+        || file.cases.iter().any(|c| c.inputs.contains_key(MESH_INPUT))
+    {
+        return Err(problem(format!(
+            "the name {MESH_INPUT:?} is the element size's: rename the parameter or case input that has it"
+        )));
+    }
+    for (name, value) in &section.at {
+        let Some(parameter) = file.parameters.iter().find(|p| p.name == *name) else {
+            return Err(problem(format!(
+                "at.{name}: no parameter has this name; name one of {}",
+                file.parameters
+                    .iter()
+                    .map(|p| p.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        };
+        if !(value.is_finite() && (parameter.lower..=parameter.upper).contains(value)) {
+            return Err(problem(format!(
+                "at.{name} = {value}: give a value within its range {} .. {}",
+                parameter.lower, parameter.upper
+            )));
+        }
+    }
+    let calibrate_at = section.calibrate_at.unwrap_or(sorted[0]);
+    if !(calibrate_at.is_finite() && calibrate_at > 0.0) {
+        return Err(problem(format!(
+            "calibrate_at = {calibrate_at}: give a positive element size"
+        )));
+    }
+    Ok(Some(MeshStudySettings {
+        sizes: sizes.clone(),
+        at: section.at.clone().into_iter().collect(),
+        calibrate_at,
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::{is_slurm_memory, is_slurm_time};

@@ -98,6 +98,11 @@
 //! # optional: a validate value's numerical uncertainty (V&V 20's u_num,
 //! # from your mesh study), in its unit
 //! numerical_uncertainty = { "pressure_bar.boom" = 0.4 }
+//!
+//! [mesh_study]               # optional: `acq mesh-study --spec SPEC --out DIR`
+//! sizes = [0.4, 0.2, 0.1]    # element sizes, any unit; the command's {mesh}
+//! at = { youngs_modulus_gpa = 205.0 }  # [default: each parameter's nominal]
+//! calibrate_at = 0.1         # the size a calibration runs at [default: the smallest]
 //! ```
 //!
 //! The posterior's likelihood takes each measured value's `uncertainty`;
@@ -152,6 +157,9 @@ pub struct Spec {
     /// `[emulator] save`: the file name of the emulator to leave in the
     /// run directory.
     pub save_emulator: Option<String>,
+    /// `[mesh_study]`: the element sizes `acq mesh-study` runs; every
+    /// case of a calibration gets `mesh = calibrate_at`.
+    pub mesh_study: Option<crate::mesh_study::MeshStudySettings>,
 }
 
 /// The directory a spec's relative paths start from.
@@ -222,15 +230,42 @@ impl Spec {
         checks::files(&file, &directory).map_err(located)?;
         checks::search(&file.search).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
+        let mesh_study = checks::mesh_study(&file, &model).map_err(located)?;
         let command = matches!(model, ModelKind::Command(_));
-        let study = assemble::study(&file, &directory, command).map_err(located)?;
+        let mut study = assemble::study(&file, &directory, command).map_err(located)?;
+        if let Some(mesh) = &mesh_study {
+            // A calibration runs every case at the one size.
+            for case in study.cases.iter_mut().filter(|c| !c.priors) {
+                case.inputs
+                    .push((crate::mesh_study::MESH_INPUT.into(), mesh.calibrate_at));
+            }
+        }
         let fit = study.observations(crate::study::Role::Fit);
         if !fit.is_empty() && fit.iter().all(|(case, o)| case.priors || o.weight == 0.0) {
             return Err(located(SpecProblem::file(
                 "every measured value and curve has weight 0: the search would have nothing to fit; give at least one a weight above 0",
             )));
         }
-        let posterior = file.posterior.as_ref().map(PosteriorSpec::settings);
+        let mut posterior = file.posterior.as_ref().map(PosteriorSpec::settings);
+        let mesh_run = file.posterior.as_ref().and_then(|p| p.mesh_study.as_ref());
+        if let (Some(settings), Some(run)) = (&mut posterior, mesh_run) {
+            let found = crate::mesh_study::u_num_from_run(&directory.join(run), &study)
+                .map_err(|e| located(SpecProblem::file(format!("posterior.mesh_study: {e}"))))?;
+            for (key, u_num, source) in found {
+                let name = key.rsplit('/').next().unwrap_or(&key).to_string();
+                if settings
+                    .numerical_uncertainty
+                    .iter()
+                    .any(|(k, _)| *k == name)
+                {
+                    return Err(located(SpecProblem::file(format!(
+                        "posterior.numerical_uncertainty.{name:?} and posterior.mesh_study both give its u_num: keep one"
+                    ))));
+                }
+                settings.numerical_uncertainty.push((key.clone(), u_num));
+                settings.numerical_uncertainty_sources.push((key, source));
+            }
+        }
         if let Some(settings) = &posterior {
             check_posterior(&study, settings)
                 .map_err(|message| located(SpecProblem::file(format!("[posterior]: {message}"))))?;
@@ -245,6 +280,7 @@ impl Spec {
             runs_at_once,
             directory,
             save_emulator: file.emulator.and_then(|e| e.save),
+            mesh_study,
         })
     }
 

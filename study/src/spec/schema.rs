@@ -69,6 +69,25 @@ pub struct SpecFile {
     /// `[emulator]`: save an emulator of a user's model after its study,
     /// or (at the rig) run one in its place.
     pub emulator: Option<EmulatorSpec>,
+    /// `[mesh_study]`: the element sizes the command's `{mesh}` takes.
+    pub mesh_study: Option<MeshStudySpec>,
+}
+
+/// `[mesh_study]`: the same runs at several element sizes (`acq
+/// mesh-study`), and the size a calibration of the spec runs at.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshStudySpec {
+    /// Representative element sizes, any unit, one run (per case) each;
+    /// at least three.
+    #[serde(default)]
+    pub sizes: Vec<f64>,
+    /// The parameters the mesh study runs at, by name [default: each
+    /// parameter's nominal value].
+    #[serde(default)]
+    pub at: BTreeMap<String, f64>,
+    /// The size `acq calibrate external` runs at [default: the smallest].
+    pub calibrate_at: Option<f64>,
 }
 
 /// `[emulator]`: an emulator of a user's model over its parameters and its
@@ -198,6 +217,9 @@ pub struct PosteriorSpec {
     /// 20, from the user's own mesh study), in its unit, by its name.
     #[serde(default)]
     pub numerical_uncertainty: BTreeMap<String, f64>,
+    /// The run directory of `acq mesh-study` on this spec (from the spec's
+    /// directory): each validate value's u_num from its grid convergence.
+    pub mesh_study: Option<String>,
 }
 
 fn default_draws() -> usize {
@@ -225,6 +247,11 @@ impl PosteriorSpec {
                 .numerical_uncertainty
                 .iter()
                 .map(|(name, u)| (name.clone(), *u))
+                .collect(),
+            numerical_uncertainty_sources: self
+                .numerical_uncertainty
+                .keys()
+                .map(|name| (name.clone(), "stated in the spec".to_string()))
                 .collect(),
             ..PosteriorSettings::default()
         }

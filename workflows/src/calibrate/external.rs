@@ -98,18 +98,7 @@ fn run_spec(
             )?;
         }
         ModelKind::Command(command) => {
-            let executor = executor(&spec.executor).map_err(in_spec)?;
-            let directory = RunDirectory::create(&args.out)?;
-            let runs = std::fs::canonicalize(&directory.path)
-                .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
-                .join("runs");
-            let model = CommandModel::new(
-                command.clone(),
-                spec.directory.clone(),
-                runs,
-                executor,
-                args.resume,
-            );
+            let (model, directory) = command_model(&spec, command, args)?;
             let extras = EmulatorExtras {
                 save: spec.save_emulator.clone(),
                 model: command.command.join(" "),
@@ -138,6 +127,71 @@ fn run_spec(
         }
     }
     Ok(())
+}
+
+/// `acq mesh-study --spec SPEC --out DIR`: the spec's model at each of
+/// `[mesh_study] sizes` (the command's `{mesh}`), at its nominal
+/// parameters or `[mesh_study] at`, and each scalar output's grid
+/// convergence ([`acq_study::mesh_study`]). With `given`, a model the
+/// caller brings (the Python package's).
+pub fn run_mesh_study(
+    args: &CalibrateExternalOptions,
+    given: Option<(&dyn Model, &str)>,
+) -> Result<acq_study::mesh_study::MeshStudyOutcome> {
+    let spec = match given {
+        Some(_) => Spec::load_with_given_model(&args.spec)?,
+        None => Spec::load(&args.spec)?,
+    };
+    let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
+    let Some(settings) = &spec.mesh_study else {
+        return Err(in_spec(
+            "no [mesh_study]: add one with sizes = [...] (three or more element sizes, which the command takes as {mesh})".into(),
+        ));
+    };
+    let parallel = spec.runs_at_once.max(1);
+    let run = |model: &dyn Model, directory: &RunDirectory| {
+        acq_study::mesh_study::run_mesh_study(
+            &spec.study,
+            settings,
+            model,
+            directory,
+            parallel,
+            args.resume,
+        )
+    };
+    match (&spec.model, given) {
+        (ModelKind::Command(command), _) => {
+            let (model, directory) = command_model(&spec, command, args)?;
+            run(&model, &directory)
+        }
+        (ModelKind::Given, Some((model, _))) => run(model, &RunDirectory::create(&args.out)?),
+        _ => Err(in_spec(
+            "[mesh_study] runs a user's solver: a command with {mesh}, or a model given from Python".into(),
+        )),
+    }
+}
+
+/// A user's solver on the spec's executor, its runs in `args.out/runs/`,
+/// and the run directory, created.
+fn command_model(
+    spec: &Spec,
+    command: &acq_study::spec::CommandSpec,
+    args: &CalibrateExternalOptions,
+) -> Result<(CommandModel, RunDirectory)> {
+    let executor = executor(&spec.executor)
+        .map_err(|e| AcqError::Config(format!("{}: {e}", args.spec.display())))?;
+    let directory = RunDirectory::create(&args.out)?;
+    let runs = std::fs::canonicalize(&directory.path)
+        .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
+        .join("runs");
+    let model = CommandModel::new(
+        command.clone(),
+        spec.directory.clone(),
+        runs,
+        executor,
+        args.resume,
+    );
+    Ok((model, directory))
 }
 
 /// A study of a user's solver with `[emulator] save` leaves an emulator of

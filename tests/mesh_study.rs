@@ -1,0 +1,292 @@
+//! `acq mesh-study --spec SPEC --out DIR` on a solver whose outputs have
+//! closed forms: a power law `phi0 + a h^p` (its order, extrapolated value
+//! and GCI are known exactly), values that oscillate and values that
+//! diverge as the elements shrink (named, with no silent number), the
+//! least-squares form over more than three sizes, and a calibration of the
+//! same spec, which runs at one size.
+//!
+//! Tolerances: the solver prints 17 significant digits, so the values are
+//! exact to 1e-16; the order comes from differences of values about 1e-2
+//! apart, which keeps about 13 digits: 1e-9 relative leaves a margin of
+//! ten thousand.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{acq, path_arg, stderr};
+use serde_json::Value;
+
+/// kind 1: `1.5 + 0.3 h^1.8`; kind 2: 5.0, 5.2, 4.6 at h = 0.1, 0.2,
+/// 0.4 (oscillating); kind 3: `3 + 1/h` (growing as h shrinks). The
+/// parameter `k` scales nothing: the study runs at its nominal value.
+const SOLVER: &str = r#"awk -v h="$1" -v kind="$2" -v k="$3" 'BEGIN {
+  if (kind == 1) phi = 1.5 + 0.3 * h ^ 1.8;
+  if (kind == 2) { if (h < 0.15) phi = 5.0; else if (h < 0.3) phi = 5.2; else phi = 4.6 }
+  if (kind == 3) phi = 3 + 1 / h;
+  printf "{\"phi\": %.17g, \"k_seen\": %.17g}\n", phi, k
+}' > out.json
+"#;
+
+fn spec(dir: &Path, sizes: &str, command_mesh: &str) -> PathBuf {
+    std::fs::write(dir.join("solver.sh"), SOLVER).unwrap();
+    let spec = dir.join("spec.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            r#"command = ["sh", "solver.sh", "{command_mesh}", "{{kind}}", "{{k}}"]
+output_file = "out.json"
+parallel = 2
+
+[[parameter]]
+name = "k"
+lower = 1.0
+upper = 3.0
+
+[[case]]
+name = "power"
+inputs = {{ kind = 1 }}
+measured = {{ phi = 1.5 }}
+
+[[case]]
+name = "oscillating"
+inputs = {{ kind = 2 }}
+measured = {{ phi = 5.0 }}
+
+[[case]]
+name = "diverging"
+inputs = {{ kind = 3 }}
+measured = {{ phi = 3.0 }}
+
+[search]
+start_runs = 3
+max_evals = 3
+
+[mesh_study]
+sizes = {sizes}
+"#
+        ),
+    )
+    .unwrap();
+    spec
+}
+
+fn mesh_study(spec: &Path, out: &Path) -> Value {
+    let run = acq(&[
+        "mesh-study",
+        "--spec",
+        path_arg(spec),
+        "--out",
+        path_arg(out),
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+fn close(ours: f64, exact: f64) -> bool {
+    (ours - exact).abs() <= 1e-9 * exact.abs().max(1e-300)
+}
+
+#[test]
+fn a_power_law_gives_its_order_limit_and_gci_and_other_behaviour_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let summary = mesh_study(
+        &spec(dir.path(), "[0.4, 0.2, 0.1]", "{mesh}"),
+        &dir.path().join("run"),
+    );
+    let study = &summary["mesh_study"];
+    let power = &study["power/phi"];
+    for key in [
+        "sizes",
+        "values",
+        "order",
+        "extrapolated",
+        "e_a_pct",
+        "e_ext_pct",
+        "gci_fine_pct",
+        "convergence",
+    ] {
+        assert!(power.get(key).is_some(), "no {key} in {power}");
+    }
+    assert_eq!(
+        power["sizes"],
+        serde_json::json!([0.4, 0.2, 0.1]),
+        "the spec's order"
+    );
+    assert_eq!(power["convergence"], "monotonic");
+    let phi = |h: f64| 1.5 + 0.3 * h.powf(1.8);
+    let number = |v: &Value| v.as_f64().unwrap();
+    assert!(close(number(&power["order"]), 1.8), "{power}");
+    assert!(close(number(&power["extrapolated"]), 1.5), "{power}");
+    // Closed forms: e_a = |phi(0.1) - phi(0.2)| / phi(0.1); the GCI
+    // 1.25 e_a / (2^1.8 - 1) = 1.25 * 0.3 * 0.1^1.8 / phi(0.1); e_ext
+    // = 0.3 * 0.1^1.8 / 1.5.
+    let e_a = 100.0 * (phi(0.2) - phi(0.1)) / phi(0.1);
+    assert!(close(number(&power["e_a_pct"]), e_a));
+    assert!(close(
+        number(&power["gci_fine_pct"]),
+        125.0 * 0.3 * 0.1f64.powf(1.8) / phi(0.1)
+    ));
+    assert!(close(
+        number(&power["e_ext_pct"]),
+        100.0 * 0.3 * 0.1f64.powf(1.8) / 1.5
+    ));
+
+    assert_eq!(study["oscillating/phi"]["convergence"], "oscillatory");
+    let diverging = &study["diverging/phi"];
+    assert_eq!(diverging["convergence"], "divergent");
+    for key in ["order", "extrapolated", "gci_fine_pct"] {
+        assert!(
+            diverging[key].is_null(),
+            "a divergent study has no {key}: {diverging}"
+        );
+    }
+    assert!(diverging["note"].as_str().unwrap().contains("diverge"));
+    // The runs were at the parameter's nominal value, the middle of 1..3.
+    assert_eq!(summary["at"]["k"], 2.0);
+    let report = std::fs::read_to_string(dir.path().join("run/report.md")).unwrap();
+    assert!(
+        report.contains("mesh_study_1.svg") && dir.path().join("run/mesh_study_1.svg").exists()
+    );
+}
+
+#[test]
+fn more_sizes_are_fitted_by_least_squares_to_the_same_closed_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let summary = mesh_study(
+        &spec(dir.path(), "[0.5, 0.35, 0.25, 0.18, 0.12]", "{mesh}"),
+        &dir.path().join("run"),
+    );
+    let power = &summary["mesh_study"]["power/phi"];
+    assert_eq!(power["convergence"], "monotonic");
+    // The fit is exact on exact data, found by a one-dimensional search
+    // over the order: 1e-6.
+    assert!(
+        (power["order"].as_f64().unwrap() - 1.8).abs() < 1e-6,
+        "{power}"
+    );
+    assert!(
+        (power["extrapolated"].as_f64().unwrap() - 1.5).abs() < 1e-9,
+        "{power}"
+    );
+    assert!(power["note"].as_str().unwrap().contains("least squares"));
+}
+
+#[test]
+fn a_spec_without_mesh_where_it_needs_it_is_refused_with_what_to_add() {
+    let dir = tempfile::tempdir().unwrap();
+    let without = spec(dir.path(), "[0.4, 0.2, 0.1]", "0.1");
+    let run = acq(&[
+        "mesh-study",
+        "--spec",
+        path_arg(&without),
+        "--out",
+        path_arg(&dir.path().join("a")),
+    ]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(
+        stderr(&run).contains("needs {mesh} in the command"),
+        "{}",
+        stderr(&run)
+    );
+    let two = spec(dir.path(), "[0.4, 0.2]", "{mesh}");
+    let run = acq(&[
+        "mesh-study",
+        "--spec",
+        path_arg(&two),
+        "--out",
+        path_arg(&dir.path().join("b")),
+    ]);
+    assert_eq!(run.status.code(), Some(2));
+    assert!(stderr(&run).contains("at least three"), "{}", stderr(&run));
+}
+
+#[test]
+fn a_calibration_of_the_spec_runs_every_case_at_the_smallest_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(dir.path(), "[0.4, 0.2, 0.1]", "{mesh}");
+    let out = dir.path().join("calibration");
+    let run = common::calibrate_external(&spec, &out, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let runs: Vec<_> = std::fs::read_dir(out.join("runs"))
+        .unwrap()
+        .flatten()
+        .collect();
+    assert!(!runs.is_empty());
+    for run in runs {
+        let params: Value =
+            serde_json::from_str(&std::fs::read_to_string(run.path().join("params.json")).unwrap())
+                .unwrap();
+        assert_eq!(params["mesh"], 0.1, "{params}");
+    }
+}
+
+/// The spring of examples/validation with a discretisation error of
+/// `2 % (h / 0.1)^2` on both deflections: at the finest size 0.1 the error
+/// is 2 % of the exact value, which is what Richardson extrapolation finds
+/// and what u_num (the GCI without its safety factor) is.
+const SPRING_WITH_MESH: &str = r#"awk -v k="$1" -v d="$2" -v f1="$3" -v f2="$4" -v s="$5" -v h="$6" 'BEGIN {
+    e = 1 + 0.02 * (h / 0.1) ^ 2
+    printf "{\"u_low_mm\": %.17g, \"u_high_mm\": %.17g}\n", (f1 / k + d + s * f1 * f1) * e, (f2 / k + d + s * f2 * f2) * e
+}' > out.json
+"#;
+
+#[test]
+fn a_validation_takes_u_num_from_the_mesh_study_of_its_own_spec() {
+    let dir = tempfile::tempdir().unwrap();
+    let example = common::root().join("examples/validation/spec.toml");
+    let text = std::fs::read_to_string(example).unwrap();
+    let text = text
+        .replace(
+            r#"command = ["sh", "spring.sh", "{k_kn_per_mm}", "{offset_mm}", "{f_low_kn}", "{f_high_kn}", "{softening_per_kn}"]"#,
+            r#"command = ["sh", "spring_mesh.sh", "{k_kn_per_mm}", "{offset_mm}", "{f_low_kn}", "{f_high_kn}", "{softening_per_kn}", "{mesh}"]"#,
+        )
+        .replace(r#"copy_files = ["spring.sh"]"#, r#"copy_files = ["spring_mesh.sh"]"#);
+    assert!(
+        text.contains("spring_mesh.sh\", \"{k_kn"),
+        "the example's command changed"
+    );
+    std::fs::write(dir.path().join("spring_mesh.sh"), SPRING_WITH_MESH).unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(
+        &spec,
+        format!("{text}\n[mesh_study]\nsizes = [0.4, 0.2, 0.1]\nat = {{ k_kn_per_mm = 2.0 }}\n"),
+    )
+    .unwrap();
+    let summary = mesh_study(&spec, &dir.path().join("mesh"));
+    let c_low = &summary["mesh_study"]["C/u_low_mm"];
+    assert_eq!(c_low["convergence"], "monotonic");
+    // At k = 2, the offset's nominal 0 and case C's inputs: exact
+    // 20 / 2 + 0.1 + 0.002 * 400 = 10.9 mm, and 2 % of it at h = 0.1.
+    let u_num = c_low["u_num"].as_f64().unwrap();
+    assert!(close(u_num, 0.02 * 10.9), "{c_low}");
+    assert!(
+        close(c_low["extrapolated"].as_f64().unwrap(), 10.9),
+        "{c_low}"
+    );
+
+    // The validation names the mesh study; its V&V 20 table takes that u_num.
+    // The example states its u_num by hand; the mesh study replaces it.
+    let typed = "numerical_uncertainty = { u_low_mm = 0.005, u_high_mm = 0.01 }";
+    let text = std::fs::read_to_string(&spec).unwrap();
+    assert!(text.contains(typed), "the example's u_num line changed");
+    let with_posterior = text
+        .replace(typed, "")
+        .replace("[posterior]\n", "[posterior]\nmesh_study = \"mesh\"\n");
+    std::fs::write(&spec, with_posterior).unwrap();
+    let out = dir.path().join("calibration");
+    let run = common::calibrate_external(&spec, &out, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let section = report
+        .split("Validation (ASME V&V 20)")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no V&V 20 section in\n{report}"));
+    let row = section
+        .lines()
+        .find(|l| l.starts_with("| C | u_low_mm |"))
+        .unwrap_or_else(|| panic!("no V&V 20 row for C/u_low_mm in\n{section}"));
+    assert!(row.contains("0.218"), "u_num 0.218 mm: {row}");
+    assert!(row.contains("mesh study"), "{row}");
+}

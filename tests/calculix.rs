@@ -258,3 +258,48 @@ fn the_built_in_tensile_twin_agrees_with_calculix_without_damage() {
         );
     }
 }
+
+/// `acq mesh-study` on the example's own spec (`spec-mesh.toml`): CalculiX
+/// at 4x25, 5x31 and 8x50 elements. Before the neck the quadratic elements
+/// have converged below the printed digits of ccx's `.dat` (7 significant),
+/// so the three values are equal and the study says so; at the end of the
+/// pull the neck's force falls as the elements shrink (the neck localises
+/// further), so the extrapolated force lies below the finest one.
+#[test]
+fn a_mesh_study_of_the_calculix_bar_finds_where_the_mesh_matters() {
+    require("ccx", "calculix-ccx");
+    require("python3", "python3");
+    let dir = tempfile::tempdir().unwrap();
+    for file in ["tensile.py", "spec-mesh.toml"] {
+        std::fs::copy(example().join(file), dir.path().join(file)).unwrap();
+    }
+    let out = dir.path().join("mesh");
+    let run = acq(&[
+        "mesh-study",
+        "--spec",
+        path_arg(&dir.path().join("spec-mesh.toml")),
+        "--out",
+        path_arg(&out),
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let half = &summary["mesh_study"]["force_at_half_mm_kn"];
+    assert_eq!(half["gci_fine_pct"], 0.0, "{half}");
+    assert!(half["note"].as_str().unwrap().contains("equal"), "{half}");
+    let end = &summary["mesh_study"]["force_at_end_kn"];
+    assert_eq!(end["convergence"], "monotonic", "{end}");
+    let values: Vec<f64> = serde_json::from_value(end["values"].clone()).unwrap();
+    let finest = values[2];
+    let extrapolated = number(end, &["extrapolated"]);
+    assert!(
+        extrapolated < finest,
+        "the neck's force falls with refinement: {end}"
+    );
+    // An order a discretisation error can have, and a GCI that bounds the
+    // finest value's error by a few per cent, not by nothing or by all.
+    let order = number(end, &["order"]);
+    assert!((0.5..4.0).contains(&order), "{end}");
+    let gci = number(end, &["gci_fine_pct"]);
+    assert!((0.1..10.0).contains(&gci), "{end}");
+}

@@ -2,7 +2,7 @@
 """A user's own FE model, the way acq drives it: a round tensile bar in
 CalculiX, calibrated by `acq calibrate external`.
 
-    python3 tensile.py run --params params.json [--mesh 6x30] [--out out.json] [--curve curve.csv]
+    python3 tensile.py run --params params.json [--mesh 6x30 | --element-mm 0.5] [--out out.json] [--curve curve.csv]
     python3 tensile.py measured --K 1000 --n 0.12 [--noise 0.005] [--seed 1] [--mesh 6x30] -o measured.csv
     python3 tensile.py flow --K 1000 --n 0.12 -o flow.csv   (the *PLASTIC table, for acq twin gtn --flow-curve)
 
@@ -10,7 +10,10 @@ CalculiX, calibrated by `acq calibrate external`.
 directory: it writes the deck `bar.inp` (the mesh made from parameters, never
 by hand), runs `ccx`, reads the reaction force from `bar.dat`, and writes the
 force-displacement curve (`curve.csv`: u_mm, f_kn) and the scalars
-(`out.json`: max_force_kn, u_at_max_force_mm, force_at_half_mm_kn). When ccx fails or stops
+(`out.json`: max_force_kn, u_at_max_force_mm, force_at_half_mm_kn,
+force_at_end_kn). `--element-mm H` meshes the bar with elements of about H
+mm each way (R/H radial, L/H axial, rounded): the size a mesh study
+(`acq mesh-study`, `spec-mesh.toml`) passes as `{mesh}`. When ccx fails or stops
 before the full pull it exits non-zero with the reason on stderr, so acq
 logs a failed evaluation and the study goes on.
 
@@ -204,11 +207,20 @@ def force_at(curve, u_mm):
 
 
 def scalars(curve):
-    """What a test report states: the maximum force and where it is, and
-    the force at 0.5 mm (in the hardening, before the neck)."""
+    """What a test report states: the maximum force and where it is, the
+    force at 0.5 mm (in the hardening, before the neck), and the force at
+    the end of the pull (deep in the neck, where the mesh matters)."""
     u_max, f_max = max(curve, key=lambda p: p[1])
     return {"max_force_kn": f_max, "u_at_max_force_mm": u_max,
-            "force_at_half_mm_kn": force_at(curve, 0.5)}
+            "force_at_half_mm_kn": force_at(curve, 0.5),
+            "force_at_end_kn": curve[-1][1]}
+
+
+def mesh_of_size(element_mm):
+    """Radial and axial element counts for elements of about `element_mm`."""
+    if not (0.05 <= element_mm <= RADIUS_MM):
+        fail("--element-mm %g: give 0.05 to %g mm" % (element_mm, RADIUS_MM))
+    return max(1, round(RADIUS_MM / element_mm)), max(2, round(HALF_LENGTH_MM / element_mm))
 
 
 def main():
@@ -217,6 +229,7 @@ def main():
     run = commands.add_parser("run", help="one model run (what acq calls)")
     run.add_argument("--params", required=True)
     run.add_argument("--mesh", default="6x30")
+    run.add_argument("--element-mm", type=float, help="element size instead of --mesh")
     run.add_argument("--out", default="out.json")
     run.add_argument("--curve", default="curve.csv")
     measured = commands.add_parser("measured", help="a synthetic test: the model at a truth plus noise")
@@ -238,6 +251,8 @@ def main():
                 f.write("%.10g,%.10g\n" % (strain, stress))
         return
     radial, axial = parse_mesh(args.mesh)
+    if getattr(args, "element_mm", None) is not None:
+        radial, axial = mesh_of_size(args.element_mm)
     if args.command == "run":
         k_mpa, n = read_params(args.params)
         curve = simulate(k_mpa, n, radial, axial)

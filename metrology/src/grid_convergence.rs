@@ -13,9 +13,12 @@
 //!   the fit's standard deviation.
 //!
 //! The convergence is named from the differences between neighbouring
-//! sizes (fine to coarse): `R = (phi_2 - phi_1) / (phi_3 - phi_2)` with
-//! `0 < R < 1` monotonic, `-1 < R < 0` oscillatory, anything else
-//! divergent. Where the procedure does not apply (divergence, a zero
+//! sizes (fine to coarse), `e21 = phi_2 - phi_1` and `e32 = phi_3 -
+//! phi_2`: of one sign, monotonic where a positive order fits them, which
+//! is `e32 / e21 > ln r32 / ln r21` (with equal ratios the usual `0 < R <
+//! 1`, `R = e21 / e32`; with unequal ones the finer step may well change
+//! the value more); of opposite signs, oscillatory while `|R| < 1`;
+//! anything else divergent. Where the procedure does not apply (divergence, a zero
 //! value, a fit that does not converge) its numbers are `None` and the
 //! note says why: never a silent number.
 
@@ -129,7 +132,7 @@ pub fn grid_convergence(sizes: &[f64], values: &[f64]) -> Result<GridConvergence
         return Err("two sizes are equal: give each element size once".into());
     }
     let (sizes, values): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
-    let convergence = convergence_of(&values);
+    let convergence = convergence_of(&sizes, &values);
     let e_a_pct = relative_pct(values[0] - values[1], values[0]);
     let base = GridConvergence {
         sizes,
@@ -156,20 +159,27 @@ fn relative_pct(difference: f64, reference: f64) -> Option<f64> {
 }
 
 /// The convergence from the differences of neighbouring values, finest
-/// first: the worst pair decides.
-fn convergence_of(values: &[f64]) -> Convergence {
+/// first: the worst triple decides.
+fn convergence_of(sizes: &[f64], values: &[f64]) -> Convergence {
     let mut worst = Convergence::Monotonic;
-    for w in values.windows(3) {
+    for (h, w) in sizes.windows(3).zip(values.windows(3)) {
         let (fine, coarse) = (w[1] - w[0], w[2] - w[1]);
+        // `phi = phi0 + a h^p` gives `coarse / fine = r21^p (r32^p - 1) /
+        // (r21^p - 1)`, which tends to `ln r32 / ln r21` as p -> 0.
+        let (r21, r32) = (h[1] / h[0], h[2] / h[1]);
+        let order_zero = r32.ln() / r21.ln();
         let kind = if fine == 0.0 && coarse == 0.0 {
+            Convergence::Monotonic
+        } else if fine == 0.0 {
+            // The finest pair agrees while the coarse one differs.
             Convergence::Monotonic
         } else if coarse == 0.0 {
             Convergence::Divergent
         } else {
-            let ratio = fine / coarse;
-            if (0.0..1.0).contains(&ratio) {
+            let ratio = coarse / fine;
+            if ratio > order_zero {
                 Convergence::Monotonic
-            } else if ratio > -1.0 && ratio < 0.0 {
+            } else if ratio < -1.0 {
                 Convergence::Oscillatory
             } else {
                 Convergence::Divergent
@@ -429,6 +439,15 @@ mod tests {
         assert_eq!(oscillating.convergence, Convergence::Oscillatory);
         assert!(oscillating.note.contains("oscillatory"));
         let diverging = grid_convergence(&[1.0, 2.0, 4.0], &[8.0, 6.0, 5.0]).unwrap();
+        // Unequal ratios: a finer step that changes the value more than the
+        // coarser one may still converge (here p = 1.55 fits), and a power
+        // law with a negative order does not.
+        let unequal = grid_convergence(&[0.25, 0.4, 0.5], &[4.656, 4.784, 4.885]).unwrap();
+        assert_eq!(unequal.convergence, Convergence::Monotonic, "{unequal:?}");
+        assert!((unequal.order.unwrap() - 1.55).abs() < 0.05, "{unequal:?}");
+        let growing = [0.25, 0.4, 0.5].map(|h: f64| 1.0 + h.powf(-0.5));
+        let growing = grid_convergence(&[0.25, 0.4, 0.5], &growing).unwrap();
+        assert_eq!(growing.convergence, Convergence::Divergent, "{growing:?}");
         assert_eq!(diverging.convergence, Convergence::Divergent);
         assert_eq!(diverging.order, None);
         assert_eq!(diverging.gci_fine_pct, None);

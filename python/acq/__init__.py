@@ -43,6 +43,7 @@ __all__ = [
     "twin_excavator",
     "twin_gtn",
     "calibrate",
+    "mesh_study",
     "Run",
     "__version__",
 ]
@@ -347,6 +348,25 @@ def calibrate(
     finally:
         if bar is not None:
             bar.close()
+    return Run(out)
+
+
+def mesh_study(
+    spec_path: PathLike,
+    out: PathLike,
+    model: Optional[ModelFunction] = None,
+    *,
+    resume: bool = False,
+) -> "Run":
+    """Run the mesh study of a spec (its ``[mesh_study] sizes``) into
+    ``out``, as ``acq mesh-study --spec SPEC --out OUT``, and return the
+    :class:`Run`: ``run.summary["mesh_study"]`` holds, per scalar output,
+    the observed order, the extrapolated value, the fine grid's GCI, the
+    ``u_num`` V&V 20 takes and the convergence named. With ``model=`` a
+    Python function is the model; it gets the element size as
+    ``inputs["mesh"]``.
+    """
+    _acq.mesh_study(os.fspath(spec_path), os.fspath(out), resume, model)
     return Run(out)
 
 

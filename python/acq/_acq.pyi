@@ -73,4 +73,10 @@ def calibrate(
     model: Optional[Callable[[Dict[str, float]], Mapping[str, Any]]] = None,
     progress: Optional[Callable[[Dict[str, Any]], None]] = None,
 ) -> None: ...
+def mesh_study(
+    spec: str,
+    out: str,
+    resume: bool = False,
+    model: Optional[Callable[[Dict[str, float]], Mapping[str, Any]]] = None,
+) -> None: ...
 def version() -> str: ...

@@ -281,6 +281,34 @@ fn calibrate(
     })
 }
 
+/// Runs the mesh study a spec's `[mesh_study]` describes into `out` (as
+/// `acq mesh-study --spec SPEC --out OUT`); with `model`, a Python callable
+/// is the model and gets the element size as the input `mesh`.
+#[pyfunction]
+#[pyo3(signature = (spec, out, resume=false, model=None))]
+fn mesh_study(
+    py: Python<'_>,
+    spec: PathBuf,
+    out: PathBuf,
+    resume: bool,
+    model: Option<Py<PyAny>>,
+) -> PyResult<()> {
+    let options = CalibrateExternalOptions {
+        spec,
+        out,
+        resume,
+        seed: 1,
+    };
+    let model = model.map(|callable| PythonModel { callable });
+    let result = until_done_or_interrupted(py, || {
+        let given = model
+            .as_ref()
+            .map(|model| (model as &dyn Model, "a Python callable"));
+        external::run_mesh_study(&options, given).map(drop)
+    });
+    result.map_err(python_error)
+}
+
 /// Calls the user's progress function with the line's numbers as a dict.
 /// An exception in it is reported as unraisable (printed, as Python does
 /// for one in a callback) and the study goes on.
@@ -338,6 +366,7 @@ fn _acq(module: &Bound<'_, PyModule>) -> PyResult<()> {
     module.add_function(wrap_pyfunction!(twins::twin_excavator, module)?)?;
     module.add_function(wrap_pyfunction!(twins::twin_gtn, module)?)?;
     module.add_function(wrap_pyfunction!(calibrate, module)?)?;
+    module.add_function(wrap_pyfunction!(mesh_study, module)?)?;
     module.add_function(wrap_pyfunction!(version, module)?)?;
     Ok(())
 }

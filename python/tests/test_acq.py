@@ -458,3 +458,35 @@ def test_the_guides_worked_example_runs(tmp_path: Path) -> None:
         text=True,
     )
     assert done.returncode == 0, done.stderr[-3000:]
+
+
+def test_a_mesh_study_with_a_python_model_gives_the_closed_form(tmp_path: Path) -> None:
+    spec = tmp_path / "spec.toml"
+    spec.write_text(
+        """
+[[parameter]]
+name = "k"
+lower = 1.0
+upper = 3.0
+
+[[output]]
+name = "stress_mpa"
+measured = 100.0
+
+[mesh_study]
+sizes = [0.4, 0.2, 0.1]
+"""
+    )
+
+    def solver(inputs: dict) -> dict:
+        # 100 MPa with a second-order discretisation error.
+        return {"stress_mpa": 100.0 + 50.0 * inputs["mesh"] ** 2}
+
+    run = acq.mesh_study(spec, out=tmp_path / "mesh", model=solver)
+    study = run.summary["mesh_study"]["stress_mpa"]
+    assert study["convergence"] == "monotonic"
+    assert study["order"] == pytest.approx(2.0, rel=1e-9)
+    assert study["extrapolated"] == pytest.approx(100.0, rel=1e-12)
+    # GCI = 1.25 * 50 * 0.1^2 / phi(0.1) in %; u_num is the error itself.
+    assert study["gci_fine_pct"] == pytest.approx(125.0 * 50.0 * 0.01 / 100.5, rel=1e-9)
+    assert study["u_num"] == pytest.approx(0.5, rel=1e-9)

@@ -259,41 +259,44 @@ fn the_built_in_tensile_twin_agrees_with_calculix_without_damage() {
     }
 }
 
-/// `acq mesh-study` on the example's own spec (`spec-mesh.toml`): CalculiX
-/// at 4x25, 5x31 and 8x50 elements. Before the neck the quadratic elements
-/// have converged below the printed digits of ccx's `.dat` (7 significant),
-/// so the three values are equal and the study says so; at the end of the
+/// ASME V&V 20 on the example with u_num from its own mesh study
+/// (`spec-validate.toml`). First `acq mesh-study`: CalculiX at 4x25, 5x31
+/// and 8x50 elements. Before the neck the quadratic elements have
+/// converged below the printed digits of ccx's `.dat` (7 significant), so
+/// the three values are equal and the study says so; at the end of the
 /// pull the neck's force falls as the elements shrink (the neck localises
-/// further), so the extrapolated force lies below the finest one.
+/// further), so the extrapolated force lies below the finest one. Then the
+/// calibration, whose V&V 20 table takes the neck force's u_num at the size
+/// it runs at (0.4 mm) from that study.
 #[test]
-fn a_mesh_study_of_the_calculix_bar_finds_where_the_mesh_matters() {
+fn v_and_v_20_on_the_calculix_bar_takes_u_num_from_its_own_mesh_study() {
     require("ccx", "calculix-ccx");
     require("python3", "python3");
     let dir = tempfile::tempdir().unwrap();
-    for file in ["tensile.py", "spec-mesh.toml"] {
+    for file in ["tensile.py", "spec-validate.toml"] {
         std::fs::copy(example().join(file), dir.path().join(file)).unwrap();
     }
-    let out = dir.path().join("mesh");
+    let spec = dir.path().join("spec-validate.toml");
+    let out = dir.path().join("runs/mesh");
     let run = acq(&[
         "mesh-study",
         "--spec",
-        path_arg(&dir.path().join("spec-mesh.toml")),
+        path_arg(&spec),
         "--out",
         path_arg(&out),
     ]);
     assert!(run.status.success(), "{}", stderr(&run));
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let half = &summary["mesh_study"]["force_at_half_mm_kn"];
+    let half = &summary["mesh_study"]["hardening/force_at_half_mm_kn"];
     assert_eq!(half["gci_fine_pct"], 0.0, "{half}");
     assert!(half["note"].as_str().unwrap().contains("equal"), "{half}");
-    let end = &summary["mesh_study"]["force_at_end_kn"];
+    let end = &summary["mesh_study"]["neck/force_at_end_kn"];
     assert_eq!(end["convergence"], "monotonic", "{end}");
     let values: Vec<f64> = serde_json::from_value(end["values"].clone()).unwrap();
-    let finest = values[2];
     let extrapolated = number(end, &["extrapolated"]);
     assert!(
-        extrapolated < finest,
+        extrapolated < values[2],
         "the neck's force falls with refinement: {end}"
     );
     // An order a discretisation error can have, and a GCI that bounds the
@@ -302,4 +305,23 @@ fn a_mesh_study_of_the_calculix_bar_finds_where_the_mesh_matters() {
     assert!((0.5..4.0).contains(&order), "{end}");
     let gci = number(end, &["gci_fine_pct"]);
     assert!((0.1..10.0).contains(&gci), "{end}");
+    // The size the calibration runs at (0.4, the second) has its own u_num.
+    let u_at_calibration = end["u_num_by_size"][1].as_f64().unwrap();
+    assert!((u_at_calibration - (values[1] - extrapolated).abs()).abs() < 1e-12);
+
+    let calibration = dir.path().join("validate");
+    let run = common::calibrate_external(&spec, &calibration, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let report = std::fs::read_to_string(calibration.join("report.md")).unwrap();
+    let cells = common::validation_row(&report, "neck", "force_at_end_kn");
+    let u_num: f64 = cells[5].parse().unwrap();
+    // The report prints four significant digits.
+    assert!(
+        (u_num - u_at_calibration).abs() < 1e-3 * u_at_calibration,
+        "{cells:?}"
+    );
+    assert!(
+        cells[6].contains("mesh study") && cells[6].contains("at size 0.4"),
+        "{cells:?}"
+    );
 }

@@ -279,14 +279,7 @@ fn a_validation_takes_u_num_from_the_mesh_study_of_its_own_spec() {
     let run = common::calibrate_external(&spec, &out, &[]);
     assert!(run.status.success(), "{}", stderr(&run));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
-    let section = report
-        .split("Validation (ASME V&V 20)")
-        .nth(1)
-        .unwrap_or_else(|| panic!("no V&V 20 section in\n{report}"));
-    let row = section
-        .lines()
-        .find(|l| l.starts_with("| C | u_low_mm |"))
-        .unwrap_or_else(|| panic!("no V&V 20 row for C/u_low_mm in\n{section}"));
-    assert!(row.contains("0.218"), "u_num 0.218 mm: {row}");
-    assert!(row.contains("mesh study"), "{row}");
+    let cells = common::validation_row(&report, "C", "u_low_mm");
+    assert_eq!(cells[5], "0.2180", "u_num 0.218 mm: {cells:?}");
+    assert!(cells[6].contains("mesh study"), "{cells:?}");
 }

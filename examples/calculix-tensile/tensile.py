@@ -13,7 +13,7 @@ force-displacement curve (`curve.csv`: u_mm, f_kn) and the scalars
 (`out.json`: max_force_kn, u_at_max_force_mm, force_at_half_mm_kn,
 force_at_end_kn). `--element-mm H` meshes the bar with elements of about H
 mm each way (R/H radial, L/H axial, rounded): the size a mesh study
-(`acq mesh-study`, `spec-mesh.toml`) passes as `{mesh}`. When ccx fails or stops
+(`acq mesh-study`, `spec-validate.toml`) passes as `{mesh}`. When ccx fails or stops
 before the full pull it exits non-zero with the reason on stderr, so acq
 logs a failed evaluation and the study goes on.
 

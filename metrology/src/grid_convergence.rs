@@ -78,6 +78,19 @@ impl GridConvergence {
     pub fn standard_uncertainty(&self) -> Option<f64> {
         Some(self.gci_fine_pct? / 100.0 * self.values[0].abs() / self.safety_factor)
     }
+
+    /// `u_num` of a run at `size`, one of the study's: its distance from
+    /// the extrapolated value, which at the finest size is
+    /// [`GridConvergence::standard_uncertainty`]; a coarser size has a
+    /// larger one. `None` without an extrapolated value (and for a size
+    /// the study does not have).
+    pub fn standard_uncertainty_at(&self, size: f64) -> Option<f64> {
+        let at = self.sizes.iter().position(|&h| h == size)?;
+        if at == 0 {
+            return self.standard_uncertainty();
+        }
+        Some((self.values[at] - self.extrapolated?).abs())
+    }
 }
 
 /// One line: `monotonic; order 1.530, extrapolated 6.1685, GCI_fine 2.200 %`
@@ -419,6 +432,18 @@ mod tests {
             let e_ext = 100.0 * (a * 0.5f64.powf(p) / phi0).abs();
             assert!((study.e_ext_pct.unwrap() - e_ext).abs() < 1e-8 * e_ext);
         }
+    }
+
+    #[test]
+    fn a_coarser_size_has_its_own_larger_u_num() {
+        let sizes = [0.1, 0.2, 0.4];
+        let study = grid_convergence(&sizes, &power_law(1.0, 0.5, 2.0, &sizes)).unwrap();
+        // |phi(h) - phi0| = 0.5 h^2; at the finest the GCI over 1.25 is that.
+        for h in sizes {
+            let u = study.standard_uncertainty_at(h).unwrap();
+            assert!((u - 0.5 * h * h).abs() < 1e-12, "{h}: {u}");
+        }
+        assert_eq!(study.standard_uncertainty_at(0.3), None);
     }
 
     #[test]

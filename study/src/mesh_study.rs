@@ -251,6 +251,7 @@ fn convergence_svg(key: &str, study: &GridConvergence) -> String {
 pub fn u_num_from_run(
     run_dir: &std::path::Path,
     study: &Study,
+    size: Option<f64>,
 ) -> std::result::Result<Vec<(String, f64, String)>, String> {
     let path = run_dir.join("summary.json");
     let text = std::fs::read_to_string(&path).map_err(|e| {
@@ -283,7 +284,18 @@ pub fn u_num_from_run(
                     path.display()
                 ));
             };
-            let Some(u_num) = entry.get("u_num").and_then(Value::as_f64) else {
+            // The size the calibration runs at: a coarser one than the
+            // study's finest has its own, larger u_num.
+            let at_size = size.map(|h| {
+                let sizes = entry.get("sizes").and_then(Value::as_array);
+                let index = sizes.and_then(|s| s.iter().position(|v| v.as_f64() == Some(h)));
+                index.and_then(|i| entry.get("u_num_by_size")?.get(i)?.as_f64())
+            });
+            let u_num = match at_size {
+                Some(u) => u,
+                None => entry.get("u_num").and_then(Value::as_f64),
+            };
+            let Some(u_num) = u_num else {
                 return Err(format!(
                     "{}: {key} has no u_num ({} convergence: {}); refine the sizes, or state posterior.numerical_uncertainty",
                     path.display(),
@@ -299,11 +311,12 @@ pub fn u_num_from_run(
                 .get("convergence")
                 .and_then(Value::as_str)
                 .unwrap_or("");
+            let at = size.map_or_else(String::new, |h| format!(" at size {h}"));
             found.push((
                 key,
                 u_num,
                 format!(
-                    "mesh study {} ({convergence}, GCI_fine {gci:.3} %)",
+                    "mesh study {}{at} ({convergence}, GCI_fine {gci:.3} %)",
                     run_dir.display()
                 ),
             ));

@@ -228,6 +228,7 @@ fn output_json(output: &super::outcome::OutputConvergence, spec_sizes: &[f64]) -
         "e_ext_pct": number(study.e_ext_pct),
         "gci_fine_pct": number(study.gci_fine_pct),
         "u_num": number(study.standard_uncertainty()),
+        "u_num_by_size": ordered.iter().map(|p| number(study.standard_uncertainty_at(p.0))).collect::<Vec<_>>(),
         "convergence": study.convergence.name(),
         "note": if output.failed_sizes.is_empty() {
             study.note.clone()

@@ -216,3 +216,21 @@ pub const GTN_BOUNDS: [(&str, f64, f64); 8] = [
     ("f0", 0.0013, 0.0015),
     ("m", 0.0, 800.0),
 ];
+
+/// The cells of a report's V&V 20 row for `case` and `output`: case,
+/// output, S, D, E, u_num, u_num from, u_input, u_D, u_val, model error,
+/// V&V 20's verdict, the posterior's.
+pub fn validation_row(report: &str, case: &str, output: &str) -> Vec<String> {
+    let section = report
+        .split("Validation (ASME V&V 20)")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no V&V 20 section in\n{report}"));
+    let row = section
+        .lines()
+        .find(|l| l.starts_with(&format!("| {case} | {output} |")))
+        .unwrap_or_else(|| panic!("no V&V 20 row for {case}/{output} in\n{section}"));
+    row.trim_matches('|')
+        .split('|')
+        .map(|cell| cell.trim().to_string())
+        .collect()
+}

@@ -208,17 +208,24 @@ impl Spec {
     /// Reads and checks a spec and the measured files it names; errors
     /// name the file (and the line of the table at fault) and what to fix.
     pub fn load(path: &Path) -> Result<Spec, SpecError> {
-        Self::load_for(path, false)
+        Self::load_for(path, false, true)
+    }
+
+    /// [`Spec::load`] for its mesh study (`acq mesh-study`), which comes
+    /// before the u_num `[posterior] mesh_study` reads from it; with
+    /// `given`, for a model the caller brings.
+    pub fn load_for_mesh_study(path: &Path, given: bool) -> Result<Spec, SpecError> {
+        Self::load_for(path, given, false)
     }
 
     /// [`Spec::load`] for a study whose caller brings the model (the
     /// Python package's `model=`): the spec needs no `command`, and one it
     /// has is not run.
     pub fn load_with_given_model(path: &Path) -> Result<Spec, SpecError> {
-        Self::load_for(path, true)
+        Self::load_for(path, true, true)
     }
 
-    fn load_for(path: &Path, given: bool) -> Result<Spec, SpecError> {
+    fn load_for(path: &Path, given: bool, with_mesh_u_num: bool) -> Result<Spec, SpecError> {
         let (text, file) = read_spec_file(path)?;
         let located = |problem: SpecProblem| problem.located(path, &text);
         let directory = spec_directory(path);
@@ -247,9 +254,14 @@ impl Spec {
             )));
         }
         let mut posterior = file.posterior.as_ref().map(PosteriorSpec::settings);
-        let mesh_run = file.posterior.as_ref().and_then(|p| p.mesh_study.as_ref());
+        let mesh_run = file
+            .posterior
+            .as_ref()
+            .and_then(|p| p.mesh_study.as_ref())
+            .filter(|_| with_mesh_u_num);
         if let (Some(settings), Some(run)) = (&mut posterior, mesh_run) {
-            let found = crate::mesh_study::u_num_from_run(&directory.join(run), &study)
+            let size = mesh_study.as_ref().map(|m| m.calibrate_at);
+            let found = crate::mesh_study::u_num_from_run(&directory.join(run), &study, size)
                 .map_err(|e| located(SpecProblem::file(format!("posterior.mesh_study: {e}"))))?;
             for (key, u_num, source) in found {
                 let name = key.rsplit('/').next().unwrap_or(&key).to_string();

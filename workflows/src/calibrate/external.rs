@@ -138,10 +138,7 @@ pub fn run_mesh_study(
     args: &CalibrateExternalOptions,
     given: Option<(&dyn Model, &str)>,
 ) -> Result<acq_study::mesh_study::MeshStudyOutcome> {
-    let spec = match given {
-        Some(_) => Spec::load_with_given_model(&args.spec)?,
-        None => Spec::load(&args.spec)?,
-    };
+    let spec = Spec::load_for_mesh_study(&args.spec, given.is_some())?;
     let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
     let Some(settings) = &spec.mesh_study else {
         return Err(in_spec(

@@ -291,7 +291,7 @@ fn normal_cdf(z: f64) -> f64 {
 /// `h ~ phi(z)/z^2 (1 - 3/z^2 + 15/z^4 - 105/z^6)` (relative error below
 /// 945/z^8 = 1e-5) keeps it finite where phi and Phi underflow
 /// (dh/dz = Phi).
-fn log_h(z: f64) -> (f64, f64) {
+pub(crate) fn log_h(z: f64) -> (f64, f64) {
     if z > -10.0 {
         let h = normal_pdf(z) + z * normal_cdf(z);
         (h.ln(), normal_cdf(z) / h)
@@ -497,86 +497,111 @@ fn maximise_acquisition(
     settings: &BoSettings,
     rng: &mut ChaCha8Rng,
 ) -> Vec<f64> {
-    let dimensions = points[0].0.len();
     let acquisition = settings.acquisition;
-    let mut candidates: Vec<Vec<f64>> = (0..settings.random_candidates)
-        .map(|_| (0..dimensions).map(|_| rng.random::<f64>()).collect())
-        .collect();
-    // Local candidates around the best points: the optimum of a smooth loss
-    // is usually near its best observations.
-    let mut order: Vec<usize> = (0..points.len()).collect();
-    order.sort_by(|&a, &b| points[a].1.total_cmp(&points[b].1));
-    for &i in order.iter().take(5) {
-        for scale in [0.01, 0.05, 0.15] {
-            for _ in 0..20 {
-                let x: Vec<f64> = points[i]
-                    .0
-                    .iter()
-                    .map(|&v| (v + scale * standard_normal(rng)).clamp(0.0, 1.0))
-                    .collect();
-                candidates.push(x);
-            }
-        }
-    }
-    let mut scored: Vec<(f64, Vec<f64>)> = candidates
-        .into_iter()
-        .map(|x| {
-            let value = acquisition_value(acquisition, gp, best_modelled, &x, None);
-            (
-                if value.is_nan() {
-                    f64::NEG_INFINITY
-                } else {
-                    value
-                },
-                x,
-            )
-        })
-        .collect();
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let lower = vec![0.0; dimensions];
-    let upper = vec![1.0; dimensions];
-    let lbfgs = LbfgsSettings {
-        max_iterations: 100,
-        gradient_tolerance: 1e-8,
-        relative_tolerance: 1e-12,
-        ..LbfgsSettings::default()
+    let search = BoxSearch {
+        random_candidates: settings.random_candidates,
+        local_starts: settings.local_starts,
     };
-    let mut best = scored[0].clone();
-    for (_, start) in scored.iter().take(settings.local_starts.max(1)) {
-        let minimum = minimize_bounded(
-            |x, gradient| {
-                let value = acquisition_value(acquisition, gp, best_modelled, x, Some(gradient));
-                for g in gradient.iter_mut() {
-                    *g = -*g;
-                }
-                -value
-            },
-            start,
-            &lower,
-            &upper,
-            &lbfgs,
-        );
-        if let Ok(minimum) = minimum {
-            if -minimum.value > best.0 {
-                best = (-minimum.value, minimum.x);
-            }
-        }
-    }
+    let (_, mut best) = search.maximise(
+        |x, gradient| acquisition_value(acquisition, gp, best_modelled, x, gradient),
+        points,
+        rng,
+    );
     // Never propose a point already observed (a GP with no noise would
     // learn nothing): nudge it off by a tiny random step.
     let duplicate = points
         .iter()
-        .any(|p| p.0.iter().zip(&best.1).all(|(a, b)| (a - b).abs() < 1e-9));
+        .any(|p| p.0.iter().zip(&best).all(|(a, b)| (a - b).abs() < 1e-9));
     if duplicate {
-        for v in best.1.iter_mut() {
+        for v in best.iter_mut() {
             *v = (*v + 1e-4 * standard_normal(rng)).clamp(0.0, 1.0);
         }
     }
-    best.1
+    best
+}
+
+/// How an acquisition is maximised over the unit box.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BoxSearch {
+    pub random_candidates: usize,
+    pub local_starts: usize,
+}
+
+impl BoxSearch {
+    /// The maximum of `value(x, gradient)` (the gradient written when
+    /// asked for) over the unit box, and where: random candidates plus
+    /// perturbations of the five lowest of `points` (point, modelled loss),
+    /// then L-BFGS-B from the best candidates. A NaN value counts as
+    /// minus infinity.
+    pub(crate) fn maximise(
+        &self,
+        value: impl Fn(&[f64], Option<&mut [f64]>) -> f64,
+        points: &[(Vec<f64>, f64)],
+        rng: &mut ChaCha8Rng,
+    ) -> (f64, Vec<f64>) {
+        let dimensions = points[0].0.len();
+        let mut candidates: Vec<Vec<f64>> = (0..self.random_candidates)
+            .map(|_| (0..dimensions).map(|_| rng.random::<f64>()).collect())
+            .collect();
+        // Local candidates around the best points: the optimum of a smooth
+        // loss is usually near its best observations.
+        let mut order: Vec<usize> = (0..points.len()).collect();
+        order.sort_by(|&a, &b| points[a].1.total_cmp(&points[b].1));
+        for &i in order.iter().take(5) {
+            for scale in [0.01, 0.05, 0.15] {
+                for _ in 0..20 {
+                    let x: Vec<f64> = points[i]
+                        .0
+                        .iter()
+                        .map(|&v| (v + scale * standard_normal(rng)).clamp(0.0, 1.0))
+                        .collect();
+                    candidates.push(x);
+                }
+            }
+        }
+        let mut scored: Vec<(f64, Vec<f64>)> = candidates
+            .into_iter()
+            .map(|x| {
+                let v = value(&x, None);
+                (if v.is_nan() { f64::NEG_INFINITY } else { v }, x)
+            })
+            .collect();
+        scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let lower = vec![0.0; dimensions];
+        let upper = vec![1.0; dimensions];
+        let lbfgs = LbfgsSettings {
+            max_iterations: 100,
+            gradient_tolerance: 1e-8,
+            relative_tolerance: 1e-12,
+            ..LbfgsSettings::default()
+        };
+        let mut best = scored[0].clone();
+        for (_, start) in scored.iter().take(self.local_starts.max(1)) {
+            let minimum = minimize_bounded(
+                |x, gradient| {
+                    let v = value(x, Some(&mut *gradient));
+                    for g in gradient.iter_mut() {
+                        *g = -*g;
+                    }
+                    -v
+                },
+                start,
+                &lower,
+                &upper,
+                &lbfgs,
+            );
+            if let Ok(minimum) = minimum {
+                if -minimum.value > best.0 {
+                    best = (-minimum.value, minimum.x);
+                }
+            }
+        }
+        best
+    }
 }
 
 /// A standard normal draw (Box-Muller).
-fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
     let u2: f64 = rng.random::<f64>();
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()

@@ -14,6 +14,8 @@
 //! - `least_squares`: bounded Levenberg-Marquardt, for cheap smooth models.
 //! - `bo`: Bayesian optimisation that minimises a loss (LCB, EI, log-EI; batches);
 //!   `trust_region`: its local Gauss-Newton steps when runs return residuals.
+//! - `multi_fidelity`: a cheap and an expensive level of one model (a coarse and a fine
+//!   mesh): co-kriging over both, and the next run and its level by expected gain per second.
 //! - `sobol_indices`: variance-based sensitivity on a cheap function (a surrogate).
 //! - `mcmc`: draws from a posterior (adaptive random-walk Metropolis in free coordinates,
 //!   chains in parallel) and their summaries.
@@ -32,6 +34,7 @@ pub mod least_squares;
 pub mod mcmc;
 pub mod minimax;
 pub mod moo;
+pub mod multi_fidelity;
 pub mod next_point;
 pub mod optim;
 pub mod sobol_indices;

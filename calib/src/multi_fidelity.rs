@@ -14,17 +14,27 @@
 //! also cheap points (nested designs, as the start design here is) the
 //! recursive form is the full co-kriging posterior.
 //!
-//! **The choice of the next run** is Huang et al.'s (2006) augmented
+//! **The choice of the next run** follows Huang et al.'s (2006) augmented
 //! expected improvement, per second: an expensive run at `x` is worth
-//! `EI(x) / cost_expensive`, a cheap one `EI(x) corr(x) / cost_cheap`,
-//! where `EI` is the expected improvement of the expensive prediction
-//! below the best expensive run and `corr` the correlation between the
-//! cheap and the expensive output at `x` (`rho s_cheap / s_expensive`): a
-//! cheap run teaches about the expensive output only as far as the two
-//! move together, and nothing where the cheap output is already known.
+//! `EI(x) / cost_expensive`, where `EI` is the expected improvement of the
+//! expensive prediction below the best expensive run. A cheap run banks
+//! no improvement (the answer is an expensive run); it is worth what it
+//! teaches: the part of `EI` that is uncertainty, `EI - max(best - m, 0)`,
+//! times the correlation of the cheap and the expensive output at `x`
+//! (`rho s_cheap / s_expensive`, nothing where the cheap output is
+//! already known), over `cost_cheap`. Huang et al. weigh the whole `EI`
+//! by the correlation; with a deterministic model that keeps choosing
+//! cheap runs where the expensive prediction is already sure of a gain
+//! (both standard deviations small, their ratio not), and an expensive
+//! run there is what banks it.
 //! The costs are the levels' measured mean wall times, updated after every
-//! run. Both are maximised over the unit box like Bayesian optimisation's
-//! acquisition ([`crate::bo`]), in logarithms.
+//! run. The point is where an expensive run gains most (maximised over
+//! the unit box like Bayesian optimisation's acquisition, [`crate::bo`],
+//! in logarithms); the level is the one with the larger gain per second
+//! *there*, as in Kandasamy et al.'s (2016) MF-GP-UCB, which picks the
+//! point by the target fidelity and the level by what is still unknown
+//! at it. Scored anywhere, cheap runs would wander the box: with many
+//! parameters somewhere is always unexplored, and cheaply so.
 //!
 //! Losses are modelled as `ln(loss)` when every loss is positive, like
 //! [`crate::bo`]. A failed run is left out of the fits; points within 0.02
@@ -224,20 +234,28 @@ impl CoKriging {
         }
     }
 
-    /// `ln` of the expected improvement below `best` at `x`, plus `ln` of
-    /// the cheap-expensive correlation when `level` is cheap, and its
-    /// gradient when asked for.
+    /// `ln` of what a run of `level` at `x` is expected to gain below
+    /// `best` (see [`propose`]), and its gradient when asked for.
     fn log_gain(&self, level: Fidelity, best: f64, x: &[f64], gradient: Option<&mut [f64]>) -> f64 {
         const FLOOR: f64 = 1e-12;
         let p = self.predict_with_gradient(x);
         let std = p.std.max(FLOOR);
         let z = (best - p.mean) / std;
-        let (log_h, cdf_over_h) = log_h(z);
-        // ln EI = ln std + ln h(z); dz/dmean = -1/std, dz/dstd = -z/std.
-        let mut value = std.ln() + log_h;
-        let by_mean = -cdf_over_h / std;
-        let by_std = 1.0 / std - cdf_over_h * z / std;
         let cheap = level == Fidelity::Cheap;
+        // EI = std h(z). A cheap run banks nothing: it is worth the part
+        // of EI that is uncertainty, EI - max(best - mean, 0) = std h(-|z|)
+        // (h(z) - z = h(-z)), times the correlation.
+        let (argument, sign) = if cheap && z > 0.0 {
+            (-z, -1.0)
+        } else {
+            (z, 1.0)
+        };
+        let (log_h, cdf_over_h) = log_h(argument);
+        // d ln h / dz, then dz/dmean = -1/std, dz/dstd = -z/std.
+        let by_z = sign * cdf_over_h;
+        let mut value = std.ln() + log_h;
+        let by_mean = -by_z / std;
+        let by_std = 1.0 / std - by_z * z / std;
         let cheap_std = p.cheap_std.max(FLOOR);
         if cheap {
             // ln corr = ln |rho| + ln s_cheap - ln s_expensive.
@@ -437,32 +455,34 @@ pub fn propose(
         random_candidates: settings.random_candidates,
         local_starts: settings.local_starts,
     };
-    let mut best_pick: Option<(f64, Fidelity, Vec<f64>)> = None;
-    for (level, cost_s) in [
-        (Fidelity::Expensive, expensive_s),
-        (Fidelity::Cheap, cheap_s),
-    ] {
-        let failed: Vec<&[f64]> = runs
-            .iter()
+    let near_failed = |level: Fidelity, x: &[f64]| {
+        runs.iter()
             .filter(|r| r.level == level && r.loss.is_none())
-            .map(|r| r.unit_point.as_slice())
-            .collect();
-        let (log_gain, x) = search.maximise(
-            |x, gradient| {
-                if failed.iter().any(|f| distance(f, x) < 0.02) {
-                    return f64::NEG_INFINITY;
-                }
-                model.log_gain(level, best, x, gradient)
-            },
-            &expensive,
-            &mut rng,
-        );
-        let per_second = log_gain - cost_s.ln();
-        if best_pick.as_ref().is_none_or(|(b, _, _)| per_second > *b) {
-            best_pick = Some((per_second, level, x));
-        }
-    }
-    let (_, level, x) = best_pick.expect("two levels were scored");
+            .any(|r| distance(&r.unit_point, x) < 0.02)
+    };
+    // The point: where an expensive run gains most.
+    let (expensive_log_gain, x) = search.maximise(
+        |x, gradient| {
+            if near_failed(Fidelity::Expensive, x) {
+                return f64::NEG_INFINITY;
+            }
+            model.log_gain(Fidelity::Expensive, best, x, gradient)
+        },
+        &expensive,
+        &mut rng,
+    );
+    // The level: a cheap run there first when what it teaches is worth
+    // more per second than what an expensive run banks.
+    let cheap_log_gain = if near_failed(Fidelity::Cheap, &x) {
+        f64::NEG_INFINITY
+    } else {
+        model.log_gain(Fidelity::Cheap, best, &x, None)
+    };
+    let level = if cheap_log_gain - cheap_s.ln() > expensive_log_gain - expensive_s.ln() {
+        Fidelity::Cheap
+    } else {
+        Fidelity::Expensive
+    };
     Ok((level, x, model))
 }
 

@@ -217,6 +217,15 @@ pub struct CalibrateGtnArgs {
     /// is sampled once more, four times as long.
     #[arg(long, default_value_t = 1000, requires = "posterior", value_parser = parse_draws)]
     pub posterior_draws: usize,
+    /// Two levels: cheap runs at this coarser element size at the neck
+    /// (mm) beside the fine ones at --element-mm, one surrogate over both
+    /// (co-kriging), each next run and its level chosen by expected
+    /// improvement per second. The answer is the best fine run.
+    #[arg(long, value_name = "MM", requires = "element_mm")]
+    pub cheap_element_mm: Option<f64>,
+    /// With --cheap-element-mm: fine runs at most (--max-evals counts both levels).
+    #[arg(long, value_name = "N", requires = "cheap_element_mm")]
+    pub max_fine_runs: Option<u32>,
 }
 
 /// The mesh options of the GTN commands: element counts, or an element
@@ -356,6 +365,8 @@ impl From<CalibrateGtnArgs> for CalibrateGtnOptions {
             deterministic: args.deterministic,
             resume: args.resume,
             posterior_draws_per_chain: args.posterior.then_some(args.posterior_draws),
+            cheap_element_mm: args.cheap_element_mm,
+            max_fine_runs: args.max_fine_runs,
         }
     }
 }

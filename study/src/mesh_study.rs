@@ -42,10 +42,20 @@ pub struct MeshStudySettings {
 /// The study a mesh study runs: every case (fit and validate alike) at
 /// the parameter point, the size a parameter of its own.
 fn sized_study(study: &Study, sizes: &[f64]) -> Study {
-    let mut sized = study.clone();
+    let mut sized = with_mesh_parameter(study, sizes);
     sized.cases.retain(|case| !case.priors);
     for case in &mut sized.cases {
         case.role = Role::Fit;
+    }
+    sized
+}
+
+/// `study` with the element size a parameter of its own, last, spanning
+/// `sizes`: each run says its size (a column `mesh` in the log), and the
+/// cases' own `mesh` input gives way to it.
+pub(crate) fn with_mesh_parameter(study: &Study, sizes: &[f64]) -> Study {
+    let mut sized = study.clone();
+    for case in &mut sized.cases {
         case.inputs.retain(|(name, _)| name != MESH_INPUT);
     }
     let (smallest, largest) = sizes.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &h| {

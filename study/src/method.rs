@@ -46,10 +46,34 @@ pub struct LeastSquaresMethod {
     pub max_evals: usize,
 }
 
+/// Two levels of one model searched together
+/// ([`acq_calib::multi_fidelity`]): the model input `mesh` at a cheap
+/// (coarse) and an expensive (fine) element size. The calibrated point is
+/// the best expensive run.
+#[derive(Clone, Debug)]
+pub struct MultiFidelityMethod {
+    /// The cheap level's start design: lhs, sobol, l12, factorial, or a CSV file.
+    pub start: String,
+    pub start_runs: usize,
+    /// How many of the start design's first points also run expensive
+    /// (nested, so co-kriging sees both levels at the same points).
+    pub expensive_start_runs: usize,
+    /// The `mesh` input of each level.
+    pub cheap_mesh: f64,
+    pub expensive_mesh: f64,
+    /// Runs of both levels at most, the start designs included.
+    pub max_evals: usize,
+    /// Expensive runs at most.
+    pub max_expensive: usize,
+    pub target_loss: Option<f64>,
+    pub seed: u64,
+}
+
 /// The search method of a study.
 #[derive(Clone, Debug)]
 pub enum Method {
     Bo(BoMethod),
+    MultiFidelity(MultiFidelityMethod),
     SurrogateMoo(SurrogateMooSettings),
     LeastSquares(LeastSquaresMethod),
 }
@@ -89,15 +113,16 @@ pub fn start_design(
     method: &Method,
     spec_directory: &Path,
 ) -> Result<Vec<Vec<f64>>> {
-    let Method::Bo(bo) = method else {
-        return Ok(Vec::new());
+    let (start, n, seed) = match method {
+        Method::Bo(bo) => (bo.start.as_str(), bo.start_runs, bo.seed),
+        Method::MultiFidelity(mf) => (mf.start.as_str(), mf.start_runs, mf.seed),
+        Method::SurrogateMoo(_) | Method::LeastSquares(_) => return Ok(Vec::new()),
     };
     let d = parameters.len();
-    let n = bo.start_runs;
     let config = |e: String| AcqError::Config(format!("search.start: {e}"));
-    Ok(match bo.start.as_str() {
-        "lhs" => latin_hypercube(n, d, bo.seed),
-        "sobol" => sobol_points(n, d, Some(bo.seed)).map_err(|e| config(e.to_string()))?,
+    Ok(match start {
+        "lhs" => latin_hypercube(n, d, seed),
+        "sobol" => sobol_points(n, d, Some(seed)).map_err(|e| config(e.to_string()))?,
         // Fewer than four factors repeat rows of L12 (only 2^d corners
         // exist): each corner is run once.
         "l12" => distinct_rows(two_level_to_unit(

@@ -67,6 +67,8 @@ pub struct CalibratedCurve {
 /// What a method found.
 pub enum Found {
     Bo(acq_calib::bo::BoResult),
+    /// A two-level search: the outcome's evaluations are its expensive runs.
+    MultiFidelity(Box<MultiFidelityFound>),
     Moo(Box<super::surrogate_moo::SurrogateMoo>),
     LeastSquares(Box<LeastSquaresFound>),
 }
@@ -75,8 +77,33 @@ impl Found {
     pub fn gps(&self) -> Option<&[acq_calib::gp::Gp]> {
         match self {
             Found::Moo(moo) => Some(&moo.gps),
-            Found::Bo(_) | Found::LeastSquares(_) => None,
+            Found::Bo(_) | Found::MultiFidelity(_) | Found::LeastSquares(_) => None,
         }
+    }
+}
+
+/// What a two-level search found, and the levels' element sizes.
+pub struct MultiFidelityFound {
+    pub result: acq_calib::multi_fidelity::MultiFidelityResult,
+    /// The `mesh` input of the cheap and the expensive level.
+    pub meshes: [f64; 2],
+}
+
+impl MultiFidelityFound {
+    /// What the search did, for `summary.json`.
+    pub fn summary_json(&self) -> serde_json::Value {
+        use acq_calib::multi_fidelity::Fidelity;
+        let result = &self.result;
+        serde_json::json!({
+            "cheap_mesh": self.meshes[0],
+            "expensive_mesh": self.meshes[1],
+            "cheap_runs": result.count(Fidelity::Cheap),
+            "expensive_runs": result.count(Fidelity::Expensive),
+            "cheap_run_s": result.cost_s[0],
+            "expensive_run_s": result.cost_s[1],
+            "rho": result.rho,
+            "stop": result.stop,
+        })
     }
 }
 

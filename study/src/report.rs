@@ -52,7 +52,7 @@ pub fn study_report(
     let nominal_errors = match &outcome.found {
         Found::Moo(moo) => Some(study.errors(Role::Fit, &moo.nominal_outputs)),
         Found::LeastSquares(ls) => Some(study.errors(Role::Fit, &ls.nominal_outputs)),
-        Found::Bo(_) => None,
+        Found::Bo(_) | Found::MultiFidelity(_) => None,
     };
     report.heading(2, "Fit cases");
     report.table(errors_table(&outcome.fit_errors, nominal_errors.as_deref()));
@@ -77,11 +77,25 @@ pub fn study_report(
                 write_one_verdict(&mut report, analysis, &parameters, &totals);
             }
         }
-        (Found::Bo(result), _) => write_candidates(&mut report, study, outcome, result, extras),
+        (Found::Bo(result), _) => write_candidates(
+            &mut report,
+            study,
+            outcome,
+            result.evaluations_to_target,
+            extras,
+        ),
+        (Found::MultiFidelity(mf), _) => write_candidates(
+            &mut report,
+            study,
+            outcome,
+            mf.result.evaluations_to_target,
+            extras,
+        ),
         _ => {}
     }
     let target = match method {
         Method::Bo(bo) => bo.target_loss,
+        Method::MultiFidelity(mf) => mf.target_loss,
         _ => None,
     };
     report.figure(Figure {
@@ -108,6 +122,24 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
             study.loss(&outcome.calibrated_outputs),
             result.stop
         ),
+        Found::MultiFidelity(mf) => {
+            use acq_calib::multi_fidelity::Fidelity;
+            let result = &mf.result;
+            format!(
+                "Two-level Bayesian optimisation of the {} error (co-kriging over both levels; each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; rho {}; stopped: {:?}.",
+                if study.loss == LossKind::Max { "largest" } else { "weighted mean" },
+                study.loss(&outcome.calibrated_outputs),
+                mf.meshes[1],
+                result.count(Fidelity::Expensive),
+                mf.meshes[1],
+                result.cost_s[1],
+                result.count(Fidelity::Cheap),
+                mf.meshes[0],
+                result.cost_s[0],
+                result.rho.map_or_else(|| "not fitted".to_string(), |r| format!("{r:.3}")),
+                result.stop
+            )
+        }
         Found::Moo(moo) => format!(
             "Surrogate + NSGA-II: {evaluations} model evaluations ({failed} failed) in {wall_s:.1} s; {} among {} Pareto points. {}",
             moo.pick_sentence(),
@@ -454,7 +486,7 @@ fn write_candidates(
     report: &mut Document,
     study: &Study,
     outcome: &StudyOutcome,
-    result: &acq_calib::bo::BoResult,
+    evaluations_to_target: Option<usize>,
     extras: &dyn Extras,
 ) {
     let parameters = study.search_parameters();
@@ -490,7 +522,7 @@ fn write_candidates(
     }
     report.table(table);
     if candidates.len() < 2 {
-        if result.evaluations_to_target.is_some() {
+        if evaluations_to_target.is_some() {
             report.paragraph(
                 "The run stopped as soon as it reached the target, before it could map the region \
                  of good fits. For that picture, run on with a lower target (0 runs the whole \

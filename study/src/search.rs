@@ -8,6 +8,7 @@ use acq_calib::bo::{
 };
 use acq_calib::evaluation::{AsyncRuns, Evaluation, EvaluationError, Evaluator, Parameter};
 use acq_calib::gp::{GpSettings, Kernel};
+use acq_calib::multi_fidelity::{Fidelity, MultiFidelityResult, MultiFidelitySettings};
 use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 
@@ -117,17 +118,9 @@ pub fn minimise_logged(
         initial,
         |batch| {
             let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(parameters, u)).collect();
-            match evaluator.evaluate(&values) {
-                Ok(evaluations) => Ok(evaluations
-                    .iter()
-                    .map(|e| e.outcome.as_ref().ok().map(|y| score(y)))
-                    .collect()),
-                Err(error) => {
-                    let message = error.to_string();
-                    log_failure = Some(error);
-                    Err(BoError::Settings(message))
-                }
-            }
+            evaluate_kept(evaluator, &values, &mut log_failure, |e| {
+                e.outcome.as_ref().ok().map(|y| score(y))
+            })
         },
         settings,
     );
@@ -135,6 +128,74 @@ pub fn minimise_logged(
         return Err(evaluation_error(error));
     }
     result.map_err(|e| AcqError::Config(e.to_string()))
+}
+
+/// The two-level search ([`acq_calib::multi_fidelity`]) through a logging
+/// evaluator whose simulator takes the element size as its last
+/// parameter (`mesh`): each unit-box point is scaled to the parameters,
+/// given its level's size, run (the start designs in parallel), logged
+/// and scored. A failed run is a missing loss; a log that cannot be
+/// written stops the run with that error.
+pub fn minimise_two_levels_logged(
+    evaluator: &mut Evaluator<'_>,
+    parameters: &[Parameter],
+    cheap_start: Vec<Vec<f64>>,
+    expensive_start_runs: usize,
+    meshes: [f64; 2],
+    loss: impl Fn(&[f64]) -> f64,
+    settings: &MultiFidelitySettings,
+) -> Result<MultiFidelityResult> {
+    let expensive_start = cheap_start
+        .iter()
+        .take(expensive_start_runs)
+        .cloned()
+        .collect();
+    let mut log_failure = None;
+    let result = acq_calib::multi_fidelity::minimise::<BoError>(
+        cheap_start,
+        expensive_start,
+        |level, points| {
+            let mesh = match level {
+                Fidelity::Cheap => meshes[0],
+                Fidelity::Expensive => meshes[1],
+            };
+            let values: Vec<Vec<f64>> = points
+                .iter()
+                .map(|u| {
+                    let mut values = from_unit(parameters, u);
+                    values.push(mesh);
+                    values
+                })
+                .collect();
+            evaluate_kept(evaluator, &values, &mut log_failure, |e| {
+                (e.outcome.as_ref().ok().map(|y| loss(y)), e.wall_s)
+            })
+        },
+        settings,
+    );
+    if let Some(error) = log_failure {
+        return Err(evaluation_error(error));
+    }
+    result.map_err(|e| AcqError::Config(e.to_string()))
+}
+
+/// Runs `values` and reads each evaluation with `read`; a log that
+/// cannot be written is kept in `log_failure` (the caller reports it)
+/// and stops the search.
+fn evaluate_kept<T>(
+    evaluator: &mut Evaluator<'_>,
+    values: &[Vec<f64>],
+    log_failure: &mut Option<EvaluationError>,
+    read: impl Fn(&Evaluation) -> T,
+) -> std::result::Result<Vec<T>, BoError> {
+    match evaluator.evaluate(values) {
+        Ok(evaluations) => Ok(evaluations.iter().map(read).collect()),
+        Err(error) => {
+            let message = error.to_string();
+            *log_failure = Some(error);
+            Err(BoError::Settings(message))
+        }
+    }
 }
 
 /// The successful evaluations with their loss.

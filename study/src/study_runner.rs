@@ -19,7 +19,9 @@ use std::time::{Duration, Instant};
 
 use acq_calib::bo::Outcome;
 use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_calib::gp::GpSettings;
 use acq_calib::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
+use acq_calib::multi_fidelity::MultiFidelitySettings;
 use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 
@@ -28,13 +30,16 @@ use acq_report::document::Document;
 
 use super::extras::Extras;
 use super::identifiability::{identifiability, identifiability_json, Local};
+use super::mesh_study::with_mesh_parameter;
 use super::method::{Method, RunSettings, CURVE_PARTS};
-use super::outcome::{CalibratedCurve, Found, LeastSquaresFound, StudyOutcome};
+use super::outcome::{CalibratedCurve, Found, LeastSquaresFound, MultiFidelityFound, StudyOutcome};
 use super::posterior::{run_posterior, SearchResult};
 use super::progress::Progress;
 use super::report::{study_report, write_report};
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
-use super::search::{bo_settings, from_unit, minimise_logged, scored, to_unit};
+use super::search::{
+    bo_settings, from_unit, minimise_logged, minimise_two_levels_logged, scored, to_unit,
+};
 use super::study::{Measured, Model, Observation, ObservationError, Role, Study, StudySimulator};
 use super::summary::summary;
 use super::surrogate_moo::surrogate_moo;
@@ -182,7 +187,7 @@ fn calibrated_point(
             from_unit(parameters, &ls.result.point),
             ls.result.outputs.clone(),
         ),
-        Found::Bo(_) => {
+        Found::Bo(_) | Found::MultiFidelity(_) => {
             let scored = scored(evaluations, |y| study.loss(y));
             let Some(&(best, _)) = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
                 return Err(StudyError::NoRunSucceeded {
@@ -215,9 +220,17 @@ pub fn calibrate_study(
         Method::Bo(bo) if bo.local_steps => CURVE_PARTS,
         _ => 0,
     };
-    let simulator = StudySimulator::new(study, model, Role::Fit).with_curve_parts(curve_parts);
+    // Two levels: the element size is a parameter of the runs, logged.
+    let levels = match method {
+        Method::MultiFidelity(mf) => Some([mf.cheap_mesh, mf.expensive_mesh]),
+        _ => None,
+    };
+    let levelled = levels.map(|meshes| with_mesh_parameter(study, &meshes));
+    let run_study = levelled.as_ref().unwrap_or(study);
+    let simulator = StudySimulator::new(run_study, model, Role::Fit).with_curve_parts(curve_parts);
     let budget = match method {
         Method::Bo(bo) => bo.max_evals,
+        Method::MultiFidelity(mf) => mf.max_evals,
         Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
         Method::LeastSquares(ls) => ls.max_evals + parameters.len(),
     };
@@ -228,35 +241,26 @@ pub fn calibrate_study(
     let mut evaluator = directory
         .evaluator(&simulator, settings.parallel, settings.resume)?
         .with_progress(|e| {
-            let loss = e.outcome.as_ref().ok().map(|y| study.loss(y));
+            // The best loss shown is the expensive level's.
+            let cheap =
+                levels.is_some_and(|[_, expensive]| e.parameters.last() != Some(&expensive));
+            let loss = e
+                .outcome
+                .as_ref()
+                .ok()
+                .filter(|_| !cheap)
+                .map(|y| study.loss(y));
             progress.record(loss, e.outcome.is_err(), e.from_log);
         });
-    // On a terminal the line is redrawn every second while runs are under
-    // way elsewhere (a cluster), so a job's pending -> running shows.
-    let searching = AtomicBool::new(true);
-    let found = std::thread::scope(|scope| {
-        if progress.is_redrawn() && model.status().is_some() {
-            scope.spawn(|| {
-                let mut ticks = 0u32;
-                while searching.load(Ordering::Relaxed) {
-                    std::thread::sleep(Duration::from_millis(100));
-                    ticks += 1;
-                    if ticks % 10 == 0 {
-                        progress.redraw();
-                    }
-                }
-            });
-        }
-        let found = search(
+    let found = redrawn_while(&progress, model.status().is_some(), || {
+        search(
             study,
             method,
             &mut evaluator,
             &parameters,
             initial,
             curve_parts,
-        );
-        searching.store(false, Ordering::Relaxed);
-        found
+        )
     });
     progress.finish();
     if evaluator.evaluations().iter().all(|e| e.outcome.is_err()) {
@@ -279,12 +283,7 @@ pub fn calibrate_study(
     } else {
         Vec::new()
     };
-    let mut evaluations = evaluator.evaluations().to_vec();
-    for evaluation in &mut evaluations {
-        if let Ok(outputs) = &mut evaluation.outcome {
-            outputs.truncate(observations);
-        }
-    }
+    let evaluations = searched_evaluations(evaluator.evaluations(), observations, levels);
     let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
     let (calibrated, calibrated_outputs) =
         calibrated_point(study, &found, &parameters, &evaluations, directory)?;
@@ -312,6 +311,53 @@ pub fn calibrate_study(
         curves,
         posterior: None,
     })
+}
+
+/// Runs `work`; on a terminal, and when the model has a status (runs
+/// under way elsewhere, a cluster), the progress line is redrawn every
+/// second meanwhile, so a job's pending -> running shows.
+fn redrawn_while<T>(progress: &Progress, has_status: bool, work: impl FnOnce() -> T) -> T {
+    let searching = AtomicBool::new(true);
+    std::thread::scope(|scope| {
+        if progress.is_redrawn() && has_status {
+            scope.spawn(|| {
+                let mut ticks = 0u32;
+                while searching.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(100));
+                    ticks += 1;
+                    if ticks % 10 == 0 {
+                        progress.redraw();
+                    }
+                }
+            });
+        }
+        let result = work();
+        searching.store(false, Ordering::Relaxed);
+        result
+    })
+}
+
+/// The search's runs as what follows sees them (the calibrated point,
+/// identifiability, the posterior's emulator): the observations alone,
+/// and of two levels the expensive runs, without their size.
+fn searched_evaluations(
+    runs: &[Evaluation],
+    observations: usize,
+    levels: Option<[f64; 2]>,
+) -> Vec<Evaluation> {
+    let mut evaluations = runs.to_vec();
+    if let Some([_, expensive]) = levels {
+        evaluations.retain(|e| e.parameters.last() == Some(&expensive));
+        for evaluation in &mut evaluations {
+            evaluation.parameters.pop();
+        }
+    }
+    for evaluation in &mut evaluations {
+        if let Ok(outputs) = &mut evaluation.outcome {
+            outputs.truncate(observations);
+        }
+    }
+    evaluations
 }
 
 /// The method's search through the logging evaluator.
@@ -349,6 +395,30 @@ fn search(
                 !bo.deterministic,
             )
             .map(Found::Bo)
+        }
+        Method::MultiFidelity(mf) => {
+            let settings = MultiFidelitySettings {
+                max_evaluations: mf.max_evals,
+                max_expensive: mf.max_expensive,
+                target_loss: mf.target_loss,
+                gp: GpSettings {
+                    seed: mf.seed,
+                    ..MultiFidelitySettings::default().gp
+                },
+                seed: mf.seed,
+                ..MultiFidelitySettings::default()
+            };
+            let meshes = [mf.cheap_mesh, mf.expensive_mesh];
+            minimise_two_levels_logged(
+                evaluator,
+                parameters,
+                initial,
+                mf.expensive_start_runs,
+                meshes,
+                |y| study.loss(y),
+                &settings,
+            )
+            .map(|result| Found::MultiFidelity(Box::new(MultiFidelityFound { result, meshes })))
         }
         Method::SurrogateMoo(moo) => surrogate_moo(
             evaluator,

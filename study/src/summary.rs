@@ -56,7 +56,7 @@ pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Va
     };
     let mut summary = Map::new();
     match found {
-        Found::Bo(result) => {
+        Found::Bo(_) | Found::MultiFidelity(_) => {
             summary.insert(
                 "best_loss_pct".into(),
                 json!(study.loss(calibrated_outputs)),
@@ -73,10 +73,17 @@ pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Va
                 ),
             );
             summary.insert("best_params".into(), named(calibrated));
-            summary.insert(
-                "evaluations_to_target".into(),
-                json!(result.evaluations_to_target),
-            );
+            let (to_target, two_levels) = match found {
+                Found::Bo(result) => (result.evaluations_to_target, None),
+                Found::MultiFidelity(mf) => {
+                    (mf.result.evaluations_to_target, Some(mf.summary_json()))
+                }
+                _ => (None, None),
+            };
+            summary.insert("evaluations_to_target".into(), json!(to_target));
+            if let Some(two_levels) = two_levels {
+                summary.insert("multi_fidelity".into(), two_levels);
+            }
         }
         Found::Moo(moo) => {
             summary.insert(

@@ -10,7 +10,7 @@ use acq_calib::gp::Kernel;
 use super::model::{CommandSpec, ModelKind};
 use super::problem::SpecProblem;
 use super::schema::{
-    ExecutorKind, ExecutorSpec, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
+    ExecutorKind, ExecutorSpec, MethodName, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
     MAX_EVALUATIONS, MAX_PARALLEL, MAX_PREDICTIVE_RUNS, MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
 };
 use crate::study::Role;
@@ -384,6 +384,58 @@ fn search_section(search: &Search) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// `[search] method = "multi-fidelity"`: a `[mesh_study]` (the command's
+/// `{mesh}`) and a cheap size coarser than its `calibrate_at`; its own
+/// settings only with that method.
+pub fn multi_fidelity(
+    search: &Search,
+    mesh_study: Option<&crate::mesh_study::MeshStudySettings>,
+) -> Result<(), SpecProblem> {
+    let problem = |message: String| Err(SpecProblem::file(format!("search: {message}")));
+    if search.method != MethodName::MultiFidelity {
+        if search.cheap_mesh.is_some()
+            || search.max_expensive.is_some()
+            || search.expensive_start_runs.is_some()
+        {
+            return problem(
+                "cheap_mesh, max_expensive and expensive_start_runs belong to method = \"multi-fidelity\": set it, or remove them".into(),
+            );
+        }
+        return Ok(());
+    }
+    let Some(mesh_study) = mesh_study else {
+        return problem(
+            "method = \"multi-fidelity\" runs the model at two element sizes through {mesh}: add [mesh_study] (its calibrate_at is the expensive level) and {mesh} to the command".into(),
+        );
+    };
+    let fine = mesh_study.calibrate_at;
+    match search.cheap_mesh {
+        None => problem(format!(
+            "method = \"multi-fidelity\" needs cheap_mesh, the coarse element size of the cheap runs (larger than [mesh_study] calibrate_at = {fine})"
+        )),
+        Some(cheap) if !(cheap.is_finite() && cheap > fine) => problem(format!(
+            "cheap_mesh = {cheap}: give an element size larger (coarser) than [mesh_study] calibrate_at = {fine}, the expensive level"
+        )),
+        Some(_) => {
+            let start = search.start_runs;
+            let expensive_start = search.expensive_start_runs();
+            let max_expensive = search.max_expensive.unwrap_or(search.max_evals);
+            if !(2..=start).contains(&expensive_start) {
+                return problem(format!(
+                    "expensive_start_runs = {expensive_start}: give 2 to start_runs ({start}); co-kriging needs two expensive runs"
+                ));
+            }
+            if max_expensive <= expensive_start || search.max_evals <= start + expensive_start {
+                return problem(format!(
+                    "max_expensive ({max_expensive}) and max_evals ({}) leave no run after the start designs ({start} cheap, {expensive_start} expensive): raise them",
+                    search.max_evals
+                ));
+            }
+            Ok(())
+        }
+    }
 }
 
 /// `[mesh_study]`: at least three distinct positive sizes, `at` naming

@@ -67,7 +67,10 @@
 //! method = "bo"              # or "surrogate-moo", or "least-squares"
 //!                            # (Levenberg-Marquardt from the nominal point,
 //!                            # for cheap smooth models; max_evals counts
-//!                            # one run per parameter per Jacobian)
+//!                            # one run per parameter per Jacobian), or
+//!                            # "multi-fidelity" (with [mesh_study]: cheap
+//!                            # runs at cheap_mesh beside expensive ones at
+//!                            # its calibrate_at; max_expensive bounds those)
 //! residuals = "relative"     # or "normalised": scalars in standard uncertainties
 //! start = "lhs"              # bo: lhs, sobol, l12, factorial, or a CSV file of points
 //!                            # (l12 with 3 or fewer parameters: its 2^d distinct corners)
@@ -125,7 +128,7 @@ use std::path::{Path, PathBuf};
 use acq_io::error::AcqError;
 
 use self::schema::{ExecutorSpec, MethodName, PosteriorSpec, Search, SpecFile};
-use super::method::{BoMethod, LeastSquaresMethod, Method};
+use super::method::{BoMethod, LeastSquaresMethod, Method, MultiFidelityMethod};
 use super::posterior::{check_posterior, PosteriorSettings};
 use super::study::Study;
 use super::surrogate_moo::SurrogateMooSettings;
@@ -193,6 +196,8 @@ fn emulator_has_runs(
     let needed = parameters + 2;
     let budget = match file.search.method {
         MethodName::Bo | MethodName::LeastSquares => file.search.max_evals,
+        // The emulator learns from the expensive runs.
+        MethodName::MultiFidelity => file.search.max_expensive.unwrap_or(file.search.max_evals),
         // Its training runs alone are checked against its own minimum.
         MethodName::SurrogateMoo => return Ok(()),
     };
@@ -238,6 +243,7 @@ impl Spec {
         checks::search(&file.search).map_err(located)?;
         checks::posterior(&file).map_err(located)?;
         let mesh_study = checks::mesh_study(&file, &model).map_err(located)?;
+        checks::multi_fidelity(&file.search, mesh_study.as_ref()).map_err(located)?;
         let command = matches!(model, ModelKind::Command(_));
         let mut study = assemble::study(&file, &directory, command).map_err(located)?;
         if let Some(mesh) = &mesh_study {
@@ -325,6 +331,21 @@ impl Spec {
                     refine_rounds: search.refine_rounds.unwrap_or(defaults.refine_rounds),
                 })
             }
+            MethodName::MultiFidelity => Method::MultiFidelity(MultiFidelityMethod {
+                start: search.start.clone(),
+                start_runs: search.start_runs,
+                expensive_start_runs: search.expensive_start_runs(),
+                // Checked at load: a multi-fidelity spec has both.
+                cheap_mesh: search.cheap_mesh.unwrap_or(f64::NAN),
+                expensive_mesh: self
+                    .mesh_study
+                    .as_ref()
+                    .map_or(f64::NAN, |m| m.calibrate_at),
+                max_evals: search.max_evals,
+                max_expensive: search.max_expensive.unwrap_or(search.max_evals),
+                target_loss: search.target_loss_pct,
+                seed,
+            }),
             MethodName::LeastSquares => Method::LeastSquares(LeastSquaresMethod {
                 max_evals: search.max_evals,
             }),

@@ -445,6 +445,14 @@ pub struct Search {
     /// How the surrogate-MOO search picks its front point: "topsis"
     /// (default, the published method), "topsis-common" or "minimax".
     pub pick: Option<String>,
+    /// multi-fidelity: the cheap level's element size (`{mesh}`); the
+    /// expensive level is `[mesh_study] calibrate_at`.
+    pub cheap_mesh: Option<f64>,
+    /// multi-fidelity: expensive runs at most [default: max_evals].
+    pub max_expensive: Option<usize>,
+    /// multi-fidelity: how many of the start design's first points also
+    /// run expensive [default: half the start design, at least 2].
+    pub expensive_start_runs: Option<usize>,
 }
 
 /// `[search] method`.
@@ -458,6 +466,17 @@ pub enum MethodName {
     SurrogateMoo,
     /// Levenberg-Marquardt from the nominal point.
     LeastSquares,
+    /// Bayesian optimisation over a cheap and an expensive element size
+    /// (co-kriging; each run's level chosen by expected gain per second).
+    MultiFidelity,
+}
+
+impl Search {
+    /// multi-fidelity: the expensive start runs, set or by default.
+    pub fn expensive_start_runs(&self) -> usize {
+        self.expensive_start_runs
+            .unwrap_or((self.start_runs / 2).max(2))
+    }
 }
 
 impl Default for Search {

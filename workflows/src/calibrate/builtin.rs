@@ -46,6 +46,7 @@ use acq_twins::excavator::pose_fit::{published_poses, refit_poses, ReferencePose
 use acq_twins::excavator::{
     CylinderName, Evaluation, Excavator, Inputs, Measurables, PreparedPose, Strokes,
 };
+use acq_twins::tensile::mesh::MeshDensity;
 
 use crate::excavator_report::{
     envelope_json, evaluation_json, measurable_number, measurables_json,
@@ -568,18 +569,46 @@ impl Model for ExcavatorModel {
 /// out, for the test the model was set up from.
 pub struct GtnModel {
     model: TensileModel,
+    /// The neck zone of a mesh given as the input `mesh` (None: one diameter).
+    neck_zone_mm: Option<f64>,
 }
 
 /// The GTN twin's one curve.
 pub const GTN_CURVE: &str = "force_displacement";
 
+/// The optional input that sets the element size at the neck, mm, run by
+/// run (the two levels of a multi-fidelity calibration).
+pub const GTN_MESH_INPUT: &str = "mesh";
+
 impl GtnModel {
     pub fn new(model: TensileModel) -> Self {
-        GtnModel { model }
+        GtnModel {
+            model,
+            neck_zone_mm: None,
+        }
+    }
+
+    /// The neck zone of the meshes the input `mesh` asks for.
+    pub fn with_neck_zone_mm(mut self, neck_zone_mm: Option<f64>) -> Self {
+        self.neck_zone_mm = neck_zone_mm;
+        self
     }
 
     pub fn tensile_model(&self) -> &TensileModel {
         &self.model
+    }
+
+    /// The model at the element size `mesh` asks for, or the one it holds.
+    fn sized(&self, mesh: Option<f64>) -> Result<std::borrow::Cow<'_, TensileModel>, String> {
+        let Some(element_mm) = mesh else {
+            return Ok(std::borrow::Cow::Borrowed(&self.model));
+        };
+        let geometry = &self.model.settings.geometry;
+        let density = MeshDensity::by_element_size(geometry, element_mm, self.neck_zone_mm)
+            .map_err(|e| format!("input {GTN_MESH_INPUT} = {element_mm} mm: {e}"))?;
+        let mut model = self.model.clone();
+        model.settings.mesh = density;
+        Ok(std::borrow::Cow::Owned(model))
     }
 }
 
@@ -614,16 +643,20 @@ impl Model for GtnModel {
             .collect::<Result<Vec<f64>, String>>()?;
         if let Some((name, _)) = inputs
             .iter()
-            .find(|(n, _)| !PARAMETER_NAMES.contains(&n.as_str()))
+            .find(|(n, _)| !PARAMETER_NAMES.contains(&n.as_str()) && n != GTN_MESH_INPUT)
         {
             return Err(format!(
-                "the GTN twin takes no input {name:?}: it takes {}",
+                "the GTN twin takes no input {name:?}: it takes {} and optionally {GTN_MESH_INPUT} (the element size at the neck, mm)",
                 PARAMETER_NAMES.join(", ")
             ));
         }
+        let mesh = inputs
+            .iter()
+            .find(|(n, _)| n == GTN_MESH_INPUT)
+            .map(|(_, v)| *v);
         // The study scores the curve itself: the model's own MAPE is not
         // computed twice.
-        let result = self.model.pull(&GtnInputs::from_values(&values)?)?;
+        let result = self.sized(mesh)?.pull(&GtnInputs::from_values(&values)?)?;
         let curve: Vec<(f64, f64)> = result
             .curve
             .iter()

@@ -518,7 +518,7 @@ pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
 fn surrogate_moo_of(outcome: &StudyOutcome) -> &SurrogateMoo {
     match &outcome.found {
         Found::Moo(moo) => moo,
-        Found::Bo(_) | Found::LeastSquares(_) => {
+        Found::Bo(_) | Found::MultiFidelity(_) | Found::LeastSquares(_) => {
             unreachable!("the excavator preset runs surrogate-moo")
         }
     }

@@ -24,7 +24,7 @@ use super::builtin::{GtnModel, GTN_CURVE};
 use crate::abaqus_material::abaqus_material_block;
 use crate::tensile_model::{GtnInputs, MeshOptions, ModelSettings, TensileModel, PARAMETER_NAMES};
 use acq_study::extras::{Extras, Section};
-use acq_study::method::{start_design, BoMethod, Method, RunSettings};
+use acq_study::method::{start_design, BoMethod, Method, MultiFidelityMethod, RunSettings};
 use acq_study::outcome::{Found, StudyOutcome};
 use acq_study::posterior::PosteriorSettings;
 use acq_study::run_directory::{write_text, RunDirectory};
@@ -64,6 +64,11 @@ pub struct CalibrateGtnOptions {
     /// After the search, the posterior of the eight parameters with this
     /// many kept draws per chain (4 chains).
     pub posterior_draws_per_chain: Option<usize>,
+    /// Two levels: cheap runs at this element size (mm) beside the
+    /// expensive ones at `mesh.element_mm`, searched together.
+    pub cheap_element_mm: Option<f64>,
+    /// With two levels, expensive runs at most (`max_evals` counts both).
+    pub max_fine_runs: Option<u32>,
 }
 
 impl CalibrateGtnOptions {
@@ -87,6 +92,8 @@ impl CalibrateGtnOptions {
             deterministic: false,
             resume: false,
             posterior_draws_per_chain: None,
+            cheap_element_mm: None,
+            max_fine_runs: None,
         }
     }
 }
@@ -195,20 +202,9 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
     );
     let parameters = parameters(m_upper.max(1.0));
     let study = test_study(&parameters, &points);
-    let model = GtnModel::new(model);
+    let model = GtnModel::new(model).with_neck_zone_mm(args.mesh.neck_zone_mm);
+    let method = gtn_method(&args)?;
     let directory = RunDirectory::create(&args.out)?;
-    let method = Method::Bo(BoMethod {
-        start: "l12".into(),
-        start_runs: 12,
-        max_evals: args.max_evals as usize,
-        target_loss: Some(args.target_mape_pct),
-        acquisition: Some(args.acquisition),
-        patience: args.patience.map(|p| p as usize),
-        batch: args.batch as usize,
-        seed: args.seed,
-        local_steps: !args.global_only,
-        deterministic: args.deterministic,
-    });
     let settings = RunSettings {
         label: "calibrate gtn".into(),
         title: args.test.display().to_string(),
@@ -246,9 +242,6 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
         &extras,
     )?;
     let outcome = &run.outcome;
-    let Found::Bo(result) = &outcome.found else {
-        unreachable!("the GTN preset runs Bayesian optimisation")
-    };
     Ok(GtnCalibration {
         best_mape_pct: study.loss(&outcome.calibrated_outputs),
         best_split_pct: extras
@@ -256,10 +249,66 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
             .map(|s| (s.before_percent, s.after_percent)),
         best_params: outcome.calibrated_by_name(&study),
         evaluations: outcome.evaluations.len(),
-        evaluations_to_target: result.evaluations_to_target,
+        evaluations_to_target: evaluations_to_target(&outcome.found),
         wall_s: outcome.wall_s,
         report: run.report,
     })
+}
+
+/// Bayesian optimisation from the published L12 design; with a cheap
+/// element size, the two-level search whose expensive start is the
+/// design's first six rows.
+fn gtn_method(args: &CalibrateGtnOptions) -> Result<Method> {
+    let Some(cheap_mm) = args.cheap_element_mm else {
+        if args.max_fine_runs.is_some() {
+            return Err(AcqError::Config(
+                "--max-fine-runs bounds the fine runs of a two-level calibration: give --cheap-element-mm too".into(),
+            ));
+        }
+        return Ok(Method::Bo(BoMethod {
+            start: "l12".into(),
+            start_runs: 12,
+            max_evals: args.max_evals as usize,
+            target_loss: Some(args.target_mape_pct),
+            acquisition: Some(args.acquisition),
+            patience: args.patience.map(|p| p as usize),
+            batch: args.batch as usize,
+            seed: args.seed,
+            local_steps: !args.global_only,
+            deterministic: args.deterministic,
+        }));
+    };
+    let Some(fine_mm) = args.mesh.element_mm else {
+        return Err(AcqError::Config(
+            "--cheap-element-mm is the cheap level beside the fine one: give --element-mm, the size the parameters are for".into(),
+        ));
+    };
+    if !(cheap_mm.is_finite() && cheap_mm > fine_mm) {
+        return Err(AcqError::Config(format!(
+            "--cheap-element-mm {cheap_mm} must be coarser (larger) than --element-mm {fine_mm}"
+        )));
+    }
+    let max_evals = args.max_evals as usize;
+    Ok(Method::MultiFidelity(MultiFidelityMethod {
+        start: "l12".into(),
+        start_runs: 12,
+        expensive_start_runs: 6,
+        cheap_mesh: cheap_mm,
+        expensive_mesh: fine_mm,
+        max_evals,
+        max_expensive: args.max_fine_runs.map_or(max_evals, |n| n as usize),
+        target_loss: Some(args.target_mape_pct),
+        seed: args.seed,
+    }))
+}
+
+/// Runs made when the target was reached, by either search.
+fn evaluations_to_target(found: &Found) -> Option<usize> {
+    match found {
+        Found::Bo(result) => result.evaluations_to_target,
+        Found::MultiFidelity(mf) => mf.result.evaluations_to_target,
+        Found::Moo(_) | Found::LeastSquares(_) => None,
+    }
 }
 
 /// What the GTN preset adds: the MAPE before and after the maximum force,
@@ -315,9 +364,7 @@ impl Extras for GtnExtras<'_> {
     }
 
     fn sections(&self, study: &Study, outcome: &StudyOutcome, report: &mut Document) -> Result<()> {
-        let Found::Bo(result) = &outcome.found else {
-            return Ok(());
-        };
+        let to_target = evaluations_to_target(&outcome.found);
         let split = self.split(outcome);
         report
             .paragraph(format!(
@@ -328,8 +375,7 @@ impl Extras for GtnExtras<'_> {
                 split.map_or(f64::NAN, |s| s.after_percent),
                 outcome.evaluations.len(),
                 self.target_mape,
-                result
-                    .evaluations_to_target
+                to_target
                     .map_or_else(|| "not reached".to_string(), |n| format!("reached at simulation {n}")),
             ))
             .paragraph(format!(
@@ -363,6 +409,9 @@ impl Extras for GtnExtras<'_> {
             "wall_s",
         ] {
             summary.insert(key.into(), common[key].clone());
+        }
+        if let Some(two_levels) = common.get("multi_fidelity") {
+            summary.insert("multi_fidelity".into(), two_levels.clone());
         }
         summary
     }
@@ -398,10 +447,18 @@ impl Extras for GtnExtras<'_> {
     }
 
     fn closing_line(&self, study: &Study, outcome: &StudyOutcome) -> Option<String> {
+        let simulations = match &outcome.found {
+            Found::MultiFidelity(mf) => format!(
+                "{} fine simulations (and {} cheap ones at {} mm)",
+                outcome.evaluations.len(),
+                mf.result.count(acq_calib::multi_fidelity::Fidelity::Cheap),
+                mf.meshes[0]
+            ),
+            _ => format!("{} simulations", outcome.evaluations.len()),
+        };
         Some(format!(
-            "best MAPE {:.3} % after {} simulations ({:.1} s); report in {}",
+            "best MAPE {:.3} % after {simulations} ({:.1} s); report in {}",
             study.loss(&outcome.calibrated_outputs),
-            outcome.evaluations.len(),
             outcome.wall_s,
             self.out.join("report.md").display()
         ))

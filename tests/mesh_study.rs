@@ -283,3 +283,83 @@ fn a_validation_takes_u_num_from_the_mesh_study_of_its_own_spec() {
     assert_eq!(cells[5], "0.2180", "u_num 0.218 mm: {cells:?}");
     assert!(cells[6].contains("mesh study"), "{cells:?}");
 }
+
+/// A curve `y = (1 + x)(1 + 0.3 h^1.8)` on x = 0 .. 2: the mean over any
+/// part of x is `(1 + x_mid)(1 + 0.3 h^1.8)`, so every part has order 1.8
+/// and extrapolates to `1 + x_mid` (the interpolant is linear between
+/// nodes, so the part means are exact).
+#[test]
+fn a_curve_is_compared_part_by_part_and_each_part_has_its_closed_form() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("solver.sh"),
+        r#"awk -v h="$1" 'BEGIN {
+  e = 1 + 0.3 * h ^ 1.8
+  printf "{\"phi\": %.17g}\n", 1.5 * e > "out.json"
+  print "x,y" > "curve.csv"
+  for (i = 0; i <= 40; i++) { x = i / 20; printf "%.17g,%.17g\n", x, (1 + x) * e > "curve.csv" }
+}'
+"#,
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("measured.csv"), "x,y\n0,1\n1,2\n2,3\n").unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(
+        &spec,
+        r#"command = ["sh", "solver.sh", "{mesh}", "{k}"]
+output_file = "out.json"
+
+[[parameter]]
+name = "k"
+lower = 1.0
+upper = 3.0
+
+[[output]]
+name = "phi"
+measured = 1.5
+
+[[curve]]
+name = "line"
+file = "curve.csv"
+x = "x"
+y = "y"
+measured_file = "measured.csv"
+measured_x = "x"
+measured_y = "y"
+
+[search]
+start_runs = 3
+max_evals = 3
+
+[mesh_study]
+sizes = [0.4, 0.2, 0.1]
+"#,
+    )
+    .unwrap();
+    let out = dir.path().join("mesh");
+    let summary = mesh_study(&spec, &out);
+    let parts = summary["mesh_study_curves"]["line"]["parts"]
+        .as_array()
+        .unwrap_or_else(|| panic!("{summary:#}"));
+    assert_eq!(parts.len(), 10);
+    let mut previous_to = 0.0;
+    for part in parts {
+        let (from, to) = (
+            part["x_from"].as_f64().unwrap(),
+            part["x_to"].as_f64().unwrap(),
+        );
+        assert!((from - previous_to).abs() < 1e-12 && to > from, "{part}");
+        previous_to = to;
+        assert_eq!(part["convergence"], "monotonic", "{part}");
+        assert!(close(part["order"].as_f64().unwrap(), 1.8), "{part}");
+        let exact = 1.0 + 0.5 * (from + to);
+        assert!(
+            close(part["extrapolated"].as_f64().unwrap(), exact),
+            "{part}"
+        );
+    }
+    assert!((previous_to - 2.0).abs() < 1e-12);
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Curve line, part by part"), "{report}");
+    assert!(out.join("mesh_study_curve_1.svg").exists());
+}

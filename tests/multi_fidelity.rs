@@ -108,10 +108,11 @@ fn a_two_level_calibration_answers_with_the_fine_levels_optimum() {
         Some(count("expensive_runs"))
     );
     // The answer is the fine level's optimum (k = 1.9608, d = 0.51), not
-    // the cheap one's (1.515, 0.66, 23 % and 29 % away): within 8 %. A
-    // relative error's loss has a kink at its optimum, which a GP search
-    // of 20 fine runs approaches but does not pin (the target is not
-    // reached); the loss must be under 1 %.
+    // the cheap one's (1.515, 0.66, 23 % and 29 % away): within 8 %. The
+    // target, 0.2 % mean relative error, is reached by the local steps at
+    // the fine level; along the valley of the two deflections k and d
+    // trade against each other, a few % of k for 0.2 % of error.
+    assert_eq!(levels["stop"], "TargetReached");
     let best = |name: &str| summary["best_params"][name].as_f64().unwrap();
     assert!(
         (best("k") / (2.0 / 1.02) - 1.0).abs() < 0.08,
@@ -123,7 +124,7 @@ fn a_two_level_calibration_answers_with_the_fine_levels_optimum() {
         "d {}",
         best("d")
     );
-    assert!(summary["best_loss_pct"].as_f64().unwrap() < 1.0);
+    assert!(summary["best_loss_pct"].as_f64().unwrap() <= 0.2);
     // The cheap optimum is elsewhere: the levels' losses agree poorly, and
     // co-kriging says so with a small rho.
     assert!(

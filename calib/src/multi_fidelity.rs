@@ -36,6 +36,17 @@
 //! at it. Scored anywhere, cheap runs would wander the box: with many
 //! parameters somewhere is always unexplored, and cheaply so.
 //!
+//! With [`MultiFidelitySettings::local_steps`] and runs that return
+//! residuals, local Gauss-Newton steps in a trust region
+//! ([`crate::trust_region`]) come between the two-level steps once
+//! [`MultiFidelitySettings::local_steps_after`] expensive runs are made:
+//! the two levels look for the basin, the local steps descend it. Their
+//! linear model is the expensive level's at the centre with the cheap
+//! level's slopes (output space mapping: each cheap run's residuals
+//! shifted by the two levels' difference at the centre), so the slopes
+//! cost cheap runs and only the steps that may move the centre run
+//! expensive.
+//!
 //! Losses are modelled as `ln(loss)` when every loss is positive, like
 //! [`crate::bo`]. A failed run is left out of the fits; points within 0.02
 //! (unit box) of a failed run of the same level are not proposed again.
@@ -44,8 +55,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use crate::bo::{log_h, BoError, BoxSearch, Stop};
+use crate::bo::{log_h, BoError, BoxSearch, Outcome, Stop};
 use crate::gp::{Gp, GpError, GpSettings, Kernel};
+use crate::trust_region::{Run, TrustRegion, TrustRegionSettings};
 
 /// A level of the model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -341,6 +353,13 @@ pub struct MultiFidelitySettings {
     /// Model `ln(loss)` when every loss is positive.
     pub log_transform: bool,
     pub seed: u64,
+    /// Local trust-region steps at the expensive level on its runs'
+    /// residuals, between the two-level steps (as in [`crate::bo`]);
+    /// `None`: two-level steps only.
+    pub local_steps: Option<TrustRegionSettings>,
+    /// Expensive runs (the start design's included) before the first
+    /// local step: the two levels look for the basin first.
+    pub local_steps_after: usize,
 }
 
 impl Default for MultiFidelitySettings {
@@ -361,6 +380,8 @@ impl Default for MultiFidelitySettings {
             },
             log_transform: true,
             seed: 0,
+            local_steps: None,
+            local_steps_after: 0,
         }
     }
 }
@@ -372,6 +393,9 @@ pub struct LevelRun {
     pub unit_point: Vec<f64>,
     /// `None`: the run failed.
     pub loss: Option<f64>,
+    /// The residuals behind the loss, for local steps (empty: none).
+    #[serde(skip)]
+    pub residuals: Vec<f64>,
     pub wall_s: f64,
 }
 
@@ -494,6 +518,79 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
+/// The next local step and its level, or `None` when it is the two-level
+/// search's turn.
+///
+/// The trust region's linear model of the residuals is the expensive
+/// level's at its centre (the best expensive run) with the cheap level's
+/// slopes: each cheap run enters with its residuals shifted by the
+/// difference of the two levels at the centre (output space mapping),
+/// with an infinite loss so that it never becomes the centre. The
+/// slopes then cost cheap runs: a geometry step (a run that only
+/// improves the model's view) runs cheap, and so does the first run at a
+/// new centre, which the shift needs; only the steps that may move the
+/// centre run expensive.
+fn local_step(trust_region: &mut TrustRegion, runs: &[LevelRun]) -> Option<(Fidelity, Vec<f64>)> {
+    let centre = runs
+        .iter()
+        .filter(|r| r.level == Fidelity::Expensive && !r.residuals.is_empty())
+        .filter_map(|r| r.loss.map(|loss| (r, loss)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?
+        .0;
+    let cheap_at_centre = runs.iter().find(|r| {
+        r.level == Fidelity::Cheap
+            && r.unit_point == centre.unit_point
+            && r.residuals.len() == centre.residuals.len()
+    });
+    let Some(cheap_at_centre) = cheap_at_centre else {
+        let failed_there = runs
+            .iter()
+            .any(|r| r.level == Fidelity::Cheap && r.unit_point == centre.unit_point);
+        return (!failed_there).then(|| (Fidelity::Cheap, centre.unit_point.clone()));
+    };
+    let shift: Vec<f64> = centre
+        .residuals
+        .iter()
+        .zip(&cheap_at_centre.residuals)
+        .map(|(e, c)| e - c)
+        .collect();
+    let shifted: Vec<Vec<f64>> = runs
+        .iter()
+        .map(|r| match r.level {
+            Fidelity::Cheap if r.residuals.len() == shift.len() && r.loss.is_some() => {
+                r.residuals.iter().zip(&shift).map(|(c, s)| c + s).collect()
+            }
+            _ => Vec::new(),
+        })
+        .collect();
+    let model_runs: Vec<Run<'_>> = runs
+        .iter()
+        .zip(&shifted)
+        .filter_map(|(r, shifted)| match r.level {
+            Fidelity::Expensive => r.loss.map(|loss| Run {
+                unit_point: &r.unit_point,
+                loss,
+                residuals: &r.residuals,
+            }),
+            Fidelity::Cheap if !shifted.is_empty() && r.unit_point != centre.unit_point => {
+                Some(Run {
+                    unit_point: &r.unit_point,
+                    loss: f64::INFINITY,
+                    residuals: shifted,
+                })
+            }
+            Fidelity::Cheap => None,
+        })
+        .collect();
+    let point = trust_region.propose(&model_runs)?;
+    let level = if trust_region.pending_is_geometry() {
+        Fidelity::Cheap
+    } else {
+        Fidelity::Expensive
+    };
+    Some((level, point))
+}
+
 /// Runs the two-level search: the cheap start design, the expensive one
 /// (best a subset of the cheap one: nested), then one run at a time,
 /// level and point by [`propose`], until a stop holds. `evaluate` runs
@@ -505,7 +602,7 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
 pub fn minimise<E: From<BoError>>(
     cheap_start: Vec<Vec<f64>>,
     expensive_start: Vec<Vec<f64>>,
-    mut evaluate: impl FnMut(Fidelity, &[Vec<f64>]) -> Result<Vec<(Option<f64>, f64)>, E>,
+    mut evaluate: impl FnMut(Fidelity, &[Vec<f64>]) -> Result<Vec<(Option<Outcome>, f64)>, E>,
     settings: &MultiFidelitySettings,
 ) -> Result<MultiFidelityResult, E> {
     let mut runs: Vec<LevelRun> = Vec::new();
@@ -522,11 +619,16 @@ pub fn minimise<E: From<BoError>>(
                    evaluations_to_target: &mut Option<usize>|
      -> Result<(), E> {
         let outcomes = evaluate(level, &points)?;
-        for (unit_point, (loss, wall_s)) in points.into_iter().zip(outcomes) {
+        for (unit_point, (outcome, wall_s)) in points.into_iter().zip(outcomes) {
+            let (loss, residuals) = match outcome {
+                Some(outcome) => (Some(outcome.loss), outcome.residuals),
+                None => (None, Vec::new()),
+            };
             runs.push(LevelRun {
                 level,
                 unit_point,
                 loss,
+                residuals,
                 wall_s,
             });
             if level == Fidelity::Expensive && evaluations_to_target.is_none() && reached(loss) {
@@ -547,6 +649,12 @@ pub fn minimise<E: From<BoError>>(
         &mut runs,
         &mut evaluations_to_target,
     )?;
+    let mut trust_region = settings.local_steps.clone().map(TrustRegion::new);
+    if let Some(trust_region) = &mut trust_region {
+        for run in runs.iter().filter(|r| r.level == Fidelity::Expensive) {
+            trust_region.record(&run.unit_point, run.loss, &run.residuals);
+        }
+    }
     let mut iteration = 0u64;
     let stop = loop {
         if evaluations_to_target.is_some() {
@@ -560,9 +668,25 @@ pub fn minimise<E: From<BoError>>(
             break Stop::MaxEvaluations;
         }
         iteration += 1;
-        let (level, point, model) = propose(&runs, settings, iteration).map_err(E::from)?;
-        rho = Some(model.rho());
+        let local = match &mut trust_region {
+            Some(trust_region) if expensive_runs >= settings.local_steps_after => {
+                local_step(trust_region, &runs)
+            }
+            _ => None,
+        };
+        let (level, point) = match local {
+            Some(step) => step,
+            None => {
+                let (level, point, model) = propose(&runs, settings, iteration).map_err(E::from)?;
+                rho = Some(model.rho());
+                (level, point)
+            }
+        };
         run(level, vec![point], &mut runs, &mut evaluations_to_target)?;
+        let last = runs.last().expect("a run was just made");
+        if let Some(trust_region) = &mut trust_region {
+            trust_region.record(&last.unit_point, last.loss, &last.residuals);
+        }
     };
     let best = runs
         .iter()
@@ -605,6 +729,7 @@ mod tests {
             level,
             unit_point: vec![0.5],
             loss: Some(1.0),
+            residuals: Vec::new(),
             wall_s,
         };
         let runs = [

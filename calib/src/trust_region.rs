@@ -202,6 +202,13 @@ impl TrustRegion {
         Some(point)
     }
 
+    /// Whether the step proposed and not yet recorded is a geometry step
+    /// (a run that improves the model's view, not a candidate for the
+    /// centre): a cheaper model can make it.
+    pub fn pending_is_geometry(&self) -> bool {
+        self.pending.as_ref().is_some_and(|p| p.geometry)
+    }
+
     /// The outcome of a run; only the pending local step's changes the
     /// state (`loss` `None`: the run failed; `residuals` empty: none).
     pub fn record(&mut self, unit_point: &[f64], loss: Option<f64>, residuals: &[f64]) {

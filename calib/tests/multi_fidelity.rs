@@ -115,8 +115,8 @@ fn the_two_level_search_finds_the_minimum_with_fewer_expensive_runs() {
             Ok(points
                 .iter()
                 .map(|x| match level {
-                    Fidelity::Cheap => (Some(cheap(x[0])), CHEAP_S),
-                    Fidelity::Expensive => (Some(expensive(x[0])), EXPENSIVE_S),
+                    Fidelity::Cheap => (Some(cheap(x[0]).into()), CHEAP_S),
+                    Fidelity::Expensive => (Some(expensive(x[0]).into()), EXPENSIVE_S),
                 })
                 .collect())
         },
@@ -162,4 +162,72 @@ fn the_two_level_search_finds_the_minimum_with_fewer_expensive_runs() {
         "{expensive_runs} expensive runs with two levels, {single_runs} with one"
     );
     assert!(cost(expensive_runs, cheap_runs) < cost(single_runs, 0));
+}
+
+/// Local steps with the cheap level's slopes, on residuals with a closed
+/// form: the expensive `r(x) = (x0 - 0.3, x1 - 0.6, (x0 + x1)/2 - 0.45)`
+/// is zero at (0.3, 0.6); the cheap level's residuals are those shifted
+/// by (0.2, -0.1, 0.05), so its own optimum lies elsewhere (about (0.1,
+/// 0.7)) while its slopes are the expensive ones. Shifted by the levels'
+/// difference at the centre, the cheap runs give the exact model, and the
+/// local steps reach the expensive optimum in a few expensive runs.
+#[test]
+fn local_steps_with_the_cheap_levels_slopes_find_the_expensive_optimum() {
+    use acq_calib::bo::Outcome;
+    use acq_calib::trust_region::TrustRegionSettings;
+    let residuals = |x: &[f64], shift: [f64; 3]| -> Vec<f64> {
+        vec![
+            x[0] - 0.3 + shift[0],
+            x[1] - 0.6 + shift[1],
+            0.5 * (x[0] + x[1]) - 0.45 + shift[2],
+        ]
+    };
+    let outcome = |r: Vec<f64>| Outcome {
+        loss: r.iter().map(|v| v * v).sum::<f64>(),
+        residuals: r,
+    };
+    let settings = MultiFidelitySettings {
+        max_evaluations: 60,
+        max_expensive: 12,
+        // 1e-8 in the sum of squares: within 1e-4 of the optimum.
+        target_loss: Some(1e-8),
+        local_steps: Some(TrustRegionSettings::default()),
+        local_steps_after: 0,
+        seed: 1,
+        ..MultiFidelitySettings::default()
+    };
+    let cheap_start = vec![
+        vec![0.0, 0.0],
+        vec![1.0, 0.0],
+        vec![0.0, 1.0],
+        vec![1.0, 1.0],
+        vec![0.5, 0.5],
+    ];
+    let expensive_start = cheap_start[..3].to_vec();
+    let result = minimise::<acq_calib::bo::BoError>(
+        cheap_start,
+        expensive_start,
+        |level, points| {
+            Ok(points
+                .iter()
+                .map(|x| match level {
+                    Fidelity::Cheap => (Some(outcome(residuals(x, [0.2, -0.1, 0.05]))), 0.1),
+                    Fidelity::Expensive => (Some(outcome(residuals(x, [0.0; 3]))), 1.0),
+                })
+                .collect())
+        },
+        &settings,
+    )
+    .unwrap();
+    let best = &result.runs[result.best];
+    println!(
+        "{} expensive + {} cheap runs, best {:?} at {:?}",
+        result.count(Fidelity::Expensive),
+        result.count(Fidelity::Cheap),
+        best.loss,
+        best.unit_point
+    );
+    assert_eq!(result.stop, Stop::TargetReached);
+    assert!((best.unit_point[0] - 0.3).abs() < 1e-3 && (best.unit_point[1] - 0.6).abs() < 1e-3);
+    assert!(result.count(Fidelity::Expensive) <= 8);
 }

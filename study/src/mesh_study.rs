@@ -20,7 +20,7 @@ use acq_metrology::grid_convergence::{grid_convergence, GridConvergence};
 use acq_report::plot::{chart_svg, Chart, ReferenceLine, Series, SeriesStyle};
 use serde_json::Value;
 
-pub use crate::outcome::{MeshStudyOutcome, OutputConvergence};
+pub use crate::outcome::{CurveConvergence, MeshStudyOutcome, OutputConvergence};
 use crate::progress::Progress;
 use crate::run_directory::{write_text, RunDirectory};
 use crate::study::{Measured, Model, Role, Study, StudyParameter, StudySimulator};
@@ -119,35 +119,19 @@ pub fn run_mesh_study(
     let mut outputs = Vec::new();
     for key in scalar_keys {
         let column = keys.iter().position(|k| *k == key).unwrap_or(0);
-        let mut sizes = Vec::new();
-        let mut values = Vec::new();
-        let mut failed_sizes = Vec::new();
-        for (h, evaluation) in settings.sizes.iter().zip(&evaluations) {
-            match &evaluation.outcome {
-                Ok(outputs) => {
-                    sizes.push(*h);
-                    values.push(outputs[column]);
-                }
-                Err(_) => failed_sizes.push(*h),
-            }
-        }
-        let convergence = if sizes.len() >= 3 {
-            Some(
-                grid_convergence(&sizes, &values)
-                    .map_err(|e| AcqError::Malformed(format!("{key}: {e}")))?,
-            )
-        } else {
-            None
-        };
-        outputs.push(OutputConvergence {
-            key,
-            convergence,
-            failed_sizes,
-        });
+        let values: Vec<(f64, Option<f64>)> = settings
+            .sizes
+            .iter()
+            .zip(&evaluations)
+            .map(|(h, e)| (*h, e.outcome.as_ref().ok().map(|y| y[column])))
+            .collect();
+        outputs.push(output_convergence(key, &values)?);
     }
+    let curves = curve_convergences(&sized, model, &points, &evaluations)?;
     let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
     let outcome = MeshStudyOutcome {
         outputs,
+        curves,
         at,
         evaluations: evaluations.len(),
         failed,
@@ -159,6 +143,141 @@ pub fn run_mesh_study(
         start.elapsed().as_secs_f64(),
     )?;
     Ok(outcome)
+}
+
+/// One output's grid convergence from its value at each size (`None`:
+/// the run at that size failed).
+fn output_convergence(key: String, values: &[(f64, Option<f64>)]) -> Result<OutputConvergence> {
+    let (mut sizes, mut found, mut failed_sizes) = (Vec::new(), Vec::new(), Vec::new());
+    for (h, value) in values {
+        match value {
+            Some(v) => {
+                sizes.push(*h);
+                found.push(*v);
+            }
+            None => failed_sizes.push(*h),
+        }
+    }
+    let convergence = if sizes.len() >= 3 {
+        Some(
+            grid_convergence(&sizes, &found)
+                .map_err(|e| AcqError::Malformed(format!("{key}: {e}")))?,
+        )
+    } else {
+        None
+    };
+    Ok(OutputConvergence {
+        key,
+        convergence,
+        failed_sizes,
+    })
+}
+
+/// Parts a curve is compared in, along the x range every size's curve spans.
+pub const CURVE_PARTS_COMPARED: usize = 10;
+
+/// Each observed curve at every size, compared part by part: the curve's
+/// mean over each of [`CURVE_PARTS_COMPARED`] equal spans of x (the range
+/// all sizes' curves cover) is an output of its own, with its own grid
+/// convergence. A curve with a kink that moves with the mesh (a neck, a
+/// fracture) converges in some parts and not in others, which one number
+/// for the whole curve would hide.
+fn curve_convergences(
+    sized: &Study,
+    model: &dyn Model,
+    points: &[Vec<f64>],
+    evaluations: &[acq_calib::evaluation::Evaluation],
+) -> Result<Vec<CurveConvergence>> {
+    let mut found = Vec::new();
+    for (case_index, case) in sized.cases.iter().enumerate() {
+        for observation in &case.observations {
+            let Measured::Curve { axes, .. } = &observation.measured else {
+                continue;
+            };
+            let key = sized.key(case, observation);
+            let curves: Vec<(f64, Vec<(f64, f64)>)> = points
+                .iter()
+                .zip(evaluations)
+                .filter(|(_, e)| e.outcome.is_ok())
+                .filter_map(|(point, _)| {
+                    let inputs = sized.inputs_of(case_index, point);
+                    let run = model.run_again(&inputs, &[], &[observation.output.as_str()])?;
+                    let size = *point.last()?;
+                    Some((size, run.curves.into_iter().next()?))
+                })
+                .filter(|(_, curve)| curve.len() >= 2)
+                .collect();
+            let from = curves
+                .iter()
+                .map(|(_, c)| c[0].0)
+                .fold(f64::NEG_INFINITY, f64::max);
+            let to = curves
+                .iter()
+                .map(|(_, c)| c[c.len() - 1].0)
+                .fold(f64::INFINITY, f64::min);
+            let mut parts = Vec::new();
+            if curves.len() >= 3 && from < to {
+                let width = (to - from) / CURVE_PARTS_COMPARED as f64;
+                let means: Vec<(f64, Vec<f64>)> = curves
+                    .iter()
+                    .map(|(h, curve)| (*h, part_means(curve, from, to, CURVE_PARTS_COMPARED)))
+                    .collect();
+                for part in 0..CURVE_PARTS_COMPARED {
+                    let (x_from, x_to) =
+                        (from + part as f64 * width, from + (part + 1) as f64 * width);
+                    let values: Vec<(f64, Option<f64>)> = means
+                        .iter()
+                        .map(|(h, m)| (*h, m.get(part).copied()))
+                        .collect();
+                    let name = format!("{key} mean over {} {x_from:.4} .. {x_to:.4}", axes[0]);
+                    parts.push((x_from, x_to, output_convergence(name, &values)?));
+                }
+            }
+            found.push(CurveConvergence {
+                key,
+                axes: axes.clone(),
+                curves,
+                parts,
+            });
+        }
+    }
+    Ok(found)
+}
+
+/// The mean of the curve's linear interpolant over each of `parts` equal
+/// spans of `[from, to]` (x increasing; a point outside is clamped to
+/// the nearest end), by exact integration of the pieces.
+fn part_means(curve: &[(f64, f64)], from: f64, to: f64, parts: usize) -> Vec<f64> {
+    let at = |x: f64| -> f64 {
+        let i = curve.partition_point(|p| p.0 < x);
+        if i == 0 {
+            return curve[0].1;
+        }
+        if i >= curve.len() {
+            return curve[curve.len() - 1].1;
+        }
+        let (a, b) = (curve[i - 1], curve[i]);
+        if b.0 > a.0 {
+            a.1 + (b.1 - a.1) * (x - a.0) / (b.0 - a.0)
+        } else {
+            b.1
+        }
+    };
+    let width = (to - from) / parts as f64;
+    (0..parts)
+        .map(|k| {
+            let (lo, hi) = (from + k as f64 * width, from + (k + 1) as f64 * width);
+            // The trapezoid rule over the interpolant's own nodes is exact.
+            let mut xs = vec![lo];
+            xs.extend(curve.iter().map(|p| p.0).filter(|x| *x > lo && *x < hi));
+            xs.push(hi);
+            let area: f64 = xs
+                .windows(2)
+                .map(|w| 0.5 * (at(w[0]) + at(w[1])) * (w[1] - w[0]))
+                .sum();
+            area / (hi - lo)
+        })
+        .collect()
 }
 
 fn write_results(
@@ -213,7 +332,59 @@ fn write_results(
         write_text(&directory.file(&plot), &convergence_svg(&output.key, study))?;
         let _ = writeln!(report, "\n![{}]({plot})\n\n{}\n", output.key, study.note);
     }
+    write_curves(&mut report, outcome, directory)?;
     write_text(&directory.file("report.md"), &report)
+}
+
+/// Each curve at every size in one plot, and its parts' convergence.
+fn write_curves(
+    report: &mut String,
+    outcome: &MeshStudyOutcome,
+    directory: &RunDirectory,
+) -> Result<()> {
+    for (index, curve) in outcome.curves.iter().enumerate() {
+        let _ = writeln!(report, "\n## Curve {}, part by part\n", curve.key);
+        let mut chart = Chart::new(
+            format!("{} at each element size", curve.key),
+            curve.axes[0].clone(),
+            curve.axes[1].clone(),
+        );
+        for (size, points) in &curve.curves {
+            chart
+                .series
+                .push(Series::new(format!("size {size}"), points.clone()));
+        }
+        let plot = format!("mesh_study_curve_{}.svg", index + 1);
+        write_text(&directory.file(&plot), &chart_svg(&chart, 640.0, 400.0))?;
+        let _ = writeln!(report, "![{}]({plot})\n", curve.key);
+        if curve.parts.is_empty() {
+            let _ = writeln!(
+                report,
+                "Fewer than three sizes gave the curve: no part is compared."
+            );
+            continue;
+        }
+        let _ = writeln!(
+            report,
+            "The curve's mean over each part of {} (the range every size's curve covers):\n\n| {} from | to | convergence | order | GCI_fine % | u_num |\n|---|---|---|---|---|---|",
+            curve.axes[0], curve.axes[0]
+        );
+        let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.4}"));
+        for (x_from, x_to, part) in &curve.parts {
+            let row = match &part.convergence {
+                Some(study) => format!(
+                    "{} | {} | {} | {}",
+                    study.convergence.name(),
+                    text(study.order),
+                    text(study.gci_fine_pct),
+                    text(study.standard_uncertainty())
+                ),
+                None => "not enough runs | - | - | -".into(),
+            };
+            let _ = writeln!(report, "| {x_from:.4} | {x_to:.4} | {row} |");
+        }
+    }
+    Ok(())
 }
 
 /// The values over the element size, with the extrapolated value at size

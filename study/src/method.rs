@@ -67,6 +67,10 @@ pub struct MultiFidelityMethod {
     pub max_expensive: usize,
     pub target_loss: Option<f64>,
     pub seed: u64,
+    /// Local trust-region steps at the expensive level on the residuals
+    /// (each curve's errors in [`CURVE_PARTS`] parts) between the
+    /// two-level ones.
+    pub local_steps: bool,
 }
 
 /// The search method of a study.

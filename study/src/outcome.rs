@@ -125,10 +125,25 @@ pub struct OutputConvergence {
     pub failed_sizes: Vec<f64>,
 }
 
+/// A curve at each size, compared part by part.
+#[derive(Clone, Debug)]
+pub struct CurveConvergence {
+    /// The curve's key (`name`, or `case/name`).
+    pub key: String,
+    pub axes: [String; 2],
+    /// (size, the model's curve at it).
+    pub curves: Vec<(f64, Vec<(f64, f64)>)>,
+    /// (x from, x to, the curve's mean there at each size): empty when
+    /// fewer than three sizes gave the curve.
+    pub parts: Vec<(f64, f64, OutputConvergence)>,
+}
+
 /// What a mesh study found.
 #[derive(Clone, Debug)]
 pub struct MeshStudyOutcome {
     pub outputs: Vec<OutputConvergence>,
+    /// Each observed curve, part by part.
+    pub curves: Vec<CurveConvergence>,
     /// The parameter point, by search name.
     pub at: Vec<(String, f64)>,
     pub evaluations: usize,

@@ -142,7 +142,7 @@ pub fn minimise_two_levels_logged(
     cheap_start: Vec<Vec<f64>>,
     expensive_start_runs: usize,
     meshes: [f64; 2],
-    loss: impl Fn(&[f64]) -> f64,
+    score: impl Fn(&[f64]) -> Outcome,
     settings: &MultiFidelitySettings,
 ) -> Result<MultiFidelityResult> {
     let expensive_start = cheap_start
@@ -168,7 +168,7 @@ pub fn minimise_two_levels_logged(
                 })
                 .collect();
             evaluate_kept(evaluator, &values, &mut log_failure, |e| {
-                (e.outcome.as_ref().ok().map(|y| loss(y)), e.wall_s)
+                (e.outcome.as_ref().ok().map(|y| score(y)), e.wall_s)
             })
         },
         settings,

@@ -218,6 +218,7 @@ pub fn calibrate_study(
     let parameters = study.search_parameters();
     let curve_parts = match method {
         Method::Bo(bo) if bo.local_steps => CURVE_PARTS,
+        Method::MultiFidelity(mf) if mf.local_steps => CURVE_PARTS,
         _ => 0,
     };
     // Two levels: the element size is a parameter of the runs, logged.
@@ -279,7 +280,7 @@ pub fn calibrate_study(
     // observations.
     let observations = study.observations(Role::Fit).len();
     let evaluations_with_curve_parts = if curve_parts > 0 {
-        evaluator.evaluations().to_vec()
+        searched_evaluations(evaluator.evaluations(), usize::MAX, levels)
     } else {
         Vec::new()
     };
@@ -338,8 +339,8 @@ fn redrawn_while<T>(progress: &Progress, has_status: bool, work: impl FnOnce() -
 }
 
 /// The search's runs as what follows sees them (the calibrated point,
-/// identifiability, the posterior's emulator): the observations alone,
-/// and of two levels the expensive runs, without their size.
+/// identifiability, the posterior's emulator): the first `observations`
+/// outputs, and of two levels the expensive runs, without their size.
 fn searched_evaluations(
     runs: &[Evaluation],
     observations: usize,
@@ -406,6 +407,11 @@ fn search(
                     ..MultiFidelitySettings::default().gp
                 },
                 seed: mf.seed,
+                local_steps: mf.local_steps.then(|| TrustRegionSettings {
+                    absolute: study.local_steps_in_absolute_values(),
+                    ..TrustRegionSettings::default()
+                }),
+                local_steps_after: mf.max_expensive / 2,
                 ..MultiFidelitySettings::default()
             };
             let meshes = [mf.cheap_mesh, mf.expensive_mesh];
@@ -415,7 +421,10 @@ fn search(
                 initial,
                 mf.expensive_start_runs,
                 meshes,
-                |y| study.loss(y),
+                |y| Outcome {
+                    loss: study.loss(y),
+                    residuals: study.local_residuals(y, curve_parts),
+                },
                 &settings,
             )
             .map(|result| Found::MultiFidelity(Box::new(MultiFidelityFound { result, meshes })))

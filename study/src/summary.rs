@@ -185,13 +185,39 @@ pub fn mesh_study_summary(
         .iter()
         .map(|o| (o.key.clone(), output_json(o, spec_sizes)))
         .collect();
-    json!({
+    let mut summary = json!({
         "mesh_study": studies,
         "at": outcome.at.iter().map(|(n, v)| (n.clone(), json!(v))).collect::<Map<_, _>>(),
         "evaluations": outcome.evaluations,
         "failed": outcome.failed,
         "wall_s": wall_s,
-    })
+    });
+    if !outcome.curves.is_empty() {
+        let curves: Map<String, Value> = outcome
+            .curves
+            .iter()
+            .map(|curve| {
+                let parts: Vec<Value> = curve
+                    .parts
+                    .iter()
+                    .map(|(x_from, x_to, part)| {
+                        let mut entry = output_json(part, spec_sizes);
+                        if let Value::Object(entry) = &mut entry {
+                            entry.insert("x_from".into(), json!(x_from));
+                            entry.insert("x_to".into(), json!(x_to));
+                        }
+                        entry
+                    })
+                    .collect();
+                (
+                    curve.key.clone(),
+                    json!({ "x": curve.axes[0], "parts": parts }),
+                )
+            })
+            .collect();
+        summary["mesh_study_curves"] = Value::Object(curves);
+    }
+    summary
 }
 
 /// A number for JSON: `null` for none or not finite.

@@ -345,6 +345,7 @@ impl Spec {
                 max_expensive: search.max_expensive.unwrap_or(search.max_evals),
                 target_loss: search.target_loss_pct,
                 seed,
+                local_steps: search.local_steps.unwrap_or(true),
             }),
             MethodName::LeastSquares => Method::LeastSquares(LeastSquaresMethod {
                 max_evals: search.max_evals,

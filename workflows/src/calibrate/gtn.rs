@@ -299,6 +299,7 @@ fn gtn_method(args: &CalibrateGtnOptions) -> Result<Method> {
         max_expensive: args.max_fine_runs.map_or(max_evals, |n| n as usize),
         target_loss: Some(args.target_mape_pct),
         seed: args.seed,
+        local_steps: !args.global_only,
     }))
 }
 

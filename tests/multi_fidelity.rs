@@ -1,11 +1,11 @@
 //! `[search] method = "multi-fidelity"` through `acq calibrate external`
 //! on a solver whose discretisation error is known: the spring of
 //! examples/validation with both deflections scaled by
-//! `1 + 0.02 (h / 0.1)^2`. A scale on `F/k + d` is absorbed exactly by
-//! `k` and `d`, so each size has its own exact optimum,
-//! `k = 2 / e(h)` and `d = 0.5 e(h)`: at the fine size 0.1 (e = 1.02)
-//! k = 1.9608, d = 0.51; at the cheap size 0.4 (e = 1.32) k = 1.515,
-//! d = 0.66. The calibration must answer with the fine level's optimum,
+//! `e(h) = 1 + 0.02 (h / 0.1)^2`. A scale on `F/k + d` is absorbed
+//! exactly by `k` and `d`, so each size has its own exact optimum,
+//! `k = 2 e(h)` and `d = 0.5 / e(h)`: at the fine size 0.1 (e = 1.02)
+//! k = 2.04, d = 0.4902; at the cheap size 0.4 (e = 1.32) k = 2.64,
+//! d = 0.3788. The calibration must answer with the fine level's optimum,
 //! not the cheap one's that most of its runs see. The fine runs sleep
 //! 0.2 s, so that the levels' measured costs differ as a coarse and a fine
 //! mesh do.
@@ -107,11 +107,10 @@ fn a_two_level_calibration_answers_with_the_fine_levels_optimum() {
         summary["evaluations"].as_u64(),
         Some(count("expensive_runs"))
     );
-    // The answer is the fine level's optimum (k = 1.9608, d = 0.51), not
-    // the cheap one's (1.515, 0.66, 23 % and 29 % away): within 8 %. The
-    // target, 0.2 % mean relative error, is reached by the local steps at
-    // the fine level; along the valley of the two deflections k and d
-    // trade against each other, a few % of k for 0.2 % of error.
+    // The answer is the fine level's optimum (k = 2.04, d = 0.4902), not
+    // the cheap one's (2.64, 0.3788, 29 % and 23 % away): within 2 % (the
+    // target, 0.2 % mean relative error, reached by the local steps at
+    // the fine level, allows about 1 % on each).
     assert_eq!(levels["stop"], "TargetReached");
     let best = |name: &str| summary["best_params"][name].as_f64().unwrap();
     assert!(
@@ -154,4 +153,38 @@ fn a_multi_fidelity_spec_without_its_levels_is_refused_with_what_to_add() {
         assert!(stderr(&run).contains(path_arg(&spec)), "{}", stderr(&run));
         assert!(!out.exists());
     }
+}
+
+/// The posterior after a two-level search is sampled on an emulator that
+/// learns from the coarse runs too (co-kriging), and it lies at the fine
+/// level's answer: with both deflections measured to 0.01 mm, k's 90 %
+/// interval holds the fine optimum 2.04 and not the coarse one 2.64.
+#[test]
+fn the_posterior_after_two_levels_is_emulated_over_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = spec(
+        dir.path(),
+        "method = \"multi-fidelity\"\ncheap_mesh = 0.4\nstart = \"lhs\"\nstart_runs = 8\nmax_evals = 60\nmax_expensive = 20\ntarget_loss_pct = 0.2\n\n[posterior]\ndraws = 500\nchains = 2\npredictive_runs = 2\nseed = 3\n",
+    );
+    let text = std::fs::read_to_string(&spec)
+        .unwrap()
+        .replace("measured = 1.0\n", "measured = 1.0\nuncertainty = 0.01\n")
+        .replace("measured = 2.5\n", "measured = 2.5\nuncertainty = 0.01\n");
+    std::fs::write(&spec, text).unwrap();
+    let out = dir.path().join("run");
+    let summary = external_summary(&spec, &out, &[]);
+    let report = common::report::read(&out);
+    let coarse = summary["multi_fidelity"]["cheap_runs"].as_u64().unwrap();
+    assert!(
+        report.contains(&format!(
+            "co-kriging over the search's {coarse} coarse-mesh runs"
+        )),
+        "{}",
+        &report[report.find("## Posterior").unwrap_or(0)..]
+    );
+    let quantile = |q: &str| summary["posterior"]["k"][q].as_f64().unwrap();
+    let (low, high) = (quantile("q05"), quantile("q95"));
+    println!("k 90 %: {low} .. {high}");
+    assert!(low < 2.04 && 2.04 < high, "{low} .. {high}");
+    assert!(high < 2.64, "{high}");
 }

@@ -195,6 +195,14 @@ impl CoKriging {
         &self.cheap
     }
 
+    /// The fitted observation-noise variance of the expensive output (the
+    /// discrepancy's, and the cheap level's scaled by rho squared), in
+    /// its units squared.
+    pub fn noise_variance(&self) -> f64 {
+        self.discrepancy.hyperparameters().noise_variance
+            + self.rho.powi(2) * self.cheap.hyperparameters().noise_variance
+    }
+
     /// The expensive output at `x`.
     pub fn predict(&self, x: &[f64]) -> CoKrigingPrediction {
         let cheap = self.cheap.predict(x);

@@ -26,6 +26,10 @@ pub struct StudyOutcome {
     /// with local steps); empty otherwise. The posterior's emulator of a
     /// curve learns from them.
     pub evaluations_with_curve_parts: Vec<Evaluation>,
+    /// A two-level search's coarse runs, as the posterior's emulator
+    /// learns from them (curve parts included when logged); empty
+    /// otherwise.
+    pub coarse_evaluations: Vec<Evaluation>,
     pub failed: usize,
     pub wall_s: f64,
     pub identifiability: Option<Identifiability>,

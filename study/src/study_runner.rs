@@ -78,6 +78,7 @@ pub fn run_study(
     if let Some(posterior) = &settings.posterior {
         let search = SearchResult {
             calibrated: &outcome.calibrated,
+            coarse_evaluations: &outcome.coarse_evaluations,
             evaluations: if outcome.evaluations_with_curve_parts.is_empty() {
                 &outcome.evaluations
             } else {
@@ -227,6 +228,7 @@ pub fn calibrate_study(
         _ => None,
     };
     let levelled = levels.map(|meshes| with_mesh_parameter(study, &meshes));
+    let expensive = levels.map(|[_, expensive]| expensive);
     let run_study = levelled.as_ref().unwrap_or(study);
     let simulator = StudySimulator::new(run_study, model, Role::Fit).with_curve_parts(curve_parts);
     let budget = match method {
@@ -280,11 +282,21 @@ pub fn calibrate_study(
     // observations.
     let observations = study.observations(Role::Fit).len();
     let evaluations_with_curve_parts = if curve_parts > 0 {
-        searched_evaluations(evaluator.evaluations(), usize::MAX, levels)
+        searched_evaluations(evaluator.evaluations(), usize::MAX, expensive)
     } else {
         Vec::new()
     };
-    let evaluations = searched_evaluations(evaluator.evaluations(), observations, levels);
+    let evaluations = searched_evaluations(evaluator.evaluations(), observations, expensive);
+    // The posterior's emulator learns from the coarse runs too, as it
+    // gets the fine ones (with their curve parts when logged).
+    let kept = if curve_parts > 0 {
+        usize::MAX
+    } else {
+        observations
+    };
+    let coarse_evaluations = levels.map_or_else(Vec::new, |[cheap, _]| {
+        searched_evaluations(evaluator.evaluations(), kept, Some(cheap))
+    });
     let failed = evaluations.iter().filter(|e| e.outcome.is_err()).count();
     let (calibrated, calibrated_outputs) =
         calibrated_point(study, &found, &parameters, &evaluations, directory)?;
@@ -305,6 +317,7 @@ pub fn calibrate_study(
         validation_errors,
         evaluations,
         evaluations_with_curve_parts,
+        coarse_evaluations,
         failed,
         wall_s: start.elapsed().as_secs_f64(),
         identifiability,
@@ -340,15 +353,15 @@ fn redrawn_while<T>(progress: &Progress, has_status: bool, work: impl FnOnce() -
 
 /// The search's runs as what follows sees them (the calibrated point,
 /// identifiability, the posterior's emulator): the first `observations`
-/// outputs, and of two levels the expensive runs, without their size.
+/// outputs, and of two levels the runs at `size`, without their size.
 fn searched_evaluations(
     runs: &[Evaluation],
     observations: usize,
-    levels: Option<[f64; 2]>,
+    size: Option<f64>,
 ) -> Vec<Evaluation> {
     let mut evaluations = runs.to_vec();
-    if let Some([_, expensive]) = levels {
-        evaluations.retain(|e| e.parameters.last() == Some(&expensive));
+    if let Some(size) = size {
+        evaluations.retain(|e| e.parameters.last() == Some(&size));
         for evaluation in &mut evaluations {
             evaluation.parameters.pop();
         }

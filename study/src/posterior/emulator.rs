@@ -19,6 +19,7 @@
 use acq_calib::evaluation::{Evaluation, Parameter};
 use acq_calib::gp::{Gp, GpSettings, Kernel};
 use acq_calib::mcmc::{quantile, Chains};
+use acq_calib::multi_fidelity::CoKriging;
 
 use super::super::search::to_unit;
 use super::likelihood::{Scales, StudyPosterior};
@@ -41,23 +42,41 @@ pub struct Emulator {
     outputs: usize,
     /// Runs it was trained on.
     pub runs: usize,
+    /// Coarse-mesh runs it was trained on too (co-kriging; 0: none).
+    pub coarse_runs: usize,
 }
 
 /// How one observation's value is emulated.
 enum Emulated {
     Gp(Box<Gp>),
+    /// Over a coarse mesh's runs too ([`acq_calib::multi_fidelity`]).
+    CoKriging(Box<CoKriging>),
     /// Every run gave the same value.
     Constant(f64),
 }
 
 impl Emulator {
-    /// Fits the GPs to the successful `runs` (search vectors and fit outputs).
+    /// Fits the GPs to the successful `runs` (search vectors and fit
+    /// outputs); with two or more `coarse_runs` (a two-level search's
+    /// cheap level, the same outputs), co-kriging over both levels.
     pub fn fit(
         parameters: &[Parameter],
         density: &StudyPosterior,
         runs: &[Evaluation],
+        coarse_runs: &[Evaluation],
         seed: u64,
     ) -> Result<Emulator, String> {
+        let width = runs
+            .iter()
+            .find_map(|e| e.outcome.as_ref().ok().map(Vec::len))
+            .unwrap_or(0);
+        let coarse: Vec<(Vec<f64>, &Vec<f64>)> = coarse_runs
+            .iter()
+            .filter_map(|e| {
+                let outputs = e.outcome.as_ref().ok().filter(|y| y.len() == width)?;
+                Some((to_unit(parameters, &e.parameters), outputs))
+            })
+            .collect();
         let (inputs, outputs): (Vec<Vec<f64>>, Vec<&Vec<f64>>) = runs
             .iter()
             .filter_map(|e| Some((to_unit(parameters, &e.parameters), e.outcome.as_ref().ok()?)))
@@ -87,6 +106,17 @@ impl Emulator {
                 if column.iter().all(|v| *v == column[0]) {
                     return Ok(Emulated::Constant(column[0]));
                 }
+                if coarse.len() >= 2 {
+                    let fine: Vec<(Vec<f64>, f64)> =
+                        inputs.iter().cloned().zip(column.iter().copied()).collect();
+                    let cheap: Vec<(Vec<f64>, f64)> = coarse
+                        .iter()
+                        .map(|(x, y)| (x.clone(), y[o.output_index]))
+                        .collect();
+                    if let Ok(model) = CoKriging::fit(&cheap, &fine, &settings) {
+                        return Ok(Emulated::CoKriging(Box::new(model)));
+                    }
+                }
                 Gp::fit(&inputs, &column, &settings)
                     .map(|gp| Emulated::Gp(Box::new(gp)))
                     .map_err(|e| format!("emulating {}: {e}", o.key))
@@ -98,6 +128,7 @@ impl Emulator {
                 .iter()
                 .map(|gp| match gp {
                     Emulated::Gp(gp) => gp.hyperparameters().noise_variance,
+                    Emulated::CoKriging(model) => model.noise_variance(),
                     Emulated::Constant(_) => 0.0,
                 })
                 .collect(),
@@ -109,6 +140,7 @@ impl Emulator {
                 .collect(),
             outputs: outputs.first().map_or(0, |y| y.len()),
             runs: inputs.len(),
+            coarse_runs: if coarse.len() >= 2 { coarse.len() } else { 0 },
         })
     }
 
@@ -126,6 +158,11 @@ impl Emulator {
             .map(|((gp, &index), noise)| match gp {
                 Emulated::Gp(gp) => {
                     let prediction = gp.predict(&unit);
+                    outputs[index] = prediction.mean;
+                    prediction.std.powi(2) + noise
+                }
+                Emulated::CoKriging(model) => {
+                    let prediction = model.predict(&unit);
                     outputs[index] = prediction.mean;
                     prediction.std.powi(2) + noise
                 }
@@ -161,6 +198,9 @@ impl Emulator {
             .enumerate()
             .map(|(i, gp)| match gp {
                 Emulated::Gp(gp) => gp.predict(&unit).std / density.observation_sd(i, scales),
+                Emulated::CoKriging(model) => {
+                    model.predict(&unit).std / density.observation_sd(i, scales)
+                }
                 Emulated::Constant(_) => 0.0,
             })
             .fold(0.0, f64::max)

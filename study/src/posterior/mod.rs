@@ -141,6 +141,9 @@ fn unconverged(names: &[String], marginals: &[Marginal], chains: usize) -> Vec<S
 pub struct SearchResult<'a> {
     pub calibrated: &'a [f64],
     pub evaluations: &'a [Evaluation],
+    /// A two-level search's coarse runs (same outputs), which the
+    /// emulator learns from too; empty otherwise.
+    pub coarse_evaluations: &'a [Evaluation],
 }
 
 /// The model's fit outputs at a point and each observation's emulator
@@ -179,14 +182,7 @@ pub fn run_posterior(
         )
     } else {
         let (refined, how) = refined_emulator(
-            &density,
-            &simulator,
-            search.evaluations,
-            &centre,
-            settings,
-            directory,
-            parallel,
-            resume,
+            &density, &simulator, search, &centre, settings, directory, parallel, resume,
         )?;
         emulator = refined;
         (&|point: &[f64]| Some(emulator.predict(point)), how)
@@ -385,7 +381,7 @@ fn sample_on(
 fn refined_emulator(
     density: &StudyPosterior,
     simulator: &StudySimulator<'_>,
-    evaluations: &[Evaluation],
+    search: &SearchResult<'_>,
     centre: &[f64],
     settings: &PosteriorSettings,
     directory: &RunDirectory,
@@ -401,7 +397,8 @@ fn refined_emulator(
     }
     .map_err(evaluation_error)?;
     let outputs = simulator.outputs().len();
-    let mut runs: Vec<Evaluation> = evaluations
+    let mut runs: Vec<Evaluation> = search
+        .evaluations
         .iter()
         .filter(|e| e.outcome.as_ref().is_ok_and(|y| y.len() == outputs))
         .cloned()
@@ -415,8 +412,14 @@ fn refined_emulator(
     let mut spent = 0;
     let mut round = 0u64;
     loop {
-        let emulator = Emulator::fit(&parameters, density, &runs, settings.seed)
-            .map_err(|e| AcqError::Config(format!("posterior: {e}")))?;
+        let emulator = Emulator::fit(
+            &parameters,
+            density,
+            &runs,
+            search.coarse_evaluations,
+            settings.seed,
+        )
+        .map_err(|e| AcqError::Config(format!("posterior: {e}")))?;
         let pilot = SamplerSettings {
             chains: settings.chains,
             draws: 250,
@@ -450,8 +453,16 @@ fn refined_emulator(
             emulator.runs, emulator.scatter_ratio(density, &scales), spent
         );
         if points.is_empty() {
+            let coarse = if emulator.coarse_runs > 0 {
+                format!(
+                    ", co-kriging over the search's {} coarse-mesh runs as well",
+                    emulator.coarse_runs
+                )
+            } else {
+                String::new()
+            };
             let how = format!(
-                "sampled on a Gaussian-process emulator of the model ({} runs: the search's and {spent} refinement runs where the posterior lies; its sd at 95 % of the draws is {at_95:.2} of the measurement's{}",
+                "sampled on a Gaussian-process emulator of the model ({} runs: the search's and {spent} refinement runs where the posterior lies{coarse}; its sd at 95 % of the draws is {at_95:.2} of the measurement's{}",
                 emulator.runs,
                 if at_95 > REFINE_RATIO {
                     format!(", above the {REFINE_RATIO} aimed at: the {} refinement runs are spent, so the intervals carry the emulator's doubt", settings.refinement_runs)

@@ -406,3 +406,42 @@ fn gtn_mesh_convergence_runs_each_size_and_overlays_the_curves() {
         stderr(&output)
     );
 }
+
+/// The curve part by part: before the maximum force (about 1.3 mm) the
+/// bar hardens uniformly and every element size gives the same force
+/// (GCI under 0.01 %); after it the softening localises in one band of
+/// elements, and the last part's force depends on their size (a GCI
+/// above 1 %, or no convergence at all).
+#[test]
+fn gtn_mesh_convergence_compares_the_curve_part_by_part() {
+    let output = gtn(
+        DATASET_1,
+        PUBLISHED_DATASET_1,
+        &["--convergence", "0.8,0.5,0.3"],
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = stdout(&output);
+    let parts: Vec<&str> = text
+        .lines()
+        .skip_while(|l| !l.starts_with("the force curve part by part"))
+        .skip(1)
+        .take_while(|l| l.starts_with("  "))
+        .collect();
+    assert_eq!(parts.len(), 10, "{text}");
+    let gci = |line: &str| -> Option<f64> {
+        line.split("GCI_fine ")
+            .nth(1)?
+            .split(' ')
+            .next()?
+            .parse()
+            .ok()
+    };
+    for line in &parts[..4] {
+        assert!(gci(line).is_some_and(|g| g < 0.01), "{line}");
+    }
+    let last = parts[9];
+    assert!(
+        last.contains("divergent") || gci(last).is_some_and(|g| g > 1.0),
+        "{last}"
+    );
+}

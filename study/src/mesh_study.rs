@@ -207,27 +207,14 @@ fn curve_convergences(
                 })
                 .filter(|(_, curve)| curve.len() >= 2)
                 .collect();
-            let from = curves
-                .iter()
-                .map(|(_, c)| c[0].0)
-                .fold(f64::NEG_INFINITY, f64::max);
-            let to = curves
-                .iter()
-                .map(|(_, c)| c[c.len() - 1].0)
-                .fold(f64::INFINITY, f64::min);
             let mut parts = Vec::new();
-            if curves.len() >= 3 && from < to {
-                let width = (to - from) / CURVE_PARTS_COMPARED as f64;
-                let means: Vec<(f64, Vec<f64>)> = curves
-                    .iter()
-                    .map(|(h, curve)| (*h, part_means(curve, from, to, CURVE_PARTS_COMPARED)))
-                    .collect();
-                for part in 0..CURVE_PARTS_COMPARED {
-                    let (x_from, x_to) =
-                        (from + part as f64 * width, from + (part + 1) as f64 * width);
-                    let values: Vec<(f64, Option<f64>)> = means
+            if curves.len() >= 3 {
+                let sizes: Vec<f64> = curves.iter().map(|(h, _)| *h).collect();
+                for (x_from, x_to, means) in curve_part_means(&curves, CURVE_PARTS_COMPARED) {
+                    let values: Vec<(f64, Option<f64>)> = sizes
                         .iter()
-                        .map(|(h, m)| (*h, m.get(part).copied()))
+                        .zip(means)
+                        .map(|(h, m)| (*h, Some(m)))
                         .collect();
                     let name = format!("{key} mean over {} {x_from:.4} .. {x_to:.4}", axes[0]);
                     parts.push((x_from, x_to, output_convergence(name, &values)?));
@@ -242,6 +229,44 @@ fn curve_convergences(
         }
     }
     Ok(found)
+}
+
+/// Each of `parts` equal spans of the x range every curve covers, with
+/// each curve's mean over it (in the curves' order): `(x from, x to,
+/// means)`. Empty when the curves share no range (or a curve has fewer
+/// than two points).
+pub fn curve_part_means(
+    curves: &[(f64, Vec<(f64, f64)>)],
+    parts: usize,
+) -> Vec<(f64, f64, Vec<f64>)> {
+    if parts == 0 || curves.iter().any(|(_, c)| c.len() < 2) {
+        return Vec::new();
+    }
+    let from = curves
+        .iter()
+        .map(|(_, c)| c[0].0)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let to = curves
+        .iter()
+        .map(|(_, c)| c[c.len() - 1].0)
+        .fold(f64::INFINITY, f64::min);
+    if from.partial_cmp(&to) != Some(std::cmp::Ordering::Less) {
+        return Vec::new();
+    }
+    let means: Vec<Vec<f64>> = curves
+        .iter()
+        .map(|(_, curve)| part_means(curve, from, to, parts))
+        .collect();
+    let width = (to - from) / parts as f64;
+    (0..parts)
+        .map(|part| {
+            (
+                from + part as f64 * width,
+                from + (part + 1) as f64 * width,
+                means.iter().map(|m| m[part]).collect(),
+            )
+        })
+        .collect()
 }
 
 /// The mean of the curve's linear interpolant over each of `parts` equal

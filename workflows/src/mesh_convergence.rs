@@ -139,6 +139,30 @@ pub fn grid_convergence_lines(runs: &[SizeRun]) -> String {
         };
         let _ = writeln!(text, "  {name:<13} {line}");
     }
+    // The curve part by part: after the maximum force the softening
+    // localises in one band of elements, and those parts converge
+    // differently from the hardening before it, which one number would
+    // hide.
+    let curves: Vec<(f64, Vec<(f64, f64)>)> = runs
+        .iter()
+        .map(|r| (r.element_mm, r.curve.clone()))
+        .collect();
+    let parts = acq_study::mesh_study::curve_part_means(
+        &curves,
+        acq_study::mesh_study::CURVE_PARTS_COMPARED,
+    );
+    if !parts.is_empty() {
+        text.push_str(
+            "the force curve part by part (its mean force over each span of displacement):\n",
+        );
+    }
+    for (from_mm, to_mm, means) in parts {
+        let line = match grid_convergence(&sizes, &means) {
+            Ok(study) => study.to_string(),
+            Err(e) => e,
+        };
+        let _ = writeln!(text, "  {from_mm:.3} .. {to_mm:.3} mm  {line}");
+    }
     text
 }
 

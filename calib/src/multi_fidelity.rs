@@ -56,7 +56,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::bo::{log_h, BoError, BoxSearch, Outcome, Stop};
-use crate::gp::{Gp, GpError, GpSettings, Kernel};
+use crate::gp::{Gp, GpError, GpSettings};
 use crate::trust_region::{Run, TrustRegion, TrustRegionSettings};
 
 /// A level of the model.
@@ -378,14 +378,8 @@ impl Default for MultiFidelitySettings {
             target_loss: None,
             random_candidates: 5_000,
             local_starts: 10,
-            gp: GpSettings {
-                kernel: Kernel::Matern52,
-                ard: true,
-                restarts: 3,
-                // Simulators are deterministic (see `BoSettings`).
-                noise_bounds: (1e-10, 1e-3),
-                ..GpSettings::default()
-            },
+            // Bayesian optimisation's: simulators are deterministic.
+            gp: crate::bo::BoSettings::default().gp,
             log_transform: true,
             seed: 0,
             local_steps: None,

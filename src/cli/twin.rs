@@ -151,7 +151,7 @@ pub struct TwinGtnArgs {
         requires = "test"
     )]
     pub convergence: Vec<f64>,
-    /// Output interval of the simulated curve, also the largest load step, mm.
+    /// Output interval of the simulated curve, mm: also the largest load step once the bar stops hardening steeply (the return mapping is first order in the step: after the maximum force the curve depends on it).
     #[arg(long, value_name = "MM", default_value_t = 0.01)]
     pub step_mm: f64,
     /// Specimen diameter, mm.

@@ -50,7 +50,7 @@ pub struct TwinGtnOptions {
     /// table of MAPE, maximum force and where the bar broke, and with
     /// `svg` the curves overlaid. Needs `test`.
     pub convergence: Vec<f64>,
-    /// Output interval of the simulated curve, also the largest load step, mm.
+    /// Output interval of the simulated curve, mm: also the largest load step once the bar stops hardening steeply (the return mapping is first order in the step: after the maximum force the curve depends on it).
     pub step_mm: f64,
     /// Specimen diameter, mm.
     pub diameter_mm: f64,

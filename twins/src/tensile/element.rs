@@ -245,6 +245,18 @@ pub fn evaluate<M: PointMaterial>(
     last: &[GaussPointState<M::State>; 4],
     displacement: &ElementDisplacement,
 ) -> Result<ElementResponse<M::State>, ElementError> {
+    evaluate_with::<true, M>(shape, material, states, last, displacement)
+}
+
+/// [`evaluate`], with the tangent only if `TANGENT` (otherwise
+/// `stiffness_n_per_mm` is zero): a convergence check needs the forces only.
+pub fn evaluate_with<const TANGENT: bool, M: PointMaterial>(
+    shape: &ElementShape,
+    material: &M,
+    states: &[GaussPointState<M::State>; 4],
+    last: &[GaussPointState<M::State>; 4],
+    displacement: &ElementDisplacement,
+) -> Result<ElementResponse<M::State>, ElementError> {
     let centre_gradient = gradient_of(&shape.centre, displacement);
     let centre_volume_ratio = determinant(&centre_gradient);
     if centre_volume_ratio <= 0.0 || !centre_volume_ratio.is_finite() {
@@ -282,37 +294,41 @@ pub fn evaluate<M: PointMaterial>(
             )
             .map_err(ElementError::Material)?;
         let kirchhoff = symmetric_from_mandel(&response.stress_mpa);
-        // d tau / d F_bar (4 x 5).
-        let stress_by_modified = tangent_on_components(&response.tangent_mpa)
-            * log_derivative
-            * push_forward_derivative(&modified, &plastic_metric);
-
         let ratio = volume_ratio / centre_volume_ratio;
         let nominal = times_inverse_transpose(&kirchhoff, &gradient_inverse);
-        let by_stress = times_inverse_transpose_by_stress(&gradient_inverse);
-        let by_gradient = times_inverse_transpose_by_gradient(&kirchhoff, &gradient_inverse);
-        let through_modified = by_stress * stress_by_modified;
-        let modified_column = modified;
-        let identity = SMatrix::<f64, 5, 5>::identity();
-        let by_own = (nominal * sensitivity.transpose()
-            + through_modified
-                * scale
-                * (identity - modified_column * sensitivity.transpose() / (3.0 * scale))
-            + by_gradient)
-            * ratio;
-        // det F_bar = J0: the material's dependence on the volume ratio goes
-        // through the centre, dJ0/dF_centre = J0 centre_sensitivity.
-        let stress_by_volume_ratio = symmetric_from_mandel(&response.stress_by_volume_ratio_mpa);
-        let by_centre = (-nominal * centre_sensitivity.transpose()
-            + through_modified * modified_column * centre_sensitivity.transpose() / 3.0
-            + by_stress
-                * stress_by_volume_ratio
-                * (centre_volume_ratio * centre_sensitivity.transpose()))
-            * ratio;
-
         let weight = shape.weights_mm3[k];
         force += operator.transpose() * (nominal * (ratio * weight));
-        stiffness += operator.transpose() * (by_own * operator + by_centre * shape.centre) * weight;
+        if TANGENT {
+            // d tau / d F_bar (4 x 5).
+            let stress_by_modified = tangent_on_components(&response.tangent_mpa)
+                * log_derivative
+                * push_forward_derivative(&modified, &plastic_metric);
+
+            let by_stress = times_inverse_transpose_by_stress(&gradient_inverse);
+            let by_gradient = times_inverse_transpose_by_gradient(&kirchhoff, &gradient_inverse);
+            let through_modified = by_stress * stress_by_modified;
+            let modified_column = modified;
+            let identity = SMatrix::<f64, 5, 5>::identity();
+            let by_own = (nominal * sensitivity.transpose()
+                + through_modified
+                    * scale
+                    * (identity - modified_column * sensitivity.transpose() / (3.0 * scale))
+                + by_gradient)
+                * ratio;
+            // det F_bar = J0: the material's dependence on the volume ratio goes
+            // through the centre, dJ0/dF_centre = J0 centre_sensitivity.
+            let stress_by_volume_ratio =
+                symmetric_from_mandel(&response.stress_by_volume_ratio_mpa);
+            let by_centre = (-nominal * centre_sensitivity.transpose()
+                + through_modified * modified_column * centre_sensitivity.transpose() / 3.0
+                + by_stress
+                    * stress_by_volume_ratio
+                    * (centre_volume_ratio * centre_sensitivity.transpose()))
+                * ratio;
+
+            stiffness +=
+                operator.transpose() * (by_own * operator + by_centre * shape.centre) * weight;
+        }
 
         let elastic_stretch =
             stretch_from_log_strain(&symmetric_from_mandel(&response.elastic_strain));

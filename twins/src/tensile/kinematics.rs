@@ -133,9 +133,23 @@ pub fn pull_back(f_inverse: &Gradient, s: &Symmetric) -> Symmetric {
 fn in_plane_spectrum(s: &Symmetric) -> ([f64; 2], Matrix2<f64>) {
     let mean = 0.5 * (s[0] + s[1]);
     let half_difference = 0.5 * (s[0] - s[1]);
-    let radius = half_difference.hypot(s[3]);
-    let angle = 0.5 * s[3].atan2(half_difference);
-    let (sin, cos) = angle.sin_cos();
+    // Strains and stresses are far from overflow: no hypot needed.
+    let radius = (half_difference * half_difference + s[3] * s[3]).sqrt();
+    // The rotation by half the angle whose cosine and sine are these,
+    // without trigonometric calls (they were 4 % of a run); each branch
+    // takes the root of an argument of at least one half, so stays exact.
+    let (cos_double, sin_double) = if radius > 0.0 {
+        (half_difference / radius, s[3] / radius)
+    } else {
+        (1.0, 0.0)
+    };
+    let (sin, cos) = if cos_double >= 0.0 {
+        let cos = (0.5 * (1.0 + cos_double)).sqrt();
+        (0.5 * sin_double / cos, cos)
+    } else {
+        let sin = (0.5 * (1.0 - cos_double)).sqrt().copysign(sin_double);
+        (sin, 0.5 * sin_double / sin)
+    };
     (
         [mean + radius, mean - radius],
         Matrix2::new(cos, -sin, sin, cos),

@@ -3,7 +3,8 @@
 //! and GCI are known exactly), values that oscillate and values that
 //! diverge as the elements shrink (named, with no silent number), the
 //! least-squares form over more than three sizes, and a calibration of the
-//! same spec, which runs at one size.
+//! same spec, which runs at one size; and the built-in excavator twin,
+//! whose frames' element length is the size, against a finer run kept out.
 //!
 //! Tolerances: the solver prints 17 significant digits, so the values are
 //! exact to 1e-16; the order comes from differences of values about 1e-2
@@ -362,4 +363,102 @@ sizes = [0.4, 0.2, 0.1]
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("## Curve line, part by part"), "{report}");
     assert!(out.join("mesh_study_curve_1.svg").exists());
+}
+
+/// The excavator twin's gauge stress at Case 1's nominal pose (the strokes
+/// 121, 210, 467 mm, 40.6 kN at -10 deg) with the shipped geometry,
+/// its frames' elements at most `element_length_m` long, through
+/// `acq twin excavator`.
+fn excavator_gauge_stress_mpa(dir: &Path, element_length_m: f64, gauge: usize) -> f64 {
+    let shipped = std::fs::read_to_string(common::root().join("data/excavator/dx55.toml")).unwrap();
+    assert_eq!(shipped.matches("element_length_m = 0.15\n").count(), 2);
+    let geometry = dir.join(format!("geometry-{element_length_m}.toml"));
+    std::fs::write(
+        &geometry,
+        shipped.replace(
+            "element_length_m = 0.15\n",
+            &format!("element_length_m = {element_length_m:?}\n"),
+        ),
+    )
+    .unwrap();
+    let case = common::root().join("data/excavator/case1.toml");
+    let run = acq(&[
+        "twin",
+        "excavator",
+        "--case",
+        path_arg(&case),
+        "--geometry",
+        path_arg(&geometry),
+        "--json",
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let value: Value = serde_json::from_slice(&run.stdout).unwrap();
+    value["gauge_stress_MPa"][gauge].as_f64().unwrap()
+}
+
+#[test]
+fn the_excavator_frames_element_length_is_a_mesh_study_checked_by_a_finer_run() {
+    // The frames are beams whose own weight is lumped at their nodes, so
+    // the gauge stresses converge as the elements shrink (first order).
+    // Checked against a run kept out of the study, elements 8 times finer
+    // than its finest: it lies inside the finest size's GCI band, and
+    // nearer the extrapolated value than the finest size's.
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(
+        &spec,
+        r#"model = "excavator"
+
+[[parameter]]
+name = "force_kN"
+lower = 30.0
+upper = 50.0
+
+[[case]]
+name = "case1"
+inputs = { bucket_stroke_mm = 121.0, arm_stroke_mm = 210.0, boom_stroke_mm = 467.0, force_angle_deg = -10.0 }
+measured = { "gauge_stress_MPa[0]" = -5.0, "gauge_stress_MPa[14]" = -21.0, "pressure_bar.boom" = 57.0 }
+
+[mesh_study]
+sizes = [0.3, 0.15, 0.075]
+at = { force_kN = 40.6 }
+"#,
+    )
+    .unwrap();
+    let summary = mesh_study(&spec, &dir.path().join("mesh"));
+    for (gauge, key) in [
+        (0, "case1/gauge_stress_MPa[0]"),
+        (14, "case1/gauge_stress_MPa[14]"),
+    ] {
+        let entry = &summary["mesh_study"][key];
+        assert_eq!(entry["convergence"], "monotonic", "{key}: {entry}");
+        let values: Vec<f64> = entry["values"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let finest = values[2];
+        // The study ran what the twin's own command gives at that size.
+        let same = excavator_gauge_stress_mpa(dir.path(), 0.075, gauge);
+        assert!(
+            (same - finest).abs() < 1e-9 * finest.abs(),
+            "{key}: {same} vs {finest}"
+        );
+        let kept_out = excavator_gauge_stress_mpa(dir.path(), 0.009375, gauge);
+        let band = entry["gci_fine_pct"].as_f64().unwrap() / 100.0 * finest.abs();
+        let extrapolated = entry["extrapolated"].as_f64().unwrap();
+        assert!(
+            (kept_out - finest).abs() <= band,
+            "{key}: 0.009375 m gives {kept_out}, outside {finest} +- {band}"
+        );
+        assert!(
+            (kept_out - extrapolated).abs() < (kept_out - finest).abs(),
+            "{key}: extrapolated {extrapolated}, finest {finest}, finer run {kept_out}"
+        );
+    }
+    assert_eq!(
+        summary["mesh_study"]["case1/pressure_bar.boom"]["convergence"],
+        "monotonic"
+    );
 }

@@ -463,11 +463,7 @@ pub fn mesh_study(
                 "needs {placeholder} in the command: the element size each run takes"
             )))
         }
-        ModelKind::Excavator { .. } => {
-            return Err(problem(
-                "runs a user's solver (a command with {mesh}); the excavator twin is a beam model without a mesh".into(),
-            ))
-        }
+        // The excavator twin takes the size as its frames' element length.
         _ => {}
     }
     let sizes = &section.sizes;

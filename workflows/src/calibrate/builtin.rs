@@ -136,6 +136,15 @@ type Numbered<'a> = Vec<(&'a str, f64)>;
 /// element's stresses rather than the gauges'.
 const VON_MISES_KEY: &str = "max_von_mises_MPa";
 
+/// The input a mesh study gives (`[mesh_study] sizes`): the length of the
+/// frames' finite elements, m, the same in every frame.
+pub const EXCAVATOR_MESH_INPUT: &str = "mesh";
+/// What the mesh input sets: each frame's element length.
+const FRAME_ELEMENT_LENGTHS: [&str; 2] = [
+    "boom.structure.element_length_m",
+    "arm.structure.element_length_m",
+];
+
 /// The prefixes of the outputs of the geometry itself (no load case):
 /// the working envelope, and each cylinder's dead length (its retracted
 /// length less its longest stroke: piston, gland and eyes, which a real
@@ -460,11 +469,13 @@ impl Model for ExcavatorModel {
         for (name, value) in inputs {
             if OPERATING_INPUTS.contains(&name.as_str()) {
                 operating.insert(name.as_str(), *value);
+            } else if name == EXCAVATOR_MESH_INPUT {
+                geometry.extend(FRAME_ELEMENT_LENGTHS.map(|path| (path, *value)));
             } else if name.contains(['.', '[']) {
                 geometry.push((name.as_str(), *value));
             } else {
                 return Err(format!(
-                    "the excavator twin takes no input {name:?}: it takes {} and geometry numbers by key path (bucket.mass_kg)",
+                    "the excavator twin takes no input {name:?}: it takes {}, geometry numbers by key path (bucket.mass_kg) and {EXCAVATOR_MESH_INPUT} (the frames' element length, m)",
                     OPERATING_INPUTS.join(", ")
                 ));
             }

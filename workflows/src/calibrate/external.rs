@@ -162,8 +162,21 @@ pub fn run_mesh_study(
             run(&model, &directory)
         }
         (ModelKind::Given, Some((model, _))) => run(model, &RunDirectory::create(&args.out)?),
+        (
+            ModelKind::Excavator {
+                geometry,
+                refit_poses,
+            },
+            _,
+        ) => {
+            let template = geometry_template(&spec.directory, geometry.as_deref())?;
+            let model = ExcavatorModel::new(template, *refit_poses)
+                .map_err(|e| in_spec(format!("geometry: {e}")))?;
+            check_at_nominal(&spec.study, &model).map_err(in_spec)?;
+            run(&model, &RunDirectory::create(&args.out)?)
+        }
         _ => Err(in_spec(
-            "[mesh_study] runs a user's solver: a command with {mesh}, or a model given from Python".into(),
+            "[mesh_study] runs a user's solver (a command with {mesh}), the excavator twin (model = \"excavator\") or a model given from Python".into(),
         )),
     }
 }

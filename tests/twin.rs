@@ -412,14 +412,62 @@ fn gtn_mesh_convergence_runs_each_size_and_overlays_the_curves() {
 /// (GCI under 0.01 %); after it the softening localises in one band of
 /// elements, and the last part's force depends on their size (a GCI
 /// above 1 %, or no convergence at all).
+///
+/// With `--out` the same study is written as `acq mesh-study` writes one:
+/// summary.json's `mesh_study` (every scalar, in the fixed keys) and
+/// `mesh_study_curves`, with the numbers the text gives.
 #[test]
 fn gtn_mesh_convergence_compares_the_curve_part_by_part() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mesh");
     let output = gtn(
         DATASET_1,
         PUBLISHED_DATASET_1,
-        &["--convergence", "0.8,0.5,0.3"],
+        &[
+            "--convergence",
+            "0.8,0.5,0.3",
+            "--out",
+            out.to_str().unwrap(),
+        ],
     );
     assert!(output.status.success(), "{}", stderr(&output));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let studies = summary["mesh_study"].as_object().unwrap();
+    let mut keys: Vec<&str> = studies.keys().map(String::as_str).collect();
+    keys.sort_unstable();
+    // The bar holds to the test's end: no fracture_mm.
+    assert_eq!(keys, ["mape_pct", "max_force_kn"]);
+    for (key, entry) in studies {
+        let mut fields: Vec<&str> = entry
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(String::as_str)
+            .collect();
+        fields.sort_unstable();
+        for fixed in [
+            "convergence",
+            "e_a_pct",
+            "e_ext_pct",
+            "extrapolated",
+            "gci_fine_pct",
+            "order",
+            "sizes",
+            "values",
+        ] {
+            assert!(fields.contains(&fixed), "{key}: {fields:?}");
+        }
+        assert_eq!(entry["sizes"], serde_json::json!([0.8, 0.5, 0.3]), "{key}");
+    }
+    assert_eq!(summary["at"]["q1"], 1.332);
+    let curve_parts = summary["mesh_study_curves"]["force_displacement"]["parts"]
+        .as_array()
+        .unwrap();
+    assert_eq!(curve_parts.len(), 10);
+    assert!(std::fs::read_to_string(out.join("report.md"))
+        .unwrap()
+        .contains("## Curve force_displacement, part by part"));
     let text = stdout(&output);
     let parts: Vec<&str> = text
         .lines()
@@ -444,4 +492,15 @@ fn gtn_mesh_convergence_compares_the_curve_part_by_part() {
         last.contains("divergent") || gci(last).is_some_and(|g| g > 1.0),
         "{last}"
     );
+    // The file and the text say the same.
+    for (line, part) in parts.iter().zip(curve_parts) {
+        match part["gci_fine_pct"].as_f64() {
+            // The text rounds to three decimals.
+            Some(g) => assert!(
+                gci(line).is_some_and(|t| (t - g).abs() <= 0.000_5 + 1e-9),
+                "{line} vs {g}"
+            ),
+            None => assert!(gci(line).is_none(), "{line} vs {part}"),
+        }
+    }
 }

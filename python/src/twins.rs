@@ -79,6 +79,7 @@ pub fn twin_gtn(
             neck_zone_mm,
         },
         convergence: Vec::new(),
+        out: None,
         step_mm,
         diameter_mm,
         strain_length_mm,

@@ -151,6 +151,13 @@ pub struct TwinGtnArgs {
         requires = "test"
     )]
     pub convergence: Vec<f64>,
+    /// With --convergence: also write the mesh study as `acq mesh-study`
+    /// does, DIR/summary.json (`mesh_study`: max_force_kn, mape_pct and,
+    /// when every size broke, fracture_mm; `mesh_study_curves`: the force
+    /// curve part by part), report.md and its plots. A spec's `[posterior]
+    /// mesh_study = DIR` reads it.
+    #[arg(long, value_name = "DIR", requires = "convergence")]
+    pub out: Option<PathBuf>,
     /// Output interval of the simulated curve, mm: also the largest load step once the bar stops hardening steeply (the return mapping is first order in the step: after the maximum force the curve depends on it).
     #[arg(long, value_name = "MM", default_value_t = 0.01)]
     pub step_mm: f64,
@@ -211,6 +218,7 @@ impl From<TwinGtnArgs> for TwinGtnOptions {
             svg: args.svg,
             mesh: args.mesh.into(),
             convergence: args.convergence,
+            out: args.out,
             step_mm: args.step_mm,
             diameter_mm: args.diameter_mm,
             strain_length_mm: args.strain_length_mm,

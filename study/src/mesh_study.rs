@@ -147,7 +147,7 @@ pub fn run_mesh_study(
 
 /// One output's grid convergence from its value at each size (`None`:
 /// the run at that size failed).
-fn output_convergence(key: String, values: &[(f64, Option<f64>)]) -> Result<OutputConvergence> {
+pub fn output_convergence(key: String, values: &[(f64, Option<f64>)]) -> Result<OutputConvergence> {
     let (mut sizes, mut found, mut failed_sizes) = (Vec::new(), Vec::new(), Vec::new());
     for (h, value) in values {
         match value {
@@ -207,28 +207,38 @@ fn curve_convergences(
                 })
                 .filter(|(_, curve)| curve.len() >= 2)
                 .collect();
-            let mut parts = Vec::new();
-            if curves.len() >= 3 {
-                let sizes: Vec<f64> = curves.iter().map(|(h, _)| *h).collect();
-                for (x_from, x_to, means) in curve_part_means(&curves, CURVE_PARTS_COMPARED) {
-                    let values: Vec<(f64, Option<f64>)> = sizes
-                        .iter()
-                        .zip(means)
-                        .map(|(h, m)| (*h, Some(m)))
-                        .collect();
-                    let name = format!("{key} mean over {} {x_from:.4} .. {x_to:.4}", axes[0]);
-                    parts.push((x_from, x_to, output_convergence(name, &values)?));
-                }
-            }
-            found.push(CurveConvergence {
-                key,
-                axes: axes.clone(),
-                curves,
-                parts,
-            });
+            found.push(curve_convergence(key, axes.clone(), curves)?);
         }
     }
     Ok(found)
+}
+
+/// One curve at each size (`(size, points)`), compared part by part (see
+/// [`curve_convergences`]); no parts with fewer than three sizes.
+pub fn curve_convergence(
+    key: String,
+    axes: [String; 2],
+    curves: Vec<(f64, Vec<(f64, f64)>)>,
+) -> Result<CurveConvergence> {
+    let mut parts = Vec::new();
+    if curves.len() >= 3 {
+        let sizes: Vec<f64> = curves.iter().map(|(h, _)| *h).collect();
+        for (x_from, x_to, means) in curve_part_means(&curves, CURVE_PARTS_COMPARED) {
+            let values: Vec<(f64, Option<f64>)> = sizes
+                .iter()
+                .zip(means)
+                .map(|(h, m)| (*h, Some(m)))
+                .collect();
+            let name = format!("{key} mean over {} {x_from:.4} .. {x_to:.4}", axes[0]);
+            parts.push((x_from, x_to, output_convergence(name, &values)?));
+        }
+    }
+    Ok(CurveConvergence {
+        key,
+        axes,
+        curves,
+        parts,
+    })
 }
 
 /// Each of `parts` equal spans of the x range every curve covers, with
@@ -305,7 +315,9 @@ fn part_means(curve: &[(f64, f64)], from: f64, to: f64, parts: usize) -> Vec<f64
         .collect()
 }
 
-fn write_results(
+/// `summary.json` (its `mesh_study` and `mesh_study_curves`), `report.md`
+/// and the plots of a mesh study, in `directory`.
+pub fn write_results(
     outcome: &MeshStudyOutcome,
     spec_sizes: &[f64],
     directory: &RunDirectory,

@@ -13,6 +13,11 @@ use acq_report::plot::{chart_svg, Chart, Series, SeriesStyle};
 use acq_twins::tensile::mesh::MeshDensity;
 use acq_twins::tensile::solver::Outcome;
 
+use acq_study::mesh_study::{
+    curve_convergence, output_convergence, MeshStudyOutcome, OutputConvergence,
+};
+
+use crate::calibrate::builtin::GTN_CURVE;
 use crate::tensile_model::{GtnInputs, TensileModel};
 
 /// One element size's run.
@@ -107,61 +112,78 @@ pub fn convergence_table(runs: &[SizeRun]) -> String {
     text
 }
 
-/// The grid convergence of each scalar the runs give (the maximum force,
-/// the MAPE, where the bar broke), with three sizes or more: a line each,
-/// the convergence named (Celik et al. 2008; least squares beyond three
-/// sizes).
-pub fn grid_convergence_lines(runs: &[SizeRun]) -> String {
-    use acq_metrology::grid_convergence::grid_convergence;
-    if runs.len() < 3 {
+/// The runs as a mesh study (the format of `acq mesh-study`'s): the grid
+/// convergence of each scalar they give (`max_force_kn`, `mape_pct`, and
+/// `fracture_mm` when every size broke) and the force curve compared part
+/// by part (`force_displacement`), at the parameter point `at`.
+///
+/// # Errors
+/// An output whose values the procedure cannot take (not finite).
+pub fn mesh_study_outcome(
+    runs: &[SizeRun],
+    at: Vec<(String, f64)>,
+) -> Result<MeshStudyOutcome, String> {
+    let by_size = |value: &dyn Fn(&SizeRun) -> Option<f64>| -> Vec<(f64, Option<f64>)> {
+        runs.iter().map(|r| (r.element_mm, value(r))).collect()
+    };
+    let mut scalars = vec![
+        ("max_force_kn", by_size(&|r| Some(r.max_force_kn))),
+        ("mape_pct", by_size(&|r| Some(r.mape_pct))),
+    ];
+    if runs.iter().all(|r| r.fracture_mm.is_some()) {
+        scalars.push(("fracture_mm", by_size(&|r| r.fracture_mm)));
+    }
+    let outputs = scalars
+        .into_iter()
+        .map(|(key, values)| output_convergence(key.into(), &values))
+        .collect::<acq_io::error::Result<Vec<_>>>()
+        .map_err(|e| e.to_string())?;
+    // After the maximum force the softening localises in one band of
+    // elements, and those parts converge differently from the hardening
+    // before it, which one number would hide.
+    let curve = curve_convergence(
+        GTN_CURVE.into(),
+        ["displacement [mm]".into(), "force [kN]".into()],
+        runs.iter()
+            .map(|r| (r.element_mm, r.curve.clone()))
+            .collect(),
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(MeshStudyOutcome {
+        outputs,
+        curves: vec![curve],
+        at,
+        evaluations: runs.len(),
+        failed: 0,
+    })
+}
+
+/// A mesh study's grid convergence as text, with three sizes or more: a
+/// line per scalar and per part of the force curve, the convergence named
+/// (Celik et al. 2008; least squares beyond three sizes).
+pub fn grid_convergence_lines(outcome: &MeshStudyOutcome) -> String {
+    let line = |output: &OutputConvergence| {
+        output
+            .convergence
+            .as_ref()
+            .map_or_else(|| "fewer than three sizes".to_string(), |s| s.to_string())
+    };
+    if outcome.evaluations < 3 {
         return String::new();
     }
-    let sizes: Vec<f64> = runs.iter().map(|r| r.element_mm).collect();
-    let fractures: Option<Vec<f64>> = runs.iter().map(|r| r.fracture_mm).collect();
-    let mut outputs = vec![
-        (
-            "max force kN",
-            runs.iter().map(|r| r.max_force_kn).collect::<Vec<_>>(),
-        ),
-        ("MAPE %", runs.iter().map(|r| r.mape_pct).collect()),
-    ];
-    if let Some(fractures) = fractures {
-        outputs.push(("broke at mm", fractures));
+    let mut text = String::from("grid convergence (the finest size's GCI):\n");
+    for output in &outcome.outputs {
+        let _ = writeln!(text, "  {:<13} {}", output.key, line(output));
     }
-    let mut text = String::from(
-        "grid convergence (the finest size's GCI):
-",
-    );
-    for (name, values) in outputs {
-        let line = match grid_convergence(&sizes, &values) {
-            Ok(study) => study.to_string(),
-            Err(e) => e,
-        };
-        let _ = writeln!(text, "  {name:<13} {line}");
-    }
-    // The curve part by part: after the maximum force the softening
-    // localises in one band of elements, and those parts converge
-    // differently from the hardening before it, which one number would
-    // hide.
-    let curves: Vec<(f64, Vec<(f64, f64)>)> = runs
-        .iter()
-        .map(|r| (r.element_mm, r.curve.clone()))
-        .collect();
-    let parts = acq_study::mesh_study::curve_part_means(
-        &curves,
-        acq_study::mesh_study::CURVE_PARTS_COMPARED,
-    );
-    if !parts.is_empty() {
-        text.push_str(
-            "the force curve part by part (its mean force over each span of displacement):\n",
-        );
-    }
-    for (from_mm, to_mm, means) in parts {
-        let line = match grid_convergence(&sizes, &means) {
-            Ok(study) => study.to_string(),
-            Err(e) => e,
-        };
-        let _ = writeln!(text, "  {from_mm:.3} .. {to_mm:.3} mm  {line}");
+    for curve in &outcome.curves {
+        if !curve.parts.is_empty() {
+            text.push_str(
+                "the force curve part by part (its mean force over each span of displacement):\n",
+            );
+        }
+        for (from_mm, to_mm, part) in &curve.parts {
+            let _ = writeln!(text, "  {from_mm:.3} .. {to_mm:.3} mm  {}", line(part));
+        }
     }
     text
 }

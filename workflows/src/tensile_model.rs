@@ -114,6 +114,23 @@ impl GtnInputs {
     ///
     /// # Errors
     /// Not exactly eight values.
+    /// Each parameter by its `--param` name, in [`PARAMETER_NAMES`]' order,
+    /// then `fc` and `fF` with coalescence.
+    pub fn named_values(&self) -> Vec<(String, f64)> {
+        let values = [
+            self.q1, self.q2, self.q3, self.eps_n, self.s_n, self.f_n, self.f0, self.m_mpa,
+        ];
+        let mut named: Vec<(String, f64)> = PARAMETER_NAMES
+            .iter()
+            .map(|name| name.to_string())
+            .zip(values)
+            .collect();
+        if let Some((critical, failure)) = self.coalescence {
+            named.extend([("fc".to_string(), critical), ("fF".to_string(), failure)]);
+        }
+        named
+    }
+
     pub fn from_values(values: &[f64]) -> Result<Self, String> {
         let &[q1, q2, q3, eps_n, s_n, f_n, f0, m_mpa] = values else {
             return Err(format!(

@@ -50,6 +50,9 @@ pub struct TwinGtnOptions {
     /// table of MAPE, maximum force and where the bar broke, and with
     /// `svg` the curves overlaid. Needs `test`.
     pub convergence: Vec<f64>,
+    /// With `convergence`: the directory to write the mesh study to
+    /// (summary.json, report.md, plots), as `acq mesh-study` does.
+    pub out: Option<PathBuf>,
     /// Output interval of the simulated curve, mm: also the largest load step once the bar stops hardening steeply (the return mapping is first order in the step: after the maximum force the curve depends on it).
     pub step_mm: f64,
     /// Specimen diameter, mm.
@@ -207,7 +210,9 @@ fn run_mesh_convergence(
 ) -> Result<()> {
     use crate::mesh_convergence::{
         convergence_svg, convergence_table, grid_convergence_lines, mesh_convergence,
+        mesh_study_outcome,
     };
+    let start = std::time::Instant::now();
     // Every size is checked before the first (slow) run.
     for &size in &args.convergence {
         acq_twins::tensile::mesh::MeshDensity::by_element_size(
@@ -234,6 +239,16 @@ fn run_mesh_convergence(
         },
     )
     .map_err(AcqError::Config)?;
+    let outcome = mesh_study_outcome(&runs, inputs.named_values()).map_err(AcqError::Malformed)?;
+    if let Some(out) = &args.out {
+        let directory = acq_study::run_directory::RunDirectory::create(out)?;
+        acq_study::mesh_study::write_results(
+            &outcome,
+            &args.convergence,
+            &directory,
+            start.elapsed().as_secs_f64(),
+        )?;
+    }
     if let Some(path) = &args.svg {
         let test_points: Vec<(f64, f64)> = model
             .test
@@ -271,7 +286,7 @@ fn run_mesh_convergence(
             "GTN twin mesh convergence: {}\n{}{}",
             file_name(test),
             convergence_table(&runs),
-            grid_convergence_lines(&runs)
+            grid_convergence_lines(&outcome)
         )
     };
     let mut stdout = Output::create(None)?;

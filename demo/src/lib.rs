@@ -494,7 +494,7 @@ fn analyse_session(
                 wall_s: step.elapsed().as_secs_f64(),
             });
             say(format!(
-                "{name}: curve of {} points; calibrating the GTN model (about 10 s)",
+                "{name}: curve of {} points; calibrating the GTN model (a few seconds)",
                 curve.curve.points.len()
             ));
             let step = Instant::now();

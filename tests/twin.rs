@@ -465,9 +465,14 @@ fn gtn_mesh_convergence_compares_the_curve_part_by_part() {
         .as_array()
         .unwrap();
     assert_eq!(curve_parts.len(), 10);
-    assert!(std::fs::read_to_string(out.join("report.md"))
-        .unwrap()
-        .contains("## Curve force_displacement, part by part"));
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Curve force_displacement, part by part"));
+    // One table of every output, before the first plot (a plot between
+    // rows would end the table and leave the rest as literal text).
+    let first_plot = report.find("![").unwrap();
+    for key in ["| max_force_kn |", "| mape_pct |"] {
+        assert!(report[..first_plot].contains(key), "{key} in {report}");
+    }
     let text = stdout(&output);
     let parts: Vec<&str> = text
         .lines()

@@ -344,6 +344,8 @@ pub fn write_results(
     );
     report.push_str("| output | convergence | order | extrapolated | e_a % | e_ext % | GCI_fine % | u_num |\n|---|---|---|---|---|---|---|---|\n");
     let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.4}"));
+    // The whole table first: a plot between its rows would end it.
+    let mut plots = String::new();
     for (index, output) in outcome.outputs.iter().enumerate() {
         let Some(study) = &output.convergence else {
             let _ = writeln!(
@@ -367,8 +369,9 @@ pub fn write_results(
         );
         let plot = format!("mesh_study_{}.svg", index + 1);
         write_text(&directory.file(&plot), &convergence_svg(&output.key, study))?;
-        let _ = writeln!(report, "\n![{}]({plot})\n\n{}\n", output.key, study.note);
+        let _ = writeln!(plots, "\n![{}]({plot})\n\n{}\n", output.key, study.note);
     }
+    report.push_str(&plots);
     write_curves(&mut report, outcome, directory)?;
     write_text(&directory.file("report.md"), &report)
 }

@@ -462,3 +462,209 @@ at = { force_kN = 40.6 }
         "monotonic"
     );
 }
+
+/// The published Dataset 1 test and its parameters (reference table).
+const DATASET_1: &str = "data/tensile/P91_20_2_DF_SS.csv";
+const PUBLISHED_DATASET_1: [(&str, f64); 8] = [
+    ("q1", 1.332),
+    ("q2", 0.9952),
+    ("q3", 2.295),
+    ("epsN", 0.29),
+    ("sN", 0.1671),
+    ("fN", 0.03869),
+    ("f0", 0.00137),
+    ("m", 534.1),
+];
+
+/// A spec of the built-in GTN twin set up from Dataset 1: `parameters`
+/// ([[parameter]] tables), the case's inputs (the published values of
+/// the rest, and `extra_inputs`), its `measured` table and `tail`.
+fn gtn_spec(
+    dir: &Path,
+    parameters: &str,
+    extra_inputs: &str,
+    measured: &str,
+    tail: &str,
+) -> PathBuf {
+    let test = common::root().join(DATASET_1);
+    let mut inputs: Vec<String> = PUBLISHED_DATASET_1
+        .iter()
+        .filter(|(name, _)| !parameters.contains(&format!("name = \"{name}\"")))
+        .map(|(name, value)| format!("{name} = {value}"))
+        .collect();
+    inputs.extend(
+        extra_inputs
+            .split(',')
+            .map(str::trim)
+            .filter(|s| !s.is_empty())
+            .map(String::from),
+    );
+    let spec = dir.join("gtn.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            "model = \"gtn\"\ntest = {test:?}\n\n{parameters}\n[[case]]\nname = \"dataset1\"\ninputs = {{ {} }}\nmeasured = {{ {measured} }}\n\n{tail}",
+            inputs.join(", ")
+        ),
+    )
+    .unwrap();
+    spec
+}
+
+/// `acq mesh-study` of the built-in GTN twin: the same runs as `acq twin
+/// gtn --convergence` (the numbers agree to 1e-12: one twin, two ways in),
+/// logged and resumed like a solver's. With coalescence the bar breaks,
+/// and where it breaks is an output of its own.
+#[test]
+fn the_gtn_twin_in_a_spec_runs_its_mesh_study_through_the_study_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = gtn_spec(
+        dir.path(),
+        "[[parameter]]\nname = \"q1\"\nlower = 0.9\nupper = 1.6\nnominal = 1.332\n",
+        "fc = 0.02, fF = 0.15",
+        &format!(
+            "force_displacement = {{ file = {:?}, x = \"DISPLACEMENT\", y = \"FORCE\" }}, max_force_kn = 7.4, displacement_at_max_force_mm = 1.25, fracture_mm = 2.0",
+            common::root().join(DATASET_1)
+        ),
+        "[mesh_study]\nsizes = [0.8, 0.5, 0.3]\n",
+    );
+    let out = dir.path().join("mesh");
+    let summary = mesh_study(&spec, &out);
+    let published: Vec<String> = PUBLISHED_DATASET_1
+        .iter()
+        .map(|(name, value)| format!("{name}={value}"))
+        .collect();
+    let twin_out = dir.path().join("twin");
+    let twin = acq(&[
+        "twin",
+        "gtn",
+        "--test",
+        DATASET_1,
+        "--param",
+        &format!("{},fc=0.02,fF=0.15", published.join(",")),
+        "--convergence",
+        "0.8,0.5,0.3",
+        "--out",
+        path_arg(&twin_out),
+    ]);
+    assert!(twin.status.success(), "{}", stderr(&twin));
+    let by_twin: Value =
+        serde_json::from_str(&std::fs::read_to_string(twin_out.join("summary.json")).unwrap())
+            .unwrap();
+    for (ours, theirs) in [
+        ("dataset1/max_force_kn", "max_force_kn"),
+        ("dataset1/fracture_mm", "fracture_mm"),
+    ] {
+        let values = |summary: &Value, key: &str| -> Vec<f64> {
+            summary["mesh_study"][key]["values"]
+                .as_array()
+                .unwrap_or_else(|| panic!("{key}: {summary}"))
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let (a, b) = (values(&summary, ours), values(&by_twin, theirs));
+        assert_eq!(a.len(), 3);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() <= 1e-12 * y.abs(), "{ours}: {a:?} vs {b:?}");
+        }
+    }
+    // The peak's displacement lies between the output points around it
+    // (0.01 mm apart), near the test's maximum at 1.32 mm.
+    let peak = &summary["mesh_study"]["dataset1/displacement_at_max_force_mm"]["values"];
+    for value in peak.as_array().unwrap() {
+        let mm = value.as_f64().unwrap();
+        assert!((1.0..1.5).contains(&mm), "{peak}");
+    }
+    assert!(
+        summary["mesh_study_curves"]["dataset1/force_displacement"]["parts"]
+            .as_array()
+            .is_some_and(|parts| parts.len() > 2),
+        "{summary}"
+    );
+    // Resumed: every run comes from the log, and the study is the same.
+    let again = acq(&[
+        "mesh-study",
+        "--spec",
+        path_arg(&spec),
+        "--out",
+        path_arg(&out),
+        "--resume",
+    ]);
+    assert!(again.status.success(), "{}", stderr(&again));
+    assert!(
+        stderr(&again).contains("3 from the log"),
+        "{}",
+        stderr(&again)
+    );
+    let resumed: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(resumed["mesh_study"], summary["mesh_study"]);
+}
+
+/// `acq calibrate external` on the built-in GTN twin: a curve the twin
+/// made at fN = 0.06 (0.8 mm elements, the others published) is found
+/// again from the published box, to 0.001 (the box is 0.06 wide).
+#[test]
+fn the_gtn_twin_in_a_spec_is_calibrated_like_a_solver() {
+    let dir = tempfile::tempdir().unwrap();
+    let measured = dir.path().join("synthetic.csv");
+    let published: Vec<String> = PUBLISHED_DATASET_1
+        .iter()
+        .map(|(name, value)| match *name {
+            "fN" => "fN=0.06".to_string(),
+            _ => format!("{name}={value}"),
+        })
+        .collect();
+    let made = acq(&[
+        "twin",
+        "gtn",
+        "--test",
+        DATASET_1,
+        "--param",
+        &published.join(","),
+        "--element-mm",
+        "0.8",
+        "-o",
+        path_arg(&measured),
+    ]);
+    assert!(made.status.success(), "{}", stderr(&made));
+    let spec = gtn_spec(
+        dir.path(),
+        "[[parameter]]\nname = \"fN\"\nlower = 0.03\nupper = 0.09\n",
+        "mesh = 0.8",
+        "force_displacement = { file = \"synthetic.csv\", x = \"DISPLACEMENT\", y = \"FORCE\" }",
+        "[search]\nmethod = \"bo\"\nstart_runs = 4\nmax_evals = 12\n",
+    );
+    let summary = common::external_summary(&spec, &dir.path().join("run"), &[]);
+    let found = summary["best_params"]["fN"].as_f64().unwrap();
+    assert!((found - 0.06).abs() < 1e-3, "{summary}");
+}
+
+/// What belongs to `model = "gtn"` is refused elsewhere, and what it needs
+/// is asked for.
+#[test]
+fn a_gtn_spec_says_what_it_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    for (text, expected) in [
+        ("model = \"gtn\"\n", "needs test = "),
+        (
+            "test = \"t.csv\"\ncommand = [\"true\"]\n",
+            "test belongs to model = \"gtn\"",
+        ),
+        (
+            "model = \"gtn\"\ntest = \"t.csv\"\ncommand = [\"true\"]\n",
+            "leave out command",
+        ),
+    ] {
+        let spec = dir.path().join("spec.toml");
+        std::fs::write(
+            &spec,
+            format!("{text}\n[[parameter]]\nname = \"q1\"\nlower = 1\nupper = 2\n\n[[output]]\nname = \"max_force_kn\"\nmeasured = 7.4\n"),
+        )
+        .unwrap();
+        let run = common::calibrate_external(&spec, &dir.path().join("run"), &[]);
+        assert_eq!(run.status.code(), Some(2), "{text}: {}", stderr(&run));
+        assert!(stderr(&run).contains(expected), "{text}: {}", stderr(&run));
+    }
+}

@@ -11,7 +11,7 @@ use super::observations::{
     case_observation, measured_curve, metric_of, scalar, scoreable, weight_of,
 };
 use super::problem::SpecProblem;
-use super::schema::SpecFile;
+use super::schema::{ModelName, SpecFile};
 use crate::study::{Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter};
 
 /// The study of a spec whose sections have passed [`super::checks`];
@@ -126,6 +126,8 @@ fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, Spec
             ));
         }
     }
+    // The GTN twin's force-displacement curve, mm and kN.
+    let builtin_curve_units = (file.model == ModelName::Gtn).then_some(["mm", "kN"]);
     let mut cases = Vec::new();
     for (index, c) in file.cases.iter().enumerate() {
         let here = |message: String| {
@@ -164,7 +166,15 @@ fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, Spec
         let observations = c
             .measured
             .iter()
-            .map(|(name, entry)| case_observation(&file.curves, spec_directory, name, entry))
+            .map(|(name, entry)| {
+                case_observation(
+                    &file.curves,
+                    builtin_curve_units,
+                    spec_directory,
+                    name,
+                    entry,
+                )
+            })
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| here(format!("measured {e}")))?;
         cases.push(Case {

@@ -20,6 +20,11 @@ use crate::surrogate_moo::Pick;
 /// twin's geometry.
 pub fn model(file: &SpecFile, given: bool) -> Result<ModelKind, SpecProblem> {
     let problem = |message: &str| Err(SpecProblem::file(message));
+    if file.test.is_some() && file.model != ModelName::Gtn {
+        return problem(
+            "test belongs to model = \"gtn\": the tensile test the GTN twin is set up from",
+        );
+    }
     match file.model {
         ModelName::Command if given && file.geometry.is_some() => problem(
             "geometry belongs to model = \"excavator\"; a model given to the study reads its own",
@@ -55,6 +60,24 @@ pub fn model(file: &SpecFile, given: bool) -> Result<ModelKind, SpecProblem> {
             geometry: file.geometry.clone(),
             refit_poses: file.refit_poses,
         }),
+        ModelName::Gtn if given => problem(
+            "model = \"gtn\" runs the built-in twin: leave out the model given to the study, or model = \"gtn\"",
+        ),
+        ModelName::Gtn if !file.command.is_empty() => {
+            problem("model = \"gtn\" runs the built-in twin; leave out command")
+        }
+        ModelName::Gtn if file.geometry.is_some() => {
+            problem("geometry belongs to model = \"excavator\"; the GTN twin takes its specimen from test")
+        }
+        ModelName::Gtn if !file.curves.is_empty() => problem(
+            "the GTN twin's curve is force_displacement: observe it in a case's measured table (force_displacement = { file = \"test.csv\", x = \"DISPLACEMENT\", y = \"FORCE\" }), not as a [[curve]]",
+        ),
+        ModelName::Gtn => match &file.test {
+            Some(test) => Ok(ModelKind::Gtn { test: test.clone() }),
+            None => problem(
+                "model = \"gtn\" needs test = \"FILE.csv\": the tensile test (next to the spec) whose flow curve, specimen and last displacement the twin takes",
+            ),
+        },
     }
 }
 
@@ -137,9 +160,9 @@ pub fn executor(file: &SpecFile) -> Result<usize, SpecProblem> {
     let here = |message: String| SpecProblem::table("[executor]", 0, message);
     let executor = &file.executor;
     let parallel = executor_section(executor, file.parallel).map_err(here)?;
-    if file.model == ModelName::Excavator && executor.kind == ExecutorKind::Slurm {
+    if file.model != ModelName::Command && executor.kind == ExecutorKind::Slurm {
         return Err(here(
-            "model = \"excavator\" runs inside acq; a Slurm executor is for a command".into(),
+            "the built-in twins (model = \"excavator\", \"gtn\") run inside acq; a Slurm executor is for a command".into(),
         ));
     }
     Ok(parallel)

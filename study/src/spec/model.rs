@@ -14,6 +14,9 @@ pub enum ModelKind {
         geometry: Option<String>,
         refit_poses: bool,
     },
+    /// The built-in GTN tensile twin, set up from a tensile test (a CSV
+    /// next to the spec).
+    Gtn { test: String },
     /// A model the caller brings (a Python function, through the Python
     /// package): the spec's command, if it has one, is not run.
     Given,

@@ -112,9 +112,12 @@ pub fn scalar(
     })
 }
 
-/// One entry of a case's `measured` table.
+/// One entry of a case's `measured` table. A measured curve is the model's
+/// curve of the same name: a [[curve]] says where a solver writes it; a
+/// built-in twin gives its own, in `builtin_curve_units` (x, y).
 pub fn case_observation(
     curves: &[CurveSpec],
+    builtin_curve_units: Option<[&str; 2]>,
     spec_directory: &Path,
     name: &str,
     entry: &toml::Value,
@@ -184,13 +187,18 @@ pub fn case_observation(
             "{name}: a measured curve needs x and y (its column names in {file})"
         ));
     };
-    let Some(curve) = curves.iter().find(|c| c.name == name) else {
-        return Err(format!(
-            "{name}: a measured curve, but no [[curve]] named {name:?} says which file the solver writes it to"
-        ));
+    let curve = curves.iter().find(|c| c.name == name);
+    let (axes, curve_metric) = match (curve, builtin_curve_units) {
+        (Some(curve), _) => (curve.axes(&x, &y), curve.metric.as_deref()),
+        (None, Some([x_unit, y_unit])) => ([format!("{x} [{x_unit}]"), format!("{y} [{y_unit}]")], None),
+        (None, None) => {
+            return Err(format!(
+                "{name}: a measured curve, but no [[curve]] named {name:?} says which file the solver writes it to"
+            ))
+        }
     };
     // The case's own metric, else its [[curve]]'s.
-    let metric = metric_of(text("metric")?.as_deref().or(curve.metric.as_deref()), name)?;
+    let metric = metric_of(text("metric")?.as_deref().or(curve_metric), name)?;
     let points = measured_curve(spec_directory, name, &file, &x, &y).map_err(|e| e.to_string())?;
     scoreable(name, &file, metric, &points)?;
     Ok(Observation {
@@ -198,7 +206,7 @@ pub fn case_observation(
         output: name.to_string(),
         measured: Measured::Curve {
             points,
-            axes: curve.axes(&x, &y),
+            axes,
             metric,
         },
         weight,

@@ -23,6 +23,10 @@ pub struct SpecFile {
     /// geometry number changes.
     #[serde(default = "default_refit_poses")]
     pub refit_poses: bool,
+    /// The tensile test the built-in GTN twin is set up from (a CSV next
+    /// to the spec, as `acq twin gtn --test` reads): its flow curve,
+    /// Young's modulus, specimen and last displacement.
+    pub test: Option<String>,
     /// Program and arguments; placeholders `{params}`, `{out}`, `{dir}`, `{NAME}`.
     #[serde(default)]
     pub command: Vec<String>,
@@ -267,6 +271,8 @@ pub enum ModelName {
     Command,
     /// The built-in excavator twin.
     Excavator,
+    /// The built-in GTN tensile twin, set up from `test`.
+    Gtn,
 }
 
 fn default_refit_poses() -> bool {

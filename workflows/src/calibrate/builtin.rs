@@ -47,6 +47,7 @@ use acq_twins::excavator::{
     CylinderName, Evaluation, Excavator, Inputs, Measurables, PreparedPose, Strokes,
 };
 use acq_twins::tensile::mesh::MeshDensity;
+use acq_twins::tensile::solver::{Outcome, PullResult};
 
 use crate::excavator_report::{
     envelope_json, evaluation_json, measurable_number, measurables_json,
@@ -575,9 +576,11 @@ impl Model for ExcavatorModel {
 }
 
 /// The built-in GTN tensile twin as a study [`Model`]: the eight GTN
-/// parameters by name (`q1`, `q2`, `q3`, `epsN`, `sN`, `fN`, `f0`, `m`) in,
-/// the simulated force-displacement curve (`force_displacement`: mm, kN)
-/// out, for the test the model was set up from.
+/// parameters by name (`q1`, `q2`, `q3`, `epsN`, `sN`, `fN`, `f0`, `m`),
+/// optionally coalescence (`fc` with `fF`) and the element size at the neck
+/// (`mesh`, mm) in; the simulated
+/// force-displacement curve (`force_displacement`: mm, kN) and the numbers
+/// of [`GTN_SCALARS`] out, for the test the model was set up from.
 pub struct GtnModel {
     model: TensileModel,
     /// The neck zone of a mesh given as the input `mesh` (None: one diameter).
@@ -597,6 +600,24 @@ impl GtnModel {
             model,
             neck_zone_mm: None,
         }
+    }
+
+    /// The twin of the tensile test in `path` (a CSV as `acq twin gtn
+    /// --test` reads), at the default mesh: its flow curve, Young's
+    /// modulus, specimen and last displacement.
+    pub fn of_test(path: &std::path::Path) -> acq_io::error::Result<Self> {
+        use acq_analysis::extract::tensile_props::{
+            read_test_csv, tensile_properties, SpecimenGeometry,
+        };
+        acq_io::input::note_input(path);
+        let points = read_test_csv(path)?;
+        let properties = tensile_properties(&points, SpecimenGeometry::default())
+            .map_err(|e| acq_io::error::AcqError::Malformed(format!("{}: {e}", path.display())))?;
+        Ok(GtnModel::new(TensileModel::new(
+            points,
+            properties,
+            crate::tensile_model::ModelSettings::default(),
+        )))
     }
 
     /// The neck zone of the meshes the input `mesh` asks for.
@@ -630,9 +651,10 @@ impl Model for GtnModel {
         scalars: &[&str],
         curves: &[&str],
     ) -> Result<ModelRun, String> {
-        if let Some(name) = scalars.first() {
+        if let Some(name) = scalars.iter().find(|s| !GTN_SCALARS.contains(s)) {
             return Err(format!(
-                "the GTN twin gives no scalar {name:?}; observe its curve {GTN_CURVE}"
+                "the GTN twin gives no scalar {name:?}; it gives {} and the curve {GTN_CURVE}",
+                GTN_SCALARS.join(", ")
             ));
         }
         if let Some(name) = curves.iter().find(|c| **c != GTN_CURVE) {
@@ -652,32 +674,92 @@ impl Model for GtnModel {
                     })
             })
             .collect::<Result<Vec<f64>, String>>()?;
-        if let Some((name, _)) = inputs
-            .iter()
-            .find(|(n, _)| !PARAMETER_NAMES.contains(&n.as_str()) && n != GTN_MESH_INPUT)
-        {
+        let optional = [GTN_MESH_INPUT, "fc", "fF"];
+        if let Some((name, _)) = inputs.iter().find(|(n, _)| {
+            !PARAMETER_NAMES.contains(&n.as_str()) && !optional.contains(&n.as_str())
+        }) {
             return Err(format!(
-                "the GTN twin takes no input {name:?}: it takes {} and optionally {GTN_MESH_INPUT} (the element size at the neck, mm)",
+                "the GTN twin takes no input {name:?}: it takes {}, optionally fc and fF (coalescence) and {GTN_MESH_INPUT} (the element size at the neck, mm)",
                 PARAMETER_NAMES.join(", ")
             ));
         }
-        let mesh = inputs
-            .iter()
-            .find(|(n, _)| n == GTN_MESH_INPUT)
-            .map(|(_, v)| *v);
+        let input = |wanted: &str| inputs.iter().find(|(n, _)| n == wanted).map(|(_, v)| *v);
+        let mut gtn = GtnInputs::from_values(&values)?;
+        gtn.coalescence = match (input("fc"), input("fF")) {
+            (Some(critical), Some(failure)) => Some((critical, failure)),
+            (None, None) => None,
+            _ => return Err("coalescence needs both fc and fF".into()),
+        };
         // The study scores the curve itself: the model's own MAPE is not
         // computed twice.
-        let result = self.sized(mesh)?.pull(&GtnInputs::from_values(&values)?)?;
+        let result = self.sized(input(GTN_MESH_INPUT))?.pull(&gtn)?;
         let curve: Vec<(f64, f64)> = result
             .curve
             .iter()
             .map(|p| (p.displacement_mm, p.force_kn))
             .collect();
         Ok(ModelRun {
-            scalars: Vec::new(),
+            scalars: scalars
+                .iter()
+                .map(|name| gtn_scalar(&result, name))
+                .collect::<Result<_, _>>()?,
             curves: curves.iter().map(|_| curve.clone()).collect(),
         })
     }
+}
+
+/// The GTN twin's numbers: the maximum force, kN (the largest of the
+/// curve's points, as `acq twin gtn` gives it); the displacement it is
+/// reached at, mm (the vertex of the parabola through the largest point
+/// and its neighbours: the flat peak's points alone would give it only to
+/// the output interval); where the bar broke, mm (a run that does not
+/// break has none).
+pub const GTN_SCALARS: [&str; 3] = [
+    "max_force_kn",
+    "displacement_at_max_force_mm",
+    "fracture_mm",
+];
+
+fn gtn_scalar(result: &PullResult, name: &str) -> Result<f64, String> {
+    let curve = &result.curve;
+    let peak = curve
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.force_kn.total_cmp(&b.1.force_kn))
+        .map(|(index, _)| index)
+        .ok_or_else(|| "the run gave no curve".to_string());
+    match name {
+        "max_force_kn" => Ok(curve[peak?].force_kn),
+        "displacement_at_max_force_mm" => {
+            let peak = peak?;
+            let at = |i: usize| (curve[i].displacement_mm, curve[i].force_kn);
+            Ok(match (peak.checked_sub(1), curve.get(peak + 1)) {
+                (Some(before), Some(_)) => {
+                    parabola_vertex_x(at(before), at(peak), at(peak + 1)).unwrap_or(at(peak).0)
+                }
+                _ => at(peak).0,
+            })
+        }
+        "fracture_mm" => match &result.outcome {
+            Outcome::Fractured { displacement_mm } => Ok(*displacement_mm),
+            Outcome::ReachedEnd => Err("fracture_mm: the bar did not break before the test's last displacement (GTN fracture needs coalescence: fc and fF)".into()),
+            Outcome::NotConverged { displacement_mm, reason } => Err(format!(
+                "fracture_mm: the run stopped at {displacement_mm} mm without breaking: {reason}"
+            )),
+        },
+        _ => Err(format!("the GTN twin gives no scalar {name:?}")),
+    }
+}
+
+/// The x of the vertex of the parabola through three points, if it has
+/// one between the outer two (a maximum or minimum, not a straight line).
+fn parabola_vertex_x(a: (f64, f64), b: (f64, f64), c: (f64, f64)) -> Option<f64> {
+    // Divided differences: y = y_a + s1 (x - x_a) + s2 (x - x_a)(x - x_b).
+    let s_ab = (b.1 - a.1) / (b.0 - a.0);
+    let s_bc = (c.1 - b.1) / (c.0 - b.0);
+    let curvature = (s_bc - s_ab) / (c.0 - a.0);
+    let vertex = (a.0 + b.0) / 2.0 - s_ab / (2.0 * curvature);
+    (curvature != 0.0 && vertex.is_finite() && vertex >= a.0 && vertex <= c.0).then_some(vertex)
 }
 
 #[cfg(test)]
@@ -686,6 +768,16 @@ mod tests {
     use acq_twins::excavator::pose_fit::published_poses;
 
     use super::*;
+
+    /// The peak of y = 3 - 2 (x - 1.3)^2 from three unevenly spaced
+    /// points around it, exactly; three points on a line have none.
+    #[test]
+    fn a_parabola_s_vertex_is_found_between_its_points() {
+        let y = |x: f64| 3.0 - 2.0 * (x - 1.3) * (x - 1.3);
+        let vertex = parabola_vertex_x((1.2, y(1.2)), (1.27, y(1.27)), (1.4, y(1.4))).unwrap();
+        assert!((vertex - 1.3).abs() < 1e-12, "{vertex}");
+        assert_eq!(parabola_vertex_x((0.0, 1.0), (1.0, 2.0), (2.0, 3.0)), None);
+    }
 
     fn inputs(pairs: &[(&str, f64)]) -> Vec<(String, f64)> {
         pairs.iter().map(|(k, v)| (k.to_string(), *v)).collect()

@@ -1,7 +1,7 @@
 //! `acq calibrate external --spec FILE.toml --out DIR`: a study on a
 //! user's own solver (a COMSOL or Abaqus batch job, a script) run as a
 //! command once per evaluation and load case ([`acq_study::command_model`]),
-//! or on the built-in excavator twin (`model = "excavator"`,
+//! or on a built-in twin (`model = "excavator"` or `model = "gtn"`,
 //! [`super::builtin`]). The spec's keys are in [`acq_study::spec`].
 
 use std::path::PathBuf;
@@ -9,11 +9,11 @@ use std::path::PathBuf;
 use acq_io::error::{AcqError, Result};
 use acq_twins::excavator::geometry::GeometryTemplate;
 
-use super::builtin::ExcavatorModel;
+use super::builtin::{ExcavatorModel, GtnModel};
 use acq_exec::executor::{Executor, LocalExecutor};
 use acq_exec::slurm::{SlurmExecutor, SlurmSettings};
 use acq_study::command_model::CommandModel;
-use acq_study::extras::Extras;
+use acq_study::extras::{Extras, NoExtras};
 use acq_study::method::{start_design, RunSettings};
 use acq_study::outcome::StudyOutcome;
 use acq_study::progress::ProgressObserver;
@@ -97,6 +97,14 @@ fn run_spec(
                 study, &model, &method, initial, &directory, &settings, &extras,
             )?;
         }
+        ModelKind::Gtn { test } => {
+            let model = GtnModel::of_test(&spec.directory.join(test))?;
+            check_at_nominal(study, &model).map_err(in_spec)?;
+            let directory = RunDirectory::create(&args.out)?;
+            run_study(
+                study, &model, &method, initial, &directory, &settings, &NoExtras,
+            )?;
+        }
         ModelKind::Command(command) => {
             let (model, directory) = command_model(&spec, command, args)?;
             let extras = EmulatorExtras {
@@ -175,8 +183,13 @@ pub fn run_mesh_study(
             check_at_nominal(&spec.study, &model).map_err(in_spec)?;
             run(&model, &RunDirectory::create(&args.out)?)
         }
+        (ModelKind::Gtn { test }, _) => {
+            let model = GtnModel::of_test(&spec.directory.join(test))?;
+            check_at_nominal(&spec.study, &model).map_err(in_spec)?;
+            run(&model, &RunDirectory::create(&args.out)?)
+        }
         _ => Err(in_spec(
-            "[mesh_study] runs a user's solver (a command with {mesh}), the excavator twin (model = \"excavator\") or a model given from Python".into(),
+            "[mesh_study] runs a user's solver (a command with {mesh}), a built-in twin (model = \"excavator\" or \"gtn\") or a model given from Python".into(),
         )),
     }
 }

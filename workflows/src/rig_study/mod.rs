@@ -358,6 +358,11 @@ fn what_the_rig_runs(file: &SpecFile) -> Result<(&HoldsSpec, Option<String>), Sp
                 ))
             }
             (ModelName::Command, Some(_)) => {}
+            (ModelName::Gtn, _) => {
+                return Err(SpecProblem::file(
+                    "model = \"gtn\" is the tensile twin of a test; a study at the rig runs the excavator twin (model = \"excavator\") or an emulator of a user's solver ([emulator] load)",
+                ))
+            }
         }
     Ok((holds, emulator))
 }

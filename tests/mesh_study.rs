@@ -582,6 +582,26 @@ fn the_gtn_twin_in_a_spec_runs_its_mesh_study_through_the_study_and_resumes() {
             .is_some_and(|parts| parts.len() > 2),
         "{summary}"
     );
+    // The report's numbers keep four significant figures however small
+    // (the force's u_num is about 2e-4 kN), and the plots name the unit.
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let row = report
+        .lines()
+        .find(|l| l.starts_with("| dataset1/max_force_kn |"))
+        .unwrap_or_else(|| panic!("{report}"));
+    let printed: f64 = row
+        .trim_end_matches(" |")
+        .rsplit("| ")
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let u_num = summary["mesh_study"]["dataset1/max_force_kn"]["u_num"]
+        .as_f64()
+        .unwrap();
+    assert!((printed - u_num).abs() <= 5e-4 * u_num, "{row} vs {u_num}");
+    let plot = std::fs::read_to_string(out.join("mesh_study_1.svg")).unwrap();
+    assert!(plot.contains("element size [mm]"), "{plot}");
     // Resumed: every run comes from the log, and the study is the same.
     let again = acq(&[
         "mesh-study",

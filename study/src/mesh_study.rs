@@ -17,6 +17,7 @@ use std::time::Instant;
 use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 use acq_metrology::grid_convergence::{grid_convergence, GridConvergence};
+use acq_report::number::{plain, significant};
 use acq_report::plot::{chart_svg, Chart, ReferenceLine, Series, SeriesStyle};
 use serde_json::Value;
 
@@ -37,6 +38,8 @@ pub struct MeshStudySettings {
     pub at: BTreeMap<String, f64>,
     /// The size a calibration of the spec runs at.
     pub calibrate_at: f64,
+    /// The sizes' unit (`"mm"`), for the plots' axes.
+    pub size_unit: Option<String>,
 }
 
 /// The study a mesh study runs: every case (fit and validate alike) at
@@ -135,6 +138,7 @@ pub fn run_mesh_study(
         at,
         evaluations: evaluations.len(),
         failed,
+        size_unit: settings.size_unit.clone(),
     };
     write_results(
         &outcome,
@@ -343,7 +347,10 @@ pub fn write_results(
             .join(", ")
     );
     report.push_str("| output | convergence | order | extrapolated | e_a % | e_ext % | GCI_fine % | u_num |\n|---|---|---|---|---|---|---|---|\n");
-    let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.4}"));
+    // Significant figures, not decimals: a u_num of 1.4e-4 must not read
+    // 0.0001, and the extrapolated value keeps the digits its GCI tells.
+    let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| significant(v, 4));
+    let value_text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| significant(v, 7));
     // The whole table first: a plot between its rows would end it.
     let mut plots = String::new();
     for (index, output) in outcome.outputs.iter().enumerate() {
@@ -361,14 +368,15 @@ pub fn write_results(
             output.key,
             study.convergence.name(),
             text(study.order),
-            text(study.extrapolated),
+            value_text(study.extrapolated),
             text(study.e_a_pct),
             text(study.e_ext_pct),
             text(study.gci_fine_pct),
             text(study.standard_uncertainty()),
         );
         let plot = format!("mesh_study_{}.svg", index + 1);
-        write_text(&directory.file(&plot), &convergence_svg(&output.key, study))?;
+        let svg = convergence_svg(&output.key, study, outcome.size_unit.as_deref());
+        write_text(&directory.file(&plot), &svg)?;
         let _ = writeln!(plots, "\n![{}]({plot})\n\n{}\n", output.key, study.note);
     }
     report.push_str(&plots);
@@ -409,7 +417,7 @@ fn write_curves(
             "The curve's mean over each part of {} (the range every size's curve covers):\n\n| {} from | to | convergence | order | GCI_fine % | u_num |\n|---|---|---|---|---|---|",
             curve.axes[0], curve.axes[0]
         );
-        let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.4}"));
+        let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| significant(v, 4));
         for (x_from, x_to, part) in &curve.parts {
             let row = match &part.convergence {
                 Some(study) => format!(
@@ -421,7 +429,12 @@ fn write_curves(
                 ),
                 None => "not enough runs | - | - | -".into(),
             };
-            let _ = writeln!(report, "| {x_from:.4} | {x_to:.4} | {row} |");
+            let _ = writeln!(
+                report,
+                "| {} | {} | {row} |",
+                plain(*x_from, 6),
+                plain(*x_to, 6)
+            );
         }
     }
     Ok(())
@@ -429,10 +442,14 @@ fn write_curves(
 
 /// The values over the element size, with the extrapolated value at size
 /// zero and the fine value's GCI band.
-fn convergence_svg(key: &str, study: &GridConvergence) -> String {
+fn convergence_svg(key: &str, study: &GridConvergence, size_unit: Option<&str>) -> String {
+    let size_axis = match size_unit {
+        Some(unit) => format!("element size [{unit}]"),
+        None => "element size".to_string(),
+    };
     let mut chart = Chart::new(
         format!("{key}: {} convergence", study.convergence.name()),
-        "element size",
+        size_axis,
         key,
     );
     let points: Vec<(f64, f64)> = study

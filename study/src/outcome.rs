@@ -152,4 +152,6 @@ pub struct MeshStudyOutcome {
     pub at: Vec<(String, f64)>,
     pub evaluations: usize,
     pub failed: usize,
+    /// The unit of the element sizes, for the plots' axes (None: not given).
+    pub size_unit: Option<String>,
 }

@@ -155,6 +155,7 @@ pub fn mesh_study_outcome(
         at,
         evaluations: runs.len(),
         failed: 0,
+        size_unit: Some("mm".into()),
     })
 }
 

@@ -536,10 +536,22 @@ pub fn mesh_study(
             "calibrate_at = {calibrate_at}: give a positive element size"
         )));
     }
+    let size_unit = match (&section.unit, model) {
+        (Some(unit), _) if unit.trim().is_empty() || unit.len() > 16 => {
+            return Err(problem(format!(
+                "unit = {unit:?}: give the sizes' unit in a few letters (\"mm\"), or leave it out"
+            )))
+        }
+        (Some(unit), _) => Some(unit.clone()),
+        (None, ModelKind::Gtn { .. }) => Some("mm".to_string()),
+        (None, ModelKind::Excavator { .. }) => Some("m".to_string()),
+        (None, _) => None,
+    };
     Ok(Some(MeshStudySettings {
         sizes: sizes.clone(),
         at: section.at.clone().into_iter().collect(),
         calibrate_at,
+        size_unit,
     }))
 }
 

@@ -92,6 +92,9 @@ pub struct MeshStudySpec {
     pub at: BTreeMap<String, f64>,
     /// The size `acq calibrate external` runs at [default: the smallest].
     pub calibrate_at: Option<f64>,
+    /// The sizes' unit (`"mm"`), for the plots' axes [default: none
+    /// named; the built-in GTN twin's sizes are mm, the excavator's m].
+    pub unit: Option<String>,
 }
 
 /// `[emulator]`: an emulator of a user's model over its parameters and its

@@ -278,13 +278,7 @@ fn v_and_v_20_on_the_calculix_bar_takes_u_num_from_its_own_mesh_study() {
     }
     let spec = dir.path().join("spec-validate.toml");
     let out = dir.path().join("runs/mesh");
-    let run = acq(&[
-        "mesh-study",
-        "--spec",
-        path_arg(&spec),
-        "--out",
-        path_arg(&out),
-    ]);
+    let run = common::run_mesh_study(&spec, &out, &[]);
     assert!(run.status.success(), "{}", stderr(&run));
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();

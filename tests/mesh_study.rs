@@ -73,13 +73,7 @@ sizes = {sizes}
 }
 
 fn mesh_study(spec: &Path, out: &Path) -> Value {
-    let run = acq(&[
-        "mesh-study",
-        "--spec",
-        path_arg(spec),
-        "--out",
-        path_arg(out),
-    ]);
+    let run = common::run_mesh_study(spec, out, &[]);
     assert!(run.status.success(), "{}", stderr(&run));
     let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
     serde_json::from_str(&text).unwrap()
@@ -603,14 +597,7 @@ fn the_gtn_twin_in_a_spec_runs_its_mesh_study_through_the_study_and_resumes() {
     let plot = std::fs::read_to_string(out.join("mesh_study_1.svg")).unwrap();
     assert!(plot.contains("element size [mm]"), "{plot}");
     // Resumed: every run comes from the log, and the study is the same.
-    let again = acq(&[
-        "mesh-study",
-        "--spec",
-        path_arg(&spec),
-        "--out",
-        path_arg(&out),
-        "--resume",
-    ]);
+    let again = common::run_mesh_study(&spec, &out, &["--resume"]);
     assert!(again.status.success(), "{}", stderr(&again));
     assert!(
         stderr(&again).contains("3 from the log"),
@@ -686,5 +673,47 @@ fn a_gtn_spec_says_what_it_needs() {
         let run = common::calibrate_external(&spec, &dir.path().join("run"), &[]);
         assert_eq!(run.status.code(), Some(2), "{text}: {}", stderr(&run));
         assert!(stderr(&run).contains(expected), "{text}: {}", stderr(&run));
+    }
+    // The shipped example with a misspelt output (kN for kn) and a value
+    // out of its physical range: each refused before any run, naming the
+    // case and what the twin takes (the rest of the example must load for
+    // the refusal to reach them).
+    // The example's paths are relative to it: here they are made absolute.
+    let data = common::root().join("data/tensile");
+    let shipped = std::fs::read_to_string(common::root().join("examples/gtn-mesh/spec.toml"))
+        .unwrap()
+        .replace("../../data/tensile", data.to_str().unwrap());
+    let at_line = shipped
+        .lines()
+        .find(|l| l.starts_with("at = "))
+        .unwrap()
+        .to_string();
+    for (edits, expected) in [
+        (
+            vec![("max_force_kn = 7.43", "max_force_kN = 7.43")],
+            "case dataset1: the GTN twin gives no scalar \"max_force_kN\"; it gives max_force_kn",
+        ),
+        // fN's nominal (the middle of its box) a volume fraction above 1,
+        // refused before its first run.
+        (
+            vec![
+                ("lower = 0.03\nupper = 0.09", "lower = 1.5\nupper = 2.0"),
+                (at_line.as_str(), ""),
+            ],
+            "case dataset1: nucleated void volume fraction fN must be finite, >= 0 and below 1, got 1.75",
+        ),
+    ] {
+        let mut text = shipped.clone();
+        for (from, to) in edits {
+            assert!(text.contains(from), "{from}");
+            text = text.replacen(from, to, 1);
+        }
+        let spec = dir.path().join("example.toml");
+        std::fs::write(&spec, text).unwrap();
+        let out = dir.path().join("refused");
+        let run = common::run_mesh_study(&spec, &out, &[]);
+        assert_eq!(run.status.code(), Some(2), "{}", stderr(&run));
+        assert!(stderr(&run).contains(expected), "{}", stderr(&run));
+        assert!(!out.exists(), "a refused spec leaves no run directory");
     }
 }

@@ -44,14 +44,18 @@ pub fn stderr(output: &Output) -> String {
 
 /// Runs `acq calibrate external --spec SPEC --out OUT` plus `extra`.
 pub fn calibrate_external(spec: &Path, out: &Path, extra: &[&str]) -> Output {
-    let mut args = vec![
-        "calibrate",
-        "external",
-        "--spec",
-        path_arg(spec),
-        "--out",
-        path_arg(out),
-    ];
+    on_spec(&["calibrate", "external"], spec, out, extra)
+}
+
+/// Runs `acq mesh-study --spec SPEC --out OUT` plus `extra`.
+pub fn run_mesh_study(spec: &Path, out: &Path, extra: &[&str]) -> Output {
+    on_spec(&["mesh-study"], spec, out, extra)
+}
+
+/// Runs `acq COMMAND --spec SPEC --out OUT` plus `extra`.
+fn on_spec(command: &[&str], spec: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = command.to_vec();
+    args.extend(["--spec", path_arg(spec), "--out", path_arg(out)]);
     args.extend_from_slice(extra);
     acq(&args)
 }

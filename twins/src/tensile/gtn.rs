@@ -254,8 +254,8 @@ pub enum ParameterError {
     /// sN not finite or not positive.
     #[error("nucleation strain standard deviation sN must be finite and > 0, got {0}")]
     NucleationStdStrain(f64),
-    /// fN not finite or negative.
-    #[error("nucleated void volume fraction fN must be finite and >= 0, got {0}")]
+    /// fN not finite, negative, or 1 or more (a volume fraction).
+    #[error("nucleated void volume fraction fN must be finite, >= 0 and below 1, got {0}")]
     NucleatedVoidFraction(f64),
     /// f0 not finite, negative, or at/above the failure porosity.
     #[error(
@@ -452,7 +452,9 @@ impl GtnParameters {
                 self.nucleation_std_strain,
             ));
         }
-        if !(self.nucleated_void_fraction.is_finite() && self.nucleated_void_fraction >= 0.0) {
+        if !(self.nucleated_void_fraction.is_finite()
+            && (0.0..1.0).contains(&self.nucleated_void_fraction))
+        {
             return Err(ParameterError::NucleatedVoidFraction(
                 self.nucleated_void_fraction,
             ));

@@ -54,7 +54,7 @@ use crate::excavator_report::{
 };
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 use acq_study::study::{
-    number_at_key_path, numbers_by_key_path, Model, ModelRun, Study, StudyParameter,
+    number_at_key_path, numbers_by_key_path, Measured, Model, ModelRun, Study, StudyParameter,
 };
 
 /// The operating inputs the twin takes by name.
@@ -644,6 +644,85 @@ impl GtnModel {
     }
 }
 
+impl GtnModel {
+    /// Every case's inputs and observations as a run would take them, at
+    /// the nominal point, without pulling the bar (a run at the fine size
+    /// costs seconds): a wrong name or a value out of range is refused
+    /// before the first run.
+    pub fn check_names(&self, study: &Study) -> Result<(), String> {
+        let nominal = study.nominal();
+        for (index, case) in study.cases.iter().enumerate() {
+            if case.priors {
+                continue;
+            }
+            let names = |curve: bool| -> Vec<&str> {
+                case.observations
+                    .iter()
+                    .filter(|o| matches!(o.measured, Measured::Curve { .. }) == curve)
+                    .map(|o| o.output.as_str())
+                    .collect()
+            };
+            let inputs = study.inputs_of(index, &nominal);
+            // The parameters' ranges and the mesh are checked as a run
+            // builds its twin; only the pull is left out.
+            gtn_run_inputs(&inputs, &names(false), &names(true))
+                .and_then(|(gtn, mesh)| self.sized(mesh)?.twin(&gtn).map(|_| ()))
+                .map_err(|e| format!("case {}: {e}", case.name))?;
+        }
+        Ok(())
+    }
+}
+
+/// A run's inputs, checked against what the twin takes and gives: the
+/// parameters and the element size (None: the model's own mesh).
+fn gtn_run_inputs(
+    inputs: &[(String, f64)],
+    scalars: &[&str],
+    curves: &[&str],
+) -> Result<(GtnInputs, Option<f64>), String> {
+    if let Some(name) = scalars.iter().find(|s| !GTN_SCALARS.contains(s)) {
+        return Err(format!(
+            "the GTN twin gives no scalar {name:?}; it gives {} and the curve {GTN_CURVE}",
+            GTN_SCALARS.join(", ")
+        ));
+    }
+    if let Some(name) = curves.iter().find(|c| **c != GTN_CURVE) {
+        return Err(format!(
+            "the GTN twin has no curve {name:?}; its curve is {GTN_CURVE}"
+        ));
+    }
+    let values = PARAMETER_NAMES
+        .iter()
+        .map(|name| {
+            inputs
+                .iter()
+                .find(|(input, _)| input == name)
+                .map(|(_, v)| *v)
+                .ok_or_else(|| {
+                    format!("the GTN twin needs {name}: make it a parameter or a case input")
+                })
+        })
+        .collect::<Result<Vec<f64>, String>>()?;
+    let optional = [GTN_MESH_INPUT, "fc", "fF"];
+    if let Some((name, _)) = inputs
+        .iter()
+        .find(|(n, _)| !PARAMETER_NAMES.contains(&n.as_str()) && !optional.contains(&n.as_str()))
+    {
+        return Err(format!(
+                "the GTN twin takes no input {name:?}: it takes {}, optionally fc and fF (coalescence) and {GTN_MESH_INPUT} (the element size at the neck, mm)",
+                PARAMETER_NAMES.join(", ")
+            ));
+    }
+    let input = |wanted: &str| inputs.iter().find(|(n, _)| n == wanted).map(|(_, v)| *v);
+    let mut gtn = GtnInputs::from_values(&values)?;
+    gtn.coalescence = match (input("fc"), input("fF")) {
+        (Some(critical), Some(failure)) => Some((critical, failure)),
+        (None, None) => None,
+        _ => return Err("coalescence needs both fc and fF".into()),
+    };
+    Ok((gtn, input(GTN_MESH_INPUT)))
+}
+
 impl Model for GtnModel {
     fn run(
         &self,
@@ -651,48 +730,10 @@ impl Model for GtnModel {
         scalars: &[&str],
         curves: &[&str],
     ) -> Result<ModelRun, String> {
-        if let Some(name) = scalars.iter().find(|s| !GTN_SCALARS.contains(s)) {
-            return Err(format!(
-                "the GTN twin gives no scalar {name:?}; it gives {} and the curve {GTN_CURVE}",
-                GTN_SCALARS.join(", ")
-            ));
-        }
-        if let Some(name) = curves.iter().find(|c| **c != GTN_CURVE) {
-            return Err(format!(
-                "the GTN twin has no curve {name:?}; its curve is {GTN_CURVE}"
-            ));
-        }
-        let values = PARAMETER_NAMES
-            .iter()
-            .map(|name| {
-                inputs
-                    .iter()
-                    .find(|(input, _)| input == name)
-                    .map(|(_, v)| *v)
-                    .ok_or_else(|| {
-                        format!("the GTN twin needs {name}: make it a parameter or a case input")
-                    })
-            })
-            .collect::<Result<Vec<f64>, String>>()?;
-        let optional = [GTN_MESH_INPUT, "fc", "fF"];
-        if let Some((name, _)) = inputs.iter().find(|(n, _)| {
-            !PARAMETER_NAMES.contains(&n.as_str()) && !optional.contains(&n.as_str())
-        }) {
-            return Err(format!(
-                "the GTN twin takes no input {name:?}: it takes {}, optionally fc and fF (coalescence) and {GTN_MESH_INPUT} (the element size at the neck, mm)",
-                PARAMETER_NAMES.join(", ")
-            ));
-        }
-        let input = |wanted: &str| inputs.iter().find(|(n, _)| n == wanted).map(|(_, v)| *v);
-        let mut gtn = GtnInputs::from_values(&values)?;
-        gtn.coalescence = match (input("fc"), input("fF")) {
-            (Some(critical), Some(failure)) => Some((critical, failure)),
-            (None, None) => None,
-            _ => return Err("coalescence needs both fc and fF".into()),
-        };
+        let (gtn, mesh) = gtn_run_inputs(inputs, scalars, curves)?;
         // The study scores the curve itself: the model's own MAPE is not
         // computed twice.
-        let result = self.sized(input(GTN_MESH_INPUT))?.pull(&gtn)?;
+        let result = self.sized(mesh)?.pull(&gtn)?;
         let curve: Vec<(f64, f64)> = result
             .curve
             .iter()

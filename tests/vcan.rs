@@ -321,8 +321,16 @@ fn record_replay_and_simulate_on_a_real_vcan() {
             &format!("median inter-frame error {median} us")
         )
     );
+    // Drift has a sign. An absolute schedule never sends early, so a
+    // frame's offset error is its own lateness less the first frame's:
+    // behind (positive) is the fault this checks for, relative sleeps
+    // adding up. Ahead (negative) is a late start the schedule caught up
+    // on: a guest stalled as it began (seen: -5.1 ms, with the guest at
+    // 1.0034 of the log's pace while the host ran other tests), bounded
+    // only loosely, so that a schedule run too fast (a scaled clock)
+    // still fails.
     assert!(
-        drift_us.abs() < 5000.0,
+        drift_us < 5000.0 && drift_us > -50_000.0,
         "{}",
         judged(
             "check 2",

@@ -578,9 +578,9 @@ impl Model for ExcavatorModel {
 /// The built-in GTN tensile twin as a study [`Model`]: the eight GTN
 /// parameters by name (`q1`, `q2`, `q3`, `epsN`, `sN`, `fN`, `f0`, `m`),
 /// optionally coalescence (`fc` with `fF`) and the element size at the neck
-/// (`mesh`, mm) in; the simulated
-/// force-displacement curve (`force_displacement`: mm, kN) and the numbers
-/// of [`GTN_SCALARS`] out, for the test the model was set up from.
+/// (`mesh`, mm) in; the simulated force-displacement curve
+/// (`force_displacement`: mm, kN) and the numbers of [`GTN_SCALARS`] out,
+/// for the test the model was set up from.
 pub struct GtnModel {
     model: TensileModel,
     /// The neck zone of a mesh given as the input `mesh` (None: one diameter).
@@ -642,14 +642,12 @@ impl GtnModel {
         model.settings.mesh = density;
         Ok(std::borrow::Cow::Owned(model))
     }
-}
 
-impl GtnModel {
     /// Every case's inputs and observations as a run would take them, at
     /// the nominal point, without pulling the bar (a run at the fine size
     /// costs seconds): a wrong name or a value out of range is refused
     /// before the first run.
-    pub fn check_names(&self, study: &Study) -> Result<(), String> {
+    pub fn check_inputs(&self, study: &Study) -> Result<(), String> {
         let nominal = study.nominal();
         for (index, case) in study.cases.iter().enumerate() {
             if case.priors {

@@ -99,7 +99,7 @@ fn run_spec(
         }
         ModelKind::Gtn { test } => {
             let model = GtnModel::of_test(&spec.directory.join(test))?;
-            model.check_names(study).map_err(in_spec)?;
+            model.check_inputs(study).map_err(in_spec)?;
             let directory = RunDirectory::create(&args.out)?;
             run_study(
                 study, &model, &method, initial, &directory, &settings, &NoExtras,
@@ -185,7 +185,7 @@ pub fn run_mesh_study(
         }
         (ModelKind::Gtn { test }, _) => {
             let model = GtnModel::of_test(&spec.directory.join(test))?;
-            model.check_names(&spec.study).map_err(in_spec)?;
+            model.check_inputs(&spec.study).map_err(in_spec)?;
             run(&model, &RunDirectory::create(&args.out)?)
         }
         _ => Err(in_spec(

@@ -124,6 +124,16 @@ fn a_two_level_calibration_answers_with_the_fine_levels_optimum() {
         best("d")
     );
     assert!(summary["best_loss_pct"].as_f64().unwrap() <= 0.2);
+    // The loss plot shows both levels against the time they took.
+    let plot = std::fs::read_to_string(out.join("loss.svg")).unwrap();
+    for label in [
+        "simulation time so far [s]",
+        "run at mesh 0.4",
+        "run at mesh 0.1",
+        "best at mesh 0.1 so far",
+    ] {
+        assert!(plot.contains(label), "loss.svg lacks {label:?}");
+    }
     // The cheap optimum is elsewhere: the levels' losses agree poorly, and
     // co-kriging says so with a small rho.
     assert!(

@@ -98,14 +98,26 @@ pub fn study_report(
         Method::MultiFidelity(mf) => mf.target_loss,
         _ => None,
     };
+    let (chart, caption) = match &outcome.found {
+        Found::MultiFidelity(mf) => (
+            two_level_loss_chart(
+                study,
+                &outcome.evaluations,
+                &outcome.coarse_evaluations,
+                mf.meshes,
+                target,
+            ),
+            "loss of each run of both levels against the simulation time spent".into(),
+        ),
+        _ => (
+            loss_chart(study, &outcome.evaluations, target),
+            "loss per model evaluation".into(),
+        ),
+    };
     report.figure(Figure {
         file: "loss.svg".into(),
-        caption: "loss per model evaluation".into(),
-        svg: chart_svg(
-            &loss_chart(study, &outcome.evaluations, target),
-            720.0,
-            420.0,
-        ),
+        caption,
+        svg: chart_svg(&chart, 720.0, 420.0),
     });
     write_runs_section(&mut report, &outcome.note_columns, &outcome.evaluations);
     Ok(report)
@@ -694,14 +706,105 @@ fn loss_chart(study: &Study, evaluations: &[Evaluation], target: Option<f64>) ->
         }
         running.push((e.id as f64, best_so_far));
     }
-    let unit = match (study.residuals, study.loss) {
+    let chart = Chart::new("Loss per model evaluation", "evaluation", loss_unit(study))
+        .with_series(Series::new("run", each).with_style(SeriesStyle::Markers))
+        .with_series(Series::new("best so far", running));
+    with_target(chart, target)
+}
+
+/// A two-level search's runs against the simulation time spent so far
+/// (both levels' run times summed in the log's order), each level's own
+/// markers and the best expensive run so far: what each level cost and
+/// what it bought, which a plot per evaluation hides (a cheap run and an
+/// expensive one take the same width there).
+fn two_level_loss_chart(
+    study: &Study,
+    expensive: &[Evaluation],
+    cheap: &[Evaluation],
+    [cheap_mesh, expensive_mesh]: [f64; 2],
+    target: Option<f64>,
+) -> Chart {
+    let mut runs: Vec<(usize, LevelRunCost)> = expensive
+        .iter()
+        .map(|e| (e, true))
+        .chain(cheap.iter().map(|e| (e, false)))
+        .map(|(e, is_expensive)| {
+            let loss = e.outcome.as_ref().ok().map(|y| study.loss(y));
+            (e.id, (e.wall_s, loss, is_expensive))
+        })
+        .collect();
+    runs.sort_by_key(|(id, _)| *id);
+    let runs: Vec<LevelRunCost> = runs.into_iter().map(|(_, run)| run).collect();
+    let [cheap_points, expensive_points, running] = two_level_series(&runs);
+    let chart = Chart::new(
+        "Loss per run, both levels",
+        "simulation time so far [s]",
+        loss_unit(study),
+    )
+    .with_series(
+        Series::new(format!("run at mesh {}", short(cheap_mesh)), cheap_points)
+            .with_style(SeriesStyle::Markers),
+    )
+    .with_series(
+        Series::new(
+            format!("run at mesh {}", short(expensive_mesh)),
+            expensive_points,
+        )
+        .with_style(SeriesStyle::Markers),
+    )
+    .with_series(Series::new(
+        format!("best at mesh {} so far", short(expensive_mesh)),
+        running,
+    ));
+    with_target(chart, target)
+}
+
+/// A run as the two-level plot sees it: wall time (s), loss (`None`:
+/// failed), whether it ran at the expensive level.
+type LevelRunCost = (f64, Option<f64>, bool);
+
+/// The cheap runs, the expensive runs and the best expensive loss so far
+/// (a step line), each against the simulation time spent once the run
+/// ended, for runs in the log's order.
+fn two_level_series(runs: &[LevelRunCost]) -> [Vec<(f64, f64)>; 3] {
+    let mut spent_s = 0.0;
+    let mut best_so_far = f64::INFINITY;
+    let [mut cheap, mut expensive, mut running] = [Vec::new(), Vec::new(), Vec::new()];
+    for &(wall_s, loss, is_expensive) in runs {
+        if wall_s.is_finite() {
+            spent_s += wall_s;
+        }
+        match (loss, is_expensive) {
+            (Some(loss), true) => {
+                if loss < best_so_far && best_so_far.is_finite() {
+                    // A step, not a slope: the best holds until a run beats it.
+                    running.push((spent_s, best_so_far));
+                }
+                best_so_far = best_so_far.min(loss);
+                expensive.push((spent_s, loss));
+            }
+            (Some(loss), false) => cheap.push((spent_s, loss)),
+            (None, _) => {}
+        }
+        if best_so_far.is_finite() {
+            running.push((spent_s, best_so_far));
+        }
+    }
+    running.dedup();
+    [cheap, expensive, running]
+}
+
+/// The loss axis's label.
+fn loss_unit(study: &Study) -> &'static str {
+    match (study.residuals, study.loss) {
         (Residuals::Normalised, _) => "loss [standard uncertainties]",
         (Residuals::Relative, LossKind::Max) => "largest error [%]",
         (Residuals::Relative, _) => "loss [%]",
-    };
-    let chart = Chart::new("Loss per model evaluation", "evaluation", unit)
-        .with_series(Series::new("run", each).with_style(SeriesStyle::Markers))
-        .with_series(Series::new("best so far", running));
+    }
+}
+
+/// The search's target as a line, when it has one above zero.
+fn with_target(chart: Chart, target: Option<f64>) -> Chart {
     match target {
         Some(target) if target > 0.0 => {
             chart.with_reference_line(target, format!("target {target}"))
@@ -739,7 +842,36 @@ pub fn pareto_svg(title: &str, names: &[&str], front: &[Vec<f64>], pick: usize) 
 
 #[cfg(test)]
 mod tests {
-    use super::short;
+    use super::{short, two_level_series};
+
+    #[test]
+    fn the_two_level_plot_adds_up_the_time_and_steps_the_best() {
+        // cheap 0.5 s, expensive 4 s (failed), expensive 3 s at 2.0,
+        // cheap 0.5 s, expensive 3 s at 1.0, expensive 3 s at 1.5.
+        let runs = [
+            (0.5, Some(9.0), false),
+            (4.0, None, true),
+            (3.0, Some(2.0), true),
+            (0.5, Some(0.5), false),
+            (3.0, Some(1.0), true),
+            (3.0, Some(1.5), true),
+        ];
+        let [cheap, expensive, best] = two_level_series(&runs);
+        assert_eq!(cheap, [(0.5, 9.0), (8.0, 0.5)]);
+        assert_eq!(expensive, [(7.5, 2.0), (11.0, 1.0), (14.0, 1.5)]);
+        // A cheap run's low loss is not the answer; the best falls only
+        // at the expensive run that beats it, straight down.
+        assert_eq!(
+            best,
+            [
+                (7.5, 2.0),
+                (8.0, 2.0),
+                (11.0, 2.0),
+                (11.0, 1.0),
+                (14.0, 1.0)
+            ]
+        );
+    }
 
     #[test]
     fn short_numbers_keep_six_significant_digits() {

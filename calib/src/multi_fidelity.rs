@@ -37,15 +37,21 @@
 //! parameters somewhere is always unexplored, and cheaply so.
 //!
 //! With [`MultiFidelitySettings::local_steps`] and runs that return
-//! residuals, local Gauss-Newton steps in a trust region
-//! ([`crate::trust_region`]) come between the two-level steps once
-//! [`MultiFidelitySettings::local_steps_after`] expensive runs are made:
-//! the two levels look for the basin, the local steps descend it. Their
-//! linear model is the expensive level's at the centre with the cheap
-//! level's slopes (output space mapping: each cheap run's residuals
-//! shifted by the two levels' difference at the centre), so the slopes
-//! cost cheap runs and only the steps that may move the centre run
-//! expensive.
+//! residuals, local steps come first once
+//! [`MultiFidelitySettings::local_steps_after`] expensive runs are made,
+//! and the two-level steps only when they cannot go on. A local step is
+//! output space mapping in a trust region (Bandler et al. 2004; Koziel,
+//! Bandler and Madsen 2006): near the best expensive run `c` the
+//! expensive residuals are the cheap ones plus the levels' difference,
+//! `r_e(x) ~ r_c(x) + d(c) + D (x - c)`, with `d(c)` measured at `c` (a
+//! cheap run there) and its slopes `D` fitted to the other points both
+//! levels ran. That surrogate is descended with cheap runs only (a trust
+//! region of its own, [`crate::trust_region`], in a box around `c`), and
+//! one expensive run checks where the descent ended: a check that beats
+//! `c` moves the centre and grows the box, one that does not halves it.
+//! The surrogate keeps the cheap level's curvature, which a linear model
+//! of the expensive runs would need many expensive runs to learn, and
+//! the correction `D` learns from the checks where the levels part.
 //!
 //! Losses are modelled as `ln(loss)` when every loss is positive, like
 //! [`crate::bo`]. A failed run is left out of the fits; points within 0.02
@@ -520,90 +526,349 @@ fn distance(a: &[f64], b: &[f64]) -> f64 {
         .sqrt()
 }
 
-/// The next local step and its level, or `None` when it is the two-level
-/// search's turn.
-///
-/// The trust region's linear model of the residuals is the expensive
-/// level's at its centre (the best expensive run) with the cheap level's
-/// slopes: each cheap run enters with its residuals shifted by the
-/// difference of the two levels at the centre (output space mapping),
-/// with an infinite loss so that it never becomes the centre. The
-/// slopes then cost cheap runs: a geometry step (a run that only
-/// improves the model's view) runs cheap, and so does the first run at a
-/// new centre, which the shift needs; only the steps that may move the
-/// centre run expensive.
-fn local_step(trust_region: &mut TrustRegion, runs: &[LevelRun]) -> Option<(Fidelity, Vec<f64>)> {
-    let centre = runs
-        .iter()
-        .filter(|r| r.level == Fidelity::Expensive && !r.residuals.is_empty())
-        .filter_map(|r| r.loss.map(|loss| (r, loss)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?
-        .0;
-    let cheap_at_centre = runs.iter().find(|r| {
-        r.level == Fidelity::Cheap
-            && r.unit_point == centre.unit_point
-            && r.residuals.len() == centre.residuals.len()
-    });
-    let Some(cheap_at_centre) = cheap_at_centre else {
-        let failed_there = runs
-            .iter()
-            .any(|r| r.level == Fidelity::Cheap && r.unit_point == centre.unit_point);
-        return (!failed_there).then(|| (Fidelity::Cheap, centre.unit_point.clone()));
-    };
-    let shift: Vec<f64> = centre
-        .residuals
-        .iter()
-        .zip(&cheap_at_centre.residuals)
-        .map(|(e, c)| e - c)
-        .collect();
-    let shifted: Vec<Vec<f64>> = runs
-        .iter()
-        .map(|r| match r.level {
-            Fidelity::Cheap if r.residuals.len() == shift.len() && r.loss.is_some() => {
-                r.residuals.iter().zip(&shift).map(|(c, s)| c + s).collect()
-            }
-            _ => Vec::new(),
-        })
-        .collect();
-    let model_runs: Vec<Run<'_>> = runs
-        .iter()
-        .zip(&shifted)
-        .filter_map(|(r, shifted)| match r.level {
-            Fidelity::Expensive => r.loss.map(|loss| Run {
-                unit_point: &r.unit_point,
-                loss,
-                residuals: &r.residuals,
-            }),
-            Fidelity::Cheap if !shifted.is_empty() && r.unit_point != centre.unit_point => {
-                Some(Run {
-                    unit_point: &r.unit_point,
-                    loss: f64::INFINITY,
-                    residuals: shifted,
-                })
-            }
-            Fidelity::Cheap => None,
-        })
-        .collect();
-    let point = trust_region.propose(&model_runs)?;
-    let level = if trust_region.pending_is_geometry() {
-        Fidelity::Cheap
-    } else {
-        Fidelity::Expensive
-    };
-    Some((level, point))
+/// Output space mapping in a trust region (Bandler et al. 2004; Koziel,
+/// Bandler and Madsen 2006): the expensive level near the centre `c` is
+/// the cheap level shifted by the two levels' difference there,
+/// `r_e(x) ~ r_c(x) + (r_e(c) - r_c(c))`. That surrogate is descended with
+/// cheap runs only (a trust region of its own on the shifted residuals,
+/// inside the outer radius), and one expensive run checks where it ended:
+/// an expensive run that beats the centre moves it (and the shift is
+/// measured again there), one that does not halves the outer radius.
+/// Unlike a linear model with the cheap slopes, the surrogate keeps the
+/// cheap level's curvature, so one expensive run can check a long step.
+#[derive(Clone, Debug)]
+struct SurrogateDescent {
+    settings: TrustRegionSettings,
+    /// Half-width of the box the surrogate is descended in.
+    radius: f64,
+    inner: Option<InnerDescent>,
 }
 
-/// Runs the two-level search: the cheap start design, the expensive one
-/// (best a subset of the cheap one: nested), then one run at a time,
-/// level and point by [`propose`], until a stop holds. `evaluate` runs
-/// unit-box points at a level and returns each loss (`None`: failed) and
-/// wall time; its error ends the search.
+#[derive(Clone, Debug)]
+struct InnerDescent {
+    /// The expensive centre's point.
+    centre: Vec<f64>,
+    /// Its residuals and their sum of absolute values (the proxy loss).
+    centre_residuals: Vec<f64>,
+    shift: Vec<f64>,
+    /// How the levels' difference changes away from the centre, fitted
+    /// to the points both levels ran (rows: residuals).
+    correction: Vec<Vec<f64>>,
+    trust_region: TrustRegion,
+    /// `runs.len()` when this descent began: its cheap runs come after.
+    first_run: usize,
+    cheap_runs: usize,
+    budget: usize,
+    /// The box (half-width, unit box) the shift is trusted in.
+    radius: f64,
+    absolute: bool,
+}
+
+/// What the descent compares residuals by: the loss the trust region's
+/// settings stand for (see [`TrustRegionSettings::absolute`]).
+fn measure(residuals: &[f64], absolute: bool) -> f64 {
+    if absolute {
+        residuals.iter().map(|r| r.abs()).sum()
+    } else {
+        residuals.iter().map(|r| r * r).sum()
+    }
+}
+
+impl SurrogateDescent {
+    fn new(settings: TrustRegionSettings) -> Self {
+        SurrogateDescent {
+            radius: settings.initial_radius,
+            settings,
+            inner: None,
+        }
+    }
+
+    /// The next run and its level, or `None` when it is the two-level
+    /// search's turn (the outer radius has collapsed).
+    fn next(&mut self, runs: &[LevelRun]) -> Option<(Fidelity, Vec<f64>)> {
+        if self.radius < self.settings.min_radius {
+            return None;
+        }
+        let centre = runs
+            .iter()
+            .filter(|r| r.level == Fidelity::Expensive && !r.residuals.is_empty())
+            .filter_map(|r| r.loss.map(|loss| (r, loss)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?
+            .0;
+        let cheap_at_centre = runs.iter().find(|r| {
+            r.level == Fidelity::Cheap
+                && r.unit_point == centre.unit_point
+                && r.residuals.len() == centre.residuals.len()
+        });
+        let Some(cheap_at_centre) = cheap_at_centre else {
+            let failed_there = runs
+                .iter()
+                .any(|r| r.level == Fidelity::Cheap && r.unit_point == centre.unit_point);
+            return (!failed_there).then(|| (Fidelity::Cheap, centre.unit_point.clone()));
+        };
+        if self
+            .inner
+            .as_ref()
+            .is_none_or(|inner| inner.centre != centre.unit_point)
+        {
+            let [cheap_s, expensive_s] = measured_costs(runs);
+            let correction = level_difference_slopes(runs, centre, cheap_at_centre, self.radius);
+            self.inner = Some(InnerDescent {
+                correction,
+                centre: centre.unit_point.clone(),
+                centre_residuals: centre.residuals.clone(),
+                shift: centre
+                    .residuals
+                    .iter()
+                    .zip(&cheap_at_centre.residuals)
+                    .map(|(e, c)| e - c)
+                    .collect(),
+                trust_region: TrustRegion::new(TrustRegionSettings {
+                    initial_radius: self.radius / 2.0,
+                    max_radius: self.radius,
+                    ..self.settings.clone()
+                }),
+                first_run: runs.len(),
+                radius: self.radius,
+                absolute: self.settings.absolute,
+                cheap_runs: 0,
+                budget: inner_budget(cheap_s, expensive_s),
+            });
+        }
+        let inner = self.inner.as_mut()?;
+        if inner.cheap_runs < inner.budget {
+            if let Some(point) = inner.propose(runs) {
+                inner.cheap_runs += 1;
+                return Some((Fidelity::Cheap, point));
+            }
+        }
+        // The surrogate's descent is over: check its end expensively.
+        let centre_measure = measure(&inner.centre_residuals, inner.absolute);
+        let end = runs[inner.first_run..]
+            .iter()
+            .filter(|r| {
+                r.level == Fidelity::Cheap
+                    && r.residuals.len() == inner.shift.len()
+                    && inner.in_box(&r.unit_point)
+            })
+            .map(|r| {
+                (
+                    r,
+                    measure(&inner.shifted(&r.residuals, &r.unit_point), inner.absolute),
+                )
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|(_, measure)| *measure < centre_measure)
+            .map(|(r, _)| r.unit_point.clone());
+        let checked = runs
+            .iter()
+            .any(|r| r.level == Fidelity::Expensive && Some(&r.unit_point) == end.as_ref());
+        self.inner = None;
+        match end {
+            Some(end) if !checked => Some((Fidelity::Expensive, end)),
+            _ => {
+                // Nothing the surrogate finds below the centre: a smaller box.
+                self.radius /= 2.0;
+                self.next(runs)
+            }
+        }
+    }
+
+    /// The outcome of an expensive check: a run that beats the centre
+    /// grows the box, one that does not halves it.
+    fn record_expensive(&mut self, improved: bool) {
+        self.radius = if improved {
+            (2.0 * self.radius).min(self.settings.max_radius)
+        } else {
+            self.radius / 2.0
+        };
+    }
+}
+
+/// The successful runs of `level` with as many residuals as `like`,
+/// other than the one at `except`.
+fn successful_with_residuals<'a>(
+    runs: &'a [LevelRun],
+    level: Fidelity,
+    like: &'a [f64],
+    except: &'a [f64],
+) -> impl Iterator<Item = &'a LevelRun> + 'a {
+    runs.iter().filter(move |r| {
+        r.level == level
+            && r.loss.is_some()
+            && r.residuals.len() == like.len()
+            && r.unit_point != except
+    })
+}
+
+/// The slopes of the levels' difference `r_e - r_c` at the centre, by the
+/// trust region's weighted regression on every other point both levels
+/// ran (empty when there is none).
+fn level_difference_slopes(
+    runs: &[LevelRun],
+    centre: &LevelRun,
+    cheap_at_centre: &LevelRun,
+    radius: f64,
+) -> Vec<Vec<f64>> {
+    let difference = |e: &LevelRun, c: &LevelRun| -> Vec<f64> {
+        e.residuals
+            .iter()
+            .zip(&c.residuals)
+            .map(|(a, b)| a - b)
+            .collect()
+    };
+    let others =
+        |level| successful_with_residuals(runs, level, &centre.residuals, &centre.unit_point);
+    let pairs: Vec<(Vec<f64>, Vec<f64>)> = others(Fidelity::Expensive)
+        .filter_map(|e| {
+            runs.iter()
+                .find(|c| {
+                    c.level == Fidelity::Cheap
+                        && c.loss.is_some()
+                        && c.unit_point == e.unit_point
+                        && c.residuals.len() == e.residuals.len()
+                })
+                .map(|c| (e.unit_point.clone(), difference(e, c)))
+        })
+        .collect();
+    if pairs.is_empty() {
+        return Vec::new();
+    }
+    let at_centre = difference(centre, cheap_at_centre);
+    let centre_run = Run {
+        unit_point: &centre.unit_point,
+        loss: 0.0,
+        residuals: &at_centre,
+    };
+    let others: Vec<Run<'_>> = pairs
+        .iter()
+        .map(|(point, residuals)| Run {
+            unit_point: point,
+            loss: 0.0,
+            residuals,
+        })
+        .collect();
+    let others: Vec<&Run<'_>> = others.iter().collect();
+    crate::trust_region::fit_jacobian(&centre_run, &others, radius)
+}
+
+/// The share of an expensive run's time the cheap runs of one descent
+/// may take (measured costs): each local step then costs at most one and
+/// a half expensive runs.
+const INNER_COST_SHARE: f64 = 0.5;
+
+/// Cheap runs per expensive check: as many as cost half an expensive run
+/// (the descent then costs at most one and a half expensive runs a step),
+/// at least two.
+fn inner_budget(cheap_s: f64, expensive_s: f64) -> usize {
+    ((INNER_COST_SHARE * expensive_s / cheap_s).floor() as usize).max(2)
+}
+
+impl InnerDescent {
+    fn in_box(&self, point: &[f64]) -> bool {
+        point
+            .iter()
+            .zip(&self.centre)
+            .all(|(x, c)| (x - c).abs() <= self.radius * (1.0 + 1e-9))
+    }
+
+    fn shifted(&self, residuals: &[f64], point: &[f64]) -> Vec<f64> {
+        let step: Vec<f64> = point.iter().zip(&self.centre).map(|(x, c)| x - c).collect();
+        residuals
+            .iter()
+            .zip(&self.shift)
+            .enumerate()
+            .map(|(k, (c, s))| {
+                let slope = self.correction.get(k).map_or(0.0, |row| {
+                    row.iter().zip(&step).map(|(d, dx)| d * dx).sum::<f64>()
+                });
+                c + s + slope
+            })
+            .collect()
+    }
+
+    /// The inner trust region's next cheap run on the shifted residuals
+    /// of every cheap run (the centre's own is the expensive one).
+    fn propose(&mut self, runs: &[LevelRun]) -> Option<Vec<f64>> {
+        if let Some(last) = runs.last() {
+            if last.level == Fidelity::Cheap && last.residuals.len() == self.shift.len() {
+                let shifted = self.shifted(&last.residuals, &last.unit_point);
+                self.trust_region.record(
+                    &last.unit_point,
+                    Some(measure(&shifted, self.absolute)),
+                    &shifted,
+                );
+            } else if last.level == Fidelity::Cheap {
+                self.trust_region.record(&last.unit_point, None, &[]);
+            }
+        }
+        let shifted: Vec<(&[f64], Vec<f64>)> =
+            successful_with_residuals(runs, Fidelity::Cheap, &self.shift, &self.centre)
+                .map(|r| {
+                    (
+                        r.unit_point.as_slice(),
+                        self.shifted(&r.residuals, &r.unit_point),
+                    )
+                })
+                .collect();
+        let centre_measure = measure(&self.centre_residuals, self.absolute);
+        let mut model_runs: Vec<Run<'_>> = vec![Run {
+            unit_point: &self.centre,
+            loss: centre_measure,
+            residuals: &self.centre_residuals,
+        }];
+        // Runs outside the box lend their slopes, never the centre: the
+        // shift is the levels' difference at the expensive centre, and
+        // says nothing far from it.
+        model_runs.extend(shifted.iter().map(|(point, residuals)| Run {
+            unit_point: point,
+            loss: if self.in_box(point) {
+                measure(residuals, self.absolute)
+            } else {
+                f64::INFINITY
+            },
+            residuals,
+        }));
+        self.trust_region.propose(&model_runs)
+    }
+}
+
+/// Where the expensive start design runs.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExpensiveStart {
+    /// These points (best a subset of the cheap start design: nested).
+    Points(Vec<Vec<f64>>),
+    /// The cheap start design's points with the lowest cheap losses, this
+    /// many: where the local steps start from.
+    BestCheap(usize),
+}
+
+/// The `count` points of `runs` with the lowest losses (failed runs last).
+fn best_points(runs: &[LevelRun], count: usize) -> Vec<Vec<f64>> {
+    let mut scored: Vec<&LevelRun> = runs.iter().filter(|r| r.loss.is_some()).collect();
+    scored.sort_by(|a, b| {
+        a.loss
+            .unwrap_or(f64::INFINITY)
+            .total_cmp(&b.loss.unwrap_or(f64::INFINITY))
+    });
+    scored
+        .into_iter()
+        .take(count)
+        .map(|r| r.unit_point.clone())
+        .collect()
+}
+
+/// Runs the two-level search: the cheap start design, the expensive one,
+/// then one run at a time, level and point by the local steps
+/// ([`MultiFidelitySettings::local_steps`]) or by [`propose`], until a
+/// stop holds. `evaluate` runs unit-box points at a level and returns
+/// each loss (`None`: failed) and wall time; its error ends the search.
 ///
 /// # Errors
 /// The evaluator's error, or a proposal that cannot be made.
 pub fn minimise<E: From<BoError>>(
     cheap_start: Vec<Vec<f64>>,
-    expensive_start: Vec<Vec<f64>>,
+    expensive_start: ExpensiveStart,
     mut evaluate: impl FnMut(Fidelity, &[Vec<f64>]) -> Result<Vec<(Option<Outcome>, f64)>, E>,
     settings: &MultiFidelitySettings,
 ) -> Result<MultiFidelityResult, E> {
@@ -645,18 +910,17 @@ pub fn minimise<E: From<BoError>>(
         &mut runs,
         &mut evaluations_to_target,
     )?;
+    let expensive_start = match expensive_start {
+        ExpensiveStart::Points(points) => points,
+        ExpensiveStart::BestCheap(count) => best_points(&runs, count),
+    };
     run(
         Fidelity::Expensive,
         expensive_start,
         &mut runs,
         &mut evaluations_to_target,
     )?;
-    let mut trust_region = settings.local_steps.clone().map(TrustRegion::new);
-    if let Some(trust_region) = &mut trust_region {
-        for run in runs.iter().filter(|r| r.level == Fidelity::Expensive) {
-            trust_region.record(&run.unit_point, run.loss, &run.residuals);
-        }
-    }
+    let mut descent = settings.local_steps.clone().map(SurrogateDescent::new);
     let mut iteration = 0u64;
     let stop = loop {
         if evaluations_to_target.is_some() {
@@ -670,12 +934,15 @@ pub fn minimise<E: From<BoError>>(
             break Stop::MaxEvaluations;
         }
         iteration += 1;
-        let local = match &mut trust_region {
-            Some(trust_region) if expensive_runs >= settings.local_steps_after => {
-                local_step(trust_region, &runs)
-            }
+        let local = match &mut descent {
+            Some(descent) if expensive_runs >= settings.local_steps_after => descent.next(&runs),
             _ => None,
         };
+        let best_before = runs
+            .iter()
+            .filter(|r| r.level == Fidelity::Expensive)
+            .filter_map(|r| r.loss)
+            .fold(f64::INFINITY, f64::min);
         let (level, point) = match local {
             Some(step) => step,
             None => {
@@ -686,8 +953,8 @@ pub fn minimise<E: From<BoError>>(
         };
         run(level, vec![point], &mut runs, &mut evaluations_to_target)?;
         let last = runs.last().expect("a run was just made");
-        if let Some(trust_region) = &mut trust_region {
-            trust_region.record(&last.unit_point, last.loss, &last.residuals);
+        if let (Some(descent), Fidelity::Expensive) = (&mut descent, last.level) {
+            descent.record_expensive(last.loss.is_some_and(|l| l < best_before));
         }
     };
     let best = runs

@@ -328,7 +328,11 @@ fn squares(residuals: &[f64], weights: &[f64]) -> f64 {
 
 /// `J` (residuals x dimensions, row-major) by weighted ridge regression of
 /// the neighbours' residual changes on their displacements from the centre.
-fn fit_jacobian(centre: &Run<'_>, neighbours: &[&Run<'_>], radius: f64) -> Vec<Vec<f64>> {
+pub(crate) fn fit_jacobian(
+    centre: &Run<'_>,
+    neighbours: &[&Run<'_>],
+    radius: f64,
+) -> Vec<Vec<f64>> {
     let d = centre.unit_point.len();
     let m = centre.residuals.len();
     // Normal equations (X^T W X + ridge) J^T = X^T W R.

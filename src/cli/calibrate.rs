@@ -218,8 +218,12 @@ pub struct CalibrateGtnArgs {
     #[arg(long, default_value_t = 1000, requires = "posterior", value_parser = parse_draws)]
     pub posterior_draws: usize,
     /// Two levels: cheap runs at this coarser element size at the neck
-    /// (mm) beside the fine ones at --element-mm, one surrogate over both
-    /// (co-kriging), each next run and its level chosen by expected
+    /// (mm) beside the fine ones at --element-mm. The fine runs start at
+    /// the two best points of the cheap start design; each local step
+    /// descends the cheap level shifted onto the fine one (output space
+    /// mapping) with cheap runs and checks its end with one fine run; when
+    /// the local steps cannot go on, one surrogate over both levels
+    /// (co-kriging) picks the next run and its level by expected
     /// improvement per second. The answer is the best fine run.
     #[arg(long, value_name = "MM", requires = "element_mm")]
     pub cheap_element_mm: Option<f64>,

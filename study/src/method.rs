@@ -55,8 +55,9 @@ pub struct MultiFidelityMethod {
     /// The cheap level's start design: lhs, sobol, l12, factorial, or a CSV file.
     pub start: String,
     pub start_runs: usize,
-    /// How many of the start design's first points also run expensive
-    /// (nested, so co-kriging sees both levels at the same points).
+    /// How many of the start design's points also run expensive (nested,
+    /// so co-kriging sees both levels at the same points): the best at the
+    /// cheap level with local steps, the first ones without.
     pub expensive_start_runs: usize,
     /// The `mesh` input of each level.
     pub cheap_mesh: f64,

@@ -8,7 +8,9 @@ use acq_calib::bo::{
 };
 use acq_calib::evaluation::{AsyncRuns, Evaluation, EvaluationError, Evaluator, Parameter};
 use acq_calib::gp::{GpSettings, Kernel};
-use acq_calib::multi_fidelity::{Fidelity, MultiFidelityResult, MultiFidelitySettings};
+use acq_calib::multi_fidelity::{
+    ExpensiveStart, Fidelity, MultiFidelityResult, MultiFidelitySettings,
+};
 use acq_calib::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 
@@ -145,11 +147,20 @@ pub fn minimise_two_levels_logged(
     score: impl Fn(&[f64]) -> Outcome,
     settings: &MultiFidelitySettings,
 ) -> Result<MultiFidelityResult> {
-    let expensive_start = cheap_start
-        .iter()
-        .take(expensive_start_runs)
-        .cloned()
-        .collect();
+    // The local steps start from the best expensive run: the expensive
+    // start goes where the cheap start design did best. Without them the
+    // co-kriging's global steps need the design's spread: its first points.
+    let expensive_start = if settings.local_steps.is_some() {
+        ExpensiveStart::BestCheap(expensive_start_runs)
+    } else {
+        ExpensiveStart::Points(
+            cheap_start
+                .iter()
+                .take(expensive_start_runs)
+                .cloned()
+                .collect(),
+        )
+    };
     let mut log_failure = None;
     let result = acq_calib::multi_fidelity::minimise::<BoError>(
         cheap_start,

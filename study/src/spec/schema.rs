@@ -459,8 +459,10 @@ pub struct Search {
     pub cheap_mesh: Option<f64>,
     /// multi-fidelity: expensive runs at most [default: max_evals].
     pub max_expensive: Option<usize>,
-    /// multi-fidelity: how many of the start design's first points also
-    /// run expensive [default: half the start design, at least 2].
+    /// multi-fidelity: how many of the start design's points also run
+    /// expensive: those with the lowest cheap losses when the local steps
+    /// are on (they start from the best of them), the first ones when
+    /// they are off [default: half the start design, at least 2].
     pub expensive_start_runs: Option<usize>,
 }
 

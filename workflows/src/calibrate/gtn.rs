@@ -257,7 +257,8 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
 
 /// Bayesian optimisation from the published L12 design; with a cheap
 /// element size, the two-level search whose expensive start is the
-/// design's first six rows.
+/// design's two best rows at the cheap level (the local steps start from
+/// the better; without them, its first six rows).
 fn gtn_method(args: &CalibrateGtnOptions) -> Result<Method> {
     let Some(cheap_mm) = args.cheap_element_mm else {
         if args.max_fine_runs.is_some() {
@@ -292,7 +293,9 @@ fn gtn_method(args: &CalibrateGtnOptions) -> Result<Method> {
     Ok(Method::MultiFidelity(MultiFidelityMethod {
         start: "l12".into(),
         start_runs: 12,
-        expensive_start_runs: 6,
+        // With local steps, the fewest co-kriging can fit: they start at
+        // once from the better. Without, half the design for co-kriging.
+        expensive_start_runs: if args.global_only { 6 } else { 2 },
         cheap_mesh: cheap_mm,
         expensive_mesh: fine_mm,
         max_evals,

@@ -138,7 +138,7 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
             use acq_calib::multi_fidelity::Fidelity;
             let result = &mf.result;
             format!(
-                "Two-level Bayesian optimisation of the {} error (co-kriging over both levels; each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; rho {}; stopped: {:?}.",
+                "Two-level search of the {} error (local steps: the cheap level mapped onto the expensive one and descended, each end checked by an expensive run; when they cannot go on, co-kriging over both levels, each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; {}; stopped: {:?}.",
                 if study.loss == LossKind::Max { "largest" } else { "weighted mean" },
                 study.loss(&outcome.calibrated_outputs),
                 mf.meshes[1],
@@ -148,7 +148,10 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
                 result.count(Fidelity::Cheap),
                 mf.meshes[0],
                 result.cost_s[0],
-                result.rho.map_or_else(|| "not fitted".to_string(), |r| format!("{r:.3}")),
+                result.rho.map_or_else(
+                    || "no co-kriging step was needed".to_string(),
+                    |r| format!("co-kriging's rho {r:.3}")
+                ),
                 result.stop
             )
         }

@@ -677,10 +677,13 @@ impl SurrogateDescent {
     /// The outcome of an expensive check: a run that beats the centre
     /// grows the box, one that does not halves it.
     fn record_expensive(&mut self, improved: bool) {
-        self.radius = if improved {
-            (2.0 * self.radius).min(self.settings.max_radius)
-        } else {
-            self.radius / 2.0
+        self.radius = match (improved, self.radius < self.settings.min_radius) {
+            // A two-level step found a better centre after the box had
+            // collapsed: descend again from there, as the one-level trust
+            // region resumes.
+            (true, true) => self.settings.initial_radius / 2.0,
+            (true, false) => (2.0 * self.radius).min(self.settings.max_radius),
+            (false, _) => self.radius / 2.0,
         };
     }
 }

@@ -134,10 +134,12 @@ fn a_two_level_calibration_answers_with_the_fine_levels_optimum() {
     ] {
         assert!(plot.contains(label), "loss.svg lacks {label:?}");
     }
-    // The local steps reached it on their own (the cheap level mapped onto
-    // the fine one, whose difference here is a factor): co-kriging, which
-    // comes in only when they cannot go on, was never fitted.
-    assert!(levels["rho"].is_null(), "{}", levels["rho"]);
+    // The local steps (the cheap level mapped onto the fine one, whose
+    // difference here is a factor) reach it in few fine runs: 6 measured,
+    // with no co-kriging step. How many coarse runs a step takes follows
+    // the measured cost ratio, so the path may differ on another machine;
+    // the bound leaves room for that.
+    assert!(count("expensive_runs") <= 12, "{levels}");
 
     // Without local steps the co-kriging's steps alone: the cheap optimum
     // is elsewhere, the levels' losses agree poorly, and co-kriging says so

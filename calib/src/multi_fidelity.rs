@@ -548,7 +548,7 @@ struct SurrogateDescent {
 struct InnerDescent {
     /// The expensive centre's point.
     centre: Vec<f64>,
-    /// Its residuals and their sum of absolute values (the proxy loss).
+    /// Its residuals.
     centre_residuals: Vec<f64>,
     shift: Vec<f64>,
     /// How the levels' difference changes away from the centre, fitted
@@ -617,12 +617,7 @@ impl SurrogateDescent {
                 correction,
                 centre: centre.unit_point.clone(),
                 centre_residuals: centre.residuals.clone(),
-                shift: centre
-                    .residuals
-                    .iter()
-                    .zip(&cheap_at_centre.residuals)
-                    .map(|(e, c)| e - c)
-                    .collect(),
+                shift: level_difference(centre, cheap_at_centre),
                 trust_region: TrustRegion::new(TrustRegionSettings {
                     initial_radius: self.radius / 2.0,
                     max_radius: self.radius,
@@ -704,6 +699,16 @@ fn successful_with_residuals<'a>(
     })
 }
 
+/// The expensive run's residuals less the cheap run's at the same point.
+fn level_difference(expensive: &LevelRun, cheap: &LevelRun) -> Vec<f64> {
+    expensive
+        .residuals
+        .iter()
+        .zip(&cheap.residuals)
+        .map(|(e, c)| e - c)
+        .collect()
+}
+
 /// The slopes of the levels' difference `r_e - r_c` at the centre, by the
 /// trust region's weighted regression on every other point both levels
 /// ran (empty when there is none).
@@ -713,13 +718,6 @@ fn level_difference_slopes(
     cheap_at_centre: &LevelRun,
     radius: f64,
 ) -> Vec<Vec<f64>> {
-    let difference = |e: &LevelRun, c: &LevelRun| -> Vec<f64> {
-        e.residuals
-            .iter()
-            .zip(&c.residuals)
-            .map(|(a, b)| a - b)
-            .collect()
-    };
     let others =
         |level| successful_with_residuals(runs, level, &centre.residuals, &centre.unit_point);
     let pairs: Vec<(Vec<f64>, Vec<f64>)> = others(Fidelity::Expensive)
@@ -731,13 +729,13 @@ fn level_difference_slopes(
                         && c.unit_point == e.unit_point
                         && c.residuals.len() == e.residuals.len()
                 })
-                .map(|c| (e.unit_point.clone(), difference(e, c)))
+                .map(|c| (e.unit_point.clone(), level_difference(e, c)))
         })
         .collect();
     if pairs.is_empty() {
         return Vec::new();
     }
-    let at_centre = difference(centre, cheap_at_centre);
+    let at_centre = level_difference(centre, cheap_at_centre);
     let centre_run = Run {
         unit_point: &centre.unit_point,
         loss: 0.0,

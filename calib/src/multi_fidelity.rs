@@ -1010,4 +1010,28 @@ mod tests {
         assert_eq!(measured_costs(&runs), [0.2, 4.0]);
         assert_eq!(measured_costs(&runs[..2]), [0.2, 0.2]);
     }
+
+    #[test]
+    fn the_box_grows_halves_and_restarts_after_it_collapsed() {
+        let settings = TrustRegionSettings::default();
+        let mut descent = SurrogateDescent::new(settings.clone());
+        descent.record_expensive(true);
+        assert_eq!(descent.radius, 2.0 * settings.initial_radius);
+        descent.record_expensive(true);
+        descent.record_expensive(true);
+        assert_eq!(
+            descent.radius, settings.max_radius,
+            "never past the largest box"
+        );
+        descent.record_expensive(false);
+        assert_eq!(descent.radius, settings.max_radius / 2.0);
+        // Collapsed: the two-level steps' runs that find nothing better
+        // leave it so; one that beats the centre restarts the descent at
+        // half the first box, as the one-level trust region resumes.
+        descent.radius = settings.min_radius / 2.0;
+        descent.record_expensive(false);
+        assert!(descent.radius < settings.min_radius);
+        descent.record_expensive(true);
+        assert_eq!(descent.radius, settings.initial_radius / 2.0);
+    }
 }

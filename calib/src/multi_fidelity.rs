@@ -37,8 +37,7 @@
 //! parameters somewhere is always unexplored, and cheaply so.
 //!
 //! With [`MultiFidelitySettings::local_steps`] and runs that return
-//! residuals, local steps come first once
-//! [`MultiFidelitySettings::local_steps_after`] expensive runs are made,
+//! residuals, local steps come first from the expensive start design on,
 //! and the two-level steps only when they cannot go on. A local step is
 //! output space mapping in a trust region (Bandler et al. 2004; Koziel,
 //! Bandler and Madsen 2006): near the best expensive run `c` the
@@ -371,9 +370,6 @@ pub struct MultiFidelitySettings {
     /// residuals, between the two-level steps (as in [`crate::bo`]);
     /// `None`: two-level steps only.
     pub local_steps: Option<TrustRegionSettings>,
-    /// Expensive runs (the start design's included) before the first
-    /// local step: the two levels look for the basin first.
-    pub local_steps_after: usize,
 }
 
 impl Default for MultiFidelitySettings {
@@ -389,7 +385,6 @@ impl Default for MultiFidelitySettings {
             log_transform: true,
             seed: 0,
             local_steps: None,
-            local_steps_after: 0,
         }
     }
 }
@@ -935,10 +930,7 @@ pub fn minimise<E: From<BoError>>(
             break Stop::MaxEvaluations;
         }
         iteration += 1;
-        let local = match &mut descent {
-            Some(descent) if expensive_runs >= settings.local_steps_after => descent.next(&runs),
-            _ => None,
-        };
+        let local = descent.as_mut().and_then(|descent| descent.next(&runs));
         let best_before = runs
             .iter()
             .filter(|r| r.level == Fidelity::Expensive)

@@ -190,7 +190,6 @@ fn local_steps_run(
         max_expensive: 12,
         target_loss: Some(1e-8),
         local_steps: Some(trust_region),
-        local_steps_after: 0,
         seed: 1,
         ..MultiFidelitySettings::default()
     };

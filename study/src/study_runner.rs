@@ -424,9 +424,6 @@ fn search(
                     absolute: study.local_steps_in_absolute_values(),
                     ..TrustRegionSettings::default()
                 }),
-                // The local steps from the expensive start on, as the one-level
-                // search's (the cheap start design has found their start).
-                local_steps_after: 0,
                 ..MultiFidelitySettings::default()
             };
             let meshes = [mf.cheap_mesh, mf.expensive_mesh];

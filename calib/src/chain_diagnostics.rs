@@ -282,7 +282,8 @@ fn sample_variance(values: &[f64]) -> f64 {
     values.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (values.len() as f64 - 1.0)
 }
 
-fn median(values: &[f64]) -> f64 {
+/// The median (the mean of the middle two for an even count).
+pub(crate) fn median(values: &[f64]) -> f64 {
     let mut sorted = values.to_vec();
     sorted.sort_by(f64::total_cmp);
     let n = sorted.len();

@@ -422,6 +422,39 @@ impl MultiFidelityResult {
     pub fn count(&self, level: Fidelity) -> usize {
         self.runs.iter().filter(|r| r.level == level).count()
     }
+
+    /// How far apart the levels' losses were where both ran: the number
+    /// of such points and the median of |expensive loss - cheap loss|
+    /// there (`None` without one). The local steps correct the cheap
+    /// level by the difference at the centre and its slopes, so a large
+    /// difference alone does no harm; it says how much the correction
+    /// carries, which is what a user choosing the cheap mesh wants to see.
+    pub fn level_loss_difference(&self) -> Option<LevelLossDifference> {
+        let differences: Vec<f64> =
+            self.runs
+                .iter()
+                .filter(|r| r.level == Fidelity::Expensive)
+                .filter_map(|expensive| {
+                    let cheap = self.runs.iter().find(|c| {
+                        c.level == Fidelity::Cheap && c.unit_point == expensive.unit_point
+                    })?;
+                    Some((expensive.loss? - cheap.loss?).abs())
+                })
+                .collect();
+        (!differences.is_empty()).then(|| LevelLossDifference {
+            points: differences.len(),
+            median: crate::chain_diagnostics::median(&differences),
+        })
+    }
+}
+
+/// The levels' losses compared at the points both ran
+/// ([`MultiFidelityResult::level_loss_difference`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct LevelLossDifference {
+    pub points: usize,
+    /// The median of |expensive loss - cheap loss|, in the loss's unit.
+    pub median: f64,
 }
 
 /// Measured mean wall time of each level's runs (the other's when one
@@ -1001,6 +1034,45 @@ mod tests {
         ];
         assert_eq!(measured_costs(&runs), [0.2, 4.0]);
         assert_eq!(measured_costs(&runs[..2]), [0.2, 0.2]);
+    }
+
+    #[test]
+    fn the_levels_are_compared_only_where_both_ran_and_succeeded() {
+        let run = |level, x: f64, loss: Option<f64>| LevelRun {
+            level,
+            unit_point: vec![x],
+            loss,
+            residuals: Vec::new(),
+            wall_s: 1.0,
+        };
+        let mut result = MultiFidelityResult {
+            runs: vec![
+                run(Fidelity::Cheap, 0.1, Some(1.0)),
+                run(Fidelity::Cheap, 0.2, Some(4.5)),
+                run(Fidelity::Cheap, 0.3, Some(2.0)),
+                run(Fidelity::Cheap, 0.4, None),
+                run(Fidelity::Expensive, 0.1, Some(3.0)),
+                run(Fidelity::Expensive, 0.2, Some(5.0)),
+                run(Fidelity::Expensive, 0.4, Some(9.0)),
+                run(Fidelity::Expensive, 0.5, Some(7.0)),
+            ],
+            best: 4,
+            stop: Stop::MaxEvaluations,
+            evaluations_to_target: None,
+            cost_s: [1.0, 1.0],
+            rho: None,
+        };
+        // |3 - 1| and |5 - 4.5|: 0.3 has no expensive run, 0.4's cheap
+        // run failed, 0.5 has no cheap run.
+        assert_eq!(
+            result.level_loss_difference(),
+            Some(LevelLossDifference {
+                points: 2,
+                median: 1.25
+            })
+        );
+        result.runs.truncate(4);
+        assert_eq!(result.level_loss_difference(), None);
     }
 
     #[test]

@@ -107,6 +107,7 @@ impl MultiFidelityFound {
             "expensive_run_s": result.cost_s[1],
             "rho": result.rho,
             "stop": result.stop,
+            "level_loss_difference": result.level_loss_difference(),
         })
     }
 }

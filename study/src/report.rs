@@ -138,7 +138,7 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
             use acq_calib::multi_fidelity::Fidelity;
             let result = &mf.result;
             format!(
-                "Two-level search of the {} error (local steps: the cheap level mapped onto the expensive one and descended, each end checked by an expensive run; when they cannot go on, co-kriging over both levels, each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; {}; stopped: {:?}.",
+                "Two-level search of the {} error (local steps: the cheap level mapped onto the expensive one and descended, each end checked by an expensive run; when they cannot go on, co-kriging over both levels, each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; {}; {}; stopped: {:?}.",
                 if study.loss == LossKind::Max { "largest" } else { "weighted mean" },
                 study.loss(&outcome.calibrated_outputs),
                 mf.meshes[1],
@@ -151,6 +151,13 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
                 result.rho.map_or_else(
                     || "no co-kriging step was needed".to_string(),
                     |r| format!("co-kriging's rho {r:.3}")
+                ),
+                result.level_loss_difference().map_or_else(
+                    || "no point was run at both levels".to_string(),
+                    |d| format!(
+                        "at the {} points both levels ran, their losses differed by a median of {:.3}",
+                        d.points, d.median
+                    )
                 ),
                 result.stop
             )

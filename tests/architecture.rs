@@ -20,6 +20,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("acq-twins", &[]),
     ("acq-calib", &[]),
     ("acq-report", &[]),
+    // No code: the third-party features the binary and the binding share.
+    ("acq-shared-features", &[]),
     // Where a model run happens: an argv, a directory, a time limit.
     ("acq-exec", &[]),
     // Files in and out, on top of the log and rig formats.
@@ -91,6 +93,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-study",
             "acq-twins",
             "acq-workflows",
+            "acq-shared-features",
         ],
     ),
     // The binary is glue over all of them.
@@ -110,6 +113,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-workflows",
             "acq-demo",
             "acq-view",
+            "acq-shared-features",
         ],
     ),
 ];
@@ -127,25 +131,28 @@ struct Package {
     deps: BTreeSet<String>,
 }
 
-fn workspace_packages() -> Vec<Package> {
+/// What `cargo ARGS --offline` prints in the workspace; fails the test with
+/// cargo's own message when it fails.
+fn cargo_output(args: &[&str]) -> Vec<u8> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let output = Command::new(cargo)
-        .args([
-            "metadata",
-            "--format-version",
-            "1",
-            "--no-deps",
-            "--offline",
-        ])
+        .args(args)
+        .arg("--offline")
         .current_dir(workspace_root())
         .output()
-        .expect("cargo metadata runs");
+        .expect("cargo runs");
     assert!(
         output.status.success(),
-        "cargo metadata failed: {}",
+        "cargo {} failed: {}",
+        args.join(" "),
         String::from_utf8_lossy(&output.stderr)
     );
-    let metadata: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    output.stdout
+}
+
+fn workspace_packages() -> Vec<Package> {
+    let metadata = cargo_output(&["metadata", "--format-version", "1", "--no-deps"]);
+    let metadata: serde_json::Value = serde_json::from_slice(&metadata).unwrap();
     let packages = metadata["packages"].as_array().unwrap();
     let names: BTreeSet<String> = packages
         .iter()
@@ -175,6 +182,65 @@ fn workspace_packages() -> Vec<Package> {
             }
         })
         .collect()
+}
+
+/// Each third-party crate in `package`'s dependency graph (normal and build
+/// edges, proc-macros included) with the features cargo turns on for it.
+fn features_in_graph_of(package: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let tree = cargo_output(&[
+        "tree",
+        "-p",
+        package,
+        "-e",
+        "normal,build",
+        "--prefix",
+        "none",
+        "--format",
+        "{p}|{f}",
+    ]);
+    let mut features: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for line in String::from_utf8_lossy(&tree).lines() {
+        let Some((crate_and_version, on)) = line.split_once('|') else {
+            continue;
+        };
+        // "name v1.2.3 (/path)" for a workspace crate, "name v1.2.3" else.
+        if crate_and_version.contains('(') {
+            continue;
+        }
+        let on = on.trim_end_matches(" (*)");
+        features
+            .entry(crate_and_version.trim().to_string())
+            .or_default()
+            .extend(on.split(',').filter(|f| !f.is_empty()).map(String::from));
+    }
+    features
+}
+
+/// `pip install ./python` after `cargo build --release` reuses the build
+/// only when both graphs ask for the same features of every crate they
+/// share (cargo keys a build by its features).
+#[test]
+fn the_binary_and_the_binding_ask_for_the_same_features() {
+    let binary = features_in_graph_of("acq");
+    let binding = features_in_graph_of("acq-python");
+    let differing: Vec<String> = binary
+        .iter()
+        .filter_map(|(name, on_for_binary)| {
+            let on_for_binding = binding.get(name)?;
+            (on_for_binary != on_for_binding).then(|| {
+                format!("{name}: the binary's {on_for_binary:?}, the binding's {on_for_binding:?}")
+            })
+        })
+        .collect();
+    assert!(
+        differing.is_empty(),
+        "add the union of these features to shared-features/Cargo.toml \
+         (proc-macro crates' dependencies under [build-dependencies]):\n{}",
+        differing.join("\n")
+    );
+    // The comparison saw the crates both graphs hold.
+    assert!(binary.keys().any(|k| k.starts_with("serde v")));
+    assert!(binding.keys().any(|k| k.starts_with("arrow-array v")));
 }
 
 #[test]
@@ -217,7 +283,8 @@ fn no_crate_has_an_import_cycle_between_its_modules() {
         let graph = ModuleGraph::read(&package.src_dir);
         assert!(
             graph.modules.len() > 1
-                || ["acq-report", "acq-python"].contains(&package.name.as_str()),
+                || ["acq-report", "acq-python", "acq-shared-features"]
+                    .contains(&package.name.as_str()),
             "{}: found no modules in {}",
             package.name,
             package.src_dir.display()

@@ -458,9 +458,10 @@ fn drained_and_failed_node(cluster: &Cluster) {
     assert_eq!(rows.len(), 3);
     assert!(
         rows.iter().all(|r| r["status"] == "ok"),
-        "{rows:?}\nacq said:\n{}\nthe job's files: {:?}",
+        "{rows:?}\nacq said:\n{}\nthe job's files: {:?}\nthe controller's log of it:\n{}",
         said(&out),
-        job_files(&out, third)
+        job_files(&out, third),
+        cluster.log_of_job(third)
     );
     assert_eq!(
         cluster.job(third).1,

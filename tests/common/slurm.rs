@@ -142,6 +142,22 @@ impl Cluster {
         output
     }
 
+    /// The controller's log lines that name job `id`: what a failed check
+    /// on a job prints, since the cluster's directory goes with the test.
+    pub fn log_of_job(&self, id: u64) -> String {
+        let log =
+            std::fs::read_to_string(self.directory.path().join("log/ctld.log")).unwrap_or_default();
+        let name = format!("JobId={id}");
+        let names_job = |line: &str| {
+            line.match_indices(&name)
+                .any(|(at, _)| !line[at + name.len()..].starts_with(|c: char| c.is_ascii_digit()))
+        };
+        log.lines()
+            .filter(|line| names_job(line))
+            .collect::<Vec<_>>()
+            .join("\n")
+    }
+
     /// The node's state as `sinfo` says it (`idle`, `mix`, `drain`...).
     pub fn node_state(&self) -> String {
         let output = self.run("sinfo", &["-h", "-N", "-o", "%t"]);

@@ -394,7 +394,6 @@ fn requeued_job(cluster: &Cluster) {
     wait_for("acq noticing the requeue", Duration::from_secs(10), || {
         said(&out).contains("requeued").then_some(())
     });
-    cluster.start_now(job);
     finish_ok(child, &out, Duration::from_secs(120));
     assert_eq!(cluster.job(job), ("COMPLETED".into(), 1));
     let rows = evaluations(&out);
@@ -452,7 +451,6 @@ fn drained_and_failed_node(cluster: &Cluster) {
     );
     cluster.wait_for_job(third, "PENDING", Duration::from_secs(30));
     cluster.wait_for_node("idle", Duration::from_secs(60));
-    cluster.start_now(third);
     finish_ok(child, &out, Duration::from_secs(120));
     let rows = evaluations(&out);
     assert_eq!(rows.len(), 3);

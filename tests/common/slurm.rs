@@ -76,6 +76,14 @@ impl Cluster {
         let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
         let d = dir.display();
         let conf = dir.join("slurm.conf");
+        // `cred_expire` is also how long Slurm holds a requeued job back
+        // (its BeginTime): 10 s instead of 120 s, so the requeue scenarios
+        // wait for Slurm's own start, and a pending job is looked at every
+        // 2 s (`sched_interval`, 60 s by default) once it may start.
+        // Starting it early by hand (`scontrol update StartTime=now`) raced
+        // the node's revocation of the killed run's credential: one full run
+        // in four on 2026-11-30 saw the rerun refused and the job FAILED
+        // without running.
         std::fs::write(
             &conf,
             format!(
@@ -98,6 +106,8 @@ impl Cluster {
                  SlurmUser=root\n\
                  ReturnToService=2\n\
                  KillWait=2\n\
+                 AuthInfo=cred_expire=10\n\
+                 SchedulerParameters=sched_interval=2\n\
                  NodeName={node} CPUs={cpus} State=UNKNOWN\n\
                  PartitionName=debug Nodes={node} Default=YES MaxTime=INFINITE State=UP\n",
                 free_port(),
@@ -196,15 +206,6 @@ impl Cluster {
                 .to_string()
         };
         (field("JobState"), field("Restarts").parse().unwrap_or(0))
-    }
-
-    /// Lets a requeued job start now: Slurm holds one back two minutes
-    /// (reason BeginTime), as an admin may cut short.
-    pub fn start_now(&self, id: u64) {
-        self.run(
-            "scontrol",
-            &["update", &format!("JobId={id}"), "StartTime=now"],
-        );
     }
 
     /// Waits until job `id` is in `state`.

@@ -1,5 +1,6 @@
 //! The workspace's shape, checked: which crate may depend on which (the data
-//! flow runs one way), and no import cycle between the modules of any crate.
+//! flow runs one way), no import cycle between the modules of any crate, and
+//! the same third-party features for the binary and the Python binding.
 //! ARCHITECTURE.md states the same rules in prose; this test fails when the
 //! code and that page part ways.
 

@@ -205,10 +205,15 @@ pub struct CurveParts {
     /// Its parts (indices into [`StudyPosterior::observations`]).
     pub parts: Vec<usize>,
     /// Each part's white-noise standard error, %.
-    pub scatter_pct: Vec<f64>,
+    scatter_pct: Vec<f64>,
     /// How the curve is scored (and so which residuals its parts are).
     pub metric: CurveMetric,
     grid: ScaleGrid,
+    /// At each correlation node, every term of the density at a factor of
+    /// 1 but the quadratic form ([`CurveParts::unit_factor_terms`]): they
+    /// depend on the scatters alone, so they are summed once, not at every
+    /// step of a chain.
+    unit_factor_constants: Vec<f64>,
 }
 
 /// The scales drawn at one posterior draw, and each output's discrepancy
@@ -704,13 +709,7 @@ fn curve_parts_of_observation(
     // simulator's outputs.
     let last = scatter_pct.last().copied().unwrap_or(1.0);
     scatter_pct.resize(curve_parts, last);
-    Ok(CurveParts {
-        key: key.to_string(),
-        parts,
-        scatter_pct,
-        metric,
-        grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
-    })
+    Ok(CurveParts::new(key.to_string(), parts, scatter_pct, metric))
 }
 
 /// Each model output's discrepancy over its scalar observations (a
@@ -876,6 +875,28 @@ fn correlation_node(k: usize) -> f64 {
 }
 
 impl CurveParts {
+    /// A curve's parts with each part's scatter, its error factor not yet
+    /// given a grid (one node).
+    fn new(key: String, parts: Vec<usize>, scatter_pct: Vec<f64>, metric: CurveMetric) -> Self {
+        let mut curve = CurveParts {
+            key,
+            parts,
+            scatter_pct,
+            metric,
+            grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+            unit_factor_constants: Vec::new(),
+        };
+        let no_residuals = vec![0.0; curve.parts.iter().max().map_or(0, |&i| i + 1)];
+        curve.unit_factor_constants = (0..CURVE_CORRELATIONS)
+            .map(|k| {
+                curve
+                    .unit_factor_terms(&no_residuals, correlation_node(k))
+                    .1
+            })
+            .collect();
+        curve
+    }
+
     /// The log likelihood at each correlation node, the factor integrated out.
     fn by_correlation(&self, residuals: &[f64], emulator: &[f64]) -> Vec<f64> {
         let exact_model = self
@@ -889,10 +910,14 @@ impl CurveParts {
                     // Without an emulator's variance the factor only scales
                     // the quadratic form: one pass over the parts, then one
                     // term per node.
-                    let (quadratic, log_scatter) = self.unit_factor_terms(residuals, correlation);
+                    let quadratic = self.unit_factor_quadratic(residuals, correlation);
+                    let log_scatter = self.unit_factor_constants[k];
                     let parts = self.parts.len() as f64;
-                    self.grid.log_integral(|factor| {
-                        -0.5 * quadratic / (factor * factor) - parts * factor.ln() - log_scatter
+                    self.grid.log_integral_by_node(|node| {
+                        let factor = self.grid.nodes[node];
+                        -0.5 * quadratic / (factor * factor)
+                            - parts * self.grid.log_nodes[node]
+                            - log_scatter
                     })
                 } else {
                     self.grid.log_integral(|factor| {
@@ -908,7 +933,20 @@ impl CurveParts {
     /// factor's (the scatters' logs, the correlation's and 2 pi's).
     fn unit_factor_terms(&self, residuals: &[f64], correlation: f64) -> (f64, f64) {
         let innovation = 1.0 - correlation * correlation;
-        let (mut quadratic, mut constant) = (0.0, 0.0);
+        let mut constant = 0.0;
+        for (part, scatter) in self.scatter_pct.iter().take(self.parts.len()).enumerate() {
+            if part > 0 {
+                constant += 0.5 * innovation.ln();
+            }
+            constant += 0.5 * (2.0 * PI).ln() + scatter.ln();
+        }
+        (self.unit_factor_quadratic(residuals, correlation), constant)
+    }
+
+    /// The AR(1) quadratic form of [`CurveParts::unit_factor_terms`] alone.
+    fn unit_factor_quadratic(&self, residuals: &[f64], correlation: f64) -> f64 {
+        let innovation = 1.0 - correlation * correlation;
+        let mut quadratic = 0.0;
         let mut previous: Option<f64> = None;
         for (&i, scatter) in self.parts.iter().zip(&self.scatter_pct) {
             let z = residuals[i] / scatter;
@@ -916,13 +954,9 @@ impl CurveParts {
                 None => z * z,
                 Some(before) => (z - correlation * before).powi(2) / innovation,
             };
-            if previous.is_some() {
-                constant += 0.5 * innovation.ln();
-            }
-            constant += 0.5 * (2.0 * PI).ln() + scatter.ln();
             previous = Some(z);
         }
-        (quadratic, constant)
+        quadratic
     }
 }
 
@@ -1054,19 +1088,30 @@ mod tests {
     /// The curve's fast path (no emulator variance) is the full density.
     #[test]
     fn a_curve_density_without_an_emulator_equals_its_fast_form() {
-        let curve = CurveParts {
-            key: "c".into(),
-            parts: vec![0, 1, 2, 3],
-            scatter_pct: vec![0.5, 0.2, 0.1, 0.1],
-            metric: CurveMetric::Mape,
-            grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
-        };
+        let curve = CurveParts::new(
+            "c".into(),
+            vec![0, 1, 2, 3],
+            vec![0.5, 0.2, 0.1, 0.1],
+            CurveMetric::Mape,
+        );
         let residuals = [0.3, -0.1, 0.05, 0.2];
         for (factor, correlation) in [(1.0, 0.0), (3.0, 0.5), (0.4, 0.9)] {
             let full = curve_log_density(&curve, &residuals, &[], factor, correlation);
             let (quadratic, constant) = curve.unit_factor_terms(&residuals, correlation);
             let fast = -0.5 * quadratic / (factor * factor) - 4.0 * f64::ln(factor) - constant;
             assert!((full - fast).abs() < 1e-12, "{full} {fast}");
+        }
+        // And with the factor integrated out, as the chains read it: the
+        // constants summed once at construction give the full density's
+        // integral at every correlation node.
+        let mut curve = curve;
+        curve.grid = ScaleGrid::new(CURVE_FACTOR_RANGE, 40, |x| 1.0 / x);
+        let fast = curve.by_correlation(&residuals, &[]);
+        for (k, fast) in fast.iter().enumerate() {
+            let full = curve.grid.log_integral(|factor| {
+                curve_log_density(&curve, &residuals, &[], factor, correlation_node(k))
+            });
+            assert!((full - fast).abs() < 1e-12, "node {k}: {full} {fast}");
         }
     }
 

@@ -219,7 +219,8 @@ pub struct CalibrateGtnArgs {
     pub posterior_draws: usize,
     /// Two levels: cheap runs at this coarser element size at the neck
     /// (mm) beside the fine ones at --element-mm. The fine runs start at
-    /// the two best points of the cheap start design; each local step
+    /// the two best points of the cheap start design (the L12 design and
+    /// the middle of the box); each local step
     /// descends the cheap level shifted onto the fine one (output space
     /// mapping) with cheap runs and checks its end with one fine run; when
     /// the local steps cannot go on, one surrogate over both levels

@@ -427,10 +427,20 @@ fn search(
                 ..MultiFidelitySettings::default()
             };
             let meshes = [mf.cheap_mesh, mf.expensive_mesh];
+            // With local steps the expensive start is the cheap start's
+            // best, and a two-level design (L12) holds only the box's
+            // corners: the cheap start also runs the nominal point (the
+            // middle of the box where the study gives none), as a
+            // factorial design's centre point does.
+            let mut cheap_start = initial;
+            let nominal = to_unit(parameters, &study.nominal());
+            if mf.local_steps && !cheap_start.contains(&nominal) {
+                cheap_start.push(nominal);
+            }
             minimise_two_levels_logged(
                 evaluator,
                 parameters,
-                initial,
+                cheap_start,
                 mf.expensive_start_runs,
                 meshes,
                 |y| Outcome {

@@ -256,9 +256,10 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
 }
 
 /// Bayesian optimisation from the published L12 design; with a cheap
-/// element size, the two-level search whose expensive start is the
-/// design's two best rows at the cheap level (the local steps start from
-/// the better; without them, its first six rows).
+/// element size, the two-level search whose expensive start is the two
+/// best points at the cheap level of the design and the middle of the box
+/// (the local steps start from the better; without them, the design's
+/// first six rows).
 fn gtn_method(args: &CalibrateGtnOptions) -> Result<Method> {
     let Some(cheap_mm) = args.cheap_element_mm else {
         if args.max_fine_runs.is_some() {

@@ -603,6 +603,7 @@ impl StudySimulator<'_> {
     fn evaluate_cases(&self, values: &[f64], notes: &mut [String]) -> Result<Vec<f64>, String> {
         let mut outputs = Vec::with_capacity(self.outputs.len());
         let mut curve_parts: Vec<f64> = Vec::new();
+        let mut shared = SharedRuns::new(self.study, self.role, values);
         for (index, case) in self.study.cases_with(self.role) {
             if case.priors {
                 for observation in &case.observations {
@@ -617,18 +618,6 @@ impl StudySimulator<'_> {
                 }
                 continue;
             }
-            let scalars: Vec<&str> = case
-                .observations
-                .iter()
-                .filter(|o| matches!(o.measured, Measured::Scalar { .. }))
-                .map(|o| o.output.as_str())
-                .collect();
-            let curves: Vec<&str> = case
-                .observations
-                .iter()
-                .filter(|o| matches!(o.measured, Measured::Curve { .. }))
-                .map(|o| o.output.as_str())
-                .collect();
             let in_case = |reason: String| {
                 if self.study.named_cases {
                     format!("case {}: {reason}", case.name)
@@ -636,15 +625,13 @@ impl StudySimulator<'_> {
                     reason
                 }
             };
-            let (run, run_notes) =
-                self.model
-                    .run_noted(&self.study.inputs_of(index, values), &scalars, &curves);
-            append_notes(notes, run_notes);
-            let run = run.map_err(in_case)?;
-            let (mut scalar, mut curve) = (run.scalars.iter(), run.curves.iter());
+            let (case_scalars, case_curves) = shared
+                .outputs_of(index, self.model, notes)
+                .map_err(in_case)?;
+            let (mut scalar, mut curve) = (case_scalars.into_iter(), case_curves.into_iter());
             for observation in &case.observations {
                 outputs.push(match &observation.measured {
-                    Measured::Scalar { .. } => *scalar
+                    Measured::Scalar { .. } => scalar
                         .next()
                         .ok_or_else(|| in_case("the model returned too few outputs".into()))?,
                     Measured::Curve { points, metric, .. } => {
@@ -691,6 +678,126 @@ impl StudySimulator<'_> {
         }
         outputs.extend(curve_parts);
         Ok(outputs)
+    }
+}
+
+/// The model runs of one evaluation. Cases whose model inputs are the
+/// same (two cases reading different outputs of one test, as the
+/// CalculiX bar's hardening and neck do) share one run that returns
+/// every output either asks for: a run is a function of its inputs, and
+/// a second one would cost as much as the first (a fine FE mesh's run
+/// twice over) for the same numbers.
+struct SharedRuns<'s> {
+    /// Each distinct input set: its inputs, the scalars and curves its
+    /// cases ask for (each name once), and its run once made.
+    runs: Vec<SharedRun<'s>>,
+    /// By the study's case index: its run and what it asks of it.
+    cases: Vec<Option<CaseAsks<'s>>>,
+}
+
+/// A case's run (an index into [`SharedRuns::runs`]) and its scalar and
+/// curve outputs, in its observations' order.
+#[derive(Clone)]
+struct CaseAsks<'s> {
+    run: usize,
+    scalars: Vec<&'s str>,
+    curves: Vec<&'s str>,
+}
+
+/// A case's scalars and curves, taken from its (shared) run.
+type CaseOutputs<'r> = (Vec<f64>, Vec<&'r [(f64, f64)]>);
+
+struct SharedRun<'s> {
+    inputs: Vec<(String, f64)>,
+    scalars: Vec<&'s str>,
+    curves: Vec<&'s str>,
+    run: Option<Result<ModelRun, String>>,
+}
+
+impl<'s> SharedRuns<'s> {
+    fn new(study: &'s Study, role: Role, values: &[f64]) -> Self {
+        let mut shared = SharedRuns {
+            runs: Vec::new(),
+            cases: vec![None; study.cases.len()],
+        };
+        for (index, case) in study.cases_with(role).filter(|(_, case)| !case.priors) {
+            let named = |curve: bool| -> Vec<&'s str> {
+                case.observations
+                    .iter()
+                    .filter(|o| matches!(o.measured, Measured::Curve { .. }) == curve)
+                    .map(|o| o.output.as_str())
+                    .collect()
+            };
+            let (scalars, curves) = (named(false), named(true));
+            let inputs = study.inputs_of(index, values);
+            let at = match shared.runs.iter().position(|r| r.inputs == inputs) {
+                Some(at) => at,
+                None => {
+                    shared.runs.push(SharedRun {
+                        inputs,
+                        scalars: Vec::new(),
+                        curves: Vec::new(),
+                        run: None,
+                    });
+                    shared.runs.len() - 1
+                }
+            };
+            let run = &mut shared.runs[at];
+            for (union, asked) in [(&mut run.scalars, &scalars), (&mut run.curves, &curves)] {
+                for name in asked {
+                    if !union.contains(name) {
+                        union.push(name);
+                    }
+                }
+            }
+            shared.cases[index] = Some(CaseAsks {
+                run: at,
+                scalars,
+                curves,
+            });
+        }
+        shared
+    }
+
+    /// Case `index`'s scalars and curves, from its run (made now if it is
+    /// the first case of its inputs, its notes appended to `notes`).
+    fn outputs_of(
+        &mut self,
+        index: usize,
+        model: &dyn Model,
+        notes: &mut [String],
+    ) -> Result<CaseOutputs<'_>, String> {
+        let Some(Some(asks)) = self.cases.get(index) else {
+            return Err(format!("case {index} has no run"));
+        };
+        let run = &mut self.runs[asks.run];
+        if run.run.is_none() {
+            let (made, run_notes) = model.run_noted(&run.inputs, &run.scalars, &run.curves);
+            append_notes(notes, run_notes);
+            run.run = Some(made);
+        }
+        let made = match &run.run {
+            Some(Ok(made)) => made,
+            Some(Err(reason)) => return Err(reason.clone()),
+            None => return Err(format!("case {index}'s run was not made")),
+        };
+        // Where each asked name is in the run's outputs; a run that
+        // returned fewer than asked ends the case's list there.
+        let positions = |union: &[&str], asked: &[&str]| -> Vec<usize> {
+            asked
+                .iter()
+                .filter_map(|name| union.iter().position(|n| n == name))
+                .collect()
+        };
+        let case_scalars = positions(&run.scalars, &asks.scalars)
+            .into_iter()
+            .map_while(|i| made.scalars.get(i).copied())
+            .collect();
+        let case_curves = positions(&run.curves, &asks.curves)
+            .into_iter()
+            .map_while(|i| made.curves.get(i).map(Vec::as_slice))
+            .collect();
+        Ok((case_scalars, case_curves))
     }
 }
 
@@ -813,6 +920,99 @@ fn flatten_json(prefix: &str, value: &Value, into: &mut std::collections::HashMa
 #[cfg(test)]
 mod tests {
     use super::{coupled_curve, matched, points_of, CurveMetric};
+    use super::{
+        Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study,
+        StudyParameter, StudySimulator,
+    };
+    use acq_calib::evaluation::{Parameter, Simulator};
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    /// `a = x + load`, `b = 2 x`, `c = 3 y`, counting its runs.
+    struct Counted {
+        runs: AtomicUsize,
+    }
+
+    impl Model for Counted {
+        fn run(
+            &self,
+            inputs: &[(String, f64)],
+            scalars: &[&str],
+            _curves: &[&str],
+        ) -> Result<ModelRun, String> {
+            self.runs.fetch_add(1, Ordering::SeqCst);
+            let input = |name: &str| {
+                inputs
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .map_or(0.0, |(_, v)| *v)
+            };
+            let scalars = scalars
+                .iter()
+                .map(|name| match *name {
+                    "a" => Ok(input("x") + input("load")),
+                    "b" => Ok(2.0 * input("x")),
+                    "c" => Ok(3.0 * input("y")),
+                    other => Err(format!("no output {other}")),
+                })
+                .collect::<Result<_, String>>()?;
+            Ok(ModelRun {
+                scalars,
+                curves: Vec::new(),
+            })
+        }
+    }
+
+    fn observed(outputs: &[&str]) -> Vec<Observation> {
+        outputs
+            .iter()
+            .map(|output| Observation {
+                name: output.to_string(),
+                output: output.to_string(),
+                measured: Measured::Scalar {
+                    value: 1.0,
+                    uncertainty: None,
+                },
+                weight: 1.0,
+                source: String::new(),
+                shared: Vec::new(),
+            })
+            .collect()
+    }
+
+    /// Two cases with the same inputs (the CalculiX bar's hardening and
+    /// neck) share one run that answers both; a case with an input of its
+    /// own runs on its own; every case gets what it would have alone.
+    #[test]
+    fn cases_with_the_same_inputs_share_one_run() {
+        let mut loaded = Case::new("loaded", Role::Fit, observed(&["a"]));
+        loaded.inputs = vec![("load".into(), 10.0)];
+        let study = Study {
+            parameters: ["x", "y"]
+                .map(|name| StudyParameter {
+                    search: Parameter::new(name, 0.0, 1.0),
+                    input: name.into(),
+                    case: None,
+                    nominal: 0.5,
+                    prior: None,
+                })
+                .to_vec(),
+            cases: vec![
+                Case::new("hardening", Role::Fit, observed(&["a", "b"])),
+                loaded,
+                Case::new("neck", Role::Fit, observed(&["c", "a"])),
+            ],
+            named_cases: true,
+            residuals: Residuals::Relative,
+            loss: LossKind::Mean,
+        };
+        let model = Counted {
+            runs: AtomicUsize::new(0),
+        };
+        let simulator = StudySimulator::new(&study, &model, Role::Fit);
+        let outputs = simulator.evaluate(&[0.25, 0.5]).unwrap();
+        assert_eq!(outputs, vec![0.25, 0.5, 10.25, 1.5, 0.25]);
+        assert_eq!(model.runs.load(Ordering::SeqCst), 2);
+    }
 
     #[test]
     fn pcm_and_frechet_steer_by_the_dtw_coupling_and_keep_their_own_value() {

@@ -23,10 +23,10 @@ use std::time::Instant;
 
 use acq_analysis::align::table::{Column, CsvTable, ParquetAlignedTable};
 use acq_analysis::align::{Aligner, ChannelSpec, GridSpec, RowSink};
-use acq_drivers::rig::Interpolation;
 use acq_io::error::AcqError;
 use acq_io::output::Output;
 use acq_io::output::TableFormat;
+use acq_rig::Interpolation;
 
 const CHANNELS: usize = 25;
 const RATE_HZ: f64 = 1000.0;

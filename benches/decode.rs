@@ -16,7 +16,7 @@ use std::process::{Command, Stdio};
 use std::time::Instant;
 
 use acq_analysis::decode::{decode_with_dbc, DbcDecodeOptions};
-use acq_drivers::dbc::DbcDatabase;
+use acq_can::dbc::DbcDatabase;
 use acq_io::input::{log_from_reader, BadLines};
 use acq_io::output::Output;
 

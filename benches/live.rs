@@ -17,7 +17,7 @@ use std::time::Instant;
 use acq_acquire::bus::memory::MemoryBus;
 use acq_acquire::bus::{Bus, FrameSource};
 use acq_acquire::replay::{self, Pacing, Routing};
-use acq_drivers::{CanId, Frame};
+use acq_can::{CanId, Frame};
 use common::{cpu_seconds, four_bus_bus, four_bus_rig, iface, produce, record_while_producing};
 
 fn replay_timing() {

@@ -106,7 +106,7 @@ fn published(geometry: &acq_twins::excavator::geometry::Geometry) -> Vec<Inclina
 /// (net forces through both chambers). Unchanged with
 /// `ACQ_BENCH_SCATTER_ONLY`.
 fn with_rig_budgets(
-    rig: &acq_drivers::rig::Rig,
+    rig: &acq_rig::Rig,
     hold: Vec<acq_analysis::extract::measured::MeasuredValue>,
 ) -> Vec<acq_analysis::extract::measured::MeasuredValue> {
     use acq_analysis::extract::budget::SessionParts;

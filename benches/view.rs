@@ -47,7 +47,7 @@ use acq_acquire::record::RecordObserver;
 use acq_acquire::simulate::scenario::Scenario;
 use acq_acquire::simulate::Simulation;
 use acq_analysis::extract::holds::HoldOptions;
-use acq_drivers::rig::Rig;
+use acq_rig::Rig;
 use common::{four_bus_rig, record_while_producing};
 
 /// (arrival s, newest marker value) of each update a viewer read.
@@ -192,7 +192,7 @@ fn long_session(dir: &Path, hours: f64) -> u64 {
     let mut frames = 0u64;
     while let Some(frame) = simulation.next_frame() {
         line.clear();
-        acq_drivers::log::candump::push_line(&mut line, &frame).unwrap();
+        acq_can::log::candump::push_line(&mut line, &frame).unwrap();
         out.write_all(&line).unwrap();
         frames += 1;
     }

@@ -15,9 +15,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // Leaves: one job each, nothing of the rest of acq.
     // The GUM's arithmetic: budgets and calibration curves.
     ("acq-metrology", &[]),
-    // Frames, formats and the rig; a sensor's certificate points become
-    // its conversion through acq-metrology's curve.
-    ("acq-drivers", &["acq-metrology"]),
+    // Frames, log formats and the CAN protocols.
+    ("acq-can", &[]),
     ("acq-twins", &[]),
     ("acq-calib", &[]),
     ("acq-report", &[]),
@@ -25,12 +24,19 @@ const ALLOWED: &[(&str, &[&str])] = &[
     ("acq-shared-features", &[]),
     // Where a model run happens: an argv, a directory, a time limit.
     ("acq-exec", &[]),
+    // The rig file and frames -> samples through it; a sensor's
+    // certificate points become its conversion through acq-metrology's
+    // curve.
+    ("acq-rig", &["acq-can", "acq-metrology"]),
     // Files in and out, on top of the log and rig formats.
-    ("acq-io", &["acq-drivers"]),
+    ("acq-io", &["acq-can", "acq-rig"]),
     // Live buses; knows nothing of analysis.
-    ("acq-acquire", &["acq-drivers", "acq-io"]),
+    ("acq-acquire", &["acq-can", "acq-rig", "acq-io"]),
     // Offline analysis; knows nothing of live buses.
-    ("acq-analysis", &["acq-drivers", "acq-io", "acq-metrology"]),
+    (
+        "acq-analysis",
+        &["acq-can", "acq-rig", "acq-io", "acq-metrology"],
+    ),
     // A calibration study on any model: no twin, no CAN, no command line.
     (
         "acq-study",
@@ -62,7 +68,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "acq-view",
         &[
-            "acq-drivers",
+            "acq-can",
+            "acq-rig",
             "acq-io",
             "acq-acquire",
             "acq-analysis",
@@ -73,7 +80,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "acq-demo",
         &[
-            "acq-drivers",
+            "acq-can",
+            "acq-rig",
             "acq-io",
             "acq-acquire",
             "acq-analysis",
@@ -88,7 +96,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "acq-python",
         &[
             "acq-calib",
-            "acq-drivers",
+            "acq-can",
+            "acq-rig",
             "acq-io",
             "acq-analysis",
             "acq-study",
@@ -102,7 +111,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "acq",
         &[
             "acq-metrology",
-            "acq-drivers",
+            "acq-can",
+            "acq-rig",
             "acq-twins",
             "acq-calib",
             "acq-io",

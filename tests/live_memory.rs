@@ -12,10 +12,10 @@ use acq_acquire::record::{self, RecordOptions, RecordSummary, StopReason};
 use acq_acquire::replay::{self, Pacing, Routing};
 use acq_acquire::simulate::scenario::Scenario;
 use acq_acquire::simulate::Simulation;
-use acq_drivers::log::candump::parse_line;
-use acq_drivers::rig::Rig;
-use acq_drivers::{CanId, Frame, IfaceName};
+use acq_can::log::candump::parse_line;
+use acq_can::{CanId, Frame, IfaceName};
 use acq_io::session;
+use acq_rig::Rig;
 use tokio::sync::oneshot;
 
 fn root() -> PathBuf {

@@ -264,7 +264,7 @@ fn the_live_study_equals_the_study_of_the_recorded_sessions() {
             source: root().join("fixtures/sessions").join(name),
             target: temp.path().join(name),
             interfaces: (0..2)
-                .map(|bus| acq_drivers::frame::IfaceName::new(&format!("st{k}can{bus}")).unwrap())
+                .map(|bus| acq_can::frame::IfaceName::new(&format!("st{k}can{bus}")).unwrap())
                 .collect(),
         })
         .collect();

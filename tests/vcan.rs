@@ -12,9 +12,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use acq_drivers::frame::{FD_FLAG_BRS, FD_FLAG_ESI, FD_FLAG_FDF};
-use acq_drivers::log::candump::{parse_line, CandumpWriter};
-use acq_drivers::{CanId, Frame, FrameKind, IfaceName};
+use acq_can::frame::{FD_FLAG_BRS, FD_FLAG_ESI, FD_FLAG_FDF};
+use acq_can::log::candump::{parse_line, CandumpWriter};
+use acq_can::{CanId, Frame, FrameKind, IfaceName};
 use acq_io::session;
 
 const T0_NS: i64 = 1_763_719_200_000_000_000;

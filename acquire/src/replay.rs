@@ -12,10 +12,10 @@ use std::fmt;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use acq_drivers::rig::Rig;
-use acq_drivers::{Frame, IfaceName};
+use acq_can::{Frame, IfaceName};
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{open_log, LogInput};
+use acq_rig::Rig;
 
 use crate::bus::{Bus, BusError, FrameSink};
 

@@ -10,17 +10,17 @@
 
 use std::io::Write;
 
-use acq_drivers::canopen::HeartbeatEvent;
-use acq_drivers::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
-use acq_drivers::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
-use acq_drivers::FrameKind;
-use acq_drivers::LogRecord;
+use acq_can::canopen::HeartbeatEvent;
+use acq_can::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
+use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
+use acq_can::FrameKind;
+use acq_can::LogRecord;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
 use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
+use acq_rig::sensors::{FrameUse, SensorDecoder, SensorEvent};
+use acq_rig::Rig;
 
 /// The fixed header of the DBC route.
 pub const DBC_HEADER: &str = "time_s,iface,can_id,message,signal,value,unit";

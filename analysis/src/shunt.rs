@@ -8,9 +8,9 @@
 //! deviation on both sides; the readings within a settling time of the
 //! switching are left out.
 
-use acq_drivers::rig::Rig;
 use acq_io::shunt_record::SensorShunt;
 use acq_metrology::bridge::ShuntError;
+use acq_rig::Rig;
 
 use crate::extract::stats::{WindowAccumulator, WindowStats};
 use crate::recording::{Recording, SampleCounts};

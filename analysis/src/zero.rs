@@ -14,10 +14,10 @@
 
 use std::collections::VecDeque;
 
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::Sample;
 use acq_io::error::Result;
 use acq_io::zero_record::{SensorZero, ZeroReading, ZeroRecord};
+use acq_rig::sensors::Sample;
+use acq_rig::Rig;
 
 use crate::extract::stats::WindowAccumulator;
 use crate::recording::clocks::given_offsets_ns;

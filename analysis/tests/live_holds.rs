@@ -9,7 +9,7 @@ use acq_analysis::extract::holds::{HoldOptions, BLOCK_NS};
 use acq_analysis::extract::live::LiveHoldStream;
 use acq_analysis::extract::run::{extract_holds, WindowChoice};
 use acq_analysis::recording::{Recording, SampleCounts};
-use acq_drivers::sensors::Sample;
+use acq_rig::sensors::Sample;
 
 fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -12,8 +12,8 @@ use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{RecordObserver, RecordOptions};
 use acq_acquire::simulate::scenario::Scenario;
 use acq_acquire::simulate::Simulation;
-use acq_drivers::rig::Rig;
-use acq_drivers::{CanId, Frame, IfaceName};
+use acq_can::{CanId, Frame, IfaceName};
+use acq_rig::Rig;
 use nix::sys::resource::{getrusage, UsageWho};
 
 /// DAQ_Force (0x300): TipForce, float32 at bit 0, kN.

@@ -13,10 +13,10 @@ use acq_acquire::bus::Bus;
 use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{self, RecordObserver, RecordOptions, StopReason};
 use acq_acquire::replay::{self, LogFiles, Pacing, PlaySummary, Routing};
-use acq_drivers::rig::Rig;
-use acq_drivers::IfaceName;
+use acq_can::IfaceName;
 use acq_io::error::{AcqError, Result};
 use acq_io::session;
+use acq_rig::Rig;
 
 /// Frames still in flight when the player ends are drained this long
 /// before the recorder stops.
@@ -250,7 +250,7 @@ fn start_players<B: Bus>(
         players.push(std::thread::spawn(move || -> Result<PlaySummary> {
             let mut log = LogFiles::open(raw_files)?;
             let runtime = acq_acquire::runtime(1)?;
-            let next = |pass: usize| -> Result<Option<acq_drivers::Frame>> {
+            let next = |pass: usize| -> Result<Option<acq_can::Frame>> {
                 if *interrupted.borrow() {
                     return Ok(None);
                 }

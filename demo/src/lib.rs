@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use std::pin::Pin;
 use std::time::Instant;
 
-use acq_drivers::IfaceName;
+use acq_can::IfaceName;
 use serde_json::json;
 
 use acq_acquire::bus::memory::MemoryBus;

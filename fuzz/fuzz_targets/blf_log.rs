@@ -4,8 +4,8 @@
 
 #![no_main]
 
-use acq_drivers::ReadError;
-use acq_drivers::log::blf::BlfReader;
+use acq_can::ReadError;
+use acq_can::log::blf::BlfReader;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

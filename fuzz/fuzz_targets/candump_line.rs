@@ -4,7 +4,7 @@
 
 #![no_main]
 
-use acq_drivers::log::candump;
+use acq_can::log::candump;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -4,7 +4,7 @@
 
 #![no_main]
 
-use acq_drivers::dbc::DbcDatabase;
+use acq_can::dbc::DbcDatabase;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|text: &str| {

@@ -3,8 +3,8 @@
 
 #![no_main]
 
-use acq_drivers::kernel;
-use acq_drivers::IfaceName;
+use acq_can::kernel;
+use acq_can::IfaceName;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -5,8 +5,8 @@
 
 #![no_main]
 
-use acq_drivers::log::mf4::Mf4Reader;
-use acq_drivers::ReadError;
+use acq_can::log::mf4::Mf4Reader;
+use acq_can::ReadError;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

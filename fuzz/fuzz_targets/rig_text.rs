@@ -6,7 +6,7 @@
 
 #![no_main]
 
-use acq_drivers::rig::Rig;
+use acq_rig::Rig;
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 

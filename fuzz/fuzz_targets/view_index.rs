@@ -17,7 +17,7 @@ fn fresh() -> &'static SessionView {
     VIEW.get_or_init(|| {
         let rig = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../fixtures/sessions/tensile_p91_20c/rig/tensile.toml");
-        let rig = acq_drivers::rig::Rig::load(&rig).expect("the shipped rig");
+        let rig = acq_rig::Rig::load(&rig).expect("the shipped rig");
         SessionView::new("fuzz", &rig, 0, 10_000_000, 16)
     })
 }

@@ -9,8 +9,8 @@ use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use acq_drivers::rig::Rig;
-use acq_drivers::{LogFormat, LogReader, LogRecord, ReadError};
+use acq_can::{LogFormat, LogReader, LogRecord, ReadError};
+use acq_rig::Rig;
 
 use crate::error::{AcqError, Result};
 
@@ -137,7 +137,7 @@ fn open_log_as(path: &Path, format: Option<LogFormat>) -> Result<LogInput> {
 
 impl LogInput {
     /// The next frame; a malformed line stops with `file:line: expected ...`.
-    pub fn next_frame(&mut self) -> Result<Option<acq_drivers::Frame>> {
+    pub fn next_frame(&mut self) -> Result<Option<acq_can::Frame>> {
         match self.reader.next_record() {
             Ok(record) => Ok(record.map(|r| r.frame)),
             Err(ReadError::Parse(error)) => Err(AcqError::Malformed(error.in_file(&self.name))),

@@ -16,7 +16,7 @@
 //! - [`zero_record`]: a session's `zero.toml`, each channel's reading at
 //!   rest before (and after) the test.
 //!
-//! Depends only on `acq-drivers` (log and rig formats); never on acquisition,
+//! Depends only on `acq-can` and `acq-rig` (log and rig formats); never on acquisition,
 //! analysis, twins, calibration or reports.
 
 pub mod arrow_sink;

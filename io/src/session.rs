@@ -13,9 +13,9 @@ use std::io::{self, BufRead, BufReader, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use acq_drivers::bus_error::BusErrorReport;
-use acq_drivers::log::candump::parse_line;
-use acq_drivers::{CanId, Frame};
+use acq_can::bus_error::BusErrorReport;
+use acq_can::log::candump::parse_line;
+use acq_can::{CanId, Frame};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 

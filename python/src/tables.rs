@@ -18,12 +18,12 @@ use acq_analysis::extract::measured::measured_to_arrow;
 use acq_analysis::extract::run::{extract_holds, extract_tensile, specimen, WindowChoice};
 use acq_analysis::extract::tensile::curve_to_arrow;
 use acq_analysis::recording::Recording;
-use acq_drivers::dbc::DbcDatabase;
-use acq_drivers::rig::Interpolation;
+use acq_can::dbc::DbcDatabase;
 use acq_io::error::AcqError;
 use acq_io::input::{load_rig, open_logs, open_session_log, BadLines, LogInput};
 use acq_io::output::TableOutput;
 use acq_io::parquet_table::{ArrowBatch, ArrowSchema, ArrowSink};
+use acq_rig::Interpolation;
 use arrow_array::RecordBatchReader;
 use arrow_pyarrow::{IntoPyArrow, Table};
 use arrow_schema::ArrowError;
@@ -173,7 +173,7 @@ where
 fn inputs_of(
     log: &Path,
     rig: Option<&Path>,
-) -> Result<(Vec<LogInput>, Option<acq_drivers::rig::Rig>), AcqError> {
+) -> Result<(Vec<LogInput>, Option<acq_rig::Rig>), AcqError> {
     if log.is_dir() {
         let recording = Recording::open_session(log)?;
         let inputs = recording

@@ -80,7 +80,7 @@ pub fn run_budget(args: BudgetArgs) -> Result<()> {
 /// A value within the range the rig file states for `sensor` (its full
 /// scale): beyond it neither its certificate nor its data sheet says
 /// anything, and a budget there would be a number with nothing behind it.
-fn within_range(sensor: &acq_drivers::rig::Sensor, option: &str, value: f64) -> Result<()> {
+fn within_range(sensor: &acq_rig::Sensor, option: &str, value: f64) -> Result<()> {
     match sensor.range {
         Some([low, high]) if !(low..=high).contains(&value) => Err(AcqError::Config(format!(
             "{option} {value}: outside {}'s range, {low} to {high} {} (the rig file's); its certificate and data sheet say nothing there",
@@ -92,7 +92,7 @@ fn within_range(sensor: &acq_drivers::rig::Sensor, option: &str, value: f64) -> 
 }
 
 /// `--cylinder`: the net force's budget, and its Monte Carlo check.
-fn run_net_force(args: &BudgetArgs, rig: &acq_drivers::rig::Rig, cylinder: &str) -> Result<()> {
+fn run_net_force(args: &BudgetArgs, rig: &acq_rig::Rig, cylinder: &str) -> Result<()> {
     let (head, rod) = (args.head.unwrap_or(f64::NAN), args.rod.unwrap_or(f64::NAN));
     if !(head.is_finite() && rod.is_finite()) {
         return Err(AcqError::Config(format!(

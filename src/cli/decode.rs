@@ -1,11 +1,11 @@
 //! `acq decode` and `acq check-rig`: logs to CSV or Parquet through DBC files or a rig,
 //! and a rig file explained. Glue over [`acq_analysis::decode`] and
-//! [`acq_drivers::rig`].
+//! [`acq_rig`].
 
 use std::path::PathBuf;
 
 use acq_analysis::decode::{self, DbcDecodeOptions};
-use acq_drivers::dbc::DbcDatabase;
+use acq_can::dbc::DbcDatabase;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{load_rig, open_logs, BadLines};
 use acq_io::output::TableOutput;

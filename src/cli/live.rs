@@ -13,7 +13,7 @@ use acq_acquire::record::{self, RecordOptions, StopReason};
 use acq_acquire::replay::{self, LogFiles, Pacing, Routing};
 use acq_acquire::simulate::scenario::Scenario;
 use acq_acquire::simulate::Simulation;
-use acq_drivers::IfaceName;
+use acq_can::IfaceName;
 use acq_io::error::{AcqError, Result};
 use acq_io::session;
 use clap::{Args, Subcommand};
@@ -274,7 +274,7 @@ struct Watchers {
 
 fn watchers(
     args: &RecordArgs,
-    rig: Option<&acq_drivers::rig::Rig>,
+    rig: Option<&acq_rig::Rig>,
     session_dir: &Path,
     study: Option<std::sync::Arc<acq_workflows::rig_study::RigStudy>>,
     view_address: Option<(std::net::SocketAddr, acq_view::Access)>,
@@ -337,7 +337,7 @@ fn watchers(
 /// The session's summary on stderr, and a failed write as the error.
 fn say_how_it_ended(
     summary: record::RecordSummary,
-    rig: Option<&acq_drivers::rig::Rig>,
+    rig: Option<&acq_rig::Rig>,
     status: StatusMode,
     last_panel: Option<&serde_json::Value>,
 ) -> Result<()> {

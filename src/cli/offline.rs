@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use acq_analysis::align::run::{align_recording, AlignOptions, GapTolerance, TimePoint};
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::recording::Recording;
-use acq_drivers::rig::Interpolation;
 use acq_io::error::Result;
 use acq_io::output::TableOutput;
+use acq_rig::Interpolation;
 use clap::{Args, ValueEnum};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]

@@ -10,8 +10,8 @@ use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{self, RecordObserver, RecordOptions, RecordSummary, StopReason};
 use acq_acquire::replay::{play, Pacing, Routing};
 use acq_acquire::simulate::Simulation;
-use acq_drivers::frame::IfaceName;
-use acq_drivers::rig::Rig;
+use acq_can::frame::IfaceName;
+use acq_rig::Rig;
 
 /// An in-process bus with the interfaces `names`, and those interfaces.
 pub fn memory_bus(names: &[&str]) -> (MemoryBus, Vec<IfaceName>) {

@@ -6,8 +6,8 @@
 
 use std::collections::HashMap;
 
-use acq_drivers::sensors::FrameUse;
-use acq_drivers::{Frame, FrameKind, IfaceName};
+use acq_can::{Frame, FrameKind, IfaceName};
+use acq_rig::sensors::FrameUse;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 
@@ -182,7 +182,7 @@ impl FrameTable {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use acq_drivers::CanId;
+    use acq_can::CanId;
 
     fn frame(iface: &str, id: u16, t_ns: i64, data: &[u8]) -> Frame {
         Frame::data(

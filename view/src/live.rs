@@ -19,12 +19,12 @@ use acq_acquire::record::RecordObserver;
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::live::LiveHoldStream;
 use acq_analysis::zero::{ZeroTaker, ZeroWindows, Zeroing};
-use acq_drivers::log::candump::logged_timestamp_ns;
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{Sample, SensorDecoder, SensorEvent};
-use acq_drivers::Frame;
+use acq_can::log::candump::logged_timestamp_ns;
+use acq_can::Frame;
 use acq_io::session::SessionFile;
 use acq_io::zero_record::ZeroRecord;
+use acq_rig::sensors::{Sample, SensorDecoder, SensorEvent};
+use acq_rig::Rig;
 
 use crate::frames::FrameTable;
 use crate::index;

@@ -8,9 +8,9 @@
 use acq_acquire::record::live::SILENCE_PERIODS;
 use acq_analysis::extract::live::LiveHold;
 use acq_analysis::extract::measured::MeasuredValue;
-use acq_drivers::profiles::SensorKind;
-use acq_drivers::rig::Rig;
 use acq_io::session::SessionFile;
+use acq_rig::profiles::SensorKind;
+use acq_rig::Rig;
 use serde::Serialize;
 use serde_json::{json, Value};
 

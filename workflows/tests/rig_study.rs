@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use acq_analysis::extract::measured::MeasuredValue;
 use acq_analysis::extract::quantities::RigQuantities;
-use acq_drivers::rig::Rig;
+use acq_rig::Rig;
 use acq_twins::excavator::geometry::GeometryTemplate;
 use acq_twins::excavator::inclinations::Inclinations;
 use acq_workflows::rig_study::tracker::Tracker;

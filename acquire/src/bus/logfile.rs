@@ -8,8 +8,8 @@ use std::io::{self, BufReader, BufWriter};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-use acq_drivers::log::candump::CandumpWriter;
-use acq_drivers::{Frame, IfaceName, LogReader, ReadError};
+use acq_can::log::candump::CandumpWriter;
+use acq_can::{Frame, IfaceName, LogReader, ReadError};
 
 use super::{Bus, BusError, FrameSink, FrameSource, OpenError, RxInfo, MAX_BATCH};
 

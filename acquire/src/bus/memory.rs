@@ -8,7 +8,7 @@
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
-use acq_drivers::{Frame, IfaceName};
+use acq_can::{Frame, IfaceName};
 use tokio::sync::broadcast::{self, error::RecvError, error::TryRecvError};
 
 use super::{now_ns, Bus, BusError, FrameSink, FrameSource, OpenError, RxInfo, MAX_BATCH};

@@ -12,7 +12,7 @@ pub mod socketcan;
 use std::future::Future;
 use std::io;
 
-use acq_drivers::{Frame, IfaceName};
+use acq_can::{Frame, IfaceName};
 
 /// The most frames one [`FrameSource::recv_batch`] appends.
 pub const MAX_BATCH: usize = 256;

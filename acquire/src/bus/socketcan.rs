@@ -4,7 +4,7 @@
 //! The socketcan crate opens, binds and configures the socket. Frames are
 //! read with `recvmsg` (through nix) because only its control messages carry,
 //! with each frame, the kernel receive timestamp and the queue's drop counter
-//! (SO_RXQ_OVFL); the bytes are converted by `acq_drivers::kernel`, which
+//! (SO_RXQ_OVFL); the bytes are converted by `acq_can::kernel`, which
 //! keeps every bit the kernel delivered.
 
 use std::fs;
@@ -12,8 +12,8 @@ use std::io::{self, IoSliceMut};
 use std::os::fd::AsRawFd;
 use std::time::Duration;
 
-use acq_drivers::kernel::{self, CANFD_MTU};
-use acq_drivers::{Frame, IfaceName};
+use acq_can::kernel::{self, CANFD_MTU};
+use acq_can::{Frame, IfaceName};
 use nix::errno::Errno;
 use nix::sys::socket::{
     recvmsg, setsockopt, sockopt, ControlMessageOwned, MsgFlags, TimestampingFlag, Timestamps,

@@ -3,11 +3,11 @@
 //! A sensor is silent when no sample came within [`SILENCE_PERIODS`] of its
 //! expected period, or when its CANopen node's heartbeat was lost.
 
-use acq_drivers::canopen::{HeartbeatEvent, NmtState};
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{SensorDecoder, SensorEvent};
-use acq_drivers::Frame;
+use acq_can::canopen::{HeartbeatEvent, NmtState};
+use acq_can::Frame;
 use acq_io::session::SensorRecord;
+use acq_rig::sensors::{SensorDecoder, SensorEvent};
+use acq_rig::Rig;
 
 /// Silent after this many expected periods without a sample.
 pub const SILENCE_PERIODS: i64 = 3;

@@ -16,9 +16,9 @@ use std::future::Future;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use acq_drivers::canopen::nmt_start_frame;
-use acq_drivers::rig::{Rig, SensorSource};
-use acq_drivers::{Frame, IfaceName};
+use acq_can::canopen::nmt_start_frame;
+use acq_can::{Frame, IfaceName};
+use acq_rig::{Rig, SensorSource};
 use tokio::sync::{mpsc, watch};
 use tokio::time::{interval, MissedTickBehavior};
 

@@ -6,8 +6,8 @@ use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
-use acq_drivers::log::candump::push_line;
-use acq_drivers::Frame;
+use acq_can::log::candump::push_line;
+use acq_can::Frame;
 
 /// The rotating raw candump log of one session.
 pub struct RawLog {
@@ -123,7 +123,7 @@ impl RawLog {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use acq_drivers::{CanId, IfaceName};
+    use acq_can::{CanId, IfaceName};
 
     fn frame(i: i64) -> Frame {
         let iface = IfaceName::new("vcan0").unwrap();

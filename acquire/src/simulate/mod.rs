@@ -12,10 +12,10 @@ pub mod scenario;
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap};
 
-use acq_drivers::canopen::heartbeat_cob_id;
-use acq_drivers::j1939::{J1939Id, GLOBAL_ADDRESS};
-use acq_drivers::rig::{Rig, Sensor, SensorSource};
-use acq_drivers::{CanId, Frame, IfaceName};
+use acq_can::canopen::heartbeat_cob_id;
+use acq_can::j1939::{J1939Id, GLOBAL_ADDRESS};
+use acq_can::{CanId, Frame, IfaceName};
+use acq_rig::{Rig, Sensor, SensorSource};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -548,7 +548,7 @@ fn check_levels_can_be_sent(
     profiles: &[Profile],
     curve: Option<&Curve>,
 ) -> Result<()> {
-    let mut decoder = acq_drivers::sensors::SensorDecoder::new(rig);
+    let mut decoder = acq_rig::sensors::SensorDecoder::new(rig);
     for stream in streams {
         let Payload::Sensors { sensors, len, fill } = &stream.payload else {
             continue;
@@ -593,7 +593,7 @@ fn check_levels_can_be_sent(
                 let mut sent = None;
                 if let Ok(frame) = frame {
                     decoder.decode(&frame, |event| {
-                        if let acq_drivers::sensors::SensorEvent::Sample(sample) = event {
+                        if let acq_rig::sensors::SensorEvent::Sample(sample) = event {
                             if sample.sensor == index {
                                 sent = sample.value;
                             }

@@ -22,7 +22,7 @@ pub mod table;
 
 use std::collections::VecDeque;
 
-use acq_drivers::rig::Interpolation;
+use acq_rig::Interpolation;
 
 /// Receives the aligned rows in time order.
 pub trait RowSink {

@@ -4,10 +4,10 @@
 
 use std::fmt::Write as _;
 
-use acq_drivers::rig::{Interpolation, Rig};
 use acq_io::error::{AcqError, Result};
 use acq_io::output::TableOutput;
 use acq_io::session::utc_text;
+use acq_rig::{Interpolation, Rig};
 
 use super::filter::{GaussianFilter, RISE_TIME_TIMES_CUTOFF};
 use super::table::{Column, CsvTable, Mf4AlignedTable, ParquetAlignedTable};

@@ -10,8 +10,8 @@
 //! per sensor with its unit, a gap an invalid value, the comments the data
 //! group's comment.
 
-use acq_drivers::dbc::push_shortest_f64;
-use acq_drivers::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
+use acq_can::dbc::push_shortest_f64;
+use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_io::error::AcqError;
 use acq_io::output::{csv_field, CompleteOnlyFile, Output};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};

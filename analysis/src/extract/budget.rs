@@ -9,10 +9,10 @@
 //! are marked shared by the sensor's name and a posterior takes each
 //! sensor's as one error. Resolution and scatter are each value's own.
 
-use acq_drivers::rig::{Accuracy, Cylinder, Sensor};
 use acq_io::shunt_record::ShuntRecord;
 use acq_io::zero_record::{SensorZero, ZeroRecord};
 use acq_metrology::budget::{rectangular, resolution, Budget, Contribution};
+use acq_rig::{Accuracy, Cylinder, Sensor};
 
 use super::stats::WindowStats;
 

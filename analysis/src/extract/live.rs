@@ -17,10 +17,10 @@
 
 use std::collections::VecDeque;
 
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::Sample;
 use acq_io::error::Result;
 use acq_io::zero_record::ZeroRecord;
+use acq_rig::sensors::Sample;
+use acq_rig::Rig;
 
 use super::holds::{HoldDetector, HoldOptions, Window, BLOCK_NS};
 use super::measured::MeasuredValue;

@@ -2,9 +2,9 @@
 //! --cylinder` states it: its budget by the law of propagation, and the
 //! same checked by Monte Carlo (JCGM 101) through the exact law.
 
-use acq_drivers::rig::Rig;
 use acq_metrology::budget::{Budget, Contribution};
 use acq_metrology::monte_carlo::{propagate, InputDistribution, MonteCarloResult};
+use acq_rig::Rig;
 
 use super::budget::{
     diameter_parts, kn_per_bar, propagated, value_budget, ValueBudget, ACCURACY_CLASS,

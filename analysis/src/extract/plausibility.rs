@@ -25,7 +25,7 @@
 //!   rows: `location` numbers alone do not say which gauges are neighbours
 //!   on the structure.
 
-use acq_drivers::rig::Rig;
+use acq_rig::Rig;
 
 use crate::extract::stats::{WindowAccumulator, WindowStats};
 

@@ -4,15 +4,15 @@
 //! point and stated range, and each cylinder's chambers and areas. A
 //! study reads a rig through this, knowing nothing of buses or frames.
 
-use acq_drivers::profiles::SensorKind;
-use acq_drivers::rig::Rig;
+use acq_rig::profiles::SensorKind;
+use acq_rig::Rig;
 
 use super::budget::value_budget;
 use super::run::{loaded_pressure_quantity, net_force_quantity};
 
 /// What `sensor`'s record gives a value at the middle of its range (0
 /// without one); `None` without a record.
-fn stated_uncertainty(sensor: &acq_drivers::rig::Sensor) -> Option<f64> {
+fn stated_uncertainty(sensor: &acq_rig::Sensor) -> Option<f64> {
     let middle = sensor.range.map_or(0.0, |[low, high]| 0.5 * (low + high));
     let budget = value_budget(sensor, middle).budget;
     let u = budget.combined();

@@ -4,10 +4,10 @@
 
 use std::path::Path;
 
-use acq_drivers::profiles::SensorKind;
-use acq_drivers::rig::{Rig, Specimen};
 use acq_io::error::{AcqError, Result};
 use acq_io::input::read_csv_records;
+use acq_rig::profiles::SensorKind;
+use acq_rig::{Rig, Specimen};
 
 use super::holds::{Detection, HoldDetector, HoldOptions, Window};
 use super::measured::MeasuredValue;
@@ -21,7 +21,7 @@ use acq_metrology::budget::Budget;
 use super::budget::{diameter_parts, hold_budget, kn_per_bar, propagated, SessionParts};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
-use acq_drivers::sensors::Sample;
+use acq_rig::sensors::Sample;
 
 /// Which windows to summarise.
 #[derive(Clone, Debug)]

@@ -24,11 +24,11 @@
 
 use std::path::Path;
 
-use acq_drivers::rig::Specimen;
 use acq_io::error::Result;
 use acq_io::output::Output;
 use acq_io::output::{refuse_mf4_table, TableFormat};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
+use acq_rig::Specimen;
 
 /// Header of the curve file, as in the test files.
 pub const CURVE_HEADER: &str = "DISPLACEMENT,FORCE,STRAIN,STRESS,TRUE_STRAIN,TRUE_STRESS";

@@ -15,14 +15,14 @@ pub mod zeroing;
 
 use std::path::{Path, PathBuf};
 
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{FrameUse, Sample, SensorDecoder, SensorEvent};
-use acq_drivers::{Frame, IfaceName};
+use acq_can::{Frame, IfaceName};
 use acq_io::error::{AcqError, Result};
 use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, ScanCounts};
 use acq_io::session::{self, SessionFile};
 use acq_io::shunt_record::{self, ShuntRecord};
 use acq_io::zero_record::{self, ZeroRecord};
+use acq_rig::sensors::{FrameUse, Sample, SensorDecoder, SensorEvent};
+use acq_rig::Rig;
 
 use zeroing::Zeroing;
 

@@ -1,9 +1,9 @@
 //! A session's zero record applied: each zeroed channel's offset
 //! subtracted from its samples (taking the zero is [`crate::zero`]'s).
 
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::Sample;
 use acq_io::zero_record::{SensorZero, ZeroRecord};
+use acq_rig::sensors::Sample;
+use acq_rig::Rig;
 
 /// A record's offsets, per rig sensor, ready to subtract.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
-use acq_drivers::dbc::{DbcDatabase, PhysicalValue};
-use acq_drivers::CanId;
+use acq_can::dbc::{DbcDatabase, PhysicalValue};
+use acq_can::CanId;
 use common::same_value;
 
 const PINS: [&str; 2] = ["cantools==45.1.0", "opendbc==0.3.1"];

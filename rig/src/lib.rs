@@ -37,6 +37,12 @@
 //! always in the kind's unit (bar, kN, MPa, deg, mm). Optional `scale` and
 //! `offset` apply the sensor's calibration in the channel's unit first.
 //! Loading collects every problem in the file, each with its line.
+//!
+//! Besides the file itself ([`Rig::load`]):
+//! - [`profiles`]: sensor physics (pressure, force, strain, inclination,
+//!   displacement), a channel's unit to the kind's;
+//! - [`sensors`]: frames -> samples through a rig, each sensor decoded in its
+//!   own protocol (`acq-can`) and converted to its engineering unit.
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -48,24 +54,26 @@ use serde::Deserialize;
 use toml::Spanned;
 
 mod lines;
+pub mod profiles;
 mod record_keys;
 mod rows;
 mod sensor_file;
+pub mod sensors;
 pub use rows::SensorRow;
 pub use sensor_file::Transducer;
 
 use lines::line_of;
 use record_keys::{AccuracyFile, CalibrationFile, TemperatureFile};
 
-use crate::bits::BitField;
-use crate::canopen::{self, PdoMapping, PdoType};
-use crate::dbc::DbcDatabase;
-use crate::frame::{CanId, IfaceName};
-use crate::j1939::Spn;
 use crate::profiles::{
     displacement, force, inclination, pressure, strain, Conversion, Linear, ProfileError,
     SensorKind,
 };
+use acq_can::bits::BitField;
+use acq_can::canopen::{self, PdoMapping, PdoType};
+use acq_can::dbc::DbcDatabase;
+use acq_can::frame::{CanId, IfaceName};
+use acq_can::j1939::Spn;
 
 // ---- The file as written ----------------------------------------------------
 
@@ -1066,7 +1074,7 @@ fn compile_source(
         return Err(format!("j1939 pgn {} is larger than 18 bits", address.pgn));
     }
     let field = BitField::new(
-        crate::bits::ByteOrder::LittleEndian,
+        acq_can::bits::ByteOrder::LittleEndian,
         address.start_bit,
         address.length_bits,
     )

@@ -1,9 +1,9 @@
-//! Helpers shared by the acq-drivers integration tests.
+//! Helpers shared by the acq-can integration tests.
 // Each test crate uses a different subset of these.
 #![allow(dead_code)]
 
-use acq_drivers::dbc::PhysicalValue;
-use acq_drivers::{CanId, Direction, Frame, IfaceName};
+use acq_can::dbc::PhysicalValue;
+use acq_can::{CanId, Direction, Frame, IfaceName};
 use proptest::prelude::*;
 
 pub fn can_id() -> impl Strategy<Value = CanId> {

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use acq_drivers::log::{LogReader, ReadError};
+use acq_can::log::{LogReader, ReadError};
 
 /// Frames read, and whether reading stopped at an error.
 fn read(bytes: &[u8]) -> (usize, bool) {

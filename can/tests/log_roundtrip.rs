@@ -3,11 +3,11 @@
 
 mod common;
 
-use acq_drivers::frame::fd_flags;
-use acq_drivers::log::asc::{AscReader, ERROR_FRAME_CLASS};
-use acq_drivers::log::asc_write::AscWriter;
-use acq_drivers::log::candump::{self, CandumpReader, CandumpWriter};
-use acq_drivers::{Direction, Frame, FrameKind, IfaceName, ReadError};
+use acq_can::frame::fd_flags;
+use acq_can::log::asc::{AscReader, ERROR_FRAME_CLASS};
+use acq_can::log::asc_write::AscWriter;
+use acq_can::log::candump::{self, CandumpReader, CandumpWriter};
+use acq_can::{Direction, Frame, FrameKind, IfaceName, ReadError};
 use proptest::prelude::*;
 
 const IFACES: [&str; 5] = ["can0", "can1", "vcan0", "slcan12", "excavator_fd"];

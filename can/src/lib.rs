@@ -1,7 +1,10 @@
-//! The driver layer of `acq`: from bytes on a CAN bus to engineering values.
+//! CAN for `acq`: frames, the log files that hold them, and the protocols
+//! that give their bytes a meaning (DBC signals, CANopen CiA 404, J1939).
 //!
-//! Pure decoding with no I/O runtime (no tokio, no sockets), so everything
-//! here runs the same on a live bus, on a log file and under a fuzzer.
+//! No I/O runtime (no tokio, no sockets): the readers take any `BufRead`
+//! and the writers any `Write`, so everything here runs the same on a live
+//! bus, on a log file and under a fuzzer. What a rig's sensors make of the
+//! decoded values is `acq-rig`'s.
 //!
 //! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface.
 //! - [`log`]: log files: the record every reader yields, one module per format
@@ -11,9 +14,6 @@
 //! - [`dbc`]: DBC signals, compiled from the `can-dbc` AST.
 //! - [`canopen`], [`j1939`]: the two device protocols on the rigs; [`j1939_tp`]: J1939
 //!   messages longer than 8 bytes put back together (BAM and RTS/CTS).
-//! - [`profiles`]: sensor physics (pressure, force, strain, inclination, displacement).
-//! - [`rig`]: the rig file: buses and sensors, validated.
-//! - [`sensors`]: frames -> samples through a rig.
 
 pub mod bits;
 pub mod bus_error;
@@ -25,9 +25,6 @@ pub mod j1939;
 pub mod j1939_tp;
 pub mod kernel;
 pub mod log;
-pub mod profiles;
-pub mod rig;
-pub mod sensors;
 
 pub use frame::{CanId, Direction, Frame, FrameKind, IfaceName};
 pub use log::{LogFormat, LogReader, LogRecord, ParseError, ReadError};

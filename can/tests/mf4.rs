@@ -10,10 +10,10 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use acq_drivers::frame::fd_flags;
-use acq_drivers::log::mf4::{Mf4Reader, ERROR_FRAME_CLASS};
-use acq_drivers::log::mf4_write::Mf4Writer;
-use acq_drivers::{CanId, Direction, Frame, FrameKind, IfaceName, LogFormat, LogReader, ReadError};
+use acq_can::frame::fd_flags;
+use acq_can::log::mf4::{Mf4Reader, ERROR_FRAME_CLASS};
+use acq_can::log::mf4_write::Mf4Writer;
+use acq_can::{CanId, Direction, Frame, FrameKind, IfaceName, LogFormat, LogReader, ReadError};
 use proptest::prelude::*;
 use serde_json::{json, Value};
 

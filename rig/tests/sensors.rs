@@ -3,10 +3,10 @@
 
 use std::path::Path;
 
-use acq_drivers::j1939_tp::bam_frames;
-use acq_drivers::rig::Rig;
-use acq_drivers::sensors::{FrameUse, SensorDecoder, SensorEvent};
-use acq_drivers::{CanId, Frame, IfaceName};
+use acq_can::j1939_tp::bam_frames;
+use acq_can::{CanId, Frame, IfaceName};
+use acq_rig::sensors::{FrameUse, SensorDecoder, SensorEvent};
+use acq_rig::Rig;
 use proptest::prelude::*;
 
 fn excavator() -> Rig {
@@ -64,7 +64,7 @@ fn heartbeat_loss_is_reported_once_per_silence() {
                 matches!(
                     e,
                     SensorEvent::Heartbeat {
-                        event: acq_drivers::canopen::HeartbeatEvent::Lost { node: 0x25, .. },
+                        event: acq_can::canopen::HeartbeatEvent::Lost { node: 0x25, .. },
                         ..
                     }
                 )

@@ -1,16 +1,16 @@
 //! Reads a log (any format acq reads, detected from its content) and prints
 //! its frames, or with `--count` how many and how fast, or with `--mf4 OUT`
 //! writes them to OUT as MF4: a check, a measurement and a seed maker that
-//! need only acq-drivers built.
+//! need only acq-can built.
 //!
-//!     cargo run --release -p acq-drivers --example log_frames -- [--count | --mf4 OUT] FILE
+//!     cargo run --release -p acq-can --example log_frames -- [--count | --mf4 OUT] FILE
 
 use std::fs::File;
 use std::io::BufReader;
 use std::time::Instant;
 
-use acq_drivers::log::mf4_write::Mf4Writer;
-use acq_drivers::{LogReader, ReadError};
+use acq_can::log::mf4_write::Mf4Writer;
+use acq_can::{LogReader, ReadError};
 
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();

@@ -7,11 +7,11 @@
 
 use rustc_hash::FxHashMap;
 
-use crate::canopen::{HeartbeatEvent, HeartbeatMonitor};
-use crate::frame::{Frame, FrameKind};
-use crate::j1939::J1939Id;
-use crate::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
-use crate::rig::{Rig, SensorSource};
+use crate::{Rig, SensorSource};
+use acq_can::canopen::{HeartbeatEvent, HeartbeatMonitor};
+use acq_can::frame::{Frame, FrameKind};
+use acq_can::j1939::J1939Id;
+use acq_can::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
 
 /// One value of one sensor at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]

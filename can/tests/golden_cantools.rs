@@ -7,8 +7,8 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use acq_drivers::dbc::DbcDatabase;
-use acq_drivers::CanId;
+use acq_can::dbc::DbcDatabase;
+use acq_can::CanId;
 use common::same_value;
 
 fn golden(name: &str) -> String {

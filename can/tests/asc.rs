@@ -4,9 +4,9 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::PathBuf;
 
-use acq_drivers::frame::fd_flags;
-use acq_drivers::log::asc::{AscReader, ERROR_FRAME_CLASS};
-use acq_drivers::{CanId, Direction, FrameKind, IfaceName, LogFormat, LogReader};
+use acq_can::frame::fd_flags;
+use acq_can::log::asc::{AscReader, ERROR_FRAME_CLASS};
+use acq_can::{CanId, Direction, FrameKind, IfaceName, LogFormat, LogReader};
 
 /// `date Tue Mar 4 09:15:02.512 am 2025`, taken as UTC.
 const START_NS: i64 = 1_741_079_702_512_000_000;

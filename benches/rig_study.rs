@@ -109,8 +109,8 @@ fn with_rig_budgets(
     rig: &acq_rig::Rig,
     hold: Vec<acq_analysis::extract::measured::MeasuredValue>,
 ) -> Vec<acq_analysis::extract::measured::MeasuredValue> {
-    use acq_analysis::extract::budget::SessionParts;
     use acq_analysis::extract::run::{hold_values, HoldWindow};
+    use acq_analysis::extract::uncertainty::SessionParts;
     if std::env::var_os("ACQ_BENCH_SCATTER_ONLY").is_some() {
         return hold;
     }

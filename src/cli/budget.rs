@@ -5,8 +5,8 @@
 
 use std::path::PathBuf;
 
-use acq_analysis::extract::budget::value_budget;
 use acq_analysis::extract::net_force::{net_force_budget, net_force_monte_carlo};
+use acq_analysis::extract::uncertainty::value_budget;
 use acq_io::error::{AcqError, Result};
 use acq_io::input::load_rig;
 use acq_metrology::budget::LEVEL_95;
@@ -124,7 +124,7 @@ fn run_net_force(args: &BudgetArgs, rig: &acq_rig::Rig, cylinder: &str) -> Resul
 
 /// The budget as JSON or as a table, with the Monte Carlo check if any.
 fn print_budget(
-    value: &acq_analysis::extract::budget::ValueBudget,
+    value: &acq_analysis::extract::uncertainty::ValueBudget,
     json: bool,
     monte_carlo: Option<&MonteCarloResult>,
 ) {
@@ -186,7 +186,7 @@ fn print_budget(
 /// The budget as a metrology lab presents it: each source's standard
 /// uncertainty, its degrees of freedom and its share of the variance.
 fn budget_table(
-    value: &acq_analysis::extract::budget::ValueBudget,
+    value: &acq_analysis::extract::uncertainty::ValueBudget,
     combined: f64,
     dof: Option<f64>,
     k: f64,

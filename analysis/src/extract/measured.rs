@@ -18,7 +18,7 @@
 //! - `u_c`, `k`, `U95`: the value's combined standard uncertainty
 //!   (JCGM 100): the readings' scatter (Type A, `std / sqrt(n_eff)` with
 //!   `n_eff - 1` degrees of freedom) with the sensor's certificate,
-//!   accuracy and resolution at the mean (Type B, [`crate::extract::budget`]); a
+//!   accuracy and resolution at the mean (Type B, [`crate::extract::uncertainty`]); a
 //!   derived quantity's from its sensors' by propagation. `k` is Student's
 //!   t for 95 % at the effective degrees of freedom, `U95 = k u_c`.
 //! - `shared`: the parts of `u_c` that are the same in every hold recorded

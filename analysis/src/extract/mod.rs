@@ -4,8 +4,9 @@
 //!
 //! - [`holds`]: where the load is held (rolling standard deviation).
 //! - [`stats`]: mean, std, effective n, 95 % interval of one window.
-//! - [`budget`]: a value's uncertainty budget: the scatter, and the sensor's
-//!   certificate, accuracy class and resolution (JCGM 100).
+//! - [`uncertainty`]: where a value's uncertainty comes from (the scatter,
+//!   and the sensor's certificate, accuracy class and resolution: JCGM 100),
+//!   as contributions to `acq_metrology::budget`, which does the arithmetic.
 //! - [`net_force`]: a cylinder's net force budget and its Monte Carlo check.
 //! - [`plausibility`]: stuck, saturated, noisy, partner disagreement.
 //! - [`measured`]: the measured-values CSV (written here, read by calibrate).
@@ -14,7 +15,6 @@
 //! - [`run`]: both workflows over a recording.
 //! - [`live`]: the holds and their values as a stream, while recording.
 
-pub mod budget;
 pub mod holds;
 pub mod live;
 pub mod measured;
@@ -25,3 +25,4 @@ pub mod run;
 pub mod stats;
 pub mod tensile;
 pub mod tensile_props;
+pub mod uncertainty;

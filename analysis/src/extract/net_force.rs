@@ -6,12 +6,12 @@ use acq_metrology::budget::{Budget, Contribution};
 use acq_metrology::monte_carlo::{propagate, InputDistribution, MonteCarloResult};
 use acq_rig::Rig;
 
-use super::budget::{
+use super::run::net_force_quantity;
+use super::uncertainty::{
     diameter_parts, kn_per_bar, propagated, value_budget, ValueBudget, ACCURACY_CLASS,
     GAUGE_FACTOR, HYSTERESIS, NONLINEARITY, REPEATABILITY, RESOLUTION, TEMPERATURE_SPAN,
     TEMPERATURE_ZERO, ZERO_RETURN,
 };
-use super::run::net_force_quantity;
 
 /// A cylinder's net force (kN) at chamber pressures `head_bar` and
 /// `rod_bar` with its budget: both pressures' budgets through their

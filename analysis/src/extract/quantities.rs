@@ -7,8 +7,8 @@
 use acq_rig::profiles::SensorKind;
 use acq_rig::Rig;
 
-use super::budget::value_budget;
 use super::run::{loaded_pressure_quantity, net_force_quantity};
+use super::uncertainty::value_budget;
 
 /// What `sensor`'s record gives a value at the middle of its range (0
 /// without one); `None` without a record.

@@ -18,7 +18,7 @@ use acq_io::shunt_record::ShuntRecord;
 use acq_io::zero_record::ZeroRecord;
 use acq_metrology::budget::Budget;
 
-use super::budget::{diameter_parts, hold_budget, kn_per_bar, propagated, SessionParts};
+use super::uncertainty::{diameter_parts, hold_budget, kn_per_bar, propagated, SessionParts};
 use crate::recording::clocks::{offsets_ns, BusOffset};
 use crate::recording::{Recording, SampleCounts};
 use acq_rig::sensors::Sample;

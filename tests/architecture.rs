@@ -2,7 +2,8 @@
 //! flow runs one way), no import cycle between the modules of any crate, and
 //! the same third-party features for the binary and the Python binding.
 //! ARCHITECTURE.md states the same rules in prose; this test fails when the
-//! code and that page part ways.
+//! code and that page part ways: a path it names that is gone, a crate it
+//! calls a leaf that depends on another, a long file it gives no reason for.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -1127,5 +1128,226 @@ fn no_function_is_longer_than_a_screen_and_a_half_unless_listed() {
     assert!(
         stale.is_empty(),
         "no longer over {LONGEST_FUNCTION_LINES} lines: take them off LONG_FUNCTIONS: {stale:?}"
+    );
+}
+
+// ---- ARCHITECTURE.md kept true ------------------------------------------------
+
+fn architecture_md() -> String {
+    std::fs::read_to_string(workspace_root().join("ARCHITECTURE.md")).unwrap()
+}
+
+/// Every file and folder of the checkout, relative to its root, with `/`
+/// between the parts (folders end in `/`), outside what builds and tools
+/// make (`target/`, the guide's `book/`, the fuzzers' corpora).
+fn checkout_paths() -> Vec<String> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if matches!(
+                name.as_str(),
+                ".git" | "target" | "book" | "corpus" | "artifacts"
+            ) {
+                continue;
+            }
+            let relative = path
+                .strip_prefix(root)
+                .unwrap()
+                .to_string_lossy()
+                .replace('\\', "/");
+            if path.is_dir() {
+                out.push(format!("{relative}/"));
+                walk(root, &path, out);
+            } else {
+                out.push(relative);
+            }
+        }
+    }
+    let root = workspace_root();
+    let mut out = Vec::new();
+    walk(&root, &root, &mut out);
+    out
+}
+
+/// The code spans of a Markdown text that name a file or folder of the
+/// checkout: a span with a `/` or a Rust file's name, without spaces,
+/// placeholders (`<name>`), globs or URLs. A path may be given from the
+/// root (`can/src/log/`) or from a folder a table row names (`log/`,
+/// `spec/checks.rs`): it must be the end of some path of the checkout.
+fn paths_named(markdown: &str) -> Vec<String> {
+    let mut named = Vec::new();
+    for (i, span) in markdown.split('`').enumerate() {
+        if i % 2 == 0 {
+            continue;
+        }
+        let looks_like_path = span.contains('/') || span.ends_with(".rs");
+        let excluded = span.is_empty()
+            || span.contains(char::is_whitespace)
+            || span.contains(['<', '*', '{', '$', '=', ':'])
+            || span.starts_with('-')
+            || span.starts_with('/')
+            || span.starts_with('.') && !span.starts_with(".config/") && !span.starts_with(".ci/");
+        if looks_like_path && !excluded {
+            named.push(span.to_string());
+        }
+    }
+    named
+}
+
+/// The spans of `paths_named` that no path of the checkout ends with.
+fn missing_paths(markdown: &str, checkout: &[String]) -> Vec<String> {
+    paths_named(markdown)
+        .into_iter()
+        .filter(|named| {
+            !checkout.iter().any(|path| {
+                path == named
+                    || path.ends_with(&format!("/{named}"))
+                    || (!named.ends_with('/') && path == &format!("{named}/"))
+                    || (!named.ends_with('/') && path.ends_with(&format!("/{named}/")))
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn every_path_architecture_md_names_exists() {
+    let missing = missing_paths(&architecture_md(), &checkout_paths());
+    assert!(
+        missing.is_empty(),
+        "ARCHITECTURE.md names paths that do not exist (moved or renamed? keep the map true): {missing:?}"
+    );
+}
+
+#[test]
+fn the_path_check_sees_a_path_that_is_gone() {
+    let checkout = vec![
+        "rig/".to_string(),
+        "rig/src/".to_string(),
+        "rig/src/record.rs".to_string(),
+        "can/src/log/".to_string(),
+    ];
+    let page = "its record in `rig.rs` (`SensorRecord`), formats in `drivers/src/log/`, \
+                `rig/src/record.rs`, `log/`, `src/record.rs`, `<name>/x.rs`, `acq --help`";
+    assert_eq!(
+        missing_paths(page, &checkout),
+        ["rig.rs", "drivers/src/log/"]
+    );
+}
+
+/// The crates ARCHITECTURE.md calls leaves: the code spans on its line
+/// that starts `**Leaves**`.
+fn leaves_named(markdown: &str) -> Vec<String> {
+    let Some(start) = markdown.find("**Leaves**") else {
+        return Vec::new();
+    };
+    let paragraph = markdown[start..].split("\n\n").next().unwrap();
+    paragraph
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(str::to_string)
+        .collect()
+}
+
+/// Where the leaves ARCHITECTURE.md names and the crates with no workspace
+/// dependency part ways, one line each.
+fn leaf_disagreements(named: &[String], packages: &[(String, BTreeSet<String>)]) -> Vec<String> {
+    let mut wrong = Vec::new();
+    for (name, workspace_deps) in packages {
+        let is_named = named.contains(name);
+        if is_named && !workspace_deps.is_empty() {
+            wrong.push(format!(
+                "{name} is called a leaf but depends on {workspace_deps:?}"
+            ));
+        }
+        if !is_named && workspace_deps.is_empty() && name != "acq" {
+            wrong.push(format!(
+                "{name} has no workspace dependency but is not among the leaves"
+            ));
+        }
+    }
+    for name in named {
+        if !packages.iter().any(|(package, _)| package == name) {
+            wrong.push(format!(
+                "{name} is called a leaf but is no crate of the workspace"
+            ));
+        }
+    }
+    wrong
+}
+
+#[test]
+fn the_leaves_architecture_md_names_are_the_crates_with_no_workspace_dependency() {
+    let named = leaves_named(&architecture_md());
+    assert!(
+        !named.is_empty(),
+        "ARCHITECTURE.md has no line starting **Leaves**"
+    );
+    let packages: Vec<(String, BTreeSet<String>)> = workspace_packages()
+        .into_iter()
+        .map(|p| (p.name, p.workspace_deps))
+        .collect();
+    let wrong = leaf_disagreements(&named, &packages);
+    assert!(
+        wrong.is_empty(),
+        "ARCHITECTURE.md's leaves and the workspace part ways: {wrong:#?}"
+    );
+}
+
+#[test]
+fn the_leaf_check_sees_a_leaf_that_is_not_one() {
+    let page = "**Leaves**, crates with no workspace dependency: `acq-a`,\n`acq-gone`.\n\nNext.";
+    let named = leaves_named(page);
+    assert_eq!(named, ["acq-a", "acq-gone"]);
+    let packages = vec![
+        ("acq-a".to_string(), BTreeSet::from(["acq-b".to_string()])),
+        ("acq-b".to_string(), BTreeSet::new()),
+    ];
+    assert_eq!(leaf_disagreements(&named, &packages).len(), 3);
+}
+
+/// A source file's lines before its unit tests (`#[cfg(test)]` at the
+/// start of a line).
+fn lines_before_tests(code: &str) -> usize {
+    code.lines()
+        .take_while(|line| !line.starts_with("#[cfg(test)]"))
+        .count()
+}
+
+const LONGEST_FILE_LINES: usize = 1000;
+
+#[test]
+fn no_source_file_passes_a_thousand_lines_unless_architecture_md_says_why() {
+    assert_eq!(lines_before_tests("a\nb\n#[cfg(test)]\nmod tests {}\n"), 2);
+    let root = workspace_root();
+    let page = architecture_md();
+    let listed = page
+        .split("## Long files")
+        .nth(1)
+        .and_then(|rest| rest.split("\n## ").next())
+        .unwrap_or("");
+    let mut unlisted = Vec::new();
+    for package in workspace_packages() {
+        let mut files = Vec::new();
+        collect_rs_files(&package.src_dir, &mut files);
+        for file in files {
+            let lines = lines_before_tests(&std::fs::read_to_string(&file).unwrap());
+            let relative = file
+                .strip_prefix(&root)
+                .unwrap()
+                .to_string_lossy()
+                .into_owned();
+            if lines > LONGEST_FILE_LINES && !listed.contains(&format!("`{relative}`")) {
+                unlisted.push(format!("{relative} ({lines} lines)"));
+            }
+        }
+    }
+    assert!(
+        unlisted.is_empty(),
+        "source files over {LONGEST_FILE_LINES} lines before their tests: split them by what they hold, or list them under \"Long files\" in ARCHITECTURE.md with why they stay whole: {unlisted:#?}"
     );
 }

@@ -10,10 +10,10 @@
 use std::path::Path;
 use std::time::Instant;
 
-use acq_calib::doe::latin_hypercube;
-use acq_calib::evaluation::Simulator;
-use acq_calib::gp::{Gp, GpSettings, Kernel};
-use acq_calib::moo::{nsga2, Nsga2Settings};
+use acq_algorithms::doe::latin_hypercube;
+use acq_algorithms::evaluation::Simulator;
+use acq_algorithms::gp::{Gp, GpSettings, Kernel};
+use acq_algorithms::moo::{nsga2, Nsga2Settings};
 use acq_study::study::{Role, StudySimulator};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::GeometryTemplate;

@@ -28,8 +28,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use acq_algorithms::doe::latin_hypercube;
 use acq_analysis::loss::metrics::{matched, CurveMetric};
-use acq_calib::doe::latin_hypercube;
 use acq_workflows::calibrate::external::{run, CalibrateExternalOptions};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};

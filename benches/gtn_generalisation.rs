@@ -28,10 +28,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use acq_algorithms::doe::latin_hypercube;
 use acq_analysis::extract::tensile_props::{
     read_test_csv, tensile_properties, SpecimenGeometry, TestPoint,
 };
-use acq_calib::doe::latin_hypercube;
 use acq_workflows::calibrate::gtn::{parameters, CalibrateGtnOptions};
 use acq_workflows::tensile_model::{GtnInputs, ModelSettings, TensileModel, PARAMETER_NAMES};
 use rand::SeedableRng;

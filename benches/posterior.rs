@@ -16,8 +16,8 @@
 use std::path::Path;
 use std::time::Instant;
 
-use acq_calib::evaluation::Parameter;
-use acq_calib::mcmc::{sample, SamplerSettings};
+use acq_algorithms::evaluation::Parameter;
+use acq_algorithms::mcmc::{sample, SamplerSettings};
 use acq_study::extras::NoExtras;
 use acq_study::method::{start_design, BoMethod, Method, RunSettings};
 use acq_study::posterior::likelihood::StudyPosterior;

@@ -19,7 +19,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // Frames, log formats and the CAN protocols.
     ("acq-can", &[]),
     ("acq-twins", &[]),
-    ("acq-calib", &[]),
+    ("acq-algorithms", &[]),
     ("acq-report", &[]),
     // No code: the third-party features the binary and the binding share.
     ("acq-shared-features", &[]),
@@ -46,7 +46,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-io",
             "acq-analysis",
             "acq-report",
-            "acq-calib",
+            "acq-algorithms",
             "acq-exec",
         ],
     ),
@@ -60,7 +60,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-analysis",
             "acq-report",
             "acq-twins",
-            "acq-calib",
+            "acq-algorithms",
             "acq-exec",
             "acq-study",
         ],
@@ -96,7 +96,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
     (
         "acq-python",
         &[
-            "acq-calib",
+            "acq-algorithms",
             "acq-can",
             "acq-rig",
             "acq-io",
@@ -115,7 +115,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-can",
             "acq-rig",
             "acq-twins",
-            "acq-calib",
+            "acq-algorithms",
             "acq-io",
             "acq-acquire",
             "acq-analysis",
@@ -805,7 +805,7 @@ const WRITES_DIRECTLY: &[(&str, &str)] = &[
         "the recorder's raw log, written and rotated as it streams, and the session's rig copies",
     ),
     (
-        "calib/src/evaluation.rs",
+        "algorithms/src/evaluation.rs",
         "the evaluation log, appended run by run so that a crash loses none",
     ),
     (
@@ -940,8 +940,8 @@ fn names_call(code: &str, path: &str) -> bool {
 /// shrinks (ARCHITECTURE.md, "Invariants").
 const LONG_FUNCTIONS: &[(&str, &str, &str)] = &[
     ("twins/src/tensile/gtn.rs", "update_with_start", "the GTN return mapping: one Newton iteration over the yield condition, its local state, in the order of the published algorithm"),
-    ("calib/src/optim.rs", "minimize_bounded", "the L-BFGS-B iteration: its history, the projected search and the line search share one state"),
-    ("calib/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
+    ("algorithms/src/optim.rs", "minimize_bounded", "the L-BFGS-B iteration: its history, the projected search and the line search share one state"),
+    ("algorithms/src/least_squares.rs", "least_squares", "the Levenberg-Marquardt iteration: damping, the halved steps and the cost history share one state"),
 ];
 
 /// About the longest a function reads whole on one screen and a half.

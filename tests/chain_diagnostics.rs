@@ -1,4 +1,4 @@
-//! acq's chain diagnostics (`acq_calib::chain_diagnostics`) against ArviZ
+//! acq's chain diagnostics (`acq_algorithms::chain_diagnostics`) against ArviZ
 //! 0.23.4, the definitions a posterior's readers expect: the rank-normalised
 //! split R-hat (`az.rhat(method="rank")`) and the bulk ESS
 //! (`az.ess(method="bulk")`), the tail ESS (`az.ess(method="tail")`), the
@@ -9,7 +9,7 @@
 
 mod common;
 
-use acq_calib::chain_diagnostics::{ess_bulk, ess_tail, hdi, mcse_mean, mcse_sd, rank_rhat};
+use acq_algorithms::chain_diagnostics::{ess_bulk, ess_tail, hdi, mcse_mean, mcse_sd, rank_rhat};
 use rand::{RngExt, SeedableRng};
 
 const ARVIZ: &str = "arviz==0.23.4";

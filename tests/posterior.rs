@@ -23,8 +23,8 @@ mod common;
 
 use std::path::Path;
 
+use acq_algorithms::mcmc::{quantile, sample, Marginal, SamplerSettings};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_calib::mcmc::{quantile, sample, Marginal, SamplerSettings};
 use acq_study::extras::NoExtras;
 use acq_study::method::{LeastSquaresMethod, Method, RunSettings};
 use acq_study::posterior::likelihood::{standard_normal, StudyPosterior};
@@ -329,7 +329,7 @@ fn toy_chains(
     outputs: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
     seed: u64,
     warmup: usize,
-) -> acq_calib::mcmc::Chains {
+) -> acq_algorithms::mcmc::Chains {
     let log_density =
         |point: &[f64]| density.log_prior(point) + density.log_likelihood(&outputs(point), &[]);
     let settings = SamplerSettings {

@@ -11,7 +11,7 @@ mod twins;
 
 use std::path::PathBuf;
 
-use acq_calib::evaluation::{clear_stop_request, request_stop};
+use acq_algorithms::evaluation::{clear_stop_request, request_stop};
 use acq_io::error::AcqError;
 use acq_study::progress::ProgressSnapshot;
 use acq_study::study::{Model, ModelRun};

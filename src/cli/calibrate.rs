@@ -5,9 +5,9 @@
 
 use std::path::PathBuf;
 
+use acq_algorithms::bo::Acquisition;
+use acq_algorithms::gp::Kernel;
 use acq_analysis::extract::measured::UncertaintyBasis;
-use acq_calib::bo::Acquisition;
-use acq_calib::gp::Kernel;
 use acq_io::error::Result;
 use acq_study::posterior::Discrepancy;
 use acq_study::surrogate_moo::Pick;

@@ -21,8 +21,8 @@
 //! loss along each parameter through the optimum (the others held) is drawn
 //! from the same GPs.
 
-use acq_calib::evaluation::{Evaluation, Parameter};
-use acq_calib::gp::{Gp, GpSettings, Kernel};
+use acq_algorithms::evaluation::{Evaluation, Parameter};
+use acq_algorithms::gp::{Gp, GpSettings, Kernel};
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, Chart, Series};
 use nalgebra::{DMatrix, Dyn, SymmetricEigen};

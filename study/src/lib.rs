@@ -1,5 +1,5 @@
 //! A calibration study, from its spec to its report: the engine of
-//! `acq-calib` run on any model that implements [`study::Model`].
+//! `acq-algorithms` run on any model that implements [`study::Model`].
 //!
 //! Every study goes one way: a preset (in `acq-workflows`) or a spec
 //! ([`spec`]) builds a [`study::Study`] and a model (a built-in twin, or a

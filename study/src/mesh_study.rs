@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use acq_calib::evaluation::Parameter;
+use acq_algorithms::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 use acq_metrology::grid_convergence::{grid_convergence, GridConvergence};
 use acq_report::number::{plain, significant};
@@ -190,7 +190,7 @@ fn curve_convergences(
     sized: &Study,
     model: &dyn Model,
     points: &[Vec<f64>],
-    evaluations: &[acq_calib::evaluation::Evaluation],
+    evaluations: &[acq_algorithms::evaluation::Evaluation],
 ) -> Result<Vec<CurveConvergence>> {
     let mut found = Vec::new();
     for (case_index, case) in sized.cases.iter().enumerate() {

@@ -3,12 +3,12 @@
 
 use std::path::Path;
 
-use acq_calib::bo::Acquisition;
-use acq_calib::doe::{
+use acq_algorithms::bo::Acquisition;
+use acq_algorithms::doe::{
     full_factorial, latin_hypercube, orthogonal_array_l12, read_design_csv, sobol_points,
     two_level_to_unit,
 };
-use acq_calib::evaluation::Parameter;
+use acq_algorithms::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 
 use super::posterior::settings::PosteriorSettings;
@@ -47,7 +47,7 @@ pub struct LeastSquaresMethod {
 }
 
 /// Two levels of one model searched together
-/// ([`acq_calib::multi_fidelity`]): the model input `mesh` at a cheap
+/// ([`acq_algorithms::multi_fidelity`]): the model input `mesh` at a cheap
 /// (coarse) and an expensive (fine) element size. The calibrated point is
 /// the best expensive run.
 #[derive(Clone, Debug)]

@@ -3,8 +3,8 @@
 //! calibrated curves. The runner makes it; the summary, the report and a
 //! preset's extras read it.
 
-use acq_calib::evaluation::Evaluation;
-use acq_calib::least_squares::LeastSquaresResult;
+use acq_algorithms::evaluation::Evaluation;
+use acq_algorithms::least_squares::LeastSquaresResult;
 use acq_metrology::grid_convergence::GridConvergence;
 
 use super::identifiability::Identifiability;
@@ -70,7 +70,7 @@ pub struct CalibratedCurve {
 
 /// What a method found.
 pub enum Found {
-    Bo(acq_calib::bo::BoResult),
+    Bo(acq_algorithms::bo::BoResult),
     /// A two-level search: the outcome's evaluations are its expensive runs.
     MultiFidelity(Box<MultiFidelityFound>),
     Moo(Box<super::surrogate_moo::SurrogateMoo>),
@@ -78,7 +78,7 @@ pub enum Found {
 }
 
 impl Found {
-    pub fn gps(&self) -> Option<&[acq_calib::gp::Gp]> {
+    pub fn gps(&self) -> Option<&[acq_algorithms::gp::Gp]> {
         match self {
             Found::Moo(moo) => Some(&moo.gps),
             Found::Bo(_) | Found::MultiFidelity(_) | Found::LeastSquares(_) => None,
@@ -88,7 +88,7 @@ impl Found {
 
 /// What a two-level search found, and the levels' element sizes.
 pub struct MultiFidelityFound {
-    pub result: acq_calib::multi_fidelity::MultiFidelityResult,
+    pub result: acq_algorithms::multi_fidelity::MultiFidelityResult,
     /// The `mesh` input of the cheap and the expensive level.
     pub meshes: [f64; 2],
 }
@@ -96,7 +96,7 @@ pub struct MultiFidelityFound {
 impl MultiFidelityFound {
     /// What the search did, for `summary.json`.
     pub fn summary_json(&self) -> serde_json::Value {
-        use acq_calib::multi_fidelity::Fidelity;
+        use acq_algorithms::multi_fidelity::Fidelity;
         let result = &self.result;
         serde_json::json!({
             "cheap_mesh": self.meshes[0],

@@ -8,11 +8,11 @@
 //! Also the plumbing every report shares: a report as Markdown, HTML and
 //! its SVG files ([`write_report`]), and the Pareto-front plot.
 
+use acq_algorithms::evaluation::Evaluation;
+use acq_algorithms::least_squares::Stop as LsStop;
+use acq_algorithms::sobol_indices::sobol_indices;
 use acq_analysis::loss::curve::{curve_errors_along, CurveMapeOptions};
 use acq_analysis::loss::metrics::{matched, points_of, CurveMetric};
-use acq_calib::evaluation::Evaluation;
-use acq_calib::least_squares::Stop as LsStop;
-use acq_calib::sobol_indices::sobol_indices;
 use acq_io::error::Result;
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
@@ -135,7 +135,7 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
             result.stop
         ),
         Found::MultiFidelity(mf) => {
-            use acq_calib::multi_fidelity::Fidelity;
+            use acq_algorithms::multi_fidelity::Fidelity;
             let result = &mf.result;
             format!(
                 "Two-level search of the {} error (local steps: the cheap level mapped onto the expensive one and descended, each end checked by an expensive run; when they cannot go on, co-kriging over both levels, each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; {}; {}; stopped: {:?}.",
@@ -457,7 +457,7 @@ const MATTERS: f64 = 0.05;
 fn write_one_verdict(
     report: &mut Document,
     analysis: &Identifiability,
-    parameters: &[acq_calib::evaluation::Parameter],
+    parameters: &[acq_algorithms::evaluation::Parameter],
     totals: &[Option<(f64, String)>],
 ) {
     use crate::identifiability::{local_verdict, strongest_partner};

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acq_calib::evaluation::{EvaluationError, Evaluator, Simulator};
+use acq_algorithms::evaluation::{EvaluationError, Evaluator, Simulator};
 use acq_io::error::{AcqError, Result};
 
 /// The run directory: created if missing; `evaluations.csv` in it must be

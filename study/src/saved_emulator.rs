@@ -18,10 +18,10 @@
 
 use std::path::Path;
 
-use acq_calib::gp::{FixedHyperparameters, Gp, GpSettings, Kernel};
+use acq_algorithms::gp::{FixedHyperparameters, Gp, GpSettings, Kernel};
 use serde::{Deserialize, Serialize};
 
-use acq_calib::evaluation::Evaluation;
+use acq_algorithms::evaluation::Evaluation;
 
 use super::study::{Measured, Model, ModelRun, Role, Study};
 

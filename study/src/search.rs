@@ -2,16 +2,16 @@
 //! unit box, Bayesian optimisation through the logging evaluator, and the
 //! best distinct parameter sets of a run.
 
-use acq_calib::bo::{
+use acq_algorithms::bo::{
     minimise, minimise_as_they_finish, Acquisition, BoError, BoResult, BoSettings, Finished,
     Outcome, RunsAsTheyFinish,
 };
-use acq_calib::evaluation::{AsyncRuns, Evaluation, EvaluationError, Evaluator, Parameter};
-use acq_calib::gp::{GpSettings, Kernel};
-use acq_calib::multi_fidelity::{
+use acq_algorithms::evaluation::{AsyncRuns, Evaluation, EvaluationError, Evaluator, Parameter};
+use acq_algorithms::gp::{GpSettings, Kernel};
+use acq_algorithms::multi_fidelity::{
     ExpensiveStart, Fidelity, MultiFidelityResult, MultiFidelitySettings,
 };
-use acq_calib::trust_region::TrustRegionSettings;
+use acq_algorithms::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;
@@ -132,7 +132,7 @@ pub fn minimise_logged(
     result.map_err(|e| AcqError::Config(e.to_string()))
 }
 
-/// The two-level search ([`acq_calib::multi_fidelity`]) through a logging
+/// The two-level search ([`acq_algorithms::multi_fidelity`]) through a logging
 /// evaluator whose simulator takes the element size as its last
 /// parameter (`mesh`): each unit-box point is scaled to the parameters,
 /// given its level's size, run (the start designs in parallel), logged
@@ -162,7 +162,7 @@ pub fn minimise_two_levels_logged(
         )
     };
     let mut log_failure = None;
-    let result = acq_calib::multi_fidelity::minimise::<BoError>(
+    let result = acq_algorithms::multi_fidelity::minimise::<BoError>(
         cheap_start,
         expensive_start,
         |level, points| {

@@ -21,11 +21,11 @@
 //! calibrated model agrees with the measurement within what the
 //! instruments can tell.
 
+use acq_algorithms::evaluation::{Parameter, Simulator};
 use acq_analysis::loss::curve::{
     curve_errors_by_part, curve_mape, CurveLossError, CurveMapeOptions,
 };
 use acq_analysis::loss::metrics::{matched, points_of, residuals_by_part, CurveMetric};
-use acq_calib::evaluation::{Parameter, Simulator};
 pub use acq_metrology::budget::SharedError;
 use serde_json::{json, Map, Value};
 
@@ -924,7 +924,7 @@ mod tests {
         Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study,
         StudyParameter, StudySimulator,
     };
-    use acq_calib::evaluation::{Parameter, Simulator};
+    use acq_algorithms::evaluation::{Parameter, Simulator};
     use std::sync::atomic::{AtomicUsize, Ordering};
 
     /// `a = x + load`, `b = 2 x`, `c = 3 y`, counting its runs.

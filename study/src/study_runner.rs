@@ -7,7 +7,7 @@
 //! - `bo`: Bayesian optimisation of the study's loss ([`minimise_logged`]).
 //! - `surrogate-moo`: [`surrogate_moo`] over the study's objectives.
 //! - `least-squares`: bounded Levenberg-Marquardt on the study's residuals
-//!   from the nominal point ([`acq_calib::least_squares`]), for cheap,
+//!   from the nominal point ([`acq_algorithms::least_squares`]), for cheap,
 //!   smooth models (the built-in excavator twin); its last Jacobian is the
 //!   identifiability analysis's.
 //!
@@ -17,12 +17,12 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use acq_calib::bo::Outcome;
-use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
-use acq_calib::gp::GpSettings;
-use acq_calib::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
-use acq_calib::multi_fidelity::MultiFidelitySettings;
-use acq_calib::trust_region::TrustRegionSettings;
+use acq_algorithms::bo::Outcome;
+use acq_algorithms::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_algorithms::gp::GpSettings;
+use acq_algorithms::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
+use acq_algorithms::multi_fidelity::MultiFidelitySettings;
+use acq_algorithms::trust_region::TrustRegionSettings;
 use acq_io::error::{AcqError, Result};
 
 use super::error::StudyError;
@@ -48,7 +48,7 @@ use super::surrogate_moo::surrogate_moo;
 /// study whose model refuses a name or a value says so before it starts.
 /// For models that cost little to run (the built-in twins).
 pub fn check_at_nominal(study: &Study, model: &dyn Model) -> std::result::Result<(), String> {
-    use acq_calib::evaluation::Simulator;
+    use acq_algorithms::evaluation::Simulator;
     for role in [Role::Fit, Role::Validate] {
         StudySimulator::new(study, model, role)
             .evaluate(&study.nominal())

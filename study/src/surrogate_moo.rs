@@ -15,13 +15,13 @@
 //! study is resumable: the designs are seeded and every later step depends
 //! only on logged results.
 
-use acq_calib::doe::{latin_hypercube, random_uniform};
-use acq_calib::evaluation::{Evaluation, Evaluator, Parameter};
-use acq_calib::gp::{Gp, GpSettings, Kernel};
-use acq_calib::minimax::minimax_ranking;
-use acq_calib::moo::{nsga2, Nsga2Result, Nsga2Settings};
-use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
-use acq_calib::topsis::{topsis_normalised, Criterion, Normalisation};
+use acq_algorithms::doe::{latin_hypercube, random_uniform};
+use acq_algorithms::evaluation::{Evaluation, Evaluator, Parameter};
+use acq_algorithms::gp::{Gp, GpSettings, Kernel};
+use acq_algorithms::minimax::minimax_ranking;
+use acq_algorithms::moo::{nsga2, Nsga2Result, Nsga2Settings};
+use acq_algorithms::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
+use acq_algorithms::topsis::{topsis_normalised, Criterion, Normalisation};
 use acq_io::error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;

@@ -4,8 +4,8 @@
 //! (`tests/posterior.rs` asserts the share; `benches/curve_coverage.rs`
 //! measures it on more replicates for every metric).
 
+use acq_algorithms::mcmc::{sample, SamplerSettings};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_calib::mcmc::{sample, SamplerSettings};
 use acq_study::posterior::likelihood::StudyPosterior;
 use acq_study::posterior::Discrepancy;
 use acq_study::study::{
@@ -50,7 +50,7 @@ impl Model for Saturating {
 /// truth drawn from the prior and the AR(1) noise above, scored by
 /// `metric`.
 pub fn correlated_curve_hits(metric: CurveMetric, points: u32, replicates: u64) -> Vec<[bool; 2]> {
-    use acq_calib::evaluation::Simulator;
+    use acq_algorithms::evaluation::Simulator;
     use acq_study::method::CURVE_PARTS;
     use acq_study::study::StudySimulator;
     // Over 0 to 4 (f64::from(points) / 4.0 is exact: the MAPE test's

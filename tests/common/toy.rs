@@ -1,7 +1,7 @@
 //! Toy studies the posterior's tests and benchmarks share (also compiled
 //! into `benches/posterior.rs` by path).
 
-use acq_calib::evaluation::Parameter;
+use acq_algorithms::evaluation::Parameter;
 use acq_study::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, Study, StudyParameter,
 };

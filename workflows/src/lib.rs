@@ -2,7 +2,7 @@
 //! writing its files and its report.
 //!
 //! - [`calibrate`]: `acq calibrate excavator|gtn|external`, the engine of
-//!   `acq-calib` on a twin or on a user's solver run as a command.
+//!   `acq-algorithms` on a twin or on a user's solver run as a command.
 //! - [`sensitivity`]: one-at-a-time sweeps of a model's outputs (model-agnostic).
 //! - [`tensile_model`]: the GTN twin set up from a test and scored on it.
 //! - [`tensile_report`]: the reports of `acq tensile-props` and `acq twin gtn`.
@@ -13,7 +13,7 @@
 //!   stated geometry (a known truth for `acq simulate`).
 //!
 //! Sits at the end of the data flow: it reads measured values (`acq-analysis`),
-//! runs twins (`acq-twins`) and the engine (`acq-calib`) and writes reports
+//! runs twins (`acq-twins`) and the engine (`acq-algorithms`) and writes reports
 //! (`acq-report`). It knows nothing of CAN or live buses, nor of the command
 //! line: each command takes an options struct with its defaults.
 

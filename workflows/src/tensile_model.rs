@@ -302,9 +302,12 @@ pub const FLOW_CURVE_COLUMNS: [&str; 2] = ["PLASTIC_STRAIN", "TRUE_STRESS_MPA"];
 /// strain 0. Errors name the file and line.
 pub fn read_flow_curve(path: &std::path::Path) -> Result<Vec<(f64, f64)>, String> {
     let text = acq_io::input::read_text(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let rows =
-        acq_calib::doe::read_csv_columns(&text, &FLOW_CURVE_COLUMNS, "point of the flow curve")
-            .map_err(|e| format!("{}: {e}", path.display()))?;
+    let rows = acq_algorithms::doe::read_csv_columns(
+        &text,
+        &FLOW_CURVE_COLUMNS,
+        "point of the flow curve",
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
     let table: Vec<(f64, f64)> = rows.iter().map(|r| (r[0], r[1])).collect();
     // The same checks the twin makes, with the file's name on them.
     FlowCurve::new(

@@ -16,10 +16,10 @@
 //! simulated bar breaks) stays in the likelihood and is reported as the
 //! floor it is.
 
-use acq_calib::evaluation::{Evaluation, Parameter};
-use acq_calib::gp::{Gp, GpSettings, Kernel};
-use acq_calib::mcmc::{quantile, Chains};
-use acq_calib::multi_fidelity::CoKriging;
+use acq_algorithms::evaluation::{Evaluation, Parameter};
+use acq_algorithms::gp::{Gp, GpSettings, Kernel};
+use acq_algorithms::mcmc::{quantile, Chains};
+use acq_algorithms::multi_fidelity::CoKriging;
 
 use super::super::search::to_unit;
 use super::likelihood::{Scales, StudyPosterior};
@@ -49,7 +49,7 @@ pub struct Emulator {
 /// How one observation's value is emulated.
 enum Emulated {
     Gp(Box<Gp>),
-    /// Over a coarse mesh's runs too ([`acq_calib::multi_fidelity`]).
+    /// Over a coarse mesh's runs too ([`acq_algorithms::multi_fidelity`]).
     CoKriging(Box<CoKriging>),
     /// Every run gave the same value.
     Constant(f64),

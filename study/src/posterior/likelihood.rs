@@ -30,10 +30,10 @@
 
 use std::f64::consts::PI;
 
+use acq_algorithms::evaluation::Scale;
+use acq_algorithms::mcmc::Support;
 use acq_analysis::loss::curve::{test_scatter_by_part, CurveMapeOptions};
 use acq_analysis::loss::metrics::{measured_scatter_by_part, points_of, CurveMetric};
-use acq_calib::evaluation::Scale;
-use acq_calib::mcmc::Support;
 use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use rand_distr::{Distribution, StandardNormal};
@@ -997,7 +997,7 @@ pub fn standard_normal(rng: &mut impl rand::Rng) -> f64 {
 mod tests {
     use super::*;
     use crate::study::{Case, LossKind, Observation, Residuals, StudyParameter};
-    use acq_calib::evaluation::Parameter;
+    use acq_algorithms::evaluation::Parameter;
     use rand::SeedableRng;
 
     fn study(values: &[(f64, Option<f64>)]) -> Study {

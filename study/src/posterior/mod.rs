@@ -5,7 +5,7 @@
 //!   measurement error (stated, or a noise scale of its own), and model
 //!   [`discrepancy`] (constant, or a GP over the cases' inputs), each
 //!   scale integrated out by a [`scale_grid`].
-//! - Sampling by [`acq_calib::mcmc`]: a model that costs microseconds (the
+//! - Sampling by [`acq_algorithms::mcmc`]: a model that costs microseconds (the
 //!   built-in excavator twin, [`super::study::Model::is_cheap`]) directly,
 //!   the model run at every step; any other on an [`emulator`] of its
 //!   logged runs, refined by real runs where the posterior lies.
@@ -21,8 +21,8 @@
 
 use std::time::Instant;
 
-use acq_calib::evaluation::{Evaluation, Evaluator, Simulator};
-use acq_calib::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings, Support};
+use acq_algorithms::evaluation::{Evaluation, Evaluator, Simulator};
+use acq_algorithms::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings, Support};
 use acq_io::error::{AcqError, Result};
 use rand::SeedableRng;
 
@@ -512,7 +512,7 @@ fn typical_scales(density: &StudyPosterior, runs: &[Evaluation], seed: u64) -> S
     let median = |values: Vec<f64>| {
         let mut values = values;
         values.sort_by(f64::total_cmp);
-        acq_calib::mcmc::quantile(&values, 0.5)
+        acq_algorithms::mcmc::quantile(&values, 0.5)
     };
     Scales {
         noise_pct: density
@@ -660,8 +660,8 @@ fn discrepancy_moments(
                 output: k,
                 mean,
                 sd: (within + spread).sqrt(),
-                q05: acq_calib::mcmc::quantile(&samples, 0.05),
-                q95: acq_calib::mcmc::quantile(&samples, 0.95),
+                q05: acq_algorithms::mcmc::quantile(&samples, 0.05),
+                q95: acq_algorithms::mcmc::quantile(&samples, 0.95),
             });
         }
     }

@@ -12,8 +12,8 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use acq_calib::evaluation::Evaluator;
-use acq_calib::mcmc::{quantile, Chains};
+use acq_algorithms::evaluation::Evaluator;
+use acq_algorithms::mcmc::{quantile, Chains};
 use acq_io::error::Result;
 
 use super::super::run_directory::{evaluation_error, write_text, RunDirectory};

@@ -8,7 +8,7 @@ use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{grid_svg, sparse_grid_svg, Chart, Series, SeriesStyle};
 use serde_json::{json, Map, Value};
 
-use acq_calib::mcmc::{quantile, Marginal, Support};
+use acq_algorithms::mcmc::{quantile, Marginal, Support};
 
 use super::discrepancy::Form;
 use super::likelihood::PriorInterval;

@@ -15,9 +15,9 @@
 //! Every step is a function of the data and the last update, so the same
 //! holds in the same order give the same posterior, live or offline.
 
-use acq_calib::evaluation::Simulator;
-use acq_calib::mcmc::{warm_up, Chains, InitialProposal, SamplerSettings, MAX_THIN};
-use acq_calib::next_point::draws_moments;
+use acq_algorithms::evaluation::Simulator;
+use acq_algorithms::mcmc::{warm_up, Chains, InitialProposal, SamplerSettings, MAX_THIN};
+use acq_algorithms::next_point::draws_moments;
 use acq_io::error::{AcqError, Result};
 
 use super::likelihood::StudyPosterior;

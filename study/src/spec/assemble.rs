@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use acq_calib::evaluation::Parameter;
+use acq_algorithms::evaluation::Parameter;
 
 use super::observations::{
     case_observation, measured_curve, metric_of, scalar, scoreable, weight_of,
@@ -55,7 +55,7 @@ pub fn study(file: &SpecFile, spec_directory: &Path, command: bool) -> Result<St
         cases.push(priors);
     }
     let search_parameters: Vec<Parameter> = parameters.iter().map(|p| p.search.clone()).collect();
-    acq_calib::evaluation::validate_parameters(&search_parameters)
+    acq_algorithms::evaluation::validate_parameters(&search_parameters)
         .map_err(|e| SpecProblem::file(e.to_string()))?;
     scorable(&cases, file.search.residuals)?;
     Ok(Study {
@@ -237,7 +237,7 @@ pub fn parameters(file: &SpecFile, cases: &[Case]) -> Result<Vec<StudyParameter>
                 p.lower, p.upper
             )));
         }
-        if p.scale == acq_calib::evaluation::Scale::Log && p.lower <= 0.0 {
+        if p.scale == acq_algorithms::evaluation::Scale::Log && p.lower <= 0.0 {
             return Err(here(format!(
                 "scale = \"log\" needs lower above 0 (equal steps in ratio), got lower = {}; give a positive lower bound or scale = \"linear\"",
                 p.lower

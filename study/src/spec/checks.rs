@@ -4,8 +4,8 @@
 
 use std::path::Path;
 
-use acq_calib::bo::Acquisition;
-use acq_calib::gp::Kernel;
+use acq_algorithms::bo::Acquisition;
+use acq_algorithms::gp::Kernel;
 
 use super::model::{CommandSpec, ModelKind};
 use super::problem::SpecProblem;

@@ -4,9 +4,9 @@
 
 use std::path::Path;
 
+use acq_algorithms::doe::read_csv_columns;
 use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_calib::doe::read_csv_columns;
 use acq_io::error::AcqError;
 
 use super::schema::CurveSpec;

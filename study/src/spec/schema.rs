@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use acq_calib::evaluation::Scale;
+use acq_algorithms::evaluation::Scale;
 use serde::Deserialize;
 
 use crate::posterior::{Discrepancy, PosteriorSettings};

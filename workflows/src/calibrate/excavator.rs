@@ -21,9 +21,9 @@
 
 use std::path::{Path, PathBuf};
 
+use acq_algorithms::evaluation::{Parameter, Simulator};
+use acq_algorithms::gp::Kernel;
 use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
-use acq_calib::evaluation::{Parameter, Simulator};
-use acq_calib::gp::Kernel;
 use acq_io::error::{AcqError, Result};
 use acq_report::document::{Document, Table};
 use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
@@ -222,7 +222,7 @@ fn check_before_the_first_run(
         }
     }
     let parameters = simulator.parameters();
-    acq_calib::evaluation::validate_parameters(parameters)
+    acq_algorithms::evaluation::validate_parameters(parameters)
         .map_err(|e| problem(format!("bounds: {e}")))?;
     for corner in 0..1usize << parameters.len() {
         let values: Vec<f64> = parameters

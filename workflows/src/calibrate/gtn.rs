@@ -9,13 +9,13 @@
 
 use std::path::{Path, PathBuf};
 
+use acq_algorithms::bo::Acquisition;
+use acq_algorithms::evaluation::Parameter;
 use acq_analysis::extract::tensile_props::{
     read_test_csv, tensile_properties, SpecimenGeometry, TestPoint,
 };
 use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions, SplitMape};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_calib::bo::Acquisition;
-use acq_calib::evaluation::Parameter;
 use acq_io::error::{AcqError, Result};
 use acq_report::document::Document;
 use serde_json::{json, Map, Value};
@@ -456,7 +456,8 @@ impl Extras for GtnExtras<'_> {
             Found::MultiFidelity(mf) => format!(
                 "{} fine simulations (and {} cheap ones at {} mm)",
                 outcome.evaluations.len(),
-                mf.result.count(acq_calib::multi_fidelity::Fidelity::Cheap),
+                mf.result
+                    .count(acq_algorithms::multi_fidelity::Fidelity::Cheap),
                 mf.meshes[0]
             ),
             _ => format!("{} simulations", outcome.evaluations.len()),

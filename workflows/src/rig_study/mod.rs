@@ -16,7 +16,7 @@
 //!
 //! - [`update`]: the holds so far as a study, its posterior, the verdicts;
 //! - [`next`]: the next test point (expected information gain on the model
-//!   linearised at the posterior mean, [`acq_calib::next_point`]);
+//!   linearised at the posterior mean, [`acq_algorithms::next_point`]);
 //! - [`tracker`]: hold by hold, what the page and the terminal show;
 //! - [`offline`]: `acq calibrate rig`, the same over recorded sessions.
 //!

@@ -2,7 +2,7 @@
 //! expected to shrink the posterior most.
 //!
 //! The criterion is the expected information gain of the model linearised
-//! at the posterior mean ([`acq_calib::next_point`]), which for a Gaussian
+//! at the posterior mean ([`acq_algorithms::next_point`]), which for a Gaussian
 //! posterior is Bayesian D-optimality: the log ratio of the posterior's
 //! volume before and after. It is exact where the outputs are linear in
 //! the parameters over the posterior's width, as the excavator's cylinder
@@ -22,7 +22,7 @@
 //! own error is noise. A repeat of a hold then gains only what its own
 //! scatter adds.
 
-use acq_calib::next_point::{next_point, Candidate};
+use acq_algorithms::next_point::{next_point, Candidate};
 
 use acq_study::posterior::shared_errors::LEAST_OWN_SHARE;
 

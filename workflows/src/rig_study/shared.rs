@@ -12,7 +12,7 @@
 //! the earlier holds have narrowed, not fresh noise, so a repeat of the
 //! same hold no longer looks as informative as a new one.
 
-use acq_calib::next_point::draws_moments;
+use acq_algorithms::next_point::draws_moments;
 use acq_study::posterior::shared_errors::LEAST_OWN_SHARE;
 use acq_study::study::Study;
 use nalgebra::{DMatrix, DVector};

@@ -29,8 +29,8 @@
 
 use std::time::Instant;
 
-use acq_calib::mcmc::{quantile, Marginal};
-use acq_calib::next_point::draws_moments;
+use acq_algorithms::mcmc::{quantile, Marginal};
+use acq_algorithms::next_point::draws_moments;
 
 use super::mapping::HoldReading;
 use super::shared::SharedErrorsPosterior;

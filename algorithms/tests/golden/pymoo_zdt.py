@@ -1,7 +1,7 @@
-"""Reference run of pymoo's NSGA-II on ZDT1-3, for the side-by-side test in calib/tests/moo.rs.
+"""Reference run of pymoo's NSGA-II on ZDT1-3, for the side-by-side test in algorithms/tests/moo.rs.
 
 Run: python3 -m venv /tmp/pymoo-venv && /tmp/pymoo-venv/bin/pip install pymoo
-     /tmp/pymoo-venv/bin/python calib/tests/golden/pymoo_zdt.py
+     /tmp/pymoo-venv/bin/python algorithms/tests/golden/pymoo_zdt.py
 
 Settings match the Rust test: population 100, 250 generations, pymoo's default NSGA-II
 operators (SBX prob 0.9 eta 15, PM eta 20 prob 1/n), seeds 1..5. The reported number is

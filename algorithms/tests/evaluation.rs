@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use acq_calib::evaluation::{
+use acq_algorithms::evaluation::{
     validate_parameters, EvaluationError, Evaluator, Parameter, Simulator,
 };
 
@@ -221,7 +221,7 @@ fn bad_parameters_are_setup_errors() {
 
 #[test]
 fn a_log_scale_parameter_moves_in_equal_ratios() {
-    use acq_calib::evaluation::Scale;
+    use acq_algorithms::evaluation::Scale;
     let p = Parameter::new("f0", 1e-4, 1e-2).with_scale(Scale::Log);
     // The middle of 1e-4 .. 1e-2 on a log scale is their geometric mean, 1e-3;
     // a quarter of the way is 10^-3.5.

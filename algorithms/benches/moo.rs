@@ -1,6 +1,6 @@
 //! Wall time of NSGA-II at the calibration's size and on ZDT1, as medians of repeated runs.
 //!
-//! Run: `cargo bench -p acq-calib --bench moo` (add `-- --quick` for 3 repetitions).
+//! Run: `cargo bench -p acq-algorithms --bench moo` (add `-- --quick` for 3 repetitions).
 //! Case 1 is the calibration's pick step: population 400 x 100 generations over 4
 //! parameters and 3 objectives, each objective a Gaussian-process posterior mean (30
 //! squared-exponential terms), so the time is mostly the algorithm's own. The target is
@@ -9,7 +9,7 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use acq_calib::moo::{hypervolume, nsga2, Nsga2Settings, Problem};
+use acq_algorithms::moo::{hypervolume, nsga2, Nsga2Settings, Problem};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

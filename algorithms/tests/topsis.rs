@@ -1,7 +1,7 @@
 //! TOPSIS against the textbook example, its invariances and its input errors.
 
-use acq_calib::minimax::minimax_ranking;
-use acq_calib::topsis::{topsis, topsis_normalised, Criterion, Normalisation, TopsisError};
+use acq_algorithms::minimax::minimax_ranking;
+use acq_algorithms::topsis::{topsis, topsis_normalised, Criterion, Normalisation, TopsisError};
 
 use Criterion::{Benefit, Cost};
 

@@ -1,6 +1,6 @@
 //! Checks of the bounded L-BFGS against problems whose minimiser is known in closed form.
 
-use acq_calib::optim::{minimize_bounded, LbfgsSettings, OptimError, Termination};
+use acq_algorithms::optim::{minimize_bounded, LbfgsSettings, OptimError, Termination};
 
 const UNBOUNDED: f64 = f64::INFINITY;
 

@@ -1,9 +1,9 @@
-"""Golden values for calib/tests/gp.rs, computed with scikit-learn.
+"""Golden values for algorithms/tests/gp.rs, computed with scikit-learn.
 
 Reproduce (prints the Rust constants pasted into the test):
 
     python3 -m venv /tmp/skvenv && /tmp/skvenv/bin/pip install scikit-learn numpy
-    /tmp/skvenv/bin/python calib/tests/golden/gp_sklearn.py
+    /tmp/skvenv/bin/python algorithms/tests/golden/gp_sklearn.py
 
 Produced with scikit-learn 1.9.1, numpy 2.4.6, scipy 1.17.1.
 

@@ -6,9 +6,9 @@
 //! The minimum of `f_e` is -6.020740 at x = 0.757249 (golden-section
 //! search on the closed form).
 
-use acq_calib::bo::{minimise as minimise_single, BoSettings, Stop};
-use acq_calib::gp::{Gp, GpSettings};
-use acq_calib::multi_fidelity::{
+use acq_algorithms::bo::{minimise as minimise_single, BoSettings, Stop};
+use acq_algorithms::gp::{Gp, GpSettings};
+use acq_algorithms::multi_fidelity::{
     minimise, CoKriging, ExpensiveStart, Fidelity, MultiFidelitySettings,
 };
 
@@ -110,7 +110,7 @@ fn the_two_level_search_finds_the_minimum_with_fewer_expensive_runs() {
     };
     let cheap_start: Vec<Vec<f64>> = (0..=4).map(|i| vec![i as f64 / 4.0]).collect();
     let expensive_start = vec![vec![0.0], vec![0.5], vec![1.0]];
-    let result = minimise::<acq_calib::bo::BoError>(
+    let result = minimise::<acq_algorithms::bo::BoError>(
         cheap_start,
         ExpensiveStart::Points(expensive_start.clone()),
         |level, points| {
@@ -140,7 +140,7 @@ fn the_two_level_search_finds_the_minimum_with_fewer_expensive_runs() {
             && (result.cost_s[1] - EXPENSIVE_S).abs() < 1e-12
     );
     // The single-level search from the same expensive start.
-    let single = minimise_single::<acq_calib::bo::BoError, f64>(
+    let single = minimise_single::<acq_algorithms::bo::BoError, f64>(
         expensive_start,
         |points| Ok(points.iter().map(|x| Some(expensive(x[0]))).collect()),
         &BoSettings {
@@ -178,9 +178,9 @@ fn linear_residuals(x: &[f64]) -> Vec<f64> {
 fn local_steps_run(
     cheap: impl Fn(&[f64]) -> Vec<f64>,
     expensive_start: ExpensiveStart,
-    trust_region: acq_calib::trust_region::TrustRegionSettings,
-) -> acq_calib::multi_fidelity::MultiFidelityResult {
-    use acq_calib::bo::Outcome;
+    trust_region: acq_algorithms::trust_region::TrustRegionSettings,
+) -> acq_algorithms::multi_fidelity::MultiFidelityResult {
+    use acq_algorithms::bo::Outcome;
     let outcome = |r: Vec<f64>| Outcome {
         loss: r.iter().map(|v| v * v).sum::<f64>(),
         residuals: r,
@@ -200,7 +200,7 @@ fn local_steps_run(
         vec![1.0, 1.0],
         vec![0.5, 0.5],
     ];
-    let result = minimise::<acq_calib::bo::BoError>(
+    let result = minimise::<acq_algorithms::bo::BoError>(
         cheap_start,
         expensive_start,
         |level, points| {
@@ -268,7 +268,7 @@ fn local_steps_learn_where_the_levels_part() {
     };
     // A box as wide as the pull, so that the surrogate, not the box,
     // decides where each check lands.
-    let wide = acq_calib::trust_region::TrustRegionSettings {
+    let wide = acq_algorithms::trust_region::TrustRegionSettings {
         initial_radius: 0.5,
         ..Default::default()
     };

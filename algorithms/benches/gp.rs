@@ -1,11 +1,11 @@
 //! Timing of the GP fit (default settings: Matern 5/2, ARD, 5 restarts) at the two sizes the
 //! calibration loop meets, n = 40 / d = 4 and n = 500 / d = 8, and of prediction throughput.
-//! Run with `cargo bench -p acq-calib --bench gp`; prints medians of several runs.
+//! Run with `cargo bench -p acq-algorithms --bench gp`; prints medians of several runs.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use acq_calib::gp::{Gp, GpSettings};
+use acq_algorithms::gp::{Gp, GpSettings};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

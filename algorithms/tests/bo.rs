@@ -3,7 +3,7 @@
 //! a small budget, spread batch proposals, survive failed evaluations and
 //! stop where told.
 
-use acq_calib::bo::{minimise, propose, Acquisition, BoError, BoSettings, Observation, Stop};
+use acq_algorithms::bo::{minimise, propose, Acquisition, BoError, BoSettings, Observation, Stop};
 
 /// Branin on the unit box (x1 = -5 + 15 u, x2 = 15 v); global minimum
 /// 0.397887 at three points.
@@ -74,7 +74,7 @@ fn run(
     dimensions: usize,
     initial: usize,
     settings: &BoSettings,
-) -> acq_calib::bo::BoResult {
+) -> acq_algorithms::bo::BoResult {
     minimise::<BoError, f64>(
         start_points(initial, dimensions, settings.seed + 1),
         |batch| Ok(batch.iter().map(|x| Some(f(x))).collect()),
@@ -83,7 +83,7 @@ fn run(
     .unwrap()
 }
 
-fn best_loss(result: &acq_calib::bo::BoResult) -> f64 {
+fn best_loss(result: &acq_algorithms::bo::BoResult) -> f64 {
     result.observations[result.best].loss.unwrap()
 }
 
@@ -254,14 +254,14 @@ struct VirtualClock {
     starts: Vec<(f64, usize)>,
 }
 
-impl acq_calib::bo::RunsAsTheyFinish<BoError> for VirtualClock {
+impl acq_algorithms::bo::RunsAsTheyFinish<BoError> for VirtualClock {
     fn start(&mut self, unit_point: Vec<f64>) -> Result<(), BoError> {
         let ends = self.now + (self.duration)(&unit_point);
         self.running.push((ends, unit_point));
         self.starts.push((self.now, self.running.len()));
         Ok(())
     }
-    fn next_done(&mut self) -> Result<Option<acq_calib::bo::Finished>, BoError> {
+    fn next_done(&mut self) -> Result<Option<acq_algorithms::bo::Finished>, BoError> {
         let Some(index) = (0..self.running.len())
             .min_by(|&a, &b| self.running[a].0.total_cmp(&self.running[b].0))
         else {
@@ -293,7 +293,7 @@ fn as_they_finish_with_one_slot_proposes_exactly_as_batches_of_one() {
     };
     let batches = run(branin, 2, 6, &settings);
     let mut clock = virtual_clock(|_| 1.0);
-    let streamed = acq_calib::bo::minimise_as_they_finish(
+    let streamed = acq_algorithms::bo::minimise_as_they_finish(
         start_points(6, 2, settings.seed + 1),
         &mut clock,
         1,
@@ -321,9 +321,13 @@ fn as_they_finish_no_slot_waits_and_the_minimum_is_still_found() {
     };
     let duration = |u: &[f64]| 1.0 + 3.0 * u[0];
     let mut clock = virtual_clock(duration);
-    let result =
-        acq_calib::bo::minimise_as_they_finish(start_points(10, 2, 6), &mut clock, 3, &settings)
-            .unwrap();
+    let result = acq_algorithms::bo::minimise_as_they_finish(
+        start_points(10, 2, 6),
+        &mut clock,
+        3,
+        &settings,
+    )
+    .unwrap();
     assert_eq!(result.observations.len(), 40);
     let full = clock
         .starts

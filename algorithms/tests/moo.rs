@@ -1,7 +1,7 @@
 //! NSGA-II, non-dominated sorting, crowding and hypervolume against hand-made sets, closed
 //! forms, the ZDT/DTLZ benchmarks and pymoo.
 
-use acq_calib::moo::{
+use acq_algorithms::moo::{
     crowding_distance, environmental_selection, fast_non_dominated_sort, hypervolume, nsga2,
     MooError, Nsga2Result, Nsga2Settings, Problem,
 };
@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 /// pymoo 0.6.2 NSGA2 (pop 100, 250 generations, default operators), mean over seeds 1..5 of
 /// the final front's hypervolume for reference point (1.1, 1.1). Produced by
-/// `/tmp/pymoo-venv/bin/python calib/tests/golden/pymoo_zdt.py` (venv with `pip install
+/// `/tmp/pymoo-venv/bin/python algorithms/tests/golden/pymoo_zdt.py` (venv with `pip install
 /// pymoo`); per-seed values and wall times are in that script's output, recorded here:
 ///   zdt1: mean 0.869776 (min 0.869624), 1.085 s per run
 ///   zdt2: mean 0.536283 (min 0.535783), 1.217 s per run

@@ -1,9 +1,9 @@
 //! Checks of the comparison surrogates: exact reproduction of what each model family contains,
 //! interpolation, and errors for data that cannot determine the model.
 
-use acq_calib::gp::{FixedHyperparameters, Gp, GpSettings, Kernel};
-use acq_calib::surrogate::{rmse, Polynomial, RadialBasis, Surrogate, SurrogateError};
-use acq_calib::training_data::DataError;
+use acq_algorithms::gp::{FixedHyperparameters, Gp, GpSettings, Kernel};
+use acq_algorithms::surrogate::{rmse, Polynomial, RadialBasis, Surrogate, SurrogateError};
+use acq_algorithms::training_data::DataError;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -1,4 +1,6 @@
-//! The calibration engine: everything between a loss and a chosen parameter set.
+//! The calibration's algorithms: everything between a loss and a chosen parameter set
+//! (designs, surrogates, optimisers, samplers). A study (`acq-study`) puts them to work
+//! on a model; here there is none.
 //!
 //! It knows nothing of CAN, recordings or any particular twin: a model is a function from
 //! a parameter vector (inside box bounds) to outputs. One module per concept:

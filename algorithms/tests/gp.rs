@@ -5,8 +5,8 @@
 // Dense linear algebra reads best with the indices of the formulas.
 #![allow(clippy::needless_range_loop)]
 
-use acq_calib::gp::{FixedHyperparameters, Gp, GpError, GpSettings, Kernel};
-use acq_calib::training_data::DataError;
+use acq_algorithms::gp::{FixedHyperparameters, Gp, GpError, GpSettings, Kernel};
+use acq_algorithms::training_data::DataError;
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

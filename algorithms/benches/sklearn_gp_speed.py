@@ -1,9 +1,9 @@
-# The peer of `cargo bench -p acq-calib --bench gp` in scikit-learn: the same response
+# The peer of `cargo bench -p acq-algorithms --bench gp` in scikit-learn: the same response
 # function (Friedman #1 extended, 1 % noise), the same kernel family (constant x Matern 5/2
 # ARD + white noise, normalize_y), the same bounds and 5 optimiser starts, timed the same way.
 # Not part of any build or test; run in a scratch virtualenv:
 #   python3 -m venv /tmp/skvenv && /tmp/skvenv/bin/pip install scikit-learn numpy
-#   /tmp/skvenv/bin/python calib/benches/sklearn_gp_speed.py
+#   /tmp/skvenv/bin/python algorithms/benches/sklearn_gp_speed.py
 import numpy as np, time
 from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import Matern, ConstantKernel, WhiteKernel

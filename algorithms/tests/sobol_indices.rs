@@ -2,7 +2,7 @@
 
 use std::f64::consts::PI;
 
-use acq_calib::sobol_indices::{sobol_indices, SensitivityError, SobolIndices};
+use acq_algorithms::sobol_indices::{sobol_indices, SensitivityError, SobolIndices};
 
 /// Ishigami & Homma (1990) with a = 7, b = 0.1, inputs uniform on [-pi, pi] (mapped from
 /// the unit box here).

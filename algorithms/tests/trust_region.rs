@@ -3,9 +3,9 @@
 //! function, whose curved valley a GP of the scalar loss crawls along and a
 //! Gauss-Newton model of the residuals follows.
 
-use acq_calib::bo::{minimise, BoError, BoSettings, Outcome};
-use acq_calib::doe::latin_hypercube;
-use acq_calib::trust_region::TrustRegionSettings;
+use acq_algorithms::bo::{minimise, BoError, BoSettings, Outcome};
+use acq_algorithms::doe::latin_hypercube;
+use acq_algorithms::trust_region::TrustRegionSettings;
 
 /// Extended Rosenbrock on the unit box (x = -2 + 4 u), pairs
 /// `(10 (x2 - x1^2), 1 - x1)`; all residuals vanish at x = 1 (u = 0.75).

@@ -1,7 +1,7 @@
 //! Designs of experiments: stratification, space filling, published sequences and arrays,
 //! and the CSV reader's errors.
 
-use acq_calib::doe::{
+use acq_algorithms::doe::{
     full_factorial, latin_hypercube, min_pairwise_distance, orthogonal_array_l12,
     random_latin_hypercube, random_uniform, read_design_csv, scale_to_bounds, scale_to_unit,
     sobol_points, two_level_to_unit, DoeError,

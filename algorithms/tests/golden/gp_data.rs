@@ -1,5 +1,5 @@
-// The small data set of calib/tests/gp.rs, tests/calibrate.rs and
-// calib/tests/golden/gp_sklearn.py (included by both tests, so it is written once).
+// The small data set of algorithms/tests/gp.rs, tests/calibrate.rs and
+// algorithms/tests/golden/gp_sklearn.py (included by both tests, so it is written once).
 
 const TRAIN_X: [[f64; 2]; 12] = [
     [0.10, 0.70],

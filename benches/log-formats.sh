@@ -5,7 +5,7 @@
 #   benches/log-formats.sh [FRAMES] [ROUNDS]   (defaults 1,000,000 and 5)
 #
 # Needs python-can (and asammdf, for MF4) in a scratch virtualenv (made if
-# missing, as can/tests/mf4.rs does). Makes a candump log of random
+# missing, as can/tests/it/mf4.rs does). Makes a candump log of random
 # classic and FD frames, has python-can write it as BLF, has acq write it
 # as ASC and MF4 (`acq convert`; pc.mf4 is python-can's MF4, transposed
 # deflate), then times `acq convert X -o out.log`

@@ -1195,7 +1195,7 @@ include!("../algorithms/tests/golden/gp_data.rs");
 
 /// scikit-learn 1.9.1: GaussianProcessRegressor(ConstantKernel(1.7, "fixed") * K,
 /// alpha=1e-3, optimizer=None, normalize_y=False); its std is the latent one, as acq's.
-/// Kernel, `--fixed` values, means, stds (from `algorithms/tests/gp.rs`).
+/// Kernel, `--fixed` values, means, stds (from `algorithms/tests/it/gp.rs`).
 type Golden = (&'static str, &'static str, [f64; 5], [f64; 5]);
 const GOLDEN: [Golden; 5] = [
     (

@@ -1,7 +1,7 @@
 //! acq's logs against python-can, the reference most test engineers already
 //! run: python-can reads every ASC file `acq convert` writes as the frames
 //! of the source log, and acq reads python-can's ASC, BLF and candump files
-//! as the frames python-can wrote (MF4: `can/tests/mf4.rs`).
+//! as the frames python-can wrote (MF4: `can/tests/it/mf4.rs`).
 //! python-can lives in a scratch virtualenv the test makes (never a
 //! dependency of acq); without it the test fails.
 

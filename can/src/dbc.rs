@@ -13,7 +13,7 @@
 //! `scaling=True`) for the same DBC and frame, bit for bit and int vs
 //! float alike, multiplexing and extended multiplexing (`SG_MUL_VAL_`,
 //! `m<v>M`) included: the same signals, and the same frames refused. Two tests hold that: the golden vectors
-//! (`tests/golden/`), and `can/tests/opendbc.rs`, which loads every DBC
+//! (`tests/golden/`), and `can/tests/it/opendbc.rs`, which loads every DBC
 //! of the opendbc package (0.3.1: 151 files, those it generates included)
 //! with cantools and acq and compares random frames of every message. Every
 //! DBC cantools loads, acq loads too or refuses for a reason in this table;

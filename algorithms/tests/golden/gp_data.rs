@@ -1,4 +1,4 @@
-// The small data set of algorithms/tests/gp.rs, tests/calibrate.rs and
+// The small data set of algorithms/tests/it/gp.rs, tests/calibrate.rs and
 // algorithms/tests/golden/gp_sklearn.py (included by both tests, so it is written once).
 
 const TRAIN_X: [[f64; 2]; 12] = [

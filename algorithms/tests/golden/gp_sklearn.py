@@ -1,4 +1,4 @@
-"""Golden values for algorithms/tests/gp.rs, computed with scikit-learn.
+"""Golden values for algorithms/tests/it/gp.rs, computed with scikit-learn.
 
 Reproduce (prints the Rust constants pasted into the test):
 

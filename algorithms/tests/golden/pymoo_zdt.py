@@ -1,4 +1,4 @@
-"""Reference run of pymoo's NSGA-II on ZDT1-3, for the side-by-side test in algorithms/tests/moo.rs.
+"""Reference run of pymoo's NSGA-II on ZDT1-3, for the side-by-side test in algorithms/tests/it/moo.rs.
 
 Run: python3 -m venv /tmp/pymoo-venv && /tmp/pymoo-venv/bin/pip install pymoo
      /tmp/pymoo-venv/bin/python algorithms/tests/golden/pymoo_zdt.py

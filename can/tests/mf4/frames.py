@@ -1,4 +1,4 @@
-"""python-can's side of can/tests/mf4.rs (MF4 through asammdf).
+"""python-can's side of can/tests/it/mf4.rs (MF4 through asammdf).
 
     frames.py write FRAMES.jsonl OUT.mf4 LEVEL   python-can writes the frames
                                                  (LEVEL: asammdf compression

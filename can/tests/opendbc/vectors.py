@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Decoding vectors for every DBC of the opendbc package, made with cantools.
 
-Run by can/tests/opendbc.rs in a scratch virtualenv (cantools 45.1.0,
+Run by can/tests/it/opendbc.rs in a scratch virtualenv (cantools 45.1.0,
 opendbc 0.3.1, never dependencies of acq):
 
     python vectors.py OUT_DIR

@@ -20,7 +20,7 @@ const KERNELS: [Kernel; 4] = [
 
 // ---- the small fixed-hyperparameter data set shared with gp_sklearn.py --------------------
 
-include!("golden/gp_data.rs");
+include!("../golden/gp_data.rs");
 
 const SIGNAL: f64 = 1.7;
 const NOISE: f64 = 1e-3;

@@ -1,7 +1,7 @@
 //! Property tests of the log formats: candump logs round-trip every kind of
 //! frame exactly, and neither reader panics on any input.
 
-mod common;
+use crate::common;
 
 use acq_can::frame::fd_flags;
 use acq_can::log::asc::{AscReader, ERROR_FRAME_CLASS};

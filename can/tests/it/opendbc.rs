@@ -8,7 +8,7 @@
 //! skips. `tests/opendbc/vectors.py` writes the vectors (its docstring
 //! describes them).
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

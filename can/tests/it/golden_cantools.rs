@@ -2,7 +2,7 @@
 //! frames (vectors made by tests/golden/make_golden.py at the workspace
 //! root, cantools 45.1.0).
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::Path;

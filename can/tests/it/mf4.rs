@@ -4,7 +4,7 @@
 //! MF4 as the frames written, and acq reads python-can's MF4, stored,
 //! deflated and transposed, as the frames python-can was given.
 
-mod common;
+use crate::common;
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};

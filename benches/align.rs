@@ -23,7 +23,7 @@ use std::time::Instant;
 
 use acq_analysis::align::table::{Column, CsvTable, ParquetAlignedTable};
 use acq_analysis::align::{Aligner, ChannelSpec, GridSpec, RowSink};
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 use acq_io::output::Output;
 use acq_io::output::TableFormat;
 use acq_rig::Interpolation;

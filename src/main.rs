@@ -2,7 +2,7 @@
 
 use std::process::ExitCode;
 
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 
 mod cli;
 

@@ -16,6 +16,8 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // Leaves: one job each, nothing of the rest of acq.
     // The GUM's arithmetic: budgets and calibration curves.
     ("acq-metrology", &[]),
+    // The one error of the commands, by kind.
+    ("acq-error", &[]),
     // Frames, log formats and the CAN protocols.
     ("acq-can", &[]),
     ("acq-twins", &[]),
@@ -30,19 +32,23 @@ const ALLOWED: &[(&str, &[&str])] = &[
     // curve.
     ("acq-rig", &["acq-can", "acq-metrology"]),
     // Files in and out, on top of the log and rig formats.
-    ("acq-io", &["acq-can", "acq-rig"]),
+    ("acq-io", &["acq-error", "acq-can", "acq-rig"]),
     // Live buses; knows nothing of analysis.
-    ("acq-acquire", &["acq-can", "acq-rig", "acq-io"]),
+    (
+        "acq-acquire",
+        &["acq-can", "acq-rig", "acq-error", "acq-io"],
+    ),
     // Offline analysis; knows nothing of live buses.
     (
         "acq-analysis",
-        &["acq-can", "acq-rig", "acq-io", "acq-metrology"],
+        &["acq-can", "acq-rig", "acq-error", "acq-io", "acq-metrology"],
     ),
     // A calibration study on any model: no twin, no CAN, no command line.
     (
         "acq-study",
         &[
             "acq-metrology",
+            "acq-error",
             "acq-io",
             "acq-analysis",
             "acq-report",
@@ -56,6 +62,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         "acq-workflows",
         &[
             "acq-metrology",
+            "acq-error",
             "acq-io",
             "acq-analysis",
             "acq-report",
@@ -71,6 +78,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "acq-can",
             "acq-rig",
+            "acq-error",
             "acq-io",
             "acq-acquire",
             "acq-analysis",
@@ -83,6 +91,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
         &[
             "acq-can",
             "acq-rig",
+            "acq-error",
             "acq-io",
             "acq-acquire",
             "acq-analysis",
@@ -99,6 +108,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-algorithms",
             "acq-can",
             "acq-rig",
+            "acq-error",
             "acq-io",
             "acq-analysis",
             "acq-study",
@@ -116,6 +126,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-rig",
             "acq-twins",
             "acq-algorithms",
+            "acq-error",
             "acq-io",
             "acq-acquire",
             "acq-analysis",

@@ -17,7 +17,7 @@ pub mod record;
 pub mod replay;
 pub mod simulate;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 /// The async runtime the live commands run on: `threads` workers, or the
 /// current thread alone for 1 (a player waits on the wall clock and needs no

@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use acq_can::{Frame, IfaceName};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::{open_log, LogInput};
 use acq_rig::Rig;
 

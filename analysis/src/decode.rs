@@ -15,7 +15,7 @@ use acq_can::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalVal
 use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_can::FrameKind;
 use acq_can::LogRecord;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
 use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};

@@ -148,7 +148,7 @@ pub enum ShuntCheckError {
     #[error("{sensor}: {error}")]
     Refused { sensor: String, error: ShuntError },
     #[error(transparent)]
-    Read(#[from] acq_io::error::AcqError),
+    Read(#[from] acq_error::AcqError),
 }
 
 /// The shunt check of `sensor` over session seconds `from_s..to_s` of a

@@ -14,7 +14,7 @@
 
 use std::collections::VecDeque;
 
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_io::zero_record::{SensorZero, ZeroReading, ZeroRecord};
 use acq_rig::sensors::Sample;
 use acq_rig::Rig;
@@ -220,7 +220,7 @@ pub struct TakenZero {
 /// live.
 pub fn take(recording: &Recording, windows: ZeroWindows, taken_by: &str) -> Result<TakenZero> {
     let t0_ns = recording.session_start_unix_ns().ok_or_else(|| {
-        acq_io::error::AcqError::Config(format!(
+        acq_error::AcqError::Config(format!(
             "{}: a zero window starts at the session's start; give a session directory written by acq record",
             recording.label
         ))

@@ -14,7 +14,7 @@ use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{self, RecordObserver, RecordOptions, StopReason};
 use acq_acquire::replay::{self, LogFiles, Pacing, PlaySummary, Routing};
 use acq_can::IfaceName;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::session;
 use acq_rig::Rig;
 

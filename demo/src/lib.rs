@@ -32,7 +32,7 @@ use acq_analysis::extract::run::{
 };
 use acq_analysis::extract::tensile::write_curve;
 use acq_analysis::recording::Recording;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::{Output, TableOutput};
 use acq_io::session::{self, SessionFile};
 use acq_workflows::calibrate::excavator::{CalibrateExcavatorOptions, ExcavatorCalibration};

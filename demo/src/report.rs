@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::Output;
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series};

@@ -1,7 +1,7 @@
 //! Where a table goes when its reader takes Arrow itself (the Python
 //! package), instead of a file: [`ArrowSink`].
 
-use crate::error::Result;
+use acq_error::Result;
 
 /// What an Arrow table is made of, for a crate that does not name Arrow.
 pub use arrow_array::RecordBatch as ArrowBatch;

@@ -12,7 +12,7 @@ use std::sync::Mutex;
 use acq_can::{LogFormat, LogReader, LogRecord, ReadError};
 use acq_rig::Rig;
 
-use crate::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 const READ_BUFFER_BYTES: usize = 256 * 1024;
 

@@ -2,7 +2,6 @@
 //!
 //! - [`arrow_sink`]: a table handed over as Arrow record batches as it is
 //!   made, for a reader that takes Arrow itself (the Python package).
-//! - [`error`]: [`error::AcqError`], the one error of the commands, and its exit codes.
 //! - [`input`]: logs and rig files opened by name (`-` is stdin), the bad-line
 //!   policy, small CSV tables read with file and line in every message.
 //! - [`output`]: where results go; a file appears under its name only when
@@ -16,11 +15,10 @@
 //! - [`zero_record`]: a session's `zero.toml`, each channel's reading at
 //!   rest before (and after) the test.
 //!
-//! Depends only on `acq-can` and `acq-rig` (log and rig formats); never on acquisition,
-//! analysis, twins, calibration or reports.
+//! Depends only on `acq-error`, `acq-can` and `acq-rig` (log and rig
+//! formats); never on acquisition, analysis, twins, calibration or reports.
 
 pub mod arrow_sink;
-pub mod error;
 pub mod input;
 pub mod output;
 pub mod parquet_table;

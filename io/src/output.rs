@@ -18,8 +18,8 @@ use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Component, Path, PathBuf};
 
-use crate::error::{AcqError, Result};
 use crate::input::input_at;
+use acq_error::{AcqError, Result};
 
 const FLUSH_AT_BYTES: usize = 256 * 1024;
 

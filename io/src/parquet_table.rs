@@ -43,8 +43,8 @@ use parquet::file::metadata::KeyValue;
 use parquet::file::properties::WriterProperties;
 use parquet::schema::types::ColumnPath;
 
-use crate::error::{AcqError, Result};
 use crate::output::Output;
+use acq_error::{AcqError, Result};
 
 pub use crate::arrow_sink::{ArrowBatch, ArrowSchema, ArrowSink};
 

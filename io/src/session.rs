@@ -19,7 +19,7 @@ use acq_can::{CanId, Frame};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 pub const SESSION_FILE: &str = "session.toml";
 pub const FORMAT_VERSION: u32 = 1;

@@ -11,8 +11,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::Result;
 use crate::session::{read_toml_file, write_toml_file};
+use acq_error::Result;
 
 pub const ZERO_FILE: &str = "zero.toml";
 

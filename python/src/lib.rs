@@ -12,7 +12,7 @@ mod twins;
 use std::path::PathBuf;
 
 use acq_algorithms::evaluation::{clear_stop_request, request_stop};
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 use acq_study::progress::ProgressSnapshot;
 use acq_study::study::{Model, ModelRun};
 use acq_workflows::calibrate::external::{self, CalibrateExternalOptions};

@@ -19,7 +19,7 @@ use acq_analysis::extract::run::{extract_holds, extract_tensile, specimen, Windo
 use acq_analysis::extract::tensile::curve_to_arrow;
 use acq_analysis::recording::Recording;
 use acq_can::dbc::DbcDatabase;
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 use acq_io::input::{load_rig, open_logs, open_session_log, BadLines, LogInput};
 use acq_io::output::TableOutput;
 use acq_io::parquet_table::{ArrowBatch, ArrowSchema, ArrowSink};

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use acq_analysis::extract::net_force::{net_force_budget, net_force_monte_carlo};
 use acq_analysis::extract::uncertainty::value_budget;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::load_rig;
 use acq_metrology::budget::LEVEL_95;
 use acq_metrology::monte_carlo::MonteCarloResult;

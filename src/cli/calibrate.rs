@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use acq_algorithms::bo::Acquisition;
 use acq_algorithms::gp::Kernel;
 use acq_analysis::extract::measured::UncertaintyBasis;
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_study::posterior::Discrepancy;
 use acq_study::surrogate_moo::Pick;
 use acq_workflows::calibrate::excavator::{CalibrateExcavatorOptions, ExcavatorPosterior};

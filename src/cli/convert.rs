@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use acq_can::log::asc_write::AscWriter;
 use acq_can::log::candump;
 use acq_can::log::mf4_write::Mf4Writer;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::{open_log, LogInput};
 use acq_io::output::{CompleteOnlyFile, Output};
 use clap::Args;

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use acq_analysis::decode::{self, DbcDecodeOptions};
 use acq_can::dbc::DbcDatabase;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::{load_rig, open_logs, BadLines};
 use acq_io::output::TableOutput;
 use clap::Args;

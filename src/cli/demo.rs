@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use acq_demo::DemoOptions;
-use acq_io::error::Result;
+use acq_error::Result;
 use clap::Args;
 
 #[derive(Args, Debug)]

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use acq_algorithms::doe::read_design_csv;
 use acq_algorithms::gp::{FixedHyperparameters, Gp, GpSettings, Kernel};
 use acq_algorithms::moo::{hypervolume, nsga2, Nsga2Settings, Problem};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::Output;
 use clap::{Args, Subcommand};
 use serde::{Deserialize, Serialize};

@@ -14,7 +14,7 @@ use acq_acquire::replay::{self, LogFiles, Pacing, Routing};
 use acq_acquire::simulate::scenario::Scenario;
 use acq_acquire::simulate::Simulation;
 use acq_can::IfaceName;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::session;
 use clap::{Args, Subcommand};
 

@@ -19,7 +19,7 @@ mod twin;
 mod view;
 mod zero;
 
-use acq_io::error::Result;
+use acq_error::Result;
 
 /// The command line as given. Every option that takes a value takes a
 /// negative number too: `--weights 1 1 -1` is a weight that the command

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use acq_analysis::align::run::{align_recording, AlignOptions, GapTolerance, TimePoint};
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::recording::Recording;
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_io::output::TableOutput;
 use acq_rig::Interpolation;
 use clap::{Args, ValueEnum};

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use acq_analysis::extract::measured::MeasuredValue;
 use acq_analysis::extract::quantities::RigQuantities;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_rig::Rig;
 use acq_view::{SharedSession, StudyWorker};
 use acq_workflows::rig_study::tracker::Tracker;

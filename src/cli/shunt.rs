@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use acq_analysis::recording::Recording;
 use acq_analysis::shunt::{check_recording, ShuntCheckError};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::shunt_record::{self, SensorShunt, ShuntRecord};
 use clap::Args;
 

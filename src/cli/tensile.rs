@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::Output;
 use acq_workflows::tensile_report::{file_name, flow_curve_csv, properties_svg, report};
 use clap::Args;

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_workflows::twin_excavator::{
     ExcavatorModelOptions, SensitivityExcavatorOptions, TwinExcavatorOptions,
 };

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_view::layout::Layout;
 use acq_view::{open_session, Source, ViewHost, ViewOptions, DEFAULT_ADDRESS};
 use clap::Args;

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use acq_analysis::recording::Recording;
 use acq_analysis::zero::{take, ZeroWindows};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::zero_record::{self, ZeroRecord};
 use acq_rig::Rig;
 use clap::Args;

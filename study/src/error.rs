@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 
 /// Why a study run ended without a calibration.
 #[derive(Debug, thiserror::Error)]

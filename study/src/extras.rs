@@ -4,7 +4,7 @@
 //! and the files it leaves besides (a calibrated geometry, a material
 //! block). Everything else every study has is written once, for all.
 
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_report::document::Document;
 use serde_json::{Map, Value};
 

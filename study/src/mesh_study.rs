@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use acq_algorithms::evaluation::Parameter;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_metrology::grid_convergence::{grid_convergence, GridConvergence};
 use acq_report::number::{plain, significant};
 use acq_report::plot::{chart_svg, Chart, ReferenceLine, Series, SeriesStyle};

@@ -9,7 +9,7 @@ use acq_algorithms::doe::{
     two_level_to_unit,
 };
 use acq_algorithms::evaluation::Parameter;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use super::posterior::settings::PosteriorSettings;
 use super::search::to_unit;

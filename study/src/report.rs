@@ -13,7 +13,7 @@ use acq_algorithms::least_squares::Stop as LsStop;
 use acq_algorithms::sobol_indices::sobol_indices;
 use acq_analysis::loss::curve::{curve_errors_along, CurveMapeOptions};
 use acq_analysis::loss::metrics::{matched, points_of, CurveMetric};
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_report::document::{Document, Figure, Table};
 use acq_report::plot::{chart_svg, grid_svg, Chart, Series, SeriesStyle};
 

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use acq_algorithms::evaluation::{EvaluationError, Evaluator, Simulator};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 /// The run directory: created if missing; `evaluations.csv` in it must be
 /// new unless the run resumes.

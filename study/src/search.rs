@@ -12,7 +12,7 @@ use acq_algorithms::multi_fidelity::{
     ExpensiveStart, Fidelity, MultiFidelityResult, MultiFidelitySettings,
 };
 use acq_algorithms::trust_region::TrustRegionSettings;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;
 

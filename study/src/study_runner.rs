@@ -23,7 +23,7 @@ use acq_algorithms::gp::GpSettings;
 use acq_algorithms::least_squares::{least_squares, LeastSquaresError, LeastSquaresSettings};
 use acq_algorithms::multi_fidelity::MultiFidelitySettings;
 use acq_algorithms::trust_region::TrustRegionSettings;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use super::error::StudyError;
 use acq_report::document::Document;

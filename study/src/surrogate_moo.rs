@@ -22,7 +22,7 @@ use acq_algorithms::minimax::minimax_ranking;
 use acq_algorithms::moo::{nsga2, Nsga2Result, Nsga2Settings};
 use acq_algorithms::surrogate::{rmse, Polynomial, RadialBasis, Surrogate};
 use acq_algorithms::topsis::{topsis_normalised, Criterion, Normalisation};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use super::run_directory::evaluation_error;
 use super::search::{from_unit, to_unit};

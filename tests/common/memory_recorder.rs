@@ -27,7 +27,7 @@ pub fn memory_bus(names: &[&str]) -> (MemoryBus, Vec<IfaceName>) {
 pub struct MemoryRecorder {
     pub runtime: tokio::runtime::Runtime,
     stop: tokio::sync::oneshot::Sender<StopReason>,
-    recorder: tokio::task::JoinHandle<acq_io::error::Result<RecordSummary>>,
+    recorder: tokio::task::JoinHandle<acq_error::Result<RecordSummary>>,
 }
 
 impl MemoryRecorder {

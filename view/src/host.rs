@@ -3,7 +3,7 @@
 
 use std::net::SocketAddr;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use crate::server::{access_for, parse_address, serve, Access, Pages, ViewServer};
 

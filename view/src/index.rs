@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_io::output::Output;
 use acq_io::session::SessionFile;
 use serde::{Deserialize, Serialize};

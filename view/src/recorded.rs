@@ -9,7 +9,7 @@ use acq_analysis::extract::live::LiveHold;
 use acq_analysis::extract::run::{extract_holds, WindowChoice};
 use acq_analysis::recording::clocks::offsets_ns;
 use acq_analysis::recording::{Recording, RecordingEvent, SampleCounts};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use crate::frames::FrameTable;
 use crate::index;

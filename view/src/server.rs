@@ -29,7 +29,7 @@ use axum::Router;
 use serde_json::{json, Value};
 use tokio::sync::{broadcast, oneshot};
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use crate::live::SharedSession;
 use crate::page;

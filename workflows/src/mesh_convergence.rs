@@ -136,7 +136,7 @@ pub fn mesh_study_outcome(
     let outputs = scalars
         .into_iter()
         .map(|(key, values)| output_convergence(key.into(), &values))
-        .collect::<acq_io::error::Result<Vec<_>>>()
+        .collect::<acq_error::Result<Vec<_>>>()
         .map_err(|e| e.to_string())?;
     // After the maximum force the softening localises in one band of
     // elements, and those parts converge differently from the hardening

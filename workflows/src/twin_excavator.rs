@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::Output;
 use acq_report::plot::grid_svg;
 use acq_twins::excavator::case::{CaseFile, UncertainInput};

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::path::PathBuf;
 
 use acq_analysis::extract::tensile_props::{read_test_csv, tensile_properties, SpecimenGeometry};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::Output;
 
 use crate::tensile_model::MeshOptions;

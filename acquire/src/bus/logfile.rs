@@ -33,7 +33,7 @@ impl LogFileBus {
 
     /// A bus whose sent frames go to a new candump log at `path` (never an
     /// input of this command: [`acq_io::output::create_file`]).
-    pub fn writing(path: &Path) -> acq_io::error::Result<Self> {
+    pub fn writing(path: &Path) -> acq_error::Result<Self> {
         let file = acq_io::output::create_file(path)?;
         Ok(LogFileBus {
             input: None,

@@ -23,7 +23,7 @@ use tokio::sync::{mpsc, watch};
 use tokio::time::{interval, MissedTickBehavior};
 
 use crate::bus::{now_ns, Bus, BusError, FrameSink, FrameSource, OpenError, RxInfo, MAX_BATCH};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::session::{
     self, CopiedFile, InterfaceRecord, Outage, RigCopy, SessionFile, SessionInfo,
 };

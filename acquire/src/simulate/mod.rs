@@ -20,7 +20,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use scenario::{Curve, Scenario};
 
 /// J1939 priority of the simulated broadcasts (the default for non-control PGNs).

@@ -38,7 +38,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use serde::Deserialize;
 
 #[derive(Clone, Debug, Deserialize)]

@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::output::TableOutput;
 use acq_io::session::utc_text;
 use acq_rig::{Interpolation, Rig};

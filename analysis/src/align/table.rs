@@ -12,7 +12,7 @@
 
 use acq_can::dbc::push_shortest_f64;
 use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 use acq_io::output::{csv_field, CompleteOnlyFile, Output};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 

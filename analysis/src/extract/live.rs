@@ -17,7 +17,7 @@
 
 use std::collections::VecDeque;
 
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_io::zero_record::ZeroRecord;
 use acq_rig::sensors::Sample;
 use acq_rig::Rig;
@@ -68,10 +68,10 @@ impl LiveHoldStream {
     /// `load`: the load sensor's name, else the rig's only force sensor.
     /// `t0_ns`: the session's start (unix ns), the origin of session seconds.
     pub fn new(rig: &Rig, load: Option<&str>, options: HoldOptions, t0_ns: i64) -> Result<Self> {
-        options.check().map_err(acq_io::error::AcqError::Config)?;
+        options.check().map_err(acq_error::AcqError::Config)?;
         let load = match load {
             Some(name) => rig.sensor(name).map(|(i, _)| i).ok_or_else(|| {
-                acq_io::error::AcqError::Config(format!("the rig has no sensor '{name}'"))
+                acq_error::AcqError::Config(format!("the rig has no sensor '{name}'"))
             })?,
             None => rig_load_sensor(rig)?,
         };

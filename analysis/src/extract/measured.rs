@@ -33,7 +33,7 @@
 
 use std::path::Path;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::read_csv_records_of_any;
 use acq_io::output::{csv_field, Output};
 use acq_io::output::{refuse_mf4_table, TableFormat};

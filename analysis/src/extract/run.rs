@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::read_csv_records;
 use acq_rig::profiles::SensorKind;
 use acq_rig::{Rig, Specimen};

@@ -24,7 +24,7 @@
 
 use std::path::Path;
 
-use acq_io::error::Result;
+use acq_error::Result;
 use acq_io::output::Output;
 use acq_io::output::{refuse_mf4_table, TableFormat};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};

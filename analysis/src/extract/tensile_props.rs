@@ -94,7 +94,7 @@
 
 use std::path::Path;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use serde::Serialize;
 
 /// Offset of the offset yield strength (0.2 %).

@@ -4,7 +4,7 @@
 //! (align, extract) removes these offsets first, so every sample is on the
 //! reference clock.
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_rig::{BusClock, Rig};
 
 use super::offset::{estimate_offset, OffsetEstimate, DEFAULT_MAX_LAG_NS, MAX_WINDOW_NS};

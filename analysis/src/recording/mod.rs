@@ -16,7 +16,7 @@ pub mod zeroing;
 use std::path::{Path, PathBuf};
 
 use acq_can::{Frame, IfaceName};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, ScanCounts};
 use acq_io::session::{self, SessionFile};
 use acq_io::shunt_record::{self, ShuntRecord};

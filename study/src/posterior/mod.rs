@@ -23,7 +23,7 @@ use std::time::Instant;
 
 use acq_algorithms::evaluation::{Evaluation, Evaluator, Simulator};
 use acq_algorithms::mcmc::{sample, Chains, Marginal, SamplerProgress, SamplerSettings, Support};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use rand::SeedableRng;
 
 use super::run_directory::{evaluation_error, write_text, RunDirectory};

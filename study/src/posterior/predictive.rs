@@ -14,7 +14,7 @@ use rand_chacha::ChaCha8Rng;
 
 use acq_algorithms::evaluation::Evaluator;
 use acq_algorithms::mcmc::{quantile, Chains};
-use acq_io::error::Result;
+use acq_error::Result;
 
 use super::super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::super::study::{Case, Measured, Model, Observation, Role, Study, StudySimulator};

@@ -18,7 +18,7 @@
 use acq_algorithms::evaluation::Simulator;
 use acq_algorithms::mcmc::{warm_up, Chains, InitialProposal, SamplerSettings, MAX_THIN};
 use acq_algorithms::next_point::draws_moments;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use super::likelihood::StudyPosterior;
 use super::{

@@ -263,7 +263,7 @@ pub fn is_slurm_time(text: &str) -> bool {
 /// The files a run reads and writes: each inside its run directory, and
 /// those staged from next to the spec there.
 pub fn files(file: &SpecFile, spec_directory: &Path) -> Result<(), SpecProblem> {
-    let problem = |e: acq_io::error::AcqError| SpecProblem::file(e.to_string());
+    let problem = |e: acq_error::AcqError| SpecProblem::file(e.to_string());
     let any_run = Path::new("runs/000001");
     if !file.output_file.is_empty() {
         acq_io::output::inside(any_run, &file.output_file, "output_file").map_err(problem)?;

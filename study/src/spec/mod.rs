@@ -125,7 +125,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 
 use self::schema::{ExecutorSpec, MethodName, PosteriorSpec, Search, SpecFile};
 use super::method::{BoMethod, LeastSquaresMethod, Method, MultiFidelityMethod};

@@ -7,7 +7,7 @@ use std::path::Path;
 use acq_algorithms::doe::read_csv_columns;
 use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 
 use super::schema::CurveSpec;
 use crate::study::{Measured, Observation, SCATTER_OF_MEAN};
@@ -28,7 +28,7 @@ pub fn measured_curve(
     file: &str,
     x: &str,
     y: &str,
-) -> acq_io::error::Result<Vec<(f64, f64)>> {
+) -> acq_error::Result<Vec<(f64, f64)>> {
     let path = spec_directory.join(file);
     acq_io::input::note_input(&path);
     let points =

@@ -5,7 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use acq_io::error::AcqError;
+use acq_error::AcqError;
 
 /// Why a spec was refused.
 #[derive(Debug, thiserror::Error)]

@@ -605,14 +605,14 @@ impl GtnModel {
     /// The twin of the tensile test in `path` (a CSV as `acq twin gtn
     /// --test` reads), at the default mesh: its flow curve, Young's
     /// modulus, specimen and last displacement.
-    pub fn of_test(path: &std::path::Path) -> acq_io::error::Result<Self> {
+    pub fn of_test(path: &std::path::Path) -> acq_error::Result<Self> {
         use acq_analysis::extract::tensile_props::{
             read_test_csv, tensile_properties, SpecimenGeometry,
         };
         acq_io::input::note_input(path);
         let points = read_test_csv(path)?;
         let properties = tensile_properties(&points, SpecimenGeometry::default())
-            .map_err(|e| acq_io::error::AcqError::Malformed(format!("{}: {e}", path.display())))?;
+            .map_err(|e| acq_error::AcqError::Malformed(format!("{}: {e}", path.display())))?;
         Ok(GtnModel::new(TensileModel::new(
             points,
             properties,

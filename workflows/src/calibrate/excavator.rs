@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use acq_algorithms::evaluation::{Parameter, Simulator};
 use acq_algorithms::gp::Kernel;
 use acq_analysis::extract::measured::{read_measured, UncertaintyBasis};
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_report::document::{Document, Table};
 use acq_twins::excavator::case::{CaseFile, MeasuredPressures, UncertainInput};
 use acq_twins::excavator::geometry::GeometryTemplate;

@@ -6,7 +6,7 @@
 
 use std::path::PathBuf;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_twins::excavator::geometry::GeometryTemplate;
 
 use super::builtin::{ExcavatorModel, GtnModel};

@@ -16,7 +16,7 @@ use acq_analysis::extract::tensile_props::{
 };
 use acq_analysis::loss::curve::{curve_mape, CurveMapeOptions, SplitMape};
 use acq_analysis::loss::metrics::CurveMetric;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 use acq_report::document::Document;
 use serde_json::{json, Map, Value};
 

@@ -12,7 +12,7 @@ pub mod excavator;
 pub mod external;
 pub mod gtn;
 
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 /// Refuses a count outside its range (`(option, value, range)`), in the
 /// words the command line uses, before anything runs.

@@ -12,7 +12,7 @@ use acq_analysis::extract::measured::MeasuredValue;
 use acq_analysis::extract::quantities::RigQuantities;
 use acq_analysis::extract::run::{extract_holds, WindowChoice};
 use acq_analysis::recording::Recording;
-use acq_io::error::{AcqError, Result};
+use acq_error::{AcqError, Result};
 
 use super::tracker::{next_words, Tracker};
 use super::RigStudy;

@@ -1,5 +1,7 @@
-//! Errors of the `acq` commands, by kind: what the binary turns into the
-//! exit code scripts rely on (`src/main.rs`).
+//! The one error of the `acq` commands, by kind: what a caller branches on,
+//! and what the binary turns into the exit code scripts rely on (the one
+//! mapping, in `src/main.rs`). A leaf: every stage's crate uses it, it uses
+//! none of them.
 
 use std::io;
 use std::path::Path;

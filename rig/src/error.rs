@@ -1,4 +1,5 @@
-//! What is wrong with a rig file: every problem, each with its line.
+//! What is wrong with a rig file: every problem, each with its line, as
+//! loading finds them ([`RigFindings`]) and as the caller gets them.
 
 use std::path::PathBuf;
 
@@ -37,3 +38,20 @@ impl std::fmt::Display for RigError {
 }
 
 impl std::error::Error for RigError {}
+
+/// What reading a rig file found: each problem with its line, and the
+/// warnings of its DBC files (entries they skip).
+pub(crate) struct RigFindings<'t> {
+    pub(crate) text: &'t str,
+    pub(crate) problems: Vec<RigProblem>,
+    pub(crate) warnings: Vec<String>,
+}
+
+impl RigFindings<'_> {
+    pub(crate) fn report(&mut self, line: usize, message: String) {
+        self.problems.push(RigProblem {
+            line: Some(line),
+            message,
+        });
+    }
+}

@@ -12,7 +12,7 @@ use acq_can::frame::IfaceName;
 use acq_can::j1939::Spn;
 use toml::Spanned;
 
-use crate::error::{RigError, RigProblem};
+use crate::error::{RigError, RigFindings, RigProblem};
 use crate::file::{BusFile, RigFile, RigMetaFile, SensorFile};
 use crate::lines::line_of;
 use crate::profiles::{
@@ -417,23 +417,6 @@ pub(crate) fn profile_conversion(sensor: &SensorFile, unit: &str) -> Result<Line
                 bridge: sensor.bridge,
             },
         ),
-    }
-}
-
-/// What reading a rig file found: each problem with its line, and the
-/// warnings of its DBC files (entries they skip).
-pub(crate) struct RigFindings<'t> {
-    pub(crate) text: &'t str,
-    pub(crate) problems: Vec<RigProblem>,
-    pub(crate) warnings: Vec<String>,
-}
-
-impl RigFindings<'_> {
-    pub(crate) fn report(&mut self, line: usize, message: String) {
-        self.problems.push(RigProblem {
-            line: Some(line),
-            message,
-        });
     }
 }
 

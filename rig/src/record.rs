@@ -9,9 +9,9 @@ use acq_metrology::bridge::{BridgeArm, BridgeType, ShuntCheck, StrainConversion}
 use acq_metrology::curve::CalibrationCurve;
 use toml::Spanned;
 
+use crate::error::RigFindings;
 use crate::file::{SensorFile, ShuntFile};
 use crate::lines::line_of;
-use crate::load::RigFindings;
 use crate::profiles::{strain, Conversion, SensorKind};
 use crate::record_keys::{AccuracyFile, CalibrationFile, TemperatureFile};
 use crate::Transducer;

@@ -4,9 +4,9 @@
 use acq_can::canopen::PdoMapping;
 use toml::Spanned;
 
+use crate::error::RigFindings;
 use crate::file::{BusFile, CylinderFile, PairFile};
 use crate::lines::line_of;
-use crate::load::RigFindings;
 use crate::profiles::{pressure, SensorKind};
 use crate::{
     Bus, BusClock, Cylinder, Sensor, SensorPair, SensorSource, Specimen, PAIR_TOLERANCE_PCT,

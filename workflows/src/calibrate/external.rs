@@ -62,7 +62,6 @@ fn run_spec(
     progress: Option<ProgressObserver<'_>>,
 ) -> Result<()> {
     let method = spec.method(args.seed);
-    let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
     // The start design is read before the run directory exists: a refused
     // design leaves nothing behind.
     let initial = start_design(&spec.study.search_parameters(), &method, &spec.directory)?;
@@ -75,65 +74,17 @@ fn run_spec(
         posterior: spec.posterior.clone(),
         progress,
     };
-    let study = &spec.study;
-    match &spec.model {
-        ModelKind::Excavator {
-            geometry,
-            refit_poses,
-        } => {
-            let template = geometry_template(&spec.directory, geometry.as_deref())?;
-            let model = ExcavatorModel::new(template, *refit_poses)
-                .map_err(|e| in_spec(format!("geometry: {e}")))?;
-            // The twin is cheap: every case is tried at the nominal point
-            // before the run directory exists, so a wrong name is refused
-            // at once.
-            check_at_nominal(study, &model).map_err(in_spec)?;
-            let directory = RunDirectory::create(&args.out)?;
-            let extras = GeometryExtras {
-                model: &model,
-                spec: args.spec.display().to_string(),
-            };
-            run_study(
-                study, &model, &method, initial, &directory, &settings, &extras,
-            )?;
-        }
-        ModelKind::Gtn { test } => {
-            let model = GtnModel::of_test(&spec.directory.join(test))?;
-            model.check_inputs(study).map_err(in_spec)?;
-            let directory = RunDirectory::create(&args.out)?;
-            run_study(
-                study, &model, &method, initial, &directory, &settings, &NoExtras,
-            )?;
-        }
-        ModelKind::Command(command) => {
-            let (model, directory) = command_model(&spec, command, args)?;
-            let extras = EmulatorExtras {
-                save: spec.save_emulator.clone(),
-                model: command.command.join(" "),
-                seed: args.seed,
-            };
-            run_study(
-                study, &model, &method, initial, &directory, &settings, &extras,
-            )?;
-        }
-        ModelKind::Given => {
-            let Some((model, name)) = given else {
-                return Err(AcqError::Config(format!(
-                    "{}: a spec for a given model was read without one",
-                    args.spec.display()
-                )));
-            };
-            let directory = RunDirectory::create(&args.out)?;
-            let extras = EmulatorExtras {
-                save: spec.save_emulator.clone(),
-                model: name.to_string(),
-                seed: args.seed,
-            };
-            run_study(
-                study, model, &method, initial, &directory, &settings, &extras,
-            )?;
-        }
-    }
+    let (model, directory) = spec_model(&spec, args, given)?;
+    let extras = model.extras(&spec, args);
+    run_study(
+        &spec.study,
+        model.model(),
+        &method,
+        initial,
+        &directory,
+        &settings,
+        extras.as_ref(),
+    )?;
     Ok(())
 }
 
@@ -153,45 +104,111 @@ pub fn run_mesh_study(
             "no [mesh_study]: add one with sizes = [...] (three or more element sizes, which the command takes as {mesh})".into(),
         ));
     };
-    let parallel = spec.runs_at_once.max(1);
-    let run = |model: &dyn Model, directory: &RunDirectory| {
-        acq_study::mesh_study::run_mesh_study(
-            &spec.study,
-            settings,
-            model,
-            directory,
-            parallel,
-            args.resume,
-        )
-    };
-    match (&spec.model, given) {
-        (ModelKind::Command(command), _) => {
-            let (model, directory) = command_model(&spec, command, args)?;
-            run(&model, &directory)
+    let (model, directory) = spec_model(&spec, args, given)?;
+    acq_study::mesh_study::run_mesh_study(
+        &spec.study,
+        settings,
+        model.model(),
+        &directory,
+        spec.runs_at_once.max(1),
+        args.resume,
+    )
+}
+
+/// The spec's model, built and checked, for `calibrate external` and
+/// `mesh-study` alike: the one place a spec's `model` becomes a model.
+enum SpecModel<'a> {
+    Excavator(Box<ExcavatorModel>),
+    Gtn(Box<GtnModel>),
+    Command {
+        model: Box<CommandModel>,
+        command: String,
+    },
+    Given {
+        model: &'a dyn Model,
+        name: &'a str,
+    },
+}
+
+impl SpecModel<'_> {
+    fn model(&self) -> &dyn Model {
+        match self {
+            SpecModel::Excavator(model) => model.as_ref(),
+            SpecModel::Gtn(model) => model.as_ref(),
+            SpecModel::Command { model, .. } => model.as_ref(),
+            SpecModel::Given { model, .. } => *model,
         }
-        (ModelKind::Given, Some((model, _))) => run(model, &RunDirectory::create(&args.out)?),
-        (
-            ModelKind::Excavator {
-                geometry,
-                refit_poses,
-            },
-            _,
-        ) => {
+    }
+
+    /// What a study of this model leaves besides its report: the
+    /// calibrated geometry of the excavator twin, the emulator of a
+    /// user's model.
+    fn extras(&self, spec: &Spec, args: &CalibrateExternalOptions) -> Box<dyn Extras + '_> {
+        let emulator = |name: &str| {
+            Box::new(EmulatorExtras {
+                save: spec.save_emulator.clone(),
+                model: name.to_string(),
+                seed: args.seed,
+            })
+        };
+        match self {
+            SpecModel::Excavator(model) => Box::new(GeometryExtras {
+                model: model.as_ref(),
+                spec: args.spec.display().to_string(),
+            }),
+            SpecModel::Gtn(_) => Box::new(NoExtras),
+            SpecModel::Command { command, .. } => emulator(command),
+            SpecModel::Given { name, .. } => emulator(name),
+        }
+    }
+}
+
+/// Builds the spec's model and checks it before the run directory exists
+/// (a built-in twin is cheap: every case is tried at the nominal point,
+/// so a wrong name is refused at once), then creates the directory.
+fn spec_model<'a>(
+    spec: &Spec,
+    args: &CalibrateExternalOptions,
+    given: Option<(&'a dyn Model, &'a str)>,
+) -> Result<(SpecModel<'a>, RunDirectory)> {
+    let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
+    let model = match &spec.model {
+        ModelKind::Excavator {
+            geometry,
+            refit_poses,
+        } => {
             let template = geometry_template(&spec.directory, geometry.as_deref())?;
             let model = ExcavatorModel::new(template, *refit_poses)
                 .map_err(|e| in_spec(format!("geometry: {e}")))?;
             check_at_nominal(&spec.study, &model).map_err(in_spec)?;
-            run(&model, &RunDirectory::create(&args.out)?)
+            SpecModel::Excavator(Box::new(model))
         }
-        (ModelKind::Gtn { test }, _) => {
+        ModelKind::Gtn { test } => {
             let model = GtnModel::of_test(&spec.directory.join(test))?;
             model.check_inputs(&spec.study).map_err(in_spec)?;
-            run(&model, &RunDirectory::create(&args.out)?)
+            SpecModel::Gtn(Box::new(model))
         }
-        _ => Err(in_spec(
-            "[mesh_study] runs a user's solver (a command with {mesh}), a built-in twin (model = \"excavator\" or \"gtn\") or a model given from Python".into(),
-        )),
-    }
+        ModelKind::Command(command) => {
+            let (model, directory) = command_model(spec, command, args)?;
+            let command = command.command.join(" ");
+            return Ok((
+                SpecModel::Command {
+                    model: Box::new(model),
+                    command,
+                },
+                directory,
+            ));
+        }
+        ModelKind::Given => {
+            let Some((model, name)) = given else {
+                return Err(in_spec(
+                    "a spec for a given model was read without one".into(),
+                ));
+            };
+            SpecModel::Given { model, name }
+        }
+    };
+    Ok((model, RunDirectory::create(&args.out)?))
 }
 
 /// A user's solver on the spec's executor, its runs in `args.out/runs/`,

@@ -236,6 +236,11 @@ fn run_guest_script(script: &str, inputs: &Path, out: &Path) {
 /// the README's `cargo run --release -- demo` it is already up to date.
 fn release_acq() -> PathBuf {
     let test_build = PathBuf::from(env!("CARGO_BIN_EXE_acq"));
+    // scripts/test builds the tests in the release profile: the binary
+    // under test is the release build already.
+    if !cfg!(debug_assertions) {
+        return test_build;
+    }
     let target_dir = test_build
         .parent()
         .and_then(Path::parent)

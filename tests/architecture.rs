@@ -1367,3 +1367,69 @@ fn no_source_file_passes_a_thousand_lines_unless_architecture_md_says_why() {
         "source files over {LONGEST_FILE_LINES} lines before their tests: split them by what they hold, or list them under \"Long files\" in ARCHITECTURE.md with why they stay whole: {unlisted:#?}"
     );
 }
+
+/// Each package's versions in a Cargo.lock, by name.
+fn locked_versions(lock: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let lock: toml::Table = lock.parse().expect("a Cargo.lock is TOML");
+    let mut versions = BTreeMap::<String, BTreeSet<String>>::new();
+    for package in lock
+        .get("package")
+        .and_then(toml::Value::as_array)
+        .into_iter()
+        .flatten()
+    {
+        let field = |key: &str| package.get(key).and_then(toml::Value::as_str);
+        if let (Some(name), Some(version)) = (field("name"), field("version")) {
+            versions
+                .entry(name.to_string())
+                .or_default()
+                .insert(version.to_string());
+        }
+    }
+    versions
+}
+
+/// The packages the fuzz build locks at a version the workspace does not.
+fn versions_apart(workspace_lock: &str, fuzz_lock: &str) -> Vec<String> {
+    let workspace = locked_versions(workspace_lock);
+    locked_versions(fuzz_lock)
+        .into_iter()
+        .filter_map(|(name, versions)| {
+            let pinned = workspace.get(&name)?;
+            let apart: Vec<_> = versions.difference(pinned).cloned().collect();
+            (!apart.is_empty()).then(|| {
+                format!(
+                    "{name} {} (the workspace has {})",
+                    apart.join(", "),
+                    pinned.iter().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+/// The fuzz smoke reuses the third-party crates of the workspace's release
+/// build (scripts/fuzz-smoke); a package fuzz/Cargo.lock holds at another
+/// version is built again, and so is every crate above it.
+#[test]
+fn the_fuzz_build_locks_the_workspace_s_versions() {
+    let read = |path: &str| std::fs::read_to_string(workspace_root().join(path)).unwrap();
+    let apart = versions_apart(&read("Cargo.lock"), &read("fuzz/Cargo.lock"));
+    assert!(
+        apart.is_empty(),
+        "fuzz/Cargo.lock holds versions the workspace's Cargo.lock does not: {}; copy Cargo.lock over fuzz/Cargo.lock and run `cargo metadata` in fuzz/",
+        apart.join("; ")
+    );
+}
+
+#[test]
+fn the_version_check_sees_a_version_apart() {
+    let lock = |version: &str| {
+        format!("version = 4\n\n[[package]]\nname = \"bytes\"\nversion = \"{version}\"\n")
+    };
+    assert!(versions_apart(&lock("1.12.1"), &lock("1.12.1")).is_empty());
+    assert_eq!(
+        versions_apart(&lock("1.12.1"), &lock("1.12.2")),
+        ["bytes 1.12.2 (the workspace has 1.12.1)"]
+    );
+}

@@ -33,6 +33,7 @@ use acq_study::run_directory::RunDirectory;
 use acq_study::spec::Spec;
 use acq_study::study::{Case, Measured, Model, ModelRun, Observation, Role, Study};
 use acq_study::study_runner::run_study;
+use acq_workflows::calibrate::models::BUILTIN_MODELS;
 use common::coverage::{correlated_curve_hits, truth_from_prior};
 use common::toy::input;
 use common::{external_summary, number};
@@ -223,7 +224,7 @@ fn line_in_process(
 #[test]
 fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direct_path() {
     let dir = tempfile::tempdir().unwrap();
-    let spec = Spec::load(&line_spec(dir.path(), "")).unwrap();
+    let spec = Spec::load(&line_spec(dir.path(), ""), &BUILTIN_MODELS).unwrap();
     let out = dir.path().join("direct");
     line_in_process(
         &spec.study,
@@ -936,7 +937,9 @@ fn the_emulated_posterior_matches_the_direct_one() {
 fn the_validation_statement_has_the_closed_form_prediction_and_input_uncertainty() {
     use acq_study::posterior::validation::validation_statements;
     let dir = tempfile::tempdir().unwrap();
-    let mut study = Spec::load(&line_spec(dir.path(), "")).unwrap().study;
+    let mut study = Spec::load(&line_spec(dir.path(), ""), &BUILTIN_MODELS)
+        .unwrap()
+        .study;
     study.cases.push(Case::new(
         "check",
         Role::Validate,

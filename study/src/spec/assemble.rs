@@ -7,21 +7,27 @@ use std::path::Path;
 
 use acq_algorithms::evaluation::Parameter;
 
+use super::model::ModelKind;
 use super::observations::{
     case_observation, measured_curve, metric_of, scalar, scoreable, weight_of,
 };
 use super::problem::SpecProblem;
-use super::schema::{ModelName, SpecFile};
+use super::schema::SpecFile;
 use crate::study::{Case, Measured, Observation, Prior, Residuals, Role, Study, StudyParameter};
 
 /// The study of a spec whose sections have passed [`super::checks`];
 /// `command`: its model is the spec's command (which needs its
 /// `output_file`), not a built-in twin or a model the caller brings.
-pub fn study(file: &SpecFile, spec_directory: &Path, command: bool) -> Result<Study, SpecProblem> {
+pub fn study(
+    file: &SpecFile,
+    spec_directory: &Path,
+    model: &ModelKind,
+) -> Result<Study, SpecProblem> {
+    let command = matches!(model, ModelKind::Command(_));
     let mut cases = if file.cases.is_empty() {
         vec![implicit_case(file, spec_directory)?]
     } else {
-        named_cases(file, spec_directory)?
+        named_cases(file, spec_directory, model)?
     };
     if cases.iter().all(|c| c.role != Role::Fit) {
         return Err(SpecProblem::file(
@@ -116,7 +122,11 @@ fn implicit_case(file: &SpecFile, spec_directory: &Path) -> Result<Case, SpecPro
 }
 
 /// The `[[case]]`s, each with its role, fixed inputs and observations.
-fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, SpecProblem> {
+fn named_cases(
+    file: &SpecFile,
+    spec_directory: &Path,
+    model: &ModelKind,
+) -> Result<Vec<Case>, SpecProblem> {
     for (index, c) in file.curves.iter().enumerate() {
         if c.measured_file.is_some() {
             return Err(SpecProblem::table(
@@ -126,8 +136,11 @@ fn named_cases(file: &SpecFile, spec_directory: &Path) -> Result<Vec<Case>, Spec
             ));
         }
     }
-    // The GTN twin's force-displacement curve, mm and kN.
-    let builtin_curve_units = (file.model == ModelName::Gtn).then_some(["mm", "kN"]);
+    // A built-in model's own curve, in its units.
+    let builtin_curve_units = match model {
+        ModelKind::Builtin(builtin) => builtin.curve_units,
+        _ => None,
+    };
     let mut cases = Vec::new();
     for (index, c) in file.cases.iter().enumerate() {
         let here = |message: String| {

@@ -7,7 +7,7 @@ use std::path::Path;
 use acq_algorithms::bo::Acquisition;
 use acq_algorithms::gp::Kernel;
 
-use super::model::{CommandSpec, ModelKind};
+use super::model::{BuiltinModels, CommandSpec, KeyReader, ModelKind};
 use super::problem::SpecProblem;
 use super::schema::{
     ExecutorKind, ExecutorSpec, MethodName, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
@@ -16,31 +16,29 @@ use super::schema::{
 use crate::study::Role;
 use crate::surrogate_moo::Pick;
 
-/// `model` and the keys that belong to it: a command, or the built-in
-/// twin's geometry.
-pub fn model(file: &SpecFile, given: bool) -> Result<ModelKind, SpecProblem> {
+/// `model` and the keys that belong to it: a command, a model the caller
+/// brings, or a built-in model, which `builtins` resolves.
+pub fn model(
+    file: &SpecFile,
+    given: bool,
+    builtins: &dyn BuiltinModels,
+) -> Result<ModelKind, SpecProblem> {
     let problem = |message: &str| Err(SpecProblem::file(message));
-    if file.test.is_some() && file.model != ModelName::Gtn {
-        return problem(
-            "test belongs to model = \"gtn\": the tensile test the GTN twin is set up from",
-        );
+    let reader = match file.model {
+        ModelName::Command if given => KeyReader::Given,
+        ModelName::Command => KeyReader::Command,
+        name => KeyReader::Builtin(name),
+    };
+    if let Some(message) = builtins.misplaced_key(file, reader) {
+        return problem(&message);
     }
     match file.model {
-        ModelName::Command if given && file.geometry.is_some() => problem(
-            "geometry belongs to model = \"excavator\"; a model given to the study reads its own",
-        ),
         // The caller's model takes the command's place: one spec serves
         // both, so the two can be compared run for run.
         ModelName::Command if given => Ok(ModelKind::Given),
-        ModelName::Excavator if given => problem(
-            "model = \"excavator\" runs the built-in twin: leave out the model given to the study, or model = \"excavator\"",
-        ),
         ModelName::Command if file.command.is_empty() => {
             problem("command is empty; give the program and its arguments")
         }
-        ModelName::Command if file.geometry.is_some() => problem(
-            "geometry belongs to model = \"excavator\"; a command reads its own files",
-        ),
         ModelName::Command => Ok(ModelKind::Command(CommandSpec {
             command: file.command.clone(),
             output_file: file.output_file.clone(),
@@ -50,34 +48,18 @@ pub fn model(file: &SpecFile, given: bool) -> Result<ModelKind, SpecProblem> {
             retries: file.retries,
             curves: file.curves.clone(),
         })),
-        ModelName::Excavator if !file.command.is_empty() => {
-            problem("model = \"excavator\" runs the built-in twin; leave out command")
-        }
-        ModelName::Excavator if !file.curves.is_empty() => problem(
-            "the excavator twin gives no curves; observe its numbers by key path (pressure_bar.boom)",
-        ),
-        ModelName::Excavator => Ok(ModelKind::Excavator {
-            geometry: file.geometry.clone(),
-            refit_poses: file.refit_poses,
-        }),
-        ModelName::Gtn if given => problem(
-            "model = \"gtn\" runs the built-in twin: leave out the model given to the study, or model = \"gtn\"",
-        ),
-        ModelName::Gtn if !file.command.is_empty() => {
-            problem("model = \"gtn\" runs the built-in twin; leave out command")
-        }
-        ModelName::Gtn if file.geometry.is_some() => {
-            problem("geometry belongs to model = \"excavator\"; the GTN twin takes its specimen from test")
-        }
-        ModelName::Gtn if !file.curves.is_empty() => problem(
-            "the GTN twin's curve is force_displacement: observe it in a case's measured table (force_displacement = { file = \"test.csv\", x = \"DISPLACEMENT\", y = \"FORCE\" }), not as a [[curve]]",
-        ),
-        ModelName::Gtn => match &file.test {
-            Some(test) => Ok(ModelKind::Gtn { test: test.clone() }),
-            None => problem(
-                "model = \"gtn\" needs test = \"FILE.csv\": the tensile test (next to the spec) whose flow curve, specimen and last displacement the twin takes",
-            ),
-        },
+        name if given => problem(&format!(
+            "model = \"{0}\" runs the built-in twin: leave out the model given to the study, or model = \"{0}\"",
+            name.name()
+        )),
+        name if !file.command.is_empty() => problem(&format!(
+            "model = \"{}\" runs the built-in twin; leave out command",
+            name.name()
+        )),
+        name => builtins
+            .resolve(name, file)
+            .map(ModelKind::Builtin)
+            .map_err(SpecProblem::file),
     }
 }
 
@@ -543,8 +525,7 @@ pub fn mesh_study(
             )))
         }
         (Some(unit), _) => Some(unit.clone()),
-        (None, ModelKind::Gtn { .. }) => Some("mm".to_string()),
-        (None, ModelKind::Excavator { .. }) => Some("m".to_string()),
+        (None, ModelKind::Builtin(builtin)) => Some(builtin.element_size_unit.to_string()),
         (None, _) => None,
     };
     Ok(Some(MeshStudySettings {

@@ -140,7 +140,9 @@ pub mod observations;
 pub mod problem;
 pub mod schema;
 
-pub use self::model::{CommandSpec, ModelKind};
+pub use self::model::{
+    BuiltinKeys, BuiltinModel, BuiltinModels, CommandSpec, KeyReader, ModelKind,
+};
 pub use self::problem::{SpecError, SpecProblem};
 
 /// A checked spec: the model, the study, how to search it.
@@ -212,29 +214,41 @@ fn emulator_has_runs(
 impl Spec {
     /// Reads and checks a spec and the measured files it names; errors
     /// name the file (and the line of the table at fault) and what to fix.
-    pub fn load(path: &Path) -> Result<Spec, SpecError> {
-        Self::load_for(path, false, true)
+    pub fn load(path: &Path, builtins: &dyn BuiltinModels) -> Result<Spec, SpecError> {
+        Self::load_for(path, builtins, false, true)
     }
 
     /// [`Spec::load`] for its mesh study (`acq mesh-study`), which comes
     /// before the u_num `[posterior] mesh_study` reads from it; with
     /// `given`, for a model the caller brings.
-    pub fn load_for_mesh_study(path: &Path, given: bool) -> Result<Spec, SpecError> {
-        Self::load_for(path, given, false)
+    pub fn load_for_mesh_study(
+        path: &Path,
+        builtins: &dyn BuiltinModels,
+        given: bool,
+    ) -> Result<Spec, SpecError> {
+        Self::load_for(path, builtins, given, false)
     }
 
     /// [`Spec::load`] for a study whose caller brings the model (the
     /// Python package's `model=`): the spec needs no `command`, and one it
     /// has is not run.
-    pub fn load_with_given_model(path: &Path) -> Result<Spec, SpecError> {
-        Self::load_for(path, true, true)
+    pub fn load_with_given_model(
+        path: &Path,
+        builtins: &dyn BuiltinModels,
+    ) -> Result<Spec, SpecError> {
+        Self::load_for(path, builtins, true, true)
     }
 
-    fn load_for(path: &Path, given: bool, with_mesh_u_num: bool) -> Result<Spec, SpecError> {
+    fn load_for(
+        path: &Path,
+        builtins: &dyn BuiltinModels,
+        given: bool,
+        with_mesh_u_num: bool,
+    ) -> Result<Spec, SpecError> {
         let (text, file) = read_spec_file(path)?;
         let located = |problem: SpecProblem| problem.located(path, &text);
         let directory = spec_directory(path);
-        let model = checks::model(&file, given).map_err(located)?;
+        let model = checks::model(&file, given, builtins).map_err(located)?;
         checks::emulator(&file).map_err(located)?;
         checks::observations_given(&file).map_err(located)?;
         checks::runs(&file).map_err(located)?;
@@ -244,8 +258,7 @@ impl Spec {
         checks::posterior(&file).map_err(located)?;
         let mesh_study = checks::mesh_study(&file, &model).map_err(located)?;
         checks::multi_fidelity(&file.search, mesh_study.as_ref()).map_err(located)?;
-        let command = matches!(model, ModelKind::Command(_));
-        let mut study = assemble::study(&file, &directory, command).map_err(located)?;
+        let mut study = assemble::study(&file, &directory, &model).map_err(located)?;
         if let Some(mesh) = &mesh_study {
             // A calibration runs every case at the one size.
             for case in study.cases.iter_mut().filter(|c| !c.priors) {
@@ -370,6 +383,20 @@ impl Spec {
 mod tests {
     use super::*;
 
+    use crate::spec::schema::ModelName;
+
+    /// A program with no built-in model: the spec below names none.
+    struct NoBuiltinModels;
+
+    impl BuiltinModels for NoBuiltinModels {
+        fn misplaced_key(&self, _: &SpecFile, _: KeyReader) -> Option<String> {
+            None
+        }
+        fn resolve(&self, name: ModelName, _: &SpecFile) -> Result<BuiltinModel, String> {
+            Err(format!("no built-in model {:?} here", name.name()))
+        }
+    }
+
     fn method_of(search: &str) -> Method {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("spec.toml");
@@ -380,7 +407,7 @@ mod tests {
             ),
         )
         .unwrap();
-        Spec::load(&path).unwrap().method(1)
+        Spec::load(&path, &NoBuiltinModels).unwrap().method(1)
     }
 
     #[test]

@@ -278,6 +278,17 @@ pub enum ModelName {
     Gtn,
 }
 
+impl ModelName {
+    /// The name as a spec writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            ModelName::Command => "command",
+            ModelName::Excavator => "excavator",
+            ModelName::Gtn => "gtn",
+        }
+    }
+}
+
 fn default_refit_poses() -> bool {
     true
 }

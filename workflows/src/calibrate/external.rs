@@ -2,14 +2,14 @@
 //! user's own solver (a COMSOL or Abaqus batch job, a script) run as a
 //! command once per evaluation and load case ([`acq_study::command_model`]),
 //! or on a built-in twin (`model = "excavator"` or `model = "gtn"`,
-//! [`super::builtin`]). The spec's keys are in [`acq_study::spec`].
+//! [`super::models`]). The spec's keys are in [`acq_study::spec`].
 
 use std::path::PathBuf;
 
 use acq_error::{AcqError, Result};
-use acq_twins::excavator::geometry::GeometryTemplate;
 
 use super::builtin::{ExcavatorModel, GtnModel};
+use super::models::{self, Built, BUILTIN_MODELS};
 use acq_exec::executor::{Executor, LocalExecutor};
 use acq_exec::slurm::{SlurmExecutor, SlurmSettings};
 use acq_study::command_model::CommandModel;
@@ -22,7 +22,7 @@ use acq_study::saved_emulator::{rows_of_study, SavedEmulator};
 use acq_study::spec::schema::{ExecutorKind, ExecutorSpec};
 use acq_study::spec::{ModelKind, Spec};
 use acq_study::study::{Model, Study};
-use acq_study::study_runner::{check_at_nominal, run_study};
+use acq_study::study_runner::run_study;
 
 #[derive(Clone, Debug)]
 pub struct CalibrateExternalOptions {
@@ -36,7 +36,7 @@ pub struct CalibrateExternalOptions {
 }
 
 pub fn run(args: CalibrateExternalOptions) -> Result<()> {
-    run_spec(&args, Spec::load(&args.spec)?, None, None)
+    run_spec(&args, Spec::load(&args.spec, &BUILTIN_MODELS)?, None, None)
 }
 
 /// A study of a model the caller brings (the Python package's `model=`,
@@ -49,8 +49,8 @@ pub fn run_with_model(
     progress: Option<ProgressObserver<'_>>,
 ) -> Result<()> {
     let spec = match given {
-        Some(_) => Spec::load_with_given_model(&args.spec)?,
-        None => Spec::load(&args.spec)?,
+        Some(_) => Spec::load_with_given_model(&args.spec, &BUILTIN_MODELS)?,
+        None => Spec::load(&args.spec, &BUILTIN_MODELS)?,
     };
     run_spec(&args, spec, given, progress)
 }
@@ -97,7 +97,7 @@ pub fn run_mesh_study(
     args: &CalibrateExternalOptions,
     given: Option<(&dyn Model, &str)>,
 ) -> Result<acq_study::mesh_study::MeshStudyOutcome> {
-    let spec = Spec::load_for_mesh_study(&args.spec, given.is_some())?;
+    let spec = Spec::load_for_mesh_study(&args.spec, &BUILTIN_MODELS, given.is_some())?;
     let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
     let Some(settings) = &spec.mesh_study else {
         return Err(in_spec(
@@ -173,20 +173,11 @@ fn spec_model<'a>(
 ) -> Result<(SpecModel<'a>, RunDirectory)> {
     let in_spec = |e: String| AcqError::Config(format!("{}: {e}", args.spec.display()));
     let model = match &spec.model {
-        ModelKind::Excavator {
-            geometry,
-            refit_poses,
-        } => {
-            let template = geometry_template(&spec.directory, geometry.as_deref())?;
-            let model = ExcavatorModel::new(template, *refit_poses)
-                .map_err(|e| in_spec(format!("geometry: {e}")))?;
-            check_at_nominal(&spec.study, &model).map_err(in_spec)?;
-            SpecModel::Excavator(Box::new(model))
-        }
-        ModelKind::Gtn { test } => {
-            let model = GtnModel::of_test(&spec.directory.join(test))?;
-            model.check_inputs(&spec.study).map_err(in_spec)?;
-            SpecModel::Gtn(Box::new(model))
+        ModelKind::Builtin(builtin) => {
+            match models::build(builtin, &spec.directory, &spec.study, in_spec)? {
+                Built::Excavator(model) => SpecModel::Excavator(model),
+                Built::Gtn(model) => SpecModel::Gtn(model),
+            }
         }
         ModelKind::Command(command) => {
             let (model, directory) = command_model(spec, command, args)?;
@@ -267,24 +258,6 @@ impl Extras for EmulatorExtras {
             path.display()
         );
         Ok(())
-    }
-}
-
-/// The excavator's geometry file named by a spec (relative to its
-/// directory), else the shipped one.
-pub(crate) fn geometry_template(
-    spec_directory: &std::path::Path,
-    geometry: Option<&str>,
-) -> Result<GeometryTemplate> {
-    match geometry {
-        Some(file) => {
-            let path = spec_directory.join(file);
-            let text = acq_io::input::read_text(&path).map_err(|e| AcqError::open(&path, e))?;
-            acq_io::input::note_input(&path);
-            GeometryTemplate::parse(&text)
-                .map_err(|e| AcqError::Config(format!("{}: {e}", path.display())))
-        }
-        None => Ok(GeometryTemplate::dx55()),
     }
 }
 

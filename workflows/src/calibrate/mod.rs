@@ -11,6 +11,7 @@ pub mod builtin;
 pub mod excavator;
 pub mod external;
 pub mod gtn;
+pub mod models;
 
 use acq_error::{AcqError, Result};
 

@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use acq_analysis::extract::quantities::RigQuantities;
 
 use crate::calibrate::builtin::ExcavatorModel;
-use crate::calibrate::external::geometry_template;
+use crate::calibrate::models::geometry_template;
 use acq_study::posterior::PosteriorSettings;
 use acq_study::saved_emulator::{EmulatedModel, EmulatorFileError, SavedEmulator};
 use acq_study::spec::assemble::parameters;
@@ -350,7 +350,7 @@ fn what_the_rig_runs(file: &SpecFile) -> Result<(&HoldsSpec, Option<String>), Sp
                 ))
             }
             (ModelName::Excavator, None) => {
-                checks::model(file, false)?;
+                checks::model(file, false, &crate::calibrate::models::BUILTIN_MODELS)?;
             }
             (ModelName::Command, None) => {
                 return Err(SpecProblem::file(

@@ -10,6 +10,7 @@ use acq_study::study::{Measured, Role};
 use acq_twins::excavator::case::CaseFile;
 use acq_twins::excavator::geometry::Geometry;
 use acq_twins::excavator::Excavator;
+use acq_workflows::calibrate::models::BUILTIN_MODELS;
 use proptest::prelude::*;
 
 /// What careless hands put in a TOML value.
@@ -90,10 +91,10 @@ fn the_unedited_files_load() {
     std::fs::write(dir.path().join("solver.sh"), "exit 0\n").unwrap();
     let path = dir.path().join("spec.toml");
     std::fs::write(&path, SPEC).unwrap();
-    Spec::load(&path).unwrap();
+    Spec::load(&path, &BUILTIN_MODELS).unwrap();
     // One nasty value at a time: each field is checked (1e19 s is no timeout).
     std::fs::write(&path, with_value(SPEC, 2, "1e19")).unwrap();
-    assert!(Spec::load(&path)
+    assert!(Spec::load(&path, &BUILTIN_MODELS)
         .unwrap_err()
         .to_string()
         .contains("timeout_s"));
@@ -114,7 +115,7 @@ proptest! {
         }
         let path = dir.path().join("spec.toml");
         std::fs::write(&path, &text).unwrap();
-        if let Ok(spec) = Spec::load(&path) {
+        if let Ok(spec) = Spec::load(&path, &BUILTIN_MODELS) {
             // What the runner does with the numbers must not panic.
             let ModelKind::Command(command) = &spec.model else {
                 return Err(TestCaseError::fail(format!("a command spec loaded as another model: {text}")));

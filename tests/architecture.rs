@@ -210,17 +210,15 @@ fn workspace_packages() -> Vec<Package> {
 /// Each third-party crate in `package`'s dependency graph (normal and build
 /// edges, proc-macros included) with the features cargo turns on for it.
 fn features_in_graph_of(package: &str) -> BTreeMap<String, BTreeSet<String>> {
-    let tree = cargo_output(&[
-        "tree",
-        "-p",
-        package,
-        "-e",
-        "normal,build",
-        "--prefix",
-        "none",
-        "--format",
-        "{p}|{f}",
-    ]);
+    features_in_tree(&["-p", package, "-e", "normal,build"])
+}
+
+/// The features of each third-party crate in `cargo tree ARGS`.
+fn features_in_tree(args: &[&str]) -> BTreeMap<String, BTreeSet<String>> {
+    let mut command = vec!["tree"];
+    command.extend_from_slice(args);
+    command.extend_from_slice(&["--prefix", "none", "--format", "{p}|{f}"]);
+    let tree = cargo_output(&command);
     let mut features: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for line in String::from_utf8_lossy(&tree).lines() {
         let Some((crate_and_version, on)) = line.split_once('|') else {
@@ -246,15 +244,7 @@ fn features_in_graph_of(package: &str) -> BTreeMap<String, BTreeSet<String>> {
 fn the_binary_and_the_binding_ask_for_the_same_features() {
     let binary = features_in_graph_of("acq");
     let binding = features_in_graph_of("acq-python");
-    let differing: Vec<String> = binary
-        .iter()
-        .filter_map(|(name, on_for_binary)| {
-            let on_for_binding = binding.get(name)?;
-            (on_for_binary != on_for_binding).then(|| {
-                format!("{name}: the binary's {on_for_binary:?}, the binding's {on_for_binding:?}")
-            })
-        })
-        .collect();
+    let differing = differing_features(("binary's", &binary), ("binding's", &binding));
     assert!(
         differing.is_empty(),
         "add the union of these features to shared-features/Cargo.toml \
@@ -264,6 +254,54 @@ fn the_binary_and_the_binding_ask_for_the_same_features() {
     // The comparison saw the crates both graphs hold.
     assert!(binary.keys().any(|k| k.starts_with("serde v")));
     assert!(binding.keys().any(|k| k.starts_with("arrow-array v")));
+}
+
+/// The tests' build (scripts/test: every target of the workspace, its
+/// dev-dependencies too) reuses the demo's release build of a crate only
+/// when both ask for the same features of it; a dev-dependency that asks
+/// for one more feature of a crate the binary uses (tempfile of rustix's
+/// `fs`) had the tests' build compile that crate and every workspace crate
+/// above it a second time.
+#[test]
+fn the_binary_and_the_tests_ask_for_the_same_features() {
+    let binary = features_in_graph_of("acq");
+    let tests = features_in_tree(&["--workspace", "-e", "normal,build,dev"]);
+    let differing = differing_features(("binary's", &binary), ("tests'", &tests));
+    assert!(
+        differing.is_empty(),
+        "add the union of these features to shared-features/Cargo.toml:\n{}",
+        differing.join("\n")
+    );
+    assert!(tests.keys().any(|k| k.starts_with("tempfile v")));
+    // Shown to fail when broken: a crate whose features differ is named.
+    let mut fewer = binary.clone();
+    let rustix = fewer
+        .keys()
+        .find(|k| k.starts_with("rustix v"))
+        .cloned()
+        .expect("the binary uses rustix");
+    fewer.get_mut(&rustix).unwrap().remove("fs");
+    let broken = differing_features(("binary's", &fewer), ("tests'", &tests));
+    assert!(
+        broken.iter().any(|line| line.starts_with("rustix v")),
+        "{broken:?}"
+    );
+}
+
+/// "crate: the A's {features}, the B's {features}" (names given with
+/// their possessive) for each crate both
+/// graphs hold with different features.
+fn differing_features(
+    (a_name, a): (&str, &BTreeMap<String, BTreeSet<String>>),
+    (b_name, b): (&str, &BTreeMap<String, BTreeSet<String>>),
+) -> Vec<String> {
+    a.iter()
+        .filter_map(|(name, on_for_a)| {
+            let on_for_b = b.get(name)?;
+            (on_for_a != on_for_b)
+                .then(|| format!("{name}: the {a_name} {on_for_a:?}, the {b_name} {on_for_b:?}"))
+        })
+        .collect()
 }
 
 #[test]

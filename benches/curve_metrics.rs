@@ -67,10 +67,7 @@ fn main() {
             sampled(900, pull(10.5, 0.9, 0.7)),
         ),
     ];
-    let python = common::scratch_python(
-        "acq-similaritymeasures-1.5.0",
-        &["similaritymeasures==1.5.0", "numpy==2.4.6", "scipy==1.17.1"],
-    );
+    let python = common::scratch_python("curves");
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("pairs.json");
     let as_json: Vec<_> = pairs.iter().map(|(_, m, s)| (m, s)).collect();

@@ -30,6 +30,10 @@ use acq_study::study::{
 use acq_study::study_runner::run_study;
 use acq_workflows::calibrate::excavator::{run, CalibrateExcavatorOptions, ExcavatorPosterior};
 
+// A benchmark reports without a peer: it takes `try_peer_python` only.
+#[allow(dead_code)]
+#[path = "../tests/common/peers.rs"]
+mod peers;
 #[path = "../tests/common/toy.rs"]
 mod toy;
 
@@ -297,32 +301,13 @@ fn banana_against_emcee() {
     );
 }
 
-/// The Python of the scratch virtualenv with emcee (made once per
-/// machine, as the tests' `scratch_python` does).
+/// The Python of the peers' virtualenv with emcee (scripts/python-peers,
+/// as the tests make it), or `None` when it cannot be made.
 fn emcee_python() -> Option<std::path::PathBuf> {
-    let venv = std::env::temp_dir().join("acq-emcee-3.1.6");
-    let python = venv.join("bin/python");
-    if !venv.join("acq-ready").exists() {
-        let made = std::process::Command::new("python3")
-            .args(["-m", "venv", "--clear"])
-            .arg(&venv)
-            .status()
-            .is_ok_and(|s| s.success())
-            && std::process::Command::new(&python)
-                .args([
-                    "-m",
-                    "pip",
-                    "install",
-                    "--quiet",
-                    "emcee==3.1.6",
-                    "arviz==0.23.4",
-                ])
-                .status()
-                .is_ok_and(|s| s.success());
-        if !made {
-            return None;
-        }
-        std::fs::write(venv.join("acq-ready"), "").ok()?;
-    }
-    Some(python)
+    peers::try_peer_python(
+        Path::new(env!("CARGO_MANIFEST_DIR")),
+        Path::new(env!("CARGO_TARGET_TMPDIR")),
+        "mcmc",
+    )
+    .ok()
 }

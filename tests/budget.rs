@@ -382,8 +382,6 @@ fn shared_effect(row: &std::collections::HashMap<String, String>, sensor: &str) 
 
 /// GTC, pinned: the GUM Tree Calculator of the Measurement Standards
 /// Laboratory of New Zealand.
-const GTC: &str = "GTC==1.5.1";
-
 #[test]
 fn a_net_forces_budget_agrees_with_the_gum_tree_calculator() {
     let dir = tempfile::tempdir().unwrap();
@@ -441,7 +439,7 @@ fn a_net_forces_budget_agrees_with_the_gum_tree_calculator() {
     });
     let input_path = dir.path().join("gtc-input.json");
     std::fs::write(&input_path, input.to_string()).unwrap();
-    let python = common::scratch_python("acq-gtc-1.5.1", &[GTC]);
+    let python = common::scratch_python("gtc");
     let peer = std::process::Command::new(python)
         .arg(common::root().join("tests/peers/gtc_net_force.py"))
         .arg(&input_path)

@@ -12,8 +12,6 @@ mod common;
 use acq_algorithms::chain_diagnostics::{ess_bulk, ess_tail, hdi, mcse_mean, mcse_sd, rank_rhat};
 use rand::{RngExt, SeedableRng};
 
-const ARVIZ: &str = "arviz==0.23.4";
-
 /// `chains` AR(1) chains `x_t = phi x_{t-1} + e_t` of `draws` draws, with
 /// `shift * chain` added, `e` uniform noise passed through `shape`.
 fn ar1(
@@ -54,7 +52,7 @@ fn rank_rhat_and_bulk_ess_equal_arviz() {
         ("odd draws", ar1(3, 101, 0.7, 0.0, 7, centred)),
         ("short", ar1(2, 4, 0.0, 0.0, 8, centred)),
     ];
-    let python = common::scratch_python("acq-arviz-0.23.4", &[ARVIZ]);
+    let python = common::scratch_python("mcmc");
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("chains.json");
     let as_json: Vec<serde_json::Value> = cases

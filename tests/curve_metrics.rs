@@ -16,9 +16,6 @@ use acq_analysis::loss::metrics::{matched, CurveMetric};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-pub const SIMILARITYMEASURES: [&str; 3] =
-    ["similaritymeasures==1.5.0", "numpy==2.4.6", "scipy==1.17.1"];
-
 type Curve = Vec<[f64; 2]>;
 
 /// A pair of curves of one of the shapes users bring, with random sizes,
@@ -126,7 +123,7 @@ fn random_pair(rng: &mut ChaCha8Rng, kind: usize) -> (Curve, Curve) {
 fn each_metric_equals_similaritymeasures_on_random_pairs() {
     let mut rng = ChaCha8Rng::seed_from_u64(2019);
     let pairs: Vec<(Curve, Curve)> = (0..1000).map(|k| random_pair(&mut rng, k)).collect();
-    let python = common::scratch_python("acq-similaritymeasures-1.5.0", &SIMILARITYMEASURES);
+    let python = common::scratch_python("curves");
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("pairs.json");
     std::fs::write(&data, serde_json::json!(pairs).to_string()).unwrap();

@@ -13,8 +13,6 @@ use std::process::Command;
 
 use common::{acq, path_arg, stderr};
 
-const ASAMMDF: &str = "asammdf==8.8.28";
-
 /// asammdf's channels: (group, channel) -> (unit, [(time ns, value)]).
 type Channels = BTreeMap<(String, String), (String, Vec<(i64, Option<f64>)>)>;
 
@@ -77,7 +75,7 @@ fn ns_of_seconds(text: &str) -> i64 {
 
 #[test]
 fn mf4_signals_equal_the_csv_in_asammdf() {
-    let python = common::scratch_python("acq-asammdf-8.8.28", &[ASAMMDF]);
+    let python = common::scratch_python("can-logs");
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
     let log = "fixtures/logs/excavator_case1.log";

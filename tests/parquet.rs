@@ -13,11 +13,9 @@ use std::process::Command;
 
 use common::{acq, path_arg, stderr};
 
-const READERS: [&str; 2] = ["pyarrow==22.0.0", "polars==1.35.2"];
-
 /// The scratch virtualenv with the readers.
 fn python() -> PathBuf {
-    common::scratch_python("acq-parquet-readers-1", &READERS)
+    common::scratch_python("parquet")
 }
 
 /// Runs acq twice, to `NAME.csv` and `NAME.parquet`, and has the readers

@@ -734,8 +734,6 @@ fn with_default_sigterm(spec: &Path, out: &Path) -> std::process::Output {
 
 // ---- a peer: emcee and ArviZ -----------------------------------------------------------------
 
-const PEERS: [&str; 2] = ["emcee==3.1.6", "arviz==0.23.4"];
-
 /// `y = a exp(-b t)` seen at t = 1 and 2 (sd 0.1): two values for two
 /// parameters, a curved ridge of a posterior. acq's sampler and emcee's
 /// affine-invariant ensemble (32 walkers) sample it in the same run; at
@@ -772,7 +770,7 @@ fn a_banana_posterior_has_emcees_quantiles_and_arvizs_diagnostics() {
         &|_| {},
     )
     .unwrap();
-    let python = common::scratch_python("acq-emcee-3.1.6", &PEERS);
+    let python = common::scratch_python("mcmc");
     let dir = tempfile::tempdir().unwrap();
     let draws = dir.path().join("acq.json");
     let by_parameter: Vec<Vec<Vec<f64>>> = (0..2).map(|i| chains.coordinate(i)).collect();

@@ -12,11 +12,9 @@ use std::process::Command;
 
 use common::{acq, path_arg, stderr, EVERY_KIND_OF_FRAME as SOURCE};
 
-const PYTHON_CAN: &str = "python-can==4.6.1";
-
 /// The scratch virtualenv with python-can.
 fn python() -> PathBuf {
-    common::scratch_python("acq-python-can-4.6.1", &[PYTHON_CAN])
+    common::scratch_python("can-logs")
 }
 
 /// python-can's frames of a log, one JSON object each.

@@ -13,17 +13,9 @@ use std::process::Command;
 
 use common::root;
 
-const PACKAGES: &[&str] = &[
-    "pyarrow==26.0.1",
-    "arviz==0.23.4",
-    "pytest==9.2.0",
-    "mypy==2.4.1",
-    "tqdm==4.70.1",
-];
-
 #[test]
 fn pip_installs_the_package_and_its_checks_pass() {
-    let python = common::scratch_python("acq-python-package-2", PACKAGES);
+    let python = common::scratch_python("python-package");
     let installed = Command::new(&python)
         .args([
             "-m",

@@ -7,6 +7,7 @@ pub mod calculix;
 pub mod coverage;
 pub mod interfaces;
 pub mod memory_recorder;
+pub mod peers;
 pub mod pipeline;
 pub mod report;
 pub mod rig_emulator;
@@ -152,41 +153,14 @@ pub const EVERY_KIND_OF_FRAME: &str = "\
 (1763719200.006000) can0 010#DEADBEEF
 ";
 
-/// The Python of a scratch virtualenv `name` holding `packages`, made once
-/// per build directory from the package registry: under cargo's
-/// `CARGO_TARGET_TMPDIR`, which a fresh clone's CI shares with the checkout
-/// (the build cache), so its run installs nothing a run before it did.
-/// Tests of a run wait on a lock file instead of making it twice at once.
-/// The reference tools (python-can, pyarrow, asammdf) live there, never in
-/// acq's dependencies; without them a test fails.
-pub fn scratch_python(name: &str, packages: &[&str]) -> PathBuf {
-    let scratch = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
-    let venv = scratch.join(name);
-    let python = venv.join("bin/python");
-    let ready = venv.join("acq-ready");
-    let lock = std::fs::File::create(scratch.join(format!("{name}.lock"))).unwrap();
-    // Held until this function returns (std's File::lock needs Rust 1.89).
-    let _lock = nix::fcntl::Flock::lock(lock, nix::fcntl::FlockArg::LockExclusive)
-        .map_err(|(_, e)| e)
-        .unwrap();
-    if !ready.exists() {
-        let made = Command::new("python3")
-            .args(["-m", "venv", "--clear", path_arg(&venv)])
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(&python)
-                .args(["-m", "pip", "install", "--quiet"])
-                .args(packages)
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            made,
-            "could not install {packages:?} into {} (python3 -m venv, pip from the package registry)",
-            venv.display()
-        );
-        std::fs::write(&ready, "").unwrap();
-    }
-    python
+/// The Python of the peers' scratch virtualenv `name`
+/// (tests/peers/venvs/NAME.txt), made by scripts/python-peers if it is not
+/// ready: under cargo's `CARGO_TARGET_TMPDIR`, where scripts/test made them
+/// all while the workspace compiled. The reference tools (python-can,
+/// pyarrow, asammdf, ...) live there, never in acq's dependencies; without
+/// them a test fails.
+pub fn scratch_python(name: &str) -> PathBuf {
+    peers::peer_python(root(), Path::new(env!("CARGO_TARGET_TMPDIR")), name)
 }
 
 /// A copy of a shipped session in `dir` (acq view writes its index into a

@@ -17,10 +17,6 @@ use acq_can::{CanId, Direction, Frame, FrameKind, IfaceName, LogFormat, LogReade
 use proptest::prelude::*;
 use serde_json::{json, Value};
 
-const PYTHON_CAN: &str = "python-can==4.6.1";
-/// The asammdf python-can's `[mf4]` extra takes (`asammdf>=6.0.0`), pinned.
-const ASAMMDF: &str = "asammdf==8.8.28";
-
 fn write(frames: &[Frame]) -> Vec<u8> {
     let mut writer = Mf4Writer::new(Cursor::new(Vec::new()));
     for frame in frames {
@@ -366,32 +362,10 @@ fn as_json(frame: &Frame) -> Value {
     })
 }
 
-/// The scratch virtualenv with python-can and asammdf, made once per machine.
+/// The peers' scratch virtualenv with python-can and asammdf
+/// (scripts/python-peers can-logs).
 fn python() -> PathBuf {
-    let venv = std::env::temp_dir().join("acq-python-can-mf4");
-    let python = venv.join("bin/python");
-    let ready = |python: &Path| {
-        Command::new(python)
-            .args(["-c", "import can, asammdf"])
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    if !ready(&python) {
-        let made = Command::new("python3")
-            .args(["-m", "venv", venv.to_str().unwrap()])
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(&python)
-                .args(["-m", "pip", "install", "--quiet", PYTHON_CAN, ASAMMDF])
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            made && ready(&python),
-            "could not install {PYTHON_CAN} and {ASAMMDF} into {} (python3 -m venv, pip from the package registry)",
-            venv.display()
-        );
-    }
-    python
+    common::peer_python("can-logs")
 }
 
 fn helper(python: &Path, args: &[&str]) -> String {

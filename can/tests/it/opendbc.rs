@@ -19,8 +19,6 @@ use acq_can::dbc::{DbcDatabase, PhysicalValue};
 use acq_can::CanId;
 use common::same_value;
 
-const PINS: [&str; 2] = ["cantools==45.1.0", "opendbc==0.3.1"];
-
 /// What acq does not support, as the `dbc` module doc's table lists it:
 /// (the table's feature, a text every refusal or skip for it contains).
 const UNSUPPORTED: &[(&str, &str)] = &[
@@ -50,38 +48,10 @@ fn as_cp1252(text: &str) -> String {
         .collect()
 }
 
-/// The scratch virtualenv with the pinned cantools and opendbc, made once
-/// per machine (and remade when the pins change).
+/// The peers' scratch virtualenv with the pinned cantools and opendbc
+/// (scripts/python-peers dbc).
 fn python() -> PathBuf {
-    let venv = std::env::temp_dir().join("acq-opendbc-venv");
-    let python = venv.join("bin/python");
-    let stamp = venv.join("acq-pins.txt");
-    let pins = PINS.join(" ");
-    if std::fs::read_to_string(&stamp).ok().as_deref() == Some(pins.as_str()) {
-        return python;
-    }
-    let run = |program: &Path, args: &[&str]| {
-        Command::new(program)
-            .args(args)
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    let venv_arg = venv.to_str().expect("temp dir is UTF-8");
-    // opendbc's own dependencies (numpy, pycapnp, ...) serve its car
-    // interfaces, not its DBC files: --no-deps keeps the venv small.
-    let made = (python.exists() || run(Path::new("python3"), &["-m", "venv", venv_arg]))
-        && run(&python, &["-m", "pip", "install", "--quiet", PINS[0]])
-        && run(
-            &python,
-            &["-m", "pip", "install", "--quiet", "--no-deps", PINS[1]],
-        );
-    assert!(
-        made,
-        "could not install {pins} into {} (python3 -m venv, pip from the package registry)",
-        venv.display()
-    );
-    std::fs::write(&stamp, &pins).unwrap();
-    python
+    common::peer_python("dbc")
 }
 
 fn payload(hex: &str) -> Vec<u8> {

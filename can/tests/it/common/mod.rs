@@ -90,3 +90,18 @@ pub fn same_value(ours: PhysicalValue, theirs: &str) -> bool {
         }
     }
 }
+
+#[path = "../../../../tests/common/peers.rs"]
+mod peers;
+
+/// The python of the peers' scratch virtualenv NAME
+/// (tests/peers/venvs/NAME.txt), under cargo's `CARGO_TARGET_TMPDIR` as
+/// the root's tests have them.
+pub fn peer_python(name: &str) -> std::path::PathBuf {
+    let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    peers::peer_python(
+        &repo,
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")),
+        name,
+    )
+}

@@ -19,9 +19,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::calculix::{
-    assert_bo_recovers_the_truth, assert_moo_recovers_the_truth, example_at_test_mesh,
-};
+use common::calculix::{assert_bo_recovers_the_truth, example_at_test_mesh};
 use common::slurm::{evaluations, log_rows, toy_study, Cluster};
 use common::{path_arg, root};
 use nix::sys::signal::{kill, signal, SigHandler, Signal};
@@ -216,58 +214,51 @@ fn acq_on_a_real_slurm_cluster() {
     }
 }
 
-/// The example's two studies with their jobs on Slurm recover the truth
-/// as they do locally (tests/calculix.rs, with the same bounds and why),
-/// and every evaluation names the job it ran in.
+/// The example's Bayesian optimisation with its jobs on Slurm recovers
+/// the truth as it does locally (tests/calculix.rs, with the same bounds
+/// and why), and every evaluation names the job it ran in. (Its other
+/// study, surrogates and NSGA-II, submits the same jobs through the same
+/// executor, two at a time: it runs locally only, once.)
 fn calculix_example_on_slurm(cluster: &Cluster) {
     let dir = tempfile::tempdir().unwrap();
     example_at_test_mesh(dir.path());
-    for (spec, check) in [
-        ("spec-bo.toml", Method::Bo),
-        ("spec-moo.toml", Method::SurrogateMoo),
-    ] {
-        let spec = dir.path().join(spec);
-        let text = std::fs::read_to_string(&spec).unwrap() + "\n[executor]\nkind = \"slurm\"\n";
-        std::fs::write(&spec, text).unwrap();
-        let out = dir.path().join(format!("run-{check:?}"));
-        let child = start_acq(cluster, &spec, &out, &[], &[]);
-        finish_ok(child, &out, Duration::from_secs(900));
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
-        match check {
-            Method::Bo => assert_bo_recovers_the_truth(&summary),
-            Method::SurrogateMoo => assert_moo_recovers_the_truth(&summary, &out),
-        }
-        let rows = evaluations(&out);
-        let logged: BTreeSet<u64> = rows
-            .iter()
-            .flat_map(|row| {
-                row["job_id"]
-                    .split_whitespace()
-                    .map(|id| id.parse().unwrap())
-                    .collect::<Vec<u64>>()
-            })
-            .collect();
-        let jobs: BTreeSet<u64> = submitted(&out).into_iter().map(|(_, id)| id).collect();
-        assert!(
-            jobs.is_subset(&logged) && !rows.iter().any(|row| row["job_id"].is_empty()),
-            "every evaluation names its jobs, and every search job is logged"
-        );
-        for row in &rows {
-            for seconds in ["queue_wait_s", "run_s"] {
-                for value in row[seconds].split_whitespace() {
-                    let value: f64 = value.parse().unwrap();
-                    assert!((0.0..120.0).contains(&value), "{seconds} {value}: {row:?}");
-                }
+    let spec = dir.path().join("spec-bo.toml");
+    let text = std::fs::read_to_string(&spec).unwrap() + "\n[executor]\nkind = \"slurm\"\n";
+    std::fs::write(&spec, text).unwrap();
+    let out = dir.path().join("run");
+    let child = start_acq(cluster, &spec, &out, &[], &[]);
+    finish_ok(child, &out, Duration::from_secs(900));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_bo_recovers_the_truth(&summary);
+    let rows = evaluations(&out);
+    let logged: BTreeSet<u64> = rows
+        .iter()
+        .flat_map(|row| {
+            row["job_id"]
+                .split_whitespace()
+                .map(|id| id.parse().unwrap())
+                .collect::<Vec<u64>>()
+        })
+        .collect();
+    let jobs: BTreeSet<u64> = submitted(&out).into_iter().map(|(_, id)| id).collect();
+    assert!(
+        jobs.is_subset(&logged) && !rows.iter().any(|row| row["job_id"].is_empty()),
+        "every evaluation names its jobs, and every search job is logged"
+    );
+    for row in &rows {
+        for seconds in ["queue_wait_s", "run_s"] {
+            for value in row[seconds].split_whitespace() {
+                let value: f64 = value.parse().unwrap();
+                assert!((0.0..120.0).contains(&value), "{seconds} {value}: {row:?}");
             }
         }
-        let report = common::report::read(&out);
-        assert!(
-            report.contains("## Where the runs ran"),
-            "the report gives each run's queue wait and run time"
-        );
     }
+    let report = common::report::read(&out);
+    assert!(
+        report.contains("## Where the runs ran"),
+        "the report gives each run's queue wait and run time"
+    );
 }
 
 /// The posterior stage on Slurm: its refinement and predictive runs are
@@ -305,12 +296,6 @@ fn posterior_runs_as_jobs(cluster: &Cluster) {
         summary["posterior"]["x"]["q05"].as_f64().is_some(),
         "{summary:#}"
     );
-}
-
-#[derive(Clone, Copy, Debug)]
-enum Method {
-    Bo,
-    SurrogateMoo,
 }
 
 /// A job scancelled by someone else is a failed evaluation that says so;

@@ -902,7 +902,8 @@ fn a_log_cut_short_is_never_read_as_complete() {
             message.contains(path_arg(&log)) && message.contains(expected),
             "{name}: {message}"
         );
-        // Kept on request, and the cut is reported.
+        // Kept on request, and the cut is reported; a cut before the
+        // first frame leaves nothing, which is never a success.
         let output = acq(&[
             "decode",
             path_arg(&log),
@@ -910,9 +911,25 @@ fn a_log_cut_short_is_never_read_as_complete() {
             "fixtures/dbc/tensile_frame.dbc",
             "--skip-bad",
         ]);
-        assert_eq!(output.status.code(), Some(0), "{name}: {}", stderr(&output));
+        // (object.blf: its frames are in one zlib container, which a cut
+        // leaves unreadable whole; data.mf4: its one data block, which the
+        // reader refuses whole when the file ends inside it.)
+        let nothing_left = matches!(name, "header.blf" | "object.blf" | "data.mf4" | "meta.mf4");
+        let code = if nothing_left { 3 } else { 0 };
+        assert_eq!(
+            output.status.code(),
+            Some(code),
+            "{name}: {}",
+            stderr(&output)
+        );
         assert!(
             stderr(&output).contains("acq: skipped"),
+            "{name}: {}",
+            stderr(&output)
+        );
+        assert_eq!(
+            stderr(&output).contains(&format!("{}: no CAN frame read from it", path_arg(&log))),
+            nothing_left,
             "{name}: {}",
             stderr(&output)
         );
@@ -1447,4 +1464,94 @@ fn help_and_suggestions_are_true_to_the_commands() {
         assert!(message.contains("session directory"), "{args:?}: {message}");
         assert!(!message.contains("--rig"), "{args:?}: {message}");
     }
+}
+
+/// A logger's file is told by its content, whatever its name: a CANedge
+/// container is refused naming the tool that converts it, binary data of
+/// no known format is not taken for ASC, an unfinalized MF4 whose flags
+/// leave nothing to recover reads as the finalized file does, and one
+/// with flags set is refused by name, never misread.
+#[test]
+fn a_logger_s_file_is_told_by_its_content() {
+    let dir = tempfile::tempdir().unwrap();
+    let decode = |log: &Path| {
+        acq(&[
+            "decode",
+            path_arg(log),
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+        ])
+    };
+    let mut container = b"Generic File".to_vec();
+    container.extend_from_slice(&[1, 0, 0x22, 0x01, 0, 0, 0, 7, 0, 0, 0, 4, 0, 0, 1, 0]);
+    container.extend_from_slice(&[0x55; 64]);
+    let mfc = dir.path().join("00000001.MFC");
+    std::fs::write(&mfc, &container).unwrap();
+    let message = refused(
+        &[
+            "decode",
+            path_arg(&mfc),
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+        ],
+        3,
+    );
+    assert!(
+        message.contains(&format!(
+            "{}: byte offset 0: expected a CAN log acq reads",
+            path_arg(&mfc)
+        )) && message.contains("compressed MF4 container")
+            && message.contains("mdf2finalized"),
+        "{message}"
+    );
+    let elf = dir.path().join("program.asc");
+    std::fs::write(&elf, b"\x7fELF\x02\x01\x01\x00\x00\x00\x00\x00").unwrap();
+    let message = refused(
+        &[
+            "decode",
+            path_arg(&elf),
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+        ],
+        3,
+    );
+    assert!(
+        message.contains("binary data (first bytes 7f 45 4c 46"),
+        "{message}"
+    );
+
+    let finalized = std::fs::read(root().join("fuzz/seeds/mf4_log/acq.mf4")).unwrap();
+    let mut unfinalized = finalized.clone();
+    unfinalized[..8].copy_from_slice(b"UnFinMF ");
+    let (ours, theirs) = (dir.path().join("final.mf4"), dir.path().join("unfin.mf4"));
+    std::fs::write(&ours, &finalized).unwrap();
+    std::fs::write(&theirs, &unfinalized).unwrap();
+    let (read, read_unfinalized) = (decode(&ours), decode(&theirs));
+    assert!(
+        read_unfinalized.status.success(),
+        "{}",
+        stderr(&read_unfinalized)
+    );
+    assert!(!read.stdout.is_empty());
+    assert_eq!(read.stdout, read_unfinalized.stdout);
+    // Flags at byte 60: the last data block's length (0x04) and cycle
+    // counts (0x01) not written.
+    unfinalized[60..62].copy_from_slice(&0x05u16.to_le_bytes());
+    std::fs::write(&theirs, &unfinalized).unwrap();
+    let message = refused(
+        &[
+            "decode",
+            path_arg(&theirs),
+            "--dbc",
+            "fixtures/dbc/tensile_frame.dbc",
+        ],
+        3,
+    );
+    assert!(
+        message.contains(&format!(
+            "{}: byte offset 60: expected a finalized MF4 file",
+            path_arg(&theirs)
+        )) && message.contains("standard flags 0x0005"),
+        "{message}"
+    );
 }

@@ -13,10 +13,10 @@ use std::io::Write;
 use acq_can::canopen::HeartbeatEvent;
 use acq_can::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
 use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
-use acq_can::FrameKind;
 use acq_can::LogRecord;
+use acq_can::{CanId, FrameKind};
 use acq_error::{AcqError, Result};
-use acq_io::input::{for_each_record, BadLines, LogInput, ScanCounts};
+use acq_io::input::{for_each_record, BadLines, EmptyLogs, LogInput, ScanCounts};
 use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 use acq_rig::sensors::{FrameUse, SensorDecoder, SensorEvent};
@@ -91,6 +91,9 @@ pub trait DbcRows {
 struct SignalRow {
     /// `,0x123,Message,Signal,`
     middle: Vec<u8>,
+    /// Where `,Message,Signal,` starts in `middle`: a J1939 frame matched
+    /// by its PGN writes its own id before it.
+    after_id: usize,
     /// `,unit\n`
     tail: Vec<u8>,
 }
@@ -99,6 +102,8 @@ struct CsvDbcRows<'a> {
     output: &'a mut Output,
     /// Per message, per signal.
     rows: Vec<Vec<SignalRow>>,
+    /// Per message, its id.
+    message_ids: Vec<CanId>,
     labels: bool,
 }
 
@@ -117,7 +122,13 @@ impl DbcRows for CsvDbcRows<'_> {
         buffer.extend_from_slice(record.timestamp_text.as_bytes());
         buffer.push(b',');
         buffer.extend_from_slice(record.frame.iface.as_str().as_bytes());
-        buffer.extend_from_slice(&row.middle);
+        if record.frame.id == self.message_ids[message] {
+            buffer.extend_from_slice(&row.middle);
+        } else {
+            buffer.push(b',');
+            buffer.extend_from_slice(record.frame.id.to_string().as_bytes());
+            buffer.extend_from_slice(&row.middle[row.after_id..]);
+        }
         value.push_shortest(buffer);
         buffer.extend_from_slice(&row.tail);
         if self.labels {
@@ -144,8 +155,8 @@ impl DbcRows for CsvDbcRows<'_> {
 /// as in pandas), text columns dictionary-encoded.
 pub struct DbcParquet {
     table: ParquetTable,
-    /// Per message: `can_id` and `message` cells.
-    messages: Vec<(String, String)>,
+    /// Per message: its id, and its `can_id` and `message` cells.
+    messages: Vec<(CanId, String, String)>,
     /// Per message, per signal: `signal` and `unit` cells.
     signals: Vec<Vec<(String, String)>>,
     labels: bool,
@@ -191,7 +202,7 @@ impl DbcParquet {
             messages: database
                 .messages()
                 .iter()
-                .map(|m| (m.id.to_string(), m.name.clone()))
+                .map(|m| (m.id, m.id.to_string(), m.name.clone()))
                 .collect(),
             signals: database
                 .messages()
@@ -223,12 +234,18 @@ impl DbcRows for DbcParquet {
         value: PhysicalValue,
         label: Option<&str>,
     ) {
-        let (can_id, message_name) = &self.messages[message];
+        let (message_id, can_id, message_name) = &self.messages[message];
         let (signal_name, unit) = &self.signals[message][signal];
         let table = &mut self.table;
         table.time_ns(0, record.frame.timestamp_ns);
         table.text(1, Some(record.frame.iface.as_str()));
-        table.text(2, Some(can_id));
+        // A J1939 frame matched by its PGN keeps its own id: its source
+        // address tells two ECUs that send one PGN apart.
+        if record.frame.id == *message_id {
+            table.text(2, Some(can_id));
+        } else {
+            table.text(2, Some(&record.frame.id.to_string()));
+        }
         table.text(3, Some(message_name));
         table.text(4, Some(signal_name));
         table.float(5, Some(value.as_f64()));
@@ -376,6 +393,7 @@ pub fn decode_with_dbc(
                         csv_field(&signal.name)
                     )
                     .into_bytes(),
+                    after_id: 1 + message.id.to_string().len(),
                     tail: format!(",{}", csv_field(&signal.unit)).into_bytes(),
                 })
                 .collect()
@@ -390,6 +408,7 @@ pub fn decode_with_dbc(
     let mut sink = CsvDbcRows {
         output,
         rows,
+        message_ids: database.messages().iter().map(|m| m.id).collect(),
         labels: options.labels,
     };
     decode_dbc_frames(inputs, database, options, &mut sink)
@@ -405,46 +424,52 @@ pub fn decode_dbc_frames(
     sink: &mut impl DbcRows,
 ) -> Result<DecodeSummary> {
     let mut summary = DecodeSummary::default();
-    for_each_record(inputs, options.bad_lines, &mut summary.scan, |_, record| {
-        let frame = &record.frame;
-        match frame.kind {
-            FrameKind::Error { .. } => summary.error_frames += 1,
-            FrameKind::Remote { .. } => summary.remote_frames += 1,
-            FrameKind::Data { .. } | FrameKind::Fd { .. } => {
-                let Some(index) = database.message_index(frame.id) else {
-                    summary.unknown += 1;
-                    return Ok(());
-                };
-                let message = &database.messages()[index];
-                let payload = frame.payload();
-                let mut written = 0u64;
-                let result = message.decode(payload, |signal, value| {
-                    let label = if sink.wants_labels() {
-                        message.signals[signal].label(payload)
-                    } else {
-                        None
+    for_each_record(
+        inputs,
+        options.bad_lines,
+        EmptyLogs::Refuse,
+        &mut summary.scan,
+        |_, record| {
+            let frame = &record.frame;
+            match frame.kind {
+                FrameKind::Error { .. } => summary.error_frames += 1,
+                FrameKind::Remote { .. } => summary.remote_frames += 1,
+                FrameKind::Data { .. } | FrameKind::Fd { .. } => {
+                    let Some(index) = database.message_index(frame.id) else {
+                        summary.unknown += 1;
+                        return Ok(());
                     };
-                    sink.value(record, index, signal, value, label);
-                    written += 1;
-                });
-                match result {
-                    Ok(()) => {
-                        summary.decoded += 1;
-                        summary.rows += written;
+                    let message = &database.messages()[index];
+                    let payload = frame.payload();
+                    let mut written = 0u64;
+                    let result = message.decode(payload, |signal, value| {
+                        let label = if sink.wants_labels() {
+                            message.signals[signal].label(payload)
+                        } else {
+                            None
+                        };
+                        sink.value(record, index, signal, value, label);
+                        written += 1;
+                    });
+                    match result {
+                        Ok(()) => {
+                            summary.decoded += 1;
+                            summary.rows += written;
+                        }
+                        // Refused before anything was written.
+                        Err(
+                            FrameDecodeError::Short { .. }
+                            | FrameDecodeError::UnknownMultiplexerValue(_),
+                        ) => {
+                            summary.undecodable += 1;
+                        }
                     }
-                    // Refused before anything was written.
-                    Err(
-                        FrameDecodeError::Short { .. }
-                        | FrameDecodeError::UnknownMultiplexerValue(_),
-                    ) => {
-                        summary.undecodable += 1;
-                    }
+                    sink.end_frame()?;
                 }
-                sink.end_frame()?;
             }
-        }
-        Ok(())
-    })?;
+            Ok(())
+        },
+    )?;
     Ok(summary)
 }
 
@@ -754,27 +779,33 @@ pub fn decode_rig_frames(
     let mut summary = DecodeSummary::default();
     let mut last_time_ns = None;
     let mut heartbeats: Vec<(usize, HeartbeatEvent)> = Vec::new();
-    for_each_record(inputs, bad_lines, &mut summary.scan, |_, record| {
-        last_time_ns = Some(record.frame.timestamp_ns);
-        let used = decoder.decode(&record.frame, |event| match event {
-            SensorEvent::Sample(sample) => {
-                sink.sample(record, sample.sensor, sample.value);
-                summary.rows += 1;
+    for_each_record(
+        inputs,
+        bad_lines,
+        EmptyLogs::Refuse,
+        &mut summary.scan,
+        |_, record| {
+            last_time_ns = Some(record.frame.timestamp_ns);
+            let used = decoder.decode(&record.frame, |event| match event {
+                SensorEvent::Sample(sample) => {
+                    sink.sample(record, sample.sensor, sample.value);
+                    summary.rows += 1;
+                }
+                SensorEvent::Heartbeat { bus, event } => heartbeats.push((bus, event)),
+            });
+            match used {
+                FrameUse::Decoded => summary.decoded += 1,
+                FrameUse::Unknown => summary.unknown += 1,
+                FrameUse::Undecodable => summary.undecodable += 1,
+                FrameUse::Protocol => {}
+                FrameUse::NotData => match record.frame.kind {
+                    FrameKind::Error { .. } => summary.error_frames += 1,
+                    _ => summary.remote_frames += 1,
+                },
             }
-            SensorEvent::Heartbeat { bus, event } => heartbeats.push((bus, event)),
-        });
-        match used {
-            FrameUse::Decoded => summary.decoded += 1,
-            FrameUse::Unknown => summary.unknown += 1,
-            FrameUse::Undecodable => summary.undecodable += 1,
-            FrameUse::Protocol => {}
-            FrameUse::NotData => match record.frame.kind {
-                FrameKind::Error { .. } => summary.error_frames += 1,
-                _ => summary.remote_frames += 1,
-            },
-        }
-        sink.end_frame()
-    })?;
+            sink.end_frame()
+        },
+    )?;
     if let Some(end) = last_time_ns {
         decoder.check_heartbeats(end, |event| {
             if let SensorEvent::Heartbeat { bus, event } = event {

@@ -45,7 +45,7 @@ fn main() {
                 }
             }
             Ok(None) => break,
-            Err(ReadError::Parse(e)) => eprintln!("{path}:{}: expected {}", e.line, e.expected),
+            Err(ReadError::Parse(e)) => eprintln!("{}", e.in_file(path)),
             Err(ReadError::Io(e)) => panic!("{path}: {e}"),
         }
     }

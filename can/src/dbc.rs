@@ -31,6 +31,7 @@ use rustc_hash::FxHashMap;
 
 use crate::bits::{BitField, ByteOrder};
 use crate::frame::{CanId, MAX_STANDARD_ID};
+use crate::j1939::J1939Id;
 
 /// A physical value as cantools would give it: an exact integer when the
 /// scaling is integral, a float otherwise.
@@ -272,6 +273,11 @@ pub struct MessageCodec {
     switches: Vec<Switch>,
     /// The DBC file this message came from.
     pub source: Arc<str>,
+    /// Its parameter group number when the DBC declares it a J1939
+    /// message (`ProtocolType "J1939"`, or its `VFrameFormat` is
+    /// `J1939PG`): frames of that PGN match it from any source address and
+    /// priority, as J1939 tools and asammdf match them.
+    pub j1939_pgn: Option<u32>,
 }
 
 /// A frame its DBC message cannot decode (cantools refuses the same ones).
@@ -442,6 +448,22 @@ pub struct DbcDatabase {
     /// because standard ids are the common case and a lookup must be cheap.
     standard: Vec<u32>,
     extended: FxHashMap<u32, u32>,
+    /// The J1939 messages by PGN, in the order they were added.
+    by_pgn: FxHashMap<u32, Vec<u32>>,
+    matching: IdMatching,
+}
+
+/// How a frame finds its DBC message.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum IdMatching {
+    /// By its id; a 29-bit frame no message has the id of, by its PGN
+    /// among the messages the DBC declares J1939 (from any source address
+    /// and priority: a DBC's J1939 message names one, often 0xFE), the
+    /// message of the frame's own source address first.
+    #[default]
+    J1939ByPgn,
+    /// By its exact id only.
+    ExactIds,
 }
 
 const NO_MESSAGE: u32 = u32::MAX;
@@ -452,6 +474,8 @@ impl DbcDatabase {
             messages: Vec::new(),
             standard: vec![NO_MESSAGE; usize::from(MAX_STANDARD_ID) + 1],
             extended: FxHashMap::default(),
+            by_pgn: FxHashMap::default(),
+            matching: IdMatching::default(),
         }
     }
 
@@ -474,13 +498,34 @@ impl DbcDatabase {
         let mut database = DbcDatabase::new();
         let mut warnings = Vec::new();
         let source: Arc<str> = Arc::from(source_name);
+        let j1939 = J1939Declared::of(&dbc);
         let mut messages = 0;
         for message in &dbc.messages {
             if message.name == INDEPENDENT_SIGNALS_MESSAGE {
                 continue;
             }
             messages += 1;
-            database.add(compile_message(&dbc, message, &source, &mut warnings)?)?;
+            let mut codec = compile_message(&dbc, message, &source, &mut warnings)?;
+            codec.j1939_pgn = j1939.pgn(message, codec.id);
+            database.add(codec)?;
+        }
+        let mut shared: Vec<(&u32, &Vec<u32>)> = database
+            .by_pgn
+            .iter()
+            .filter(|(_, m)| m.len() > 1)
+            .collect();
+        shared.sort();
+        for (pgn, indices) in shared {
+            let names: Vec<&str> = indices
+                .iter()
+                .map(|&i| database.messages[i as usize].name.as_str())
+                .collect();
+            warnings.push(DbcWarning(format!(
+                "{source_name}: J1939 PGN {pgn} ({pgn:#X}) is declared by {} messages ({}): a frame of another source address decodes as {}",
+                names.len(),
+                names.join(", "),
+                names[0]
+            )));
         }
         if messages == 0 {
             return Err(DbcError::Empty {
@@ -527,7 +572,7 @@ impl DbcDatabase {
 
     /// Adds a message; an id defined twice is an error naming both sources.
     pub fn add(&mut self, codec: MessageCodec) -> Result<(), DbcError> {
-        if let Some(existing) = self.message(codec.id) {
+        if let Some(existing) = self.exact_index(codec.id).map(|i| &self.messages[i]) {
             return Err(DbcError::Duplicate {
                 id: codec.id,
                 first_message: existing.name.clone(),
@@ -537,6 +582,9 @@ impl DbcDatabase {
             });
         }
         let index = self.messages.len() as u32;
+        if let Some(pgn) = codec.j1939_pgn {
+            self.by_pgn.entry(pgn).or_default().push(index);
+        }
         match codec.id {
             CanId::Standard(id) => self.standard[usize::from(id)] = index,
             CanId::Extended(id) => {
@@ -558,14 +606,51 @@ impl DbcDatabase {
         self.message_index(id).map(|i| &self.messages[i])
     }
 
-    /// Index of the message with this id (stable for the database's life).
+    /// Index of the message a frame of this id decodes as (stable for the
+    /// database's life): the message of that id, else, for a 29-bit id, a
+    /// J1939 message of its PGN ([`IdMatching`]).
     #[inline]
     pub fn message_index(&self, id: CanId) -> Option<usize> {
+        self.exact_index(id).or_else(|| match id {
+            CanId::Extended(_) => self.j1939_message_index(id),
+            CanId::Standard(_) => None,
+        })
+    }
+
+    /// Index of the message of exactly this id.
+    #[inline]
+    fn exact_index(&self, id: CanId) -> Option<usize> {
         let index = match id {
             CanId::Standard(id) => *self.standard.get(usize::from(id))?,
             CanId::Extended(id) => *self.extended.get(&id)?,
         };
         (index != NO_MESSAGE).then_some(index as usize)
+    }
+
+    /// The J1939 message a 29-bit id no message has matches by its PGN:
+    /// the one declared with the frame's source address, else the first.
+    #[cold]
+    fn j1939_message_index(&self, id: CanId) -> Option<usize> {
+        if self.matching == IdMatching::ExactIds || self.by_pgn.is_empty() {
+            return None;
+        }
+        let frame = J1939Id::from_can_id(id)?;
+        let candidates = self.by_pgn.get(&frame.pgn)?;
+        let same_source = candidates.iter().find(|&&i| {
+            J1939Id::from_can_id(self.messages[i as usize].id)
+                .is_some_and(|declared| declared.source_address == frame.source_address)
+        });
+        same_source.or(candidates.first()).map(|&i| i as usize)
+    }
+
+    /// How frames find their message (J1939 by PGN unless asked for exact ids).
+    pub fn set_id_matching(&mut self, matching: IdMatching) {
+        self.matching = matching;
+    }
+
+    /// How many messages are matched by PGN (the DBC declares them J1939).
+    pub fn j1939_messages(&self) -> usize {
+        self.by_pgn.values().map(Vec::len).sum()
     }
 
     pub fn messages(&self) -> &[MessageCodec] {
@@ -696,7 +781,91 @@ fn compile_message(
         signals,
         switches,
         source: Arc::clone(source),
+        j1939_pgn: None,
     })
+}
+
+/// Which messages a DBC declares J1939, as CANdb++ and CANalyzer read it:
+/// every 29-bit message when the database's `ProtocolType` is `J1939`, or
+/// a message whose `VFrameFormat` is `J1939PG` (an index into the
+/// attribute's enum, or its text); a `BA_DEF_DEF_` default applies to
+/// every object without a value of its own. An 11-bit message is never
+/// J1939: it keeps its exact id.
+struct J1939Declared<'a> {
+    dbc: &'a Dbc,
+    whole_database: bool,
+    /// `VFrameFormat`'s enum values, when the DBC defines it.
+    frame_formats: Option<&'a [String]>,
+}
+
+impl<'a> J1939Declared<'a> {
+    fn of(dbc: &'a Dbc) -> Self {
+        let default = |name: &str| {
+            dbc.attribute_defaults
+                .iter()
+                .find(|d| d.name == name)
+                .map(|d| &d.value)
+        };
+        let protocol = dbc
+            .attribute_values_database
+            .iter()
+            .find(|v| v.name == "ProtocolType")
+            .map(|v| &v.value)
+            .or_else(|| default("ProtocolType"));
+        let whole_database = matches!(protocol, Some(can_dbc::AttributeValue::String(p)) if p.eq_ignore_ascii_case("J1939"));
+        let frame_formats = dbc.attribute_definitions.iter().find_map(|d| match d {
+            can_dbc::AttributeDefinition::Message(
+                name,
+                can_dbc::AttributeValueType::Enum(values),
+            ) if name == "VFrameFormat" => Some(values.as_slice()),
+            _ => None,
+        });
+        J1939Declared {
+            dbc,
+            whole_database,
+            frame_formats,
+        }
+    }
+
+    /// The PGN `message` (compiled to `id`) is matched by, if J1939.
+    fn pgn(&self, message: &can_dbc::Message, id: CanId) -> Option<u32> {
+        let j1939 = J1939Id::from_can_id(id)?;
+        let declared = self.whole_database || {
+            let value = self
+                .dbc
+                .attribute_values_message
+                .iter()
+                .find(|v| v.name == "VFrameFormat" && v.message_id == message.id)
+                .map(|v| &v.value)
+                .or_else(|| {
+                    self.dbc
+                        .attribute_defaults
+                        .iter()
+                        .find(|d| d.name == "VFrameFormat")
+                        .map(|d| &d.value)
+                });
+            let text = match value {
+                Some(can_dbc::AttributeValue::String(text)) => Some(text.as_str()),
+                Some(can_dbc::AttributeValue::Uint(index)) => self.enum_value(*index),
+                Some(can_dbc::AttributeValue::Int(index)) => {
+                    u64::try_from(*index).ok().and_then(|i| self.enum_value(i))
+                }
+                Some(can_dbc::AttributeValue::Double(index))
+                    if index.fract() == 0.0 && *index >= 0.0 =>
+                {
+                    self.enum_value(*index as u64)
+                }
+                _ => None,
+            };
+            text == Some("J1939PG")
+        };
+        declared.then_some(j1939.pgn)
+    }
+
+    fn enum_value(&self, index: u64) -> Option<&'a str> {
+        let index = usize::try_from(index).ok()?;
+        self.frame_formats?.get(index).map(String::as_str)
+    }
 }
 
 /// Inclusive ranges of multiplexor values.
@@ -1207,6 +1376,115 @@ BO_ 2566848513 Temps: 8 DAQ
 SIG_VALTYPE_ 768 TipForce : 1;
 VAL_ 768 Status 0 "ok" 1 "overload" 3 "fault";
 "#;
+
+    /// EEC1 (PGN 0xF004) and CCVS1 (0xFEF1) as a J1939 DBC states them,
+    /// from source address 0xFE at priority 3 and 6, a PDU1 message (PGN
+    /// 0xEF00 to destination 0x00) and an 11-bit one, with `attributes` in
+    /// place of the fixture's `ProtocolType`.
+    fn j1939_dbc(attributes: &str) -> DbcDatabase {
+        let text = include_str!("../../fixtures/dbc/j1939_source_fe.dbc");
+        assert!(text.contains(PROTOCOL_J1939));
+        // An 11-bit message too (a J1939 DBC may hold one; asammdf then
+        // matches nothing by PGN, acq still matches the 29-bit ones).
+        let plain = "BO_ 256 Plain: 8 ECU\n SG_ Byte : 0|8@1+ (1,0) [0|255] \"\" ECU\n\nCM_ ";
+        let text = text
+            .replace(PROTOCOL_J1939, attributes)
+            .replacen("CM_ ", plain, 1);
+        DbcDatabase::parse(&text, "j1939.dbc").unwrap().0
+    }
+
+    fn name_of(database: &DbcDatabase, id: CanId) -> Option<&str> {
+        database
+            .message_index(id)
+            .map(|i| database.messages()[i].name.as_str())
+    }
+
+    const PROTOCOL_J1939: &str = r#"BA_DEF_  "ProtocolType" STRING ;
+BA_DEF_DEF_  "ProtocolType" "";
+BA_ "ProtocolType" "J1939";"#;
+
+    #[test]
+    fn a_j1939_dbc_matches_a_pgn_from_any_source_address_and_priority() {
+        let database = j1939_dbc(PROTOCOL_J1939);
+        let extended = |raw| CanId::extended(raw).unwrap();
+        assert_eq!(database.j1939_messages(), 3);
+        // The stated id, then source 0x00, then priority 6 from 0x31.
+        for raw in [0x0CF0_04FE, 0x0CF0_0400, 0x18F0_0431] {
+            assert_eq!(name_of(&database, extended(raw)), Some("EEC1"), "{raw:#x}");
+        }
+        assert_eq!(name_of(&database, extended(0x18FE_F100)), Some("CCVS1"));
+        // PDU1: the destination byte is no part of the PGN.
+        assert_eq!(
+            name_of(&database, extended(0x0CEF_2131)),
+            Some("Proprietary")
+        );
+        // Another PGN, another data page, an 11-bit id: no match.
+        assert_eq!(name_of(&database, extended(0x0CF0_0500)), None);
+        assert_eq!(name_of(&database, extended(0x0DF0_0400)), None);
+        assert_eq!(
+            name_of(&database, CanId::standard(0x100).unwrap()),
+            Some("Plain")
+        );
+        assert_eq!(name_of(&database, CanId::standard(0x4FE).unwrap()), None);
+        // Exact ids when asked.
+        let mut exact = database.clone();
+        exact.set_id_matching(IdMatching::ExactIds);
+        assert_eq!(name_of(&exact, extended(0x0CF0_04FE)), Some("EEC1"));
+        assert_eq!(name_of(&exact, extended(0x0CF0_0400)), None);
+    }
+
+    #[test]
+    fn a_dbc_declares_j1939_by_protocol_type_or_by_a_messages_frame_format() {
+        let extended = |raw| CanId::extended(raw).unwrap();
+        // Not declared: exact ids only, as cantools.
+        let plain = j1939_dbc("");
+        assert_eq!(plain.j1939_messages(), 0);
+        assert_eq!(name_of(&plain, extended(0x0CF0_0400)), None);
+        // One message's VFrameFormat, as the enum's index or by default.
+        let formats = r#"BA_DEF_ BO_  "VFrameFormat" ENUM  "StandardCAN","ExtendedCAN","reserved","J1939PG";"#;
+        let one = j1939_dbc(&format!(
+            "{formats}\nBA_ \"VFrameFormat\" BO_ 2364540158 3;"
+        ));
+        assert_eq!(one.j1939_messages(), 1);
+        assert_eq!(name_of(&one, extended(0x0CF0_0400)), Some("EEC1"));
+        assert_eq!(name_of(&one, extended(0x18FE_F100)), None);
+        let by_default = j1939_dbc(&format!(
+            "{formats}\nBA_DEF_DEF_ \"VFrameFormat\" \"J1939PG\";"
+        ));
+        assert_eq!(by_default.j1939_messages(), 3);
+        // ProtocolType by default.
+        let protocol_default = j1939_dbc(
+            "BA_DEF_  \"ProtocolType\" STRING ;\nBA_DEF_DEF_  \"ProtocolType\" \"J1939\";",
+        );
+        assert_eq!(protocol_default.j1939_messages(), 3);
+    }
+
+    #[test]
+    fn two_messages_of_one_pgn_match_by_source_address_and_are_named_in_a_warning() {
+        let text = format!(
+            r#"VERSION ""
+NS_ :
+BS_:
+BU_: A B
+BO_ 2364540158 EEC1_A: 8 A
+ SG_ EngineSpeed : 24|16@1+ (0.125,0) [0|8031.875] "rpm" A
+BO_ 2364539905 EEC1_B: 8 B
+ SG_ EngineSpeed : 24|16@1+ (0.125,0) [0|8031.875] "rpm" B
+{PROTOCOL_J1939}
+"#
+        );
+        let (database, warnings) = DbcDatabase::parse(&text, "two.dbc").unwrap();
+        let extended = |raw| CanId::extended(raw).unwrap();
+        assert_eq!(name_of(&database, extended(0x18F0_0401)), Some("EEC1_B"));
+        assert_eq!(name_of(&database, extended(0x18F0_04FE)), Some("EEC1_A"));
+        assert_eq!(name_of(&database, extended(0x18F0_0400)), Some("EEC1_A"));
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.0.contains("PGN 61444 (0xF004)") && w.0.contains("EEC1_A, EEC1_B")),
+            "{warnings:?}"
+        );
+    }
 
     #[test]
     fn decodes_floats_scaling_labels_and_multiplexing() {

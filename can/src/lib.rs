@@ -27,4 +27,4 @@ pub mod kernel;
 pub mod log;
 
 pub use frame::{CanId, Direction, Frame, FrameKind, IfaceName};
-pub use log::{LogFormat, LogReader, LogRecord, ParseError, ReadError};
+pub use log::{LogFormat, LogReader, LogRecord, ParseError, Place, ReadError};

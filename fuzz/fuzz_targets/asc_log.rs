@@ -21,8 +21,8 @@ fuzz_target!(|data: &[u8]| {
             }
             Ok(None) | Err(ReadError::Io(_)) => break,
             Err(ReadError::Parse(e)) => {
-                assert!(e.line > last_line);
-                last_line = e.line;
+                assert!(e.at.number() > last_line);
+                last_line = e.at.number();
             }
         }
     }

@@ -26,8 +26,8 @@ fuzz_target!(|data: &[u8]| {
             }
             Ok(None) | Err(ReadError::Io(_)) => return,
             Err(ReadError::Parse(e)) => {
-                assert!(e.line >= last_object);
-                last_object = e.line;
+                assert!(e.at.number() >= last_object);
+                last_object = e.at.number();
             }
         }
     }

@@ -94,8 +94,10 @@ pub fn open_logs(paths: &[PathBuf]) -> Result<Vec<LogInput>> {
 /// A log read from any buffered reader (tests, benchmarks, pipes).
 pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result<LogInput> {
     let name = name.into();
-    let (reader, _format) =
-        LogReader::detect(raw).map_err(|e| AcqError::io(format!("reading {name}"), e))?;
+    let (reader, _format) = LogReader::detect(raw).map_err(|e| match e {
+        ReadError::Parse(error) => AcqError::Malformed(error.in_file(&name)),
+        ReadError::Io(error) => AcqError::io(format!("reading {name}"), error),
+    })?;
     Ok(LogInput { name, reader })
 }
 
@@ -155,6 +157,15 @@ pub enum BadLines {
     Skip,
 }
 
+/// What a log that gives no frame is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmptyLogs {
+    /// An error (a file the user named: nothing read is never a success).
+    Refuse,
+    /// Nothing to report (a session's raw log of a bus that stayed quiet).
+    Allow,
+}
+
 /// Counts of the walk over the logs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ScanCounts {
@@ -169,10 +180,12 @@ const REPORTED_BAD_LINES: u64 = 10;
 pub fn for_each_record(
     inputs: &mut [LogInput],
     bad_lines: BadLines,
+    empty_logs: EmptyLogs,
     counts: &mut ScanCounts,
     mut on_record: impl FnMut(&str, &LogRecord<'_>) -> Result<()>,
 ) -> Result<()> {
     for input in inputs.iter_mut() {
+        let (frames_before, skipped_before) = (counts.frames, counts.malformed_lines);
         loop {
             match input.reader.next_record() {
                 Ok(Some(record)) => {
@@ -197,8 +210,30 @@ pub fn for_each_record(
                 }
             }
         }
+        // A log that gives nothing is never an empty success, with
+        // --skip-bad either: an empty table would read as "measured
+        // nothing".
+        if counts.frames == frames_before && empty_logs == EmptyLogs::Refuse {
+            return Err(no_frame_read(
+                &input.name,
+                counts.malformed_lines - skipped_before,
+            ));
+        }
     }
     Ok(())
+}
+
+/// A log that gave no frame (`skipped` malformed records aside): malformed
+/// input, saying what to check.
+pub fn no_frame_read(name: &str, skipped: u64) -> AcqError {
+    let skipped = match skipped {
+        0 => String::new(),
+        1 => " (its 1 malformed record skipped)".into(),
+        n => format!(" (its {n} malformed records skipped)"),
+    };
+    AcqError::Malformed(format!(
+        "{name}: no CAN frame read from it{skipped}: is it a log of frames, in a format acq reads (candump, ASC, BLF, MF4)?"
+    ))
 }
 
 /// Reads a small CSV file whose header must be `expected` (cells trimmed):

@@ -85,6 +85,9 @@ fn convert_to_text(input: &mut LogInput, path: &Path, format: Written) -> Result
         }
         output.maybe_flush()?;
     }
+    if frames == 0 {
+        return Err(acq_io::input::no_frame_read(&input.name, 0));
+    }
     if let Some(writer) = asc {
         let rest = writer
             .finish()
@@ -106,6 +109,9 @@ fn convert_to_mf4(input: &mut LogInput, path: &Path) -> Result<u64> {
         writer
             .write_frame(&frame)
             .map_err(|e| write_error(input, path, frames, e))?;
+    }
+    if frames == 0 {
+        return Err(acq_io::input::no_frame_read(&input.name, 0));
     }
     writer
         .finish()

@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use acq_analysis::decode::{self, DbcDecodeOptions};
-use acq_can::dbc::DbcDatabase;
+use acq_can::dbc::{DbcDatabase, IdMatching};
 use acq_error::{AcqError, Result};
 use acq_io::input::{load_rig, open_logs, BadLines};
 use acq_io::output::TableOutput;
@@ -39,6 +39,12 @@ pub struct DecodeArgs {
     /// Add a `label` column with the DBC value-table label of each value.
     #[arg(long, conflicts_with = "rig")]
     pub labels: bool,
+    /// Match frames to DBC messages by their exact id only. Without it, a
+    /// DBC that declares J1939 (`ProtocolType "J1939"`, or a message's
+    /// `VFrameFormat` `J1939PG`) matches its messages by PGN, from any
+    /// source address and priority; `can_id` then holds the frame's id.
+    #[arg(long, conflicts_with = "rig")]
+    pub exact_ids: bool,
 }
 
 #[derive(Args, Debug)]
@@ -65,8 +71,11 @@ pub fn run_decode(args: DecodeArgs) -> Result<()> {
         let rig = load_rig(rig_path)?;
         decode::decode_rig(&mut inputs, &rig, skip, TableOutput::create(&path)?, &name)?
     } else {
-        let (database, warnings) =
+        let (mut database, warnings) =
             DbcDatabase::load_all(&args.dbc).map_err(|e| AcqError::Config(e.to_string()))?;
+        if args.exact_ids {
+            database.set_id_matching(IdMatching::ExactIds);
+        }
         for dbc in &args.dbc {
             acq_io::input::note_input(dbc);
         }

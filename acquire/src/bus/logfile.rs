@@ -82,8 +82,16 @@ impl Bus for LogFileBus {
             .as_ref()
             .ok_or_else(|| io_error(iface, unsupported()))?;
         let file = File::open(path).map_err(|e| io_error(iface, e))?;
-        let (reader, _) =
-            LogReader::detect(BufReader::new(file)).map_err(|e| io_error(iface, e))?;
+        let (reader, _) = LogReader::detect(BufReader::new(file)).map_err(|e| match e {
+            ReadError::Io(e) => io_error(iface, e),
+            ReadError::Parse(error) => io_error(
+                iface,
+                io::Error::new(
+                    io::ErrorKind::InvalidData,
+                    error.in_file(&path.display().to_string()),
+                ),
+            ),
+        })?;
         Ok(LogFileSource {
             name: path.display().to_string(),
             iface,

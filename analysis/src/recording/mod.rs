@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use acq_can::{Frame, IfaceName};
 use acq_error::{AcqError, Result};
-use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, ScanCounts};
+use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, EmptyLogs, ScanCounts};
 use acq_io::session::{self, SessionFile};
 use acq_io::shunt_record::{self, ShuntRecord};
 use acq_io::zero_record::{self, ZeroRecord};
@@ -254,34 +254,46 @@ impl Recording {
         let mut decoder = SensorDecoder::new(&self.rig);
         let mut scan = ScanCounts::default();
         let mut failure = None;
+        // A session's quiet bus leaves an empty raw log; a log the user
+        // named must give frames.
+        let empty_logs = match self.session {
+            Some(_) => EmptyLogs::Allow,
+            None => EmptyLogs::Refuse,
+        };
         // A recording cut by a crash can end in half a line: count, go on.
-        for_each_record(&mut inputs, BadLines::Skip, &mut scan, |_, record| {
-            let used = decoder.decode(&record.frame, |event| {
-                if failure.is_some() {
-                    return;
-                }
-                if let SensorEvent::Sample(mut sample) = event {
-                    let bus = self.rig.sensors[sample.sensor].bus;
-                    sample.time_ns -= clock_offset_ns.get(bus).copied().unwrap_or(0);
-                    counts.samples += 1;
-                    if sample.value.is_none() {
-                        counts.missing_values += 1;
+        for_each_record(
+            &mut inputs,
+            BadLines::Skip,
+            empty_logs,
+            &mut scan,
+            |_, record| {
+                let used = decoder.decode(&record.frame, |event| {
+                    if failure.is_some() {
+                        return;
                     }
-                    if let Err(e) = on_event(RecordingEvent::Sample(sample)) {
+                    if let SensorEvent::Sample(mut sample) = event {
+                        let bus = self.rig.sensors[sample.sensor].bus;
+                        sample.time_ns -= clock_offset_ns.get(bus).copied().unwrap_or(0);
+                        counts.samples += 1;
+                        if sample.value.is_none() {
+                            counts.missing_values += 1;
+                        }
+                        if let Err(e) = on_event(RecordingEvent::Sample(sample)) {
+                            failure = Some(e);
+                        }
+                    }
+                });
+                if failure.is_none() {
+                    if let Err(e) = on_event(RecordingEvent::Frame(&record.frame, used)) {
                         failure = Some(e);
                     }
                 }
-            });
-            if failure.is_none() {
-                if let Err(e) = on_event(RecordingEvent::Frame(&record.frame, used)) {
-                    failure = Some(e);
+                match failure.take() {
+                    Some(e) => Err(e),
+                    None => Ok(()),
                 }
-            }
-            match failure.take() {
-                Some(e) => Err(e),
-                None => Ok(()),
-            }
-        })?;
+            },
+        )?;
         counts.frames = scan.frames;
         counts.malformed_lines = scan.malformed_lines;
         self.check_frame_count(&scan)

@@ -880,7 +880,7 @@ mod tests {
         assert_eq!(results.len(), 2, "{results:?}");
         assert!(results[0].is_ok());
         let error = results[1].clone().unwrap_err();
-        assert_eq!((error.line, error.expected), (8, E_END_BLOCK));
+        assert_eq!((error.line(), error.expected), (Some(8), E_END_BLOCK));
         // Ended, it reads whole; without a block, nothing is missing.
         assert!(read_all(&log).iter().all(Result::is_ok));
         assert_eq!(read_whole("   0.1 1  181 Tx d 0\n").len(), 1);
@@ -1216,7 +1216,7 @@ mod tests {
         let results = read_all("date soon\n1.25 1 123 Rx d 0\n");
         match &results[0] {
             Err(error) => assert!(
-                error.line == 1 && error.expected.contains("date header"),
+                error.line() == Some(1) && error.expected.contains("date header"),
                 "{error:?}"
             ),
             other => panic!("{other:?}"),

@@ -35,7 +35,7 @@
 //! DLC 9-15; an FD frame whose valid bytes are fewer than its DLC says is
 //! padded with zeros, as CANoe does.
 //!
-//! Errors: the [`ParseError`] "line" of a BLF file is the number of the
+//! Errors: a BLF file's [`ParseError`] is at an object ([`Place::Object`]): the number of the
 //! object (1-based, counting those inside containers) where reading
 //! stopped. A malformed object inside a container is skipped with the rest
 //! of that container; a container that cannot be decompressed is skipped
@@ -47,7 +47,7 @@ use std::collections::VecDeque;
 use std::io::{self, BufRead, Read};
 
 use super::inflate::{InflateJob, Inflater};
-use super::record::{LogRecord, ParseError, ReadError, TimeText};
+use super::record::{LogRecord, ParseError, Place, ReadError, TimeText};
 use crate::frame::{fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS};
 
 /// The first bytes of every BLF file.
@@ -173,7 +173,7 @@ impl<R: BufRead> BlfReader<R> {
     }
 
     fn error(&self, expected: &'static str) -> ReadError {
-        ReadError::Parse(ParseError::new(self.objects.max(1), expected))
+        ReadError::Parse(ParseError::at(Place::Object(self.objects.max(1)), expected))
     }
 
     /// The next CAN frame; other objects are skipped. `Ok(None)` at the end.
@@ -291,7 +291,7 @@ impl<R: BufRead> BlfReader<R> {
                             self.consumed,
                             self.stated_size - self.consumed
                         )),
-                        ..ParseError::new(self.objects.max(1), E_SHORT)
+                        ..ParseError::at(Place::Object(self.objects.max(1)), E_SHORT)
                     }),
                     Failure::Expected(expected) => self.error(expected),
                     Failure::Io(error) => ReadError::Io(error),

@@ -504,7 +504,7 @@ mod tests {
         let second = reader.next_record().unwrap().unwrap();
         assert_eq!((second.line, second.frame.payload()), (4, &[2u8][..]));
         match reader.next_record() {
-            Err(ReadError::Parse(e)) => assert_eq!(e.line, 5),
+            Err(ReadError::Parse(e)) => assert_eq!(e.line(), Some(5)),
             other => panic!("expected a parse error, got {other:?}"),
         }
         assert_eq!(reader.next_record().unwrap().unwrap().line, 6);

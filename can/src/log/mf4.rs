@@ -65,8 +65,8 @@
 //! `CAN_ERR_BUSERROR` without details (MF4's error fields are not Linux's).
 //! Times: the master value in ns (rounded) plus the HD start time.
 //!
-//! Errors: the [`ParseError`] "line" of an MF4 file is the byte offset of
-//! the block where reading stopped (for a bad record, of the data block it
+//! Errors: an MF4 file's [`ParseError`] is at a byte offset
+//! ([`Place::ByteOffset`]): that of the block where reading stopped (for a bad record, of the data block it
 //! starts in). A malformed record is skipped; malformed metadata ends the
 //! file. Not read: VLSD `DataBytes` (signal data blocks), column storage
 //! (`##DV`), LZ4/Zstandard data blocks, big-endian fields.
@@ -74,13 +74,16 @@
 use std::io::{self, BufRead, Read};
 
 use super::inflate::{InflateJob, Inflater};
-use super::record::{LogRecord, ParseError, ReadError, TimeText};
+use super::record::{LogRecord, ParseError, Place, ReadError, TimeText};
 use crate::frame::{
     fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
 };
 
 /// The first bytes of every MDF file.
 pub const SIGNATURE: &[u8; 8] = b"MDF     ";
+/// The identification of an MF4 file its writer has not finalized (a
+/// logger whose power was cut, or one that never finalizes).
+pub const UNFINALIZED_SIGNATURE: &[u8; 8] = b"UnFinMF ";
 /// The largest metadata block acq reads.
 pub const MAX_METADATA_BYTES: u64 = 16 << 20;
 /// The largest zipped data block acq inflates (asammdf writes 4 MiB ones).
@@ -95,7 +98,10 @@ const CHUNK: u64 = 1 << 20;
 /// `CAN_ERR_BUSERROR`: the class of every error frame read from MF4.
 pub const ERROR_FRAME_CLASS: u32 = 0x80;
 
-const E_ID: &str = "an MDF 4 identification block: 'MDF     ' and a version number 400 to 499";
+const E_ID: &str =
+    "an MDF 4 identification block: 'MDF     ' (or 'UnFinMF ') and a version number 400 to 499";
+const E_FINALIZED: &str =
+    "a finalized MF4 file, or an unfinalized one whose flags (byte offset 60) are 0";
 const E_BLOCK: &str = "a block with a '##' id, a length within the file and room for its links";
 const E_HD: &str = "a '##HD' header block at byte 64";
 const E_DG: &str = "a '##DG' data group with a record id size of 0, 1, 2, 4 or 8 bytes";
@@ -244,7 +250,8 @@ impl<R: BufRead> Source<R> {
         ids: &[&[u8; 4]],
         expected: &'static str,
     ) -> Result<Block, ReadError> {
-        let error = |expected| ReadError::Parse(ParseError::new(offset, expected));
+        let error =
+            |expected| ReadError::Parse(ParseError::at(Place::ByteOffset(offset), expected));
         if offset < ID_BLOCK || !self.keep_to(offset.saturating_add(HEADER))? {
             return Err(error(expected));
         }
@@ -516,13 +523,31 @@ impl<R: BufRead> Mf4Reader<R> {
     /// and data blocks are.
     fn open(&mut self) -> Result<(), ReadError> {
         let source = &mut self.source;
-        let id_error = || ReadError::Parse(ParseError::new(0, E_ID));
-        if !source.keep_to(ID_BLOCK)? || &source.kept[..8] != SIGNATURE {
+        let id_error = || ReadError::Parse(ParseError::at(Place::ByteOffset(0), E_ID));
+        if !source.keep_to(ID_BLOCK)?
+            || (&source.kept[..8] != SIGNATURE && &source.kept[..8] != UNFINALIZED_SIGNATURE)
+        {
             return Err(id_error());
         }
         let version = u16_at(&source.kept, 28).unwrap_or(0);
         if !(400..500).contains(&version) {
             return Err(id_error());
+        }
+        // An unfinalized file whose flags say nothing is left to finalize
+        // reads as a finalized one (as asammdf reads it). The flags'
+        // recovery (the last block's length, lists not yet linked) is not
+        // done yet: refused by name, never misread.
+        if &source.kept[..8] == UNFINALIZED_SIGNATURE {
+            let standard = u16_at(&source.kept, 60).unwrap_or(0);
+            let custom = u16_at(&source.kept, 62).unwrap_or(0);
+            if standard != 0 || custom != 0 {
+                return Err(ReadError::Parse(ParseError {
+                    note: Some(format!(
+                        "this file is unfinalized (its writer stopped before finishing it: 'UnFinMF ', standard flags {standard:#06x}, custom flags {custom:#06x}) and acq does not yet recover one; finalize it with asammdf (MDF(FILE).save(OUT)) or the logger maker's tool"
+                    )),
+                    ..ParseError::at(Place::ByteOffset(60), E_FINALIZED)
+                }));
+            }
         }
         let hd = source.block(ID_BLOCK, &[b"##HD"], E_HD)?;
         if hd.links < 1 || hd.data(&source.kept).len() < 8 {
@@ -598,8 +623,8 @@ impl<R: BufRead> Mf4Reader<R> {
     }
 }
 
-fn parse(line: u64, expected: &'static str) -> ReadError {
-    ReadError::Parse(ParseError::new(line, expected))
+fn parse(offset: u64, expected: &'static str) -> ReadError {
+    ReadError::Parse(ParseError::at(Place::ByteOffset(offset), expected))
 }
 
 /// The data blocks under `at` (a data block, or a list of them), in order.

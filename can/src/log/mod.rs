@@ -27,9 +27,9 @@ pub mod mf4_signals;
 pub mod mf4_write;
 pub mod record;
 
-use std::io::{self, BufRead};
+use std::io::BufRead;
 
-pub use record::{LogRecord, ParseError, ReadError};
+pub use record::{LogRecord, ParseError, Place, ReadError};
 
 use asc::AscReader;
 use blf::BlfReader;
@@ -57,34 +57,81 @@ pub enum LogReader<R> {
     Mf4(Mf4Reader<R>),
 }
 
-impl<R: BufRead> LogReader<R> {
-    /// Guesses the format from the first bytes of the input without
-    /// consuming them: a BLF file starts with `LOGG`, an MF4 file with
-    /// `MDF     ` (its identification block), a candump log with
-    /// `(`, anything else is taken for ASC (whose header starts with `date`
-    /// or `base`).
-    pub fn detect(mut input: R) -> io::Result<(Self, LogFormat)> {
-        let (looks_blf, looks_mf4, looks_candump) = {
-            let head = input.fill_buf()?;
-            let first = head.iter().find(|b| !b.is_ascii_whitespace());
-            (
-                head.starts_with(blf::SIGNATURE),
-                head.starts_with(mf4::SIGNATURE),
-                first.is_none_or(|&b| b == b'(' || b == b'#'),
-            )
+/// What the first bytes of an input say it is.
+#[derive(Debug, PartialEq, Eq)]
+enum Sniffed {
+    Format(LogFormat),
+    /// Not a CAN log acq reads: what it is, and what to do.
+    Refused(String),
+}
+
+/// A CANedge logger's container around an MF4 file (`.MFC` compressed,
+/// `.MFE` or `.MFM` encrypted): 12 bytes of magic, then the container's
+/// version, its type and sub-type (CSS Electronics' mdf4-converters,
+/// `GenericFile`).
+const CANEDGE_CONTAINER: &[u8; 12] = b"Generic File";
+
+/// What the input's first bytes say (at most a buffer's worth; 20 bytes
+/// suffice for every signature).
+fn sniff(head: &[u8]) -> Sniffed {
+    let first = head.iter().find(|b| !b.is_ascii_whitespace());
+    // MDF 3 shares MDF 4's first bytes; its version text (bytes 8..16)
+    // starts with 3.
+    if head.starts_with(mf4::SIGNATURE) && head.get(8) == Some(&b'3') {
+        return Sniffed::Refused(format!(
+            "an MDF file of version {:?}, not MDF 4: acq reads MDF 4 bus logging (convert it to MF4 with asammdf)",
+            String::from_utf8_lossy(head.get(8..16).unwrap_or_default()).trim()
+        ));
+    }
+    if head.starts_with(mf4::SIGNATURE) || head.starts_with(mf4::UNFINALIZED_SIGNATURE) {
+        return Sniffed::Format(LogFormat::Mf4);
+    }
+    if head.starts_with(blf::SIGNATURE) {
+        return Sniffed::Format(LogFormat::Blf);
+    }
+    if head.starts_with(CANEDGE_CONTAINER) {
+        let what = match head.get(14) {
+            Some(0x22) => "a CANedge logger's compressed MF4 container (.MFC, heatshrink): convert it to MF4 with CSS Electronics' mdf2finalized (or to candump with mdf2socketcan), then read that",
+            Some(0x11) => "a CANedge logger's encrypted MF4 container (.MFE/.MFM, AES-GCM): decrypt and convert it with CSS Electronics' mdf2finalized and the device's password, then read that",
+            _ => "a CANedge logger's container of an unknown type: convert it with CSS Electronics' mdf2finalized, then read that",
         };
-        Ok(if looks_mf4 {
-            (LogReader::Mf4(Mf4Reader::new(input)), LogFormat::Mf4)
-        } else if looks_blf {
-            (LogReader::Blf(BlfReader::new(input)), LogFormat::Blf)
-        } else if looks_candump {
-            (
-                LogReader::Candump(CandumpReader::new(input)),
-                LogFormat::Candump,
-            )
-        } else {
-            (LogReader::Asc(AscReader::new(input)), LogFormat::Asc)
-        })
+        return Sniffed::Refused(what.into());
+    }
+    if first.is_none_or(|&b| b == b'(' || b == b'#') {
+        return Sniffed::Format(LogFormat::Candump);
+    }
+    // Text, but none of the above: ASC's reader says what its header
+    // lacks. Binary bytes are no ASC.
+    if head.iter().take(4096).any(|&b| b == 0) {
+        let shown: Vec<String> = head.iter().take(8).map(|b| format!("{b:02x}")).collect();
+        return Sniffed::Refused(format!(
+            "binary data (first bytes {}) that no format acq reads starts with",
+            shown.join(" ")
+        ));
+    }
+    Sniffed::Format(LogFormat::Asc)
+}
+
+/// What a log must start with, for the message of a refused one.
+const E_LOG_FORMAT: &str = "a CAN log acq reads: MF4 ('MDF     ' or 'UnFinMF '), BLF ('LOGG'), candump ('(') or Vector ASC (text)";
+
+impl<R: BufRead> LogReader<R> {
+    /// Tells the format from the first bytes of the input without
+    /// consuming them: an MF4 file starts with `MDF     ` (`UnFinMF ` when
+    /// its writer could not finalize it), a BLF file with `LOGG`, a candump
+    /// log with `(`; other text is taken for ASC (whose header starts with
+    /// `date` or `base`). A logger's container, an MDF 3 file or binary
+    /// data of no known format is refused at byte offset 0, saying what it
+    /// is and what converts it.
+    pub fn detect(mut input: R) -> Result<(Self, LogFormat), ReadError> {
+        let sniffed = sniff(input.fill_buf()?);
+        match sniffed {
+            Sniffed::Format(format) => Ok((LogReader::with_format(input, format), format)),
+            Sniffed::Refused(what) => Err(ReadError::Parse(ParseError {
+                note: Some(format!("found {what}")),
+                ..ParseError::at(Place::ByteOffset(0), E_LOG_FORMAT)
+            })),
+        }
     }
 
     pub fn with_format(input: R, format: LogFormat) -> Self {
@@ -105,5 +152,54 @@ impl<R: BufRead> LogReader<R> {
             LogReader::Blf(reader) => reader.next_record(),
             LogReader::Mf4(reader) => reader.next_record(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_format_is_told_by_its_first_bytes() {
+        let cases: [(&[u8], LogFormat); 6] = [
+            (b"MDF     4.10    ", LogFormat::Mf4),
+            (b"UnFinMF 4.11    ", LogFormat::Mf4),
+            (b"LOGG\x90\x00\x00\x00", LogFormat::Blf),
+            (b"(1700000000.000000) can0 123#", LogFormat::Candump),
+            (b"\n\n", LogFormat::Candump),
+            (
+                b"date Mon Nov 24 10:00:00.000 am 2025\nbase hex",
+                LogFormat::Asc,
+            ),
+        ];
+        for (head, format) in cases {
+            assert_eq!(sniff(head), Sniffed::Format(format), "{head:?}");
+        }
+    }
+
+    #[test]
+    fn a_container_an_mdf3_file_and_binary_data_are_refused_by_name() {
+        let mut compressed = b"Generic File".to_vec();
+        compressed.extend_from_slice(&[1, 0, 0x22, 0x01, 0, 0, 0, 1]);
+        let mut encrypted = compressed.clone();
+        encrypted[14] = 0x11;
+        let said = |head: &[u8]| match sniff(head) {
+            Sniffed::Refused(what) => what,
+            other => panic!("{head:?} read as {other:?}"),
+        };
+        assert!(said(&compressed).contains(".MFC") && said(&compressed).contains("mdf2finalized"));
+        assert!(said(&encrypted).contains("password"));
+        assert!(said(b"MDF     3.30    ").contains("\"3.30\""));
+        assert!(said(b"\x7fELF\x02\x01\x01\x00").contains("7f 45 4c 46"));
+        let error = match LogReader::detect(&compressed[..]) {
+            Err(ReadError::Parse(error)) => error,
+            other => panic!("{:?}", other.map(|(_, format)| format)),
+        };
+        let message = error.in_file("00000001.MFC");
+        assert!(
+            message.starts_with("00000001.MFC: byte offset 0: expected a CAN log acq reads")
+                && message.contains("found a CANedge logger's compressed MF4 container"),
+            "{message}"
+        );
     }
 }

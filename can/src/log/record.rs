@@ -17,12 +17,44 @@ pub struct LogRecord<'a> {
     pub frame: Frame,
 }
 
-/// A line that is not a valid record.
+/// Where in a log a reader stopped: a text log's line, a binary log's
+/// object or byte offset. Each is said in its own words, so that a byte
+/// offset is never read as a line number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Place {
+    /// A 1-based line of a text log (candump, ASC).
+    Line(u64),
+    /// A 1-based object of a BLF file (counting those inside containers).
+    Object(u64),
+    /// A byte offset from the start of a binary file (MF4's blocks).
+    ByteOffset(u64),
+}
+
+impl Place {
+    /// The number, whatever it counts (readers' places only grow).
+    pub fn number(self) -> u64 {
+        match self {
+            Place::Line(n) | Place::Object(n) | Place::ByteOffset(n) => n,
+        }
+    }
+}
+
+impl std::fmt::Display for Place {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Place::Line(n) => write!(f, "line {n}"),
+            Place::Object(n) => write!(f, "object {n}"),
+            Place::ByteOffset(n) => write!(f, "byte offset {n}"),
+        }
+    }
+}
+
+/// A record that is not valid, and where.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("line {line}: expected {expected}{}", note.as_deref().map(|n| format!("; {n}")).unwrap_or_default())]
+#[error("{at}: expected {expected}{}", note.as_deref().map(|n| format!("; {n}")).unwrap_or_default())]
 pub struct ParseError {
-    /// 1-based line number.
-    pub line: u64,
+    /// Where the reader stopped.
+    pub at: Place,
     /// What the reader expected there, in words.
     pub expected: &'static str,
     /// What was found instead, when the reader can say (how much of a cut
@@ -31,20 +63,40 @@ pub struct ParseError {
 }
 
 impl ParseError {
-    /// A line that is not what `expected` says.
+    /// A line (1-based) that is not what `expected` says.
     pub fn new(line: u64, expected: &'static str) -> Self {
+        ParseError::at(Place::Line(line), expected)
+    }
+
+    /// A place that is not what `expected` says.
+    pub fn at(at: Place, expected: &'static str) -> Self {
         ParseError {
-            line,
+            at,
             expected,
             note: None,
         }
     }
 
-    /// `file:line: expected ...`, the form every command reports.
+    /// The line of a text log's error; `None` for a binary log's.
+    pub fn line(&self) -> Option<u64> {
+        match self.at {
+            Place::Line(n) => Some(n),
+            _ => None,
+        }
+    }
+
+    /// The form every command reports: `file:line: expected ...` for a
+    /// text log (as compilers write it, so that editors jump there),
+    /// `file: byte offset N: expected ...` (or `object N`) for a binary one.
     pub fn in_file(&self, name: &str) -> String {
-        match &self.note {
-            Some(note) => format!("{name}:{}: expected {}; {note}", self.line, self.expected),
-            None => format!("{name}:{}: expected {}", self.line, self.expected),
+        let note = self
+            .note
+            .as_deref()
+            .map(|n| format!("; {n}"))
+            .unwrap_or_default();
+        match self.at {
+            Place::Line(n) => format!("{name}:{n}: expected {}{note}", self.expected),
+            at => format!("{name}: {at}: expected {}{note}", self.expected),
         }
     }
 }

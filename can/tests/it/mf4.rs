@@ -13,6 +13,7 @@ use std::process::Command;
 use acq_can::frame::fd_flags;
 use acq_can::log::mf4::{Mf4Reader, ERROR_FRAME_CLASS};
 use acq_can::log::mf4_write::Mf4Writer;
+use acq_can::log::Place;
 use acq_can::{CanId, Direction, Frame, FrameKind, IfaceName, LogFormat, LogReader, ReadError};
 use proptest::prelude::*;
 use serde_json::{json, Value};
@@ -251,7 +252,7 @@ fn memory_stays_bounded_by_the_input_when_links_point_far() {
     bytes[64 + 24..64 + 32].copy_from_slice(&(1u64 << 40).to_le_bytes());
     let mut reader = Mf4Reader::new(&bytes[..]);
     match reader.next_record() {
-        Err(ReadError::Parse(error)) => assert_eq!(error.line, 1 << 40),
+        Err(ReadError::Parse(error)) => assert_eq!(error.at, Place::ByteOffset(1 << 40)),
         other => panic!("{other:?}"),
     }
 }

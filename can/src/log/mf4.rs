@@ -110,7 +110,7 @@ const E_CN: &str = "a '##CN' channel";
 const E_LOOP: &str = "a tree of groups and channels without loops";
 const E_SORTED: &str = "one channel group in a data group without record ids";
 const E_MASTER: &str =
-    "a time master channel: a little-endian float, or an integer with no or a linear '##CC' conversion";
+    "a time master channel: a little-endian float or integer, with no or a linear '##CC' conversion";
 const E_FIELD: &str =
     "bus-logging fields as little-endian unsigned integers of 1 to 64 bits inside the record";
 const E_BYTES: &str = "a DataBytes field: a fixed byte array inside the record (VLSD is not read)";
@@ -355,8 +355,9 @@ impl Field {
 /// How the master channel gives seconds.
 #[derive(Clone, Copy, Debug)]
 enum TimeKind {
-    F64,
-    F32,
+    /// A little-endian float (8 or 4 bytes) through `a + b * value` to
+    /// seconds (a logger's f64 of nanoseconds has b = 1e-9).
+    Float { bytes: usize, scale: Scale },
     /// Raw integer (signed when `true`) times `ns_per_unit`, plus `offset_s`.
     Integer {
         signed: bool,
@@ -365,6 +366,37 @@ enum TimeKind {
         a: f64,
         b: f64,
     },
+}
+
+/// A linear conversion to seconds, `a + b * value`, kept exact where it
+/// is a whole number of nanoseconds per unit.
+#[derive(Clone, Copy, Debug)]
+struct Scale {
+    a: f64,
+    b: f64,
+    ns_per_unit: Option<f64>,
+}
+
+impl Scale {
+    fn new(a: f64, b: f64) -> Self {
+        let ns = b * 1e9;
+        let whole = a == 0.0 && (1.0..=1e12).contains(&ns) && ns.fract() == 0.0;
+        Scale {
+            a,
+            b,
+            ns_per_unit: whole.then_some(ns),
+        }
+    }
+
+    fn ns(self, value: f64) -> Option<i64> {
+        match self.ns_per_unit {
+            Some(ns) => {
+                let ns = (value * ns).round();
+                (ns.is_finite() && (-9.2e18..=9.2e18).contains(&ns)).then_some(ns as i64)
+            }
+            None => seconds_to_ns(self.a + self.b * value),
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -847,8 +879,15 @@ fn time_layout<R: BufRead>(
     };
     let inside = |bytes: u64| master.byte + bytes <= u64::from(data_bytes);
     let kind = match (master.data_type, master.bits) {
-        (4, 64) if master.bit == 0 && inside(8) && (a, b) == (0.0, 1.0) => TimeKind::F64,
-        (4, 32) if master.bit == 0 && inside(4) && (a, b) == (0.0, 1.0) => TimeKind::F32,
+        (4, 64 | 32) if master.bit == 0 && inside(master.bits / 8) => {
+            if !a.is_finite() || !b.is_finite() {
+                return Err(error());
+            }
+            TimeKind::Float {
+                bytes: master.bits as usize / 8,
+                scale: Scale::new(a, b),
+            }
+        }
         (0 | 2, _) => {
             let field = int_field(master, data_bytes, 1)?;
             // An exact number of ns per unit (1e-9, 1e-6, 1e-5 s...) keeps
@@ -1186,8 +1225,8 @@ fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'s
 
 fn time_ns(record: &[u8], time: &Time, start_ns: i64) -> Option<i64> {
     let offset_ns = match time.kind {
-        TimeKind::F64 => seconds_to_ns(f64_at(record, time.byte)?)?,
-        TimeKind::F32 => seconds_to_ns(f64::from(f32::from_le_bytes(
+        TimeKind::Float { bytes: 8, scale } => scale.ns(f64_at(record, time.byte)?)?,
+        TimeKind::Float { scale, .. } => scale.ns(f64::from(f32::from_le_bytes(
             record.get(time.byte..time.byte + 4)?.try_into().ok()?,
         )))?,
         TimeKind::Integer {

@@ -437,3 +437,55 @@ fn acq_reads_python_can_mf4_as_the_frames_given() {
         }
     }
 }
+
+/// A data logger's time master: a float64 of nanoseconds with a linear
+/// conversion to seconds (b = 1e-9), which asammdf reads as seconds. The
+/// file is laid out block by block (tests/mf4/float_master.py, plain
+/// Python) with whole-nanosecond times, so every frame's time must come
+/// back to the nanosecond.
+#[test]
+fn a_float_master_of_nanoseconds_with_a_linear_conversion_reads_to_the_nanosecond() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("logger.mf4");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mf4/float_master.py");
+    let output = Command::new("python3")
+        .arg(&script)
+        .arg(&path)
+        .output()
+        .expect("python3 runs the fixture's writer");
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let written: Vec<Value> = String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .map(|line| serde_json::from_str(line).unwrap())
+        .collect();
+    assert_eq!(written.len(), 300);
+    let bytes = std::fs::read(&path).unwrap();
+    let (mut reader, format) = LogReader::detect(&bytes[..]).unwrap();
+    assert_eq!(format, LogFormat::Mf4);
+    let mut read = Vec::new();
+    while let Some(record) = reader.next_record().unwrap() {
+        read.push(record.frame);
+    }
+    assert_eq!(read.len(), written.len());
+    for (frame, want) in read.iter().zip(&written) {
+        let raw = want["id"].as_u64().unwrap() as u32;
+        let id = if want["extended"].as_bool().unwrap() {
+            CanId::extended(raw).unwrap()
+        } else {
+            CanId::standard(raw as u16).unwrap()
+        };
+        assert_eq!(
+            frame.timestamp_ns,
+            want["time_ns"].as_i64().unwrap(),
+            "{want}"
+        );
+        assert_eq!(frame.id, id, "{want}");
+        assert_eq!(frame.iface.as_str(), "can1", "{want}");
+        let hex: String = frame.payload().iter().map(|b| format!("{b:02x}")).collect();
+        assert_eq!(hex, want["data"].as_str().unwrap(), "{want}");
+    }
+}

@@ -390,10 +390,7 @@ impl Scale {
 
     fn ns(self, value: f64) -> Option<i64> {
         match self.ns_per_unit {
-            Some(ns) => {
-                let ns = (value * ns).round();
-                (ns.is_finite() && (-9.2e18..=9.2e18).contains(&ns)).then_some(ns as i64)
-            }
+            Some(ns) => whole_ns(value * ns),
             None => seconds_to_ns(self.a + self.b * value),
         }
     }
@@ -1254,7 +1251,12 @@ fn time_ns(record: &[u8], time: &Time, start_ns: i64) -> Option<i64> {
 }
 
 fn seconds_to_ns(seconds: f64) -> Option<i64> {
-    let ns = (seconds * 1e9).round();
+    whole_ns(seconds * 1e9)
+}
+
+/// Nanoseconds rounded to a whole number that fits an i64.
+fn whole_ns(ns: f64) -> Option<i64> {
+    let ns = ns.round();
     // i64::MAX as f64 rounds up to 2^63: exclude it.
     (ns.is_finite() && (-9.2e18..=9.2e18).contains(&ns)).then_some(ns as i64)
 }

@@ -3,7 +3,8 @@
 //! the same third-party features for the binary and the Python binding.
 //! ARCHITECTURE.md states the same rules in prose; this test fails when the
 //! code and that page part ways: a path it names that is gone, a crate it
-//! calls a leaf that depends on another, a long file it gives no reason for.
+//! calls a leaf that depends on another, a long file it gives no reason for,
+//! a recipe that leaves out a file its kind of change last touched.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -1290,6 +1291,294 @@ fn the_path_check_sees_a_path_that_is_gone() {
         missing_paths(page, &checkout),
         ["rig.rs", "drivers/src/log/"]
     );
+}
+
+/// One recipe of ARCHITECTURE.md's "Where a change goes": its bold label,
+/// the commit that last made such a change (`(last: `COMMIT`)` after the
+/// label), and its text up to the next label.
+struct Recipe {
+    label: String,
+    last: Option<String>,
+    text: String,
+}
+
+fn recipes(markdown: &str) -> Vec<Recipe> {
+    let Some(section) = markdown.split("## Where a change goes").nth(1) else {
+        return Vec::new();
+    };
+    let section = section.split("\n## ").next().unwrap();
+    // Bold text in the section is a recipe's label: "**label**", then its text.
+    let parts: Vec<&str> = section.split("**").skip(1).collect();
+    parts
+        .chunks(2)
+        .map(|pair| {
+            let text = pair.get(1).copied().unwrap_or("");
+            let last = text
+                .trim_start()
+                .strip_prefix("(last: `")
+                .and_then(|rest| rest.split('`').next())
+                .map(str::to_string);
+            Recipe {
+                label: pair[0].to_string(),
+                last,
+                text: text.to_string(),
+            }
+        })
+        .collect()
+}
+
+/// `git ARGS` run in the workspace; fails the test when git is missing.
+fn git(args: &[&str]) -> std::process::Output {
+    Command::new("git")
+        .arg("-C")
+        .arg(workspace_root())
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "git {} did not run ({e}): this check reads the history, it needs git",
+                args.join(" ")
+            )
+        })
+}
+
+/// What `git ARGS` prints; fails the test with git's own message when git
+/// refuses.
+fn git_output(args: &[&str]) -> String {
+    let output = git(args);
+    assert!(
+        output.status.success(),
+        "git {} failed: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// Whether `name` is a commit of the history, by at least 7 hex digits.
+fn is_a_commit(name: &str) -> bool {
+    name.len() >= 7
+        && name.chars().all(|c| c.is_ascii_hexdigit())
+        && git(&[
+            "rev-parse",
+            "--verify",
+            "--quiet",
+            &format!("{name}^{{commit}}"),
+        ])
+        .status
+        .success()
+}
+
+/// The files `commit` changed, as it named them.
+fn files_changed_by(commit: &str) -> Vec<String> {
+    git_output(&["show", "--name-only", "--format=", commit, "--"])
+        .lines()
+        .filter(|line| !line.is_empty())
+        .map(str::to_string)
+        .collect()
+}
+
+/// Every rename since `commit` up to HEAD as (old, new), oldest first. Each
+/// commit's renames are found in that commit (a move such as drivers/ into
+/// can/ and rig/ renames whole files at once): one diff from `commit` to
+/// HEAD loses a file that changed much after its move.
+fn renames_since(commit: &str) -> Vec<(String, String)> {
+    let range = format!("{commit}..HEAD");
+    let log = git_output(&[
+        "log",
+        "--reverse",
+        "-M",
+        "-l0",
+        "--diff-filter=R",
+        "--name-status",
+        "--format=",
+        &range,
+    ]);
+    log.lines()
+        .filter_map(|line| {
+            let mut fields = line.split('\t');
+            let status = fields.next()?;
+            let (old, new) = (fields.next()?, fields.next()?);
+            status
+                .starts_with('R')
+                .then(|| (old.to_string(), new.to_string()))
+        })
+        .collect()
+}
+
+/// Where `path` is after `renames` (oldest first), taken in turn.
+fn path_after(path: &str, renames: &[(String, String)]) -> String {
+    renames.iter().fold(path.to_string(), |path, (old, new)| {
+        if path == *old {
+            new.clone()
+        } else {
+            path
+        }
+    })
+}
+
+/// A file a recipe is about: Rust under a crate's `src/` (the binary's and
+/// the binding's too) or the page's assets. Tests, benches, examples,
+/// fixtures, fuzz targets, docs and manifests go with any kind of change.
+fn is_source_file(path: &str) -> bool {
+    let in_src = path.starts_with("src/") || path.split('/').nth(1) == Some("src");
+    (in_src && path.ends_with(".rs")) || path.starts_with("view/assets/")
+}
+
+/// Whether `path`'s segments begin with `pattern`'s, where a
+/// `<placeholder>` segment stands for any one.
+fn starts_with_segments(path: &[&str], pattern: &[&str]) -> bool {
+    path.len() >= pattern.len()
+        && path.iter().zip(pattern).all(|(segment, wanted)| {
+            segment == wanted || (wanted.starts_with('<') && wanted.ends_with('>'))
+        })
+}
+
+/// Whether a named path (a folder when it ends in `/`) is `file` or holds it.
+fn names_file(named: &str, file: &str) -> bool {
+    let file: Vec<&str> = file.split('/').collect();
+    match named.strip_suffix('/') {
+        Some(folder) => {
+            let folder: Vec<&str> = folder.split('/').collect();
+            file.len() > folder.len() && starts_with_segments(&file, &folder)
+        }
+        None => {
+            let named: Vec<&str> = named.split('/').collect();
+            file.len() == named.len() && starts_with_segments(&file, &named)
+        }
+    }
+}
+
+/// The files of `touched` that `recipe` does not name. It names a file by
+/// its path, by a folder that holds it (`can/src/log/`), or by a pattern
+/// with a placeholder (`twins/src/<name>/`). A path written short, as the
+/// page does beside a path it gave in full (`spec/checks.rs` after
+/// `study/src/spec/schema.rs`, `plausibility.rs` after
+/// `analysis/src/extract/stats.rs`), is read under each folder on the way to
+/// the other paths the recipe names.
+fn files_a_recipe_leaves_out(recipe: &str, touched: &[String]) -> Vec<String> {
+    let mut named = paths_named(recipe);
+    // `paths_named` leaves placeholders out; here they are patterns.
+    named.extend(
+        recipe
+            .split('`')
+            .skip(1)
+            .step_by(2)
+            .filter(|span| span.contains('<') && span.contains('/'))
+            .filter(|span| !span.contains(char::is_whitespace))
+            .map(str::to_string),
+    );
+    let folders_on_the_way: BTreeSet<&str> = named
+        .iter()
+        .flat_map(|path| path.match_indices('/').map(|(i, _)| &path[..=i]))
+        .collect();
+    let mut readings = named.clone();
+    for folder in &folders_on_the_way {
+        readings.extend(named.iter().map(|path| format!("{folder}{path}")));
+    }
+    touched
+        .iter()
+        .filter(|file| !readings.iter().any(|named| names_file(named, file)))
+        .cloned()
+        .collect()
+}
+
+/// Each recipe that names its last change names every source file that
+/// change touched (where each is now, after renames and moves; one since
+/// deleted is left out), so the next change of that kind finds them all.
+#[test]
+fn every_recipe_names_the_files_its_last_change_touched() {
+    let root = workspace_root();
+    let recipes = recipes(&architecture_md());
+    let dated: Vec<(&Recipe, &str)> = recipes
+        .iter()
+        .filter_map(|recipe| Some((recipe, recipe.last.as_deref()?)))
+        .collect();
+    assert!(
+        !dated.is_empty(),
+        "no recipe under \"Where a change goes\" in ARCHITECTURE.md gives its last change as **label** (last: `COMMIT`)"
+    );
+    let mut problems = Vec::new();
+    for (recipe, commit) in dated {
+        assert!(
+            is_a_commit(commit),
+            "{}: its last change `{commit}` is no commit of this history (a full clone has them all; give 7 or more hex digits of one)",
+            recipe.label
+        );
+        let renames = renames_since(commit);
+        let touched: Vec<String> = files_changed_by(commit)
+            .iter()
+            .map(|path| path_after(path, &renames))
+            .filter(|path| is_source_file(path) && root.join(path).is_file())
+            .collect();
+        let left_out = files_a_recipe_leaves_out(&recipe.text, &touched);
+        if !left_out.is_empty() {
+            problems.push(format!(
+                "{} (last: {commit}) does not name {left_out:?}",
+                recipe.label
+            ));
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "ARCHITECTURE.md's recipes leave out files their last change touched: name each (or its folder) where it belongs to that kind of change, or give a commit that made only that change:\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn the_recipe_check_sees_a_file_left_out() {
+    let page = "## Where a change goes\n\
+                - **A spec key** (last: `843bc19`): `study/src/spec/schema.rs`, its check in \
+                `spec/checks.rs` (or `assemble.rs`). **A twin**: `twins/src/<name>/`, then \
+                `workflows/src/calibrate/`.\n\n## Invariants\n- **Not a recipe**.";
+    let recipes = recipes(page);
+    assert_eq!(recipes.len(), 2);
+    assert_eq!(recipes[0].label, "A spec key");
+    assert_eq!(recipes[0].last.as_deref(), Some("843bc19"));
+    assert_eq!(recipes[1].last, None);
+    let files = |paths: &[&str]| paths.iter().map(|p| p.to_string()).collect::<Vec<_>>();
+    let spec_key = &recipes[0].text;
+    assert_eq!(
+        files_a_recipe_leaves_out(
+            spec_key,
+            &files(&[
+                "study/src/spec/schema.rs",
+                "study/src/spec/checks.rs",
+                "study/src/spec/assemble.rs",
+                "study/src/spec/observations.rs",
+            ])
+        ),
+        ["study/src/spec/observations.rs"]
+    );
+    // A short path is read beside the recipe's full ones, not anywhere.
+    let elsewhere = files(&["workflows/src/spec/checks.rs", "analysis/src/assemble.rs"]);
+    assert_eq!(files_a_recipe_leaves_out(spec_key, &elsewhere), elsewhere);
+    // A placeholder stands for one folder, and a folder holds its files only.
+    assert_eq!(
+        files_a_recipe_leaves_out(
+            &recipes[1].text,
+            &files(&[
+                "workflows/src/calibrate/models.rs",
+                "twins/src/tensile/gtn.rs",
+                "twins/src/lib.rs",
+            ])
+        ),
+        ["twins/src/lib.rs"]
+    );
+    // A file is followed through every rename since, and only source files count.
+    let renames = [
+        ("drivers/src/log/mod.rs", "can/src/log/mod.rs"),
+        ("can/src/log/mod.rs", "can/src/log/formats.rs"),
+    ]
+    .map(|(old, new)| (old.to_string(), new.to_string()));
+    assert_eq!(
+        path_after("drivers/src/log/mod.rs", &renames),
+        "can/src/log/formats.rs"
+    );
+    assert!(is_source_file("src/cli/calibrate.rs") && is_source_file("view/assets/app.js"));
+    assert!(!is_source_file("can/tests/it/mf4.rs"));
+    assert!(!is_source_file("fuzz/fuzz_targets/mf4_log.rs"));
 }
 
 /// The crates ARCHITECTURE.md calls leaves: the code spans on its line

@@ -1470,7 +1470,7 @@ fn help_and_suggestions_are_true_to_the_commands() {
 /// container is refused naming the tool that converts it, binary data of
 /// no known format is not taken for ASC, an unfinalized MF4 whose flags
 /// leave nothing to recover reads as the finalized file does, and one
-/// with flags set is refused by name, never misread.
+/// whose last block's length was never written reads to the file's end.
 #[test]
 fn a_logger_s_file_is_told_by_its_content() {
     let dir = tempfile::tempdir().unwrap();
@@ -1535,23 +1535,55 @@ fn a_logger_s_file_is_told_by_its_content() {
     assert!(!read.stdout.is_empty());
     assert_eq!(read.stdout, read_unfinalized.stdout);
     // Flags at byte 60: the last data block's length (0x04) and cycle
-    // counts (0x01) not written.
+    // counts (0x01) not written, as a logger cut off leaves them: the last
+    // `##DT` runs to the file's end, whatever length it states.
     unfinalized[60..62].copy_from_slice(&0x05u16.to_le_bytes());
+    let dt = unfinalized
+        .windows(4)
+        .rposition(|id| id == b"##DT")
+        .unwrap();
+    unfinalized[dt + 8..dt + 16].copy_from_slice(&24u64.to_le_bytes());
     std::fs::write(&theirs, &unfinalized).unwrap();
+    let recovered = decode(&theirs);
+    assert!(recovered.status.success(), "{}", stderr(&recovered));
+    assert_eq!(read.stdout, recovered.stdout);
+    // Cut inside its last record: every whole record is read, and the cut
+    // is named. The same cut in a finalized file is malformed.
+    let records_end = dt
+        + usize::try_from(u64::from_le_bytes(
+            finalized[dt + 8..dt + 16].try_into().unwrap(),
+        ))
+        .unwrap();
+    let frames = |log: &Path| {
+        let out = dir.path().join("frames.log");
+        let converted = acq(&["convert", path_arg(log), "-o", path_arg(&out)]);
+        assert!(converted.status.success(), "{}", stderr(&converted));
+        let text = std::fs::read_to_string(&out).unwrap();
+        (
+            text.lines().map(str::to_owned).collect::<Vec<_>>(),
+            stderr(&converted),
+        )
+    };
+    let (all, _) = frames(&ours);
+    std::fs::write(&theirs, &unfinalized[..records_end - 3]).unwrap();
+    let (before_cut, told) = frames(&theirs);
+    assert!(
+        told.contains("unfinalized MF4 cut off inside a record"),
+        "{told}"
+    );
+    assert!(
+        before_cut.len() + 1 == all.len() && all.starts_with(&before_cut),
+        "{before_cut:?} of {all:?}"
+    );
+    std::fs::write(&ours, &finalized[..records_end - 3]).unwrap();
     let message = refused(
         &[
             "decode",
-            path_arg(&theirs),
+            path_arg(&ours),
             "--dbc",
             "fixtures/dbc/tensile_frame.dbc",
         ],
         3,
     );
-    assert!(
-        message.contains(&format!(
-            "{}: byte offset 60: expected a finalized MF4 file",
-            path_arg(&theirs)
-        )) && message.contains("standard flags 0x0005"),
-        "{message}"
-    );
+    assert!(message.contains("expected a whole"), "{message}");
 }

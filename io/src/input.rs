@@ -141,9 +141,22 @@ impl LogInput {
     /// The next frame; a malformed line stops with `file:line: expected ...`.
     pub fn next_frame(&mut self) -> Result<Option<acq_can::Frame>> {
         match self.reader.next_record() {
-            Ok(record) => Ok(record.map(|r| r.frame)),
+            Ok(Some(record)) => Ok(Some(record.frame)),
+            Ok(None) => {
+                self.print_notes();
+                Ok(None)
+            }
             Err(ReadError::Parse(error)) => Err(AcqError::Malformed(error.in_file(&self.name))),
             Err(ReadError::Io(error)) => Err(AcqError::io(format!("reading {}", self.name), error)),
+        }
+    }
+}
+
+impl LogInput {
+    /// Prints what the reader tells that is no error (`acq: FILE: ...`).
+    fn print_notes(&mut self) {
+        for note in self.reader.take_notes() {
+            eprintln!("acq: {}: {note}", self.name);
         }
     }
 }
@@ -192,7 +205,10 @@ pub fn for_each_record(
                     counts.frames += 1;
                     on_record(&input.name, &record)?;
                 }
-                Ok(None) => break,
+                Ok(None) => {
+                    input.print_notes();
+                    break;
+                }
                 Err(ReadError::Parse(error)) => {
                     let message = error.in_file(&input.name);
                     match bad_lines {

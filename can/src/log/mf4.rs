@@ -65,15 +65,33 @@
 //! `CAN_ERR_BUSERROR` without details (MF4's error fields are not Linux's).
 //! Times: the master value in ns (rounded) plus the HD start time.
 //!
+//! Loggers store the members in other ways too: a virtual channel (type
+//! 6, no bits) whose conversion gives a constant, a field through a
+//! conversion ([`super::mf4_conversion`]), `DataBytes` as a VLSD channel
+//! (type 1) whose record holds a u64 offset into its signal data: `##SD`
+//! blocks (or a `##DZ`/`##DL` of them) or the records of a VLSD channel
+//! group in the same data group ([`SignalData`], read by a cursor of its
+//! own over the same blocks, so a value may come before or after its
+//! frame's record).
+//!
+//! Unfinalized files (`UnFinMF `, flags at byte 60 for what was never
+//! written), recovered as asammdf does: 0x04, the last `##DT` runs to the
+//! next block the metadata names or the file's end; 0x10, the data
+//! blocks right after the last `##DL` are the list's too; 0x40, VLSD
+//! values pair with records in order. A record cut off at the end is no
+//! error there but a note ([`Mf4Reader::take_notes`]).
+//!
 //! Errors: an MF4 file's [`ParseError`] is at a byte offset
 //! ([`Place::ByteOffset`]): that of the block where reading stopped (for a bad record, of the data block it
 //! starts in). A malformed record is skipped; malformed metadata ends the
-//! file. Not read: VLSD `DataBytes` (signal data blocks), column storage
-//! (`##DV`), LZ4/Zstandard data blocks, big-endian fields.
+//! file. Not read: column storage (`##DV`), LZ4/Zstandard data blocks,
+//! big-endian fields.
 
 use std::io::{self, BufRead, Read};
+use std::ops::Range;
 
 use super::inflate::{InflateJob, Inflater};
+use super::mf4_conversion::{Conversion, E_CONVERSION};
 use super::record::{LogRecord, ParseError, Place, ReadError, TimeText};
 use crate::frame::{
     fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
@@ -85,6 +103,13 @@ pub const SIGNATURE: &[u8; 8] = b"MDF     ";
 /// logger whose power was cut, or one that never finalizes).
 pub const UNFINALIZED_SIGNATURE: &[u8; 8] = b"UnFinMF ";
 /// The largest metadata block acq reads.
+/// Unfinalized flags (a u16 at byte 60): the last `##DT` block's length
+/// was not written.
+const UNFINALIZED_LAST_DT_LENGTH: u16 = 0x04;
+/// Unfinalized flags: the last `##DL` block was not updated.
+const UNFINALIZED_LAST_LIST: u16 = 0x10;
+/// Unfinalized flags: the offsets of VLSD values were not written.
+const UNFINALIZED_VLSD_OFFSETS: u16 = 0x40;
 pub const MAX_METADATA_BYTES: u64 = 16 << 20;
 /// The largest zipped data block acq inflates (asammdf writes 4 MiB ones).
 pub const MAX_DZ_BYTES: u64 = 256 << 20;
@@ -100,8 +125,6 @@ pub const ERROR_FRAME_CLASS: u32 = 0x80;
 
 const E_ID: &str =
     "an MDF 4 identification block: 'MDF     ' (or 'UnFinMF ') and a version number 400 to 499";
-const E_FINALIZED: &str =
-    "a finalized MF4 file, or an unfinalized one whose flags (byte offset 60) are 0";
 const E_BLOCK: &str = "a block with a '##' id, a length within the file and room for its links";
 const E_HD: &str = "a '##HD' header block at byte 64";
 const E_DG: &str = "a '##DG' data group with a record id size of 0, 1, 2, 4 or 8 bytes";
@@ -113,7 +136,10 @@ const E_MASTER: &str =
     "a time master channel: a little-endian float or integer, with no or a linear '##CC' conversion";
 const E_FIELD: &str =
     "bus-logging fields as little-endian unsigned integers of 1 to 64 bits inside the record";
-const E_BYTES: &str = "a DataBytes field: a fixed byte array inside the record (VLSD is not read)";
+const E_BYTES: &str = "a DataBytes channel: a byte array inside the record, or a VLSD channel of a u64 offset into its signal data";
+const E_FIELD_VALUE: &str = "a bus-logging field whose conversion gives a whole number from 0 up";
+const E_VLSD: &str =
+    "a VLSD offset at the start of a value in the channel's signal data, offsets growing";
 const E_NO_ID: &str = "an ID field in a CAN data or remote frame group";
 const E_DATA: &str = "a '##DT', '##DZ', '##DL' or '##HL' data block";
 const E_DZ: &str = "a '##DZ' block of deflate (0) or transposed deflate (1) data whose inflated length is at most 256 MiB and what it states";
@@ -199,6 +225,8 @@ struct Source<R> {
     pos: u64,
     /// Every data block must stay in `kept` (several groups read at once).
     keep_all: bool,
+    /// The offset of every block read as metadata.
+    seen: Vec<u64>,
 }
 
 /// A metadata block in `kept`.
@@ -264,6 +292,7 @@ impl<R: BufRead> Source<R> {
         if !ids.contains(&&id) {
             return Err(error(expected));
         }
+        self.seen.push(offset);
         if len > MAX_METADATA_BYTES || links > (len.saturating_sub(HEADER)) / 8 {
             return Err(error(E_BLOCK));
         }
@@ -276,6 +305,47 @@ impl<R: BufRead> Source<R> {
             links: links as usize,
             len: len as usize,
         })
+    }
+
+    /// Appends up to `count` file bytes at `at` to `out`, fewer where the
+    /// file ends first: how many.
+    fn append_available(
+        &mut self,
+        at: u64,
+        count: u64,
+        out: &mut Vec<u8>,
+    ) -> Result<u64, &'static str> {
+        if self.keep_all {
+            self.keep_to(at.saturating_add(count))
+                .map_err(|_| E_TRUNCATED)?;
+        }
+        let have = self.kept.len() as u64;
+        let mut got = 0;
+        if at < have {
+            let end = have.min(at + count);
+            out.extend_from_slice(&self.kept[at as usize..end as usize]);
+            got = end - at;
+        }
+        if got == count || self.keep_all {
+            return Ok(got);
+        }
+        let at = at + got;
+        if at < self.pos {
+            return Err(E_ORDER);
+        }
+        let gap = at - self.pos;
+        let skipped =
+            io::copy(&mut (&mut self.input).take(gap), &mut io::sink()).map_err(|_| E_TRUNCATED)?;
+        self.pos += skipped;
+        if skipped < gap {
+            return Ok(got);
+        }
+        let read = (&mut self.input)
+            .take(count - got)
+            .read_to_end(out)
+            .map_err(|_| E_TRUNCATED)? as u64;
+        self.pos += read;
+        Ok(got + read)
     }
 
     /// Appends the `count` file bytes at `at` to `out`, from `kept` or the
@@ -352,9 +422,88 @@ impl Field {
     }
 }
 
+/// Where a bus-logging member's value comes from: loggers store the same
+/// member as a bit field, a constant, or a field through a conversion.
+#[derive(Clone, Debug)]
+enum Member {
+    /// A bit field's raw value.
+    Bits(Field),
+    /// A virtual channel of one value, or a field whose conversion gives
+    /// one whatever its raw value.
+    Constant(u64),
+    /// A field of at most 16 bits through a conversion, looked up: the
+    /// value of every raw value, `None` where it is no whole number.
+    Table {
+        field: Field,
+        values: Box<[Option<u64>]>,
+    },
+    /// A wider field through a conversion.
+    Converted {
+        field: Field,
+        conversion: Conversion,
+    },
+    /// A virtual channel: its conversion of the record's index in its
+    /// group.
+    Index(Conversion),
+}
+
+/// Widest field whose conversion is tabulated per raw value.
+const TABLE_BITS: u32 = 8;
+
+impl Member {
+    fn new(field: Option<Field>, conversion: Option<Conversion>) -> Option<Self> {
+        let conversion = conversion.filter(|c| *c != Conversion::Identity);
+        let constant = conversion.as_ref().and_then(Conversion::constant);
+        Some(match (field, conversion, constant) {
+            (_, Some(_), Some(value)) => Member::Constant(whole(value)?),
+            (Some(field), None, _) => Member::Bits(field),
+            (Some(field), Some(conversion), None) if field.bits <= TABLE_BITS => Member::Table {
+                field,
+                values: (0..1u64 << field.bits)
+                    .map(|raw| whole(conversion.apply(raw as f64, true)))
+                    .collect(),
+            },
+            (Some(field), Some(conversion), None) => Member::Converted { field, conversion },
+            (None, Some(conversion), None) => Member::Index(conversion),
+            // A virtual channel without a conversion is its record index.
+            (None, None, _) => Member::Index(Conversion::Identity),
+        })
+    }
+
+    /// The member's value in `record`, the `index`th of its group.
+    #[inline]
+    fn value(&self, record: &[u8], index: u64) -> Result<u64, &'static str> {
+        match self {
+            Member::Bits(field) => Ok(field.read(record)),
+            Member::Constant(value) => Ok(*value),
+            Member::Table { field, values } => values
+                .get(field.read(record) as usize)
+                .copied()
+                .flatten()
+                .ok_or(E_FIELD_VALUE),
+            Member::Converted { field, conversion } => {
+                whole(conversion.apply(field.read(record) as f64, true)).ok_or(E_FIELD_VALUE)
+            }
+            Member::Index(conversion) => {
+                whole(conversion.apply(index as f64, true)).ok_or(E_FIELD_VALUE)
+            }
+        }
+    }
+}
+
+/// A conversion's result as a field's value: a whole number from 0 up.
+fn whole(value: f64) -> Option<u64> {
+    let rounded = value.round();
+    ((value - rounded).abs() <= 1e-9 * rounded.abs().max(1.0) && (0.0..1.8e19).contains(&rounded))
+        .then_some(rounded as u64)
+}
+
 /// How the master channel gives seconds.
 #[derive(Clone, Copy, Debug)]
 enum TimeKind {
+    /// A virtual master: the record's index in its group through a linear
+    /// conversion.
+    Index(Scale),
     /// A little-endian float (8 or 4 bytes) through `a + b * value` to
     /// seconds (a logger's f64 of nanoseconds has b = 1e-9).
     Float { bytes: usize, scale: Scale },
@@ -410,21 +559,32 @@ enum FrameType {
 }
 
 /// Where a CAN group's fields lie in its records.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct CanLayout {
     frame_type: FrameType,
     time: Time,
-    channel: Option<Field>,
-    id: Option<Field>,
-    ide: Option<Field>,
-    dlc: Option<Field>,
-    data_length: Option<Field>,
-    /// (byte offset, length) of DataBytes.
-    data_bytes: Option<(usize, usize)>,
-    dir: Option<Field>,
-    edl: Option<Field>,
-    brs: Option<Field>,
-    esi: Option<Field>,
+    channel: Option<Member>,
+    id: Option<Member>,
+    ide: Option<Member>,
+    dlc: Option<Member>,
+    data_length: Option<Member>,
+    data_bytes: Option<Bytes>,
+    dir: Option<Member>,
+    edl: Option<Member>,
+    brs: Option<Member>,
+    esi: Option<Member>,
+    /// Records of this group read so far: a virtual member's raw value.
+    records: u64,
+}
+
+/// Where a frame's DataBytes are.
+#[derive(Clone, Copy, Debug)]
+enum Bytes {
+    /// Inside the record: byte offset and length.
+    Fixed { at: usize, len: usize },
+    /// Variable length signal data: the record holds a u64 offset (at this
+    /// byte) into the stream of the data group's `signals[signal]`.
+    Vlsd { at: usize, signal: usize },
 }
 
 #[derive(Clone, Debug)]
@@ -455,6 +615,55 @@ struct Cursor {
     /// The longest fixed-size record with its id: room kept before a
     /// block's records for one that began in the block before.
     longest_record: usize,
+    /// The last `##DT` block's length was never written (an unfinalized
+    /// file's flag 0x04): it runs to the next block or the file's end.
+    open_ended: bool,
+    /// Every block the metadata names, ascending: the one after an
+    /// open-ended block is where it ends.
+    known_blocks: Vec<u64>,
+    /// The block being read is the open-ended one.
+    in_open_ended_block: bool,
+    /// Records read, of every group.
+    records_read: u64,
+    /// What the reader should tell (a cut record).
+    notes: Vec<String>,
+    /// The VLSD DataBytes channels' values, by the index in
+    /// [`Bytes::Vlsd`].
+    signals: Vec<SignalData>,
+}
+
+impl Cursor {
+    fn new(record_id_bytes: usize, layouts: Vec<(u64, Layout)>, blocks: Vec<u64>) -> Self {
+        let longest_record = record_id_bytes
+            + layouts
+                .iter()
+                .map(|(_, layout)| match layout {
+                    Layout::Skip(size) | Layout::Can(size, _) => *size,
+                    Layout::Vlsd => 0,
+                })
+                .max()
+                .unwrap_or(0);
+        Cursor {
+            record_id_bytes,
+            layouts,
+            block_offset: blocks.first().copied().unwrap_or(0),
+            blocks,
+            next_block: 0,
+            dt_next: 0,
+            dt_end: 0,
+            buf: Vec::new(),
+            start: 0,
+            done: false,
+            ahead: None,
+            longest_record,
+            open_ended: false,
+            known_blocks: Vec::new(),
+            in_open_ended_block: false,
+            records_read: 0,
+            notes: Vec::new(),
+            signals: Vec::new(),
+        }
+    }
 }
 
 impl<R: BufRead> Mf4Reader<R> {
@@ -465,6 +674,7 @@ impl<R: BufRead> Mf4Reader<R> {
                 kept: Vec::new(),
                 pos: 0,
                 keep_all: false,
+                seen: Vec::new(),
             },
             opened: false,
             finished: false,
@@ -539,6 +749,21 @@ impl<R: BufRead> Mf4Reader<R> {
         Ok(Some(self.record(frame, line)))
     }
 
+    /// What the reader has to tell that is no error, taken once: a cut
+    /// record at the end of an unfinalized file.
+    pub fn take_notes(&mut self) -> Vec<String> {
+        let cursors = self.cursors.iter_mut();
+        cursors
+            .flat_map(|cursor| {
+                let mut notes = std::mem::take(&mut cursor.notes);
+                for signal in &mut cursor.signals {
+                    notes.append(&mut signal.cursor.notes);
+                }
+                notes
+            })
+            .collect()
+    }
+
     /// The record of `frame`, its time written out as seconds.
     fn record(&mut self, frame: Frame, line: u64) -> LogRecord<'_> {
         LogRecord {
@@ -562,22 +787,13 @@ impl<R: BufRead> Mf4Reader<R> {
         if !(400..500).contains(&version) {
             return Err(id_error());
         }
-        // An unfinalized file whose flags say nothing is left to finalize
-        // reads as a finalized one (as asammdf reads it). The flags'
-        // recovery (the last block's length, lists not yet linked) is not
-        // done yet: refused by name, never misread.
-        if &source.kept[..8] == UNFINALIZED_SIGNATURE {
-            let standard = u16_at(&source.kept, 60).unwrap_or(0);
-            let custom = u16_at(&source.kept, 62).unwrap_or(0);
-            if standard != 0 || custom != 0 {
-                return Err(ReadError::Parse(ParseError {
-                    note: Some(format!(
-                        "this file is unfinalized (its writer stopped before finishing it: 'UnFinMF ', standard flags {standard:#06x}, custom flags {custom:#06x}) and acq does not yet recover one; finalize it with asammdf (MDF(FILE).save(OUT)) or the logger maker's tool"
-                    )),
-                    ..ParseError::at(Place::ByteOffset(60), E_FINALIZED)
-                }));
-            }
-        }
+        // An unfinalized file (its writer was cut off, or a logger that
+        // never finalizes): its flags say which fields were never written.
+        let unfinalized = if &source.kept[..8] == UNFINALIZED_SIGNATURE {
+            u16_at(&source.kept, 60).unwrap_or(0)
+        } else {
+            0
+        };
         let hd = source.block(ID_BLOCK, &[b"##HD"], E_HD)?;
         if hd.links < 1 || hd.data(&source.kept).len() < 8 {
             return Err(parse(ID_BLOCK, E_HD));
@@ -599,15 +815,20 @@ impl<R: BufRead> Mf4Reader<R> {
                 return Err(parse(dg_at, E_DG));
             }
             let mut layouts = Vec::new();
+            // Each channel group's offset: a VLSD channel links to its
+            // signal data's group by offset.
+            let mut group_offsets = Vec::new();
+            let mut signal_links = Vec::new();
             let mut cg_at = dg.link(&source.kept, 1);
             while cg_at != 0 {
                 if !visited.insert(cg_at) {
                     return Err(parse(cg_at, E_LOOP));
                 }
                 let cg = source.block(cg_at, &[b"##CG"], E_CG)?;
-                let layout = group_layout(source, &cg, &mut visited)?;
+                let layout = group_layout(source, &cg, &mut visited, &mut signal_links)?;
                 let data = cg.data(&source.kept);
                 layouts.push((u64_at(data, 0).unwrap_or(0), layout));
+                group_offsets.push(cg_at);
                 cg_at = cg.link(&source.kept, 0);
             }
             if record_id_bytes == 0 && layouts.len() > 1 {
@@ -617,35 +838,47 @@ impl<R: BufRead> Mf4Reader<R> {
             let data_at = dg.link(&source.kept, 2);
             if reads_can && data_at != 0 {
                 let mut blocks = Vec::new();
-                data_blocks(source, data_at, &mut blocks, &mut visited)?;
-                let longest_record = usize::from(record_id_bytes)
-                    + layouts
-                        .iter()
-                        .map(|(_, layout)| match layout {
-                            Layout::Skip(size) | Layout::Can(size, _) => *size,
-                            Layout::Vlsd => 0,
-                        })
-                        .max()
-                        .unwrap_or(0);
-                cursors.push(Cursor {
-                    record_id_bytes: usize::from(record_id_bytes),
-                    layouts,
-                    blocks,
-                    next_block: 0,
-                    block_offset: data_at,
-                    dt_next: 0,
-                    dt_end: 0,
-                    buf: Vec::new(),
-                    start: 0,
-                    done: false,
-                    ahead: None,
-                    longest_record,
-                });
+                let unlisted = unfinalized & UNFINALIZED_LAST_LIST != 0;
+                data_blocks(source, data_at, &mut blocks, &mut visited, unlisted)?;
+                let mut cursor = Cursor::new(usize::from(record_id_bytes), layouts, blocks);
+                for link in signal_links {
+                    let signal = signal_data(
+                        source,
+                        link,
+                        &cursor,
+                        &group_offsets,
+                        &mut visited,
+                        unlisted,
+                    )?;
+                    cursor.signals.push(signal);
+                }
+                cursors.push(cursor);
             }
             dg_at = dg.link(&source.kept, 0);
         }
-        // Several groups are read side by side: none can be streamed past.
-        source.keep_all = cursors.len() > 1;
+        if unfinalized & UNFINALIZED_LAST_DT_LENGTH != 0 {
+            let mut known: Vec<u64> = visited
+                .iter()
+                .copied()
+                .chain(source.seen.iter().copied())
+                .collect();
+            known.sort_unstable();
+            known.dedup();
+            for cursor in &mut cursors {
+                cursor.open_ended = true;
+                cursor.known_blocks = known.clone();
+                for signal in &mut cursor.signals {
+                    signal.cursor.open_ended = true;
+                    signal.cursor.known_blocks = known.clone();
+                }
+            }
+        }
+        for signal in cursors.iter_mut().flat_map(|c| c.signals.iter_mut()) {
+            signal.in_order = unfinalized & UNFINALIZED_VLSD_OFFSETS != 0;
+        }
+        // Several groups, or a group and its signal data, are read side by
+        // side: none can be streamed past.
+        source.keep_all = cursors.len() > 1 || cursors.iter().any(|c| !c.signals.is_empty());
         self.heads = vec![None; cursors.len()];
         self.cursors = cursors;
         Ok(())
@@ -656,12 +889,92 @@ fn parse(offset: u64, expected: &'static str) -> ReadError {
     ReadError::Parse(ParseError::at(Place::ByteOffset(offset), expected))
 }
 
+/// The signal data a VLSD channel links to (`link`): a VLSD channel
+/// group of its own data group (`cursor`'s), or `##SD` blocks.
+fn signal_data<R: BufRead>(
+    source: &mut Source<R>,
+    link: u64,
+    cursor: &Cursor,
+    group_offsets: &[u64],
+    visited: &mut rustc_hash::FxHashSet<u64>,
+    unlisted_after_list: bool,
+) -> Result<SignalData, ReadError> {
+    let reader = |cursor: Cursor, group: usize| SignalData {
+        cursor,
+        group,
+        next_offset: 0,
+        last: None,
+        in_order: false,
+    };
+    if let Some(group) = group_offsets.iter().position(|&at| at == link) {
+        if !matches!(cursor.layouts[group].1, Layout::Vlsd) {
+            return Err(parse(link, E_BYTES));
+        }
+        // The same records, read again for this group's values only.
+        let layouts = cursor
+            .layouts
+            .iter()
+            .map(|(id, layout)| {
+                let layout = match layout {
+                    Layout::Can(size, _) => Layout::Skip(*size),
+                    other => other.clone(),
+                };
+                (*id, layout)
+            })
+            .collect();
+        return Ok(reader(
+            Cursor::new(cursor.record_id_bytes, layouts, cursor.blocks.clone()),
+            group,
+        ));
+    }
+    let mut blocks = Vec::new();
+    data_blocks(source, link, &mut blocks, visited, unlisted_after_list)?;
+    Ok(reader(Cursor::new(0, vec![(0, Layout::Vlsd)], blocks), 0))
+}
+
 /// The data blocks under `at` (a data block, or a list of them), in order.
+/// With `unlisted_after_list` (an unfinalized file's flag 0x10: the last
+/// `##DL` was not updated), the data blocks that follow the last list in
+/// the file, one after the other, are its too (as asammdf finalizes it).
 fn data_blocks<R: BufRead>(
     source: &mut Source<R>,
     at: u64,
     blocks: &mut Vec<u64>,
     visited: &mut rustc_hash::FxHashSet<u64>,
+    unlisted_after_list: bool,
+) -> Result<(), ReadError> {
+    let mut last_list_end = None;
+    data_blocks_listed(source, at, blocks, visited, &mut last_list_end)?;
+    let Some(mut next) = last_list_end.filter(|_| unlisted_after_list) else {
+        return Ok(());
+    };
+    loop {
+        next = next.next_multiple_of(8);
+        if !source.keep_to(next.saturating_add(HEADER))? {
+            return Ok(());
+        }
+        let head = &source.kept[next as usize..next as usize + HEADER as usize];
+        let len = u64_at(head, 8).unwrap_or(0);
+        let is_data = matches!(&head[..4], b"##DT" | b"##DZ" | b"##SD");
+        if !is_data || len < HEADER || !source.keep_to(next.saturating_add(len))? {
+            return Ok(());
+        }
+        if !visited.insert(next) {
+            return Err(parse(next, E_LOOP));
+        }
+        blocks.push(next);
+        next += len;
+    }
+}
+
+/// The data blocks a data block or list at `at` names; where the last
+/// `##DL` ends.
+fn data_blocks_listed<R: BufRead>(
+    source: &mut Source<R>,
+    at: u64,
+    blocks: &mut Vec<u64>,
+    visited: &mut rustc_hash::FxHashSet<u64>,
+    last_list_end: &mut Option<u64>,
 ) -> Result<(), ReadError> {
     let mut list_at = at;
     // HL -> DL chain; DL -> DL chain; DT/DZ alone.
@@ -676,7 +989,7 @@ fn data_blocks<R: BufRead>(
         }
         let id = &source.kept[list_at as usize..list_at as usize + 4];
         match id {
-            b"##DT" | b"##DZ" if first => {
+            b"##DT" | b"##DZ" | b"##SD" if first => {
                 blocks.push(list_at);
                 return Ok(());
             }
@@ -686,6 +999,7 @@ fn data_blocks<R: BufRead>(
             }
             b"##DL" => {
                 let dl = source.block(list_at, &[b"##DL"], E_DATA)?;
+                *last_list_end = Some(list_at + dl.len as u64);
                 let count = u32_at(dl.data(&source.kept), 4).unwrap_or(0) as usize;
                 for index in 0..count.min(dl.links.saturating_sub(1)) {
                     let block = dl.link(&source.kept, 1 + index);
@@ -712,13 +1026,20 @@ struct Channel {
     byte: u64,
     bits: u64,
     conversion: u64,
+    /// Its `##SD` blocks or VLSD `##CG` (a VLSD channel's).
+    signal_data: u64,
 }
 
 /// The record layout of a channel group.
+///
+/// A VLSD DataBytes channel's signal data (the link to its `##SD` blocks
+/// or VLSD channel group) is pushed on `signals`; its layout names the
+/// index.
 fn group_layout<R: BufRead>(
     source: &mut Source<R>,
     cg: &Block,
     visited: &mut rustc_hash::FxHashSet<u64>,
+    signals: &mut Vec<u64>,
 ) -> Result<Layout, ReadError> {
     let data = cg.data(&source.kept);
     let (Some(flags), Some(data_bytes), Some(inval_bytes)) =
@@ -730,7 +1051,78 @@ fn group_layout<R: BufRead>(
         return Ok(Layout::Vlsd);
     }
     let record_bytes = data_bytes as usize + inval_bytes as usize;
-    // Every channel, members of structures included.
+    let channels = group_channels(source, cg, visited)?;
+    let frame_type = channels.iter().find_map(|c| {
+        let base = c.name.split(|&b| b == b'.').next().unwrap_or(&[]);
+        match base {
+            b"CAN_DataFrame" => Some(FrameType::Data),
+            b"CAN_RemoteFrame" => Some(FrameType::Remote),
+            b"CAN_ErrorFrame" => Some(FrameType::Error),
+            _ => None,
+        }
+    });
+    let Some(frame_type) = frame_type else {
+        return Ok(Layout::Skip(record_bytes));
+    };
+    let Some(master) = channels.iter().find(|c| matches!(c.channel_type, 2 | 3)) else {
+        return Err(parse(cg.offset, E_MASTER));
+    };
+    let time = time_layout(source, master, data_bytes)?;
+    // `CAN_DataFrame.ID`, or `ID` alone as some writers name members.
+    let member = |name: &[u8]| {
+        channels.iter().find(|c| {
+            c.name == name
+                || c.name
+                    .iter()
+                    .rposition(|&b| b == b'.')
+                    .is_some_and(|dot| &c.name[dot + 1..] == name)
+        })
+    };
+    let mut field = |name: &[u8]| -> Result<Option<Member>, ReadError> {
+        let Some(c) = member(name) else {
+            return Ok(None);
+        };
+        let conversion = read_conversion(source, c.conversion, c.offset)?;
+        // A virtual channel (type 6) has no bits: its value is its
+        // conversion of the record's index.
+        let bits = match c.channel_type {
+            6 => None,
+            _ => Some(int_field(c, data_bytes, 0)?),
+        };
+        Member::new(bits, conversion)
+            .map(Some)
+            .ok_or_else(|| parse(c.offset, E_FIELD_VALUE))
+    };
+    let layout = CanLayout {
+        frame_type,
+        time,
+        channel: field(b"BusChannel")?,
+        id: field(b"ID")?,
+        ide: field(b"IDE")?,
+        dlc: field(b"DLC")?,
+        data_length: field(b"DataLength")?,
+        data_bytes: match member(b"DataBytes") {
+            None => None,
+            Some(c) => Some(bytes_layout(c, data_bytes, signals)?),
+        },
+        dir: field(b"Dir")?,
+        edl: field(b"EDL")?,
+        brs: field(b"BRS")?,
+        esi: field(b"ESI")?,
+        records: 0,
+    };
+    if layout.id.is_none() && frame_type != FrameType::Error {
+        return Err(parse(cg.offset, E_NO_ID));
+    }
+    Ok(Layout::Can(record_bytes, Box::new(layout)))
+}
+
+/// Every channel of a channel group, members of structures included.
+fn group_channels<R: BufRead>(
+    source: &mut Source<R>,
+    cg: &Block,
+    visited: &mut rustc_hash::FxHashSet<u64>,
+) -> Result<Vec<Channel>, ReadError> {
     let mut channels = Vec::new();
     let mut pending = vec![cg.link(&source.kept, 1)];
     while let Some(mut cn_at) = pending.pop() {
@@ -754,13 +1146,11 @@ fn group_layout<R: BufRead>(
                 byte: u64::from(u32_at(fields, 4).unwrap_or(0)),
                 bits: u64::from(u32_at(fields, 8).unwrap_or(0)),
                 conversion: cn.link(&source.kept, 4),
+                signal_data: cn.link(&source.kept, 5),
             };
             let next = cn.link(&source.kept, 0);
             if name_at != 0 {
-                let tx = source.block(name_at, &[b"##TX"], E_CN)?;
-                let text = tx.data(&source.kept);
-                let end = text.iter().position(|&b| b == 0).unwrap_or(text.len());
-                channel.name = text[..end].to_vec();
+                channel.name = text(source, name_at, E_CN)?;
             }
             channels.push(channel);
             if composition != 0
@@ -771,69 +1161,66 @@ fn group_layout<R: BufRead>(
             cn_at = next;
         }
     }
-    let frame_type = channels.iter().find_map(|c| {
-        let base = c.name.split(|&b| b == b'.').next().unwrap_or(&[]);
-        match base {
-            b"CAN_DataFrame" => Some(FrameType::Data),
-            b"CAN_RemoteFrame" => Some(FrameType::Remote),
-            b"CAN_ErrorFrame" => Some(FrameType::Error),
-            _ => None,
+    Ok(channels)
+}
+
+/// The text of the `##TX` block at `at`, up to its first NUL.
+fn text<R: BufRead>(
+    source: &mut Source<R>,
+    at: u64,
+    expected: &'static str,
+) -> Result<Vec<u8>, ReadError> {
+    let tx = source.block(at, &[b"##TX"], expected)?;
+    let text = tx.data(&source.kept);
+    let end = text.iter().position(|&b| b == 0).unwrap_or(text.len());
+    Ok(text[..end].to_vec())
+}
+
+/// A DataBytes channel: a byte array in the record, or a VLSD channel
+/// whose record holds a u64 offset into its signal data.
+fn bytes_layout(c: &Channel, data_bytes: u32, signals: &mut Vec<u64>) -> Result<Bytes, ReadError> {
+    let len = c.bits / 8;
+    let in_record = c.bit == 0 && c.bits % 8 == 0 && c.byte + len <= u64::from(data_bytes);
+    match (c.channel_type, c.data_type) {
+        (0, 10) if in_record => Ok(Bytes::Fixed {
+            at: c.byte as usize,
+            len: len as usize,
+        }),
+        (1, 10) if in_record && len == 8 && c.signal_data != 0 => {
+            signals.push(c.signal_data);
+            Ok(Bytes::Vlsd {
+                at: c.byte as usize,
+                signal: signals.len() - 1,
+            })
         }
-    });
-    let Some(frame_type) = frame_type else {
-        return Ok(Layout::Skip(record_bytes));
-    };
-    let Some(master) = channels.iter().find(|c| c.channel_type == 2) else {
-        return Err(parse(cg.offset, E_MASTER));
-    };
-    let time = time_layout(source, master, data_bytes)?;
-    let member = |suffix: &[u8]| {
-        channels.iter().find(|c| {
-            c.name
-                .iter()
-                .rposition(|&b| b == b'.')
-                .is_some_and(|dot| &c.name[dot + 1..] == suffix)
-        })
-    };
-    let field = |suffix: &[u8]| -> Result<Option<Field>, ReadError> {
-        let Some(c) = member(suffix) else {
-            return Ok(None);
-        };
-        int_field(c, data_bytes, 0).map(Some)
-    };
-    let data_bytes_field = match member(b"DataBytes") {
-        None => None,
-        Some(c) => {
-            let len = c.bits / 8;
-            if c.channel_type != 0
-                || c.data_type != 10
-                || c.bit != 0
-                || c.bits % 8 != 0
-                || c.byte + len > u64::from(data_bytes)
-            {
-                return Err(parse(c.offset, E_BYTES));
-            }
-            Some((c.byte as usize, len as usize))
-        }
-    };
-    let layout = CanLayout {
-        frame_type,
-        time,
-        channel: field(b"BusChannel")?,
-        id: field(b"ID")?,
-        ide: field(b"IDE")?,
-        dlc: field(b"DLC")?,
-        data_length: field(b"DataLength")?,
-        data_bytes: data_bytes_field,
-        dir: field(b"Dir")?,
-        edl: field(b"EDL")?,
-        brs: field(b"BRS")?,
-        esi: field(b"ESI")?,
-    };
-    if layout.id.is_none() && frame_type != FrameType::Error {
-        return Err(parse(cg.offset, E_NO_ID));
+        _ => Err(parse(c.offset, E_BYTES)),
     }
-    Ok(Layout::Can(record_bytes, Box::new(layout)))
+}
+
+/// The conversion at `at` (0: none), of the channel at `channel`.
+fn read_conversion<R: BufRead>(
+    source: &mut Source<R>,
+    at: u64,
+    channel: u64,
+) -> Result<Option<Conversion>, ReadError> {
+    if at == 0 {
+        return Ok(None);
+    }
+    let cc = source.block(at, &[b"##CC"], E_CONVERSION)?;
+    // An algebraic conversion's formula: its first reference's text.
+    let formula_at = cc.link(&source.kept, 4);
+    let formula = match formula_at {
+        0 => None,
+        _ => text(source, formula_at, E_CONVERSION).ok(),
+    };
+    Conversion::parse(cc.data(&source.kept), || formula)
+        .map(Some)
+        .map_err(|expected| {
+            ReadError::Parse(ParseError {
+                note: Some(format!("the conversion at byte offset {at}")),
+                ..ParseError::at(Place::ByteOffset(channel), expected)
+            })
+        })
 }
 
 /// An unsigned (or, with `signed_ok`, signed) little-endian integer field
@@ -860,20 +1247,18 @@ fn time_layout<R: BufRead>(
     data_bytes: u32,
 ) -> Result<Time, ReadError> {
     let error = || parse(master.offset, E_MASTER);
-    let (a, b) = if master.conversion == 0 {
-        (0.0, 1.0)
-    } else {
-        let cc = source.block(master.conversion, &[b"##CC"], E_MASTER)?;
-        let data = cc.data(&source.kept);
-        match data.first() {
-            Some(0) => (0.0, 1.0),
-            Some(1) => (
-                f64_at(data, 24).ok_or_else(error)?,
-                f64_at(data, 32).ok_or_else(error)?,
-            ),
-            _ => return Err(error()),
-        }
+    let (a, b) = match read_conversion(source, master.conversion, master.offset)? {
+        None | Some(Conversion::Identity) => (0.0, 1.0),
+        Some(Conversion::Linear { offset, factor }) => (offset, factor),
+        Some(_) => return Err(error()),
     };
+    if master.channel_type == 3 {
+        // A virtual master: its conversion of the record's index.
+        return Ok(Time {
+            byte: 0,
+            kind: TimeKind::Index(Scale::new(a, b)),
+        });
+    }
     let inside = |bytes: u64| master.byte + bytes <= u64::from(data_bytes);
     let kind = match (master.data_type, master.bits) {
         (4, 64 | 32) if master.bit == 0 && inside(master.bits / 8) => {
@@ -928,6 +1313,16 @@ impl Cursor {
             if self.dt_next < self.dt_end {
                 let count = (self.dt_end - self.dt_next).min(CHUNK);
                 let at = self.dt_next;
+                if self.in_open_ended_block {
+                    let got = source
+                        .append_available(at, count, &mut self.buf)
+                        .map_err(|expected| self.fail(expected))?;
+                    self.dt_next += got;
+                    if got < count {
+                        self.dt_end = self.dt_next;
+                    }
+                    continue;
+                }
                 self.dt_next += count;
                 source
                     .append(at, count, &mut self.buf)
@@ -951,6 +1346,13 @@ impl Cursor {
                 Ahead::Block(DataBlock::Dt { len }) => {
                     self.dt_next = at + HEADER;
                     self.dt_end = at.saturating_add(len);
+                    if self.open_ended && self.next_block == self.blocks.len() {
+                        // Its length was never written: up to the next
+                        // block the metadata knows, or the file's end.
+                        let next = self.known_blocks.partition_point(|&known| known <= at);
+                        self.dt_end = self.known_blocks.get(next).copied().unwrap_or(u64::MAX);
+                        self.in_open_ended_block = true;
+                    }
                     continue;
                 }
                 Ahead::Block(DataBlock::Dz(mut job)) => {
@@ -1037,6 +1439,87 @@ impl Cursor {
         Ok(())
     }
 
+    /// The next record: its group's index in `layouts`, where its bytes
+    /// are in `buf` (after its record id), and the data block it starts in.
+    fn next_record<R: BufRead>(
+        &mut self,
+        source: &mut Source<R>,
+        inflation: &mut Inflation,
+    ) -> Result<Option<(usize, Range<usize>, u64)>, ReadError> {
+        let id_bytes = self.record_id_bytes;
+        if !self.fill(id_bytes.max(1), source, inflation)? {
+            if self.buf.len() > self.start {
+                return self.cut(id_bytes.max(1));
+            }
+            return Ok(None);
+        }
+        let head = &self.buf[self.start..self.start + id_bytes];
+        let mut word = [0u8; 8];
+        word[..id_bytes].copy_from_slice(head);
+        let record_id = u64::from_le_bytes(word);
+        let index = if id_bytes == 0 {
+            (!self.layouts.is_empty()).then_some(0)
+        } else {
+            self.layouts.iter().position(|(id, _)| *id == record_id)
+        };
+        let Some(index) = index else {
+            // Without its size the next record cannot be found.
+            self.done = true;
+            if self.in_open_ended_block {
+                // What the writer had not written yet (zeros, or an
+                // unfinished record): the end of the data, as asammdf
+                // reads it, named unless it is a block's zero padding.
+                let rest = &self.buf[self.start..];
+                let padding =
+                    rest.len() < 8 && rest.iter().all(|&b| b == 0) && self.dt_next >= self.dt_end;
+                if !padding {
+                    self.notes.push(format!(
+                        "unfinalized MF4: its last data block ends in bytes that are no record (record id {record_id}); the {} whole records before them are read",
+                        self.records_read
+                    ));
+                }
+                self.start = self.buf.len();
+                return Ok(None);
+            }
+            return Err(parse(self.block_offset, E_RECORD_ID));
+        };
+        let size = match &self.layouts[index].1 {
+            Layout::Skip(size) | Layout::Can(size, _) => *size,
+            Layout::Vlsd => {
+                if !self.fill(id_bytes + 4, source, inflation)? {
+                    return self.cut(id_bytes + 4);
+                }
+                let len = u32_at(&self.buf, self.start + id_bytes).unwrap_or(0);
+                4 + len as usize
+            }
+        };
+        let line = self.block_offset;
+        if !self.fill(id_bytes + size, source, inflation)? {
+            return self.cut(id_bytes + size);
+        }
+        let record_start = self.start + id_bytes;
+        self.start = record_start + size;
+        self.records_read += 1;
+        Ok(Some((index, record_start..record_start + size, line)))
+    }
+
+    /// The data ended inside a record of `need` bytes: an error in a
+    /// finalized file; in an unfinalized one, whose writer was cut off,
+    /// the end of its records, named in a note.
+    fn cut<T>(&mut self, need: usize) -> Result<Option<T>, ReadError> {
+        let have = self.buf.len() - self.start;
+        self.start = self.buf.len();
+        self.done = true;
+        if !self.open_ended {
+            return Err(parse(self.block_offset, E_RECORD));
+        }
+        self.notes.push(format!(
+            "unfinalized MF4 cut off inside a record: its last {have} bytes are not a whole record ({need} bytes); the {} whole records before it are read",
+            self.records_read
+        ));
+        Ok(None)
+    }
+
     /// The next CAN frame of this group and its "line".
     fn next_frame<R: BufRead>(
         &mut self,
@@ -1045,52 +1528,86 @@ impl Cursor {
         start_ns: i64,
     ) -> Result<Option<(Frame, u64)>, ReadError> {
         loop {
-            let id_bytes = self.record_id_bytes;
-            if !self.fill(id_bytes.max(1), source, inflation)? {
-                if self.buf.len() > self.start {
-                    self.start = self.buf.len();
-                    self.done = true;
-                    return Err(parse(self.block_offset, E_RECORD));
-                }
+            let Some((index, range, line)) = self.next_record(source, inflation)? else {
                 return Ok(None);
-            }
-            let head = &self.buf[self.start..self.start + id_bytes];
-            let mut word = [0u8; 8];
-            word[..id_bytes].copy_from_slice(head);
-            let record_id = u64::from_le_bytes(word);
-            let index = if id_bytes == 0 {
-                (!self.layouts.is_empty()).then_some(0)
-            } else {
-                self.layouts.iter().position(|(id, _)| *id == record_id)
             };
-            let Some(index) = index else {
-                // Without its size the next record cannot be found.
-                self.done = true;
-                return Err(parse(self.block_offset, E_RECORD_ID));
+            let Layout::Can(_, can) = &mut self.layouts[index].1 else {
+                continue;
             };
-            let size = match &self.layouts[index].1 {
-                Layout::Skip(size) | Layout::Can(size, _) => *size,
-                Layout::Vlsd => {
-                    if !self.fill(id_bytes + 4, source, inflation)? {
-                        self.done = true;
-                        return Err(parse(self.block_offset, E_RECORD));
-                    }
-                    let len = u32_at(&self.buf, self.start + id_bytes).unwrap_or(0);
-                    4 + len as usize
+            let record = &self.buf[range];
+            let group_index = can.records;
+            can.records += 1;
+            let signal = match can.data_bytes {
+                Some(Bytes::Vlsd { at, signal }) => {
+                    let offset = u64_at(record, at).unwrap_or(u64::MAX);
+                    let value = self.signals[signal]
+                        .value_at(offset, source, inflation)
+                        .map_err(|expected| parse(line, expected))?;
+                    Some(value)
                 }
+                _ => None,
             };
-            let line = self.block_offset;
-            if !self.fill(id_bytes + size, source, inflation)? {
-                self.done = true;
-                return Err(parse(line, E_RECORD));
+            return decode(record, can, group_index, signal, start_ns)
+                .map(|frame| Some((frame, line)))
+                .map_err(|expected| parse(line, expected));
+        }
+    }
+}
+
+/// The values of one VLSD channel: a stream of `u32 length, bytes`, each
+/// value at its offset from the stream's start. The stream is the
+/// channel's `##SD` blocks (plain, zipped or listed), or the records of a
+/// VLSD channel group in the same data group; a cursor of its own reads it,
+/// so a value may come before or after the record that points to it.
+struct SignalData {
+    cursor: Cursor,
+    /// The VLSD group's index in the cursor's layouts.
+    group: usize,
+    /// The offset of the next value.
+    next_offset: u64,
+    /// The last value read: its offset and bytes (in the cursor's `buf`).
+    last: Option<(u64, Range<usize>)>,
+    /// The offsets were never written (an unfinalized file's flag 0x40):
+    /// the values pair with the records in order.
+    in_order: bool,
+}
+
+impl SignalData {
+    /// The value at `offset`: offsets grow from record to record (a value
+    /// may be read twice).
+    fn value_at<R: BufRead>(
+        &mut self,
+        offset: u64,
+        source: &mut Source<R>,
+        inflation: &mut Inflation,
+    ) -> Result<&[u8], &'static str> {
+        if let Some((at, range)) = &self.last {
+            if *at == offset && !self.in_order {
+                return Ok(&self.cursor.buf[range.start + 4..range.end]);
             }
-            let record_start = self.start + id_bytes;
-            self.start = record_start + size;
-            if let Layout::Can(_, can) = &self.layouts[index].1 {
-                let record = &self.buf[record_start..record_start + size];
-                return decode(record, can, start_ns)
-                    .map(|frame| Some((frame, line)))
-                    .map_err(|expected| parse(line, expected));
+        }
+        if offset < self.next_offset && !self.in_order {
+            return Err(E_VLSD);
+        }
+        loop {
+            let Some((index, range, _)) = self
+                .cursor
+                .next_record(source, inflation)
+                .map_err(|_| E_VLSD)?
+            else {
+                return Err(E_VLSD);
+            };
+            if index != self.group {
+                continue;
+            }
+            let at = self.next_offset;
+            self.next_offset += range.len() as u64;
+            self.last = Some((at, range.clone()));
+            if at == offset || self.in_order {
+                return Ok(&self.cursor.buf[range.start + 4..range.end]);
+            }
+            if at > offset {
+                return Err(E_VLSD);
             }
         }
     }
@@ -1113,7 +1630,7 @@ fn read_block<R: BufRead>(
         return Err(E_DATA);
     }
     match &header[..4] {
-        b"##DT" => return Ok(DataBlock::Dt { len }),
+        b"##DT" | b"##SD" => return Ok(DataBlock::Dt { len }),
         b"##DZ" => {}
         _ => return Err(E_DATA),
     }
@@ -1132,7 +1649,7 @@ fn read_block<R: BufRead>(
     let original = u64_at(head, 8).unwrap_or(u64::MAX);
     let zipped = u64_at(head, 16).unwrap_or(u64::MAX);
     let stored = len - HEADER - DZ_HEAD;
-    if &head[..2] != b"DT"
+    if !matches!(&head[..2], b"DT" | b"SD")
         || zip_type > 1
         || (zip_type == 1 && columns == 0)
         || zipped > stored
@@ -1152,18 +1669,27 @@ fn read_block<R: BufRead>(
     Ok(DataBlock::Dz(job))
 }
 
-/// The frame one bus-logging record holds.
-fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'static str> {
-    let read = |field: Option<Field>| field.map(|f| f.read(record));
-    let timestamp_ns = time_ns(record, &layout.time, start_ns).ok_or(E_TIME)?;
-    let iface = channel_iface(read(layout.channel).unwrap_or(0))?;
-    let raw_id = read(layout.id).unwrap_or(0);
-    let extended = match read(layout.ide) {
+/// The frame one bus-logging record holds, the `index`th of its group;
+/// `signal` its VLSD DataBytes.
+fn decode(
+    record: &[u8],
+    layout: &CanLayout,
+    index: u64,
+    signal: Option<&[u8]>,
+    start_ns: i64,
+) -> Result<Frame, &'static str> {
+    let read = |member: &Option<Member>| -> Result<Option<u64>, &'static str> {
+        member.as_ref().map(|m| m.value(record, index)).transpose()
+    };
+    let timestamp_ns = time_ns(record, &layout.time, index, start_ns).ok_or(E_TIME)?;
+    let iface = channel_iface(read(&layout.channel)?.unwrap_or(0))?;
+    let raw_id = read(&layout.id)?.unwrap_or(0);
+    let extended = match read(&layout.ide)? {
         Some(ide) => ide != 0,
         None => raw_id & 0x8000_0000 != 0,
     };
     let bits = (raw_id & 0x1FFF_FFFF) as u32;
-    let dlc = read(layout.dlc).unwrap_or(0).min(15) as u8;
+    let dlc = read(&layout.dlc)?.unwrap_or(0).min(15) as u8;
     let mut frame = match layout.frame_type {
         FrameType::Error => {
             Frame::error(timestamp_ns, iface, ERROR_FRAME_CLASS, &[]).map_err(|_| E_LENGTH)?
@@ -1179,16 +1705,17 @@ fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'s
         }
         FrameType::Data => {
             let id = can_id(bits, extended)?;
-            let fd = read(layout.edl).unwrap_or(0) != 0;
+            let fd = read(&layout.edl)?.unwrap_or(0) != 0;
             let from_dlc = if fd {
                 FD_DLC_LENGTHS[usize::from(dlc)]
             } else {
                 usize::from(dlc).min(CLASSIC_MAX_LEN)
             };
-            let len = read(layout.data_length).map_or(from_dlc, |n| n.min(255) as usize);
-            let bytes = match layout.data_bytes {
-                Some((at, size)) => &record[at..at + size],
-                None => &[],
+            let len = read(&layout.data_length)?.map_or(from_dlc, |n| n.min(255) as usize);
+            let bytes = match (layout.data_bytes, signal) {
+                (Some(Bytes::Fixed { at, len }), _) => &record[at..at + len],
+                (Some(Bytes::Vlsd { .. }), Some(signal)) => signal,
+                _ => &[],
             };
             let max = if fd { FD_MAX_LEN } else { CLASSIC_MAX_LEN };
             if len > bytes.len() || len > max {
@@ -1196,8 +1723,8 @@ fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'s
             }
             if fd {
                 let flags = fd_flags(
-                    read(layout.brs).unwrap_or(0) != 0,
-                    read(layout.esi).unwrap_or(0) != 0,
+                    read(&layout.brs)?.unwrap_or(0) != 0,
+                    read(&layout.esi)?.unwrap_or(0) != 0,
                 );
                 Frame::fd(timestamp_ns, iface, id, flags, &bytes[..len]).map_err(|_| E_LENGTH)?
             } else {
@@ -1210,7 +1737,7 @@ fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'s
             }
         }
     };
-    frame.direction = read(layout.dir).map(|dir| {
+    frame.direction = read(&layout.dir)?.map(|dir| {
         if dir == 0 {
             Direction::Received
         } else {
@@ -1220,8 +1747,9 @@ fn decode(record: &[u8], layout: &CanLayout, start_ns: i64) -> Result<Frame, &'s
     Ok(frame)
 }
 
-fn time_ns(record: &[u8], time: &Time, start_ns: i64) -> Option<i64> {
+fn time_ns(record: &[u8], time: &Time, index: u64, start_ns: i64) -> Option<i64> {
     let offset_ns = match time.kind {
+        TimeKind::Index(scale) => scale.ns(index as f64)?,
         TimeKind::Float { bytes: 8, scale } => scale.ns(f64_at(record, time.byte)?)?,
         TimeKind::Float { scale, .. } => scale.ns(f64::from(f32::from_le_bytes(
             record.get(time.byte..time.byte + 4)?.try_into().ok()?,

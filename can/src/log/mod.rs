@@ -23,6 +23,7 @@ pub mod candump;
 mod inflate;
 pub mod mf4;
 pub mod mf4_blocks;
+mod mf4_conversion;
 pub mod mf4_signals;
 pub mod mf4_write;
 pub mod record;
@@ -140,6 +141,15 @@ impl<R: BufRead> LogReader<R> {
             LogFormat::Asc => LogReader::Asc(AscReader::new(input)),
             LogFormat::Blf => LogReader::Blf(BlfReader::new(input)),
             LogFormat::Mf4 => LogReader::Mf4(Mf4Reader::new(input)),
+        }
+    }
+
+    /// What the reader has to tell that is no error (a record cut off at
+    /// the end of an unfinalized MF4 file), taken once.
+    pub fn take_notes(&mut self) -> Vec<String> {
+        match self {
+            LogReader::Mf4(reader) => reader.take_notes(),
+            _ => Vec::new(),
         }
     }
 

@@ -1589,6 +1589,9 @@ impl SignalData {
         if offset < self.next_offset && !self.in_order {
             return Err(E_VLSD);
         }
+        // Reading on moves the cursor's bytes: the last value's range is
+        // stale from here, whatever the read gives.
+        self.last = None;
         loop {
             let Some((index, range, _)) = self
                 .cursor
@@ -1602,8 +1605,8 @@ impl SignalData {
             }
             let at = self.next_offset;
             self.next_offset += range.len() as u64;
-            self.last = Some((at, range.clone()));
             if at == offset || self.in_order {
+                self.last = Some((at, range.clone()));
                 return Ok(&self.cursor.buf[range.start + 4..range.end]);
             }
             if at > offset {

@@ -223,6 +223,7 @@ fn long_session(dir: &Path, hours: f64) -> u64 {
             }],
             sensor_file: None,
         }),
+        source: Vec::new(),
         sensor: Vec::new(),
     };
     session::write(dir, &file).unwrap();

@@ -860,6 +860,10 @@ const WRITES_DIRECTLY: &[(&str, &str)] = &[
         "the recorder's raw log, written and rotated as it streams, and the session's rig copies",
     ),
     (
+        "acquire/src/import.rs",
+        "an imported session's raw log, moved in once whole, and the logger files copied into it byte for byte",
+    ),
+    (
         "algorithms/src/evaluation.rs",
         "the evaluation log, appended run by run so that a crash loses none",
     ),

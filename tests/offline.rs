@@ -1,6 +1,7 @@
 //! `acq align` and `acq extract` on the recorded fixture sessions (real
-//! `acq record` sessions of simulated traffic on a vcan) and on logs made
-//! bad on purpose: the real binary, its files, exit codes and messages.
+//! `acq record` sessions of simulated traffic on a vcan), on sessions
+//! imported from logger files (`acq import`) and on logs made bad on
+//! purpose: the real binary, its files, exit codes and messages.
 
 mod common;
 
@@ -816,5 +817,210 @@ fn a_gauge_unlike_its_neighbours_in_a_declared_row_is_flagged() {
         stderr(&output).contains("a row needs three or more"),
         "{}",
         stderr(&output)
+    );
+}
+
+/// `acq import` as the check states it: a shipped session's log,
+/// cut in three, each third converted to MF4, imported in any order with
+/// the session's rig, gives a session whose `acq extract` equals the
+/// recorded session's value for value (windows count from the first frame,
+/// which a log can say; a recorder's start it cannot), whose raw log holds
+/// the same frames in the same order, and whose session.toml names each
+/// file with its hash.
+#[test]
+fn logger_files_imported_extract_as_the_recorded_session() {
+    let dir = tempfile::tempdir().unwrap();
+    let recorded = root().join("fixtures/sessions/excavator_case1");
+    let raw = std::fs::read_to_string(recorded.join("raw.log")).unwrap();
+    let lines: Vec<&str> = raw.lines().collect();
+    let third = lines.len() / 3;
+    let mut parts = Vec::new();
+    for (index, chunk) in [
+        &lines[..third],
+        &lines[third..2 * third],
+        &lines[2 * third..],
+    ]
+    .iter()
+    .enumerate()
+    {
+        let text = dir.path().join(format!("part{index}.log"));
+        std::fs::write(&text, chunk.join("\n") + "\n").unwrap();
+        let mf4 = dir.path().join(format!("0000000{index}.MF4"));
+        let converted = acq(&["convert", path_str(&text), "-o", path_str(&mf4)]);
+        assert!(converted.status.success(), "{}", stderr(&converted));
+        parts.push(mf4);
+    }
+    let session = dir.path().join("imported");
+    let rig = recorded.join("rig/excavator.toml");
+    let imported = acq(&[
+        "import",
+        path_str(&parts[2]),
+        path_str(&parts[0]),
+        path_str(&parts[1]),
+        "--rig",
+        path_str(&rig),
+        "--out",
+        path_str(&session),
+    ]);
+    assert!(imported.status.success(), "{}", stderr(&imported));
+    // The same frames on each bus (MF4 stores each as received). A
+    // recorder writes them in arrival order, whose times can step back by
+    // a fraction of a millisecond; the merge joins files in time order, so
+    // the order may differ where the files meet.
+    let imported_raw = std::fs::read_to_string(session.join("raw.log")).unwrap();
+    let imported_lines: Vec<&str> = imported_raw
+        .lines()
+        .map(|line| line.strip_suffix(" R").unwrap_or(line))
+        .collect();
+    for bus in ["can0", "can1"] {
+        let on = |lines: &[&str]| -> Vec<String> {
+            let mut on_bus: Vec<String> = lines
+                .iter()
+                .filter(|line| line.split(' ').nth(1) == Some(bus))
+                .map(|line| line.to_string())
+                .collect();
+            on_bus.sort();
+            on_bus
+        };
+        let (got, want) = (on(&imported_lines), on(&lines));
+        assert!(!want.is_empty());
+        assert_eq!(got, want, "{bus}");
+    }
+    assert_eq!(imported_lines.len(), lines.len());
+    let extract = |session: &Path, out: &Path| {
+        let output = acq(&["extract", path_str(session), "-o", path_str(out)]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        measured(out)
+    };
+    let (want, got) = (
+        extract(&recorded, &dir.path().join("recorded.csv")),
+        extract(&session, &dir.path().join("imported.csv")),
+    );
+    assert!(want.len() > 20, "{want:?}");
+    let values_only = |rows: BTreeMap<(String, String), BTreeMap<String, String>>| {
+        rows.into_iter()
+            .map(|(key, mut row)| {
+                row.remove("start_s");
+                row.remove("end_s");
+                (key, row)
+            })
+            .collect::<BTreeMap<_, _>>()
+    };
+    assert_eq!(values_only(got), values_only(want));
+    let toml: toml::Value =
+        toml::from_str(&std::fs::read_to_string(session.join("session.toml")).unwrap()).unwrap();
+    let sources = toml["source"].as_array().unwrap();
+    assert_eq!(sources.len(), 3);
+    for (source, part) in sources.iter().zip(&parts) {
+        assert_eq!(
+            source["path"].as_str(),
+            Some(path_str(part)),
+            "in time order"
+        );
+        let (sha, bytes) = acq_io::session::sha256_file(part).unwrap();
+        assert_eq!(source["sha256"].as_str(), Some(sha.as_str()));
+        assert_eq!(source["bytes"].as_integer(), Some(bytes as i64));
+        assert_eq!(source["format"].as_str(), Some("mf4"));
+    }
+    let notes = toml["session"].get("notes");
+    assert!(notes.is_none(), "no gap, no overlap: {notes:?}");
+    assert_eq!(
+        toml["session"]["frames"].as_integer(),
+        Some(lines.len() as i64)
+    );
+}
+
+/// What a careless import meets: a gap between split files and an overlap
+/// of two files are named, a file given twice is refused, a session is
+/// never written over, `--bus` renames an interface, and `--copy-sources`
+/// keeps each file byte for byte.
+#[test]
+fn an_import_names_gaps_and_overlaps_and_refuses_a_file_given_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let raw =
+        std::fs::read_to_string(root().join("fixtures/sessions/excavator_case1/raw.log")).unwrap();
+    let lines: Vec<&str> = raw.lines().collect();
+    let n = lines.len();
+    let write = |name: &str, chunk: &[&str]| {
+        let path = dir.path().join(name);
+        std::fs::write(&path, chunk.join("\n") + "\n").unwrap();
+        path
+    };
+    let first = write("first.log", &lines[..n / 3]);
+    let last = write("last.log", &lines[2 * n / 3..]);
+    let again = write("again.log", &lines[n / 3 - 100..n / 3 + 50]);
+    let out = dir.path().join("gap");
+    let gap = acq(&[
+        "import",
+        path_str(&first),
+        path_str(&last),
+        path_str(&again),
+        "--out",
+        path_str(&out),
+        "--bus",
+        "can1=can7",
+        "--copy-sources",
+    ]);
+    assert!(gap.status.success(), "{}", stderr(&gap));
+    let told = stderr(&gap);
+    assert!(
+        told.contains("a gap of") && told.contains("last.log"),
+        "{told}"
+    );
+    assert!(
+        told.contains("overlap by") && told.contains("again.log"),
+        "{told}"
+    );
+    let toml = std::fs::read_to_string(out.join("session.toml")).unwrap();
+    assert!(toml.contains("\"can1 -> can7\""), "{toml}");
+    assert!(
+        toml.contains("name = \"can7\"") && !toml.contains("name = \"can1\""),
+        "{toml}"
+    );
+    for name in ["first.log", "last.log", "again.log"] {
+        assert_eq!(
+            std::fs::read(out.join("sources").join(name)).unwrap(),
+            std::fs::read(dir.path().join(name)).unwrap(),
+            "{name} kept byte for byte"
+        );
+    }
+    // Over an existing session: refused, the session untouched.
+    let before = std::fs::read(out.join("raw.log")).unwrap();
+    let over = acq(&["import", path_str(&first), "--out", path_str(&out)]);
+    assert_eq!(over.status.code(), Some(2), "{}", stderr(&over));
+    assert!(
+        stderr(&over).contains("already holds a recording"),
+        "{}",
+        stderr(&over)
+    );
+    assert_eq!(std::fs::read(out.join("raw.log")).unwrap(), before);
+    let copy = dir.path().join("copy.log");
+    std::fs::copy(&first, &copy).unwrap();
+    let twice = acq(&[
+        "import",
+        path_str(&first),
+        path_str(&copy),
+        "--out",
+        path_str(&dir.path().join("twice")),
+    ]);
+    assert_eq!(twice.status.code(), Some(2), "{}", stderr(&twice));
+    assert!(
+        stderr(&twice).contains("the same bytes as"),
+        "{}",
+        stderr(&twice)
+    );
+    assert!(!dir.path().join("twice").exists());
+    let empty = write("empty.log", &[]);
+    let nothing = acq(&[
+        "import",
+        path_str(&empty),
+        "--out",
+        path_str(&dir.path().join("nothing")),
+    ]);
+    assert_eq!(nothing.status.code(), Some(3), "{}", stderr(&nothing));
+    assert!(
+        stderr(&nothing).contains("no CAN frame read"),
+        "{}",
+        stderr(&nothing)
     );
 }

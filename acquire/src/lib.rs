@@ -4,6 +4,8 @@
 //!   an in-process bus and a log file behind it.
 //! - [`record`]: `acq record`, lossless recording into a session directory
 //!   with live status.
+//! - [`import`]: `acq import`, a session made from logger files, as if
+//!   recorded.
 //! - [`replay`]: the player: a log's frames onto interfaces on an absolute
 //!   schedule (`acq replay`, `acq simulate`).
 //! - [`simulate`]: the virtual rig: a scenario's sensors as timed frames.
@@ -13,6 +15,7 @@
 //! alignment, measured values, twins, calibration or reports.
 
 pub mod bus;
+pub mod import;
 pub mod record;
 pub mod replay;
 pub mod simulate;

@@ -78,7 +78,11 @@ pub fn input_at(path: &Path) -> Option<PathBuf> {
 pub struct LogInput {
     /// The name used in messages: the path, or `<stdin>`.
     pub name: String,
+    /// What its first bytes said it is.
+    pub format: LogFormat,
     reader: LogReader<Box<dyn BufRead>>,
+    /// What its reader told at the end, besides errors (printed too).
+    notes: Vec<String>,
 }
 
 /// Opens every log up front, so a missing file fails before any output.
@@ -94,11 +98,16 @@ pub fn open_logs(paths: &[PathBuf]) -> Result<Vec<LogInput>> {
 /// A log read from any buffered reader (tests, benchmarks, pipes).
 pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result<LogInput> {
     let name = name.into();
-    let (reader, _format) = LogReader::detect(raw).map_err(|e| match e {
+    let (reader, format) = LogReader::detect(raw).map_err(|e| match e {
         ReadError::Parse(error) => AcqError::Malformed(error.in_file(&name)),
         ReadError::Io(error) => AcqError::io(format!("reading {name}"), error),
     })?;
-    Ok(LogInput { name, reader })
+    Ok(LogInput {
+        name,
+        format,
+        reader,
+        notes: Vec::new(),
+    })
 }
 
 /// A log whose format is detected from its first bytes.
@@ -131,7 +140,9 @@ fn open_log_as(path: &Path, format: Option<LogFormat>) -> Result<LogInput> {
     match format {
         Some(format) => Ok(LogInput {
             name,
+            format,
             reader: LogReader::with_format(raw, format),
+            notes: Vec::new(),
         }),
         None => log_from_reader(name, raw),
     }
@@ -153,11 +164,19 @@ impl LogInput {
 }
 
 impl LogInput {
-    /// Prints what the reader tells that is no error (`acq: FILE: ...`).
+    /// Prints what the reader tells that is no error (`acq: FILE: ...`),
+    /// and keeps it.
     fn print_notes(&mut self) {
         for note in self.reader.take_notes() {
             eprintln!("acq: {}: {note}", self.name);
+            self.notes.push(note);
         }
+    }
+
+    /// What the reader told besides errors (a record cut at the end of an
+    /// unfinalized MF4 file), once the log has ended.
+    pub fn notes(&self) -> &[String] {
+        &self.notes
     }
 }
 

@@ -34,6 +34,37 @@ pub struct SessionFile {
     pub rig: Option<RigCopy>,
     #[serde(default)]
     pub sensor: Vec<SensorRecord>,
+    /// The logger files an imported session was made from (`acq import`),
+    /// in time order; none for a recorded one.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub source: Vec<SourceLog>,
+}
+
+/// One logger file a session was imported from: where it was, its bytes'
+/// hash, what it held.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct SourceLog {
+    /// The path as given.
+    pub path: String,
+    /// `candump`, `asc`, `blf` or `mf4`.
+    pub format: String,
+    pub bytes: u64,
+    pub sha256: String,
+    /// Its copy in the session (`sources/NAME`), when kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub copy: Option<String>,
+    pub frames: u64,
+    /// The interfaces its frames were logged on, and those they were
+    /// imported as (`can1 -> can0`).
+    pub interfaces: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_frame_unix_ns: Option<i64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last_frame_unix_ns: Option<i64>,
+    /// Malformed records skipped (`--skip-bad`) and what the reader told
+    /// (a cut record at the end of an unfinalized file).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 #[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
@@ -198,6 +229,28 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .iter()
         .map(|b| format!("{b:02x}"))
         .collect()
+}
+
+/// The SHA-256 of a file's bytes (hex) and its length, read in pieces.
+pub fn sha256_file(path: &Path) -> io::Result<(String, u64)> {
+    let mut file = File::open(path)?;
+    let mut hasher = Sha256::new();
+    let mut buffer = vec![0u8; 1 << 20];
+    let mut bytes = 0u64;
+    loop {
+        let read = file.read(&mut buffer)?;
+        if read == 0 {
+            break;
+        }
+        hasher.update(&buffer[..read]);
+        bytes += read as u64;
+    }
+    let hex = hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    Ok((hex, bytes))
 }
 
 /// Writes `session.toml` atomically and durably.

@@ -139,7 +139,7 @@ fn parse_duration(text: &str) -> std::result::Result<Duration, String> {
 }
 
 /// `1GiB`, `500MB`, `4096`.
-fn parse_size(text: &str) -> std::result::Result<u64, String> {
+pub(super) fn parse_size(text: &str) -> std::result::Result<u64, String> {
     text.trim()
         .parse::<bytesize::ByteSize>()
         .map(|size| size.as_u64())

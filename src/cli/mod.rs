@@ -9,6 +9,7 @@ mod convert;
 mod decode;
 mod demo;
 mod engine;
+mod import;
 mod interrupt;
 mod live;
 mod offline;
@@ -98,6 +99,8 @@ pub enum Command {
     Budget(budget::BudgetArgs),
     /// Record CAN interfaces into a session directory, with live status.
     Record(live::RecordArgs),
+    /// Make a session of logger files (MF4, BLF, ASC, candump), as if recorded: frames merged by time, the rig copied, the files named with their hashes.
+    Import(import::ImportArgs),
     /// Serve the live page over recorded sessions: every signal, holds marked.
     View(view::ViewCommandArgs),
     /// Play a log back onto CAN interfaces with its original timing.
@@ -149,6 +152,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::CheckRig(args) => decode::run_check_rig(args),
         Command::Budget(args) => budget::run_budget(args),
         Command::Record(args) => live::run_record(args),
+        Command::Import(args) => import::run_import(args),
         Command::Replay(args) => live::run_replay(args),
         Command::View(args) => view::run_view(args),
         Command::Simulate(args) => live::run_simulate(args),

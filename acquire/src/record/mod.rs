@@ -264,6 +264,7 @@ impl<'a> Recorder<'a> {
                 .map(|rig| copy_rig(rig, dir))
                 .transpose()?,
             sensor: Vec::new(),
+            source: Vec::new(),
         };
         // Room kept for the final session.toml: freed at the end, so a full
         // disk still gets a complete description of what was recorded.
@@ -702,7 +703,7 @@ fn open_error(error: OpenError) -> AcqError {
     }
 }
 
-fn prepare_dir(dir: &Path) -> Result<()> {
+pub(crate) fn prepare_dir(dir: &Path) -> Result<()> {
     fs::create_dir_all(dir).map_err(|e| AcqError::io(format!("creating {}", dir.display()), e))?;
     if dir.join(rawlog::SINGLE_NAME).exists() || dir.join("raw.000.log").exists() {
         return Err(AcqError::Config(format!(
@@ -716,7 +717,7 @@ fn prepare_dir(dir: &Path) -> Result<()> {
 /// Copies the rig, its DBC files and its sensor file into `DIR/rig/`,
 /// rewriting their paths in the copy so that `--rig DIR/rig/NAME.toml`
 /// works on its own.
-fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
+pub(crate) fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
     let rig_dir = dir.join("rig");
     fs::create_dir_all(&rig_dir)
         .map_err(|e| AcqError::io(format!("creating {}", rig_dir.display()), e))?;

@@ -2,6 +2,8 @@
 them, to hold acq's MF4 reader against asammdf frame for frame.
 
     loggers.py OUT_DIR
+    loggers.py OUT_DIR --frames N    (two of them with N frames each, for
+                                      benches/mf4-vs-asammdf.sh; no .jsonl)
 
 writes the files below into OUT_DIR and, beside each, FILE.expected.jsonl:
 the frames a reader must get, one JSON object a line in time order, in the
@@ -394,9 +396,21 @@ def vlsd_cg_file(path, frames, *, vlsd_after=False, unfinalized=0, cut=0, dl_slo
 
 # ----------------------------------------------------------------- files
 
+def bench(out, frames):
+    """Two large files for benches/mf4-vs-asammdf.sh: a CANedge-shaped one
+    (VLSD channel group, unsorted) and an asammdf-written one."""
+    name = "vlsd_cg.mf4"
+    vlsd_cg_file(out / name, frame_set(name, frames))
+    name = "virtual_tab_ns.mf4"
+    asammdf_file(out / name, frame_set(name, frames, standard=False, buses=(2,)), 0)
+
+
 def main():
     out = Path(sys.argv[1])
     out.mkdir(parents=True, exist_ok=True)
+    if len(sys.argv) == 4 and sys.argv[2] == "--frames":
+        bench(out, int(sys.argv[3]))
+        return
     unfinalized_cut = (v4c.FLAG_UNFIN_UPDATE_CG_COUNTER | v4c.FLAG_UNFIN_UPDATE_LAST_DT_LENGTH
                        | v4c.FLAG_UNFIN_UPDATE_VLSD_BYTES)                                   # 0x25
     unfinalized_dl = (v4c.FLAG_UNFIN_UPDATE_CG_COUNTER | v4c.FLAG_UNFIN_UPDATE_LAST_DL

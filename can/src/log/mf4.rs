@@ -164,6 +164,10 @@ pub struct Mf4Reader<R> {
     heads: Vec<Option<(Frame, u64)>>,
     time_text: TimeText,
     inflation: Inflation,
+    /// The interfaces the frames were on, in the order first seen.
+    interfaces: Vec<IfaceName>,
+    /// What the metadata says that the reader must tell.
+    file_notes: Vec<String>,
 }
 
 /// How `##DZ` blocks are inflated: each group reads the block after the one
@@ -682,6 +686,8 @@ impl<R: BufRead> Mf4Reader<R> {
             cursors: Vec::new(),
             heads: Vec::new(),
             time_text: TimeText::default(),
+            interfaces: Vec::new(),
+            file_notes: Vec::new(),
             inflation: Inflation {
                 inflater: None,
                 tried_to_start: false,
@@ -752,20 +758,31 @@ impl<R: BufRead> Mf4Reader<R> {
     /// What the reader has to tell that is no error, taken once: a cut
     /// record at the end of an unfinalized file.
     pub fn take_notes(&mut self) -> Vec<String> {
-        let cursors = self.cursors.iter_mut();
-        cursors
-            .flat_map(|cursor| {
-                let mut notes = std::mem::take(&mut cursor.notes);
-                for signal in &mut cursor.signals {
-                    notes.append(&mut signal.cursor.notes);
-                }
-                notes
-            })
-            .collect()
+        let mut notes: Vec<String> = std::mem::take(&mut self.file_notes);
+        if self.finished && !self.interfaces.is_empty() {
+            // How the file's bus numbers became interface names, said once:
+            // loggers count buses from 1, a rig's interfaces often from 0.
+            let names: Vec<&str> = self.interfaces.iter().map(|i| i.as_str()).collect();
+            notes.push(format!(
+                "MF4 BusChannel N read as interface canN (no BusChannel: can0): frames on {}",
+                names.join(", ")
+            ));
+            self.interfaces.clear();
+        }
+        for cursor in &mut self.cursors {
+            notes.append(&mut cursor.notes);
+            for signal in &mut cursor.signals {
+                notes.append(&mut signal.cursor.notes);
+            }
+        }
+        notes
     }
 
     /// The record of `frame`, its time written out as seconds.
     fn record(&mut self, frame: Frame, line: u64) -> LogRecord<'_> {
+        if self.interfaces.last() != Some(&frame.iface) && !self.interfaces.contains(&frame.iface) {
+            self.interfaces.push(frame.iface);
+        }
         LogRecord {
             line,
             timestamp_text: self.time_text.set(frame.timestamp_ns),
@@ -802,6 +819,14 @@ impl<R: BufRead> Mf4Reader<R> {
         self.start_ns = u64_at(hd.data(&source.kept), 0)
             .and_then(|ns| i64::try_from(ns).ok())
             .unwrap_or(0);
+        // Time flags: bit 0, the start is local time (its zone unknown);
+        // bit 1, the zone and daylight offsets are valid (the start is UTC).
+        let time_flags = hd.data(&source.kept).get(12).copied().unwrap_or(0);
+        if time_flags & 1 != 0 && time_flags & 2 == 0 {
+            self.file_notes.push(
+                "the MF4 header's start time is local time of an unknown zone: taken as UTC".into(),
+            );
+        }
         let mut visited = rustc_hash::FxHashSet::default();
         let mut dg_at = hd.link(&source.kept, 0);
         let mut cursors = Vec::new();

@@ -23,7 +23,6 @@ pub mod candump;
 mod inflate;
 pub mod mf4;
 pub mod mf4_blocks;
-mod mf4_conversion;
 pub mod mf4_signals;
 pub mod mf4_write;
 pub mod record;

@@ -57,7 +57,13 @@ pub struct ImportOptions {
     pub skip_bad: bool,
     pub max_file_bytes: u64,
     pub command_line: String,
+    /// Told as each file is opened in the merge (its number from 1, how
+    /// many, its path): progress for a day of files.
+    pub on_file: FileProgress,
 }
+
+/// Told as each file is opened: its number from 1, how many, its path.
+pub type FileProgress = Box<dyn FnMut(usize, usize, &Path)>;
 
 /// What an import made.
 pub struct ImportSummary {
@@ -82,8 +88,9 @@ struct Open {
 }
 
 /// Makes a session of logger files (see the module doc).
-pub fn import(options: ImportOptions) -> Result<ImportSummary> {
-    let dir = options.session_dir.as_path();
+pub fn import(mut options: ImportOptions) -> Result<ImportSummary> {
+    let session_dir = options.session_dir.clone();
+    let dir = session_dir.as_path();
     let mut scanned = scan(&options.logs, options.skip_bad)?;
     scanned.sort_by_key(|s| s.first_ns);
     prepare_dir(dir)?;
@@ -98,7 +105,7 @@ pub fn import(options: ImportOptions) -> Result<ImportSummary> {
         })
         .collect();
     let temporary = dir.join(".import");
-    let written = write_raw_log(&temporary, &scanned, &options, &mut sources);
+    let written = write_raw_log(&temporary, &scanned, &mut options, &mut sources);
     let Written {
         interfaces,
         raw_files,
@@ -196,7 +203,7 @@ pub fn import(options: ImportOptions) -> Result<ImportSummary> {
 fn write_raw_log(
     temporary: &Path,
     scanned: &[Scanned],
-    options: &ImportOptions,
+    options: &mut ImportOptions,
     sources: &mut [SourceLog],
 ) -> Result<Written> {
     // A fresh folder (what an interrupted import left is cleared): nothing
@@ -217,32 +224,39 @@ fn write_raw_log(
     let mut interfaces: Vec<(IfaceName, InterfaceRecord)> = Vec::new();
     // Per file, each (logged, session) interface pair its frames had.
     let mut logged: Vec<Vec<(IfaceName, IfaceName)>> = vec![Vec::new(); scanned.len()];
-    merge(scanned, options.skip_bad, sources, |source, mut frame| {
-        let logged_on = frame.iface;
-        frame.iface = options
-            .bus_map
-            .iter()
-            .find(|(from, _)| *from == logged_on)
-            .map_or(logged_on, |(_, to)| *to);
-        if !logged[source].contains(&(logged_on, frame.iface)) {
-            logged[source].push((logged_on, frame.iface));
-        }
-        let record = match interfaces.iter().position(|(name, _)| *name == frame.iface) {
-            Some(index) => &mut interfaces[index].1,
-            None => {
-                let record = InterfaceRecord::new(frame.iface.as_str(), "log");
-                interfaces.push((frame.iface, record));
-                &mut interfaces.last_mut().expect("just pushed").1
+    let on_file = &mut *options.on_file;
+    merge(
+        scanned,
+        options.skip_bad,
+        sources,
+        on_file,
+        |source, mut frame| {
+            let logged_on = frame.iface;
+            frame.iface = options
+                .bus_map
+                .iter()
+                .find(|(from, _)| *from == logged_on)
+                .map_or(logged_on, |(_, to)| *to);
+            if !logged[source].contains(&(logged_on, frame.iface)) {
+                logged[source].push((logged_on, frame.iface));
             }
-        };
-        record.count(&frame);
-        raw.push(&frame);
-        if raw.pending_bytes() >= 1 << 20 {
-            raw.flush()
-                .map_err(|e| AcqError::io("writing the raw log", e))?;
-        }
-        Ok(())
-    })?;
+            let record = match interfaces.iter().position(|(name, _)| *name == frame.iface) {
+                Some(index) => &mut interfaces[index].1,
+                None => {
+                    let record = InterfaceRecord::new(frame.iface.as_str(), "log");
+                    interfaces.push((frame.iface, record));
+                    &mut interfaces.last_mut().expect("just pushed").1
+                }
+            };
+            record.count(&frame);
+            raw.push(&frame);
+            if raw.pending_bytes() >= 1 << 20 {
+                raw.flush()
+                    .map_err(|e| AcqError::io("writing the raw log", e))?;
+            }
+            Ok(())
+        },
+    )?;
     interfaces.sort_by(|a, b| a.0.as_str().cmp(b.0.as_str()));
     raw.flush()
         .and_then(|()| raw.sync())
@@ -323,6 +337,7 @@ fn merge(
     scanned: &[Scanned],
     skip_bad: bool,
     sources: &mut [SourceLog],
+    on_file: &mut dyn FnMut(usize, usize, &Path),
     mut on_frame: impl FnMut(usize, Frame) -> Result<()>,
 ) -> Result<()> {
     let mut open: Vec<Option<Open>> = (0..scanned.len()).map(|_| None).collect();
@@ -337,6 +352,7 @@ fn merge(
         {
             let source = next_to_open;
             next_to_open += 1;
+            on_file(next_to_open, scanned.len(), &scanned[source].path);
             let mut file = Open {
                 input: open_log(&scanned[source].path)?,
                 source,

@@ -76,6 +76,9 @@ pub fn run_import(args: ImportArgs) -> Result<()> {
         skip_bad: args.skip_bad,
         max_file_bytes: args.max_file_size,
         command_line: std::env::args().collect::<Vec<_>>().join(" "),
+        on_file: Box::new(|number, of, path| {
+            eprintln!("acq import: [{number}/{of}] {}", path.display());
+        }),
     })?;
     let info = &summary.session.session;
     for note in &info.notes {

@@ -182,7 +182,7 @@ pub fn import(mut options: ImportOptions) -> Result<ImportSummary> {
     session::write_toml_file(
         dir,
         session::SESSION_FILE,
-        "# Written by acq import from logger files; see docs/src/commands.md \"acq import\".\n",
+        "# Written by acq import from logger files; see docs/src/live.md, \"A session from logger files\".\n",
         &session,
     )
     .map_err(|e| {

@@ -41,7 +41,7 @@ pub(super) const E_CN: &str = "a '##CN' channel";
 pub(super) const E_LOOP: &str = "a tree of groups and channels without loops";
 pub(super) const E_SORTED: &str = "one channel group in a data group without record ids";
 pub(super) const E_MASTER: &str =
-    "a time master channel: a little-endian float or integer, with no or a linear '##CC' conversion";
+    "a time master channel: a little-endian float or integer, or a virtual master, with no or a linear '##CC' conversion";
 pub(super) const E_FIELD: &str =
     "bus-logging fields as little-endian unsigned integers of 1 to 64 bits inside the record";
 pub(super) const E_BYTES: &str = "a DataBytes channel: a byte array inside the record, or a VLSD channel of a u64 offset into its signal data";
@@ -50,7 +50,7 @@ pub(super) const E_FIELD_VALUE: &str =
 pub(super) const E_VLSD: &str =
     "a VLSD offset at the start of a value in the channel's signal data, offsets growing";
 pub(super) const E_NO_ID: &str = "an ID field in a CAN data or remote frame group";
-pub(super) const E_DATA: &str = "a '##DT', '##DZ', '##DL' or '##HL' data block";
+pub(super) const E_DATA: &str = "a '##DT', '##SD', '##DZ', '##DL' or '##HL' data block";
 pub(super) const E_DZ: &str = "a '##DZ' block of deflate (0) or transposed deflate (1) data whose inflated length is at most 256 MiB and what it states";
 pub(super) const E_ORDER: &str =
     "data blocks in file order after the metadata (a stream cannot go back)";

@@ -897,15 +897,6 @@ fn logger_files_imported_extract_as_the_recorded_session() {
         extract(&session, &dir.path().join("imported.csv")),
     );
     assert!(want.len() > 20, "{want:?}");
-    let values_only = |rows: BTreeMap<(String, String), BTreeMap<String, String>>| {
-        rows.into_iter()
-            .map(|(key, mut row)| {
-                row.remove("start_s");
-                row.remove("end_s");
-                (key, row)
-            })
-            .collect::<BTreeMap<_, _>>()
-    };
     assert_eq!(values_only(got), values_only(want));
     let toml: toml::Value =
         toml::from_str(&std::fs::read_to_string(session.join("session.toml")).unwrap()).unwrap();
@@ -1022,5 +1013,264 @@ fn an_import_names_gaps_and_overlaps_and_refuses_a_file_given_twice() {
         stderr(&nothing).contains("no CAN frame read"),
         "{}",
         stderr(&nothing)
+    );
+}
+
+/// The recorded session's values with what only a recorder can know taken
+/// out: its windows' times count from when the recorder was started.
+fn values_only(
+    rows: BTreeMap<(String, String), BTreeMap<String, String>>,
+) -> BTreeMap<(String, String), BTreeMap<String, String>> {
+    rows.into_iter()
+        .map(|(key, mut row)| {
+            row.remove("start_s");
+            row.remove("end_s");
+            (key, row)
+        })
+        .collect()
+}
+
+/// Two loggers, one on each of the rig's buses, that both call their bus
+/// `can1` (as loggers with one port do): `--bus FOLDER:can1=can0` keeps
+/// them apart, and the session extracts as the recorded one, value for
+/// value; a folder that holds none of the files given is refused.
+#[test]
+fn two_loggers_that_both_log_can1_are_kept_apart_by_their_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let recorded = root().join("fixtures/sessions/excavator_case1");
+    let raw = std::fs::read_to_string(recorded.join("raw.log")).unwrap();
+    // Logger A rode on the hydraulics bus (the rig's can0), logger B on the
+    // DAQ bus (can1); each wrote what it saw as its own can1.
+    let (a, b) = (dir.path().join("logger_a"), dir.path().join("logger_b"));
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::create_dir_all(&b).unwrap();
+    let on = |bus: &str| -> String {
+        raw.lines()
+            .filter(|line| line.split(' ').nth(1) == Some(bus))
+            .map(|line| line.replacen(&format!(" {bus} "), " can1 ", 1) + "\n")
+            .collect()
+    };
+    std::fs::write(a.join("hydraulics.log"), on("can0")).unwrap();
+    let converted = acq(&[
+        "convert",
+        path_str(&a.join("hydraulics.log")),
+        "-o",
+        path_str(&a.join("00000001.MF4")),
+    ]);
+    assert!(converted.status.success(), "{}", stderr(&converted));
+    std::fs::remove_file(a.join("hydraulics.log")).unwrap();
+    std::fs::write(b.join("00000001.log"), on("can1")).unwrap();
+    let rig = recorded.join("rig/excavator.toml");
+    let (file_a, file_b) = (a.join("00000001.MF4"), b.join("00000001.log"));
+    let import = |out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "import",
+            path_str(&file_a),
+            path_str(&file_b),
+            "--rig",
+            path_str(&rig),
+            "--out",
+            path_str(out),
+        ];
+        args.extend_from_slice(extra);
+        acq(&args)
+    };
+    let session = dir.path().join("two");
+    let imported = import(&session, &["--bus", &format!("{}:can1=can0", a.display())]);
+    assert!(imported.status.success(), "{}", stderr(&imported));
+    let toml = std::fs::read_to_string(session.join("session.toml")).unwrap();
+    assert!(toml.contains("\"can1 -> can0\""), "{toml}");
+    let extract = |session: &Path, out: &Path| {
+        let output = acq(&["extract", path_str(session), "-o", path_str(out)]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        measured(out)
+    };
+    let want = extract(&recorded, &dir.path().join("recorded.csv"));
+    assert!(want.len() > 20, "{want:?}");
+    assert_eq!(
+        values_only(extract(&session, &dir.path().join("two.csv"))),
+        values_only(want)
+    );
+    // Without the mapping both buses' frames are on can1, where the rig
+    // has two buses: refused, saying how to map them, nothing left behind.
+    let mixed = dir.path().join("mixed");
+    let refused = import(&mixed, &[]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    let told = stderr(&refused);
+    assert!(
+        told.contains("frames were on can1") && told.contains("--bus FOLDER:LOGGED=RIG"),
+        "{told}"
+    );
+    assert!(!mixed.join("session.toml").exists() && !mixed.join(".import").exists());
+    // A folder that holds none of the files: refused before anything is written.
+    let nowhere = dir.path().join("nowhere");
+    let refused = import(&nowhere, &["--bus", "logger_c:can1=can0"]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    assert!(
+        stderr(&refused).contains("'logger_c' is none of the files given"),
+        "{}",
+        stderr(&refused)
+    );
+    assert!(!nowhere.exists());
+}
+
+/// A rig sensor of a quantity the twins do not read (an engine's speed
+/// from a J1939 DBC, its coolant's temperature placed by PGN) comes
+/// through a logger's file in its own unit: the hold's mean is the mean of
+/// the values sent in the hold, computed here from the frames themselves.
+#[test]
+fn a_sensor_of_any_quantity_comes_from_logger_files_in_its_own_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let recorded = root().join("fixtures/sessions/excavator_case1");
+    let raw = std::fs::read_to_string(recorded.join("raw.log")).unwrap();
+    let time_of = |line: &str| -> f64 { line[1..line.find(')').unwrap()].parse().unwrap() };
+    let lines: Vec<&str> = raw.lines().collect();
+    let (first_s, last_s) = (time_of(lines[0]), time_of(lines[lines.len() - 1]));
+    // The engine controller (source address 0x00) sends EEC1 every 10 ms at
+    // priority 6, where the DBC declares 0xFE at 3; the governor holds
+    // 1,500 rpm within 6 rpm (0.125 rpm a bit). ET1 once a second: 85 degC.
+    let mut logged: Vec<(f64, String)> =
+        lines.iter().map(|l| (time_of(l), l.to_string())).collect();
+    let mut speeds: Vec<(f64, f64)> = Vec::new();
+    let mut k = 0;
+    loop {
+        let t = first_s + 0.0013 + 0.01 * k as f64;
+        if t > last_s {
+            break;
+        }
+        let since = t - first_s;
+        let bits = ((1500.0 + 6.0 * (2.0 * std::f64::consts::PI * 0.7 * since).sin()) / 0.125)
+            .round() as u16;
+        speeds.push((since, f64::from(bits) * 0.125));
+        let [low, high] = bits.to_le_bytes();
+        logged.push((
+            t,
+            format!("({t:.6}) can0 18F00400#F07D7D{low:02X}{high:02X}00F07D"),
+        ));
+        if k % 100 == 0 {
+            logged.push((
+                t + 0.0002,
+                format!("({:.6}) can0 18FEEE00#7DFFFFFFFFFFFFFF", t + 0.0002),
+            ));
+        }
+        k += 1;
+    }
+    logged.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let log = dir.path().join("00000001.log");
+    std::fs::write(
+        &log,
+        logged
+            .iter()
+            .map(|(_, l)| format!("{l}\n"))
+            .collect::<String>(),
+    )
+    .unwrap();
+    let mf4 = dir.path().join("00000001.MF4");
+    let converted = acq(&["convert", path_str(&log), "-o", path_str(&mf4)]);
+    assert!(converted.status.success(), "{}", stderr(&converted));
+    // The rig as recorded, the engine's DBC on the hydraulics bus, and the
+    // two sensors of kind "other".
+    let rig_dir = dir.path().join("rig");
+    std::fs::create_dir_all(&rig_dir).unwrap();
+    for name in ["excavator.toml", "somat_excavator.dbc"] {
+        std::fs::copy(recorded.join("rig").join(name), rig_dir.join(name)).unwrap();
+    }
+    std::fs::copy(
+        root().join("fixtures/dbc/j1939_source_fe.dbc"),
+        rig_dir.join("engine.dbc"),
+    )
+    .unwrap();
+    let rig = rig_dir.join("excavator.toml");
+    let text = std::fs::read_to_string(&rig).unwrap();
+    let text = text.replacen(
+        "name = \"hydraulics\"\niface = \"can0\"\nbitrate = 250000\n",
+        "name = \"hydraulics\"\niface = \"can0\"\nbitrate = 250000\ndbc = [\"engine.dbc\"]\n",
+        1,
+    );
+    assert!(
+        text.contains("engine.dbc"),
+        "the hydraulics bus as the fixture states it"
+    );
+    std::fs::write(
+        &rig,
+        text + r#"
+[[sensor]]
+name = "engine_speed"
+kind = "other"
+bus = "hydraulics"
+rate_hz = 100
+dbc = { message = "EEC1", signal = "EngineSpeed", source_address = 0x00 }
+
+[[sensor]]
+name = "coolant_temperature"
+kind = "other"
+unit = "degC"
+bus = "hydraulics"
+rate_hz = 1
+j1939 = { pgn = 65262, source_address = 0x00, start_bit = 0, length_bits = 8, resolution = 1.0, offset = -40.0 }
+"#,
+    )
+    .unwrap();
+    let session = dir.path().join("session");
+    let imported = acq(&[
+        "import",
+        path_str(&mf4),
+        "--rig",
+        path_str(&rig),
+        "--out",
+        path_str(&session),
+    ]);
+    assert!(imported.status.success(), "{}", stderr(&imported));
+    let out = dir.path().join("measured.csv");
+    let extracted = acq(&["extract", path_str(&session), "-o", path_str(&out)]);
+    assert!(extracted.status.success(), "{}", stderr(&extracted));
+    let rows = measured(&out);
+    let holds: Vec<&String> = rows
+        .keys()
+        .filter(|(_, q)| q == "engine_speed")
+        .map(|(w, _)| w)
+        .collect();
+    assert!(!holds.is_empty(), "{rows:?}");
+    for window in holds {
+        let speed = &rows[&(window.clone(), "engine_speed".to_string())];
+        assert_eq!(speed["unit"], "rpm");
+        let (start, end): (f64, f64) = (
+            speed["start_s"].parse().unwrap(),
+            speed["end_s"].parse().unwrap(),
+        );
+        let inside: Vec<f64> = speeds
+            .iter()
+            .filter(|(t, _)| (start..=end).contains(t))
+            .map(|(_, v)| *v)
+            .collect();
+        let want = inside.iter().sum::<f64>() / inside.len() as f64;
+        let got: f64 = speed["mean"].parse().unwrap();
+        // A sample more or less at an edge moves the mean by under 0.02 rpm;
+        // a window placed 0.1 s off, by over 0.1.
+        assert!(
+            (got - want).abs() < 0.05,
+            "{window}: {got} rpm, the frames say {want}"
+        );
+        let n: usize = speed["n"].parse().unwrap();
+        assert!(
+            n.abs_diff(inside.len()) <= 1,
+            "{n} against {}",
+            inside.len()
+        );
+        let coolant = &rows[&(window.clone(), "coolant_temperature".to_string())];
+        assert_eq!(
+            (coolant["unit"].as_str(), coolant["mean"].as_str()),
+            ("degC", "85.0")
+        );
+    }
+    // The aligned table names each in its unit.
+    let aligned = dir.path().join("aligned.csv");
+    let output = acq(&["align", path_str(&session), "-o", path_str(&aligned)]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let table = std::fs::read_to_string(&aligned).unwrap();
+    assert!(
+        table.contains("engine_speed [rpm]") && table.contains("coolant_temperature [degC]"),
+        "{}",
+        &table[..table.len().min(2000)]
     );
 }

@@ -48,8 +48,8 @@ pub struct ImportOptions {
     pub logs: Vec<PathBuf>,
     pub rig: Option<Rig>,
     pub session_dir: PathBuf,
-    /// Logged interface -> the session's.
-    pub bus_map: Vec<(IfaceName, IfaceName)>,
+    /// Logged interface -> the session's, for every file or for some.
+    pub bus_map: Vec<BusMapping>,
     /// Copy each file into `sources/` (else only named, with its hash).
     pub copy_sources: bool,
     /// Skip malformed records (counted in the source's notes) instead of
@@ -60,6 +60,45 @@ pub struct ImportOptions {
     /// Told as each file is opened in the merge (its number from 1, how
     /// many, its path): progress for a day of files.
     pub on_file: FileProgress,
+}
+
+/// Frames logged on `logged` become the session's `session`: in every
+/// file, or only in the files under `files` (a file, or a folder holding
+/// one logger's files), so that two loggers that both call their bus
+/// `can1` stay apart. A mapping scoped to a file wins over one for all.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BusMapping {
+    pub files: Option<PathBuf>,
+    pub logged: IfaceName,
+    pub session: IfaceName,
+}
+
+impl BusMapping {
+    /// Whether this mapping is for the file at `path` (as given; a leading
+    /// `./` on either says nothing).
+    pub fn covers(&self, path: &Path) -> bool {
+        let plain = |path: &Path| -> PathBuf {
+            path.components()
+                .filter(|c| !matches!(c, std::path::Component::CurDir))
+                .collect()
+        };
+        self.files
+            .as_deref()
+            .is_none_or(|files| plain(path).starts_with(plain(files)))
+    }
+
+    /// The interface pairs that hold for the file at `path`: those scoped
+    /// to it first, then those for every file.
+    fn for_file(mappings: &[BusMapping], path: &Path) -> Vec<(IfaceName, IfaceName)> {
+        let scoped = mappings
+            .iter()
+            .filter(|m| m.files.is_some() && m.covers(path));
+        let general = mappings.iter().filter(|m| m.files.is_none());
+        scoped
+            .chain(general)
+            .map(|m| (m.logged, m.session))
+            .collect()
+    }
 }
 
 /// Told as each file is opened: its number from 1, how many, its path.
@@ -122,8 +161,9 @@ pub fn import(mut options: ImportOptions) -> Result<ImportSummary> {
     if let Some(rig) = &mut rig {
         let assigned = rig.assign_interfaces(&names).map_err(|e| {
             AcqError::Config(format!(
-                "{}: {e}; map the logged interfaces onto the rig's with --bus LOGGED=RIG",
-                rig.path.display()
+                "{}: {e}; the files' frames were on {}: map the logged interfaces onto the rig's with --bus LOGGED=RIG, or --bus FOLDER:LOGGED=RIG where two loggers log under one name",
+                rig.path.display(),
+                names.iter().map(IfaceName::as_str).collect::<Vec<_>>().join(", ")
             ))
         });
         match assigned {
@@ -224,6 +264,11 @@ fn write_raw_log(
     let mut interfaces: Vec<(IfaceName, InterfaceRecord)> = Vec::new();
     // Per file, each (logged, session) interface pair its frames had.
     let mut logged: Vec<Vec<(IfaceName, IfaceName)>> = vec![Vec::new(); scanned.len()];
+    // Each file's mapping, found once: the first pair for an interface wins.
+    let maps: Vec<Vec<(IfaceName, IfaceName)>> = scanned
+        .iter()
+        .map(|file| BusMapping::for_file(&options.bus_map, &file.path))
+        .collect();
     let on_file = &mut *options.on_file;
     merge(
         scanned,
@@ -232,8 +277,7 @@ fn write_raw_log(
         on_file,
         |source, mut frame| {
             let logged_on = frame.iface;
-            frame.iface = options
-                .bus_map
+            frame.iface = maps[source]
                 .iter()
                 .find(|(from, _)| *from == logged_on)
                 .map_or(logged_on, |(_, to)| *to);

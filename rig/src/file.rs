@@ -151,6 +151,8 @@ pub(crate) fn default_shunt_tolerance_pct() -> f64 {
 pub(crate) struct DbcAddress {
     pub(crate) message: String,
     pub(crate) signal: String,
+    /// For a J1939 message: the one source address to take it from.
+    pub(crate) source_address: Option<u8>,
 }
 
 #[derive(Deserialize)]

@@ -163,6 +163,15 @@ pub enum SensorSource {
         message: String,
         signal: String,
         signal_index: usize,
+        /// The message's parameter group when the DBC declares it J1939: its
+        /// frames then match by PGN from any source address and priority,
+        /// as `acq decode` matches them (the DBC's own id often names 0xFE,
+        /// where the machine's controller sends from its own address).
+        j1939_pgn: Option<u32>,
+        /// The one source address a J1939 message is taken from (rig file
+        /// `dbc = { ..., source_address = 0x00 }`): two controllers that
+        /// send one PGN stay apart.
+        source_address: Option<u8>,
     },
     Canopen {
         node_id: u8,
@@ -201,6 +210,9 @@ pub struct Sensor {
     pub source: SensorSource,
     /// Unit the channel is sent in.
     pub channel_unit: String,
+    /// Unit of the sensor's values: its kind's, or an other quantity's own
+    /// ([`Sensor::unit`]).
+    pub output_unit: String,
     /// Expected sample rate.
     pub rate_hz: f64,
     /// Channel value -> output (calibration, then the kind's physics).
@@ -271,8 +283,8 @@ impl Rig {
 
 impl Sensor {
     /// The unit of this sensor's output.
-    pub fn unit(&self) -> &'static str {
-        self.kind.output_unit()
+    pub fn unit(&self) -> &str {
+        &self.output_unit
     }
 
     /// Expected period between samples, ns.

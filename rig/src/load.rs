@@ -327,12 +327,20 @@ pub(crate) fn compile_source(
             ));
         };
         let unit = (!signal.unit.is_empty()).then(|| signal.unit.clone());
+        if address.source_address.is_some() && message.j1939_pgn.is_none() {
+            return Err(format!(
+                "source_address is for a J1939 message, and DBC message '{}' is none: its DBC declares no ProtocolType \"J1939\" (nor VFrameFormat J1939PG); remove source_address",
+                message.name
+            ));
+        }
         return Ok((
             SensorSource::Dbc {
                 id: message.id,
                 message: message.name.clone(),
                 signal: signal.name.clone(),
                 signal_index,
+                j1939_pgn: message.j1939_pgn,
+                source_address: address.source_address,
             },
             unit,
         ));
@@ -399,12 +407,60 @@ pub(crate) fn compile_source(
     ))
 }
 
+/// The bus a sensor is on: the one it names, or a one-bus rig's. `Err(None)`
+/// for a rig with no bus, which is reported once, not per sensor.
+fn sensor_bus(sensor: &SensorFile, buses: &[Bus]) -> Result<usize, Option<String>> {
+    match (&sensor.bus, buses.len()) {
+        (Some(bus_name), _) => buses
+            .iter()
+            .position(|b| &b.name == bus_name)
+            .ok_or_else(|| {
+                let known: Vec<&str> = buses.iter().map(|b| b.name.as_str()).collect();
+                Some(format!(
+                    "unknown bus '{bus_name}' (buses: {})",
+                    known.join(", ")
+                ))
+            }),
+        (None, 1) => Ok(0),
+        (None, 0) => Err(None),
+        (None, _) => Err(Some(
+            "the rig has several buses; say which with bus = \"...\"".into(),
+        )),
+    }
+}
+
+/// A sensor's channel unit (the rig file's `unit`, else its DBC signal's,
+/// else its kind's) and the unit of its values: its kind's, or for an
+/// other quantity the channel's own (acq converts no unit it knows no
+/// physics of).
+fn sensor_units(
+    sensor: &SensorFile,
+    default_unit: Option<String>,
+) -> Result<(String, String), String> {
+    // A DBC signal without a unit states none: "" is no unit.
+    let channel_unit = match sensor
+        .unit
+        .clone()
+        .or(default_unit.filter(|unit| !unit.is_empty()))
+        .or_else(|| sensor.kind.output_unit().map(str::to_string))
+    {
+        Some(unit) if !unit.trim().is_empty() => unit,
+        _ => return Err("a sensor of kind \"other\" needs its unit, e.g. unit = \"rpm\" or unit = \"degC\" (unit = \"1\" for a plain number); its channel states none".into()),
+    };
+    let output_unit = sensor
+        .kind
+        .output_unit()
+        .map_or_else(|| channel_unit.clone(), str::to_string);
+    Ok((channel_unit, output_unit))
+}
+
 pub(crate) fn profile_conversion(sensor: &SensorFile, unit: &str) -> Result<Linear, ProfileError> {
     match sensor.kind {
         SensorKind::Pressure => pressure::to_bar(unit),
         SensorKind::Force => force::to_kilonewton(unit),
         SensorKind::Inclination => inclination::to_degrees(unit),
         SensorKind::Displacement => displacement::to_millimetres(unit, sensor.mm_per_mv_per_v),
+        SensorKind::Other => Ok(Linear::scale(1.0)),
         SensorKind::Strain => strain::to_stress_mpa(
             unit,
             strain::StrainChannel {
@@ -551,28 +607,12 @@ pub(crate) fn read_sensor(
     if !(sensor.rate_hz > 0.0 && sensor.rate_hz <= MAX_RATE_HZ) {
         findings.report(line, format!("sensor '{name}': rate_hz must be a number of samples per second above 0 and at most {MAX_RATE_HZ} (a CAN FD bus carries fewer frames), got {}", sensor.rate_hz));
     }
-    let bus = match (&sensor.bus, buses.len()) {
-        (Some(bus_name), _) => match buses.iter().position(|b| &b.name == bus_name) {
-            Some(i) => i,
-            None => {
-                let known: Vec<&str> = buses.iter().map(|b| b.name.as_str()).collect();
-                findings.report(
-                    line,
-                    format!(
-                        "sensor '{name}': unknown bus '{bus_name}' (buses: {})",
-                        known.join(", ")
-                    ),
-                );
-                return None;
+    let bus = match sensor_bus(sensor, buses) {
+        Ok(bus) => bus,
+        Err(message) => {
+            if let Some(message) = message {
+                findings.report(line, format!("sensor '{name}': {message}"));
             }
-        },
-        (None, 1) => 0,
-        (None, 0) => return None,
-        (None, _) => {
-            findings.report(
-                line,
-                format!("sensor '{name}': the rig has several buses; say which with bus = \"...\""),
-            );
             return None;
         }
     };
@@ -592,11 +632,13 @@ pub(crate) fn read_sensor(
             return None;
         }
     };
-    let channel_unit = sensor
-        .unit
-        .clone()
-        .or(default_unit)
-        .unwrap_or_else(|| sensor.kind.output_unit().to_string());
+    let (channel_unit, output_unit) = match sensor_units(sensor, default_unit) {
+        Ok(units) => units,
+        Err(message) => {
+            findings.report(line, format!("sensor '{name}': {message}"));
+            return None;
+        }
+    };
     let physics = match profile_conversion(sensor, &channel_unit) {
         Ok(physics) => physics,
         Err(e) => {
@@ -604,7 +646,7 @@ pub(crate) fn read_sensor(
             return None;
         }
     };
-    let record = match read_record(sensor) {
+    let record = match read_record(sensor, &output_unit) {
         Ok(record) => record,
         Err(message) => {
             findings.report(line, format!("sensor '{name}': {message}"));
@@ -625,7 +667,7 @@ pub(crate) fn read_sensor(
     }
     if let Some([lo, hi]) = sensor.range {
         if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-            findings.report(line, format!("sensor '{name}': range must be [low, high] with low < high in {}, got [{lo}, {hi}]", sensor.kind.output_unit()));
+            findings.report(line, format!("sensor '{name}': range must be [low, high] with low < high in {output_unit}, got [{lo}, {hi}]"));
             return None;
         }
     }
@@ -635,6 +677,7 @@ pub(crate) fn read_sensor(
         bus,
         source,
         channel_unit,
+        output_unit,
         rate_hz: sensor.rate_hz,
         // The certificate's points take the reading to the kind's unit
         // themselves: the physics is in them.

@@ -209,8 +209,7 @@ pub(crate) fn fill<T>(into: &mut Option<T>, from: &mut Option<T>) -> Result<(), 
 }
 
 /// A sensor's certificate and data-sheet limits, checked.
-pub(crate) fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
-    let unit = sensor.kind.output_unit();
+pub(crate) fn read_record(sensor: &SensorFile, unit: &str) -> Result<SensorRecord, String> {
     let mut record = SensorRecord::default();
     if let Some(calibration) = &sensor.calibration {
         if sensor.scale.is_some() || sensor.offset.is_some() {
@@ -219,7 +218,7 @@ pub(crate) fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
         read_certificate_dates(calibration)?;
         match &calibration.polynomial {
             Some(coefficients) => {
-                record.polynomial = Some(read_polynomial(sensor, calibration, coefficients)?)
+                record.polynomial = Some(read_polynomial(sensor, unit, calibration, coefficients)?)
             }
             None => record.curve = Some(read_points(calibration, unit)?),
         }
@@ -231,13 +230,13 @@ pub(crate) fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
         });
     }
     if let Some(accuracy) = &sensor.accuracy {
-        record.accuracy = Some(read_accuracy(sensor, accuracy)?);
+        record.accuracy = Some(read_accuracy(sensor, unit, accuracy)?);
     }
     if let Some(shunt) = &sensor.shunt {
         record.shunt = Some(read_shunt(sensor, shunt)?);
     }
     if let Some(temperature) = &sensor.temperature {
-        record.temperature = Some(read_temperature(sensor, temperature)?);
+        record.temperature = Some(read_temperature(sensor, unit, temperature)?);
     }
     read_strain_uncertainties(sensor, &mut record)?;
     if let Some(step) = sensor.resolution {
@@ -256,9 +255,9 @@ pub(crate) fn read_record(sensor: &SensorFile) -> Result<SensorRecord, String> {
 /// a share of full scale), not both.
 pub(crate) fn read_accuracy(
     sensor: &SensorFile,
+    unit: &str,
     accuracy: &AccuracyFile,
 ) -> Result<Accuracy, String> {
-    let unit = sensor.kind.output_unit();
     let parts = [
         accuracy.nonlinearity_pct_fs,
         accuracy.hysteresis_pct_fs,
@@ -311,6 +310,7 @@ pub(crate) fn read_accuracy(
 /// and a share of full scale only with the sensor's `range`.
 pub(crate) fn read_temperature(
     sensor: &SensorFile,
+    unit: &str,
     temperature: &TemperatureFile,
 ) -> Result<TemperatureEffect, String> {
     let [low, high] = temperature.range_c;
@@ -332,8 +332,7 @@ pub(crate) fn read_temperature(
     }
     if temperature.zero_pct_fs_per_k > 0.0 && sensor.range.is_none() {
         return Err(format!(
-            "temperature: zero_pct_fs_per_k needs the sensor's range = [low, high] in {}",
-            sensor.kind.output_unit()
+            "temperature: zero_pct_fs_per_k needs the sensor's range = [low, high] in {unit}"
         ));
     }
     Ok(TemperatureEffect {
@@ -412,10 +411,10 @@ pub(crate) fn read_points(
 /// has one reading.
 pub(crate) fn read_polynomial(
     sensor: &SensorFile,
+    unit: &str,
     calibration: &CalibrationFile,
     coefficients: &[f64],
 ) -> Result<PolynomialCertificate, String> {
-    let unit = sensor.kind.output_unit();
     if !calibration.points.is_empty() || calibration.uncertainties.is_some() {
         return Err(
             "calibration: give the certificate's points or its polynomial, not both".into(),

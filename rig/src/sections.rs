@@ -222,12 +222,18 @@ pub(crate) fn check_overlaps(
             let same = match (&a.source, &b.source) {
                 (
                     SensorSource::Dbc {
-                        id: ia, signal: sa, ..
+                        id: ia,
+                        signal: sa,
+                        source_address: aa,
+                        ..
                     },
                     SensorSource::Dbc {
-                        id: ib, signal: sb, ..
+                        id: ib,
+                        signal: sb,
+                        source_address: ab,
+                        ..
                     },
-                ) => ia == ib && sa == sb,
+                ) => ia == ib && sa == sb && aa == ab,
                 (
                     SensorSource::Canopen {
                         cob_id: ca,

@@ -57,6 +57,16 @@ struct J1939Entry {
     sensor: usize,
 }
 
+/// A J1939 sensor's channel value in one parameter group's bytes.
+enum J1939Value {
+    /// `None`: the SPN says "not available" or "error".
+    Value(Option<f64>),
+    /// The group does not carry it (a multiplexer selects another signal).
+    NotCarried,
+    /// The group is too short for it.
+    Undecodable,
+}
+
 /// Decodes frames into sensor samples for one rig.
 pub struct SensorDecoder<'r> {
     rig: &'r Rig,
@@ -79,6 +89,24 @@ impl<'r> SensorDecoder<'r> {
         let mut heartbeats = vec![HeartbeatMonitor::default(); rig.buses.len()];
         for (index, sensor) in rig.sensors.iter().enumerate() {
             match &sensor.source {
+                // A J1939 message of a DBC matches by PGN, as J1939 tools
+                // match it, never by its id too (a frame is one value).
+                SensorSource::Dbc {
+                    j1939_pgn: Some(pgn),
+                    source_address,
+                    ..
+                }
+                | SensorSource::J1939 {
+                    pgn,
+                    source_address,
+                    ..
+                } => by_pgn
+                    .entry((sensor.bus, *pgn))
+                    .or_default()
+                    .push(J1939Entry {
+                        source_address: *source_address,
+                        sensor: index,
+                    }),
                 SensorSource::Dbc { id, .. } => {
                     by_id.entry((sensor.bus, id.key())).or_default().push(index)
                 }
@@ -98,17 +126,6 @@ impl<'r> SensorDecoder<'r> {
                         heartbeats[sensor.bus].watch(*node_id, timeout_ns);
                     }
                 }
-                SensorSource::J1939 {
-                    pgn,
-                    source_address,
-                    ..
-                } => by_pgn
-                    .entry((sensor.bus, *pgn))
-                    .or_default()
-                    .push(J1939Entry {
-                        source_address: *source_address,
-                        sensor: index,
-                    }),
             }
         }
         SensorDecoder {
@@ -117,6 +134,33 @@ impl<'r> SensorDecoder<'r> {
             by_pgn,
             heartbeats,
             transport: vec![Reassembler::default(); rig.buses.len()],
+        }
+    }
+
+    /// A J1939 sensor's channel value in a parameter group's bytes: an SPN
+    /// the rig file places, or a signal of a DBC's J1939 message.
+    fn j1939_value(&self, bus: usize, source: &SensorSource, payload: &[u8]) -> J1939Value {
+        match source {
+            SensorSource::J1939 { spn, .. } => {
+                if spn.field.end_byte() > payload.len() {
+                    J1939Value::Undecodable
+                } else {
+                    J1939Value::Value(spn.value(payload))
+                }
+            }
+            SensorSource::Dbc {
+                id, signal_index, ..
+            } => {
+                let Some(message) = self.rig.buses[bus].dbc.message(*id) else {
+                    return J1939Value::NotCarried;
+                };
+                match message.decode_signal(payload, *signal_index) {
+                    Ok(Some(value)) => J1939Value::Value(Some(value.as_f64())),
+                    Ok(None) => J1939Value::NotCarried,
+                    Err(_) => J1939Value::Undecodable,
+                }
+            }
+            SensorSource::Canopen { .. } => J1939Value::NotCarried,
         }
     }
 
@@ -207,19 +251,19 @@ impl<'r> SensorDecoder<'r> {
                         continue;
                     }
                     let sensor = &self.rig.sensors[entry.sensor];
-                    let SensorSource::J1939 { spn, .. } = &sensor.source else {
-                        continue;
+                    let value = match self.j1939_value(bus, &sensor.source, payload) {
+                        J1939Value::Value(value) => value,
+                        J1939Value::NotCarried => continue,
+                        J1939Value::Undecodable => {
+                            undecodable = true;
+                            continue;
+                        }
                     };
-                    if spn.field.end_byte() > payload.len() {
-                        undecodable = true;
-                        continue;
-                    }
                     decoded = true;
                     emit(SensorEvent::Sample(Sample {
                         time_ns,
                         sensor: entry.sensor,
-                        value: spn
-                            .value(payload)
+                        value: value
                             .map(|v| sensor.conversion.apply(v))
                             .filter(|v| v.is_finite()),
                     }));

@@ -165,3 +165,141 @@ fn a_j1939_group_longer_than_8_bytes_is_reassembled_and_decoded() {
     }
     assert_eq!(other, 0);
 }
+
+/// One sensor's samples from one frame.
+fn samples_of(rig: &Rig, frame: &Frame) -> Vec<(usize, Option<f64>)> {
+    let mut decoder = SensorDecoder::new(rig);
+    let mut samples = Vec::new();
+    decoder.decode(frame, |event| {
+        if let SensorEvent::Sample(sample) = event {
+            samples.push((sample.sensor, sample.value));
+        }
+    });
+    samples
+}
+
+#[test]
+fn a_sensor_of_any_quantity_keeps_its_own_unit() {
+    // An engine's speed (J1939 EEC1, SPN 190: 0.125 rpm a bit at byte 4)
+    // and its coolant's temperature (ET1, SPN 110: 1 degC a bit, -40),
+    // from the engine controller at source address 0x00.
+    let text = r#"
+[[bus]]
+name = "machine"
+iface = "can0"
+bitrate = 250000
+dbc = ["j1939_source_fe.dbc"]
+
+[[sensor]]
+name = "engine_speed"
+kind = "other"
+bus = "machine"
+rate_hz = 100
+dbc = { message = "EEC1", signal = "EngineSpeed" }
+
+[[sensor]]
+name = "coolant_temperature"
+kind = "other"
+unit = "degC"
+bus = "machine"
+rate_hz = 1
+j1939 = { pgn = 65262, source_address = 0x00, start_bit = 0, length_bits = 8, resolution = 1.0, offset = -40.0 }
+range = [-40, 210]
+"#;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/dbc");
+    let rig = Rig::parse(text, Path::new("engine.toml"), &root).unwrap();
+    // The DBC signal states rpm; the rig file states degC; neither is
+    // converted, for acq knows no physics of either.
+    assert_eq!(rig.sensors[0].unit(), "rpm");
+    assert_eq!(rig.sensors[1].unit(), "degC");
+    assert!(!rig.sensors[0].zero_at_rest && !rig.sensors[1].zero_at_rest);
+    // 1,500 rpm = 12,000 bits = 0x2EE0, little-endian at byte 3 (bit 24).
+    // The DBC declares EEC1 from 0xFE at priority 3; the controller sends
+    // from 0x00 at priority 6: a J1939 DBC matches by PGN, as `acq decode`
+    // and asammdf match it.
+    let eec1_from = |source_address: u32| {
+        Frame::data(
+            0,
+            iface("can0"),
+            CanId::extended(0x18F0_0400 | source_address).unwrap(),
+            &[0xF0, 0x7D, 0x7D, 0xE0, 0x2E, 0x00, 0xF0, 0x7D],
+        )
+        .unwrap()
+    };
+    assert_eq!(samples_of(&rig, &eec1_from(0x00)), [(0, Some(1500.0))]);
+    assert_eq!(samples_of(&rig, &eec1_from(0xFE)), [(0, Some(1500.0))]);
+    // Taken from one controller only, another's frames are none of its.
+    let one_source = text.replace(
+        r#"signal = "EngineSpeed" }"#,
+        r#"signal = "EngineSpeed", source_address = 0x00 }"#,
+    );
+    let rig_one = Rig::parse(&one_source, Path::new("engine.toml"), &root).unwrap();
+    assert_eq!(samples_of(&rig_one, &eec1_from(0x00)), [(0, Some(1500.0))]);
+    assert_eq!(samples_of(&rig_one, &eec1_from(0x17)), []);
+    // 85 degC = 125 bits.
+    let et1 = Frame::data(
+        0,
+        iface("can0"),
+        CanId::extended(0x18FE_EE00).unwrap(),
+        &[125, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF],
+    )
+    .unwrap();
+    assert_eq!(samples_of(&rig, &et1), [(1, Some(85.0))]);
+}
+
+#[test]
+fn a_sensor_of_any_quantity_without_a_unit_is_refused_with_what_to_write() {
+    let text = r#"
+[[bus]]
+name = "machine"
+iface = "can0"
+bitrate = 250000
+
+[[sensor]]
+name = "engine_speed"
+kind = "other"
+bus = "machine"
+rate_hz = 100
+j1939 = { pgn = 61444, source_address = 0x00, start_bit = 24, length_bits = 16, resolution = 0.125, offset = 0.0 }
+"#;
+    let error = Rig::parse(text, Path::new("engine.toml"), Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("engine.toml:7"), "{error}");
+    assert!(error.contains("kind \"other\" needs its unit"), "{error}");
+    assert!(error.contains("unit = \"rpm\""), "{error}");
+    // An empty unit says nothing either.
+    let empty = text.replace("kind = \"other\"", "kind = \"other\"\nunit = \" \"");
+    let error = Rig::parse(&empty, Path::new("engine.toml"), Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("needs its unit"), "{error}");
+}
+
+#[test]
+fn a_source_address_on_a_message_that_is_not_j1939_is_refused() {
+    let text = r#"
+[[bus]]
+name = "daq"
+iface = "can1"
+bitrate = 500000
+dbc = ["somat_excavator.dbc"]
+
+[[sensor]]
+name = "tip_force"
+kind = "force"
+bus = "daq"
+rate_hz = 100
+dbc = { message = "DAQ_Force", signal = "TipForce", source_address = 0x00 }
+"#;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/dbc");
+    let error = Rig::parse(text, Path::new("daq.toml"), &root)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("daq.toml:8"), "{error}");
+    assert!(
+        error.contains("source_address is for a J1939 message"),
+        "{error}"
+    );
+    assert!(error.contains("remove source_address"), "{error}");
+}

@@ -191,7 +191,7 @@ fn budget_table(
     dof: Option<f64>,
     k: f64,
 ) -> String {
-    let unit = value.unit;
+    let unit = &value.unit;
     let dof_text = |dof: Option<f64>| dof.map_or("inf".to_string(), |d| format!("{d:.1}"));
     let mut text = format!("{} at {} {unit}", value.sensor, value.value);
     if let Some(reading) = value.reading {

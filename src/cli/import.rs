@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use super::live::parse_size;
-use acq_acquire::import::{self, ImportOptions};
+use acq_acquire::import::{self, BusMapping, ImportOptions};
 use acq_can::IfaceName;
 use acq_error::{AcqError, Result};
 use acq_io::session;
@@ -23,9 +23,12 @@ pub struct ImportArgs {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Import frames logged on LOGGED as interface SESSION (a logger's
-    /// `can1` as the rig's `can0`); repeat for each bus.
-    #[arg(long = "bus", value_name = "LOGGED=SESSION", value_parser = parse_bus_map)]
-    pub bus_map: Vec<(IfaceName, IfaceName)>,
+    /// `can1` as the rig's `can0`); repeat for each bus. With FILES: (a
+    /// file, or a folder of one logger's files) only in those files, so
+    /// that two loggers that both log `can1` stay apart:
+    /// `--bus logger_a:can1=can0 --bus logger_b:can1=can2`.
+    #[arg(long = "bus", value_name = "[FILES:]LOGGED=SESSION", value_parser = parse_bus_map)]
+    pub bus_map: Vec<BusMapping>,
     /// Keep a byte-for-byte copy of each file in SESSION/sources/ (without
     /// it each is named in session.toml with its SHA-256).
     #[arg(long)]
@@ -38,27 +41,55 @@ pub struct ImportArgs {
     pub max_file_size: u64,
 }
 
-/// `can1=can0`: frames logged on can1 become the session's can0.
-fn parse_bus_map(text: &str) -> std::result::Result<(IfaceName, IfaceName), String> {
-    let (logged, session) = text
-        .split_once('=')
-        .ok_or_else(|| format!("'{text}': expected LOGGED=SESSION, e.g. can1=can0"))?;
+/// `can1=can0`: frames logged on can1 become the session's can0;
+/// `logger_b:can1=can2`: only in the files under `logger_b`. Interface
+/// names hold neither ':' nor '=', so the last of each splits.
+fn parse_bus_map(text: &str) -> std::result::Result<BusMapping, String> {
+    let (left, session) = text.rsplit_once('=').ok_or_else(|| {
+        format!("'{text}': expected [FILES:]LOGGED=SESSION, e.g. can1=can0 or logger_b:can1=can2")
+    })?;
+    let (files, logged) = match left.rsplit_once(':') {
+        Some(("", _)) => {
+            return Err(format!(
+                "'{text}': nothing before ':'; give a file or folder, or leave out the ':'"
+            ))
+        }
+        Some((files, logged)) => (Some(PathBuf::from(files)), logged),
+        None => (None, left),
+    };
     let name = |name: &str| {
         IfaceName::new(name.trim()).ok_or_else(|| {
             format!("'{name}' in '{text}': not an interface name (1 to 15 characters, no '/', ':' or space)")
         })
     };
-    Ok((name(logged)?, name(session)?))
+    Ok(BusMapping {
+        files,
+        logged: name(logged)?,
+        session: name(session)?,
+    })
 }
 
 pub fn run_import(args: ImportArgs) -> Result<()> {
-    for (index, (logged, _)) in args.bus_map.iter().enumerate() {
+    for (index, mapping) in args.bus_map.iter().enumerate() {
+        let scope = mapping
+            .files
+            .as_ref()
+            .map_or(String::new(), |files| format!("{}:", files.display()));
         if args.bus_map[..index]
             .iter()
-            .any(|(earlier, _)| earlier == logged)
+            .any(|earlier| earlier.logged == mapping.logged && earlier.files == mapping.files)
         {
             return Err(AcqError::Config(format!(
-                "--bus {logged}=...: given twice; each logged interface maps to one session interface"
+                "--bus {scope}{}=...: given twice; each logged interface maps to one session interface",
+                mapping.logged
+            )));
+        }
+        if mapping.files.is_some() && !args.logs.iter().any(|log| mapping.covers(log)) {
+            return Err(AcqError::Config(format!(
+                "--bus {scope}{}={}: '{}' is none of the files given, nor a folder holding one; give it as the files are given",
+                mapping.logged,
+                mapping.session,
+                mapping.files.as_ref().map_or(String::new(), |f| f.display().to_string())
             )));
         }
     }

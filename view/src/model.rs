@@ -43,7 +43,7 @@ const XY_POINTS: usize = 4_000;
 #[derive(Clone, Debug)]
 pub struct SensorView {
     pub name: String,
-    pub unit: &'static str,
+    pub unit: String,
     pub expected_rate_hz: f64,
     /// Sensors of one kind and unit share a chart.
     pub group: String,
@@ -127,7 +127,7 @@ impl SessionView {
             .iter()
             .map(|s| SensorView {
                 name: s.name.clone(),
-                unit: s.unit(),
+                unit: s.unit().to_string(),
                 expected_rate_hz: s.rate_hz,
                 group: format!("{} ({})", s.kind.name(), s.unit()),
                 series: MinMaxSeries::new(bucket_ns, buckets),

@@ -373,7 +373,7 @@ fn describe_undescribed_sensors(
         if described.contains_key(name) {
             continue;
         }
-        let unit = rig.get(name).map_or("", |q| q.unit);
+        let unit = rig.get(name).map_or("", |q| &q.unit);
         let idle = match back.get(name) {
             Some(pressure) => *pressure,
             None if sensors.inclinometers.contains(name) => *level,
@@ -431,9 +431,9 @@ pub fn synthetic_hold(
     let mut values: Vec<MeasuredValue> = Vec::new();
     for q in &rig.quantities {
         if let Some(level) = levels.get(&q.name) {
-            let std = typical_noise(q.unit);
+            let std = typical_noise(&q.unit);
             let error: f64 = StandardNormal.sample(rng);
-            values.push(value(&q.name, q.unit, level + std / n.sqrt() * error, std));
+            values.push(value(&q.name, &q.unit, level + std / n.sqrt() * error, std));
         }
     }
     let mean_of = |values: &[MeasuredValue], name: &str| {

@@ -15,7 +15,7 @@ pub const SILENCE_PERIODS: i64 = 3;
 #[derive(Clone, Debug)]
 pub struct SensorState {
     pub name: String,
-    pub unit: &'static str,
+    pub unit: String,
     pub expected_rate_hz: f64,
     period_ns: i64,
     pub samples: u64,
@@ -71,7 +71,7 @@ impl<'r> Liveness<'r> {
             .iter()
             .map(|s| SensorState {
                 name: s.name.clone(),
-                unit: s.unit(),
+                unit: s.unit().to_string(),
                 expected_rate_hz: s.rate_hz,
                 period_ns: s.period_ns(),
                 samples: 0,

@@ -394,7 +394,7 @@ impl<'a> Recorder<'a> {
                         .map(|s| SensorStatus {
                             name: s.name.clone(),
                             value: s.last_value,
-                            unit: s.unit,
+                            unit: s.unit.clone(),
                             age_s: s.age_s(now).map(|a| (a * 1000.0).round() / 1000.0),
                             silent: s.silent,
                             reason: s.silent.then(|| s.silence_reason()),

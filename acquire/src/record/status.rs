@@ -45,7 +45,7 @@ pub struct BusStatus {
 pub struct SensorStatus {
     pub name: String,
     pub value: Option<f64>,
-    pub unit: &'static str,
+    pub unit: String,
     pub age_s: Option<f64>,
     pub silent: bool,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -234,7 +234,7 @@ mod tests {
                 SensorStatus {
                     name: "boom_head_pressure".into(),
                     value: Some(116.89),
-                    unit: "bar",
+                    unit: "bar".to_string(),
                     age_s: Some(0.01),
                     silent: false,
                     reason: None,
@@ -242,7 +242,7 @@ mod tests {
                 SensorStatus {
                     name: "sg09".into(),
                     value: None,
-                    unit: "MPa",
+                    unit: "MPa".to_string(),
                     age_s: None,
                     silent: true,
                     reason: Some("never seen"),

@@ -417,7 +417,10 @@ fn plan_messages(rig: &Rig) -> Result<MessagesAndNodes> {
 fn sensor_frame(rig: &Rig, sensor: &Sensor) -> Result<(CanId, usize, u8)> {
     Ok(match &sensor.source {
         SensorSource::Dbc {
-            id, signal_index, ..
+            id,
+            signal_index,
+            source_address,
+            ..
         } => {
             let message = rig.buses[sensor.bus].dbc.message(*id).ok_or_else(|| {
                 AcqError::Config(format!("sensor {}: DBC message {id} missing", sensor.name))
@@ -428,7 +431,17 @@ fn sensor_frame(rig: &Rig, sensor: &Sensor) -> Result<(CanId, usize, u8)> {
                     sensor.name
                 )));
             }
-            (*id, message.size, 0x00)
+            // A J1939 message is sent from the address the rig takes it from.
+            let id = match (source_address, J1939Id::from_can_id(*id)) {
+                (Some(source_address), Some(declared)) => J1939Id {
+                    source_address: *source_address,
+                    ..declared
+                }
+                .to_can_id()
+                .unwrap_or(*id),
+                _ => *id,
+            };
+            (id, message.size, 0x00)
         }
         SensorSource::Canopen {
             cob_id, mapping, ..
@@ -582,7 +595,7 @@ fn check_levels_can_be_sent(
                     return Err(AcqError::Config(format!(
                         "sensor.{}: {what} = {value:?} {unit} is no {kind} a sensor reads (from {low} to {high} {unit})",
                         sensor.name,
-                        unit = sensor.kind.output_unit(),
+                        unit = sensor.unit(),
                         kind = sensor.kind.name(),
                     )));
                 }
@@ -605,7 +618,7 @@ fn check_levels_can_be_sent(
                     return Err(AcqError::Config(format!(
                         "sensor.{}: {what} = {value:?} {} cannot be sent by its device: it arrives as {}; give a value inside the sensor's range",
                         sensor.name,
-                        sensor.kind.output_unit(),
+                        sensor.unit(),
                         sent.map_or("no value".to_string(), |v| format!("{v}"))
                     )));
                 }

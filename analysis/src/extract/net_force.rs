@@ -43,7 +43,7 @@ pub fn net_force_budget(
     .collect();
     Some(ValueBudget {
         sensor: net_force_quantity(&cylinder.name),
-        unit: "kN",
+        unit: "kN".to_string(),
         value: cylinder.bore.net_force_kn(head_bar, rod_bar),
         reading: None,
         budget: Budget { contributions },

@@ -23,7 +23,7 @@ fn stated_uncertainty(sensor: &acq_rig::Sensor) -> Option<f64> {
 #[derive(Clone, Debug, PartialEq)]
 pub struct HoldQuantity {
     pub name: String,
-    pub unit: &'static str,
+    pub unit: String,
     /// The sensor kind, for a sensor's own reading (`None` for a
     /// cylinder's derived values).
     pub kind: Option<SensorKind>,
@@ -62,7 +62,7 @@ impl RigQuantities {
             .iter()
             .map(|s| HoldQuantity {
                 name: s.name.clone(),
-                unit: s.unit(),
+                unit: s.unit().to_string(),
                 kind: Some(s.kind),
                 location: s.location,
                 range: s.range,
@@ -89,7 +89,7 @@ impl RigQuantities {
             ] {
                 quantities.push(HoldQuantity {
                     name,
-                    unit,
+                    unit: unit.to_string(),
                     kind: None,
                     location: None,
                     range: None,

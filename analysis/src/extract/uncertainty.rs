@@ -45,7 +45,7 @@ pub const ZERO_RETURN: &str = "zero_return";
 pub struct ValueBudget {
     pub sensor: String,
     /// The kind's unit.
-    pub unit: &'static str,
+    pub unit: String,
     pub value: f64,
     /// The channel's reading that gives the value, through the sensor's
     /// conversion (the certificate's line where given).
@@ -117,7 +117,7 @@ pub fn value_budget(sensor: &Sensor, value: f64) -> ValueBudget {
     contributions.extend(span_and_drift(sensor, value));
     ValueBudget {
         sensor: sensor.name.clone(),
-        unit: sensor.unit(),
+        unit: sensor.unit().to_string(),
         value,
         reading,
         budget: Budget { contributions },

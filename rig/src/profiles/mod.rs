@@ -36,6 +36,11 @@ pub enum SensorKind {
     Inclination,
     /// Displacement / extensometer: mm.
     Displacement,
+    /// Any other quantity a rig logs beside the twins' inputs (an engine's
+    /// speed, an oil temperature, a flow): in the sensor's own unit (its
+    /// `unit`, or its DBC signal's), taken as sent after scale and offset.
+    /// acq knows no physics of it, so it converts no unit.
+    Other,
 }
 
 impl SensorKind {
@@ -50,26 +55,29 @@ impl SensorKind {
             | SensorKind::Force
             | SensorKind::Strain
             | SensorKind::Displacement => true,
-            SensorKind::Inclination => false,
+            SensorKind::Inclination | SensorKind::Other => false,
         }
     }
 
-    pub const ALL: [SensorKind; 5] = [
+    pub const ALL: [SensorKind; 6] = [
         SensorKind::Pressure,
         SensorKind::Force,
         SensorKind::Strain,
         SensorKind::Inclination,
         SensorKind::Displacement,
+        SensorKind::Other,
     ];
 
-    /// The unit every sensor of this kind outputs.
-    pub fn output_unit(self) -> &'static str {
+    /// The unit every sensor of this kind outputs; `None` for
+    /// [`SensorKind::Other`], whose sensors each name their own.
+    pub fn output_unit(self) -> Option<&'static str> {
         match self {
-            SensorKind::Pressure => pressure::OUTPUT_UNIT,
-            SensorKind::Force => force::OUTPUT_UNIT,
-            SensorKind::Strain => strain::OUTPUT_UNIT,
-            SensorKind::Inclination => inclination::OUTPUT_UNIT,
-            SensorKind::Displacement => displacement::OUTPUT_UNIT,
+            SensorKind::Pressure => Some(pressure::OUTPUT_UNIT),
+            SensorKind::Force => Some(force::OUTPUT_UNIT),
+            SensorKind::Strain => Some(strain::OUTPUT_UNIT),
+            SensorKind::Inclination => Some(inclination::OUTPUT_UNIT),
+            SensorKind::Displacement => Some(displacement::OUTPUT_UNIT),
+            SensorKind::Other => None,
         }
     }
 
@@ -81,6 +89,7 @@ impl SensorKind {
             SensorKind::Strain => strain::INPUT_UNITS,
             SensorKind::Inclination => inclination::INPUT_UNITS,
             SensorKind::Displacement => displacement::INPUT_UNITS,
+            SensorKind::Other => &[],
         }
     }
 
@@ -95,6 +104,8 @@ impl SensorKind {
             SensorKind::Strain => (-1e5, 1e5),
             SensorKind::Inclination => (-360.0, 360.0),
             SensorKind::Displacement => (-1e6, 1e6),
+            // Nothing is known of an other quantity but that it is a number.
+            SensorKind::Other => (-f64::MAX, f64::MAX),
         }
     }
 
@@ -105,6 +116,7 @@ impl SensorKind {
             SensorKind::Strain => "strain",
             SensorKind::Inclination => "inclination",
             SensorKind::Displacement => "displacement",
+            SensorKind::Other => "other",
         }
     }
 }

@@ -1587,3 +1587,67 @@ fn a_logger_s_file_is_told_by_its_content() {
     );
     assert!(message.contains("expected a whole"), "{message}");
 }
+
+/// Data lost: a link standing at the name of a temporary file acq writes
+/// (`.zero.toml.tmp` in a session) or at an output's name is never written
+/// through. A symbolic link to a file outside the session and a hard link
+/// to the session's recording both stay as they were; the zero record is a
+/// file of its own. An output named by a symbolic link is refused (exit
+/// 2); one that is a hard link is replaced, its other name keeping what it
+/// held.
+#[test]
+fn a_link_at_a_temporary_or_an_output_name_is_never_written_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case2", dir.path());
+    let outside = dir.path().join("outside.txt");
+    std::fs::write(&outside, "a file outside the session\n").unwrap();
+    let temporary = session.join(".zero.toml.tmp");
+    std::os::unix::fs::symlink(&outside, &temporary).unwrap();
+    let zeroed = acq(&["zero", path_arg(&session), "--before", "0.5s"]);
+    assert!(zeroed.status.success(), "{}", stderr(&zeroed));
+    assert_eq!(
+        std::fs::read_to_string(&outside).unwrap(),
+        "a file outside the session\n"
+    );
+    let zero = std::fs::symlink_metadata(session.join("zero.toml")).unwrap();
+    assert!(zero.is_file(), "zero.toml is a file of its own: {zero:?}");
+
+    let raw = session.join("raw.log");
+    let recording = std::fs::read(&raw).unwrap();
+    std::fs::hard_link(&raw, &temporary).unwrap();
+    let zeroed = acq(&["zero", path_arg(&session), "--before", "0.5s"]);
+    assert!(zeroed.status.success(), "{}", stderr(&zeroed));
+    assert!(
+        std::fs::read(&raw).unwrap() == recording,
+        "the recording kept"
+    );
+    assert!(std::fs::read_to_string(session.join("zero.toml"))
+        .unwrap()
+        .contains("before_s"));
+
+    // Outputs: a symbolic link is refused, the file it names untouched.
+    let linked = dir.path().join("linked.csv");
+    std::os::unix::fs::symlink(&outside, &linked).unwrap();
+    let refused = acq(&["extract", path_arg(&session), "-o", path_arg(&linked)]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    assert!(
+        stderr(&refused).contains("does not write through links"),
+        "{}",
+        stderr(&refused)
+    );
+    assert_eq!(
+        std::fs::read_to_string(&outside).unwrap(),
+        "a file outside the session\n"
+    );
+    // A hard link is replaced: its other name keeps what it held.
+    let kept = dir.path().join("kept.csv");
+    std::fs::write(&kept, "kept\n").unwrap();
+    let out = dir.path().join("out.csv");
+    std::fs::hard_link(&kept, &out).unwrap();
+    let extracted = acq(&["extract", path_arg(&session), "-o", path_arg(&out)]);
+    assert!(extracted.status.success(), "{}", stderr(&extracted));
+    assert_eq!(std::fs::read_to_string(&kept).unwrap(), "kept\n");
+    assert!(std::fs::read_to_string(&out)
+        .unwrap()
+        .starts_with("window,"));
+}

@@ -865,8 +865,13 @@ fn a_shunt_step_corrects_the_gain_and_a_faulty_one_is_refused_with_its_numbers()
             to,
         ])
     };
+    // A hard link to the rig standing at the record's temporary name is
+    // never written through (data lost, round four): the rig is kept.
+    let rig_text = std::fs::read(&rig).unwrap();
+    std::fs::hard_link(&rig, session.join(".shunt.toml.tmp")).unwrap();
     let output = shunt(&session, "1s", "6s");
     assert!(output.status.success(), "{}", stderr(&output));
+    assert!(std::fs::read(&rig).unwrap() == rig_text, "the rig kept");
     let record = acq_io::shunt_record::read(&session).unwrap().unwrap();
     let check = record.sensor("sg01").unwrap();
     assert!((check.gain - 1.0 / 1.004).abs() < 5e-4, "{check:?}");

@@ -61,14 +61,16 @@ impl Output {
             return Output::create(None);
         }
         refuse_input(path)?;
+        refuse_link(path)?;
         if std::fs::metadata(path).is_ok_and(|meta| !meta.is_file()) {
             return Output::create(Some(path));
         }
         let mut partial = path.as_os_str().to_owned();
         partial.push(".partial");
         let partial = PathBuf::from(partial);
-        let mut output = Output::create(Some(&partial))?;
-        output.name = path.display().to_string();
+        let file = create_fresh(&partial)
+            .map_err(|e| AcqError::Config(format!("cannot create {}: {e}", partial.display())))?;
+        let mut output = Output::to_writer(path.display().to_string(), Box::new(file));
         output.rename = Some((partial, path.to_path_buf()));
         Ok(output)
     }
@@ -207,6 +209,7 @@ pub struct CompleteOnlyFile {
 impl CompleteOnlyFile {
     pub fn create(path: &Path, what: &str) -> Result<Self> {
         refuse_input(path)?;
+        refuse_link(path)?;
         if std::fs::metadata(path).is_ok_and(|meta| !meta.is_file()) {
             return Err(AcqError::Config(format!(
                 "{}: {what} must go to a regular file (it is written, then completed in place)",
@@ -217,7 +220,9 @@ impl CompleteOnlyFile {
         partial.push(".partial");
         let partial = PathBuf::from(partial);
         Ok(CompleteOnlyFile {
-            file: Some(create_file(&partial)?),
+            file: Some(create_fresh(&partial).map_err(|e| {
+                AcqError::Config(format!("cannot create {}: {e}", partial.display()))
+            })?),
             partial,
             complete: path.to_path_buf(),
         })
@@ -291,13 +296,55 @@ pub fn refuse_input(path: &Path) -> Result<()> {
 /// [`Output`] creates its files here.
 pub fn create_file(path: &Path) -> Result<File> {
     refuse_input(path)?;
-    File::create(path).map_err(|e| match std::fs::metadata(path) {
+    refuse_link(path)?;
+    let created = match std::fs::symlink_metadata(path) {
+        // A regular file: replaced by a new one, so that another name of
+        // the same file (a hard link) keeps what it held.
+        Ok(meta) if meta.is_file() => create_fresh(path),
+        _ => File::create(path),
+    };
+    created.map_err(|e| match std::fs::metadata(path) {
         Ok(meta) if meta.is_dir() => AcqError::Config(format!(
             "cannot create {}: it is a directory; give a file name",
             path.display()
         )),
         _ => AcqError::Config(format!("cannot create {}: {e}", path.display())),
     })
+}
+
+/// Refuses an output path that is a symbolic link to a regular file (or to
+/// nothing): acq never writes through a link. A link to a device or a FIFO
+/// (`/dev/stdout`) is where the user sends the output, and is kept.
+fn refuse_link(path: &Path) -> Result<()> {
+    let is_link = std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink());
+    if is_link && std::fs::metadata(path).is_ok_and(|target| !target.is_file()) {
+        return Ok(());
+    }
+    if is_link {
+        return Err(AcqError::Config(format!(
+            "{} is a symbolic link{}: acq does not write through links; remove it, or give the file it points to",
+            path.display(),
+            std::fs::read_link(path).map_or(String::new(), |to| format!(" to {}", to.display()))
+        )));
+    }
+    Ok(())
+}
+
+/// Creates `path` afresh for writing: whatever file stands at that name (a
+/// file a crash left, a link someone placed) is unlinked first, never
+/// written through, and the file is created exclusively (`O_EXCL`: a link
+/// placed in between makes it fail, not follow).
+pub fn create_fresh(path: &Path) -> io::Result<File> {
+    match std::fs::symlink_metadata(path) {
+        Ok(meta) if !meta.is_dir() => std::fs::remove_file(path)?,
+        _ => {}
+    }
+    File::options().write(true).create_new(true).open(path)
+}
+
+/// Writes `bytes` to a file created afresh at `path` ([`create_fresh`]).
+pub fn write_fresh(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    create_fresh(path)?.write_all(bytes)
 }
 
 /// Creates an output directory (and its parents) if missing; an existing

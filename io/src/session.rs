@@ -266,6 +266,8 @@ pub fn write(dir: &Path, session: &SessionFile) -> io::Result<()> {
 /// Writes `value` as TOML to `dir/name` after a `header` comment,
 /// atomically (a temporary file renamed) and durably (file and directory
 /// synced): a crash leaves the old file or the new one, never half of one.
+/// The temporary is created afresh, so a link standing at its name is
+/// never written through, and the rename replaces a link at `name`.
 pub fn write_toml_file<T: serde::Serialize>(
     dir: &Path,
     name: &str,
@@ -275,7 +277,7 @@ pub fn write_toml_file<T: serde::Serialize>(
     let text = toml::to_string(value).map_err(io::Error::other)?;
     let temporary = dir.join(format!(".{name}.tmp"));
     {
-        let mut file = File::create(&temporary)?;
+        let mut file = crate::output::create_fresh(&temporary)?;
         file.write_all(header.as_bytes())?;
         file.write_all(text.as_bytes())?;
         file.sync_all()?;

@@ -340,6 +340,26 @@ def test_align_holds_and_curve_are_the_clis_parquet(tmp_path: Path) -> None:
     assert frame["STRESS"][peak] == pytest.approx(frame["FORCE"][peak] * 1e3 / area_mm2, rel=1e-12)
 
 
+def test_a_session_imported_from_a_loggers_file_reads_as_the_recorded_one(tmp_path: Path) -> None:
+    # The recording as a logger's MF4, made a session by `acq import`: the
+    # package reads it as it reads the recorded one. Only the windows'
+    # times differ: they count from the session's start, which a log
+    # cannot know (its first frame stands in).
+    mf4 = tmp_path / "00000001.MF4"
+    subprocess.run([ACQ_BIN, "convert", str(SESSION / "raw.log"), "-o", str(mf4)], check=True, capture_output=True)
+    imported = tmp_path / "imported"
+    subprocess.run(
+        [ACQ_BIN, "import", str(mf4), "--rig", str(RIG), "--out", str(imported)], check=True, capture_output=True
+    )
+    times = ["start_s", "end_s"]
+    recorded_values = acq.holds(SESSION)
+    imported_values = acq.holds(imported)
+    assert imported_values.num_rows == recorded_values.num_rows > 20
+    assert plain(imported_values.drop_columns(times)).equals(plain(recorded_values.drop_columns(times)))
+    aligned = acq.align(imported, rate_hz=50)
+    assert aligned.schema.names == acq.align(SESSION, rate_hz=50).schema.names
+
+
 def test_the_twins_from_python_are_the_commands(tmp_path: Path) -> None:
     import numpy as np
 

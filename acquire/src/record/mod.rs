@@ -269,7 +269,7 @@ impl<'a> Recorder<'a> {
         // Room kept for the final session.toml: freed at the end, so a full
         // disk still gets a complete description of what was recorded.
         let reserve = dir.join(SPACE_RESERVE);
-        fs::write(&reserve, vec![0u8; SPACE_RESERVE_BYTES])
+        acq_io::output::write_fresh(&reserve, &vec![0u8; SPACE_RESERVE_BYTES])
             .map_err(|e| AcqError::io(format!("creating {}", reserve.display()), e))?;
         let raw = RawLog::create(dir, options.max_file_bytes).map_err(|e| {
             AcqError::io(
@@ -729,7 +729,7 @@ pub(crate) fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
             .unwrap_or_default();
         let bytes = read(path)?;
         let copy = rig_dir.join(&name);
-        fs::write(&copy, &bytes)
+        acq_io::output::write_fresh(&copy, &bytes)
             .map_err(|e| AcqError::io(format!("writing {}", copy.display()), e))?;
         Ok(CopiedFile {
             source: path.display().to_string(),
@@ -756,7 +756,7 @@ pub(crate) fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
     let text = String::from_utf8_lossy(&bytes);
     let rewritten = rewrite_dbc_paths(&text).unwrap_or_else(|| text.into_owned());
     let copy = rig_dir.join(&name);
-    fs::write(&copy, rewritten)
+    acq_io::output::write_fresh(&copy, rewritten.as_bytes())
         .map_err(|e| AcqError::io(format!("writing {}", copy.display()), e))?;
     Ok(RigCopy {
         name: rig.name.clone(),

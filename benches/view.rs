@@ -215,11 +215,13 @@ fn long_session(dir: &Path, hours: f64) -> u64 {
                 source: "bench".into(),
                 copy: "rig/bench.toml".into(),
                 sha256: sha(rig_text.as_bytes()),
+                copy_sha256: None,
             },
             dbc: vec![CopiedFile {
                 source: "bench".into(),
                 copy: "rig/somat_excavator.dbc".into(),
                 sha256: sha(&dbc),
+                copy_sha256: None,
             }],
             sensor_file: None,
         }),

@@ -1651,3 +1651,83 @@ fn a_link_at_a_temporary_or_an_output_name_is_never_written_through() {
         .unwrap()
         .starts_with("window,"));
 }
+
+/// A path escape and a copy changed by hand: a session's rig copy that
+/// names a sensor file outside its folder is refused before anything reads
+/// that file (`acq zero` used its range), and a copy whose bytes are no
+/// longer those session.toml recorded is refused, naming both, with the
+/// way out (`--rig`).
+#[test]
+fn a_sessions_rig_copy_is_the_one_recorded_and_names_only_files_beside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let outside = dir.path().join("outside");
+    std::fs::create_dir(&outside).unwrap();
+    std::fs::write(outside.join("sensors.toml"), "# outside\n").unwrap();
+    let session = common::copy_session("excavator_case2", dir.path());
+    let rig_copy = session.join("rig/excavator.toml");
+    let text = std::fs::read_to_string(&rig_copy).unwrap();
+    let escaped = format!(
+        "[rig]\nsensor_file = \"../../outside/sensors.toml\"\n{}",
+        text.replacen("[rig]\n", "", 1)
+    );
+    std::fs::write(&rig_copy, escaped).unwrap();
+    for command in [
+        vec!["zero", path_arg(&session), "--before", "0.5s"],
+        vec!["extract", path_arg(&session), "-o", "-"],
+    ] {
+        let refused = acq(&command);
+        assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+        let told = stderr(&refused);
+        assert!(
+            told.contains("outside the session's rig folder") && told.contains("--rig RIG.toml"),
+            "{told}"
+        );
+    }
+    assert!(!session.join("zero.toml").exists());
+
+    // A session written now records its copy's own hash: an edit is seen.
+    let mf4 = dir.path().join("00000001.MF4");
+    let converted = acq(&[
+        "convert",
+        path_arg(&session.join("raw.log")),
+        "-o",
+        path_arg(&mf4),
+    ]);
+    assert!(converted.status.success(), "{}", stderr(&converted));
+    let imported = dir.path().join("imported");
+    let made = acq(&[
+        "import",
+        path_arg(&mf4),
+        "--rig",
+        path_arg(&root().join("fixtures/sessions/excavator_case2/rig/excavator.toml")),
+        "--out",
+        path_arg(&imported),
+    ]);
+    assert!(made.status.success(), "{}", stderr(&made));
+    let ok = acq(&["extract", path_arg(&imported), "-o", "-"]);
+    assert!(ok.status.success(), "{}", stderr(&ok));
+    let copy = imported.join("rig/excavator.toml");
+    let edited =
+        std::fs::read_to_string(&copy)
+            .unwrap()
+            .replacen("rate_hz = 100", "rate_hz = 50", 1);
+    std::fs::write(&copy, edited).unwrap();
+    let refused = acq(&["extract", path_arg(&imported), "-o", "-"]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    let told = stderr(&refused);
+    assert!(
+        told.contains("rig/excavator.toml: not the bytes")
+            && told.contains("session.toml recorded"),
+        "{told}"
+    );
+    // The way out the message gives works.
+    let with_rig = acq(&[
+        "extract",
+        path_arg(&imported),
+        "--rig",
+        path_arg(&copy),
+        "-o",
+        "-",
+    ]);
+    assert!(with_rig.status.success(), "{}", stderr(&with_rig));
+}

@@ -152,6 +152,39 @@ pub struct CopiedFile {
     /// The copy, relative to the session directory.
     pub copy: String,
     pub sha256: String,
+    /// The copy's own hash where its bytes differ from the source's (a rig
+    /// file whose DBC and sensor-file paths were reduced to names); absent
+    /// in sessions written before 2026-12-04.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub copy_sha256: Option<String>,
+}
+
+impl RigCopy {
+    /// Checks that each copy in the session directory `dir` still has the
+    /// bytes session.toml recorded: a copy changed after it was written
+    /// (by hand, or to point at files elsewhere) is refused, naming it.
+    pub fn check_unchanged(&self, dir: &Path) -> Result<()> {
+        let copies = std::iter::once((&self.file, self.file.copy_sha256.as_deref()))
+            .chain(self.dbc.iter().map(|c| (c, Some(c.sha256.as_str()))))
+            .chain(
+                self.sensor_file
+                    .iter()
+                    .map(|c| (c, Some(c.sha256.as_str()))),
+            );
+        for (copy, recorded) in copies {
+            let Some(recorded) = recorded else { continue };
+            let path = crate::output::inside(dir, &copy.copy, "a copy session.toml names")?;
+            let (now, _) = sha256_file(&path).map_err(|e| AcqError::open(&path, e))?;
+            if now != recorded {
+                return Err(AcqError::Config(format!(
+                    "{}: not the bytes {} recorded (sha256 {recorded}, now {now}): the session's copy was changed after it was written; restore it, or give the rig to use with --rig RIG.toml",
+                    path.display(),
+                    dir.join(SESSION_FILE).display()
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// What the live decoder saw of one sensor.

@@ -735,6 +735,7 @@ pub(crate) fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
             source: path.display().to_string(),
             copy: format!("rig/{name}"),
             sha256: session::sha256_hex(&bytes),
+            copy_sha256: None,
         })
     };
     let mut dbc = Vec::new();
@@ -764,6 +765,7 @@ pub(crate) fn copy_rig(rig: &Rig, dir: &Path) -> Result<RigCopy> {
             source: rig.path.display().to_string(),
             copy: format!("rig/{name}"),
             sha256: session::sha256_hex(&bytes),
+            copy_sha256: Some(session::sha256_hex(rewritten.as_bytes())),
         },
         dbc,
         sensor_file,

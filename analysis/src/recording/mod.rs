@@ -112,7 +112,19 @@ impl Recording {
                 ))
             }
         };
+        // The session's own copy: unchanged since it was written, and every
+        // file it names inside its folder.
+        let copy = match (rig_path, &session) {
+            (None, Some(session)) => session.rig.as_ref(),
+            _ => None,
+        };
+        if let Some(copy) = copy {
+            copy.check_unchanged(path)?;
+        }
         let mut rig = Rig::load(&rig_file).map_err(|e| AcqError::Config(e.to_string()))?;
+        if copy.is_some() {
+            refuse_files_outside(&rig, &rig_file)?;
+        }
         acq_io::input::note_rig_inputs(&rig);
         let mut notes = Vec::new();
         if let Some(session) = &session {
@@ -364,4 +376,30 @@ impl std::fmt::Display for SampleCounts {
             self.frames, self.samples, self.missing_values, self.malformed_lines
         )
     }
+}
+
+/// A session's rig copy names its DBC and sensor files beside it (the
+/// recorder wrote them there): a path that leads out of its folder was put
+/// there by hand and is refused, naming the rig file.
+fn refuse_files_outside(rig: &Rig, rig_file: &Path) -> Result<()> {
+    let folder = rig_file.parent().unwrap_or(Path::new("."));
+    let named = rig
+        .buses
+        .iter()
+        .flat_map(|bus| bus.dbc_files.iter())
+        .chain(rig.sensor_file.iter());
+    for file in named {
+        let beside = file.strip_prefix(folder).is_ok_and(|rest| {
+            rest.components()
+                .all(|c| matches!(c, std::path::Component::Normal(_)))
+        });
+        if !beside {
+            return Err(AcqError::Config(format!(
+                "{}: names {}, outside the session's rig folder; a session's rig copy names only the files copied beside it: restore the copy, or give the rig to use with --rig RIG.toml",
+                rig_file.display(),
+                file.display()
+            )));
+        }
+    }
+    Ok(())
 }

@@ -174,7 +174,10 @@ fn a_bad_record_is_refused_with_its_line_and_what_to_fix() {
         ("calibration = { points = [[0.0, 0.0], [1.0, 1.0]], uncertainties = [0.1, 0.1], k = 2.0 }", "k needs the level of confidence"),
         ("calibration = { points = [[0.0, 0.0], [1.0, 1.0]], uncertainties = [0.1, -0.1] }", "uncertainty of calibration point 2 is -0.1"),
         ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"2026-05-01\", due = \"2025-05-01\" }", "due 2025-05-01 is before the calibration's date 2026-05-01"),
-        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"1.5.2026\" }", "give a date as YYYY-MM-DD"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"1.5.2026\" }", "give a date that exists, as YYYY-MM-DD"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"2026-02-30\" }", "date = \"2026-02-30\": give a date that exists"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"2024-02-28\", due = \"2025-02-29\" }", "due = \"2025-02-29\": give a date that exists"),
+        ("calibration = { points = [[0.0, 0.0, 0.0], [1.0, 1.0, 0.1], [2.0, 2.0, 0.1]] }", "calibration point 1 has 3 numbers; give each as [reading, value]"),
         ("accuracy = { percent_of_full_scale = 0.5 }", "needs the sensor's range"),
         ("accuracy = { percent_of_reading = -1.0 }", "give a share above 0"),
         ("resolution = 0.0", "resolution = 0"),
@@ -186,8 +189,12 @@ fn a_bad_record_is_refused_with_its_line_and_what_to_fix() {
         let message = stderr(&output);
         assert_eq!(output.status.code(), Some(2), "{record}: {message}");
         assert!(message.contains(expected), "{record}: {message}");
-        // The sensor's line in the rig file.
-        assert!(message.contains("line 9") || message.contains(":9"), "{record}: {message}");
+        // The sensor's line in the rig file, or the record's own (line 14)
+        // where the file's syntax already names it.
+        assert!(
+            message.contains("line 9") || message.contains(":9:") || message.contains("rig.toml:14:"),
+            "{record}: {message}"
+        );
     }
     let rig = rig_with(dir.path(), "");
     let output = acq(&["budget", path_arg(&rig), "--sensor", "q", "--at", "1"]);
@@ -1254,4 +1261,65 @@ fn a_data_sheets_parts_of_its_class_are_each_a_source() {
     let output = acq(&["check-rig", path_arg(&both)]);
     assert_eq!(output.status.code(), Some(2), "{}", stderr(&output));
     assert!(stderr(&output).contains("not both"), "{}", stderr(&output));
+}
+
+/// Wrong successes, round four: a budget is a number or an error. A value
+/// past what a certificate's polynomial reaches (`[0, 2, -0.01]` peaks at
+/// 100 bar), and a value so large that the budget overflows (a sensor with
+/// no range, a cylinder whose sensors have none), are refused with exit 2,
+/// where a budget of `"u_c": null` was printed with exit 0.
+#[test]
+fn a_budget_is_a_number_or_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = rig_with(
+        dir.path(),
+        "calibration = { polynomial = [0.0, 2.0, -0.01], expanded_uncertainty = 0.2, k = 2.0, level = 0.95 }",
+    );
+    let budget = |rig: &Path, args: &[&str]| {
+        let mut all = vec!["budget", path_arg(rig)];
+        all.extend_from_slice(args);
+        acq(&all)
+    };
+    let reached = budget(&rig, &["--sensor", "p", "--at", "50"]);
+    assert!(reached.status.success(), "{}", stderr(&reached));
+    let past = budget(&rig, &["--sensor", "p", "--at", "150"]);
+    assert_eq!(past.status.code(), Some(2), "{}", stderr(&past));
+    assert!(
+        stderr(&past).contains("no reading gives 150 bar"),
+        "{}",
+        stderr(&past)
+    );
+
+    let second = "\n[[sensor]]\nname = \"r\"\nkind = \"pressure\"\nrate_hz = 100\ncanopen = { node_id = 0x26, pdo = 1, byte = 0, type = \"int32\", decimal_digits = 2 }\naccuracy = { percent_of_reading = 0.5 }\n\n[[cylinder]]\nname = \"boom\"\nbore_mm = 100\nrod_mm = 60\nhead_sensor = \"p\"\nrod_sensor = \"r\"\n";
+    let rig = rig_with(
+        dir.path(),
+        &format!("accuracy = {{ percent_of_reading = 0.5 }}\n{second}"),
+    );
+    for args in [
+        vec!["--sensor", "p", "--at", "1e308"],
+        vec!["--cylinder", "boom", "--head", "1e300", "--rod", "0"],
+    ] {
+        let output = budget(&rig, &args);
+        let told = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {told}");
+        assert!(
+            told.contains("is not a number") && told.contains("e30"),
+            "{args:?}: {told}"
+        );
+        assert!(stdout(&output).is_empty(), "{args:?}");
+    }
+    let fine = budget(
+        &rig,
+        &[
+            "--cylinder",
+            "boom",
+            "--head",
+            "100",
+            "--rod",
+            "20",
+            "--json",
+        ],
+    );
+    assert!(fine.status.success(), "{}", stderr(&fine));
+    assert!(!stdout(&fine).contains("\"u_c\":null"), "{}", stdout(&fine));
 }

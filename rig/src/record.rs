@@ -472,7 +472,7 @@ pub(crate) fn read_certificate_dates(calibration: &CalibrationFile) -> Result<()
         if let Some(date) = date {
             if !is_date(date) {
                 return Err(format!(
-                    "calibration: {key} = \"{date}\": give a date as YYYY-MM-DD"
+                    "calibration: {key} = \"{date}\": give a date that exists, as YYYY-MM-DD"
                 ));
             }
         }
@@ -568,8 +568,25 @@ pub(crate) fn is_date(text: &str) -> bool {
             && part.bytes().all(|b| b.is_ascii_digit())
             && part.parse::<u32>().is_ok_and(|n| range.contains(&n))
     };
-    parts.len() == 3
+    if !(parts.len() == 3
         && number(parts[0], 4, 1900..=9999)
         && number(parts[1], 2, 1..=12)
-        && number(parts[2], 2, 1..=31)
+        && number(parts[2], 2, 1..=31))
+    {
+        return false;
+    }
+    // The day exists in its month (the Gregorian leap-year rule).
+    let (year, month, day): (u32, u32, u32) = (
+        parts[0].parse().unwrap_or(0),
+        parts[1].parse().unwrap_or(0),
+        parts[2].parse().unwrap_or(0),
+    );
+    let leap = (year % 4 == 0 && year % 100 != 0) || year % 400 == 0;
+    let days = match month {
+        2 if leap => 29,
+        2 => 28,
+        4 | 6 | 9 | 11 => 30,
+        _ => 31,
+    };
+    day <= days
 }

@@ -9,7 +9,7 @@ use serde::Deserialize;
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct CalibrationFile {
-    #[serde(default)]
+    #[serde(default, deserialize_with = "reading_value_pairs")]
     pub(super) points: Vec<[f64; 2]>,
     /// A certificate's polynomial instead of points: `c0, c1, ...`, value
     /// `= sum c_i r^i` for a reading `r`.
@@ -27,6 +27,27 @@ pub(super) struct CalibrationFile {
     /// `YYYY-MM-DD`.
     pub(super) date: Option<String>,
     pub(super) due: Option<String>,
+}
+
+/// A certificate's points, each exactly `[reading, value]`: a third number
+/// is a mistake (a point's uncertainty goes in `uncertainties`), never
+/// silently dropped.
+fn reading_value_pairs<'de, D: serde::Deserializer<'de>>(
+    deserializer: D,
+) -> Result<Vec<[f64; 2]>, D::Error> {
+    let points: Vec<Vec<f64>> = Vec::deserialize(deserializer)?;
+    points
+        .iter()
+        .enumerate()
+        .map(|(index, point)| match point.as_slice() {
+            [reading, value] => Ok([*reading, *value]),
+            _ => Err(serde::de::Error::custom(format!(
+                "calibration point {} has {} numbers; give each as [reading, value] (a point's uncertainty goes in `uncertainties`)",
+                index + 1,
+                point.len()
+            ))),
+        })
+        .collect()
 }
 
 /// `temperature = { zero_pct_fs_per_k, span_pct_per_k, range_c, reference_c }`.

@@ -73,8 +73,44 @@ pub fn run_budget(args: BudgetArgs) -> Result<()> {
         )));
     }
     within_range(sensor, "--at", at)?;
-    print_budget(&value_budget(sensor, at), args.json, None);
+    let budget = value_budget(sensor, at);
+    if budget.reading.is_none()
+        && matches!(
+            sensor.conversion,
+            acq_rig::profiles::Conversion::Polynomial(_)
+        )
+    {
+        return Err(AcqError::Config(format!(
+            "--at {shown}: no reading gives {shown} {} through {}'s certificate polynomial; give a value its readings reach (a `range` in the rig file has it checked)",
+            sensor.unit(),
+            sensor.name,
+            shown = shown(at),
+        )));
+    }
+    a_number(&budget, &format!("--at {}", shown(at)))?;
+    print_budget(&budget, args.json, None);
     Ok(())
+}
+
+/// A number as a user reads it: `1e308`, not 309 digits.
+fn shown(value: f64) -> String {
+    if value != 0.0 && !(1e-6..1e15).contains(&value.abs()) {
+        format!("{value:e}")
+    } else {
+        format!("{value}")
+    }
+}
+
+/// No budget without a number: one that overflows at an extreme value is
+/// refused, never printed with a null that a script would read as none.
+fn a_number(value: &acq_analysis::extract::uncertainty::ValueBudget, option: &str) -> Result<()> {
+    let combined = value.budget.combined();
+    if combined.is_finite() && value.value.is_finite() {
+        return Ok(());
+    }
+    Err(AcqError::Config(format!(
+        "{option}: the budget at this value is not a number (u_c = {combined}); give a value the sensor reads, within its range"
+    )))
 }
 
 /// A value within the range the rig file states for `sensor` (its full
@@ -83,7 +119,8 @@ pub fn run_budget(args: BudgetArgs) -> Result<()> {
 fn within_range(sensor: &acq_rig::Sensor, option: &str, value: f64) -> Result<()> {
     match sensor.range {
         Some([low, high]) if !(low..=high).contains(&value) => Err(AcqError::Config(format!(
-            "{option} {value}: outside {}'s range, {low} to {high} {} (the rig file's); its certificate and data sheet say nothing there",
+            "{option} {}: outside {}'s range, {low} to {high} {} (the rig file's); its certificate and data sheet say nothing there",
+            shown(value),
             sensor.name,
             sensor.unit()
         ))),
@@ -115,6 +152,10 @@ fn run_net_force(args: &BudgetArgs, rig: &acq_rig::Rig, cylinder: &str) -> Resul
             }
         )));
     };
+    a_number(
+        &value,
+        &format!("--head {} --rod {}", shown(head), shown(rod)),
+    )?;
     let monte_carlo = args
         .monte_carlo
         .and_then(|draws| net_force_monte_carlo(rig, cylinder, head, rod, draws as usize));

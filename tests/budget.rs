@@ -1323,3 +1323,58 @@ fn a_budget_is_a_number_or_an_error() {
     assert!(fine.status.success(), "{}", stderr(&fine));
     assert!(!stdout(&fine).contains("\"u_c\":null"), "{}", stdout(&fine));
 }
+
+/// Wrong successes, round four: a zero window is a rest inside the
+/// recording or nothing is written. A window longer than the recording
+/// (the "zero" was the whole test's mean), windows before and after that
+/// overlap, and a window that runs into the load ramp (the rod pressure
+/// climbs by hundreds of bar where it scatters by a fraction of one) are
+/// refused, each named; a zeroed value a little under its range's start is
+/// the zero's, and no longer flagged "saturated".
+#[test]
+fn a_zero_window_is_a_rest_inside_the_recording_or_it_is_refused() {
+    let temp = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case2", temp.path());
+    let zero = |args: &[&str]| {
+        let mut all = vec!["zero", path_arg(&session)];
+        all.extend_from_slice(args);
+        acq(&all)
+    };
+    for (args, expected) in [
+        (vec!["--before", "30s"], "the recording is 14.3 s long"),
+        (
+            vec!["--before", "1s", "--after", "30s"],
+            "overlap in a recording 14.3 s long",
+        ),
+        (vec!["--before", "10s", "--after", "10s"], "overlap"),
+        (
+            vec!["--before", "3s"],
+            "boom_rod_pressure: not at rest in the before window",
+        ),
+    ] {
+        let output = zero(&args);
+        let told = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {told}");
+        assert!(told.contains(expected), "{args:?}: {told}");
+        assert!(
+            !session.join("zero.toml").exists(),
+            "{args:?}: nothing written"
+        );
+    }
+    // The rest before the ramp: taken. Its rod pressures, about 5 bar at
+    // rest, read a few tenths of a bar once zeroed: inside what the zero
+    // moved, not at the end of the range [0, 600] bar.
+    let rest = zero(&["--before", "0.5s"]);
+    assert!(rest.status.success(), "{}", stderr(&rest));
+    let out = temp.path().join("measured.csv");
+    let extracted = acq(&["extract", path_arg(&session), "-o", path_arg(&out)]);
+    assert!(extracted.status.success(), "{}", stderr(&extracted));
+    let rows = measured_rows(&out);
+    let bucket_rod = rows
+        .iter()
+        .find(|row| row["quantity"] == "bucket_rod_pressure")
+        .unwrap();
+    let mean: f64 = bucket_rod["mean"].parse().unwrap();
+    assert!(mean.abs() < 0.6, "{bucket_rod:?}");
+    assert!(!bucket_rod["flags"].contains("saturated"), "{bucket_rod:?}");
+}

@@ -56,9 +56,75 @@ impl ZeroWindows {
     }
 }
 
+/// A straight line through a window's samples, kept as running sums: how
+/// far the channel moved across the window against its scatter about that
+/// line. At rest it moves by about its scatter over the square root of the
+/// samples; on a load ramp by many times its scatter.
+#[derive(Clone, Copy, Debug, Default)]
+struct Trend {
+    n: f64,
+    t: f64,
+    tt: f64,
+    x: f64,
+    xx: f64,
+    tx: f64,
+    /// The first sample's time, seconds are counted from it.
+    start_ns: Option<i64>,
+    last_s: f64,
+}
+
+/// A window moved by more than this many times its scatter about its line
+/// is no rest: white noise over 10 samples moves by under 1.5 (3 standard
+/// errors), a hydraulic pulsation by under 3; a load ramp by tens.
+const MOVED_TIMES_SCATTER: f64 = 5.0;
+
+impl Trend {
+    fn push(&mut self, time_ns: i64, value: f64) {
+        let start = *self.start_ns.get_or_insert(time_ns);
+        let t = (time_ns - start) as f64 / 1e9;
+        self.n += 1.0;
+        self.t += t;
+        self.tt += t * t;
+        self.x += value;
+        self.xx += value * value;
+        self.tx += t * value;
+        self.last_s = self.last_s.max(t);
+    }
+
+    /// (how far the line moves across the window, the scatter about it),
+    /// in the value's unit; `None` under 10 samples.
+    fn moved_and_scatter(&self) -> Option<(f64, f64)> {
+        if self.n < 10.0 {
+            return None;
+        }
+        let n = self.n;
+        let stt = self.tt - self.t * self.t / n;
+        let sxx = self.xx - self.x * self.x / n;
+        let stx = self.tx - self.t * self.x / n;
+        if stt <= 0.0 {
+            return None;
+        }
+        let slope = stx / stt;
+        let residual = (sxx - slope * stx).max(0.0) / (n - 2.0);
+        Some(((slope * self.last_s).abs(), residual.sqrt()))
+    }
+
+    /// A line saying the channel was not at rest, or `None`.
+    fn not_at_rest(&self, name: &str, unit: &str, window: &str) -> Option<String> {
+        let (moved, scatter) = self.moved_and_scatter()?;
+        (moved > MOVED_TIMES_SCATTER * scatter && moved > 0.0).then(|| {
+            format!(
+                "{name}: not at rest in the {window}: it moves by {moved:.4} {unit} across it, {:.0} times its scatter ({scatter:.4} {unit}); a zero there would take part of the load for zero",
+                if scatter > 0.0 { moved / scatter } else { f64::INFINITY }
+            )
+        })
+    }
+}
+
 /// One zeroed channel's readings so far.
 struct Channel {
     before: WindowAccumulator,
+    before_trend: Trend,
     /// The samples of the last `after_ns` (time, value), for the after window.
     tail: VecDeque<(i64, f64)>,
 }
@@ -89,6 +155,7 @@ impl ZeroTaker {
                 .map(|s| {
                     s.zero_at_rest.then(|| Channel {
                         before: WindowAccumulator::new(None),
+                        before_trend: Trend::default(),
                         tail: VecDeque::new(),
                     })
                 })
@@ -122,6 +189,7 @@ impl ZeroTaker {
         };
         if !self.before_closed && before.contains(&time_ns) {
             channel.before.push(time_ns, value);
+            channel.before_trend.push(time_ns, value);
         }
         if let Some(after_ns) = self.windows.after_ns {
             channel.tail.push_back((time_ns, value));
@@ -133,6 +201,35 @@ impl ZeroTaker {
                 channel.tail.pop_front();
             }
         }
+    }
+
+    /// The channels that were not at rest in a zero window, a line each
+    /// (what moved, by how much against its scatter).
+    pub fn not_at_rest(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        for (sensor, channel) in self.rig.sensors.iter().zip(&self.channels) {
+            let Some(channel) = channel else { continue };
+            lines.extend(channel.before_trend.not_at_rest(
+                &sensor.name,
+                sensor.unit(),
+                "before window",
+            ));
+            if let (Some(after_ns), Some(latest)) = (self.windows.after_ns, self.latest_ns) {
+                let mut after = Trend::default();
+                for &(t, value) in channel.tail.iter().filter(|(t, _)| *t >= latest - after_ns) {
+                    after.push(t, value);
+                }
+                lines.extend(after.not_at_rest(&sensor.name, sensor.unit(), "after window"));
+            }
+        }
+        lines
+    }
+
+    /// How long the recording ran, seconds from the session's start to its
+    /// latest sample.
+    pub fn recorded_s(&self) -> f64 {
+        self.latest_ns
+            .map_or(0.0, |latest| (latest - self.t0_ns) as f64 / 1e9)
     }
 
     /// Whether the before window is complete: the offsets are known.
@@ -212,6 +309,10 @@ pub struct TakenZero {
     pub record: ZeroRecord,
     /// Channels to zero that sent no value in the before window.
     pub missing: Vec<String>,
+    /// Channels that moved in a window: no rest, a line each.
+    pub not_at_rest: Vec<String>,
+    /// How long the recording ran, s.
+    pub recorded_s: f64,
     pub counts: SampleCounts,
 }
 
@@ -235,6 +336,8 @@ pub fn take(recording: &Recording, windows: ZeroWindows, taken_by: &str) -> Resu
     Ok(TakenZero {
         record: taker.record(taken_by),
         missing: taker.missing(),
+        not_at_rest: taker.not_at_rest(),
+        recorded_s: taker.recorded_s(),
         counts,
     })
 }

@@ -41,6 +41,7 @@ pub fn run_zero(args: ZeroArgs) -> Result<()> {
     let windows = windows(args.before, args.after)?;
     let recording = Recording::open_session(&args.session)?;
     let taken = take(&recording, windows, "acq zero")?;
+    rest_windows(&args, &taken)?;
     if taken.record.sensors.is_empty() {
         return Err(AcqError::Config(format!(
             "{}: no channel to zero sent a value in the first {:?} ({}); a channel is zeroed when its rig sensor reads zero at rest (zero_at_rest)",
@@ -64,6 +65,50 @@ pub fn run_zero(args: ZeroArgs) -> Result<()> {
         args.session.join(zero_record::ZERO_FILE).display()
     );
     Ok(())
+}
+
+/// A zero window is a rest inside the recording, or nothing is written: a
+/// window past the recording's end, windows that overlap, and a channel
+/// that moves in a window are refused, each named, with the window to use.
+fn rest_windows(args: &ZeroArgs, taken: &acq_analysis::zero::TakenZero) -> Result<()> {
+    let recorded_s = taken.recorded_s;
+    let before_s = args.before.as_secs_f64();
+    let after_s = args.after.map(|a| a.as_secs_f64());
+    if before_s >= recorded_s {
+        return Err(AcqError::Config(format!(
+            "--before {before_s} s: the recording is {recorded_s:.1} s long, so the window would be the whole test; give the rest before the load, e.g. --before {:.1}s",
+            (recorded_s / 10.0).max(0.1)
+        )));
+    }
+    if let Some(after_s) = after_s {
+        if before_s + after_s > recorded_s {
+            return Err(AcqError::Config(format!(
+                "--before {before_s} s and --after {after_s} s overlap in a recording {recorded_s:.1} s long: the windows are the rests before and after the test, which lies between them"
+            )));
+        }
+    }
+    if !taken.not_at_rest.is_empty() {
+        return Err(AcqError::Config(format!(
+            "no zero written: the window is no rest for {} channel(s):\n  {}\ngive a shorter --before (or --after) that ends before the load is applied (starts after it is removed)",
+            taken.not_at_rest.len(),
+            shown_lines(&taken.not_at_rest)
+        )));
+    }
+    Ok(())
+}
+
+/// The first eight lines, and how many more.
+fn shown_lines(lines: &[String]) -> String {
+    let mut shown = lines
+        .iter()
+        .take(8)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join("\n  ");
+    if lines.len() > 8 {
+        shown.push_str(&format!("\n  ... and {} more", lines.len() - 8));
+    }
+    shown
 }
 
 /// A line per zeroed channel: its zero, its zero return, and a warning

@@ -284,6 +284,20 @@ impl<'a> WindowSummariser<'a> {
         shunt: Option<&ShuntRecord>,
     ) -> Self {
         self.session_parts = SessionParts::of(&self.rig.sensors, zero, shunt);
+        // A transducer saturates in what it reads, before the zero is
+        // taken off: a zeroed value a little under the range's start is
+        // the zero's, not the end of the range.
+        if let Some(zero) = zero {
+            let sensors = self.rig.sensors.len();
+            for (index, accumulator) in self.accumulators.iter_mut().enumerate() {
+                let sensor = &self.rig.sensors[index % sensors];
+                if let (Some([low, high]), Some(taken)) = (sensor.range, zero.sensor(&sensor.name))
+                {
+                    let offset = taken.offset();
+                    *accumulator = WindowAccumulator::new(Some([low - offset, high - offset]));
+                }
+            }
+        }
         self
     }
 

@@ -717,3 +717,55 @@ fn a_gtn_spec_says_what_it_needs() {
         assert!(!out.exists(), "a refused spec leaves no run directory");
     }
 }
+
+/// Careless input, round four: a mesh study that cannot say anything is
+/// refused. Sizes at which every run fails (1e308: the solver's value
+/// overflows to `inf`) end with exit 2, naming how many runs gave a value,
+/// where an all-null summary came with exit 0; a `calibrate_at` that is
+/// none of the sizes (no u_num there), more sizes than runs are worth, and
+/// an `--out` that holds the spec are refused before any run.
+#[test]
+fn a_mesh_study_that_can_say_nothing_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let overflowing = spec(dir.path(), "[1e308, 1e307, 1e306]", "{mesh}");
+    let run = common::run_mesh_study(&overflowing, &dir.path().join("overflow"), &[]);
+    assert_eq!(run.status.code(), Some(2), "{}", stderr(&run));
+    assert!(
+        stderr(&run).contains("0 of 3 runs gave a value"),
+        "{}",
+        stderr(&run)
+    );
+
+    let refused = |sizes: &str, extra: &str, out: &Path, expected: &str| {
+        let spec = spec(dir.path(), sizes, "{mesh}");
+        let text = std::fs::read_to_string(&spec).unwrap() + extra;
+        std::fs::write(&spec, text).unwrap();
+        let run = common::run_mesh_study(&spec, out, &[]);
+        assert_eq!(
+            run.status.code(),
+            Some(2),
+            "{sizes} {extra}: {}",
+            stderr(&run)
+        );
+        assert!(
+            stderr(&run).contains(expected),
+            "{sizes} {extra}: {}",
+            stderr(&run)
+        );
+        assert!(!out.join("evaluations.csv").exists(), "no run");
+    };
+    refused(
+        "[0.4, 0.2, 0.1]",
+        "calibrate_at = 0.3\n",
+        &dir.path().join("between"),
+        "calibrate_at = 0.3 is none of the sizes",
+    );
+    let many: Vec<String> = (1..=21).map(|i| format!("{}", 0.01 * i as f64)).collect();
+    refused(
+        &format!("[{}]", many.join(", ")),
+        "",
+        &dir.path().join("many"),
+        "21 sizes: give at most 20",
+    );
+    refused("[0.4, 0.2, 0.1]", "", dir.path(), "it holds the spec");
+}

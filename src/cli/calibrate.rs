@@ -290,6 +290,18 @@ pub fn run_mesh_study(args: MeshStudyArgs) -> Result<()> {
         seed: 1,
     };
     let outcome = acq_workflows::calibrate::external::run_mesh_study(&options, None)?;
+    // No result without a number: a study whose runs gave fewer than three
+    // values says nothing of convergence, and is no success.
+    let gave = outcome.evaluations - outcome.failed;
+    if gave < 3 {
+        return Err(acq_error::AcqError::Config(format!(
+            "{}: {gave} of {} runs gave a value ({} failed; their logs are in {}): a mesh study needs three sizes that run; give sizes the model takes",
+            options.spec.display(),
+            outcome.evaluations,
+            outcome.failed,
+            options.out.display()
+        )));
+    }
     for output in &outcome.outputs {
         match &output.convergence {
             Some(study) => println!("{}: {study}", output.key),

@@ -443,6 +443,9 @@ pub fn multi_fidelity(
     }
 }
 
+/// The most element sizes a `[mesh_study]` runs: a run each.
+pub const MAX_MESH_SIZES: usize = 20;
+
 /// `[mesh_study]`: at least three distinct positive sizes, `at` naming
 /// parameters within their ranges, and `{mesh}` where the sizes go; a
 /// command that takes `{mesh}` needs the section.
@@ -475,6 +478,12 @@ pub fn mesh_study(
     if sizes.len() < 3 {
         return Err(problem(format!(
             "sizes = {sizes:?}: give at least three element sizes (Celik et al. 2008 needs three; more are fitted by least squares)"
+        )));
+    }
+    if sizes.len() > MAX_MESH_SIZES {
+        return Err(problem(format!(
+            "{} sizes: give at most {MAX_MESH_SIZES} (a run each; the order and the extrapolation are fitted from three or more, and more sizes than this add runs, not certainty)",
+            sizes.len()
         )));
     }
     if let Some(bad) = sizes.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
@@ -513,9 +522,9 @@ pub fn mesh_study(
         }
     }
     let calibrate_at = section.calibrate_at.unwrap_or(sorted[0]);
-    if !(calibrate_at.is_finite() && calibrate_at > 0.0) {
+    if !sizes.contains(&calibrate_at) {
         return Err(problem(format!(
-            "calibrate_at = {calibrate_at}: give a positive element size"
+            "calibrate_at = {calibrate_at} is none of the sizes {sizes:?}: the numerical uncertainty at a size comes from the study's run there; give one of them"
         )));
     }
     let size_unit = match (&section.unit, model) {

@@ -4,7 +4,7 @@
 //! or on a built-in twin (`model = "excavator"` or `model = "gtn"`,
 //! [`super::models`]). The spec's keys are in [`acq_study::spec`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use acq_error::{AcqError, Result};
 
@@ -199,7 +199,34 @@ fn spec_model<'a>(
             SpecModel::Given { model, name }
         }
     };
-    Ok((model, RunDirectory::create(&args.out)?))
+    Ok((model, run_directory(args)?))
+}
+
+/// The run directory, created: never the spec's own folder nor one that
+/// holds the spec, where a run's outputs would lie among its inputs.
+fn run_directory(args: &CalibrateExternalOptions) -> Result<RunDirectory> {
+    let spec_folder = args
+        .spec
+        .parent()
+        .map(|p| {
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            }
+        })
+        .and_then(|p| std::fs::canonicalize(p).ok());
+    if let (Some(spec_folder), Ok(out)) = (spec_folder, std::fs::canonicalize(&args.out)) {
+        if spec_folder.starts_with(&out) {
+            return Err(AcqError::Config(format!(
+                "--out {}: it holds the spec {}, so the run's outputs would lie among its inputs; give a folder of its own (e.g. {})",
+                args.out.display(),
+                args.spec.display(),
+                out.join("run").display()
+            )));
+        }
+    }
+    RunDirectory::create(&args.out)
 }
 
 /// A user's solver on the spec's executor, its runs in `args.out/runs/`,
@@ -211,7 +238,7 @@ fn command_model(
 ) -> Result<(CommandModel, RunDirectory)> {
     let executor = executor(&spec.executor)
         .map_err(|e| AcqError::Config(format!("{}: {e}", args.spec.display())))?;
-    let directory = RunDirectory::create(&args.out)?;
+    let directory = run_directory(args)?;
     let runs = std::fs::canonicalize(&directory.path)
         .map_err(|e| AcqError::io(format!("resolving {}", directory.path.display()), e))?
         .join("runs");

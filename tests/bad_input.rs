@@ -1731,3 +1731,27 @@ fn a_sessions_rig_copy_is_the_one_recorded_and_names_only_files_beside_it() {
     ]);
     assert!(with_rig.status.success(), "{}", stderr(&with_rig));
 }
+
+/// Harmful advice, round four: a rig file saved in a session under the
+/// name of a record acq keeps there (`shunt.toml`, `zero.toml`) is named
+/// for what it is, with exit 2, never answered with "remove it" (which
+/// would delete the rig); the rig is left as it was.
+#[test]
+fn a_rig_at_a_records_name_is_named_for_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case2", dir.path());
+    let rig_text = std::fs::read(session.join("rig/excavator.toml")).unwrap();
+    for name in ["shunt.toml", "zero.toml"] {
+        let placed = session.join(name);
+        std::fs::write(&placed, &rig_text).unwrap();
+        let output = acq(&["extract", path_arg(&session), "-o", "-"]);
+        let told = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{name}: {told}");
+        assert!(
+            told.contains(&format!("{name}: this is a rig file")) && !told.contains("remove it"),
+            "{name}: {told}"
+        );
+        assert_eq!(std::fs::read(&placed).unwrap(), rig_text, "{name} kept");
+        std::fs::remove_file(&placed).unwrap();
+    }
+}

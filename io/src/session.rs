@@ -341,9 +341,32 @@ pub fn read_toml_file<T: serde::de::DeserializeOwned>(
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(AcqError::open(&path, e)),
     };
-    toml::from_str(&text)
-        .map(Some)
-        .map_err(|e| AcqError::Malformed(format!("{}: {e}; {remedy}", path.display())))
+    toml::from_str(&text).map(Some).map_err(|e| {
+        // Another of the user's files at the record's name (a rig named
+        // `shunt.toml`): said for what it is, never with advice to delete.
+        match other_kind_of_file(&text) {
+            Some(kind) => AcqError::Config(format!(
+                "{}: this is {kind}, not the record acq keeps under the name {name}; move it out of the session (a session's rig lives in rig/) and run the command again",
+                path.display()
+            )),
+            None => AcqError::Malformed(format!("{}: {e}; {remedy}", path.display())),
+        }
+    })
+}
+
+/// What a TOML text is when it is one of the user's own files: a rig (its
+/// `[[bus]]` or `[[sensor]]`), a session's session.toml, a study spec.
+fn other_kind_of_file(text: &str) -> Option<&'static str> {
+    let table: toml::Table = toml::from_str(text).ok()?;
+    if table.contains_key("bus") || table.contains_key("sensor") {
+        Some("a rig file (it has [[bus]] or [[sensor]])")
+    } else if table.contains_key("session") {
+        Some("a session's session.toml")
+    } else if table.contains_key("parameter") || table.contains_key("case") {
+        Some("a study spec (it has [[parameter]] or [[case]])")
+    } else {
+        None
+    }
 }
 
 /// Reads `session.toml`.

@@ -178,6 +178,8 @@ fn a_bad_record_is_refused_with_its_line_and_what_to_fix() {
         ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"2026-02-30\" }", "date = \"2026-02-30\": give a date that exists"),
         ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], date = \"2024-02-28\", due = \"2025-02-29\" }", "due = \"2025-02-29\": give a date that exists"),
         ("calibration = { points = [[0.0, 0.0, 0.0], [1.0, 1.0, 0.1], [2.0, 2.0, 0.1]] }", "calibration point 1 has 3 numbers; give each as [reading, value]"),
+        ("calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]] }", "lie exactly on a line and state no uncertainties"),
+        ("calibration = { points = [[-1e308, -1e308], [0.0, 0.0], [1e308, 1e308]], uncertainties = [0.1, 0.1, 0.1] }", "a line through these points overflows"),
         ("accuracy = { percent_of_full_scale = 0.5 }", "needs the sensor's range"),
         ("accuracy = { percent_of_reading = -1.0 }", "give a share above 0"),
         ("resolution = 0.0", "resolution = 0"),
@@ -491,7 +493,7 @@ fn check_rig_states_each_certificate_and_flags_one_past_its_due_date() {
     let dir = tempfile::tempdir().unwrap();
     let rig = rig_with(
         dir.path(),
-        "calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], certificate = \"C-1\", lab = \"a lab\", date = \"2019-01-10\", due = \"2020-01-10\" }",
+        "calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], uncertainties = [0.1, 0.1, 0.1], certificate = \"C-1\", lab = \"a lab\", date = \"2019-01-10\", due = \"2020-01-10\" }",
     );
     let output = acq(&["check-rig", path_arg(&rig)]);
     assert!(output.status.success(), "{}", stderr(&output));
@@ -502,7 +504,7 @@ fn check_rig_states_each_certificate_and_flags_one_past_its_due_date() {
     );
     let current = rig_with(
         dir.path(),
-        "calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], certificate = \"C-2\", lab = \"a lab\", date = \"2026-01-10\", due = \"9999-01-10\" }",
+        "calibration = { points = [[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]], uncertainties = [0.1, 0.1, 0.1], certificate = \"C-2\", lab = \"a lab\", date = \"2026-01-10\", due = \"9999-01-10\" }",
     );
     let text = stdout(&acq(&["check-rig", path_arg(&current)]));
     assert!(
@@ -1322,6 +1324,14 @@ fn a_budget_is_a_number_or_an_error() {
     );
     assert!(fine.status.success(), "{}", stderr(&fine));
     assert!(!stdout(&fine).contains("\"u_c\":null"), "{}", stdout(&fine));
+    // A sensor with nothing on record: its budget is 0, never "-0".
+    let bare = budget(
+        &common::root().join("fixtures/rigs/excavator.toml"),
+        &["--sensor", "sg09", "--at", "50", "--json"],
+    );
+    assert!(bare.status.success(), "{}", stderr(&bare));
+    let json = stdout(&bare);
+    assert!(json.contains("\"u_c\":0.0") && !json.contains("-0.0"), "{json}");
 }
 
 /// Wrong successes, round four: a zero window is a rest inside the

@@ -90,10 +90,11 @@ pub struct Budget {
 impl Budget {
     /// `u_c = sqrt(sum (c_i u_i)^2)`.
     pub fn combined(&self) -> f64 {
+        // A fold from +0.0: an empty `sum` of floats is -0.0, and a budget
+        // with nothing in it is 0, not "-0".
         self.contributions
             .iter()
-            .map(|c| c.in_result().powi(2))
-            .sum::<f64>()
+            .fold(0.0, |sum, c| sum + c.in_result().powi(2))
             .sqrt()
     }
 

@@ -399,8 +399,14 @@ pub(crate) fn read_points(
     };
     let curve = CalibrationCurve::fit(&calibration.points, standard.as_deref())
         .map_err(|e| format!("calibration: {e} ({unit} for values)"))?;
-    if curve.slope == 0.0 || !curve.slope.is_finite() {
+    if !(curve.slope.is_finite() && curve.intercept.is_finite() && curve.residual_std.is_finite()) {
+        return Err(format!("calibration: a line through these points overflows (readings or values near 1e308?); give the certificate's readings and values as it states them, in {unit}"));
+    }
+    if curve.slope == 0.0 {
         return Err("calibration: the points' values do not change with the reading; a sensor needs a slope".into());
+    }
+    if standard.is_none() && curve.residual_std == 0.0 {
+        return Err(format!("calibration: the points lie exactly on a line and state no uncertainties, so the line says nothing of its own uncertainty (u_c would be 0); give uncertainties = [...] in {unit}, as the certificate states them"));
     }
     Ok(curve)
 }

@@ -1331,7 +1331,10 @@ fn a_budget_is_a_number_or_an_error() {
     );
     assert!(bare.status.success(), "{}", stderr(&bare));
     let json = stdout(&bare);
-    assert!(json.contains("\"u_c\":0.0") && !json.contains("-0.0"), "{json}");
+    assert!(
+        json.contains("\"u_c\":0.0") && !json.contains("-0.0"),
+        "{json}"
+    );
 }
 
 /// Wrong successes, round four: a zero window is a rest inside the

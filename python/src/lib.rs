@@ -26,7 +26,12 @@ use tables::{AlignRequest, CurveRequest, DecodeRequest, HoldsRequest};
 /// failed read or write an `OSError`, an interrupted run a
 /// `KeyboardInterrupt`.
 fn python_error(error: AcqError) -> PyErr {
-    let message = error.to_string();
+    // The engine's messages name the command line's options; a Python user
+    // passes keyword arguments.
+    let message = error
+        .to_string()
+        .replace("--resume", "resume=True")
+        .replace("--out ", "out=");
     match error {
         AcqError::Config(_) | AcqError::Malformed(_) => PyValueError::new_err(message),
         AcqError::Interrupted(_) => PyKeyboardInterrupt::new_err(message),

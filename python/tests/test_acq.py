@@ -155,6 +155,14 @@ def test_a_python_model_is_the_command_run_for_run(
     spec.write_text("\n".join(kept) + "\n")
     with pytest.raises(ValueError, match="command is empty"):
         acq.calibrate(spec, out=tmp_path / "no-model")
+    # A folder of other files is no run directory, said in Python's words.
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "notes.txt").write_text("mine\n")
+    with pytest.raises(ValueError, match="no run to resume") as refused:
+        acq.calibrate(spec, out=busy, model=spring)
+    assert "--" not in str(refused.value)
+    assert (busy / "notes.txt").read_text() == "mine\n" and not (busy / "evaluations.csv").exists()
     run = acq.calibrate(spec_path=spec, out=tmp_path / "python", model=spring)
     python_runs, command_runs = runs_of(run), runs_of(spring_run)
     assert len(python_runs) == len(command_runs) > 20

@@ -226,6 +226,20 @@ fn run_directory(args: &CalibrateExternalOptions) -> Result<RunDirectory> {
             )));
         }
     }
+    // A folder of other files is no run directory: a run's files would mix
+    // with them (evaluations.csv of an earlier run is resumed or refused by
+    // the evaluator, which says how).
+    if !args.resume && !args.out.join("evaluations.csv").exists() {
+        if let Ok(entries) = std::fs::read_dir(&args.out) {
+            let held = entries.count();
+            if held > 0 {
+                return Err(AcqError::Config(format!(
+                    "--out {}: it holds {held} file(s) and no run to resume; give a new or empty folder, where the run's evaluations.csv, summary.json and report are written",
+                    args.out.display()
+                )));
+            }
+        }
+    }
     RunDirectory::create(&args.out)
 }
 

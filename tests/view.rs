@@ -7,6 +7,8 @@
 
 mod common;
 
+use std::os::unix::fs::FileTypeExt;
+
 use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
@@ -703,6 +705,27 @@ fn a_session_opens_again_from_its_index_and_a_damaged_index_is_rebuilt() {
     std::fs::write(&raw, &log).unwrap();
     let (_, source) = acq_view::open_session(&dir, "case1").unwrap();
     assert_eq!(source, acq_view::Source::Recording(Ok(())));
+    // A FIFO at the index's name (careless input, round four): never
+    // waited on, neither read nor written; the page opens from the
+    // recording and says why no index was kept.
+    std::fs::remove_file(&index).unwrap();
+    let made = std::process::Command::new("mkfifo")
+        .arg(&index)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let (view, source) = acq_view::open_session(&dir, "case1").unwrap();
+    assert_eq!(view.holds.len(), 1);
+    match source {
+        acq_view::Source::Recording(Err(why)) => {
+            assert!(why.contains("not a regular file"), "{why}")
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(std::fs::symlink_metadata(&index)
+        .unwrap()
+        .file_type()
+        .is_fifo());
 }
 
 #[test]

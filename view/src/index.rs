@@ -138,7 +138,16 @@ pub fn save(dir: &Path, key: &Key, view: &SessionView) -> Result<()> {
     bytes.extend_from_slice(&(header.len() as u64).to_le_bytes());
     bytes.extend_from_slice(&header);
     bytes.extend_from_slice(&payload);
-    Output::write_complete(&dir.join(FILE), &bytes)
+    // The session's own cache, never an output the user points somewhere:
+    // a FIFO or a device at its name would block the page for ever.
+    let path = dir.join(FILE);
+    if std::fs::symlink_metadata(&path).is_ok_and(|m| !m.is_file()) {
+        return Err(acq_error::AcqError::Config(format!(
+            "{} is not a regular file (a FIFO, a device or a link?); remove it and the next view keeps an index",
+            path.display()
+        )));
+    }
+    Output::write_complete(&path, &bytes)
 }
 
 /// The view from `dir`'s index, if there is one made from this recording;

@@ -1390,4 +1390,17 @@ fn a_zero_window_is_a_rest_inside_the_recording_or_it_is_refused() {
     let mean: f64 = bucket_rod["mean"].parse().unwrap();
     assert!(mean.abs() < 0.6, "{bucket_rod:?}");
     assert!(!bucket_rod["flags"].contains("saturated"), "{bucket_rod:?}");
+    // A tensile test loads from its second second: its first 3 s hold the
+    // start of the rise (a zero of 1.3 kN once taken), refused; its first
+    // second is a rest.
+    let tensile = common::copy_session("tensile_p91_20c", &temp.path().join("tensile"));
+    let rising = acq(&["zero", path_arg(&tensile), "--before", "3s"]);
+    assert_eq!(rising.status.code(), Some(2), "{}", stderr(&rising));
+    assert!(
+        stderr(&rising).contains("load: not at rest in the before window"),
+        "{}",
+        stderr(&rising)
+    );
+    let resting = acq(&["zero", path_arg(&tensile), "--before", "1s"]);
+    assert!(resting.status.success(), "{}", stderr(&resting));
 }

@@ -56,66 +56,78 @@ impl ZeroWindows {
     }
 }
 
-/// A straight line through a window's samples, kept as running sums: how
-/// far the channel moved across the window against its scatter about that
-/// line. At rest it moves by about its scatter over the square root of the
-/// samples; on a load ramp by many times its scatter.
-#[derive(Clone, Copy, Debug, Default)]
-struct Trend {
-    n: f64,
-    t: f64,
-    tt: f64,
-    x: f64,
-    xx: f64,
-    tx: f64,
-    /// The first sample's time, seconds are counted from it.
-    start_ns: Option<i64>,
-    last_s: f64,
+/// A window's samples in four quarters of its time, as running means and
+/// spreads. At rest each quarter has the channel's noise and the quarters'
+/// means agree to a fraction of it; a load applied anywhere in the window
+/// (a ramp across it, or a rise in its last quarter) moves a quarter's mean
+/// by many times the quietest quarter's noise.
+#[derive(Clone, Copy, Debug)]
+struct Quarters {
+    from_ns: i64,
+    length_ns: i64,
+    /// (n, mean, sum of squared deviations) per quarter.
+    parts: [(f64, f64, f64); 4],
 }
 
-/// A window moved by more than this many times its scatter about its line
-/// is no rest: white noise over 10 samples moves by under 1.5 (3 standard
-/// errors), a hydraulic pulsation by under 3; a load ramp by tens.
-const MOVED_TIMES_SCATTER: f64 = 5.0;
+/// A quarter whose mean lies further than this many times the noise at
+/// rest from the first quarter's is no rest: for white noise the quarters'
+/// means differ by a few standard errors, far under one noise.
+const MOVED_TIMES_NOISE: f64 = 5.0;
 
-impl Trend {
-    fn push(&mut self, time_ns: i64, value: f64) {
-        let start = *self.start_ns.get_or_insert(time_ns);
-        let t = (time_ns - start) as f64 / 1e9;
-        self.n += 1.0;
-        self.t += t;
-        self.tt += t * t;
-        self.x += value;
-        self.xx += value * value;
-        self.tx += t * value;
-        self.last_s = self.last_s.max(t);
+impl Quarters {
+    fn new(from_ns: i64, length_ns: i64) -> Self {
+        Quarters {
+            from_ns,
+            length_ns: length_ns.max(1),
+            parts: [(0.0, 0.0, 0.0); 4],
+        }
     }
 
-    /// (how far the line moves across the window, the scatter about it),
-    /// in the value's unit; `None` under 10 samples.
-    fn moved_and_scatter(&self) -> Option<(f64, f64)> {
-        if self.n < 10.0 {
+    fn push(&mut self, time_ns: i64, value: f64) {
+        let quarter = ((time_ns - self.from_ns).max(0) as i128 * 4 / self.length_ns as i128)
+            .clamp(0, 3) as usize;
+        let (n, mean, m2) = &mut self.parts[quarter];
+        *n += 1.0;
+        let delta = value - *mean;
+        *mean += delta / *n;
+        *m2 += delta * (value - *mean);
+    }
+
+    /// (how far a quarter's mean lies from the first's, the noise at rest),
+    /// in the value's unit; `None` unless every quarter has 3 samples.
+    fn moved_and_noise(&self) -> Option<(f64, f64)> {
+        if self.parts.iter().any(|(n, _, _)| *n < 3.0) {
             return None;
         }
-        let n = self.n;
-        let stt = self.tt - self.t * self.t / n;
-        let sxx = self.xx - self.x * self.x / n;
-        let stx = self.tx - self.t * self.x / n;
-        if stt <= 0.0 {
-            return None;
-        }
-        let slope = stx / stt;
-        let residual = (sxx - slope * stx).max(0.0) / (n - 2.0);
-        Some(((slope * self.last_s).abs(), residual.sqrt()))
+        let stds: Vec<f64> = self
+            .parts
+            .iter()
+            .map(|(n, _, m2)| (m2 / (n - 1.0)).sqrt())
+            .collect();
+        // The quietest quarter is the rest; a floor of a quarter of the
+        // typical one keeps a quantised channel that reads one value for
+        // a while from having no noise at all.
+        let typical = stds.iter().sum::<f64>() / 4.0;
+        let noise = stds
+            .iter()
+            .cloned()
+            .fold(f64::INFINITY, f64::min)
+            .max(typical / 4.0);
+        let first = self.parts[0].1;
+        let moved = self.parts[1..]
+            .iter()
+            .map(|(_, mean, _)| (mean - first).abs())
+            .fold(0.0, f64::max);
+        Some((moved, noise))
     }
 
     /// A line saying the channel was not at rest, or `None`.
     fn not_at_rest(&self, name: &str, unit: &str, window: &str) -> Option<String> {
-        let (moved, scatter) = self.moved_and_scatter()?;
-        (moved > MOVED_TIMES_SCATTER * scatter && moved > 0.0).then(|| {
+        let (moved, noise) = self.moved_and_noise()?;
+        (moved > MOVED_TIMES_NOISE * noise && moved > 0.0).then(|| {
             format!(
-                "{name}: not at rest in the {window}: it moves by {moved:.4} {unit} across it, {:.0} times its scatter ({scatter:.4} {unit}); a zero there would take part of the load for zero",
-                if scatter > 0.0 { moved / scatter } else { f64::INFINITY }
+                "{name}: not at rest in the {window}: its mean moves by {moved:.4} {unit} within it, {:.0} times its noise at rest ({noise:.4} {unit}); a zero there would take part of the load for zero",
+                if noise > 0.0 { moved / noise } else { f64::INFINITY }
             )
         })
     }
@@ -124,7 +136,7 @@ impl Trend {
 /// One zeroed channel's readings so far.
 struct Channel {
     before: WindowAccumulator,
-    before_trend: Trend,
+    before_quarters: Quarters,
     /// The samples of the last `after_ns` (time, value), for the after window.
     tail: VecDeque<(i64, f64)>,
 }
@@ -155,7 +167,7 @@ impl ZeroTaker {
                 .map(|s| {
                     s.zero_at_rest.then(|| Channel {
                         before: WindowAccumulator::new(None),
-                        before_trend: Trend::default(),
+                        before_quarters: Quarters::new(t0_ns, windows.before_ns),
                         tail: VecDeque::new(),
                     })
                 })
@@ -189,7 +201,7 @@ impl ZeroTaker {
         };
         if !self.before_closed && before.contains(&time_ns) {
             channel.before.push(time_ns, value);
-            channel.before_trend.push(time_ns, value);
+            channel.before_quarters.push(time_ns, value);
         }
         if let Some(after_ns) = self.windows.after_ns {
             channel.tail.push_back((time_ns, value));
@@ -209,13 +221,13 @@ impl ZeroTaker {
         let mut lines = Vec::new();
         for (sensor, channel) in self.rig.sensors.iter().zip(&self.channels) {
             let Some(channel) = channel else { continue };
-            lines.extend(channel.before_trend.not_at_rest(
+            lines.extend(channel.before_quarters.not_at_rest(
                 &sensor.name,
                 sensor.unit(),
                 "before window",
             ));
             if let (Some(after_ns), Some(latest)) = (self.windows.after_ns, self.latest_ns) {
-                let mut after = Trend::default();
+                let mut after = Quarters::new(latest - after_ns, after_ns);
                 for &(t, value) in channel.tail.iter().filter(|(t, _)| *t >= latest - after_ns) {
                     after.push(t, value);
                 }

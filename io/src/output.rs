@@ -65,11 +65,7 @@ impl Output {
         if std::fs::metadata(path).is_ok_and(|meta| !meta.is_file()) {
             return Output::create(Some(path));
         }
-        let mut partial = path.as_os_str().to_owned();
-        partial.push(".partial");
-        let partial = PathBuf::from(partial);
-        let file = create_fresh(&partial)
-            .map_err(|e| AcqError::Config(format!("cannot create {}: {e}", partial.display())))?;
+        let (partial, file) = create_partial(path)?;
         let mut output = Output::to_writer(path.display().to_string(), Box::new(file));
         output.rename = Some((partial, path.to_path_buf()));
         Ok(output)
@@ -216,13 +212,9 @@ impl CompleteOnlyFile {
                 path.display()
             )));
         }
-        let mut partial = path.as_os_str().to_owned();
-        partial.push(".partial");
-        let partial = PathBuf::from(partial);
+        let (partial, file) = create_partial(path)?;
         Ok(CompleteOnlyFile {
-            file: Some(create_fresh(&partial).map_err(|e| {
-                AcqError::Config(format!("cannot create {}: {e}", partial.display()))
-            })?),
+            file: Some(file),
             partial,
             complete: path.to_path_buf(),
         })
@@ -340,6 +332,17 @@ pub fn create_fresh(path: &Path) -> io::Result<File> {
         _ => {}
     }
     File::options().write(true).create_new(true).open(path)
+}
+
+/// `PATH.partial`, created afresh: where a file is written before it gets
+/// its name.
+fn create_partial(path: &Path) -> Result<(PathBuf, File)> {
+    let mut partial = path.as_os_str().to_owned();
+    partial.push(".partial");
+    let partial = PathBuf::from(partial);
+    let file = create_fresh(&partial)
+        .map_err(|e| AcqError::Config(format!("cannot create {}: {e}", partial.display())))?;
+    Ok((partial, file))
 }
 
 /// Writes `bytes` to a file created afresh at `path` ([`create_fresh`]).

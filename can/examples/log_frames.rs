@@ -1,21 +1,23 @@
 //! Reads a log (any format acq reads, detected from its content) and prints
-//! its frames, or with `--count` how many and how fast, or with `--mf4 OUT`
+//! its frames, or with `--count` how many and how fast (`--batch`: read
+//! column by column, [`LogReader::next_batch`]), or with `--mf4 OUT`
 //! writes them to OUT as MF4: a check, a measurement and a seed maker that
 //! need only acq-can built.
 //!
-//!     cargo run --release -p acq-can --example log_frames -- [--count | --mf4 OUT] FILE
+//!     cargo run --release -p acq-can --example log_frames -- [--count [--batch] | --mf4 OUT] FILE
 
 use std::fs::File;
 use std::io::BufReader;
 use std::time::Instant;
 
 use acq_can::log::mf4_write::Mf4Writer;
-use acq_can::{LogReader, ReadError};
+use acq_can::{FrameBatch, LogReader, ReadError};
 
 fn main() {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let count_only = args.iter().any(|a| a == "--count");
-    args.retain(|a| a != "--count");
+    let batched = args.iter().any(|a| a == "--batch");
+    args.retain(|a| a != "--count" && a != "--batch");
     let mut mf4 = match args.iter().position(|a| a == "--mf4") {
         Some(at) if at + 1 < args.len() => {
             let out = args.remove(at + 1);
@@ -26,7 +28,7 @@ fn main() {
         _ => None,
     };
     let Some(path) = args.first() else {
-        eprintln!("usage: log_frames [--count | --mf4 OUT] FILE");
+        eprintln!("usage: log_frames [--count [--batch] | --mf4 OUT] FILE");
         std::process::exit(2);
     };
     let started = Instant::now();
@@ -34,7 +36,19 @@ fn main() {
     let (mut reader, format) =
         LogReader::detect(BufReader::with_capacity(256 * 1024, file)).expect("read");
     let mut frames = 0u64;
-    loop {
+    let mut batch = FrameBatch::default();
+    let mut more = true;
+    while batched && more {
+        batch.clear();
+        let next = reader.next_batch(&mut batch, 1 << 16);
+        frames += batch.len() as u64;
+        match next {
+            Ok(next) => more = next,
+            Err(ReadError::Parse(e)) => eprintln!("{}", e.in_file(path)),
+            Err(ReadError::Io(e)) => panic!("{path}: {e}"),
+        }
+    }
+    while !batched && more {
         match reader.next_record() {
             Ok(Some(record)) => {
                 frames += 1;
@@ -44,7 +58,7 @@ fn main() {
                     println!("{} {:?}", record.timestamp_text, record.frame);
                 }
             }
-            Ok(None) => break,
+            Ok(None) => more = false,
             Err(ReadError::Parse(e)) => eprintln!("{}", e.in_file(path)),
             Err(ReadError::Io(e)) => panic!("{path}: {e}"),
         }

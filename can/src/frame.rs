@@ -234,6 +234,29 @@ impl Frame {
         })
     }
 
+    /// A frame of fields already checked (a reader's, a batch's): the
+    /// payload is cut at 64 bytes, the most any kind carries.
+    pub(crate) fn from_parts(
+        timestamp_ns: i64,
+        iface: IfaceName,
+        id: CanId,
+        kind: FrameKind,
+        payload: &[u8],
+    ) -> Self {
+        let payload = &payload[..payload.len().min(FD_MAX_LEN)];
+        let mut data = [0u8; FD_MAX_LEN];
+        data[..payload.len()].copy_from_slice(payload);
+        Frame {
+            timestamp_ns,
+            iface,
+            id,
+            kind,
+            direction: None,
+            len: payload.len() as u8,
+            data,
+        }
+    }
+
     /// Classic data frame, 0-8 bytes.
     pub fn data(
         timestamp_ns: i64,

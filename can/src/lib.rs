@@ -27,4 +27,4 @@ pub mod kernel;
 pub mod log;
 
 pub use frame::{CanId, Direction, Frame, FrameKind, IfaceName};
-pub use log::{LogFormat, LogReader, LogRecord, ParseError, Place, ReadError};
+pub use log::{FrameBatch, LogFormat, LogReader, LogRecord, ParseError, Place, ReadError};

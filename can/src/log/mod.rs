@@ -2,7 +2,8 @@
 //! the choice of reader for an input.
 //!
 //! - [`record`]: [`LogRecord`], [`ParseError`], [`ReadError`]; what every
-//!   reader yields. It depends on no reader.
+//!   reader yields. It depends on no reader. [`batch`]: [`FrameBatch`],
+//!   frames column by column, which [`LogReader::next_batch`] fills.
 //! - [`candump`], [`asc`], [`blf`], [`mf4`]: the readers (and the candump
 //!   writer); each depends only on [`record`] and the frame types.
 //!   [`asc_write`], [`mf4_write`]: the ASC and MF4 writers; [`mf4_signals`]:
@@ -18,6 +19,7 @@
 
 pub mod asc;
 pub mod asc_write;
+pub mod batch;
 pub mod blf;
 pub mod candump;
 mod inflate;
@@ -29,6 +31,7 @@ pub mod record;
 
 use std::io::BufRead;
 
+pub use batch::{FrameBatch, MAX_BATCH_FRAMES};
 pub use record::{LogRecord, ParseError, Place, ReadError};
 
 use asc::AscReader;
@@ -150,6 +153,25 @@ impl<R: BufRead> LogReader<R> {
             LogReader::Mf4(reader) => reader.take_notes(),
             _ => Vec::new(),
         }
+    }
+
+    /// Reads up to `max` more frames into `batch`, column by column;
+    /// `Ok(false)` once the log has ended. A batch holds at most
+    /// [`MAX_BATCH_FRAMES`]: clear it between calls. After an `Err` the
+    /// frames read before it are in `batch`, and reading goes on as after
+    /// [`LogReader::next_record`]'s.
+    pub fn next_batch(&mut self, batch: &mut FrameBatch, max: usize) -> Result<bool, ReadError> {
+        let end = batch.len().saturating_add(max).min(MAX_BATCH_FRAMES);
+        if let LogReader::Mf4(reader) = self {
+            return reader.next_batch(batch, end);
+        }
+        while batch.len() < end {
+            match self.next_record()? {
+                Some(record) => batch.push(&record.frame),
+                None => return Ok(false),
+            }
+        }
+        Ok(true)
     }
 
     /// The next frame; `Ok(None)` at the end of the log.

@@ -14,7 +14,9 @@ use acq_can::frame::fd_flags;
 use acq_can::log::mf4::{Mf4Reader, ERROR_FRAME_CLASS};
 use acq_can::log::mf4_write::Mf4Writer;
 use acq_can::log::Place;
-use acq_can::{CanId, Direction, Frame, FrameKind, IfaceName, LogFormat, LogReader, ReadError};
+use acq_can::{
+    CanId, Direction, Frame, FrameBatch, FrameKind, IfaceName, LogFormat, LogReader, ReadError,
+};
 use proptest::prelude::*;
 use serde_json::{json, Value};
 
@@ -41,8 +43,30 @@ fn read(bytes: &[u8]) -> Vec<Frame> {
                 );
                 frames.push(record.frame);
             }
-            Ok(None) => return frames,
+            Ok(None) => break,
             Err(error) => panic!("{error:?}"),
+        }
+    }
+    // Column by column, in batches that end anywhere, the same frames.
+    for max in [7, 1 << 16] {
+        assert_eq!(read_batched(bytes, max).0, frames, "batches of {max}");
+    }
+    frames
+}
+
+/// Every frame of a log read column by column, `max` a batch, and the
+/// reader's notes; any error fails.
+fn read_batched<R: std::io::BufRead>(input: R, max: usize) -> (Vec<Frame>, Vec<String>) {
+    let (mut reader, _) = LogReader::detect(input).unwrap();
+    let mut batch = FrameBatch::default();
+    let mut frames = Vec::new();
+    loop {
+        batch.clear();
+        let more = reader.next_batch(&mut batch, max).unwrap();
+        assert!(batch.len() <= max);
+        frames.extend((0..batch.len()).map(|index| batch.frame(index)));
+        if !more {
+            return (frames, reader.take_notes());
         }
     }
 }
@@ -496,9 +520,11 @@ fn acq_reads_files_shaped_as_loggers_write_them_as_asammdf_does() {
         .unwrap();
         assert_eq!(format, LogFormat::Mf4, "{name}");
         let mut read = Vec::new();
+        let mut one_by_one = Vec::new();
         loop {
             match reader.next_record() {
                 Ok(Some(record)) => {
+                    one_by_one.push(record.frame);
                     let mut frame = as_json(&record.frame);
                     let object = frame.as_object_mut().unwrap();
                     object.remove("timestamp_us");
@@ -518,6 +544,14 @@ fn acq_reads_files_shaped_as_loggers_write_them_as_asammdf_does() {
             written.len(),
             "{name}: frames read, notes {notes:?}"
         );
+        // Column by column, in batches that end anywhere: the same frames
+        // as one by one, and the same notes.
+        for max in [7, 1 << 16] {
+            let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+            let (batched, batch_notes) = read_batched(file, max);
+            assert_eq!(batched, one_by_one, "{name}: batches of {max}");
+            assert_eq!(batch_notes, notes, "{name}: batches of {max}");
+        }
         for (got, want) in read.iter().zip(&written) {
             assert_eq!(got, want, "{name}");
         }

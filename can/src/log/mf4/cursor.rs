@@ -9,7 +9,8 @@ use std::ops::Range;
 use super::format::*;
 use super::layout::*;
 use super::source::*;
-use crate::frame::Frame;
+use crate::frame::{Frame, IfaceName};
+use crate::log::batch::FrameBatch;
 use crate::log::inflate::{InflateJob, Inflater};
 use crate::log::record::ReadError;
 
@@ -97,6 +98,12 @@ pub(super) struct Cursor {
     /// The VLSD DataBytes channels' values, by the index in
     /// [`Bytes::Vlsd`].
     pub(super) signals: Vec<SignalData>,
+    /// Per layout, a VLSD group's values passed so far: the offset of its
+    /// next value in its stream.
+    pub(super) vlsd_offsets: Vec<u64>,
+    /// Per layout, a VLSD group's last value passed in this
+    /// [`Cursor::scan_batch`]: its offset and bytes in `buf`.
+    pub(super) vlsd_last: Vec<Option<(u64, Range<usize>)>>,
 }
 
 impl Cursor {
@@ -116,7 +123,6 @@ impl Cursor {
                 .unwrap_or(0);
         Cursor {
             record_id_bytes,
-            layouts,
             block_offset: blocks.first().copied().unwrap_or(0),
             blocks,
             next_block: 0,
@@ -133,6 +139,9 @@ impl Cursor {
             records_read: 0,
             notes: Vec::new(),
             signals: Vec::new(),
+            vlsd_offsets: vec![0; layouts.len()],
+            vlsd_last: vec![None; layouts.len()],
+            layouts,
         }
     }
 }
@@ -147,9 +156,10 @@ pub(super) fn signal_data<R: BufRead>(
     visited: &mut rustc_hash::FxHashSet<u64>,
     unlisted_after_list: bool,
 ) -> Result<SignalData, ReadError> {
-    let reader = |cursor: Cursor, group: usize| SignalData {
+    let reader = |cursor: Cursor, group: usize, in_band: bool| SignalData {
         cursor,
         group,
+        in_band,
         next_offset: 0,
         last: None,
         in_order: false,
@@ -173,11 +183,16 @@ pub(super) fn signal_data<R: BufRead>(
         return Ok(reader(
             Cursor::new(cursor.record_id_bytes, layouts, cursor.blocks.clone()),
             group,
+            true,
         ));
     }
     let mut blocks = Vec::new();
     data_blocks(source, link, &mut blocks, visited, unlisted_after_list)?;
-    Ok(reader(Cursor::new(0, vec![(0, Layout::Vlsd)], blocks), 0))
+    Ok(reader(
+        Cursor::new(0, vec![(0, Layout::Vlsd)], blocks),
+        0,
+        false,
+    ))
 }
 
 /// The data blocks under `at` (a data block, or a list of them), in order.
@@ -499,11 +514,172 @@ impl Cursor {
         inflation: &mut Inflation,
         start_ns: i64,
     ) -> Result<Option<(Frame, u64)>, ReadError> {
+        let Some((parts, line)) = self.next_parts(source, inflation, start_ns)? else {
+            return Ok(None);
+        };
+        let iface = channel_iface(parts.channel).map_err(|expected| parse(line, expected))?;
+        let mut frame = Frame::from_parts(
+            parts.timestamp_ns,
+            iface,
+            parts.id,
+            parts.kind,
+            parts.payload,
+        );
+        frame.direction = parts.direction;
+        Ok(Some((frame, line)))
+    }
+
+    /// Fills `batch` with this group's next frames, up to `max` in all;
+    /// `false` at the end of the group. After an error the frames before
+    /// it are in `batch`.
+    pub(super) fn next_batch<R: BufRead>(
+        &mut self,
+        source: &mut Source<R>,
+        inflation: &mut Inflation,
+        start_ns: i64,
+        batch: &mut FrameBatch,
+        max: usize,
+        interfaces_seen: &mut Vec<IfaceName>,
+    ) -> Result<bool, ReadError> {
+        // Bus channels change rarely from frame to frame: the last one's
+        // interface is kept, not looked up.
+        let mut interfaces = Interfaces {
+            last: None,
+            seen: interfaces_seen,
+        };
+        while batch.len() < max {
+            // The whole records in `buf`, without a call each; then one
+            // record the careful way (a block's end, a cut, a VLSD value
+            // elsewhere, an unknown record id).
+            self.scan_batch(batch, max, start_ns, &mut interfaces)?;
+            if batch.len() >= max {
+                break;
+            }
+            let Some((parts, line)) = self.next_parts(source, inflation, start_ns)? else {
+                return Ok(false);
+            };
+            let interface = interfaces.index(parts.channel, batch, line)?;
+            batch.push_parts(
+                parts.timestamp_ns,
+                interface,
+                parts.id,
+                parts.kind,
+                parts.direction,
+                parts.payload,
+            );
+        }
+        Ok(true)
+    }
+
+    /// Decodes the whole records that are in `buf` into `batch` (up to
+    /// `max` frames), stopping before one that needs more than `buf` holds:
+    /// more bytes, a VLSD value not passed in it, an unknown record id.
+    fn scan_batch(
+        &mut self,
+        batch: &mut FrameBatch,
+        max: usize,
+        start_ns: i64,
+        interfaces: &mut Interfaces<'_>,
+    ) -> Result<(), ReadError> {
+        let id_bytes = self.record_id_bytes;
+        let line = self.block_offset;
+        let end = self.buf.len();
+        let mut pos = self.start;
+        self.vlsd_last.iter_mut().for_each(|last| *last = None);
+        while batch.len() < max && pos + id_bytes <= end {
+            let index = if id_bytes == 0 {
+                0
+            } else {
+                let mut word = [0u8; 8];
+                word[..id_bytes].copy_from_slice(&self.buf[pos..pos + id_bytes]);
+                let record_id = u64::from_le_bytes(word);
+                match self.layouts.iter().position(|(id, _)| *id == record_id) {
+                    Some(index) => index,
+                    None => break,
+                }
+            };
+            let body = pos + id_bytes;
+            let size = match self.layouts.get(index) {
+                Some((_, Layout::Skip(size) | Layout::Can(size, _))) => *size,
+                Some((_, Layout::Vlsd)) => match u32_at(&self.buf, body) {
+                    Some(len) => 4 + len as usize,
+                    None => break,
+                },
+                None => break,
+            };
+            if body + size > end {
+                break;
+            }
+            let range = body..body + size;
+            let Layout::Can(_, can) = &mut self.layouts[index].1 else {
+                if matches!(self.layouts[index].1, Layout::Vlsd) {
+                    let at = self.vlsd_offsets[index];
+                    self.vlsd_offsets[index] += size as u64;
+                    self.vlsd_last[index] = Some((at, range.clone()));
+                }
+                pos = range.end;
+                self.records_read += 1;
+                continue;
+            };
+            let record = &self.buf[range.clone()];
+            let signal = match can.data_bytes {
+                Some(Bytes::Vlsd { at, signal }) => {
+                    let offset = u64_at(record, at).unwrap_or(u64::MAX);
+                    let data = &self.signals[signal];
+                    let passed = match &self.vlsd_last[data.group] {
+                        Some((value_at, value)) if data.in_band && !data.in_order => {
+                            (*value_at == offset).then(|| value.start + 4..value.end)
+                        }
+                        _ => None,
+                    };
+                    match passed {
+                        Some(value) => Some(&self.buf[value]),
+                        None => break,
+                    }
+                }
+                _ => None,
+            };
+            let group_index = can.records;
+            can.records += 1;
+            pos = range.end;
+            self.records_read += 1;
+            let decoded = decode(record, can, group_index, signal, start_ns)
+                .and_then(|parts| Ok((interfaces.index_of(parts.channel, batch)?, parts)));
+            match decoded {
+                Ok((interface, parts)) => batch.push_parts(
+                    parts.timestamp_ns,
+                    interface,
+                    parts.id,
+                    parts.kind,
+                    parts.direction,
+                    parts.payload,
+                ),
+                Err(expected) => {
+                    self.start = pos;
+                    return Err(parse(line, expected));
+                }
+            }
+        }
+        self.start = pos;
+        Ok(())
+    }
+
+    /// The fields of this group's next CAN frame and its "line".
+    #[inline]
+    fn next_parts<R: BufRead>(
+        &mut self,
+        source: &mut Source<R>,
+        inflation: &mut Inflation,
+        start_ns: i64,
+    ) -> Result<Option<(FrameParts<'_>, u64)>, ReadError> {
         loop {
             let Some((index, range, line)) = self.next_record(source, inflation)? else {
                 return Ok(None);
             };
             let Layout::Can(_, can) = &mut self.layouts[index].1 else {
+                if matches!(self.layouts[index].1, Layout::Vlsd) {
+                    self.vlsd_offsets[index] += range.len() as u64;
+                }
                 continue;
             };
             let record = &self.buf[range];
@@ -520,9 +696,41 @@ impl Cursor {
                 _ => None,
             };
             return decode(record, can, group_index, signal, start_ns)
-                .map(|frame| Some((frame, line)))
+                .map(|parts| Some((parts, line)))
                 .map_err(|expected| parse(line, expected));
         }
+    }
+}
+
+/// The interfaces of a batch's frames: the last bus channel's is kept, not
+/// looked up (channels change rarely from frame to frame), and each new one
+/// is told to the reader.
+pub(super) struct Interfaces<'a> {
+    last: Option<(u64, u16)>,
+    seen: &'a mut Vec<IfaceName>,
+}
+
+impl Interfaces<'_> {
+    /// The index in `batch.interfaces` of bus channel `channel`.
+    #[inline]
+    fn index_of(&mut self, channel: u64, batch: &mut FrameBatch) -> Result<u16, &'static str> {
+        if let Some((last, interface)) = self.last {
+            if last == channel {
+                return Ok(interface);
+            }
+        }
+        let iface = channel_iface(channel)?;
+        if !self.seen.contains(&iface) {
+            self.seen.push(iface);
+        }
+        let interface = batch.interface_index(iface);
+        self.last = Some((channel, interface));
+        Ok(interface)
+    }
+
+    fn index(&mut self, channel: u64, batch: &mut FrameBatch, line: u64) -> Result<u16, ReadError> {
+        self.index_of(channel, batch)
+            .map_err(|expected| parse(line, expected))
     }
 }
 
@@ -535,6 +743,10 @@ pub(super) struct SignalData {
     pub(super) cursor: Cursor,
     /// The VLSD group's index in the cursor's layouts.
     pub(super) group: usize,
+    /// The values are records of the data group that points to them (a
+    /// VLSD channel group), not `##SD` blocks: the data group's own cursor
+    /// passes them too ([`Cursor::scan_batch`]).
+    pub(super) in_band: bool,
     /// The offset of the next value.
     pub(super) next_offset: u64,
     /// The last value read: its offset and bytes (in the cursor's `buf`).

@@ -9,7 +9,7 @@ use super::conversion::*;
 use super::format::*;
 use super::source::*;
 use crate::frame::{
-    fd_flags, CanId, Direction, Frame, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
+    fd_flags, CanId, Direction, FrameKind, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
 };
 use crate::log::record::{ParseError, Place, ReadError};
 
@@ -500,20 +500,36 @@ pub(super) fn time_layout<R: BufRead>(
     })
 }
 
+/// One record's frame, its fields checked, before it becomes a [`Frame`]
+/// or a row of a [`crate::log::batch::FrameBatch`].
+pub(super) struct FrameParts<'a> {
+    pub(super) timestamp_ns: i64,
+    /// The `BusChannel` value ([`channel_iface`] names it).
+    pub(super) channel: u64,
+    pub(super) id: CanId,
+    pub(super) kind: FrameKind,
+    pub(super) direction: Option<Direction>,
+    pub(super) payload: &'a [u8],
+}
+
+/// An error frame's details: MF4's error fields are not Linux's.
+const NO_ERROR_DETAILS: [u8; CLASSIC_MAX_LEN] = [0; CLASSIC_MAX_LEN];
+
 /// The frame one bus-logging record holds, the `index`th of its group;
 /// `signal` its VLSD DataBytes.
-pub(super) fn decode(
-    record: &[u8],
+#[inline]
+pub(super) fn decode<'a>(
+    record: &'a [u8],
     layout: &CanLayout,
     index: u64,
-    signal: Option<&[u8]>,
+    signal: Option<&'a [u8]>,
     start_ns: i64,
-) -> Result<Frame, &'static str> {
+) -> Result<FrameParts<'a>, &'static str> {
     let read = |member: &Option<Member>| -> Result<Option<u64>, &'static str> {
         member.as_ref().map(|m| m.value(record, index)).transpose()
     };
     let timestamp_ns = time_ns(record, &layout.time, index, start_ns).ok_or(E_TIME)?;
-    let iface = channel_iface(read(&layout.channel)?.unwrap_or(0))?;
+    let channel = read(&layout.channel)?.unwrap_or(0);
     let raw_id = read(&layout.id)?.unwrap_or(0);
     let extended = match read(&layout.ide)? {
         Some(ide) => ide != 0,
@@ -521,18 +537,22 @@ pub(super) fn decode(
     };
     let bits = (raw_id & 0x1FFF_FFFF) as u32;
     let dlc = read(&layout.dlc)?.unwrap_or(0).min(15) as u8;
-    let mut frame = match layout.frame_type {
-        FrameType::Error => {
-            Frame::error(timestamp_ns, iface, ERROR_FRAME_CLASS, &[]).map_err(|_| E_LENGTH)?
-        }
+    let len8_dlc = (dlc > 8).then_some(dlc);
+    let (id, kind, payload): (CanId, FrameKind, &[u8]) = match layout.frame_type {
+        FrameType::Error => (
+            CanId::Extended(ERROR_FRAME_CLASS),
+            FrameKind::Error {
+                class: ERROR_FRAME_CLASS,
+            },
+            &NO_ERROR_DETAILS,
+        ),
         FrameType::Remote => {
-            let id = can_id(bits, extended)?;
-            let len = dlc.min(CLASSIC_MAX_LEN as u8);
-            let mut frame = Frame::remote(timestamp_ns, iface, id, len).map_err(|_| E_LENGTH)?;
-            if dlc > 8 {
-                frame.set_len8_dlc(dlc).map_err(|_| E_LENGTH)?;
-            }
-            frame
+            let requested_len = dlc.min(CLASSIC_MAX_LEN as u8);
+            let kind = FrameKind::Remote {
+                requested_len,
+                len8_dlc,
+            };
+            (can_id(bits, extended)?, kind, &[])
         }
         FrameType::Data => {
             let id = can_id(bits, extended)?;
@@ -552,30 +572,37 @@ pub(super) fn decode(
             if len > bytes.len() || len > max {
                 return Err(E_LENGTH);
             }
-            if fd {
+            let kind = if fd {
                 let flags = fd_flags(
                     read(&layout.brs)?.unwrap_or(0) != 0,
                     read(&layout.esi)?.unwrap_or(0) != 0,
                 );
-                Frame::fd(timestamp_ns, iface, id, flags, &bytes[..len]).map_err(|_| E_LENGTH)?
-            } else {
-                let mut frame =
-                    Frame::data(timestamp_ns, iface, id, &bytes[..len]).map_err(|_| E_LENGTH)?;
-                if dlc > 8 && len == 8 {
-                    frame.set_len8_dlc(dlc).map_err(|_| E_LENGTH)?;
+                FrameKind::Fd {
+                    flags: flags & 0x0F,
                 }
-                frame
-            }
+            } else {
+                FrameKind::Data {
+                    len8_dlc: len8_dlc.filter(|_| len == CLASSIC_MAX_LEN),
+                }
+            };
+            (id, kind, &bytes[..len])
         }
     };
-    frame.direction = read(&layout.dir)?.map(|dir| {
+    let direction = read(&layout.dir)?.map(|dir| {
         if dir == 0 {
             Direction::Received
         } else {
             Direction::Transmitted
         }
     });
-    Ok(frame)
+    Ok(FrameParts {
+        timestamp_ns,
+        channel,
+        id,
+        kind,
+        direction,
+        payload,
+    })
 }
 
 pub(super) fn time_ns(record: &[u8], time: &Time, index: u64, start_ns: i64) -> Option<i64> {

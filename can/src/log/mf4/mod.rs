@@ -104,6 +104,7 @@ pub use format::{
     ERROR_FRAME_CLASS, MAX_DZ_BYTES, MAX_METADATA_BYTES, SIGNATURE, UNFINALIZED_SIGNATURE,
 };
 
+use super::batch::FrameBatch;
 use super::record::{LogRecord, ParseError, Place, ReadError, TimeText};
 use crate::frame::{Frame, IfaceName};
 
@@ -156,15 +157,8 @@ impl<R: BufRead> Mf4Reader<R> {
     /// the end. After an `Err(Parse)` in a record the reader goes on with
     /// the next record; after one in the metadata it ends.
     pub fn next_record(&mut self) -> Result<Option<LogRecord<'_>>, ReadError> {
-        if self.finished {
+        if !self.opened_and_not_finished()? {
             return Ok(None);
-        }
-        if !self.opened {
-            self.opened = true;
-            if let Err(error) = self.open() {
-                self.finished = true;
-                return Err(error);
-            }
         }
         if let [cursor] = &mut self.cursors[..] {
             // One group (acq's files, loggers'): nothing to merge.
@@ -208,6 +202,53 @@ impl<R: BufRead> Mf4Reader<R> {
             return Ok(None);
         };
         Ok(Some(self.record(frame, line)))
+    }
+
+    /// Fills `batch` with the next frames up to `max` in all (see
+    /// [`crate::log::LogReader::next_batch`]); `false` at the end.
+    pub fn next_batch(&mut self, batch: &mut FrameBatch, max: usize) -> Result<bool, ReadError> {
+        if !self.opened_and_not_finished()? {
+            return Ok(false);
+        }
+        if let [cursor] = &mut self.cursors[..] {
+            // One group: its records decoded straight into the columns.
+            let source = &mut self.source;
+            let more = cursor.next_batch(
+                source,
+                &mut self.inflation,
+                self.start_ns,
+                batch,
+                max,
+                &mut self.interfaces,
+            )?;
+            if !more {
+                cursor.done = true;
+                self.finished = true;
+            }
+            return Ok(more);
+        }
+        while batch.len() < max {
+            match self.next_record()? {
+                Some(record) => batch.push(&record.frame),
+                None => return Ok(false),
+            }
+        }
+        Ok(true)
+    }
+
+    /// Opens the file at the first call; `false` once it has ended.
+    fn opened_and_not_finished(&mut self) -> Result<bool, ReadError> {
+        if self.finished {
+            return Ok(false);
+        }
+        if !self.opened {
+            self.opened = true;
+            if let Err(error) = self.open() {
+                self.finished = true;
+                return Err(error);
+            }
+        }
+        Ok(true)
     }
 
     /// What the reader has to tell that is no error, taken once: a cut

@@ -104,6 +104,10 @@ pub(super) struct Cursor {
     /// Per layout, a VLSD group's last value passed in this
     /// [`Cursor::scan_batch`]: its offset and bytes in `buf`.
     pub(super) vlsd_last: Vec<Option<(u64, Range<usize>)>>,
+    /// Per layout, a VLSD group's last value passed before: its offset
+    /// and a copy of its bytes (`u64::MAX`: none), for a frame whose
+    /// record comes after a refill of `buf`.
+    pub(super) vlsd_kept: Vec<(u64, Vec<u8>)>,
 }
 
 impl Cursor {
@@ -141,6 +145,7 @@ impl Cursor {
             signals: Vec::new(),
             vlsd_offsets: vec![0; layouts.len()],
             vlsd_last: vec![None; layouts.len()],
+            vlsd_kept: vec![(u64::MAX, Vec::new()); layouts.len()],
             layouts,
         }
     }
@@ -626,15 +631,17 @@ impl Cursor {
                 Some(Bytes::Vlsd { at, signal }) => {
                     let offset = u64_at(record, at).unwrap_or(u64::MAX);
                     let data = &self.signals[signal];
-                    let passed = match &self.vlsd_last[data.group] {
-                        Some((value_at, value)) if data.in_band && !data.in_order => {
-                            (*value_at == offset).then(|| value.start + 4..value.end)
+                    if !data.in_band || data.in_order {
+                        break;
+                    }
+                    match &self.vlsd_last[data.group] {
+                        Some((value_at, value)) if *value_at == offset => {
+                            Some(&self.buf[value.start + 4..value.end])
                         }
-                        _ => None,
-                    };
-                    match passed {
-                        Some(value) => Some(&self.buf[value]),
-                        None => break,
+                        _ if self.vlsd_kept[data.group].0 == offset => {
+                            Some(&self.vlsd_kept[data.group].1[..])
+                        }
+                        _ => break,
                     }
                 }
                 _ => None,
@@ -661,7 +668,21 @@ impl Cursor {
             }
         }
         self.start = pos;
+        self.keep_vlsd_values();
         Ok(())
+    }
+
+    /// Copies each VLSD group's last value passed in `buf` out of it: the
+    /// record that points to it may come after `buf` is refilled.
+    fn keep_vlsd_values(&mut self) {
+        for (last, kept) in self.vlsd_last.iter_mut().zip(&mut self.vlsd_kept) {
+            if let Some((at, range)) = last.take() {
+                kept.0 = at;
+                kept.1.clear();
+                kept.1
+                    .extend_from_slice(&self.buf[range.start + 4..range.end]);
+            }
+        }
     }
 
     /// The fields of this group's next CAN frame and its "line".
@@ -678,7 +699,10 @@ impl Cursor {
             };
             let Layout::Can(_, can) = &mut self.layouts[index].1 else {
                 if matches!(self.layouts[index].1, Layout::Vlsd) {
+                    let at = self.vlsd_offsets[index];
                     self.vlsd_offsets[index] += range.len() as u64;
+                    self.vlsd_last[index] = Some((at, range));
+                    self.keep_vlsd_values();
                 }
                 continue;
             };
@@ -686,6 +710,15 @@ impl Cursor {
             let group_index = can.records;
             can.records += 1;
             let signal = match can.data_bytes {
+                Some(Bytes::Vlsd { at, signal })
+                    if self.signals[signal].in_band
+                        && !self.signals[signal].in_order
+                        && self.vlsd_kept[self.signals[signal].group].0
+                            == u64_at(record, at).unwrap_or(u64::MAX) =>
+                {
+                    // Passed already: no second reading of the records.
+                    Some(&self.vlsd_kept[self.signals[signal].group].1[..])
+                }
                 Some(Bytes::Vlsd { at, signal }) => {
                     let offset = u64_at(record, at).unwrap_or(u64::MAX);
                     let value = self.signals[signal]

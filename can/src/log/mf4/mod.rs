@@ -422,6 +422,37 @@ mod tests {
     }
 
     #[test]
+    fn nanoseconds_round_half_away_from_zero_as_f64_round() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            -2.5,
+            0.49999999999999994,
+            1e15 + 0.5,
+        ];
+        values.extend([
+            4503599627370495.5,
+            4503599627370497.0,
+            9.1e18,
+            -9.1e18,
+            123456.789,
+        ]);
+        for value in values {
+            assert_eq!(whole_ns(value), Some(value.round() as i64), "{value}");
+        }
+        for value in [f64::NAN, f64::INFINITY, 9.3e18, -9.3e18] {
+            assert_eq!(whole_ns(value), None, "{value}");
+        }
+        let field = |byte, bit, bits| Field { byte, bit, bits };
+        assert_eq!(field(0, 3, 0).read(&[0xFF; 16]), 0);
+        assert_eq!(field(2, 7, 57).read(&[0xFF; 16]), (1 << 57) - 1);
+    }
+
+    #[test]
     fn garbage_and_truncation_are_errors_not_panics() {
         for bytes in [
             &b""[..],

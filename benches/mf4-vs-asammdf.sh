@@ -9,8 +9,9 @@
 # DataBytes are a VLSD channel group, a float64 master of nanoseconds, a
 # virtual BusChannel, DataLength through a table) and one asammdf writes
 # (virtual constant members, a table, a float master). acq: the frames read
-# one by one into Frame values (the `log_frames --count` example, the whole
-# process). asammdf 8.8.28: MDF(FILE) and every member's raw array and the
+# column by column into a FrameBatch (`log_frames --count --batch`, the
+# whole process), and one by one into Frame values (`--count`, the column
+# "one by one s"). asammdf 8.8.28: MDF(FILE) and every member's raw array and the
 # master of each bus-logging group (its fastest path to the same values,
 # vectorized; the import of asammdf not counted). `cat FILE > /dev/null` is
 # the floor: reading the bytes once. Best of ROUNDS each (a shared machine).
@@ -42,24 +43,28 @@ for index, group in enumerate(mdf.groups):
 print(frames, time.perf_counter() - started)
 PY
 best() { sort -g | head -1; }
-printf '%-20s %8s %10s %12s %12s %14s %8s\n' file MB "cat s" "acq s" "asammdf s" "acq frames/s" ratio
+printf '%-20s %8s %10s %12s %16s %12s %14s %8s\n' file MB "cat s" "acq s" "one by one s" "asammdf s" "acq frames/s" ratio
 for name in vlsd_cg virtual_tab_ns; do
     file="$work/$name.mf4"
     cat_s=$(for _ in $(seq "$rounds"); do
         start=$(date +%s.%N); cat "$file" >/dev/null; end=$(date +%s.%N); echo "$end - $start" | bc -l
     done | best)
-    acq_s=$(for _ in $(seq "$rounds"); do
-        start=$(date +%s.%N)
-        read_frames=$(target/release/examples/log_frames --count "$file" | awk '{print $2}')
-        end=$(date +%s.%N)
-        [ "$read_frames" = "$frames" ] || { echo "acq read $read_frames of $frames frames" >&2; exit 1; }
-        echo "$end - $start" | bc -l
-    done | best)
+    acq() {
+        for _ in $(seq "$rounds"); do
+            start=$(date +%s.%N)
+            read_frames=$(target/release/examples/log_frames --count "$@" "$file" | awk '{print $2}')
+            end=$(date +%s.%N)
+            [ "$read_frames" = "$frames" ] || { echo "acq read $read_frames of $frames frames" >&2; exit 1; }
+            echo "$end - $start" | bc -l
+        done | best
+    }
+    acq_s=$(acq --batch)
+    one_by_one_s=$(acq)
     asammdf_s=$(for _ in $(seq "$rounds"); do
         set -- $("$python" "$work/asammdf_read.py" "$file")
         [ "$1" = "$frames" ] || { echo "asammdf read $1 of $frames frames" >&2; exit 1; }
         echo "$2"
     done | best)
-    printf '%-20s %8s %10.3f %12.3f %12.3f %14.0f %8.2f\n' "$name.mf4" "$(du -m "$file" | cut -f1)" \
-        "$cat_s" "$acq_s" "$asammdf_s" "$(echo "$frames / $acq_s" | bc -l)" "$(echo "$asammdf_s / $acq_s" | bc -l)"
+    printf '%-20s %8s %10.3f %12.3f %16.3f %12.3f %14.0f %8.2f\n' "$name.mf4" "$(du -m "$file" | cut -f1)" \
+        "$cat_s" "$acq_s" "$one_by_one_s" "$asammdf_s" "$(echo "$frames / $acq_s" | bc -l)" "$(echo "$asammdf_s / $acq_s" | bc -l)"
 done

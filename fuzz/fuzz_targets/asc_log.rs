@@ -3,8 +3,8 @@
 
 #![no_main]
 
-use acq_can::ReadError;
 use acq_can::log::asc::AscReader;
+use acq_can::ReadError;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -4,8 +4,8 @@
 
 #![no_main]
 
-use acq_can::ReadError;
 use acq_can::log::blf::BlfReader;
+use acq_can::ReadError;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -31,5 +31,8 @@ fuzz_target!(|data: &[u8]| {
             }
         }
     }
-    panic!("the reader did not end within {most} records on {} bytes", data.len());
+    panic!(
+        "the reader did not end within {most} records on {} bytes",
+        data.len()
+    );
 });

@@ -22,7 +22,11 @@ fn dir() -> &'static std::path::Path {
 
 fuzz_target!(|text: &str| {
     let dir = dir();
-    for name in [session::SESSION_FILE, zero_record::ZERO_FILE, shunt_record::SHUNT_FILE] {
+    for name in [
+        session::SESSION_FILE,
+        zero_record::ZERO_FILE,
+        shunt_record::SHUNT_FILE,
+    ] {
         std::fs::write(dir.join(name), text).unwrap();
     }
     if let Ok(read) = session::read(dir) {
@@ -34,7 +38,11 @@ fuzz_target!(|text: &str| {
     }
     if let Ok(Some(zero)) = zero_record::read(dir) {
         for sensor in &zero.sensors {
-            let _ = (sensor.offset(), sensor.zero_return(), sensor.before.std_of_mean());
+            let _ = (
+                sensor.offset(),
+                sensor.zero_return(),
+                sensor.before.std_of_mean(),
+            );
         }
     }
     let _ = shunt_record::read(dir);

@@ -78,7 +78,7 @@ impl FrameBatch {
 
     /// Appends one frame's fields; `payload` is at most 64 bytes (a
     /// reader's frame is checked before).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn push_parts(
         &mut self,
         timestamp_ns: i64,

@@ -108,6 +108,8 @@ pub(super) struct Cursor {
     /// and a copy of its bytes (`u64::MAX`: none), for a frame whose
     /// record comes after a refill of `buf`.
     pub(super) vlsd_kept: Vec<(u64, Vec<u8>)>,
+    /// A frame's record copied aside while its value is found ahead.
+    pub(super) aside: Vec<u8>,
 }
 
 impl Cursor {
@@ -146,6 +148,7 @@ impl Cursor {
             vlsd_offsets: vec![0; layouts.len()],
             vlsd_last: vec![None; layouts.len()],
             vlsd_kept: vec![(u64::MAX, Vec::new()); layouts.len()],
+            aside: Vec::new(),
             layouts,
         }
     }
@@ -445,10 +448,7 @@ impl Cursor {
             }
             return Ok(None);
         }
-        let head = &self.buf[self.start..self.start + id_bytes];
-        let mut word = [0u8; 8];
-        word[..id_bytes].copy_from_slice(head);
-        let record_id = u64::from_le_bytes(word);
+        let record_id = record_id(&self.buf[self.start..], id_bytes);
         let index = if id_bytes == 0 {
             (!self.layouts.is_empty()).then_some(0)
         } else {
@@ -595,9 +595,7 @@ impl Cursor {
             let index = if id_bytes == 0 {
                 0
             } else {
-                let mut word = [0u8; 8];
-                word[..id_bytes].copy_from_slice(&self.buf[pos..pos + id_bytes]);
-                let record_id = u64::from_le_bytes(word);
+                let record_id = record_id(&self.buf[pos..], id_bytes);
                 match self.layouts.iter().position(|(id, _)| *id == record_id) {
                     Some(index) => index,
                     None => break,
@@ -616,7 +614,7 @@ impl Cursor {
                 break;
             }
             let range = body..body + size;
-            let Layout::Can(_, can) = &mut self.layouts[index].1 else {
+            let Layout::Can(_, can) = &self.layouts[index].1 else {
                 if matches!(self.layouts[index].1, Layout::Vlsd) {
                     let at = self.vlsd_offsets[index];
                     self.vlsd_offsets[index] += size as u64;
@@ -638,20 +636,27 @@ impl Cursor {
                         Some((value_at, value)) if *value_at == offset => {
                             Some(&self.buf[value.start + 4..value.end])
                         }
-                        _ if self.vlsd_kept[data.group].0 == offset => {
+                        // The last value passed before this scan (none
+                        // in it: a value before the last is no value).
+                        None if self.vlsd_kept[data.group].0 == offset => {
                             Some(&self.vlsd_kept[data.group].1[..])
                         }
-                        _ => break,
+                        _ => match self.value_in_buf(range.end, data.group, offset) {
+                            Some(value) => Some(&self.buf[value]),
+                            None => break,
+                        },
                     }
                 }
                 _ => None,
             };
             let group_index = can.records;
-            can.records += 1;
             pos = range.end;
             self.records_read += 1;
             let decoded = decode(record, can, group_index, signal, start_ns)
                 .and_then(|parts| Ok((interfaces.index_of(parts.channel, batch)?, parts)));
+            if let Layout::Can(_, can) = &mut self.layouts[index].1 {
+                can.records += 1;
+            }
             match decoded {
                 Ok((interface, parts)) => batch.push_parts(
                     parts.timestamp_ns,
@@ -670,6 +675,41 @@ impl Cursor {
         self.start = pos;
         self.keep_vlsd_values();
         Ok(())
+    }
+
+    /// The bytes of the value at `offset` of the VLSD group `group` in the
+    /// whole records of `buf` from `from` on (its record comes after its
+    /// frame's), without reading them.
+    fn value_in_buf(&self, from: usize, group: usize, offset: u64) -> Option<Range<usize>> {
+        let id_bytes = self.record_id_bytes;
+        let mut value_at = self.vlsd_offsets[group];
+        let mut pos = from;
+        while pos + id_bytes <= self.buf.len() && pos - from < MAX_VALUE_AHEAD {
+            let id = record_id(&self.buf[pos..], id_bytes);
+            let index = match id_bytes {
+                0 => 0,
+                _ => self.layouts.iter().position(|(known, _)| *known == id)?,
+            };
+            let body = pos + id_bytes;
+            let size = match &self.layouts.get(index)?.1 {
+                Layout::Skip(size) | Layout::Can(size, _) => *size,
+                Layout::Vlsd => 4 + u32_at(&self.buf, body)? as usize,
+            };
+            if body + size > self.buf.len() {
+                return None;
+            }
+            if index == group {
+                if value_at == offset {
+                    return Some(body + 4..body + size);
+                }
+                value_at += size as u64;
+                if value_at > offset {
+                    return None;
+                }
+            }
+            pos = body + size;
+        }
+        None
     }
 
     /// Copies each VLSD group's last value passed in `buf` out of it: the
@@ -697,26 +737,53 @@ impl Cursor {
             let Some((index, range, line)) = self.next_record(source, inflation)? else {
                 return Ok(None);
             };
-            let Layout::Can(_, can) = &mut self.layouts[index].1 else {
-                if matches!(self.layouts[index].1, Layout::Vlsd) {
+            let data_bytes = match &self.layouts[index].1 {
+                Layout::Can(_, can) => can.data_bytes,
+                Layout::Vlsd => {
                     let at = self.vlsd_offsets[index];
                     self.vlsd_offsets[index] += range.len() as u64;
                     self.vlsd_last[index] = Some((at, range));
                     self.keep_vlsd_values();
+                    continue;
                 }
+                Layout::Skip(_) => continue,
+            };
+            // A value in the group's own records that has not passed yet
+            // comes after its frame's record: found ahead, the record
+            // copied aside first (finding it may move `buf`).
+            let mut record_aside = false;
+            if let Some(Bytes::Vlsd { at, signal }) = data_bytes {
+                let data = &self.signals[signal];
+                let group = data.group;
+                let offset = u64_at(&self.buf[range.clone()], at).unwrap_or(u64::MAX);
+                if data.in_band && !data.in_order && self.vlsd_kept[group].0 != offset {
+                    self.aside.clear();
+                    self.aside.extend_from_slice(&self.buf[range.clone()]);
+                    record_aside = true;
+                    if !self.value_ahead(group, offset, source, inflation)? {
+                        if let Layout::Can(_, can) = &mut self.layouts[index].1 {
+                            can.records += 1;
+                        }
+                        return Err(parse(line, E_VLSD));
+                    }
+                }
+            }
+            let Layout::Can(_, can) = &mut self.layouts[index].1 else {
                 continue;
             };
-            let record = &self.buf[range];
+            let record = if record_aside {
+                &self.aside[..]
+            } else {
+                &self.buf[range]
+            };
             let group_index = can.records;
             can.records += 1;
             let signal = match can.data_bytes {
-                Some(Bytes::Vlsd { at, signal })
-                    if self.signals[signal].in_band
-                        && !self.signals[signal].in_order
-                        && self.vlsd_kept[self.signals[signal].group].0
-                            == u64_at(record, at).unwrap_or(u64::MAX) =>
+                Some(Bytes::Vlsd { signal, .. })
+                    if self.signals[signal].in_band && !self.signals[signal].in_order =>
                 {
-                    // Passed already: no second reading of the records.
+                    // Passed already, or found ahead: the group's records
+                    // are not read a second time.
                     Some(&self.vlsd_kept[self.signals[signal].group].1[..])
                 }
                 Some(Bytes::Vlsd { at, signal }) => {
@@ -733,6 +800,83 @@ impl Cursor {
                 .map_err(|expected| parse(line, expected));
         }
     }
+
+    /// Finds the value at `offset` of the VLSD group `group` among the
+    /// records after `start`, which stay unread, and keeps it in
+    /// `vlsd_kept`; `false` where the group's values pass `offset`, the
+    /// data ends or [`MAX_VALUE_AHEAD`] bytes come first.
+    fn value_ahead<R: BufRead>(
+        &mut self,
+        group: usize,
+        offset: u64,
+        source: &mut Source<R>,
+        inflation: &mut Inflation,
+    ) -> Result<bool, ReadError> {
+        let id_bytes = self.record_id_bytes;
+        // From `start`: filling may move the bytes.
+        let mut ahead = 0;
+        let mut value_at = self.vlsd_offsets[group];
+        while ahead < MAX_VALUE_AHEAD {
+            if !self.fill(ahead + id_bytes.max(1), source, inflation)? {
+                return Ok(false);
+            }
+            let id = record_id(&self.buf[self.start + ahead..], id_bytes);
+            let index = match id_bytes {
+                0 => 0,
+                _ => match self.layouts.iter().position(|(known, _)| *known == id) {
+                    Some(index) => index,
+                    None => return Ok(false),
+                },
+            };
+            let size = match self.layouts.get(index) {
+                Some((_, Layout::Skip(size) | Layout::Can(size, _))) => *size,
+                Some((_, Layout::Vlsd)) => {
+                    if !self.fill(ahead + id_bytes + 4, source, inflation)? {
+                        return Ok(false);
+                    }
+                    4 + u32_at(&self.buf, self.start + ahead + id_bytes).unwrap_or(0) as usize
+                }
+                None => return Ok(false),
+            };
+            if !self.fill(ahead + id_bytes + size, source, inflation)? {
+                return Ok(false);
+            }
+            if index == group {
+                if value_at == offset {
+                    let body = self.start + ahead + id_bytes;
+                    let kept = &mut self.vlsd_kept[group];
+                    kept.0 = offset;
+                    kept.1.clear();
+                    kept.1.extend_from_slice(&self.buf[body + 4..body + size]);
+                    return Ok(true);
+                }
+                value_at += size as u64;
+                if value_at > offset {
+                    return Ok(false);
+                }
+            }
+            ahead += id_bytes + size;
+        }
+        Ok(false)
+    }
+}
+
+/// How far [`Cursor::value_ahead`] looks for a value that comes after its
+/// frame's record (loggers write it right after).
+const MAX_VALUE_AHEAD: usize = 1 << 20;
+
+/// The record id of `id_bytes` (0, 1, 2, 4 or 8) that `record` starts with.
+#[inline]
+fn record_id(record: &[u8], id_bytes: usize) -> u64 {
+    // Each width its own load: a copy of a variable length into a word
+    // and its load stalled the reading of unsorted groups.
+    match id_bytes {
+        1 => record.first().map_or(0, |&b| u64::from(b)),
+        2 => u16_at(record, 0).map_or(0, u64::from),
+        4 => u32_at(record, 0).map_or(0, u64::from),
+        8 => u64_at(record, 0).unwrap_or(0),
+        _ => 0,
+    }
 }
 
 /// The interfaces of a batch's frames: the last bus channel's is kept, not
@@ -745,7 +889,7 @@ pub(super) struct Interfaces<'a> {
 
 impl Interfaces<'_> {
     /// The index in `batch.interfaces` of bus channel `channel`.
-    #[inline]
+    #[inline(always)]
     fn index_of(&mut self, channel: u64, batch: &mut FrameBatch) -> Result<u16, &'static str> {
         if let Some((last, interface)) = self.last {
             if last == channel {

@@ -69,10 +69,15 @@
 //! 6, no bits) whose conversion gives a constant, a field through a
 //! conversion ([`conversion`]), `DataBytes` as a VLSD channel
 //! (type 1) whose record holds a u64 offset into its signal data: `##SD`
-//! blocks (or a `##DZ`/`##DL` of them) or the records of a VLSD channel
-//! group in the same data group ([`SignalData`], read by a cursor of its
-//! own over the same blocks, so a value may come before or after its
-//! frame's record).
+//! blocks (or a `##DZ`/`##DL` of them), read by a cursor of their own
+//! ([`SignalData`]), or the records of a VLSD channel group in the same
+//! data group, taken as the group's records pass (a value before its
+//! frame's record is kept, one after it is found ahead), so the data is
+//! read once and streamed.
+//!
+//! Frames come one by one ([`Mf4Reader::next_record`]) or column by column
+//! ([`Mf4Reader::next_batch`]): the whole records in the cursor's buffer
+//! are then decoded in one loop, with no call per record.
 //!
 //! Unfinalized files (`UnFinMF `, flags at byte 60 for what was never
 //! written), recovered as asammdf does: 0x04, the last `##DT` runs to the
@@ -212,6 +217,10 @@ impl<R: BufRead> Mf4Reader<R> {
         }
         if let [cursor] = &mut self.cursors[..] {
             // One group: its records decoded straight into the columns.
+            if cursor.done {
+                self.finished = true;
+                return Ok(false);
+            }
             let source = &mut self.source;
             let more = cursor.next_batch(
                 source,
@@ -397,9 +406,15 @@ impl<R: BufRead> Mf4Reader<R> {
         for signal in cursors.iter_mut().flat_map(|c| c.signals.iter_mut()) {
             signal.in_order = unfinalized & UNFINALIZED_VLSD_OFFSETS != 0;
         }
-        // Several groups, or a group and its signal data, are read side by
-        // side: none can be streamed past.
-        source.keep_all = cursors.len() > 1 || cursors.iter().any(|c| !c.signals.is_empty());
+        // Several groups, or a group and its `##SD` signal data, are read
+        // side by side: none can be streamed past.
+        // (A VLSD channel group's values are read as the data group's own
+        // records pass, in one reading: see `Cursor::next_parts`.)
+        source.keep_all = cursors.len() > 1
+            || cursors
+                .iter()
+                .flat_map(|c| c.signals.iter())
+                .any(|signal| !signal.in_band || signal.in_order);
         self.heads = vec![None; cursors.len()];
         self.cursors = cursors;
         Ok(())

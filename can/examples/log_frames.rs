@@ -69,7 +69,7 @@ fn main() {
     if count_only {
         let seconds = started.elapsed().as_secs_f64();
         println!(
-            "{format:?} {frames} frames in {seconds:.3} s: {:.0} frames/s",
+            "{format:?} {frames} frames in {seconds:.4} s: {:.0} frames/s",
             frames as f64 / seconds
         );
     }

@@ -195,7 +195,8 @@ fn extract_refuses_mf4_and_says_what_to_write() {
 /// the log carries others (0x00 and 0x21) at priorities 3 and 6. acq's
 /// decode of the logger's MF4 matches by PGN, as asammdf's
 /// `extract_bus_logging` does, and equals it value for value and instant
-/// for instant, each source address apart.
+/// for instant, each source address apart; as MF4, each frame's source
+/// address is a channel beside its values.
 #[test]
 fn a_j1939_dbc_decodes_an_mf4_log_by_pgn_as_asammdf_does() {
     let python = common::scratch_python("can-logs");
@@ -234,16 +235,19 @@ fn a_j1939_dbc_decodes_an_mf4_log_by_pgn_as_asammdf_does() {
     let mf4 = dir.path().join("frames.mf4");
     let converted = acq(&["convert", path_arg(&candump), "-o", path_arg(&mf4)]);
     assert!(converted.status.success(), "{}", stderr(&converted));
+    let decode_into = |out: &Path| {
+        let decoded = acq(&[
+            "decode",
+            path_arg(&mf4),
+            "--dbc",
+            path_arg(&dbc),
+            "-o",
+            path_arg(out),
+        ]);
+        assert!(decoded.status.success(), "{}", stderr(&decoded));
+    };
     let csv = dir.path().join("decoded.csv");
-    let decoded = acq(&[
-        "decode",
-        path_arg(&mf4),
-        "--dbc",
-        path_arg(&dbc),
-        "-o",
-        path_arg(&csv),
-    ]);
-    assert!(decoded.status.success(), "{}", stderr(&decoded));
+    decode_into(&csv);
 
     // acq's rows: (signal, source address) -> [(s from the first frame, value)].
     type Series = BTreeMap<(String, u32), Vec<(f64, f64)>>;
@@ -300,6 +304,41 @@ fn a_j1939_dbc_decodes_an_mf4_log_by_pgn_as_asammdf_does() {
             );
             assert_eq!(v, their_v, "{key:?} at {t} s");
         }
+    }
+    // As MF4, each J1939 message's group holds its frames' source address
+    // beside the values: in asammdf, the two ECUs' engine speeds are told
+    // apart by it, record for record as in the CSV.
+    let signals_mf4 = dir.path().join("decoded.mf4");
+    decode_into(&signals_mf4);
+    let (_, channels) = asammdf_view(&python, &signals_mf4);
+    let channel = |group: &str, name: &str| -> Vec<f64> {
+        let (_, samples) = &channels[&(group.to_string(), name.to_string())];
+        samples.iter().map(|(_, value)| value.unwrap()).collect()
+    };
+    for (group, signal) in [("EEC1", "EngineSpeed"), ("CCVS1", "WheelBasedVehicleSpeed")] {
+        let sources = channel(group, "source_address");
+        let values = channel(group, signal);
+        let mut by_source = Series::new();
+        for (source, value) in sources.iter().zip(&values) {
+            by_source
+                .entry((signal.to_string(), *source as u32))
+                .or_default()
+                .push((0.0, *value));
+        }
+        for ((name, source), series) in &by_source {
+            let csv_values: Vec<f64> = ours[&(name.clone(), *source)]
+                .iter()
+                .map(|(_, v)| *v)
+                .collect();
+            let mf4_values: Vec<f64> = series.iter().map(|(_, v)| *v).collect();
+            assert_eq!(mf4_values, csv_values, "{group}.{name} from {source:#04X}");
+        }
+        let csv_count: usize = ours
+            .iter()
+            .filter(|((name, _), _)| name == signal)
+            .map(|(_, series)| series.len())
+            .sum();
+        assert_eq!(values.len(), csv_count, "{group}");
     }
     // Asked for exact ids, nothing of this log is the DBC's.
     let exact = acq(&[

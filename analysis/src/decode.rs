@@ -269,19 +269,29 @@ impl DbcRows for DbcParquet {
 /// The DBC route's values as MF4: a channel group per message (its
 /// signals, with units), a record per decoded frame, a signal the frame
 /// did not carry (another multiplexer page) invalid. Frames of one id on
-/// several interfaces share the message's group.
+/// several interfaces share the message's group. A J1939 message's group
+/// has one more channel, [`SOURCE_ADDRESS_CHANNEL`]: matched by PGN, its
+/// frames come from any source address, and two ECUs sending one PGN stay
+/// apart by it.
 pub struct DbcMf4 {
     writer: Option<Mf4SignalWriter<CompleteOnlyFile>>,
     name: String,
     /// The message of the frame being decoded, its time and values.
     pending: Option<(usize, i64)>,
     values: Vec<Option<f64>>,
-    signal_counts: Vec<usize>,
+    /// Each message's channels (its signals, then a J1939 message's source
+    /// address).
+    channel_counts: Vec<usize>,
+    j1939: Vec<bool>,
 }
+
+/// The channel of a J1939 message's group that holds each frame's source
+/// address (the id's low byte).
+pub const SOURCE_ADDRESS_CHANNEL: &str = "source_address";
 
 impl DbcMf4 {
     pub fn create(file: CompleteOnlyFile, name: &str, database: &DbcDatabase) -> Result<Self> {
-        let groups = database
+        let groups: Vec<SignalGroup> = database
             .messages()
             .iter()
             .map(|m| SignalGroup {
@@ -293,18 +303,23 @@ impl DbcMf4 {
                         name: s.name.clone(),
                         unit: s.unit.clone(),
                     })
+                    .chain(m.j1939_pgn.map(|_| SignalChannel {
+                        name: SOURCE_ADDRESS_CHANNEL.into(),
+                        unit: String::new(),
+                    }))
                     .collect(),
             })
             .collect();
         Ok(DbcMf4 {
+            channel_counts: groups.iter().map(|g| g.channels.len()).collect(),
             writer: Some(mf4_writer(file, name, groups)?),
             name: name.to_string(),
             pending: None,
             values: Vec::new(),
-            signal_counts: database
+            j1939: database
                 .messages()
                 .iter()
-                .map(|m| m.signals.len())
+                .map(|m| m.j1939_pgn.is_some())
                 .collect(),
         })
     }
@@ -328,7 +343,11 @@ impl DbcRows for DbcMf4 {
         if self.pending.is_none() {
             self.pending = Some((message, record.frame.timestamp_ns));
             self.values.clear();
-            self.values.resize(self.signal_counts[message], None);
+            self.values.resize(self.channel_counts[message], None);
+            if self.j1939[message] {
+                let source_address = record.frame.id.raw() & 0xFF;
+                self.values[self.channel_counts[message] - 1] = Some(f64::from(source_address));
+            }
         }
         self.values[signal] = Some(value.as_f64());
     }

@@ -756,6 +756,60 @@ fn a_study_that_cannot_work_is_refused_before_its_first_run() {
     );
 }
 
+/// A case file with another load case's measured values (wrong success:
+/// Case 1's file with Case 2's session ran to a 65 % error, three inputs
+/// on their bounds): the measured load is not the case's force, and it is
+/// refused before any run, both ways round. A case that bounds its force
+/// takes any load inside the bounds.
+#[test]
+fn a_case_file_with_another_cases_measured_values_is_refused_before_any_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let measured = |session: &str| {
+        let out = dir.path().join(format!("{session}.csv"));
+        let session = root().join("fixtures/sessions").join(session);
+        let output = acq(&["extract", path_arg(&session), "-o", path_arg(&out)]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        out
+    };
+    let (one, two) = (measured("excavator_case1"), measured("excavator_case2"));
+    let calibrate = |case: &Path, values: &Path, out: &Path| {
+        let mut args = vec!["calibrate", "excavator", "--case", path_arg(case)];
+        args.extend(["--measured", path_arg(values), "--out", path_arg(out)]);
+        args.extend(["--training", "12", "--test-runs", "1"]);
+        args.extend(["--population", "4", "--generations", "1"]);
+        acq(&args)
+    };
+    for (case, values, load, stated) in [
+        ("case1", &two, "24.6", "40.6"),
+        ("case2", &one, "40.6", "24.6"),
+    ] {
+        let out = dir.path().join(format!("{case}-out"));
+        let case = root().join(format!("data/excavator/{case}.toml"));
+        let output = calibrate(&case, values, &out);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(2), "{message}");
+        assert!(
+            message.contains("another load case")
+                && message.contains(&format!("tip_force is {load}"))
+                && message.contains(&format!("force_kN = {stated} kN")),
+            "{message}"
+        );
+        assert!(!out.exists(), "the run directory was made");
+    }
+    // Case 1's file that calibrates the force over [20, 45] kN takes Case
+    // 2's load (24.6 kN): no refusal.
+    let case = std::fs::read_to_string(root().join("data/excavator/case1.toml")).unwrap();
+    let bounded = case.replace(
+        "force_angle_deg = [-15, -5]",
+        "force_angle_deg = [-15, -5]\nforce_kN = [20, 45]",
+    );
+    assert_ne!(bounded, case);
+    let path = dir.path().join("bounded.toml");
+    std::fs::write(&path, bounded).unwrap();
+    let output = calibrate(&path, &two, &dir.path().join("bounded-out"));
+    assert!(output.status.success(), "{}", stderr(&output));
+}
+
 // ---- files read back: line numbers and what was expected ----------------------------------
 
 #[test]

@@ -6,10 +6,12 @@
 mod common;
 
 use common::pipeline::scenario_holds;
+use common::running::{api_state, url_in, Running};
 use common::{acq, root, stderr};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::Output;
+use std::time::Duration;
 
 fn path_str(path: &Path) -> &str {
     path.to_str().unwrap()
@@ -918,6 +920,44 @@ fn logger_files_imported_extract_as_the_recorded_session() {
     assert_eq!(
         toml["session"]["frames"].as_integer(),
         Some(lines.len() as i64)
+    );
+    // The page and the study at the rig take it as the recorded session:
+    // the same holds and values on `acq view`'s state, the same posterior
+    // from `acq calibrate rig`.
+    let recorded_copy = common::copy_session("excavator_case1", &dir.path().join("recorded"));
+    let page_holds = |session: &Path| {
+        let mut view = Running::start(&["view", path_str(session), "--view", "127.0.0.1:0"]);
+        let url = url_in(&view.wait_for("acq: view at", Duration::from_secs(60)));
+        api_state(&url)["holds"].clone()
+    };
+    // (Times count from the first frame: the imported hold starts earlier.)
+    let (holds, recorded_holds) = (page_holds(&session), page_holds(&recorded_copy));
+    assert_eq!(holds.as_array().map(Vec::len), Some(1), "{holds}");
+    assert_eq!(holds[0]["values"], recorded_holds[0]["values"]);
+    let length = |hold: &serde_json::Value| {
+        hold["end_s"].as_f64().unwrap() - hold["start_s"].as_f64().unwrap()
+    };
+    assert!((length(&holds[0]) - length(&recorded_holds[0])).abs() < 1e-9);
+    let study = |session: &Path, name: &str| {
+        let json = dir.path().join(name);
+        let output = acq(&[
+            "calibrate",
+            "rig",
+            path_str(session),
+            "--study",
+            "examples/excavator-rig/study.toml",
+            "-o",
+            path_str(&json),
+        ]);
+        assert!(output.status.success(), "{}", stderr(&output));
+        let state: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+        assert_eq!(state["holds_used"], 1, "{state}");
+        state["parameters"].clone()
+    };
+    assert_eq!(
+        study(&session, "imported.json"),
+        study(&recorded_copy, "recorded.json")
     );
 }
 

@@ -7,8 +7,6 @@
 
 mod common;
 
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -19,7 +17,7 @@ use acq_view::StudyWorker;
 use acq_workflows::rig_study::tracker::Tracker;
 use acq_workflows::rig_study::RigStudy;
 use common::browser::LivePage;
-use common::running::Running;
+use common::running::{api_state, url_in, Running};
 use common::{copy_session, path_arg, root};
 use serde_json::Value;
 
@@ -134,20 +132,6 @@ fn a_bad_study_is_refused_before_recording_with_file_and_line() {
     }
 }
 
-fn state_of(url: &str) -> Value {
-    let host = url.trim_start_matches("http://").split('/').next().unwrap();
-    let mut stream = TcpStream::connect(host).unwrap();
-    write!(
-        stream,
-        "GET /api/state HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut response = String::new();
-    stream.read_to_string(&mut response).unwrap();
-    let body = response.split_once("\r\n\r\n").unwrap().1;
-    serde_json::from_str(body).unwrap()
-}
-
 /// `acq view` of the two excavator sessions with the example study: the
 /// study goes hold by hold, and the page shows every parameter's interval
 /// and the next point, with no console error.
@@ -166,14 +150,10 @@ fn the_study_over_recorded_sessions_is_on_the_page() {
         "127.0.0.1:0",
     ]);
     let said = view.wait_for("acq: view at", Duration::from_secs(60));
-    let url = said[said.find("http://").unwrap()..]
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .to_string();
+    let url = url_in(&said);
     let deadline = Instant::now() + Duration::from_secs(240);
     let study = loop {
-        let state = state_of(&url);
+        let state = api_state(&url);
         let study = state["study"].clone();
         if study["holds_used"] == 2 && study["updating"] == false {
             break study;

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use acq_analysis::recording::{Recording, SampleCounts};
 use common::browser::LivePage;
-use common::running::Running;
+use common::running::{url_in, Running};
 use common::{acq, copy_session, path_arg, root, stderr};
 use serde_json::Value;
 
@@ -47,11 +47,6 @@ fn http(addr: &str, method: &str, path: &str, host: Option<&str>) -> (u16, Strin
         .and_then(|s| s.parse().ok())
         .unwrap_or(0);
     (status, head.to_string(), body.to_string())
-}
-
-fn url_in(line: &str) -> String {
-    let start = line.find("http://").expect("a URL");
-    line[start..].split_whitespace().next().unwrap().to_string()
 }
 
 fn host_of(url: &str) -> String {

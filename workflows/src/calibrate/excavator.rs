@@ -375,6 +375,45 @@ fn measured_hold(
     })
 }
 
+/// How far a measured load may lie from the case's stated force and still
+/// be its load case: a tenth (a load case is set by its load; the same
+/// load held again agrees within a few per cent).
+const SAME_LOAD_CASE_FRACTION: f64 = 0.1;
+
+/// Measured values of another load case are refused before any run: the
+/// measured load (`force_kn`) more than [`SAME_LOAD_CASE_FRACTION`] from the
+/// case's `force_kN`, or outside its bounds where the case calibrates it.
+fn check_same_load_case(
+    case_path: &Path,
+    case: &CaseFile,
+    force_kn: f64,
+    measured_source: &str,
+    args: &CalibrateExcavatorOptions,
+) -> Result<()> {
+    let stated = match case.bounds.force_kn {
+        Some([lower, upper]) if (lower..=upper).contains(&force_kn) => return Ok(()),
+        Some([lower, upper]) => format!("bounds its force_kN to [{lower}, {upper}] kN"),
+        None if (force_kn - case.force_kn).abs()
+            <= SAME_LOAD_CASE_FRACTION * case.force_kn.abs() =>
+        {
+            return Ok(())
+        }
+        None => format!(
+            "states force_kN = {} kN ({:.0} % apart)",
+            case.force_kn,
+            100.0 * (force_kn - case.force_kn).abs() / case.force_kn.abs().max(f64::MIN_POSITIVE)
+        ),
+    };
+    Err(AcqError::Config(format!(
+        "{measured_source}: the load {} is {force_kn:.2} kN, but the case file {} ('{}') {stated}: \
+         the measured values look like another load case's. Give the case file of the hold that \
+         was measured (or correct the case's force_kN to the load applied)",
+        args.load_quantity,
+        case_path.display(),
+        case.name,
+    )))
+}
+
 /// The search's settings checked before any run: three usable weights,
 /// the run counts in their ranges, a Pareto fraction in (0, 1].
 fn check_search_settings(args: &CalibrateExcavatorOptions) -> Result<()> {
@@ -419,6 +458,7 @@ pub fn run(args: CalibrateExcavatorOptions) -> Result<ExcavatorCalibration> {
         uncertainties_bar = hold.uncertainties_bar;
         match hold.force_kn {
             Some(force) if force > 0.0 => {
+                check_same_load_case(&args.case, &case, force, &measured_source, &args)?;
                 case.force_kn = force;
                 force_source = format!("{} mean in {measured_source}", args.load_quantity);
             }

@@ -558,6 +558,13 @@ noise = 0.02
 /// Records `RESTING_SCENARIO` on the in-process bus as `acq record --rig
 /// --zero-before 1.5s --zero-after 1.5s` does, into `session_dir`.
 fn record_zeroed_live(session_dir: &Path) {
+    record_zeroed_live_in(session_dir, 1.5, Some(1.5), 1.0);
+}
+
+/// The same with `--zero-before BEFORE_S [--zero-after AFTER_S]`, played
+/// `speed` times as fast (the recording's times are the scenario's divided
+/// by `speed`).
+fn record_zeroed_live_in(session_dir: &Path, before_s: f64, after_s: Option<f64>, speed: f64) {
     use acq_acquire::replay::Routing;
     use acq_acquire::simulate::scenario::Scenario;
     use acq_acquire::simulate::Simulation;
@@ -566,7 +573,7 @@ fn record_zeroed_live(session_dir: &Path) {
     let root = common::root();
     let mut rig = acq_io::input::load_rig(&root.join("fixtures/rigs/excavator.toml")).unwrap();
     let notes = rig.assign_interfaces(&interfaces).unwrap();
-    let windows = acq_analysis::zero::ZeroWindows::new(1.5, Some(1.5)).unwrap();
+    let windows = acq_analysis::zero::ZeroWindows::new(before_s, after_s).unwrap();
     let (feed, _shared) = acq_view::live_session(
         "zeroed",
         &rig,
@@ -588,8 +595,35 @@ fn record_zeroed_live(session_dir: &Path) {
     let mut simulation =
         Simulation::new(&rig, scenario, curve, 5, acq_acquire::bus::now_ns()).unwrap();
     let routing = Routing::for_rig(&rig, &interfaces).unwrap();
-    recorder.play_live(&bus, &routing, &mut simulation);
+    recorder.play_live_at(&bus, &routing, &mut simulation, speed);
     recorder.stop();
+}
+
+/// A live zero window that is no rest is not taken (wrong success: the
+/// load's start taken for the transducers' offsets): `RESTING_SCENARIO`'s
+/// load builds up from 2 s and is released from 9 s to 10 s of 12 s,
+/// played twice as fast (1 s, 4.5 s to 5 s of 6 s recorded). A 1.5 s
+/// before window runs into the build-up: no zero record (so every command
+/// reads the values as read). A 0.75 s before window is a rest, a 1.5 s after window runs into
+/// the release: the zero is the before window's alone.
+#[test]
+fn a_live_zero_window_that_is_no_rest_is_not_taken() {
+    let temp = tempfile::tempdir().unwrap();
+    let into_the_load = temp.path().join("into_the_load");
+    record_zeroed_live_in(&into_the_load, 1.5, None, 2.0);
+    assert!(
+        acq_io::zero_record::read(&into_the_load).unwrap().is_none(),
+        "a zero was written from a window that runs into the load"
+    );
+
+    let into_the_release = temp.path().join("into_the_release");
+    record_zeroed_live_in(&into_the_release, 0.75, Some(1.5), 2.0);
+    let record = acq_io::zero_record::read(&into_the_release)
+        .unwrap()
+        .expect("the before window is a rest");
+    assert_eq!(record.after_s, None);
+    assert!(!record.sensors.is_empty());
+    assert!(record.sensors.iter().all(|sensor| sensor.after.is_none()));
 }
 
 /// The check: a recording zeroed live equals the same recording

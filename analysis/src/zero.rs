@@ -218,6 +218,14 @@ impl ZeroTaker {
     /// The channels that were not at rest in a zero window, a line each
     /// (what moved, by how much against its scatter).
     pub fn not_at_rest(&self) -> Vec<String> {
+        let mut lines = self.not_at_rest_before();
+        lines.extend(self.not_at_rest_after());
+        lines
+    }
+
+    /// [`ZeroTaker::not_at_rest`] in the before window only: what a
+    /// recorder can tell as soon as the window closes.
+    pub fn not_at_rest_before(&self) -> Vec<String> {
         let mut lines = Vec::new();
         for (sensor, channel) in self.rig.sensors.iter().zip(&self.channels) {
             let Some(channel) = channel else { continue };
@@ -226,6 +234,16 @@ impl ZeroTaker {
                 sensor.unit(),
                 "before window",
             ));
+        }
+        lines
+    }
+
+    /// [`ZeroTaker::not_at_rest`] in the after window only (the latest
+    /// samples).
+    pub fn not_at_rest_after(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        for (sensor, channel) in self.rig.sensors.iter().zip(&self.channels) {
+            let Some(channel) = channel else { continue };
             if let (Some(after_ns), Some(latest)) = (self.windows.after_ns, self.latest_ns) {
                 let mut after = Quarters::new(latest - after_ns, after_ns);
                 for &(t, value) in channel.tail.iter().filter(|(t, _)| *t >= latest - after_ns) {
@@ -302,6 +320,21 @@ impl ZeroTaker {
             .map(|(s, _)| s.name.clone())
             .collect()
     }
+}
+
+/// The first eight of `lines` (channels not at rest), indented under a
+/// message, and how many more.
+pub fn shown_lines(lines: &[String]) -> String {
+    let mut shown = lines
+        .iter()
+        .take(8)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join("\n  ");
+    if lines.len() > 8 {
+        shown.push_str(&format!("\n  ... and {} more", lines.len() - 8));
+    }
+    shown
 }
 
 fn reading(accumulator: &WindowAccumulator, from_s: f64, to_s: f64) -> Option<ZeroReading> {

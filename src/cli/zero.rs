@@ -91,24 +91,10 @@ fn rest_windows(args: &ZeroArgs, taken: &acq_analysis::zero::TakenZero) -> Resul
         return Err(AcqError::Config(format!(
             "no zero written: the window is no rest for {} channel(s):\n  {}\ngive a shorter --before (or --after) that ends before the load is applied (starts after it is removed)",
             taken.not_at_rest.len(),
-            shown_lines(&taken.not_at_rest)
+            acq_analysis::zero::shown_lines(&taken.not_at_rest)
         )));
     }
     Ok(())
-}
-
-/// The first eight lines, and how many more.
-fn shown_lines(lines: &[String]) -> String {
-    let mut shown = lines
-        .iter()
-        .take(8)
-        .cloned()
-        .collect::<Vec<_>>()
-        .join("\n  ");
-    if lines.len() > 8 {
-        shown.push_str(&format!("\n  ... and {} more", lines.len() - 8));
-    }
-    shown
 }
 
 /// A line per zeroed channel: its zero, its zero return, and a warning

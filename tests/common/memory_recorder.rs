@@ -78,12 +78,24 @@ impl MemoryRecorder {
     /// Plays `simulation` onto `bus` in real time, as `acq simulate --iface`
     /// does, while the recorder records.
     pub fn play_live(&self, bus: &MemoryBus, routing: &Routing, simulation: &mut Simulation) {
+        self.play_live_at(bus, routing, simulation, 1.0);
+    }
+
+    /// [`MemoryRecorder::play_live`] `speed` times as fast: the recorder's
+    /// clock sees the scenario's times divided by `speed`.
+    pub fn play_live_at(
+        &self,
+        bus: &MemoryBus,
+        routing: &Routing,
+        simulation: &mut Simulation,
+        speed: f64,
+    ) {
         self.runtime
             .block_on(play(
                 bus,
                 |_| Ok(simulation.next_frame()),
                 routing,
-                Pacing::Timed { speed: 1.0 },
+                Pacing::Timed { speed },
                 1,
             ))
             .unwrap();

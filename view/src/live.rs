@@ -18,7 +18,7 @@ use acq_acquire::record::status::Status;
 use acq_acquire::record::RecordObserver;
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::live::LiveHoldStream;
-use acq_analysis::zero::{ZeroTaker, ZeroWindows, Zeroing};
+use acq_analysis::zero::{shown_lines, ZeroTaker, ZeroWindows, Zeroing};
 use acq_can::log::candump::logged_timestamp_ns;
 use acq_can::Frame;
 use acq_io::session::SessionFile;
@@ -161,6 +161,8 @@ struct LiveZero {
     taker: ZeroTaker,
     pending: Vec<Sample>,
     zeroing: Option<Zeroing>,
+    /// The before window was no rest: nothing is zeroed or written.
+    refused: bool,
 }
 
 /// What the zero's record is called in a session written by the recorder.
@@ -171,12 +173,28 @@ impl LiveZero {
     /// open, then the ones waiting and these, zeroed. `closed` is called
     /// once with the record when the window closes.
     fn pass(&mut self, samples: &mut Vec<Sample>, mut closed: impl FnMut(ZeroRecord)) {
+        if self.refused {
+            return;
+        }
         for sample in samples.iter() {
             self.taker.push(sample);
         }
         if self.zeroing.is_none() {
             self.pending.append(samples);
             if !self.taker.before_closed() {
+                return;
+            }
+            // A window that is no rest gives no zero (a load's start taken
+            // for a transducer's offset would shift every value after it).
+            let moved = self.taker.not_at_rest_before();
+            if !moved.is_empty() {
+                eprintln!(
+                    "acq: warning: no zero taken: the --zero-before window is no rest for {} channel(s):\n  {}\n  the values are kept as read; take the zero from a rest with acq zero SESSION --before (a shorter window)",
+                    moved.len(),
+                    shown_lines(&moved)
+                );
+                self.refused = true;
+                *samples = std::mem::take(&mut self.pending);
                 return;
             }
             let record = self.taker.record(TAKEN_LIVE);
@@ -194,8 +212,38 @@ impl LiveZero {
     /// window closed only now, or an after window was asked for).
     fn finish(mut self) -> (Vec<Sample>, Option<ZeroRecord>) {
         let mut pending = std::mem::take(&mut self.pending);
-        let record = self.taker.record(TAKEN_LIVE);
+        if self.refused {
+            return (pending, None);
+        }
+        if !self.taker.before_closed() {
+            // The recording ended inside the window: judged as it stands.
+            let moved = self.taker.not_at_rest_before();
+            if !moved.is_empty() {
+                eprintln!(
+                    "acq: warning: no zero taken: the recording ended inside the --zero-before window, which is no rest for {} channel(s):\n  {}",
+                    moved.len(),
+                    shown_lines(&moved)
+                );
+                return (pending, None);
+            }
+        }
+        let mut record = self.taker.record(TAKEN_LIVE);
+        // The record given when the before window closed holds the after
+        // window as it stood then: one asked for is always written anew.
         let changed = self.zeroing.is_none() || record.after_s.is_some();
+        let moved = self.taker.not_at_rest_after();
+        if !moved.is_empty() {
+            eprintln!(
+                "acq: warning: the --zero-after window is no rest for {} channel(s):\n  {}\n  the zero is the before window's alone (no zero return); take both with acq zero SESSION --before ... --after (a shorter window)",
+                moved.len(),
+                shown_lines(&moved)
+            );
+            record.after_s = None;
+            record
+                .sensors
+                .iter_mut()
+                .for_each(|sensor| sensor.after = None);
+        }
         let zeroing = self
             .zeroing
             .get_or_insert_with(|| Zeroing::new(self.taker.rig(), &record));
@@ -353,6 +401,7 @@ impl Feed {
                         taker: ZeroTaker::new(rig, windows, t0),
                         pending: Vec::new(),
                         zeroing: None,
+                        refused: false,
                     });
                 }
                 Some(FeedEvent::Frames(frames)) => {

@@ -1371,6 +1371,72 @@ fn a_budget_is_a_number_or_an_error() {
     );
 }
 
+/// The number before `s at most` in an `acq zero` message: the window it
+/// advises.
+fn advised_window(told: &str, flag: &str) -> String {
+    let from = told.find(&format!("give {flag} ")).expect(told) + flag.len() + 6;
+    told[from..].split("s at most").next().unwrap().to_string() + "s"
+}
+
+/// A window inside a hold is steady, so the quarters cannot see it: a
+/// before window that reaches into case 1's hold (under load from 3.5 s)
+/// and an after window that reaches back into it are refused by the hold,
+/// and the window each message advises is taken. A recording that starts
+/// under load (logger files from the middle of the hold, imported) has no
+/// rest before the test, and says so.
+#[test]
+fn a_zero_window_that_reaches_into_a_hold_is_refused_with_one_that_works() {
+    let temp = tempfile::tempdir().unwrap();
+    let session = common::copy_session("excavator_case1", temp.path());
+    let zero = |session: &Path, args: &[&str]| {
+        let mut all = vec!["zero", path_arg(session)];
+        all.extend_from_slice(args);
+        let output = acq(&all);
+        let told = stderr(&output);
+        (output.status.code(), told)
+    };
+    let (code, told) = zero(&session, &["--before", "5s"]);
+    assert_eq!(code, Some(2), "{told}");
+    assert!(told.contains("--before 5 s reaches into hold1"), "{told}");
+    let before = advised_window(&told, "--before");
+    let (code, told) = zero(&session, &["--before", "0.5s", "--after", "5s"]);
+    assert_eq!(code, Some(2), "{told}");
+    assert!(
+        told.contains("--after 5 s reaches back into hold1"),
+        "{told}"
+    );
+    assert!(!session.join("zero.toml").exists());
+    let after = advised_window(&told, "--after");
+    let (code, told) = zero(&session, &["--before", &before, "--after", &after]);
+    assert_eq!(code, Some(0), "--before {before} --after {after}: {told}");
+
+    let raw = std::fs::read_to_string(session.join("raw.log")).unwrap();
+    let time = |line: &str| -> f64 { line[1..line.find(')').unwrap()].parse().unwrap() };
+    let first = time(raw.lines().next().unwrap());
+    let under_load: String = raw
+        .lines()
+        .filter(|line| time(line) >= first + 5.0)
+        .map(|line| format!("{line}\n"))
+        .collect();
+    let log = temp.path().join("from_the_hold.log");
+    std::fs::write(&log, under_load).unwrap();
+    let imported = temp.path().join("imported");
+    let rig = session.join("rig/excavator.toml");
+    let output = acq(&[
+        "import",
+        path_arg(&log),
+        "--rig",
+        path_arg(&rig),
+        "--out",
+        path_arg(&imported),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let (code, told) = zero(&imported, &["--before", "1s"]);
+    assert_eq!(code, Some(2), "{told}");
+    assert!(told.contains("the recording starts under load"), "{told}");
+    assert!(!imported.join("zero.toml").exists());
+}
+
 /// Wrong successes, round four: a zero window is a rest inside the
 /// recording or nothing is written. A window longer than the recording
 /// (the "zero" was the whole test's mean), windows before and after that

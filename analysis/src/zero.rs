@@ -19,6 +19,7 @@ use acq_io::zero_record::{SensorZero, ZeroReading, ZeroRecord};
 use acq_rig::sensors::Sample;
 use acq_rig::Rig;
 
+use crate::extract::holds::{HoldDetector, HoldOptions};
 use crate::extract::stats::WindowAccumulator;
 use crate::recording::clocks::given_offsets_ns;
 pub use crate::recording::zeroing::Zeroing;
@@ -359,6 +360,15 @@ pub struct TakenZero {
     /// How long the recording ran, s.
     pub recorded_s: f64,
     pub counts: SampleCounts,
+    /// The holds of the rig's load (its only force sensor), found as
+    /// `acq extract` finds them: name, and where the load is on, s from
+    /// the session's start (the steady part and the settling trimmed off
+    /// it). Empty without a load sensor or a hold.
+    pub holds_s: Vec<(String, f64, f64)>,
+    /// Where that load leaves its level at the start, and where it is
+    /// back at its level at the end, s from the session's start (its
+    /// 100 ms means more than 1 % of its range away).
+    pub load_moves_s: Option<(f64, f64)>,
 }
 
 /// Takes the zero of a recorded session offline, from its raw values (any
@@ -374,16 +384,40 @@ pub fn take(recording: &Recording, windows: ZeroWindows, taken_by: &str) -> Resu
     let mut taker = ZeroTaker::new(&recording.rig, windows, t0_ns);
     let mut counts = SampleCounts::default();
     let raw = vec![0; recording.rig.buses.len()];
+    // The holds too: a window inside one is steady, and no rest.
+    let load = crate::extract::run::rig_load_sensor(&recording.rig).ok();
+    let mut detector = HoldDetector::default();
     recording.for_each_raw_sample(&raw, &mut counts, |sample| {
         taker.push(&sample);
+        if let (true, Some(value)) = (Some(sample.sensor) == load, sample.value) {
+            detector.push(sample.time_ns, value);
+        }
         Ok(())
     })?;
+    let options = HoldOptions::default();
+    let seconds = |ns: i64| (ns - t0_ns) as f64 / 1e9;
+    let detection = detector.detect(&options);
+    let load_moves_s = load
+        .and_then(|_| detector.load_departures(detection.steady_std))
+        .map(|(rises, settles)| (seconds(rises), seconds(settles)));
+    let holds_s = match load {
+        Some(_) => detection.holds,
+        None => Vec::new(),
+    }
+    .into_iter()
+    .map(|hold| {
+        let load_on = seconds(hold.start_ns - options.settle_ns);
+        (hold.name, load_on, seconds(hold.end_ns + options.settle_ns))
+    })
+    .collect();
     Ok(TakenZero {
         record: taker.record(taken_by),
         missing: taker.missing(),
         not_at_rest: taker.not_at_rest(),
         recorded_s: taker.recorded_s(),
         counts,
+        holds_s,
+        load_moves_s,
     })
 }
 

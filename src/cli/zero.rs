@@ -68,8 +68,9 @@ pub fn run_zero(args: ZeroArgs) -> Result<()> {
 }
 
 /// A zero window is a rest inside the recording, or nothing is written: a
-/// window past the recording's end, windows that overlap, and a channel
-/// that moves in a window are refused, each named, with the window to use.
+/// window past the recording's end, windows that overlap, a window that
+/// reaches into a hold, and a channel that moves in a window are refused,
+/// each named, with the window to use.
 fn rest_windows(args: &ZeroArgs, taken: &acq_analysis::zero::TakenZero) -> Result<()> {
     let recorded_s = taken.recorded_s;
     let before_s = args.before.as_secs_f64();
@@ -87,14 +88,74 @@ fn rest_windows(args: &ZeroArgs, taken: &acq_analysis::zero::TakenZero) -> Resul
             )));
         }
     }
+    // A window inside a hold is steady and no rest: the load's start and
+    // end bound the windows.
+    let (before_at_most, after_at_most) = windows_at_rest(taken);
+    if let Some((hold, load_on_s, _)) = taken.holds_s.first() {
+        if before_s > *load_on_s {
+            return Err(AcqError::Config(format!(
+                "--before {before_s} s reaches into {hold}, under load from {load_on_s:.1} s: a zero there takes the load for zero; {before_at_most}"
+            )));
+        }
+    }
+    if let (Some(after_s), Some((hold, _, load_off_s))) = (after_s, taken.holds_s.last()) {
+        if recorded_s - after_s < *load_off_s {
+            return Err(AcqError::Config(format!(
+                "--after {after_s} s reaches back into {hold}, under load until {load_off_s:.1} s of {recorded_s:.1}: a zero there takes the load for zero; {after_at_most}"
+            )));
+        }
+    }
     if !taken.not_at_rest.is_empty() {
         return Err(AcqError::Config(format!(
-            "no zero written: the window is no rest for {} channel(s):\n  {}\ngive a shorter --before (or --after) that ends before the load is applied (starts after it is removed)",
+            "no zero written: the window is no rest for {} channel(s):\n  {}\n{before_at_most}; {after_at_most}",
             taken.not_at_rest.len(),
             acq_analysis::zero::shown_lines(&taken.not_at_rest)
         )));
     }
     Ok(())
+}
+
+/// What to give instead, for the before and the after window: a window
+/// that ends (starts) with a margin before the load leaves its rest level
+/// (after it is back), where the load channel says when.
+fn windows_at_rest(taken: &acq_analysis::zero::TakenZero) -> (String, String) {
+    // Half the rest: the load's 100 ms means say where it moved, not
+    // where a slow ramp began.
+    // A recording that starts (ends) in a hold has its level there: the
+    // hold bounds the rest too.
+    let first_load_on_s = taken.holds_s.first().map(|(_, on_s, _)| *on_s);
+    let last_load_off_s = taken.holds_s.last().map(|(_, _, off_s)| *off_s);
+    let moves_s = match (taken.load_moves_s, first_load_on_s, last_load_off_s) {
+        (Some((rises_s, settles_s)), on_s, off_s) => Some((
+            on_s.map_or(rises_s, |on_s| rises_s.min(on_s)),
+            off_s.map_or(settles_s, |off_s| settles_s.max(off_s)),
+        )),
+        (None, Some(on_s), Some(off_s)) => Some((on_s, off_s)),
+        _ => None,
+    };
+    match moves_s {
+        Some((rises_s, settles_s)) => {
+            let before = match rises_s / 2.0 {
+                s if s >= 0.1 => format!(
+                    "give --before {s:.1}s at most (the load leaves its rest at {rises_s:.1} s)"
+                ),
+                _ => "the recording starts under load: no rest before the test; zero from the rest after it with --after, or in another recording".into(),
+            };
+            let rest_after_s = taken.recorded_s - settles_s;
+            let after = match rest_after_s / 2.0 {
+                s if s >= 0.1 => format!(
+                    "give --after {s:.1}s at most (the load is back at rest from {settles_s:.1} s of {:.1})",
+                    taken.recorded_s
+                ),
+                _ => "the recording ends under load: no rest after the test".into(),
+            };
+            (before, after)
+        }
+        None => (
+            "give a shorter --before that ends before the load is applied".into(),
+            "a shorter --after that starts after it is removed".into(),
+        ),
+    }
 }
 
 /// A line per zeroed channel: its zero, its zero return, and a warning

@@ -116,6 +116,33 @@ impl HoldDetector {
     }
 
     /// The holds, named `hold1`, `hold2`, ... in time order.
+    /// Where the load leaves the level it starts at, and where it is last
+    /// away from the level it ends at (unix ns): the first 100 ms block
+    /// whose mean is more than `tolerance` from the first block's, and the
+    /// end of the last block more than `tolerance` from the last block's.
+    /// `None` where it never leaves its level.
+    pub fn load_departures(&self, tolerance: f64) -> Option<(i64, i64)> {
+        let origin = self.origin_ns?;
+        let means: Vec<(usize, f64)> = self
+            .blocks
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.n > 0)
+            .map(|(i, b)| (i, b.sum / b.n as f64))
+            .collect();
+        let (&(_, first), &(_, last)) = (means.first()?, means.last()?);
+        let rises = means.iter().find(|(_, m)| (m - first).abs() > tolerance)?.0;
+        let settles = means
+            .iter()
+            .rev()
+            .find(|(_, m)| (m - last).abs() > tolerance)?
+            .0;
+        Some((
+            origin + rises as i64 * BLOCK_NS,
+            origin + (settles as i64 + 1) * BLOCK_NS,
+        ))
+    }
+
     pub fn detect(&self, options: &HoldOptions) -> Detection {
         let Some(origin) = self.origin_ns else {
             return Detection {

@@ -118,90 +118,36 @@ fn the_new_commands_leave_every_input_as_it_was() {
     let log = inputs.join("case2.log");
     std::fs::copy(session.join("raw.log"), &log).unwrap();
     let outputs = temp.path().join("outputs");
-    let out = |name: &str| path_arg(&outputs.join(name)).to_string();
-    let chain_rig_path = chain.join("rig.toml");
-    let (chain_rig, session_arg) = (path_arg(&chain_rig_path), path_arg(&session));
-    let (rig_arg, spec_arg, log_arg) = (path_arg(&rig), path_arg(&spec), path_arg(&log));
-    let spec_dir = path_arg(spec.parent().unwrap());
+    let (chain_rig, session) = (chain.join("rig.toml"), session.clone());
+    let [chain_rig, s, rig, spec, log, spec_dir, outputs_dir] = [
+        &chain_rig,
+        &session,
+        &rig,
+        &spec,
+        &log,
+        spec.parent().unwrap(),
+        &outputs,
+    ]
+    .map(|path| path_arg(path).to_string());
+    // (The temporary paths hold no spaces: each call is one line.)
     let calls: Vec<Vec<String>> = [
-        vec![
-            "budget",
-            chain_rig,
-            "--sensor",
-            "boom_head_pressure",
-            "--at",
-            "1e308",
-        ],
-        vec![
-            "budget",
-            chain_rig,
-            "--sensor",
-            "boom_head_pressure",
-            "--at",
-            "120",
-        ],
-        vec![
-            "budget",
-            rig_arg,
-            "--cylinder",
-            "boom",
-            "--head",
-            "1e300",
-            "--rod",
-            "0",
-        ],
-        vec!["check-rig", chain_rig],
-        vec!["zero", session_arg, "--before", "30s"],
-        vec!["zero", session_arg, "--before", "5s"],
-        vec!["zero", session_arg, "--before", "0.5s", "--after", "5s"],
-        vec![
-            "shunt",
-            session_arg,
-            "--rig",
-            rig_arg,
-            "--sensor",
-            "sg01",
-            "--from",
-            "1s",
-            "--to",
-            "6s",
-        ],
-        vec!["mesh-study", "--spec", spec_arg, "--out", spec_dir],
-        vec!["import", log_arg, "--rig", rig_arg, "--out", session_arg],
-        vec![
-            "import",
-            log_arg,
-            log_arg,
-            "--rig",
-            rig_arg,
-            "--out",
-            session_arg,
-        ],
+        format!("budget {chain_rig} --sensor boom_head_pressure --at 1e308"),
+        format!("budget {chain_rig} --sensor boom_head_pressure --at 120"),
+        format!("budget {rig} --cylinder boom --head 1e300 --rod 0"),
+        format!("check-rig {chain_rig}"),
+        format!("zero {s} --before 30s"),
+        format!("zero {s} --before 5s"),
+        format!("zero {s} --before 0.5s --after 5s"),
+        format!("shunt {s} --rig {rig} --sensor sg01 --from 1s --to 6s"),
+        format!("mesh-study --spec {spec} --out {spec_dir}"),
+        format!("import {log} --rig {rig} --out {s}"),
+        format!("import {log} {log} --rig {rig} --out {s}"),
+        format!("import {log} --rig {rig} --out {outputs_dir}/imported"),
+        format!("zero {s} --before 0.5s"),
+        format!("extract {s} -o {outputs_dir}/measured.csv"),
     ]
     .iter()
-    .map(|call| call.iter().map(|a| a.to_string()).collect())
-    .chain([
-        vec![
-            "import".into(),
-            log_arg.into(),
-            "--rig".into(),
-            rig_arg.into(),
-            "--out".into(),
-            out("imported"),
-        ],
-        vec![
-            "zero".into(),
-            session_arg.into(),
-            "--before".into(),
-            "0.5s".into(),
-        ],
-        vec![
-            "extract".into(),
-            session_arg.into(),
-            "-o".into(),
-            out("measured.csv"),
-        ],
-    ])
+    .map(|call| call.split_whitespace().map(str::to_string).collect())
     .collect();
     std::fs::create_dir(&outputs).unwrap();
     let mut before = hashes(&inputs);

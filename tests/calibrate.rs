@@ -204,10 +204,17 @@ fn excavator_summary_has_the_fixed_shape_and_does_not_worsen_the_fit() {
     assert_eq!(keys(&summary["errors_initial_pct"]), cylinders);
     assert_eq!(keys(&summary["errors_optimal_pct"]), cylinders);
     assert_eq!(keys(&summary["optimal"]), sorted(&EXCAVATOR_INPUTS));
-    // The last line gives each calibrated input with its value, as the
-    // summary has it to 6 significant figures.
+    // The line before the report's path gives each calibrated input with
+    // its value, as the summary has it to 6 significant figures; the last
+    // line is the HTML report's path.
     let said = stdout(&output);
-    let last = said.lines().last().unwrap();
+    let mut lines = said.lines().rev();
+    let report = lines.next().unwrap();
+    assert!(
+        report.starts_with("report: ") && report.ends_with("report.html"),
+        "{report}"
+    );
+    let last = lines.next().unwrap();
     assert!(last.starts_with("calibrated: "), "{last}");
     for input in EXCAVATOR_INPUTS {
         let value = summary["optimal"][input].as_f64().unwrap();

@@ -144,6 +144,12 @@ fn a_power_law_gives_its_order_limit_and_gci_and_other_behaviour_is_named() {
     assert!(
         report.contains("mesh_study_1.svg") && dir.path().join("run/mesh_study_1.svg").exists()
     );
+    // The HTML report, as every run writes it: the table and the plots in it.
+    let html = std::fs::read_to_string(dir.path().join("run/report.html")).unwrap();
+    assert!(
+        html.contains("<table>") && html.contains("<svg") && html.contains("oscillatory"),
+        "{html}"
+    );
 }
 
 #[test]

@@ -18,7 +18,9 @@
 //! is `e32 / e21 > ln r32 / ln r21` (with equal ratios the usual `0 < R <
 //! 1`, `R = e21 / e32`; with unequal ones the finer step may well change
 //! the value more); of opposite signs, oscillatory while `|R| < 1`;
-//! anything else divergent. Where the procedure does not apply (divergence, a zero
+//! anything else divergent; values that agree within round-off
+//! ([`ROUND_OFF_RELATIVE`]) are mesh-independent, with no order. Where the
+//! procedure does not apply (divergence, a zero
 //! value, a fit that does not converge) its numbers are `None` and the
 //! note says why: never a silent number.
 
@@ -28,6 +30,9 @@ pub enum Convergence {
     Monotonic,
     Oscillatory,
     Divergent,
+    /// The values agree within round-off ([`ROUND_OFF_RELATIVE`]): the
+    /// output does not depend on the mesh, and no order can be observed.
+    MeshIndependent,
 }
 
 impl Convergence {
@@ -36,9 +41,17 @@ impl Convergence {
             Convergence::Monotonic => "monotonic",
             Convergence::Oscillatory => "oscillatory",
             Convergence::Divergent => "divergent",
+            Convergence::MeshIndependent => "mesh-independent",
         }
     }
 }
+
+/// Values whose spread is at most this fraction of their magnitude agree
+/// within round-off: a solver's output printed to seven significant digits
+/// (CalculiX's `.dat` tables; a single-precision float holds about 7.2)
+/// moves in its seventh digit for reasons that are not the mesh. Celik's
+/// procedure then has no difference to take an order from.
+pub const ROUND_OFF_RELATIVE: f64 = 1e-6;
 
 /// The safety factor of a three-grid study with a computed order (Roache;
 /// Celik et al. 2008).
@@ -145,6 +158,9 @@ pub fn grid_convergence(sizes: &[f64], values: &[f64]) -> Result<GridConvergence
         return Err("two sizes are equal: give each element size once".into());
     }
     let (sizes, values): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
+    if let Some(study) = mesh_independent(&sizes, &values) {
+        return Ok(study);
+    }
     let convergence = convergence_of(&sizes, &values);
     let e_a_pct = relative_pct(values[0] - values[1], values[0]);
     let base = GridConvergence {
@@ -163,6 +179,38 @@ pub fn grid_convergence(sizes: &[f64], values: &[f64]) -> Result<GridConvergence
         three_grids(base)
     } else {
         least_squares(base)
+    })
+}
+
+/// Values that agree within round-off: the finest is the value, with the
+/// spread as its `u_num` (the GCI of safety factor 1: a bound, not an
+/// extrapolation).
+fn mesh_independent(sizes: &[f64], values: &[f64]) -> Option<GridConvergence> {
+    let (low, high) = values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        });
+    let magnitude = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let spread = high - low;
+    if spread > ROUND_OFF_RELATIVE * magnitude {
+        return None;
+    }
+    let fine = values[0];
+    Some(GridConvergence {
+        sizes: sizes.to_vec(),
+        values: values.to_vec(),
+        convergence: Convergence::MeshIndependent,
+        order: None,
+        extrapolated: Some(fine),
+        e_a_pct: relative_pct(values[0] - values[1], fine),
+        e_ext_pct: Some(0.0),
+        gci_fine_pct: relative_pct(spread, fine).or(Some(0.0)),
+        safety_factor: 1.0,
+        note: format!(
+            "the values agree within round-off (spread {} of their magnitude, at most {ROUND_OFF_RELATIVE:e}): the output does not depend on the mesh, so no order is observed; u_num is the spread",
+            if magnitude > 0.0 { format!("{:.1e}", spread / magnitude) } else { "0".into() }
+        ),
     })
 }
 
@@ -216,13 +264,6 @@ fn three_grids(mut study: GridConvergence) -> GridConvergence {
     let (r21, r32) = (h2 / h1, h3 / h2);
     let (e21, e32) = (phi2 - phi1, phi3 - phi2);
     const PROCEDURE: &str = "three grids, Celik et al. 2008";
-    if e21 == 0.0 && e32 == 0.0 {
-        study.extrapolated = Some(phi1);
-        study.e_ext_pct = Some(0.0);
-        study.gci_fine_pct = Some(0.0);
-        study.note = format!("{PROCEDURE}: the three values are equal, no discretisation error shows; the order is undefined");
-        return study;
-    }
     if study.convergence == Convergence::Divergent {
         study.note = format!("{PROCEDURE}: the values diverge as the elements shrink (R = {}; they span {}); no order, extrapolation or GCI: refine further, or look for an error that grows with refinement (a singularity, an iterative tolerance)", ratio_text(e21, e32), span_text(&study.values));
         return study;
@@ -306,16 +347,9 @@ fn least_squares(mut study: GridConvergence) -> GridConvergence {
     let (h, phi) = (&study.sizes, &study.values);
     let range = phi.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
         - phi.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-    if range == 0.0 {
-        study.extrapolated = Some(phi[0]);
-        study.e_ext_pct = Some(0.0);
-        study.gci_fine_pct = Some(0.0);
-        study.note = format!(
-            "{PROCEDURE}: every value is equal, no discretisation error shows; the order is undefined"
-        );
-        return study;
-    }
     match study.convergence {
+        // Taken before either procedure (`mesh_independent`).
+        Convergence::MeshIndependent => {}
         Convergence::Divergent => {
             study.note = format!("{PROCEDURE}: the values diverge as the elements shrink (they span {}); no order, extrapolation or GCI: refine further, or look for an error that grows with refinement", span_text(phi));
         }
@@ -480,6 +514,39 @@ mod tests {
         let four = grid_convergence(&[1.0, 2.0, 4.0, 8.0], &[5.0, 5.1, 4.9, 5.3]).unwrap();
         assert_eq!(four.convergence, Convergence::Oscillatory);
         assert_eq!(four.order, None);
+    }
+
+    /// Values that differ in their seventh digit only (a peak force of
+    /// 7.459712 kN at three meshes, as a solver that does not resolve the
+    /// neck prints it) are mesh-independent, whichever way the round-off
+    /// points: no order, the finest value, the spread as u_num. A real
+    /// mesh effect ten times the round-off limit is still studied.
+    #[test]
+    fn values_equal_within_round_off_are_mesh_independent() {
+        for values in [
+            [7.459712, 7.459714, 7.459711],
+            [7.459712, 7.459711, 7.459713],
+            [7.459712; 3],
+        ] {
+            let study = grid_convergence(&[0.25, 0.4, 0.5], &values).unwrap();
+            assert_eq!(
+                study.convergence,
+                Convergence::MeshIndependent,
+                "{values:?}"
+            );
+            assert_eq!(study.order, None);
+            assert_eq!(study.extrapolated, Some(7.459712));
+            let spread = values.iter().fold(f64::MIN, |a, &b| a.max(b))
+                - values.iter().fold(f64::MAX, |a, &b| a.min(b));
+            let u_num = study.standard_uncertainty().unwrap();
+            assert!((u_num - spread).abs() < 1e-15, "{u_num} against {spread}");
+            assert!(study.note.contains("round-off"), "{}", study.note);
+        }
+        let four =
+            grid_convergence(&[0.1, 0.2, 0.4, 0.8], &[2.0, 2.0000005, 2.000001, 2.0]).unwrap();
+        assert_eq!(four.convergence, Convergence::MeshIndependent);
+        let studied = grid_convergence(&[0.25, 0.4, 0.5], &[7.4597, 7.4598, 7.4600]).unwrap();
+        assert_ne!(studied.convergence, Convergence::MeshIndependent);
     }
 
     #[test]

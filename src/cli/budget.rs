@@ -234,7 +234,11 @@ fn budget_table(
 ) -> String {
     let unit = &value.unit;
     let dof_text = |dof: Option<f64>| dof.map_or("inf".to_string(), |d| format!("{d:.1}"));
-    let mut text = format!("{} at {} {unit}", value.sensor, value.value);
+    let mut text = format!(
+        "{} at {} {unit}",
+        value.sensor,
+        acq_report::number::plain(value.value, 6)
+    );
     if let Some(reading) = value.reading {
         text.push_str(&format!(" (channel reading {reading:.6})"));
     }

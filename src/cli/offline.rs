@@ -103,8 +103,19 @@ pub fn run_align(args: AlignArgs) -> Result<()> {
     }
     let output = TableOutput::create(&args.output)?;
     let summary = align_recording(&recording, &options, output)?;
-    eprintln!("acq: aligned {}: {summary}", recording.label);
+    // The summary ends "N rows written": to where, unless stdout.
+    let to = written_to(&args.output).replacen("; written", "", 1);
+    eprintln!("acq: aligned {}: {summary}{to}", recording.label);
     Ok(())
+}
+
+/// `; written to PATH` for an output file, nothing for stdout (`-`): the
+/// last line of a command names the file it wrote.
+fn written_to(output: &std::path::Path) -> String {
+    match output.as_os_str() == "-" {
+        true => String::new(),
+        false => format!("; written to {}", output.display()),
+    }
 }
 
 /// A duration on the command line (`3s`, `500ms`), ns; shown in seconds.
@@ -287,10 +298,11 @@ pub fn run_extract(args: ExtractArgs) -> Result<()> {
         );
     }
     eprintln!(
-        "acq: {} values in {} window(s), {} flagged",
+        "acq: {} values in {} window(s), {} flagged{}",
         report.values.len(),
         report.windows.len(),
-        flagged.len()
+        flagged.len(),
+        written_to(&args.output)
     );
     Ok(())
 }

@@ -7,22 +7,23 @@
 //! The runs go through the study's evaluator: logged in `evaluations.csv`
 //! with the parameters and the size, run `parallel` at a time on the
 //! spec's executor, resumable, stopped by Ctrl-C like a calibration's.
-//! The run directory gets `summary.json` (`mesh_study`), `report.md` and
-//! one convergence plot per output.
+//! The run directory gets `summary.json` (`mesh_study`), `report.html`
+//! and `report.md`, and one convergence plot per output.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::time::Instant;
 
 use acq_algorithms::evaluation::Parameter;
 use acq_error::{AcqError, Result};
-use acq_metrology::grid_convergence::{grid_convergence, GridConvergence};
+use acq_metrology::grid_convergence::{grid_convergence, Convergence, GridConvergence};
+use acq_report::document::{Document, Figure, Table};
 use acq_report::number::{plain, significant};
 use acq_report::plot::{chart_svg, Chart, ReferenceLine, Series, SeriesStyle};
 use serde_json::Value;
 
 pub use crate::outcome::{CurveConvergence, MeshStudyOutcome, OutputConvergence};
 use crate::progress::Progress;
+use crate::report::write_report;
 use crate::run_directory::{write_text, RunDirectory};
 use crate::study::{Measured, Model, Role, Study, StudyParameter, StudySimulator};
 
@@ -319,8 +320,9 @@ fn part_means(curve: &[(f64, f64)], from: f64, to: f64, parts: usize) -> Vec<f64
         .collect()
 }
 
-/// `summary.json` (its `mesh_study` and `mesh_study_curves`), `report.md`
-/// and the plots of a mesh study, in `directory`.
+/// `summary.json` (its `mesh_study` and `mesh_study_curves`), the report
+/// (`report.html` and `report.md`, as every run's) and the plots of a
+/// mesh study, in `directory`.
 pub fn write_results(
     outcome: &MeshStudyOutcome,
     spec_sizes: &[f64],
@@ -335,63 +337,77 @@ pub fn write_results(
             serde_json::to_string_pretty(&summary).unwrap_or_default()
         ),
     )?;
-    let mut report = String::from("# Mesh study\n\n");
-    let _ = writeln!(
-        report,
-        "At {}. The element size reaches the model as `{MESH_INPUT}`; per output, the grid convergence of Celik et al. 2008 (three sizes) or its least-squares form (Eça and Hoekstra 2014, more sizes). `u_num` is the GCI without its factor of safety, as V&V 20 takes it.\n",
+    let mut report = Document::new();
+    report.heading(1, "Mesh study");
+    report.paragraph(format!(
+        "At {}. The element size reaches the model as `{MESH_INPUT}`{}; per output, the grid convergence of Celik et al. 2008 (three sizes) or its least-squares form (Eça and Hoekstra 2014, more sizes). `u_num` is the GCI without its factor of safety, as V&V 20 takes it. Values that agree within round-off (a relative spread of at most {}) are mesh-independent: no order, and their spread as `u_num`.",
         outcome
             .at
             .iter()
             .map(|(n, v)| format!("{n} = {v}"))
             .collect::<Vec<_>>()
-            .join(", ")
-    );
-    report.push_str("| output | convergence | order | extrapolated | e_a % | e_ext % | GCI_fine % | u_num |\n|---|---|---|---|---|---|---|---|\n");
+            .join(", "),
+        outcome
+            .size_unit
+            .as_ref()
+            .map_or_else(String::new, |unit| format!(" (in {unit})")),
+        acq_metrology::grid_convergence::ROUND_OFF_RELATIVE
+    ));
     // Significant figures, not decimals: a u_num of 1.4e-4 must not read
     // 0.0001, and the extrapolated value keeps the digits its GCI tells.
     let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| significant(v, 4));
     let value_text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| significant(v, 7));
+    let mut table = Table::new(&[
+        "output",
+        "convergence",
+        "order",
+        "extrapolated",
+        "e_a %",
+        "e_ext %",
+        "GCI_fine %",
+        "u_num",
+    ]);
     // The whole table first: a plot between its rows would end it.
-    let mut plots = String::new();
+    let mut figures = Vec::new();
     for (index, output) in outcome.outputs.iter().enumerate() {
         let Some(study) = &output.convergence else {
-            let _ = writeln!(
-                report,
-                "| {} | not enough runs | - | - | - | - | - | - |",
-                output.key
-            );
+            let mut row = vec![output.key.clone(), "not enough runs".into()];
+            row.extend(std::iter::repeat_n("-".to_string(), 6));
+            table.row(row);
             continue;
         };
-        let _ = writeln!(
-            report,
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
-            output.key,
-            study.convergence.name(),
+        table.row(vec![
+            output.key.clone(),
+            study.convergence.name().into(),
             text(study.order),
             value_text(study.extrapolated),
             text(study.e_a_pct),
             text(study.e_ext_pct),
             text(study.gci_fine_pct),
             text(study.standard_uncertainty()),
-        );
-        let plot = format!("mesh_study_{}.svg", index + 1);
-        let svg = convergence_svg(&output.key, study, outcome.size_unit.as_deref());
-        write_text(&directory.file(&plot), &svg)?;
-        let _ = writeln!(plots, "\n![{}]({plot})\n\n{}\n", output.key, study.note);
+        ]);
+        figures.push((
+            Figure {
+                file: format!("mesh_study_{}.svg", index + 1),
+                caption: output.key.clone(),
+                svg: convergence_svg(&output.key, study, outcome.size_unit.as_deref()),
+            },
+            study.note.clone(),
+        ));
     }
-    report.push_str(&plots);
-    write_curves(&mut report, outcome, directory)?;
-    write_text(&directory.file("report.md"), &report)
+    report.table(table);
+    for (figure, note) in figures {
+        report.figure(figure);
+        report.paragraph(note);
+    }
+    write_curves(&mut report, outcome);
+    write_report(directory, &report, "Mesh study")
 }
 
 /// Each curve at every size in one plot, and its parts' convergence.
-fn write_curves(
-    report: &mut String,
-    outcome: &MeshStudyOutcome,
-    directory: &RunDirectory,
-) -> Result<()> {
+fn write_curves(report: &mut Document, outcome: &MeshStudyOutcome) {
     for (index, curve) in outcome.curves.iter().enumerate() {
-        let _ = writeln!(report, "\n## Curve {}, part by part\n", curve.key);
+        report.heading(2, format!("Curve {}, part by part", curve.key));
         let mut chart = Chart::new(
             format!("{} at each element size", curve.key),
             curve.axes[0].clone(),
@@ -402,42 +418,37 @@ fn write_curves(
                 .series
                 .push(Series::new(format!("size {size}"), points.clone()));
         }
-        let plot = format!("mesh_study_curve_{}.svg", index + 1);
-        write_text(&directory.file(&plot), &chart_svg(&chart, 640.0, 400.0))?;
-        let _ = writeln!(report, "![{}]({plot})\n", curve.key);
+        report.figure(Figure {
+            file: format!("mesh_study_curve_{}.svg", index + 1),
+            caption: curve.key.clone(),
+            svg: chart_svg(&chart, 640.0, 400.0),
+        });
         if curve.parts.is_empty() {
-            let _ = writeln!(
-                report,
-                "Fewer than three sizes gave the curve: no part is compared."
-            );
+            report.paragraph("Fewer than three sizes gave the curve: no part is compared.");
             continue;
         }
-        let _ = writeln!(
-            report,
-            "The curve's mean over each part of {} (the range every size's curve covers):\n\n| {} from | to | convergence | order | GCI_fine % | u_num |\n|---|---|---|---|---|---|",
-            curve.axes[0], curve.axes[0]
-        );
+        report.paragraph(format!(
+            "The curve's mean over each part of {} (the range every size's curve covers):",
+            curve.axes[0]
+        ));
+        let from = format!("{} from", curve.axes[0]);
+        let mut table = Table::new(&[&from, "to", "convergence", "order", "GCI_fine %", "u_num"]);
         let text = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| significant(v, 4));
         for (x_from, x_to, part) in &curve.parts {
-            let row = match &part.convergence {
-                Some(study) => format!(
-                    "{} | {} | {} | {}",
-                    study.convergence.name(),
+            let mut row = vec![plain(*x_from, 6), plain(*x_to, 6)];
+            match &part.convergence {
+                Some(study) => row.extend([
+                    study.convergence.name().to_string(),
                     text(study.order),
                     text(study.gci_fine_pct),
-                    text(study.standard_uncertainty())
-                ),
-                None => "not enough runs | - | - | -".into(),
-            };
-            let _ = writeln!(
-                report,
-                "| {} | {} | {row} |",
-                plain(*x_from, 6),
-                plain(*x_to, 6)
-            );
+                    text(study.standard_uncertainty()),
+                ]),
+                None => row.extend(["not enough runs".into(), "-".into(), "-".into(), "-".into()]),
+            }
+            table.row(row);
         }
+        report.table(table);
     }
-    Ok(())
 }
 
 /// The values over the element size, with the extrapolated value at size
@@ -445,13 +456,13 @@ fn write_curves(
 fn convergence_svg(key: &str, study: &GridConvergence, size_unit: Option<&str>) -> String {
     let size_axis = match size_unit {
         Some(unit) => format!("element size [{unit}]"),
-        None => "element size".to_string(),
+        None => "element size (unit not stated: [mesh_study] unit)".to_string(),
     };
-    let mut chart = Chart::new(
-        format!("{key}: {} convergence", study.convergence.name()),
-        size_axis,
-        key,
-    );
+    let title = match study.convergence {
+        Convergence::MeshIndependent => format!("{key}: mesh-independent (equal within round-off)"),
+        other => format!("{key}: {} convergence", other.name()),
+    };
+    let mut chart = Chart::new(title, size_axis, key);
     let points: Vec<(f64, f64)> = study
         .sizes
         .iter()

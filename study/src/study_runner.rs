@@ -115,61 +115,167 @@ pub fn run_study(
         extras
             .closing_line(study, &outcome)
             .unwrap_or_else(|| format!(
-                "loss {:.4} after {} model evaluations ({} failed); report in {}",
+                "loss {:.4} after {} ({} failed)",
                 study.loss(&outcome.calibrated_outputs),
-                outcome.evaluations.len(),
+                count(outcome.evaluations.len(), "model evaluation"),
                 outcome.failed,
-                directory.file("report.md").display()
             ))
     );
     extras.files(study, &outcome, directory)?;
-    println!("{}", parameters_line(study, &outcome));
+    println!("{}", closing_lines(study, &outcome));
+    println!("report: {}", directory.file("report.html").display());
     Ok(StudyRun { outcome, report })
 }
 
-/// The last line of a calibration: each parameter at the calibrated point,
-/// with its 90 % posterior interval when the study sampled one (and a
-/// word when that has not converged), so the answer is on the terminal
-/// without opening the report.
-fn parameters_line(study: &Study, outcome: &StudyOutcome) -> String {
+/// `n` and `what`, plural when `n` is not one ("1 run", "2 runs").
+pub fn count(n: usize, what: &str) -> String {
+    if n == 1 {
+        format!("1 {what}")
+    } else {
+        format!("{n} {what}s")
+    }
+}
+
+/// What a calibration found, in the lines before the report's path: the
+/// parameters (the posterior's median and 90 % interval where one was
+/// sampled, the search's pick named as such), which lie on a bound of
+/// their range, whether the chains converged, and how many measured
+/// values lie inside their predictive intervals; so the answer is on the
+/// terminal without opening the report, and no line contradicts another.
+fn closing_lines(study: &Study, outcome: &StudyOutcome) -> String {
     use acq_report::number::plain;
-    let posterior = outcome.posterior.as_ref();
-    let parameters: Vec<String> = outcome
-        .calibrated_by_name(study)
-        .into_iter()
+    let bound_of = |name: &str, value: f64| {
+        study
+            .parameters
+            .iter()
+            .find(|p| p.search.name == name)
+            .and_then(|p| p.search.bound_reached(value))
+    };
+    let picked = outcome.calibrated_by_name(study);
+    let marked = |name: &str, value: f64| match bound_of(name, value) {
+        Some(side) => format!("{name} = {} ({side})", plain(value, 6)),
+        None => format!("{name} = {}", plain(value, 6)),
+    };
+    let on_bounds: Vec<&str> = picked
+        .iter()
+        .filter(|(name, value)| bound_of(name, *value).is_some())
+        .map(|(name, _)| name.as_str())
+        .collect();
+    let mut lines = Vec::new();
+    if !on_bounds.is_empty() {
+        lines.push(format!(
+            "on a bound of its range: {} (of {}): the optimum may lie beyond it, or the data do not pin it (the report's identifiability section says which)",
+            on_bounds.join(", "),
+            count(picked.len(), "parameter")
+        ));
+    }
+    let Some(posterior) = outcome.posterior.as_ref() else {
+        let items: Vec<String> = picked.iter().map(|(n, v)| marked(n, *v)).collect();
+        lines.push(format!("calibrated: {}", items.join(", ")));
+        return lines.join("\n");
+    };
+    let items: Vec<String> = picked.iter().map(|(n, v)| marked(n, *v)).collect();
+    lines.push(format!("the search's pick: {}", items.join(", ")));
+    let medians: Vec<String> = picked
+        .iter()
         .map(|(name, value)| {
-            let interval = posterior
-                .and_then(|p| p.marginals.get(p.names.iter().position(|n| *n == name)?))
-                .map(|m| format!(" [{} .. {}]", plain(m.q05, 4), plain(m.q95, 4)))
-                .unwrap_or_default();
-            let bound = study
-                .parameters
-                .iter()
-                .find(|p| p.search.name == name)
-                .and_then(|p| p.search.bound_reached(value))
-                .map(|side| format!(" ({side})"))
-                .unwrap_or_default();
-            format!("{name} = {}{interval}{bound}", plain(value, 6))
+            match posterior.column(name).map(|c| &posterior.marginals[c]) {
+                Some(m) => {
+                    // An interval that runs to a bound is cut by the prior
+                    // there: said, so it is not read as the data's.
+                    let reaches = [m.q05, m.q95]
+                        .into_iter()
+                        .filter_map(|end| bound_of(name, end))
+                        .map(|side| format!(" (reaches the {side})"))
+                        .next()
+                        .unwrap_or_default();
+                    format!(
+                        "{name} = {} [{} .. {}]{reaches}",
+                        plain(m.q50, 6),
+                        plain(m.q05, 4),
+                        plain(m.q95, 4)
+                    )
+                }
+                None => format!("{name} = {}", plain(*value, 6)),
+            }
         })
         .collect();
-    let on_bounds = parameters.iter().filter(|p| p.ends_with("bound)")).count();
-    let bounds_note = if on_bounds > 0 {
-        format!(
-            "{on_bounds} of {} parameters on a bound of their range: the optimum may lie beyond it, or the data do not pin the parameter (the report's identifiability section says which)\n",
-            parameters.len()
-        )
+    lines.push(format!(
+        "calibrated (posterior median [90 % interval]): {}",
+        medians.join(", ")
+    ));
+    lines.push(convergence_line(posterior));
+    if let Some(line) = predictive_line(posterior) {
+        lines.push(line);
+    }
+    lines.join("\n")
+}
+
+/// The chains' convergence in one line: the worst R-hat and the least
+/// effective sample sizes, and what has not converged.
+fn convergence_line(posterior: &super::posterior::PosteriorOutcome) -> String {
+    let parameters = &posterior.marginals[..posterior.marginals.len().min(posterior.names.len())];
+    let worst_rhat = parameters.iter().map(|m| m.rhat).fold(f64::NAN, f64::max);
+    let least = |ess: fn(&acq_algorithms::mcmc::Marginal) -> f64| {
+        parameters.iter().map(ess).fold(f64::NAN, f64::min)
+    };
+    let measures = format!(
+        "{}, R-hat {:.3} at most, bulk ESS {:.0} and tail ESS {:.0} at least",
+        count(posterior.settings.chains, "chain"),
+        worst_rhat,
+        least(|m| m.ess_bulk),
+        least(|m| m.ess_tail)
+    );
+    let unconverged = posterior.unconverged();
+    if unconverged.is_empty() {
+        format!("convergence: converged ({measures})")
     } else {
-        String::new()
-    };
-    let heading = match posterior {
-        Some(p) if !p.unconverged().is_empty() => {
-            "calibrated (90 % posterior interval, NOT CONVERGED: see the report)"
-        }
-        Some(_) => "calibrated (90 % posterior interval)",
-        None => "calibrated",
-    };
-    // The note first: the last line stays the answer.
-    format!("{bounds_note}{heading}: {}", parameters.join(", "))
+        format!(
+            "convergence: NOT CONVERGED for {} ({measures}): read no interval as final; run longer (more draws)",
+            unconverged.join(", ")
+        )
+    }
+}
+
+/// How many measured values lie inside their 90 % predictive intervals,
+/// naming those that do not; `None` without scalar predictions.
+fn predictive_line(posterior: &super::posterior::PosteriorOutcome) -> Option<String> {
+    use acq_report::number::plain;
+    let scalars: Vec<_> = posterior
+        .predicted
+        .scalars
+        .iter()
+        .filter(|p| !p.with_error.is_empty())
+        .collect();
+    if scalars.is_empty() {
+        return None;
+    }
+    let outside: Vec<String> = scalars
+        .iter()
+        .filter(|p| !p.holds_measured())
+        .map(|p| {
+            let (_, low, high) = p.interval();
+            format!(
+                "{} {} outside [{} .. {}]",
+                p.name,
+                plain(p.measured, 5),
+                plain(low, 4),
+                plain(high, 4)
+            )
+        })
+        .collect();
+    let inside = scalars.len() - outside.len();
+    let mut line = format!(
+        "predictive: {inside} of {} lie inside their 90 % predictive intervals",
+        count(scalars.len(), "measured value")
+    );
+    if !outside.is_empty() {
+        line.push_str(&format!(
+            "; {}: the model with its error does not reproduce them (a model error to add, or a prior to widen)",
+            outside.join(", ")
+        ));
+    }
+    Some(line)
 }
 
 /// The calibrated parameters and the model's outputs there: the pick of

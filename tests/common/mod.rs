@@ -65,16 +65,25 @@ fn on_spec(command: &[&str], spec: &Path, out: &Path, extra: &[&str]) -> Output 
 pub fn external_summary(spec: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
     let output = calibrate_external(spec, out, extra);
     assert!(output.status.success(), "{}", stderr(&output));
-    // Its last line names the answer: the parameters, with their 90 %
-    // intervals when a posterior was sampled.
+    // Its last line is the HTML report's path; the answer comes before:
+    // the parameters, with their medians and 90 % intervals when a
+    // posterior was sampled, then the chains' convergence.
     let said = String::from_utf8_lossy(&output.stdout);
     let last = said.lines().last().unwrap_or_default();
-    assert!(last.starts_with("calibrated"), "last line: {last}");
+    assert!(
+        last.starts_with("report: ") && last.ends_with("report.html"),
+        "last line: {last}"
+    );
+    let answer = said
+        .lines()
+        .find(|line| line.starts_with("calibrated"))
+        .unwrap_or_else(|| panic!("no calibrated line in:\n{said}"));
     if out.join("posterior.csv").exists() {
         assert!(
-            last.contains("90 % posterior interval") && last.contains(" .. "),
-            "{last}"
+            answer.contains("posterior median [90 % interval]") && answer.contains(" .. "),
+            "{answer}"
         );
+        assert!(said.contains("\nconvergence: "), "{said}");
     }
     serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
 }

@@ -681,12 +681,11 @@ impl Extras for ExcavatorExtras {
     fn closing_line(&self, _study: &Study, outcome: &StudyOutcome) -> Option<String> {
         let moo = surrogate_moo_of(outcome);
         Some(format!(
-            "{}: largest error {:.2} % -> {:.2} % ({} twin runs); report in {}",
+            "{}: largest error {:.2} % -> {:.2} % at the search's pick ({})",
             self.case,
             largest(&relative_errors_pct(&self.measured, &moo.nominal_outputs)),
             largest(&relative_errors_pct(&self.measured, &moo.optimal_outputs)),
-            outcome.evaluations.len(),
-            self.out.join("report.md").display()
+            acq_study::study_runner::count(outcome.evaluations.len(), "twin run"),
         ))
     }
 }

@@ -230,7 +230,6 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
         model: &model,
         test: args.test.clone(),
         target_mape: args.target_mape_pct,
-        out: args.out.clone(),
     };
     let run = run_study(
         &study,
@@ -323,7 +322,6 @@ struct GtnExtras<'a> {
     model: &'a GtnModel,
     test: PathBuf,
     target_mape: f64,
-    out: PathBuf,
 }
 
 impl GtnExtras<'_> {
@@ -460,13 +458,12 @@ impl Extras for GtnExtras<'_> {
                     .count(acq_algorithms::multi_fidelity::Fidelity::Cheap),
                 mf.meshes[0]
             ),
-            _ => format!("{} simulations", outcome.evaluations.len()),
+            _ => acq_study::study_runner::count(outcome.evaluations.len(), "simulation"),
         };
         Some(format!(
-            "best MAPE {:.3} % after {simulations} ({:.1} s); report in {}",
+            "best MAPE {:.3} % after {simulations} ({:.1} s)",
             study.loss(&outcome.calibrated_outputs),
             outcome.wall_s,
-            self.out.join("report.md").display()
         ))
     }
 }

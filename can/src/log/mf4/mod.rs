@@ -94,6 +94,7 @@
 
 use std::io::BufRead;
 
+mod columns;
 mod conversion;
 mod cursor;
 mod format;
@@ -406,19 +407,23 @@ impl<R: BufRead> Mf4Reader<R> {
         for signal in cursors.iter_mut().flat_map(|c| c.signals.iter_mut()) {
             signal.in_order = unfinalized & UNFINALIZED_VLSD_OFFSETS != 0;
         }
-        // Several groups, or a group and its `##SD` signal data, are read
-        // side by side: none can be streamed past.
-        // (A VLSD channel group's values are read as the data group's own
-        // records pass, in one reading: see `Cursor::next_parts`.)
-        source.keep_all = cursors.len() > 1
-            || cursors
-                .iter()
-                .flat_map(|c| c.signals.iter())
-                .any(|signal| !signal.in_band || signal.in_order);
+        source.keep_all = read_side_by_side(&cursors);
         self.heads = vec![None; cursors.len()];
         self.cursors = cursors;
         Ok(())
     }
+}
+
+/// Several groups, or a group and its `##SD` signal data, are read side by
+/// side: none can be streamed past. (A VLSD channel group's values are
+/// read as the data group's own records pass, in one reading:
+/// `Cursor::next_parts`.)
+fn read_side_by_side(cursors: &[Cursor]) -> bool {
+    cursors.len() > 1
+        || cursors
+            .iter()
+            .flat_map(|c| c.signals.iter())
+            .any(|signal| !signal.in_band || signal.in_order)
 }
 
 #[cfg(test)]

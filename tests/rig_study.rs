@@ -494,9 +494,30 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
     };
     let output = next_of(&[&one, &two], STUDY);
     assert!(output.status.success(), "{}", common::stderr(&output));
-    let said = common::stdout(&output);
-    assert!(said.starts_with("next: set "), "{said}");
+    let stdout = common::stdout(&output);
+    // The answer on stdout, a short line a parameter (a bound it presses
+    // against named), then the next point, then the state's path.
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert!(
+        lines[0].starts_with("study ") && lines[0].contains("after 2 of 2 hold(s)"),
+        "{stdout}"
+    );
+    assert!(lines.iter().all(|line| line.len() < 400), "{stdout}");
+    let mass = lines
+        .iter()
+        .find(|line| line.trim_start().starts_with("bucket.mass_kg = "))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(mass.contains("on its upper bound 350"), "{mass}");
+    let said = *lines
+        .iter()
+        .find(|line| line.starts_with("next: set "))
+        .unwrap_or_else(|| panic!("{stdout}"));
     assert!(said.contains("it should narrow"), "{said}");
+    assert_eq!(
+        lines.last().map(|l| l.starts_with("state: ")),
+        Some(true),
+        "{stdout}"
+    );
     let state: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(state["holds_used"], 2);
     assert_eq!(

@@ -152,6 +152,17 @@ pub enum Stop {
     NoProgress,
 }
 
+impl Stop {
+    /// Why, in words for a report ("it stopped when ...").
+    pub fn words(self) -> &'static str {
+        match self {
+            Stop::TargetReached => "the target loss was reached",
+            Stop::MaxEvaluations => "its budget of runs was spent",
+            Stop::NoProgress => "the last runs no longer improved the best loss",
+        }
+    }
+}
+
 /// Why a proposal could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum BoError {

@@ -207,10 +207,13 @@ fn mesh_independent(sizes: &[f64], values: &[f64]) -> Option<GridConvergence> {
         e_ext_pct: Some(0.0),
         gci_fine_pct: relative_pct(spread, fine).or(Some(0.0)),
         safety_factor: 1.0,
-        note: format!(
-            "the values agree within round-off (spread {} of their magnitude, at most {ROUND_OFF_RELATIVE:e}): the output does not depend on the mesh, so no order is observed; u_num is the spread",
-            if magnitude > 0.0 { format!("{:.1e}", spread / magnitude) } else { "0".into() }
-        ),
+        note: match spread {
+            0.0 => "the values are equal (to round-off): the output does not depend on the mesh, so no order is observed; u_num is 0".into(),
+            _ => format!(
+                "the values agree within round-off (their spread is {:.1e} of their magnitude, at most {ROUND_OFF_RELATIVE:e}): the output does not depend on the mesh, so no order is observed; u_num is the spread",
+                spread / magnitude
+            ),
+        },
     })
 }
 

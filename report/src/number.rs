@@ -28,6 +28,15 @@ pub fn significant(value: f64, digits: usize) -> String {
     format!("{value:.decimals$}")
 }
 
+/// `n` and `noun`, plural when `n` is not one ("1 run", "2 runs").
+pub fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// [`significant`] without the trailing zeros of its fraction: a bound of
 /// 0.1 reads `0.1`, not `0.100000`; a value of 125.9 reads `125.9`.
 pub fn plain(value: f64, digits: usize) -> String {

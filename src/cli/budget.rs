@@ -26,7 +26,7 @@ pub struct BudgetArgs {
         requires = "at"
     )]
     pub sensor: Option<String>,
-    /// The value, in the sensor's unit (bar, kN, µε, ...).
+    /// The value, in the sensor's unit (bar, kN, MPa for a strain gauge read as stress, ...).
     #[arg(long, value_name = "VALUE", requires = "sensor")]
     pub at: Option<f64>,
     /// A rig cylinder: the budget of its net force (kN) at --head and --rod.

@@ -71,7 +71,7 @@ pub struct RecordArgs {
 
 #[derive(Args, Debug)]
 pub struct ReplayArgs {
-    /// The log to play (candump -L or Vector ASC).
+    /// The log to play (candump -L, Vector ASC or BLF, ASAM MF4; told by its content).
     #[arg(value_name = "LOG")]
     pub log: PathBuf,
     /// Interface to send on; without it frames go out on the interfaces the log names.

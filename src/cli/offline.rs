@@ -44,7 +44,7 @@ fn parse_clock_offset(text: &str) -> std::result::Result<(String, f64), String> 
 
 #[derive(Args, Debug)]
 pub struct AlignArgs {
-    /// A session directory (acq record) or a log file (candump -L, ASC).
+    /// A session directory (acq record or acq import) or a log file (candump -L, Vector ASC or BLF, ASAM MF4).
     #[arg(value_name = "SESSION_DIR|LOG")]
     pub input: PathBuf,
     /// Rig file [default: the session's own copy of its rig].

@@ -129,16 +129,17 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
     let (failed, wall_s) = (outcome.failed, outcome.wall_s);
     match &outcome.found {
         Found::Bo(result) => format!(
-            "Bayesian optimisation of the {} error: best loss {:.4} after {evaluations} model evaluations ({failed} failed), {wall_s:.1} s; stopped: {:?}.",
+            "Bayesian optimisation of the {} error: best loss {:.4} after {} ({failed} failed), {wall_s:.1} s; it stopped when {}.",
             if study.loss == LossKind::Max { "largest" } else { "weighted mean" },
             study.loss(&outcome.calibrated_outputs),
-            result.stop
+            acq_report::number::count(evaluations, "model evaluation"),
+            result.stop.words()
         ),
         Found::MultiFidelity(mf) => {
             use acq_algorithms::multi_fidelity::Fidelity;
             let result = &mf.result;
             format!(
-                "Two-level search of the {} error (local steps: the cheap level mapped onto the expensive one and descended, each end checked by an expensive run; when they cannot go on, co-kriging over both levels, each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; {}; {}; stopped: {:?}.",
+                "Two-level search of the {} error (local steps: the cheap level mapped onto the expensive one and descended, each end checked by an expensive run; when they cannot go on, co-kriging over both levels, each next run and its level chosen by expected improvement per second): best loss {:.4} at mesh {} after {} runs at mesh {} ({:.2} s a run) and {} at mesh {} ({:.2} s a run), {failed} of the expensive ones failed, {wall_s:.1} s; {}; {}; it stopped when {}.",
                 if study.loss == LossKind::Max { "largest" } else { "weighted mean" },
                 study.loss(&outcome.calibrated_outputs),
                 mf.meshes[1],
@@ -159,7 +160,7 @@ fn method_sentence(study: &Study, outcome: &StudyOutcome) -> String {
                         d.points, d.median
                     )
                 ),
-                result.stop
+                result.stop.words()
             )
         }
         Found::Moo(moo) => format!(

@@ -27,6 +27,7 @@ use acq_error::{AcqError, Result};
 
 use super::error::StudyError;
 use acq_report::document::Document;
+use acq_report::number::count;
 
 use super::extras::Extras;
 use super::identifiability::{identifiability, identifiability_json, Local};
@@ -125,15 +126,6 @@ pub fn run_study(
     println!("{}", closing_lines(study, &outcome));
     println!("report: {}", directory.file("report.html").display());
     Ok(StudyRun { outcome, report })
-}
-
-/// `n` and `what`, plural when `n` is not one ("1 run", "2 runs").
-pub fn count(n: usize, what: &str) -> String {
-    if n == 1 {
-        format!("1 {what}")
-    } else {
-        format!("{n} {what}s")
-    }
 }
 
 /// What a calibration found, in the lines before the report's path: the

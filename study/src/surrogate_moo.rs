@@ -483,7 +483,14 @@ fn compare_surrogates(
 pub fn rounds_sentence(rounds: &[Round]) -> String {
     let each: Vec<String> = rounds
         .iter()
-        .map(|r| format!("{:.3} ({} training runs)", r.disagreement, r.training_runs))
+        .map(|r| {
+            // Significant digits: a disagreement of 4e-5 is no "0.000".
+            format!(
+                "{} ({})",
+                acq_report::number::significant(r.disagreement, 2),
+                acq_report::number::count(r.training_runs, "training run")
+            )
+        })
         .collect();
     match rounds.len() {
         0 => String::new(),

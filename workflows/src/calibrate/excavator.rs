@@ -685,7 +685,7 @@ impl Extras for ExcavatorExtras {
             self.case,
             largest(&relative_errors_pct(&self.measured, &moo.nominal_outputs)),
             largest(&relative_errors_pct(&self.measured, &moo.optimal_outputs)),
-            acq_study::study_runner::count(outcome.evaluations.len(), "twin run"),
+            acq_report::number::count(outcome.evaluations.len(), "twin run"),
         ))
     }
 }

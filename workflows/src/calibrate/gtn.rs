@@ -458,7 +458,7 @@ impl Extras for GtnExtras<'_> {
                     .count(acq_algorithms::multi_fidelity::Fidelity::Cheap),
                 mf.meshes[0]
             ),
-            _ => acq_study::study_runner::count(outcome.evaluations.len(), "simulation"),
+            _ => acq_report::number::count(outcome.evaluations.len(), "simulation"),
         };
         Some(format!(
             "best MAPE {:.3} % after {simulations} ({:.1} s)",

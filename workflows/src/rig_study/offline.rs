@@ -76,13 +76,22 @@ pub fn run(args: CalibrateRigOptions) -> Result<()> {
         holds.len(),
         args.sessions.len()
     );
-    let mut tracker = Tracker::new(study);
+    let mut tracker = Tracker::new(study.clone());
+    // Progress on stderr, a short line a hold; the answer on stdout.
     tracker.update(&holds, &mut |panel| {
-        for line in panel.words.iter().filter(|l| !l.contains("next: set")) {
-            eprintln!("acq: {line}");
-        }
+        let verdicts: Vec<String> = panel_parameters(&panel.json)
+            .map(|(name, p)| format!("{name} {}", p["verdict"].as_str().unwrap_or("?")))
+            .collect();
+        eprintln!(
+            "acq: study after {} hold(s): {}",
+            panel.json["holds_used"],
+            verdicts.join(", ")
+        );
     });
     let panel = tracker.panel();
+    for line in answer_lines(&study, &panel.json) {
+        println!("{line}");
+    }
     if args.next {
         match tracker.next() {
             Ok(Some(next)) => println!("{}", next_words(next)),
@@ -94,8 +103,73 @@ pub fn run(args: CalibrateRigOptions) -> Result<()> {
         let text = serde_json::to_string_pretty(&panel.json)
             .map_err(|e| AcqError::Config(format!("the study's state: {e}")))?;
         acq_io::output::Output::write_complete(path, text.as_bytes())?;
+        println!("state: {}", path.display());
     }
     Ok(())
+}
+
+/// The panel's parameters, in the study's order.
+fn panel_parameters(panel: &serde_json::Value) -> impl Iterator<Item = (&str, &serde_json::Value)> {
+    let parameters = &panel["parameters"];
+    panel["order"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(move |name| {
+            let name = name.as_str()?;
+            Some((name, parameters.get(name)?))
+        })
+}
+
+/// What the study found, a short line a parameter: its mean and 90 %
+/// interval, its verdict with why, and the bound of its range it presses
+/// against (an interval within 1 % of the range's width from a bound).
+fn answer_lines(study: &RigStudy, panel: &serde_json::Value) -> Vec<String> {
+    use acq_report::number::significant;
+    let mut lines = vec![format!(
+        "study {}: after {} of {} hold(s)",
+        study.path.display(),
+        panel["holds_used"],
+        panel["holds_seen"]
+    )];
+    if let Some(error) = panel["error"].as_str() {
+        lines.push(format!("  the posterior failed: {error}"));
+    }
+    for (name, p) in panel_parameters(panel) {
+        let number = |key: &str| p[key].as_f64().unwrap_or(f64::NAN);
+        let (q05, q95) = (number("q05"), number("q95"));
+        let bound = study
+            .parameters
+            .iter()
+            .find(|s| s.search.name == name)
+            .and_then(|s| {
+                [q05, q95]
+                    .into_iter()
+                    .filter_map(|end| s.search.bound_reached(end))
+                    .next()
+                    .map(|side| {
+                        let at = if side == "upper bound" {
+                            s.search.upper
+                        } else {
+                            s.search.lower
+                        };
+                        format!(", on its {side} {}", significant(at, 4))
+                    })
+            })
+            .unwrap_or_default();
+        let why = p["why"]
+            .as_str()
+            .map(|why| format!(": {why}"))
+            .unwrap_or_default();
+        lines.push(format!(
+            "  {name} = {} [{} .. {}] {}{bound}{why}",
+            significant(number("mean"), 4),
+            significant(q05, 4),
+            significant(q95, 4),
+            p["verdict"].as_str().unwrap_or("?"),
+        ));
+    }
+    lines
 }
 
 fn no_candidates(args: &CalibrateRigOptions) -> AcqError {

@@ -4,10 +4,12 @@
 #
 #   benches/mf4-vs-asammdf.sh [FRAMES] [ROUNDS]   (defaults 1,000,000 and 5)
 #
-# Two files of FRAMES frames each (can/tests/mf4/loggers.py --frames): one
-# shaped as a CANedge logger writes it (an unsorted data group whose
-# DataBytes are a VLSD channel group, a float64 master of nanoseconds, a
-# virtual BusChannel, DataLength through a table) and one asammdf writes
+# Three files of FRAMES frames each (can/tests/mf4/loggers.py --frames):
+# two shaped as loggers write them, one unsorted data group each: an older
+# CANedge's (DataBytes a VLSD channel group, a float64 master of
+# nanoseconds, a virtual BusChannel, DataLength through a table) and fixed
+# records in a channel group per bus and id kind (BusChannel, IDE and Dir
+# virtual constants, as newer firmware writes them); and one asammdf writes
 # (virtual constant members, a table, a float master). acq: the frames read
 # column by column into a FrameBatch (`log_frames --count --batch`, the
 # whole process), and one by one into Frame values (`--count`, the column
@@ -36,16 +38,18 @@ for index, group in enumerate(mdf.groups):
     if not group.channel_group.flags & v4c.FLAG_CG_BUS_EVENT:
         continue
     names = {channel.name for channel in group.channels}
+    in_group = 0
     for member in ("ID", "IDE", "DLC", "DataLength", "DataBytes", "BusChannel", "Dir"):
         if "CAN_DataFrame." + member in names:
             samples = mdf.get("CAN_DataFrame." + member, group=index, raw=True).samples
-            frames = max(frames, len(samples))
+            in_group = max(in_group, len(samples))
     mdf.get_master(index)
+    frames += in_group
 print(frames, time.perf_counter() - started)
 PY
 best() { sort -g | head -1; }
 printf '%-20s %8s %10s %12s %16s %12s %14s %8s\n' file MB "cat s" "acq s" "one by one s" "asammdf s" "acq frames/s" ratio
-for name in vlsd_cg virtual_tab_ns; do
+for name in vlsd_cg fixed_unsorted virtual_tab_ns; do
     file="$work/$name.mf4"
     cat_s=$(for _ in $(seq "$rounds"); do
         start=$(date +%s.%N); cat "$file" >/dev/null; end=$(date +%s.%N); echo "$end - $start" | bc -l

@@ -221,14 +221,12 @@ fn line_in_process(
     .unwrap()
 }
 
-#[test]
-fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direct_path() {
-    let dir = tempfile::tempdir().unwrap();
-    let spec = Spec::load(&line_spec(dir.path(), ""), &BUILTIN_MODELS).unwrap();
-    let out = dir.path().join("direct");
+/// The line's posterior sampled in process (2000 draws, 10 predictive
+/// runs), and its summary.
+fn line_posterior_summary(study: &Study, out: &Path) -> Value {
     line_in_process(
-        &spec.study,
-        &out,
+        study,
+        out,
         PosteriorSettings {
             draws: 2000,
             seed: 5,
@@ -236,8 +234,15 @@ fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direc
             ..PosteriorSettings::default()
         },
     );
-    let summary: Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direct_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = Spec::load(&line_spec(dir.path(), ""), &BUILTIN_MODELS).unwrap();
+    let out = dir.path().join("direct");
+    let summary = line_posterior_summary(&spec.study, &out);
     for p in ["a", "b"] {
         assert!(number(&summary, &["posterior", p, "rhat"]) < 1.01);
     }
@@ -251,6 +256,57 @@ fn a_straight_line_with_normal_priors_has_the_closed_form_posterior_by_the_direc
     let predictive = std::fs::read_to_string(out.join("predictive.csv")).unwrap();
     assert!(predictive.starts_with("run,case,output,value,with_error\n"));
     assert_eq!(predictive.lines().count(), 1 + 5 * 10);
+}
+
+/// A slope whose range ends below what the data say (b = 0.69 +- 0.16;
+/// upper bound 0.55): its posterior piles against the bound. Its one
+/// verdict says so, never "pinned down" (the check before read only
+/// intervals that lay wholly within 2 % of the range from the bound), and
+/// every table of the report and `summary.json` give that one verdict.
+#[test]
+fn a_slope_pressed_against_its_bound_is_said_to_be_so_everywhere_and_never_pinned_down() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec_path = line_spec(dir.path(), "");
+    let text = std::fs::read_to_string(&spec_path).unwrap();
+    // b's bounds: 0.5 -+ 8.
+    assert!(text.contains("upper = 8.5"), "{text}");
+    std::fs::write(&spec_path, text.replace("upper = 8.5", "upper = 0.55")).unwrap();
+    let spec = Spec::load(&spec_path, &BUILTIN_MODELS).unwrap();
+    let out = dir.path().join("run");
+    let summary = line_posterior_summary(&spec.study, &out);
+    let q95 = number(&summary, &["posterior", "b", "q95"]);
+    assert!(
+        q95 > 0.55 - 0.01 * 8.05,
+        "b's interval reaches the bound: {q95}"
+    );
+    // ...and is wider than the old check's 2 % of the range: a case it
+    // called "pinned down".
+    let q05 = number(&summary, &["posterior", "b", "q05"]);
+    assert!(0.55 - q05 > 0.02 * 8.05, "{q05}");
+    let verdict = summary["verdicts"]["b"].as_str().unwrap().to_string();
+    assert!(
+        verdict.starts_with("conflict") && verdict.contains("upper bound"),
+        "{verdict}"
+    );
+    let report = common::report::read(&out);
+    // Every table row of b ends with the one verdict.
+    let rows: Vec<&str> = report
+        .lines()
+        .filter(|line| line.starts_with("| b |"))
+        .collect();
+    assert!(!rows.is_empty(), "{report}");
+    for row in &rows {
+        assert!(!row.contains("pinned down"), "{row}");
+    }
+    let posterior_row = rows
+        .iter()
+        .find(|row| row.contains(" .. "))
+        .expect("the posterior table's row");
+    assert!(
+        posterior_row.trim_end_matches(" |").ends_with(&verdict),
+        "{posterior_row} against {verdict}"
+    );
+    assert!(!report.contains("pin down b"), "{report}");
 }
 
 #[test]

@@ -29,6 +29,7 @@ use nalgebra::{DMatrix, Dyn, SymmetricEigen};
 
 use super::search::to_unit;
 use super::study::{Measured, Role, Study};
+use super::verdict::{verdict_of, ParameterVerdict};
 
 /// The analysis at one point.
 pub struct Identifiability {
@@ -404,6 +405,7 @@ pub fn write_identifiability(
     report: &mut Document,
     analysis: &Option<Identifiability>,
     parameters: &[Parameter],
+    one_verdicts: &[ParameterVerdict],
 ) {
     report.heading(2, "Identifiability: what the data pin down");
     let Some(analysis) = analysis else {
@@ -411,10 +413,14 @@ pub fn write_identifiability(
         return;
     };
     report.paragraph(how_the_spread_was_found(analysis));
-    let (table, verdicts) = verdict_table(analysis, parameters);
-    report
-        .table(table)
-        .paragraph(verdict_sentences(&verdicts, analysis, parameters).join(" "));
+    let (table, verdicts) = verdict_table(analysis, parameters, one_verdicts);
+    let mut sentences = verdict_sentences(&verdicts, analysis, parameters);
+    sentences.extend(where_the_verdict_differs(
+        analysis,
+        parameters,
+        one_verdicts,
+    ));
+    report.table(table).paragraph(sentences.join(" "));
     if parameters.len() > 1 {
         report.table(correlation_table(analysis, parameters));
     }
@@ -467,11 +473,13 @@ struct Verdicts<'a> {
 fn verdict_table<'a>(
     analysis: &Identifiability,
     parameters: &'a [Parameter],
+    one_verdicts: &[ParameterVerdict],
 ) -> (Table, Verdicts<'a>) {
     let mut table = Table::new(&[
         "parameter",
         "loss change along its range",
         "spread",
+        "at the calibrated point",
         "verdict",
     ]);
     let largest = analysis.sensitivity.iter().fold(0.0f64, |a, &b| a.max(b));
@@ -493,6 +501,8 @@ fn verdict_table<'a>(
             acq_report::number::plain(analysis.sensitivity[j], 4),
             spread_words(spread, value_spread),
             verdict.into(),
+            verdict_of(one_verdicts, &p.name)
+                .map_or_else(|| verdict.to_string(), |v| v.words.clone()),
         ]);
     }
     (table, verdicts)
@@ -576,11 +586,36 @@ fn verdict_sentences(
     }
     if sentences.is_empty() {
         sentences.push(
-            "Every parameter is pinned down on its own: none is flat in the data and no pair is strongly correlated."
+            "At the calibrated point every parameter is fixed on its own: none is flat in the data and no pair is strongly correlated."
                 .into(),
         );
     }
     sentences
+}
+
+/// Where a parameter's one verdict is not the calibrated point's, why:
+/// the posterior weighs the whole range where the linearisation sees one
+/// point, and a bound stops what the point could say.
+fn where_the_verdict_differs(
+    analysis: &Identifiability,
+    parameters: &[Parameter],
+    one_verdicts: &[ParameterVerdict],
+) -> Option<String> {
+    let differ: Vec<String> = parameters
+        .iter()
+        .enumerate()
+        .filter_map(|(j, p)| {
+            let one = verdict_of(one_verdicts, &p.name)?;
+            let local = local_verdict(analysis, j);
+            (one.short() != local).then(|| format!("{} ({local} here; {})", p.name, one.short()))
+        })
+        .collect();
+    (!differ.is_empty()).then(|| {
+        format!(
+            "The verdict column is each parameter's one verdict, read by every table of this report: the posterior's where there is one (it weighs the measured values over the whole range, where the linearisation sees only the calibrated point), and a bound's where the value or its interval reaches one. It differs from the calibrated point's for {}.",
+            differ.join(", ")
+        )
+    })
 }
 
 /// The correlation matrix as a table, "-" where it is not defined.

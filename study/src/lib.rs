@@ -16,6 +16,9 @@
 //! study at the rig. [`mesh_study`] runs a spec's model at several element
 //! sizes and gives each output's grid convergence, the `u_num` of V&V 20.
 //!
+//! Every table, the terminal and `summary.json` read one [`verdict`] per
+//! parameter.
+//!
 //! Knows nothing of twins, CAN or the command line: a model is a trait, and
 //! what it computes is named outputs.
 
@@ -38,3 +41,4 @@ pub mod study;
 pub mod study_runner;
 pub mod summary;
 pub mod surrogate_moo;
+pub mod verdict;

@@ -3,13 +3,15 @@
 //! calibrated curves. The runner makes it; the summary, the report and a
 //! preset's extras read it.
 
-use acq_algorithms::evaluation::Evaluation;
+use acq_algorithms::evaluation::{Evaluation, Parameter};
 use acq_algorithms::least_squares::LeastSquaresResult;
 use acq_metrology::grid_convergence::GridConvergence;
 
-use super::identifiability::Identifiability;
+use super::identifiability::{local_verdict, Identifiability};
+use super::posterior::report::posterior_verdict;
 use super::posterior::PosteriorOutcome;
 use super::study::{ObservationError, Study};
+use super::verdict::{Evidence, ParameterVerdict};
 
 /// What a study found.
 pub struct StudyOutcome {
@@ -42,6 +44,17 @@ pub struct StudyOutcome {
 }
 
 impl StudyOutcome {
+    /// Each search parameter's one verdict ([`crate::verdict`]), in the
+    /// study's order.
+    pub fn verdicts(&self, study: &Study) -> Vec<ParameterVerdict> {
+        parameter_verdicts(
+            &study.search_parameters(),
+            &self.calibrated,
+            self.identifiability.as_ref(),
+            self.posterior.as_ref(),
+        )
+    }
+
     /// The calibrated parameters by name.
     pub fn calibrated_by_name(&self, study: &Study) -> Vec<(String, f64)> {
         study
@@ -155,4 +168,45 @@ pub struct MeshStudyOutcome {
     pub failed: usize,
     /// The unit of the element sizes, for the plots' axes (None: not given).
     pub size_unit: Option<String>,
+}
+
+/// Each parameter's one verdict, in the order of `parameters`.
+fn parameter_verdicts(
+    parameters: &[Parameter],
+    calibrated: &[f64],
+    identifiability: Option<&Identifiability>,
+    posterior: Option<&PosteriorOutcome>,
+) -> Vec<ParameterVerdict> {
+    parameters
+        .iter()
+        .enumerate()
+        .map(|(j, p)| {
+            let from_posterior = posterior.and_then(|posterior| {
+                let column = posterior.column(&p.name)?;
+                let m = &posterior.marginals[column];
+                // The side either end of the 90 % interval reaches.
+                let side = [m.q05, m.q95]
+                    .into_iter()
+                    .find_map(|end| p.bound_reached(end));
+                Some(posterior_verdict(posterior, column, side))
+            });
+            let (words, evidence) = if let Some(words) = from_posterior {
+                (words, Evidence::Posterior)
+            } else if let Some(side) = calibrated.get(j).and_then(|&v| p.bound_reached(v)) {
+                (
+                    format!("on its {side}: the search stopped there, and the optimum may lie beyond it (widen the range, or check the model)"),
+                    Evidence::Bound,
+                )
+            } else if let Some(analysis) = identifiability {
+                (local_verdict(analysis, j).to_string(), Evidence::CalibratedPoint)
+            } else {
+                ("no verdict: too few successful runs to judge it".to_string(), Evidence::None)
+            };
+            ParameterVerdict {
+                name: p.name.clone(),
+                words,
+                evidence,
+            }
+        })
+        .collect()
 }

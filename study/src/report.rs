@@ -25,6 +25,7 @@ use super::run_directory::{write_text, RunDirectory};
 use super::search::{distinct_best, scored};
 use super::study::{chi_square, LossKind, ObservationError, Residuals, Role, Study};
 use super::surrogate_moo::rounds_sentence;
+use super::verdict::{verdict_of, Evidence, ParameterVerdict};
 
 /// Writes a report into its run directory: every figure as its SVG file,
 /// `report.md` (figures linked) and `report.html` (one page, figures inline).
@@ -66,15 +67,22 @@ pub fn study_report(
     write_curves(&mut report, &outcome.curves);
     super::measurement_report::write_measurement_uncertainty(&mut report, study);
     write_parameters(&mut report, study, &outcome.calibrated, extras);
-    write_identifiability(&mut report, &outcome.identifiability, &parameters);
+    // One verdict per parameter, read by every table below.
+    let verdicts = outcome.verdicts(study);
+    write_identifiability(
+        &mut report,
+        &outcome.identifiability,
+        &parameters,
+        &verdicts,
+    );
     if let Some(posterior) = &outcome.posterior {
-        super::posterior::report::write_section(&mut report, posterior);
+        super::posterior::report::write_section(&mut report, posterior, &verdicts);
     }
     match (&outcome.found, method) {
         (Found::Moo(moo), Method::SurrogateMoo(settings)) => {
             let totals = write_surrogates(&mut report, study, moo, settings, extras);
             if let Some(analysis) = &outcome.identifiability {
-                write_one_verdict(&mut report, analysis, &parameters, &totals);
+                write_one_verdict(&mut report, analysis, &parameters, &totals, &verdicts);
             }
         }
         (Found::Bo(result), _) => write_candidates(
@@ -453,18 +461,19 @@ const MATTERS: f64 = 0.05;
 /// One verdict per input, where the two sensitivities could seem to
 /// disagree: the global one (Sobol on the GPs, over the whole range: does
 /// the input move the outputs?) and the local one (at the calibrated
-/// point: can the measured values fix it?). The local one decides whether
-/// the value found can be trusted; the global one says whether it matters.
+/// point: can the measured values fix it?). The verdict is the
+/// parameter's one verdict ([`crate::verdict`]); the Sobol index says why.
 fn write_one_verdict(
     report: &mut Document,
     analysis: &Identifiability,
     parameters: &[acq_algorithms::evaluation::Parameter],
     totals: &[Option<(f64, String)>],
+    verdicts: &[ParameterVerdict],
 ) {
     use crate::identifiability::{local_verdict, strongest_partner};
     report.heading(3, "One verdict per input");
     report.paragraph(
-        "The Sobol index asks whether an input moves the outputs over its whole range; the identifiability asks whether the measured values fix it at the calibrated point. The verdict is the identifiability's, since it judges the value found; the Sobol index says why.",
+        "The Sobol index asks whether an input moves the outputs over its whole range; the identifiability asks whether the measured values fix it at the calibrated point. The verdict is the one every table of this report gives (the posterior's where there is one, a bound's where the value reaches one, else the calibrated point's); the Sobol index says why.",
     );
     let mut table = Table::new(&[
         "parameter",
@@ -478,15 +487,22 @@ fn write_one_verdict(
         let matters = total >= MATTERS;
         let partner = strongest_partner(analysis, j)
             .map(|(k, rho)| format!("{} (ρ = {rho:+.2})", parameters[k].name));
-        let verdict = match (local, matters) {
-            ("identified", true) => "identified: it moves the outputs and the data fix it".to_string(),
-            ("identified", false) => "identified near the calibrated point, though over its whole range it moves the outputs little".to_string(),
-            ("weakly identified", _) => "weakly identified: the data bound it to 10-50 % of its range".to_string(),
-            (_, true) => format!(
+        let one = verdict_of(verdicts, &p.name);
+        let verdict = match (one.map(|v| v.evidence), local, matters) {
+            (Some(Evidence::CalibratedPoint) | None, "identified", true) => "identified: it moves the outputs and the data fix it".to_string(),
+            (Some(Evidence::CalibratedPoint) | None, "identified", false) => "identified near the calibrated point, though over its whole range it moves the outputs little".to_string(),
+            (Some(Evidence::CalibratedPoint) | None, "weakly identified", _) => "weakly identified: the data bound it to 10-50 % of its range".to_string(),
+            (Some(Evidence::CalibratedPoint) | None, _, true) => format!(
                 "not identified on its own: it moves the outputs, but the data fix only its combination with {}; the value found is one of many equally good",
                 partner.unwrap_or_else(|| "the other inputs".into())
             ),
-            (_, false) => "not identified: over its range it moves the outputs little next to the other inputs, and the data cannot fix it; fix it from elsewhere".to_string(),
+            (Some(Evidence::CalibratedPoint) | None, _, false) => "not identified: over its range it moves the outputs little next to the other inputs, and the data cannot fix it; fix it from elsewhere".to_string(),
+            // The posterior's or a bound's verdict, with the Sobol index's why.
+            (Some(_), _, matters) => format!(
+                "{}; {}",
+                one.map_or("", |v| v.words.as_str()),
+                if matters { "it moves the outputs over its range" } else { "over its range it moves the outputs little" }
+            ),
         };
         table.row(vec![
             p.name.clone(),

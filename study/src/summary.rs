@@ -16,7 +16,9 @@
 //!   (null where the curves do not allow one, or the model cannot give
 //!   its curve again), the curve keyed as in `errors_optimal_pct`;
 //! - with the posterior stage: `posterior`, `predictive` and, with a
-//!   discrepancy, `discrepancy` ([`super::posterior::report::summary_keys`]).
+//!   discrepancy, `discrepancy` ([`super::posterior::report::summary_keys`]);
+//!   with them `verdicts`: each parameter's one verdict in words
+//!   ([`crate::verdict`]), as the report gives it.
 //!
 //! A mesh study's ([`mesh_study_summary`]): `mesh_study` (per scalar
 //! output `sizes`, `values`, `order`, `extrapolated`, `e_a_pct`,
@@ -142,11 +144,23 @@ pub fn summary(study: &Study, outcome: &StudyOutcome, extras: &dyn Extras) -> Va
     // its own.
     let mut summary = extras.summary(study, outcome, summary);
     // The posterior's keys whatever the preset keeps: they are every
-    // study's.
+    // study's, and so are the verdicts that read the posterior.
     if let Some(posterior) = &outcome.posterior {
         summary.extend(posterior_summary_keys(posterior));
+        summary.insert("verdicts".into(), verdicts_json(study, outcome));
     }
     Value::Object(summary)
+}
+
+/// Each parameter's one verdict, as the report gives it.
+fn verdicts_json(study: &Study, outcome: &StudyOutcome) -> Value {
+    Value::Object(
+        outcome
+            .verdicts(study)
+            .into_iter()
+            .map(|v| (v.name, json!(v.words)))
+            .collect(),
+    )
 }
 
 /// `{curve: {metric: value}}` at the calibrated point.

@@ -76,6 +76,18 @@ impl FrameBatch {
         );
     }
 
+    /// Room for `frames` more frames and `payload_bytes` more payload
+    /// bytes, so that a reader's loop does not grow the columns one by one.
+    pub(crate) fn reserve(&mut self, frames: usize, payload_bytes: usize) {
+        self.timestamp_ns.reserve(frames);
+        self.interface.reserve(frames);
+        self.id.reserve(frames);
+        self.kind.reserve(frames);
+        self.direction.reserve(frames);
+        self.payload_end.reserve(frames);
+        self.payload.reserve(payload_bytes);
+    }
+
     /// Appends one frame's fields; `payload` is at most 64 bytes (a
     /// reader's frame is checked before).
     #[inline(always)]

@@ -52,6 +52,13 @@ C. Other record layouts, laid out by hand:
                           length 24 but no record cut (the file ends with the
                           last record); BusChannel u8 (1, 2), DataBytes[8]
                           in the record
+D. A logger that writes fixed records and a channel group per bus and id
+   kind (as the issue on real loggers describes newer firmware): one
+   unsorted DG (u8 record ids), four CAN_DataFrame CGs (buses 1, 2 x
+   standard, extended), each record 1 + 21 bytes: f64 ns master (CC 1e-9)
+   | ID:29 | DLC:4 = DataLength:4 (CC 5) | DataBytes[8]; BusChannel, IDE
+   and Dir virtual constants (cn_type 6, a linear CC of slope 0).
+     fixed_unsorted.mf4   500 frames, records in time order across the CGs
 """
 
 import json
@@ -287,19 +294,32 @@ MICROSECONDS = Layout(
                                   f["dlc_code"] | (not f["rx"]) << 4, fixed_bytes(f)))
 
 
-def metadata(w, layout, *, record_id=0, cycles):
-    """HD, FH, DG and the CAN_DataFrame CG (bus event) with its channels, as
-    loggers write them: before the data. Returns (dg, cg, DataBytes cn)."""
+def header(w, record_id):
+    """HD, FH and the DG (u8 record ids if record_id). Returns the dg."""
     hd = w.block(b"##HD", [0] * 6, struct.pack("<QhhBBBxdd", START_NS, 60, 0, 2, 0, 0, 0, 0))
     fh = w.block(b"##FH", [0, w.text("<FHcomment><TX>created</TX><tool_id>acq loggers.py</tool_id></FHcomment>")],
                  struct.pack("<QhhB3x", START_NS, 60, 0, 2))
     w.link(hd, 1, fh)
     dg = w.block(b"##DG", [0] * 4, struct.pack("<B7x", 1 if record_id else 0))
     w.link(hd, 0, dg)
-    source = w.block(b"##SI", [w.text("CAN1"), w.text("CAN1"), 0], struct.pack("<BBB5x", 2, 2, 0))
-    cg = w.block(b"##CG", [0, 0, w.text("CAN1"), source, 0, 0],
-                 struct.pack("<QQHH4xII", record_id, cycles, v4c.FLAG_CG_BUS_EVENT, ord("."), layout.size, 0))
+    return dg
+
+
+def metadata(w, layout, *, record_id=0, cycles):
+    """HD, FH, DG and the CAN_DataFrame CG (bus event) with its channels, as
+    loggers write them: before the data. Returns (dg, cg, DataBytes cn)."""
+    dg = header(w, record_id)
+    cg, data_bytes = channel_group(w, layout, record_id=record_id, cycles=cycles)
     w.link(dg, 1, cg)
+    return dg, cg, data_bytes
+
+
+def channel_group(w, layout, *, record_id, cycles, bus_name="CAN1"):
+    """A CAN_DataFrame CG (bus event) with its channels. Returns (cg,
+    DataBytes cn)."""
+    source = w.block(b"##SI", [w.text(bus_name), w.text(bus_name), 0], struct.pack("<BBB5x", 2, 2, 0))
+    cg = w.block(b"##CG", [0, 0, w.text(bus_name), source, 0, 0],
+                 struct.pack("<QQHH4xII", record_id, cycles, v4c.FLAG_CG_BUS_EVENT, ord("."), layout.size, 0))
     members = [w.channel("CAN_DataFrame." + name, cn_type, data_type, byte, bit, bits,
                          conversion=w.conversion(*cc) if cc else 0)
                for name, cn_type, data_type, byte, bit, bits, cc in layout.members]
@@ -312,7 +332,7 @@ def metadata(w, layout, *, record_id=0, cycles):
     w.link(master, 0, frame)
     w.link(cg, 1, master)
     names = [m[0] for m in layout.members]
-    return dg, cg, members[names.index("DataBytes")]
+    return cg, members[names.index("DataBytes")]
 
 
 def sorted_file(path, frames, layout, storage="dt", unfinalized=0):
@@ -394,15 +414,57 @@ def vlsd_cg_file(path, frames, *, vlsd_after=False, unfinalized=0, cut=0, dl_slo
     return frames[:-1] if cut else frames
 
 
+def virtual_fixed(bus, extended):
+    """D's record: f64 ns | ID:29 | DLC:4 = DataLength:4 | DataBytes[8];
+    bus, IDE and Dir (Rx) virtual constants of the CG."""
+    constant = lambda value: linear(float(value), 0.0)
+    return Layout(
+        21, (4, linear(0.0, 1e-9)),
+        [("BusChannel", 6, 0, 0, 0, 0, constant(bus)),
+         ("ID", 0, 0, 8, 0, 29, None), ("IDE", 6, 0, 0, 0, 0, constant(extended)),
+         ("DLC", 0, 0, 12, 0, 4, None), ("DataLength", 0, 0, 12, 0, 4, DLC_TABLE),
+         ("DataBytes", 0, 10, 13, 0, 64, None), ("Dir", 6, 0, 0, 0, 0, constant(0))],
+        lambda f, offset: struct.pack("<dIB8s", f["t_ns"], f["id"], f["dlc_code"], fixed_bytes(f)))
+
+
+def fixed_unsorted_file(path, frames):
+    """D: one unsorted DG, a CG per (bus, standard or extended), fixed
+    records in time order."""
+    w = Blocks()
+    dg = header(w, record_id=1)
+    kinds = [(bus, extended) for bus in (1, 2) for extended in (0, 1)]
+    record_id = {kind: index + 1 for index, kind in enumerate(kinds)}
+    layouts = {kind: virtual_fixed(*kind) for kind in kinds}
+    kind_of = lambda f: (f["bus"], int(f["extended"]))
+    previous = None
+    for kind in kinds:
+        cycles = sum(1 for f in frames if kind_of(f) == kind)
+        cg, _ = channel_group(w, layouts[kind], record_id=record_id[kind], cycles=cycles,
+                              bus_name=f"CAN{kind[0]}")
+        if previous is None:
+            w.link(dg, 1, cg)
+        else:
+            w.link(previous, 0, cg)
+        previous = cg
+    records = b"".join(bytes([record_id[kind_of(f)]]) + layouts[kind_of(f)].pack(f, 0) for f in frames)
+    w.link(dg, 2, w.block(b"##DT", [], records))
+    w.identify()
+    Path(path).write_bytes(w.b)
+    return frames
+
+
 # ----------------------------------------------------------------- files
 
 def bench(out, frames):
-    """Two large files for benches/mf4-vs-asammdf.sh: a CANedge-shaped one
-    (VLSD channel group, unsorted) and an asammdf-written one."""
+    """Three large files for benches/mf4-vs-asammdf.sh: two shaped as
+    loggers write them (VLSD channel group, unsorted; fixed records, a CG
+    per bus and id kind, unsorted) and an asammdf-written one."""
     name = "vlsd_cg.mf4"
     vlsd_cg_file(out / name, frame_set(name, frames))
     name = "virtual_tab_ns.mf4"
     asammdf_file(out / name, frame_set(name, frames, standard=False, buses=(2,)), 0)
+    name = "fixed_unsorted.mf4"
+    fixed_unsorted_file(out / name, frame_set(name, frames, buses=(1, 2)))
 
 
 def main():
@@ -436,6 +498,8 @@ def main():
     name = "unfinalized_whole.mf4"
     written[name] = sorted_file(out / name, frame_set(name, buses=(1, 2)), FIXED,
                                 unfinalized=unfinalized_whole)
+    name = "fixed_unsorted.mf4"
+    written[name] = fixed_unsorted_file(out / name, frame_set(name, buses=(1, 2)))
     for name, frames in written.items():
         with open(out / (name + ".expected.jsonl"), "w") as expected:
             expected.writelines(json.dumps(as_json(f)) + "\n" for f in frames)

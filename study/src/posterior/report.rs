@@ -16,6 +16,7 @@ use super::predictive::{Predicted, PredictedCurve};
 use super::validation::{validation_statements, COVERAGE_FACTOR};
 use super::{unconverged, PosteriorOutcome, ESS_PER_CHAIN, RHAT_LIMIT};
 use crate::study::Role;
+use crate::verdict::{verdict_of, ParameterVerdict};
 
 /// A parameter is pinned down when its 90 % interval spans at most this
 /// share of its prior range, and is not identified when it spans at least
@@ -77,14 +78,17 @@ fn finite_or_null(value: f64) -> Value {
 }
 
 /// The report's posterior section.
-pub fn write_section(report: &mut Document, posterior: &PosteriorOutcome) {
+pub fn write_section(
+    report: &mut Document,
+    posterior: &PosteriorOutcome,
+    verdicts: &[ParameterVerdict],
+) {
     report.heading(2, "Posterior: how far the parameters can move");
     report.paragraph(sampling_sentence(posterior));
     report.paragraph(convergence_sentence(posterior));
     write_coverage_caveat(report, posterior);
-    let (table, verdicts) = marginals_table(posterior);
-    report.table(table);
-    report.paragraph(verdicts_in_words(&verdicts));
+    report.table(marginals_table(posterior, verdicts));
+    report.paragraph(verdicts_in_words(verdicts));
     write_discrepancy(report, posterior);
     write_predictive(report, &posterior.predicted.scalars);
     write_validation_statement(report, posterior);
@@ -137,9 +141,10 @@ fn convergence_sentence(posterior: &PosteriorOutcome) -> String {
     }
 }
 
-/// The table of each coordinate's marginal and verdict, and the verdicts
-/// of the parameters (the discrepancy's scales are stated with it, below).
-fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'static str)>) {
+/// The table of each coordinate's marginal and verdict (a parameter's is
+/// its one verdict, [`crate::verdict`]; the discrepancy's scales are stated
+/// with it, below).
+fn marginals_table(posterior: &PosteriorOutcome, verdicts: &[ParameterVerdict]) -> Table {
     let mut table = Table::new(&[
         "parameter",
         "prior range",
@@ -156,44 +161,12 @@ fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'stati
         "tail ESS",
         "verdict",
     ]);
-    let mut verdicts = Vec::new();
-    for ((name, support), m) in posterior
-        .names
-        .iter()
-        .zip(&posterior.supports)
-        .zip(&posterior.marginals)
-    {
-        let log_uniform = match posterior
-            .density
-            .coordinates
-            .iter()
-            .find(|c| &c.name == name)
-        {
-            Some(coordinate) => coordinate.log_uniform,
-            // The scales are log-uniform, the correlations uniform.
-            None => !name.starts_with("curve_error_correlation."),
+    for (index, (name, m)) in posterior.names.iter().zip(&posterior.marginals).enumerate() {
+        let (range, share) = range_and_share(posterior, index);
+        let verdict = match verdict_of(verdicts, name) {
+            Some(verdict) => verdict.words.clone(),
+            None => posterior_verdict(posterior, index, None),
         };
-        let (range, share) = prior_range_and_interval_share(support, m, log_uniform);
-        let prior_90 = posterior
-            .density
-            .coordinates
-            .iter()
-            .find(|c| &c.name == name)
-            .map(|c| c.prior_interval());
-        let unsettled = !unconverged(
-            std::slice::from_ref(name),
-            std::slice::from_ref(m),
-            posterior.settings.chains,
-        )
-        .is_empty();
-        let verdict = if unsettled {
-            "not converged: no verdict until its chains agree"
-        } else {
-            marginal_verdict(name, support, m, log_uniform, share, prior_90)
-        };
-        if !name.starts_with("discrepancy_sd.") {
-            verdicts.push((name.clone(), verdict));
-        }
         table.row(vec![
             name.clone(),
             range,
@@ -208,10 +181,92 @@ fn marginals_table(posterior: &PosteriorOutcome) -> (Table, Vec<(String, &'stati
             format!("{:.3}", m.rhat),
             format!("{:.0}", m.ess_bulk),
             format!("{:.0}", m.ess_tail),
-            verdict.into(),
+            verdict,
         ]);
     }
-    (table, verdicts)
+    table
+}
+
+/// Coordinate `index`'s prior range as written and the share of it its
+/// 90 % interval spans.
+fn range_and_share(posterior: &PosteriorOutcome, index: usize) -> (String, f64) {
+    let name = &posterior.names[index];
+    let log_uniform = match posterior
+        .density
+        .coordinates
+        .iter()
+        .find(|c| &c.name == name)
+    {
+        Some(coordinate) => coordinate.log_uniform,
+        // The scales are log-uniform, the correlations uniform.
+        None => !name.starts_with("curve_error_correlation."),
+    };
+    prior_range_and_interval_share(
+        &posterior.supports[index],
+        &posterior.marginals[index],
+        log_uniform,
+    )
+}
+
+/// What the posterior says of coordinate `index`, in words; `bound` the
+/// bound its 90 % interval reaches, if any. A parameter on its bound is
+/// never pinned down.
+pub(crate) fn posterior_verdict(
+    posterior: &PosteriorOutcome,
+    index: usize,
+    bound: Option<&str>,
+) -> String {
+    let name = &posterior.names[index];
+    let m = &posterior.marginals[index];
+    let unsettled = !unconverged(
+        std::slice::from_ref(name),
+        std::slice::from_ref(m),
+        posterior.settings.chains,
+    )
+    .is_empty();
+    if name.starts_with("discrepancy_sd.") {
+        return "see the discrepancy below".into();
+    }
+    if unsettled {
+        return "not converged: no verdict until its chains agree".into();
+    }
+    // The predictive check: a model that misses a fit value gives the
+    // intervals of a model that misses.
+    let misses = posterior
+        .predicted
+        .scalars
+        .iter()
+        .any(|p| p.role == Role::Fit && !p.holds_measured());
+    if misses {
+        let on = bound
+            .map(|side| format!(", against its {side}"))
+            .unwrap_or_default();
+        return format!("conflict: the model misses fit values (the predictive check below){on}, so this is a model's that misses; allow a model error or fix the model");
+    }
+    let (_, share) = range_and_share(posterior, index);
+    // The data and the prior disagree: the posterior's median outside
+    // the prior's own 90 % interval.
+    let outside_prior = posterior
+        .density
+        .coordinates
+        .iter()
+        .find(|c| &c.name == name)
+        .map(|c| c.prior_interval())
+        .is_some_and(|p: PriorInterval| !(p.q05..=p.q95).contains(&m.q50));
+    match bound {
+        Some(side) if share <= PINNED_SHARE => format!(
+            "conflict: the data push it against its {side} (the model misses, or the range is too narrow)"
+        ),
+        Some(side) if share < UNIDENTIFIED_SHARE => {
+            format!("narrowed, its interval cut by its {side}")
+        }
+        _ if outside_prior => "conflict: the data pull it outside its prior's 90 % interval (check the model and the prior)".into(),
+        _ if share <= PINNED_SHARE => "pinned down".into(),
+        _ if share >= UNIDENTIFIED_SHARE => {
+            "not identified: the data leave it near its prior".into()
+        }
+        _ => "narrowed".into(),
+    }
 }
 
 /// The prior range as written in the table, and the share of it the 90 %
@@ -235,53 +290,14 @@ fn prior_range_and_interval_share(
     }
 }
 
-/// A coordinate's verdict: against a bound, pinned down, narrowed or not
-/// identified (a discrepancy scale is stated with the discrepancy).
-fn marginal_verdict(
-    name: &str,
-    support: &Support,
-    m: &Marginal,
-    log_uniform: bool,
-    share: f64,
-    prior_90: Option<PriorInterval>,
-) -> &'static str {
-    let against_bound = match *support {
-        Support::Interval { lower, upper } if !name.starts_with("discrepancy_sd.") => {
-            // Measured along the coordinate the prior is uniform in.
-            let along = |x: f64| if log_uniform { x.ln() } else { x };
-            let (lower, upper, q05, q95) = (along(lower), along(upper), along(m.q05), along(m.q95));
-            let near = 0.01 * (upper - lower);
-            q05 - lower < near && q95 - lower < 2.0 * near
-                || upper - q95 < near && upper - q05 < 2.0 * near
-        }
-        _ => false,
-    };
-    // The data and the prior disagree: the posterior's median outside
-    // the prior's own 90 % interval.
-    let outside_prior = prior_90.is_some_and(|p| !(p.q05..=p.q95).contains(&m.q50));
-    if name.starts_with("discrepancy_sd.") {
-        "see the discrepancy below"
-    } else if against_bound {
-        "conflict: the data push it against its bound (the model misses, or the range is too narrow)"
-    } else if outside_prior {
-        "conflict: the data pull it outside its prior's 90 % interval (check the model and the prior)"
-    } else if share <= PINNED_SHARE {
-        "pinned down"
-    } else if share >= UNIDENTIFIED_SHARE {
-        "not identified: the data leave it near its prior"
-    } else {
-        "narrowed"
-    }
-}
-
 /// Which parameters the measured values pin down and which they leave
 /// near their prior, in words.
-fn verdicts_in_words(verdicts: &[(String, &str)]) -> String {
+fn verdicts_in_words(verdicts: &[ParameterVerdict]) -> String {
     let named = |prefix: &str| -> Vec<&str> {
         verdicts
             .iter()
-            .filter(|(_, v)| v.starts_with(prefix))
-            .map(|(n, _)| n.as_str())
+            .filter(|v| v.words.starts_with(prefix))
+            .map(|v| v.name.as_str())
             .collect()
     };
     let (conflicts, unsettled) = (named("conflict"), named("not converged"));
@@ -298,16 +314,7 @@ fn verdicts_in_words(verdicts: &[(String, &str)]) -> String {
             list_or(&conflicts, "")
         ));
     }
-    let pinned: Vec<&str> = verdicts
-        .iter()
-        .filter(|(_, v)| *v == "pinned down")
-        .map(|(n, _)| n.as_str())
-        .collect();
-    let loose: Vec<&str> = verdicts
-        .iter()
-        .filter(|(_, v)| v.starts_with("not identified"))
-        .map(|(n, _)| n.as_str())
-        .collect();
+    let (pinned, loose) = (named("pinned down"), named("not identified"));
     format!(
         "In words: the measured values pin down {}; they leave {} near {} prior range. A parameter is pinned down when its 90 % interval spans at most {:.0} % of its range, not identified from {:.0} %.{caveats}",
         list_or(&pinned, "no parameter"),

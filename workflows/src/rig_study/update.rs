@@ -25,7 +25,9 @@
 //! outside the prior's 90 % interval (the holds and the prior disagree), or
 //! an interval that does not overlap the one before the last hold (that hold
 //! and the earlier ones disagree). Either points at the model, the prior or
-//! a transducer, which the words say.
+//! a transducer, which the words say. A parameter identified before the
+//! last hold and not after it is **weak** with why (the interval widened,
+//! from what to what): a verdict never flips unexplained.
 
 use std::time::Instant;
 
@@ -67,6 +69,12 @@ pub enum Verdict {
     Conflict {
         why: String,
     },
+    /// Identified after the holds before, weak (or confounded) now: the
+    /// last hold widened its interval; why, in words, so that the verdict
+    /// does not flip unexplained.
+    Loosened {
+        why: String,
+    },
 }
 
 impl Verdict {
@@ -78,6 +86,7 @@ impl Verdict {
             Verdict::Confounded { .. } => "confounded",
             Verdict::NotConverged { .. } => "not converged",
             Verdict::Conflict { .. } => "conflict",
+            Verdict::Loosened { .. } => "weak",
         }
     }
 
@@ -87,7 +96,7 @@ impl Verdict {
             Verdict::NotConverged { rhat, ess_bulk } => Some(format!(
                 "its chains have not converged (R-hat {rhat:.3}, bulk ESS {ess_bulk:.0}): no verdict until they do; raise [posterior] draws"
             )),
-            Verdict::Conflict { why } => Some(why.clone()),
+            Verdict::Conflict { why } | Verdict::Loosened { why } => Some(why.clone()),
             _ => None,
         }
     }
@@ -336,7 +345,12 @@ impl RigStudy {
                 ) {
                     (Some(unconverged), _) => unconverged,
                     (None, Some(conflict)) => conflict,
-                    (None, None) => verdict(&interval, j, &covariance, &self.parameters),
+                    (None, None) => loosened(
+                        verdict(&interval, j, &covariance, &self.parameters),
+                        &interval,
+                        last.parameters.get(j),
+                        readings.len(),
+                    ),
                 };
                 interval
             })
@@ -395,6 +409,35 @@ fn conflict(
     })
 }
 
+/// `now`, or, for a parameter identified before the last hold and not
+/// now, [`Verdict::Loosened`] with why.
+fn loosened(
+    now: Verdict,
+    interval: &ParameterInterval,
+    before: Option<&ParameterInterval>,
+    holds: usize,
+) -> Verdict {
+    let Some(before) = before.filter(|b| b.verdict == Verdict::Identified) else {
+        return now;
+    };
+    if now == Verdict::Identified {
+        return now;
+    }
+    let range = |a: f64, b: f64| format!("{}..{}", significant(a), significant(b));
+    Verdict::Loosened {
+        why: format!(
+            "identified after {} ({}), its 90 % interval widened to {} with hold {holds}, past half its prior's{}: that hold adds little on it or pulls it a little elsewhere; the verdict is the interval's now",
+            acq_report::number::count(holds - 1, "hold"),
+            range(before.q05, before.q95),
+            range(interval.q05, interval.q95),
+            match &now {
+                Verdict::Confounded { with, .. } => format!(" (and confounded with {with})"),
+                _ => String::new(),
+            }
+        ),
+    }
+}
+
 /// A number to four significant figures, for words.
 pub(super) fn significant(x: f64) -> String {
     acq_report::number::significant(x, 4)
@@ -422,5 +465,45 @@ fn verdict(
             correlation: rho,
         },
         _ => Verdict::Weak,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn interval(q05: f64, q95: f64, verdict: Verdict) -> ParameterInterval {
+        ParameterInterval {
+            name: "boom.attached_mass_kg".into(),
+            mean: (q05 + q95) / 2.0,
+            sd: (q95 - q05) / 3.29,
+            q05,
+            q95,
+            prior_q05: 0.0,
+            prior_q95: 100.0,
+            verdict,
+        }
+    }
+
+    #[test]
+    fn an_identified_parameter_that_widens_says_why_and_one_that_stays_does_not() {
+        let before = interval(40.0, 80.0, Verdict::Identified);
+        let now = interval(30.0, 85.0, Verdict::Weak);
+        let verdict = loosened(Verdict::Weak, &now, Some(&before), 2);
+        assert_eq!(verdict.word(), "weak");
+        let why = verdict.why().expect("a flip says why");
+        assert!(why.contains("after 1 hold (40.00..80.00)"), "{why}");
+        assert!(why.contains("widened to 30.00..85.00 with hold 2"), "{why}");
+        // Weak before and now, or identified both times: nothing to explain.
+        let weak_before = interval(30.0, 85.0, Verdict::Weak);
+        assert_eq!(
+            loosened(Verdict::Weak, &now, Some(&weak_before), 2),
+            Verdict::Weak
+        );
+        assert_eq!(
+            loosened(Verdict::Identified, &before, Some(&before), 2),
+            Verdict::Identified
+        );
+        assert_eq!(loosened(Verdict::Weak, &now, None, 1), Verdict::Weak);
     }
 }

@@ -16,6 +16,7 @@ use crate::log::batch::FrameBatch;
 use crate::log::record::ReadError;
 
 /// One decoded record onto the batch's columns.
+#[inline(always)]
 fn push(batch: &mut FrameBatch, interface: u16, parts: &FrameParts<'_>) {
     batch.push_parts(
         parts.timestamp_ns,
@@ -43,7 +44,7 @@ impl Cursor {
         // Bus channels change rarely from frame to frame: the last one's
         // interface is kept, not looked up.
         let mut interfaces = Interfaces {
-            last: None,
+            known: Vec::new(),
             seen: interfaces_seen,
         };
         while batch.len() < max {
@@ -78,6 +79,19 @@ impl Cursor {
         let end = self.buf.len();
         let mut pos = self.start;
         self.vlsd_last.iter_mut().for_each(|last| *last = None);
+        // At most one frame per smallest record in `buf`, and its bytes.
+        let smallest = self
+            .layouts
+            .iter()
+            .map(|(_, layout)| match layout {
+                Layout::Skip(size) | Layout::Can(size, _) => *size,
+                Layout::Vlsd => 4,
+            })
+            .min()
+            .unwrap_or(1);
+        let bytes = end.saturating_sub(pos);
+        let frames = (bytes / (id_bytes + smallest).max(1)).min(max.saturating_sub(batch.len()));
+        batch.reserve(frames, bytes.min(frames * 64));
         while batch.len() < max && pos + id_bytes <= end {
             let index = if id_bytes == 0 {
                 0
@@ -206,29 +220,33 @@ impl Cursor {
     }
 }
 
-/// The interfaces of a batch's frames: the last bus channel's is kept, not
-/// looked up (channels change rarely from frame to frame), and each new one
-/// is told to the reader.
+/// The interfaces of a batch's frames: each bus channel's index is kept,
+/// not looked up per frame (a logger's buses interleave frame by frame),
+/// and each new one is told to the reader.
 pub(super) struct Interfaces<'a> {
-    last: Option<(u64, u16)>,
+    /// The bus channels met in this batch and their interface's index.
+    known: Vec<(u64, u16)>,
     seen: &'a mut Vec<IfaceName>,
 }
+
+/// The bus channels one batch keeps indices of; more are looked up.
+const KNOWN_CHANNELS: usize = 16;
 
 impl Interfaces<'_> {
     /// The index in `batch.interfaces` of bus channel `channel`.
     #[inline(always)]
     fn index_of(&mut self, channel: u64, batch: &mut FrameBatch) -> Result<u16, &'static str> {
-        if let Some((last, interface)) = self.last {
-            if last == channel {
-                return Ok(interface);
-            }
+        if let Some(&(_, interface)) = self.known.iter().find(|(known, _)| *known == channel) {
+            return Ok(interface);
         }
         let iface = channel_iface(channel)?;
         if !self.seen.contains(&iface) {
             self.seen.push(iface);
         }
         let interface = batch.interface_index(iface);
-        self.last = Some((channel, interface));
+        if self.known.len() < KNOWN_CHANNELS {
+            self.known.push((channel, interface));
+        }
         Ok(interface)
     }
 

@@ -166,6 +166,7 @@ impl Scale {
         }
     }
 
+    #[inline(always)]
     pub(super) fn ns(self, value: f64) -> Option<i64> {
         match self.ns_per_unit {
             Some(ns) => whole_ns(value * ns),
@@ -526,7 +527,7 @@ const NO_ERROR_DETAILS: [u8; CLASSIC_MAX_LEN] = [0; CLASSIC_MAX_LEN];
 
 /// The frame one bus-logging record holds, the `index`th of its group;
 /// `signal` its VLSD DataBytes.
-#[inline]
+#[inline(always)]
 pub(super) fn decode<'a>(
     record: &'a [u8],
     layout: &CanLayout,

@@ -23,7 +23,7 @@ fn main() -> ExitCode {
 fn exit_code(error: &AcqError) -> u8 {
     match error {
         AcqError::Io { .. } => 1,
-        AcqError::Config(_) => 2,
+        AcqError::Config(_) | AcqError::Open(_) => 2,
         AcqError::Malformed(_) => 3,
         // 128 + SIGINT, what a shell reports for a command stopped by Ctrl-C.
         AcqError::Interrupted(_) => 130,

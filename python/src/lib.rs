@@ -16,14 +16,17 @@ use acq_error::AcqError;
 use acq_study::progress::ProgressSnapshot;
 use acq_study::study::{Model, ModelRun};
 use acq_workflows::calibrate::external::{self, CalibrateExternalOptions};
-use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyValueError};
+use pyo3::exceptions::{
+    PyFileNotFoundError, PyKeyboardInterrupt, PyOSError, PyPermissionError, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tables::{AlignRequest, CurveRequest, DecodeRequest, HoldsRequest};
 
 /// acq's errors as Python's: a bad argument, rig or spec and malformed
-/// input are `ValueError`s (their messages name the file and line), a
-/// failed read or write an `OSError`, an interrupted run a
+/// input are `ValueError`s (their messages name the file and line), a file
+/// that cannot be opened and a failed read or write an `OSError` (a
+/// missing one `FileNotFoundError`), an interrupted run a
 /// `KeyboardInterrupt`.
 fn python_error(error: AcqError) -> PyErr {
     // The engine's messages name the command line's options; a Python user
@@ -35,6 +38,13 @@ fn python_error(error: AcqError) -> PyErr {
     match error {
         AcqError::Config(_) | AcqError::Malformed(_) => PyValueError::new_err(message),
         AcqError::Interrupted(_) => PyKeyboardInterrupt::new_err(message),
+        // FileNotFoundError, PermissionError...: the OSError subclass of
+        // its errno, as Python's own open() raises.
+        AcqError::Open(failure) => match failure.source.kind() {
+            std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(message),
+            std::io::ErrorKind::PermissionDenied => PyPermissionError::new_err(message),
+            _ => PyOSError::new_err(message),
+        },
         AcqError::Io { .. } => PyOSError::new_err(message),
     }
 }

@@ -72,7 +72,7 @@ def test_bad_input_is_a_python_error_that_names_the_file(tmp_path: Path) -> None
     with pytest.raises(ValueError, match="not both"):
         acq.decode(SESSION, rig=RIG, dbc=DBC)
     missing = tmp_path / "nowhere.log"
-    with pytest.raises((OSError, ValueError), match="nowhere.log"):
+    with pytest.raises(FileNotFoundError, match="nowhere.log"):
         acq.decode(missing, rig=RIG)
     broken = tmp_path / "broken.log"
     lines = LOG.read_text().splitlines()

@@ -10,7 +10,7 @@
 
 use std::io::Write;
 
-use acq_can::canopen::HeartbeatEvent;
+use acq_can::canopen::{HeartbeatEvent, NmtState};
 use acq_can::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
 use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_can::LogRecord;
@@ -41,6 +41,10 @@ pub struct DecodeSummary {
     /// What the devices said of themselves (CANopen heartbeats: a node's
     /// state changed, or it fell silent), in time order, for the user.
     pub notes: Vec<String>,
+    /// Those of `notes` a user must act on: not a node's normal start-up
+    /// (boot-up, pre-operational, operational) but a node stopped, fallen
+    /// back from operational, or silent. Python warns of these alone.
+    pub warnings: Vec<String>,
 }
 
 impl DecodeSummary {
@@ -832,11 +836,49 @@ pub fn decode_rig_frames(
             }
         });
     }
-    summary.notes = heartbeats
-        .into_iter()
-        .map(|(bus, event)| describe_heartbeat(rig, &decoder, bus, event))
-        .collect();
+    let mut start_up = NodesStartingUp::default();
+    for (bus, event) in heartbeats {
+        let note = describe_heartbeat(rig, &decoder, bus, event);
+        if !start_up.is_normal(bus, &event) {
+            summary.warnings.push(note.clone());
+        }
+        summary.notes.push(note);
+    }
     Ok(summary)
+}
+
+/// Which heartbeat events are a node's normal start-up (boot-up,
+/// pre-operational before it has been operational, operational): said,
+/// but nothing to act on. Anything else (stopped, a fall back from
+/// operational, an undefined state, silence) is.
+#[derive(Default)]
+struct NodesStartingUp {
+    /// The (bus, node) pairs that have been operational.
+    operational: Vec<(usize, u8)>,
+}
+
+impl NodesStartingUp {
+    fn is_normal(&mut self, bus: usize, event: &HeartbeatEvent) -> bool {
+        let &HeartbeatEvent::StateChanged { node, state, .. } = event else {
+            return false;
+        };
+        let was_operational = self.operational.contains(&(bus, node));
+        match state {
+            NmtState::BootUp => {
+                // A reboot starts it up again.
+                self.operational.retain(|&known| known != (bus, node));
+                true
+            }
+            NmtState::PreOperational => !was_operational,
+            NmtState::Operational => {
+                if !was_operational {
+                    self.operational.push((bus, node));
+                }
+                true
+            }
+            NmtState::Stopped | NmtState::Unknown(_) => false,
+        }
+    }
 }
 
 fn describe_heartbeat(

@@ -232,7 +232,8 @@ pub fn decode_stream(py: Python<'_>, request: DecodeRequest) -> PyResult<Streame
                 "decode: {name} is a log: give rig= (a rig file) or dbc= (DBC files) to decode it"
             ))),
         }
-        .map(|summary| summary.notes)
+        // A node's normal start-up is no warning: what to act on is.
+        .map(|summary| summary.warnings)
     })
 }
 

@@ -295,9 +295,22 @@ def test_a_stream_stopped_early_and_a_bad_line_in_a_stream(tmp_path: Path) -> No
         acq.decode_batches(broken, dbc=DBC).read_all()
 
 
-def test_device_notes_are_python_warnings() -> None:
-    with pytest.warns(UserWarning, match="CANopen node 0x23 .arm_head_pressure. is Operational"):
+def test_only_what_a_user_must_act_on_is_a_python_warning(tmp_path: Path) -> None:
+    """A node's normal start-up (boot-up, operational) is no warning; a node
+    that stops is, naming it."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any warning fails the test
         acq.decode(SESSION)
+    raw = (SESSION / "raw.log").read_text().splitlines()
+    last = float(raw[-1][1 : raw[-1].index(")")])
+    stopped = tmp_path / "stopped.log"
+    # Node 0x23's heartbeat: state 4, stopped (CiA 301).
+    stopped.write_text("\n".join(raw + [f"({last + 0.001:.6f}) can0 723#04"]) + "\n")
+    with pytest.warns(UserWarning, match="CANopen node 0x23 .arm_head_pressure. is Stopped") as said:
+        acq.decode(stopped, rig=RIG)
+    assert not any("is Operational" in str(w.message) for w in said), [str(w.message) for w in said]
 
 
 def cli_table(tmp_path: Path, *args: str) -> pa.Table:

@@ -66,8 +66,9 @@ def decode(
     are ``time_s`` (UTC timestamp), ``sensor``, ``value`` (null where the
     device sent "not available") and ``unit``; with ``dbc`` (one file or
     several) ``time_s``, ``iface``, ``can_id``, ``message``, ``signal``,
-    ``value``, ``unit`` and, with ``labels=True``, ``label``. Each column's
-    unit is in its field metadata. ``skip_bad=True`` reads past malformed
+    ``value``, ``unit`` and, with ``labels=True``, ``label``. A row per
+    value: each value's unit is its row's ``unit`` (``align``'s wide table
+    has each channel's unit in its field metadata). ``skip_bad=True`` reads past malformed
     lines (counted) instead of stopping at the first.
     """
     table: pa.Table = _acq.decode(

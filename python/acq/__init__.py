@@ -461,6 +461,10 @@ class Run:
         measured = self.summary.get("predictive", {})
         draws: Dict[str, List[float]] = {}
         for row in sorted(rows, key=lambda r: int(r["run"])):
+            # A curve's row is its MAPE at a run, with no draw with error
+            # (empty): no predictive draw of an observed value.
+            if row["with_error"] is None:
+                continue
             draws.setdefault(f"{row['case']}.{row['output']}", []).append(float(row["with_error"]))
         predictive = {name: np.asarray(v).reshape(1, len(v), 1) for name, v in draws.items()}
         observed = {}

@@ -444,6 +444,21 @@ def test_the_posterior_predictive_and_the_observed_data_in_arviz(spring_run: "ac
     assert c_high.min() < float(idata.observed_data["C.u_high_mm"][0]) < c_high.max()
 
 
+def test_a_runs_curve_rows_in_predictive_csv_are_no_draws(spring_run: "acq.Run", tmp_path: Path) -> None:
+    """predictive.csv gives a curve's MAPE per run with `with_error` empty
+    (acq writes no draw with error for a curve): to_arviz() leaves those
+    rows out, and keeps every scalar's draws."""
+    run = tmp_path / "run"
+    shutil.copytree(spring_run.path, run)
+    predictive = run / "predictive.csv"
+    lines = predictive.read_text().splitlines()
+    curve_rows = [f"{k},A,force_curve,{0.5 + 0.01 * k}," for k in range(1, 21)]
+    predictive.write_text("\n".join(lines[:1] + curve_rows + lines[1:]) + "\n")
+    idata = acq.Run(run).to_arviz()
+    assert "A.force_curve" not in idata.posterior_predictive.data_vars
+    assert set(idata.posterior_predictive.data_vars) == set(spring_run.to_arviz().posterior_predictive.data_vars)
+
+
 def test_progress_is_told_of_every_run(
     spring_run: "acq.Run", tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -53,7 +53,7 @@ C. Other record layouts, laid out by hand:
                           last record); BusChannel u8 (1, 2), DataBytes[8]
                           in the record
 D. A logger that writes fixed records and a channel group per bus and id
-   kind (as the issue on real loggers describes newer firmware): one
+   kind (newer logger firmware: virtual constant members, fixed bytes): one
    unsorted DG (u8 record ids), four CAN_DataFrame CGs (buses 1, 2 x
    standard, extended), each record 1 + 21 bytes: f64 ns master (CC 1e-9)
    | ID:29 | DLC:4 = DataLength:4 (CC 5) | DataBytes[8]; BusChannel, IDE

@@ -221,17 +221,7 @@ impl Frame {
                 what,
             });
         }
-        let mut data = [0u8; FD_MAX_LEN];
-        data[..payload.len()].copy_from_slice(payload);
-        Ok(Frame {
-            timestamp_ns,
-            iface,
-            id,
-            kind,
-            direction: None,
-            len: payload.len() as u8,
-            data,
-        })
+        Ok(Frame::from_parts(timestamp_ns, iface, id, kind, payload))
     }
 
     /// A frame of fields already checked (a reader's, a batch's): the

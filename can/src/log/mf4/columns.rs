@@ -15,19 +15,6 @@ use crate::frame::IfaceName;
 use crate::log::batch::FrameBatch;
 use crate::log::record::ReadError;
 
-/// One decoded record onto the batch's columns.
-#[inline(always)]
-fn push(batch: &mut FrameBatch, interface: u16, parts: &FrameParts<'_>) {
-    batch.push_parts(
-        parts.timestamp_ns,
-        interface,
-        parts.id,
-        parts.kind,
-        parts.direction,
-        parts.payload,
-    );
-}
-
 impl Cursor {
     /// Fills `batch` with this group's next frames, up to `max` in all;
     /// `false` at the end of the group. After an error the frames before
@@ -48,9 +35,24 @@ impl Cursor {
             seen: interfaces_seen,
         };
         while batch.len() < max {
-            // The whole records in `buf`, without a call each; then one
-            // record the careful way (a block's end, a cut, a VLSD value
-            // elsewhere, an unknown record id).
+            // The whole records in `buf`, without a call each (plain ones
+            // first, by the loop made for them); then one record the
+            // careful way (a block's end, a cut, a VLSD value elsewhere,
+            // an unknown record id).
+            self.reserve(batch, max);
+            if let Some(plain) = self.plain.as_deref() {
+                let (pos, records) = plain.scan(
+                    &self.buf,
+                    self.record_id_bytes,
+                    self.start,
+                    batch,
+                    max,
+                    start_ns,
+                    |channel, batch| interfaces.index_of(channel, batch).ok(),
+                );
+                self.start = pos;
+                self.records_read += records;
+            }
             self.scan_batch(batch, max, start_ns, &mut interfaces)?;
             if batch.len() >= max {
                 break;
@@ -59,9 +61,27 @@ impl Cursor {
                 return Ok(false);
             };
             let interface = interfaces.index(parts.channel, batch, line)?;
-            push(batch, interface, &parts);
+            parts.push_onto(batch, interface);
         }
         Ok(true)
+    }
+
+    /// Room in `batch` for the frames of the whole records in `buf`: at
+    /// most one per smallest record, and its bytes.
+    fn reserve(&self, batch: &mut FrameBatch, max: usize) {
+        let smallest = self
+            .layouts
+            .iter()
+            .map(|(_, layout)| match layout {
+                Layout::Skip(size) | Layout::Can(size, _) => *size,
+                Layout::Vlsd => 4,
+            })
+            .min()
+            .unwrap_or(1);
+        let bytes = self.buf.len().saturating_sub(self.start);
+        let frames =
+            (bytes / (self.record_id_bytes + smallest).max(1)).min(max.saturating_sub(batch.len()));
+        batch.reserve(frames, bytes.min(frames * 64));
     }
 
     /// Decodes the whole records that are in `buf` into `batch` (up to
@@ -79,19 +99,6 @@ impl Cursor {
         let end = self.buf.len();
         let mut pos = self.start;
         self.vlsd_last.iter_mut().for_each(|last| *last = None);
-        // At most one frame per smallest record in `buf`, and its bytes.
-        let smallest = self
-            .layouts
-            .iter()
-            .map(|(_, layout)| match layout {
-                Layout::Skip(size) | Layout::Can(size, _) => *size,
-                Layout::Vlsd => 4,
-            })
-            .min()
-            .unwrap_or(1);
-        let bytes = end.saturating_sub(pos);
-        let frames = (bytes / (id_bytes + smallest).max(1)).min(max.saturating_sub(batch.len()));
-        batch.reserve(frames, bytes.min(frames * 64));
         while batch.len() < max && pos + id_bytes <= end {
             let index = if id_bytes == 0 {
                 0
@@ -159,7 +166,7 @@ impl Cursor {
                 can.records += 1;
             }
             match decoded {
-                Ok((interface, parts)) => push(batch, interface, &parts),
+                Ok((interface, parts)) => parts.push_onto(batch, interface),
                 Err(expected) => {
                     self.start = pos;
                     return Err(parse(line, expected));

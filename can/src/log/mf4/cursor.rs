@@ -8,6 +8,7 @@ use std::ops::Range;
 
 use super::format::*;
 use super::layout::*;
+use super::plain::PlainGroup;
 use super::source::*;
 use crate::frame::Frame;
 use crate::log::inflate::{InflateJob, Inflater};
@@ -109,6 +110,8 @@ pub(super) struct Cursor {
     pub(super) vlsd_kept: Vec<(u64, Vec<u8>)>,
     /// A frame's record copied aside while its value is found ahead.
     pub(super) aside: Vec<u8>,
+    /// The layouts as the plain records' loop reads them, if they are.
+    pub(super) plain: Option<Box<PlainGroup>>,
 }
 
 impl Cursor {
@@ -148,6 +151,7 @@ impl Cursor {
             vlsd_last: vec![None; layouts.len()],
             vlsd_kept: vec![(u64::MAX, Vec::new()); layouts.len()],
             aside: Vec::new(),
+            plain: PlainGroup::of(record_id_bytes, &layouts).map(Box::new),
             layouts,
         }
     }

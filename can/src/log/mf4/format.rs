@@ -66,24 +66,28 @@ pub(super) fn parse(offset: u64, expected: &'static str) -> ReadError {
     ReadError::Parse(ParseError::at(Place::ByteOffset(offset), expected))
 }
 
+#[inline]
 pub(super) fn u16_at(bytes: &[u8], at: usize) -> Option<u16> {
     Some(u16::from_le_bytes(
         bytes.get(at..at.checked_add(2)?)?.try_into().ok()?,
     ))
 }
 
+#[inline]
 pub(super) fn u32_at(bytes: &[u8], at: usize) -> Option<u32> {
     Some(u32::from_le_bytes(
         bytes.get(at..at.checked_add(4)?)?.try_into().ok()?,
     ))
 }
 
+#[inline]
 pub(super) fn u64_at(bytes: &[u8], at: usize) -> Option<u64> {
     Some(u64::from_le_bytes(
         bytes.get(at..at.checked_add(8)?)?.try_into().ok()?,
     ))
 }
 
+#[inline]
 pub(super) fn f64_at(bytes: &[u8], at: usize) -> Option<f64> {
     u64_at(bytes, at).map(f64::from_bits)
 }

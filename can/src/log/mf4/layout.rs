@@ -11,6 +11,7 @@ use super::source::*;
 use crate::frame::{
     fd_flags, CanId, Direction, FrameKind, IfaceName, CLASSIC_MAX_LEN, FD_DLC_LENGTHS, FD_MAX_LEN,
 };
+use crate::log::batch::FrameBatch;
 use crate::log::record::{ParseError, Place, ReadError};
 
 /// An unsigned little-endian field of a record.
@@ -522,6 +523,22 @@ pub(super) struct FrameParts<'a> {
     pub(super) payload: &'a [u8],
 }
 
+impl FrameParts<'_> {
+    /// This frame onto the batch's columns, on its `interface` (an index
+    /// into the batch's interfaces).
+    #[inline(always)]
+    pub(super) fn push_onto(&self, batch: &mut FrameBatch, interface: u16) {
+        batch.push_parts(
+            self.timestamp_ns,
+            interface,
+            self.id,
+            self.kind,
+            self.direction,
+            self.payload,
+        );
+    }
+}
+
 /// An error frame's details: MF4's error fields are not Linux's.
 const NO_ERROR_DETAILS: [u8; CLASSIC_MAX_LEN] = [0; CLASSIC_MAX_LEN];
 
@@ -576,47 +593,22 @@ pub(super) fn decode<'a>(
             (can_id(bits, extended)?, kind, &[])
         }
         FrameType::Data => {
-            let id = can_id(bits, extended)?;
             let fd = read_member(&layout.edl, record, index)?.unwrap_or(0) != 0;
-            let from_dlc = if fd {
-                FD_DLC_LENGTHS[usize::from(dlc)]
-            } else {
-                usize::from(dlc).min(CLASSIC_MAX_LEN)
-            };
-            let len = read_member(&layout.data_length, record, index)?
-                .map_or(from_dlc, |n| n.min(255) as usize);
+            let data_length = read_member(&layout.data_length, record, index)?;
             let bytes = match (layout.data_bytes, signal) {
                 (Some(Bytes::Fixed { at, len }), _) => &record[at..at + len],
                 (Some(Bytes::Vlsd { .. }), Some(signal)) => signal,
                 _ => &[],
             };
-            let max = if fd { FD_MAX_LEN } else { CLASSIC_MAX_LEN };
-            if len > bytes.len() || len > max {
-                return Err(E_LENGTH);
-            }
-            let kind = if fd {
-                let flags = fd_flags(
+            data_frame(bits, extended, dlc, fd, data_length, bytes, || {
+                Ok((
                     read_member(&layout.brs, record, index)?.unwrap_or(0) != 0,
                     read_member(&layout.esi, record, index)?.unwrap_or(0) != 0,
-                );
-                FrameKind::Fd {
-                    flags: flags & 0x0F,
-                }
-            } else {
-                FrameKind::Data {
-                    len8_dlc: len8_dlc.filter(|_| len == CLASSIC_MAX_LEN),
-                }
-            };
-            (id, kind, &bytes[..len])
+                ))
+            })?
         }
     };
-    let direction = read_member(&layout.dir, record, index)?.map(|dir| {
-        if dir == 0 {
-            Direction::Received
-        } else {
-            Direction::Transmitted
-        }
-    });
+    let direction = read_member(&layout.dir, record, index)?.map(direction);
     Ok(FrameParts {
         timestamp_ns,
         channel,
@@ -625,6 +617,54 @@ pub(super) fn decode<'a>(
         direction,
         payload,
     })
+}
+
+/// A `Dir` member's value: 0 received, else transmitted.
+#[inline(always)]
+pub(super) fn direction(dir: u64) -> Direction {
+    if dir == 0 {
+        Direction::Received
+    } else {
+        Direction::Transmitted
+    }
+}
+
+/// A data frame from its members' values: `bits` of its id, `dlc` (at
+/// most 15), EDL, DataLength if stored, its DataBytes (`bytes`, the
+/// length stored or from the DLC taken from them), and BRS and ESI, read
+/// only for a CAN FD frame.
+#[inline(always)]
+pub(super) fn data_frame(
+    bits: u32,
+    extended: bool,
+    dlc: u8,
+    fd: bool,
+    data_length: Option<u64>,
+    bytes: &[u8],
+    flags: impl FnOnce() -> Result<(bool, bool), &'static str>,
+) -> Result<(CanId, FrameKind, &[u8]), &'static str> {
+    let id = can_id(bits, extended)?;
+    let from_dlc = if fd {
+        FD_DLC_LENGTHS[usize::from(dlc)]
+    } else {
+        usize::from(dlc).min(CLASSIC_MAX_LEN)
+    };
+    let len = data_length.map_or(from_dlc, |n| n.min(255) as usize);
+    let max = if fd { FD_MAX_LEN } else { CLASSIC_MAX_LEN };
+    if len > bytes.len() || len > max {
+        return Err(E_LENGTH);
+    }
+    let kind = if fd {
+        let (bit_rate_switch, error_state) = flags()?;
+        FrameKind::Fd {
+            flags: fd_flags(bit_rate_switch, error_state) & 0x0F,
+        }
+    } else {
+        FrameKind::Data {
+            len8_dlc: (dlc > 8 && len == CLASSIC_MAX_LEN).then_some(dlc),
+        }
+    };
+    Ok((id, kind, &bytes[..len]))
 }
 
 #[inline(always)]
@@ -678,6 +718,7 @@ pub(super) fn whole_ns(ns: f64) -> Option<i64> {
     Some(truncated + i64::from(fraction >= 0.5) - i64::from(fraction <= -0.5))
 }
 
+#[inline(always)]
 pub(super) fn can_id(bits: u32, extended: bool) -> Result<CanId, &'static str> {
     if extended {
         CanId::extended(bits).ok_or(E_CAN_ID)

@@ -99,6 +99,7 @@ mod conversion;
 mod cursor;
 mod format;
 mod layout;
+mod plain;
 mod source;
 
 use cursor::*;

@@ -216,6 +216,18 @@ fn the_study_over_recorded_sessions_is_on_the_page() {
     }
     let chart = page.evaluate("!!window.acqView.studyPlot").unwrap();
     assert_eq!(chart, true, "the interval widths hold by hold are drawn");
+    // Each parameter's R-hat on the page, as the state has it.
+    let rhat_cells = page
+        .evaluate("[...document.querySelectorAll('#study table.study tbody tr')].map((row) => row.cells[6].textContent)")
+        .unwrap();
+    let rhats: Vec<String> = study["order"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|name| study["parameters"][name.as_str().unwrap()]["rhat"].as_f64())
+        .map(|rhat| format!("{rhat:.3}"))
+        .collect();
+    assert_eq!(rhat_cells, serde_json::json!(rhats), "{study}");
     page.screenshot(&artefacts().join("study-recorded.png"))
         .unwrap();
     assert!(
@@ -475,6 +487,15 @@ fn the_loop_closes_on_the_in_process_bus() {
         last["parameters"]["bucket.mass_kg"]["verdict"], "identified",
         "{last}"
     );
+    // An identified parameter's chains have converged, and study.json and
+    // the page say how well: R-hat below 1.01, ESS in the hundreds.
+    let bucket = &last["parameters"]["bucket.mass_kg"];
+    let (rhat, bulk, tail) = (
+        bucket["rhat"].as_f64().unwrap(),
+        bucket["ess_bulk"].as_f64().unwrap(),
+        bucket["ess_tail"].as_f64().unwrap(),
+    );
+    assert!(rhat < 1.01 && bulk >= 100.0 && tail >= 100.0, "{bucket}");
 }
 
 /// `acq calibrate rig SESSION_DIR... --study --next`: the same study over

@@ -880,6 +880,13 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         rect["x"].as_f64().unwrap() + 0.5 * rect["width"].as_f64().unwrap(),
         rect["y"].as_f64().unwrap() + 0.5 * rect["height"].as_f64().unwrap(),
     );
+    let plot_top = |page: &mut LivePage| {
+        page.evaluate("window.acqView.sessions[0].groups[0].plot.over.getBoundingClientRect().y")
+            .unwrap()
+            .as_f64()
+            .unwrap()
+    };
+    let top_before = plot_top(&mut page);
     page.drag(at, at).unwrap();
     let placed: Value = serde_json::from_str(
         page.evaluate("JSON.stringify(window.acqView.sessions[0].cursors)")
@@ -912,6 +919,49 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     let (a, b, difference) = (number(&force[2]), number(&force[3]), number(&force[4]));
     assert!(a.abs() < 1.0 && (b - 40.6).abs() < 1.0, "{force}");
     assert!((difference - (b - a)).abs() < 2e-3, "{force}");
+    // The values' table is below the plots: placing A and B moves no plot
+    // (above them, it pushed them down and a second click missed).
+    assert_eq!(plot_top(&mut page), top_before, "the plots stay put");
+    // A double click resets the plot's y span and places no cursor.
+    page.evaluate("window.acqView.setY(0, 1, [1, 2])").unwrap();
+    let after_double_click = page
+        .evaluate(
+            "(() => { const g = window.acqView.sessions[0].groups[1]; const r = g.plot.over.getBoundingClientRect(); \
+             const at = { clientX: r.x + r.width / 4, clientY: r.y + r.height / 2, bubbles: true }; \
+             for (const [kind, detail] of [['click', 1], ['click', 2], ['dblclick', 2]]) g.plot.over.dispatchEvent(new MouseEvent(kind, { ...at, detail })); \
+             return JSON.stringify([window.acqView.sessions[0].cursors, g.y]); })()",
+        )
+        .unwrap();
+    assert_eq!(
+        after_double_click.as_str().unwrap(),
+        "[[0.5,7],null]",
+        "cursors as before, y following the data again"
+    );
+    // A plot's PNG is on white, with its title and legend below the plot.
+    let png = page
+        .evaluate(
+            "(async () => { const img = new Image(); img.src = window.acqView.plotPng(0, 1); await img.decode(); \
+             const c = document.createElement('canvas'); c.width = img.width; c.height = img.height; \
+             const x = c.getContext('2d', { willReadFrequently: true }); x.drawImage(img, 0, 0); \
+             return JSON.stringify([img.height - window.acqView.sessions[0].groups[1].plot.ctx.canvas.height, \
+               Array.from(x.getImageData(1, 1, 1, 1).data), Array.from(x.getImageData(1, img.height - 2, 1, 1).data)]); })()",
+        )
+        .unwrap();
+    let png: Value = serde_json::from_str(png.as_str().unwrap()).unwrap();
+    assert!(
+        png[0].as_f64().unwrap() > 40.0,
+        "room for the title and legend: {png}"
+    );
+    assert_eq!(
+        png[1],
+        serde_json::json!([255, 255, 255, 255]),
+        "opaque white: {png}"
+    );
+    assert_eq!(
+        png[2],
+        serde_json::json!([255, 255, 255, 255]),
+        "opaque white: {png}"
+    );
     // A y span chosen on a plot holds through redraws until cleared.
     let y_of = |page: &mut LivePage| -> Vec<f64> {
         serde_json::from_str::<Vec<f64>>(

@@ -228,27 +228,32 @@ impl HeartbeatMonitor {
     }
 
     /// Feeds a frame; heartbeats of watched nodes update their state.
-    pub fn on_frame(&mut self, frame: &Frame, mut emit: impl FnMut(HeartbeatEvent)) {
+    ///
+    /// Returns whether the frame is a heartbeat of a watched node (one
+    /// without a change of state emits nothing, and is still the node's).
+    pub fn on_frame(&mut self, frame: &Frame, mut emit: impl FnMut(HeartbeatEvent)) -> bool {
         self.started_ns.get_or_insert(frame.timestamp_ns);
         let Some(node) = heartbeat_node(frame.id) else {
-            return;
+            return false;
         };
         let Some(&byte) = frame.payload().first() else {
-            return;
+            return false;
         };
-        if let Some(watched) = self.nodes.iter_mut().find(|n| n.node == node) {
-            let state = NmtState::from_byte(byte);
-            watched.last_seen_ns = Some(frame.timestamp_ns);
-            watched.lost = false;
-            if watched.state != Some(state) {
-                watched.state = Some(state);
-                emit(HeartbeatEvent::StateChanged {
-                    node,
-                    state,
-                    time_ns: frame.timestamp_ns,
-                });
-            }
+        let Some(watched) = self.nodes.iter_mut().find(|n| n.node == node) else {
+            return false;
+        };
+        let state = NmtState::from_byte(byte);
+        watched.last_seen_ns = Some(frame.timestamp_ns);
+        watched.lost = false;
+        if watched.state != Some(state) {
+            watched.state = Some(state);
+            emit(HeartbeatEvent::StateChanged {
+                node,
+                state,
+                time_ns: frame.timestamp_ns,
+            });
         }
+        true
     }
 
     /// Declares lost every node silent for longer than its timeout at `now_ns`
@@ -349,7 +354,16 @@ mod tests {
         assert!(!monitor.is_alive(0x21));
         monitor.check(4_000_000_000, |e| events.push(e));
         assert_eq!(events.len(), 2, "a loss is reported once");
-        monitor.on_frame(&beat(5_000_000_000), |e| events.push(e));
+        assert!(
+            monitor.on_frame(&beat(5_000_000_000), |e| events.push(e)),
+            "a watched node's heartbeat"
+        );
+        let unchanged = events.len();
+        assert!(
+            monitor.on_frame(&beat(5_500_000_000), |e| events.push(e)),
+            "still the node's heartbeat with no change of state"
+        );
+        assert_eq!(events.len(), unchanged);
         assert!(monitor.is_alive(0x21));
         assert_eq!(monitor.state(0x21), Some(NmtState::Operational));
     }
@@ -359,7 +373,7 @@ mod tests {
         let mut monitor = HeartbeatMonitor::default();
         monitor.watch(5, 1_000);
         let other = Frame::data(10, iface(), CanId::Standard(0x123), &[]).unwrap();
-        monitor.on_frame(&other, |_| {});
+        assert!(!monitor.on_frame(&other, |_| {}), "no heartbeat");
         let mut events = Vec::new();
         monitor.check(2_000, |e| events.push(e));
         assert!(matches!(

@@ -236,9 +236,18 @@ impl Rig {
     /// What each sensor's record says of its calibration on `today`
     /// (`YYYY-MM-DD`): a certificate past its due date, or no certificate
     /// at all, as lines a test engineer acts on.
+    /// Sensors with neither a transducer record nor a certificate share
+    /// one line: a rig of thirty bare channels is one fact, not thirty.
     pub fn calibration_status(&self, today: &str) -> Vec<String> {
-        self.sensors
+        let bare: Vec<&Sensor> = self
+            .sensors
             .iter()
+            .filter(|s| s.record.transducer.is_none() && s.record.certificate.is_none())
+            .collect();
+        let mut lines: Vec<String> = self
+            .sensors
+            .iter()
+            .filter(|s| bare.len() < 2 || !bare.iter().any(|b| std::ptr::eq(*b, *s)))
             .map(|sensor| {
                 let who = match &sensor.record.transducer {
                     Some(t) => {
@@ -277,7 +286,22 @@ impl Rig {
                     ),
                 }
             })
-            .collect()
+            .collect();
+        let scatter_only = bare.iter().filter(|s| s.record.is_empty()).count();
+        if bare.len() >= 2 {
+            let names: Vec<String> = bare.iter().map(|s| format!("'{}'", s.name)).collect();
+            lines.push(format!(
+                "{} sensors ({}): no certificate: {}",
+                bare.len(),
+                names.join(", "),
+                match scatter_only {
+                    n if n == bare.len() => "their uncertainty is the readings' scatter only",
+                    0 => "their data sheets' accuracy and resolution only",
+                    _ => "their data sheets' accuracy and resolution where given, else the readings' scatter only",
+                }
+            ));
+        }
+        lines
     }
 }
 

@@ -178,9 +178,9 @@ impl<'r> SensorDecoder<'r> {
         let Some(bus) = self.bus_of(frame) else {
             return FrameUse::Unknown;
         };
-        let mut protocol = false;
-        self.heartbeats[bus].on_frame(frame, |event| {
-            protocol = true;
+        // A watched node's heartbeat is the rig's protocol, a change of
+        // state or not.
+        let mut protocol = self.heartbeats[bus].on_frame(frame, |event| {
             emit(SensorEvent::Heartbeat { bus, event });
         });
         self.heartbeats[bus].check(frame.timestamp_ns, |event| {

@@ -55,7 +55,19 @@ fn heartbeat_loss_is_reported_once_per_silence() {
     let mut decoder = SensorDecoder::new(&rig);
     let beat = |t: i64| Frame::data(t, iface("can0"), CanId::Standard(0x725), &[0x05]).unwrap();
     let mut events = Vec::new();
-    decoder.decode(&beat(0), |e| events.push(e));
+    // Every heartbeat of the rig's own node is its protocol (the page
+    // lists it as such, not as "no sensor of the rig"), the first (a
+    // change of state) and the ones after (none).
+    assert_eq!(
+        decoder.decode(&beat(0), |e| events.push(e)),
+        FrameUse::Protocol
+    );
+    assert_eq!(
+        decoder.decode(&beat(500_000_000), |e| events.push(e)),
+        FrameUse::Protocol
+    );
+    let stranger = Frame::data(0, iface("can0"), CanId::Standard(0x77F), &[0x05]).unwrap();
+    assert_eq!(decoder.decode(&stranger, |_| {}), FrameUse::Unknown);
     decoder.check_heartbeats(2_000_000_000, |e| events.push(e));
     let losses = |events: &[SensorEvent]| {
         events

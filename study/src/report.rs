@@ -395,7 +395,11 @@ fn write_surrogates(
         settings.pareto_fraction,
         moo.pick_sentence(),
     ));
-    let names: Vec<String> = keys.iter().map(|k| format!("{k} error")).collect();
+    let names: Vec<String> = keys
+        .iter()
+        .zip(study.objective_units())
+        .map(|(k, unit)| format!("{k} error [{unit}]"))
+        .collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     if names.len() >= 2 {
         report.figure(Figure {
@@ -709,13 +713,18 @@ fn chi_square_sentence(what: &str, errors: &[ObservationError], fitted: usize) -
     // Beyond about 3 standard deviations (2 dof) of the chi-square
     // distribution the misfit is more than the instruments explain.
     let limit = dof + 3.0 * (2.0 * dof).sqrt();
+    let observations = acq_report::number::count(n, "observation");
+    let freedom = match dof as usize {
+        1 => "1 degree of freedom".to_string(),
+        dof => format!("{dof} degrees of freedom"),
+    };
     Some(if chi2 <= limit {
         format!(
-            "On the {what} cases, chi-square = {chi2:.2} for {n} observations with uncertainties ({dof:.0} degrees of freedom): the calibrated model agrees with the measurement within what the instruments can tell."
+            "On the {what} cases, chi-square = {chi2:.2} for {observations} with uncertainties ({freedom}): the calibrated model agrees with the measurement within what the instruments can tell."
         )
     } else {
         format!(
-            "On the {what} cases, chi-square = {chi2:.2} for {n} observations with uncertainties ({dof:.0} degrees of freedom, expected at most about {limit:.1}): the misfit is larger than the stated uncertainties explain. Either the model misses an effect or the uncertainties are too small."
+            "On the {what} cases, chi-square = {chi2:.2} for {observations} with uncertainties ({freedom}, expected at most about {limit:.1}): the misfit is larger than the stated uncertainties explain. Either the model misses an effect or the uncertainties are too small."
         )
     })
 }
@@ -725,6 +734,10 @@ fn loss_chart(study: &Study, evaluations: &[Evaluation], target: Option<f64>) ->
     let mut best_so_far = f64::INFINITY;
     let mut running = Vec::new();
     let mut each = Vec::new();
+    // In the order the runs were asked for: a parallel batch logs them as
+    // they finish, and the line would double back.
+    let mut evaluations: Vec<&Evaluation> = evaluations.iter().collect();
+    evaluations.sort_by_key(|e| e.id);
     for e in evaluations {
         if let Ok(y) = &e.outcome {
             let loss = study.loss(y);

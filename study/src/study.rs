@@ -436,6 +436,21 @@ impl Study {
             .collect()
     }
 
+    /// The unit of each of [`Study::objectives`]: `u` (standard
+    /// uncertainties) or `%`.
+    pub fn objective_units(&self) -> Vec<&'static str> {
+        self.cases_with(Role::Fit)
+            .flat_map(|(_, case)| &case.observations)
+            .map(|observation| match &observation.measured {
+                Measured::Scalar {
+                    uncertainty: Some(_),
+                    ..
+                } if self.residuals == Residuals::Normalised => "standard uncertainties",
+                _ => "%",
+            })
+            .collect()
+    }
+
     /// The signed residuals a least-squares search squares and sums, one
     /// per fit observation: a scalar's `(model - measured) / u` with
     /// normalised residuals, else its signed relative error in %; a

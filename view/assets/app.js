@@ -24,6 +24,7 @@
   window.acqView = view;
   view.layoutJson = (i) => layoutJson(view.sessions[i]);
   view.exportCsv = (i) => exportCsv(view.sessions[i]);
+  view.plotPng = (i, plot) => plotPng(view.sessions[i], view.sessions[i].groups[plot]);
   view.setCursors = (i, times) => setCursors(view.sessions[i], times);
   view.setY = (i, plot, span) => setY(view.sessions[i].groups[plot], span);
   view.setOverlay = (i, from, shift) => setOverlay(view.sessions[i], from, shift);
@@ -120,7 +121,7 @@
     s.charts = el('div', { class: 'charts' });
     s.title = el('h2', { text: info.name + (info.live ? ' (recording)' : ' (recorded)') });
     const section = el('section', { class: 'session', 'data-session': String(index) },
-      s.title, controls, s.cursorBox, s.charts);
+      s.title, controls, s.charts, s.cursorBox);
     document.getElementById('sessions').append(section);
     s.xyPlots = [];
     for (const { title, members, xy } of plotsOf(sensors, layout)) {
@@ -146,7 +147,7 @@
     const add = el('select', { class: 'add-signal', title: 'add a signal to this plot' });
     const remove = el('select', { class: 'remove-signal', title: 'remove a signal from this plot' });
     const tools = el('div', { class: 'plot-tools' }, add, remove,
-      el('button', { type: 'button', text: 'PNG', title: 'this plot as it is now, as an image', onclick: () => downloadUrl(`${s.name}-${g.group}.png`, g.plot.ctx.canvas.toDataURL('image/png')) }),
+      el('button', { type: 'button', text: 'PNG', title: 'this plot as it is now, as an image', onclick: () => downloadUrl(`${s.name}-${g.group}.png`, plotPng(s, g)) }),
       el('button', { type: 'button', text: '\u00d7', title: 'close this plot', onclick: () => closePlot(s, g) }));
     g.box = el('div', { class: 'chart' }, heading, tools);
     add.onchange = () => { const k = Number(add.value); if (add.value !== '') { g.members.push(k); rebuildPlot(s, g); } };
@@ -158,6 +159,41 @@
     s.groups.push(g);
     rebuildPlot(s, g);
     return g;
+  }
+
+  // A plot as the PNG a report takes: on white, its session and title
+  // above, each signal's colour and name below (the page's legend is not
+  // on the canvas).
+  function plotPng(s, g) {
+    const entries = g.members.map((k, j) => [colour(j), `${s.sensors[k].name} [${s.sensors[k].unit}]`]);
+    return pngOf(g.plot.ctx.canvas, `${s.name}: ${g.group}`, entries);
+  }
+
+  function pngOf(canvas, title, entries) {
+    const scale = devicePixelRatio || 1;
+    const line = 18 * scale;
+    const rows = Math.ceil(entries.length / 3);
+    const out = document.createElement('canvas');
+    out.width = canvas.width;
+    out.height = canvas.height + line * (1.6 + rows) + 8 * scale;
+    const ctx = out.getContext('2d');
+    ctx.fillStyle = '#ffffff';
+    ctx.fillRect(0, 0, out.width, out.height);
+    ctx.fillStyle = '#1f2328';
+    ctx.font = `bold ${13 * scale}px system-ui, sans-serif`;
+    ctx.fillText(title, 8 * scale, line);
+    ctx.drawImage(canvas, 0, line * 1.6);
+    ctx.font = `${12 * scale}px system-ui, sans-serif`;
+    const width = out.width / 3;
+    entries.forEach(([stroke, label], i) => {
+      const x = 8 * scale + (i % 3) * width;
+      const y = canvas.height + line * 1.6 + line * (Math.floor(i / 3) + 1);
+      ctx.fillStyle = stroke;
+      ctx.fillRect(x, y - 9 * scale, 14 * scale, 4 * scale);
+      ctx.fillStyle = '#1f2328';
+      ctx.fillText(label, x + 20 * scale, y - 3 * scale);
+    });
+    return out.toDataURL('image/png');
   }
 
   function closePlot(s, g) {
@@ -203,6 +239,9 @@
         ready: [(u) => {
           u.over.addEventListener('click', (e) => {
             if (s.dragged) { s.dragged = false; return; }
+            // The second click of a double click places nothing.
+            if (e.detail > 1) return;
+            g.beforeClick = s.cursors.slice();
             const t = u.posToVal(e.offsetX, 'x');
             setCursors(s, s.cursors.length === 1 ? [s.cursors[0], t] : [t]);
           });
@@ -214,7 +253,13 @@
             s.dragged = true;
             setY(g, [Math.min(a, b), Math.max(a, b)]);
           });
-          u.over.addEventListener('dblclick', () => setY(g, null));
+          // A double click resets y only: the cursor its first click
+          // placed is taken back.
+          u.over.addEventListener('dblclick', () => {
+            if (g.beforeClick) setCursors(s, g.beforeClick);
+            g.beforeClick = null;
+            setY(g, null);
+          });
           // Shift + wheel: pan the y axis by a tenth of its span (Chromium
           // turns a Shift + wheel into a horizontal scroll: either delta).
           u.over.addEventListener('wheel', (e) => {
@@ -250,7 +295,7 @@
     p.box = el('div', { class: 'chart' }, el('h3', { text: p.title }),
       el('div', { class: 'plot-tools' },
         pick('x', x, (k) => { p.x = k; }), pick('y', y, (k) => { p.y = k; }),
-        el('button', { type: 'button', text: 'PNG', onclick: () => downloadUrl(`${s.name}-xy.png`, p.canvas.toDataURL('image/png')) }),
+        el('button', { type: 'button', text: 'PNG', onclick: () => downloadUrl(`${s.name}-xy.png`, pngOf(p.canvas, `${s.name}: ${p.title}`, [])) }),
         el('button', { type: 'button', text: '\u00d7', title: 'close this plot', onclick: () => { p.box.remove(); s.xyPlots = s.xyPlots.filter((q) => q !== p); } })),
       p.canvas);
     s.charts.append(p.box);
@@ -311,13 +356,16 @@
   }
 
   // A signal's value at session time t: the middle of the page's column
-  // nearest t, within two column widths (else none).
+  // nearest t, within two column widths or the signal's own sample period
+  // (zoomed in, a 10 Hz signal has a column only every tenth of a second),
+  // else none.
   function valueAt(s, k, t) {
     const source = s.follow || !s.zoomColumns ? s.columns : s.zoomColumns;
+    const period = periodMs(s.sensors[k]) / 1000;
     let best = null;
     for (const [key, c] of source[k]) {
       const d = Math.abs(key / 1000 - t);
-      if (d <= 2 * c[2] && (!best || d < best.d)) best = { d, v: (c[0] + c[1]) / 2 };
+      if (d <= Math.max(2 * c[2], period) && (!best || d < best.d)) best = { d, v: (c[0] + c[1]) / 2 };
     }
     return best ? best.v : null;
   }
@@ -1067,10 +1115,13 @@
         : p.why ? `${p.verdict}: ${p.why}` : p.verdict;
       return el('tr', { class: `verdict-${p.verdict.replace(' ', '-')}` }, cell(name), cell(fmt(p.mean), 'num'),
         cell(`${fmt(p.q05)} \u2026 ${fmt(p.q95)}`, 'num'), cell(`${fmt(p.prior_q05)} \u2026 ${fmt(p.prior_q95)}`, 'num'),
-        el('td', {}, intervalBar(p)), cell(verdict));
+        el('td', {}, intervalBar(p)), cell(verdict),
+        cell(p.rhat == null ? '-' : p.rhat.toFixed(3), 'num'),
+        cell(p.ess_bulk == null ? '-' : p.ess_bulk.toFixed(0), 'num'),
+        cell(p.ess_tail == null ? '-' : p.ess_tail.toFixed(0), 'num'));
     });
     parts.push(el('table', { class: 'study' },
-      el('thead', {}, el('tr', {}, ...['parameter', 'mean', '90 % interval', 'prior 90 %', 'interval (colour) against the prior (grey)', 'verdict'].map((t) => el('th', { text: t })))),
+      el('thead', {}, el('tr', {}, ...['parameter', 'mean', '90 % interval', 'prior 90 %', 'interval (colour) against the prior (grey)', 'verdict', 'R-hat', 'bulk ESS', 'tail ESS'].map((t) => el('th', { text: t })))),
       el('tbody', {}, ...rows)));
     if (study.next) {
       const next = study.next;

@@ -88,6 +88,8 @@ pub fn write_section(
     report.paragraph(convergence_sentence(posterior));
     write_coverage_caveat(report, posterior);
     report.table(marginals_table(posterior, verdicts));
+    report.paragraph("How well the chains estimate each marginal:");
+    report.table(chains_table(posterior));
     report.paragraph(verdicts_in_words(verdicts));
     write_discrepancy(report, posterior);
     write_predictive(report, &posterior.predicted.scalars);
@@ -143,22 +145,16 @@ fn convergence_sentence(posterior: &PosteriorOutcome) -> String {
 
 /// The table of each coordinate's marginal and verdict (a parameter's is
 /// its one verdict, [`crate::verdict`]; the discrepancy's scales are stated
-/// with it, below).
+/// with it, below). The chains' diagnostics are a table of their own: in
+/// one the verdict was pushed past a page's width.
 fn marginals_table(posterior: &PosteriorOutcome, verdicts: &[ParameterVerdict]) -> Table {
     let mut table = Table::new(&[
         "parameter",
         "prior range",
-        "mean",
-        "sd",
-        "5 %",
-        "50 %",
-        "95 %",
-        "90 % interval / range",
+        "median [5 % .. 95 %]",
+        "mean ± sd",
         "90 % HDI",
-        "MCSE of the mean",
-        "R-hat",
-        "bulk ESS",
-        "tail ESS",
+        "90 % interval / range",
         "verdict",
     ]);
     for (index, (name, m)) in posterior.names.iter().zip(&posterior.marginals).enumerate() {
@@ -170,18 +166,32 @@ fn marginals_table(posterior: &PosteriorOutcome, verdicts: &[ParameterVerdict]) 
         table.row(vec![
             name.clone(),
             range,
-            short(m.mean),
-            short(m.sd),
-            short(m.q05),
-            short(m.q50),
-            short(m.q95),
-            format!("{:.0} %", 100.0 * share),
+            format!("{} [{} .. {}]", short(m.q50), short(m.q05), short(m.q95)),
+            format!("{} ± {}", short(m.mean), short(m.sd)),
             format!("{} .. {}", short(m.hdi90.0), short(m.hdi90.1)),
+            format!("{:.0} %", 100.0 * share),
+            verdict,
+        ]);
+    }
+    table
+}
+
+/// Each coordinate's chain diagnostics, as ArviZ's `summary` gives them.
+fn chains_table(posterior: &PosteriorOutcome) -> Table {
+    let mut table = Table::new(&[
+        "parameter",
+        "MCSE of the mean",
+        "R-hat",
+        "bulk ESS",
+        "tail ESS",
+    ]);
+    for (name, m) in posterior.names.iter().zip(&posterior.marginals) {
+        table.row(vec![
+            name.clone(),
             short(m.mcse_mean),
             format!("{:.3}", m.rhat),
             format!("{:.0}", m.ess_bulk),
             format!("{:.0}", m.ess_tail),
-            verdict,
         ]);
     }
     table

@@ -316,6 +316,10 @@ fn parameters_of(posterior: &Posterior) -> (Map<String, Value>, Vec<String>) {
                 "prior_q05": p.prior_q05,
                 "prior_q95": p.prior_q95,
                 "verdict": p.verdict.word(),
+                // NaN (not computable) is written as null.
+                "rhat": p.chains.map(|c| c.rhat),
+                "ess_bulk": p.chains.map(|c| c.ess_bulk),
+                "ess_tail": p.chains.map(|c| c.ess_tail),
                 "confounded": confounded,
                 "why": p.verdict.why(),
             }),

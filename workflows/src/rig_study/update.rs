@@ -113,6 +113,17 @@ pub struct ParameterInterval {
     pub prior_q05: f64,
     pub prior_q95: f64,
     pub verdict: Verdict,
+    /// How well the chains estimate it (`None` for the prior).
+    pub chains: Option<ChainQuality>,
+}
+
+/// One parameter's chain diagnostics, as ArviZ's `summary` gives them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChainQuality {
+    /// Rank-normalised split R-hat.
+    pub rhat: f64,
+    pub ess_bulk: f64,
+    pub ess_tail: f64,
 }
 
 impl ParameterInterval {
@@ -188,6 +199,7 @@ impl RigStudy {
                     prior_q05: q05,
                     prior_q95: q95,
                     verdict: Verdict::Prior,
+                    chains: None,
                 })
                 .collect(),
             covariance: (0..n)
@@ -337,6 +349,11 @@ impl RigStudy {
                     prior_q05,
                     prior_q95,
                     verdict: Verdict::Weak,
+                    chains: Some(ChainQuality {
+                        rhat: marginals[j].rhat,
+                        ess_bulk: marginals[j].ess_bulk,
+                        ess_tail: marginals[j].ess_tail,
+                    }),
                 };
                 let median = quantile(&column, 0.5);
                 interval.verdict = match (
@@ -482,6 +499,7 @@ mod tests {
             prior_q05: 0.0,
             prior_q95: 100.0,
             verdict,
+            chains: None,
         }
     }
 

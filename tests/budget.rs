@@ -519,6 +519,25 @@ fn check_rig_states_each_certificate_and_flags_one_past_its_due_date() {
         text.contains("sensor 'p': no certificate: its uncertainty is the readings' scatter only"),
         "{text}"
     );
+    // A rig of bare channels is one line, not one per sensor.
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/rigs/excavator.toml");
+    let text = stdout(&acq(&["check-rig", path_arg(&shipped)]));
+    let calibration: Vec<&str> = text
+        .lines()
+        .skip_while(|line| !line.starts_with("calibration (today"))
+        .skip(1)
+        .collect();
+    assert_eq!(calibration.len(), 2, "{text}");
+    assert!(
+        calibration.iter().any(|line| line.contains(" sensors ('")
+            && line.ends_with("no certificate: their data sheets' accuracy and resolution only")),
+        "{text}"
+    );
+    assert!(
+        calibration.iter().any(|line| line.contains(" sensors ('")
+            && line.ends_with("no certificate: their uncertainty is the readings' scatter only")),
+        "{text}"
+    );
 }
 
 /// A rest state, a hold and a rest state again, on the excavator rig: the

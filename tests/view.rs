@@ -962,6 +962,29 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         serde_json::json!([255, 255, 255, 255]),
         "opaque white: {png}"
     );
+    // Zoomed in to a fifth of a second, the 10 Hz inclination still reads
+    // at a cursor between its samples (the page's columns are far
+    // narrower than its period there).
+    page.evaluate("window.acqView.showRange(0, [7.0, 7.2])")
+        .unwrap();
+    page.evaluate("window.acqView.setCursors(0, [7.13])")
+        .unwrap();
+    let zoomed: Value = serde_json::from_str(
+        page.evaluate("JSON.stringify(Array.from(document.querySelectorAll('section[data-session=\"0\"] table.cursor-values tr')).map((r) => Array.from(r.children).map((c) => c.textContent)))")
+            .unwrap()
+            .as_str()
+            .unwrap(),
+    )
+    .unwrap();
+    let inclination = zoomed
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r[0] == "arm_inclination")
+        .unwrap_or_else(|| panic!("{zoomed}"));
+    let degrees = number(&inclination[2]);
+    assert!((-50.0..50.0).contains(&degrees), "{inclination}");
+    page.evaluate("window.acqView.showWhole(0)").unwrap();
     // A y span chosen on a plot holds through redraws until cleared.
     let y_of = |page: &mut LivePage| -> Vec<f64> {
         serde_json::from_str::<Vec<f64>>(

@@ -236,72 +236,97 @@ impl Rig {
     /// What each sensor's record says of its calibration on `today`
     /// (`YYYY-MM-DD`): a certificate past its due date, or no certificate
     /// at all, as lines a test engineer acts on.
+    ///
     /// Sensors with neither a transducer record nor a certificate share
-    /// one line: a rig of thirty bare channels is one fact, not thirty.
+    /// a line for each source of their uncertainty: a rig of thirty bare
+    /// channels is one or two facts, not thirty.
     pub fn calibration_status(&self, today: &str) -> Vec<String> {
-        let bare: Vec<&Sensor> = self
+        let bare = |s: &Sensor| s.record.transducer.is_none() && s.record.certificate.is_none();
+        let scatter_only: Vec<&Sensor> = self
             .sensors
             .iter()
-            .filter(|s| s.record.transducer.is_none() && s.record.certificate.is_none())
+            .filter(|s| bare(s) && s.record.is_empty())
+            .collect();
+        let sheet_only: Vec<&Sensor> = self
+            .sensors
+            .iter()
+            .filter(|s| bare(s) && !s.record.is_empty())
             .collect();
         let mut lines: Vec<String> = self
             .sensors
             .iter()
-            .filter(|s| bare.len() < 2 || !bare.iter().any(|b| std::ptr::eq(*b, *s)))
-            .map(|sensor| {
-                let who = match &sensor.record.transducer {
-                    Some(t) => {
-                        let made: Vec<&str> = [t.maker.as_deref(), t.model.as_deref()]
-                            .into_iter()
-                            .flatten()
-                            .collect();
-                        format!(
-                            "sensor '{}' ({}serial {}, {})",
-                            sensor.name,
-                            if made.is_empty() { String::new() } else { format!("{}, ", made.join(" ")) },
-                            t.serial,
-                            t.entered_at
-                        )
-                    }
-                    None => format!("sensor '{}'", sensor.name),
-                };
-                match &sensor.record.certificate {
-                    Some(Certificate { due: Some(due), .. }) if due.as_str() < today => format!(
-                        "{who}: PAST DUE: its calibration was due on {due}; recalibrate it, or know that its certificate no longer vouches for it"
-                    ),
-                    Some(certificate) => format!(
-                        "{who}: certificate {} of {}, calibrated {}, due {}",
-                        certificate.id.as_deref().unwrap_or("(no number)"),
-                        certificate.lab.as_deref().unwrap_or("(no lab)"),
-                        certificate.date.as_deref().unwrap_or("(no date)"),
-                        certificate.due.as_deref().unwrap_or("(no due date)"),
-                    ),
-                    None => format!(
-                        "{who}: no certificate{}",
-                        if sensor.record.is_empty() {
-                            ": its uncertainty is the readings' scatter only"
-                        } else {
-                            ": its data sheet's accuracy and resolution only"
-                        }
-                    ),
-                }
+            .filter(|s| {
+                !(scatter_only.len() > 1 && bare(s) && s.record.is_empty()
+                    || sheet_only.len() > 1 && bare(s) && !s.record.is_empty())
             })
+            .map(|sensor| self.sensor_status(sensor, today))
             .collect();
-        let scatter_only = bare.iter().filter(|s| s.record.is_empty()).count();
-        if bare.len() >= 2 {
-            let names: Vec<String> = bare.iter().map(|s| format!("'{}'", s.name)).collect();
-            lines.push(format!(
-                "{} sensors ({}): no certificate: {}",
-                bare.len(),
-                names.join(", "),
-                match scatter_only {
-                    n if n == bare.len() => "their uncertainty is the readings' scatter only",
-                    0 => "their data sheets' accuracy and resolution only",
-                    _ => "their data sheets' accuracy and resolution where given, else the readings' scatter only",
-                }
-            ));
+        for (group, source) in [
+            (
+                &sheet_only,
+                "their data sheets' accuracy and resolution only",
+            ),
+            (
+                &scatter_only,
+                "their uncertainty is the readings' scatter only",
+            ),
+        ] {
+            if group.len() < 2 {
+                continue;
+            }
+            let who = if group.len() == self.sensors.len() {
+                format!("every sensor ({})", group.len())
+            } else {
+                let names: Vec<String> = group.iter().map(|s| format!("'{}'", s.name)).collect();
+                format!("{} sensors ({})", group.len(), names.join(", "))
+            };
+            lines.push(format!("{who}: no certificate: {source}"));
         }
         lines
+    }
+
+    /// One sensor's calibration, as [`Rig::calibration_status`] says it.
+    fn sensor_status(&self, sensor: &Sensor, today: &str) -> String {
+        let who = match &sensor.record.transducer {
+            Some(t) => {
+                let made: Vec<&str> = [t.maker.as_deref(), t.model.as_deref()]
+                    .into_iter()
+                    .flatten()
+                    .collect();
+                format!(
+                    "sensor '{}' ({}serial {}, {})",
+                    sensor.name,
+                    if made.is_empty() {
+                        String::new()
+                    } else {
+                        format!("{}, ", made.join(" "))
+                    },
+                    t.serial,
+                    t.entered_at
+                )
+            }
+            None => format!("sensor '{}'", sensor.name),
+        };
+        match &sensor.record.certificate {
+            Some(Certificate { due: Some(due), .. }) if due.as_str() < today => format!(
+                "{who}: PAST DUE: its calibration was due on {due}; recalibrate it, or know that its certificate no longer vouches for it"
+            ),
+            Some(certificate) => format!(
+                "{who}: certificate {} of {}, calibrated {}, due {}",
+                certificate.id.as_deref().unwrap_or("(no number)"),
+                certificate.lab.as_deref().unwrap_or("(no lab)"),
+                certificate.date.as_deref().unwrap_or("(no date)"),
+                certificate.due.as_deref().unwrap_or("(no due date)"),
+            ),
+            None => format!(
+                "{who}: no certificate{}",
+                if sensor.record.is_empty() {
+                    ": its uncertainty is the readings' scatter only"
+                } else {
+                    ": its data sheet's accuracy and resolution only"
+                }
+            ),
+        }
     }
 }
 

@@ -25,6 +25,8 @@
   view.layoutJson = (i) => layoutJson(view.sessions[i]);
   view.exportCsv = (i) => exportCsv(view.sessions[i]);
   view.plotPng = (i, plot) => plotPng(view.sessions[i], view.sessions[i].groups[plot]);
+  view.showRange = (i, range) => showRange(view.sessions[i], range);
+  view.showWhole = (i) => showWhole(view.sessions[i]);
   view.setCursors = (i, times) => setCursors(view.sessions[i], times);
   view.setY = (i, plot, span) => setY(view.sessions[i].groups[plot], span);
   view.setOverlay = (i, from, shift) => setOverlay(view.sessions[i], from, shift);
@@ -518,9 +520,9 @@
 
   function showWhole(s) {
     s.follow = false;
-    getJson('/api/state').then((state) => {
+    return getJson('/api/state').then((state) => {
       const info = state.sessions[s.index];
-      if (info.span_s) showRange(s, info.span_s);
+      return info.span_s ? showRange(s, info.span_s) : null;
     });
   }
 
@@ -691,8 +693,14 @@
     shift.onchange = apply;
     const align = el('button', { type: 'button', text: 'Align first holds', onclick: () => {
       const other = pick.value === '' ? null : view.sessions[Number(pick.value)];
-      if (!other || !s.holds.length || !other.holds.length) {
-        banner('Align first holds: both sessions need a hold (choose a session to overlay first).');
+      // Say which of the two is missing: a session to overlay, or a hold.
+      const noHold = [s, other].filter((x) => x && !x.holds.length).map((x) => x.name);
+      if (!other) {
+        banner('Align first holds: choose a session to overlay first.');
+        return;
+      }
+      if (noHold.length) {
+        banner(`Align first holds: ${noHold.join(' and ')} ${noHold.length > 1 ? 'have' : 'has'} no hold (steady stretches, as acq extract finds them); set the shift by hand.`);
         return;
       }
       shift.value = String(Number((s.holds[0].start_s - other.holds[0].start_s).toFixed(3)));

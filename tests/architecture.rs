@@ -10,6 +10,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+#[path = "common/pages.rs"]
+mod pages;
+
 /// Each workspace crate and the workspace crates it may depend on (normal or
 /// build dependencies; tests and benchmarks may use anything). Read it as
 /// the data flow: a crate sees only the stages before it and the leaves.
@@ -694,19 +697,8 @@ fn collect_rs_files(dir: &Path, files: &mut Vec<PathBuf>) {
     files.sort();
 }
 
-/// The project's own pages: README.md, ARCHITECTURE.md and the guide's
-/// chapters (docs/src).
 fn project_pages() -> Vec<PathBuf> {
-    let root = workspace_root();
-    let mut pages = vec![root.join("README.md"), root.join("ARCHITECTURE.md")];
-    let mut chapters: Vec<PathBuf> = std::fs::read_dir(root.join("docs/src"))
-        .expect("docs/src holds the guide")
-        .map(|entry| entry.unwrap().path())
-        .filter(|path| path.extension().is_some_and(|e| e == "md"))
-        .collect();
-    chapters.sort();
-    pages.extend(chapters);
-    pages
+    pages::project_pages(&workspace_root())
 }
 
 /// The link targets of a Markdown page, outside code blocks and spans.

@@ -2,6 +2,9 @@
 //! binary, the shipped fixtures, exit codes and messages.
 
 mod common;
+// The guide's command lines and quoted outputs against the program.
+#[path = "cli/guide.rs"]
+mod guide;
 use common::{acq, root, stderr, stdout};
 use std::io::Write;
 use std::path::PathBuf;

@@ -58,7 +58,7 @@ fn pip_installs_the_package_and_its_checks_pass() {
     );
     // Every check ran (none skipped for a missing tool).
     assert!(
-        said.contains("21 passed") && !said.contains("skipped"),
+        said.contains("22 passed") && !said.contains("skipped"),
         "{said}"
     );
 

@@ -327,7 +327,7 @@ def calibrate(
     in a notebook, a line in a terminal); a function is called after
     every run with a dict of ``done``, ``total`` (the budget), ``failed``,
     ``reused`` (from the log of a resumed study), ``best_loss`` and
-    ``elapsed_s``. The progress lines on stderr are printed either way.
+    ``elapsed_s``. The progress lines go to ``sys.stderr`` either way.
     """
     observer: Optional[Callable[[Dict[str, Any]], None]] = None
     bar: Any = None

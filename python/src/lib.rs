@@ -374,6 +374,16 @@ fn version() -> &'static str {
 
 #[pymodule]
 fn _acq(module: &Bound<'_, PyModule>) -> PyResult<()> {
+    // A study's progress lines through Python's sys.stderr: a notebook
+    // shows it, and the process's file descriptor 2 it does not.
+    acq_study::progress::route_lines(Some(Box::new(|text: &str| {
+        Python::attach(|py| {
+            if let Ok(stderr) = py.import("sys").and_then(|sys| sys.getattr("stderr")) {
+                let _ = stderr.call_method1("write", (text,));
+                let _ = stderr.call_method0("flush");
+            }
+        });
+    })));
     module.add_function(wrap_pyfunction!(decode, module)?)?;
     module.add_function(wrap_pyfunction!(align, module)?)?;
     module.add_function(wrap_pyfunction!(holds, module)?)?;

@@ -495,6 +495,16 @@ def test_a_progress_bar_with_tqdm(
     assert f"{run.summary['evaluations']}/30" in bar, bar[-300:]
 
 
+def test_the_progress_lines_go_through_sys_stderr(
+    spring_run: "acq.Run", tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """A notebook shows sys.stderr, not file descriptor 2: the study's own
+    progress lines (no bar asked for) reach the former."""
+    run = acq.calibrate(spring_run.path.parent / "spec.toml", out=tmp_path / "lines", model=spring)
+    err = capsys.readouterr().err
+    assert f"{run.summary['evaluations']}/30 evaluations" in err, err[-300:]
+
+
 def test_the_guides_worked_example_runs(tmp_path: Path) -> None:
     """docs/src/python.md's cells, as one script, from the repository root."""
     import re

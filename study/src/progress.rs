@@ -1,10 +1,42 @@
 //! The progress line of a calibration on stderr: a bar redrawn in place on a
 //! terminal, a plain line every tenth of the budget (and at the end)
-//! otherwise, so CI logs stay short.
+//! otherwise, so CI logs stay short. A host may take the lines instead
+//! ([`route_lines`]): the Python package hands them to `sys.stderr`, which
+//! a notebook shows and the process's file descriptor 2 is not.
 
 use std::io::{IsTerminal, Write};
-use std::sync::Mutex;
+use std::sync::{Mutex, RwLock};
 use std::time::Instant;
+
+/// Where a host wants the progress lines, each with its newline.
+type LineSink = Box<dyn Fn(&str) + Send + Sync>;
+
+/// Process-wide, as stderr itself is.
+static LINES: RwLock<Option<LineSink>> = RwLock::new(None);
+
+/// Sends every progress line to `sink` from now on (`None`: stderr again).
+/// Routed lines are plain lines, never a bar redrawn in place.
+pub fn route_lines(sink: Option<LineSink>) {
+    if let Ok(mut lines) = LINES.write() {
+        *lines = sink;
+    }
+}
+
+fn routed() -> bool {
+    LINES.read().is_ok_and(|lines| lines.is_some())
+}
+
+/// One plain line, to the host's sink or stderr.
+fn print_line(line: &str) {
+    match LINES.read() {
+        Ok(lines) if lines.is_some() => {
+            if let Some(sink) = lines.as_ref() {
+                sink(&format!("{line}\n"));
+            }
+        }
+        _ => eprintln!("{line}"),
+    }
+}
 
 /// The numbers of the progress line, for a host that draws its own bar
 /// (a notebook's).
@@ -50,7 +82,7 @@ impl<'a> Progress<'a> {
         Progress {
             label: label.into(),
             total: total.max(1),
-            terminal: std::io::stderr().is_terminal(),
+            terminal: !routed() && std::io::stderr().is_terminal(),
             state: Mutex::new(State {
                 done: 0,
                 failed: 0,
@@ -107,7 +139,7 @@ impl<'a> Progress<'a> {
             if decile > state.last_plain_decile {
                 state.last_plain_decile = decile;
                 state.last_plain_done = state.done;
-                eprintln!("{line}");
+                print_line(&line);
             }
         }
     }
@@ -162,7 +194,7 @@ impl<'a> Progress<'a> {
             eprintln!();
         } else if let Ok(state) = self.state.lock() {
             if state.done > state.last_plain_done {
-                eprintln!("{}", self.line(&state));
+                print_line(&self.line(&state));
             }
         }
     }

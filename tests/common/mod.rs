@@ -7,6 +7,7 @@ pub mod calculix;
 pub mod coverage;
 pub mod interfaces;
 pub mod memory_recorder;
+pub mod pages;
 pub mod peers;
 pub mod pipeline;
 pub mod report;

@@ -529,6 +529,22 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
         .find(|line| line.trim_start().starts_with("bucket.mass_kg = "))
         .unwrap_or_else(|| panic!("{stdout}"));
     assert!(mass.contains("on its upper bound 350"), "{mass}");
+    // How well the chains converged, in one line with the state's numbers.
+    let state: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let worst_rhat = state["parameters"]
+        .as_object()
+        .unwrap()
+        .values()
+        .filter_map(|p| p["rhat"].as_f64())
+        .fold(f64::NAN, f64::max);
+    let chains = lines
+        .iter()
+        .find(|line| line.trim_start().starts_with("chains: R-hat "))
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(
+        chains.contains(&format!("R-hat {worst_rhat:.3} at most")),
+        "{chains}"
+    );
     let said = *lines
         .iter()
         .find(|line| line.starts_with("next: set "))

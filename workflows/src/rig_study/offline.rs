@@ -169,6 +169,22 @@ fn answer_lines(study: &RigStudy, panel: &serde_json::Value) -> Vec<String> {
             p["verdict"].as_str().unwrap_or("?"),
         ));
     }
+    // The chains in one line, as `acq calibrate` says them: the worst
+    // R-hat and the least ESS over the parameters (none for the prior).
+    let worst = |key: &str, pick: fn(f64, f64) -> f64| {
+        panel_parameters(panel)
+            .filter_map(|(_, p)| p[key].as_f64())
+            .reduce(pick)
+    };
+    if let (Some(rhat), Some(bulk), Some(tail)) = (
+        worst("rhat", f64::max),
+        worst("ess_bulk", f64::min),
+        worst("ess_tail", f64::min),
+    ) {
+        lines.push(format!(
+            "  chains: R-hat {rhat:.3} at most, bulk ESS {bulk:.0} and tail ESS {tail:.0} at least"
+        ));
+    }
     lines
 }
 

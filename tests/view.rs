@@ -1095,6 +1095,20 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     page.evaluate("window.acqView.setOverlay(0, null, 0)")
         .unwrap();
     let saved = page.evaluate("window.acqView.layoutJson(0)").unwrap();
+    // A layout loaded later replaces the plots, as --layout sets them at
+    // start; what is no layout says so.
+    let replaced = page
+        .evaluate("window.acqView.applyLayout(0, { format: 1, plots: [{ title: 'just the force', signals: ['tip_force'] }] }); \
+                   JSON.stringify([window.acqView.sessions[0].groups.map((g) => [g.group, g.members.length]), window.acqView.sessions[0].xyPlots.length])")
+        .unwrap();
+    assert_eq!(replaced.as_str().unwrap(), r#"[[["just the force",1]],0]"#);
+    let refused = page
+        .evaluate("window.acqView.applyLayout(0, { signals: [] }); document.getElementById('banner').textContent")
+        .unwrap();
+    assert!(
+        refused.as_str().unwrap().contains("not a layout file"),
+        "{refused}"
+    );
     assert_eq!(page.console_errors(), &[] as &[String]);
     page.close();
     assert_eq!(view.interrupt(), 0);

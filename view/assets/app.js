@@ -27,6 +27,7 @@
   view.plotPng = (i, plot) => plotPng(view.sessions[i], view.sessions[i].groups[plot]);
   view.showRange = (i, range) => showRange(view.sessions[i], range);
   view.showWhole = (i) => showWhole(view.sessions[i]);
+  view.applyLayout = (i, layout) => applyLayout(view.sessions[i], layout);
   view.setCursors = (i, times) => setCursors(view.sessions[i], times);
   view.setY = (i, plot, span) => setY(view.sessions[i].groups[plot], span);
   view.setOverlay = (i, from, shift) => setOverlay(view.sessions[i], from, shift);
@@ -111,10 +112,24 @@
       button('New plot', () => { addPlot(s, 'new plot', []); }),
       button('New XY plot', () => { addXyPlot(s, 0, Math.min(1, s.sensors.length - 1)); }),
       button('Save layout', () => download('layout.json', layoutJson(s), 'application/json')),
+      button('Load layout', () => s.layoutPicker.click()),
       button('Export CSV', () => download(`${s.name}.csv`, exportCsv(s), 'text/csv')),
       button('Clear cursors', () => setCursors(s, [])),
       mode);
     s.controls = controls;
+    // A layout file chosen later replaces the plots, as --layout sets them at start.
+    s.layoutPicker = el('input', { type: 'file', accept: '.json,application/json', hidden: '' });
+    s.layoutPicker.onchange = async () => {
+      const file = s.layoutPicker.files[0];
+      if (!file) return;
+      try {
+        applyLayout(s, JSON.parse(await file.text()));
+      } catch (e) {
+        banner(`Load layout: ${file.name} is not JSON (${e.message})`);
+      }
+      s.layoutPicker.value = '';
+    };
+    controls.append(s.layoutPicker);
     s.overlay = null;
     s.cursors = [];
     s.cursorBox = el('div', { class: 'cursors' });
@@ -409,6 +424,22 @@
   // The y axis's units: those of the plot's signals, once each.
   function unitsOf(s, members) {
     return Array.from(new Set(members.map((k) => s.sensors[k].unit))).join(', ');
+  }
+
+  // Replaces the session's plots by a layout's (what Save layout writes).
+  function applyLayout(s, layout) {
+    if (!layout || !Array.isArray(layout.plots)) {
+      banner('Load layout: not a layout file: it needs "plots", as Save layout writes them');
+      return;
+    }
+    for (const g of s.groups.slice()) closePlot(s, g);
+    for (const p of s.xyPlots) p.box.remove();
+    s.xyPlots = [];
+    for (const { title, members, xy } of plotsOf(s.sensors, layout)) {
+      if (xy) addXyPlot(s, xy[0], xy[1], title);
+      else addPlot(s, title, members);
+    }
+    renderCursors(s);
   }
 
   // The plots as a layout file (`acq view --layout FILE` loads it).

@@ -902,19 +902,23 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     );
     page.evaluate("window.acqView.setCursors(0, [0.5, 7.0])")
         .unwrap();
-    let readout: Value = serde_json::from_str(
-        page.evaluate("JSON.stringify(Array.from(document.querySelectorAll('section[data-session=\"0\"] table.cursor-values tr')).map((r) => Array.from(r.children).map((c) => c.textContent)))")
+    // The cursors' table's row of a signal: name, unit, A (, B, B - A).
+    let cursor_row = |page: &mut LivePage, signal: &str| -> Value {
+        let rows: Value = serde_json::from_str(
+            page.evaluate("JSON.stringify(Array.from(document.querySelectorAll('section[data-session=\"0\"] table.cursor-values tr')).map((r) => Array.from(r.children).map((c) => c.textContent)))")
+                .unwrap()
+                .as_str()
+                .unwrap(),
+        )
+        .unwrap();
+        rows.as_array()
             .unwrap()
-            .as_str()
-            .unwrap(),
-    )
-    .unwrap();
-    let force = readout
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|r| r[0] == "tip_force")
-        .unwrap_or_else(|| panic!("{readout}"));
+            .iter()
+            .find(|r| r[0] == signal)
+            .cloned()
+            .unwrap_or_else(|| panic!("{rows}"))
+    };
+    let force = cursor_row(&mut page, "tip_force");
     let number = |v: &Value| v.as_str().unwrap().parse::<f64>().unwrap();
     let (a, b, difference) = (number(&force[2]), number(&force[3]), number(&force[4]));
     assert!(a.abs() < 1.0 && (b - 40.6).abs() < 1.0, "{force}");
@@ -969,19 +973,7 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         .unwrap();
     page.evaluate("window.acqView.setCursors(0, [7.13])")
         .unwrap();
-    let zoomed: Value = serde_json::from_str(
-        page.evaluate("JSON.stringify(Array.from(document.querySelectorAll('section[data-session=\"0\"] table.cursor-values tr')).map((r) => Array.from(r.children).map((c) => c.textContent)))")
-            .unwrap()
-            .as_str()
-            .unwrap(),
-    )
-    .unwrap();
-    let inclination = zoomed
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|r| r[0] == "arm_inclination")
-        .unwrap_or_else(|| panic!("{zoomed}"));
+    let inclination = cursor_row(&mut page, "arm_inclination");
     let degrees = number(&inclination[2]);
     assert!((-50.0..50.0).contains(&degrees), "{inclination}");
     page.evaluate("window.acqView.showWhole(0)").unwrap();

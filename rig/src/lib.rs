@@ -256,8 +256,12 @@ impl Rig {
             .sensors
             .iter()
             .filter(|s| {
-                !(scatter_only.len() > 1 && bare(s) && s.record.is_empty()
-                    || sheet_only.len() > 1 && bare(s) && !s.record.is_empty())
+                let group = if s.record.is_empty() {
+                    &scatter_only
+                } else {
+                    &sheet_only
+                };
+                !(bare(s) && group.len() > 1)
             })
             .map(|sensor| self.sensor_status(sensor, today))
             .collect();

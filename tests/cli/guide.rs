@@ -79,9 +79,9 @@ fn command_lines(block: &Block) -> Vec<(usize, String)> {
     commands
 }
 
-/// The options of `acq PATH --help` (long and short), and whether the
-/// command has subcommands of its own.
-fn help_of(path: &[&str]) -> Option<(BTreeSet<String>, bool)> {
+/// The options of `acq PATH --help`, one set per option (its short and
+/// long forms), and whether the command has subcommands of its own.
+fn help_of(path: &[&str]) -> Option<(Vec<BTreeSet<String>>, bool)> {
     let mut args = path.to_vec();
     args.push("--help");
     let output = acq(&args);
@@ -89,18 +89,18 @@ fn help_of(path: &[&str]) -> Option<(BTreeSet<String>, bool)> {
         return None;
     }
     let text = stdout(&output);
-    let mut options = BTreeSet::new();
-    for line in text.lines() {
-        let line = line.trim_start();
-        if !line.starts_with('-') {
-            continue;
-        }
-        for word in line.split([' ', ',']).take(3) {
-            if word.starts_with('-') && word.len() > 1 {
-                options.insert(word.split('=').next().unwrap().to_string());
-            }
-        }
-    }
+    let options = text
+        .lines()
+        .map(str::trim_start)
+        .filter(|line| line.starts_with('-'))
+        .map(|line| {
+            line.split([' ', ','])
+                .take(3)
+                .filter(|word| word.starts_with('-') && word.len() > 1)
+                .map(|word| word.split('=').next().unwrap().to_string())
+                .collect()
+        })
+        .collect();
     Some((options, text.contains("\nCommands:")))
 }
 
@@ -122,7 +122,8 @@ fn options_named(command: &str) -> BTreeSet<String> {
 
 #[test]
 fn every_command_line_of_the_guide_names_the_options_acq_has() {
-    let mut helps: BTreeMap<Vec<String>, Option<(BTreeSet<String>, bool)>> = BTreeMap::new();
+    type Help = Option<(Vec<BTreeSet<String>>, bool)>;
+    let mut helps: BTreeMap<Vec<String>, Help> = BTreeMap::new();
     let mut wrong = Vec::new();
     let mut checked = 0;
     for page in pages() {
@@ -168,7 +169,8 @@ fn every_command_line_of_the_guide_names_the_options_acq_has() {
                 }
                 checked += 1;
                 let named = options_named(&command);
-                for option in named.difference(&options) {
+                let known: BTreeSet<String> = options.iter().flatten().cloned().collect();
+                for option in named.difference(&known) {
                     wrong.push(format!(
                         "{name}:{line}: `acq {}` has no option {option}",
                         path.join(" ")
@@ -187,16 +189,12 @@ fn every_command_line_of_the_guide_names_the_options_acq_has() {
                     continue;
                 }
                 let (options, _) = helps[&path].clone().unwrap();
+                // An option is named by either of its forms.
                 let missing: Vec<&String> = options
                     .iter()
-                    .filter(|o| !matches!(o.as_str(), "-h" | "--help" | "-V" | "--version"))
-                    .filter(|o| !named.contains(*o))
-                    .collect();
-                // A long option counts as named when its short form is.
-                let missing: Vec<&&String> = missing
-                    .iter()
-                    .filter(|o| !o.starts_with("--") || !short_named(&path, o, &named))
-                    .filter(|o| o.starts_with("--") || !long_named(&path, o, &named))
+                    .filter(|forms| !forms.iter().any(|f| matches!(f.as_str(), "-h" | "-V")))
+                    .filter(|forms| forms.is_disjoint(&named))
+                    .filter_map(|forms| forms.last())
                     .collect();
                 if !missing.is_empty() {
                     wrong.push(format!(
@@ -212,30 +210,6 @@ fn every_command_line_of_the_guide_names_the_options_acq_has() {
         "only {checked} command lines found in the guide"
     );
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
-}
-
-/// The help line that names both `option` and another of `named`.
-fn pair_named(path: &[String], option: &str, named: &BTreeSet<String>) -> bool {
-    let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
-    args.push("--help");
-    let text = stdout(&acq(&args));
-    text.lines().any(|line| {
-        let words: Vec<&str> = line
-            .trim_start()
-            .split([' ', ','])
-            .filter(|w| w.starts_with('-'))
-            .take(2)
-            .collect();
-        words.contains(&option) && words.iter().any(|w| *w != option && named.contains(*w))
-    })
-}
-
-fn short_named(path: &[String], long: &str, named: &BTreeSet<String>) -> bool {
-    pair_named(path, long, named)
-}
-
-fn long_named(path: &[String], short: &str, named: &BTreeSet<String>) -> bool {
-    pair_named(path, short, named)
 }
 
 /// A guide's token against acq's: equal as text, or as numbers at the

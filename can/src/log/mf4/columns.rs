@@ -72,10 +72,8 @@ impl Cursor {
         let smallest = self
             .layouts
             .iter()
-            .map(|(_, layout)| match layout {
-                Layout::Skip(size) | Layout::Can(size, _) => *size,
-                Layout::Vlsd => 4,
-            })
+            // A VLSD record is its length and at least nothing.
+            .map(|(_, layout)| layout.record_bytes().unwrap_or(4))
             .min()
             .unwrap_or(1);
         let bytes = self.buf.len().saturating_sub(self.start);

@@ -123,10 +123,7 @@ impl Cursor {
         let longest_record = record_id_bytes
             + layouts
                 .iter()
-                .map(|(_, layout)| match layout {
-                    Layout::Skip(size) | Layout::Can(size, _) => *size,
-                    Layout::Vlsd => 0,
-                })
+                .filter_map(|(_, layout)| layout.record_bytes())
                 .max()
                 .unwrap_or(0);
         Cursor {

@@ -227,6 +227,16 @@ pub(super) enum Layout {
     Can(usize, Box<CanLayout>),
 }
 
+impl Layout {
+    /// The size of its records, `None` for VLSD records (each its own).
+    pub(super) fn record_bytes(&self) -> Option<usize> {
+        match self {
+            Layout::Skip(size) | Layout::Can(size, _) => Some(*size),
+            Layout::Vlsd => None,
+        }
+    }
+}
+
 /// A channel's fields as far as the layout needs them.
 pub(super) struct Channel {
     pub(super) offset: u64,

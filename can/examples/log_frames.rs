@@ -33,8 +33,12 @@ fn main() {
     };
     let started = Instant::now();
     let file = File::open(path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    let len = file.metadata().map(|meta| meta.len()).ok();
     let (mut reader, format) =
         LogReader::detect(BufReader::with_capacity(256 * 1024, file)).expect("read");
+    if let Some(len) = len {
+        reader.expect_len(len);
+    }
     let mut frames = 0u64;
     let mut batch = FrameBatch::default();
     let mut more = true;

@@ -49,11 +49,13 @@ pub enum CanId {
 
 impl CanId {
     /// A standard id, or `None` if it does not fit in 11 bits.
+    #[inline]
     pub fn standard(id: u16) -> Option<Self> {
         (id <= MAX_STANDARD_ID).then_some(CanId::Standard(id))
     }
 
     /// An extended id, or `None` if it does not fit in 29 bits.
+    #[inline]
     pub fn extended(id: u32) -> Option<Self> {
         (id <= MAX_EXTENDED_ID).then_some(CanId::Extended(id))
     }

@@ -123,29 +123,36 @@ pub fn open_session_log(path: &Path) -> Result<LogInput> {
 }
 
 fn open_log_as(path: &Path, format: Option<LogFormat>) -> Result<LogInput> {
-    let (name, raw): (String, Box<dyn BufRead>) = if path.as_os_str() == "-" {
+    let (name, raw, len): (String, Box<dyn BufRead>, _) = if path.as_os_str() == "-" {
         note_input(path);
         (
             "<stdin>".into(),
             Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, io::stdin())),
+            None,
         )
     } else {
         let file = File::open(path).map_err(|e| AcqError::open(path, e))?;
         note_input(path);
+        let len = file.metadata().map(|meta| meta.len()).ok();
         (
             path.display().to_string(),
             Box::new(BufReader::with_capacity(READ_BUFFER_BYTES, file)),
+            len,
         )
     };
-    match format {
-        Some(format) => Ok(LogInput {
+    let mut log = match format {
+        Some(format) => LogInput {
             name,
             format,
             reader: LogReader::with_format(raw, format),
             notes: Vec::new(),
-        }),
-        None => log_from_reader(name, raw),
+        },
+        None => log_from_reader(name, raw)?,
+    };
+    if let Some(len) = len {
+        log.reader.expect_len(len);
     }
+    Ok(log)
 }
 
 impl LogInput {

@@ -105,7 +105,32 @@ impl FrameBatch {
         self.id.push(id);
         self.kind.push(kind);
         self.direction.push(direction);
-        self.payload.extend_from_slice(payload);
+        self.push_payload(payload);
+    }
+
+    /// Appends the first `len` of `eight` bytes as one frame's payload: a
+    /// copy of a known length and a cut, where a copy of any other
+    /// length is a call to memcpy.
+    #[inline(always)]
+    pub(crate) fn push_payload_of_eight(&mut self, eight: &[u8], len: usize) {
+        let start = self.payload.len();
+        if let Ok(eight) = <&[u8; 8]>::try_from(eight) {
+            self.payload.extend_from_slice(eight);
+        }
+        self.payload.truncate(start + len);
+        self.payload_end.push(self.payload.len() as u32);
+    }
+
+    /// Appends one frame's payload (at most 64 bytes), the other columns
+    /// being filled by the caller.
+    #[inline(always)]
+    pub(crate) fn push_payload(&mut self, payload: &[u8]) {
+        // Most frames carry 8 bytes: a copy of a known length is one
+        // store, where any other length is a call to memcpy.
+        match <&[u8; 8]>::try_from(payload) {
+            Ok(eight) => self.payload.extend_from_slice(eight),
+            Err(_) => self.payload.extend_from_slice(payload),
+        }
         self.payload_end.push(self.payload.len() as u32);
     }
 

@@ -146,6 +146,15 @@ impl<R: BufRead> LogReader<R> {
         }
     }
 
+    /// Tells the reader the input's length in bytes, where its opener
+    /// knows it (a file's metadata): an MF4 file read group by group side
+    /// by side is then kept in memory in one allocation.
+    pub fn expect_len(&mut self, bytes: u64) {
+        if let LogReader::Mf4(reader) = self {
+            reader.expect_len(bytes);
+        }
+    }
+
     /// What the reader has to tell that is no error (a record cut off at
     /// the end of an unfinalized MF4 file), taken once.
     pub fn take_notes(&mut self) -> Vec<String> {

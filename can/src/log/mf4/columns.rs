@@ -40,7 +40,7 @@ impl Cursor {
             // careful way (a block's end, a cut, a VLSD value elsewhere,
             // an unknown record id).
             self.reserve(batch, max);
-            if let Some(plain) = self.plain.as_deref() {
+            if let Some(plain) = self.plain.as_deref_mut() {
                 let (pos, records) = plain.scan(
                     &self.buf,
                     self.record_id_bytes,

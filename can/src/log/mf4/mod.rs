@@ -142,6 +142,7 @@ impl<R: BufRead> Mf4Reader<R> {
                 pos: 0,
                 keep_all: false,
                 seen: Vec::new(),
+                input_len: None,
             },
             opened: false,
             finished: false,
@@ -260,6 +261,13 @@ impl<R: BufRead> Mf4Reader<R> {
             }
         }
         Ok(true)
+    }
+
+    /// Tells the reader the input's length (a file's, from its metadata):
+    /// a file whose groups are read side by side is then kept in memory
+    /// in one allocation (`Source::keep_everything`).
+    pub fn expect_len(&mut self, bytes: u64) {
+        self.source.input_len = Some(bytes);
     }
 
     /// What the reader has to tell that is no error, taken once: a cut
@@ -408,7 +416,9 @@ impl<R: BufRead> Mf4Reader<R> {
         for signal in cursors.iter_mut().flat_map(|c| c.signals.iter_mut()) {
             signal.in_order = unfinalized & UNFINALIZED_VLSD_OFFSETS != 0;
         }
-        source.keep_all = read_side_by_side(&cursors);
+        if read_side_by_side(&cursors) {
+            source.keep_everything();
+        }
         self.heads = vec![None; cursors.len()];
         self.cursors = cursors;
         Ok(())

@@ -19,6 +19,8 @@ pub(super) struct Source<R> {
     pub(super) keep_all: bool,
     /// The offset of every block read as metadata.
     pub(super) seen: Vec<u64>,
+    /// The input's length in bytes, if its opener knows it.
+    pub(super) input_len: Option<u64>,
 }
 
 /// A metadata block in `kept`.
@@ -46,6 +48,27 @@ impl Block {
 }
 
 impl<R: BufRead> Source<R> {
+    /// Keeps every data block read from now on (several groups are read
+    /// side by side), in one allocation where the input's length is
+    /// known: not in one that doubles as it grows, which copies what was
+    /// read each time and touches twice the memory.
+    pub(super) fn keep_everything(&mut self) {
+        self.keep_all = true;
+        self.room_for_all();
+    }
+
+    /// Room in `kept` for the whole input, if its length is known.
+    fn room_for_all(&mut self) {
+        if let Some(len) = self.input_len {
+            // Only room: a length the input does not have costs no memory
+            // touched, and one the allocator refuses is grown to as read.
+            let len = usize::try_from(len).unwrap_or(usize::MAX);
+            let _ = self
+                .kept
+                .try_reserve_exact(len.saturating_sub(self.kept.len()));
+        }
+    }
+
     /// Makes bytes `..end` readable in `kept`; `false` when the file ends
     /// first or they were streamed past.
     pub(super) fn keep_to(&mut self, end: u64) -> io::Result<bool> {
@@ -57,6 +80,11 @@ impl<R: BufRead> Source<R> {
             return Ok(false);
         }
         let want = end - have;
+        if end > self.kept.capacity() as u64 {
+            // Metadata after the data (as asammdf writes it) keeps the
+            // whole file: in one allocation where its length is known.
+            self.room_for_all();
+        }
         // Grows only as bytes arrive: bounded by the input, not by `end`.
         let got = (&mut self.input).take(want).read_to_end(&mut self.kept)? as u64;
         self.pos += got;
@@ -178,10 +206,14 @@ impl<R: BufRead> Source<R> {
         while count > 0 {
             let step = count.min(CHUNK);
             let before = out.len();
-            out.resize(before + step as usize, 0);
-            if self.input.read_exact(&mut out[before..]).is_err() {
-                out.truncate(before);
-                return Err(E_TRUNCATED);
+            // Read into the vector's spare room: no zeroing first.
+            out.reserve(step as usize);
+            match (&mut self.input).take(step).read_to_end(out) {
+                Ok(read) if read as u64 == step => {}
+                _ => {
+                    out.truncate(before);
+                    return Err(E_TRUNCATED);
+                }
             }
             self.pos += step;
             count -= step;

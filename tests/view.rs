@@ -433,6 +433,57 @@ fn demo_view_in_chromium_plots_live_shades_holds_and_matches_extract() {
     }
 }
 
+/// The page while a recording is live, when acq stops serving (killed,
+/// as a crash would): a banner says the connection is lost and what that
+/// means, and the header says it too.
+#[test]
+fn a_lost_connection_is_said_in_a_banner() {
+    let out = tempfile::tempdir().unwrap();
+    let out_dir = out.path().join("demo");
+    let mut demo = Running::start(&["demo", "--out", path_arg(&out_dir), "--view", "127.0.0.1:0"]);
+    let url = url_in(&demo.wait_for("watch the replay live", Duration::from_secs(60)));
+    let mut page = LivePage::open(&url, Duration::from_secs(60)).expect("the page opens");
+    let state = |page: &mut LivePage| -> Value {
+        let js = "JSON.stringify({ updates: window.acqView.updates, \
+                  banner: document.getElementById('banner').hidden ? null : document.getElementById('banner').textContent, \
+                  header: document.getElementById('connection').className })";
+        serde_json::from_str(page.evaluate(js).unwrap().as_str().unwrap()).unwrap()
+    };
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while state(&mut page)["updates"].as_u64().unwrap_or(0) == 0 {
+        assert!(Instant::now() < deadline, "no live update reached the page");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert_eq!(
+        state(&mut page)["banner"],
+        Value::Null,
+        "a banner while live"
+    );
+    drop(demo);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let lost = loop {
+        let now = state(&mut page);
+        if now["banner"].is_string() {
+            break now;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no banner after acq stopped: {now}"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert!(
+        lost["banner"]
+            .as_str()
+            .unwrap()
+            .starts_with("Connection to acq lost"),
+        "{lost}"
+    );
+    assert_eq!(lost["header"], "down", "{lost}");
+    page.screenshot(&artefacts().join("connection-lost.png"))
+        .unwrap();
+}
+
 /// Everything the page reads of a session.
 fn look(view: &acq_view::model::SessionView) -> (String, String, String, String, String, String) {
     (
@@ -1020,6 +1071,21 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
         .collect();
     assert!(rows.len() > 100, "{} rows", rows.len());
     assert!(rows.windows(2).all(|w| w[0][0] < w[1][0]), "time rises");
+    // Every signal has a value in every row from its first sample on (a
+    // 10 Hz inclination too, between its samples): the recording has no
+    // gap.
+    for column in 1..rows[0].len() {
+        let first = rows.iter().position(|r| r[column].is_finite());
+        let first = first.unwrap_or_else(|| panic!("column {column} is empty"));
+        let empty = rows[first..]
+            .iter()
+            .filter(|r| !r[column].is_finite())
+            .count();
+        assert_eq!(
+            empty, 0,
+            "column {column}: {empty} empty cells after the first value"
+        );
+    }
     // sg09 holds at 103 MPa in its hold: the export carries the values.
     assert!(
         rows.iter().any(|r| (r[3] - 103.18).abs() < 1.0),

@@ -453,7 +453,10 @@
 
   // What the plots show now, as CSV: one row per time column in view, each
   // signal's min and max there (the page's own resolution), in the units
-  // the header names.
+  // the header names. A signal slower than the columns keeps its last
+  // column's min and max until its next sample, as the plot draws it; a
+  // cell is empty only before its first sample and in a gap (no sample for
+  // three of its periods), where the plot breaks its line too.
   function exportCsv(s) {
     const members = Array.from(new Set(s.groups.flatMap((g) => g.members)));
     const [x, ...ys] = chartData(s, linesOf(s, members));
@@ -463,10 +466,14 @@
     }));
     const lines = [header.join(',')];
     const [a, b] = s.range || [-Infinity, Infinity];
-    const value = (v) => (v == null ? '' : v);
+    const held = ys.map(() => ['', '']);
     for (let i = 0; i + 1 < x.length; i += 2) {
+      ys.forEach((y, j) => {
+        if (y[i] === null) held[j] = ['', ''];
+        else if (y[i] !== undefined) held[j] = [y[i], y[i + 1]];
+      });
       if (x[i] < a || x[i] > b) continue;
-      lines.push([x[i]].concat(ys.flatMap((y) => [value(y[i]), value(y[i + 1])])).join(','));
+      lines.push([x[i]].concat(held.flat()).join(','));
     }
     return lines.join('\n') + '\n';
   }
@@ -1227,12 +1234,20 @@
     }
     setInterval(() => { refreshXy().catch(() => {}); }, 1000);
     const events = new EventSource(url('/api/events'));
-    events.onopen = () => { connection.textContent = 'live'; connection.className = ''; };
+    const lostText = 'Connection to acq lost: the plots stop here until it is back (the page retries by itself). Whatever acq record wrote before is in the session.';
+    events.onopen = () => {
+      connection.textContent = 'live';
+      connection.className = '';
+      // Back: the banner this page raised for the loss goes.
+      const b = document.getElementById('banner');
+      if (b.textContent.startsWith('Connection to acq lost')) b.hidden = true;
+    };
     events.onerror = () => {
       // After the recording ended, the stream closing is no fault.
       if (!view.sessions.some((s) => s.live)) return;
       connection.textContent = 'disconnected: the recording ended or acq stopped serving (retrying)';
       connection.className = 'down';
+      banner(lostText);
     };
     events.addEventListener('update', (event) => {
       const update = JSON.parse(event.data);

@@ -550,6 +550,29 @@ fn calibrate_rig_names_the_next_point_for_a_finished_study() {
         .find(|line| line.starts_with("next: set "))
         .unwrap_or_else(|| panic!("{stdout}"));
     assert!(said.contains("it should narrow"), "{said}");
+    // The point is not chosen to narrow a parameter the holds and its
+    // prior dispute: the one it names is not in conflict, and those in
+    // conflict are named as not weighed.
+    let conflicts: Vec<&String> = state["parameters"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .filter(|(_, p)| p["verdict"] == "conflict")
+        .map(|(name, _)| name)
+        .collect();
+    assert!(!conflicts.is_empty(), "the example has conflicts: {state}");
+    let narrowed = said["next: set ".len()..]
+        .split("it should narrow ")
+        .nth(1)
+        .and_then(|rest| rest.split(" from ").next())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(!conflicts.iter().any(|c| c.as_str() == narrowed), "{said}");
+    for conflict in &conflicts {
+        assert!(
+            said.contains(conflict.as_str()),
+            "{conflict} not named: {said}"
+        );
+    }
     assert_eq!(
         lines.last().map(|l| l.starts_with("state: ")),
         Some(true),

@@ -15,7 +15,10 @@
 //! `S'_c = S - S J_c' (J_c S J_c' + R_c)^-1 J_c S`,
 //!
 //! whose diagonal says which parameter the point narrows, from what to
-//! what. Both are computed through the Cholesky factor of the small
+//! what. Where only some parameters are of interest (the others nuisance,
+//! or disputed), the criterion is the gain on their marginal, `1/2 log
+//! (det S_ii / det S'_ii)` over their block `i` (Ds-optimality), which is
+//! `EIG_c` when every parameter is of interest. Both are computed through the Cholesky factor of the small
 //! `outputs x outputs` matrix `J_c S J_c' + R_c`, so a thousand candidates
 //! cost a thousand small factorisations. A nonlinear model is as good as
 //! its linearisation over the posterior's width: the caller gives `J_c`
@@ -38,6 +41,9 @@ pub struct Candidate {
 pub struct Gain {
     /// Expected information gain, nats.
     pub information_nats: f64,
+    /// The part of it on the parameters of interest (their marginal's),
+    /// nats: what chooses the candidate.
+    pub interest_nats: f64,
     /// Each parameter's standard deviation after the measurement.
     pub sd_after: Vec<f64>,
 }
@@ -79,6 +85,8 @@ pub enum NextPointError {
     BadUncertainty { candidate: usize, value: f64 },
     #[error("candidate {candidate}: its Jacobian is not finite")]
     NotFinite { candidate: usize },
+    #[error("parameter {index} of interest, of {parameters} parameters")]
+    Interest { index: usize, parameters: usize },
 }
 
 fn to_mat(rows: &[Vec<f64>], columns: usize) -> Mat<f64> {
@@ -86,8 +94,9 @@ fn to_mat(rows: &[Vec<f64>], columns: usize) -> Mat<f64> {
 }
 
 /// What measuring at `candidate` would do to the posterior `covariance`
-/// (square, parameters x parameters). Shapes as [`next_point`] checks them.
-pub fn gain(covariance: &[Vec<f64>], candidate: &Candidate) -> Gain {
+/// (square, parameters x parameters), the parameters of interest those
+/// `interest` indexes. Shapes as [`next_point`] checks them.
+pub fn gain(covariance: &[Vec<f64>], candidate: &Candidate, interest: &[usize]) -> Gain {
     let parameters = covariance.len();
     let s = to_mat(covariance, parameters);
     let j = to_mat(&candidate.jacobian, parameters);
@@ -98,6 +107,7 @@ pub fn gain(covariance: &[Vec<f64>], candidate: &Candidate) -> Gain {
     }
     let unchanged = || Gain {
         information_nats: 0.0,
+        interest_nats: 0.0,
         sd_after: (0..parameters)
             .map(|p| covariance[p][p].max(0.0).sqrt())
             .collect(),
@@ -111,23 +121,48 @@ pub fn gain(covariance: &[Vec<f64>], candidate: &Candidate) -> Gain {
     let log_det_noise: f64 = candidate.noise_sd.iter().map(|sd| 2.0 * sd.ln()).sum();
     // diag(S J' (J S J' + R)^-1 J S).
     let solved = llt.solve(s_jt.transpose().to_owned()); // (J S J' + R)^-1 J S
+    let reduction =
+        |p: usize, q: usize| -> f64 { (0..j.nrows()).map(|k| s_jt[(p, k)] * solved[(k, q)]).sum() };
     let sd_after = (0..parameters)
-        .map(|p| {
-            let reduction: f64 = (0..j.nrows()).map(|k| s_jt[(p, k)] * solved[(k, p)]).sum();
-            (covariance[p][p] - reduction).max(0.0).sqrt()
-        })
+        .map(|p| (covariance[p][p] - reduction(p, p)).max(0.0).sqrt())
         .collect();
+    let information_nats = 0.5 * (log_det_predicted - log_det_noise);
+    let interest_nats = if interest.len() == parameters {
+        information_nats
+    } else {
+        let block = |after: bool| {
+            Mat::from_fn(interest.len(), interest.len(), |a, b| {
+                let (p, q) = (interest[a], interest[b]);
+                covariance[p][q] - if after { reduction(p, q) } else { 0.0 }
+            })
+        };
+        match (log_det(block(false)), log_det(block(true))) {
+            (Some(before), Some(after)) => 0.5 * (before - after),
+            // A block with no variance left: nothing more to learn on it.
+            _ => 0.0,
+        }
+    };
     Gain {
-        information_nats: 0.5 * (log_det_predicted - log_det_noise),
+        information_nats,
+        interest_nats,
         sd_after,
     }
 }
 
-/// The candidate with the largest expected information gain, and what
-/// each would do; `covariance`: the posterior's, parameters x parameters.
+/// log det of a symmetric positive definite matrix; `None` if it is not.
+fn log_det(matrix: Mat<f64>) -> Option<f64> {
+    let llt = matrix.llt(Side::Lower).ok()?;
+    let lower = llt.L();
+    Some((0..lower.nrows()).map(|k| 2.0 * lower[(k, k)].ln()).sum())
+}
+
+/// The candidate with the largest expected information gain on the
+/// parameters `interest` indexes (every parameter: `EIG_c`), and what each
+/// would do; `covariance`: the posterior's, parameters x parameters.
 pub fn next_point(
     covariance: &[Vec<f64>],
     candidates: &[Candidate],
+    interest: &[usize],
 ) -> Result<NextPoint, NextPointError> {
     let parameters = covariance.len();
     if let Some(row) = covariance.iter().find(|r| r.len() != parameters) {
@@ -164,11 +199,17 @@ pub fn next_point(
             return Err(NextPointError::NotFinite { candidate: index });
         }
     }
-    let gains: Vec<Gain> = candidates.iter().map(|c| gain(covariance, c)).collect();
+    if let Some(&index) = interest.iter().find(|&&p| p >= parameters) {
+        return Err(NextPointError::Interest { index, parameters });
+    }
+    let gains: Vec<Gain> = candidates
+        .iter()
+        .map(|c| gain(covariance, c, interest))
+        .collect();
     let best = gains
         .iter()
         .enumerate()
-        .max_by(|a, b| a.1.information_nats.total_cmp(&b.1.information_nats))
+        .max_by(|a, b| a.1.interest_nats.total_cmp(&b.1.interest_nats))
         .map_or(0, |(i, _)| i);
     Ok(NextPoint {
         best,
@@ -229,7 +270,7 @@ mod tests {
             jacobian: vec![vec![j]],
             noise_sd: vec![r],
         };
-        let g = gain(&covariance, &candidate);
+        let g = gain(&covariance, &candidate, &[0]);
         let expected_sd = (sigma * sigma * r * r / (sigma * sigma * j * j + r * r)).sqrt();
         assert!((g.sd_after[0] - expected_sd).abs() < 1e-12, "{g:?}");
         let expected_eig = 0.5 * (1.0 + j * j * sigma * sigma / (r * r)).ln();
@@ -249,12 +290,58 @@ mod tests {
             jacobian: vec![vec![0.0, 1.0]],
             noise_sd: vec![0.5],
         };
-        let next = next_point(&covariance, &[sees_a, sees_b]).unwrap();
+        let next = next_point(&covariance, &[sees_a.clone(), sees_b.clone()], &[0, 1]).unwrap();
         assert_eq!(next.best, 1);
         assert!((next.sd_before[1] - 5.0).abs() < 1e-12);
         assert!(next.gains[1].sd_after[1] < 0.5);
         // Measuring b leaves a where it was.
         assert!((next.gains[1].sd_after[0] - 0.1).abs() < 1e-12);
+        // With only a of interest (b disputed), the point that sees a wins,
+        // and seeing b gains nothing on a.
+        let on_a = next_point(&covariance, &[sees_a, sees_b], &[0]).unwrap();
+        assert_eq!(on_a.best, 0);
+        assert!(on_a.gains[1].interest_nats.abs() < 1e-12, "{on_a:?}");
+    }
+
+    /// The gain on some parameters equals their marginal's, computed the
+    /// long way: 1/2 ln(det S_ii / det S'_ii) with S' from the information
+    /// form; on every parameter it is the whole EIG.
+    #[test]
+    fn the_gain_on_some_parameters_is_their_marginals() {
+        let covariance =
+            DMatrix::from_row_slice(3, 3, &[4.0, 1.2, -0.5, 1.2, 2.0, 0.3, -0.5, 0.3, 1.0]);
+        let jacobian = DMatrix::from_row_slice(2, 3, &[1.0, -2.0, 0.5, 0.3, 0.0, 4.0]);
+        let noise = [0.7, 1.3];
+        let candidate = Candidate {
+            jacobian: rows(&jacobian),
+            noise_sd: noise.to_vec(),
+        };
+        let r_inverse = DMatrix::from_diagonal(&DVector::from_iterator(
+            2,
+            noise.iter().map(|s| 1.0 / (s * s)),
+        ));
+        let after = (covariance.clone().try_inverse().unwrap()
+            + jacobian.transpose() * &r_inverse * &jacobian)
+            .try_inverse()
+            .unwrap();
+        for interest in [vec![0], vec![2], vec![0, 2], vec![1, 2]] {
+            let g = gain(&rows(&covariance), &candidate, &interest);
+            let block = |m: &DMatrix<f64>| {
+                DMatrix::from_fn(interest.len(), interest.len(), |a, b| {
+                    m[(interest[a], interest[b])]
+                })
+            };
+            let expected =
+                0.5 * (block(&covariance).determinant() / block(&after).determinant()).ln();
+            assert!(
+                (g.interest_nats - expected).abs() < 1e-10,
+                "{interest:?}: {} against {expected}",
+                g.interest_nats
+            );
+            assert!(g.interest_nats <= g.information_nats + 1e-12);
+        }
+        let all = gain(&rows(&covariance), &candidate, &[0, 1, 2]);
+        assert_eq!(all.interest_nats, all.information_nats);
     }
 
     /// The posterior after a point equals the Bayesian update done the long
@@ -271,6 +358,7 @@ mod tests {
                 jacobian: rows(&jacobian),
                 noise_sd: noise.to_vec(),
             },
+            &[0, 1, 2],
         );
         let r_inverse = DMatrix::from_diagonal(&DVector::from_iterator(
             2,
@@ -302,6 +390,7 @@ mod tests {
                 jacobian: rows(&jacobian),
                 noise_sd: noise.to_vec(),
             },
+            &[0, 1],
         )
         .information_nats;
         let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -352,27 +441,34 @@ mod tests {
             noise_sd: vec![1.0, 1.0],
         };
         assert_eq!(
-            next_point(&covariance, &[]),
+            next_point(&covariance, &[], &[0, 1]),
             Err(NextPointError::NoCandidates)
         );
         let mut wrong = good.clone();
         wrong.noise_sd = vec![1.0];
         assert!(matches!(
-            next_point(&covariance, &[good.clone(), wrong]),
+            next_point(&covariance, &[good.clone(), wrong], &[0, 1]),
             Err(NextPointError::Uncertainties { candidate: 1, .. })
         ));
         let mut zero = good.clone();
         zero.noise_sd[0] = 0.0;
         assert!(matches!(
-            next_point(&covariance, &[zero]),
+            next_point(&covariance, &[zero], &[0, 1]),
             Err(NextPointError::BadUncertainty { candidate: 0, .. })
         ));
-        let mut nan = good;
+        let mut nan = good.clone();
         nan.jacobian[0][1] = f64::NAN;
         assert!(matches!(
-            next_point(&covariance, &[nan]),
+            next_point(&covariance, &[nan], &[0, 1]),
             Err(NextPointError::NotFinite { candidate: 0 })
         ));
+        assert_eq!(
+            next_point(&covariance, &[good], &[2]),
+            Err(NextPointError::Interest {
+                index: 2,
+                parameters: 2
+            })
+        );
     }
 
     #[test]

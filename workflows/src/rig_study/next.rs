@@ -27,7 +27,7 @@ use acq_algorithms::next_point::{next_point, Candidate};
 use acq_study::posterior::shared_errors::LEAST_OWN_SHARE;
 
 use super::mapping::{HoldReading, Spread};
-use super::update::Posterior;
+use super::update::{Posterior, Verdict};
 use super::RigStudy;
 
 /// A parameter's 90 % interval now and expected after the next hold.
@@ -55,14 +55,18 @@ pub struct NextTestPoint {
     /// Whether only a spread subset was weighed, the work being bounded at
     /// [`MAX_RUNS_PER_CHOICE`] twin runs.
     pub bounded: bool,
+    /// The parameters the choice did not weigh: in conflict with their
+    /// prior, so a hold that narrows them narrows an interval in dispute.
+    pub disputed: Vec<String>,
 }
 
 impl NextTestPoint {
-    /// The parameter it narrows most, relative to its width now.
+    /// The parameter it narrows most, relative to its width now, of those
+    /// the choice weighed.
     pub fn narrows_most(&self) -> Option<&Narrowing> {
         self.narrows
             .iter()
-            .filter(|n| n.from_width > 0.0)
+            .filter(|n| n.from_width > 0.0 && !self.disputed.contains(&n.parameter))
             .min_by(|a, b| (a.to_width / a.from_width).total_cmp(&(b.to_width / b.from_width)))
     }
 }
@@ -203,7 +207,8 @@ impl RigStudy {
         let weighed = weighed_candidates(posterior, noise_sd, &columns, &usable);
         let shared = posterior.shared.as_ref();
         let covariance = shared.map_or(&posterior.covariance, |s| &s.joint_covariance);
-        let chosen = next_point(covariance, &weighed).map_err(|e| e.to_string())?;
+        let (interest, disputed) = weighed_parameters(posterior)?;
+        let chosen = next_point(covariance, &weighed, &interest).map_err(|e| e.to_string())?;
         let best = usable[chosen.best];
         let gain = &chosen.gains[chosen.best];
         Ok(Some(NextTestPoint {
@@ -241,8 +246,30 @@ impl RigStudy {
             candidates: usable.len(),
             of_candidates: candidates.points.len(),
             bounded: weighed_points.len() < candidates.points.len(),
+            disputed,
         }))
     }
+}
+
+/// The parameters the next point is chosen for (their indices: the
+/// gain is on their marginal, the errors the holds share being nuisance),
+/// and the names of those left out: in conflict with their prior.
+fn weighed_parameters(posterior: &Posterior) -> Result<(Vec<usize>, Vec<String>), String> {
+    let (disputed, interest): (Vec<_>, Vec<_>) = posterior
+        .parameters
+        .iter()
+        .enumerate()
+        .partition(|(_, interval)| matches!(interval.verdict, Verdict::Conflict { .. }));
+    if interest.is_empty() {
+        return Err("every parameter is in conflict with its prior: a hold would narrow intervals the prior disputes. Check the prior, the twin (geometry, masses) and the transducers (zero, range, certificate) first".into());
+    }
+    Ok((
+        interest.into_iter().map(|(j, _)| j).collect(),
+        disputed
+            .into_iter()
+            .map(|(_, interval)| interval.name.clone())
+            .collect(),
+    ))
 }
 
 /// Each usable candidate (`usable`, indices into `columns[j]`, the

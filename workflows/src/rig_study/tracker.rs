@@ -257,6 +257,7 @@ impl Tracker {
                     "information_nats": next.information_nats,
                     "candidates": next.candidates,
                     "of_candidates": next.of_candidates,
+                    "disputed": next.disputed,
                     "words": sentence,
                 });
             }
@@ -284,6 +285,13 @@ pub fn next_words(next: &NextTestPoint) -> String {
             most.parameter,
             significant(most.from_width),
             significant(most.to_width)
+        ));
+    }
+    if !next.disputed.is_empty() {
+        let each = if next.disputed.len() > 1 { "each " } else { "" };
+        sentence.push_str(&format!(
+            "; not weighed: {} ({each}in conflict with its prior: a hold would narrow an interval in dispute)",
+            next.disputed.join(", ")
         ));
     }
     if next.bounded {

@@ -227,7 +227,8 @@ struct Shape {
 }
 
 impl Shape {
-    /// Where a column met a record it cannot take: the run ends there.
+    /// A stand-in the columns never take: every frame before a run's cut
+    /// is whole.
     const NONE: Shape = Shape {
         channel: 0,
         id: CanId::Standard(0),

@@ -112,11 +112,9 @@ impl FrameBatch {
     /// copy of a known length and a cut, where a copy of any other
     /// length is a call to memcpy.
     #[inline(always)]
-    pub(crate) fn push_payload_of_eight(&mut self, eight: &[u8], len: usize) {
+    pub(crate) fn push_payload_of_eight(&mut self, eight: &[u8; 8], len: usize) {
         let start = self.payload.len();
-        if let Ok(eight) = <&[u8; 8]>::try_from(eight) {
-            self.payload.extend_from_slice(eight);
-        }
+        self.payload.extend_from_slice(eight);
         self.payload.truncate(start + len);
         self.payload_end.push(self.payload.len() as u32);
     }

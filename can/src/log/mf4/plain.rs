@@ -381,7 +381,10 @@ impl PlainGroup {
         for (frame, &(body, can)) in frames().zip(places) {
             let at = body + cans[usize::from(can)].bytes_at;
             let len = usize::from(frame.payload_len);
-            match buf.get(at..at + 8) {
+            match buf
+                .get(at..at + 8)
+                .and_then(|eight| <&[u8; 8]>::try_from(eight).ok())
+            {
                 Some(eight) if len <= 8 => batch.push_payload_of_eight(eight, len),
                 _ => batch.push_payload(&buf[at..at + len]),
             }

@@ -44,7 +44,7 @@ fn replay_timing() {
                 Ok(log.get(position - 1).copied())
             },
             &Routing { map: Vec::new(), default: Some(iface("vcan0")) },
-            Pacing::Timed { speed: 1.0 },
+            Pacing::timed(1.0),
             1,
         )
         .await

@@ -345,7 +345,7 @@ async fn a_timed_replay_never_sends_early_and_holds_its_schedule() {
             Ok(log.get(position - 1).copied())
         },
         &Routing::default(),
-        Pacing::Timed { speed: 2.0 },
+        Pacing::timed(2.0),
         1,
     )
     .await
@@ -377,6 +377,86 @@ async fn a_timed_replay_never_sends_early_and_holds_its_schedule() {
 /// of the file beside the rig's, with its hash, and the copied rig reads
 /// the transducer's record from it on its own (the original may change or
 /// go after the test).
+/// A replay anchored at a recording's start (as the demo plays its
+/// sessions) puts every frame at its log offset from the session's start,
+/// to the microsecond the log keeps, on every run: the recording does not
+/// depend on when the player's or the recorder's thread got to run. Before
+/// frames were stamped with their scheduled time they arrived a few to a
+/// few hundred microseconds late, differently each run.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_anchored_replay_records_every_frame_at_its_log_offset() {
+    // 400 frames at irregular offsets (0.5 to 3.4 ms apart), the log's own
+    // session starting 250.000321 ms before its first frame.
+    let log_start_ns: i64 = 1_700_000_000_123_456_789;
+    let mut offset_us: i64 = 250_000;
+    let log: Vec<Frame> = (0..400u32)
+        .map(|i| {
+            offset_us += 500 + i64::from(i * 7919 % 2900);
+            let mut frame = test_frame(i);
+            frame.timestamp_ns = (log_start_ns + offset_us * 1_000).div_euclid(1_000) * 1_000;
+            frame
+        })
+        .collect();
+    let expected: Vec<i64> = log.iter().map(|f| f.timestamp_ns - log_start_ns).collect();
+    for run in 0..2 {
+        let (bus, dir, stop, recording) = recording_on_vcan0(1 << 16, 1 << 30).await;
+        let started_ns = session::read(dir.path()).unwrap().session.started_unix_ns;
+        let anchor = replay::Anchor {
+            log_unix_ns: log_start_ns,
+            wall_unix_ns: started_ns,
+        };
+        let mut position = 0;
+        let player_bus = bus.clone();
+        let frames = log.clone();
+        // The player on a thread of its own, as in the demo.
+        std::thread::spawn(move || {
+            let runtime = acq_acquire::runtime(1).unwrap();
+            runtime.block_on(replay::play(
+                &player_bus,
+                |_| {
+                    position += 1;
+                    Ok(frames.get(position - 1).copied())
+                },
+                &Routing::default(),
+                Pacing::Timed {
+                    speed: 1.0,
+                    anchor: Some(anchor),
+                },
+                1,
+            ))
+        })
+        .join()
+        .unwrap()
+        .unwrap();
+        tokio::time::sleep(Duration::from_millis(100)).await;
+        stop.send(()).unwrap();
+        recording.await.unwrap();
+        let recorded = raw_frames(dir.path());
+        assert_eq!(
+            recorded.iter().map(wire).collect::<Vec<_>>(),
+            log.iter().map(wire).collect::<Vec<_>>(),
+            "run {run}"
+        );
+        // The log keeps microseconds; the offsets are the log's, exactly.
+        let offsets: Vec<i64> = recorded
+            .iter()
+            .map(|f| f.timestamp_ns - started_ns)
+            .collect();
+        let off: Vec<(usize, i64, i64)> = offsets
+            .iter()
+            .zip(&expected)
+            .enumerate()
+            .filter(|(_, (got, want))| (*got - *want).abs() >= 1_000)
+            .map(|(i, (got, want))| (i, *got, *want))
+            .take(5)
+            .collect();
+        assert!(
+            off.is_empty(),
+            "run {run}: (frame, offset ns, log offset ns) {off:?}"
+        );
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_sensor_file_is_copied_into_the_session_beside_the_rig() {
     let bus = MemoryBus::new(1 << 10);

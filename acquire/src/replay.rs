@@ -69,10 +69,69 @@ impl Routing {
 /// When frames go out.
 #[derive(Clone, Copy, Debug)]
 pub enum Pacing {
-    /// The log's timing divided by `speed` (2.0 = twice as fast).
-    Timed { speed: f64 },
+    /// The log's timing divided by `speed` (2.0 = twice as fast), from the
+    /// first frame sent at once or, with an `anchor`, on a schedule fixed
+    /// in advance.
+    Timed { speed: f64, anchor: Option<Anchor> },
     /// As fast as the bus takes them (`--ignore-timestamps`).
     AsFast,
+}
+
+/// A replay's schedule fixed in advance: the log's instant `log_unix_ns`
+/// plays at the wall time `wall_unix_ns` (a recording's start played at a
+/// new recording's start, so that every frame lands at the same offset from
+/// the session's start as in the log).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Anchor {
+    pub log_unix_ns: i64,
+    pub wall_unix_ns: i64,
+}
+
+impl Pacing {
+    /// The log's timing at `speed`, its first frame sent at once.
+    pub fn timed(speed: f64) -> Pacing {
+        Pacing::Timed {
+            speed,
+            anchor: None,
+        }
+    }
+}
+
+/// Where a replay's schedule stands: the wall time, monotonic and Unix, of
+/// the log time `log_ns` (counted from the first frame of the first pass).
+#[derive(Clone, Copy)]
+struct Schedule {
+    start: Instant,
+    start_unix_ns: i64,
+    log_ns: i64,
+}
+
+impl Schedule {
+    /// The schedule on which `first_log_unix_ns`, the log's first frame,
+    /// plays now, or as `anchor` says.
+    fn new(anchor: Option<Anchor>, first_log_unix_ns: i64) -> Schedule {
+        let now = Instant::now();
+        let now_unix_ns = crate::bus::now_ns();
+        let Some(anchor) = anchor else {
+            return Schedule {
+                start: now,
+                start_unix_ns: now_unix_ns,
+                log_ns: 0,
+            };
+        };
+        let ahead_ns = anchor.wall_unix_ns - now_unix_ns;
+        let start = if ahead_ns >= 0 {
+            now + Duration::from_nanos(ahead_ns as u64)
+        } else {
+            now.checked_sub(Duration::from_nanos(ahead_ns.unsigned_abs()))
+                .unwrap_or(now)
+        };
+        Schedule {
+            start,
+            start_unix_ns: anchor.wall_unix_ns,
+            log_ns: anchor.log_unix_ns - first_log_unix_ns,
+        }
+    }
 }
 
 /// What a replay did.
@@ -236,8 +295,7 @@ pub async fn play<B: Bus>(
     let mut sinks: HashMap<IfaceName, B::Sink> = HashMap::new();
     let mut summary = PlaySummary::default();
     let started = Instant::now();
-    // The schedule: wall instant of log time `origin_ns`.
-    let mut origin: Option<(Instant, i64)> = None;
+    let mut schedule: Option<Schedule> = None;
     let mut pass_offset_ns: i64 = 0;
     let mut previous: Option<(Instant, i64)> = None;
     for pass in 0..passes.max(1) {
@@ -266,29 +324,27 @@ pub async fn play<B: Bus>(
                     sinks.entry(out).or_insert(sink)
                 }
             };
-            if let Pacing::Timed { speed } = pacing {
-                let (start, origin_ns) = *origin.get_or_insert((Instant::now(), log_ns));
-                let offset_ns = ((log_ns - origin_ns).max(0) as f64 / speed).round() as u64;
-                let deadline = start + Duration::from_nanos(offset_ns);
-                wait_until(deadline);
-                let sent_at = Instant::now();
-                summary
-                    .timing
-                    .lateness_ns
-                    .push(signed_ns(sent_at, deadline));
-                if let Some((previous_at, previous_deadline_ns)) = previous {
-                    let actual = signed_ns(sent_at, previous_at);
-                    let wanted = offset_ns as i64 - previous_deadline_ns;
-                    summary.timing.interval_error_ns.push(actual - wanted);
-                }
-                previous = Some((sent_at, offset_ns as i64));
+            let Pacing::Timed { speed, anchor } = pacing else {
+                send(sink, &frame, None).await?;
+                summary.frames_sent += 1;
+                continue;
+            };
+            let at = *schedule.get_or_insert_with(|| Schedule::new(anchor, frame.timestamp_ns));
+            let offset_ns = ((log_ns - at.log_ns).max(0) as f64 / speed).round() as u64;
+            let deadline = at.start + Duration::from_nanos(offset_ns);
+            wait_until(deadline);
+            let sent_at = Instant::now();
+            summary
+                .timing
+                .lateness_ns
+                .push(signed_ns(sent_at, deadline));
+            if let Some((previous_at, previous_deadline_ns)) = previous {
+                let actual = signed_ns(sent_at, previous_at);
+                let wanted = offset_ns as i64 - previous_deadline_ns;
+                summary.timing.interval_error_ns.push(actual - wanted);
             }
-            sink.send(&frame).await.map_err(|e| match e {
-                BusError::Io { iface, source } => {
-                    AcqError::io(format!("sending on {iface}"), source)
-                }
-                other => AcqError::Config(other.to_string()),
-            })?;
+            previous = Some((sent_at, offset_ns as i64));
+            send(sink, &frame, Some(at.start_unix_ns + offset_ns as i64)).await?;
             summary.frames_sent += 1;
         }
         if let (Some(first), Some(last)) = (first_in_pass, last_in_pass) {
@@ -297,6 +353,18 @@ pub async fn play<B: Bus>(
     }
     summary.elapsed = started.elapsed();
     Ok(summary)
+}
+
+/// Sends `frame` on `sink`, at the wire time its schedule gave it if any.
+async fn send<S: FrameSink>(sink: &mut S, frame: &Frame, wire_unix_ns: Option<i64>) -> Result<()> {
+    let sent = match wire_unix_ns {
+        Some(at) => sink.send_at(frame, at).await,
+        None => sink.send(frame).await,
+    };
+    sent.map_err(|e| match e {
+        BusError::Io { iface, source } => AcqError::io(format!("sending on {iface}"), source),
+        other => AcqError::Config(other.to_string()),
+    })
 }
 
 fn signed_ns(a: Instant, b: Instant) -> i64 {

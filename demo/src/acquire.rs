@@ -12,7 +12,7 @@ use std::time::Duration;
 use acq_acquire::bus::Bus;
 use acq_acquire::record::status::StatusMode;
 use acq_acquire::record::{self, RecordObserver, RecordOptions, StopReason};
-use acq_acquire::replay::{self, LogFiles, Pacing, PlaySummary, Routing};
+use acq_acquire::replay::{self, Anchor, LogFiles, Pacing, PlaySummary, Routing};
 use acq_can::IfaceName;
 use acq_error::{AcqError, Result};
 use acq_io::session;
@@ -131,11 +131,12 @@ async fn play_all<B: Bus>(
     // 1. Every recorder listening before any frame is sent.
     let (recorders, routings) = start_recorders(&bus, playbacks, observers)?;
     wait_until_recorders_started(playbacks).await?;
+    let anchors = anchors(playbacks)?;
 
     // 2. The players, each on a thread of its own: they wait on the wall
     // clock with blocking sleeps, and the recorders must never wait behind them.
     let (interrupt_tx, interrupt_rx) = tokio::sync::watch::channel(false);
-    let players = start_players(&bus, playbacks, routings, &interrupt_rx)?;
+    let players = start_players(&bus, playbacks, routings, anchors, &interrupt_rx)?;
     // Ctrl-C: the players stop sending and the recordings end as after a
     // normal end, every file whole.
     let signal_watch = tokio::spawn(async move {
@@ -228,16 +229,35 @@ async fn wait_until_recorders_started(playbacks: &[Playback]) -> Result<()> {
     Ok(())
 }
 
+/// Each playback's schedule: the recorded session's start played at the
+/// new recording's start, so that every frame keeps its offset from the
+/// session's start. On the in-process bus frames are stamped with their
+/// scheduled time, and the demo's recordings, hence its numbers, are the
+/// same on every run; on SocketCAN the kernel stamps them on arrival.
+fn anchors(playbacks: &[Playback]) -> Result<Vec<Anchor>> {
+    playbacks
+        .iter()
+        .map(|playback| {
+            Ok(Anchor {
+                log_unix_ns: session::read(&playback.source)?.session.started_unix_ns,
+                wall_unix_ns: session::read(&playback.target)?.session.started_unix_ns,
+            })
+        })
+        .collect()
+}
+
 /// Starts a player thread per playback, replaying its raw logs in real
-/// time along its routing until they end or `interrupted` turns true.
+/// time from its anchor along its routing until they end or `interrupted`
+/// turns true.
 fn start_players<B: Bus>(
     bus: &B,
     playbacks: &[Playback],
     routings: Vec<Routing>,
+    anchors: Vec<Anchor>,
     interrupted: &tokio::sync::watch::Receiver<bool>,
 ) -> Result<Vec<std::thread::JoinHandle<Result<PlaySummary>>>> {
     let mut players = Vec::new();
-    for (playback, routing) in playbacks.iter().zip(routings) {
+    for ((playback, routing), anchor) in playbacks.iter().zip(routings).zip(anchors) {
         let raw_files = session::raw_files(&playback.source)?;
         if raw_files.is_empty() {
             return Err(AcqError::Config(format!(
@@ -260,7 +280,10 @@ fn start_players<B: Bus>(
                 &player_bus,
                 next,
                 &routing,
-                Pacing::Timed { speed: 1.0 },
+                Pacing::Timed {
+                    speed: 1.0,
+                    anchor: Some(anchor),
+                },
                 1,
             ))
         }));

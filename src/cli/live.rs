@@ -392,7 +392,7 @@ pub fn run_replay(args: ReplayArgs) -> Result<()> {
     let pacing = if args.ignore_timestamps {
         Pacing::AsFast
     } else {
-        Pacing::Timed { speed: args.speed }
+        Pacing::timed(args.speed)
     };
     // Opened up front so a missing file fails before anything is sent.
     let mut log = LogFiles::open(vec![args.log.clone()])?;
@@ -463,7 +463,7 @@ pub fn run_simulate(args: SimulateArgs) -> Result<()> {
             &SocketCanBus,
             |_| Ok(simulation.next_frame()),
             &routing,
-            Pacing::Timed { speed: 1.0 },
+            Pacing::timed(1.0),
             1,
         ))?
     };

@@ -95,7 +95,7 @@ impl MemoryRecorder {
                 bus,
                 |_| Ok(simulation.next_frame()),
                 routing,
-                Pacing::Timed { speed },
+                Pacing::timed(speed),
                 1,
             ))
             .unwrap();

@@ -116,17 +116,31 @@ impl FrameSource for MemorySource {
     }
 }
 
-impl FrameSink for MemorySink {
-    async fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
+impl MemorySink {
+    /// Puts `frame` on the interface, stamped `wire_unix_ns`.
+    fn deliver(&self, frame: &Frame, wire_unix_ns: i64) -> Result<(), BusError> {
         let sender = self.bus.sender(self.iface).map_err(|_| BusError::Down {
             iface: self.iface.to_string(),
         })?;
         let mut frame = *frame;
         frame.iface = self.iface;
-        // Stamped on the wire, as the kernel stamps a received frame.
-        frame.timestamp_ns = now_ns();
+        frame.timestamp_ns = wire_unix_ns;
         // No receiver is not an error: frames on a bus nobody listens to are lost.
         let _ = sender.send(frame);
         Ok(())
+    }
+}
+
+impl FrameSink for MemorySink {
+    /// Stamped on the wire, now, as the kernel stamps a received frame.
+    async fn send(&mut self, frame: &Frame) -> Result<(), BusError> {
+        self.deliver(frame, now_ns())
+    }
+
+    /// Stamped with the time the sender's schedule gave it: the in-process
+    /// wire has no delay of its own, and a thread's wake-up jitter is not
+    /// part of the signal.
+    async fn send_at(&mut self, frame: &Frame, wire_unix_ns: i64) -> Result<(), BusError> {
+        self.deliver(frame, wire_unix_ns)
     }
 }

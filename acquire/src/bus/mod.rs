@@ -70,6 +70,20 @@ pub trait FrameSource: Send + 'static {
 pub trait FrameSink: Send + 'static {
     /// Sends one frame (its interface field is ignored: the sink's own is used).
     fn send(&mut self, frame: &Frame) -> impl Future<Output = Result<(), BusError>> + Send;
+
+    /// Sends one frame that a player's schedule puts on the wire at
+    /// `wire_unix_ns`. A bus whose receivers stamp frames themselves (the
+    /// kernel, on SocketCAN) ignores the time; the in-process bus stamps the
+    /// frame with it, so that what a replay records does not depend on when
+    /// a thread got to run.
+    fn send_at(
+        &mut self,
+        frame: &Frame,
+        wire_unix_ns: i64,
+    ) -> impl Future<Output = Result<(), BusError>> + Send {
+        let _ = wire_unix_ns;
+        self.send(frame)
+    }
 }
 
 /// A set of interfaces frames can be received from and sent to.

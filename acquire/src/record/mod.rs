@@ -238,7 +238,9 @@ impl<'a> Recorder<'a> {
     ) -> Result<Self> {
         let dir = options.session_dir.as_path();
         prepare_dir(dir)?;
-        let started_ns = now_ns();
+        // In the raw log's resolution (whole microseconds), so that a
+        // frame's offset from the start is exactly what the log says.
+        let started_ns = now_ns().div_euclid(1_000) * 1_000;
         let session = SessionFile {
             session: SessionInfo {
                 format_version: session::FORMAT_VERSION,

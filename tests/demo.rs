@@ -20,6 +20,7 @@ fn the_demo_runs_the_whole_chain_and_its_report_renders() {
     );
     common::pipeline::check_demo_output(&out, true);
     gtn_line_marks_the_bounds(&stdout(&output), &out);
+    the_guide_quotes_this_demo(&stdout(&output));
 
     // A second run replaces its own earlier output...
     let output = acq(&[
@@ -90,6 +91,53 @@ fn bad_demo_arguments_say_what_is_expected() {
         "{}",
         stderr(&output)
     );
+}
+
+/// The figures README.md and docs/src/demo.md give for the demo are the
+/// ones it prints: on the in-process bus the demo gives the same numbers on
+/// every run, so a figure the guide quotes cannot drift from the code (or
+/// from another run, on a busy machine or a quiet one).
+fn the_guide_quotes_this_demo(said: &str) {
+    let words = [
+        "none", "one", "two", "three", "four", "five", "six", "seven", "eight",
+    ];
+    let mut figures = Vec::new();
+    for line in said.lines() {
+        // "case1: largest error 22.07 % -> 5.87 % at the search's pick ..."
+        if let Some((_, rest)) = line.split_once(": largest error ") {
+            figures.push(rest.split(" at ").next().unwrap().to_string());
+        }
+        // "best MAPE 1.736 % after 16 simulations (4.9 s)"
+        if let Some(rest) = line.strip_prefix("best MAPE ") {
+            figures.push(rest.split(" (").next().unwrap().to_string());
+        }
+    }
+    // "on a bound of its range: q2, q3, epsN, sN, fN, f0 (of 8 parameters): ..."
+    let gtn_bounds = said
+        .lines()
+        .filter(|l| l.starts_with("on a bound of its range: q"))
+        .find_map(|l| l.split_once(": ")?.1.split_once(" (of "))
+        .map(|(names, _)| names.split(", ").count())
+        .expect("the GTN stage names the parameters on a bound");
+    figures.push(format!(
+        "{} of its eight parameters on a bound",
+        words[gtn_bounds]
+    ));
+    assert_eq!(figures.len(), 4, "{said}");
+    for page in ["README.md", "docs/src/demo.md"] {
+        let text = std::fs::read_to_string(common::root().join(page)).unwrap();
+        let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        for figure in &figures {
+            // demo.md leaves the bounds to the report.
+            if page.ends_with("demo.md") && figure.contains("on a bound") {
+                continue;
+            }
+            assert!(
+                text.contains(figure.as_str()),
+                "{page} does not quote the demo's `{figure}`"
+            );
+        }
+    }
 }
 
 /// The GTN stage's parameters line marks each parameter calibrated within

@@ -89,6 +89,12 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-report",
         ],
     ),
+    // A campaign's lake: recordings decoded and measured values extracted
+    // into Parquet files; no loss, no model, no CAN of its own.
+    (
+        "acq-lake",
+        &["acq-rig", "acq-error", "acq-io", "acq-analysis"],
+    ),
     // The demo composes the whole chain.
     (
         "acq-demo",
@@ -140,6 +146,7 @@ const ALLOWED: &[(&str, &[&str])] = &[
             "acq-workflows",
             "acq-demo",
             "acq-view",
+            "acq-lake",
             "acq-shared-features",
         ],
     ),
@@ -854,6 +861,10 @@ const WRITES_DIRECTLY: &[(&str, &str)] = &[
     (
         "acquire/src/import.rs",
         "an imported session's raw log, moved in once whole, and the logger files copied into it byte for byte",
+    ),
+    (
+        "lake/src/publish.rs",
+        "a lake's files, moved by a rename from the scratch directory into the partitions other engines read, and its manifest entries flushed to disk before their rename",
     ),
     (
         "algorithms/src/evaluation.rs",

@@ -7,6 +7,9 @@
 //! dependency of acq); without it the test fails.
 
 mod common;
+// `acq lake ingest`, read by the same engines and DuckDB.
+#[path = "parquet/lake.rs"]
+mod lake;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -266,17 +266,25 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 
 /// The SHA-256 of a file's bytes (hex) and its length, read in pieces.
 pub fn sha256_file(path: &Path) -> io::Result<(String, u64)> {
-    let mut file = File::open(path)?;
+    sha256_files(&[path])
+}
+
+/// The SHA-256 of the files' bytes one after the other (hex), and their
+/// total length: what changes when any of them does.
+pub fn sha256_files(paths: &[&Path]) -> io::Result<(String, u64)> {
     let mut hasher = Sha256::new();
     let mut buffer = vec![0u8; 1 << 20];
     let mut bytes = 0u64;
-    loop {
-        let read = file.read(&mut buffer)?;
-        if read == 0 {
-            break;
+    for path in paths {
+        let mut file = File::open(path)?;
+        loop {
+            let read = file.read(&mut buffer)?;
+            if read == 0 {
+                break;
+            }
+            hasher.update(&buffer[..read]);
+            bytes += read as u64;
         }
-        hasher.update(&buffer[..read]);
-        bytes += read as u64;
     }
     let hex = hasher
         .finalize()

@@ -11,6 +11,7 @@ mod demo;
 mod engine;
 mod import;
 mod interrupt;
+mod lake;
 mod live;
 mod offline;
 mod rig_study;
@@ -138,12 +139,16 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// NSGA-II on a built-in benchmark problem (ZDT1-3, DTLZ2): the final front as CSV.
     Moo(engine::MooArgs),
+    /// A campaign's sessions and logger files as one Parquet dataset (a Hive-partitioned lake).
+    #[command(subcommand)]
+    Lake(lake::LakeCommand),
 }
 
 /// Runs one parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Decode(args) => decode::run_decode(args),
+        Command::Lake(command) => lake::run_lake(command),
         Command::Convert(args) => convert::run_convert(args),
         Command::Align(args) => offline::run_align(args),
         Command::Extract(args) => offline::run_extract(args),

@@ -200,16 +200,33 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
 /// not a finite number is null (an empty cell in the CSV). The values'
 /// units differ per row, so they stay in the `unit` column.
 fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()> {
-    fill_measured(ParquetTable::new(output, &measured_columns(), &[])?, values)
+    write_measured_parquet_within(output, values, &[])
+}
+
+/// The measured values as Parquet, each row led by the `(column, value)`
+/// pairs of `within` (the session and file a campaign's table holds them
+/// under), then the CSV's columns.
+pub fn write_measured_parquet_within(
+    output: Output,
+    values: &[MeasuredValue],
+    within: &[(&str, &str)],
+) -> Result<()> {
+    let mut columns: Vec<ColumnSpec> = within
+        .iter()
+        .map(|(name, _)| ColumnSpec::new(*name, ColumnType::Text))
+        .collect();
+    columns.extend(measured_columns());
+    let mut table = ParquetTable::new(output, &columns, &[])?;
+    fill_measured(&mut table, values, within)?;
+    table.finish().map(|_| ())
 }
 
 /// The measured values `acq extract -o FILE.parquet` writes, as Arrow
 /// record batches handed to `sink`.
 pub fn measured_to_arrow(values: &[MeasuredValue], sink: Box<dyn ArrowSink>) -> Result<()> {
-    fill_measured(
-        ParquetTable::to_arrow(&measured_columns(), &[], sink)?,
-        values,
-    )
+    let mut table = ParquetTable::to_arrow(&measured_columns(), &[], sink)?;
+    fill_measured(&mut table, values, &[])?;
+    table.finish().map(|_| ())
 }
 
 /// The CSV's columns, with units where they are fixed.
@@ -242,32 +259,40 @@ fn measured_columns() -> Vec<ColumnSpec> {
     columns.to_vec()
 }
 
-/// The values' rows into `table`, which is then finished.
-fn fill_measured(mut table: ParquetTable, values: &[MeasuredValue]) -> Result<()> {
+/// The values' rows into `table`, each led by the values of `within`.
+fn fill_measured(
+    table: &mut ParquetTable,
+    values: &[MeasuredValue],
+    within: &[(&str, &str)],
+) -> Result<()> {
     let finite = |v: Option<f64>| v.filter(|v| v.is_finite());
     for v in values {
+        for (column, (_, value)) in within.iter().enumerate() {
+            table.text(column, Some(value));
+        }
+        let o = within.len();
         let s = &v.stats;
         let half = s.ci95_half_width;
-        table.text(0, Some(&v.window));
-        table.float(1, finite(Some(v.start_s)));
-        table.float(2, finite(Some(v.end_s)));
-        table.text(3, Some(&v.quantity));
-        table.text(4, Some(&v.unit));
-        table.float(5, finite(s.mean));
-        table.float(6, finite(s.std));
-        table.integer(7, Some(i64::try_from(s.n).unwrap_or(i64::MAX)));
-        table.float(8, finite((s.n > 0).then_some(s.n_eff)));
-        table.float(9, finite(s.mean.zip(half).map(|(m, h)| m - h)));
-        table.float(10, finite(s.mean.zip(half).map(|(m, h)| m + h)));
-        table.float(11, finite(v.u_c));
-        table.float(12, finite(v.k));
-        table.float(13, finite(v.expanded_95()));
-        table.text(14, Some(&shared_text(&v.budget.shared_errors())));
-        table.text(15, Some(&v.flags.join(";")));
-        table.text(16, Some(&v.note));
+        table.text(o, Some(&v.window));
+        table.float(o + 1, finite(Some(v.start_s)));
+        table.float(o + 2, finite(Some(v.end_s)));
+        table.text(o + 3, Some(&v.quantity));
+        table.text(o + 4, Some(&v.unit));
+        table.float(o + 5, finite(s.mean));
+        table.float(o + 6, finite(s.std));
+        table.integer(o + 7, Some(i64::try_from(s.n).unwrap_or(i64::MAX)));
+        table.float(o + 8, finite((s.n > 0).then_some(s.n_eff)));
+        table.float(o + 9, finite(s.mean.zip(half).map(|(m, h)| m - h)));
+        table.float(o + 10, finite(s.mean.zip(half).map(|(m, h)| m + h)));
+        table.float(o + 11, finite(v.u_c));
+        table.float(o + 12, finite(v.k));
+        table.float(o + 13, finite(v.expanded_95()));
+        table.text(o + 14, Some(&shared_text(&v.budget.shared_errors())));
+        table.text(o + 15, Some(&v.flags.join(";")));
+        table.text(o + 16, Some(&v.note));
         table.end_row()?;
     }
-    table.finish().map(|_| ())
+    Ok(())
 }
 
 /// A budget through serde as its shared parts, `[(source, effect)]` (what

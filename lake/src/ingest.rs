@@ -1,0 +1,469 @@
+//! `acq lake ingest`: sources (sessions and logger files) into the lake,
+//! each once per content.
+//!
+//! A source is skipped when its manifest entry has its content's hash, the
+//! same rig's and the same device; otherwise its samples are decoded
+//! through the rig, written per sensor and UTC day, its holds found and
+//! their measured values computed as `acq extract` does, every file
+//! published by a rename, the files it no longer makes removed, and its
+//! entry published last. Memory is bounded per open file (a reorder
+//! window and the Parquet writer's row group), not by the source's length.
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+use acq_analysis::extract::holds::HoldOptions;
+use acq_analysis::extract::measured::write_measured_parquet_within;
+use acq_analysis::extract::run::{extract_holds, HoldsReport, WindowChoice};
+use acq_analysis::recording::clocks::offsets_ns;
+use acq_analysis::recording::{Recording, SampleCounts};
+use acq_error::{AcqError, Result};
+use acq_io::output::Output;
+use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+use acq_io::session;
+
+use crate::layout::{self, HOLDS, MANIFEST_DIR, MEASURED, TABLES, TMP_DIR};
+use crate::manifest::{self, Entry};
+use crate::publish::{publish_file, remove_published, ScratchDir};
+
+/// Samples held back per file so that rows a little out of order (a
+/// recorder's read batches interleave buses by a millisecond) are written
+/// sorted by time.
+const REORDER_WINDOW: usize = 8192;
+
+/// What to ingest into which lake.
+#[derive(Clone, Debug)]
+pub struct IngestOptions {
+    pub lake: PathBuf,
+    /// The rig that decodes every source.
+    pub rig: PathBuf,
+    /// The `device` partition; `None`: the rig file's name (one rig file
+    /// per machine).
+    pub device: Option<String>,
+}
+
+/// What became of one source.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    /// Its entry has its content's hash: nothing written.
+    Unchanged,
+    /// Decoded and published; `replaced` when an earlier content's files
+    /// were in the lake.
+    Ingested { replaced: bool, entry: Box<Entry> },
+    /// Not ingested, and why (the lake keeps what it had of it); the
+    /// other sources go on.
+    Failed(String),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceReport {
+    pub source: PathBuf,
+    pub outcome: Outcome,
+}
+
+/// Ingests `inputs` into the lake, calling `on_source` as each is done.
+pub fn ingest(
+    inputs: &[PathBuf],
+    options: &IngestOptions,
+    mut on_source: impl FnMut(&SourceReport),
+) -> Result<Vec<SourceReport>> {
+    let lake = options.lake.as_path();
+    acq_io::output::create_dir(lake)?;
+    for dir in [MANIFEST_DIR, TMP_DIR] {
+        acq_io::output::create_dir(&lake.join(dir))?;
+    }
+    let tmp = ScratchDir::new(lake)?;
+    let rig = std::fs::canonicalize(&options.rig)
+        .map_err(|e| AcqError::io(format!("opening the rig {}", options.rig.display()), e))?;
+    let (rig_sha256, _) = session::sha256_file(&rig)
+        .map_err(|e| AcqError::io(format!("reading {}", rig.display()), e))?;
+    let device = match &options.device {
+        Some(device) => device.clone(),
+        None => rig
+            .file_stem()
+            .map_or("rig".into(), |s| s.to_string_lossy().into_owned()),
+    };
+    let mut leftovers: Option<HashMap<String, Vec<PathBuf>>> = None;
+    let mut reports = Vec::new();
+    for input in inputs {
+        let source = match Source::identify(input) {
+            Ok(source) => source,
+            Err(e) => {
+                let report = SourceReport {
+                    source: input.clone(),
+                    outcome: Outcome::Failed(e.to_string()),
+                };
+                on_source(&report);
+                reports.push(report);
+                continue;
+            }
+        };
+        let earlier = manifest::read(lake, &source.id)?;
+        let unchanged = earlier.as_ref().is_some_and(|e| {
+            e.sha256 == source.sha256 && e.rig_sha256 == rig_sha256 && e.device == device
+        });
+        let outcome = if unchanged {
+            Outcome::Unchanged
+        } else {
+            // Files of this id without an entry: an ingest killed before
+            // its entry was published. They go as an earlier entry's do.
+            let old_files: Vec<PathBuf> = match &earlier {
+                Some(entry) => entry.files.clone(),
+                None => leftovers
+                    .get_or_insert_with(|| files_by_id(lake))
+                    .remove(&source.id)
+                    .unwrap_or_default(),
+            };
+            match source.decode_into(lake, &tmp, &rig, &device) {
+                Ok(mut entry) => {
+                    entry.rig_sha256 = rig_sha256.clone();
+                    let replaced = replace(lake, &tmp, &source.id, &entry, old_files)?;
+                    Outcome::Ingested {
+                        replaced: replaced || earlier.is_some(),
+                        entry: Box::new(entry),
+                    }
+                }
+                // A source that cannot be read or decoded (another rig's,
+                // a damaged file) is said and left out, its entry (if any)
+                // and files as they were; Ctrl-C stops the ingest.
+                Err(e @ AcqError::Interrupted(_)) => return Err(e),
+                Err(e) => Outcome::Failed(e.to_string()),
+            }
+        };
+        let report = SourceReport {
+            source: source.path,
+            outcome,
+        };
+        on_source(&report);
+        reports.push(report);
+    }
+    Ok(reports)
+}
+
+/// Removes the files of a source's earlier content that its new one no
+/// longer makes, then publishes its entry; whether any were removed.
+fn replace(
+    lake: &Path,
+    scratch: &ScratchDir,
+    id: &str,
+    entry: &Entry,
+    mut old_files: Vec<PathBuf>,
+) -> Result<bool> {
+    let kept: HashSet<&PathBuf> = entry.files.iter().collect();
+    old_files.retain(|f| !kept.contains(f));
+    for file in &old_files {
+        remove_published(&lake.join(file))?;
+    }
+    manifest::publish(lake, scratch, id, entry)?;
+    Ok(!old_files.is_empty())
+}
+
+/// A source to ingest: where it is, what it is, its content's hash.
+struct Source {
+    path: PathBuf,
+    id: String,
+    is_session: bool,
+    sha256: String,
+    bytes: u64,
+}
+
+impl Source {
+    fn identify(input: &Path) -> Result<Source> {
+        let path = std::fs::canonicalize(input).map_err(|e| {
+            AcqError::Config(format!(
+                "{}: no such session directory or log file ({e})",
+                input.display()
+            ))
+        })?;
+        let is_session = path.is_dir();
+        let files = if is_session {
+            let mut files = vec![path.join(session::SESSION_FILE)];
+            files.extend(session::raw_files(&path)?);
+            files
+        } else {
+            vec![path.clone()]
+        };
+        let paths: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
+        let (sha256, bytes) = session::sha256_files(&paths)
+            .map_err(|e| AcqError::io(format!("reading {}", path.display()), e))?;
+        Ok(Source {
+            id: manifest::source_id(&path),
+            path,
+            is_session,
+            sha256,
+            bytes,
+        })
+    }
+
+    /// Decodes the source through `rig` and publishes its files; the entry
+    /// that says what they are (not yet published).
+    fn decode_into(
+        &self,
+        lake: &Path,
+        tmp: &ScratchDir,
+        rig: &Path,
+        device: &str,
+    ) -> Result<Entry> {
+        let recording = Recording::open(&self.path, Some(rig)).map_err(|e| match e {
+            AcqError::Config(text) => AcqError::Config(format!("{}: {text}", self.path.display())),
+            other => other,
+        })?;
+        let session_name = self
+            .path
+            .file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        let source_text = self.path.display().to_string();
+        let within = Within {
+            session: &session_name,
+            source: &source_text,
+        };
+        let mut files = Vec::new();
+        let (samples, out_of_order) =
+            write_samples(&recording, lake, tmp, device, &self.id, &within, &mut files)?;
+        let mut notes = Vec::new();
+        match extract_holds(
+            &recording,
+            &WindowChoice::Auto(HoldOptions::default()),
+            None,
+            &[],
+        ) {
+            Ok(report) if !report.windows.is_empty() => {
+                let holds = layout::table_file(HOLDS, device, &self.id);
+                write_holds(&report, &tmp.file(&holds), &within)?;
+                files.push(publish_file(tmp, lake, &holds)?);
+                let measured = layout::table_file(MEASURED, device, &self.id);
+                let pairs = [("session", within.session), ("source_file", within.source)];
+                write_measured_parquet_within(
+                    Output::create_complete_only(&tmp.file(&measured))?,
+                    &report.values,
+                    &pairs,
+                )?;
+                files.push(publish_file(tmp, lake, &measured)?);
+            }
+            Ok(report) => notes.push(format!(
+                "no steady hold of {} found: no holds or measured values",
+                report.load_sensor
+            )),
+            Err(e) => notes.push(format!("no holds or measured values: {e}")),
+        }
+        files.sort();
+        Ok(Entry {
+            source: self.path.clone(),
+            kind: if self.is_session { "session" } else { "log" }.into(),
+            sha256: self.sha256.clone(),
+            bytes: self.bytes,
+            rig: rig.to_path_buf(),
+            rig_sha256: String::new(),
+            device: device.to_string(),
+            session: session_name,
+            ingested_utc: session::utc_text(now_unix_ns()),
+            samples,
+            out_of_order,
+            files,
+            notes,
+        })
+    }
+}
+
+/// The session and source file every row of a source carries.
+struct Within<'a> {
+    session: &'a str,
+    source: &'a str,
+}
+
+/// The samples table's columns; the partitions add device, sensor, date.
+fn sample_columns() -> Vec<ColumnSpec> {
+    vec![
+        ColumnSpec::new("time", ColumnType::Time),
+        ColumnSpec::new("value", ColumnType::Float).nullable(),
+        ColumnSpec::new("unit", ColumnType::Text),
+        ColumnSpec::new("session", ColumnType::Text),
+        ColumnSpec::new("source_file", ColumnType::Text),
+    ]
+}
+
+/// Every sample of `recording` into its sensor's and day's file; returns
+/// the samples written and those written out of time order.
+fn write_samples(
+    recording: &Recording,
+    lake: &Path,
+    tmp: &ScratchDir,
+    device: &str,
+    id: &str,
+    within: &Within<'_>,
+    files: &mut Vec<PathBuf>,
+) -> Result<(u64, u64)> {
+    let offsets = offsets_ns(&recording.clock_offsets(&[])?);
+    let mut open: HashMap<(usize, i64), SampleFile> = HashMap::new();
+    let mut counts = SampleCounts::default();
+    let sensors = &recording.rig.sensors;
+    recording.for_each_sample(&offsets, &mut counts, |sample| {
+        let day = sample.time_ns.div_euclid(86_400_000_000_000);
+        let file = match open.entry((sample.sensor, day)) {
+            std::collections::hash_map::Entry::Occupied(file) => file.into_mut(),
+            std::collections::hash_map::Entry::Vacant(slot) => {
+                let sensor = &sensors[sample.sensor];
+                let relative = layout::samples_file(
+                    device,
+                    &sensor.name,
+                    &layout::utc_date(sample.time_ns),
+                    id,
+                );
+                slot.insert(SampleFile::create(tmp, relative, sensor.unit(), within)?)
+            }
+        };
+        file.push(sample.time_ns, sample.value)
+    })?;
+    if open.is_empty() {
+        return Err(recording.no_rig_sample());
+    }
+    let (mut samples, mut out_of_order) = (0, 0);
+    for (_, file) in open {
+        let (relative, rows, late) = file.finish()?;
+        samples += rows;
+        out_of_order += late;
+        files.push(publish_file(tmp, lake, &relative)?);
+    }
+    Ok((samples, out_of_order))
+}
+
+/// One sensor's samples of one day being written, sorted through a
+/// reorder window.
+struct SampleFile {
+    table: ParquetTable,
+    relative: PathBuf,
+    pending: Vec<(i64, Option<f64>)>,
+    last_written_ns: Option<i64>,
+    rows: u64,
+    out_of_order: u64,
+    unit: String,
+    session: String,
+    source: String,
+}
+
+impl SampleFile {
+    fn create(
+        tmp: &ScratchDir,
+        relative: PathBuf,
+        unit: &str,
+        within: &Within<'_>,
+    ) -> Result<SampleFile> {
+        let output = Output::create_complete_only(&tmp.file(&relative))?;
+        Ok(SampleFile {
+            table: ParquetTable::new(output, &sample_columns(), &[])?,
+            relative,
+            pending: Vec::with_capacity(2 * REORDER_WINDOW),
+            last_written_ns: None,
+            rows: 0,
+            out_of_order: 0,
+            unit: unit.to_string(),
+            session: within.session.to_string(),
+            source: within.source.to_string(),
+        })
+    }
+
+    fn push(&mut self, time_ns: i64, value: Option<f64>) -> Result<()> {
+        self.pending.push((time_ns, value));
+        if self.pending.len() >= 2 * REORDER_WINDOW {
+            self.pending.sort_by_key(|(t, _)| *t);
+            let rest = self.pending.split_off(REORDER_WINDOW);
+            let ready = std::mem::replace(&mut self.pending, rest);
+            self.write(&ready)?;
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, rows: &[(i64, Option<f64>)]) -> Result<()> {
+        for &(time_ns, value) in rows {
+            if self.last_written_ns.is_some_and(|last| time_ns < last) {
+                self.out_of_order += 1;
+            }
+            self.last_written_ns = Some(time_ns);
+            self.table.time_ns(0, time_ns);
+            self.table.float(1, value);
+            self.table.text(2, Some(&self.unit));
+            self.table.text(3, Some(&self.session));
+            self.table.text(4, Some(&self.source));
+            self.table.end_row()?;
+            self.rows += 1;
+        }
+        Ok(())
+    }
+
+    /// Writes what is held back and closes the file (still in `_tmp/`):
+    /// its place in the lake, its rows and those out of time order.
+    fn finish(mut self) -> Result<(PathBuf, u64, u64)> {
+        let mut rest = std::mem::take(&mut self.pending);
+        rest.sort_by_key(|(t, _)| *t);
+        self.write(&rest)?;
+        self.table.finish()?;
+        Ok((self.relative, self.rows, self.out_of_order))
+    }
+}
+
+/// The holds table's columns.
+fn hold_columns() -> Vec<ColumnSpec> {
+    let text = |name: &str| ColumnSpec::new(name, ColumnType::Text);
+    vec![
+        text("session"),
+        text("source_file"),
+        text("hold"),
+        ColumnSpec::new("start", ColumnType::Time),
+        ColumnSpec::new("end", ColumnType::Time),
+        ColumnSpec::new("start_s", ColumnType::Float).unit("s"),
+        ColumnSpec::new("end_s", ColumnType::Float).unit("s"),
+        text("load_sensor"),
+    ]
+}
+
+/// The holds of `report` to `path`: their times as instants and as seconds
+/// from the session's start (as `acq extract` gives them).
+fn write_holds(report: &HoldsReport, path: &Path, within: &Within<'_>) -> Result<()> {
+    let mut table = ParquetTable::new(Output::create_complete_only(path)?, &hold_columns(), &[])?;
+    for window in &report.windows {
+        table.text(0, Some(within.session));
+        table.text(1, Some(within.source));
+        table.text(2, Some(&window.name));
+        table.time_ns(3, window.start_ns);
+        table.time_ns(4, window.end_ns);
+        table.float(5, Some((window.start_ns - report.t0_ns) as f64 / 1e9));
+        table.float(6, Some((window.end_ns - report.t0_ns) as f64 / 1e9));
+        table.text(7, Some(&report.load_sensor));
+        table.end_row()?;
+    }
+    table.finish().map(|_| ())
+}
+
+/// The lake's files by source id (their name), relative to the lake.
+fn files_by_id(lake: &Path) -> HashMap<String, Vec<PathBuf>> {
+    let mut by_id: HashMap<String, Vec<PathBuf>> = HashMap::new();
+    let mut dirs: Vec<PathBuf> = TABLES.iter().map(|t| lake.join(t)).collect();
+    while let Some(dir) = dirs.pop() {
+        let Ok(listing) = std::fs::read_dir(&dir) else {
+            continue;
+        };
+        for item in listing.flatten() {
+            let path = item.path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if let (Some(id), Ok(relative)) = (
+                path.file_name()
+                    .and_then(|n| n.to_str())
+                    .and_then(|n| n.strip_suffix(".parquet")),
+                path.strip_prefix(lake),
+            ) {
+                by_id
+                    .entry(id.to_string())
+                    .or_default()
+                    .push(relative.to_path_buf());
+            }
+        }
+    }
+    by_id
+}
+
+fn now_unix_ns() -> i64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
+}

@@ -1,0 +1,340 @@
+//! `acq lake ingest`: a campaign of the shipped session and logger files of
+//! our own making (two machines, two days, a logger's file split in two,
+//! candump, ASC and MF4), read back by pyarrow, Polars and DuckDB
+//! (tests/parquet/lake.py), each sample of each source once, against `acq
+//! decode` of the same file; run again, changed by one byte, and killed
+//! mid-source.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::common::{acq, path_arg, root, stderr};
+
+fn rig() -> PathBuf {
+    root().join("fixtures/rigs/excavator.toml")
+}
+
+/// `acq simulate` of a shipped scenario (its hold `hold_s` long) into a
+/// candump log starting at `start_unix_s`.
+fn simulated(dir: &Path, scenario: &str, hold_s: f64, start_unix_s: u64, name: &str) -> PathBuf {
+    let text = std::fs::read_to_string(root().join("fixtures/scenarios").join(scenario)).unwrap();
+    let text = text.replace("hold_s = 8.0", &format!("hold_s = {hold_s}"));
+    let scenario = dir.join(format!("{name}.scenario.toml"));
+    std::fs::write(&scenario, text).unwrap();
+    let log = dir.join(format!("{name}.log"));
+    let start = start_unix_s.to_string();
+    let output = acq(&[
+        "simulate",
+        "--rig",
+        path_arg(&rig()),
+        "--scenario",
+        path_arg(&scenario),
+        "-o",
+        path_arg(&log),
+        "--start",
+        &start,
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    log
+}
+
+fn ingest(lake: &Path, device: Option<&str>, inputs: &[&Path]) -> String {
+    let rig = rig();
+    let mut args = vec!["lake", "ingest"];
+    args.extend(inputs.iter().map(|p| path_arg(p)));
+    args.extend(["--rig", path_arg(&rig), "--lake", path_arg(lake)]);
+    if let Some(device) = device {
+        args.extend(["--device", device]);
+    }
+    let output = acq(&args);
+    assert!(output.status.success(), "{args:?}: {}", stderr(&output));
+    stderr(&output)
+}
+
+/// `acq decode --rig` of `log`: rows and value sum per sensor.
+fn decoded(log: &Path) -> BTreeMap<String, (u64, f64)> {
+    let output = acq(&["decode", path_arg(log), "--rig", path_arg(&rig())]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let mut per_sensor: BTreeMap<String, (u64, f64)> = BTreeMap::new();
+    for line in String::from_utf8_lossy(&output.stdout).lines().skip(1) {
+        let fields: Vec<&str> = line.split(',').collect();
+        let slot = per_sensor.entry(fields[1].to_string()).or_default();
+        slot.0 += 1;
+        slot.1 += fields[2].parse::<f64>().unwrap_or(0.0);
+    }
+    per_sensor
+}
+
+/// What the three engines read (tests/parquet/lake.py).
+fn engines(lake: &Path) -> serde_json::Value {
+    let output = Command::new(crate::common::scratch_python("lake"))
+        .arg(root().join("tests/parquet/lake.py"))
+        .arg(lake)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", stderr(&output));
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
+/// (device, source, sensor) -> (rows, sum), as one engine read them.
+type Counts = BTreeMap<(String, String, String), (u64, f64)>;
+
+fn counts(engine: &serde_json::Value) -> Counts {
+    engine["samples"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|row| {
+            let text = |i: usize| row[i].as_str().unwrap().to_string();
+            (
+                (text(0), text(1), text(2)),
+                (row[3].as_u64().unwrap(), row[4].as_f64().unwrap()),
+            )
+        })
+        .collect()
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
+}
+
+/// Every engine reads every sample of every source once (as `acq decode`
+/// decodes it), in files sorted by time, and the same holds and measured
+/// values.
+fn check_lake(lake: &Path, sources: &[(&str, &Path, &Path)]) -> Counts {
+    let read = engines(lake);
+    assert_eq!(
+        read["unsorted_files"],
+        serde_json::json!([]),
+        "files not sorted by time"
+    );
+    let reference = counts(&read["pyarrow"]);
+    for engine in ["polars", "duckdb"] {
+        let other = counts(&read[engine]);
+        assert_eq!(
+            other.keys().collect::<Vec<_>>(),
+            reference.keys().collect::<Vec<_>>(),
+            "{engine}"
+        );
+        for (key, (rows, sum)) in &other {
+            let (ref_rows, ref_sum) = reference[key];
+            assert!(
+                *rows == ref_rows && close(*sum, ref_sum),
+                "{engine} {key:?}: {rows} {sum} against pyarrow's {ref_rows} {ref_sum}"
+            );
+        }
+        for table in ["holds", "measured"] {
+            assert_eq!(
+                read[engine][table], read["pyarrow"][table],
+                "{engine}: {table}"
+            );
+        }
+    }
+    let mut expected = 0;
+    for (device, source, log) in sources {
+        let source = std::fs::canonicalize(source).unwrap().display().to_string();
+        for (sensor, (rows, sum)) in decoded(log) {
+            let key = (device.to_string(), source.clone(), sensor.clone());
+            let (got_rows, got_sum) = reference
+                .get(&key)
+                .copied()
+                .unwrap_or_else(|| panic!("{key:?} is not in the lake"));
+            assert!(got_rows == rows && close(got_sum, sum), "{key:?}: the lake has {got_rows} rows summing to {got_sum}, acq decode {rows} summing to {sum}");
+            expected += 1;
+        }
+    }
+    assert_eq!(
+        reference.len(),
+        expected,
+        "the lake holds sources or sensors it was not given"
+    );
+    reference
+}
+
+/// Every published file of the lake and its length and modification time.
+fn published(lake: &Path) -> BTreeMap<PathBuf, (u64, std::time::SystemTime)> {
+    let mut files = BTreeMap::new();
+    let mut dirs = vec![lake.to_path_buf()];
+    while let Some(dir) = dirs.pop() {
+        for item in std::fs::read_dir(&dir).unwrap().flatten() {
+            let path = item.path();
+            let meta = item.metadata().unwrap();
+            if meta.is_dir() {
+                if !path.ends_with("_tmp") {
+                    dirs.push(path);
+                }
+            } else {
+                files.insert(path, (meta.len(), meta.modified().unwrap()));
+            }
+        }
+    }
+    files
+}
+
+#[test]
+fn a_campaign_is_in_the_lake_once_however_often_it_is_ingested() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let lake = dir.join("lake");
+    // Machine 1: the shipped session (2026-11-21), and a logger's day
+    // (2026-10-05) split into two files at a line, as loggers split.
+    let session = root().join("fixtures/sessions/excavator_case1");
+    let day = simulated(dir, "excavator_case1.toml", 8.0, 1_791_187_200, "day");
+    let text = std::fs::read_to_string(&day).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let (first, second) = lines.split_at(lines.len() / 2);
+    let part1 = dir.join("00000001.log");
+    let part2 = dir.join("00000002.log");
+    std::fs::write(&part1, first.join("\n") + "\n").unwrap();
+    std::fs::write(&part2, second.join("\n") + "\n").unwrap();
+    // Machine 2: two days of Case 2, as ASC and as MF4.
+    let case2_a = simulated(dir, "excavator_case2.toml", 8.0, 1_791_273_600, "case2_a");
+    let case2_b = simulated(dir, "excavator_case2.toml", 6.0, 1_791_360_000, "case2_b");
+    let asc = dir.join("case2_a.asc");
+    let mf4 = dir.join("case2_b.mf4");
+    for (from, to) in [(&case2_a, &asc), (&case2_b, &mf4)] {
+        let output = acq(&["convert", path_arg(from), "-o", path_arg(to)]);
+        assert!(output.status.success(), "{}", stderr(&output));
+    }
+    let said = ingest(&lake, Some("machine1"), &[&session, &part1, &part2]);
+    assert_eq!(said.matches(": ingested: ").count(), 3, "{said}");
+    ingest(&lake, Some("machine2"), &[&asc, &mf4]);
+    let raw = session.join("raw.log");
+    let sources: Vec<(&str, &Path, &Path)> = vec![
+        ("machine1", &session, &raw),
+        ("machine1", &part1, &part1),
+        ("machine1", &part2, &part2),
+        ("machine2", &asc, &case2_a),
+        ("machine2", &mf4, &case2_b),
+    ];
+    let first_counts = check_lake(&lake, &sources);
+    let dates: std::collections::BTreeSet<String> = published(&lake)
+        .keys()
+        .filter_map(|p| {
+            p.to_str()?
+                .split("date=")
+                .nth(1)?
+                .get(..10)
+                .map(str::to_string)
+        })
+        .collect();
+    assert_eq!(dates.len(), 4, "four days: {dates:?}");
+
+    // Again: nothing is written.
+    let before = published(&lake);
+    let said = ingest(&lake, Some("machine1"), &[&session, &part1, &part2]);
+    assert_eq!(
+        said.matches("unchanged since its ingest, skipped").count(),
+        3,
+        "{said}"
+    );
+    assert_eq!(published(&lake), before, "a second ingest changed the lake");
+
+    // One byte of one file changed: that file is ingested again, in place.
+    let mut text = std::fs::read_to_string(&part2).unwrap();
+    let at = text.find('#').unwrap() + 1;
+    let digit = if &text[at..=at] == "0" { "1" } else { "0" };
+    text.replace_range(at..=at, digit);
+    std::fs::write(&part2, text).unwrap();
+    let said = ingest(&lake, Some("machine1"), &[&session, &part1, &part2]);
+    assert_eq!(said.matches("changed, ingested again").count(), 1, "{said}");
+    assert_eq!(
+        said.matches("unchanged since its ingest").count(),
+        2,
+        "{said}"
+    );
+    let after = check_lake(&lake, &sources);
+    assert_eq!(after.len(), first_counts.len());
+    let moved: Vec<_> = after
+        .iter()
+        .filter(|(k, v)| first_counts[k] != **v)
+        .map(|(k, _)| k)
+        .collect();
+    assert!(
+        !moved.is_empty() && moved.iter().all(|k| k.1.ends_with("00000002.log")),
+        "{moved:?}"
+    );
+}
+
+/// SIGKILL in the middle of a long source: every file the lake shows is
+/// whole, the killed source has no entry, and the next ingest ends in the
+/// lake a run without the kill gives.
+#[test]
+fn a_killed_ingest_leaves_whole_files_and_the_next_one_completes_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let short = simulated(dir, "excavator_case1.toml", 8.0, 1_791_187_200, "short");
+    let long = simulated(dir, "excavator_case1.toml", 1200.0, 1_791_273_600, "long");
+    let lake = dir.join("lake");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_acq"))
+        .args([
+            "lake",
+            "ingest",
+            path_arg(&short),
+            path_arg(&long),
+            "--rig",
+            path_arg(&rig()),
+            "--lake",
+            path_arg(&lake),
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Killed once the short log is published, while the long one is decoded.
+    let started = std::time::Instant::now();
+    let entry = |lake: &Path| std::fs::read_dir(lake.join("_manifest")).map_or(0, |d| d.count());
+    while entry(&lake) == 0 {
+        assert!(
+            started.elapsed().as_secs() < 60,
+            "the short log was never published"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the ingest ended before it could be killed"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the long log was ingested before the kill; make it longer"
+    );
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert_eq!(entry(&lake), 1, "only the short log's entry");
+    // Every published file reads whole; the long log's are still in _tmp.
+    let read = engines(&lake);
+    let sources: std::collections::BTreeSet<String> = counts(&read["pyarrow"])
+        .keys()
+        .map(|k| k.1.clone())
+        .collect();
+    assert_eq!(sources.len(), 1, "{sources:?}");
+
+    let said = ingest(&lake, None, &[&short, &long]);
+    assert!(
+        said.contains("unchanged since its ingest") && said.contains(": ingested: "),
+        "{said}"
+    );
+    assert!(
+        std::fs::read_dir(lake.join("_tmp"))
+            .unwrap()
+            .next()
+            .is_none(),
+        "the killed ingest's scratch files are gone"
+    );
+    let clean = dir.join("clean");
+    ingest(&clean, None, &[&short, &long]);
+    let files = |lake: &Path| -> Vec<(PathBuf, u64)> {
+        published(lake)
+            .into_iter()
+            .filter(|(p, _)| !p.to_string_lossy().contains("_manifest"))
+            .map(|(p, (len, _))| (p.strip_prefix(lake).unwrap().to_path_buf(), len))
+            .collect()
+    };
+    assert_eq!(
+        files(&lake),
+        files(&clean),
+        "the completed lake differs from a clean ingest"
+    );
+}

@@ -2,7 +2,7 @@
 //! each once per content.
 //!
 //! A source is skipped when its manifest entry has its content's hash, the
-//! same rig's and the same device; otherwise its samples are decoded
+//! same rig's, the same device and the files' current format; otherwise its samples are decoded
 //! through the rig, written per sensor and UTC day, its holds found and
 //! their measured values computed as `acq extract` does, every file
 //! published by a rename, the files it no longer makes removed, and its
@@ -100,7 +100,10 @@ pub fn ingest(
         };
         let earlier = manifest::read(lake, &source.id)?;
         let unchanged = earlier.as_ref().is_some_and(|e| {
-            e.sha256 == source.sha256 && e.rig_sha256 == rig_sha256 && e.device == device
+            e.format == manifest::FORMAT
+                && e.sha256 == source.sha256
+                && e.rig_sha256 == rig_sha256
+                && e.device == device
         });
         let outcome = if unchanged {
             Outcome::Unchanged
@@ -248,6 +251,7 @@ impl Source {
         }
         files.sort();
         Ok(Entry {
+            format: manifest::FORMAT,
             source: self.path.clone(),
             kind: if self.is_session { "session" } else { "log" }.into(),
             sha256: self.sha256.clone(),

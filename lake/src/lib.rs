@@ -29,3 +29,4 @@ pub mod ingest;
 pub mod layout;
 pub mod manifest;
 pub mod publish;
+pub mod query;

@@ -15,9 +15,16 @@ use serde::{Deserialize, Serialize};
 use crate::layout::MANIFEST_DIR;
 use crate::publish::{publish_bytes, ScratchDir};
 
+/// The version of the files' columns an entry's files have: a source
+/// ingested by an acq that wrote other columns is ingested again.
+pub const FORMAT: u32 = 1;
+
 /// What a source was and what it became.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Entry {
+    /// [`FORMAT`] when its files were written.
+    #[serde(default)]
+    pub format: u32,
     /// The source as ingested: its absolute path.
     pub source: PathBuf,
     /// `session` (a directory acq record or acq import wrote) or `log`.

@@ -59,4 +59,7 @@ for fragment in samples.get_fragments():
     if len(times) > 1 and pc.any(pc.less(times.slice(1), times.slice(0, len(times) - 1))).as_py():
         unsorted.append(fragment.path)
 out["unsorted_files"] = unsorted
+for table in ["samples", "holds", "measured"]:
+    con.sql(f"CREATE VIEW {table} AS SELECT * FROM {read(table)}")
+out["queries"] = [[list(map(str, row)) for row in con.sql(sql).fetchall()] for sql in sys.argv[2:]]
 print(json.dumps(out))

@@ -66,11 +66,13 @@ fn decoded(log: &Path) -> BTreeMap<String, (u64, f64)> {
     per_sensor
 }
 
-/// What the three engines read (tests/parquet/lake.py).
-fn engines(lake: &Path) -> serde_json::Value {
+/// What the three engines read (tests/parquet/lake.py), and DuckDB's rows
+/// for each of `queries`.
+fn engines(lake: &Path, queries: &[&str]) -> serde_json::Value {
     let output = Command::new(crate::common::scratch_python("lake"))
         .arg(root().join("tests/parquet/lake.py"))
         .arg(lake)
+        .args(queries)
         .output()
         .unwrap();
     assert!(output.status.success(), "{}", stderr(&output));
@@ -103,7 +105,7 @@ fn close(a: f64, b: f64) -> bool {
 /// decodes it), in files sorted by time, and the same holds and measured
 /// values.
 fn check_lake(lake: &Path, sources: &[(&str, &Path, &Path)]) -> Counts {
-    let read = engines(lake);
+    let read = engines(lake, &[]);
     assert_eq!(
         read["unsorted_files"],
         serde_json::json!([]),
@@ -238,7 +240,12 @@ fn a_campaign_is_in_the_lake_once_however_often_it_is_ingested() {
     text.replace_range(at..=at, digit);
     std::fs::write(&part2, text).unwrap();
     let said = ingest(&lake, Some("machine1"), &[&session, &part1, &part2]);
-    assert_eq!(said.matches("changed, ingested again").count(), 1, "{said}");
+    assert_eq!(
+        said.matches("ingested again, its earlier files replaced")
+            .count(),
+        1,
+        "{said}"
+    );
     assert_eq!(
         said.matches("unchanged since its ingest").count(),
         2,
@@ -304,7 +311,7 @@ fn a_killed_ingest_leaves_whole_files_and_the_next_one_completes_it() {
     child.wait().unwrap();
     assert_eq!(entry(&lake), 1, "only the short log's entry");
     // Every published file reads whole; the long log's are still in _tmp.
-    let read = engines(&lake);
+    let read = engines(&lake, &[]);
     let sources: std::collections::BTreeSet<String> = counts(&read["pyarrow"])
         .keys()
         .map(|k| k.1.clone())
@@ -336,5 +343,125 @@ fn a_killed_ingest_leaves_whole_files_and_the_next_one_completes_it() {
         files(&lake),
         files(&clean),
         "the completed lake differs from a clean ingest"
+    );
+}
+
+/// Two cells agree: equal text, or numbers equal to 1e-9 (engines sum in
+/// different orders).
+fn same_cell(a: &str, b: &str) -> bool {
+    match (a.parse::<f64>(), b.parse::<f64>()) {
+        (Ok(x), Ok(y)) => close(x, y),
+        _ => a == b,
+    }
+}
+
+/// A CSV's rows after its header, split at commas (no cell of these
+/// holds one).
+fn csv_rows(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+/// `acq lake query` gives DuckDB's rows for the same SQL, row for row; `acq
+/// lake extract` of one session gives `acq extract`'s values of it, and of
+/// two sessions a table that `acq calibrate excavator` takes as it takes
+/// one session's, with the same result.
+#[test]
+fn query_and_extract_agree_with_duckdb_and_acq_extract() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let lake = dir.join("lake");
+    let case1 = root().join("fixtures/sessions/excavator_case1");
+    let case2 = root().join("fixtures/sessions/excavator_case2");
+    ingest(&lake, None, &[&case1, &case2]);
+    let queries = [
+        "SELECT sensor, count(*) AS n, sum(value) AS total FROM samples GROUP BY sensor ORDER BY sensor",
+        "SELECT session, value FROM samples WHERE sensor = 'tip_force' AND value > 20 ORDER BY session, time",
+        "SELECT session, hold, start_s, end_s FROM holds ORDER BY session",
+        "SELECT session, quantity, mean, \"U95\" FROM measured WHERE quantity LIKE '%loaded_pressure' ORDER BY session, quantity",
+    ];
+    let duckdb = engines(&lake, &queries)["queries"].clone();
+    for (index, sql) in queries.iter().enumerate() {
+        let output = acq(&["lake", "query", path_arg(&lake), sql]);
+        assert!(output.status.success(), "{sql}: {}", stderr(&output));
+        let ours = csv_rows(&String::from_utf8_lossy(&output.stdout));
+        let theirs: Vec<Vec<String>> = serde_json::from_value(duckdb[index].clone()).unwrap();
+        assert!(!ours.is_empty(), "{sql}: no rows");
+        assert_eq!(ours.len(), theirs.len(), "{sql}");
+        for (a, b) in ours.iter().zip(&theirs) {
+            assert!(
+                a.len() == b.len() && a.iter().zip(b).all(|(x, y)| same_cell(x, y)),
+                "{sql}: acq {a:?}, DuckDB {b:?}"
+            );
+        }
+    }
+
+    let write = |args: &[&str]| {
+        let output = acq(args);
+        assert!(output.status.success(), "{args:?}: {}", stderr(&output));
+    };
+    let (one, plain) = (dir.join("one.csv"), dir.join("plain.csv"));
+    write(&[
+        "lake",
+        "extract",
+        path_arg(&lake),
+        "--where",
+        "session = 'excavator_case1'",
+        "-o",
+        path_arg(&one),
+    ]);
+    write(&["extract", path_arg(&case1), "-o", path_arg(&plain)]);
+    let read = |p: &Path| csv_rows(&std::fs::read_to_string(p).unwrap());
+    let (ours, theirs) = (read(&one), read(&plain));
+    assert_eq!(ours.len(), theirs.len());
+    for (a, b) in ours.iter().zip(&theirs) {
+        assert_eq!(a[0], "excavator_case1");
+        assert!(
+            a.len() == b.len() + 1 && a[1..].iter().zip(b).all(|(x, y)| same_cell(x, y)),
+            "lake extract {a:?}, acq extract {b:?}"
+        );
+    }
+
+    // Both sessions in one file, the second's hold chosen by its name.
+    let (both, plain2) = (dir.join("both.csv"), dir.join("plain2.csv"));
+    write(&["lake", "extract", path_arg(&lake), "-o", path_arg(&both)]);
+    write(&["extract", path_arg(&case2), "-o", path_arg(&plain2)]);
+    assert_eq!(read(&both).len(), ours.len() + read(&plain2).len());
+    let case = root().join("data/excavator/case2.toml");
+    let (run_lake, run_plain) = (dir.join("run_lake"), dir.join("run_plain"));
+    write(&[
+        "calibrate",
+        "excavator",
+        "--case",
+        path_arg(&case),
+        "--measured",
+        path_arg(&both),
+        "--window",
+        "excavator_case2/hold1",
+        "--out",
+        path_arg(&run_lake),
+    ]);
+    write(&[
+        "calibrate",
+        "excavator",
+        "--case",
+        path_arg(&case),
+        "--measured",
+        path_arg(&plain2),
+        "--out",
+        path_arg(&run_plain),
+    ]);
+    let optimal = |run: &Path| -> serde_json::Value {
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.join("summary.json")).unwrap())
+                .unwrap();
+        summary["optimal"].clone()
+    };
+    assert_eq!(
+        optimal(&run_lake),
+        optimal(&run_plain),
+        "a calibration on the lake's table differs"
     );
 }

@@ -200,12 +200,15 @@ pub fn write_measured(path: &Path, values: &[MeasuredValue]) -> Result<()> {
 /// not a finite number is null (an empty cell in the CSV). The values'
 /// units differ per row, so they stay in the `unit` column.
 fn write_measured_parquet(output: Output, values: &[MeasuredValue]) -> Result<()> {
-    write_measured_parquet_within(output, values, &[])
+    let mut table = ParquetTable::new(output, &measured_columns(), &[])?;
+    fill_measured(&mut table, values, &[], false)?;
+    table.finish().map(|_| ())
 }
 
 /// The measured values as Parquet, each row led by the `(column, value)`
 /// pairs of `within` (the session and file a campaign's table holds them
-/// under), then the CSV's columns.
+/// under), then the CSV's columns, then `row`: the value's place in the
+/// file, so that a query gives them back in `acq extract`'s order.
 pub fn write_measured_parquet_within(
     output: Output,
     values: &[MeasuredValue],
@@ -216,8 +219,9 @@ pub fn write_measured_parquet_within(
         .map(|(name, _)| ColumnSpec::new(*name, ColumnType::Text))
         .collect();
     columns.extend(measured_columns());
+    columns.push(ColumnSpec::new("row", ColumnType::Integer));
     let mut table = ParquetTable::new(output, &columns, &[])?;
-    fill_measured(&mut table, values, within)?;
+    fill_measured(&mut table, values, within, true)?;
     table.finish().map(|_| ())
 }
 
@@ -225,7 +229,7 @@ pub fn write_measured_parquet_within(
 /// record batches handed to `sink`.
 pub fn measured_to_arrow(values: &[MeasuredValue], sink: Box<dyn ArrowSink>) -> Result<()> {
     let mut table = ParquetTable::to_arrow(&measured_columns(), &[], sink)?;
-    fill_measured(&mut table, values, &[])?;
+    fill_measured(&mut table, values, &[], false)?;
     table.finish().map(|_| ())
 }
 
@@ -259,14 +263,16 @@ fn measured_columns() -> Vec<ColumnSpec> {
     columns.to_vec()
 }
 
-/// The values' rows into `table`, each led by the values of `within`.
+/// The values' rows into `table`, each led by the values of `within` and,
+/// when `numbered`, ended by its index.
 fn fill_measured(
     table: &mut ParquetTable,
     values: &[MeasuredValue],
     within: &[(&str, &str)],
+    numbered: bool,
 ) -> Result<()> {
     let finite = |v: Option<f64>| v.filter(|v| v.is_finite());
-    for v in values {
+    for (row, v) in values.iter().enumerate() {
         for (column, (_, value)) in within.iter().enumerate() {
             table.text(column, Some(value));
         }
@@ -290,6 +296,9 @@ fn fill_measured(
         table.text(o + 14, Some(&shared_text(&v.budget.shared_errors())));
         table.text(o + 15, Some(&v.flags.join(";")));
         table.text(o + 16, Some(&v.note));
+        if numbered {
+            table.integer(o + 17, i64::try_from(row).ok());
+        }
         table.end_row()?;
     }
     Ok(())
@@ -374,7 +383,17 @@ pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
     let columns: Vec<&str> = MEASURED_HEADER.split(',').collect();
     let without_shared: Vec<&str> = MEASURED_HEADER_WITHOUT_SHARED.split(',').collect();
     let older: Vec<&str> = MEASURED_HEADER_WITHOUT_BUDGET.split(',').collect();
-    let (which, records) = read_csv_records_of_any(path, &[&columns, &without_shared, &older])?;
+    let in_sessions: Vec<&str> = std::iter::once("session")
+        .chain(columns.iter().copied())
+        .collect();
+    let (which, records) =
+        read_csv_records_of_any(path, &[&columns, &without_shared, &older, &in_sessions])?;
+    // A campaign's table (`acq lake extract`): each row under its session
+    // first, its window then named `session/window`.
+    let (which, by_session) = match which {
+        3 => (0, true),
+        other => (other, false),
+    };
     // Where the flags and the note are: after the budget's columns, or
     // where they were before them.
     let (has_budget, has_shared) = (which <= 1, which == 0);
@@ -387,7 +406,14 @@ pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
     // (window, quantity) -> the line it was first given on.
     let mut seen: std::collections::HashMap<(String, String), u64> = Default::default();
     for (line, record) in records {
-        let key = (record[0].to_string(), record[3].to_string());
+        let (record, window) = if by_session {
+            let window = format!("{}/{}", &record[0], &record[1]);
+            (record.iter().skip(1).collect::<csv::StringRecord>(), window)
+        } else {
+            let window = record[0].to_string();
+            (record, window)
+        };
+        let key = (window.clone(), record[3].to_string());
         if let Some(first) = seen.insert(key.clone(), line) {
             return Err(AcqError::Malformed(format!(
                 "{}:{line}: {} in window {} is given again (first on line {first}); keep one row per quantity and window",
@@ -423,7 +449,7 @@ pub fn read_measured(path: &Path) -> Result<Vec<MeasuredValue>> {
             .parse::<u64>()
             .map_err(|_| bad("n, a count", &record[7]))?;
         values.push(MeasuredValue {
-            window: record[0].to_string(),
+            window,
             start_s: required(1, "start_s in seconds")?,
             end_s: required(2, "end_s in seconds")?,
             quantity: record[3].to_string(),

@@ -1284,51 +1284,100 @@ proptest! {
         porosity_fraction in 0.0..1.0f64,
         strain in prop::array::uniform6(-0.05..0.05f64),
     ) {
-        let material = GtnMaterial { parameters, ..p91_material() };
         prop_assume!(parameters.validate().is_ok());
-        let state = MaterialState {
-            matrix_plastic_strain,
-            porosity: porosity_fraction * 0.2 * parameters.failure_porosity(),
-            failed: false,
-            last_increments: [0.0; 4],
-        };
-        let trial = Mandel::from_row_slice(&strain);
-        let Ok(update) = material.update(&state, &trial) else {
-            // An error is allowed (the caller cuts the step); a panic is not.
-            return Ok(());
-        };
-        prop_assert!(update.stress_mpa.iter().all(|v| v.is_finite()));
-        prop_assert!(update.elastic_strain.iter().all(|v| v.is_finite()));
-        prop_assert!(update.tangent_mpa.iter().all(|v| v.is_finite()));
-        prop_assert!(update.state.porosity >= 0.0 && update.state.porosity < 1.0);
-        prop_assert!(update.state.matrix_plastic_strain >= state.matrix_plastic_strain);
-        if update.state.failed {
-            prop_assert_eq!(update.stress_mpa, Mandel::zeros());
-            return Ok(());
-        }
-        if !update.plastic {
-            prop_assert!(material.yield_function_at(&update.stress_mpa, &state) <= 1e-10);
-            return Ok(());
-        }
-        // Consistency: on the yield surface of the new state. Φ is
-        // dimensionless (~2x relative stress error); 1e-9 is far above the
-        // Newton tolerance and far below any real error.
-        let phi = material.yield_function_at(&update.stress_mpa, &update.state);
-        // When compression closes the voids, f_{n+1} is the small difference
-        // of O(f_n) terms and only known to ~1e-16 f_n: Φ (dominated by
-        // 2 q1 f cosh) then carries a relative error ~1e-16 f_n/f_{n+1}.
-        let rounding = 1e-13 * state.porosity / update.state.porosity.max(1e-300);
-        prop_assert!(phi.abs() < 1e-9 + rounding, "phi = {}", phi);
-        // Normality: Δε_p = ε_tr - ε_e parallel to ∂Φ/∂σ at the new stress,
-        // with a non-negative multiplier.
-        let plastic_increment = trial - update.elastic_strain;
-        let normal = yield_gradient(&material, &update.stress_mpa, &update.state);
-        let multiplier = plastic_increment.dot(&normal) / normal.norm_squared();
-        prop_assert!(multiplier >= 0.0);
-        let misfit = (plastic_increment - normal * multiplier).norm() / plastic_increment.norm();
-        // Same rounding allowance: ∂Φ/∂p is proportional to f_{n+1}.
-        prop_assert!(misfit < 1e-8 + rounding, "flow-rule misfit {}", misfit);
+        check_local_equations(parameters, matrix_plastic_strain, porosity_fraction, strain)?;
     }
+}
+
+/// The property above: a finite update, and a plastic one on the yield
+/// surface of its new state with a plastic strain along the normal.
+fn check_local_equations(
+    parameters: GtnParameters,
+    matrix_plastic_strain: f64,
+    porosity_fraction: f64,
+    strain: [f64; 6],
+) -> Result<(), TestCaseError> {
+    let material = GtnMaterial {
+        parameters,
+        ..p91_material()
+    };
+    let state = MaterialState {
+        matrix_plastic_strain,
+        porosity: porosity_fraction * 0.2 * parameters.failure_porosity(),
+        failed: false,
+        last_increments: [0.0; 4],
+    };
+    let trial = Mandel::from_row_slice(&strain);
+    let Ok(update) = material.update(&state, &trial) else {
+        // An error is allowed (the caller cuts the step); a panic is not.
+        return Ok(());
+    };
+    prop_assert!(update.stress_mpa.iter().all(|v| v.is_finite()));
+    prop_assert!(update.elastic_strain.iter().all(|v| v.is_finite()));
+    prop_assert!(update.tangent_mpa.iter().all(|v| v.is_finite()));
+    prop_assert!(update.state.porosity >= 0.0 && update.state.porosity < 1.0);
+    prop_assert!(update.state.matrix_plastic_strain >= state.matrix_plastic_strain);
+    if update.state.failed {
+        prop_assert_eq!(update.stress_mpa, Mandel::zeros());
+        return Ok(());
+    }
+    if !update.plastic {
+        prop_assert!(material.yield_function_at(&update.stress_mpa, &state) <= 1e-10);
+        return Ok(());
+    }
+    // Consistency: on the yield surface of the new state. Φ is
+    // dimensionless (~2x relative stress error); 1e-9 is far above the
+    // Newton tolerance and far below any real error.
+    let phi = material.yield_function_at(&update.stress_mpa, &update.state);
+    // f_{n+1} = f_n + (1 - f) Δε_v + A Δε_m. When compression closes the
+    // voids, f_n or the nucleated A Δε_m, it is the small difference of
+    // larger terms and only known to ~1e-16 of them: Φ (dominated by
+    // 2 q1 f cosh, ∂Φ/∂f ~ 1/f on the surface) then carries an error
+    // ~1e-16 (terms)/f_{n+1}. A Δε_m is bounded by |Δf| + |Δε_v|.
+    let [volumetric_increment, _, _, porosity_increment] = update.state.last_increments;
+    let terms = state.porosity + 2.0 * volumetric_increment.abs() + porosity_increment.abs();
+    let rounding = 1e-13 * terms / update.state.porosity.max(1e-300);
+    prop_assert!(phi.abs() < 1e-9 + rounding, "phi = {}", phi);
+    // Normality: Δε_p = ε_tr - ε_e parallel to ∂Φ/∂σ at the new stress,
+    // with a non-negative multiplier.
+    let plastic_increment = trial - update.elastic_strain;
+    let normal = yield_gradient(&material, &update.stress_mpa, &update.state);
+    let multiplier = plastic_increment.dot(&normal) / normal.norm_squared();
+    prop_assert!(multiplier >= 0.0);
+    let misfit = (plastic_increment - normal * multiplier).norm() / plastic_increment.norm();
+    // Same rounding allowance: ∂Φ/∂p is proportional to f_{n+1}.
+    prop_assert!(misfit < 1e-8 + rounding, "flow-rule misfit {}", misfit);
+    Ok(())
+}
+
+/// A case the property once found: a void-free point under ~15 σ_y of
+/// pressure whose voids nucleate (A Δε_m = 0.021) and close (Δε_v = -0.021)
+/// in one step to f = 1.9e-10. Φ of the returned stress is -4e-8: one
+/// rounding unit of those terms times ∂Φ/∂f ~ 1/f, not a Newton error.
+#[test]
+fn voids_nucleating_from_zero_leave_the_stress_on_the_surface() {
+    let parameters = GtnParameters {
+        q1: 0.9,
+        q2: 0.9,
+        q3: 0.81,
+        nucleation_mean_strain: 0.25,
+        nucleation_std_strain: 0.193_063_323_412_265_76,
+        nucleated_void_fraction: 0.065_457_184_724_356_12,
+        initial_porosity: 0.0,
+        coalescence: Some(Coalescence {
+            critical_porosity: 0.02,
+            failure_porosity: 0.07,
+        }),
+    };
+    let strain = [
+        -0.037_724_799_079_210_94,
+        -0.029_262_870_293_411_33,
+        -0.036_789_572_452_014_356,
+        0.0,
+        0.0,
+        0.030_518_302_808_203_782,
+    ];
+    check_local_equations(parameters, 0.138_143_183_462_964_1, 0.0, strain).unwrap();
 }
 
 /// ∂Φ/∂σ from a central difference of the public yield function (5e-4 MPa

@@ -90,10 +90,11 @@ const ALLOWED: &[(&str, &[&str])] = &[
         ],
     ),
     // A campaign's lake: recordings decoded and measured values extracted
-    // into Parquet files; no loss, no model, no CAN of its own.
+    // into Parquet files; no loss, no model, no CAN of its own. A backlog's
+    // slices run as jobs of the executor (acq lake ingest --slurm).
     (
         "acq-lake",
-        &["acq-rig", "acq-error", "acq-io", "acq-analysis"],
+        &["acq-rig", "acq-error", "acq-io", "acq-analysis", "acq-exec"],
     ),
     // The demo composes the whole chain.
     (

@@ -4,8 +4,8 @@
 //! example calibrated on Slurm, the posterior's refinement and predictive
 //! runs as jobs, a job cancelled from outside, acq's own
 //! timeout, a requeued job, a drained and a failed node, acq killed with
-//! SIGKILL and resumed, and Ctrl-C that cancels acq's jobs and nobody
-//! else's.
+//! SIGKILL and resumed, Ctrl-C that cancels acq's jobs and nobody
+//! else's, and a lake's backlog ingested as jobs.
 //!
 //! The toy solver records every run it completes (its `SLURM_JOB_ID` and
 //! inputs) in a file of its own, outside acq's bookkeeping: that file is
@@ -13,7 +13,7 @@
 
 mod common;
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -189,7 +189,7 @@ type Scenario = fn(&Cluster);
 #[test]
 fn acq_on_a_real_slurm_cluster() {
     let cluster = Cluster::start();
-    let scenarios: [(&str, Scenario); 8] = [
+    let scenarios: [(&str, Scenario); 9] = [
         ("the worked CalculiX example", calculix_example_on_slurm),
         ("the posterior's runs as jobs", posterior_runs_as_jobs),
         ("a job cancelled from outside", job_cancelled_from_outside),
@@ -198,6 +198,7 @@ fn acq_on_a_real_slurm_cluster() {
         ("a drained node and a failed one", drained_and_failed_node),
         ("SIGKILL, then --resume", killed_and_resumed),
         ("Ctrl-C", ctrl_c_cancels_only_acqs_jobs),
+        ("a lake's backlog as jobs", lake_backlog_as_jobs),
     ];
     // ACQ_SLURM_SCENARIO=word runs only the scenarios whose name has it
     // (while working on one).
@@ -564,4 +565,142 @@ fn ctrl_c_cancels_only_acqs_jobs(cluster: &Cluster) {
         rows.iter().all(|r| r["status"] == "ok"),
         "the evaluation acq cancelled ran again on --resume: {rows:?}"
     );
+}
+
+/// Every file of a lake's tables (not its manifest, whose entries carry
+/// the time of their ingest) with its bytes, by path in the lake.
+fn lake_tables(lake: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut files = BTreeMap::new();
+    let mut dirs: Vec<PathBuf> = ["samples", "holds", "measured"]
+        .iter()
+        .map(|table| lake.join(table))
+        .collect();
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+            let path = entry.path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else {
+                let relative = path.strip_prefix(lake).unwrap().to_path_buf();
+                files.insert(relative, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    files
+}
+
+/// A backlog (logs of three days, one of them in two files, and a
+/// recorded session) ingested as three Slurm jobs gives the lake one
+/// ingest on this machine gives, file for file and byte for byte; the
+/// same command again runs the jobs again, which skip every source and
+/// change no file.
+fn lake_backlog_as_jobs(cluster: &Cluster) {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = root().join("fixtures/rigs/excavator.toml");
+    let scenario = root().join("fixtures/scenarios/excavator_case1.toml");
+    let mut backlog = vec![root().join("fixtures/sessions/excavator_case2")];
+    for (day, seed) in [(0u64, "1"), (1, "2"), (3, "3")] {
+        let log = dir.path().join(format!("day{day}.log"));
+        let start = (1_764_547_200 + day * 86_400).to_string();
+        let simulated = common::acq(&[
+            "simulate",
+            "--rig",
+            path_arg(&rig),
+            "--scenario",
+            path_arg(&scenario),
+            "--seed",
+            seed,
+            "--start",
+            &start,
+            "-o",
+            path_arg(&log),
+        ]);
+        assert!(simulated.status.success(), "{simulated:?}");
+        backlog.push(log);
+    }
+    // The last day's log in two files, as a logger splits its files.
+    let text = std::fs::read_to_string(backlog.last().unwrap()).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let (first, second) = lines.split_at(lines.len() / 2);
+    let last = backlog.pop().unwrap();
+    for (part, lines) in [("a", first), ("b", second)] {
+        let file = last.with_file_name(format!("day3{part}.log"));
+        std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+        backlog.push(file);
+    }
+    let ingest = |lake: &Path, extra: &[&str]| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_acq"));
+        command
+            .args(["lake", "ingest"])
+            .args(backlog.iter().map(|p| path_arg(p)))
+            .args(["--rig", path_arg(&rig), "--lake", path_arg(lake)])
+            .args(extra)
+            .env("SLURM_CONF", &cluster.conf)
+            .stdin(Stdio::null());
+        let output = command.output().unwrap();
+        let said = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(output.status.success(), "acq lake ingest {extra:?}: {said}");
+        said
+    };
+    let here = dir.path().join("lake-here");
+    ingest(&here, &[]);
+    let on_slurm = dir.path().join("lake-on-slurm");
+    let said = ingest(&on_slurm, &["--slurm", "--slices", "3"]);
+    assert_eq!(said.matches(": done").count(), 3, "{said}");
+
+    let expected = lake_tables(&here);
+    let got = lake_tables(&on_slurm);
+    // Three days of samples of every sensor, holds and measured values.
+    assert!(expected.len() > 3 * 28, "{:?}", expected.keys());
+    assert_eq!(
+        got.keys().collect::<Vec<_>>(),
+        expected.keys().collect::<Vec<_>>()
+    );
+    for (path, bytes) in &expected {
+        assert!(&got[path] == bytes, "{} differs", path.display());
+    }
+    // Each slice ran as a job of the cluster, which completed.
+    let slices: Vec<PathBuf> = std::fs::read_dir(on_slurm.join("_slurm"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path())
+        .collect();
+    assert_eq!(slices.len(), 3);
+    let mut listed = BTreeSet::new();
+    for slice in &slices {
+        let id: u64 = std::fs::read_to_string(slice.join("slurm_job_id"))
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        assert_eq!(cluster.job(id).0, "COMPLETED", "job {id}");
+        for line in std::fs::read_to_string(slice.join("inputs.txt"))
+            .unwrap()
+            .lines()
+        {
+            assert!(listed.insert(line.to_string()), "{line} in two slices");
+        }
+    }
+    assert_eq!(listed.len(), backlog.len());
+
+    // Again: every job runs again, skips its sources and changes nothing.
+    let modified = |lake: &Path| -> Vec<std::time::SystemTime> {
+        lake_tables(lake)
+            .keys()
+            .map(|p| std::fs::metadata(lake.join(p)).unwrap().modified().unwrap())
+            .collect()
+    };
+    let before = modified(&on_slurm);
+    let said = ingest(&on_slurm, &["--slurm", "--slices", "3"]);
+    assert_eq!(said.matches(": done").count(), 3, "{said}");
+    assert_eq!(modified(&on_slurm), before);
+    let skipped: usize = slices
+        .iter()
+        .map(|slice| {
+            std::fs::read_to_string(slice.join("stderr.txt"))
+                .unwrap()
+                .matches("unchanged since its ingest, skipped")
+                .count()
+        })
+        .sum();
+    assert_eq!(skipped, backlog.len());
 }

@@ -11,6 +11,8 @@
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, MutexGuard};
 
 use acq_analysis::extract::holds::HoldOptions;
 use acq_analysis::extract::measured::write_measured_parquet_within;
@@ -40,6 +42,10 @@ pub struct IngestOptions {
     /// The `device` partition; `None`: the rig file's name (one rig file
     /// per machine).
     pub device: Option<String>,
+    /// Sources decoded at once, each on a thread of its own; 0: one per
+    /// core of this machine. A source's memory is bounded (see the module
+    /// doc), so memory grows with this, not with the backlog.
+    pub jobs: usize,
 }
 
 /// What became of one source.
@@ -61,49 +67,126 @@ pub struct SourceReport {
     pub outcome: Outcome,
 }
 
-/// Ingests `inputs` into the lake, calling `on_source` as each is done.
+/// The device partition of `options`: as given, else the rig file's name.
+pub fn device_of(options: &IngestOptions) -> String {
+    match &options.device {
+        Some(device) => device.clone(),
+        None => options
+            .rig
+            .file_stem()
+            .map_or("rig".into(), |s| s.to_string_lossy().into_owned()),
+    }
+}
+
+/// Ingests `inputs` into the lake, `options.jobs` sources at a time,
+/// calling `on_source` as each is done; the reports in the inputs' order,
+/// one per distinct source (an input named twice is ingested once).
+///
+/// # Errors
+/// The lake cannot be written, or Ctrl-C: the sources under way stop, and
+/// what was published stays whole.
 pub fn ingest(
     inputs: &[PathBuf],
     options: &IngestOptions,
-    mut on_source: impl FnMut(&SourceReport),
+    on_source: impl FnMut(&SourceReport) + Send,
 ) -> Result<Vec<SourceReport>> {
     let lake = options.lake.as_path();
     acq_io::output::create_dir(lake)?;
     for dir in [MANIFEST_DIR, TMP_DIR] {
         acq_io::output::create_dir(&lake.join(dir))?;
     }
-    let tmp = ScratchDir::new(lake)?;
     let rig = std::fs::canonicalize(&options.rig)
         .map_err(|e| AcqError::io(format!("opening the rig {}", options.rig.display()), e))?;
     let (rig_sha256, _) = session::sha256_file(&rig)
         .map_err(|e| AcqError::io(format!("reading {}", rig.display()), e))?;
-    let device = match &options.device {
-        Some(device) => device.clone(),
-        None => rig
-            .file_stem()
-            .map_or("rig".into(), |s| s.to_string_lossy().into_owned()),
+    let ingest = Ingest {
+        lake,
+        tmp: ScratchDir::new(lake)?,
+        device: device_of(options),
+        rig,
+        rig_sha256,
+        leftovers: Mutex::new(None),
     };
-    let mut leftovers: Option<HashMap<String, Vec<PathBuf>>> = None;
-    let mut reports = Vec::new();
-    for input in inputs {
+    let mut seen = HashSet::new();
+    let inputs: Vec<&PathBuf> = inputs
+        .iter()
+        .filter(|input| seen.insert(std::fs::canonicalize(input).unwrap_or((*input).clone())))
+        .collect();
+    let jobs = match options.jobs {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        jobs => jobs,
+    }
+    .min(inputs.len())
+    .max(1);
+    let next = AtomicUsize::new(0);
+    let reports = Mutex::new(vec![None; inputs.len()]);
+    let first_error = Mutex::new(None);
+    let on_source = Mutex::new(on_source);
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let index = next.fetch_add(1, Ordering::SeqCst);
+                if index >= inputs.len() || lock(&first_error).is_some() {
+                    break;
+                }
+                match ingest.one(inputs[index]) {
+                    Ok(report) => {
+                        (lock(&on_source))(&report);
+                        lock(&reports)[index] = Some(report);
+                    }
+                    Err(e) => {
+                        lock(&first_error).get_or_insert(e);
+                        break;
+                    }
+                }
+            });
+        }
+    });
+    if let Some(e) = first_error.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        return Err(e);
+    }
+    let reports = reports.into_inner().unwrap_or_else(|e| e.into_inner());
+    Ok(reports.into_iter().flatten().collect())
+}
+
+/// A lock whose holder panicked is still good: each guarded value is
+/// whole between statements.
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    mutex.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// One ingest's lake, rig and device, shared by its threads.
+struct Ingest<'a> {
+    lake: &'a Path,
+    tmp: ScratchDir,
+    rig: PathBuf,
+    rig_sha256: String,
+    device: String,
+    /// Files of each source id, listed once when a source without an entry
+    /// first needs them.
+    leftovers: Mutex<Option<HashMap<String, Vec<PathBuf>>>>,
+}
+
+impl Ingest<'_> {
+    /// One source: skipped, ingested or failed; `Err` only when the lake
+    /// cannot be written or on Ctrl-C.
+    fn one(&self, input: &Path) -> Result<SourceReport> {
         let source = match Source::identify(input) {
             Ok(source) => source,
             Err(e) => {
-                let report = SourceReport {
-                    source: input.clone(),
+                return Ok(SourceReport {
+                    source: input.to_path_buf(),
                     outcome: Outcome::Failed(e.to_string()),
-                };
-                on_source(&report);
-                reports.push(report);
-                continue;
+                })
             }
         };
+        let lake = self.lake;
         let earlier = manifest::read(lake, &source.id)?;
         let unchanged = earlier.as_ref().is_some_and(|e| {
             e.format == manifest::FORMAT
                 && e.sha256 == source.sha256
-                && e.rig_sha256 == rig_sha256
-                && e.device == device
+                && e.rig_sha256 == self.rig_sha256
+                && e.device == self.device
         });
         let outcome = if unchanged {
             Outcome::Unchanged
@@ -112,15 +195,15 @@ pub fn ingest(
             // its entry was published. They go as an earlier entry's do.
             let old_files: Vec<PathBuf> = match &earlier {
                 Some(entry) => entry.files.clone(),
-                None => leftovers
+                None => lock(&self.leftovers)
                     .get_or_insert_with(|| files_by_id(lake))
                     .remove(&source.id)
                     .unwrap_or_default(),
             };
-            match source.decode_into(lake, &tmp, &rig, &device) {
+            match source.decode_into(lake, &self.tmp, &self.rig, &self.device) {
                 Ok(mut entry) => {
-                    entry.rig_sha256 = rig_sha256.clone();
-                    let replaced = replace(lake, &tmp, &source.id, &entry, old_files)?;
+                    entry.rig_sha256 = self.rig_sha256.clone();
+                    let replaced = replace(lake, &self.tmp, &source.id, &entry, old_files)?;
                     Outcome::Ingested {
                         replaced: replaced || earlier.is_some(),
                         entry: Box::new(entry),
@@ -133,14 +216,11 @@ pub fn ingest(
                 Err(e) => Outcome::Failed(e.to_string()),
             }
         };
-        let report = SourceReport {
+        Ok(SourceReport {
             source: source.path,
             outcome,
-        };
-        on_source(&report);
-        reports.push(report);
+        })
     }
-    Ok(reports)
 }
 
 /// Removes the files of a source's earlier content that its new one no

@@ -19,6 +19,9 @@ pub const TABLES: [&str; 3] = [SAMPLES, HOLDS, MEASURED];
 pub const MANIFEST_DIR: &str = "_manifest";
 /// Files being written; engines skip names that start with `_`.
 pub const TMP_DIR: &str = "_tmp";
+/// One directory per slice of a backlog ingested as Slurm jobs: its job
+/// script, its list of sources, the ingest's output.
+pub const SLURM_DIR: &str = "_slurm";
 
 /// `value` as a partition value or file name: path-safe, never empty.
 pub fn partition_value(value: &str) -> String {

@@ -10,6 +10,7 @@
 //!   measured/device=D/<source id>.parquet
 //!   _manifest/<source id>.json     one per source: its hash, what it became
 //!   _tmp/                          files being written (engines skip `_`)
+//!   _slurm/<slice>/                a backlog's jobs ([`backlog`]): script, list, output
 //! ```
 //!
 //! Why this layout ([`layout`]): a campaign is asked about one machine, one
@@ -25,6 +26,7 @@
 //! published last, so a source without one is ingested again from the
 //! start, and a source is never modified.
 
+pub mod backlog;
 pub mod ingest;
 pub mod layout;
 pub mod manifest;

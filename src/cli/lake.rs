@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use acq_error::{AcqError, Result};
 use std::io::Write;
 
+use acq_exec::slurm::SlurmSettings;
 use acq_io::output::{CompleteOnlyFile, TableFormat};
+use acq_lake::backlog::{self, SlurmIngest};
 use acq_lake::ingest::{self, IngestOptions, Outcome};
 use acq_lake::query::{self, Sink};
 use clap::{Args, Subcommand};
@@ -51,8 +53,12 @@ pub struct QueryArgs {
 pub struct IngestArgs {
     /// Session directories (acq record, acq import) and logger files
     /// (candump -L, Vector ASC or BLF, ASAM MF4). Never modified.
-    #[arg(value_name = "INPUT", required = true)]
+    #[arg(value_name = "INPUT", required_unless_present = "list")]
     pub inputs: Vec<PathBuf>,
+    /// More inputs, one path a line (a backlog listed by `find`); blank
+    /// lines and lines starting with # are skipped.
+    #[arg(long, value_name = "FILE")]
+    pub list: Option<PathBuf>,
     /// The rig that decodes every input.
     #[arg(long, value_name = "RIG.toml")]
     pub rig: PathBuf,
@@ -63,6 +69,29 @@ pub struct IngestArgs {
     /// [default: the rig file's name].
     #[arg(long, value_name = "NAME")]
     pub device: Option<String>,
+    /// Sources decoded at once on this machine [default: one per core];
+    /// with --slurm, in each job (its cpus).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Run the ingest as Slurm jobs, each a slice of the inputs, from a
+    /// login node whose compute nodes see the inputs, the lake and this
+    /// acq at the same paths. The same command again resumes: running
+    /// jobs are re-attached, sources already in the lake skipped.
+    #[arg(long)]
+    pub slurm: bool,
+    /// With --slurm: the number of jobs (slices of about equal bytes).
+    #[arg(long, value_name = "N", default_value_t = 16, requires = "slurm")]
+    pub slices: usize,
+    /// With --slurm: the partition to submit to.
+    #[arg(long, value_name = "NAME", requires = "slurm")]
+    pub partition: Option<String>,
+    /// With --slurm: the account to charge.
+    #[arg(long, value_name = "NAME", requires = "slurm")]
+    pub account: Option<String>,
+    /// With --slurm: each job's time limit in minutes; acq cancels a job
+    /// that runs longer.
+    #[arg(long, value_name = "MINUTES", default_value_t = 24 * 60, requires = "slurm")]
+    pub time_limit: u64,
 }
 
 pub fn run_lake(command: LakeCommand) -> Result<()> {
@@ -74,13 +103,21 @@ pub fn run_lake(command: LakeCommand) -> Result<()> {
 }
 
 fn run_ingest(args: IngestArgs) -> Result<()> {
+    let mut inputs = args.inputs.clone();
+    if let Some(list) = &args.list {
+        inputs.extend(read_list(list)?);
+    }
     let options = IngestOptions {
         lake: args.lake.clone(),
-        rig: args.rig,
-        device: args.device,
+        rig: args.rig.clone(),
+        device: args.device.clone(),
+        jobs: args.jobs.unwrap_or(0),
     };
+    if args.slurm {
+        return run_ingest_on_slurm(&inputs, &options, &args);
+    }
     let started = std::time::Instant::now();
-    let reports = ingest::ingest(&args.inputs, &options, |report| {
+    let reports = ingest::ingest(&inputs, &options, |report| {
         let source = report.source.display();
         match &report.outcome {
             Outcome::Unchanged => {
@@ -119,6 +156,11 @@ fn run_ingest(args: IngestArgs) -> Result<()> {
         started.elapsed().as_secs_f64()
     );
     println!("lake: {}", args.lake.display());
+    if failed == reports.len() {
+        return Err(AcqError::Config(format!(
+            "none of the {failed} source(s) ingested (each said above)"
+        )));
+    }
     if failed > 0 {
         return Err(AcqError::Config(format!(
             "{failed} of {} source(s) not ingested (each said above); the others are in the lake",
@@ -126,6 +168,75 @@ fn run_ingest(args: IngestArgs) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+fn run_ingest_on_slurm(
+    inputs: &[PathBuf],
+    options: &IngestOptions,
+    args: &IngestArgs,
+) -> Result<()> {
+    let slurm = SlurmIngest {
+        slices: args.slices,
+        settings: SlurmSettings {
+            partition: args.partition.clone(),
+            account: args.account.clone(),
+            cpus_per_job: Some(args.jobs.unwrap_or(1).max(1) as u32),
+            ..SlurmSettings::default()
+        },
+        timeout: std::time::Duration::from_secs(args.time_limit.saturating_mul(60)),
+        acq: std::env::current_exe()
+            .map_err(|e| AcqError::io("finding acq's own binary for the jobs".to_string(), e))?,
+    };
+    let started = std::time::Instant::now();
+    let reports = backlog::ingest_on_slurm(inputs, options, &slurm, |slice| {
+        let notes: Vec<String> = slice
+            .notes
+            .iter()
+            .filter(|(_, value)| !value.is_empty())
+            .map(|(name, value)| format!("{name} {value}"))
+            .collect();
+        let what = format!(
+            "acq lake: slice {} ({} source(s), {:.1} MB; {})",
+            slice.directory.display(),
+            slice.sources,
+            slice.bytes as f64 / 1e6,
+            notes.join(", ")
+        );
+        match &slice.outcome {
+            Ok(()) => eprintln!("{what}: done"),
+            Err(why) => eprintln!("{what}: failed: {why}"),
+        }
+    })?;
+    let failed = reports.iter().filter(|r| r.outcome.is_err()).count();
+    eprintln!(
+        "acq lake: {} job(s): {} done, {failed} failed, in {:.1} s",
+        reports.len(),
+        reports.len() - failed,
+        started.elapsed().as_secs_f64()
+    );
+    println!("lake: {}", options.lake.display());
+    if failed > 0 {
+        return Err(AcqError::Config(format!(
+            "{failed} of {} job(s) failed (each said above, its output in its directory); \
+             the same command again runs them again and skips what is in the lake",
+            reports.len()
+        )));
+    }
+    Ok(())
+}
+
+/// The paths of a list file, relative ones taken from the list's
+/// directory.
+fn read_list(list: &std::path::Path) -> Result<Vec<PathBuf>> {
+    let text = std::fs::read_to_string(list)
+        .map_err(|e| AcqError::io(format!("reading the list {}", list.display()), e))?;
+    let base = list.parent().unwrap_or(std::path::Path::new("."));
+    Ok(text
+        .lines()
+        .map(str::trim)
+        .filter(|line| !line.is_empty() && !line.starts_with('#'))
+        .map(|line| base.join(line))
+        .collect())
 }
 
 fn run_query(args: QueryArgs) -> Result<()> {

@@ -105,6 +105,22 @@ struct QueueView {
     missing: HashMap<u64, u32>,
 }
 
+/// Forgets the job a run directory holds once it has ended (its exit
+/// status written), so that the next [`Executor::execute`] there submits
+/// the command again instead of collecting that job: for commands that are
+/// cheap to repeat and whose inputs may have changed since (an ingest that
+/// skips what it has done). A job still queued or running is kept, to be
+/// re-attached.
+pub fn forget_finished_job(directory: &Path) {
+    if read_exit_status(directory).is_some() {
+        // The job script too: by it, `squeue` would still name the ended
+        // job (Slurm lists ended jobs for a while) as this directory's.
+        for file in [EXIT_STATUS, STARTED_AT, JOB_ID, SUBMITTED_AT, JOB_SCRIPT] {
+            let _ = std::fs::remove_file(directory.join(file));
+        }
+    }
+}
+
 pub struct SlurmExecutor {
     settings: SlurmSettings,
     columns: Vec<String>,

@@ -35,7 +35,7 @@ use arrow_array::builder::{
     TimestampNanosecondBuilder,
 };
 use arrow_array::types::Int32Type;
-use arrow_array::{ArrayRef, RecordBatch};
+use arrow_array::{ArrayRef, DictionaryArray, Int32Array, RecordBatch, StringArray};
 use arrow_schema::{DataType, Field, Schema, SchemaRef, TimeUnit};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, Encoding, ZstdLevel};
@@ -124,6 +124,10 @@ enum ColumnBuilder {
     Float(Float64Builder),
     Integer(Int64Builder),
     Text(StringDictionaryBuilder<Int32Type>),
+    /// A text column with one value in every row
+    /// ([`ParquetTable::constant_text`]): its batch is the value once and
+    /// a key per row, with no lookup per row.
+    Constant(Arc<StringArray>),
     Flag(BooleanBuilder),
 }
 
@@ -140,12 +144,16 @@ impl ColumnBuilder {
         }
     }
 
-    fn finish(&mut self) -> ArrayRef {
+    fn finish(&mut self, rows: usize) -> ArrayRef {
         match self {
             ColumnBuilder::Time(b) => Arc::new(b.finish()),
             ColumnBuilder::Float(b) => Arc::new(b.finish()),
             ColumnBuilder::Integer(b) => Arc::new(b.finish()),
             ColumnBuilder::Text(b) => Arc::new(b.finish()),
+            ColumnBuilder::Constant(value) => Arc::new(DictionaryArray::<Int32Type>::new(
+                Int32Array::from(vec![0; rows]),
+                value.clone(),
+            )),
             ColumnBuilder::Flag(b) => Arc::new(b.finish()),
         }
     }
@@ -301,6 +309,19 @@ impl ParquetTable {
         }
     }
 
+    /// Gives a text column `value` in every row from now on, set once
+    /// instead of per row (a file's session, its source, a sensor's unit);
+    /// its per-row setter is then a bug. Call it before the first row.
+    pub fn constant_text(&mut self, column: usize, value: &str) {
+        match &self.columns[column] {
+            ColumnBuilder::Text(_) | ColumnBuilder::Constant(_) => {
+                self.columns[column] =
+                    ColumnBuilder::Constant(Arc::new(StringArray::from(vec![value])));
+            }
+            _ => self.wrong_type(column, "text"),
+        }
+    }
+
     #[inline]
     pub fn flag(&mut self, column: usize, value: bool) {
         match &mut self.columns[column] {
@@ -348,7 +369,12 @@ impl ParquetTable {
         if self.rows_in_batch == 0 {
             return Ok(());
         }
-        let arrays: Vec<ArrayRef> = self.columns.iter_mut().map(ColumnBuilder::finish).collect();
+        let rows = self.rows_in_batch;
+        let arrays: Vec<ArrayRef> = self
+            .columns
+            .iter_mut()
+            .map(|column| column.finish(rows))
+            .collect();
         self.rows_in_batch = 0;
         let batch = RecordBatch::try_new(self.schema.clone(), arrays)
             .map_err(|e| AcqError::Malformed(format!("{}: {e}", self.destination.name())))?;

@@ -171,50 +171,78 @@ impl Ingest<'_> {
     /// One source: skipped, ingested or failed; `Err` only when the lake
     /// cannot be written or on Ctrl-C.
     fn one(&self, input: &Path) -> Result<SourceReport> {
-        let source = match Source::identify(input) {
+        let failed = |source: PathBuf, e: AcqError| SourceReport {
+            source,
+            outcome: Outcome::Failed(e.to_string()),
+        };
+        let source = match Source::locate(input) {
             Ok(source) => source,
-            Err(e) => {
-                return Ok(SourceReport {
-                    source: input.to_path_buf(),
-                    outcome: Outcome::Failed(e.to_string()),
-                })
-            }
+            Err(e) => return Ok(failed(input.to_path_buf(), e)),
         };
         let lake = self.lake;
         let earlier = manifest::read(lake, &source.id)?;
-        let unchanged = earlier.as_ref().is_some_and(|e| {
-            e.format == manifest::FORMAT
-                && e.sha256 == source.sha256
-                && e.rig_sha256 == self.rig_sha256
-                && e.device == self.device
-        });
-        let outcome = if unchanged {
-            Outcome::Unchanged
-        } else {
-            // Files of this id without an entry: an ingest killed before
-            // its entry was published. They go as an earlier entry's do.
-            let old_files: Vec<PathBuf> = match &earlier {
+        let decoded = match &earlier {
+            Some(entry) => {
+                let content = match source.content() {
+                    Ok(content) => content,
+                    Err(e) => return Ok(failed(source.path, e)),
+                };
+                if entry.format == manifest::FORMAT
+                    && entry.sha256 == content.0
+                    && entry.rig_sha256 == self.rig_sha256
+                    && entry.device == self.device
+                {
+                    return Ok(SourceReport {
+                        source: source.path,
+                        outcome: Outcome::Unchanged,
+                    });
+                }
+                source.decode_into(lake, &self.tmp, &self.rig, &self.device, content)
+            }
+            // A source the lake has not seen is hashed while it is decoded,
+            // on another core: both read it, neither waits for the other.
+            None => std::thread::scope(|scope| {
+                let hashing = scope.spawn(|| source.content());
+                let decoded = source.decode_into(
+                    lake,
+                    &self.tmp,
+                    &self.rig,
+                    &self.device,
+                    (String::new(), 0),
+                );
+                let content = hashing.join().expect("hashing does not panic")?;
+                decoded.map(|entry| Entry {
+                    sha256: content.0,
+                    bytes: content.1,
+                    ..entry
+                })
+            }),
+        };
+        // Files of this id without an entry: an ingest killed before its
+        // entry was published. They go as an earlier entry's do.
+        let old_files = || -> Vec<PathBuf> {
+            match &earlier {
                 Some(entry) => entry.files.clone(),
                 None => lock(&self.leftovers)
                     .get_or_insert_with(|| files_by_id(lake))
                     .remove(&source.id)
                     .unwrap_or_default(),
-            };
-            match source.decode_into(lake, &self.tmp, &self.rig, &self.device) {
-                Ok(mut entry) => {
-                    entry.rig_sha256 = self.rig_sha256.clone();
-                    let replaced = replace(lake, &self.tmp, &source.id, &entry, old_files)?;
-                    Outcome::Ingested {
-                        replaced: replaced || earlier.is_some(),
-                        entry: Box::new(entry),
-                    }
-                }
-                // A source that cannot be read or decoded (another rig's,
-                // a damaged file) is said and left out, its entry (if any)
-                // and files as they were; Ctrl-C stops the ingest.
-                Err(e @ AcqError::Interrupted(_)) => return Err(e),
-                Err(e) => Outcome::Failed(e.to_string()),
             }
+        };
+        let outcome = match decoded {
+            Ok(mut entry) => {
+                entry.rig_sha256 = self.rig_sha256.clone();
+                let replaced = replace(lake, &self.tmp, &source.id, &entry, old_files())?;
+                Outcome::Ingested {
+                    replaced: replaced || earlier.is_some(),
+                    entry: Box::new(entry),
+                }
+            }
+            // A source that cannot be read or decoded (another rig's, a
+            // damaged file) is said and left out, its entry (if any) and
+            // files as they were; Ctrl-C stops the ingest.
+            Err(e @ AcqError::Interrupted(_)) => return Err(e),
+            Err(e) => Outcome::Failed(e.to_string()),
         };
         Ok(SourceReport {
             source: source.path,
@@ -241,17 +269,16 @@ fn replace(
     Ok(!old_files.is_empty())
 }
 
-/// A source to ingest: where it is, what it is, its content's hash.
+/// A source to ingest: where it is, what it is, the files it is made of.
 struct Source {
     path: PathBuf,
     id: String,
     is_session: bool,
-    sha256: String,
-    bytes: u64,
+    files: Vec<PathBuf>,
 }
 
 impl Source {
-    fn identify(input: &Path) -> Result<Source> {
+    fn locate(input: &Path) -> Result<Source> {
         let path = std::fs::canonicalize(input).map_err(|e| {
             AcqError::Config(format!(
                 "{}: no such session directory or log file ({e})",
@@ -266,16 +293,19 @@ impl Source {
         } else {
             vec![path.clone()]
         };
-        let paths: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
-        let (sha256, bytes) = session::sha256_files(&paths)
-            .map_err(|e| AcqError::io(format!("reading {}", path.display()), e))?;
         Ok(Source {
             id: manifest::source_id(&path),
             path,
             is_session,
-            sha256,
-            bytes,
+            files,
         })
+    }
+
+    /// Its content's SHA-256 and its bytes.
+    fn content(&self) -> Result<(String, u64)> {
+        let paths: Vec<&Path> = self.files.iter().map(PathBuf::as_path).collect();
+        session::sha256_files(&paths)
+            .map_err(|e| AcqError::io(format!("reading {}", self.path.display()), e))
     }
 
     /// Decodes the source through `rig` and publishes its files; the entry
@@ -286,6 +316,7 @@ impl Source {
         tmp: &ScratchDir,
         rig: &Path,
         device: &str,
+        (sha256, bytes): (String, u64),
     ) -> Result<Entry> {
         let recording = Recording::open(&self.path, Some(rig)).map_err(|e| match e {
             AcqError::Config(text) => AcqError::Config(format!("{}: {text}", self.path.display())),
@@ -334,8 +365,8 @@ impl Source {
             format: manifest::FORMAT,
             source: self.path.clone(),
             kind: if self.is_session { "session" } else { "log" }.into(),
-            sha256: self.sha256.clone(),
-            bytes: self.bytes,
+            sha256,
+            bytes,
             rig: rig.to_path_buf(),
             rig_sha256: String::new(),
             device: device.to_string(),
@@ -420,9 +451,6 @@ struct SampleFile {
     last_written_ns: Option<i64>,
     rows: u64,
     out_of_order: u64,
-    unit: String,
-    session: String,
-    source: String,
 }
 
 impl SampleFile {
@@ -433,16 +461,17 @@ impl SampleFile {
         within: &Within<'_>,
     ) -> Result<SampleFile> {
         let output = Output::create_complete_only(&tmp.file(&relative))?;
+        let mut table = ParquetTable::new(output, &sample_columns(), &[])?;
+        table.constant_text(2, unit);
+        table.constant_text(3, within.session);
+        table.constant_text(4, within.source);
         Ok(SampleFile {
-            table: ParquetTable::new(output, &sample_columns(), &[])?,
+            table,
             relative,
             pending: Vec::with_capacity(2 * REORDER_WINDOW),
             last_written_ns: None,
             rows: 0,
             out_of_order: 0,
-            unit: unit.to_string(),
-            session: within.session.to_string(),
-            source: within.source.to_string(),
         })
     }
 
@@ -465,9 +494,6 @@ impl SampleFile {
             self.last_written_ns = Some(time_ns);
             self.table.time_ns(0, time_ns);
             self.table.float(1, value);
-            self.table.text(2, Some(&self.unit));
-            self.table.text(3, Some(&self.session));
-            self.table.text(4, Some(&self.source));
             self.table.end_row()?;
             self.rows += 1;
         }

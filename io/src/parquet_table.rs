@@ -231,8 +231,20 @@ impl ParquetTable {
     /// Starts a table in `output` with these columns; `comments` are the
     /// CSV's `#` lines (file metadata).
     pub fn new(output: Output, columns: &[ColumnSpec], comments: &[String]) -> Result<Self> {
-        let schema = schema_of(columns);
         let rows_per_group = (ROW_GROUP_CELLS / columns.len().max(1)).clamp(BATCH_ROWS, 1 << 20);
+        Self::with_row_groups(output, columns, comments, rows_per_group)
+    }
+
+    /// [`ParquetTable::new`] with row groups of `rows_per_group` rows: the
+    /// writer holds a row group's encoded pages until it is complete, so a
+    /// caller with many files open at once bounds its memory with this.
+    pub fn with_row_groups(
+        output: Output,
+        columns: &[ColumnSpec],
+        comments: &[String],
+        rows_per_group: usize,
+    ) -> Result<Self> {
+        let schema = schema_of(columns);
         let mut properties = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))
             .set_max_row_group_row_count(Some(rows_per_group))

@@ -33,6 +33,12 @@ use crate::publish::{publish_file, remove_published, ScratchDir};
 /// sorted by time.
 const REORDER_WINDOW: usize = 8192;
 
+/// Rows of a samples file's row group: DuckDB's own row group size. Every
+/// open file holds its row group's encoded pages until it is complete, so
+/// this (times the sensors and days a source spans) bounds an ingest's
+/// memory; and a row group is what engines skip by its statistics.
+const ROW_GROUP_ROWS: usize = 122_880;
+
 /// What to ingest into which lake.
 #[derive(Clone, Debug)]
 pub struct IngestOptions {
@@ -461,7 +467,8 @@ impl SampleFile {
         within: &Within<'_>,
     ) -> Result<SampleFile> {
         let output = Output::create_complete_only(&tmp.file(&relative))?;
-        let mut table = ParquetTable::new(output, &sample_columns(), &[])?;
+        let mut table =
+            ParquetTable::with_row_groups(output, &sample_columns(), &[], ROW_GROUP_ROWS)?;
         table.constant_text(2, unit);
         table.constant_text(3, within.session);
         table.constant_text(4, within.source);

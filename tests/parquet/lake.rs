@@ -1,6 +1,6 @@
 //! `acq lake ingest`: a campaign of the shipped session and logger files of
-//! our own making (two machines, two days, a logger's file split in two,
-//! candump, ASC and MF4), read back by pyarrow, Polars and DuckDB
+//! our own making (three machines, four days, a logger's file split in two,
+//! candump, ASC and MF4 by acq, BLF and MF4 by python-can and asammdf), read back by pyarrow, Polars and DuckDB
 //! (tests/parquet/lake.py), each sample of each source once, against `acq
 //! decode` of the same file; run again, changed by one byte, and killed
 //! mid-source.
@@ -199,9 +199,23 @@ fn a_campaign_is_in_the_lake_once_however_often_it_is_ingested() {
         let output = acq(&["convert", path_arg(from), "-o", path_arg(to)]);
         assert!(output.status.success(), "{}", stderr(&output));
     }
+    // Machine 3: Case 1 later that day, in files other programs wrote:
+    // BLF by python-can, MF4 by python-can through asammdf.
+    let case1_c = simulated(dir, "excavator_case1.toml", 4.0, 1_791_367_200, "case1_c");
+    let blf = dir.join("case1_c.blf");
+    let mf4_by_asammdf = dir.join("case1_c.mf4");
+    for (format, to) in [("blf", &blf), ("mf4", &mf4_by_asammdf)] {
+        let output = Command::new(crate::common::scratch_python("lake"))
+            .arg(root().join("tests/python_can/frames.py"))
+            .args([format, path_arg(&case1_c), path_arg(to)])
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{format}: {}", stderr(&output));
+    }
     let said = ingest(&lake, Some("machine1"), &[&session, &part1, &part2]);
     assert_eq!(said.matches(": ingested: ").count(), 3, "{said}");
     ingest(&lake, Some("machine2"), &[&asc, &mf4]);
+    ingest(&lake, Some("machine3"), &[&blf, &mf4_by_asammdf]);
     let raw = session.join("raw.log");
     let sources: Vec<(&str, &Path, &Path)> = vec![
         ("machine1", &session, &raw),
@@ -209,6 +223,8 @@ fn a_campaign_is_in_the_lake_once_however_often_it_is_ingested() {
         ("machine1", &part2, &part2),
         ("machine2", &asc, &case2_a),
         ("machine2", &mf4, &case2_b),
+        ("machine3", &blf, &case1_c),
+        ("machine3", &mf4_by_asammdf, &case1_c),
     ];
     let first_counts = check_lake(&lake, &sources);
     let dates: std::collections::BTreeSet<String> = published(&lake)

@@ -4,6 +4,8 @@
     frames.py asc CANDUMP OUT  python-can reads a candump log, writes it as ASC
     frames.py blf CANDUMP OUT  the same, as BLF
     frames.py log CANDUMP OUT  the same, as candump -L (python-can's writer)
+    frames.py mf4 CANDUMP OUT  the same, as ASAM MF4 (python-can's writer,
+                               through asammdf)
 
 Run with the python-can the test installs in a scratch virtualenv; never a
 dependency of acq.
@@ -46,17 +48,18 @@ def main():
                 "dlc": message.dlc,
                 "data": message.data.hex() if not message.is_error_frame else "",
             }))
-    elif sys.argv[1] in ("asc", "blf", "log"):
+    elif sys.argv[1] in ("asc", "blf", "log", "mf4"):
         writer_class = {
             "asc": can.ASCWriter,
             "blf": can.BLFWriter,
             "log": can.CanutilsLogWriter,
+            "mf4": can.MF4Writer,
         }[sys.argv[1]]
         with writer_class(sys.argv[3]) as writer:
             for message in can.CanutilsLogReader(sys.argv[2]):
                 writer.on_message_received(message)
     else:
-        sys.exit("usage: frames.py read FILE | asc|blf|log CANDUMP OUT")
+        sys.exit("usage: frames.py read FILE | asc|blf|log|mf4 CANDUMP OUT")
 
 
 main()

@@ -338,15 +338,24 @@ impl Source {
             source: &source_text,
         };
         let mut files = Vec::new();
-        let (samples, out_of_order) =
-            write_samples(&recording, lake, tmp, device, &self.id, &within, &mut files)?;
+        // The holds and their measured values read the source again, on
+        // another core while its samples are written.
+        let (written, holds) = std::thread::scope(|scope| {
+            let holds = scope.spawn(|| {
+                extract_holds(
+                    &recording,
+                    &WindowChoice::Auto(HoldOptions::default()),
+                    None,
+                    &[],
+                )
+            });
+            let written =
+                write_samples(&recording, lake, tmp, device, &self.id, &within, &mut files);
+            (written, holds.join().expect("finding holds does not panic"))
+        });
+        let (samples, out_of_order) = written?;
         let mut notes = Vec::new();
-        match extract_holds(
-            &recording,
-            &WindowChoice::Auto(HoldOptions::default()),
-            None,
-            &[],
-        ) {
+        match holds {
             Ok(report) if !report.windows.is_empty() => {
                 let holds = layout::table_file(HOLDS, device, &self.id);
                 write_holds(&report, &tmp.file(&holds), &within)?;

@@ -32,7 +32,7 @@ use std::sync::Arc;
 
 use arrow_array::builder::{
     BooleanBuilder, Float64Builder, Int64Builder, StringDictionaryBuilder,
-    TimestampNanosecondBuilder,
+    TimestampMicrosecondBuilder, TimestampNanosecondBuilder,
 };
 use arrow_array::types::Int32Type;
 use arrow_array::{ArrayRef, DictionaryArray, Int32Array, RecordBatch, StringArray};
@@ -56,6 +56,43 @@ pub const ROW_GROUP_CELLS: usize = 4 * 1024 * 1024;
 pub const COMMENTS_KEY: &str = "acq.comments";
 /// The key of each column's unit in its Arrow field metadata.
 pub const UNIT_KEY: &str = "unit";
+
+/// How a table's file is laid out where callers differ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FileLayout {
+    /// Rows per row group; `None`: about [`ROW_GROUP_CELLS`] cells. The
+    /// writer holds a row group's encoded pages until it is complete, so a
+    /// caller with many files open at once bounds its memory with this.
+    pub rows_per_group: Option<usize>,
+    /// Float columns BYTE_STREAM_SPLIT (zstd then compresses noisy values
+    /// better) rather than PLAIN. Apache Spark 4.0's Parquet reader refuses
+    /// that encoding ("Unsupported encoding: BYTE_STREAM_SPLIT"); PLAIN is
+    /// read by every engine.
+    pub split_floats: bool,
+    /// Time columns in microseconds, not nanoseconds: Spark's timestamps
+    /// are microseconds and its reader refuses TIMESTAMP(NANOS). A CAN
+    /// frame's stamp (SocketCAN, candump) is a whole microsecond anyway.
+    pub time_in_microseconds: bool,
+}
+
+impl Default for FileLayout {
+    fn default() -> Self {
+        FileLayout {
+            rows_per_group: None,
+            split_floats: true,
+            time_in_microseconds: false,
+        }
+    }
+}
+
+impl FileLayout {
+    /// Files every engine reads as they are, Spark included.
+    pub const FOR_EVERY_ENGINE: FileLayout = FileLayout {
+        rows_per_group: None,
+        split_floats: false,
+        time_in_microseconds: true,
+    };
+}
 
 /// The type of a column's values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -100,8 +137,11 @@ impl ColumnSpec {
         self
     }
 
-    fn field(&self) -> Field {
+    fn field(&self, layout: &FileLayout) -> Field {
         let data_type = match self.column_type {
+            ColumnType::Time if layout.time_in_microseconds => {
+                DataType::Timestamp(TimeUnit::Microsecond, Some("UTC".into()))
+            }
             ColumnType::Time => DataType::Timestamp(TimeUnit::Nanosecond, Some("UTC".into())),
             ColumnType::Float => DataType::Float64,
             ColumnType::Integer => DataType::Int64,
@@ -121,6 +161,9 @@ impl ColumnSpec {
 
 enum ColumnBuilder {
     Time(TimestampNanosecondBuilder),
+    /// A time column of a file in microseconds ([`FileLayout`]): given in
+    /// nanoseconds, rounded down, so that the order is kept.
+    TimeMicros(TimestampMicrosecondBuilder),
     Float(Float64Builder),
     Integer(Int64Builder),
     Text(StringDictionaryBuilder<Int32Type>),
@@ -132,8 +175,11 @@ enum ColumnBuilder {
 }
 
 impl ColumnBuilder {
-    fn new(column_type: ColumnType) -> Self {
+    fn new(column_type: ColumnType, layout: &FileLayout) -> Self {
         match column_type {
+            ColumnType::Time if layout.time_in_microseconds => ColumnBuilder::TimeMicros(
+                TimestampMicrosecondBuilder::with_capacity(BATCH_ROWS).with_timezone("UTC"),
+            ),
             ColumnType::Time => ColumnBuilder::Time(
                 TimestampNanosecondBuilder::with_capacity(BATCH_ROWS).with_timezone("UTC"),
             ),
@@ -147,6 +193,7 @@ impl ColumnBuilder {
     fn finish(&mut self, rows: usize) -> ArrayRef {
         match self {
             ColumnBuilder::Time(b) => Arc::new(b.finish()),
+            ColumnBuilder::TimeMicros(b) => Arc::new(b.finish()),
             ColumnBuilder::Float(b) => Arc::new(b.finish()),
             ColumnBuilder::Integer(b) => Arc::new(b.finish()),
             ColumnBuilder::Text(b) => Arc::new(b.finish()),
@@ -194,9 +241,9 @@ impl Destination {
     }
 }
 
-fn schema_of(columns: &[ColumnSpec]) -> SchemaRef {
+fn schema_of(columns: &[ColumnSpec], layout: &FileLayout) -> SchemaRef {
     Arc::new(Schema::new(
-        columns.iter().map(ColumnSpec::field).collect::<Vec<_>>(),
+        columns.iter().map(|c| c.field(layout)).collect::<Vec<_>>(),
     ))
 }
 
@@ -209,7 +256,7 @@ impl ParquetTable {
         comments: &[String],
         mut sink: Box<dyn ArrowSink>,
     ) -> Result<Self> {
-        let mut schema = schema_of(columns);
+        let mut schema = schema_of(columns, &FileLayout::default());
         if !comments.is_empty() {
             let metadata = HashMap::from([(COMMENTS_KEY.to_string(), comments.join("\n"))]);
             schema = Arc::new(schema.as_ref().clone().with_metadata(metadata));
@@ -220,7 +267,7 @@ impl ParquetTable {
             schema,
             columns: columns
                 .iter()
-                .map(|c| ColumnBuilder::new(c.column_type))
+                .map(|c| ColumnBuilder::new(c.column_type, &FileLayout::default()))
                 .collect(),
             rows_in_batch: 0,
             rows: 0,
@@ -231,20 +278,21 @@ impl ParquetTable {
     /// Starts a table in `output` with these columns; `comments` are the
     /// CSV's `#` lines (file metadata).
     pub fn new(output: Output, columns: &[ColumnSpec], comments: &[String]) -> Result<Self> {
-        let rows_per_group = (ROW_GROUP_CELLS / columns.len().max(1)).clamp(BATCH_ROWS, 1 << 20);
-        Self::with_row_groups(output, columns, comments, rows_per_group)
+        Self::with_layout(output, columns, comments, FileLayout::default())
     }
 
-    /// [`ParquetTable::new`] with row groups of `rows_per_group` rows: the
-    /// writer holds a row group's encoded pages until it is complete, so a
-    /// caller with many files open at once bounds its memory with this.
-    pub fn with_row_groups(
+    /// [`ParquetTable::new`] with the row groups and float encoding of
+    /// `layout`.
+    pub fn with_layout(
         output: Output,
         columns: &[ColumnSpec],
         comments: &[String],
-        rows_per_group: usize,
+        layout: FileLayout,
     ) -> Result<Self> {
-        let schema = schema_of(columns);
+        let rows_per_group = layout
+            .rows_per_group
+            .unwrap_or_else(|| (ROW_GROUP_CELLS / columns.len().max(1)).clamp(BATCH_ROWS, 1 << 20));
+        let schema = schema_of(columns, &layout);
         let mut properties = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))
             .set_max_row_group_row_count(Some(rows_per_group))
@@ -259,7 +307,8 @@ impl ParquetTable {
             let path = ColumnPath::from(column.name.as_str());
             let encoding = match column.column_type {
                 ColumnType::Time | ColumnType::Integer => Encoding::DELTA_BINARY_PACKED,
-                ColumnType::Float => Encoding::BYTE_STREAM_SPLIT,
+                ColumnType::Float if layout.split_floats => Encoding::BYTE_STREAM_SPLIT,
+                ColumnType::Float => Encoding::PLAIN,
                 ColumnType::Text | ColumnType::Flag => continue,
             };
             properties = properties
@@ -275,7 +324,7 @@ impl ParquetTable {
             },
             columns: columns
                 .iter()
-                .map(|c| ColumnBuilder::new(c.column_type))
+                .map(|c| ColumnBuilder::new(c.column_type, &layout))
                 .collect(),
             schema,
             rows_in_batch: 0,
@@ -293,6 +342,7 @@ impl ParquetTable {
     pub fn time_ns(&mut self, column: usize, time_ns: i64) {
         match &mut self.columns[column] {
             ColumnBuilder::Time(b) => b.append_value(time_ns),
+            ColumnBuilder::TimeMicros(b) => b.append_value(time_ns.div_euclid(1000)),
             _ => self.wrong_type(column, "a time"),
         }
     }

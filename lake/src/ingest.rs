@@ -21,7 +21,7 @@ use acq_analysis::recording::clocks::offsets_ns;
 use acq_analysis::recording::{Recording, SampleCounts};
 use acq_error::{AcqError, Result};
 use acq_io::output::Output;
-use acq_io::parquet_table::{ColumnSpec, ColumnType, ParquetTable};
+use acq_io::parquet_table::{ColumnSpec, ColumnType, FileLayout, ParquetTable};
 use acq_io::session;
 
 use crate::layout::{self, HOLDS, MANIFEST_DIR, MEASURED, TABLES, TMP_DIR};
@@ -38,6 +38,13 @@ const REORDER_WINDOW: usize = 8192;
 /// this (times the sensors and days a source spans) bounds an ingest's
 /// memory; and a row group is what engines skip by its statistics.
 const ROW_GROUP_ROWS: usize = 122_880;
+
+/// A samples file: read by every engine (Spark refuses split floats),
+/// in row groups of [`ROW_GROUP_ROWS`].
+const SAMPLES_LAYOUT: FileLayout = FileLayout {
+    rows_per_group: Some(ROW_GROUP_ROWS),
+    ..FileLayout::FOR_EVERY_ENGINE
+};
 
 /// What to ingest into which lake.
 #[derive(Clone, Debug)]
@@ -476,8 +483,7 @@ impl SampleFile {
         within: &Within<'_>,
     ) -> Result<SampleFile> {
         let output = Output::create_complete_only(&tmp.file(&relative))?;
-        let mut table =
-            ParquetTable::with_row_groups(output, &sample_columns(), &[], ROW_GROUP_ROWS)?;
+        let mut table = ParquetTable::with_layout(output, &sample_columns(), &[], SAMPLES_LAYOUT)?;
         table.constant_text(2, unit);
         table.constant_text(3, within.session);
         table.constant_text(4, within.source);
@@ -545,7 +551,12 @@ fn hold_columns() -> Vec<ColumnSpec> {
 /// The holds of `report` to `path`: their times as instants and as seconds
 /// from the session's start (as `acq extract` gives them).
 fn write_holds(report: &HoldsReport, path: &Path, within: &Within<'_>) -> Result<()> {
-    let mut table = ParquetTable::new(Output::create_complete_only(path)?, &hold_columns(), &[])?;
+    let mut table = ParquetTable::with_layout(
+        Output::create_complete_only(path)?,
+        &hold_columns(),
+        &[],
+        FileLayout::FOR_EVERY_ENGINE,
+    )?;
     for window in &report.windows {
         table.text(0, Some(within.session));
         table.text(1, Some(within.source));

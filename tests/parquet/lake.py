@@ -1,8 +1,10 @@
 """The lake as three engines read it: pyarrow.dataset, Polars and DuckDB,
 each with Hive partitioning. Prints JSON: per engine, the samples' rows
 and value sums per (device, source_file, sensor), and the row counts of the
-holds and measured tables; and whether every samples file is sorted by
-time (pyarrow, file by file)."""
+holds and measured tables; whether every samples file is sorted by time
+(pyarrow, file by file); and the files Spark 4.0's reader would refuse
+(a BYTE_STREAM_SPLIT column, a TIMESTAMP(NANOS) one)."""
+import glob
 import json
 import sys
 
@@ -59,6 +61,19 @@ for fragment in samples.get_fragments():
     if len(times) > 1 and pc.any(pc.less(times.slice(1), times.slice(0, len(times) - 1))).as_py():
         unsorted.append(fragment.path)
 out["unsorted_files"] = unsorted
+spark_refuses = []
+for path in sorted(glob.glob(f"{lake}/*/**/*.parquet", recursive=True)):
+    metadata = pq.ParquetFile(path).metadata
+    encodings = {
+        encoding
+        for group in range(metadata.num_row_groups)
+        for column in range(metadata.num_columns)
+        for encoding in metadata.row_group(group).column(column).encodings
+    }
+    nanos = [f.name for f in pq.read_schema(path) if str(f.type).startswith("timestamp[ns")]
+    if "BYTE_STREAM_SPLIT" in encodings or nanos:
+        spark_refuses.append([path, sorted(encodings), nanos])
+out["spark_refuses"] = spark_refuses
 for table in ["samples", "holds", "measured"]:
     con.sql(f"CREATE VIEW {table} AS SELECT * FROM {read(table)}")
 out["queries"] = [[list(map(str, row)) for row in con.sql(sql).fetchall()] for sql in sys.argv[2:]]

@@ -111,6 +111,11 @@ fn check_lake(lake: &Path, sources: &[(&str, &Path, &Path)]) -> Counts {
         serde_json::json!([]),
         "files not sorted by time"
     );
+    assert_eq!(
+        read["spark_refuses"],
+        serde_json::json!([]),
+        "files Spark's Parquet reader refuses"
+    );
     let reference = counts(&read["pyarrow"]);
     for engine in ["polars", "duckdb"] {
         let other = counts(&read[engine]);

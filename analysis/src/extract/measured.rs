@@ -37,7 +37,7 @@ use acq_error::{AcqError, Result};
 use acq_io::input::read_csv_records_of_any;
 use acq_io::output::{csv_field, Output};
 use acq_io::output::{refuse_mf4_table, TableFormat};
-use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
+use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, FileLayout, ParquetTable};
 
 use acq_metrology::budget::{Budget, Contribution, SharedError, LEVEL_95};
 
@@ -220,7 +220,7 @@ pub fn write_measured_parquet_within(
         .collect();
     columns.extend(measured_columns());
     columns.push(ColumnSpec::new("row", ColumnType::Integer));
-    let mut table = ParquetTable::new(output, &columns, &[])?;
+    let mut table = ParquetTable::with_layout(output, &columns, &[], FileLayout::FOR_EVERY_ENGINE)?;
     fill_measured(&mut table, values, within, true)?;
     table.finish().map(|_| ())
 }

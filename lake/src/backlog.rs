@@ -87,7 +87,7 @@ pub fn ingest_on_slurm(
             .iter()
             .map(|(path, _)| format!("{}\n", path.display()))
             .collect();
-        let key = format!("{list}{}\n{device}\n", rig.display());
+        let key = format!("{list}{}\n{device}\n{:?}\n", rig.display(), options.buses);
         let digest = Sha256::digest(key.as_bytes());
         let name: String = digest[..8].iter().map(|b| format!("{b:02x}")).collect();
         let directory = lake.join(SLURM_DIR).join(name);
@@ -95,7 +95,7 @@ pub fn ingest_on_slurm(
         let list_file = directory.join("inputs.txt");
         Output::write_complete(&list_file, list.as_bytes())?;
         forget_finished_job(&directory);
-        let argv: Vec<String> = [
+        let mut argv: Vec<String> = [
             slurm.acq.display().to_string(),
             "lake".into(),
             "ingest".into(),
@@ -111,6 +111,9 @@ pub fn ingest_on_slurm(
             jobs_per_slice.to_string(),
         ]
         .into();
+        for (logged, rig) in &options.buses {
+            argv.extend(["--bus".to_string(), format!("{logged}={rig}")]);
+        }
         let bytes = slice.iter().map(|(_, bytes)| bytes).sum();
         slices.push((directory, argv, slice.len(), bytes));
     }

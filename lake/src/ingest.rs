@@ -55,6 +55,10 @@ pub struct IngestOptions {
     /// The `device` partition; `None`: the rig file's name (one rig file
     /// per machine).
     pub device: Option<String>,
+    /// `(logged, rig)` interface pairs: frames a log has on `logged` are
+    /// the rig's bus on `rig` (a logger's `can1` as the rig's `can0`).
+    /// Sessions know their interfaces and take none.
+    pub buses: Vec<(String, String)>,
     /// Sources decoded at once, each on a thread of its own; 0: one per
     /// core of this machine. A source's memory is bounded (see the module
     /// doc), so memory grows with this, not with the backlog.
@@ -112,6 +116,11 @@ pub fn ingest(
         .map_err(|e| AcqError::io(format!("opening the rig {}", options.rig.display()), e))?;
     let (rig_sha256, _) = session::sha256_file(&rig)
         .map_err(|e| AcqError::io(format!("reading {}", rig.display()), e))?;
+    if !options.buses.is_empty() {
+        acq_io::input::load_rig(&rig)?
+            .take_logged_interfaces(&options.buses)
+            .map_err(AcqError::Config)?;
+    }
     let ingest = Ingest {
         lake,
         tmp: ScratchDir::new(lake)?,
@@ -119,6 +128,7 @@ pub fn ingest(
         rig,
         rig_sha256,
         leftovers: Mutex::new(None),
+        buses: options.buses.clone(),
     };
     let mut seen = HashSet::new();
     let inputs: Vec<&PathBuf> = inputs
@@ -178,6 +188,21 @@ struct Ingest<'a> {
     /// Files of each source id, listed once when a source without an entry
     /// first needs them.
     leftovers: Mutex<Option<HashMap<String, Vec<PathBuf>>>>,
+    buses: Vec<(String, String)>,
+}
+
+impl Ingest<'_> {
+    /// The `--bus` pairs a source takes (a log's; a session's none), as
+    /// its entry keeps them.
+    fn buses_of(&self, source: &Source) -> Vec<String> {
+        if source.is_session {
+            return Vec::new();
+        }
+        self.buses
+            .iter()
+            .map(|(logged, rig)| format!("{logged}={rig}"))
+            .collect()
+    }
 }
 
 impl Ingest<'_> {
@@ -204,25 +229,20 @@ impl Ingest<'_> {
                     && entry.sha256 == content.0
                     && entry.rig_sha256 == self.rig_sha256
                     && entry.device == self.device
+                    && entry.buses == self.buses_of(&source)
                 {
                     return Ok(SourceReport {
                         source: source.path,
                         outcome: Outcome::Unchanged,
                     });
                 }
-                source.decode_into(lake, &self.tmp, &self.rig, &self.device, content)
+                source.decode_into(self, content)
             }
             // A source the lake has not seen is hashed while it is decoded,
             // on another core: both read it, neither waits for the other.
             None => std::thread::scope(|scope| {
                 let hashing = scope.spawn(|| source.content());
-                let decoded = source.decode_into(
-                    lake,
-                    &self.tmp,
-                    &self.rig,
-                    &self.device,
-                    (String::new(), 0),
-                );
+                let decoded = source.decode_into(self, (String::new(), 0));
                 let content = hashing.join().expect("hashing does not panic")?;
                 decoded.map(|entry| Entry {
                     sha256: content.0,
@@ -323,18 +343,18 @@ impl Source {
 
     /// Decodes the source through `rig` and publishes its files; the entry
     /// that says what they are (not yet published).
-    fn decode_into(
-        &self,
-        lake: &Path,
-        tmp: &ScratchDir,
-        rig: &Path,
-        device: &str,
-        (sha256, bytes): (String, u64),
-    ) -> Result<Entry> {
-        let recording = Recording::open(&self.path, Some(rig)).map_err(|e| match e {
+    fn decode_into(&self, ingest: &Ingest<'_>, (sha256, bytes): (String, u64)) -> Result<Entry> {
+        let (lake, tmp, rig, device) = (ingest.lake, &ingest.tmp, &ingest.rig, &ingest.device);
+        let mut recording = Recording::open(&self.path, Some(rig)).map_err(|e| match e {
             AcqError::Config(text) => AcqError::Config(format!("{}: {text}", self.path.display())),
             other => other,
         })?;
+        if !self.is_session {
+            recording
+                .rig
+                .take_logged_interfaces(&ingest.buses)
+                .map_err(AcqError::Config)?;
+        }
         let session_name = self
             .path
             .file_name()
@@ -392,6 +412,7 @@ impl Source {
             rig: rig.to_path_buf(),
             rig_sha256: String::new(),
             device: device.to_string(),
+            buses: ingest.buses_of(self),
             session: session_name,
             ingested_utc: session::utc_text(now_unix_ns()),
             samples,

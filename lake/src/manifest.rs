@@ -37,6 +37,9 @@ pub struct Entry {
     pub rig: PathBuf,
     pub rig_sha256: String,
     pub device: String,
+    /// The `--bus LOGGED=RIG` pairs a log was decoded with.
+    #[serde(default)]
+    pub buses: Vec<String>,
     /// The `session` column of its rows: a session's directory name, a
     /// log's file name.
     pub session: String,

@@ -159,6 +159,51 @@ impl Rig {
         Ok(notes)
     }
 
+    /// Takes frames logged on other interfaces as the rig's buses' (a
+    /// logger's `can1` as the rig's `can0`): each `(logged, rig)` pair moves
+    /// the bus on interface `rig` to `logged`. All pairs are looked up
+    /// before any moves, so `can0=can1` with `can1=can0` swaps two buses.
+    /// Errors name the pair: a bad name, no bus on `rig`, two buses on one
+    /// logged interface.
+    pub fn take_logged_interfaces(&mut self, pairs: &[(String, String)]) -> Result<(), String> {
+        let buses: Vec<String> = self
+            .buses
+            .iter()
+            .map(|b| format!("{} on {}", b.name, b.iface))
+            .collect();
+        let mut moves = Vec::new();
+        for (logged, rig) in pairs {
+            let pair = format!("--bus {logged}={rig}");
+            let name = IfaceName::new(logged)
+                .ok_or_else(|| format!("{pair}: '{logged}' is not an interface name"))?;
+            let index = self
+                .buses
+                .iter()
+                .position(|b| b.iface.as_str() == rig)
+                .ok_or_else(|| {
+                    format!(
+                        "{pair}: the rig has no bus on {rig} (its buses: {})",
+                        buses.join(", ")
+                    )
+                })?;
+            if moves.iter().any(|(earlier, _)| *earlier == index) {
+                return Err(format!("{pair}: {rig} is given twice"));
+            }
+            moves.push((index, name));
+        }
+        for (index, name) in moves {
+            self.buses[index].iface = name;
+        }
+        let mut seen = std::collections::HashSet::new();
+        if let Some(twice) = self.buses.iter().find(|b| !seen.insert(b.iface)) {
+            return Err(format!(
+                "--bus: two of the rig's buses would be on {}; give each bus its own logged interface",
+                twice.iface
+            ));
+        }
+        Ok(())
+    }
+
     pub fn sensor(&self, name: &str) -> Option<(usize, &Sensor)> {
         self.sensors
             .iter()

@@ -69,6 +69,11 @@ pub struct IngestArgs {
     /// [default: the rig file's name].
     #[arg(long, value_name = "NAME")]
     pub device: Option<String>,
+    /// Frames logged on LOGGED are the rig's bus on interface RIG (a
+    /// logger's `can1` as the rig's `can0`), in every log given; repeat for
+    /// each bus. Sessions know their interfaces and take none.
+    #[arg(long = "bus", value_name = "LOGGED=RIG", value_parser = parse_bus)]
+    pub buses: Vec<(String, String)>,
     /// Sources decoded at once on this machine [default: one per core];
     /// with --slurm, in each job (its cpus).
     #[arg(long, value_name = "N")]
@@ -111,6 +116,7 @@ fn run_ingest(args: IngestArgs) -> Result<()> {
         lake: args.lake.clone(),
         rig: args.rig.clone(),
         device: args.device.clone(),
+        buses: args.buses.clone(),
         jobs: args.jobs.unwrap_or(0),
     };
     if args.slurm {
@@ -223,6 +229,18 @@ fn run_ingest_on_slurm(
         )));
     }
     Ok(())
+}
+
+/// `LOGGED=RIG`.
+fn parse_bus(text: &str) -> std::result::Result<(String, String), String> {
+    match text.split_once('=') {
+        Some((logged, rig)) if !logged.trim().is_empty() && !rig.trim().is_empty() => {
+            Ok((logged.trim().to_string(), rig.trim().to_string()))
+        }
+        _ => Err(format!(
+            "'{text}': expected LOGGED=RIG, e.g. can1=can0 (frames logged on can1 are the rig's bus on can0)"
+        )),
+    }
 }
 
 /// The paths of a list file, relative ones taken from the list's

@@ -486,3 +486,90 @@ fn query_and_extract_agree_with_duckdb_and_acq_extract() {
         "a calibration on the lake's table differs"
     );
 }
+
+/// A logger that names its channels otherwise (`can5` and `can6` for the
+/// rig's `can0` and `can1`): without `--bus` nothing of it decodes and the
+/// ingest says so; with `--bus can5=can0 --bus can6=can1` every sample is
+/// in the lake as `acq decode` gives the log with the rig's names; another
+/// mapping ingests it again; a pair naming no bus of the rig is refused.
+#[test]
+fn a_logger_s_own_channel_names_are_mapped_to_the_rig_s_buses() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let original = simulated(dir, "excavator_case1.toml", 4.0, 1_791_187_200, "original");
+    let text = std::fs::read_to_string(&original).unwrap();
+    let logged = dir.join("logger.log");
+    std::fs::write(
+        &logged,
+        text.replace(" can0 ", " can5 ").replace(" can1 ", " can6 "),
+    )
+    .unwrap();
+    let lake = dir.join("lake");
+    let rig = rig();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["lake", "ingest", path_arg(&logged)];
+        args.extend(["--rig", path_arg(&rig), "--lake", path_arg(&lake)]);
+        args.extend(extra);
+        acq(&args)
+    };
+    let without = run(&[]);
+    assert_eq!(without.status.code(), Some(2), "{}", stderr(&without));
+    assert!(
+        stderr(&without).contains("no sample of any rig sensor"),
+        "{}",
+        stderr(&without)
+    );
+
+    let with = run(&["--bus", "can5=can0", "--bus", "can6=can1"]);
+    assert!(with.status.success(), "{}", stderr(&with));
+    let query = acq(&[
+        "lake",
+        "query",
+        path_arg(&lake),
+        "SELECT sensor, count(*) AS n, sum(value) AS s FROM samples GROUP BY sensor ORDER BY sensor",
+    ]);
+    assert!(query.status.success(), "{}", stderr(&query));
+    let in_lake: BTreeMap<String, (u64, f64)> = String::from_utf8_lossy(&query.stdout)
+        .lines()
+        .skip(1)
+        .map(|line| {
+            let fields: Vec<&str> = line.split(',').collect();
+            (
+                fields[0].to_string(),
+                (fields[1].parse().unwrap(), fields[2].parse().unwrap_or(0.0)),
+            )
+        })
+        .collect();
+    let expected = decoded(&original);
+    assert_eq!(
+        in_lake.keys().collect::<Vec<_>>(),
+        expected.keys().collect::<Vec<_>>()
+    );
+    for (sensor, (rows, sum)) in &expected {
+        let (got_rows, got_sum) = in_lake[sensor];
+        assert!(
+            got_rows == *rows && close(got_sum, *sum),
+            "{sensor}: {got_rows} {got_sum} against {rows} {sum}"
+        );
+    }
+    // The same mapping again: skipped; the buses swapped: ingested again.
+    let again = run(&["--bus", "can5=can0", "--bus", "can6=can1"]);
+    assert!(
+        stderr(&again).contains("unchanged since its ingest"),
+        "{}",
+        stderr(&again)
+    );
+    let swapped = run(&["--bus", "can6=can0", "--bus", "can5=can1"]);
+    assert!(
+        stderr(&swapped).contains("not ingested") || stderr(&swapped).contains("ingested again"),
+        "{}",
+        stderr(&swapped)
+    );
+    let wrong = run(&["--bus", "can5=can9"]);
+    assert_eq!(wrong.status.code(), Some(2));
+    assert!(
+        stderr(&wrong).contains("--bus can5=can9: the rig has no bus on can9"),
+        "{}",
+        stderr(&wrong)
+    );
+}

@@ -203,9 +203,7 @@ impl Ingest<'_> {
             .map(|(logged, rig)| format!("{logged}={rig}"))
             .collect()
     }
-}
 
-impl Ingest<'_> {
     /// One source: skipped, ingested or failed; `Err` only when the lake
     /// cannot be written or on Ctrl-C.
     fn one(&self, input: &Path) -> Result<SourceReport> {

@@ -7,7 +7,7 @@
 //! nodes which boot into pre-operational.
 
 use crate::bits::BitField;
-use crate::frame::{CanId, Frame, IfaceName};
+use crate::frame::{CanId, Frame, FrameFields, IfaceName};
 
 /// Valid node ids are 1..=127.
 pub const MAX_NODE_ID: u8 = 127;
@@ -231,12 +231,21 @@ impl HeartbeatMonitor {
     ///
     /// Returns whether the frame is a heartbeat of a watched node (one
     /// without a change of state emits nothing, and is still the node's).
-    pub fn on_frame(&mut self, frame: &Frame, mut emit: impl FnMut(HeartbeatEvent)) -> bool {
+    pub fn on_frame(&mut self, frame: &Frame, emit: impl FnMut(HeartbeatEvent)) -> bool {
+        self.on_fields(frame.fields(), emit)
+    }
+
+    /// [`HeartbeatMonitor::on_frame`] for a frame's fields.
+    pub fn on_fields(
+        &mut self,
+        frame: FrameFields<'_>,
+        mut emit: impl FnMut(HeartbeatEvent),
+    ) -> bool {
         self.started_ns.get_or_insert(frame.timestamp_ns);
         let Some(node) = heartbeat_node(frame.id) else {
             return false;
         };
-        let Some(&byte) = frame.payload().first() else {
+        let Some(&byte) = frame.payload.first() else {
             return false;
         };
         let Some(watched) = self.nodes.iter_mut().find(|n| n.node == node) else {

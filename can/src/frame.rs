@@ -191,6 +191,17 @@ pub struct Frame {
     data: [u8; FD_MAX_LEN],
 }
 
+/// What a decoder reads of one frame, borrowed from a [`Frame`] or from
+/// a row of a [`crate::FrameBatch`]: a batch's frame is decoded where it
+/// lies, never copied into a `Frame` first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameFields<'a> {
+    pub timestamp_ns: i64,
+    pub id: CanId,
+    pub kind: FrameKind,
+    pub payload: &'a [u8],
+}
+
 /// Why a frame could not be built.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FrameError {
@@ -347,6 +358,17 @@ impl Frame {
     #[inline]
     pub fn payload(&self) -> &[u8] {
         &self.data[..usize::from(self.len)]
+    }
+
+    /// Its fields as a decoder reads them.
+    #[inline]
+    pub fn fields(&self) -> FrameFields<'_> {
+        FrameFields {
+            timestamp_ns: self.timestamp_ns,
+            id: self.id,
+            kind: self.kind,
+            payload: self.payload(),
+        }
     }
 
     pub fn is_error(&self) -> bool {

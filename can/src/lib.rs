@@ -26,5 +26,5 @@ pub mod j1939_tp;
 pub mod kernel;
 pub mod log;
 
-pub use frame::{CanId, Direction, Frame, FrameKind, IfaceName};
+pub use frame::{CanId, Direction, Frame, FrameFields, FrameKind, IfaceName};
 pub use log::{FrameBatch, LogFormat, LogReader, LogRecord, ParseError, Place, ReadError};

@@ -9,9 +9,10 @@ use rustc_hash::FxHashMap;
 
 use crate::{Rig, SensorSource};
 use acq_can::canopen::{HeartbeatEvent, HeartbeatMonitor};
-use acq_can::frame::{Frame, FrameKind};
+use acq_can::frame::{Frame, FrameFields, FrameKind, IfaceName};
 use acq_can::j1939::J1939Id;
 use acq_can::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
+use acq_can::FrameBatch;
 
 /// One value of one sensor at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -167,20 +168,53 @@ impl<'r> SensorDecoder<'r> {
     /// The bus a frame belongs to.
     #[inline]
     pub fn bus_of(&self, frame: &Frame) -> Option<usize> {
+        self.bus_of_iface(frame.iface)
+    }
+
+    /// The bus of frames received on `iface`.
+    #[inline]
+    fn bus_of_iface(&self, iface: IfaceName) -> Option<usize> {
         if self.rig.buses.len() == 1 {
             return Some(0);
         }
-        self.rig.buses.iter().position(|b| b.iface == frame.iface)
+        self.rig.buses.iter().position(|b| b.iface == iface)
     }
 
     /// Decodes one frame, emitting samples and heartbeat events in order.
-    pub fn decode(&mut self, frame: &Frame, mut emit: impl FnMut(SensorEvent)) -> FrameUse {
-        let Some(bus) = self.bus_of(frame) else {
-            return FrameUse::Unknown;
-        };
+    pub fn decode(&mut self, frame: &Frame, emit: impl FnMut(SensorEvent)) -> FrameUse {
+        match self.bus_of(frame) {
+            Some(bus) => self.decode_on_bus(bus, frame.fields(), emit),
+            None => FrameUse::Unknown,
+        }
+    }
+
+    /// Decodes every frame of `batch` in order, as [`SensorDecoder::decode`]
+    /// would one by one: `emit` is given each event with the index of its
+    /// frame in the batch. The bus of each interface is looked up once per
+    /// batch, not once per frame.
+    pub fn decode_batch(&mut self, batch: &FrameBatch, mut emit: impl FnMut(usize, SensorEvent)) {
+        let buses: Vec<Option<usize>> = batch
+            .interfaces
+            .iter()
+            .map(|iface| self.bus_of_iface(*iface))
+            .collect();
+        for (index, interface) in batch.interface.iter().enumerate() {
+            if let Some(bus) = buses[usize::from(*interface)] {
+                self.decode_on_bus(bus, batch.fields(index), |event| emit(index, event));
+            }
+        }
+    }
+
+    /// Decodes one frame of bus `bus`.
+    fn decode_on_bus(
+        &mut self,
+        bus: usize,
+        frame: FrameFields<'_>,
+        mut emit: impl FnMut(SensorEvent),
+    ) -> FrameUse {
         // A watched node's heartbeat is the rig's protocol, a change of
         // state or not.
-        let mut protocol = self.heartbeats[bus].on_frame(frame, |event| {
+        let mut protocol = self.heartbeats[bus].on_fields(frame, |event| {
             emit(SensorEvent::Heartbeat { bus, event });
         });
         self.heartbeats[bus].check(frame.timestamp_ns, |event| {
@@ -189,7 +223,7 @@ impl<'r> SensorDecoder<'r> {
         if !matches!(frame.kind, FrameKind::Data { .. } | FrameKind::Fd { .. }) {
             return FrameUse::NotData;
         }
-        let payload = frame.payload();
+        let payload = frame.payload;
         let time_ns = frame.timestamp_ns;
         let mut decoded = false;
         let mut undecodable = false;

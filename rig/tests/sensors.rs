@@ -112,6 +112,54 @@ proptest! {
     }
 }
 
+proptest! {
+    /// A batch decodes as its frames one by one: the same events in the
+    /// same order, each with its frame's index. The frames mix the
+    /// excavator's ids (DBC, CANopen PDOs and heartbeats) with strangers,
+    /// remote and error frames and J1939 transport packets, on its two
+    /// buses and an interface it does not have.
+    #[test]
+    fn a_batch_decodes_as_its_frames_one_by_one(
+        frames in proptest::collection::vec(
+            (0u8..3, 0u8..5, any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=8), 0i64..10_000_000_000),
+            1..300,
+        )
+    ) {
+        let rig = excavator();
+        // PDOs and heartbeats of nodes 0x21 and 0x26, two DAQ messages;
+        // inclinations (PGN 61481) from 0xE2 and 0xE3, a BAM and a packet.
+        let known_ids = [0x1A1, 0x1A6, 0x721, 0x726, 0x300, 0x315];
+        let known_extended = [0x18F0_29E2, 0x18F0_29E3, 0x1CEC_FFE2, 0x1CEB_FFE2];
+        let frames: Vec<Frame> = frames
+            .into_iter()
+            .map(|(bus, kind, raw, payload, time)| {
+                let on = iface(["can0", "can1", "vcan9"][usize::from(bus)]);
+                match kind {
+                    0 => Frame::data(time, on, CanId::Standard(known_ids[raw as usize % known_ids.len()]), &payload),
+                    1 => Frame::data(time, on, CanId::Standard((raw & 0x7FF) as u16), &payload),
+                    2 if raw % 2 == 0 => Frame::data(time, on, CanId::Extended(known_extended[(raw / 2) as usize % 4]), &payload),
+                    2 => Frame::data(time, on, CanId::Extended(raw & 0x1FFF_FFFF), &payload),
+                    3 => Frame::remote(time, on, CanId::Standard((raw & 0x7FF) as u16), (raw % 9) as u8),
+                    _ => Frame::error(time, on, raw & 0xFF, &payload),
+                }
+                .unwrap()
+            })
+            .collect();
+        let mut one_by_one = Vec::new();
+        let mut decoder = SensorDecoder::new(&rig);
+        for (index, frame) in frames.iter().enumerate() {
+            decoder.decode(frame, |event| one_by_one.push((index, event)));
+        }
+        let mut batch = acq_can::FrameBatch::default();
+        for frame in &frames {
+            batch.push(frame);
+        }
+        let mut batched = Vec::new();
+        SensorDecoder::new(&rig).decode_batch(&batch, |index, event| batched.push((index, event)));
+        prop_assert_eq!(batched, one_by_one);
+    }
+}
+
 /// A rig whose inclination comes in a 20-byte J1939 parameter group, by the
 /// transport protocol: 24 bits at byte 10 (past the first 8 bytes).
 fn long_pgn_rig() -> Rig {

@@ -17,7 +17,10 @@ use std::path::{Path, PathBuf};
 
 use acq_can::{Frame, IfaceName};
 use acq_error::{AcqError, Result};
-use acq_io::input::{for_each_record, open_log, open_session_log, BadLines, EmptyLogs, ScanCounts};
+use acq_io::input::{
+    for_each_batch, for_each_record, open_log, open_session_log, BadLines, EmptyLogs, LogInput,
+    ScanCounts,
+};
 use acq_io::session::{self, SessionFile};
 use acq_io::shunt_record::{self, ShuntRecord};
 use acq_io::zero_record::{self, ZeroRecord};
@@ -202,9 +205,12 @@ impl Recording {
         counts: &mut SampleCounts,
         mut on_sample: impl FnMut(Sample) -> Result<()>,
     ) -> Result<()> {
-        self.for_each_event(clock_offset_ns, counts, |event| match event {
-            RecordingEvent::Sample(sample) => on_sample(sample),
-            RecordingEvent::Frame(..) => Ok(()),
+        if self.zeroing.is_empty() && self.gains.iter().all(Option::is_none) {
+            return self.for_each_raw_sample(clock_offset_ns, counts, on_sample);
+        }
+        self.for_each_raw_sample(clock_offset_ns, counts, |mut sample| {
+            self.zero_and_gain(&mut sample);
+            on_sample(sample)
         })
     }
 
@@ -217,34 +223,116 @@ impl Recording {
         counts: &mut SampleCounts,
         mut on_event: impl FnMut(RecordingEvent<'_>) -> Result<()>,
     ) -> Result<()> {
-        if self.zeroing.is_empty() && self.gains.iter().all(Option::is_none) {
-            return self.for_each_raw_event(clock_offset_ns, counts, on_event);
-        }
         self.for_each_raw_event(clock_offset_ns, counts, |mut event| {
             if let RecordingEvent::Sample(sample) = &mut event {
-                self.zeroing.apply(sample);
-                if let (Some(Some(gain)), Some(value)) =
-                    (self.gains.get(sample.sensor), sample.value.as_mut())
-                {
-                    *value *= gain;
-                }
+                self.zero_and_gain(sample);
             }
             on_event(event)
         })
     }
 
+    /// A sample's channel zero subtracted, then its shunt gain applied.
+    fn zero_and_gain(&self, sample: &mut Sample) {
+        self.zeroing.apply(sample);
+        if let (Some(Some(gain)), Some(value)) =
+            (self.gains.get(sample.sensor), sample.value.as_mut())
+        {
+            *value *= gain;
+        }
+    }
+
     /// [`Recording::for_each_sample`] without the zero and the gains: the
     /// values as the channels sent them (through the rig's conversion).
+    /// The frames are read and decoded a batch at a time.
     pub fn for_each_raw_sample(
         &self,
         clock_offset_ns: &[i64],
         counts: &mut SampleCounts,
         mut on_sample: impl FnMut(Sample) -> Result<()>,
     ) -> Result<()> {
-        self.for_each_raw_event(clock_offset_ns, counts, |event| match event {
-            RecordingEvent::Sample(sample) => on_sample(sample),
-            RecordingEvent::Frame(..) => Ok(()),
-        })
+        let (mut inputs, empty_logs) = self.open_inputs()?;
+        let mut decoder = SensorDecoder::new(&self.rig);
+        let mut scan = ScanCounts::default();
+        let mut failure = None;
+        for_each_batch(
+            &mut inputs,
+            BadLines::Skip,
+            empty_logs,
+            &mut scan,
+            |_, batch| {
+                decoder.decode_batch(batch, |_, event| {
+                    self.pass_on(event, clock_offset_ns, counts, &mut failure, &mut on_sample);
+                });
+                failure.take().map_or(Ok(()), Err)
+            },
+        )?;
+        self.end_pass(&scan, counts)
+    }
+
+    /// A decoded sample, on the reference clock and counted, to `on_sample`,
+    /// unless an earlier one failed: the first failure is kept.
+    #[inline]
+    fn pass_on(
+        &self,
+        event: SensorEvent,
+        clock_offset_ns: &[i64],
+        counts: &mut SampleCounts,
+        failure: &mut Option<AcqError>,
+        on_sample: &mut impl FnMut(Sample) -> Result<()>,
+    ) {
+        if failure.is_some() {
+            return;
+        }
+        if let SensorEvent::Sample(sample) = event {
+            let sample = self.on_reference_clock(sample, clock_offset_ns, counts);
+            if let Err(e) = on_sample(sample) {
+                *failure = Some(e);
+            }
+        }
+    }
+
+    /// A pass's frame counts kept, and checked against the session's.
+    fn end_pass(&self, scan: &ScanCounts, counts: &mut SampleCounts) -> Result<()> {
+        counts.frames = scan.frames;
+        counts.malformed_lines = scan.malformed_lines;
+        self.check_frame_count(scan)
+    }
+
+    /// The recording's logs opened, and whether one may give no frame: a
+    /// session's quiet bus leaves an empty raw log, a log the user named
+    /// must give frames. A session's raw files are candump, as acq record
+    /// wrote them: read as such, not guessed from their first bytes.
+    fn open_inputs(&self) -> Result<(Vec<LogInput>, EmptyLogs)> {
+        let inputs = self
+            .logs
+            .iter()
+            .map(|p| match self.session {
+                Some(_) => open_session_log(p),
+                None => open_log(p),
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let empty_logs = match self.session {
+            Some(_) => EmptyLogs::Allow,
+            None => EmptyLogs::Refuse,
+        };
+        Ok((inputs, empty_logs))
+    }
+
+    /// A decoded sample on the reference clock, counted.
+    #[inline]
+    fn on_reference_clock(
+        &self,
+        mut sample: Sample,
+        clock_offset_ns: &[i64],
+        counts: &mut SampleCounts,
+    ) -> Sample {
+        let bus = self.rig.sensors[sample.sensor].bus;
+        sample.time_ns -= clock_offset_ns.get(bus).copied().unwrap_or(0);
+        counts.samples += 1;
+        if sample.value.is_none() {
+            counts.missing_values += 1;
+        }
+        sample
     }
 
     fn for_each_raw_event(
@@ -253,25 +341,10 @@ impl Recording {
         counts: &mut SampleCounts,
         mut on_event: impl FnMut(RecordingEvent<'_>) -> Result<()>,
     ) -> Result<()> {
-        // A session's raw files are candump, as acq record wrote them: read
-        // as such, not guessed from their first bytes.
-        let mut inputs = self
-            .logs
-            .iter()
-            .map(|p| match self.session {
-                Some(_) => open_session_log(p),
-                None => open_log(p),
-            })
-            .collect::<Result<Vec<_>>>()?;
+        let (mut inputs, empty_logs) = self.open_inputs()?;
         let mut decoder = SensorDecoder::new(&self.rig);
         let mut scan = ScanCounts::default();
         let mut failure = None;
-        // A session's quiet bus leaves an empty raw log; a log the user
-        // named must give frames.
-        let empty_logs = match self.session {
-            Some(_) => EmptyLogs::Allow,
-            None => EmptyLogs::Refuse,
-        };
         // A recording cut by a crash can end in half a line: count, go on.
         for_each_record(
             &mut inputs,
@@ -279,36 +352,19 @@ impl Recording {
             empty_logs,
             &mut scan,
             |_, record| {
+                let mut on_sample = |sample| on_event(RecordingEvent::Sample(sample));
                 let used = decoder.decode(&record.frame, |event| {
-                    if failure.is_some() {
-                        return;
-                    }
-                    if let SensorEvent::Sample(mut sample) = event {
-                        let bus = self.rig.sensors[sample.sensor].bus;
-                        sample.time_ns -= clock_offset_ns.get(bus).copied().unwrap_or(0);
-                        counts.samples += 1;
-                        if sample.value.is_none() {
-                            counts.missing_values += 1;
-                        }
-                        if let Err(e) = on_event(RecordingEvent::Sample(sample)) {
-                            failure = Some(e);
-                        }
-                    }
+                    self.pass_on(event, clock_offset_ns, counts, &mut failure, &mut on_sample);
                 });
                 if failure.is_none() {
                     if let Err(e) = on_event(RecordingEvent::Frame(&record.frame, used)) {
                         failure = Some(e);
                     }
                 }
-                match failure.take() {
-                    Some(e) => Err(e),
-                    None => Ok(()),
-                }
+                failure.take().map_or(Ok(()), Err)
             },
         )?;
-        counts.frames = scan.frames;
-        counts.malformed_lines = scan.malformed_lines;
-        self.check_frame_count(&scan)
+        self.end_pass(&scan, counts)
     }
 
     /// A session's raw log against the frames its session.toml counts: a

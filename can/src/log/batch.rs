@@ -7,7 +7,7 @@
 //! column per field, a byte buffer with offsets), so a batch becomes a
 //! table without a per-frame step.
 
-use crate::frame::{CanId, Direction, Frame, FrameKind, IfaceName};
+use crate::frame::{CanId, Direction, Frame, FrameFields, FrameKind, IfaceName};
 
 /// Frames read from a log, one column per field.
 #[derive(Clone, Debug, Default)]
@@ -66,6 +66,13 @@ impl FrameBatch {
 
     pub fn push(&mut self, frame: &Frame) {
         let interface = self.interface_index(frame.iface);
+        self.push_on(frame, interface);
+    }
+
+    /// Appends `frame` as received on interface `interface`, an index the
+    /// caller had from [`FrameBatch::interface_index`].
+    #[inline]
+    pub(crate) fn push_on(&mut self, frame: &Frame, interface: u16) {
         self.push_parts(
             frame.timestamp_ns,
             interface,
@@ -141,6 +148,17 @@ impl FrameBatch {
         &self.payload[start..self.payload_end[index] as usize]
     }
 
+    /// What a decoder reads of frame `index`, where it lies.
+    #[inline]
+    pub fn fields(&self, index: usize) -> FrameFields<'_> {
+        FrameFields {
+            timestamp_ns: self.timestamp_ns[index],
+            id: self.id[index],
+            kind: self.kind[index],
+            payload: self.payload(index),
+        }
+    }
+
     /// Frame `index` as one [`Frame`].
     pub fn frame(&self, index: usize) -> Frame {
         let mut frame = Frame::from_parts(
@@ -189,6 +207,7 @@ mod tests {
         assert_eq!(batch.interfaces, [can1, can2]);
         for (index, frame) in frames.iter().enumerate() {
             assert_eq!(batch.frame(index), *frame);
+            assert_eq!(batch.fields(index), frame.fields());
         }
         batch.clear();
         assert!(batch.is_empty());

@@ -16,6 +16,7 @@
 
 use std::io::{self, BufRead, Write};
 
+use super::batch::FrameBatch;
 use super::record::{LogRecord, ParseError, ReadError};
 use crate::frame::{
     CanId, Direction, Frame, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN, FD_MAX_LEN,
@@ -76,6 +77,64 @@ impl<R: BufRead> CandumpReader<R> {
                 Err(expected) => Err(ReadError::Parse(ParseError::new(line, expected))),
             };
         }
+    }
+
+    /// Fills `batch` with the next frames, up to `max` in all (see
+    /// [`crate::log::LogReader::next_batch`]); `false` at the end. The
+    /// lines are parsed where they lie in the input's buffer, not copied
+    /// into a line buffer first; a line the buffer holds only part of is
+    /// read by [`CandumpReader::next_record`].
+    pub fn next_batch(&mut self, batch: &mut FrameBatch, max: usize) -> Result<bool, ReadError> {
+        let mut last_iface: Option<(IfaceName, u16)> = None;
+        while batch.len() < max {
+            let buffer = self.input.fill_buf()?;
+            if buffer.is_empty() {
+                return Ok(false);
+            }
+            let mut consumed = 0;
+            let mut failure = None;
+            for newline in memchr::memchr_iter(b'\n', buffer) {
+                let text = trim_line_end(&buffer[consumed..newline]);
+                consumed = newline + 1;
+                self.line += 1;
+                if text.is_empty() || text[0] == b'#' {
+                    continue;
+                }
+                match parse_line(text) {
+                    Ok((_, frame)) => {
+                        let interface = match last_iface {
+                            Some((iface, index)) if iface == frame.iface => index,
+                            _ => {
+                                let index = batch.interface_index(frame.iface);
+                                last_iface = Some((frame.iface, index));
+                                index
+                            }
+                        };
+                        batch.push_on(&frame, interface);
+                    }
+                    Err(expected) => {
+                        failure = Some(ParseError::new(self.line, expected));
+                        break;
+                    }
+                }
+                if batch.len() >= max {
+                    break;
+                }
+            }
+            if consumed == 0 {
+                // Not one whole line in the buffer: this one the careful way.
+                match self.next_record()? {
+                    Some(record) => batch.push(&record.frame),
+                    None => return Ok(false),
+                }
+                continue;
+            }
+            self.input.consume(consumed);
+            if let Some(error) = failure {
+                return Err(ReadError::Parse(error));
+            }
+        }
+        Ok(true)
     }
 
     /// Lines read so far.

@@ -171,8 +171,10 @@ impl<R: BufRead> LogReader<R> {
     /// [`LogReader::next_record`]'s.
     pub fn next_batch(&mut self, batch: &mut FrameBatch, max: usize) -> Result<bool, ReadError> {
         let end = batch.len().saturating_add(max).min(MAX_BATCH_FRAMES);
-        if let LogReader::Mf4(reader) = self {
-            return reader.next_batch(batch, end);
+        match self {
+            LogReader::Mf4(reader) => return reader.next_batch(batch, end),
+            LogReader::Candump(reader) => return reader.next_batch(batch, end),
+            _ => {}
         }
         while batch.len() < end {
             match self.next_record()? {

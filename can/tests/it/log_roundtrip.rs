@@ -256,6 +256,71 @@ proptest! {
     }
 }
 
+/// A candump log read to its end record by record: the frames and, for
+/// each malformed line, its line number.
+fn records_and_errors(text: &[u8]) -> (Vec<Frame>, Vec<u64>) {
+    let mut reader = CandumpReader::new(text);
+    let (mut frames, mut errors) = (Vec::new(), Vec::new());
+    loop {
+        match reader.next_record() {
+            Ok(Some(record)) => frames.push(record.frame),
+            Ok(None) | Err(ReadError::Io(_)) => return (frames, errors),
+            Err(ReadError::Parse(error)) => errors.push(error.at.number()),
+        }
+    }
+}
+
+/// The same, a batch of up to `max` frames at a time through a buffer of
+/// `capacity` bytes, so that lines straddle the buffer's refills.
+fn batches_and_errors(text: &[u8], capacity: usize, max: usize) -> (Vec<Frame>, Vec<u64>) {
+    let mut reader = CandumpReader::new(std::io::BufReader::with_capacity(capacity, text));
+    let mut batch = acq_can::FrameBatch::default();
+    let (mut frames, mut errors) = (Vec::new(), Vec::new());
+    loop {
+        batch.clear();
+        let read = reader.next_batch(&mut batch, max);
+        frames.extend((0..batch.len()).map(|index| batch.frame(index)));
+        match read {
+            Ok(true) => {}
+            Ok(false) | Err(ReadError::Io(_)) => return (frames, errors),
+            Err(ReadError::Parse(error)) => errors.push(error.at.number()),
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1024))]
+
+    /// Lines well-formed and not, blank, comments, CRLF, a last line cut
+    /// or not: read in batches, the same frames and the same errors at the
+    /// same lines as record by record.
+    #[test]
+    fn candump_batches_read_as_records(
+        lines in prop::collection::vec(
+            prop_oneof![
+                6 => frame().prop_map(|frame| {
+                    let mut line = Vec::new();
+                    candump::push_line(&mut line, &frame).unwrap();
+                    String::from_utf8(line).unwrap()
+                }),
+                2 => candump_like().prop_map(|line| line + "\n"),
+                1 => prop::sample::select(&["\n", "# comment\n", "\r\n", "  \n"][..]).prop_map(str::to_owned),
+            ],
+            0..30,
+        ),
+        cut in any::<bool>(),
+        capacity in 1usize..200,
+        max in 1usize..8,
+    ) {
+        let mut text = lines.concat().into_bytes();
+        if cut && text.len() > 1 {
+            text.truncate(text.len() - 1);
+        }
+        let expected = records_and_errors(&text);
+        prop_assert_eq!(batches_and_errors(&text, capacity, max), expected, "in\n{}", String::from_utf8_lossy(&text));
+    }
+}
+
 #[test]
 fn the_asc_generator_makes_frames() {
     // Guards the generator above: its pieces do form frame lines.

@@ -11,7 +11,7 @@
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, MutexGuard};
 
 use acq_analysis::extract::holds::HoldOptions;
@@ -464,9 +464,13 @@ fn write_samples(
         .map_or(1, |n| n.get())
         .min(recording.rig.sensors.len())
         .max(1);
+    // Set when decoding failed: the writers drop their files unfinished
+    // (they would never be published) instead of encoding their last rows.
+    let abandoned = AtomicBool::new(false);
     let (decoded, written) = std::thread::scope(|scope| {
         let mut handing_over = Vec::with_capacity(writers);
         let mut writing = Vec::with_capacity(writers);
+        let abandoned = &abandoned;
         for _ in 0..writers {
             let (full, to_write) = std::sync::mpsc::sync_channel::<Vec<Sample>>(CHUNKS_IN_FLIGHT);
             let (empty, spare) = std::sync::mpsc::channel::<Vec<Sample>>();
@@ -478,6 +482,9 @@ fn write_samples(
                     }
                     // The decoder may have ended: a chunk not taken back is freed.
                     let _ = empty.send(chunk);
+                }
+                if abandoned.load(Ordering::SeqCst) {
+                    return Ok(Vec::new());
                 }
                 // Each file's place, rows and rows out of order.
                 open.files
@@ -501,6 +508,9 @@ fn write_samples(
             }
             Ok(())
         });
+        if decoded.is_err() {
+            abandoned.store(true, Ordering::SeqCst);
+        }
         for (chunk, full, _) in handing_over {
             if decoded.is_ok() && !chunk.is_empty() {
                 let _ = full.send(chunk);

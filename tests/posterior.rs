@@ -692,6 +692,104 @@ fn a_curve_scored_by_dynamic_time_warping_gets_intervals_that_are_not_too_narrow
     assert!((0.83..=0.99).contains(&b), "dtw: coverage of b {b}");
 }
 
+// ---- a short measured curve ---------------------------------------------------------------------
+
+/// Twelve points of a decay `y = a exp(-b x)` (x = 0.25 to 3), measured
+/// as a force transducer reads, with noise of the same sd (0.02) all
+/// along, fitted by a solver script (sh + awk) in 40 runs: fewer points
+/// than a curve has parts (20), so no part holds the three points its own
+/// noise estimate needs. The posterior must read the noise off the curve
+/// as a whole and each point once: its chains converge, its 90 %
+/// intervals hold the truth, and their widths are those of the
+/// independent closed form of the same fit (least squares with the known
+/// noise, linearised at the truth: `sd^2 (J'J)^-1`) within what
+/// estimating the noise from 12 points and the correlation along the
+/// curve adds: at least 0.7 and at most 4 times as wide. Before, the
+/// noise was taken as 1e-9 of the force, every chain stayed where it
+/// started, and the sampler ran 2 million steps (about seven minutes) to
+/// say so.
+#[test]
+fn a_short_measured_curve_has_a_converged_posterior_as_wide_as_its_regression() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b, noise_sd) = (3.0, 0.7, 0.02);
+    let xs: Vec<f64> = (1..=12).map(|i| 0.25 * f64::from(i)).collect();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let noise = Normal::new(0.0, noise_sd).unwrap();
+    let mut measured = String::from("x,y\n");
+    for &x in &xs {
+        let y: f64 = a * (-b * x).exp() + noise.sample(&mut rng);
+        measured.push_str(&format!("{x},{y:.12}\n"));
+    }
+    std::fs::write(dir.path().join("measured.csv"), measured).unwrap();
+    std::fs::write(
+        dir.path().join("decay.sh"),
+        "awk -v a=\"$1\" -v b=\"$2\" 'BEGIN { print \"x,y\"; for (i = 1; i <= 12; i++) printf \"%.17g,%.17g\\n\", 0.25 * i, a * exp(-b * 0.25 * i) }' > curve.csv\n",
+    )
+    .unwrap();
+    let spec = dir.path().join("spec.toml");
+    std::fs::write(
+        &spec,
+        r#"command = ["sh", "decay.sh", "{a}", "{b}"]
+parallel = 2
+
+[[curve]]
+name = "decay"
+file = "curve.csv"
+x = "x"
+y = "y"
+measured_file = "measured.csv"
+measured_x = "x"
+measured_y = "y"
+
+[search]
+method = "bo"
+max_evals = 40
+
+[[parameter]]
+name = "a"
+lower = 1.0
+upper = 5.0
+
+[[parameter]]
+name = "b"
+lower = 0.2
+upper = 1.5
+
+[posterior]
+"#,
+    )
+    .unwrap();
+    let summary = external_summary(&spec, &dir.path().join("run"), &["--seed", "1"]);
+    // The closed form: J's columns are dy/da = exp(-b x) and dy/db =
+    // -a x exp(-b x); the covariance is sd^2 (J'J)^-1.
+    let (mut jaa, mut jab, mut jbb) = (0.0, 0.0, 0.0);
+    for &x in &xs {
+        let (da, db) = ((-b * x).exp(), -a * x * (-b * x).exp());
+        jaa += da * da;
+        jab += da * db;
+        jbb += db * db;
+    }
+    let determinant = jaa * jbb - jab * jab;
+    let sd_a = noise_sd * (jbb / determinant).sqrt();
+    let sd_b = noise_sd * (jaa / determinant).sqrt();
+    for (name, truth, sd) in [("a", a, sd_a), ("b", b, sd_b)] {
+        let rhat = number(&summary, &["posterior", name, "rhat"]);
+        assert!(rhat < 1.01, "{name}: R-hat {rhat}");
+        let low = number(&summary, &["posterior", name, "q05"]);
+        let high = number(&summary, &["posterior", name, "q95"]);
+        assert!(
+            low <= truth && truth <= high,
+            "{name}: [{low}, {high}] against {truth}"
+        );
+        let ratio = (high - low) / (2.0 * 1.645 * sd);
+        eprintln!("{name}: [{low}, {high}], {ratio:.2} times the regression's 90 % width");
+        assert!(
+            (0.7..=4.0).contains(&ratio),
+            "{name}: [{low}, {high}] is {ratio:.2} times the regression's 90 % width"
+        );
+    }
+}
+
 // ---- resume ------------------------------------------------------------------------------------
 
 /// A posterior stopped in the middle of its predictive runs (the solver

@@ -22,9 +22,7 @@
 //! instruments can tell.
 
 use acq_algorithms::evaluation::{Parameter, Simulator};
-use acq_analysis::loss::curve::{
-    curve_errors_by_part, curve_mape, CurveLossError, CurveMapeOptions,
-};
+use acq_analysis::loss::curve::{CurveLossError, CurveMapeOptions, TestCurve};
 use acq_analysis::loss::metrics::{matched, points_of, residuals_by_part, CurveMetric};
 pub use acq_metrology::budget::SharedError;
 use serde_json::{json, Map, Value};
@@ -560,10 +558,35 @@ pub struct StudySimulator<'a> {
     parameters: Vec<Parameter>,
     outputs: Vec<String>,
     curve_parts: usize,
+    /// Each measured curve scored by MAPE, by case and observation index,
+    /// checked and interpolated once for every run to compare with
+    /// (`None` for other observations, and for a curve the MAPE refuses:
+    /// each run then says why), with the grid points of its own.
+    measured_curves: Vec<Vec<Option<(TestCurve, usize)>>>,
 }
 
 impl<'a> StudySimulator<'a> {
     pub fn new(study: &'a Study, model: &'a dyn Model, role: Role) -> Self {
+        let measured_curves = study
+            .cases
+            .iter()
+            .map(|case| {
+                case.observations
+                    .iter()
+                    .map(|observation| match &observation.measured {
+                        Measured::Curve {
+                            points,
+                            metric: CurveMetric::Mape,
+                            ..
+                        } => TestCurve::new(points).ok().map(|test| {
+                            let own_points = test.parts(CurveMapeOptions::default(), usize::MAX);
+                            (test, own_points)
+                        }),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect();
         StudySimulator {
             study,
             model,
@@ -571,6 +594,7 @@ impl<'a> StudySimulator<'a> {
             parameters: study.search_parameters(),
             outputs: study.output_keys(role),
             curve_parts: 0,
+            measured_curves,
         }
     }
 
@@ -644,7 +668,7 @@ impl StudySimulator<'_> {
                 .outputs_of(index, self.model, notes)
                 .map_err(in_case)?;
             let (mut scalar, mut curve) = (case_scalars.into_iter(), case_curves.into_iter());
-            for observation in &case.observations {
+            for (observation_index, observation) in case.observations.iter().enumerate() {
                 outputs.push(match &observation.measured {
                     Measured::Scalar { .. } => scalar
                         .next()
@@ -669,23 +693,39 @@ impl StudySimulator<'_> {
                                     })?;
                             curve_parts.extend(parts);
                             value
-                        } else if self.curve_parts == 0 {
-                            curve_mape(points, simulated, CurveMapeOptions::default())
-                                .map_err(in_curve)?
-                                .mape_percent
                         } else {
-                            let (mape, mut parts) = curve_errors_by_part(
-                                points,
-                                simulated,
-                                CurveMapeOptions::default(),
-                                self.curve_parts,
-                            )
-                            .map_err(in_curve)?;
-                            // A grid shorter than the parts: the last part repeats.
-                            let last = parts.last().copied().unwrap_or(0.0);
-                            parts.resize(self.curve_parts, last);
-                            curve_parts.extend(parts);
-                            mape.mape_percent
+                            let owned;
+                            let (test, own_points) = match &self.measured_curves[index]
+                                [observation_index]
+                            {
+                                Some((test, own_points)) => (test, *own_points),
+                                None => {
+                                    owned = TestCurve::new(points).map_err(in_curve)?;
+                                    (&owned, usize::MAX)
+                                }
+                            };
+                            let options = CurveMapeOptions::default();
+                            if self.curve_parts == 0 {
+                                test.mape(simulated, options).map_err(in_curve)?.mape_percent
+                            } else {
+                                // No more parts than the measured curve has
+                                // points of its own: a finer simulation's
+                                // extra ones would be parts the likelihood
+                                // reads no scatter for.
+                                let (mape, mut parts) = test
+                                    .errors_by_part(
+                                        simulated,
+                                        options,
+                                        self.curve_parts.min(own_points),
+                                    )
+                                    .map_err(in_curve)?;
+                                // A grid shorter than the parts: the last part
+                                // repeats (the likelihood reads it once).
+                                let last = parts.last().copied().unwrap_or(0.0);
+                                parts.resize(self.curve_parts, last);
+                                curve_parts.extend(parts);
+                                mape.mape_percent
+                            }
                         }
                     }
                 });

@@ -165,7 +165,7 @@ pub fn curve_mape(
     simulation: &[(f64, f64)],
     options: CurveMapeOptions,
 ) -> Result<CurveMape, CurveLossError> {
-    compare_on_grid(test, simulation, options, |_, _| {})
+    TestCurve::new(test)?.mape(simulation, options)
 }
 
 /// The curve MAPE, and the signed error (%, simulation above the test
@@ -182,19 +182,87 @@ pub fn curve_errors_by_part(
     options: CurveMapeOptions,
     parts: usize,
 ) -> Result<(CurveMape, Vec<f64>), CurveLossError> {
-    let mut signed_pct = Vec::new();
-    let mape = compare_on_grid(test, simulation, options, |_, error| {
-        signed_pct.push(100.0 * error)
-    })?;
-    let parts = parts.min(signed_pct.len()).max(1);
-    let means = (0..parts)
-        .map(|part| {
-            let run =
-                &signed_pct[part * signed_pct.len() / parts..(part + 1) * signed_pct.len() / parts];
-            run.iter().sum::<f64>() / run.len() as f64
+    TestCurve::new(test)?.errors_by_part(simulation, options, parts)
+}
+
+/// A test curve checked and interpolated once, for the many simulations a
+/// calibration or a posterior compares with it: what the test alone
+/// decides (its points, its spline) is not computed again per run. The
+/// free functions above build one per call.
+#[derive(Clone, Debug)]
+pub struct TestCurve {
+    prepared: Prepared,
+    spline: CubicSpline,
+    /// Its largest absolute force, kN.
+    max_force: f64,
+}
+
+impl TestCurve {
+    pub fn new(points: &[(f64, f64)]) -> Result<Self, CurveLossError> {
+        let prepared = prepare(points, CurveName::Test)?;
+        let spline = prepared.spline(CurveName::Test)?;
+        let max_force = prepared.force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        Ok(TestCurve {
+            prepared,
+            spline,
+            max_force,
         })
-        .collect();
-    Ok((mape, means))
+    }
+
+    /// [`curve_mape`] of `simulation` against this test.
+    pub fn mape(
+        &self,
+        simulation: &[(f64, f64)],
+        options: CurveMapeOptions,
+    ) -> Result<CurveMape, CurveLossError> {
+        compare_on_grid(self, simulation, options, |_, _| {})
+    }
+
+    /// [`curve_errors_by_part`] of `simulation` against this test.
+    pub fn errors_by_part(
+        &self,
+        simulation: &[(f64, f64)],
+        options: CurveMapeOptions,
+        parts: usize,
+    ) -> Result<(CurveMape, Vec<f64>), CurveLossError> {
+        let mut signed_pct = Vec::new();
+        let mape = compare_on_grid(self, simulation, options, |_, error| {
+            signed_pct.push(100.0 * error)
+        })?;
+        let parts = parts.min(signed_pct.len()).max(1);
+        let means = (0..parts)
+            .map(|part| {
+                let run = &signed_pct
+                    [part * signed_pct.len() / parts..(part + 1) * signed_pct.len() / parts];
+                run.iter().sum::<f64>() / run.len() as f64
+            })
+            .collect();
+        Ok((mape, means))
+    }
+
+    /// How many of `parts` the test's own grid fills: `parts`, or its
+    /// compared points when there are fewer. A simulation sampled more
+    /// finely than the test would make a finer grid and so more parts;
+    /// asking [`TestCurve::errors_by_part`] for this many keeps its parts
+    /// those the test itself can tell apart ([`test_scatter_by_part`]).
+    pub fn parts(&self, options: CurveMapeOptions, parts: usize) -> usize {
+        let mut compared = 0usize;
+        let own = self.points();
+        match compare_on_grid(self, &own, options, |_, _| compared += 1) {
+            Ok(_) => parts.min(compared).max(1),
+            Err(_) => parts.max(1),
+        }
+    }
+
+    /// Its points as checked (runs of equal displacement reduced to their last).
+    fn points(&self) -> Vec<(f64, f64)> {
+        self.prepared
+            .displacement
+            .iter()
+            .copied()
+            .zip(self.prepared.force.iter().copied())
+            .collect()
+    }
 }
 
 /// How precisely the test curve itself gives the mean of each of the
@@ -208,7 +276,9 @@ pub fn curve_errors_by_part(
 /// once from the second differences of the test's forces (a smooth
 /// curve's are nearly constant within a part, white noise's have a
 /// variance of 6 sd^2), pooled over the parts. A part's own few second
-/// differences would weigh it by chance. White noise gives the standard
+/// differences would weigh it by chance. A curve too short for a part to
+/// hold three points (twelve points in twenty parts) is read whole
+/// instead ([`short_curve_noise`]). White noise gives the standard
 /// error of the part's mean; correlated noise and model error scale it by
 /// a factor of their own, which a posterior estimates.
 pub fn test_scatter_by_part(
@@ -216,9 +286,10 @@ pub fn test_scatter_by_part(
     options: CurveMapeOptions,
     parts: usize,
 ) -> Result<Vec<f64>, CurveLossError> {
+    let measured = TestCurve::new(test)?;
     let mut grid = Vec::new();
-    compare_on_grid(test, test, options, |x, _| grid.push(x))?;
-    let measured = prepare(test, CurveName::Test)?;
+    compare_on_grid(&measured, &measured.points(), options, |x, _| grid.push(x))?;
+    let measured = measured.prepared;
     let parts = parts.min(grid.len()).max(1);
     let mut squares = 0.0;
     let mut degrees = 0usize;
@@ -259,7 +330,7 @@ pub fn test_scatter_by_part(
     let noise = if degrees > 0 {
         (squares / degrees as f64 / 6.0).sqrt()
     } else {
-        0.0
+        short_curve_noise(&[&measured.force]).unwrap_or(0.0)
     };
     // A noiseless test (a simulated one): a floor of 1e-9 of the force
     // keeps the weights finite.
@@ -271,6 +342,49 @@ pub fn test_scatter_by_part(
         .collect())
 }
 
+/// The white noise's standard deviation in a short curve's values (each
+/// of `axes`, pooled), from the second differences of consecutive
+/// points, whose mean is removed over runs of three along the curve (the
+/// curve's own bend changes little within three steps). `None` when
+/// there are fewer than five points, too few to tell noise from shape:
+/// the caller's floor then stands.
+///
+/// Neighbouring second differences share noise (white noise of sd s
+/// gives each a variance of 6 s^2, and a run of n of them a sum of
+/// variance 4 s^2), so a run's squares about its mean expect
+/// (6 n - 4 / n) s^2, which is what they are divided by: unbiased for
+/// white noise, where dividing by 6 (n - 1) would read 18 % high.
+///
+/// The parts' own second differences serve a curve of many points
+/// better, their curvature removed part by part; this reads one whose
+/// parts hold fewer than three points each, which would otherwise give
+/// no estimate at all, and a measured curve taken as exact (a posterior
+/// then finds every draw but the exact fit impossible and cannot move).
+pub fn short_curve_noise(axes: &[&[f64]]) -> Option<f64> {
+    let (mut squares, mut expected) = (0.0, 0.0);
+    for values in axes {
+        let second: Vec<f64> = values
+            .windows(3)
+            .map(|w| w[2] - 2.0 * w[1] + w[0])
+            .collect();
+        let runs = second.len() / 3;
+        for run in 0..runs {
+            // The last run takes the remainder.
+            let end = if run + 1 == runs {
+                second.len()
+            } else {
+                3 * (run + 1)
+            };
+            let block = &second[3 * run..end];
+            let n = block.len() as f64;
+            let mean = block.iter().sum::<f64>() / n;
+            squares += block.iter().map(|d| (d - mean).powi(2)).sum::<f64>();
+            expected += 6.0 * n - 4.0 / n;
+        }
+    }
+    (expected > 0.0).then(|| (squares / expected).sqrt())
+}
+
 /// The curve MAPE, and the signed error (%, simulation above the test
 /// positive) at each compared grid point, as `(x, error)`: where along
 /// the curve the simulation misses, for a plot.
@@ -280,7 +394,7 @@ pub fn curve_errors_along(
     options: CurveMapeOptions,
 ) -> Result<(CurveMape, Vec<(f64, f64)>), CurveLossError> {
     let mut along = Vec::new();
-    let mape = compare_on_grid(test, simulation, options, |x, error| {
+    let mape = compare_on_grid(&TestCurve::new(test)?, simulation, options, |x, error| {
         along.push((x, 100.0 * error))
     })?;
     Ok((mape, along))
@@ -289,12 +403,12 @@ pub fn curve_errors_along(
 /// The loop all of the above share: `signed_error` sees each compared
 /// grid point's `x` and `(simulated - test) / test`, in grid order.
 fn compare_on_grid(
-    test: &[(f64, f64)],
+    test_curve: &TestCurve,
     simulation: &[(f64, f64)],
     options: CurveMapeOptions,
     mut signed_error: impl FnMut(f64, f64),
 ) -> Result<CurveMape, CurveLossError> {
-    let test = prepare(test, CurveName::Test)?;
+    let test = &test_curve.prepared;
     let simulation = prepare(simulation, CurveName::Simulation)?;
     let step_mm = test
         .displacement
@@ -303,7 +417,7 @@ fn compare_on_grid(
         .map(|w| w[1] - w[0])
         .fold(f64::INFINITY, f64::min);
 
-    let max_force = test.force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+    let max_force = test_curve.max_force;
     if max_force == 0.0 {
         return Err(CurveLossError::NoTestForce);
     }
@@ -337,7 +451,7 @@ fn compare_on_grid(
     }
     let grid_points = intervals.floor() as usize + 1;
 
-    let test_spline = test.spline(CurveName::Test)?;
+    let test_spline = &test_curve.spline;
     let simulation_spline = simulation.spline(CurveName::Simulation)?;
     let past_simulation = simulation_end + GRID_TOLERANCE_STEPS * step_mm;
     let mut sum = 0.0;
@@ -406,6 +520,7 @@ fn compare_on_grid(
 
 /// A checked curve with runs of equal displacement reduced to their last
 /// point.
+#[derive(Clone, Debug)]
 struct Prepared {
     displacement: Vec<f64>,
     force: Vec<f64>,
@@ -655,6 +770,56 @@ mod tests {
         let loss = curve_mape(&test, &simulation, CurveMapeOptions::default()).unwrap();
         assert!(loss.mape_percent.abs() < 1e-12);
         assert_eq!(loss.step_mm, 1.0);
+    }
+
+    /// A short curve's noise, read whole: none on a parabola (its second
+    /// differences are constant), the sd of white noise on a line within
+    /// its sampling error, and no estimate from four points.
+    #[test]
+    fn a_short_curves_noise_is_read_from_the_whole_curve() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let parabola: Vec<f64> = (0..12).map(|i| 0.5 * f64::from(i).powi(2) + 3.0).collect();
+        assert!(short_curve_noise(&[&parabola]).unwrap() < 1e-12);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let noise = Normal::new(0.0, 0.1).unwrap();
+        let line: Vec<f64> = (0..3002)
+            .map(|i| 2.0 + 0.01 * f64::from(i) + noise.sample(&mut rng))
+            .collect();
+        // 3000 second differences in 1000 runs: the estimate's relative sd
+        // is about 1.5 %, so 5 % is over 3 sds.
+        let estimate = short_curve_noise(&[&line]).unwrap();
+        assert!((estimate / 0.1 - 1.0).abs() < 0.05, "{estimate}");
+        assert_eq!(short_curve_noise(&[&[1.0, 2.0, 3.0, 4.0]]), None);
+    }
+
+    /// Twelve points in twenty parts: no part holds three, and the scatter
+    /// comes from the curve as a whole, not the 1e-9 floor of a
+    /// noiseless one.
+    #[test]
+    fn a_twelve_point_test_has_a_scatter_of_its_noise() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        let noise = Normal::new(0.0, 0.02).unwrap();
+        let test: Vec<(f64, f64)> = (1..=12)
+            .map(|i| {
+                let x = 0.25 * f64::from(i);
+                (x, 3.0 * (-0.7 * x).exp() + noise.sample(&mut rng))
+            })
+            .collect();
+        let scatter = test_scatter_by_part(&test, CurveMapeOptions::default(), 20).unwrap();
+        assert_eq!(scatter.len(), 12, "one part per grid point");
+        // 0.02 kN on forces of 0.4 to 2.5 kN, one point a part: 0.8 to 5 %.
+        // The estimate from 12 points is rough: a factor of 3 either way.
+        for (part, pct) in scatter.iter().enumerate() {
+            let force = test[part].1;
+            let expected = 100.0 * 0.02 / force;
+            assert!(
+                (expected / 3.0..=expected * 3.0).contains(pct),
+                "part {part}: {pct} % against {expected} %"
+            );
+        }
     }
 
     #[test]

@@ -523,7 +523,12 @@ impl StudyPosterior {
             (Some(u), _) => u,
             (None, Some(c)) => {
                 let curve = &self.curves[c];
-                let part = curve.parts.iter().position(|&p| p == i).unwrap_or(0);
+                // A repeated last part (a short test) has the last part's.
+                let part = curve
+                    .parts
+                    .iter()
+                    .position(|&p| p == i)
+                    .unwrap_or(curve.parts.len() - 1);
                 scales.curve_factor.get(c).copied().unwrap_or(f64::NAN) * curve.scatter_pct[part]
             }
             (None, None) => scales.noise_pct.unwrap_or(0.0) / 100.0 * o.measured.abs(),
@@ -705,10 +710,14 @@ fn curve_parts_of_observation(
         measured_scatter_by_part(&points_of(points), curve_parts)
             .map_err(|e| format!("{key}: {e}"))?
     };
-    // A grid shorter than the parts: the last part repeats, as in the
-    // simulator's outputs.
+    if metric == CurveMetric::Mape {
+        // A test with fewer grid points than parts: the simulator's last
+        // part repeats to fill its outputs, and the likelihood reads it
+        // once (a repeat would count one point's error many times over).
+        parts.truncate(scatter_pct.len().max(1));
+    }
     let last = scatter_pct.last().copied().unwrap_or(1.0);
-    scatter_pct.resize(curve_parts, last);
+    scatter_pct.resize(parts.len(), last);
     Ok(CurveParts::new(key.to_string(), parts, scatter_pct, metric))
 }
 
@@ -903,6 +912,18 @@ impl CurveParts {
             .parts
             .iter()
             .all(|&i| emulator.get(i).is_none_or(|v| *v == 0.0));
+        // With an emulator's variance, each factor node's standardised
+        // residuals and log standard deviations, once for every
+        // correlation node (they do not depend on it).
+        let standardised = if exact_model {
+            Vec::new()
+        } else {
+            self.grid
+                .nodes
+                .iter()
+                .map(|&factor| self.standardised(residuals, emulator, factor))
+                .collect()
+        };
         (0..CURVE_CORRELATIONS)
             .map(|k| {
                 let correlation = correlation_node(k);
@@ -920,12 +941,31 @@ impl CurveParts {
                             - log_scatter
                     })
                 } else {
-                    self.grid.log_integral(|factor| {
-                        curve_log_density(self, residuals, emulator, factor, correlation)
+                    self.grid.log_integral_by_node(|node| {
+                        let (z, log_sd) = &standardised[node];
+                        ar1_log_density(z, *log_sd, correlation)
                     })
                 }
             })
             .collect()
+    }
+
+    /// Each part's residual over its standard deviation at `factor` (the
+    /// emulator's variance added), and the sum of the deviations' logs.
+    fn standardised(&self, residuals: &[f64], emulator: &[f64], factor: f64) -> (Vec<f64>, f64) {
+        let mut log_sd = 0.0;
+        let z = self
+            .parts
+            .iter()
+            .zip(&self.scatter_pct)
+            .map(|(&i, scatter)| {
+                let sd =
+                    ((factor * scatter).powi(2) + emulator.get(i).copied().unwrap_or(0.0)).sqrt();
+                log_sd += sd.ln();
+                residuals[i] / sd
+            })
+            .collect();
+        (z, log_sd)
     }
 
     /// At a factor of 1: the AR(1) quadratic form of the standardised
@@ -972,20 +1012,26 @@ fn curve_log_density(
     factor: f64,
     correlation: f64,
 ) -> f64 {
+    let (z, log_sd) = curve.standardised(residuals, emulator, factor);
+    ar1_log_density(&z, log_sd, correlation)
+}
+
+/// The log density of standardised residuals `z` as a stationary AR(1)
+/// sequence of lag-one `correlation`, their standard deviations' logs
+/// summing to `log_sd`.
+fn ar1_log_density(z: &[f64], log_sd: f64, correlation: f64) -> f64 {
     let innovation = 1.0 - correlation * correlation;
-    let mut total = 0.0;
+    let mut quadratic = 0.0;
     let mut previous: Option<f64> = None;
-    for (&i, scatter) in curve.parts.iter().zip(&curve.scatter_pct) {
-        let sd = ((factor * scatter).powi(2) + emulator.get(i).copied().unwrap_or(0.0)).sqrt();
-        let z = residuals[i] / sd;
-        let term = match previous {
+    for &z in z {
+        quadratic += match previous {
             None => z * z,
-            Some(before) => (z - correlation * before).powi(2) / innovation + innovation.ln(),
+            Some(before) => (z - correlation * before).powi(2) / innovation,
         };
-        total -= 0.5 * (term + (2.0 * PI).ln()) + sd.ln();
         previous = Some(z);
     }
-    total
+    let n = z.len() as f64;
+    -0.5 * (quadratic + (n - 1.0).max(0.0) * innovation.ln() + n * (2.0 * PI).ln()) - log_sd
 }
 
 /// A standard normal draw.

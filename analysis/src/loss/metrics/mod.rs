@@ -346,7 +346,9 @@ pub fn measured_scatter_by_part(
     let noise = if degrees > 0 {
         (squares / degrees as f64 / 6.0).sqrt()
     } else {
-        0.0
+        // Parts of fewer than three points each: the curve read whole.
+        let axis = |a: usize| curve.iter().map(|p| p[a]).collect::<Vec<f64>>();
+        super::curve::short_curve_noise(&[&axis(0), &axis(1)]).unwrap_or(0.0)
     }
     .max(1e-9);
     Ok(counts

@@ -29,6 +29,7 @@ use rand::SeedableRng;
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::study::{Measured, Model, Role, Study, StudySimulator, CURVE_PARTS};
 
+pub mod curve_parts;
 pub mod discrepancy;
 pub mod emulator;
 pub mod likelihood;

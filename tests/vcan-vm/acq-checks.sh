@@ -11,6 +11,12 @@ set -eu
 OUT=${OUT:-/out}
 IN=${IN:-/in}
 say() { echo "acq-checks: $(date +%T) $*"; }
+# candump, the witness of what went over the wire, with a receive buffer of
+# 8 MiB (about 10,000 frames) instead of the kernel's default of about 300:
+# the guest's CPU is emulated on a shared host, and a stall of a few
+# milliseconds dropped 13 of 6525 frames from the witness's default buffer
+# while acq's recording kept all of them (CI, 2026-12-05).
+WITNESS_RCVBUF=8388608
 
 # Wait until a recorder has opened its sockets (it writes session.toml then).
 wait_for_session() {
@@ -43,7 +49,7 @@ kill -INT $rec
 wait $rec && echo "c1 exit 0" > "$OUT/c1.exit" || echo "c1 exit $?" > "$OUT/c1.exit"
 
 say "2: acq replay -> candump -L"
-candump -L vcan1 > "$OUT/c2_candump.log" &
+candump -L -r "$WITNESS_RCVBUF" vcan1 > "$OUT/c2_candump.log" &
 dump=$!
 sleep 0.5
 acq replay "$IN/variety.log" --iface vcan1 2> "$OUT/c2_replay.txt"
@@ -51,7 +57,7 @@ sleep 0.5
 kill $dump; wait $dump || true
 
 say "3: acq simulate -> acq record --rig (candump -L beside it)"
-candump -L can0 can1 > "$OUT/c3_candump.log" &
+candump -L -r "$WITNESS_RCVBUF" can0 can1 > "$OUT/c3_candump.log" &
 dump=$!
 sleep 0.5
 acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c3" --status-json > "$OUT/c3_status.jsonl" &
@@ -64,7 +70,7 @@ wait $rec
 kill $dump; wait $dump || true
 
 say "4: Ctrl-C during a flood"
-candump -L vcan2 > "$OUT/c4_candump.log" &
+candump -L -r "$WITNESS_RCVBUF" vcan2 > "$OUT/c4_candump.log" &
 dump=$!
 acq record --iface vcan2 --out "$OUT/c4" --quiet &
 rec=$!
@@ -98,7 +104,7 @@ kill -INT $rec
 wait $rec
 
 say "7: both buses busy with the live page on and 10 viewers, one of them stalled, three reconnecting"
-candump -L can0 can1 > "$OUT/c7_candump.log" &
+candump -L -r "$WITNESS_RCVBUF" can0 can1 > "$OUT/c7_candump.log" &
 dump=$!
 acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c7" --quiet \
     --view 127.0.0.1:8750 2> "$OUT/c7_stderr.txt" &
@@ -155,7 +161,7 @@ say "8: a study at the rig updates while both buses are busy"
 # the first hold (or after two minutes); the recorder then waits for it to
 # take the last holds, and the flood goes on until the recorder has exited,
 # so every update runs while the buses are busy.
-candump -L can0 can1 > "$OUT/c8_candump.log" &
+candump -L -r "$WITNESS_RCVBUF" can0 can1 > "$OUT/c8_candump.log" &
 dump=$!
 acq record --iface can0 --iface can1 --rig "$IN/rigs/excavator.toml" --out "$OUT/c8" --quiet \
     --study "$IN/examples/excavator-rig/study.toml" 2> "$OUT/c8_stderr.txt" &

@@ -8,9 +8,11 @@
 set -eu
 OUT=${OUT:-/out}
 IN=${IN:-/in}
-candump -L vcan0 > "$OUT/candump_vcan0.log" &
+# The witnesses' receive buffer: 8 MiB, as in acq-checks.sh (why: there).
+WITNESS_RCVBUF=8388608
+candump -L -r "$WITNESS_RCVBUF" vcan0 > "$OUT/candump_vcan0.log" &
 dump0=$!
-candump -L vcan1 > "$OUT/candump_vcan1.log" &
+candump -L -r "$WITNESS_RCVBUF" vcan1 > "$OUT/candump_vcan1.log" &
 dump1=$!
 sleep 0.5
 acq demo --iface vcan0 --iface vcan1 --acquire-only --data "$IN" --out "$OUT/demo"

@@ -63,12 +63,21 @@ impl PhysicalValue {
     }
 }
 
-/// Appends `value` in shortest round-trip form, without a trailing `.0`.
+/// Appends `value` in shortest round-trip form, without a trailing `.0`,
+/// and with a positive exponent unsigned (`1e16`: the text acq wrote with
+/// ryu before; zmij writes `1e+16`).
 #[inline]
 pub fn push_shortest_f64(out: &mut Vec<u8>, value: f64) {
-    let mut buffer = ryu::Buffer::new();
+    let mut buffer = zmij::Buffer::new();
     let text = buffer.format(value).as_bytes();
-    out.extend_from_slice(text.strip_suffix(b".0").unwrap_or(text));
+    let text = text.strip_suffix(b".0").unwrap_or(text);
+    match memchr::memchr(b'+', text) {
+        Some(plus) => {
+            out.extend_from_slice(&text[..plus]);
+            out.extend_from_slice(&text[plus + 1..]);
+        }
+        None => out.extend_from_slice(text),
+    }
 }
 
 /// How the raw bits are read.
@@ -1558,6 +1567,30 @@ BO_ 2364539905 EEC1_B: 8 B
             "-170141183460469231731687303715884105728"
         );
         assert_eq!(text(PhysicalValue::Float(-0.0)), "-0");
+        assert_eq!(text(PhysicalValue::Float(1e16)), "1e16");
+        assert_eq!(text(PhysicalValue::Float(-2.5e-7)), "-2.5e-7");
+    }
+
+    proptest::proptest! {
+        /// The text is ryu's (what acq wrote before it took zmij, an
+        /// independent implementation of the same shortest round trip),
+        /// and reads back to the same bits: any bit pattern, NaN and the
+        /// infinities included, and float32 values as a DBC's float
+        /// signals give them.
+        #[test]
+        fn shortest_form_is_ryus_and_reads_back(bits in proptest::prelude::any::<u64>()) {
+            for value in [f64::from_bits(bits), f64::from(f32::from_bits(bits as u32))] {
+                let mut ours = Vec::new();
+                push_shortest_f64(&mut ours, value);
+                let ours = String::from_utf8(ours).unwrap();
+                let mut buffer = ryu::Buffer::new();
+                let theirs = buffer.format(value);
+                proptest::prop_assert_eq!(&ours, theirs.strip_suffix(".0").unwrap_or(theirs));
+                if value.is_finite() {
+                    proptest::prop_assert_eq!(ours.parse::<f64>().unwrap().to_bits(), value.to_bits());
+                }
+            }
+        }
     }
 
     #[test]

@@ -75,6 +75,7 @@ best_of_three() {
 read_once() { cat "$work/traffic.log"; }
 acq_csv() { "$acq" decode "$work/traffic.log" --dbc "$dbc" -o /dev/null; }
 baseline_csv() { "$baseline" decode "$work/traffic.log" --dbc "$dbc" -o /dev/null; }
+baseline_parquet() { "$baseline" decode "$work/traffic.log" --dbc "$dbc" -o "$work/baseline.parquet"; }
 acq_parquet() { "$acq" decode "$work/traffic.log" --dbc "$dbc" -o "$work/out.parquet"; }
 cantools_default() { "$python" -m cantools decode "$dbc" <"$work/peer.log"; }
 cantools_single_line() { "$python" -m cantools decode --single-line "$dbc" <"$work/peer.log"; }
@@ -96,6 +97,7 @@ if [ -n "$baseline" ]; then
     exit 1
   fi
   t_baseline=$(best_of_three baseline_csv)
+  t_baseline_parquet=$(best_of_three baseline_parquet)
 fi
 t_cantools=$(best_of_three cantools_default)
 t_cantools_single=$(best_of_three cantools_single_line)
@@ -119,6 +121,8 @@ printf '%-44s %8.3f s  %7.3f M frames/s  (first %d lines)\n' \
 if [ -n "$baseline" ]; then
   printf '%-44s %8.3f s  (the same CSV; this build takes %.3f of its time)\n' \
     "baseline: $baseline" "$t_baseline" "$(echo "$t_csv / $t_baseline" | bc -l)"
+  printf '%-44s %8.3f s  (to Parquet; this build takes %.3f of its time)\n' \
+    "baseline: $baseline" "$t_baseline_parquet" "$(echo "$t_parquet / $t_baseline_parquet" | bc -l)"
 fi
 printf 'acq CSV / cantools decode:               %6.1f x (goal %d x)\n' "$ratio_csv" "$goal"
 printf 'acq CSV / cantools decode --single-line: %6.1f x\n' "$(echo "$r_csv / $r_cantools_single" | bc -l)"

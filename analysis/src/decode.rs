@@ -159,10 +159,11 @@ impl DbcRows for CsvDbcRows<'_> {
 /// as in pandas), text columns dictionary-encoded.
 pub struct DbcParquet {
     table: ParquetTable,
-    /// Per message: its id, and its `can_id` and `message` cells.
-    messages: Vec<(CanId, String, String)>,
-    /// Per message, per signal: `signal` and `unit` cells.
-    signals: Vec<Vec<(String, String)>>,
+    /// Per message: its id and its `can_id` cell.
+    messages: Vec<(CanId, String)>,
+    /// Per message: where its signals start in the `signal` and `unit`
+    /// columns' choices (the database's signals, message by message).
+    first_signal: Vec<usize>,
     labels: bool,
 }
 
@@ -201,21 +202,23 @@ impl DbcParquet {
         if labels {
             columns.push(ColumnSpec::new("label", ColumnType::Text).nullable());
         }
+        let mut table = table(&columns)?;
+        // The message, signal and unit of a row are the DBC's: given by
+        // their place, not looked up by their text row by row.
+        let messages = database.messages();
+        table.text_choices(3, messages.iter().map(|m| m.name.clone()).collect());
+        let signals = || messages.iter().flat_map(|m| &m.signals);
+        table.text_choices(4, signals().map(|s| s.name.clone()).collect());
+        table.text_choices(6, signals().map(|s| s.unit.clone()).collect());
         Ok(DbcParquet {
-            table: table(&columns)?,
-            messages: database
-                .messages()
+            table,
+            messages: messages.iter().map(|m| (m.id, m.id.to_string())).collect(),
+            first_signal: messages
                 .iter()
-                .map(|m| (m.id, m.id.to_string(), m.name.clone()))
-                .collect(),
-            signals: database
-                .messages()
-                .iter()
-                .map(|m| {
-                    m.signals
-                        .iter()
-                        .map(|s| (s.name.clone(), s.unit.clone()))
-                        .collect()
+                .scan(0, |first, m| {
+                    let this = *first;
+                    *first += m.signals.len();
+                    Some(this)
                 })
                 .collect(),
             labels,
@@ -238,8 +241,8 @@ impl DbcRows for DbcParquet {
         value: PhysicalValue,
         label: Option<&str>,
     ) {
-        let (message_id, can_id, message_name) = &self.messages[message];
-        let (signal_name, unit) = &self.signals[message][signal];
+        let (message_id, can_id) = &self.messages[message];
+        let signal_choice = self.first_signal[message] + signal;
         let table = &mut self.table;
         table.time_ns(0, record.frame.timestamp_ns);
         table.text(1, Some(record.frame.iface.as_str()));
@@ -250,10 +253,10 @@ impl DbcRows for DbcParquet {
         } else {
             table.text(2, Some(&record.frame.id.to_string()));
         }
-        table.text(3, Some(message_name));
-        table.text(4, Some(signal_name));
+        table.choice(3, message);
+        table.choice(4, signal_choice);
         table.float(5, Some(value.as_f64()));
-        table.text(6, Some(unit));
+        table.choice(6, signal_choice);
         if self.labels {
             table.text(7, label);
         }

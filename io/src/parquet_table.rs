@@ -171,6 +171,10 @@ enum ColumnBuilder {
     /// ([`ParquetTable::constant_text`]): its batch is the value once and
     /// a key per row, with no lookup per row.
     Constant(Arc<StringArray>),
+    /// A text column whose values come from a list fixed before the first
+    /// row ([`ParquetTable::text_choices`]), each row naming one by its
+    /// place in the list: no hashing and comparing of the text per row.
+    Choice(ChoiceColumn),
     Flag(BooleanBuilder),
 }
 
@@ -201,8 +205,52 @@ impl ColumnBuilder {
                 Int32Array::from(vec![0; rows]),
                 value.clone(),
             )),
+            ColumnBuilder::Choice(column) => Arc::new(column.finish()),
             ColumnBuilder::Flag(b) => Arc::new(b.finish()),
         }
+    }
+}
+
+/// The batch being built of a [`ColumnBuilder::Choice`] column. Its
+/// dictionary holds the choices the batch used, in the order of their
+/// first use, as arrow's dictionary builder makes it: the arrays are the
+/// same, only the lookups are gone.
+struct ChoiceColumn {
+    choices: Vec<String>,
+    /// Per choice, the first choice of the same text: a dictionary holds
+    /// each text once, as the dictionary builder's does.
+    first_alike: Vec<usize>,
+    /// Per choice, its key in the batch being built (`-1`: not used yet).
+    key_of_choice: Vec<i32>,
+    /// The choices in the batch's dictionary, in key order.
+    used: Vec<usize>,
+    keys: Vec<i32>,
+}
+
+impl ChoiceColumn {
+    #[inline]
+    fn append(&mut self, choice: usize) {
+        let choice = self.first_alike[choice];
+        let mut key = self.key_of_choice[choice];
+        if key < 0 {
+            key = self.used.len() as i32;
+            self.key_of_choice[choice] = key;
+            self.used.push(choice);
+        }
+        self.keys.push(key);
+    }
+
+    fn finish(&mut self) -> DictionaryArray<Int32Type> {
+        let values = StringArray::from_iter_values(self.used.iter().map(|&c| &self.choices[c]));
+        for &choice in &self.used {
+            self.key_of_choice[choice] = -1;
+        }
+        self.used.clear();
+        let keys = Int32Array::from(std::mem::replace(
+            &mut self.keys,
+            Vec::with_capacity(BATCH_ROWS),
+        ));
+        DictionaryArray::new(keys, Arc::new(values))
     }
 }
 
@@ -384,6 +432,41 @@ impl ParquetTable {
         }
     }
 
+    /// Fixes the values a text column can take, before the first row
+    /// (a DBC's message and signal names and units); each row then gives
+    /// one by its place in `choices` ([`ParquetTable::choice`]), and its
+    /// per-row text setter is a bug. The column reads as any text column.
+    pub fn text_choices(&mut self, column: usize, choices: Vec<String>) {
+        match &self.columns[column] {
+            ColumnBuilder::Text(_) | ColumnBuilder::Choice(_) => {
+                let mut first_of_text: HashMap<&str, usize> = HashMap::new();
+                let first_alike = choices
+                    .iter()
+                    .enumerate()
+                    .map(|(k, text)| *first_of_text.entry(text).or_insert(k))
+                    .collect();
+                self.columns[column] = ColumnBuilder::Choice(ChoiceColumn {
+                    first_alike,
+                    key_of_choice: vec![-1; choices.len()],
+                    choices,
+                    used: Vec::new(),
+                    keys: Vec::with_capacity(BATCH_ROWS),
+                });
+            }
+            _ => self.wrong_type(column, "text"),
+        }
+    }
+
+    /// The row's value of a column of [`ParquetTable::text_choices`]: the
+    /// choice at `index` in its list.
+    #[inline]
+    pub fn choice(&mut self, column: usize, index: usize) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Choice(c) => c.append(index),
+            _ => self.wrong_type(column, "a column of choices"),
+        }
+    }
+
     #[inline]
     pub fn flag(&mut self, column: usize, value: bool) {
         match &mut self.columns[column] {
@@ -486,6 +569,61 @@ mod tests {
     use super::*;
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
     use parquet::file::reader::{FileReader, SerializedFileReader};
+
+    /// The batches of an Arrow table, kept.
+    struct Batches(std::sync::Arc<std::sync::Mutex<Vec<RecordBatch>>>);
+
+    impl ArrowSink for Batches {
+        fn schema(&mut self, _: SchemaRef) -> Result<()> {
+            Ok(())
+        }
+        fn batch(&mut self, batch: RecordBatch) -> Result<()> {
+            self.0.lock().unwrap().push(batch);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_column_of_choices_makes_the_dictionary_builders_arrays() {
+        // Choices in an order that is not their list's, some never used, one
+        // repeated in the list, over more rows than a batch holds.
+        let choices: Vec<String> = ["bar", "kN", "", "mm", "bar", "unused"]
+            .iter()
+            .map(|c| c.to_string())
+            .collect();
+        let picks: Vec<usize> = (0..BATCH_ROWS * 2 + 77)
+            .map(|row| [3, 0, 2, 1, 4, 0, 3][(row * row + row / 5) % 7])
+            .collect();
+        let tables = [true, false].map(|by_choice| {
+            let kept = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+            let columns = [ColumnSpec::new("unit", ColumnType::Text)];
+            let mut table =
+                ParquetTable::to_arrow(&columns, &[], Box::new(Batches(kept.clone()))).unwrap();
+            if by_choice {
+                table.text_choices(0, choices.clone());
+            }
+            for &pick in &picks {
+                if by_choice {
+                    table.choice(0, pick);
+                } else {
+                    table.text(0, Some(&choices[pick]));
+                }
+                table.end_row().unwrap();
+            }
+            table.finish().unwrap();
+            let batches = kept.lock().unwrap().clone();
+            batches
+        });
+        assert_eq!(tables[0].len(), 3);
+        for (by_choice, by_text) in tables[0].iter().zip(&tables[1]) {
+            let dictionary = |batch: &RecordBatch| {
+                let column = batch.column(0).as_any();
+                let array = column.downcast_ref::<DictionaryArray<Int32Type>>().unwrap();
+                (array.keys().clone(), array.values().to_data())
+            };
+            assert_eq!(dictionary(by_choice), dictionary(by_text));
+        }
+    }
 
     #[test]
     fn a_long_table_is_written_in_row_groups_and_reads_back_equal() {

@@ -184,11 +184,12 @@ fn end_to_end() {
 }
 
 /// Counts what a table writes, and drops it.
-struct CountingSink(std::rc::Rc<std::cell::Cell<u64>>);
+struct CountingSink(std::sync::Arc<std::sync::atomic::AtomicU64>);
 
 impl Write for CountingSink {
     fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
-        self.0.set(self.0.get() + bytes.len() as u64);
+        self.0
+            .fetch_add(bytes.len() as u64, std::sync::atomic::Ordering::Relaxed);
         Ok(bytes.len())
     }
     fn flush(&mut self) -> std::io::Result<()> {
@@ -222,7 +223,7 @@ fn align_hours(hours: f64, format: TableFormat) {
         last_row: None,
         lateness_ns: 500_000_000,
     };
-    let bytes = std::rc::Rc::new(std::cell::Cell::new(0));
+    let bytes = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     let output = Output::to_writer("sink", Box::new(CountingSink(bytes.clone())));
     let comments = ["benchmark".to_string()];
     let table: Box<dyn RowSink<Error = AcqError>> = match format {
@@ -259,7 +260,7 @@ fn align_hours(hours: f64, format: TableFormat) {
         "{format:?} {hours:>5} h: {:.1} M samples aligned + written in {total_s:.2} s ({:.1} M samples/s; generator alone {generator_s:.2} s), {rows} rows, {:.1} MB written, at most {largest_pending} rows pending, peak RSS {} KiB (checksum {checksum:.3e})",
         samples / 1e6,
         samples / total_s / 1e6,
-        bytes.get() as f64 / 1e6,
+        bytes.load(std::sync::atomic::Ordering::Relaxed) as f64 / 1e6,
         peak_rss_kib()
     );
 }

@@ -4,9 +4,8 @@
 //!
 //! Two routes: through DBC files (every signal of every known message) and
 //! through a rig (each sensor in its own protocol). Both stream: memory does
-//! not grow with the log. The DBC route is the throughput-critical one, so
-//! every row's constant part (`,0x123,Message,Signal,` and `,unit\n`) is
-//! built once per signal and a row costs four `memcpy`s and a float format.
+//! not grow with the log. The DBC route to CSV is the throughput-critical
+//! one ([`dbc_csv`]).
 
 use std::io::Write;
 
@@ -17,10 +16,13 @@ use acq_can::LogRecord;
 use acq_can::{CanId, FrameKind};
 use acq_error::{AcqError, Result};
 use acq_io::input::{for_each_record, BadLines, EmptyLogs, LogInput, ScanCounts};
-use acq_io::output::{csv_field, CompleteOnlyFile, Output, TableOutput};
+use acq_io::output::{CompleteOnlyFile, Output, TableOutput};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 use acq_rig::sensors::{FrameUse, SensorDecoder, SensorEvent};
 use acq_rig::Rig;
+
+mod dbc_csv;
+pub use dbc_csv::decode_with_dbc;
 
 /// The fixed header of the DBC route.
 pub const DBC_HEADER: &str = "time_s,iface,can_id,message,signal,value,unit";
@@ -88,69 +90,6 @@ pub trait DbcRows {
     /// Whether [`DbcRows::value`] is given each value's label.
     fn wants_labels(&self) -> bool {
         false
-    }
-}
-
-/// Row pieces of one signal that do not change from frame to frame.
-struct SignalRow {
-    /// `,0x123,Message,Signal,`
-    middle: Vec<u8>,
-    /// Where `,Message,Signal,` starts in `middle`: a J1939 frame matched
-    /// by its PGN writes its own id before it.
-    after_id: usize,
-    /// `,unit\n`
-    tail: Vec<u8>,
-}
-
-struct CsvDbcRows<'a> {
-    output: &'a mut Output,
-    /// Per message, per signal.
-    rows: Vec<Vec<SignalRow>>,
-    /// Per message, its id.
-    message_ids: Vec<CanId>,
-    labels: bool,
-}
-
-impl DbcRows for CsvDbcRows<'_> {
-    #[inline]
-    fn value(
-        &mut self,
-        record: &LogRecord<'_>,
-        message: usize,
-        signal: usize,
-        value: PhysicalValue,
-        label: Option<&str>,
-    ) {
-        let row = &self.rows[message][signal];
-        let buffer = &mut self.output.buffer;
-        buffer.extend_from_slice(record.timestamp_text.as_bytes());
-        buffer.push(b',');
-        buffer.extend_from_slice(record.frame.iface.as_str().as_bytes());
-        if record.frame.id == self.message_ids[message] {
-            buffer.extend_from_slice(&row.middle);
-        } else {
-            buffer.push(b',');
-            buffer.extend_from_slice(record.frame.id.to_string().as_bytes());
-            buffer.extend_from_slice(&row.middle[row.after_id..]);
-        }
-        value.push_shortest(buffer);
-        buffer.extend_from_slice(&row.tail);
-        if self.labels {
-            buffer.push(b',');
-            if let Some(label) = label {
-                buffer.extend_from_slice(csv_field(label).as_bytes());
-            }
-        }
-        buffer.push(b'\n');
-    }
-
-    #[inline]
-    fn end_frame(&mut self) -> Result<()> {
-        self.output.maybe_flush()
-    }
-
-    fn wants_labels(&self) -> bool {
-        self.labels
     }
 }
 
@@ -395,49 +334,6 @@ pub struct DbcDecodeOptions {
     pub bad_lines: BadLines,
     /// Append a `label` column with the value-table label.
     pub labels: bool,
-}
-
-/// Decodes every frame of `inputs` through `database` into `output` (CSV).
-pub fn decode_with_dbc(
-    inputs: &mut [LogInput],
-    database: &DbcDatabase,
-    options: DbcDecodeOptions,
-    output: &mut Output,
-) -> Result<DecodeSummary> {
-    let rows: Vec<Vec<SignalRow>> = database
-        .messages()
-        .iter()
-        .map(|message| {
-            message
-                .signals
-                .iter()
-                .map(|signal| SignalRow {
-                    middle: format!(
-                        ",{},{},{},",
-                        message.id,
-                        csv_field(&message.name),
-                        csv_field(&signal.name)
-                    )
-                    .into_bytes(),
-                    after_id: 1 + message.id.to_string().len(),
-                    tail: format!(",{}", csv_field(&signal.unit)).into_bytes(),
-                })
-                .collect()
-        })
-        .collect();
-
-    output.buffer.extend_from_slice(DBC_HEADER.as_bytes());
-    if options.labels {
-        output.buffer.extend_from_slice(b",label");
-    }
-    output.buffer.push(b'\n');
-    let mut sink = CsvDbcRows {
-        output,
-        rows,
-        message_ids: database.messages().iter().map(|m| m.id).collect(),
-        labels: options.labels,
-    };
-    decode_dbc_frames(inputs, database, options, &mut sink)
 }
 
 /// Decodes every frame of `inputs` through `database` into `sink` (a

@@ -25,7 +25,7 @@ const FLUSH_AT_BYTES: usize = 256 * 1024;
 
 pub struct Output {
     name: String,
-    sink: Box<dyn Write>,
+    sink: Box<dyn Write + Send>,
     /// Pending bytes; commands append here directly.
     pub buffer: Vec<u8>,
     /// Written to `.0`, renamed to `.1` once complete.
@@ -35,9 +35,9 @@ pub struct Output {
 impl Output {
     /// Creates the output file (or stdout for `-` / `None`).
     pub fn create(path: Option<&Path>) -> Result<Self> {
-        let (name, sink): (String, Box<dyn Write>) = match path {
-            None => ("<stdout>".into(), Box::new(io::stdout().lock())),
-            Some(p) if p.as_os_str() == "-" => ("<stdout>".into(), Box::new(io::stdout().lock())),
+        let (name, sink): (String, Box<dyn Write + Send>) = match path {
+            None => ("<stdout>".into(), Box::new(io::stdout())),
+            Some(p) if p.as_os_str() == "-" => ("<stdout>".into(), Box::new(io::stdout())),
             Some(p) => (p.display().to_string(), Box::new(create_file(p)?)),
         };
         Ok(Output::to_writer(name, sink))
@@ -72,7 +72,7 @@ impl Output {
     }
 
     /// Output to any writer (tests, benchmarks).
-    pub fn to_writer(name: impl Into<String>, sink: Box<dyn Write>) -> Self {
+    pub fn to_writer(name: impl Into<String>, sink: Box<dyn Write + Send>) -> Self {
         Output {
             name: name.into(),
             sink,

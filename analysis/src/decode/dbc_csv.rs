@@ -1,0 +1,480 @@
+//! The DBC route to CSV: every row's constant part (`,0x123,Message,Signal,`
+//! and `,unit`) built once per signal, so a row costs four `memcpy`s and a
+//! value's shortest text; on two cores or more, the frames parsed and
+//! decoded on one thread and the rows made and written on another.
+
+use acq_can::dbc::{DbcDatabase, PhysicalValue};
+use acq_can::LogRecord;
+use acq_can::{CanId, IfaceName};
+use acq_error::{AcqError, Result};
+use acq_io::input::LogInput;
+use acq_io::output::{csv_field, Output};
+
+use super::{decode_dbc_frames, DbcDecodeOptions, DbcRows, DecodeSummary, DBC_HEADER};
+
+/// Decodes every frame of `inputs` through `database` into `output` (CSV).
+pub fn decode_with_dbc(
+    inputs: &mut [LogInput],
+    database: &DbcDatabase,
+    options: DbcDecodeOptions,
+    output: &mut Output,
+) -> Result<DecodeSummary> {
+    let pieces = CsvRowPieces::new(database);
+    output.buffer.extend_from_slice(DBC_HEADER.as_bytes());
+    if options.labels {
+        output.buffer.extend_from_slice(b",label");
+    }
+    output.buffer.push(b'\n');
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    decode_to_csv(inputs, database, options, output, pieces, cores >= 2)
+}
+
+/// [`decode_with_dbc`] after the header, on two threads or on this one.
+fn decode_to_csv(
+    inputs: &mut [LogInput],
+    database: &DbcDatabase,
+    options: DbcDecodeOptions,
+    output: &mut Output,
+    pieces: CsvRowPieces,
+    two_threads: bool,
+) -> Result<DecodeSummary> {
+    if options.labels || !two_threads {
+        let labels = options.labels;
+        let mut sink = CsvDbcRows {
+            output,
+            pieces: &pieces,
+            labels,
+        };
+        return decode_dbc_frames(inputs, database, options, &mut sink);
+    }
+    // Parsing and decoding on this thread, the rows made and written on
+    // another: making them (the values' shortest text above all) is about
+    // half of the work.
+    let (full, runs) = std::sync::mpsc::sync_channel(RUNS_IN_FLIGHT);
+    let (empty, spare) = std::sync::mpsc::channel();
+    let (decoded, written) = std::thread::scope(|scope| {
+        let pieces = &pieces;
+        let writing = scope.spawn(move || write_decoded(runs, empty, pieces, output));
+        let mut sink = HandingOver {
+            current: DecodedFrames::default(),
+            in_frame: false,
+            full,
+            spare,
+        };
+        let decoded = decode_dbc_frames(inputs, database, options, &mut sink);
+        // What was decoded before an error is written, as on one thread.
+        let last = sink.hand_over();
+        drop(sink);
+        let written = writing.join().expect("writing CSV rows does not panic");
+        (decoded.and_then(|summary| last.map(|()| summary)), written)
+    });
+    // A writer's failure is the cause of a decoder stopped by it.
+    written.and(decoded)
+}
+
+/// Runs of decoded values ahead of the CSV thread at most.
+const RUNS_IN_FLIGHT: usize = 4;
+
+/// Row pieces of one signal that do not change from frame to frame.
+struct SignalRow {
+    /// `,0x123,Message,Signal,`
+    middle: Vec<u8>,
+    /// Where `,Message,Signal,` starts in `middle`: a J1939 frame matched
+    /// by its PGN writes its own id before it.
+    after_id: usize,
+    /// `,unit\n`
+    tail: Vec<u8>,
+}
+
+/// The constant pieces of every signal's CSV row, and how a row is made.
+struct CsvRowPieces {
+    /// Per message, per signal.
+    rows: Vec<Vec<SignalRow>>,
+    /// Per message, its id.
+    message_ids: Vec<CanId>,
+}
+
+impl CsvRowPieces {
+    fn new(database: &DbcDatabase) -> Self {
+        let rows = database
+            .messages()
+            .iter()
+            .map(|message| {
+                message
+                    .signals
+                    .iter()
+                    .map(|signal| SignalRow {
+                        middle: format!(
+                            ",{},{},{},",
+                            message.id,
+                            csv_field(&message.name),
+                            csv_field(&signal.name)
+                        )
+                        .into_bytes(),
+                        after_id: 1 + message.id.to_string().len(),
+                        tail: format!(",{}", csv_field(&signal.unit)).into_bytes(),
+                    })
+                    .collect()
+            })
+            .collect();
+        CsvRowPieces {
+            rows,
+            message_ids: database.messages().iter().map(|m| m.id).collect(),
+        }
+    }
+
+    /// One row, without its label column and line end.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn push(
+        &self,
+        buffer: &mut Vec<u8>,
+        timestamp_text: &[u8],
+        iface: &IfaceName,
+        id: CanId,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+    ) {
+        let row = &self.rows[message][signal];
+        buffer.extend_from_slice(timestamp_text);
+        buffer.push(b',');
+        buffer.extend_from_slice(iface.as_str().as_bytes());
+        if id == self.message_ids[message] {
+            buffer.extend_from_slice(&row.middle);
+        } else {
+            buffer.push(b',');
+            buffer.extend_from_slice(id.to_string().as_bytes());
+            buffer.extend_from_slice(&row.middle[row.after_id..]);
+        }
+        value.push_shortest(buffer);
+        buffer.extend_from_slice(&row.tail);
+    }
+}
+
+/// The CSV rows made and written on the decoding thread.
+struct CsvDbcRows<'a> {
+    output: &'a mut Output,
+    pieces: &'a CsvRowPieces,
+    labels: bool,
+}
+
+impl DbcRows for CsvDbcRows<'_> {
+    #[inline]
+    fn value(
+        &mut self,
+        record: &LogRecord<'_>,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+        label: Option<&str>,
+    ) {
+        let buffer = &mut self.output.buffer;
+        let frame = &record.frame;
+        let timestamp = record.timestamp_text.as_bytes();
+        self.pieces.push(
+            buffer,
+            timestamp,
+            &frame.iface,
+            frame.id,
+            message,
+            signal,
+            value,
+        );
+        if self.labels {
+            buffer.push(b',');
+            if let Some(label) = label {
+                buffer.extend_from_slice(csv_field(label).as_bytes());
+            }
+        }
+        buffer.push(b'\n');
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        self.output.maybe_flush()
+    }
+
+    fn wants_labels(&self) -> bool {
+        self.labels
+    }
+}
+
+/// Values decoded from a run of frames, handed from the decoding thread to
+/// the one that makes and writes their CSV rows.
+#[derive(Default)]
+struct DecodedFrames {
+    /// The frames' timestamps as the log writes them, one after another.
+    timestamps: Vec<u8>,
+    frames: Vec<DecodedFrame>,
+    /// `(signal, value)`, frame after frame.
+    values: Vec<(u32, PhysicalValue)>,
+}
+
+/// A frame with at least one value: where its timestamp and values end.
+struct DecodedFrame {
+    timestamp_end: usize,
+    iface: IfaceName,
+    id: CanId,
+    message: usize,
+    values_end: usize,
+}
+
+/// Values decoded before they go to the CSV thread.
+const HANDOVER_VALUES: usize = 16 * 1024;
+
+/// The decoding thread's side: values collected, handed over in runs of
+/// [`HANDOVER_VALUES`].
+struct HandingOver {
+    current: DecodedFrames,
+    in_frame: bool,
+    full: std::sync::mpsc::SyncSender<DecodedFrames>,
+    spare: std::sync::mpsc::Receiver<DecodedFrames>,
+}
+
+impl HandingOver {
+    fn hand_over(&mut self) -> Result<()> {
+        let next = self.spare.try_recv().unwrap_or_default();
+        // Closed: the CSV thread could not write, and says why.
+        self.full
+            .send(std::mem::replace(&mut self.current, next))
+            .map_err(|_| AcqError::Malformed("the CSV writer stopped".into()))
+    }
+}
+
+impl DbcRows for HandingOver {
+    #[inline]
+    fn value(
+        &mut self,
+        record: &LogRecord<'_>,
+        message: usize,
+        signal: usize,
+        value: PhysicalValue,
+        _label: Option<&str>,
+    ) {
+        let current = &mut self.current;
+        if !self.in_frame {
+            self.in_frame = true;
+            current
+                .timestamps
+                .extend_from_slice(record.timestamp_text.as_bytes());
+            current.frames.push(DecodedFrame {
+                timestamp_end: current.timestamps.len(),
+                iface: record.frame.iface,
+                id: record.frame.id,
+                message,
+                values_end: 0,
+            });
+        }
+        current.values.push((signal as u32, value));
+    }
+
+    #[inline]
+    fn end_frame(&mut self) -> Result<()> {
+        if std::mem::take(&mut self.in_frame) {
+            if let Some(frame) = self.current.frames.last_mut() {
+                frame.values_end = self.current.values.len();
+            }
+            if self.current.values.len() >= HANDOVER_VALUES {
+                self.hand_over()?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The CSV thread's side: the rows of each run of frames, written.
+fn write_decoded(
+    runs: std::sync::mpsc::Receiver<DecodedFrames>,
+    empty: std::sync::mpsc::Sender<DecodedFrames>,
+    pieces: &CsvRowPieces,
+    output: &mut Output,
+) -> Result<()> {
+    for mut run in runs {
+        let (mut timestamp_start, mut values_start) = (0, 0);
+        for frame in &run.frames {
+            let timestamp = &run.timestamps[timestamp_start..frame.timestamp_end];
+            for &(signal, value) in &run.values[values_start..frame.values_end] {
+                let buffer = &mut output.buffer;
+                let (iface, id) = (&frame.iface, frame.id);
+                pieces.push(
+                    buffer,
+                    timestamp,
+                    iface,
+                    id,
+                    frame.message,
+                    signal as usize,
+                    value,
+                );
+                buffer.push(b'\n');
+            }
+            (timestamp_start, values_start) = (frame.timestamp_end, frame.values_end);
+        }
+        output.maybe_flush()?;
+        run.timestamps.clear();
+        run.frames.clear();
+        run.values.clear();
+        // The decoder may have ended: a run not taken back is freed.
+        let _ = empty.send(run);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use acq_io::input::{open_log, BadLines};
+    use std::io::Write;
+    use std::sync::{Arc, Mutex};
+
+    /// Bytes written, kept; failing once `fail_after` bytes are.
+    #[derive(Clone)]
+    struct Kept {
+        bytes: Arc<Mutex<Vec<u8>>>,
+        fail_after: usize,
+    }
+
+    impl Write for Kept {
+        fn write(&mut self, data: &[u8]) -> std::io::Result<usize> {
+            let mut bytes = self.bytes.lock().unwrap();
+            if bytes.len() + data.len() > self.fail_after {
+                return Err(std::io::Error::other("the disk is full"));
+            }
+            bytes.extend_from_slice(data);
+            Ok(data.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A J1939 log: EEC1 from its DBC's source address and from another
+    /// (a row with the frame's own id), CCVS1, an unknown id, a remote and
+    /// an error frame, a short frame; a malformed line after `bad_at`
+    /// frames if given.
+    fn log(dir: &std::path::Path, frames: usize, bad_at: Option<usize>) -> std::path::PathBuf {
+        let mut text = String::new();
+        for k in 0..frames {
+            if bad_at == Some(k) {
+                text.push_str("(1700000000.5) can0 not a frame\n");
+            }
+            let time = format!("(1700000000.{:06})", k % 1_000_000);
+            let line = match k % 7 {
+                0 => format!("{time} can0 0CF004FE#0000{:04X}00000000", k % 65_536),
+                1 => format!("{time} can1 0CF00400#00001234{:02X}000000", k % 256),
+                2 => format!("{time} can0 18FEF1FE#00{:04X}0000000000", (k * 31) % 65_536),
+                3 => format!("{time} can0 123#DEADBEEF"),
+                4 => format!("{time} can0 0CF004FE#R"),
+                5 => format!("{time} can0 20000080#0000000000000000"),
+                _ => format!("{time} can1 0CF00401#0011"),
+            };
+            text.push_str(&line);
+            text.push('\n');
+        }
+        let path = dir.join(format!("j1939-{frames}-{bad_at:?}.log"));
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    fn decode(
+        path: &std::path::Path,
+        bad_lines: BadLines,
+        two_threads: bool,
+        fail_after: usize,
+    ) -> (Result<DecodeSummary>, Vec<u8>) {
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../fixtures/dbc/j1939_source_fe.dbc"),
+        )
+        .unwrap();
+        let (database, _) = DbcDatabase::parse(&text, "j1939_source_fe.dbc").unwrap();
+        let kept = Kept {
+            bytes: Arc::default(),
+            fail_after,
+        };
+        let mut output = Output::to_writer("kept", Box::new(kept.clone()));
+        output.buffer.extend_from_slice(DBC_HEADER.as_bytes());
+        output.buffer.push(b'\n');
+        let options = DbcDecodeOptions {
+            bad_lines,
+            labels: false,
+        };
+        let mut inputs = vec![open_log(path).unwrap()];
+        let pieces = CsvRowPieces::new(&database);
+        let result = decode_to_csv(
+            &mut inputs,
+            &database,
+            options,
+            &mut output,
+            pieces,
+            two_threads,
+        );
+        let _ = output.finish();
+        let bytes = kept.bytes.lock().unwrap().clone();
+        (result, bytes)
+    }
+
+    #[test]
+    fn two_threads_write_what_one_writes() {
+        let dir = tempfile::tempdir().unwrap();
+        // Many hand-overs, a last short one; a bad line in the middle.
+        let whole = log(dir.path(), 12 * HANDOVER_VALUES + 123, None);
+        let broken = log(
+            dir.path(),
+            12 * HANDOVER_VALUES + 123,
+            Some(7 * HANDOVER_VALUES + 5),
+        );
+        for (path, bad_lines) in [
+            (&whole, BadLines::Stop),
+            (&broken, BadLines::Skip),
+            (&broken, BadLines::Stop),
+        ] {
+            let (one, one_bytes) = decode(path, bad_lines, false, usize::MAX);
+            let (two, two_bytes) = decode(path, bad_lines, true, usize::MAX);
+            assert!(one_bytes.len() > 200_000, "{}", one_bytes.len());
+            assert!(
+                one_bytes == two_bytes,
+                "{path:?} {bad_lines:?}: the CSVs differ"
+            );
+            match (one, two) {
+                (Ok(one), Ok(two)) => {
+                    assert_eq!(one, two);
+                    assert!(one.rows > 3 * HANDOVER_VALUES as u64, "{one:?}");
+                    assert!(
+                        one.unknown > 0 && one.remote_frames > 0 && one.undecodable > 0,
+                        "{one:?}"
+                    );
+                }
+                (Err(one), Err(two)) => {
+                    assert_eq!(one.to_string(), two.to_string());
+                    assert!(one.to_string().contains("expected"), "{one}");
+                }
+                (one, two) => panic!("{one:?} against {two:?}"),
+            }
+        }
+        let text = String::from_utf8(decode(&whole, BadLines::Stop, true, usize::MAX).1).unwrap();
+        // EEC1 from 0x00 as its own id, from 0xFE as the DBC's.
+        assert!(
+            text.contains(",can1,0xCF00400,EEC1,EngineSpeed,"),
+            "{}",
+            &text[..400]
+        );
+        assert!(
+            text.contains(",can0,0xCF004FE,EEC1,EngineSpeed,"),
+            "{}",
+            &text[..400]
+        );
+    }
+
+    #[test]
+    fn a_writer_that_fails_stops_the_decode_with_its_own_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = log(dir.path(), 20 * HANDOVER_VALUES, None);
+        for two_threads in [false, true] {
+            let (result, bytes) = decode(&path, BadLines::Stop, two_threads, 1 << 20);
+            let error = result.unwrap_err().to_string();
+            assert!(error.contains("the disk is full"), "{two_threads}: {error}");
+            assert!(bytes.len() <= 1 << 20);
+        }
+    }
+}

@@ -109,7 +109,7 @@ pub struct DbcParquet {
 impl DbcParquet {
     pub fn create(output: Output, database: &DbcDatabase, labels: bool) -> Result<Self> {
         Self::with_table(database, labels, |columns| {
-            ParquetTable::new(output, columns, &[])
+            ParquetTable::new(output, columns, &[]).map(ParquetTable::encoding_beside)
         })
     }
 

@@ -481,15 +481,7 @@ impl ParquetTable {
     /// of a decode to Parquet). For a table written alone: each table so
     /// made has its thread. A table that is not a file is as it was.
     pub fn encoding_beside(self) -> Self {
-        let ParquetTable {
-            destination,
-            schema,
-            columns,
-            rows_in_batch,
-            rows,
-            failed,
-        } = self;
-        let destination = match destination {
+        let destination = match self.destination {
             Destination::File { writer, output } => {
                 let name = output.name().to_string();
                 let (batches, to_encode) = std::sync::mpsc::sync_channel(BATCHES_IN_FLIGHT);
@@ -509,11 +501,7 @@ impl ParquetTable {
         };
         ParquetTable {
             destination,
-            schema,
-            columns,
-            rows_in_batch,
-            rows,
-            failed,
+            ..self
         }
     }
 

@@ -82,7 +82,7 @@ struct SignalRow {
     /// Where `,Message,Signal,` starts in `middle`: a J1939 frame matched
     /// by its PGN writes its own id before it.
     after_id: usize,
-    /// `,unit\n`
+    /// `,unit` (the label column and the line end follow)
     tail: Vec<u8>,
 }
 

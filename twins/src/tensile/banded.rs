@@ -121,10 +121,11 @@ impl BandedMatrix {
     /// factors). Partial pivoting within the band.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SingularMatrix> {
         let n = self.size;
-        let scale = self.entries.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        let scale = largest_magnitude(&self.entries);
         let tiny = scale * f64::EPSILON * 16.0;
-        // Upper bandwidth of U after row swaps.
-        let upper_filled = self.upper + self.lower;
+        // The last column row k of U holds: `filled_to` when k was the
+        // pivot (the back substitution skips the zeros after it).
+        let mut last_in_row = vec![0; n];
         // The last column any row at or above the pivot may hold: `k +
         // upper` until a swap brings up a row from below (LAPACK gbtf2's
         // `ju`). A stiffness matrix rarely needs one, so the updates stay
@@ -146,6 +147,7 @@ impl BandedMatrix {
             }
             filled_to = filled_to.max(pivot_row + self.upper).min(n - 1);
             let last_column = filled_to;
+            last_in_row[k] = last_column;
             if pivot_row != k {
                 for column in k..=last_column {
                     let a = self.offset(k, column);
@@ -155,39 +157,124 @@ impl BandedMatrix {
                 rhs.swap(k, pivot_row);
             }
             let pivot_base = self.offset(k, k);
-            let pivot = self.entries[pivot_base];
-            let span = last_column - k;
-            for row in k + 1..=last_row {
-                let row_base = self.offset(row, k);
-                let factor = self.entries[row_base] / pivot;
-                if factor == 0.0 {
-                    continue;
-                }
-                self.entries[row_base] = factor;
-                // Columns k+1..=last_column sit at consecutive offsets in
-                // both rows (row storage is contiguous in the column). The
-                // pivot row is stored before this one, so the two slices are
-                // disjoint: the compiler vectorises the update.
-                let (before, from_row) = self.entries.split_at_mut(row_base);
-                let pivot_row = &before[pivot_base + 1..pivot_base + 1 + span];
-                let target = &mut from_row[1..=span];
-                for (t, p) in target.iter_mut().zip(pivot_row) {
-                    *t -= factor * p;
-                }
-                rhs[row] -= factor * rhs[k];
-            }
+            let below = Elimination {
+                pivot_base,
+                // Row k + 1's entry in column k: one row on, one place back.
+                first_row_base: pivot_base + self.width() - 1,
+                row_step: self.width() - 1,
+                rows: last_row - k,
+                span: last_column - k,
+            };
+            eliminate(&mut self.entries, &mut rhs[k..=last_row], &below);
         }
         for k in (0..n).rev() {
-            let last_column = (k + upper_filled).min(n - 1);
+            let last_column = last_in_row[k];
             let base = self.offset(k, k);
             let span = last_column - k;
             let row = &self.entries[base + 1..=base + span];
             let known = &rhs[k + 1..=k + span];
-            let dot: f64 = row.iter().zip(known).map(|(a, x)| a * x).sum();
-            rhs[k] = (rhs[k] - dot) / self.entries[base];
+            rhs[k] = (rhs[k] - dot(row, known)) / self.entries[base];
         }
         Ok(())
     }
+}
+
+/// The largest `|entry|` (NaN ignored, as `f64::max` does), in lanes the
+/// compiler vectorises: the same number as one running maximum, since the
+/// maximum does not depend on the order. A pass over the whole storage
+/// before every factorisation.
+fn largest_magnitude(entries: &[f64]) -> f64 {
+    const LANES: usize = 8;
+    let mut lanes = [0.0_f64; LANES];
+    let chunks = entries.chunks_exact(LANES);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (lane, value) in lanes.iter_mut().zip(chunk) {
+            *lane = lane.max(value.abs());
+        }
+    }
+    rest.iter()
+        .chain(&lanes)
+        .fold(0.0_f64, |largest, value| largest.max(value.abs()))
+}
+
+/// `Σ a_i x_i` in four running sums: one sum's chain of additions is the
+/// back substitution's bound (each waits for the last), four overlap. A
+/// fixed order, so the result does not vary from run to run.
+fn dot(a: &[f64], x: &[f64]) -> f64 {
+    let mut sums = [0.0_f64; 4];
+    let chunks = a.chunks_exact(4).zip(x.chunks_exact(4));
+    for (a4, x4) in chunks {
+        for lane in 0..4 {
+            sums[lane] += a4[lane] * x4[lane];
+        }
+    }
+    let done = a.len() - a.len() % 4;
+    let tail: f64 = a[done..].iter().zip(&x[done..]).map(|(a, x)| a * x).sum();
+    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
+
+/// One pivot's elimination: the rows below it, each at `row_step` from
+/// the last in the storage (a row's entry in the pivot's column).
+struct Elimination {
+    pivot_base: usize,
+    first_row_base: usize,
+    row_step: usize,
+    rows: usize,
+    /// Columns after the pivot's that the pivot row holds.
+    span: usize,
+}
+
+/// Subtracts the pivot row from each row below it, storing the factor in
+/// the pivot's column; `rhs[0]` is the pivot row's, `rhs[i]` row i below's.
+/// Nearly all of the factorisation's time: the one loop compiled twice
+/// (see [`eliminate`]).
+#[inline(always)]
+fn eliminate_rows(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
+    let pivot = entries[below.pivot_base];
+    let span = below.span;
+    for i in 1..=below.rows {
+        let row_base = below.first_row_base + (i - 1) * below.row_step;
+        let factor = entries[row_base] / pivot;
+        if factor == 0.0 {
+            continue;
+        }
+        entries[row_base] = factor;
+        // Columns after the pivot sit at consecutive offsets in both rows
+        // (row storage is contiguous in the column). The pivot row is stored
+        // before this one, so the two slices are disjoint: the compiler
+        // vectorises the update.
+        let (before, from_row) = entries.split_at_mut(row_base);
+        let pivot_row = &before[below.pivot_base + 1..below.pivot_base + 1 + span];
+        let target = &mut from_row[1..=span];
+        for (t, p) in target.iter_mut().zip(pivot_row) {
+            *t -= factor * p;
+        }
+        rhs[i] -= factor * rhs[0];
+    }
+}
+
+/// [`eliminate_rows`] in 256-bit vectors where the processor has them:
+/// a release build targets the x86-64 baseline (SSE2, two numbers an
+/// instruction), and the updates are most of a tensile run's serial time
+/// (a third of its wall at 0.09 mm elements, BENCHMARKS.md). Every entry
+/// gets the same multiply and subtract in the same order either way (Rust
+/// never fuses them), so both give the same bits.
+fn eliminate(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the only requirement `target_feature` adds is that the
+        // processor has the feature, checked on the line above.
+        unsafe { eliminate_avx2(entries, rhs, below) };
+        return;
+    }
+    eliminate_rows(entries, rhs, below);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn eliminate_avx2(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
+    eliminate_rows(entries, rhs, below);
 }
 
 #[cfg(test)]

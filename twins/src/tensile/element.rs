@@ -29,7 +29,7 @@ use super::kinematics::{
 };
 
 /// The element maps (r, z, theta) to the material's (1, 2, 3).
-pub use super::gtn::{Mandel, MandelTangent};
+pub use super::gtn::{Mandel, MandelTangent, Wanted};
 
 /// Element nodal displacements `[u_r0, u_z0, u_r1, u_z1, ...]` in mm.
 pub type ElementDisplacement = SVector<f64, 8>;
@@ -60,13 +60,15 @@ pub trait PointMaterial {
     fn initial_state(&self) -> Self::State;
     /// `last` is the state this point's previous update gave (the last
     /// Newton iteration's, or the last step's): a material that solves a
-    /// local problem may start from its solution.
+    /// local problem may start from its solution. With
+    /// [`Wanted::StressOnly`] the tangents may come back zero.
     fn update(
         &self,
         state: &Self::State,
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
         last: &Self::State,
+        wanted: Wanted,
     ) -> Result<PointResponse<Self::State>, String>;
     /// Whether the point no longer carries load.
     fn has_failed(&self, state: &Self::State) -> bool;
@@ -291,6 +293,11 @@ pub fn evaluate_with<const TANGENT: bool, M: PointMaterial>(
                 &mandel_from_symmetric(&trial_strain),
                 centre_volume_ratio,
                 &last[k].material,
+                if TANGENT {
+                    Wanted::WithTangent
+                } else {
+                    Wanted::StressOnly
+                },
             )
             .map_err(ElementError::Material)?;
         let kirchhoff = symmetric_from_mandel(&response.stress_mpa);
@@ -381,6 +388,7 @@ impl PointMaterial for Hencky {
         trial_elastic_strain: &Mandel,
         _volume_ratio: f64,
         _last: &(),
+        _wanted: Wanted,
     ) -> Result<PointResponse<()>, String> {
         let tangent = self.tangent();
         Ok(PointResponse {
@@ -425,6 +433,7 @@ mod tests {
             trial: &Mandel,
             _volume_ratio: f64,
             _last: &f64,
+            _wanted: Wanted,
         ) -> Result<PointResponse<f64>, String> {
             let c = self.elastic.tangent();
             let shear = c[(3, 3)] / 2.0;

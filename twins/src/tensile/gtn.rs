@@ -90,6 +90,7 @@ use nalgebra::{Matrix3, Matrix4, SMatrix, SVector, Vector4};
 use serde::{Deserialize, Serialize};
 
 use super::flow_curve::FlowCurve;
+use super::local_lu::LocalLu;
 
 /// A symmetric second-order tensor in Mandel notation
 /// `[11, 22, 33, √2·23, √2·13, √2·12]`.
@@ -610,11 +611,18 @@ pub struct GtnMaterial {
     pub flow: FlowCurve,
 }
 
+/// What an update returns besides the stress and the state: a global
+/// Newton iteration's convergence check needs the stress only, and the
+/// tangent is half the work of a plastic point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wanted {
+    /// The tangents come back zero.
+    StressOnly,
+    WithTangent,
+}
+
 /// The return-mapping unknowns `(Δε_p, Δε_q, Δε_m, Δf)`.
 type Unknowns = Vector4<f64>;
-
-/// LU factors of the local Jacobian at convergence.
-type JacobianLu = nalgebra::LU<f64, nalgebra::U4, nalgebra::U4>;
 
 /// Residual, Jacobian and the partials the tangent needs, at one iterate.
 struct LocalEvaluation {
@@ -937,11 +945,12 @@ impl GtnMaterial {
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
         last: &MaterialState,
+        wanted: Wanted,
     ) -> Result<StressUpdate, GtnError> {
         let start = Unknowns::from(last.last_increments);
         let start =
             (start != Unknowns::zeros() && start.iter().all(|v| v.is_finite())).then_some(start);
-        self.update_with_start(state_n, trial_elastic_strain, volume_ratio, start)
+        self.update_with_start(state_n, trial_elastic_strain, volume_ratio, start, wanted)
     }
 
     /// [`GtnMaterial::update`] at finite strain: the stress solved for is the
@@ -957,7 +966,13 @@ impl GtnMaterial {
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
     ) -> Result<StressUpdate, GtnError> {
-        self.update_with_start(state_n, trial_elastic_strain, volume_ratio, None)
+        self.update_with_start(
+            state_n,
+            trial_elastic_strain,
+            volume_ratio,
+            None,
+            Wanted::WithTangent,
+        )
     }
 
     fn update_with_start(
@@ -966,6 +981,7 @@ impl GtnMaterial {
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
         start: Option<Unknowns>,
+        wanted: Wanted,
     ) -> Result<StressUpdate, GtnError> {
         self.validate()?;
         if !(volume_ratio.is_finite() && volume_ratio > 0.0) {
@@ -1001,10 +1017,11 @@ impl GtnMaterial {
 
         let bulk = self.elasticity.bulk_modulus_mpa();
         let shear = self.elasticity.shear_modulus_mpa();
-        let stiffness = self.elasticity.stiffness_mpa();
-        let trial_stress = stiffness * trial_elastic_strain;
-        let trial_mean = mean_stress_mpa(&trial_stress);
-        let trial_deviator = deviator(&trial_stress);
+        // σ = K tr(ε) I + 2G dev(ε), without the 6 x 6 stiffness.
+        let trial_mean =
+            bulk * (trial_elastic_strain[0] + trial_elastic_strain[1] + trial_elastic_strain[2]);
+        let trial_deviator = deviator(trial_elastic_strain) * (2.0 * shear);
+        let trial_stress = identity_mandel() * trial_mean + trial_deviator;
         let mut trial_von_mises = (1.5 * trial_deviator.norm_squared()).sqrt();
 
         let (sy_n, _) = self.flow.flow_stress_mpa(matrix_strain_n);
@@ -1021,7 +1038,10 @@ impl GtnMaterial {
             return Ok(StressUpdate {
                 stress_mpa: trial_stress,
                 elastic_strain: *trial_elastic_strain,
-                tangent_mpa: stiffness,
+                tangent_mpa: match wanted {
+                    Wanted::StressOnly => MandelTangent::zeros(),
+                    Wanted::WithTangent => self.elasticity.stiffness_mpa(),
+                },
                 stress_by_volume_ratio_mpa: Mandel::zeros(),
                 state: MaterialState {
                     last_increments: [0.0; 4],
@@ -1105,24 +1125,27 @@ impl GtnMaterial {
         let elastic_strain =
             identity * (p / (3.0 * bulk)) + trial_deviator * (deviator_ratio / (2.0 * shear));
 
-        let not_converged = GtnError::NotConverged {
-            iterations: MAX_ITERATIONS,
-            residual: f64::INFINITY,
+        let (tangent, stress_by_volume_ratio) = match wanted {
+            Wanted::StressOnly => (MandelTangent::zeros(), Mandel::zeros()),
+            Wanted::WithTangent => {
+                // One factorisation of the local Jacobian serves both sensitivities.
+                let lu = LocalLu::new(&evaluation.jacobian).ok_or(GtnError::NotConverged {
+                    iterations: MAX_ITERATIONS,
+                    residual: f64::INFINITY,
+                })?;
+                (
+                    consistent_tangent(
+                        &problem,
+                        &evaluation,
+                        &lu,
+                        &flow_direction,
+                        shear,
+                        deviator_ratio,
+                    ),
+                    volume_ratio_sensitivity(&problem, &evaluation, &lu, &flow_direction),
+                )
+            }
         };
-        // One factorisation of the local Jacobian serves both sensitivities.
-        let lu = evaluation.jacobian.lu();
-        let tangent = consistent_tangent(
-            &problem,
-            &evaluation,
-            &lu,
-            &flow_direction,
-            shear,
-            deviator_ratio,
-        )
-        .ok_or(not_converged.clone())?;
-        let stress_by_volume_ratio =
-            volume_ratio_sensitivity(&problem, &evaluation, &lu, &flow_direction)
-                .ok_or(not_converged)?;
 
         let update = StressUpdate {
             stress_mpa: stress,
@@ -1190,7 +1213,9 @@ fn solve_return_mapping(
             return Ok(Some((x, evaluation)));
         }
         let converged = residual_norm <= RESIDUAL_TOLERANCE;
-        let Some(step) = evaluation.jacobian.lu().solve(&-evaluation.residual) else {
+        let Some(step) =
+            LocalLu::new(&evaluation.jacobian).map(|lu| lu.solve(&-evaluation.residual))
+        else {
             return if max_porosity >= failure_trigger_porosity {
                 Ok(None)
             } else {
@@ -1275,29 +1300,27 @@ fn solve_return_mapping(
 fn volume_ratio_sensitivity(
     problem: &ReturnMapping<'_>,
     evaluation: &LocalEvaluation,
-    lu: &JacobianLu,
+    lu: &LocalLu,
     flow_direction: &Mandel,
-) -> Option<Mandel> {
+) -> Mandel {
     let d_residual_d_volume_ratio =
         evaluation.d_residual_d_flow_stress * (evaluation.flow_stress_mpa / problem.volume_ratio);
-    let dx = lu.solve(&-d_residual_d_volume_ratio)?;
-    Some(
-        identity_mandel() * (-problem.bulk_mpa * dx[0])
-            + flow_direction * (-(2.0 / 3.0) * problem.three_shear_mpa * dx[1]),
-    )
+    let dx = lu.solve(&-d_residual_d_volume_ratio);
+    identity_mandel() * (-problem.bulk_mpa * dx[0])
+        + flow_direction * (-(2.0 / 3.0) * problem.three_shear_mpa * dx[1])
 }
 
 /// `dσ/dε_tr` by the implicit function theorem on the converged local system.
 fn consistent_tangent(
     problem: &ReturnMapping<'_>,
     evaluation: &LocalEvaluation,
-    lu: &JacobianLu,
+    lu: &LocalLu,
     flow_direction: &Mandel,
     shear_mpa: f64,
     deviator_ratio: f64,
-) -> Option<MandelTangent> {
-    let dx_d_trial_mean = lu.solve(&-evaluation.d_residual_d_trial_mean)?;
-    let dx_d_trial_von_mises = lu.solve(&-evaluation.d_residual_d_trial_von_mises)?;
+) -> MandelTangent {
+    let dx_d_trial_mean = lu.solve(&-evaluation.d_residual_d_trial_mean);
+    let dx_d_trial_von_mises = lu.solve(&-evaluation.d_residual_d_trial_von_mises);
     let bulk = problem.bulk_mpa;
     let three_shear = problem.three_shear_mpa;
 
@@ -1317,9 +1340,7 @@ fn consistent_tangent(
     let direction_change = (deviatoric_projector()
         - flow_direction * flow_direction.transpose() * (2.0 / 3.0))
         * (two_shear * deviator_ratio);
-    Some(
-        identity * dp_d_strain.transpose()
-            + flow_direction * dq_d_strain.transpose() * (2.0 / 3.0)
-            + direction_change,
-    )
+    identity * dp_d_strain.transpose()
+        + flow_direction * dq_d_strain.transpose() * (2.0 / 3.0)
+        + direction_change
 }

@@ -9,7 +9,8 @@
 //! - [`element`]: the 4-node F-bar element with its exact tangent.
 //! - [`mesh`]: the quarter model of the bar (symmetry on the axis and the
 //!   mid-gauge plane), graded toward the neck.
-//! - [`banded`]: the banded LU solver of the stiffness equations.
+//! - [`banded`]: the banded LU solver of the stiffness equations; `local_lu`
+//!   the return mapping's 4 x 4 systems.
 //! - [`solver`]: displacement-controlled Newton with step cutting, the
 //!   force-displacement curve and how the run ended.
 //!
@@ -22,13 +23,14 @@ pub mod element;
 pub mod flow_curve;
 pub mod gtn;
 pub mod kinematics;
+mod local_lu;
 pub mod mesh;
 pub mod solver;
 
 use serde::Serialize;
 
 use element::{PointMaterial, PointResponse};
-use gtn::{GtnMaterial, Mandel, MaterialState};
+use gtn::{GtnMaterial, Mandel, MaterialState, Wanted};
 use mesh::{BarGeometry, Mesh, MeshDensity};
 use solver::{Bar, LoadingSettings, PullResult};
 
@@ -50,11 +52,12 @@ impl PointMaterial for GtnMaterial {
         trial_elastic_strain: &Mandel,
         volume_ratio: f64,
         last: &MaterialState,
+        wanted: Wanted,
     ) -> Result<PointResponse<MaterialState>, String> {
         let update = self
-            .update_starting_from(state, trial_elastic_strain, volume_ratio, last)
+            .update_starting_from(state, trial_elastic_strain, volume_ratio, last, wanted)
             .map_err(|e| e.to_string())?;
-        let tangent_mpa = if update.state.failed {
+        let tangent_mpa = if update.state.failed && wanted == Wanted::WithTangent {
             self.elasticity.stiffness_mpa() * FAILED_POINT_STIFFNESS_FRACTION
         } else {
             update.tangent_mpa

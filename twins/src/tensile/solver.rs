@@ -158,7 +158,7 @@ const MAX_THREADS: usize = 8;
 /// Fewer elements than this per thread do not pay for the thread.
 const MIN_ELEMENTS_PER_THREAD: usize = 32;
 /// Interleaved groups of elements per thread (see `Bar::assemble`).
-const GROUPS_PER_THREAD: usize = 4;
+const GROUPS_PER_THREAD: usize = 16;
 
 /// Degrees of freedom whose value is prescribed.
 struct Constraints {

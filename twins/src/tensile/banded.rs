@@ -117,9 +117,32 @@ impl BandedMatrix {
         rhs[dof] = value;
     }
 
+    /// The entry at (row, column) to change, if it is inside the band.
+    pub fn entry_mut(&mut self, row: usize, column: usize) -> Option<&mut f64> {
+        if self.in_band(row, column) {
+            let at = self.offset(row, column);
+            Some(&mut self.entries[at])
+        } else {
+            None
+        }
+    }
+
     /// Solves `A x = rhs` in place (the matrix is overwritten by its
     /// factors). Partial pivoting within the band.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SingularMatrix> {
+        let factored = self.factor_forward(rhs, &mut Coupling::none())?;
+        self.back_substitute(&factored, rhs);
+        Ok(())
+    }
+
+    /// Factors the matrix in place and carries `rhs` and the `coupling`
+    /// columns along (`L^-1 P` applied to them): the forward half of a
+    /// solve. What the back substitution needs is returned.
+    pub(crate) fn factor_forward(
+        &mut self,
+        rhs: &mut [f64],
+        coupling: &mut Coupling,
+    ) -> Result<Factored, SingularMatrix> {
         let n = self.size;
         let scale = largest_magnitude(&self.entries);
         let tiny = scale * f64::EPSILON * 16.0;
@@ -155,6 +178,7 @@ impl BandedMatrix {
                     self.entries.swap(a, b);
                 }
                 rhs.swap(k, pivot_row);
+                coupling.swap_rows(k, pivot_row);
             }
             let pivot_base = self.offset(k, k);
             let below = Elimination {
@@ -166,16 +190,114 @@ impl BandedMatrix {
                 span: last_column - k,
             };
             eliminate(&mut self.entries, &mut rhs[k..=last_row], &below);
+            if coupling.holds(k) {
+                for row in k + 1..=last_row {
+                    let factor = self.entries[self.offset(row, k)];
+                    coupling.subtract(row, k, factor);
+                }
+            }
         }
-        for k in (0..n).rev() {
-            let last_column = last_in_row[k];
-            let base = self.offset(k, k);
-            let span = last_column - k;
-            let row = &self.entries[base + 1..=base + span];
-            let known = &rhs[k + 1..=k + span];
-            rhs[k] = (rhs[k] - dot(row, known)) / self.entries[base];
+        Ok(Factored { last_in_row })
+    }
+
+    /// U's row k: its entries after the diagonal, and the diagonal.
+    pub(crate) fn upper_row(&self, factored: &Factored, k: usize) -> (&[f64], f64) {
+        let base = self.offset(k, k);
+        let span = factored.last_in_row[k] - k;
+        (&self.entries[base + 1..=base + span], self.entries[base])
+    }
+
+    /// The back half of a solve: `rhs` holds `L^-1 P b` (less the coupled
+    /// unknowns' share) and becomes `x`.
+    pub(crate) fn back_substitute(&self, factored: &Factored, rhs: &mut [f64]) {
+        for k in (0..self.size).rev() {
+            let (row, diagonal) = self.upper_row(factored, k);
+            let known = &rhs[k + 1..=k + row.len()];
+            rhs[k] = (rhs[k] - dot(row, known)) / diagonal;
         }
-        Ok(())
+    }
+}
+
+/// What a factorisation leaves for the back substitution.
+pub(crate) struct Factored {
+    /// The last column each row of U holds.
+    last_in_row: Vec<usize>,
+}
+
+/// Columns of other unknowns carried through a factorisation (see
+/// `split_band`): dense, for the rows from `first_row` on only, since the
+/// rows before hold zeros there and keep them.
+pub(crate) struct Coupling {
+    first_row: usize,
+    columns: usize,
+    /// Row-major, `(size - first_row) x columns`.
+    pub(crate) entries: Vec<f64>,
+}
+
+impl Coupling {
+    fn none() -> Self {
+        Coupling {
+            first_row: usize::MAX,
+            columns: 0,
+            entries: Vec::new(),
+        }
+    }
+
+    pub(crate) fn zeros(size: usize, first_row: usize, columns: usize) -> Self {
+        Coupling {
+            first_row,
+            columns,
+            entries: vec![0.0; (size - first_row) * columns],
+        }
+    }
+
+    pub(crate) fn holds(&self, row: usize) -> bool {
+        row >= self.first_row && self.columns > 0
+    }
+
+    pub(crate) fn row(&self, row: usize) -> &[f64] {
+        let start = (row - self.first_row) * self.columns;
+        &self.entries[start..start + self.columns]
+    }
+
+    pub(crate) fn row_mut(&mut self, row: usize) -> &mut [f64] {
+        let start = (row - self.first_row) * self.columns;
+        &mut self.entries[start..start + self.columns]
+    }
+
+    fn swap_rows(&mut self, a: usize, b: usize) {
+        match (self.holds(a), self.holds(b)) {
+            (true, true) => {
+                for column in 0..self.columns {
+                    let first = (a - self.first_row) * self.columns + column;
+                    let second = (b - self.first_row) * self.columns + column;
+                    self.entries.swap(first, second);
+                }
+            }
+            (false, false) => {}
+            // The rows before `first_row` hold zeros: a row with entries
+            // cannot move there (the caller sizes the coupling for that).
+            _ => debug_assert!(
+                self.holds(b) && self.row(b).iter().all(|v| *v == 0.0),
+                "a coupled row moved above the coupling's first row"
+            ),
+        }
+    }
+
+    /// `row -= factor * pivot` in the coupling columns.
+    fn subtract(&mut self, row: usize, pivot: usize, factor: f64) {
+        if factor == 0.0 {
+            return;
+        }
+        let (pivot_start, row_start) = (
+            (pivot - self.first_row) * self.columns,
+            (row - self.first_row) * self.columns,
+        );
+        let (before, from_row) = self.entries.split_at_mut(row_start);
+        let pivot_entries = &before[pivot_start..pivot_start + self.columns];
+        for (target, value) in from_row[..self.columns].iter_mut().zip(pivot_entries) {
+            *target -= factor * value;
+        }
     }
 }
 
@@ -277,6 +399,19 @@ fn eliminate_avx2(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
     eliminate_rows(entries, rhs, below);
 }
 
+/// Numbers uniform in [-1, 1) from a seed, the same on every machine: the
+/// tests' matrices.
+#[cfg(test)]
+pub(crate) fn uniform_numbers(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -288,13 +423,7 @@ mod tests {
         upper: usize,
         seed: u64,
     ) -> (BandedMatrix, DMatrix<f64>) {
-        let mut state = seed;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut next = uniform_numbers(seed);
         let mut banded = BandedMatrix::zeros(n, lower, upper);
         let mut dense = DMatrix::zeros(n, n);
         for row in 0..n {

@@ -9,8 +9,9 @@
 //! - [`element`]: the 4-node F-bar element with its exact tangent.
 //! - [`mesh`]: the quarter model of the bar (symmetry on the axis and the
 //!   mid-gauge plane), graded toward the neck.
-//! - [`banded`]: the banded LU solver of the stiffness equations; `local_lu`
-//!   the return mapping's 4 x 4 systems.
+//! - [`banded`]: the banded LU solver of the stiffness equations
+//!   (`split_band`: the bar's, cut in two halves factored at once);
+//!   `local_lu`: the return mapping's 4 x 4 systems.
 //! - [`solver`]: displacement-controlled Newton with step cutting, the
 //!   force-displacement curve and how the run ended.
 //!
@@ -26,6 +27,7 @@ pub mod kinematics;
 mod local_lu;
 pub mod mesh;
 pub mod solver;
+mod split_band;
 
 use serde::Serialize;
 

@@ -28,11 +28,11 @@
 
 use serde::Serialize;
 
-use super::banded::BandedMatrix;
 use super::element::{
     evaluate_with, ElementDisplacement, ElementShape, GaussPointState, PointMaterial,
 };
 use super::mesh::Mesh;
+use super::split_band::SplitBandMatrix;
 
 /// A step that converges in this many iterations or fewer lets the next grow.
 const EASY_STEP_ITERATIONS: usize = 6;
@@ -172,7 +172,7 @@ type ConvergedStep<S> = (Vec<f64>, Assembly<S>, usize);
 
 struct Assembly<S> {
     /// The tangent, when asked for.
-    stiffness: Option<BandedMatrix>,
+    stiffness: Option<SplitBandMatrix>,
     force_n: Vec<f64>,
     states: Vec<[GaussPointState<S>; 4]>,
 }
@@ -239,11 +239,10 @@ where
         displacement: &[f64],
         states: &[[GaussPointState<M::State>; 4]],
         last: &[[GaussPointState<M::State>; 4]],
-        with_stiffness: bool,
+        mut stiffness: Option<SplitBandMatrix>,
     ) -> Result<Assembly<M::State>, String> {
         let dofs = displacement.len();
-        let band = self.mesh.half_bandwidth();
-        let mut stiffness = with_stiffness.then(|| BandedMatrix::zeros(dofs, band, band));
+        let with_stiffness = stiffness.is_some();
         let mut force_n = vec![0.0; dofs];
         let element_dofs = |element: &[usize; 4]| -> [usize; 8] {
             std::array::from_fn(|k| 2 * element[k / 2] + k % 2)
@@ -309,11 +308,9 @@ where
             let dofs = element_dofs(&self.mesh.elements[index]);
             for (a, &row) in dofs.iter().enumerate() {
                 force_n[row] += response.force_n[a];
-                if let Some(stiffness) = stiffness.as_mut() {
-                    for (b, &column) in dofs.iter().enumerate() {
-                        stiffness.add(row, column, response.stiffness_n_per_mm[(a, b)]);
-                    }
-                }
+            }
+            if let Some(stiffness) = stiffness.as_mut() {
+                stiffness.add_element(&dofs, &response.stiffness_n_per_mm);
             }
             new_states.push(response.states);
         }
@@ -322,6 +319,17 @@ where
             force_n,
             states: new_states,
         })
+    }
+
+    /// A zero stiffness matrix of the bar's shape.
+    fn zero_stiffness(&self) -> SplitBandMatrix {
+        let per_node_row = 2 * (self.mesh.radial_elements + 1);
+        SplitBandMatrix::zeros(
+            2 * self.mesh.node_count(),
+            per_node_row,
+            self.mesh.half_bandwidth(),
+            self.threads > 1,
+        )
     }
 
     fn failed_points(&self, states: &[[GaussPointState<M::State>; 4]]) -> usize {
@@ -379,6 +387,7 @@ where
         // predictor of the next (it carries the last step's unloading
         // pattern, so Newton starts on the right elastic/plastic split).
         let mut rate: Option<Vec<f64>> = None;
+        let mut spare = None;
         while pulled_mm < end - 1e-12 * end {
             let target = if step_mm > interval {
                 (pulled_mm + step_mm).min(end)
@@ -395,7 +404,7 @@ where
             });
             let start = predicted.as_deref().unwrap_or(&displacement);
             let jump = if predicted.is_some() { 0.0 } else { increment };
-            match self.converge_step(start, &states, &constraints, jump, settings) {
+            match self.converge_step(start, &states, &constraints, jump, settings, &mut spare) {
                 Ok((new_displacement, assembly, iterations)) => {
                     result.steps += 1;
                     result.newton_iterations += iterations;
@@ -462,6 +471,7 @@ where
         constraints: &Constraints,
         increment_mm: f64,
         settings: &LoadingSettings,
+        spare: &mut Option<SplitBandMatrix>,
     ) -> Result<ConvergedStep<M::State>, String> {
         let mut displacement = start.to_vec();
         let mut first_residual = f64::NAN;
@@ -473,7 +483,7 @@ where
                 // The check needs the forces only; most steps converge here
                 // (at 0.09 mm, three in four at the first check), so the
                 // tangent is assembled only when another correction follows.
-                let check = self.assemble(&displacement, states, last, false)?;
+                let check = self.assemble(&displacement, states, last, None)?;
                 let (residual, reaction) = norms(&check.force_n, &constraints.is_constrained);
                 if !residual.is_finite() {
                     return Err("the out-of-balance force is not finite".into());
@@ -495,7 +505,16 @@ where
                     ));
                 }
             }
-            let assembly = self.assemble(&displacement, states, last, true)?;
+            // The last factorisation's storage, cleared: a fresh one of
+            // megabytes a solve was mostly page faults.
+            let matrix = match spare.take() {
+                Some(mut matrix) => {
+                    matrix.clear();
+                    matrix
+                }
+                None => self.zero_stiffness(),
+            };
+            let assembly = self.assemble(&displacement, states, last, Some(matrix))?;
             let Some(mut stiffness) = assembly.stiffness else {
                 return Err("the tangent was not assembled".into());
             };
@@ -513,6 +532,7 @@ where
             for (u, du) in displacement.iter_mut().zip(&rhs) {
                 *u += du;
             }
+            *spare = Some(stiffness);
             last_states = Some(assembly.states);
         }
         Err("no convergence".into())

@@ -208,8 +208,7 @@ impl SplitBandMatrix {
         } else {
             (near.factor(&mut near_rhs), far.factor(&mut far_rhs))
         };
-        let (near_factored, near_cut, near_cut_rhs) =
-            near_done.map_err(|e| SingularMatrix { column: e.column })?;
+        let (near_factored, near_cut, near_cut_rhs) = near_done?;
         let (far_factored, far_cut, far_cut_rhs) = far_done.map_err(|e| SingularMatrix {
             column: size - 1 - e.column,
         })?;
@@ -262,13 +261,6 @@ impl Half {
         let width = self.from_cut.len() / self.reach.max(1);
         let mut share = vec![0.0; width * width];
         let mut share_rhs = vec![0.0; width];
-        if self.matrix.size() == 0 {
-            return Ok((
-                self.matrix.factor_forward(rhs, &mut self.to_cut)?,
-                share,
-                share_rhs,
-            ));
-        }
         let factored = self.matrix.factor_forward(rhs, &mut self.to_cut)?;
         let size = self.matrix.size();
         let first = size - self.reach;

@@ -23,8 +23,8 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::kinematics::{
-    self, determinant, determinant_derivative, inverse, log_strain, push_forward,
-    push_forward_derivative, stretch_from_log_strain, times_inverse_transpose,
+    self, determinant, determinant_derivative, inverse, log_strain, log_strain_with_derivative,
+    push_forward, push_forward_derivative, stretch_from_log_strain, times_inverse_transpose,
     times_inverse_transpose_by_gradient, times_inverse_transpose_by_stress, Gradient, Symmetric,
 };
 
@@ -285,8 +285,13 @@ pub fn evaluate_with<const TANGENT: bool, M: PointMaterial>(
 
         let plastic_metric = states[k].plastic_metric;
         let trial_stretch = push_forward(&modified, &plastic_metric);
-        let (trial_strain, log_derivative) =
-            log_strain(&trial_stretch).ok_or(ElementError::InsideOut { volume_ratio })?;
+        // A convergence check needs no derivative.
+        let (trial_strain, log_derivative) = if TANGENT {
+            log_strain_with_derivative(&trial_stretch)
+        } else {
+            log_strain(&trial_stretch).map(|strain| (strain, SMatrix::zeros()))
+        }
+        .ok_or(ElementError::InsideOut { volume_ratio })?;
         let response = material
             .update(
                 &states[k].material,

@@ -212,8 +212,12 @@ pub fn yield_function(
     flow_stress_mpa: f64,
     effective_porosity: f64,
 ) -> f64 {
-    let beta = cosh_argument(parameters.q2, mean_stress_mpa, flow_stress_mpa);
     let ratio = von_mises_stress_mpa / flow_stress_mpa;
+    if effective_porosity == 0.0 && mean_stress_mpa.is_finite() {
+        // Von Mises: the cosh term is zero (its argument is clamped finite).
+        return ratio * ratio - 1.0;
+    }
+    let beta = cosh_argument(parameters.q2, mean_stress_mpa, flow_stress_mpa);
     ratio * ratio + 2.0 * parameters.q1 * effective_porosity * beta.cosh()
         - 1.0
         - parameters.q3 * effective_porosity * effective_porosity
@@ -621,6 +625,17 @@ pub enum Wanted {
     WithTangent,
 }
 
+/// Which local solver a plastic step takes (a unit test compares them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum LocalSolver {
+    /// Von Mises plasticity's one equation where the point has no voids and
+    /// nucleates none ([`von_mises_step`]); the four equations otherwise.
+    Specialised,
+    /// The four equations always.
+    #[cfg_attr(not(test), allow(dead_code))]
+    General,
+}
+
 /// The return-mapping unknowns `(Δε_p, Δε_q, Δε_m, Δf)`.
 type Unknowns = Vector4<f64>;
 
@@ -950,7 +965,14 @@ impl GtnMaterial {
         let start = Unknowns::from(last.last_increments);
         let start =
             (start != Unknowns::zeros() && start.iter().all(|v| v.is_finite())).then_some(start);
-        self.update_with_start(state_n, trial_elastic_strain, volume_ratio, start, wanted)
+        self.update_with_start(
+            state_n,
+            trial_elastic_strain,
+            volume_ratio,
+            start,
+            wanted,
+            LocalSolver::Specialised,
+        )
     }
 
     /// [`GtnMaterial::update`] at finite strain: the stress solved for is the
@@ -972,6 +994,7 @@ impl GtnMaterial {
             volume_ratio,
             None,
             Wanted::WithTangent,
+            LocalSolver::Specialised,
         )
     }
 
@@ -982,6 +1005,7 @@ impl GtnMaterial {
         volume_ratio: f64,
         start: Option<Unknowns>,
         wanted: Wanted,
+        solver: LocalSolver,
     ) -> Result<StressUpdate, GtnError> {
         self.validate()?;
         if !(volume_ratio.is_finite() && volume_ratio > 0.0) {
@@ -1074,6 +1098,9 @@ impl GtnMaterial {
             void_free: porosity_n == 0.0 && self.parameters.nucleated_void_fraction == 0.0,
             volume_ratio,
         };
+        if problem.void_free && !hydrostatic && solver == LocalSolver::Specialised {
+            return von_mises_step(&problem, &trial_deviator, &flow_direction, shear, wanted);
+        }
         let warm = start.and_then(|start| {
             match solve_return_mapping(&problem, self.failure_trigger_porosity(), start) {
                 Ok(Some(solution)) => Some(solution),
@@ -1119,11 +1146,8 @@ impl GtnMaterial {
         } else {
             q / trial_von_mises
         };
-        let identity = identity_mandel();
-        let stress = identity * p + trial_deviator * deviator_ratio;
-        // ε_e = C⁻¹ σ: consistent with the returned stress by construction.
-        let elastic_strain =
-            identity * (p / (3.0 * bulk)) + trial_deviator * (deviator_ratio / (2.0 * shear));
+        let (stress, elastic_strain) =
+            stress_and_elastic_strain(p, &trial_deviator, deviator_ratio, bulk, shear);
 
         let (tangent, stress_by_volume_ratio) = match wanted {
             Wanted::StressOnly => (MandelTangent::zeros(), Mandel::zeros()),
@@ -1160,21 +1184,7 @@ impl GtnMaterial {
             },
             plastic: true,
         };
-        let all_finite = update.stress_mpa.iter().all(|v| v.is_finite())
-            && update.elastic_strain.iter().all(|v| v.is_finite())
-            && update.tangent_mpa.iter().all(|v| v.is_finite())
-            && update
-                .stress_by_volume_ratio_mpa
-                .iter()
-                .all(|v| v.is_finite())
-            && update.state.matrix_plastic_strain.is_finite();
-        if !all_finite {
-            return Err(GtnError::NotConverged {
-                iterations: MAX_ITERATIONS,
-                residual: f64::INFINITY,
-            });
-        }
-        Ok(update)
+        finite_or_not_converged(update, MAX_ITERATIONS)
     }
 }
 
@@ -1191,6 +1201,173 @@ fn failed_update(state_n: &MaterialState, plastic: bool) -> StressUpdate {
             last_increments: [0.0; 4],
         },
         plastic,
+    }
+}
+
+/// Iteration limit of [`von_mises_step`]: Newton inside a bracket that
+/// bisection keeps needs a handful; 200 bisections span any bracket of
+/// finite numbers down to adjacent doubles.
+const MAX_VON_MISES_ITERATIONS: usize = 200;
+
+/// The plastic step of a point without voids that nucleates none. Its
+/// porosity stays zero (growth needs voids), so the four equations reduce
+/// to von Mises plasticity's one: `q_tr - 3G Δε_q = J σ_y(ε_m,n + Δε_q)`,
+/// with `Δε_m = Δε_q` from the work equivalence at `q = J σ_y`. Newton's
+/// method solves it inside the bracket `[0, q_tr / 3G]`, and a step that
+/// would leave the bracket (at a kink of a piecewise-linear flow curve) is
+/// a bisection instead; the tangent is the closed form of the general one
+/// with `Δε_p = Δf = 0`:
+///
+/// ```text
+/// D = K I ⊗ I + 2G θ I_dev + (4G/3) (JH/(3G + JH) - θ) n ⊗ n,  θ = q/q_tr
+/// ∂τ/∂J = 2G σ_y / (3G + JH) n
+/// ```
+///
+/// The general solver reaches the same solution and tangent (a unit test
+/// compares the two); this one builds and factors no 4 x 4 system, which
+/// were most of a damage-free bar's material work.
+fn von_mises_step(
+    problem: &ReturnMapping<'_>,
+    trial_deviator: &Mandel,
+    flow_direction: &Mandel,
+    shear_mpa: f64,
+    wanted: Wanted,
+) -> Result<StressUpdate, GtnError> {
+    let three_shear = problem.three_shear_mpa;
+    let trial_von_mises = problem.trial_von_mises_mpa;
+    let matrix_strain_n = problem.matrix_plastic_strain_n;
+    // g(Δ) = q_tr - 3G Δ - J σ_y(ε_m,n + Δ): positive at 0 (the trial
+    // yields), negative where q would reach 0.
+    let excess = |increment: f64| {
+        let (flow_stress, hardening) = problem.flow_stress_mpa(matrix_strain_n + increment);
+        (
+            trial_von_mises - three_shear * increment - flow_stress,
+            three_shear + hardening,
+        )
+    };
+    let (mut low, mut high) = (0.0, trial_von_mises / three_shear);
+    let (first_excess, first_slope) = excess(0.0);
+    // The radial return on the first segment: exact unless the step
+    // crosses a knot of the flow curve.
+    let mut increment = first_excess / first_slope;
+    if !(increment > low && increment < high) {
+        increment = 0.5 * (low + high);
+    }
+    let mut converged = false;
+    let mut last_excess = first_excess;
+    for _ in 0..MAX_VON_MISES_ITERATIONS {
+        let (value, slope) = excess(increment);
+        last_excess = value;
+        if !value.is_finite() {
+            break;
+        }
+        if value == 0.0 {
+            converged = true;
+            break;
+        }
+        if value > 0.0 {
+            low = increment;
+        } else {
+            high = increment;
+        }
+        // slope = -dg/dΔ = 3G + JH.
+        let newton = increment + value / slope;
+        let next = if slope > 0.0 && newton > low && newton < high {
+            newton
+        } else {
+            0.5 * (low + high)
+        };
+        // At rounding: the next iterate is the same double or its neighbour.
+        let settled = (next - increment).abs() <= 2.0 * f64::EPSILON * increment.abs();
+        increment = next;
+        if settled || high - low <= 2.0 * f64::EPSILON * high {
+            converged = true;
+            break;
+        }
+    }
+    if !converged {
+        return Err(GtnError::NotConverged {
+            iterations: MAX_VON_MISES_ITERATIONS,
+            residual: (last_excess / trial_von_mises).abs(),
+        });
+    }
+
+    let (flow_stress, hardening) = problem.flow_stress_mpa(matrix_strain_n + increment);
+    let mean = problem.trial_mean_mpa;
+    let bulk = problem.bulk_mpa;
+    let deviator_ratio = (trial_von_mises - three_shear * increment) / trial_von_mises;
+    let (stress, elastic_strain) =
+        stress_and_elastic_strain(mean, trial_deviator, deviator_ratio, bulk, shear_mpa);
+    let identity = identity_mandel();
+    let (tangent, stress_by_volume_ratio) = match wanted {
+        Wanted::StressOnly => (MandelTangent::zeros(), Mandel::zeros()),
+        Wanted::WithTangent => {
+            let stiffness = three_shear + hardening;
+            let two_shear = 2.0 * shear_mpa;
+            let along_flow = (2.0 / 3.0) * two_shear * (hardening / stiffness - deviator_ratio);
+            let tangent = identity * identity.transpose() * bulk
+                + deviatoric_projector() * (two_shear * deviator_ratio)
+                + flow_direction * flow_direction.transpose() * along_flow;
+            // J scales σ_y and its slope: dΔ/dJ = -σ_y / (3G + JH).
+            let unscaled_flow_stress = flow_stress / problem.volume_ratio;
+            let by_volume_ratio = flow_direction * (two_shear * unscaled_flow_stress / stiffness);
+            (tangent, by_volume_ratio)
+        }
+    };
+    let update = StressUpdate {
+        stress_mpa: stress,
+        elastic_strain,
+        tangent_mpa: tangent,
+        stress_by_volume_ratio_mpa: stress_by_volume_ratio,
+        state: MaterialState {
+            matrix_plastic_strain: matrix_strain_n + increment,
+            porosity: 0.0,
+            failed: false,
+            last_increments: [0.0, increment, increment, 0.0],
+        },
+        plastic: true,
+    };
+    finite_or_not_converged(update, MAX_VON_MISES_ITERATIONS)
+}
+
+/// The returned stress `p I + (q/q_tr) s_tr` and its elastic strain
+/// `C⁻¹ σ`: consistent with the stress by construction.
+fn stress_and_elastic_strain(
+    mean_mpa: f64,
+    trial_deviator: &Mandel,
+    deviator_ratio: f64,
+    bulk_mpa: f64,
+    shear_mpa: f64,
+) -> (Mandel, Mandel) {
+    let identity = identity_mandel();
+    (
+        identity * mean_mpa + trial_deviator * deviator_ratio,
+        identity * (mean_mpa / (3.0 * bulk_mpa))
+            + trial_deviator * (deviator_ratio / (2.0 * shear_mpa)),
+    )
+}
+
+/// The update if every number in it is finite; a local solve that ended on
+/// an overflow did not converge.
+fn finite_or_not_converged(
+    update: StressUpdate,
+    iterations: usize,
+) -> Result<StressUpdate, GtnError> {
+    let all_finite = update.stress_mpa.iter().all(|v| v.is_finite())
+        && update.elastic_strain.iter().all(|v| v.is_finite())
+        && update.tangent_mpa.iter().all(|v| v.is_finite())
+        && update
+            .stress_by_volume_ratio_mpa
+            .iter()
+            .all(|v| v.is_finite())
+        && update.state.matrix_plastic_strain.is_finite();
+    if all_finite {
+        Ok(update)
+    } else {
+        Err(GtnError::NotConverged {
+            iterations,
+            residual: f64::INFINITY,
+        })
     }
 }
 
@@ -1343,4 +1520,107 @@ fn consistent_tangent(
     identity * dp_d_strain.transpose()
         + flow_direction * dq_d_strain.transpose() * (2.0 / 3.0)
         + direction_change
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tensile::banded::uniform_numbers;
+    use crate::tensile::flow_curve::FlowCurve;
+
+    /// Von Mises points (no voids, no nucleation) with the specialised step
+    /// and with the four-equation solver: the same state, stress and
+    /// tangents, on a flow table whose knots the steps cross, with a volume
+    /// ratio away from one, and past the table's end (the post-UTS line).
+    #[test]
+    fn the_von_mises_step_equals_the_general_solver() {
+        let flow = FlowCurve::new(
+            vec![0.0, 0.005, 0.01, 0.02, 0.04, 0.06, 0.09],
+            vec![404.0, 440.0, 468.0, 512.0, 573.0, 615.0, 650.0],
+            534.0,
+        )
+        .unwrap();
+        let elasticity = Elasticity {
+            youngs_modulus_mpa: 207_011.0,
+            poisson_ratio: 0.3,
+        };
+        let material = GtnMaterial::new(elasticity, GtnParameters::von_mises(), flow).unwrap();
+        let mut uniform = uniform_numbers(0x51DE);
+        let (mut plastic, mut crossing) = (0, 0);
+        for sample in 0..2000 {
+            let state = MaterialState {
+                matrix_plastic_strain: 0.06 * (uniform() + 1.0),
+                ..MaterialState::initial(&material.parameters)
+            };
+            let magnitude = 0.0005 + 0.01 * (uniform() + 1.0);
+            let mut strain = Mandel::from_fn(|_, _| uniform());
+            strain *= magnitude / strain.norm();
+            let volume_ratio = 1.0 + 0.05 * uniform();
+            let update = |solver| {
+                material.update_with_start(
+                    &state,
+                    &strain,
+                    volume_ratio,
+                    None,
+                    Wanted::WithTangent,
+                    solver,
+                )
+            };
+            let specialised = update(LocalSolver::Specialised).unwrap();
+            let general = update(LocalSolver::General).unwrap();
+            assert_eq!(specialised.plastic, general.plastic, "sample {sample}");
+            if !specialised.plastic {
+                assert_eq!(specialised, general, "sample {sample}");
+                continue;
+            }
+            plastic += 1;
+            let increment = specialised.state.matrix_plastic_strain - state.matrix_plastic_strain;
+            let knots = material.flow.plastic_strain();
+            if knots.iter().any(|&knot| {
+                state.matrix_plastic_strain < knot && knot < state.matrix_plastic_strain + increment
+            }) {
+                crossing += 1;
+            }
+            let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-10 * scale;
+            assert!(
+                close(
+                    specialised.state.matrix_plastic_strain,
+                    general.state.matrix_plastic_strain,
+                    increment
+                ),
+                "sample {sample}: ε_m {} against {}",
+                specialised.state.matrix_plastic_strain,
+                general.state.matrix_plastic_strain
+            );
+            assert_eq!(specialised.state.porosity, general.state.porosity);
+            let pairs: [(&str, &[f64], &[f64]); 3] = [
+                (
+                    "σ",
+                    specialised.stress_mpa.as_slice(),
+                    general.stress_mpa.as_slice(),
+                ),
+                (
+                    "D",
+                    specialised.tangent_mpa.as_slice(),
+                    general.tangent_mpa.as_slice(),
+                ),
+                (
+                    "∂τ/∂J",
+                    specialised.stress_by_volume_ratio_mpa.as_slice(),
+                    general.stress_by_volume_ratio_mpa.as_slice(),
+                ),
+            ];
+            for (name, ours, theirs) in pairs {
+                let scale = theirs.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                for (a, b) in ours.iter().zip(theirs) {
+                    assert!(
+                        close(*a, *b, scale),
+                        "sample {sample}: {name} {a} against {b}"
+                    );
+                }
+            }
+        }
+        assert!(plastic >= 1000, "only {plastic} plastic samples");
+        assert!(crossing >= 200, "only {crossing} steps across a knot");
+    }
 }

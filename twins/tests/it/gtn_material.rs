@@ -954,7 +954,7 @@ fn j2_limit_matches_radial_return_and_its_tangent() {
             - unit * unit.transpose() * (2.0 * shear * theta_bar);
         let tangent_error =
             (update.tangent_mpa - expected_tangent).norm() / expected_tangent.norm();
-        // The tangent goes through a 4x4 LU: rounding ~1e-15, 1e-11 leaves room.
+        // Rounding ~1e-15 (the general solver's 4x4 LU too), 1e-11 leaves room.
         assert!(
             tangent_error < 1e-11,
             "tangent relative error {tangent_error:e}"
@@ -965,6 +965,31 @@ fn j2_limit_matches_radial_return_and_its_tangent() {
             asymmetry < 1e-12,
             "J2 tangent must be symmetric: {asymmetry:e}"
         );
+        // ∂τ/∂J: J scales the flow stress, q = J σ_y(ε_m,n + Δ), so at J = 1
+        // dq/dJ = 3G σ_y / (3G + H) along n = 3/2 s_tr/q_tr; and central
+        // differences in J.
+        let flow_direction = trial_deviator * (1.5 / trial_q);
+        let yield_now = 400.0 + hardening * (matrix_strain_n + increment);
+        let expected_sensitivity =
+            flow_direction * (2.0 * shear * yield_now / (3.0 * shear + hardening));
+        let sensitivity_error = (update.stress_by_volume_ratio_mpa - expected_sensitivity).amax()
+            / expected_sensitivity.amax();
+        assert!(
+            sensitivity_error < 1e-11,
+            "∂τ/∂J relative error {sensitivity_error:e}"
+        );
+        let step = 1e-6;
+        let at = |volume_ratio: f64| {
+            material
+                .update_at_volume_ratio(&state, &strain, volume_ratio)
+                .unwrap()
+        };
+        let (up, down) = (at(1.0 + step), at(1.0 - step));
+        if up.plastic && down.plastic {
+            let numerical = (up.stress_mpa - down.stress_mpa) / (2.0 * step);
+            let error = (numerical - expected_sensitivity).amax() / expected_sensitivity.amax();
+            assert!(error < 1e-6, "∂τ/∂J against differences: {error:e}");
+        }
         checked += 1;
     }
     assert!(checked > 150, "{checked}");

@@ -100,14 +100,8 @@ mod tests {
 
     fn material(coalescence: Option<Coalescence>) -> GtnMaterial {
         let parameters = GtnParameters {
-            q1: 1.5,
-            q2: 1.0,
-            q3: 2.25,
-            nucleation_mean_strain: 0.3,
-            nucleation_std_strain: 0.1,
-            nucleated_void_fraction: 0.04,
-            initial_porosity: 0.002,
             coalescence,
+            ..GtnParameters::tvergaard_chu_needleman(0.002)
         };
         let flow = FlowCurve::new(vec![0.0, 0.1], vec![400.0, 500.0], 250.0).unwrap();
         let elasticity = Elasticity {

@@ -412,6 +412,23 @@ pub struct GtnParameters {
 }
 
 impl GtnParameters {
+    /// The literature's usual set: Tvergaard's q1 = 1.5, q2 = 1, q3 = q1²
+    /// and Chu and Needleman's strain-controlled nucleation (εN = 0.3,
+    /// sN = 0.1, fN = 0.04), with the given initial porosity and no
+    /// coalescence.
+    pub fn tvergaard_chu_needleman(initial_porosity: f64) -> Self {
+        Self {
+            q1: 1.5,
+            q2: 1.0,
+            q3: 2.25,
+            nucleation_mean_strain: 0.3,
+            nucleation_std_strain: 0.1,
+            nucleated_void_fraction: 0.04,
+            initial_porosity,
+            coalescence: None,
+        }
+    }
+
     /// A parameter set that reduces GTN to von Mises (J2) plasticity:
     /// `f0 = fN = 0`, no coalescence (q's = 1, nucleation constants arbitrary).
     pub fn von_mises() -> Self {

@@ -29,7 +29,8 @@
 use serde::Serialize;
 
 use super::element::{
-    evaluate_with, ElementDisplacement, ElementShape, GaussPointState, PointMaterial,
+    evaluate_into, ElementDisplacement, ElementForce, ElementOutput, ElementShape,
+    ElementStiffness, GaussPointState, PointMaterial,
 };
 use super::mesh::Mesh;
 use super::split_band::SplitBandMatrix;
@@ -157,8 +158,8 @@ pub struct Bar<M: PointMaterial> {
 const MAX_THREADS: usize = 8;
 /// Fewer elements than this per thread do not pay for the thread.
 const MIN_ELEMENTS_PER_THREAD: usize = 32;
-/// Interleaved groups of elements per thread (see `Bar::assemble`).
-const GROUPS_PER_THREAD: usize = 16;
+/// Runs of neighbouring elements per thread (see `Bar::assemble`).
+const RUNS_PER_THREAD: usize = 16;
 
 /// Degrees of freedom whose value is prescribed.
 struct Constraints {
@@ -169,6 +170,46 @@ struct Constraints {
 
 /// Displacement, assembly at convergence, Newton iterations.
 type ConvergedStep<S> = (Vec<f64>, Assembly<S>, usize);
+
+/// Storage the assemblies of a pull share: each element's force and
+/// stiffness, written by the threads that evaluate the elements and read by
+/// the serial scatter, and state vectors that earlier assemblies filled and
+/// nothing holds any more.
+struct AssemblyBuffers<S> {
+    forces: Vec<ElementForce>,
+    stiffnesses: Vec<ElementStiffness>,
+    spare_states: Vec<Vec<[GaussPointState<S>; 4]>>,
+    /// The last factorisation's storage: a fresh one of megabytes a solve
+    /// was mostly page faults.
+    spare_matrix: Option<SplitBandMatrix>,
+}
+
+impl<S: Copy> AssemblyBuffers<S> {
+    fn new() -> Self {
+        AssemblyBuffers {
+            forces: Vec::new(),
+            stiffnesses: Vec::new(),
+            spare_states: Vec::new(),
+            spare_matrix: None,
+        }
+    }
+
+    /// A state vector no longer needed; a later assembly writes into it.
+    fn recycle(&mut self, states: Vec<[GaussPointState<S>; 4]>) {
+        // Two are in use at most (a step's start and the last iteration's).
+        if self.spare_states.len() < 2 {
+            self.spare_states.push(states);
+        }
+    }
+
+    /// A state vector of `like`'s length, its contents to be overwritten.
+    fn states_like(&mut self, like: &[[GaussPointState<S>; 4]]) -> Vec<[GaussPointState<S>; 4]> {
+        match self.spare_states.pop() {
+            Some(spare) if spare.len() == like.len() => spare,
+            _ => like.to_vec(),
+        }
+    }
+}
 
 struct Assembly<S> {
     /// The tangent, when asked for.
@@ -240,6 +281,7 @@ where
         states: &[[GaussPointState<M::State>; 4]],
         last: &[[GaussPointState<M::State>; 4]],
         mut stiffness: Option<SplitBandMatrix>,
+        buffers: &mut AssemblyBuffers<M::State>,
     ) -> Result<Assembly<M::State>, String> {
         let dofs = displacement.len();
         let with_stiffness = stiffness.is_some();
@@ -248,71 +290,96 @@ where
             std::array::from_fn(|k| 2 * element[k / 2] + k % 2)
         };
         // Element evaluations are independent: split them over the cores
-        // in interleaved groups, group g taking elements g, g + G, g + 2G,
-        // ... The elements run along the bar, so contiguous chunks would
-        // give one core the neck (plastic, several times dearer per point)
-        // and the other the elastic end; a few groups per core more let a
-        // core that a shared machine slows hand work to the other. The
-        // scatter is serial, in element order, so the sums do not depend on
-        // the thread count.
+        // in runs of neighbouring elements, several runs a core, which the
+        // thread pool hands out as cores come free. The elements run along
+        // the bar, so one run a core would give one core the neck (plastic,
+        // several times dearer per point) and the other the elastic end;
+        // more runs also let a core that a shared machine slows hand work
+        // to the other. Each element writes its results into its own slot
+        // of the buffers; the scatter is serial, in element order, so the
+        // sums do not depend on the thread count.
         let count = self.mesh.elements.len();
         let threads = self
             .threads
             .min(count.div_ceil(MIN_ELEMENTS_PER_THREAD))
             .max(1);
-        let groups = if threads == 1 {
-            1
+        let run_length = if threads == 1 {
+            count.max(1)
         } else {
-            GROUPS_PER_THREAD * threads
+            count.div_ceil(RUNS_PER_THREAD * threads).max(1)
         };
-        let evaluate_group = |first: usize| {
-            (first..count)
-                .step_by(groups)
-                .map(|index| {
-                    let dofs = element_dofs(&self.mesh.elements[index]);
-                    let local = ElementDisplacement::from_fn(|k, _| displacement[dofs[k]]);
-                    let shape = &self.shapes[index];
-                    let element = if with_stiffness {
-                        evaluate_with::<true, M>
-                    } else {
-                        evaluate_with::<false, M>
-                    };
-                    element(shape, &self.material, &states[index], &last[index], &local)
-                        .map_err(|error| (index, format!("element {index}: {error}")))
-                })
-                .collect::<Result<Vec<_>, (usize, String)>>()
+        let mut new_states = buffers.states_like(states);
+        buffers.forces.resize(count, ElementForce::zeros());
+        buffers.stiffnesses.resize(count, ElementStiffness::zeros());
+        type Run<'a, S> = (
+            usize,
+            (
+                (&'a mut [[GaussPointState<S>; 4]], &'a mut [ElementForce]),
+                &'a mut [ElementStiffness],
+            ),
+        );
+        // The error of a run's first failing element.
+        let evaluate_run = |(run, ((run_states, forces), stiffnesses)): Run<'_, M::State>| {
+            let first = run * run_length;
+            let slots = run_states.iter_mut().zip(forces).zip(stiffnesses);
+            for (index, ((new_states, force_n), stiffness_n_per_mm)) in (first..).zip(slots) {
+                let dofs = element_dofs(&self.mesh.elements[index]);
+                let local = ElementDisplacement::from_fn(|k, _| displacement[dofs[k]]);
+                let element = if with_stiffness {
+                    evaluate_into::<true, M>
+                } else {
+                    evaluate_into::<false, M>
+                };
+                let output = ElementOutput {
+                    force_n,
+                    stiffness_n_per_mm,
+                    states: new_states,
+                };
+                element(
+                    &self.shapes[index],
+                    &self.material,
+                    &states[index],
+                    &last[index],
+                    &local,
+                    output,
+                )
+                .map_err(|error| (index, format!("element {index}: {error}")))?;
+            }
+            Ok(())
         };
-        let per_group: Vec<_> = if groups == 1 {
-            vec![evaluate_group(0)]
+        let failures: Vec<(usize, String)> = if threads == 1 {
+            new_states
+                .chunks_mut(run_length)
+                .zip(buffers.forces.chunks_mut(run_length))
+                .zip(buffers.stiffnesses.chunks_mut(run_length))
+                .enumerate()
+                .map(evaluate_run)
+                .filter_map(Result::err)
+                .collect()
         } else {
             use rayon::prelude::*;
-            (0..groups).into_par_iter().map(evaluate_group).collect()
+            new_states
+                .par_chunks_mut(run_length)
+                .zip(buffers.forces.par_chunks_mut(run_length))
+                .zip(buffers.stiffnesses.par_chunks_mut(run_length))
+                .enumerate()
+                .map(evaluate_run)
+                .filter_map(Result::err)
+                .collect()
         };
         // The failure of the lowest element, as a serial loop would give it.
-        if let Some((_, message)) = per_group
-            .iter()
-            .filter_map(|result| result.as_ref().err())
-            .min_by_key(|(index, _)| *index)
-        {
-            return Err(message.clone());
+        if let Some((_, message)) = failures.into_iter().min_by_key(|(index, _)| *index) {
+            return Err(message);
         }
-        let mut per_group: Vec<_> = per_group
-            .into_iter()
-            .map(|result| result.unwrap_or_default().into_iter())
-            .collect();
-        let mut new_states = Vec::with_capacity(count);
-        for index in 0..count {
-            let Some(response) = per_group[index % groups].next() else {
-                return Err(format!("element {index}: no evaluation"));
-            };
-            let dofs = element_dofs(&self.mesh.elements[index]);
+        for (index, element) in self.mesh.elements.iter().enumerate() {
+            let dofs = element_dofs(element);
+            let force = &buffers.forces[index];
             for (a, &row) in dofs.iter().enumerate() {
-                force_n[row] += response.force_n[a];
+                force_n[row] += force[a];
             }
             if let Some(stiffness) = stiffness.as_mut() {
-                stiffness.add_element(&dofs, &response.stiffness_n_per_mm);
+                stiffness.add_element(&dofs, &buffers.stiffnesses[index]);
             }
-            new_states.push(response.states);
         }
         Ok(Assembly {
             stiffness,
@@ -387,7 +454,7 @@ where
         // predictor of the next (it carries the last step's unloading
         // pattern, so Newton starts on the right elastic/plastic split).
         let mut rate: Option<Vec<f64>> = None;
-        let mut spare = None;
+        let mut buffers = AssemblyBuffers::new();
         while pulled_mm < end - 1e-12 * end {
             let target = if step_mm > interval {
                 (pulled_mm + step_mm).min(end)
@@ -404,7 +471,7 @@ where
             });
             let start = predicted.as_deref().unwrap_or(&displacement);
             let jump = if predicted.is_some() { 0.0 } else { increment };
-            match self.converge_step(start, &states, &constraints, jump, settings, &mut spare) {
+            match self.converge_step(start, &states, &constraints, jump, settings, &mut buffers) {
                 Ok((new_displacement, assembly, iterations)) => {
                     result.steps += 1;
                     result.newton_iterations += iterations;
@@ -416,7 +483,7 @@ where
                             .collect(),
                     );
                     displacement = new_displacement;
-                    states = assembly.states;
+                    buffers.recycle(std::mem::replace(&mut states, assembly.states));
                     pulled_mm = target;
                     let failed = self.failed_points(&states);
                     let point = self.curve_point(
@@ -471,7 +538,7 @@ where
         constraints: &Constraints,
         increment_mm: f64,
         settings: &LoadingSettings,
-        spare: &mut Option<SplitBandMatrix>,
+        buffers: &mut AssemblyBuffers<M::State>,
     ) -> Result<ConvergedStep<M::State>, String> {
         let mut displacement = start.to_vec();
         let mut first_residual = f64::NAN;
@@ -483,7 +550,7 @@ where
                 // The check needs the forces only; most steps converge here
                 // (at 0.09 mm, three in four at the first check), so the
                 // tangent is assembled only when another correction follows.
-                let check = self.assemble(&displacement, states, last, None)?;
+                let check = self.assemble(&displacement, states, last, None, buffers)?;
                 let (residual, reaction) = norms(&check.force_n, &constraints.is_constrained);
                 if !residual.is_finite() {
                     return Err("the out-of-balance force is not finite".into());
@@ -492,6 +559,7 @@ where
                 if residual <= settings.relative_tolerance * reaction.max(1.0) {
                     return Ok((displacement, check, iteration));
                 }
+                buffers.recycle(check.states);
                 if iteration == 1 {
                     first_residual = residual;
                 } else if residual > 1e6 * first_residual {
@@ -505,16 +573,14 @@ where
                     ));
                 }
             }
-            // The last factorisation's storage, cleared: a fresh one of
-            // megabytes a solve was mostly page faults.
-            let matrix = match spare.take() {
+            let matrix = match buffers.spare_matrix.take() {
                 Some(mut matrix) => {
                     matrix.clear();
                     matrix
                 }
                 None => self.zero_stiffness(),
             };
-            let assembly = self.assemble(&displacement, states, last, Some(matrix))?;
+            let assembly = self.assemble(&displacement, states, last, Some(matrix), buffers)?;
             let Some(mut stiffness) = assembly.stiffness else {
                 return Err("the tangent was not assembled".into());
             };
@@ -532,8 +598,10 @@ where
             for (u, du) in displacement.iter_mut().zip(&rhs) {
                 *u += du;
             }
-            *spare = Some(stiffness);
-            last_states = Some(assembly.states);
+            buffers.spare_matrix = Some(stiffness);
+            if let Some(old) = last_states.replace(assembly.states) {
+                buffers.recycle(old);
+            }
         }
         Err("no convergence".into())
     }
@@ -674,6 +742,67 @@ mod tests {
     use super::*;
     use crate::tensile::element::Hencky;
     use crate::tensile::mesh::{BarGeometry, MeshDensity};
+
+    /// The elements are evaluated in runs on several threads and scattered
+    /// in element order: a damaged bar pulled to fracture gives the same
+    /// curve, to the bit, on one thread or more, with runs of any length.
+    #[test]
+    fn a_pull_gives_the_same_bits_on_one_thread_or_several() {
+        use crate::tensile::flow_curve::FlowCurve;
+        use crate::tensile::gtn::{Coalescence, Elasticity, GtnMaterial, GtnParameters};
+        let material = GtnMaterial::new(
+            Elasticity {
+                youngs_modulus_mpa: 207_011.0,
+                poisson_ratio: 0.3,
+            },
+            GtnParameters {
+                coalescence: Some(Coalescence {
+                    critical_porosity: 0.02,
+                    failure_porosity: 0.15,
+                }),
+                ..GtnParameters::tvergaard_chu_needleman(0.001)
+            },
+            FlowCurve::new(
+                vec![0.0, 0.01, 0.04, 0.09],
+                vec![404.0, 468.0, 573.0, 650.0],
+                534.0,
+            )
+            .unwrap(),
+        )
+        .unwrap();
+        let density = MeshDensity {
+            radial_elements: 4,
+            axial_elements: 20,
+            ..MeshDensity::default()
+        };
+        let pull = |threads: usize| {
+            let mesh = Mesh::new(&BarGeometry::default(), &density).unwrap();
+            Bar::new(mesh, material.clone())
+                .with_threads(threads)
+                .pull(&LoadingSettings::to(4.0))
+        };
+        let one = pull(1);
+        assert!(
+            matches!(one.outcome, Outcome::Fractured { .. }),
+            "{:?}",
+            one.outcome
+        );
+        assert!(one.curve.iter().any(|point| point.failed_points > 0));
+        for threads in [2, 3] {
+            let several = pull(threads);
+            assert_eq!(several.outcome, one.outcome, "{threads} threads");
+            assert_eq!(several.curve.len(), one.curve.len(), "{threads} threads");
+            for (a, b) in several.curve.iter().zip(&one.curve) {
+                assert_eq!(
+                    a.force_kn.to_bits(),
+                    b.force_kn.to_bits(),
+                    "{threads} threads at {} mm",
+                    a.displacement_mm
+                );
+                assert_eq!(a.failed_points, b.failed_points);
+            }
+        }
+    }
 
     #[test]
     fn an_elastic_bar_stretches_uniformly_as_the_closed_form_says() {

@@ -591,8 +591,9 @@ fn lake_tables(lake: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     files
 }
 
-/// A backlog (logs of three days, one of them in two files, and a
-/// recorded session) ingested as three Slurm jobs gives the lake one
+/// A backlog (logs of three days, one of them in two files, one from a
+/// logger whose buses are mapped in its folder only, and a recorded
+/// session) ingested as three Slurm jobs gives the lake one
 /// ingest on this machine gives, file for file and byte for byte; the
 /// same command again runs the jobs again, which skip every source and
 /// change no file.
@@ -630,12 +631,30 @@ fn lake_backlog_as_jobs(cluster: &Cluster) {
         std::fs::write(&file, lines.join("\n") + "\n").unwrap();
         backlog.push(file);
     }
+    // Day 1 from a logger whose wiring swaps the rig's two buses: the
+    // mapping is scoped to its folder and has to reach the job that
+    // ingests it (and no other: a job refuses a scope none of its sources
+    // is under).
+    let swapping_logger = dir.path().join("logger_b");
+    std::fs::create_dir(&swapping_logger).unwrap();
+    let day1 = swapping_logger.join("day1.log");
+    let swapped = std::fs::read_to_string(&backlog[2])
+        .unwrap()
+        .replace(" can0 ", " swap ")
+        .replace(" can1 ", " can0 ")
+        .replace(" swap ", " can1 ");
+    std::fs::write(&day1, swapped).unwrap();
+    std::fs::remove_file(&backlog[2]).unwrap();
+    backlog[2] = day1;
+    let first_swap = format!("{}:can1=can0", swapping_logger.display());
+    let second_swap = format!("{}:can0=can1", swapping_logger.display());
     let ingest = |lake: &Path, extra: &[&str]| {
         let mut command = Command::new(env!("CARGO_BIN_EXE_acq"));
         command
             .args(["lake", "ingest"])
             .args(backlog.iter().map(|p| path_arg(p)))
             .args(["--rig", path_arg(&rig), "--lake", path_arg(lake)])
+            .args(["--bus", &first_swap, "--bus", &second_swap])
             .args(extra)
             .env("SLURM_CONF", &cluster.conf)
             .stdin(Stdio::null());

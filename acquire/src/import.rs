@@ -62,44 +62,9 @@ pub struct ImportOptions {
     pub on_file: FileProgress,
 }
 
-/// Frames logged on `logged` become the session's `session`: in every
-/// file, or only in the files under `files` (a file, or a folder holding
-/// one logger's files), so that two loggers that both call their bus
-/// `can1` stay apart. A mapping scoped to a file wins over one for all.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct BusMapping {
-    pub files: Option<PathBuf>,
-    pub logged: IfaceName,
-    pub session: IfaceName,
-}
-
-impl BusMapping {
-    /// Whether this mapping is for the file at `path` (as given; a leading
-    /// `./` on either says nothing).
-    pub fn covers(&self, path: &Path) -> bool {
-        let plain = |path: &Path| -> PathBuf {
-            path.components()
-                .filter(|c| !matches!(c, std::path::Component::CurDir))
-                .collect()
-        };
-        self.files
-            .as_deref()
-            .is_none_or(|files| plain(path).starts_with(plain(files)))
-    }
-
-    /// The interface pairs that hold for the file at `path`: those scoped
-    /// to it first, then those for every file.
-    fn for_file(mappings: &[BusMapping], path: &Path) -> Vec<(IfaceName, IfaceName)> {
-        let scoped = mappings
-            .iter()
-            .filter(|m| m.files.is_some() && m.covers(path));
-        let general = mappings.iter().filter(|m| m.files.is_none());
-        scoped
-            .chain(general)
-            .map(|m| (m.logged, m.session))
-            .collect()
-    }
-}
+/// Frames logged on one interface as the session's another, in every
+/// file or in some (`--bus [FILES:]LOGGED=SESSION`).
+pub use acq_rig::BusMapping;
 
 /// Told as each file is opened: its number from 1, how many, its path.
 pub type FileProgress = Box<dyn FnMut(usize, usize, &Path)>;

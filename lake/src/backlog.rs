@@ -26,9 +26,10 @@ use acq_error::{AcqError, Result};
 use acq_exec::executor::{Executor, Job};
 use acq_exec::slurm::{forget_finished_job, SlurmExecutor, SlurmSettings};
 use acq_io::output::Output;
+use acq_rig::BusMapping;
 use sha2::{Digest, Sha256};
 
-use crate::ingest::{device_of, IngestOptions};
+use crate::ingest::{canonical_buses, device_of, IngestOptions};
 use crate::layout::SLURM_DIR;
 
 /// How the backlog runs on the cluster.
@@ -79,6 +80,7 @@ pub fn ingest_on_slurm(
     let rig = std::fs::canonicalize(&options.rig)
         .map_err(|e| AcqError::io(format!("opening the rig {}", options.rig.display()), e))?;
     let device = device_of(options);
+    let buses = canonical_buses(&options.buses, inputs)?;
     let jobs_per_slice = slurm.settings.cpus_per_job.unwrap_or(1).max(1);
 
     let mut slices = Vec::new();
@@ -87,7 +89,12 @@ pub fn ingest_on_slurm(
             .iter()
             .map(|(path, _)| format!("{}\n", path.display()))
             .collect();
-        let key = format!("{list}{}\n{device}\n{:?}\n", rig.display(), options.buses);
+        // A scope none of the slice's sources is under is not the job's.
+        let buses: Vec<&BusMapping> = buses
+            .iter()
+            .filter(|m| m.files.is_none() || slice.iter().any(|(path, _)| m.covers(path)))
+            .collect();
+        let key = format!("{list}{}\n{device}\n{buses:?}\n", rig.display());
         let digest = Sha256::digest(key.as_bytes());
         let name: String = digest[..8].iter().map(|b| format!("{b:02x}")).collect();
         let directory = lake.join(SLURM_DIR).join(name);
@@ -111,8 +118,9 @@ pub fn ingest_on_slurm(
             jobs_per_slice.to_string(),
         ]
         .into();
-        for (logged, rig) in &options.buses {
-            argv.extend(["--bus".to_string(), format!("{logged}={rig}")]);
+        // Scopes canonical: the job's list names its sources so.
+        for mapping in buses {
+            argv.extend(["--bus".to_string(), mapping.to_string()]);
         }
         let bytes = slice.iter().map(|(_, bytes)| bytes).sum();
         slices.push((directory, argv, slice.len(), bytes));

@@ -24,6 +24,7 @@ use acq_io::output::Output;
 use acq_io::parquet_table::{ColumnSpec, ColumnType, FileLayout, ParquetTable};
 use acq_io::session;
 use acq_rig::sensors::Sample;
+use acq_rig::BusMapping;
 
 use crate::layout::{self, HOLDS, MANIFEST_DIR, MEASURED, TABLES, TMP_DIR};
 use crate::manifest::{self, Entry};
@@ -47,6 +48,75 @@ const SAMPLES_LAYOUT: FileLayout = FileLayout {
     ..FileLayout::FOR_EVERY_ENGINE
 };
 
+/// The mappings with each scope made canonical, as sources' paths are
+/// (and as a Slurm job, started elsewhere, takes them), checked against
+/// the inputs: a logged interface mapped twice in one scope, or a scope
+/// that names no file or holds none of the inputs, is an error that says
+/// so.
+pub(crate) fn canonical_buses(buses: &[BusMapping], inputs: &[PathBuf]) -> Result<Vec<BusMapping>> {
+    let canonical = buses
+        .iter()
+        .map(|mapping| {
+            let files = match &mapping.files {
+                None => None,
+                Some(files) => Some(std::fs::canonicalize(files).map_err(|e| {
+                    AcqError::Config(format!("--bus {mapping}: {} ({e})", files.display()))
+                })?),
+            };
+            Ok(BusMapping {
+                files,
+                ..mapping.clone()
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let inputs: Vec<PathBuf> = inputs
+        .iter()
+        .filter_map(|input| std::fs::canonicalize(input).ok())
+        .collect();
+    BusMapping::check(&canonical, &inputs).map_err(AcqError::Config)?;
+    Ok(canonical)
+}
+
+/// The `(logged, rig)` pairs of the log at `path` (canonical).
+fn logged_pairs(buses: &[BusMapping], path: &Path) -> Vec<(String, String)> {
+    BusMapping::for_file(buses, path)
+        .into_iter()
+        .map(|(logged, rig)| (logged.to_string(), rig.to_string()))
+        .collect()
+}
+
+/// Every log's mapping against the rig before anything is written: a bus
+/// the rig does not have, or two of its buses on one logged interface, is
+/// an error that names the pair (and the file, where a scope made it).
+fn check_buses_against_rig(buses: &[BusMapping], inputs: &[PathBuf], rig: &Path) -> Result<()> {
+    if buses.is_empty() {
+        return Ok(());
+    }
+    let rig = acq_io::input::load_rig(rig)?;
+    let mut checked = HashSet::new();
+    let general = logged_pairs(buses, Path::new(""));
+    let logs = inputs
+        .iter()
+        .filter_map(|input| std::fs::canonicalize(input).ok())
+        .filter(|path| !path.is_dir());
+    for (path, pairs) in std::iter::once((None, general))
+        .chain(logs.map(|path| (Some(path.clone()), logged_pairs(buses, &path))))
+    {
+        if pairs.is_empty() || !checked.insert(pairs.clone()) {
+            continue;
+        }
+        rig.clone()
+            .take_logged_interfaces(&pairs)
+            .map_err(|e| match path {
+                Some(path) if buses.iter().any(|m| m.files.is_some()) => {
+                    AcqError::Config(format!("{}: {e}", path.display()))
+                }
+                _ => AcqError::Config(e),
+            })?;
+    }
+    Ok(())
+}
+
 /// What to ingest into which lake.
 #[derive(Clone, Debug)]
 pub struct IngestOptions {
@@ -56,10 +126,11 @@ pub struct IngestOptions {
     /// The `device` partition; `None`: the rig file's name (one rig file
     /// per machine).
     pub device: Option<String>,
-    /// `(logged, rig)` interface pairs: frames a log has on `logged` are
-    /// the rig's bus on `rig` (a logger's `can1` as the rig's `can0`).
-    /// Sessions know their interfaces and take none.
-    pub buses: Vec<(String, String)>,
+    /// Frames a log has on a mapping's `logged` interface are the rig's bus
+    /// on its `session` interface (a logger's `can1` as the rig's `can0`),
+    /// in every log or in those under its `files`. Sessions know their
+    /// interfaces and take none.
+    pub buses: Vec<BusMapping>,
     /// Sources decoded at once, each on a thread of its own; 0: one per
     /// core of this machine. A source's memory is bounded (see the module
     /// doc), so memory grows with this, not with the backlog.
@@ -109,18 +180,15 @@ pub fn ingest(
     on_source: impl FnMut(&SourceReport) + Send,
 ) -> Result<Vec<SourceReport>> {
     let lake = options.lake.as_path();
-    acq_io::output::create_dir(lake)?;
-    for dir in [MANIFEST_DIR, TMP_DIR] {
-        acq_io::output::create_dir(&lake.join(dir))?;
-    }
     let rig = std::fs::canonicalize(&options.rig)
         .map_err(|e| AcqError::io(format!("opening the rig {}", options.rig.display()), e))?;
     let (rig_sha256, _) = session::sha256_file(&rig)
         .map_err(|e| AcqError::io(format!("reading {}", rig.display()), e))?;
-    if !options.buses.is_empty() {
-        acq_io::input::load_rig(&rig)?
-            .take_logged_interfaces(&options.buses)
-            .map_err(AcqError::Config)?;
+    let buses = canonical_buses(&options.buses, inputs)?;
+    check_buses_against_rig(&buses, inputs, &rig)?;
+    acq_io::output::create_dir(lake)?;
+    for dir in [MANIFEST_DIR, TMP_DIR] {
+        acq_io::output::create_dir(&lake.join(dir))?;
     }
     let ingest = Ingest {
         lake,
@@ -129,7 +197,7 @@ pub fn ingest(
         rig,
         rig_sha256,
         leftovers: Mutex::new(None),
-        buses: options.buses.clone(),
+        buses,
     };
     let mut seen = HashSet::new();
     let inputs: Vec<&PathBuf> = inputs
@@ -189,17 +257,23 @@ struct Ingest<'a> {
     /// Files of each source id, listed once when a source without an entry
     /// first needs them.
     leftovers: Mutex<Option<HashMap<String, Vec<PathBuf>>>>,
-    buses: Vec<(String, String)>,
+    /// Their scopes canonical, as the sources' paths are.
+    buses: Vec<BusMapping>,
 }
 
 impl Ingest<'_> {
-    /// The `--bus` pairs a source takes (a log's; a session's none), as
-    /// its entry keeps them.
-    fn buses_of(&self, source: &Source) -> Vec<String> {
+    /// The `(logged, rig)` interface pairs a source takes (a log's; a
+    /// session's none).
+    fn pairs_of(&self, source: &Source) -> Vec<(String, String)> {
         if source.is_session {
             return Vec::new();
         }
-        self.buses
+        logged_pairs(&self.buses, &source.path)
+    }
+
+    /// [`Ingest::pairs_of`] as the source's entry keeps them.
+    fn buses_of(&self, source: &Source) -> Vec<String> {
+        self.pairs_of(source)
             .iter()
             .map(|(logged, rig)| format!("{logged}={rig}"))
             .collect()
@@ -351,7 +425,7 @@ impl Source {
         if !self.is_session {
             recording
                 .rig
-                .take_logged_interfaces(&ingest.buses)
+                .take_logged_interfaces(&ingest.pairs_of(self))
                 .map_err(AcqError::Config)?;
         }
         let session_name = self

@@ -44,6 +44,7 @@
 //! - [`sensors`]: frames -> samples through a rig, each sensor decoded in its
 //!   own protocol (`acq-can`) and converted to its engineering unit.
 
+pub mod bus_map;
 mod error;
 mod file;
 mod lines;
@@ -56,6 +57,7 @@ mod sections;
 mod sensor_file;
 pub mod sensors;
 
+pub use bus_map::BusMapping;
 pub use error::{RigError, RigProblem};
 pub use record::{
     Accuracy, Certificate, PolynomialCertificate, SensorRecord, ShuntSetup, TemperatureEffect,

@@ -4,7 +4,6 @@ use std::path::PathBuf;
 
 use super::live::parse_size;
 use acq_acquire::import::{self, BusMapping, ImportOptions};
-use acq_can::IfaceName;
 use acq_error::{AcqError, Result};
 use acq_io::session;
 use clap::Args;
@@ -27,7 +26,7 @@ pub struct ImportArgs {
     /// file, or a folder of one logger's files) only in those files, so
     /// that two loggers that both log `can1` stay apart:
     /// `--bus logger_a:can1=can0 --bus logger_b:can1=can2`.
-    #[arg(long = "bus", value_name = "[FILES:]LOGGED=SESSION", value_parser = parse_bus_map)]
+    #[arg(long = "bus", value_name = "[FILES:]LOGGED=SESSION", value_parser = clap::value_parser!(BusMapping))]
     pub bus_map: Vec<BusMapping>,
     /// Keep a byte-for-byte copy of each file in SESSION/sources/ (without
     /// it each is named in session.toml with its SHA-256).
@@ -41,58 +40,8 @@ pub struct ImportArgs {
     pub max_file_size: u64,
 }
 
-/// `can1=can0`: frames logged on can1 become the session's can0;
-/// `logger_b:can1=can2`: only in the files under `logger_b`. Interface
-/// names hold neither ':' nor '=', so the last of each splits.
-fn parse_bus_map(text: &str) -> std::result::Result<BusMapping, String> {
-    let (left, session) = text.rsplit_once('=').ok_or_else(|| {
-        format!("'{text}': expected [FILES:]LOGGED=SESSION, e.g. can1=can0 or logger_b:can1=can2")
-    })?;
-    let (files, logged) = match left.rsplit_once(':') {
-        Some(("", _)) => {
-            return Err(format!(
-                "'{text}': nothing before ':'; give a file or folder, or leave out the ':'"
-            ))
-        }
-        Some((files, logged)) => (Some(PathBuf::from(files)), logged),
-        None => (None, left),
-    };
-    let name = |name: &str| {
-        IfaceName::new(name.trim()).ok_or_else(|| {
-            format!("'{name}' in '{text}': not an interface name (1 to 15 characters, no '/', ':' or space)")
-        })
-    };
-    Ok(BusMapping {
-        files,
-        logged: name(logged)?,
-        session: name(session)?,
-    })
-}
-
 pub fn run_import(args: ImportArgs) -> Result<()> {
-    for (index, mapping) in args.bus_map.iter().enumerate() {
-        let scope = mapping
-            .files
-            .as_ref()
-            .map_or(String::new(), |files| format!("{}:", files.display()));
-        if args.bus_map[..index]
-            .iter()
-            .any(|earlier| earlier.logged == mapping.logged && earlier.files == mapping.files)
-        {
-            return Err(AcqError::Config(format!(
-                "--bus {scope}{}=...: given twice; each logged interface maps to one session interface",
-                mapping.logged
-            )));
-        }
-        if mapping.files.is_some() && !args.logs.iter().any(|log| mapping.covers(log)) {
-            return Err(AcqError::Config(format!(
-                "--bus {scope}{}={}: '{}' is none of the files given, nor a folder holding one; give it as the files are given",
-                mapping.logged,
-                mapping.session,
-                mapping.files.as_ref().map_or(String::new(), |f| f.display().to_string())
-            )));
-        }
-    }
+    BusMapping::check(&args.bus_map, &args.logs).map_err(AcqError::Config)?;
     let rig = args
         .rig
         .as_deref()

@@ -11,6 +11,7 @@ use acq_io::output::{CompleteOnlyFile, TableFormat};
 use acq_lake::backlog::{self, SlurmIngest};
 use acq_lake::ingest::{self, IngestOptions, Outcome};
 use acq_lake::query::{self, Sink};
+use acq_rig::BusMapping;
 use clap::{Args, Subcommand};
 
 #[derive(Subcommand, Debug)]
@@ -71,9 +72,12 @@ pub struct IngestArgs {
     pub device: Option<String>,
     /// Frames logged on LOGGED are the rig's bus on interface RIG (a
     /// logger's `can1` as the rig's `can0`), in every log given; repeat for
-    /// each bus. Sessions know their interfaces and take none.
-    #[arg(long = "bus", value_name = "LOGGED=RIG", value_parser = parse_bus)]
-    pub buses: Vec<(String, String)>,
+    /// each bus. With FILES: (a file, or a folder of one logger's files)
+    /// only in those logs, so that two loggers that both log `can1` stay
+    /// apart: `--bus logger_a:can1=can0 --bus logger_b:can1=can2`.
+    /// Sessions know their interfaces and take none.
+    #[arg(long = "bus", value_name = "[FILES:]LOGGED=RIG", value_parser = clap::value_parser!(BusMapping))]
+    pub buses: Vec<BusMapping>,
     /// Sources decoded at once on this machine [default: one per core];
     /// with --slurm, in each job (its cpus).
     #[arg(long, value_name = "N")]
@@ -229,18 +233,6 @@ fn run_ingest_on_slurm(
         )));
     }
     Ok(())
-}
-
-/// `LOGGED=RIG`.
-fn parse_bus(text: &str) -> std::result::Result<(String, String), String> {
-    match text.split_once('=') {
-        Some((logged, rig)) if !logged.trim().is_empty() && !rig.trim().is_empty() => {
-            Ok((logged.trim().to_string(), rig.trim().to_string()))
-        }
-        _ => Err(format!(
-            "'{text}': expected LOGGED=RIG, e.g. can1=can0 (frames logged on can1 are the rig's bus on can0)"
-        )),
-    }
 }
 
 /// The paths of a list file, relative ones taken from the list's

@@ -573,3 +573,138 @@ fn a_logger_s_own_channel_names_are_mapped_to_the_rig_s_buses() {
         stderr(&wrong)
     );
 }
+
+/// Two loggers that both log a `can1`, and it is not the same bus: logger
+/// A's wiring has the rig's buses swapped (its `can1` is the rig's `can0`,
+/// its `can0` the rig's `can1`), logger B names them as the rig does. With
+/// the swap scoped to A's folder (given relative to where acq runs, the
+/// logs by absolute path) each log's samples are in the lake as `acq
+/// decode` gives its original; a mapping changed for B ingests B again and
+/// leaves A alone; a scope that is no file, or holds none of the logs, is
+/// refused before anything is written.
+#[test]
+fn two_loggers_that_both_log_can1_stay_apart_with_scoped_buses() {
+    let dir = tempfile::tempdir().unwrap();
+    let dir = dir.path();
+    let original_a = simulated(dir, "excavator_case1.toml", 3.0, 1_791_187_200, "a");
+    let original_b = simulated(dir, "excavator_case1.toml", 3.0, 1_791_190_800, "b");
+    for folder in ["logger_a", "logger_b", "logger_c"] {
+        std::fs::create_dir(dir.join(folder)).unwrap();
+    }
+    let log_a = dir.join("logger_a/day1.log");
+    let swapped = std::fs::read_to_string(&original_a)
+        .unwrap()
+        .replace(" can0 ", " swap ")
+        .replace(" can1 ", " can0 ")
+        .replace(" swap ", " can1 ");
+    std::fs::write(&log_a, swapped).unwrap();
+    let log_b = dir.join("logger_b/day1.log");
+    std::fs::copy(&original_b, &log_b).unwrap();
+    let lake = dir.join("lake");
+    let run = |buses: &[&str]| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_acq"));
+        command.current_dir(dir);
+        command.args(["lake", "ingest", path_arg(&log_a), path_arg(&log_b)]);
+        command.args(["--rig", path_arg(&rig()), "--lake", path_arg(&lake)]);
+        for bus in buses {
+            command.args(["--bus", bus]);
+        }
+        command.output().unwrap()
+    };
+    let scoped = ["logger_a:can1=can0", "logger_a:can0=can1"];
+    let first = run(&scoped);
+    assert!(first.status.success(), "{}", stderr(&first));
+
+    let query = acq(&[
+        "lake",
+        "query",
+        path_arg(&lake),
+        "SELECT source_file, sensor, count(*) AS n, sum(value) AS s FROM samples \
+         GROUP BY source_file, sensor ORDER BY source_file, sensor",
+    ]);
+    assert!(query.status.success(), "{}", stderr(&query));
+    let mut in_lake: BTreeMap<&str, BTreeMap<String, (u64, f64)>> = BTreeMap::new();
+    let text = String::from_utf8_lossy(&query.stdout);
+    for line in text.lines().skip(1) {
+        let fields: Vec<&str> = line.split(',').collect();
+        let logger = if fields[0].contains("logger_a") {
+            "a"
+        } else if fields[0].contains("logger_b") {
+            "b"
+        } else {
+            panic!("a source of neither logger: {line}")
+        };
+        in_lake.entry(logger).or_default().insert(
+            fields[1].to_string(),
+            (fields[2].parse().unwrap(), fields[3].parse().unwrap_or(0.0)),
+        );
+    }
+    for (logger, original) in [("a", &original_a), ("b", &original_b)] {
+        let expected = decoded(original);
+        let got = &in_lake[logger];
+        assert_eq!(
+            got.keys().collect::<Vec<_>>(),
+            expected.keys().collect::<Vec<_>>(),
+            "logger {logger}"
+        );
+        for (sensor, (rows, sum)) in &expected {
+            let (got_rows, got_sum) = got[sensor];
+            assert!(
+                got_rows == *rows && close(got_sum, *sum),
+                "logger {logger}, {sensor}: {got_rows} {got_sum} against {rows} {sum}"
+            );
+        }
+    }
+
+    // B's mapping changed (its can1 named as itself, which moves nothing):
+    // B again, A unchanged.
+    let changed = run(&[scoped[0], scoped[1], "logger_b:can1=can1"]);
+    assert!(changed.status.success(), "{}", stderr(&changed));
+    let told = stderr(&changed);
+    let line_of = |logger: &str| {
+        told.lines()
+            .find(|line| line.contains(logger))
+            .unwrap_or_else(|| panic!("nothing said of {logger}: {told}"))
+            .to_string()
+    };
+    assert!(
+        line_of("logger_a").contains("unchanged since its ingest"),
+        "{told}"
+    );
+    assert!(line_of("logger_b").contains("ingested again"), "{told}");
+
+    for (bus, says) in [
+        ("logger_x:can1=can0", "--bus logger_x:can1=can0: logger_x"),
+        ("logger_c:can1=can0", "is none of the files given"),
+        ("logger_a:can1=can9", "the rig has no bus on can9"),
+    ] {
+        let refused = run(&[bus]);
+        assert_eq!(
+            refused.status.code(),
+            Some(2),
+            "{bus}: {}",
+            stderr(&refused)
+        );
+        assert!(
+            stderr(&refused).contains(says),
+            "{bus}: {}",
+            stderr(&refused)
+        );
+    }
+    let fresh = dir.join("fresh");
+    let refused = {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_acq"));
+        command.current_dir(dir);
+        command.args([
+            "lake",
+            "ingest",
+            path_arg(&log_a),
+            "--rig",
+            path_arg(&rig()),
+        ]);
+        command.args(["--lake", path_arg(&fresh), "--bus", "logger_c:can1=can0"]);
+        command.output().unwrap()
+    };
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr(&refused));
+    assert!(!fresh.exists(), "a refused ingest made its lake");
+}

@@ -774,6 +774,20 @@ fn a_session_opens_again_from_its_index_and_a_damaged_index_is_rebuilt() {
         .is_fifo());
 }
 
+/// Ctrl-C the moment the page says where it is stops it cleanly: acq
+/// listens for the signal before it says so, never after (a signal in
+/// between would kill it with no exit code, the page half stopped).
+#[test]
+fn ctrl_c_as_soon_as_the_page_is_announced_stops_it_cleanly() {
+    let temp = tempfile::tempdir().unwrap();
+    let session = copy_session("excavator_case1", &temp.path().join("case1"));
+    for attempt in 0..12 {
+        let mut page = Running::start(&["view", path_arg(&session), "--view", "127.0.0.1:0"]);
+        page.wait_for("view at", Duration::from_secs(30));
+        assert_eq!(page.interrupt(), 0, "attempt {attempt}");
+    }
+}
+
 #[test]
 fn view_arguments_that_cannot_work_are_refused_with_the_fix() {
     let temp = tempfile::tempdir().unwrap();

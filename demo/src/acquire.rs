@@ -128,6 +128,8 @@ async fn play_all<B: Bus>(
     observers: Vec<Option<Box<dyn RecordObserver>>>,
     interrupted: crate::Interrupted,
 ) -> Result<Vec<Played>> {
+    // Ctrl-C is caught from here on (see below).
+    let interrupted = interrupted();
     // 1. Every recorder listening before any frame is sent.
     let (recorders, routings) = start_recorders(&bus, playbacks, observers)?;
     wait_until_recorders_started(playbacks).await?;
@@ -140,7 +142,7 @@ async fn play_all<B: Bus>(
     // Ctrl-C: the players stop sending and the recordings end as after a
     // normal end, every file whole.
     let signal_watch = tokio::spawn(async move {
-        interrupted().await;
+        interrupted.await;
         let _ = interrupt_tx.send(true);
     });
     let summaries = join_players(players).await?;

@@ -78,9 +78,10 @@ impl DemoOptions {
     }
 }
 
-/// A future that resolves when the user interrupts the demo (Ctrl-C):
-/// the players stop, the recordings end whole, the page stops serving.
-/// The program that takes the signal makes it.
+/// Listens for the user's interrupt (Ctrl-C) from the call on, and gives
+/// a future that resolves when it comes: the players stop, the recordings
+/// end whole, the page stops serving. The program that takes the signal
+/// makes it.
 pub type Interrupted = fn() -> Pin<Box<dyn Future<Output = ()> + Send>>;
 
 /// For a caller that never interrupts the demo.
@@ -526,8 +527,10 @@ fn analyse_session(
 /// With `--view`, the page stays up after the demo's work until Ctrl-C.
 fn keep_serving(host: Option<acq_view::ViewHost>, interrupted: Interrupted) -> Result<()> {
     if let Some(host) = host {
+        // Listening for Ctrl-C before saying so.
+        let stop = interrupted();
         say(format!("the page stays up at {} until Ctrl-C", host.url()));
-        host.serve_until(interrupted());
+        host.serve_until(stop);
     }
     Ok(())
 }

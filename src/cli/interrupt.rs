@@ -71,31 +71,63 @@ fn is_ignored(signal: Signal) -> bool {
 }
 
 /// Resolves when SIGINT or SIGTERM arrives, or the duration is reached:
-/// the stop of `acq record`.
-pub async fn stop_on_signal_or(duration: Option<Duration>) -> StopReason {
-    use tokio::signal::unix::{signal, SignalKind};
-    let (Ok(mut interrupt), Ok(mut terminate)) = (
-        signal(SignalKind::interrupt()),
-        signal(SignalKind::terminate()),
-    ) else {
-        // Without signal handlers Ctrl-C would kill us mid-write; refuse instead of risking it.
-        std::future::pending::<()>().await;
-        unreachable!()
-    };
-    let timeout = async {
-        match duration {
-            Some(d) => tokio::time::sleep(d).await,
-            None => std::future::pending().await,
+/// the stop of `acq record`. The signals are caught from the call on, not
+/// from the first poll: a caller that says "Ctrl-C to stop" after calling
+/// it never lets a Ctrl-C kill the process before it listens.
+pub fn stop_on_signal_or(
+    duration: Option<Duration>,
+) -> impl std::future::Future<Output = StopReason> + Send + 'static {
+    let signal = signal_arrival();
+    async move {
+        let timeout = async {
+            match duration {
+                Some(d) => tokio::time::sleep(d).await,
+                None => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            name = signal => StopReason::Signal(name),
+            _ = timeout => StopReason::Duration,
         }
-    };
-    tokio::select! {
-        _ = interrupt.recv() => StopReason::Signal("SIGINT"),
-        _ = terminate.recv() => StopReason::Signal("SIGTERM"),
-        _ = timeout => StopReason::Duration,
     }
 }
 
-/// Resolves when SIGINT or SIGTERM arrives: the stop of the page.
-pub async fn interrupted() {
-    stop_on_signal_or(None).await;
+/// Resolves when SIGINT or SIGTERM arrives: the stop of the page. Caught
+/// from the call on, as [`stop_on_signal_or`].
+pub fn interrupted() -> impl std::future::Future<Output = ()> + Send + 'static {
+    let stop = stop_on_signal_or(None);
+    async move {
+        stop.await;
+    }
+}
+
+/// The name of the first SIGINT or SIGTERM after the call. The handlers
+/// are in place when this returns (signal-hook registers them at once; a
+/// tokio signal stream would only on its first poll); a thread of its own
+/// waits for the signal, so no runtime is needed to call it.
+fn signal_arrival() -> impl std::future::Future<Output = &'static str> + Send + 'static {
+    let (arrived, arrival) = tokio::sync::oneshot::channel();
+    match signal_hook::iterator::Signals::new([Signal::SIGINT as i32, Signal::SIGTERM as i32]) {
+        Ok(mut signals) => {
+            std::thread::spawn(move || {
+                if let Some(signal) = signals.forever().next() {
+                    let name = if signal == Signal::SIGINT as i32 {
+                        "SIGINT"
+                    } else {
+                        "SIGTERM"
+                    };
+                    let _ = arrived.send(name);
+                }
+            });
+        }
+        // Without signal handlers Ctrl-C would kill us mid-write; the sender
+        // is dropped and the stop never comes, rather than risking it.
+        Err(_) => drop(arrived),
+    }
+    async move {
+        match arrival.await {
+            Ok(name) => name,
+            Err(_) => std::future::pending().await,
+        }
+    }
 }

@@ -222,6 +222,8 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         (Some(path), Some(rig)) => Some(super::rig_study::load(path, rig)?),
         (None, _) => None,
     };
+    // Ctrl-C is caught from here on, before the page says where it is.
+    let stop = super::interrupt::stop_on_signal_or(args.duration);
     let Watchers {
         observer,
         host,
@@ -250,11 +252,7 @@ pub fn run_record(args: RecordArgs) -> Result<()> {
         messages,
     };
     // Two workers: the readers never wait behind a disk write of the writer loop.
-    let summary = acq_acquire::runtime(2)?.block_on(record::record(
-        SocketCanBus,
-        options,
-        super::interrupt::stop_on_signal_or(args.duration),
-    ));
+    let summary = acq_acquire::runtime(2)?.block_on(record::record(SocketCanBus, options, stop));
     // The study catches up with the last holds before the page stops.
     let last_panel = worker.map(acq_view::StudyWorker::finish);
     if let Some(host) = host {

@@ -137,8 +137,10 @@ pub fn run_view(mut args: ViewCommandArgs) -> Result<()> {
         layout,
     };
     let host = ViewHost::start(addr, access, pages)?;
+    // Listening for Ctrl-C before saying so.
+    let stop = super::interrupt::interrupted();
     eprintln!("acq: view at {} (Ctrl-C to stop)", host.url());
-    host.serve_until(super::interrupt::interrupted());
+    host.serve_until(stop);
     drop(worker);
     Ok(())
 }

@@ -21,6 +21,7 @@
 pub mod arrow_sink;
 pub mod input;
 pub mod output;
+mod parquet_columns;
 pub mod parquet_table;
 pub mod session;
 pub mod shunt_record;

@@ -44,6 +44,7 @@ use parquet::file::properties::WriterProperties;
 use parquet::schema::types::ColumnPath;
 
 use crate::output::Output;
+use crate::parquet_columns::ColumnWiseWriter;
 use acq_error::{AcqError, Result};
 
 pub use crate::arrow_sink::{ArrowBatch, ArrowSchema, ArrowSink};
@@ -114,6 +115,10 @@ pub struct ColumnSpec {
     pub unit: Option<String>,
     /// Whether a cell may be empty (null).
     pub nullable: bool,
+    /// The text every row of a text column holds (a file's session, its
+    /// source, a sensor's unit): set once instead of per row, and in a file
+    /// encoded once per row group. The row's setter is then a bug.
+    pub constant: Option<String>,
 }
 
 impl ColumnSpec {
@@ -123,6 +128,7 @@ impl ColumnSpec {
             column_type,
             unit: None,
             nullable: false,
+            constant: None,
         }
     }
 
@@ -135,6 +141,14 @@ impl ColumnSpec {
     pub fn nullable(mut self) -> Self {
         self.nullable = true;
         self
+    }
+
+    /// A text column holding `value` in every row ([`ColumnSpec::constant`]).
+    pub fn constant_text(name: impl Into<String>, value: &str) -> Self {
+        ColumnSpec {
+            constant: Some(value.to_string()),
+            ..ColumnSpec::new(name, ColumnType::Text)
+        }
     }
 
     fn field(&self, layout: &FileLayout) -> Field {
@@ -168,8 +182,8 @@ enum ColumnBuilder {
     Integer(Int64Builder),
     Text(StringDictionaryBuilder<Int32Type>),
     /// A text column with one value in every row
-    /// ([`ParquetTable::constant_text`]): its batch is the value once and
-    /// a key per row, with no lookup per row.
+    /// ([`ColumnSpec::constant`]): its batch is the value once and a key
+    /// per row, with no lookup per row.
     Constant(Arc<StringArray>),
     /// A text column whose values come from a list fixed before the first
     /// row ([`ParquetTable::text_choices`]), each row naming one by its
@@ -179,8 +193,11 @@ enum ColumnBuilder {
 }
 
 impl ColumnBuilder {
-    fn new(column_type: ColumnType, layout: &FileLayout) -> Self {
-        match column_type {
+    fn new(spec: &ColumnSpec, layout: &FileLayout) -> Self {
+        if let Some(value) = &spec.constant {
+            return ColumnBuilder::Constant(Arc::new(StringArray::from(vec![value.as_str()])));
+        }
+        match spec.column_type {
             ColumnType::Time if layout.time_in_microseconds => ColumnBuilder::TimeMicros(
                 TimestampMicrosecondBuilder::with_capacity(BATCH_ROWS).with_timezone("UTC"),
             ),
@@ -272,10 +289,7 @@ pub struct ParquetTable {
 /// Where the record batches go.
 enum Destination {
     /// Encoded as Parquet into a file.
-    File {
-        writer: Box<ArrowWriter<Vec<u8>>>,
-        output: Output,
-    },
+    File { writer: FileWriter, output: Output },
     /// Handed over as they are made, for a caller that takes Arrow itself.
     Arrow(Box<dyn ArrowSink>),
     /// Encoded as Parquet into a file on a thread of its own
@@ -348,7 +362,7 @@ const BATCHES_IN_FLIGHT: usize = 2;
 /// instead, and the file is left incomplete, so it never appears.
 fn encode(
     batches: std::sync::mpsc::Receiver<ToEncoder>,
-    mut writer: ArrowWriter<Vec<u8>>,
+    mut writer: FileWriter,
     mut output: Output,
 ) -> Result<()> {
     for message in batches {
@@ -405,7 +419,7 @@ impl ParquetTable {
             schema,
             columns: columns
                 .iter()
-                .map(|c| ColumnBuilder::new(c.column_type, &FileLayout::default()))
+                .map(|c| ColumnBuilder::new(c, &FileLayout::default()))
                 .collect(),
             rows_in_batch: 0,
             rows: 0,
@@ -455,14 +469,23 @@ impl ParquetTable {
         }
         let writer = ArrowWriter::try_new(Vec::new(), schema.clone(), Some(properties.build()))
             .map_err(|e| parquet_error(&output, e))?;
+        let constants: Vec<Option<Arc<str>>> = columns
+            .iter()
+            .map(|c| c.constant.as_deref().map(Arc::from))
+            .collect();
+        let writer = if constants.iter().any(Option::is_some) {
+            let by_column =
+                ColumnWiseWriter::new(writer, schema.clone(), constants, rows_per_group)
+                    .map_err(|e| parquet_error(&output, e))?;
+            FileWriter::ByColumn(Box::new(by_column))
+        } else {
+            FileWriter::ByRow(Box::new(writer))
+        };
         Ok(ParquetTable {
-            destination: Destination::File {
-                writer: Box::new(writer),
-                output,
-            },
+            destination: Destination::File { writer, output },
             columns: columns
                 .iter()
-                .map(|c| ColumnBuilder::new(c.column_type, &layout))
+                .map(|c| ColumnBuilder::new(c, &layout))
                 .collect(),
             schema,
             rows_in_batch: 0,
@@ -489,7 +512,7 @@ impl ParquetTable {
                 // first batch then fails, saying so.
                 let thread = std::thread::Builder::new()
                     .name("parquet-encoder".into())
-                    .spawn(move || encode(to_encode, *writer, output))
+                    .spawn(move || encode(to_encode, writer, output))
                     .ok();
                 Destination::Encoder(EncoderThread {
                     batches: Some(batches),
@@ -534,19 +557,6 @@ impl ParquetTable {
     pub fn text(&mut self, column: usize, value: Option<&str>) {
         match &mut self.columns[column] {
             ColumnBuilder::Text(b) => b.append_option(value),
-            _ => self.wrong_type(column, "text"),
-        }
-    }
-
-    /// Gives a text column `value` in every row from now on, set once
-    /// instead of per row (a file's session, its source, a sensor's unit);
-    /// its per-row setter is then a bug. Call it before the first row.
-    pub fn constant_text(&mut self, column: usize, value: &str) {
-        match &self.columns[column] {
-            ColumnBuilder::Text(_) | ColumnBuilder::Constant(_) => {
-                self.columns[column] =
-                    ColumnBuilder::Constant(Arc::new(StringArray::from(vec![value])));
-            }
             _ => self.wrong_type(column, "text"),
         }
     }
@@ -658,8 +668,10 @@ impl ParquetTable {
         self.check()?;
         self.write_batch()?;
         match self.destination {
-            Destination::File { writer, mut output } => {
-                let mut writer = *writer;
+            Destination::File {
+                mut writer,
+                mut output,
+            } => {
                 writer.finish().map_err(|e| parquet_error(&output, e))?;
                 pass_on_encoded(&mut writer, &mut output)?;
                 output.finish()?;
@@ -671,8 +683,38 @@ impl ParquetTable {
     }
 }
 
+/// A file's Parquet writer: Arrow's, or one a column at a time where some
+/// columns are constant ([`ColumnWiseWriter`]).
+enum FileWriter {
+    ByRow(Box<ArrowWriter<Vec<u8>>>),
+    ByColumn(Box<ColumnWiseWriter>),
+}
+
+impl FileWriter {
+    fn write(&mut self, batch: &RecordBatch) -> parquet::errors::Result<()> {
+        match self {
+            FileWriter::ByRow(writer) => writer.write(batch),
+            FileWriter::ByColumn(writer) => writer.write(batch),
+        }
+    }
+
+    fn finish(&mut self) -> parquet::errors::Result<()> {
+        match self {
+            FileWriter::ByRow(writer) => writer.finish().map(|_| ()),
+            FileWriter::ByColumn(writer) => writer.finish(),
+        }
+    }
+
+    fn inner_mut(&mut self) -> &mut Vec<u8> {
+        match self {
+            FileWriter::ByRow(writer) => writer.inner_mut(),
+            FileWriter::ByColumn(writer) => writer.inner_mut(),
+        }
+    }
+}
+
 /// Moves what the Parquet writer has encoded into the output, in order.
-fn pass_on_encoded(writer: &mut ArrowWriter<Vec<u8>>, output: &mut Output) -> Result<()> {
+fn pass_on_encoded(writer: &mut FileWriter, output: &mut Output) -> Result<()> {
     let encoded = writer.inner_mut();
     if !encoded.is_empty() {
         output.buffer.append(encoded);

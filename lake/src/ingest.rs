@@ -28,7 +28,9 @@ use acq_rig::BusMapping;
 
 use crate::layout::{self, HOLDS, MANIFEST_DIR, MEASURED, TABLES, TMP_DIR};
 use crate::manifest::{self, Entry};
-use crate::publish::{publish_file, remove_published, ScratchDir};
+use crate::publish::{
+    prepare_file, publish_file, publish_prepared_file, remove_published, ScratchDir,
+};
 
 /// Samples held back per file so that rows a little out of order (a
 /// recorder's read batches interleave buses by a millisecond) are written
@@ -502,14 +504,15 @@ struct Within<'a> {
     source: &'a str,
 }
 
-/// The samples table's columns; the partitions add device, sensor, date.
-fn sample_columns() -> Vec<ColumnSpec> {
+/// The samples table's columns, those constant in a file with their text;
+/// the partitions add device, sensor, date.
+fn sample_columns(unit: &str, within: &Within<'_>) -> Vec<ColumnSpec> {
     vec![
         ColumnSpec::new("time", ColumnType::Time),
         ColumnSpec::new("value", ColumnType::Float).nullable(),
-        ColumnSpec::new("unit", ColumnType::Text),
-        ColumnSpec::new("session", ColumnType::Text),
-        ColumnSpec::new("source_file", ColumnType::Text),
+        ColumnSpec::constant_text("unit", unit),
+        ColumnSpec::constant_text("session", within.session),
+        ColumnSpec::constant_text("source_file", within.source),
     ]
 }
 
@@ -560,10 +563,15 @@ fn write_samples(
                 if abandoned.load(Ordering::SeqCst) {
                     return Ok(Vec::new());
                 }
-                // Each file's place, rows and rows out of order.
+                // Each file's place, rows and rows out of order, the file
+                // ready to be published.
                 open.files
                     .into_iter()
-                    .map(SampleFile::finish)
+                    .map(|file| {
+                        let finished = file.finish()?;
+                        prepare_file(tmp, lake, &finished.0)?;
+                        Ok(finished)
+                    })
                     .collect::<Result<Vec<_>>>()
             }));
             handing_over.push((Vec::with_capacity(CHUNK_SAMPLES), full, spare));
@@ -611,7 +619,7 @@ fn write_samples(
     for (relative, rows, late) in finished {
         samples += rows;
         out_of_order += late;
-        files.push(publish_file(tmp, lake, &relative)?);
+        files.push(publish_prepared_file(tmp, lake, &relative)?);
     }
     Ok((samples, out_of_order))
 }
@@ -712,10 +720,8 @@ impl SampleFile {
         within: &Within<'_>,
     ) -> Result<SampleFile> {
         let output = Output::create_complete_only(&tmp.file(&relative))?;
-        let mut table = ParquetTable::with_layout(output, &sample_columns(), &[], SAMPLES_LAYOUT)?;
-        table.constant_text(2, unit);
-        table.constant_text(3, within.session);
-        table.constant_text(4, within.source);
+        let columns = sample_columns(unit, within);
+        let table = ParquetTable::with_layout(output, &columns, &[], SAMPLES_LAYOUT)?;
         Ok(SampleFile {
             table,
             relative,

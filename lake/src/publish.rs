@@ -53,14 +53,28 @@ impl Drop for ScratchDir {
 /// place in the lake (a rename: readers see the old file or the new one,
 /// never part of one); returns `relative`.
 pub fn publish_file(tmp: &ScratchDir, lake: &Path, relative: &Path) -> Result<PathBuf> {
-    let from = tmp.file(relative);
+    prepare_file(tmp, lake, relative)?;
+    publish_prepared_file(tmp, lake, relative)
+}
+
+/// The first half of [`publish_file`], for a thread of its own: the
+/// file's directory in the lake made, its bytes flushed to disk. The
+/// ingest's writers do this for their own files as each is finished,
+/// side by side, instead of the decoder for all of them at the end.
+pub fn prepare_file(tmp: &ScratchDir, lake: &Path, relative: &Path) -> Result<()> {
     let to = lake.join(relative);
     if let Some(parent) = to.parent() {
         acq_io::output::create_dir(parent)?;
     }
-    std::fs::File::open(&from)
+    std::fs::File::open(tmp.file(relative))
         .and_then(|f| f.sync_all())
-        .and_then(|()| std::fs::rename(&from, &to))
+        .map_err(|e| AcqError::io(format!("publishing {}", to.display()), e))
+}
+
+/// The second half of [`publish_file`], after [`prepare_file`]: the rename.
+pub fn publish_prepared_file(tmp: &ScratchDir, lake: &Path, relative: &Path) -> Result<PathBuf> {
+    let to = lake.join(relative);
+    std::fs::rename(tmp.file(relative), &to)
         .map_err(|e| AcqError::io(format!("publishing {}", to.display()), e))?;
     Ok(relative.to_path_buf())
 }

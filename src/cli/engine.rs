@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use acq_algorithms::doe::read_design_csv;
 use acq_algorithms::gp::{FixedHyperparameters, Gp, GpSettings, Kernel};
-use acq_algorithms::moo::{hypervolume, nsga2, Nsga2Settings, Problem};
+use acq_algorithms::moo::{hypervolume, nsga2, Nsga2Settings, Problem, Tournament};
 use acq_error::{AcqError, Result};
 use acq_io::output::Output;
 use clap::{Args, Subcommand};
@@ -173,9 +173,20 @@ pub struct MooArgs {
     /// benchmark literature runs it; calibration uses 0.5).
     #[arg(long, default_value_t = 1.0)]
     pub pareto_fraction: f64,
+    /// How parents are picked: `dominance` (Deb's reference code and pymoo: one that
+    /// dominates the other wins, each member in two tournaments a generation) or `rank`
+    /// (the lower front wins, as a calibration's search picks them).
+    #[arg(long, value_enum, default_value = "dominance")]
+    pub tournament: TournamentArg,
     /// The final non-dominated front: columns f1,f2[,f3].
     #[arg(short = 'o', long = "output", value_name = "front.csv")]
     pub output: PathBuf,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum TournamentArg {
+    Dominance,
+    Rank,
 }
 
 pub fn run_moo(args: MooArgs) -> Result<()> {
@@ -185,6 +196,10 @@ pub fn run_moo(args: MooArgs) -> Result<()> {
         generations: args.gens as usize,
         pareto_fraction: args.pareto_fraction,
         seed: args.seed,
+        tournament: match args.tournament {
+            TournamentArg::Dominance => Tournament::DominanceThenCrowding,
+            TournamentArg::Rank => Tournament::RankThenCrowding,
+        },
         ..Nsga2Settings::default()
     };
     let start = std::time::Instant::now();

@@ -18,7 +18,9 @@ mod problems;
 mod sorting;
 
 pub use hypervolume::hypervolume;
-pub use nsga2::{environmental_selection, nsga2, Individual, Nsga2Result, Nsga2Settings};
+pub use nsga2::{
+    environmental_selection, nsga2, Individual, Nsga2Result, Nsga2Settings, Tournament,
+};
 pub use problems::Problem;
 pub use sorting::{crowding_distance, fast_non_dominated_sort};
 

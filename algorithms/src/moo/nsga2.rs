@@ -1,13 +1,14 @@
 //! NSGA-II (Deb, Pratap, Agarwal, Meyarivan 2002): elitist multi-objective search over box
 //! bounds, with a cap on how much of the population the first front may take.
 
+use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::operators::{polynomial_mutation, simulated_binary_crossover};
 use super::parallel::evaluate_all;
-use super::sorting::{is_finite, prune_by_crowding, sort_fronts};
+use super::sorting::{dominates, is_finite, prune_by_crowding, sort_fronts};
 use super::MooError;
 
 /// How NSGA-II runs. The defaults are the calibration's (population 400, 100 generations,
@@ -34,6 +35,28 @@ pub struct Nsga2Settings {
     pub mutation_probability: Option<f64>,
     /// Seed of the only random stream: the same seed gives the same run.
     pub seed: u64,
+    /// How parents are picked (see [`Tournament`]).
+    pub tournament: Tournament,
+}
+
+/// How a binary tournament picks a parent. Both break a tie by the larger crowding
+/// distance, then by a coin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tournament {
+    /// The lower front wins (Deb et al. 2002's crowded comparison); contestants drawn at
+    /// random. The most pressure towards the first front: a calibration, which picks one
+    /// compromise from a surrogate's front within a budget of generations, converges
+    /// there best (the excavator's minimax pick 1 % better than by dominance, over 16
+    /// seeds of each shipped case).
+    #[default]
+    RankThenCrowding,
+    /// One that dominates the other wins, and every member enters two tournaments a
+    /// generation: Deb's reference code and pymoo. A member of a later front that its
+    /// opponent does not dominate keeps its chance, which keeps apart regions of a
+    /// disconnected front alive while the population is far from it: on ZDT3, 2 runs of
+    /// 300 lost its last segment, against 14 by rank (seeds 226-525).
+    DominanceThenCrowding,
 }
 
 impl Default for Nsga2Settings {
@@ -47,6 +70,7 @@ impl Default for Nsga2Settings {
             mutation_eta: 20.0,
             mutation_probability: None,
             seed: 0,
+            tournament: Tournament::RankThenCrowding,
         }
     }
 }
@@ -81,11 +105,10 @@ pub struct Nsga2Result {
 
 /// Minimise the vector function `objectives` over the box `bounds` with NSGA-II.
 ///
-/// Each generation: binary tournaments on (rank, then crowding distance, then a coin) pick
-/// parents; bounded SBX (with probability `crossover_probability`) and bounded polynomial
-/// mutation make `population` children; the children are evaluated in parallel; parents
-/// and children together are sorted into fronts and the next population is filled front by
-/// front (elitist mu + lambda). A front that fits only in part is thinned by removing its
+/// Each generation: binary tournaments pick parents (see [`Tournament`]); bounded SBX (with probability
+/// `crossover_probability`) and bounded polynomial mutation make `population` children;
+/// the children are evaluated in parallel; parents and children together are sorted into
+/// fronts and the next population is filled front by front (elitist mu + lambda). A front that fits only in part is thinned by removing its
 /// most crowded member one at a time and updating its neighbours' crowding distances
 /// (Kukkonen & Deb 2006) rather than by one sort on crowding (pymoo's default), which
 /// keeps a more even spread: on ZDT1-3 the final hypervolume is 0.02-0.2 % above pymoo's.
@@ -143,9 +166,10 @@ where
 
     for _ in 0..settings.generations {
         let mut children = Vec::with_capacity(size + 1);
+        let mut entrants = Entrants::new(population.len(), settings.tournament);
         while children.len() < size {
-            let mother = tournament(&population, &mut rng);
-            let father = tournament(&population, &mut rng);
+            let mother = entrants.tournament(&population, &mut rng);
+            let father = entrants.tournament(&population, &mut rng);
             let mut child_a = population[mother].x.clone();
             let mut child_b = population[father].x.clone();
             if rng.random_bool(settings.crossover_probability) {
@@ -287,27 +311,82 @@ fn individuals(
         .collect()
 }
 
-/// Binary tournament: the lower rank wins, then the larger crowding distance, then a coin.
-fn tournament(population: &[Individual], rng: &mut ChaCha8Rng) -> usize {
-    let n = population.len();
-    let first = rng.random_range(0..n);
-    // A second, different contestant (n >= 2 is validated).
-    let second = (first + 1 + rng.random_range(0..n - 1)) % n;
-    let (a, b) = (&population[first], &population[second]);
-    match a.rank.cmp(&b.rank) {
-        std::cmp::Ordering::Less => first,
-        std::cmp::Ordering::Greater => second,
-        std::cmp::Ordering::Equal => match a.crowding.total_cmp(&b.crowding) {
-            std::cmp::Ordering::Greater => first,
-            std::cmp::Ordering::Less => second,
-            std::cmp::Ordering::Equal => {
-                if rng.random_bool(0.5) {
-                    first
+/// Who meets whom in a generation's binary tournaments, and who wins ([`Tournament`]).
+struct Entrants {
+    kind: Tournament,
+    /// By dominance: the population in a shuffled order, taken two at a time, shuffled
+    /// again when it runs out.
+    order: Vec<usize>,
+    next: usize,
+}
+
+impl Entrants {
+    fn new(population: usize, kind: Tournament) -> Self {
+        Entrants {
+            kind,
+            order: (0..population).collect(),
+            next: population,
+        }
+    }
+
+    /// The winner of the next tournament.
+    fn tournament(&mut self, population: &[Individual], rng: &mut ChaCha8Rng) -> usize {
+        let (first, second) = match self.kind {
+            Tournament::RankThenCrowding => {
+                let n = population.len();
+                let first = rng.random_range(0..n);
+                // A second, different contestant (n >= 2 is validated).
+                (first, (first + 1 + rng.random_range(0..n - 1)) % n)
+            }
+            Tournament::DominanceThenCrowding => {
+                let first = self.draw(rng);
+                let mut second = self.draw(rng);
+                if second == first {
+                    // Across a reshuffle (an odd population): meet the next one instead.
+                    second = self.draw(rng);
+                }
+                (first, second)
+            }
+        };
+        let (a, b) = (&population[first], &population[second]);
+        let first_wins = match self.kind {
+            Tournament::RankThenCrowding => (a.rank != b.rank).then_some(a.rank < b.rank),
+            Tournament::DominanceThenCrowding => {
+                if beats(&a.objectives, &b.objectives) {
+                    Some(true)
                 } else {
-                    second
+                    beats(&b.objectives, &a.objectives).then_some(false)
                 }
             }
-        },
+        };
+        let first_wins = first_wins.unwrap_or_else(|| match a.crowding.total_cmp(&b.crowding) {
+            std::cmp::Ordering::Greater => true,
+            std::cmp::Ordering::Less => false,
+            std::cmp::Ordering::Equal => rng.random_bool(0.5),
+        });
+        if first_wins {
+            first
+        } else {
+            second
+        }
+    }
+
+    fn draw(&mut self, rng: &mut ChaCha8Rng) -> usize {
+        if self.next == self.order.len() {
+            self.order.shuffle(rng);
+            self.next = 0;
+        }
+        self.next += 1;
+        self.order[self.next - 1]
+    }
+}
+
+/// Whether `a` dominates `b`, a vector with a NaN or an infinity (a failed evaluation)
+/// being dominated by every finite one.
+fn beats(a: &[f64], b: &[f64]) -> bool {
+    match (is_finite(a), is_finite(b)) {
+        (true, true) => dominates(a, b),
+        (finite_a, finite_b) => finite_a && !finite_b,
     }
 }
 

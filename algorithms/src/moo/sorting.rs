@@ -7,7 +7,7 @@ pub(crate) fn is_finite(objectives: &[f64]) -> bool {
 
 /// Whether finite `a` Pareto-dominates finite `b` (minimisation): nowhere worse, somewhere
 /// better.
-fn dominates(a: &[f64], b: &[f64]) -> bool {
+pub(crate) fn dominates(a: &[f64], b: &[f64]) -> bool {
     let mut better_somewhere = false;
     for (x, y) in a.iter().zip(b) {
         if x > y {

@@ -576,8 +576,12 @@ fn write_samples(
             }));
             handing_over.push((Vec::with_capacity(CHUNK_SAMPLES), full, spare));
         }
+        // Each sensor's writer, looked up rather than divided for per sample.
+        let writer_of: Vec<usize> = (0..recording.rig.sensors.len())
+            .map(|sensor| sensor % writers)
+            .collect();
         let decoded = recording.for_each_sample(&offsets, &mut counts, |sample| {
-            let (chunk, full, spare) = &mut handing_over[sample.sensor % writers];
+            let (chunk, full, spare) = &mut handing_over[writer_of[sample.sensor]];
             chunk.push(sample);
             if chunk.len() == CHUNK_SAMPLES {
                 let next = spare
@@ -641,9 +645,10 @@ struct DaySensorFiles<'a> {
     files: Vec<SampleFile>,
     /// Each file's index in `files` by (sensor, day).
     by_sensor_day: HashMap<(usize, i64), usize>,
-    /// Each sensor's current (day, file index): a sample of the same day
-    /// as its sensor's last, nearly all of them, finds its file here.
-    current: Vec<Option<(i64, usize)>>,
+    /// Each sensor's current day, as the times it spans, and its file's
+    /// index: a sample of the same day as its sensor's last, nearly all of
+    /// them, finds its file here by two comparisons.
+    current: Vec<Option<(std::ops::Range<i64>, usize)>>,
 }
 
 impl<'a> DaySensorFiles<'a> {
@@ -667,12 +672,15 @@ impl<'a> DaySensorFiles<'a> {
     }
 
     fn push(&mut self, sample: Sample) -> Result<()> {
-        let day = sample.time_ns.div_euclid(NS_PER_DAY);
-        let index = match self.current[sample.sensor] {
-            Some((current_day, index)) if current_day == day => index,
+        let index = match &self.current[sample.sensor] {
+            Some((day, index)) if day.contains(&sample.time_ns) => *index,
             _ => {
+                let day = sample.time_ns.div_euclid(NS_PER_DAY);
                 let index = self.file_of(sample.sensor, day, sample.time_ns)?;
-                self.current[sample.sensor] = Some((day, index));
+                // Saturated at the ends of i64's range, where the day's
+                // sample times still lie inside.
+                let times = day.saturating_mul(NS_PER_DAY)..(day + 1).saturating_mul(NS_PER_DAY);
+                self.current[sample.sensor] = Some((times, index));
                 index
             }
         };

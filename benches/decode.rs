@@ -59,7 +59,7 @@ fn in_process(database: &DbcDatabase) {
     let mut best = f64::MAX;
     let mut rows = 0;
     for _ in 0..5 {
-        let reader: Box<dyn BufRead> = Box::new(Cursor::new(log));
+        let reader: Box<dyn BufRead + Send> = Box::new(Cursor::new(log));
         let mut inputs = vec![log_from_reader("bench", reader).unwrap()];
         let mut output = Output::to_writer("sink", Box::new(std::io::sink()));
         let options = DbcDecodeOptions {

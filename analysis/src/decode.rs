@@ -7,15 +7,18 @@
 //! not grow with the log. The DBC route to CSV is the throughput-critical
 //! one ([`dbc_csv`]).
 
+use std::collections::HashMap;
 use std::io::Write;
 
 use acq_can::canopen::{HeartbeatEvent, NmtState};
 use acq_can::dbc::{push_shortest_f64, DbcDatabase, FrameDecodeError, PhysicalValue};
 use acq_can::log::mf4_signals::{Mf4SignalWriter, SignalChannel, SignalGroup};
 use acq_can::LogRecord;
-use acq_can::{CanId, FrameKind};
+use acq_can::{CanId, FrameKind, IfaceName};
 use acq_error::{AcqError, Result};
-use acq_io::input::{for_each_record, BadLines, EmptyLogs, LogInput, ScanCounts};
+use acq_io::input::{
+    for_each_batch_read_beside, for_each_record, BadLines, EmptyLogs, LogInput, ScanCounts,
+};
 use acq_io::output::{CompleteOnlyFile, Output, TableOutput};
 use acq_io::parquet_table::{ArrowSink, ColumnSpec, ColumnType, ParquetTable};
 use acq_rig::sensors::{FrameUse, SensorDecoder, SensorEvent};
@@ -74,13 +77,27 @@ impl std::fmt::Display for DecodeSummary {
     }
 }
 
+/// What a DBC sink writes of the frame a value came from.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameAt<'a> {
+    pub timestamp_ns: i64,
+    /// The timestamp as the log wrote it; empty where the frames were read
+    /// a batch at a time ([`DbcRows::WANTS_TEXT`] is then false).
+    pub timestamp_text: &'a str,
+    pub iface: IfaceName,
+    pub id: CanId,
+}
+
 /// Where the DBC route's values go: CSV rows built from byte templates, a
 /// Parquet table or MF4 channel groups. One frame's values, then
 /// [`DbcRows::end_frame`].
 pub trait DbcRows {
+    /// Whether the sink writes the log's timestamp text (a CSV), so that
+    /// the frames must be read record by record, not a batch at a time.
+    const WANTS_TEXT: bool;
     fn value(
         &mut self,
-        record: &LogRecord<'_>,
+        frame: FrameAt<'_>,
         message: usize,
         signal: usize,
         value: PhysicalValue,
@@ -98,8 +115,13 @@ pub trait DbcRows {
 /// as in pandas), text columns dictionary-encoded.
 pub struct DbcParquet {
     table: ParquetTable,
-    /// Per message: its id and its `can_id` cell.
-    messages: Vec<(CanId, String)>,
+    /// Per message: its id; its `can_id` cell is the `can_id` column's
+    /// choice of the same place.
+    message_ids: Vec<CanId>,
+    /// The `can_id` choices of frames matched by their PGN with an id of
+    /// their own (J1939), and the `iface` choices, added as they come.
+    other_ids: HashMap<CanId, usize>,
+    ifaces: Vec<(IfaceName, usize)>,
     /// Per message: where its signals start in the `signal` and `unit`
     /// columns' choices (the database's signals, message by message).
     first_signal: Vec<usize>,
@@ -145,13 +167,17 @@ impl DbcParquet {
         // The message, signal and unit of a row are the DBC's: given by
         // their place, not looked up by their text row by row.
         let messages = database.messages();
+        table.text_choices(1, Vec::new());
+        table.text_choices(2, messages.iter().map(|m| m.id.to_string()).collect());
         table.text_choices(3, messages.iter().map(|m| m.name.clone()).collect());
         let signals = || messages.iter().flat_map(|m| &m.signals);
         table.text_choices(4, signals().map(|s| s.name.clone()).collect());
         table.text_choices(6, signals().map(|s| s.unit.clone()).collect());
         Ok(DbcParquet {
             table,
-            messages: messages.iter().map(|m| (m.id, m.id.to_string())).collect(),
+            message_ids: messages.iter().map(|m| m.id).collect(),
+            other_ids: HashMap::new(),
+            ifaces: Vec::new(),
             first_signal: messages
                 .iter()
                 .scan(0, |first, m| {
@@ -171,26 +197,39 @@ impl DbcParquet {
 }
 
 impl DbcRows for DbcParquet {
+    const WANTS_TEXT: bool = false;
+
     #[inline]
     fn value(
         &mut self,
-        record: &LogRecord<'_>,
+        frame: FrameAt<'_>,
         message: usize,
         signal: usize,
         value: PhysicalValue,
         label: Option<&str>,
     ) {
-        let (message_id, can_id) = &self.messages[message];
         let signal_choice = self.first_signal[message] + signal;
         let table = &mut self.table;
-        table.time_ns(0, record.frame.timestamp_ns);
-        table.text(1, Some(record.frame.iface.as_str()));
+        table.time_ns(0, frame.timestamp_ns);
+        let iface = match self.ifaces.iter().find(|(name, _)| *name == frame.iface) {
+            Some(&(_, choice)) => choice,
+            None => {
+                let choice = table.add_choice(1, frame.iface.as_str());
+                self.ifaces.push((frame.iface, choice));
+                choice
+            }
+        };
+        table.choice(1, iface);
         // A J1939 frame matched by its PGN keeps its own id: its source
         // address tells two ECUs that send one PGN apart.
-        if record.frame.id == *message_id {
-            table.text(2, Some(can_id));
+        if frame.id == self.message_ids[message] {
+            table.choice(2, message);
         } else {
-            table.text(2, Some(&record.frame.id.to_string()));
+            let choice = *self
+                .other_ids
+                .entry(frame.id)
+                .or_insert_with(|| table.add_choice(2, &frame.id.to_string()));
+            table.choice(2, choice);
         }
         table.choice(3, message);
         table.choice(4, signal_choice);
@@ -277,21 +316,23 @@ impl DbcMf4 {
 }
 
 impl DbcRows for DbcMf4 {
+    const WANTS_TEXT: bool = false;
+
     #[inline]
     fn value(
         &mut self,
-        record: &LogRecord<'_>,
+        frame: FrameAt<'_>,
         message: usize,
         signal: usize,
         value: PhysicalValue,
         _label: Option<&str>,
     ) {
         if self.pending.is_none() {
-            self.pending = Some((message, record.frame.timestamp_ns));
+            self.pending = Some((message, frame.timestamp_ns));
             self.values.clear();
             self.values.resize(self.channel_counts[message], None);
             if self.j1939[message] {
-                let source_address = record.frame.id.raw() & 0xFF;
+                let source_address = frame.id.raw() & 0xFF;
                 self.values[self.channel_counts[message] - 1] = Some(f64::from(source_address));
             }
         }
@@ -336,63 +377,113 @@ pub struct DbcDecodeOptions {
     pub labels: bool,
 }
 
-/// Decodes every frame of `inputs` through `database` into `sink` (a
-/// [`DbcParquet`] or [`DbcMf4`]; finish it also after an error: what was
-/// decoded is kept, as in a CSV).
-pub fn decode_dbc_frames(
+/// Decodes every frame of `inputs` through `database` into `sink` (CSV
+/// rows, a [`DbcParquet`] or a [`DbcMf4`]; finish it also after an error:
+/// what was decoded is kept, as in a CSV). A sink that does not write the
+/// log's text is given the frames a batch at a time, read on a thread of
+/// their own where a second core is free.
+pub fn decode_dbc_frames<S: DbcRows>(
     inputs: &mut [LogInput],
     database: &DbcDatabase,
     options: DbcDecodeOptions,
-    sink: &mut impl DbcRows,
+    sink: &mut S,
 ) -> Result<DecodeSummary> {
     let mut summary = DecodeSummary::default();
-    for_each_record(
-        inputs,
-        options.bad_lines,
-        EmptyLogs::Refuse,
-        &mut summary.scan,
-        |_, record| {
-            let frame = &record.frame;
-            match frame.kind {
-                FrameKind::Error { .. } => summary.error_frames += 1,
-                FrameKind::Remote { .. } => summary.remote_frames += 1,
-                FrameKind::Data { .. } | FrameKind::Fd { .. } => {
-                    let Some(index) = database.message_index(frame.id) else {
-                        summary.unknown += 1;
-                        return Ok(());
+    let mut scan = ScanCounts::default();
+    if S::WANTS_TEXT {
+        for_each_record(
+            inputs,
+            options.bad_lines,
+            EmptyLogs::Refuse,
+            &mut scan,
+            |_, record| {
+                let frame = &record.frame;
+                let at = FrameAt {
+                    timestamp_ns: frame.timestamp_ns,
+                    timestamp_text: record.timestamp_text,
+                    iface: frame.iface,
+                    id: frame.id,
+                };
+                decode_frame(
+                    database,
+                    &mut summary,
+                    sink,
+                    at,
+                    frame.kind,
+                    frame.payload(),
+                )
+            },
+        )?;
+    } else {
+        for_each_batch_read_beside(
+            inputs,
+            options.bad_lines,
+            EmptyLogs::Refuse,
+            &mut scan,
+            |_, batch| {
+                for index in 0..batch.len() {
+                    let at = FrameAt {
+                        timestamp_ns: batch.timestamp_ns[index],
+                        timestamp_text: "",
+                        iface: batch.interfaces[usize::from(batch.interface[index])],
+                        id: batch.id[index],
                     };
-                    let message = &database.messages()[index];
-                    let payload = frame.payload();
-                    let mut written = 0u64;
-                    let result = message.decode(payload, |signal, value| {
-                        let label = if sink.wants_labels() {
-                            message.signals[signal].label(payload)
-                        } else {
-                            None
-                        };
-                        sink.value(record, index, signal, value, label);
-                        written += 1;
-                    });
-                    match result {
-                        Ok(()) => {
-                            summary.decoded += 1;
-                            summary.rows += written;
-                        }
-                        // Refused before anything was written.
-                        Err(
-                            FrameDecodeError::Short { .. }
-                            | FrameDecodeError::UnknownMultiplexerValue(_),
-                        ) => {
-                            summary.undecodable += 1;
-                        }
-                    }
-                    sink.end_frame()?;
+                    let payload = batch.payload(index);
+                    decode_frame(database, &mut summary, sink, at, batch.kind[index], payload)?;
+                }
+                Ok(())
+            },
+        )?;
+    }
+    summary.scan = scan;
+    Ok(summary)
+}
+
+/// One frame's values into `sink`, counted in `summary`.
+#[inline]
+fn decode_frame(
+    database: &DbcDatabase,
+    summary: &mut DecodeSummary,
+    sink: &mut impl DbcRows,
+    at: FrameAt<'_>,
+    kind: FrameKind,
+    payload: &[u8],
+) -> Result<()> {
+    match kind {
+        FrameKind::Error { .. } => summary.error_frames += 1,
+        FrameKind::Remote { .. } => summary.remote_frames += 1,
+        FrameKind::Data { .. } | FrameKind::Fd { .. } => {
+            let Some(index) = database.message_index(at.id) else {
+                summary.unknown += 1;
+                return Ok(());
+            };
+            let message = &database.messages()[index];
+            let mut written = 0u64;
+            let result = message.decode(payload, |signal, value| {
+                let label = if sink.wants_labels() {
+                    message.signals[signal].label(payload)
+                } else {
+                    None
+                };
+                sink.value(at, index, signal, value, label);
+                written += 1;
+            });
+            match result {
+                Ok(()) => {
+                    summary.decoded += 1;
+                    summary.rows += written;
+                }
+                // Refused before anything was written.
+                Err(
+                    FrameDecodeError::Short { .. } | FrameDecodeError::UnknownMultiplexerValue(_),
+                ) => {
+                    summary.undecodable += 1;
                 }
             }
-            Ok(())
-        },
-    )?;
-    Ok(summary)
+            sink.end_frame()?;
+        }
+    }
+    Ok(())
 }
 
 /// Decodes every frame of `inputs` through `database` into `output`: CSV

@@ -45,7 +45,12 @@ impl PhysicalValue {
     #[inline]
     pub fn as_f64(self) -> f64 {
         match self {
-            PhysicalValue::Integer(v) => v as f64,
+            // From 64 bits where the value fits (nearly always): the same
+            // nearest f64, without the software conversion from 128.
+            PhysicalValue::Integer(v) => match i64::try_from(v) {
+                Ok(v) => v as f64,
+                Err(_) => v as f64,
+            },
             PhysicalValue::Float(v) => v,
         }
     }
@@ -1601,6 +1606,21 @@ BO_ 2364539905 EEC1_B: 8 B
             proptest::prop_assert_eq!(
                 codec.raw_float(raw).to_bits(),
                 (codec.raw_integer(raw) as f64).to_bits()
+            );
+        }
+
+        /// An integer value becomes the f64 it became through 128 bits,
+        /// whether it fits 64 bits or not.
+        #[test]
+        fn an_integer_value_becomes_the_same_float_however_wide(
+            value in proptest::prelude::any::<i128>(),
+            shift in 0u32..=127,
+        ) {
+            // Small values as often as wide ones.
+            let value = value >> shift;
+            proptest::prop_assert_eq!(
+                PhysicalValue::Integer(value).as_f64().to_bits(),
+                (value as f64).to_bits()
             );
         }
 

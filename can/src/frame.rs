@@ -151,6 +151,12 @@ impl IfaceName {
         })
     }
 
+    /// The name's bytes (printable ASCII).
+    #[inline]
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes[..usize::from(self.len)]
+    }
+
     pub fn as_str(&self) -> &str {
         // Only printable ASCII is ever stored (checked in `from_bytes`).
         std::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("?")

@@ -28,6 +28,19 @@ pub fn nibble(digit: u8) -> Option<u8> {
     (value != INVALID).then_some(value)
 }
 
+/// Whether `digit` is a hex digit (either case).
+#[inline]
+pub fn is_digit(digit: u8) -> bool {
+    NIBBLE[usize::from(digit)] != INVALID
+}
+
+/// Value of a byte [`is_digit`] said is a hex digit (any other gives a
+/// meaningless value, never a panic).
+#[inline]
+pub fn nibble_unchecked(digit: u8) -> u8 {
+    NIBBLE[usize::from(digit)] & 0x0F
+}
+
 /// Parses a run of hex digits (no prefix) into a `u32`; `None` on an empty
 /// run, a non-hex byte or more than 8 digits.
 pub fn parse_u32(digits: &[u8]) -> Option<u32> {

@@ -8,6 +8,24 @@ use acq_can::log::candump;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
+    // The short way for the usual line reads what the long way reads.
+    if let Some(usual) = candump::parse_usual_line(data) {
+        match (acq_can::IfaceName::from_bytes(usual.iface), candump::parse_line(data)) {
+            (Some(iface), Ok((_, frame))) => {
+                assert_eq!(frame.timestamp_ns, usual.timestamp_ns);
+                assert_eq!(frame.iface, iface);
+                assert_eq!(frame.id, usual.id);
+                assert_eq!(frame.payload(), &usual.data[..usual.len]);
+                assert_eq!(frame.direction, usual.direction);
+                assert!(matches!(frame.kind, acq_can::FrameKind::Data { len8_dlc: None }));
+            }
+            (None, Err(_)) => {}
+            (iface, parsed) => panic!(
+                "{:?}: the short way read {usual:?} (interface {iface:?}), parse_line {parsed:?}",
+                String::from_utf8_lossy(data)
+            ),
+        }
+    }
     let Ok((timestamp, frame)) = candump::parse_line(data) else {
         return;
     };

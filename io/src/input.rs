@@ -7,6 +7,7 @@ use std::fs::File;
 use std::io::{self, BufRead, BufReader};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::{channel, sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
 
 use acq_can::{FrameBatch, LogFormat, LogReader, LogRecord, ReadError};
@@ -80,7 +81,7 @@ pub struct LogInput {
     pub name: String,
     /// What its first bytes said it is.
     pub format: LogFormat,
-    reader: LogReader<Box<dyn BufRead>>,
+    reader: LogReader<Box<dyn BufRead + Send>>,
     /// What its reader told at the end, besides errors (printed too).
     notes: Vec<String>,
 }
@@ -96,7 +97,7 @@ pub fn open_logs(paths: &[PathBuf]) -> Result<Vec<LogInput>> {
 }
 
 /// A log read from any buffered reader (tests, benchmarks, pipes).
-pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead>) -> Result<LogInput> {
+pub fn log_from_reader(name: impl Into<String>, raw: Box<dyn BufRead + Send>) -> Result<LogInput> {
     let name = name.into();
     let (reader, format) = LogReader::detect(raw).map_err(|e| match e {
         ReadError::Parse(error) => AcqError::Malformed(error.in_file(&name)),
@@ -123,7 +124,7 @@ pub fn open_session_log(path: &Path) -> Result<LogInput> {
 }
 
 fn open_log_as(path: &Path, format: Option<LogFormat>) -> Result<LogInput> {
-    let (name, raw, len): (String, Box<dyn BufRead>, _) = if path.as_os_str() == "-" {
+    let (name, raw, len): (String, Box<dyn BufRead + Send>, _) = if path.as_os_str() == "-" {
         note_input(path);
         (
             "<stdin>".into(),
@@ -277,17 +278,111 @@ pub fn for_each_batch(
     counts: &mut ScanCounts,
     mut on_batch: impl FnMut(&str, &FrameBatch) -> Result<()>,
 ) -> Result<()> {
-    for input in inputs.iter_mut() {
+    walk_batches(inputs, bad_lines, empty_logs, counts, |_, name, batch| {
+        on_batch(name, &batch)?;
+        Ok(Some(batch))
+    })
+}
+
+/// Batches read ahead of [`for_each_batch_read_beside`]'s caller at most.
+const BATCHES_AHEAD: usize = 4;
+
+/// [`for_each_batch`] with the logs read on a thread of their own where a
+/// second core is free: the next batch is read while the caller works
+/// through this one. The same batches in the same order, the same counts
+/// and the same errors, after the caller has had every frame read before
+/// the error. A failure of the caller stops the reading.
+pub fn for_each_batch_read_beside(
+    inputs: &mut [LogInput],
+    bad_lines: BadLines,
+    empty_logs: EmptyLogs,
+    counts: &mut ScanCounts,
+    mut on_batch: impl FnMut(&str, &FrameBatch) -> Result<()>,
+) -> Result<()> {
+    if std::thread::available_parallelism().map_or(1, |n| n.get()) < 2 {
+        return for_each_batch(inputs, bad_lines, empty_logs, counts, on_batch);
+    }
+    let names: Vec<String> = inputs.iter().map(|input| input.name.clone()).collect();
+    let (full, batches) = sync_channel::<(usize, FrameBatch)>(BATCHES_AHEAD);
+    // Batches come back empty, to be filled again.
+    let (empty, spare) = channel::<FrameBatch>();
+    let start = *counts;
+    let (read, handled) = std::thread::scope(|scope| {
+        let reading =
+            scope.spawn(move || read_batches(inputs, bad_lines, empty_logs, start, full, spare));
+        let mut handled = Ok(());
+        for (log, batch) in &batches {
+            handled = on_batch(&names[log], &batch);
+            if handled.is_err() {
+                break;
+            }
+            let _ = empty.send(batch);
+        }
+        // The reader stops at its next batch, finding nobody to take it.
+        drop(batches);
+        let read = reading.join().expect("reading a log does not panic");
+        (read, handled)
+    });
+    handled?;
+    *counts = read?;
+    Ok(())
+}
+
+/// The reading side of [`for_each_batch_read_beside`]: each batch sent
+/// to `full`. Returns the counts, or the error that stopped it; `Ok` early
+/// where the caller stopped taking batches.
+fn read_batches(
+    inputs: &mut [LogInput],
+    bad_lines: BadLines,
+    empty_logs: EmptyLogs,
+    mut counts: ScanCounts,
+    full: SyncSender<(usize, FrameBatch)>,
+    spare: Receiver<FrameBatch>,
+) -> Result<ScanCounts> {
+    walk_batches(
+        inputs,
+        bad_lines,
+        empty_logs,
+        &mut counts,
+        |log, _, batch| {
+            Ok(full
+                .send((log, batch))
+                .ok()
+                .map(|()| spare.try_recv().unwrap_or_default()))
+        },
+    )?;
+    Ok(counts)
+}
+
+/// Every log read a batch at a time, each filled batch handed to `deliver`
+/// (with its log's place and name), which gives back the batch to fill
+/// next, or `None` to stop reading.
+fn walk_batches(
+    inputs: &mut [LogInput],
+    bad_lines: BadLines,
+    empty_logs: EmptyLogs,
+    counts: &mut ScanCounts,
+    mut deliver: impl FnMut(usize, &str, FrameBatch) -> Result<Option<FrameBatch>>,
+) -> Result<()> {
+    let mut batch = FrameBatch::default();
+    for (log, input) in inputs.iter_mut().enumerate() {
         let (frames_before, skipped_before) = (counts.frames, counts.malformed_lines);
-        // Each log's interfaces are its own.
-        let mut batch = FrameBatch::default();
+        // Each log's interfaces are its own, and a reader may keep the
+        // index it gave an interface from batch to batch: every batch
+        // starts with the log's interfaces so far.
+        let mut interfaces = Vec::new();
         loop {
             batch.clear();
+            batch.interfaces = std::mem::take(&mut interfaces);
             let read = input.reader.next_batch(&mut batch, BATCH_FRAMES);
+            interfaces.clone_from(&batch.interfaces);
             // The frames before a malformed record are the log's too.
             if !batch.is_empty() {
                 counts.frames += batch.len() as u64;
-                on_batch(&input.name, &batch)?;
+                match deliver(log, &input.name, std::mem::take(&mut batch))? {
+                    Some(next) => batch = next,
+                    None => return Ok(()),
+                }
             }
             match read {
                 Ok(true) => {}

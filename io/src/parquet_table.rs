@@ -257,6 +257,15 @@ impl ChoiceColumn {
         self.keys.push(key);
     }
 
+    fn add(&mut self, text: &str) -> usize {
+        let index = self.choices.len();
+        let first = self.choices.iter().position(|c| c == text);
+        self.first_alike.push(first.unwrap_or(index));
+        self.key_of_choice.push(-1);
+        self.choices.push(text.to_string());
+        index
+    }
+
     fn finish(&mut self) -> DictionaryArray<Int32Type> {
         let values = StringArray::from_iter_values(self.used.iter().map(|&c| &self.choices[c]));
         for &choice in &self.used {
@@ -586,6 +595,16 @@ impl ParquetTable {
         }
     }
 
+    /// Adds a value to a column of [`ParquetTable::text_choices`] (one its
+    /// list did not foresee: an interface's name, a J1939 frame's own id)
+    /// and returns its place, for [`ParquetTable::choice`] from then on.
+    pub fn add_choice(&mut self, column: usize, text: &str) -> usize {
+        match &mut self.columns[column] {
+            ColumnBuilder::Choice(c) => c.add(text),
+            _ => self.wrong_type(column, "a column of choices"),
+        }
+    }
+
     /// The row's value of a column of [`ParquetTable::text_choices`]: the
     /// choice at `index` in its list.
     #[inline]
@@ -749,27 +768,51 @@ mod tests {
         }
     }
 
+    fn table_choices(table: &ParquetTable) -> usize {
+        match &table.columns[0] {
+            ColumnBuilder::Choice(c) => c.choices.len(),
+            _ => 0,
+        }
+    }
+
     #[test]
     fn a_column_of_choices_makes_the_dictionary_builders_arrays() {
         // Choices in an order that is not their list's, some never used, one
-        // repeated in the list, over more rows than a batch holds.
-        let choices: Vec<String> = ["bar", "kN", "", "mm", "bar", "unused"]
+        // repeated in the list (once added late), over more rows than a
+        // batch holds.
+        let choices: Vec<String> = ["bar", "kN", "", "mm", "unused", "bar", "late"]
             .iter()
             .map(|c| c.to_string())
             .collect();
         let picks: Vec<usize> = (0..BATCH_ROWS * 2 + 77)
-            .map(|row| [3, 0, 2, 1, 4, 0, 3][(row * row + row / 5) % 7])
+            .map(|row| {
+                let early = [3, 0, 2, 1, 0, 3][(row * row + row / 5) % 6];
+                // The late ones from the second batch on.
+                match (row > BATCH_ROWS + 5, row % 11) {
+                    (true, 0) => 5,
+                    (true, 1) => 6,
+                    _ => early,
+                }
+            })
             .collect();
         let tables = [true, false].map(|by_choice| {
             let kept = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
             let columns = [ColumnSpec::new("unit", ColumnType::Text)];
             let mut table =
                 ParquetTable::to_arrow(&columns, &[], Box::new(Batches(kept.clone()))).unwrap();
+            // The last two choices come in late, as an interface's name
+            // does: added on their first use.
+            let foreseen = choices.len() - 2;
             if by_choice {
-                table.text_choices(0, choices.clone());
+                table.text_choices(0, choices[..foreseen].to_vec());
             }
             for &pick in &picks {
                 if by_choice {
+                    if pick >= foreseen && table_choices(&table) <= pick {
+                        for late in &choices[table_choices(&table)..=pick] {
+                            table.add_choice(0, late);
+                        }
+                    }
                     table.choice(0, pick);
                 } else {
                     table.text(0, Some(&choices[pick]));

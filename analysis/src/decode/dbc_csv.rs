@@ -4,13 +4,12 @@
 //! decoded on one thread and the rows made and written on another.
 
 use acq_can::dbc::{DbcDatabase, PhysicalValue};
-use acq_can::LogRecord;
 use acq_can::{CanId, IfaceName};
 use acq_error::{AcqError, Result};
 use acq_io::input::LogInput;
 use acq_io::output::{csv_field, Output};
 
-use super::{decode_dbc_frames, DbcDecodeOptions, DbcRows, DecodeSummary, DBC_HEADER};
+use super::{decode_dbc_frames, DbcDecodeOptions, DbcRows, DecodeSummary, FrameAt, DBC_HEADER};
 
 /// Decodes every frame of `inputs` through `database` into `output` (CSV).
 pub fn decode_with_dbc(
@@ -160,18 +159,19 @@ struct CsvDbcRows<'a> {
 }
 
 impl DbcRows for CsvDbcRows<'_> {
+    const WANTS_TEXT: bool = true;
+
     #[inline]
     fn value(
         &mut self,
-        record: &LogRecord<'_>,
+        frame: FrameAt<'_>,
         message: usize,
         signal: usize,
         value: PhysicalValue,
         label: Option<&str>,
     ) {
         let buffer = &mut self.output.buffer;
-        let frame = &record.frame;
-        let timestamp = record.timestamp_text.as_bytes();
+        let timestamp = frame.timestamp_text.as_bytes();
         self.pieces.push(
             buffer,
             timestamp,
@@ -243,10 +243,12 @@ impl HandingOver {
 }
 
 impl DbcRows for HandingOver {
+    const WANTS_TEXT: bool = true;
+
     #[inline]
     fn value(
         &mut self,
-        record: &LogRecord<'_>,
+        frame: FrameAt<'_>,
         message: usize,
         signal: usize,
         value: PhysicalValue,
@@ -257,11 +259,11 @@ impl DbcRows for HandingOver {
             self.in_frame = true;
             current
                 .timestamps
-                .extend_from_slice(record.timestamp_text.as_bytes());
+                .extend_from_slice(frame.timestamp_text.as_bytes());
             current.frames.push(DecodedFrame {
                 timestamp_end: current.timestamps.len(),
-                iface: record.frame.iface,
-                id: record.frame.id,
+                iface: frame.iface,
+                id: frame.id,
                 message,
                 values_end: 0,
             });
@@ -464,6 +466,118 @@ mod tests {
             "{}",
             &text[..400]
         );
+    }
+
+    /// Record batches kept.
+    #[derive(Clone, Default)]
+    struct Batches(Arc<Mutex<Vec<acq_io::arrow_sink::ArrowBatch>>>);
+
+    impl acq_io::arrow_sink::ArrowSink for Batches {
+        fn schema(&mut self, _: acq_io::arrow_sink::ArrowSchema) -> Result<()> {
+            Ok(())
+        }
+        fn batch(&mut self, batch: acq_io::arrow_sink::ArrowBatch) -> Result<()> {
+            self.0.lock().unwrap().push(batch);
+            Ok(())
+        }
+    }
+
+    /// A row as (time text, iface, can_id, message, signal, value's bits, unit).
+    type Row = (String, String, String, String, String, u64, String);
+
+    fn csv_rows(bytes: &[u8]) -> Vec<Row> {
+        let text = std::str::from_utf8(bytes).unwrap();
+        text.lines()
+            .skip(1)
+            .map(|line| {
+                let f: Vec<&str> = line.split(',').collect();
+                let value: f64 = f[5].parse().unwrap();
+                let text = |k: usize| f[k].to_string();
+                (
+                    text(0),
+                    text(1),
+                    text(2),
+                    text(3),
+                    text(4),
+                    value.to_bits(),
+                    text(6),
+                )
+            })
+            .collect()
+    }
+
+    /// The rows of the table the Python package and `-o FILE.parquet` get:
+    /// the frames read a batch at a time, on a thread of their own.
+    fn arrow_rows(
+        path: &std::path::Path,
+        bad_lines: BadLines,
+    ) -> (Result<DecodeSummary>, Vec<Row>) {
+        use arrow_array::cast::AsArray;
+        use arrow_array::types::{Float64Type, Int32Type, TimestampNanosecondType};
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../fixtures/dbc/j1939_source_fe.dbc"),
+        )
+        .unwrap();
+        let (database, _) = DbcDatabase::parse(&text, "j1939_source_fe.dbc").unwrap();
+        let kept = Batches::default();
+        let mut sink =
+            super::super::DbcParquet::to_arrow(&database, false, Box::new(kept.clone())).unwrap();
+        let options = DbcDecodeOptions {
+            bad_lines,
+            labels: false,
+        };
+        let mut inputs = vec![open_log(path).unwrap()];
+        let result = decode_dbc_frames(&mut inputs, &database, options, &mut sink);
+        sink.finish().unwrap();
+        let mut rows = Vec::new();
+        for batch in kept.0.lock().unwrap().iter() {
+            let text = |k: usize, row: usize| {
+                let column = batch.column(k).as_dictionary::<Int32Type>();
+                let key = column.keys().value(row) as usize;
+                column.values().as_string::<i32>().value(key).to_string()
+            };
+            let times = batch.column(0).as_primitive::<TimestampNanosecondType>();
+            let values = batch.column(5).as_primitive::<Float64Type>();
+            for row in 0..batch.num_rows() {
+                let ns = times.value(row);
+                let time = format!("{}.{:06}", ns / 1_000_000_000, ns % 1_000_000_000 / 1_000);
+                rows.push((
+                    time,
+                    text(1, row),
+                    text(2, row),
+                    text(3, row),
+                    text(4, row),
+                    values.value(row).to_bits(),
+                    text(6, row),
+                ));
+            }
+        }
+        (result, rows)
+    }
+
+    #[test]
+    fn frames_read_a_batch_at_a_time_beside_make_the_csv_s_rows() {
+        let dir = tempfile::tempdir().unwrap();
+        // Many batches of frames; a bad line in the middle.
+        let whole = log(dir.path(), 9 * 4096 + 17, None);
+        let broken = log(dir.path(), 9 * 4096 + 17, Some(5 * 4096 + 3));
+        for (path, bad_lines) in [
+            (&whole, BadLines::Stop),
+            (&broken, BadLines::Skip),
+            (&broken, BadLines::Stop),
+        ] {
+            let (by_record, csv) = decode(path, bad_lines, false, usize::MAX);
+            let (by_batch, rows) = arrow_rows(path, bad_lines);
+            let csv = csv_rows(&csv);
+            assert!(csv.len() > 5_000, "{}", csv.len());
+            assert!(csv == rows, "{path:?} {bad_lines:?}: the rows differ");
+            match (by_record, by_batch) {
+                (Ok(one), Ok(two)) => assert_eq!(one, two),
+                (Err(one), Err(two)) => assert_eq!(one.to_string(), two.to_string()),
+                (one, two) => panic!("{one:?} against {two:?}"),
+            }
+        }
     }
 
     #[test]

@@ -378,18 +378,22 @@ mod tests {
         path
     }
 
+    fn j1939_database() -> DbcDatabase {
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../fixtures/dbc/j1939_source_fe.dbc"),
+        )
+        .unwrap();
+        DbcDatabase::parse(&text, "j1939_source_fe.dbc").unwrap().0
+    }
+
     fn decode(
         path: &std::path::Path,
         bad_lines: BadLines,
         two_threads: bool,
         fail_after: usize,
     ) -> (Result<DecodeSummary>, Vec<u8>) {
-        let text = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../fixtures/dbc/j1939_source_fe.dbc"),
-        )
-        .unwrap();
-        let (database, _) = DbcDatabase::parse(&text, "j1939_source_fe.dbc").unwrap();
+        let database = j1939_database();
         let kept = Kept {
             bytes: Arc::default(),
             fail_after,
@@ -514,12 +518,7 @@ mod tests {
     ) -> (Result<DecodeSummary>, Vec<Row>) {
         use arrow_array::cast::AsArray;
         use arrow_array::types::{Float64Type, Int32Type, TimestampNanosecondType};
-        let text = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../fixtures/dbc/j1939_source_fe.dbc"),
-        )
-        .unwrap();
-        let (database, _) = DbcDatabase::parse(&text, "j1939_source_fe.dbc").unwrap();
+        let database = j1939_database();
         let kept = Batches::default();
         let mut sink =
             super::super::DbcParquet::to_arrow(&database, false, Box::new(kept.clone())).unwrap();

@@ -183,8 +183,12 @@ enum ColumnBuilder {
     Text(StringDictionaryBuilder<Int32Type>),
     /// A text column with one value in every row
     /// ([`ColumnSpec::constant`]): its batch is the value once and a key
-    /// per row, with no lookup per row.
-    Constant(Arc<StringArray>),
+    /// per row, with no lookup per row. The keys are made (and checked)
+    /// once, and each batch takes a slice of them.
+    Constant {
+        value: Arc<StringArray>,
+        keys: Option<DictionaryArray<Int32Type>>,
+    },
     /// A text column whose values come from a list fixed before the first
     /// row ([`ParquetTable::text_choices`]), each row naming one by its
     /// place in the list: no hashing and comparing of the text per row.
@@ -195,7 +199,10 @@ enum ColumnBuilder {
 impl ColumnBuilder {
     fn new(spec: &ColumnSpec, layout: &FileLayout) -> Self {
         if let Some(value) = &spec.constant {
-            return ColumnBuilder::Constant(Arc::new(StringArray::from(vec![value.as_str()])));
+            return ColumnBuilder::Constant {
+                value: Arc::new(StringArray::from(vec![value.as_str()])),
+                keys: None,
+            };
         }
         match spec.column_type {
             ColumnType::Time if layout.time_in_microseconds => ColumnBuilder::TimeMicros(
@@ -218,10 +225,16 @@ impl ColumnBuilder {
             ColumnBuilder::Float(b) => Arc::new(b.finish()),
             ColumnBuilder::Integer(b) => Arc::new(b.finish()),
             ColumnBuilder::Text(b) => Arc::new(b.finish()),
-            ColumnBuilder::Constant(value) => Arc::new(DictionaryArray::<Int32Type>::new(
-                Int32Array::from(vec![0; rows]),
-                value.clone(),
-            )),
+            ColumnBuilder::Constant { value, keys } => {
+                let keys = match keys {
+                    Some(keys) if keys.len() >= rows => keys,
+                    _ => keys.insert(DictionaryArray::<Int32Type>::new(
+                        Int32Array::from(vec![0; rows.max(BATCH_ROWS)]),
+                        value.clone(),
+                    )),
+                };
+                Arc::new(keys.slice(0, rows))
+            }
             ColumnBuilder::Choice(column) => Arc::new(column.finish()),
             ColumnBuilder::Flag(b) => Arc::new(b.finish()),
         }
@@ -546,6 +559,26 @@ impl ParquetTable {
         }
     }
 
+    /// Many rows' times at once, for [`ParquetTable::end_rows`]: one
+    /// column type's dispatch for all of them, not one per row.
+    pub fn times_ns(&mut self, column: usize, times_ns: impl IntoIterator<Item = i64>) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Time(b) => b.extend(times_ns.into_iter().map(Some)),
+            ColumnBuilder::TimeMicros(b) => {
+                b.extend(times_ns.into_iter().map(|t| Some(t.div_euclid(1000))));
+            }
+            _ => self.wrong_type(column, "a time"),
+        }
+    }
+
+    /// Many rows' values at once, for [`ParquetTable::end_rows`].
+    pub fn floats(&mut self, column: usize, values: impl IntoIterator<Item = Option<f64>>) {
+        match &mut self.columns[column] {
+            ColumnBuilder::Float(b) => b.extend(values),
+            _ => self.wrong_type(column, "a float"),
+        }
+    }
+
     #[inline]
     pub fn float(&mut self, column: usize, value: Option<f64>) {
         match &mut self.columns[column] {
@@ -638,7 +671,19 @@ impl ParquetTable {
     pub fn end_row(&mut self) -> Result<()> {
         self.rows += 1;
         self.rows_in_batch += 1;
-        if self.rows_in_batch == BATCH_ROWS {
+        if self.rows_in_batch >= BATCH_ROWS {
+            self.write_batch()?;
+        }
+        Ok(())
+    }
+
+    /// Ends `rows` rows whose columns were each set at once
+    /// ([`ParquetTable::times_ns`], [`ParquetTable::floats`]); a batch may
+    /// then hold more than [`BATCH_ROWS`].
+    pub fn end_rows(&mut self, rows: usize) -> Result<()> {
+        self.rows += rows as u64;
+        self.rows_in_batch += rows;
+        if self.rows_in_batch >= BATCH_ROWS {
             self.write_batch()?;
         }
         Ok(())

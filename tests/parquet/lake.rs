@@ -283,6 +283,39 @@ fn a_campaign_is_in_the_lake_once_however_often_it_is_ingested() {
         !moved.is_empty() && moved.iter().all(|k| k.1.ends_with("00000002.log")),
         "{moved:?}"
     );
+
+    // An entry as an acq of the manifest's first format wrote it (its
+    // content's SHA-256, no BLAKE3): its source is ingested again, to the
+    // same rows, and the others stay as they are.
+    let entries: Vec<PathBuf> = std::fs::read_dir(lake.join("_manifest"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    let part1_entry = entries
+        .iter()
+        .find(|p| std::fs::read_to_string(p).unwrap().contains("00000001.log"))
+        .unwrap();
+    let mut old: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(part1_entry).unwrap()).unwrap();
+    let fields = old.as_object_mut().unwrap();
+    assert!(
+        fields["blake3"].as_str().is_some_and(|h| h.len() == 64),
+        "{fields:?}"
+    );
+    fields.insert("format".into(), 1.into());
+    for (new, was) in [("blake3", "sha256"), ("rig_blake3", "rig_sha256")] {
+        fields.remove(new);
+        fields.insert(was.into(), "0".repeat(64).into());
+    }
+    std::fs::write(part1_entry, serde_json::to_string_pretty(&old).unwrap()).unwrap();
+    let said = ingest(&lake, Some("machine1"), &[&session, &part1, &part2]);
+    assert_eq!(said.matches("ingested again").count(), 1, "{said}");
+    assert_eq!(
+        said.matches("unchanged since its ingest").count(),
+        2,
+        "{said}"
+    );
+    assert_eq!(check_lake(&lake, &sources), after);
 }
 
 /// SIGKILL in the middle of a long source: every file the lake shows is

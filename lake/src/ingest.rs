@@ -564,32 +564,7 @@ fn write_samples(
                 if abandoned.load(Ordering::SeqCst) {
                     return Ok(Vec::new());
                 }
-                // Each file's place, rows and rows out of order, the file
-                // ready to be published. A finished file is flushed to disk
-                // on a thread of its own while the next is encoded: the
-                // flush waits on the disk (about 1 ms a file here), the
-                // encoding on the CPU.
-                let (to_flush, flushing) = std::sync::mpsc::channel::<PathBuf>();
-                let flusher = scope.spawn(move || -> Result<()> {
-                    for relative in flushing {
-                        prepare_file(tmp, lake, &relative)?;
-                    }
-                    Ok(())
-                });
-                let finished = open
-                    .files
-                    .into_iter()
-                    .map(|file| {
-                        let finished = file.finish()?;
-                        // A closed channel: the flusher failed, and says why below.
-                        let _ = to_flush.send(finished.0.clone());
-                        Ok(finished)
-                    })
-                    .collect::<Result<Vec<_>>>();
-                drop(to_flush);
-                let flushed = flusher.join().expect("flushing files does not panic");
-                let finished = finished?;
-                flushed.map(|()| finished)
+                open.finish(lake)
             }));
             handing_over.push((full, spare));
         }
@@ -726,6 +701,37 @@ impl<'a> DaySensorFiles<'a> {
             rows = &rows[same_day..];
         }
         Ok(())
+    }
+
+    /// Finishes every file: each one's place, rows and rows out of order,
+    /// the file ready to be published. A finished file is flushed to disk
+    /// on a thread of its own while the next is encoded: the flush waits
+    /// on the disk (about 1 ms a file here), the encoding on the CPU.
+    fn finish(self, lake: &Path) -> Result<Vec<(PathBuf, u64, u64)>> {
+        let tmp = self.tmp;
+        std::thread::scope(|scope| {
+            let (to_flush, flushing) = std::sync::mpsc::channel::<PathBuf>();
+            let flusher = scope.spawn(move || -> Result<()> {
+                for relative in flushing {
+                    prepare_file(tmp, lake, &relative)?;
+                }
+                Ok(())
+            });
+            let finished = self
+                .files
+                .into_iter()
+                .map(|file| {
+                    let finished = file.finish()?;
+                    // A closed channel: the flusher failed, and says why below.
+                    let _ = to_flush.send(finished.0.clone());
+                    Ok(finished)
+                })
+                .collect::<Result<Vec<_>>>();
+            drop(to_flush);
+            let flushed = flusher.join().expect("flushing files does not panic");
+            let finished = finished?;
+            flushed.map(|()| finished)
+        })
     }
 
     /// The index of the file of `sensor` on `day`, opened if new.

@@ -265,8 +265,11 @@ mod tests {
             ("session", ""),
             ("source_file", "/logs/a b/ü.mf4"),
         ];
+        // Pages of the written columns shorter than the constant columns'
+        // one page per row group, as a lake's samples files have them.
         let layout = FileLayout {
             rows_per_group: Some(70_000),
+            rows_per_page: Some(4096),
             ..FileLayout::FOR_EVERY_ENGINE
         };
         // Two full row groups and a short one; none; one row.

@@ -65,6 +65,10 @@ pub struct FileLayout {
     /// writer holds a row group's encoded pages until it is complete, so a
     /// caller with many files open at once bounds its memory with this.
     pub rows_per_group: Option<usize>,
+    /// Rows per data page at most; `None`: parquet's default (20,000).
+    /// A page is encoded and compressed once full, so smaller pages spread
+    /// that work over the writing instead of leaving it to a file's end.
+    pub rows_per_page: Option<usize>,
     /// Float columns BYTE_STREAM_SPLIT (zstd then compresses noisy values
     /// better) rather than PLAIN. Apache Spark 4.0's Parquet reader refuses
     /// that encoding ("Unsupported encoding: BYTE_STREAM_SPLIT"); PLAIN is
@@ -80,6 +84,7 @@ impl Default for FileLayout {
     fn default() -> Self {
         FileLayout {
             rows_per_group: None,
+            rows_per_page: None,
             split_floats: true,
             time_in_microseconds: false,
         }
@@ -90,6 +95,7 @@ impl FileLayout {
     /// Files every engine reads as they are, Spark included.
     pub const FOR_EVERY_ENGINE: FileLayout = FileLayout {
         rows_per_group: None,
+        rows_per_page: None,
         split_floats: false,
         time_in_microseconds: true,
     };
@@ -470,6 +476,11 @@ impl ParquetTable {
         let mut properties = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))
             .set_max_row_group_row_count(Some(rows_per_group))
+            .set_data_page_row_count_limit(
+                layout
+                    .rows_per_page
+                    .unwrap_or(parquet::file::properties::DEFAULT_DATA_PAGE_ROW_COUNT_LIMIT),
+            )
             .set_created_by(format!("acq {}", env!("CARGO_PKG_VERSION")));
         if !comments.is_empty() {
             properties = properties.set_key_value_metadata(Some(vec![KeyValue::new(

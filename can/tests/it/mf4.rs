@@ -144,6 +144,31 @@ proptest! {
         let ended = (0..bytes.len() + 2)
             .any(|_| matches!(reader.next_record(), Ok(None) | Err(ReadError::Io(_))));
         prop_assert!(ended, "no end after {} records", bytes.len() + 2);
+        // Column by column, the frames one by one gives before its first
+        // error, and an error where it has one.
+        let mut one_by_one = Vec::new();
+        let mut reader = Mf4Reader::new(&bytes[..]);
+        let failed = loop {
+            match reader.next_record() {
+                Ok(Some(record)) => one_by_one.push(record.frame),
+                Ok(None) => break false,
+                Err(_) => break true,
+            }
+        };
+        let (mut batched, mut batch) = (Vec::new(), FrameBatch::default());
+        let mut reader = Mf4Reader::new(&bytes[..]);
+        let batch_failed = loop {
+            batch.clear();
+            let more = reader.next_batch(&mut batch, 7);
+            batched.extend((0..batch.len()).map(|index| batch.frame(index)));
+            match more {
+                Ok(true) => {}
+                Ok(false) => break false,
+                Err(_) => break true,
+            }
+        };
+        prop_assert_eq!(batched, one_by_one);
+        prop_assert_eq!(batch_failed, failed);
     }
 }
 

@@ -53,7 +53,13 @@ impl Cursor {
                 self.start = pos;
                 self.records_read += records;
             }
-            self.scan_batch(batch, max, start_ns, &mut interfaces)?;
+            // After the plain loop, the record it stopped at (an error
+            // frame, say), then the plain loop again.
+            let careful_max = match self.plain {
+                Some(_) => max.min(batch.len() + 1),
+                None => max,
+            };
+            self.scan_batch(batch, careful_max, start_ns, &mut interfaces)?;
             if batch.len() >= max {
                 break;
             }

@@ -43,19 +43,21 @@ impl Lane {
 
     /// A member as a lane of records of `size` bytes; `None` for one that
     /// needs more (a conversion per value, the record's index) or a field
-    /// past the record or 64 bits.
+    /// past the record, 64 bits or [`LANE_BYTES`].
     fn of(member: &Member, size: usize) -> Option<Self> {
         let bits = |field: &Field| {
             let end = field.byte + (field.bit + field.bits).div_ceil(8) as usize;
-            (field.bit + field.bits <= 64 && field.bits > 0 && end <= size && field.byte < 64).then(
-                || Lane {
+            (field.bit + field.bits <= 64
+                && field.bits > 0
+                && end <= size
+                && field.byte < LANE_BYTES)
+                .then(|| Lane {
                     byte: field.byte,
                     bit: field.bit,
                     mask: u64::MAX >> (64 - field.bits),
                     constant: 0,
                     table: None,
-                },
-            )
+                })
         };
         match member {
             Member::Bits(field) => bits(field),
@@ -72,9 +74,9 @@ impl Lane {
     /// where the table has no value.
     #[inline(always)]
     fn value(&self, window: &Window) -> Option<u64> {
-        // `byte` is below 64 (checked when made): the load needs no
-        // bounds check.
-        let at = self.byte % 64;
+        // `byte` is below LANE_BYTES (checked when made): the load needs
+        // no bounds check.
+        let at = self.byte % LANE_BYTES;
         let mut word = [0u8; 8];
         word.copy_from_slice(&window[at..at + 8]);
         let raw = (u64::from_le_bytes(word) >> self.bit) & self.mask | self.constant;
@@ -85,9 +87,14 @@ impl Lane {
     }
 }
 
+/// A lane's first byte is below this: python-can's records (and
+/// loggers' like them) have their Dir and FD flags after 64 data bytes,
+/// at bytes 80-83.
+const LANE_BYTES: usize = 128;
+
 /// The bytes a record's lanes read: the record and what follows it in
 /// the buffer, 8 bytes past the last lane's first byte.
-type Window = [u8; 72];
+type Window = [u8; LANE_BYTES + 8];
 
 /// A plain CAN data-frame group's record, as lanes.
 #[derive(Clone, Debug)]
@@ -150,7 +157,7 @@ impl PlainRecord {
     /// careful path must look at it.
     #[inline(always)]
     fn shape(&self, rest: &[u8]) -> Option<Shape> {
-        let window: &Window = rest.get(..72)?.try_into().ok()?;
+        let window: &Window = rest.get(..size_of::<Window>())?.try_into().ok()?;
         let raw_id = self.id.value(window)?;
         let extended = match &self.ide {
             Some(ide) => ide.value(window)? != 0,
@@ -239,8 +246,11 @@ impl Shape {
 }
 
 impl PlainGroup {
-    /// The group of these layouts, if every one is plain and its record
-    /// ids are one byte or none.
+    /// The group of these layouts, if its record ids are one byte or none
+    /// and its data frames' records are plain. Its other CAN groups' records
+    /// (error and remote frames, which python-can writes beside the data
+    /// frames, and are rare in a log) stop the loop and go the careful way,
+    /// as an unknown record id does.
     pub(super) fn of(record_id_bytes: usize, layouts: &[(u64, Layout)]) -> Option<Self> {
         if record_id_bytes > 1 || layouts.is_empty() || layouts.len() >= usize::from(u8::MAX) {
             return None;
@@ -248,23 +258,30 @@ impl PlainGroup {
         let mut by_id = Box::new([u8::MAX; 256]);
         let mut records = Vec::with_capacity(layouts.len());
         let mut cans = Vec::new();
-        for (index, (id, layout)) in layouts.iter().enumerate() {
+        for (id, layout) in layouts {
             let record = match layout {
                 Layout::Skip(size) => (*size, None),
-                Layout::Can(size, can) => {
-                    cans.push(PlainRecord::of(*size, can)?);
-                    (*size, Some((cans.len() - 1) as u8))
-                }
+                Layout::Can(size, can) => match PlainRecord::of(*size, can) {
+                    Some(plain) => {
+                        cans.push(plain);
+                        (*size, Some((cans.len() - 1) as u8))
+                    }
+                    None if can.frame_type != FrameType::Data && record_id_bytes == 1 => continue,
+                    None => return None,
+                },
                 Layout::Vlsd => return None,
             };
             if record.0 == 0 {
                 return None;
             }
-            records.push(record);
             match record_id_bytes {
                 0 => by_id.fill(0),
-                _ => *by_id.get_mut(usize::try_from(*id).ok()?)? = index as u8,
+                _ => *by_id.get_mut(usize::try_from(*id).ok()?)? = records.len() as u8,
             }
+            records.push(record);
+        }
+        if cans.is_empty() {
+            return None;
         }
         let one_size = Some(records[0].0).filter(|size| records.iter().all(|r| r.0 == *size));
         Some(PlainGroup {
@@ -398,7 +415,7 @@ impl PlainGroup {
         (cut_body - id_bytes, cut, false)
     }
 
-    /// Walks the whole records from `pos` on (each with 72 bytes from its
+    /// Walks the whole records from `pos` on (each with a window of bytes from its
     /// start in `buf`, up to `room` records) into `places`; returns where
     /// it stopped, how many records it passed and `true` if it stopped
     /// before `room` (at the buffer's end or a record id it does not know).

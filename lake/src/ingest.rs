@@ -638,8 +638,13 @@ type Chunk = (usize, Vec<Row>);
 /// chunk's rows into its file in one copy.
 const CHUNK_ROWS: usize = 1024;
 
-/// Chunks decoded ahead of a writer at most: the decoder waits beyond.
-const CHUNKS_IN_FLIGHT: usize = 64;
+/// Chunks decoded ahead of a writer at most: the decoder waits beyond
+/// (12 MB a writer). Sensors of one rate fill their chunks together, and
+/// a writer's work comes in bursts (a page of each of its files encoded
+/// and compressed at once): with 64, the decoder waited on one writer
+/// while the other had nothing to do, and a quarter of two cores stayed
+/// idle through an ingest; with 512 neither waits.
+const CHUNKS_IN_FLIGHT: usize = 512;
 
 /// The samples files of one source being written, one per sensor and UTC
 /// day, each opened at its first sample.

@@ -122,18 +122,15 @@ impl<R: BufRead> CandumpReader<R> {
                 }
                 if let Some(usual) = parse_usual_line(text) {
                     let interface = match last_iface {
-                        Some((iface, index)) if iface.as_bytes() == usual.iface => index,
-                        _ => match IfaceName::from_bytes(usual.iface) {
-                            Some(iface) => {
-                                let index = batch.interface_index(iface);
-                                last_iface = Some((iface, index));
-                                index
-                            }
-                            // Not a name Linux takes: parse_line says why.
-                            None => u16::MAX,
-                        },
+                        Some((iface, index)) if iface.as_bytes() == usual.iface => Some(index),
+                        // Not a name Linux takes (`None`): parse_line says why.
+                        _ => IfaceName::from_bytes(usual.iface).map(|iface| {
+                            let index = batch.interface_index(iface);
+                            last_iface = Some((iface, index));
+                            index
+                        }),
                     };
-                    if interface != u16::MAX {
+                    if let Some(interface) = interface {
                         batch.timestamp_ns.push(usual.timestamp_ns);
                         batch.interface.push(interface);
                         batch.id.push(usual.id);

@@ -7,8 +7,10 @@
 
 use rustc_hash::FxHashMap;
 
+use crate::profiles::Conversion;
 use crate::{Rig, SensorSource};
-use acq_can::canopen::{HeartbeatEvent, HeartbeatMonitor};
+use acq_can::canopen::{HeartbeatEvent, HeartbeatMonitor, PdoMapping};
+use acq_can::dbc::MessageCodec;
 use acq_can::frame::{Frame, FrameFields, FrameKind, IfaceName};
 use acq_can::j1939::J1939Id;
 use acq_can::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
@@ -52,6 +54,26 @@ pub enum FrameUse {
     NotData,
 }
 
+/// A sensor of a DBC or CANopen id as the per-frame loop needs it. The
+/// rig's sensor records are hundreds of bytes each: reading one for every
+/// frame (its source, then its conversion) missed the cache, with 76 of
+/// them, on most frames of a log.
+struct IdSensor<'r> {
+    sensor: usize,
+    channel: IdChannel<'r>,
+    conversion: &'r Conversion,
+}
+
+/// Where an [`IdSensor`]'s value lies in its frames.
+enum IdChannel<'r> {
+    /// Signal `signal_index` of `message`, found in the bus's DBC once.
+    Dbc {
+        message: &'r MessageCodec,
+        signal_index: usize,
+    },
+    Canopen(&'r PdoMapping),
+}
+
 #[derive(Clone, Copy, Debug)]
 struct J1939Entry {
     source_address: Option<u8>,
@@ -72,7 +94,7 @@ enum J1939Value {
 pub struct SensorDecoder<'r> {
     rig: &'r Rig,
     /// Sensors by (bus, CAN id key) for DBC and CANopen sources.
-    by_id: FxHashMap<(usize, u32), Vec<usize>>,
+    by_id: FxHashMap<(usize, u32), Vec<IdSensor<'r>>>,
     /// J1939 sensors by (bus, PGN).
     by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>>,
     heartbeats: Vec<HeartbeatMonitor>,
@@ -85,7 +107,7 @@ pub const HEARTBEAT_TIMEOUT_PERIODS: f64 = 3.0;
 
 impl<'r> SensorDecoder<'r> {
     pub fn new(rig: &'r Rig) -> Self {
-        let mut by_id: FxHashMap<(usize, u32), Vec<usize>> = FxHashMap::default();
+        let mut by_id: FxHashMap<(usize, u32), Vec<IdSensor<'r>>> = FxHashMap::default();
         let mut by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>> = FxHashMap::default();
         let mut heartbeats = vec![HeartbeatMonitor::default(); rig.buses.len()];
         for (index, sensor) in rig.sensors.iter().enumerate() {
@@ -108,19 +130,39 @@ impl<'r> SensorDecoder<'r> {
                         source_address: *source_address,
                         sensor: index,
                     }),
-                SensorSource::Dbc { id, .. } => {
-                    by_id.entry((sensor.bus, id.key())).or_default().push(index)
+                SensorSource::Dbc {
+                    id, signal_index, ..
+                } => {
+                    // A message the bus's DBC lacks decodes nothing.
+                    if let Some(message) = rig.buses[sensor.bus].dbc.message(*id) {
+                        by_id
+                            .entry((sensor.bus, id.key()))
+                            .or_default()
+                            .push(IdSensor {
+                                sensor: index,
+                                channel: IdChannel::Dbc {
+                                    message,
+                                    signal_index: *signal_index,
+                                },
+                                conversion: &sensor.conversion,
+                            });
+                    }
                 }
                 SensorSource::Canopen {
                     cob_id,
                     node_id,
+                    mapping,
                     heartbeat_ms,
                     ..
                 } => {
                     by_id
                         .entry((sensor.bus, cob_id.key()))
                         .or_default()
-                        .push(index);
+                        .push(IdSensor {
+                            sensor: index,
+                            channel: IdChannel::Canopen(mapping),
+                            conversion: &sensor.conversion,
+                        });
                     if let Some(period_ms) = heartbeat_ms {
                         let timeout_ns =
                             (period_ms * 1e6 * HEARTBEAT_TIMEOUT_PERIODS).round() as i64;
@@ -228,38 +270,33 @@ impl<'r> SensorDecoder<'r> {
         let mut decoded = false;
         let mut undecodable = false;
         if let Some(sensors) = self.by_id.get(&(bus, frame.id.key())) {
-            for &index in sensors {
-                let sensor = &self.rig.sensors[index];
-                let channel = match &sensor.source {
-                    SensorSource::Dbc { signal_index, .. } => {
-                        let Some(message) = self.rig.buses[bus].dbc.message(frame.id) else {
+            for sensor in sensors {
+                let reading = match sensor.channel {
+                    IdChannel::Dbc {
+                        message,
+                        signal_index,
+                    } => match message.decode_signal(payload, signal_index) {
+                        Ok(Some(value)) => value.as_f64(),
+                        Ok(None) => continue, // not selected by the multiplexer
+                        Err(_) => {
+                            undecodable = true;
                             continue;
-                        };
-                        match message.decode_signal(payload, *signal_index) {
-                            Ok(Some(value)) => Some(value.as_f64()),
-                            Ok(None) => continue, // not selected by the multiplexer
-                            Err(_) => {
-                                undecodable = true;
-                                continue;
-                            }
                         }
-                    }
-                    SensorSource::Canopen { mapping, .. } => match mapping.process_value(payload) {
-                        Some(value) => Some(value),
+                    },
+                    IdChannel::Canopen(mapping) => match mapping.process_value(payload) {
+                        Some(value) => value,
                         None => {
                             undecodable = true;
                             continue;
                         }
                     },
-                    SensorSource::J1939 { .. } => continue,
                 };
                 decoded = true;
+                let value = sensor.conversion.apply(reading);
                 emit(SensorEvent::Sample(Sample {
                     time_ns,
-                    sensor: index,
-                    value: channel
-                        .map(|v| sensor.conversion.apply(v))
-                        .filter(|v| v.is_finite()),
+                    sensor: sensor.sensor,
+                    value: value.is_finite().then_some(value),
                 }));
             }
         }

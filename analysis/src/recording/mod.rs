@@ -252,6 +252,7 @@ impl Recording {
     ) -> Result<()> {
         let (mut inputs, empty_logs) = self.open_inputs()?;
         let mut decoder = SensorDecoder::new(&self.rig);
+        let offset_ns = self.offsets_by_sensor(clock_offset_ns);
         let mut scan = ScanCounts::default();
         let mut failure = None;
         for_each_batch(
@@ -261,7 +262,7 @@ impl Recording {
             &mut scan,
             |_, batch| {
                 decoder.decode_batch(batch, |_, event| {
-                    self.pass_on(event, clock_offset_ns, counts, &mut failure, &mut on_sample);
+                    Self::pass_on(event, &offset_ns, counts, &mut failure, &mut on_sample);
                 });
                 failure.take().map_or(Ok(()), Err)
             },
@@ -273,9 +274,8 @@ impl Recording {
     /// unless an earlier one failed: the first failure is kept.
     #[inline]
     fn pass_on(
-        &self,
         event: SensorEvent,
-        clock_offset_ns: &[i64],
+        offset_ns_by_sensor: &[i64],
         counts: &mut SampleCounts,
         failure: &mut Option<AcqError>,
         on_sample: &mut impl FnMut(Sample) -> Result<()>,
@@ -284,7 +284,7 @@ impl Recording {
             return;
         }
         if let SensorEvent::Sample(sample) = event {
-            let sample = self.on_reference_clock(sample, clock_offset_ns, counts);
+            let sample = Self::on_reference_clock(sample, offset_ns_by_sensor, counts);
             if let Err(e) = on_sample(sample) {
                 *failure = Some(e);
             }
@@ -318,16 +318,25 @@ impl Recording {
         Ok((inputs, empty_logs))
     }
 
+    /// Each sensor's bus's clock offset (`clock_offset_ns[bus]`, 0 where
+    /// none is given): looked up per sample by sensor, as the rig's sensor
+    /// records are too large to read for every sample.
+    fn offsets_by_sensor(&self, clock_offset_ns: &[i64]) -> Vec<i64> {
+        self.rig
+            .sensors
+            .iter()
+            .map(|s| clock_offset_ns.get(s.bus).copied().unwrap_or(0))
+            .collect()
+    }
+
     /// A decoded sample on the reference clock, counted.
     #[inline]
     fn on_reference_clock(
-        &self,
         mut sample: Sample,
-        clock_offset_ns: &[i64],
+        offset_ns_by_sensor: &[i64],
         counts: &mut SampleCounts,
     ) -> Sample {
-        let bus = self.rig.sensors[sample.sensor].bus;
-        sample.time_ns -= clock_offset_ns.get(bus).copied().unwrap_or(0);
+        sample.time_ns -= offset_ns_by_sensor[sample.sensor];
         counts.samples += 1;
         if sample.value.is_none() {
             counts.missing_values += 1;
@@ -343,6 +352,7 @@ impl Recording {
     ) -> Result<()> {
         let (mut inputs, empty_logs) = self.open_inputs()?;
         let mut decoder = SensorDecoder::new(&self.rig);
+        let offset_ns = self.offsets_by_sensor(clock_offset_ns);
         let mut scan = ScanCounts::default();
         let mut failure = None;
         // A recording cut by a crash can end in half a line: count, go on.
@@ -354,7 +364,7 @@ impl Recording {
             |_, record| {
                 let mut on_sample = |sample| on_event(RecordingEvent::Sample(sample));
                 let used = decoder.decode(&record.frame, |event| {
-                    self.pass_on(event, clock_offset_ns, counts, &mut failure, &mut on_sample);
+                    Self::pass_on(event, &offset_ns, counts, &mut failure, &mut on_sample);
                 });
                 if failure.is_none() {
                     if let Err(e) = on_event(RecordingEvent::Frame(&record.frame, used)) {

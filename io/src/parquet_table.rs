@@ -574,9 +574,10 @@ impl ParquetTable {
     /// column type's dispatch for all of them, not one per row.
     pub fn times_ns(&mut self, column: usize, times_ns: impl IntoIterator<Item = i64>) {
         match &mut self.columns[column] {
-            ColumnBuilder::Time(b) => b.extend(times_ns.into_iter().map(Some)),
+            // Extended as a whole (reserved once), not appended row by row.
+            ColumnBuilder::Time(b) => b.extend_from_iter_option(times_ns.into_iter().map(Some)),
             ColumnBuilder::TimeMicros(b) => {
-                b.extend(times_ns.into_iter().map(|t| Some(t.div_euclid(1000))));
+                b.extend_from_iter_option(times_ns.into_iter().map(|t| Some(t.div_euclid(1000))));
             }
             _ => self.wrong_type(column, "a time"),
         }
@@ -585,7 +586,7 @@ impl ParquetTable {
     /// Many rows' values at once, for [`ParquetTable::end_rows`].
     pub fn floats(&mut self, column: usize, values: impl IntoIterator<Item = Option<f64>>) {
         match &mut self.columns[column] {
-            ColumnBuilder::Float(b) => b.extend(values),
+            ColumnBuilder::Float(b) => b.extend_from_iter_option(values),
             _ => self.wrong_type(column, "a float"),
         }
     }

@@ -490,6 +490,13 @@ impl ParquetTable {
         }
         for column in columns {
             let path = ColumnPath::from(column.name.as_str());
+            // A time column's deltas, bit-packed, are nearly all noise
+            // (a logger's jitter): zstd took a tenth of its time on them
+            // and saved 5 % of the column.
+            if column.column_type == ColumnType::Time {
+                properties =
+                    properties.set_column_compression(path.clone(), Compression::UNCOMPRESSED);
+            }
             let encoding = match column.column_type {
                 ColumnType::Time | ColumnType::Integer => Encoding::DELTA_BINARY_PACKED,
                 ColumnType::Float if layout.split_floats => Encoding::BYTE_STREAM_SPLIT,

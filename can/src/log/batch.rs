@@ -140,6 +140,7 @@ impl FrameBatch {
     }
 
     /// The payload of frame `index`.
+    #[inline]
     pub fn payload(&self, index: usize) -> &[u8] {
         let start = match index {
             0 => 0,

@@ -20,6 +20,11 @@
 #    samples or more, and the same SQL through `acq lake query` (the whole
 #    process) and DuckDB (in its process, from the query to the last row;
 #    the same number of rows checked), best of ROUNDS each.
+#
+# Exits 1, after every figure, when a goal is missed: the ingest at least
+# 10 times the script (whole processes), the peak memory at 16 x the input
+# at most 1.5 times that at 4 x (bounded, not growing with the length),
+# and each query within 2 times DuckDB's time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-60}
@@ -108,16 +113,26 @@ printf '%-28s %10.3f %14.0f %14.1f %12.0f\n' "asammdf + pandas script" "$script_
 printf '%-28s %10.3f\n' "  (from MDF() on)" "$script_inner_s"
 printf 'script / acq: %.2f whole processes, %.2f against the script from MDF() on\n' \
     "$(echo "$script_s / $acq_s" | bc -l)" "$(echo "$script_inner_s / $acq_s" | bc -l)"
+missed=()
+ingest_ratio=$(echo "$script_s / $acq_s" | bc -l)
+if [ "$(echo "$ingest_ratio < 10" | bc -l)" = 1 ]; then
+    missed+=("the ingest is $(printf '%.2f' "$ingest_ratio") x the script, below 10 x")
+fi
 
 memory=""
+declare -A peak_kb
 for times in 4 16; do
     make_log "x$times" "$((times * seconds))"
     rm -rf "$work/lake-x"
     run=$(timed "$acq" lake ingest "$work/x$times.log" --rig "$work/rig.toml" --lake "$work/lake-x")
+    peak_kb[$times]=$(echo "$run" | cut -d' ' -f2)
     memory="$memory, $(echo "$run" | cut -d' ' -f2 | awk '{printf "%.0f", $1 / 1024}') MB for ${times}x ($(mb "$work/x$times.log") MB of candump)"
     rm -rf "$work/lake-x" "$work/x$times.log"
 done
 echo "== memory: peak $((acq_kb / 1024)) MB for the MF4 above$memory"
+if [ "$(echo "${peak_kb[16]} > 1.5 * ${peak_kb[4]}" | bc -l)" = 1 ]; then
+    missed+=("peak memory grows with the input: ${peak_kb[16]} kB at 16 x, ${peak_kb[4]} kB at 4 x")
+fi
 echo "== size: lake $(du -sk "$work/lake/samples" | cut -f1) kB of samples for $(du -sk "$file" | cut -f1) kB of MF4 and $(du -sk "$work/short.log" | cut -f1) kB of candump; asammdf + pandas wrote $(du -sk "$work/pandas" | cut -f1) kB"
 
 rm -rf "$work/lake" "$work/pandas"
@@ -159,4 +174,11 @@ for index in "${!queries[@]}"; do
         echo "$2"
     done | best)
     printf '%-6s %10.3f %10.3f %10.2f   %s\n' "$((index + 1))" "$acq_q" "$duck_q" "$(echo "$acq_q / $duck_q" | bc -l)" "$sql"
+    if [ "$(echo "$acq_q > 2 * $duck_q" | bc -l)" = 1 ]; then
+        missed+=("query $((index + 1)) takes $(printf '%.2f' "$(echo "$acq_q / $duck_q" | bc -l)") x DuckDB's time, above 2 x")
+    fi
 done
+if [ "${#missed[@]}" -gt 0 ]; then
+    printf 'lake: goal missed: %s\n' "${missed[@]}" >&2
+    exit 1
+fi

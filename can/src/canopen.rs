@@ -31,6 +31,7 @@ pub fn heartbeat_cob_id(node: u8) -> Option<CanId> {
 }
 
 /// The node whose heartbeat this id is, if it is one.
+#[inline]
 pub fn heartbeat_node(id: CanId) -> Option<u8> {
     match id {
         CanId::Standard(raw) if (HEARTBEAT_BASE + 1..=HEARTBEAT_BASE + 127).contains(&raw) => {
@@ -242,6 +243,10 @@ impl HeartbeatMonitor {
         mut emit: impl FnMut(HeartbeatEvent),
     ) -> bool {
         self.started_ns.get_or_insert(frame.timestamp_ns);
+        // Most buses have no watched node: nothing to look up per frame.
+        if self.nodes.is_empty() {
+            return false;
+        }
         let Some(node) = heartbeat_node(frame.id) else {
             return false;
         };

@@ -74,6 +74,7 @@ impl CanId {
 
     /// The id with `CAN_EFF_FLAG` set for extended ids: the key DBC files
     /// and Linux use, unique across both id spaces.
+    #[inline]
     pub fn key(self) -> u32 {
         match self {
             CanId::Standard(id) => u32::from(id),

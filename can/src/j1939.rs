@@ -26,6 +26,7 @@ pub struct J1939Id {
 
 impl J1939Id {
     /// Splits an extended id; J1939 uses only 29-bit ids.
+    #[inline]
     pub fn from_can_id(id: CanId) -> Option<Self> {
         let CanId::Extended(raw) = id else {
             return None;

@@ -11,7 +11,7 @@ use crate::profiles::Conversion;
 use crate::{Rig, SensorSource};
 use acq_can::canopen::{HeartbeatEvent, HeartbeatMonitor, PdoMapping};
 use acq_can::dbc::MessageCodec;
-use acq_can::frame::{Frame, FrameFields, FrameKind, IfaceName};
+use acq_can::frame::{CanId, Frame, FrameFields, FrameKind, IfaceName};
 use acq_can::j1939::J1939Id;
 use acq_can::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
 use acq_can::FrameBatch;
@@ -74,6 +74,71 @@ enum IdChannel<'r> {
     Canopen(&'r PdoMapping),
 }
 
+/// Entries by (bus, CAN id): an 11-bit id's through an array a bus (a
+/// frame's lookup is an index, not a hash), any other's through a map.
+struct IdTable<T> {
+    entries: Vec<Vec<T>>,
+    /// Per bus, an index into `entries` plus one by standard id; 0: none.
+    standard: Vec<Box<[u32; STANDARD_IDS]>>,
+    /// By (bus, [`CanId::key`]).
+    others: FxHashMap<(usize, u32), usize>,
+}
+
+/// 11-bit ids.
+const STANDARD_IDS: usize = 1 << 11;
+
+impl<T> IdTable<T> {
+    fn new(buses: usize) -> Self {
+        IdTable {
+            entries: Vec::new(),
+            standard: (0..buses).map(|_| Box::new([0; STANDARD_IDS])).collect(),
+            others: FxHashMap::default(),
+        }
+    }
+
+    /// The place of (bus, id) in the array, if it has one.
+    #[inline]
+    fn standard_place(
+        standard: &[Box<[u32; STANDARD_IDS]>],
+        bus: usize,
+        id: CanId,
+    ) -> Option<(usize, usize)> {
+        match id {
+            CanId::Standard(raw) if usize::from(raw) < STANDARD_IDS && bus < standard.len() => {
+                Some((bus, usize::from(raw)))
+            }
+            _ => None,
+        }
+    }
+
+    fn push(&mut self, bus: usize, id: CanId, entry: T) {
+        let slot = match Self::standard_place(&self.standard, bus, id) {
+            Some((bus, raw)) => {
+                let place = &mut self.standard[bus][raw];
+                if *place == 0 {
+                    self.entries.push(Vec::new());
+                    *place = self.entries.len() as u32;
+                }
+                *place as usize - 1
+            }
+            None => *self.others.entry((bus, id.key())).or_insert_with(|| {
+                self.entries.push(Vec::new());
+                self.entries.len() - 1
+            }),
+        };
+        self.entries[slot].push(entry);
+    }
+
+    #[inline]
+    fn get(&self, bus: usize, id: CanId) -> Option<&[T]> {
+        let slot = match Self::standard_place(&self.standard, bus, id) {
+            Some((bus, raw)) => (self.standard[bus][raw] as usize).checked_sub(1)?,
+            None => *self.others.get(&(bus, id.key()))?,
+        };
+        self.entries.get(slot).map(Vec::as_slice)
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct J1939Entry {
     source_address: Option<u8>,
@@ -93,8 +158,8 @@ enum J1939Value {
 /// Decodes frames into sensor samples for one rig.
 pub struct SensorDecoder<'r> {
     rig: &'r Rig,
-    /// Sensors by (bus, CAN id key) for DBC and CANopen sources.
-    by_id: FxHashMap<(usize, u32), Vec<IdSensor<'r>>>,
+    /// Sensors by (bus, CAN id) for DBC and CANopen sources.
+    by_id: IdTable<IdSensor<'r>>,
     /// J1939 sensors by (bus, PGN).
     by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>>,
     heartbeats: Vec<HeartbeatMonitor>,
@@ -107,7 +172,7 @@ pub const HEARTBEAT_TIMEOUT_PERIODS: f64 = 3.0;
 
 impl<'r> SensorDecoder<'r> {
     pub fn new(rig: &'r Rig) -> Self {
-        let mut by_id: FxHashMap<(usize, u32), Vec<IdSensor<'r>>> = FxHashMap::default();
+        let mut by_id = IdTable::new(rig.buses.len());
         let mut by_pgn: FxHashMap<(usize, u32), Vec<J1939Entry>> = FxHashMap::default();
         let mut heartbeats = vec![HeartbeatMonitor::default(); rig.buses.len()];
         for (index, sensor) in rig.sensors.iter().enumerate() {
@@ -135,17 +200,18 @@ impl<'r> SensorDecoder<'r> {
                 } => {
                     // A message the bus's DBC lacks decodes nothing.
                     if let Some(message) = rig.buses[sensor.bus].dbc.message(*id) {
-                        by_id
-                            .entry((sensor.bus, id.key()))
-                            .or_default()
-                            .push(IdSensor {
+                        by_id.push(
+                            sensor.bus,
+                            *id,
+                            IdSensor {
                                 sensor: index,
                                 channel: IdChannel::Dbc {
                                     message,
                                     signal_index: *signal_index,
                                 },
                                 conversion: &sensor.conversion,
-                            });
+                            },
+                        );
                     }
                 }
                 SensorSource::Canopen {
@@ -155,14 +221,15 @@ impl<'r> SensorDecoder<'r> {
                     heartbeat_ms,
                     ..
                 } => {
-                    by_id
-                        .entry((sensor.bus, cob_id.key()))
-                        .or_default()
-                        .push(IdSensor {
+                    by_id.push(
+                        sensor.bus,
+                        *cob_id,
+                        IdSensor {
                             sensor: index,
                             channel: IdChannel::Canopen(mapping),
                             conversion: &sensor.conversion,
-                        });
+                        },
+                    );
                     if let Some(period_ms) = heartbeat_ms {
                         let timeout_ns =
                             (period_ms * 1e6 * HEARTBEAT_TIMEOUT_PERIODS).round() as i64;
@@ -269,7 +336,7 @@ impl<'r> SensorDecoder<'r> {
         let time_ns = frame.timestamp_ns;
         let mut decoded = false;
         let mut undecodable = false;
-        if let Some(sensors) = self.by_id.get(&(bus, frame.id.key())) {
+        if let Some(sensors) = self.by_id.get(bus, frame.id) {
             for sensor in sensors {
                 let reading = match sensor.channel {
                     IdChannel::Dbc {

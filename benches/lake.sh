@@ -80,9 +80,16 @@ print(values, time.perf_counter() - started)
 PY
 
 best() { sort -g | head -1; }
-# "SECONDS KB" of a whole command: wall time and peak resident memory.
-timed() { /usr/bin/time -f '%e %M' -o "$work/time.txt" "$@" >"$work/out.txt" 2>"$work/err.txt" || {
-    cat "$work/err.txt" >&2; exit 1; }; cat "$work/time.txt"; }
+# "SECONDS KB" of a whole command: wall time (to the microsecond: /usr/bin/time
+# gives hundredths, 4 % of a 0.25 s ingest) and peak resident memory.
+timed() {
+    local start end
+    start=$(date +%s.%N)
+    /usr/bin/time -f '%M' -o "$work/time.txt" "$@" >"$work/out.txt" 2>"$work/err.txt" || {
+        cat "$work/err.txt" >&2; exit 1; }
+    end=$(date +%s.%N)
+    printf '%.6f %s\n' "$(echo "$end - $start" | bc -l)" "$(cat "$work/time.txt")"
+}
 mb() { du -sm "$1" | cut -f1; }
 
 file="$work/short.mf4"

@@ -54,10 +54,9 @@ pub enum FrameUse {
     NotData,
 }
 
-/// A sensor of a DBC or CANopen id as the per-frame loop needs it. The
-/// rig's sensor records are hundreds of bytes each: reading one for every
-/// frame (its source, then its conversion) missed the cache, with 76 of
-/// them, on most frames of a log.
+/// A sensor of a DBC or CANopen id as the per-frame loop needs it: its
+/// message found in the bus's DBC once, not per frame and signal, and none
+/// of the rig's sensor record (hundreds of bytes) read per frame.
 struct IdSensor<'r> {
     sensor: usize,
     channel: IdChannel<'r>,

@@ -30,7 +30,8 @@ use can_dbc::{Dbc, MessageId, MultiplexIndicator, SignalExtendedValueType, Value
 use rustc_hash::FxHashMap;
 
 use crate::bits::{BitField, ByteOrder};
-use crate::frame::{CanId, MAX_STANDARD_ID};
+use crate::frame::CanId;
+use crate::id_index::IdIndex;
 use crate::j1939::J1939Id;
 
 /// A physical value as cantools would give it: an exact integer when the
@@ -469,10 +470,8 @@ pub struct DbcWarning(pub String);
 #[derive(Clone, Debug, Default)]
 pub struct DbcDatabase {
     messages: Vec<MessageCodec>,
-    /// Index into `messages` by 11-bit id (`u32::MAX` = none); a flat table
-    /// because standard ids are the common case and a lookup must be cheap.
-    standard: Vec<u32>,
-    extended: FxHashMap<u32, u32>,
+    /// Index into `messages` by id.
+    by_id: IdIndex,
     /// The J1939 messages by PGN, in the order they were added.
     by_pgn: FxHashMap<u32, Vec<u32>>,
     matching: IdMatching,
@@ -491,14 +490,11 @@ pub enum IdMatching {
     ExactIds,
 }
 
-const NO_MESSAGE: u32 = u32::MAX;
-
 impl DbcDatabase {
     pub fn new() -> Self {
         DbcDatabase {
             messages: Vec::new(),
-            standard: vec![NO_MESSAGE; usize::from(MAX_STANDARD_ID) + 1],
-            extended: FxHashMap::default(),
+            by_id: IdIndex::new(),
             by_pgn: FxHashMap::default(),
             matching: IdMatching::default(),
         }
@@ -610,12 +606,7 @@ impl DbcDatabase {
         if let Some(pgn) = codec.j1939_pgn {
             self.by_pgn.entry(pgn).or_default().push(index);
         }
-        match codec.id {
-            CanId::Standard(id) => self.standard[usize::from(id)] = index,
-            CanId::Extended(id) => {
-                self.extended.insert(id, index);
-            }
-        }
+        self.by_id.insert(codec.id, index);
         self.messages.push(codec);
         Ok(())
     }
@@ -645,11 +636,7 @@ impl DbcDatabase {
     /// Index of the message of exactly this id.
     #[inline]
     fn exact_index(&self, id: CanId) -> Option<usize> {
-        let index = match id {
-            CanId::Standard(id) => *self.standard.get(usize::from(id))?,
-            CanId::Extended(id) => *self.extended.get(&id)?,
-        };
-        (index != NO_MESSAGE).then_some(index as usize)
+        self.by_id.get(id).map(|index| index as usize)
     }
 
     /// The J1939 message a 29-bit id no message has matches by its PGN:

@@ -6,7 +6,8 @@
 //! bus, on a log file and under a fuzzer. What a rig's sensors make of the
 //! decoded values is `acq-rig`'s.
 //!
-//! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface.
+//! - [`frame`]: the CAN frame (classic, FD, remote, error) with timestamp and interface;
+//!   [`id_index`]: places by CAN id, for the lookups made once a frame.
 //! - [`log`]: log files: the record every reader yields, one module per format
 //!   (can-utils `candump -L`, Vector ASC and BLF), and the reader that picks the format.
 //! - [`kernel`]: the SocketCAN `can_frame`/`canfd_frame` byte layout; [`bus_error`]: error frames.
@@ -21,10 +22,12 @@ pub mod canopen;
 pub mod dbc;
 pub mod frame;
 mod hex;
+pub mod id_index;
 pub mod j1939;
 pub mod j1939_tp;
 pub mod kernel;
 pub mod log;
 
 pub use frame::{CanId, Direction, Frame, FrameFields, FrameKind, IfaceName};
+pub use id_index::IdIndex;
 pub use log::{FrameBatch, LogFormat, LogReader, LogRecord, ParseError, Place, ReadError};

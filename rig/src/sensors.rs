@@ -14,7 +14,7 @@ use acq_can::dbc::MessageCodec;
 use acq_can::frame::{CanId, Frame, FrameFields, FrameKind, IfaceName};
 use acq_can::j1939::J1939Id;
 use acq_can::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
-use acq_can::FrameBatch;
+use acq_can::{FrameBatch, IdIndex};
 
 /// One value of one sensor at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,68 +73,40 @@ enum IdChannel<'r> {
     Canopen(&'r PdoMapping),
 }
 
-/// Entries by (bus, CAN id): an 11-bit id's through an array a bus (a
-/// frame's lookup is an index, not a hash), any other's through a map.
+/// Entries by (bus, CAN id), found through each bus's [`IdIndex`].
 struct IdTable<T> {
     entries: Vec<Vec<T>>,
-    /// Per bus, an index into `entries` plus one by standard id; 0: none.
-    standard: Vec<Box<[u32; STANDARD_IDS]>>,
-    /// By (bus, [`CanId::key`]).
-    others: FxHashMap<(usize, u32), usize>,
+    /// Per bus, each id's place in `entries`.
+    by_bus: Vec<IdIndex>,
 }
-
-/// 11-bit ids.
-const STANDARD_IDS: usize = 1 << 11;
 
 impl<T> IdTable<T> {
     fn new(buses: usize) -> Self {
         IdTable {
             entries: Vec::new(),
-            standard: (0..buses).map(|_| Box::new([0; STANDARD_IDS])).collect(),
-            others: FxHashMap::default(),
-        }
-    }
-
-    /// The place of (bus, id) in the array, if it has one.
-    #[inline]
-    fn standard_place(
-        standard: &[Box<[u32; STANDARD_IDS]>],
-        bus: usize,
-        id: CanId,
-    ) -> Option<(usize, usize)> {
-        match id {
-            CanId::Standard(raw) if usize::from(raw) < STANDARD_IDS && bus < standard.len() => {
-                Some((bus, usize::from(raw)))
-            }
-            _ => None,
+            by_bus: vec![IdIndex::new(); buses],
         }
     }
 
     fn push(&mut self, bus: usize, id: CanId, entry: T) {
-        let slot = match Self::standard_place(&self.standard, bus, id) {
-            Some((bus, raw)) => {
-                let place = &mut self.standard[bus][raw];
-                if *place == 0 {
-                    self.entries.push(Vec::new());
-                    *place = self.entries.len() as u32;
-                }
-                *place as usize - 1
-            }
-            None => *self.others.entry((bus, id.key())).or_insert_with(|| {
-                self.entries.push(Vec::new());
-                self.entries.len() - 1
-            }),
+        let Some(index) = self.by_bus.get_mut(bus) else {
+            return;
         };
-        self.entries[slot].push(entry);
+        let place = match index.get(id) {
+            Some(place) => place as usize,
+            None => {
+                self.entries.push(Vec::new());
+                index.insert(id, (self.entries.len() - 1) as u32);
+                self.entries.len() - 1
+            }
+        };
+        self.entries[place].push(entry);
     }
 
     #[inline]
     fn get(&self, bus: usize, id: CanId) -> Option<&[T]> {
-        let slot = match Self::standard_place(&self.standard, bus, id) {
-            Some((bus, raw)) => (self.standard[bus][raw] as usize).checked_sub(1)?,
-            None => *self.others.get(&(bus, id.key()))?,
-        };
-        self.entries.get(slot).map(Vec::as_slice)
+        let place = self.by_bus.get(bus)?.get(id)?;
+        self.entries.get(place as usize).map(Vec::as_slice)
     }
 }
 

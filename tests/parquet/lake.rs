@@ -326,7 +326,9 @@ fn a_killed_ingest_leaves_whole_files_and_the_next_one_completes_it() {
     let dir = tempfile::tempdir().unwrap();
     let dir = dir.path();
     let short = simulated(dir, "excavator_case1.toml", 8.0, 1_791_187_200, "short");
-    let long = simulated(dir, "excavator_case1.toml", 1200.0, 1_791_273_600, "long");
+    // Long enough that its decode (about 1 s of a 2-core machine's time in
+    // a release build) is far from done when the kill comes.
+    let long = simulated(dir, "excavator_case1.toml", 2400.0, 1_791_273_600, "long");
     let lake = dir.join("lake");
     let mut child = Command::new(env!("CARGO_BIN_EXE_acq"))
         .args([
@@ -356,7 +358,9 @@ fn a_killed_ingest_leaves_whole_files_and_the_next_one_completes_it() {
         );
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
-    std::thread::sleep(std::time::Duration::from_millis(300));
+    // The long log's decode under way: a 300 ms wait let a faster ingest
+    // publish its files before the kill.
+    std::thread::sleep(std::time::Duration::from_millis(50));
     assert!(
         child.try_wait().unwrap().is_none(),
         "the long log was ingested before the kill; make it longer"

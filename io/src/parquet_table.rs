@@ -31,11 +31,13 @@ use std::collections::HashMap;
 use std::sync::Arc;
 
 use arrow_array::builder::{
-    BooleanBuilder, Float64Builder, Int64Builder, StringDictionaryBuilder,
+    BooleanBuilder, Float64Builder, Int64Builder, PrimitiveBuilder, StringDictionaryBuilder,
     TimestampMicrosecondBuilder, TimestampNanosecondBuilder,
 };
-use arrow_array::types::Int32Type;
-use arrow_array::{ArrayRef, DictionaryArray, Int32Array, RecordBatch, StringArray};
+use arrow_array::types::{ArrowPrimitiveType, Int32Type};
+use arrow_array::{
+    Array, ArrayRef, DictionaryArray, Int32Array, PrimitiveArray, RecordBatch, StringArray,
+};
 use arrow_schema::{DataType, Field, Schema, SchemaRef, TimeUnit};
 use parquet::arrow::ArrowWriter;
 use parquet::basic::{Compression, Encoding, ZstdLevel};
@@ -225,11 +227,13 @@ impl ColumnBuilder {
     }
 
     fn finish(&mut self, rows: usize) -> ArrayRef {
+        // A finished builder starts again with no room: the next batch's
+        // is reserved at once, not grown (and copied) to it in steps.
         match self {
-            ColumnBuilder::Time(b) => Arc::new(b.finish()),
-            ColumnBuilder::TimeMicros(b) => Arc::new(b.finish()),
-            ColumnBuilder::Float(b) => Arc::new(b.finish()),
-            ColumnBuilder::Integer(b) => Arc::new(b.finish()),
+            ColumnBuilder::Time(b) => Arc::new(finish_and_reserve(b)),
+            ColumnBuilder::TimeMicros(b) => Arc::new(finish_and_reserve(b)),
+            ColumnBuilder::Float(b) => Arc::new(finish_and_reserve(b)),
+            ColumnBuilder::Integer(b) => Arc::new(finish_and_reserve(b)),
             ColumnBuilder::Text(b) => Arc::new(b.finish()),
             ColumnBuilder::Constant { value, keys } => {
                 let keys = match keys {
@@ -245,6 +249,16 @@ impl ColumnBuilder {
             ColumnBuilder::Flag(b) => Arc::new(b.finish()),
         }
     }
+}
+
+/// The builder's array; room for a whole batch in it afterwards.
+fn finish_and_reserve<T: ArrowPrimitiveType>(
+    builder: &mut PrimitiveBuilder<T>,
+) -> PrimitiveArray<T> {
+    let array = builder.finish();
+    *builder =
+        PrimitiveBuilder::with_capacity(BATCH_ROWS).with_data_type(array.data_type().clone());
+    array
 }
 
 /// The batch being built of a [`ColumnBuilder::Choice`] column. Its

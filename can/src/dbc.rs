@@ -306,6 +306,33 @@ pub struct MessageCodec {
     pub j1939_pgn: Option<u32>,
 }
 
+/// A signal of a message without multiplexors, as
+/// [`MessageCodec::unswitched`] gives it: decoded as
+/// [`MessageCodec::decode_signal`] decodes it, with the message's length
+/// checked and no switches read. A decoder of millions of frames per
+/// second calls this per sample, where the general path's closure and
+/// switch table cost more than the field's extraction.
+#[derive(Clone, Copy, Debug)]
+pub struct UnswitchedSignal<'a> {
+    signal: &'a SignalCodec,
+    message_bytes: usize,
+}
+
+impl UnswitchedSignal<'_> {
+    /// The signal's value in `payload`; an error for a frame shorter than
+    /// the message, `None` where the field lies past a longer message's end.
+    #[inline]
+    pub fn decode(&self, payload: &[u8]) -> Result<Option<PhysicalValue>, FrameDecodeError> {
+        if payload.len() < self.message_bytes {
+            return Err(FrameDecodeError::Short {
+                got: payload.len(),
+                needed: self.message_bytes,
+            });
+        }
+        Ok(self.signal.decode(payload))
+    }
+}
+
 /// A frame its DBC message cannot decode (cantools refuses the same ones).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FrameDecodeError {
@@ -359,6 +386,18 @@ impl MessageCodec {
                 .filter(|signal| signal.presence.holds(switches))
                 .and_then(|signal| signal.decode(payload))
         })
+    }
+
+    /// Signal `index` as an [`UnswitchedSignal`], if the message has no
+    /// multiplexor (so every frame of it carries the signal).
+    pub fn unswitched(&self, index: usize) -> Option<UnswitchedSignal<'_>> {
+        let signal = self.signals.get(index)?;
+        (self.switches.is_empty() && matches!(signal.presence, Presence::Always)).then_some(
+            UnswitchedSignal {
+                signal,
+                message_bytes: self.size,
+            },
+        )
     }
 
     /// Refuses a frame shorter than the message.
@@ -1575,6 +1614,34 @@ BO_ 2364539905 EEC1_B: 8 B
     }
 
     proptest::proptest! {
+        /// An unswitched signal decodes as the general path decodes it:
+        /// every signal of the shipped DBCs' messages without multiplexors,
+        /// on payloads of every length up to 64 bytes.
+        #[test]
+        fn an_unswitched_signal_decodes_as_decode_signal(
+            payload in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..=64),
+        ) {
+            for dbc in ["somat_excavator.dbc", "tensile_frame.dbc", "j1939_source_fe.dbc"] {
+                let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("../fixtures/dbc")
+                    .join(dbc);
+                let (database, _) = DbcDatabase::load(&path).unwrap();
+                for message in database.messages() {
+                    for index in 0..message.signals.len() {
+                        let Some(unswitched) = message.unswitched(index) else {
+                            proptest::prop_assert!(!message.switches.is_empty());
+                            continue;
+                        };
+                        let value = |v: PhysicalValue| v.as_f64().to_bits();
+                        proptest::prop_assert_eq!(
+                            unswitched.decode(&payload).map(|v| v.map(value)),
+                            message.decode_signal(&payload, index).map(|v| v.map(value))
+                        );
+                    }
+                }
+            }
+        }
+
         /// A linear signal's raw value reaches f64 from 64 bits as it did
         /// from 128: the same value for every length, sign and pattern.
         #[test]

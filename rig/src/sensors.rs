@@ -10,7 +10,7 @@ use rustc_hash::FxHashMap;
 use crate::profiles::Conversion;
 use crate::{Rig, SensorSource};
 use acq_can::canopen::{HeartbeatEvent, HeartbeatMonitor, PdoMapping};
-use acq_can::dbc::MessageCodec;
+use acq_can::dbc::{MessageCodec, PhysicalValue, UnswitchedSignal};
 use acq_can::frame::{CanId, Frame, FrameFields, FrameKind, IfaceName};
 use acq_can::j1939::J1939Id;
 use acq_can::j1939_tp::{Reassembler, TP_CM_PGN, TP_DT_PGN};
@@ -70,6 +70,9 @@ enum IdChannel<'r> {
         message: &'r MessageCodec,
         signal_index: usize,
     },
+    /// A signal of a message without multiplexors, nearly every DBC
+    /// sensor's: decoded with no look at switches.
+    Unswitched(UnswitchedSignal<'r>),
     Canopen(&'r PdoMapping),
 }
 
@@ -176,9 +179,12 @@ impl<'r> SensorDecoder<'r> {
                             *id,
                             IdSensor {
                                 sensor: index,
-                                channel: IdChannel::Dbc {
-                                    message,
-                                    signal_index: *signal_index,
+                                channel: match message.unswitched(*signal_index) {
+                                    Some(signal) => IdChannel::Unswitched(signal),
+                                    None => IdChannel::Dbc {
+                                        message,
+                                        signal_index: *signal_index,
+                                    },
                                 },
                                 conversion: &sensor.conversion,
                             },
@@ -309,25 +315,31 @@ impl<'r> SensorDecoder<'r> {
         let mut undecodable = false;
         if let Some(sensors) = self.by_id.get(bus, frame.id) {
             for sensor in sensors {
+                // `None`: not in this frame (not selected by the
+                // multiplexer, or past the end of a longer message).
                 let reading = match sensor.channel {
                     IdChannel::Dbc {
                         message,
                         signal_index,
-                    } => match message.decode_signal(payload, signal_index) {
-                        Ok(Some(value)) => value.as_f64(),
-                        Ok(None) => continue, // not selected by the multiplexer
-                        Err(_) => {
-                            undecodable = true;
-                            continue;
-                        }
-                    },
-                    IdChannel::Canopen(mapping) => match mapping.process_value(payload) {
-                        Some(value) => value,
-                        None => {
-                            undecodable = true;
-                            continue;
-                        }
-                    },
+                    } => message
+                        .decode_signal(payload, signal_index)
+                        .map(|value| value.map(PhysicalValue::as_f64))
+                        .map_err(drop),
+                    IdChannel::Unswitched(signal) => signal
+                        .decode(payload)
+                        .map(|value| value.map(PhysicalValue::as_f64))
+                        .map_err(drop),
+                    IdChannel::Canopen(mapping) => {
+                        mapping.process_value(payload).map(Some).ok_or(())
+                    }
+                };
+                let reading = match reading {
+                    Ok(Some(reading)) => reading,
+                    Ok(None) => continue,
+                    Err(()) => {
+                        undecodable = true;
+                        continue;
+                    }
                 };
                 decoded = true;
                 let value = sensor.conversion.apply(reading);

@@ -504,12 +504,12 @@ impl ParquetTable {
         }
         for column in columns {
             let path = ColumnPath::from(column.name.as_str());
-            // A time column's deltas, bit-packed, are nearly all noise
-            // (a logger's jitter): zstd took a tenth of its time on them
-            // and saved 5 % of the column.
-            // A constant column's pages are one run of one dictionary key,
-            // a few bytes: a compressor saves nothing on them, and each
-            // column's holds two zstd contexts (about 350 kB allocated).
+            // Not compressed: a time column, whose bit-packed deltas are
+            // nearly all noise (a logger's jitter: zstd took a tenth of its
+            // time on them and saved 5 % of the column); and a constant
+            // column, whose pages are one run of one dictionary key, a few
+            // bytes, where a column's compressor held two zstd contexts
+            // (about 350 kB allocated) for nothing.
             if column.column_type == ColumnType::Time || column.constant.is_some() {
                 properties =
                     properties.set_column_compression(path.clone(), Compression::UNCOMPRESSED);

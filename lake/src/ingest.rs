@@ -631,14 +631,13 @@ fn write_samples(
 }
 
 /// A sample's time and value, as a samples file holds them: 16 bytes,
-/// where an `Option<f64>` made it 24. Every sample passes through three
-/// buffers of these (a sensor's chunk, its file's reorder window, the
-/// column builders), and a third less to move was a tenth less time in
-/// the decoder's gathering.
+/// where an `Option<f64>` made it 24. Every sample passes through two
+/// buffers of these (a sensor's chunk, its file's reorder window): a
+/// third less to move and to hold in cache.
 #[derive(Clone, Copy, Debug)]
 struct Row {
     time_ns: i64,
-    /// NaN for no value: a decoded sample is finite or none.
+    /// NaN for no value: a decoded sample's value is finite or none.
     value: f64,
 }
 

@@ -22,6 +22,9 @@ use crate::input::input_at;
 use acq_error::{AcqError, Result};
 
 const FLUSH_AT_BYTES: usize = 256 * 1024;
+/// A block at least this large, with nothing pending, is written as it is
+/// ([`Output::take_from`]): one write call either way.
+const WRITE_THROUGH_BYTES: usize = 64 * 1024;
 
 pub struct Output {
     name: String,
@@ -93,6 +96,22 @@ impl Output {
             self.write_buffer()?;
         }
         Ok(())
+    }
+
+    /// Moves `bytes` to the output after the pending ones, leaving `bytes`
+    /// empty with its room kept. A large block with nothing pending goes
+    /// to the sink as it is: copied through the buffer it was only more
+    /// memory touched (a Parquet writer hands over whole row groups).
+    pub fn take_from(&mut self, bytes: &mut Vec<u8>) -> Result<()> {
+        if self.buffer.is_empty() && bytes.len() >= WRITE_THROUGH_BYTES {
+            self.sink
+                .write_all(bytes)
+                .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
+            bytes.clear();
+            return Ok(());
+        }
+        self.buffer.append(bytes);
+        self.maybe_flush()
     }
 
     fn write_buffer(&mut self) -> Result<()> {

@@ -270,6 +270,8 @@ mod tests {
         let layout = FileLayout {
             rows_per_group: Some(70_000),
             rows_per_page: Some(4096),
+            // A batch that a row group's end cuts.
+            rows_per_batch: Some(3000),
             ..FileLayout::FOR_EVERY_ENGINE
         };
         // Two full row groups and a short one; none; one row.

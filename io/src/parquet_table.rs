@@ -71,6 +71,11 @@ pub struct FileLayout {
     /// A page is encoded and compressed once full, so smaller pages spread
     /// that work over the writing instead of leaving it to a file's end.
     pub rows_per_page: Option<usize>,
+    /// Rows per record batch; `None`: [`BATCH_ROWS`]. A table of many
+    /// files open at once takes fewer: each file's builders are then small
+    /// enough to be reused from the allocator's free lists batch after
+    /// batch, where builders of 128 kB each came as fresh pages.
+    pub rows_per_batch: Option<usize>,
     /// Float columns BYTE_STREAM_SPLIT (zstd then compresses noisy values
     /// better) rather than PLAIN. Apache Spark 4.0's Parquet reader refuses
     /// that encoding ("Unsupported encoding: BYTE_STREAM_SPLIT"); PLAIN is
@@ -87,6 +92,7 @@ impl Default for FileLayout {
         FileLayout {
             rows_per_group: None,
             rows_per_page: None,
+            rows_per_batch: None,
             split_floats: true,
             time_in_microseconds: false,
         }
@@ -98,6 +104,7 @@ impl FileLayout {
     pub const FOR_EVERY_ENGINE: FileLayout = FileLayout {
         rows_per_group: None,
         rows_per_page: None,
+        rows_per_batch: None,
         split_floats: false,
         time_in_microseconds: true,
     };
@@ -205,7 +212,7 @@ enum ColumnBuilder {
 }
 
 impl ColumnBuilder {
-    fn new(spec: &ColumnSpec, layout: &FileLayout) -> Self {
+    fn new(spec: &ColumnSpec, layout: &FileLayout, batch_rows: usize) -> Self {
         if let Some(value) = &spec.constant {
             return ColumnBuilder::Constant {
                 value: Arc::new(StringArray::from(vec![value.as_str()])),
@@ -214,32 +221,32 @@ impl ColumnBuilder {
         }
         match spec.column_type {
             ColumnType::Time if layout.time_in_microseconds => ColumnBuilder::TimeMicros(
-                TimestampMicrosecondBuilder::with_capacity(BATCH_ROWS).with_timezone("UTC"),
+                TimestampMicrosecondBuilder::with_capacity(batch_rows).with_timezone("UTC"),
             ),
             ColumnType::Time => ColumnBuilder::Time(
-                TimestampNanosecondBuilder::with_capacity(BATCH_ROWS).with_timezone("UTC"),
+                TimestampNanosecondBuilder::with_capacity(batch_rows).with_timezone("UTC"),
             ),
-            ColumnType::Float => ColumnBuilder::Float(Float64Builder::with_capacity(BATCH_ROWS)),
-            ColumnType::Integer => ColumnBuilder::Integer(Int64Builder::with_capacity(BATCH_ROWS)),
+            ColumnType::Float => ColumnBuilder::Float(Float64Builder::with_capacity(batch_rows)),
+            ColumnType::Integer => ColumnBuilder::Integer(Int64Builder::with_capacity(batch_rows)),
             ColumnType::Text => ColumnBuilder::Text(StringDictionaryBuilder::new()),
-            ColumnType::Flag => ColumnBuilder::Flag(BooleanBuilder::with_capacity(BATCH_ROWS)),
+            ColumnType::Flag => ColumnBuilder::Flag(BooleanBuilder::with_capacity(batch_rows)),
         }
     }
 
-    fn finish(&mut self, rows: usize) -> ArrayRef {
+    fn finish(&mut self, rows: usize, batch_rows: usize) -> ArrayRef {
         // A finished builder starts again with no room: the next batch's
         // is reserved at once, not grown (and copied) to it in steps.
         match self {
-            ColumnBuilder::Time(b) => Arc::new(finish_and_reserve(b)),
-            ColumnBuilder::TimeMicros(b) => Arc::new(finish_and_reserve(b)),
-            ColumnBuilder::Float(b) => Arc::new(finish_and_reserve(b)),
-            ColumnBuilder::Integer(b) => Arc::new(finish_and_reserve(b)),
+            ColumnBuilder::Time(b) => Arc::new(finish_and_reserve(b, batch_rows)),
+            ColumnBuilder::TimeMicros(b) => Arc::new(finish_and_reserve(b, batch_rows)),
+            ColumnBuilder::Float(b) => Arc::new(finish_and_reserve(b, batch_rows)),
+            ColumnBuilder::Integer(b) => Arc::new(finish_and_reserve(b, batch_rows)),
             ColumnBuilder::Text(b) => Arc::new(b.finish()),
             ColumnBuilder::Constant { value, keys } => {
                 let keys = match keys {
                     Some(keys) if keys.len() >= rows => keys,
                     _ => keys.insert(DictionaryArray::<Int32Type>::new(
-                        Int32Array::from(vec![0; rows.max(BATCH_ROWS)]),
+                        Int32Array::from(vec![0; rows.max(batch_rows)]),
                         value.clone(),
                     )),
                 };
@@ -251,13 +258,14 @@ impl ColumnBuilder {
     }
 }
 
-/// The builder's array; room for a whole batch in it afterwards.
+/// The builder's array; room for a batch of `batch_rows` in it afterwards.
 fn finish_and_reserve<T: ArrowPrimitiveType>(
     builder: &mut PrimitiveBuilder<T>,
+    batch_rows: usize,
 ) -> PrimitiveArray<T> {
     let array = builder.finish();
     *builder =
-        PrimitiveBuilder::with_capacity(BATCH_ROWS).with_data_type(array.data_type().clone());
+        PrimitiveBuilder::with_capacity(batch_rows).with_data_type(array.data_type().clone());
     array
 }
 
@@ -323,6 +331,8 @@ pub struct ParquetTable {
     schema: SchemaRef,
     columns: Vec<ColumnBuilder>,
     rows_in_batch: usize,
+    /// Rows that make a record batch.
+    batch_rows: usize,
     rows: u64,
     /// A failure met where it could not be returned ([`ParquetTable::end_row_in_callback`]).
     failed: Option<AcqError>,
@@ -461,9 +471,10 @@ impl ParquetTable {
             schema,
             columns: columns
                 .iter()
-                .map(|c| ColumnBuilder::new(c, &FileLayout::default()))
+                .map(|c| ColumnBuilder::new(c, &FileLayout::default(), BATCH_ROWS))
                 .collect(),
             rows_in_batch: 0,
+            batch_rows: BATCH_ROWS,
             rows: 0,
             failed: None,
         })
@@ -486,6 +497,7 @@ impl ParquetTable {
         let rows_per_group = layout
             .rows_per_group
             .unwrap_or_else(|| (ROW_GROUP_CELLS / columns.len().max(1)).clamp(BATCH_ROWS, 1 << 20));
+        let batch_rows = layout.rows_per_batch.unwrap_or(BATCH_ROWS).max(1);
         let schema = schema_of(columns, &layout);
         let mut properties = WriterProperties::builder()
             .set_compression(Compression::ZSTD(ZstdLevel::default()))
@@ -542,10 +554,11 @@ impl ParquetTable {
             destination: Destination::File { writer, output },
             columns: columns
                 .iter()
-                .map(|c| ColumnBuilder::new(c, &layout))
+                .map(|c| ColumnBuilder::new(c, &layout, batch_rows))
                 .collect(),
             schema,
             rows_in_batch: 0,
+            batch_rows,
             rows: 0,
             failed: None,
         })
@@ -707,7 +720,7 @@ impl ParquetTable {
     pub fn end_row(&mut self) -> Result<()> {
         self.rows += 1;
         self.rows_in_batch += 1;
-        if self.rows_in_batch >= BATCH_ROWS {
+        if self.rows_in_batch >= self.batch_rows {
             self.write_batch()?;
         }
         Ok(())
@@ -715,11 +728,11 @@ impl ParquetTable {
 
     /// Ends `rows` rows whose columns were each set at once
     /// ([`ParquetTable::times_ns`], [`ParquetTable::floats`]); a batch may
-    /// then hold more than [`BATCH_ROWS`].
+    /// then hold more than a batch's rows.
     pub fn end_rows(&mut self, rows: usize) -> Result<()> {
         self.rows += rows as u64;
         self.rows_in_batch += rows;
-        if self.rows_in_batch >= BATCH_ROWS {
+        if self.rows_in_batch >= self.batch_rows {
             self.write_batch()?;
         }
         Ok(())
@@ -747,7 +760,7 @@ impl ParquetTable {
         let arrays: Vec<ArrayRef> = self
             .columns
             .iter_mut()
-            .map(|column| column.finish(rows))
+            .map(|column| column.finish(rows, self.batch_rows))
             .collect();
         self.rows_in_batch = 0;
         let batch = RecordBatch::try_new(self.schema.clone(), arrays)
@@ -816,11 +829,10 @@ impl FileWriter {
 /// Moves what the Parquet writer has encoded into the output, in order.
 fn pass_on_encoded(writer: &mut FileWriter, output: &mut Output) -> Result<()> {
     let encoded = writer.inner_mut();
-    if !encoded.is_empty() {
-        output.buffer.append(encoded);
-        output.maybe_flush()?;
+    if encoded.is_empty() {
+        return Ok(());
     }
-    Ok(())
+    output.take_from(encoded)
 }
 
 fn parquet_error(output: &Output, error: parquet::errors::ParquetError) -> AcqError {

@@ -47,10 +47,12 @@ const ROW_GROUP_ROWS: usize = 122_880;
 
 /// A samples file: read by every engine (Spark refuses split floats),
 /// in row groups of [`ROW_GROUP_ROWS`] and pages of 4,096 rows (5 s of an
-/// 800 Hz sensor: a time range prunes by the page index that finely).
+/// 800 Hz sensor: a time range prunes by the page index that finely),
+/// written a page at a time (an ingest holds one file open per sensor).
 const SAMPLES_LAYOUT: FileLayout = FileLayout {
     rows_per_group: Some(ROW_GROUP_ROWS),
     rows_per_page: Some(4096),
+    rows_per_batch: Some(4096),
     ..FileLayout::FOR_EVERY_ENGINE
 };
 

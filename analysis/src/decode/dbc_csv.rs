@@ -138,7 +138,7 @@ impl CsvRowPieces {
         let row = &self.rows[message][signal];
         buffer.extend_from_slice(timestamp_text);
         buffer.push(b',');
-        buffer.extend_from_slice(iface.as_str().as_bytes());
+        buffer.extend_from_slice(iface.as_bytes());
         if id == self.message_ids[message] {
             buffer.extend_from_slice(&row.middle);
         } else {

@@ -35,6 +35,9 @@ pub struct CandumpReader<R> {
     /// The bytes of the line last returned, still in `input`'s buffer
     /// (the record borrows them); consumed when the next one is read.
     returned_bytes: usize,
+    /// The last line's interface: the next line's is nearly always one of
+    /// a few, and a name equal to it is not checked again.
+    last_iface: Option<IfaceName>,
 }
 
 impl<R: BufRead> CandumpReader<R> {
@@ -44,6 +47,7 @@ impl<R: BufRead> CandumpReader<R> {
             buffer: Vec::with_capacity(256),
             line: 0,
             returned_bytes: 0,
+            last_iface: None,
         }
     }
 
@@ -69,7 +73,7 @@ impl<R: BufRead> CandumpReader<R> {
         let line = self.line;
         // The bytes above, again: nothing was consumed since.
         let text = &self.input.fill_buf()?[..len];
-        record(line, text)
+        record(line, text, &mut self.last_iface)
     }
 
     /// [`CandumpReader::next_record`] for a line the input's buffer does
@@ -94,7 +98,7 @@ impl<R: BufRead> CandumpReader<R> {
             if self.buffer.last() != Some(&b'\n') {
                 return Err(ReadError::Parse(ParseError::new(line, E_CUT_LINE)));
             }
-            return record(line, &self.buffer[..len]);
+            return record(line, &self.buffer[..len], &mut self.last_iface);
         }
     }
 
@@ -186,10 +190,20 @@ impl<R: BufRead> CandumpReader<R> {
     }
 }
 
-/// The record of line number `line`, `text` without its end.
-fn record(line: u64, text: &[u8]) -> Result<Option<LogRecord<'_>>, ReadError> {
+/// The record of line number `line`, `text` without its end; `last_iface`
+/// the interface of the line before, if it was a usual one.
+fn record<'t>(
+    line: u64,
+    text: &'t [u8],
+    last_iface: &mut Option<IfaceName>,
+) -> Result<Option<LogRecord<'t>>, ReadError> {
     if let Some(usual) = parse_usual_line(text) {
-        let frame = IfaceName::from_bytes(usual.iface).and_then(|iface| {
+        let iface = match *last_iface {
+            Some(last) if last.as_bytes() == usual.iface => Some(last),
+            _ => IfaceName::from_bytes(usual.iface),
+        };
+        *last_iface = iface;
+        let frame = iface.and_then(|iface| {
             Frame::data(
                 usual.timestamp_ns,
                 iface,
@@ -608,7 +622,7 @@ pub fn push_line(out: &mut Vec<u8>, frame: &Frame) -> Result<(), NegativeTimesta
     out.extend(std::iter::repeat_n(b'0', 6 - micros_text.len()));
     out.extend_from_slice(micros_text);
     out.extend_from_slice(b") ");
-    out.extend_from_slice(frame.iface.as_str().as_bytes());
+    out.extend_from_slice(frame.iface.as_bytes());
     out.push(b' ');
     push_frame(out, frame);
     match frame.direction {

@@ -12,7 +12,8 @@
 #    DataFrame to_parquet, as CAN loggers' MF4-to-Parquet pipelines do).
 #    Both are timed as the whole process a user runs, best of ROUNDS; the
 #    script's own time from MDF() on (its import left out) beside it. Peak
-#    resident memory by /usr/bin/time. `cat FILE > /dev/null` is the floor.
+#    resident memory and CPU seconds (every thread's) by /usr/bin/time.
+#    `cat FILE > /dev/null` is the floor.
 # 2. Memory bounded: peak resident memory of the ingest of candump logs 4
 #    and 16 times as long (every sensor's file past several row groups).
 # 3. Size: the lake against the MF4 and the candump log it came from.
@@ -80,15 +81,17 @@ print(values, time.perf_counter() - started)
 PY
 
 best() { sort -g | head -1; }
-# "SECONDS KB" of a whole command: wall time (to the microsecond: /usr/bin/time
-# gives hundredths, 4 % of a 0.25 s ingest) and peak resident memory.
+# "SECONDS KB CPU" of a whole command: wall time (to the microsecond:
+# /usr/bin/time gives hundredths, 4 % of a 0.25 s ingest), peak resident
+# memory and CPU seconds (user and system, every thread).
 timed() {
     local start end
     start=$(date +%s.%N)
-    /usr/bin/time -f '%M' -o "$work/time.txt" "$@" >"$work/out.txt" 2>"$work/err.txt" || {
+    /usr/bin/time -f '%M %U %S' -o "$work/time.txt" "$@" >"$work/out.txt" 2>"$work/err.txt" || {
         cat "$work/err.txt" >&2; exit 1; }
     end=$(date +%s.%N)
-    printf '%.6f %s\n' "$(echo "$end - $start" | bc -l)" "$(cat "$work/time.txt")"
+    printf '%.6f %s\n' "$(echo "$end - $start" | bc -l)" \
+        "$(awk '{printf "%s %.2f", $1, $2 + $3}' "$work/time.txt")"
 }
 mb() { du -sm "$1" | cut -f1; }
 
@@ -101,12 +104,14 @@ acq_runs=$(for _ in $(seq "$rounds"); do rm -rf "$work/lake"
     timed "$acq" lake ingest "$file" --rig "$work/rig.toml" --lake "$work/lake"; done)
 acq_s=$(echo "$acq_runs" | cut -d' ' -f1 | best)
 acq_kb=$(echo "$acq_runs" | cut -d' ' -f2 | best)
+acq_cpu=$(echo "$acq_runs" | cut -d' ' -f3 | best)
 samples=$("$acq" lake query "$work/lake" "SELECT count(*) AS n FROM samples" | tail -1)
 script_runs=$(for _ in $(seq "$rounds"); do rm -rf "$work/pandas"
     timed "$python" "$work/asammdf_to_parquet.py" "$file" "$PWD/fixtures/dbc/somat_excavator.dbc" "$work/pandas"
     echo " $(cut -d' ' -f2 "$work/out.txt")"; done | paste -d' ' - -)
 script_s=$(echo "$script_runs" | cut -d' ' -f1 | best)
 script_kb=$(echo "$script_runs" | cut -d' ' -f2 | best)
+script_cpu=$(echo "$script_runs" | cut -d' ' -f3 | best)
 script_inner_s=$(echo "$script_runs" | awk '{print $NF}' | best)
 script_values=$(cut -d' ' -f1 "$work/out.txt")
 
@@ -120,6 +125,10 @@ printf '%-28s %10.3f %14.0f %14.1f %12.0f\n' "asammdf + pandas script" "$script_
 printf '%-28s %10.3f\n' "  (from MDF() on)" "$script_inner_s"
 printf 'script / acq: %.2f whole processes, %.2f against the script from MDF() on\n' \
     "$(echo "$script_s / $acq_s" | bc -l)" "$(echo "$script_inner_s / $acq_s" | bc -l)"
+# The work beside the time: a machine shared with other load takes more
+# from the side that uses both cores.
+printf 'CPU (user and system, every thread): acq %.2f s, the script %.2f s: %.2f x\n' \
+    "$acq_cpu" "$script_cpu" "$(echo "$script_cpu / $acq_cpu" | bc -l)"
 missed=()
 ingest_ratio=$(echo "$script_s / $acq_s" | bc -l)
 if [ "$(echo "$ingest_ratio < 10" | bc -l)" = 1 ]; then

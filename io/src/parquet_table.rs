@@ -14,8 +14,9 @@
 //! table a file would have held, streamed.
 //!
 //! It streams, as the CSV path does. Rows go into Arrow builders; every
-//! [`BATCH_ROWS`] rows they become a record batch for the Parquet writer, which
-//! writes a row group out once it holds about [`ROW_GROUP_CELLS`] cells. So
+//! [`BATCH_ROWS`] rows (or a layout's own count) they become a record batch for
+//! the Parquet writer, which writes a row group out once it holds about
+//! [`ROW_GROUP_CELLS`] cells. So
 //! memory is bounded by the table's width, never by its length. The encoded
 //! bytes go through an [`Output`]: the file appears under its name only when
 //! complete, like every file acq writes.

@@ -6,8 +6,12 @@
 #   benches/decode-vs-cantools.sh [BASELINE]
 #
 # BASELINE: another build's acq binary (a copy of target/release/acq from an
-# earlier commit), timed on the same log in the same run. ACQ_BENCH_FRAMES:
-# the log's length (default 2,000,000 frames).
+# earlier commit), timed on the same log in the same run: best of three as
+# the rest, and alternated with this build, ACQ_BENCH_PAIRS rounds (default
+# 9) of both one after the other (in turn which first), whose median ratio
+# is the comparison: a shared machine's load drifts within a run, and best
+# of three of each, one binary after the other, did not resolve 5 %.
+# ACQ_BENCH_FRAMES: the log's length (default 2,000,000 frames).
 #
 # The traffic is benches/decode.rs's: the 10 messages of
 # fixtures/dbc/somat_excavator.dbc, two float32 signals each, 100 us apart,
@@ -24,6 +28,7 @@ cd "$repo"
 baseline="${1:-}"
 frames="${ACQ_BENCH_FRAMES:-2000000}"
 peer_frames=100000
+pairs="${ACQ_BENCH_PAIRS:-9}"
 goal=200
 dbc=fixtures/dbc/somat_excavator.dbc
 
@@ -72,6 +77,27 @@ best_of_three() {
   done
   echo "$best"
 }
+# The wall time of one run of a command, in seconds.
+once() {
+  local start end
+  start=$(date +%s.%N)
+  "$@" >/dev/null 2>&1
+  end=$(date +%s.%N)
+  echo "$end - $start" | bc -l
+}
+# The median over $pairs rounds of (this build's time / the baseline's),
+# each round running both, in turn which first.
+paired_ratio() {
+  local round this base
+  for round in $(seq "$pairs"); do
+    if [ $((round % 2)) = 1 ]; then
+      this=$(once "$1"); base=$(once "$2")
+    else
+      base=$(once "$2"); this=$(once "$1")
+    fi
+    echo "$this / $base" | bc -l
+  done | sort -g | awk '{r[NR] = $1} END {print r[int((NR + 1) / 2)]}'
+}
 read_once() { cat "$work/traffic.log"; }
 acq_csv() { "$acq" decode "$work/traffic.log" --dbc "$dbc" -o /dev/null; }
 baseline_csv() { "$baseline" decode "$work/traffic.log" --dbc "$dbc" -o /dev/null; }
@@ -98,6 +124,8 @@ if [ -n "$baseline" ]; then
   fi
   t_baseline=$(best_of_three baseline_csv)
   t_baseline_parquet=$(best_of_three baseline_parquet)
+  paired_csv=$(paired_ratio acq_csv baseline_csv)
+  paired_parquet=$(paired_ratio acq_parquet baseline_parquet)
 fi
 t_cantools=$(best_of_three cantools_default)
 t_cantools_single=$(best_of_three cantools_single_line)
@@ -119,10 +147,10 @@ printf '%-44s %8.3f s  %7.3f M frames/s  (first %d lines)\n' \
   "cantools decode" "$t_cantools" "$(echo "$r_cantools / 1000000" | bc -l)" "$peer_frames" \
   "cantools decode --single-line" "$t_cantools_single" "$(echo "$r_cantools_single / 1000000" | bc -l)" "$peer_frames"
 if [ -n "$baseline" ]; then
-  printf '%-44s %8.3f s  (the same CSV; this build takes %.3f of its time)\n' \
-    "baseline: $baseline" "$t_baseline" "$(echo "$t_csv / $t_baseline" | bc -l)"
-  printf '%-44s %8.3f s  (to Parquet; this build takes %.3f of its time)\n' \
-    "baseline: $baseline" "$t_baseline_parquet" "$(echo "$t_parquet / $t_baseline_parquet" | bc -l)"
+  printf '%-44s %8.3f s  (the same CSV; this build takes %.3f of its time; %.3f alternated, median of %d)\n' \
+    "baseline: $baseline" "$t_baseline" "$(echo "$t_csv / $t_baseline" | bc -l)" "$paired_csv" "$pairs"
+  printf '%-44s %8.3f s  (to Parquet; this build takes %.3f of its time; %.3f alternated, median of %d)\n' \
+    "baseline: $baseline" "$t_baseline_parquet" "$(echo "$t_parquet / $t_baseline_parquet" | bc -l)" "$paired_parquet" "$pairs"
 fi
 printf 'acq CSV / cantools decode:               %6.1f x (goal %d x)\n' "$ratio_csv" "$goal"
 printf 'acq CSV / cantools decode --single-line: %6.1f x\n' "$(echo "$r_csv / $r_cantools_single" | bc -l)"

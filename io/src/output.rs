@@ -104,9 +104,7 @@ impl Output {
     /// memory touched (a Parquet writer hands over whole row groups).
     pub fn take_from(&mut self, bytes: &mut Vec<u8>) -> Result<()> {
         if self.buffer.is_empty() && bytes.len() >= WRITE_THROUGH_BYTES {
-            self.sink
-                .write_all(bytes)
-                .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
+            self.write_out(bytes)?;
             bytes.clear();
             return Ok(());
         }
@@ -115,11 +113,21 @@ impl Output {
     }
 
     fn write_buffer(&mut self) -> Result<()> {
+        // Taken for the call and put back, its room kept; emptied once written.
+        let buffer = std::mem::take(&mut self.buffer);
+        let written = self.write_out(&buffer);
+        self.buffer = buffer;
+        if written.is_ok() {
+            self.buffer.clear();
+        }
+        written
+    }
+
+    /// Writes `bytes` to the sink; an error names the output.
+    fn write_out(&mut self, bytes: &[u8]) -> Result<()> {
         self.sink
-            .write_all(&self.buffer)
-            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))?;
-        self.buffer.clear();
-        Ok(())
+            .write_all(bytes)
+            .map_err(|e| AcqError::io(format!("writing {}", self.name), e))
     }
 
     /// Writes everything out and flushes the sink.

@@ -57,6 +57,18 @@ impl DecodeSummary {
     pub fn bad(&self) -> u64 {
         self.scan.malformed_lines + self.undecodable
     }
+
+    /// `other`'s counts added to these (a piece of a log's).
+    fn add_counts(&mut self, other: &DecodeSummary) {
+        self.scan.frames += other.scan.frames;
+        self.scan.malformed_lines += other.scan.malformed_lines;
+        self.decoded += other.decoded;
+        self.unknown += other.unknown;
+        self.undecodable += other.undecodable;
+        self.error_frames += other.error_frames;
+        self.remote_frames += other.remote_frames;
+        self.rows += other.rows;
+    }
 }
 
 impl std::fmt::Display for DecodeSummary {
@@ -83,7 +95,7 @@ pub struct FrameAt<'a> {
     pub timestamp_ns: i64,
     /// The timestamp as the log wrote it; empty where the frames were read
     /// a batch at a time ([`DbcRows::WANTS_TEXT`] is then false).
-    pub timestamp_text: &'a str,
+    pub timestamp_text: &'a [u8],
     pub iface: IfaceName,
     pub id: CanId,
 }
@@ -396,23 +408,7 @@ pub fn decode_dbc_frames<S: DbcRows>(
             options.bad_lines,
             EmptyLogs::Refuse,
             &mut scan,
-            |_, record| {
-                let frame = &record.frame;
-                let at = FrameAt {
-                    timestamp_ns: frame.timestamp_ns,
-                    timestamp_text: record.timestamp_text,
-                    iface: frame.iface,
-                    id: frame.id,
-                };
-                decode_frame(
-                    database,
-                    &mut summary,
-                    sink,
-                    at,
-                    frame.kind,
-                    frame.payload(),
-                )
-            },
+            |_, record| decode_record(database, &mut summary, sink, record),
         )?;
     } else {
         for_each_batch_read_beside(
@@ -424,7 +420,7 @@ pub fn decode_dbc_frames<S: DbcRows>(
                 for index in 0..batch.len() {
                     let at = FrameAt {
                         timestamp_ns: batch.timestamp_ns[index],
-                        timestamp_text: "",
+                        timestamp_text: b"",
                         iface: batch.interfaces[usize::from(batch.interface[index])],
                         id: batch.id[index],
                     };
@@ -437,6 +433,25 @@ pub fn decode_dbc_frames<S: DbcRows>(
     }
     summary.scan = scan;
     Ok(summary)
+}
+
+/// A log record's values into `sink` (its timestamp's text with them),
+/// counted in `summary`.
+#[inline]
+pub(crate) fn decode_record(
+    database: &DbcDatabase,
+    summary: &mut DecodeSummary,
+    sink: &mut impl DbcRows,
+    record: &LogRecord<'_>,
+) -> Result<()> {
+    let frame = &record.frame;
+    let at = FrameAt {
+        timestamp_ns: frame.timestamp_ns,
+        timestamp_text: record.timestamp_text,
+        iface: frame.iface,
+        id: frame.id,
+    };
+    decode_frame(database, summary, sink, at, frame.kind, frame.payload())
 }
 
 /// One frame's values into `sink`, counted in `summary`.
@@ -573,7 +588,7 @@ impl RigRows for CsvRigRows<'_> {
     fn sample(&mut self, record: &LogRecord<'_>, sensor: usize, value: Option<f64>) {
         let (middle, tail) = &self.rows[sensor];
         let buffer = &mut self.output.buffer;
-        buffer.extend_from_slice(record.timestamp_text.as_bytes());
+        buffer.extend_from_slice(record.timestamp_text);
         buffer.extend_from_slice(middle);
         if let Some(value) = value {
             push_shortest_f64(buffer, value);

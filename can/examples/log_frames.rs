@@ -59,7 +59,11 @@ fn main() {
                 if let Some(writer) = &mut mf4 {
                     writer.write_frame(&record.frame).expect("write");
                 } else if !count_only {
-                    println!("{} {:?}", record.timestamp_text, record.frame);
+                    println!(
+                        "{} {:?}",
+                        String::from_utf8_lossy(record.timestamp_text),
+                        record.frame
+                    );
                 }
             }
             Ok(None) => more = false,

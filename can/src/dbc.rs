@@ -77,7 +77,15 @@ pub fn push_shortest_f64(out: &mut Vec<u8>, value: f64) {
     let mut buffer = zmij::Buffer::new();
     let text = buffer.format(value).as_bytes();
     let text = text.strip_suffix(b".0").unwrap_or(text);
-    match memchr::memchr(b'+', text) {
+    // A sign can only be an exponent's, within the last four bytes
+    // (`e+308`): a loop over those, where memchr's call and dispatch on
+    // every value were a twentieth of a CSV decode.
+    let exponent = text.len().saturating_sub(4);
+    match text[exponent..]
+        .iter()
+        .position(|&b| b == b'+')
+        .map(|plus| exponent + plus)
+    {
         Some(plus) => {
             out.extend_from_slice(&text[..plus]);
             out.extend_from_slice(&text[plus + 1..]);

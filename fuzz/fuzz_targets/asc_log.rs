@@ -16,7 +16,7 @@ fuzz_target!(|data: &[u8]| {
                 assert!(record.line > last_line);
                 last_line = record.line;
                 let text = record.timestamp_text;
-                assert!(!text.is_empty() && text.bytes().all(|b| b.is_ascii_digit() || b == b'.'));
+                assert!(!text.is_empty() && text.iter().all(|&b| b.is_ascii_digit() || b == b'.'));
                 assert!(record.frame.payload().len() <= 64);
             }
             Ok(None) | Err(ReadError::Io(_)) => break,

@@ -20,7 +20,7 @@ fuzz_target!(|data: &[u8]| {
                 assert!(record.line >= last_object);
                 last_object = record.line;
                 let text = record.timestamp_text;
-                assert!(!text.is_empty() && text.bytes().all(|b| b.is_ascii_digit() || b == b'.'));
+                assert!(!text.is_empty() && text.iter().all(|&b| b.is_ascii_digit() || b == b'.'));
                 assert!(record.frame.timestamp_ns >= 0);
                 assert!(record.frame.payload().len() <= 64);
             }

@@ -26,8 +26,8 @@ fuzz_target!(|data: &[u8]| {
                 assert!(
                     !text.is_empty()
                         && text
-                            .bytes()
-                            .all(|b| b.is_ascii_digit() || b == b'.' || b == b'-')
+                            .iter()
+                            .all(|&b| b.is_ascii_digit() || b == b'.' || b == b'-')
                 );
                 assert!(record.frame.payload().len() <= 64);
             }

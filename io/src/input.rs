@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc::{channel, sync_channel, Receiver, SyncSender};
 use std::sync::Mutex;
 
-use acq_can::{FrameBatch, LogFormat, LogReader, LogRecord, ReadError};
+use acq_can::{FrameBatch, LogFormat, LogReader, LogRecord, ParseError, ReadError};
 use acq_rig::Rig;
 
 use acq_error::{AcqError, Result};
@@ -172,6 +172,25 @@ impl LogInput {
 }
 
 impl LogInput {
+    /// Appends the next whole lines of a candump log to `out`: at least
+    /// `at_least` bytes unless the log ends first (see
+    /// [`acq_can::log::candump::CandumpReader::read_lines_into`]); 0 at the
+    /// end. `None` for a log of another format.
+    pub fn read_candump_lines(
+        &mut self,
+        out: &mut Vec<u8>,
+        at_least: usize,
+    ) -> Option<Result<usize>> {
+        match &mut self.reader {
+            LogReader::Candump(reader) => Some(
+                reader
+                    .read_lines_into(out, at_least)
+                    .map_err(|e| AcqError::io(format!("reading {}", self.name), e)),
+            ),
+            _ => None,
+        }
+    }
+
     /// Prints what the reader tells that is no error (`acq: FILE: ...`),
     /// and keeps it.
     fn print_notes(&mut self) {
@@ -216,6 +235,31 @@ pub struct ScanCounts {
 /// How many malformed lines are reported one by one before only counting.
 const REPORTED_BAD_LINES: u64 = 10;
 
+/// A log's malformed record found by a reader of its own (a piece of a
+/// candump log read on another thread), under the bad-line policy every
+/// walk over the logs shares: an error, or counted and reported.
+pub fn on_bad_record(
+    name: &str,
+    error: ParseError,
+    bad_lines: BadLines,
+    counts: &mut ScanCounts,
+) -> Result<()> {
+    on_read_error(name, ReadError::Parse(error), bad_lines, counts)
+}
+
+/// A log read to its end by readers of its own: its notes printed, and
+/// an error if it gave no frame since `before` (the counts of frames and
+/// malformed records then) where `empty_logs` refuses one.
+pub fn end_of_log(
+    input: &mut LogInput,
+    counts: &ScanCounts,
+    before: (u64, u64),
+    empty_logs: EmptyLogs,
+) -> Result<()> {
+    input.print_notes();
+    refuse_if_empty(input, counts, before, empty_logs)
+}
+
 /// Calls `on_record` for every frame of every log, in order.
 pub fn for_each_record(
     inputs: &mut [LogInput],
@@ -236,7 +280,7 @@ pub fn for_each_record(
                     input.print_notes();
                     break;
                 }
-                Err(error) => on_read_error(input, error, bad_lines, counts)?,
+                Err(error) => on_read_error(&input.name, error, bad_lines, counts)?,
             }
         }
         refuse_if_empty(input, counts, (frames_before, skipped_before), empty_logs)?;
@@ -390,7 +434,7 @@ fn walk_batches(
                     input.print_notes();
                     break;
                 }
-                Err(error) => on_read_error(input, error, bad_lines, counts)?,
+                Err(error) => on_read_error(&input.name, error, bad_lines, counts)?,
             }
         }
         refuse_if_empty(input, counts, (frames_before, skipped_before), empty_logs)?;
@@ -401,14 +445,14 @@ fn walk_batches(
 /// A read error of `input`: a malformed record stops the walk or is
 /// counted and skipped, as `bad_lines` says; an I/O error stops it.
 fn on_read_error(
-    input: &LogInput,
+    name: &str,
     error: ReadError,
     bad_lines: BadLines,
     counts: &mut ScanCounts,
 ) -> Result<()> {
     match error {
         ReadError::Parse(error) => {
-            let message = error.in_file(&input.name);
+            let message = error.in_file(name);
             match bad_lines {
                 BadLines::Stop => Err(AcqError::Malformed(message)),
                 BadLines::Skip => {
@@ -420,7 +464,7 @@ fn on_read_error(
                 }
             }
         }
-        ReadError::Io(error) => Err(AcqError::io(format!("reading {}", input.name), error)),
+        ReadError::Io(error) => Err(AcqError::io(format!("reading {name}"), error)),
     }
 }
 

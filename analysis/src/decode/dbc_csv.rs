@@ -1,15 +1,23 @@
 //! The DBC route to CSV: every row's constant part (`,0x123,Message,Signal,`
 //! and `,unit`) built once per signal, so a row costs four `memcpy`s and a
-//! value's shortest text; on two cores or more, the frames parsed and
-//! decoded on one thread and the rows made and written on another.
+//! value's shortest text. A candump log is cut into pieces of whole lines,
+//! each parsed, decoded and made into rows on one of the cores, the rows
+//! written in the log's order ([`in_order`]); the frames of other formats
+//! are decoded on one thread and their rows made and written on another.
 
 use acq_can::dbc::{DbcDatabase, PhysicalValue};
-use acq_can::{CanId, IfaceName};
+use acq_can::log::candump::CandumpReader;
+use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place, ReadError};
 use acq_error::{AcqError, Result};
-use acq_io::input::LogInput;
+use acq_io::input::{end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput};
 use acq_io::output::{csv_field, Output};
 
-use super::{decode_dbc_frames, DbcDecodeOptions, DbcRows, DecodeSummary, FrameAt, DBC_HEADER};
+use super::{
+    decode_dbc_frames, decode_record, DbcDecodeOptions, DbcRows, DecodeSummary, FrameAt, DBC_HEADER,
+};
+
+mod in_order;
+use in_order::in_order;
 
 /// Decodes every frame of `inputs` through `database` into `output` (CSV).
 pub fn decode_with_dbc(
@@ -25,26 +33,76 @@ pub fn decode_with_dbc(
     }
     output.buffer.push(b'\n');
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    decode_to_csv(inputs, database, options, output, pieces, cores >= 2)
+    let route = if inputs
+        .iter()
+        .all(|input| input.format == LogFormat::Candump)
+    {
+        Route::InPieces {
+            workers: cores,
+            piece_bytes: PIECE_BYTES,
+        }
+    } else if options.labels || cores < 2 {
+        Route::OneThread
+    } else {
+        Route::HandedOver
+    };
+    decode_to_csv(inputs, database, options, output, pieces, route)
 }
 
-/// [`decode_with_dbc`] after the header, on two threads or on this one.
+/// How the rows are made (each route writes the same bytes).
+#[derive(Clone, Copy, Debug)]
+enum Route {
+    /// Record by record on this thread.
+    OneThread,
+    /// Decoded on this thread, the rows made and written on another.
+    HandedOver,
+    /// Every log candump, cut into pieces of `piece_bytes` or a little
+    /// more (whole lines), each decoded and made into rows on one of
+    /// `workers` threads.
+    InPieces { workers: usize, piece_bytes: usize },
+}
+
+/// A candump log's piece: about as much text as a core's second-level
+/// cache holds with its rows (about 2.6 times the text on the bench's
+/// log); large enough that handing pieces over costs nothing.
+const PIECE_BYTES: usize = 128 * 1024;
+
+/// [`decode_with_dbc`] after the header, by `route`.
 fn decode_to_csv(
     inputs: &mut [LogInput],
     database: &DbcDatabase,
     options: DbcDecodeOptions,
     output: &mut Output,
     pieces: CsvRowPieces,
-    two_threads: bool,
+    route: Route,
 ) -> Result<DecodeSummary> {
-    if options.labels || !two_threads {
-        let labels = options.labels;
-        let mut sink = CsvDbcRows {
-            output,
-            pieces: &pieces,
-            labels,
-        };
-        return decode_dbc_frames(inputs, database, options, &mut sink);
+    match route {
+        Route::OneThread => {
+            let mut sink = CsvDbcRows {
+                output,
+                pieces: &pieces,
+                labels: options.labels,
+            };
+            return decode_dbc_frames(inputs, database, options, &mut sink);
+        }
+        Route::InPieces {
+            workers,
+            piece_bytes,
+        } => {
+            let mut summary = DecodeSummary::default();
+            for input in inputs.iter_mut() {
+                let log = InPieces {
+                    database,
+                    options,
+                    pieces: &pieces,
+                    workers,
+                    piece_bytes,
+                };
+                log.decode(input, output, &mut summary)?;
+            }
+            return Ok(summary);
+        }
+        Route::HandedOver => {}
     }
     // Parsing and decoding on this thread, the rows made and written on
     // another: making them (the values' shortest text above all) is about
@@ -69,6 +127,115 @@ fn decode_to_csv(
     });
     // A writer's failure is the cause of a decoder stopped by it.
     written.and(decoded)
+}
+
+/// One candump log decoded in pieces: the lines of a piece read by a
+/// reader of its own, their rows made where the piece is worked on, the
+/// pieces' rows, counts and malformed lines taken in the log's order.
+struct InPieces<'a> {
+    database: &'a DbcDatabase,
+    options: DbcDecodeOptions,
+    pieces: &'a CsvRowPieces,
+    workers: usize,
+    piece_bytes: usize,
+}
+
+/// A piece of a candump log: its text, then what its lines became.
+#[derive(Default)]
+struct LogPiece {
+    text: Vec<u8>,
+    rows: Vec<u8>,
+    summary: DecodeSummary,
+    /// The lines of `text`.
+    lines: u64,
+    /// Its first malformed lines, numbered within the piece (a piece
+    /// stops at its first where a malformed line stops the decode).
+    bad: Vec<ParseError>,
+    bad_lines: u64,
+}
+
+/// Malformed lines of a piece kept to be reported one by one: no more
+/// are reported of the whole log.
+const BAD_LINES_KEPT: usize = 10;
+
+impl InPieces<'_> {
+    fn decode(
+        &self,
+        input: &mut LogInput,
+        output: &mut Output,
+        summary: &mut DecodeSummary,
+    ) -> Result<()> {
+        let name = input.name.clone();
+        let before = (summary.scan.frames, summary.scan.malformed_lines);
+        let mut lines_before = 0;
+        in_order(
+            self.workers,
+            2 * self.workers + 2,
+            |piece: &mut LogPiece| {
+                piece.text.clear();
+                match input.read_candump_lines(&mut piece.text, self.piece_bytes) {
+                    Some(read) => read.map(|bytes| bytes > 0),
+                    None => Err(AcqError::Config(format!(
+                        "{name}: not a candump log, read as one"
+                    ))),
+                }
+            },
+            |piece| self.decode_piece(piece),
+            |piece| {
+                // The rows before a malformed line that stops the decode too.
+                output.take_from(&mut piece.rows)?;
+                summary.add_counts(&piece.summary);
+                let reported = piece.bad.len() as u64;
+                for mut error in piece.bad.drain(..) {
+                    if let Place::Line(line) = error.at {
+                        error.at = Place::Line(lines_before + line);
+                    }
+                    on_bad_record(&name, error, self.options.bad_lines, &mut summary.scan)?;
+                }
+                summary.scan.malformed_lines += piece.bad_lines - reported;
+                lines_before += piece.lines;
+                Ok(())
+            },
+        )?;
+        end_of_log(input, &summary.scan, before, EmptyLogs::Refuse)
+    }
+
+    /// The piece's lines read, decoded and made into rows.
+    fn decode_piece(&self, piece: &mut LogPiece) {
+        piece.rows.clear();
+        piece.bad.clear();
+        piece.bad_lines = 0;
+        let summary = &mut piece.summary;
+        *summary = DecodeSummary::default();
+        let mut sink = CsvDbcRows {
+            output: &mut piece.rows,
+            pieces: self.pieces,
+            labels: self.options.labels,
+        };
+        let mut reader = CandumpReader::new(piece.text.as_slice());
+        loop {
+            let error = match reader.next_record() {
+                Ok(Some(record)) => {
+                    summary.scan.frames += 1;
+                    // Rows into memory: no error to give.
+                    let _ = decode_record(self.database, summary, &mut sink, &record);
+                    continue;
+                }
+                Ok(None) => break,
+                Err(ReadError::Parse(error)) => error,
+                // A slice is read without input errors.
+                Err(ReadError::Io(_)) => ParseError::new(reader.line(), "readable text"),
+            };
+            piece.bad_lines += 1;
+            if piece.bad.len() < BAD_LINES_KEPT {
+                piece.bad.push(error);
+            }
+            if self.options.bad_lines == BadLines::Stop {
+                break;
+            }
+        }
+        piece.lines = reader.line();
+    }
 }
 
 /// Runs of decoded values ahead of the CSV thread at most.
@@ -151,14 +318,39 @@ impl CsvRowPieces {
     }
 }
 
-/// The CSV rows made and written on the decoding thread.
-struct CsvDbcRows<'a> {
-    output: &'a mut Output,
+/// Where rows are made: the output's buffer, written out as it fills, or
+/// a piece's rows in memory.
+trait RowBuffer {
+    fn rows(&mut self) -> &mut Vec<u8>;
+    fn end_frame(&mut self) -> Result<()>;
+}
+
+impl RowBuffer for Output {
+    fn rows(&mut self) -> &mut Vec<u8> {
+        &mut self.buffer
+    }
+    fn end_frame(&mut self) -> Result<()> {
+        self.maybe_flush()
+    }
+}
+
+impl RowBuffer for Vec<u8> {
+    fn rows(&mut self) -> &mut Vec<u8> {
+        self
+    }
+    fn end_frame(&mut self) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// The CSV rows made where the frames are decoded.
+struct CsvDbcRows<'a, B: RowBuffer> {
+    output: &'a mut B,
     pieces: &'a CsvRowPieces,
     labels: bool,
 }
 
-impl DbcRows for CsvDbcRows<'_> {
+impl<B: RowBuffer> DbcRows for CsvDbcRows<'_, B> {
     const WANTS_TEXT: bool = true;
 
     #[inline]
@@ -170,8 +362,8 @@ impl DbcRows for CsvDbcRows<'_> {
         value: PhysicalValue,
         label: Option<&str>,
     ) {
-        let buffer = &mut self.output.buffer;
-        let timestamp = frame.timestamp_text.as_bytes();
+        let buffer = self.output.rows();
+        let timestamp = frame.timestamp_text;
         self.pieces.push(
             buffer,
             timestamp,
@@ -192,7 +384,7 @@ impl DbcRows for CsvDbcRows<'_> {
 
     #[inline]
     fn end_frame(&mut self) -> Result<()> {
-        self.output.maybe_flush()
+        self.output.end_frame()
     }
 
     fn wants_labels(&self) -> bool {
@@ -257,9 +449,7 @@ impl DbcRows for HandingOver {
         let current = &mut self.current;
         if !self.in_frame {
             self.in_frame = true;
-            current
-                .timestamps
-                .extend_from_slice(frame.timestamp_text.as_bytes());
+            current.timestamps.extend_from_slice(frame.timestamp_text);
             current.frames.push(DecodedFrame {
                 timestamp_end: current.timestamps.len(),
                 iface: frame.iface,
@@ -390,7 +580,7 @@ mod tests {
     fn decode(
         path: &std::path::Path,
         bad_lines: BadLines,
-        two_threads: bool,
+        route: Route,
         fail_after: usize,
     ) -> (Result<DecodeSummary>, Vec<u8>) {
         let database = j1939_database();
@@ -407,21 +597,37 @@ mod tests {
         };
         let mut inputs = vec![open_log(path).unwrap()];
         let pieces = CsvRowPieces::new(&database);
-        let result = decode_to_csv(
-            &mut inputs,
-            &database,
-            options,
-            &mut output,
-            pieces,
-            two_threads,
-        );
+        let result = decode_to_csv(&mut inputs, &database, options, &mut output, pieces, route);
         let _ = output.finish();
         let bytes = kept.bytes.lock().unwrap().clone();
         (result, bytes)
     }
 
+    /// Every route, and pieces of several sizes on one to three threads:
+    /// pieces of a line or two, pieces that cut a run of bad lines.
+    const ROUTES: [Route; 6] = [
+        Route::OneThread,
+        Route::HandedOver,
+        Route::InPieces {
+            workers: 1,
+            piece_bytes: 100,
+        },
+        Route::InPieces {
+            workers: 2,
+            piece_bytes: 1,
+        },
+        Route::InPieces {
+            workers: 2,
+            piece_bytes: 4096,
+        },
+        Route::InPieces {
+            workers: 3,
+            piece_bytes: PIECE_BYTES,
+        },
+    ];
+
     #[test]
-    fn two_threads_write_what_one_writes() {
+    fn every_route_writes_what_one_thread_writes() {
         let dir = tempfile::tempdir().unwrap();
         // Many hand-overs, a last short one; a bad line in the middle.
         let whole = log(dir.path(), 12 * HANDOVER_VALUES + 123, None);
@@ -435,30 +641,19 @@ mod tests {
             (&broken, BadLines::Skip),
             (&broken, BadLines::Stop),
         ] {
-            let (one, one_bytes) = decode(path, bad_lines, false, usize::MAX);
-            let (two, two_bytes) = decode(path, bad_lines, true, usize::MAX);
+            let (one, one_bytes) = decode(path, bad_lines, Route::OneThread, usize::MAX);
             assert!(one_bytes.len() > 200_000, "{}", one_bytes.len());
-            assert!(
-                one_bytes == two_bytes,
-                "{path:?} {bad_lines:?}: the CSVs differ"
-            );
-            match (one, two) {
-                (Ok(one), Ok(two)) => {
-                    assert_eq!(one, two);
-                    assert!(one.rows > 3 * HANDOVER_VALUES as u64, "{one:?}");
-                    assert!(
-                        one.unknown > 0 && one.remote_frames > 0 && one.undecodable > 0,
-                        "{one:?}"
-                    );
-                }
-                (Err(one), Err(two)) => {
-                    assert_eq!(one.to_string(), two.to_string());
-                    assert!(one.to_string().contains("expected"), "{one}");
-                }
-                (one, two) => panic!("{one:?} against {two:?}"),
+            for route in ROUTES {
+                let (two, two_bytes) = decode(path, bad_lines, route, usize::MAX);
+                assert!(
+                    one_bytes == two_bytes,
+                    "{path:?} {bad_lines:?} {route:?}: the CSVs differ"
+                );
+                same_summary_or_error(one.as_ref(), two);
             }
         }
-        let text = String::from_utf8(decode(&whole, BadLines::Stop, true, usize::MAX).1).unwrap();
+        let text =
+            String::from_utf8(decode(&whole, BadLines::Stop, ROUTES[5], usize::MAX).1).unwrap();
         // EEC1 from 0x00 as its own id, from 0xFE as the DBC's.
         assert!(
             text.contains(",can1,0xCF00400,EEC1,EngineSpeed,"),
@@ -470,6 +665,67 @@ mod tests {
             "{}",
             &text[..400]
         );
+    }
+
+    fn same_summary_or_error(
+        one: std::result::Result<&DecodeSummary, &AcqError>,
+        two: Result<DecodeSummary>,
+    ) {
+        match (one, two) {
+            (Ok(one), Ok(two)) => {
+                assert_eq!(one, &two);
+                assert!(one.rows > 3 * HANDOVER_VALUES as u64, "{one:?}");
+                assert!(
+                    one.unknown > 0 && one.remote_frames > 0 && one.undecodable > 0,
+                    "{one:?}"
+                );
+            }
+            (Err(one), Err(two)) => {
+                assert_eq!(one.to_string(), two.to_string());
+                assert!(one.to_string().contains("expected"), "{one}");
+            }
+            (one, two) => panic!("{one:?} against {two:?}"),
+        }
+    }
+
+    #[test]
+    fn many_malformed_lines_are_counted_and_the_first_stops_on_every_route() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = std::fs::read_to_string(log(dir.path(), 3000, None)).unwrap();
+        let mut text = String::new();
+        for (k, line) in good.lines().enumerate() {
+            text.push_str(line);
+            text.push('\n');
+            if k % 97 == 5 {
+                text.push_str("(1700000000.5) can0 12G#00\n");
+            }
+        }
+        // The last line cut short: malformed too.
+        text.push_str("(1700000001.000000) can0 0CF004FE#00");
+        let path = dir.path().join("many-bad.log");
+        std::fs::write(&path, text).unwrap();
+        for bad_lines in [BadLines::Skip, BadLines::Stop] {
+            let (one, one_bytes) = decode(&path, bad_lines, Route::OneThread, usize::MAX);
+            match (&one, bad_lines) {
+                (Ok(summary), BadLines::Skip) => assert_eq!(summary.scan.malformed_lines, 32),
+                (Err(error), BadLines::Stop) => {
+                    assert!(error.to_string().contains("many-bad.log:7:"), "{error}")
+                }
+                (other, _) => panic!("{other:?}"),
+            }
+            for route in ROUTES {
+                let (two, two_bytes) = decode(&path, bad_lines, route, usize::MAX);
+                assert!(
+                    one_bytes == two_bytes,
+                    "{bad_lines:?} {route:?}: the CSVs differ"
+                );
+                match (&one, two) {
+                    (Ok(one), Ok(two)) => assert_eq!(one, &two, "{route:?}"),
+                    (Err(one), Err(two)) => assert_eq!(one.to_string(), two.to_string()),
+                    (one, two) => panic!("{route:?}: {one:?} against {two:?}"),
+                }
+            }
+        }
     }
 
     /// Record batches kept.
@@ -566,7 +822,7 @@ mod tests {
             (&broken, BadLines::Skip),
             (&broken, BadLines::Stop),
         ] {
-            let (by_record, csv) = decode(path, bad_lines, false, usize::MAX);
+            let (by_record, csv) = decode(path, bad_lines, Route::OneThread, usize::MAX);
             let (by_batch, rows) = arrow_rows(path, bad_lines);
             let csv = csv_rows(&csv);
             assert!(csv.len() > 5_000, "{}", csv.len());
@@ -583,10 +839,10 @@ mod tests {
     fn a_writer_that_fails_stops_the_decode_with_its_own_error() {
         let dir = tempfile::tempdir().unwrap();
         let path = log(dir.path(), 20 * HANDOVER_VALUES, None);
-        for two_threads in [false, true] {
-            let (result, bytes) = decode(&path, BadLines::Stop, two_threads, 1 << 20);
+        for route in ROUTES {
+            let (result, bytes) = decode(&path, BadLines::Stop, route, 1 << 20);
             let error = result.unwrap_err().to_string();
-            assert!(error.contains("the disk is full"), "{two_threads}: {error}");
+            assert!(error.contains("the disk is full"), "{route:?}: {error}");
             assert!(bytes.len() <= 1 << 20);
         }
     }

@@ -157,7 +157,7 @@ impl<R: BufRead> AscReader<R> {
                     let text = self.buffer.get(time.0..time.1).unwrap_or_default();
                     return Ok(Some(LogRecord {
                         line,
-                        timestamp_text: std::str::from_utf8(text).unwrap_or_default(),
+                        timestamp_text: text,
                         frame,
                     }));
                 }
@@ -842,7 +842,7 @@ mod tests {
             match reader.next_record() {
                 Ok(Some(record)) => out.push(Ok((
                     record.line,
-                    record.timestamp_text.to_owned(),
+                    String::from_utf8_lossy(record.timestamp_text).into_owned(),
                     record.frame,
                 ))),
                 Ok(None) => return out,

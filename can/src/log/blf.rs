@@ -189,7 +189,7 @@ impl<R: BufRead> BlfReader<R> {
                 Ok(Some(frame)) => {
                     return Ok(Some(LogRecord {
                         line: self.objects,
-                        timestamp_text: self.time_text.set(frame.timestamp_ns),
+                        timestamp_text: self.time_text.set(frame.timestamp_ns).as_bytes(),
                         frame,
                     }));
                 }

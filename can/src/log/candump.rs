@@ -188,6 +188,35 @@ impl<R: BufRead> CandumpReader<R> {
     pub fn line(&self) -> u64 {
         self.line
     }
+
+    /// Appends the log's next whole lines to `out`, newlines included: at
+    /// least `at_least` bytes, then up to the end of the line they end in;
+    /// at the end of the log, a last line without its newline as it is.
+    /// The bytes appended; 0 at the end. For readers of a log in pieces,
+    /// each piece read on its own by a reader of its own (a
+    /// `CandumpReader` over the slice): the lines are not parsed here, and
+    /// [`CandumpReader::line`] does not move.
+    pub fn read_lines_into(&mut self, out: &mut Vec<u8>, at_least: usize) -> io::Result<usize> {
+        self.input.consume(std::mem::take(&mut self.returned_bytes));
+        let start = out.len();
+        loop {
+            let available = self.input.fill_buf()?;
+            if available.is_empty() {
+                break;
+            }
+            let wanted = at_least.saturating_sub(out.len() - start);
+            let taken = if wanted > 0 {
+                wanted.min(available.len())
+            } else if out.last() == Some(&b'\n') {
+                break;
+            } else {
+                memchr::memchr(b'\n', available).map_or(available.len(), |newline| newline + 1)
+            };
+            out.extend_from_slice(&available[..taken]);
+            self.input.consume(taken);
+        }
+        Ok(out.len() - start)
+    }
 }
 
 /// The record of line number `line`, `text` without its end; `last_iface`
@@ -217,8 +246,7 @@ fn record<'t>(
             return Ok(Some(LogRecord {
                 line,
                 // Digits and a dot.
-                timestamp_text: std::str::from_utf8(&text[1..usual.timestamp_end])
-                    .unwrap_or_default(),
+                timestamp_text: &text[1..usual.timestamp_end],
                 frame,
             }));
         }
@@ -227,8 +255,7 @@ fn record<'t>(
         Ok((timestamp, frame)) => Ok(Some(LogRecord {
             line,
             // The timestamp was checked to be ASCII digits and a dot.
-            timestamp_text: std::str::from_utf8(&text[timestamp.0..timestamp.1])
-                .unwrap_or_default(),
+            timestamp_text: &text[timestamp.0..timestamp.1],
             frame,
         })),
         Err(expected) => Err(ReadError::Parse(ParseError::new(line, expected))),
@@ -929,7 +956,7 @@ mod tests {
         let log = "(1.000000) can0 123#01\n\n# comment\n(2.000000) can0 124#02\r\nbad line\n(3.000000) can0 125#03\n";
         let mut reader = CandumpReader::new(log.as_bytes());
         let first = reader.next_record().unwrap().unwrap();
-        assert_eq!((first.line, first.timestamp_text), (1, "1.000000"));
+        assert_eq!((first.line, first.timestamp_text), (1, &b"1.000000"[..]));
         let second = reader.next_record().unwrap().unwrap();
         assert_eq!((second.line, second.frame.payload()), (4, &[2u8][..]));
         match reader.next_record() {
@@ -938,5 +965,50 @@ mod tests {
         }
         assert_eq!(reader.next_record().unwrap().unwrap().line, 6);
         assert!(reader.next_record().unwrap().is_none());
+    }
+
+    proptest::proptest! {
+        /// Pieces of whole lines, through a small read buffer: together the
+        /// log byte for byte; each at least what was asked unless the log
+        /// ended, each but the last ending at a newline, none past the
+        /// newline that follows what was asked.
+        #[test]
+        fn a_log_read_in_pieces_is_the_log_in_whole_lines(
+            lines in proptest::collection::vec("[ -~]{0,40}", 0..40),
+            cut_last in proptest::bool::ANY,
+            at_least in 1usize..100,
+            buffer in 1usize..64,
+        ) {
+            let mut log = lines.join("\n").into_bytes();
+            if !cut_last && !lines.is_empty() {
+                log.push(b'\n');
+            }
+            let mut reader =
+                CandumpReader::new(std::io::BufReader::with_capacity(buffer, log.as_slice()));
+            let mut pieces = Vec::new();
+            loop {
+                let mut piece = Vec::new();
+                let read = reader.read_lines_into(&mut piece, at_least).unwrap();
+                proptest::prop_assert_eq!(read, piece.len());
+                if read == 0 {
+                    break;
+                }
+                pieces.push(piece);
+            }
+            proptest::prop_assert_eq!(pieces.concat(), log.clone());
+            for (k, piece) in pieces.iter().enumerate() {
+                let last = k + 1 == pieces.len();
+                proptest::prop_assert!(last || piece.ends_with(b"\n"));
+                proptest::prop_assert!(last || piece.len() >= at_least);
+                let asked = &piece[..at_least.min(piece.len())];
+                let after = &piece[asked.len()..];
+                let newline_after = after.iter().position(|&b| b == b'\n');
+                proptest::prop_assert!(
+                    asked.ends_with(b"\n") && after.is_empty()
+                        || newline_after.is_none_or(|at| at + 1 == after.len()),
+                    "{:?}", String::from_utf8_lossy(piece)
+                );
+            }
+        }
     }
 }

@@ -12,8 +12,11 @@ pub struct LogRecord<'a> {
     /// 1-based line number in the log.
     pub line: u64,
     /// The timestamp exactly as the log writes it (`1700000000.123456` in a
-    /// candump log, `12.345678` seconds from the start in an ASC file).
-    pub timestamp_text: &'a str,
+    /// candump log, `12.345678` seconds from the start in an ASC file):
+    /// ASCII digits, a dot, perhaps a minus sign. Bytes, not a `str`: a
+    /// reader has checked them, and checking them again as UTF-8 was a
+    /// thirtieth of a CSV decode.
+    pub timestamp_text: &'a [u8],
     pub frame: Frame,
 }
 

@@ -81,7 +81,7 @@ fn every_frame_of_the_sample_reads_back() {
             .unwrap_or_else(|| panic!("log ended before line {}", want.line));
         let at = format!("line {}", want.line);
         assert_eq!(record.line, want.line, "{at}");
-        assert_eq!(record.timestamp_text, want.time, "{at}");
+        assert_eq!(record.timestamp_text, want.time.as_bytes(), "{at}");
         let seconds: f64 = want.time.parse().unwrap();
         let offset_ns = (seconds * 1e9).round() as i64;
         let frame = record.frame;

@@ -39,7 +39,7 @@ fn read(bytes: &[u8]) -> Vec<Frame> {
                 let ns = record.frame.timestamp_ns;
                 assert_eq!(
                     record.timestamp_text,
-                    format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
+                    format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000).as_bytes()
                 );
                 frames.push(record.frame);
             }

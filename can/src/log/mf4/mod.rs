@@ -300,7 +300,7 @@ impl<R: BufRead> Mf4Reader<R> {
         }
         LogRecord {
             line,
-            timestamp_text: self.time_text.set(frame.timestamp_ns),
+            timestamp_text: self.time_text.set(frame.timestamp_ns).as_bytes(),
             frame,
         }
     }

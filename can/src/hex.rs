@@ -28,19 +28,6 @@ pub fn nibble(digit: u8) -> Option<u8> {
     (value != INVALID).then_some(value)
 }
 
-/// Whether `digit` is a hex digit (either case).
-#[inline]
-pub fn is_digit(digit: u8) -> bool {
-    NIBBLE[usize::from(digit)] != INVALID
-}
-
-/// Value of a byte [`is_digit`] said is a hex digit (any other gives a
-/// meaningless value, never a panic).
-#[inline]
-pub fn nibble_unchecked(digit: u8) -> u8 {
-    NIBBLE[usize::from(digit)] & 0x0F
-}
-
 /// Parses a run of hex digits (no prefix) into a `u32`; `None` on an empty
 /// run, a non-hex byte or more than 8 digits.
 pub fn parse_u32(digits: &[u8]) -> Option<u32> {
@@ -50,6 +37,25 @@ pub fn parse_u32(digits: &[u8]) -> Option<u32> {
     digits
         .iter()
         .try_fold(0u32, |acc, &d| nibble(d).map(|v| (acc << 4) | u32::from(v)))
+}
+
+/// Reads `digits`, pairs of hex digits (either case), into the first
+/// bytes of `out`; `None` for an odd count, a byte not a hex digit, or
+/// more pairs than `out` holds.
+/// One table look-up a digit, every digit's checked at the end at once.
+#[inline]
+pub fn read_pairs(digits: &[u8], out: &mut [u8]) -> Option<()> {
+    if digits.len() > 2 * out.len() {
+        return None;
+    }
+    let mut seen = 0u8;
+    for (byte, pair) in out.iter_mut().zip(digits.chunks_exact(2)) {
+        let (high, low) = (NIBBLE[usize::from(pair[0])], NIBBLE[usize::from(pair[1])]);
+        seen |= high | low;
+        *byte = (high << 4) | (low & 0x0F);
+    }
+    // A valid digit's value is at most 0x0F; INVALID sets the high bits.
+    (seen <= 0x0F && digits.len() % 2 == 0).then_some(())
 }
 
 /// Uppercase hex digit of the low nibble.

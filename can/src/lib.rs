@@ -20,6 +20,7 @@ pub mod bits;
 pub mod bus_error;
 pub mod canopen;
 pub mod dbc;
+mod decimal;
 pub mod frame;
 mod hex;
 pub mod id_index;

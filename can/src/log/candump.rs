@@ -22,7 +22,7 @@ use crate::frame::{
     CanId, Direction, Frame, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN, FD_MAX_LEN,
     MAX_EXTENDED_ID, MAX_STANDARD_ID,
 };
-use crate::hex;
+use crate::{decimal, hex};
 
 const E_CUT_LINE: &str =
     "a line ended by a newline (the file ends inside its last line: cut short?)";
@@ -327,7 +327,81 @@ pub fn parse_usual_line(line: &[u8]) -> Option<UsualLine<'_>> {
     if open != b'(' {
         return None;
     }
-    // Seconds, a dot, the fraction, ')', a space.
+    let (timestamp_ns, at) = match candump_timestamp(rest) {
+        Some(read) => read,
+        None => general_timestamp(rest)?,
+    };
+    // `rest` starts after the '('.
+    let timestamp_end = 1 + at;
+    let rest = &rest[at + 2..];
+
+    // The interface, a space.
+    let iface_len = rest.iter().position(|&b| b == b' ' || b == b'\t')?;
+    if rest[iface_len] != b' ' {
+        return None;
+    }
+    let iface = &rest[..iface_len];
+    let rest = &rest[iface_len + 1..];
+
+    // The id: 3 or 8 hex digits, then '#'.
+    let hash = rest[..rest.len().min(9)].iter().position(|&b| b == b'#')?;
+    let id_value = hex::parse_u32(&rest[..hash])?;
+    let id = match hash {
+        3 if id_value <= u32::from(MAX_STANDARD_ID) => CanId::Standard(id_value as u16),
+        8 if id_value <= MAX_EXTENDED_ID => CanId::Extended(id_value),
+        _ => return None,
+    };
+    let rest = &rest[hash + 1..];
+
+    // Pairs of hex digits up to the end or a direction.
+    let (digits, direction) = match rest {
+        [digits @ .., b' ', b'R'] => (digits, Some(Direction::Received)),
+        [digits @ .., b' ', b'T'] => (digits, Some(Direction::Transmitted)),
+        digits => (digits, None),
+    };
+    let mut data = [0u8; CLASSIC_MAX_LEN];
+    hex::read_pairs(digits, &mut data)?;
+    let len = digits.len() / 2;
+    Some(UsualLine {
+        timestamp_ns,
+        timestamp_end,
+        iface,
+        id,
+        data,
+        len,
+        direction,
+    })
+}
+
+/// The time of a timestamp as candump writes it, `SSSSSSSSSS.UUUUUU) `
+/// (`rest` after the `(`): in ns, and where its `)` is. Sixteen digits
+/// read eight at a time; `None` for any other shape.
+#[inline]
+fn candump_timestamp(rest: &[u8]) -> Option<(i64, usize)> {
+    let text: &[u8; 19] = rest.get(..19)?.try_into().ok()?;
+    if text[10] != b'.' || text[17] != b')' || text[18] != b' ' {
+        return None;
+    }
+    let [first, second, ..] = *text;
+    let seconds_high = [b'0', b'0', b'0', b'0', b'0', b'0', first, second];
+    let seconds_low: [u8; 8] = text[2..10].try_into().ok()?;
+    let micros: [u8; 8] = [
+        b'0', b'0', text[11], text[12], text[13], text[14], text[15], text[16],
+    ];
+    let seconds = i64::from(decimal::eight_digits(seconds_high)?) * 100_000_000
+        + i64::from(decimal::eight_digits(seconds_low)?);
+    let micros = i64::from(decimal::eight_digits(micros)?);
+    // Ten digits of seconds pass i64's nanoseconds past 9,223,372,036.
+    let timestamp_ns = seconds
+        .checked_mul(1_000_000_000)?
+        .checked_add(micros * 1_000)?;
+    Some((timestamp_ns, 17))
+}
+
+/// The time of any timestamp [`parse_line`] reads, `SECONDS.FRACTION) `
+/// (`rest` after the `(`; 1-12 and 1-9 digits): in ns, and where its `)`
+/// is.
+fn general_timestamp(rest: &[u8]) -> Option<(i64, usize)> {
     // Each run read one digit past its longest, no further: more would
     // overflow, and is refused anyway.
     let mut whole: i64 = 0;
@@ -355,55 +429,7 @@ pub fn parse_usual_line(line: &[u8]) -> Option<UsualLine<'_>> {
     }
     nanos *= 10i64.pow(9 - fraction_digits as u32);
     let timestamp_ns = whole.checked_mul(1_000_000_000)?.checked_add(nanos)?;
-    // `rest` starts after the '('.
-    let timestamp_end = 1 + at;
-    let rest = &rest[at + 2..];
-
-    // The interface, a space.
-    let iface_len = rest.iter().position(|&b| b == b' ' || b == b'\t')?;
-    if rest[iface_len] != b' ' {
-        return None;
-    }
-    let iface = &rest[..iface_len];
-    let rest = &rest[iface_len + 1..];
-
-    // The id: 3 or 8 hex digits, then '#'.
-    let hash = rest.iter().take(9).position(|&b| b == b'#')?;
-    let id_value = hex::parse_u32(&rest[..hash])?;
-    let id = match hash {
-        3 if id_value <= u32::from(MAX_STANDARD_ID) => CanId::Standard(id_value as u16),
-        8 if id_value <= MAX_EXTENDED_ID => CanId::Extended(id_value),
-        _ => return None,
-    };
-    let rest = &rest[hash + 1..];
-
-    // Pairs of hex digits up to the end or a space.
-    let digits = rest
-        .iter()
-        .position(|&b| !hex::is_digit(b))
-        .unwrap_or(rest.len());
-    if digits % 2 != 0 || digits > 2 * CLASSIC_MAX_LEN {
-        return None;
-    }
-    let mut data = [0u8; CLASSIC_MAX_LEN];
-    for (byte, pair) in data.iter_mut().zip(rest[..digits].chunks_exact(2)) {
-        *byte = (hex::nibble_unchecked(pair[0]) << 4) | hex::nibble_unchecked(pair[1]);
-    }
-    let direction = match &rest[digits..] {
-        [] => None,
-        b" R" => Some(Direction::Received),
-        b" T" => Some(Direction::Transmitted),
-        _ => return None,
-    };
-    Some(UsualLine {
-        timestamp_ns,
-        timestamp_end,
-        iface,
-        id,
-        data,
-        len: digits / 2,
-        direction,
-    })
+    Some((timestamp_ns, at))
 }
 
 /// Where the first byte of a field of a few bytes meets `wanted`. A plain
@@ -730,12 +756,19 @@ mod tests {
             1 => "[0-9]{13}",
             1 => "9{12}",
             1 => "[0-9]{3}[ a+-][0-9]{2}",
+            // candump's own ten digits, read eight at a time: some with a
+            // byte next to the digits (`/`, `:`) or beyond nine digits.
+            6 => "[0-9]{10}",
+            2 => "[0-9]{0,9}[/:a ][0-9]{0,9}",
+            1 => "9{10}",
         ];
         let fraction = prop_oneof![
             12 => "[0-9]{1,9}",
             1 => Just(String::new()),
             1 => "[0-9]{10}",
             1 => "[0-9]x",
+            6 => "[0-9]{6}",
+            2 => "[0-9]{0,5}[/:a][0-9]{0,5}",
         ];
         let gap = prop_oneof![12 => Just(" "), 1 => Just("  "), 1 => Just("\t"), 1 => Just("")];
         let iface = prop_oneof![

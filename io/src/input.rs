@@ -233,7 +233,7 @@ pub struct ScanCounts {
 }
 
 /// How many malformed lines are reported one by one before only counting.
-const REPORTED_BAD_LINES: u64 = 10;
+pub const REPORTED_BAD_LINES: u64 = 10;
 
 /// A log's malformed record found by a reader of its own (a piece of a
 /// candump log read on another thread), under the bad-line policy every

@@ -9,7 +9,7 @@ use acq_can::dbc::{DbcDatabase, PhysicalValue};
 use acq_can::log::candump::CandumpReader;
 use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place, ReadError};
 use acq_error::{AcqError, Result};
-use acq_io::input::{end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput};
+use acq_io::input::{end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput, REPORTED_BAD_LINES};
 use acq_io::output::{csv_field, Output};
 
 use super::{
@@ -89,16 +89,16 @@ fn decode_to_csv(
             workers,
             piece_bytes,
         } => {
+            let in_pieces = InPieces {
+                database,
+                options,
+                pieces: &pieces,
+                workers,
+                piece_bytes,
+            };
             let mut summary = DecodeSummary::default();
             for input in inputs.iter_mut() {
-                let log = InPieces {
-                    database,
-                    options,
-                    pieces: &pieces,
-                    workers,
-                    piece_bytes,
-                };
-                log.decode(input, output, &mut summary)?;
+                in_pieces.decode(input, output, &mut summary)?;
             }
             return Ok(summary);
         }
@@ -156,7 +156,7 @@ struct LogPiece {
 
 /// Malformed lines of a piece kept to be reported one by one: no more
 /// are reported of the whole log.
-const BAD_LINES_KEPT: usize = 10;
+const BAD_LINES_KEPT: usize = REPORTED_BAD_LINES as usize;
 
 impl InPieces<'_> {
     fn decode(

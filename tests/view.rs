@@ -1034,8 +1034,16 @@ fn a_layout_sets_the_plots_and_the_page_saves_it_again() {
     // Zoomed in to a fifth of a second, the 10 Hz inclination still reads
     // at a cursor between its samples (the page's columns are far
     // narrower than its period there).
-    page.evaluate("window.acqView.showRange(0, [7.0, 7.2])")
+    // The range's promise settles once its data is drawn: a y span or a
+    // cursor set next works on it, not on the range before.
+    let drawn_span = page
+        .evaluate("window.acqView.showRange(0, [7.0, 7.2]).then(() => { const xs = window.acqView.sessions[0].groups[0].plot.data[0]; return JSON.stringify([xs[0], xs[xs.length - 1]]); })")
         .unwrap();
+    let drawn_span: Vec<f64> = serde_json::from_str(drawn_span.as_str().unwrap()).unwrap();
+    assert!(
+        drawn_span[0] > 6.9 && drawn_span[1] < 7.3,
+        "the zoomed data is drawn when the range's promise settles: {drawn_span:?}"
+    );
     page.evaluate("window.acqView.setCursors(0, [7.13])")
         .unwrap();
     let inclination = cursor_row(&mut page, "arm_inclination");

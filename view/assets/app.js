@@ -530,10 +530,13 @@
     const px = Math.max(200, Math.round(s.groups[0] ? s.groups[0].plot.bbox.width / devicePixelRatio : 1000));
     try {
       const data = await getJson('/api/series', { session: s.index, from: range[0], to: range[1], px });
+      // A range asked for since wins; its answer may come first.
+      if (s.range !== range) return;
       const width = (range[1] - range[0]) / px;
       s.zoomColumns = data.series.map((cols) => toMap(cols, width));
-      redraw(s);
+      const drawn = redraw(s);
       refreshOverlay(s);
+      await drawn;
     } catch (e) {
       banner(`could not read the series: ${e.message}`);
     }
@@ -747,24 +750,36 @@
     s.controls.insertBefore(el('span', { class: 'overlay-tools' }, pick, el('label', {}, ' shift (s) ', shift), align), s.mode);
   }
 
-  let pending = new Set();
+  // A session's next frame, drawn once however many asked for it; the
+  // promise settles when it is on screen, so that what follows a new range
+  // (a y span, a cursor's values) works on the data drawn, not the last.
+  const pending = new Map();
   function redraw(s) {
-    if (pending.has(s)) return;
-    pending.add(s);
-    requestAnimationFrame(() => {
+    if (pending.has(s)) return pending.get(s);
+    const drawn = new Promise((resolve) => requestAnimationFrame(() => {
       pending.delete(s);
-      // setData rescales y (and x, which setRange then sets).
-      for (const g of s.groups) {
-        g.plot.setData(plotData(s, g));
-        showLatest(g.plot);
+      try {
+        drawFrame(s);
+      } finally {
+        resolve();
       }
-      if (s.range) setRange(s, s.range);
-      for (const p of s.xyPlots) drawXyPlot(s, p);
-      let last = null;
-      for (const m of s.columns) for (const key of m.keys()) last = last === null ? key : Math.max(last, key);
-      view.lastX[s.index] = last === null ? null : last / 1000;
-      if (view.watch) noteDrawn(s);
-    });
+    }));
+    pending.set(s, drawn);
+    return drawn;
+  }
+
+  function drawFrame(s) {
+    // setData rescales y (and x, which setRange then sets).
+    for (const g of s.groups) {
+      g.plot.setData(plotData(s, g));
+      showLatest(g.plot);
+    }
+    if (s.range) setRange(s, s.range);
+    for (const p of s.xyPlots) drawXyPlot(s, p);
+    let last = null;
+    for (const m of s.columns) for (const key of m.keys()) last = last === null ? key : Math.max(last, key);
+    view.lastX[s.index] = last === null ? null : last / 1000;
+    if (view.watch) noteDrawn(s);
   }
 
   // For a benchmark: when the newest value of the signal named

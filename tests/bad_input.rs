@@ -1423,7 +1423,8 @@ fn example_rig_study() -> String {
 /// A spec's parameters and weights are refused where they could only
 /// give NaN or nothing, each naming the key and the fix: bounds of 1e308
 /// (their range overflows), a log scale from 0, a prior's value outside
-/// the bounds where no nominal was written, and every weight 0.
+/// the bounds where no nominal was written, every weight 0, and a
+/// posterior's refinement budget past a thousand model runs.
 #[test]
 fn a_specs_parameters_and_weights_that_give_nan_or_nothing_are_refused_by_name() {
     for (from, to, says) in [
@@ -1431,6 +1432,7 @@ fn a_specs_parameters_and_weights_that_give_nan_or_nothing_are_refused_by_name()
         ("lower = 1.0\nupper = 3.0", "lower = 0.0\nupper = 3.0\nscale = \"log\"", "scale = \"log\" needs lower above 0"),
         ("lower = 1.0\nupper = 3.0", "lower = 1.0\nupper = 3.0\nprior = { value = 100.0, uncertainty = 1.0 }", "the prior's value (the nominal where none is given) = 100 lies outside the bounds 1 .. 3"),
         ("measured_y = \"FORCE\"", "measured_y = \"FORCE\"\nweight = 0.0", "every measured value and curve has weight 0"),
+        ("max_evals = 6", "max_evals = 6\n\n[posterior]\nrefinement_runs = 5000", "posterior.refinement_runs = 5000: at most 1000"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let spec = common::parabola_study(dir.path(), "start = \"lhs\"\nstart_runs = 4\nmax_evals = 6\n");

@@ -280,12 +280,17 @@ fn v_and_v_20_on_the_calculix_bar_takes_u_num_from_its_own_mesh_study() {
     // The worked example's search, shortened: what is checked here is the
     // way u_num travels from the mesh study to the V&V 20 table, not how
     // well the search calibrates (the BO and MOO tests above check that);
-    // 7 CalculiX runs at 0.4 mm instead of 14.
+    // 7 CalculiX runs at 0.4 mm instead of 14, and at most 2 where the
+    // posterior's emulator is unsure (12 when the budget was the default's
+    // 20, 2026-12-06).
     let text = std::fs::read_to_string(&spec).unwrap();
     let shortened = text
         .replace("start_runs = 6", "start_runs = 4")
         .replace("max_evals = 10", "max_evals = 5")
-        .replace("predictive_runs = 4", "predictive_runs = 2");
+        .replace(
+            "predictive_runs = 4",
+            "predictive_runs = 2\nrefinement_runs = 2",
+        );
     assert_ne!(
         text, shortened,
         "the example's [search] and [posterior] keys moved"
@@ -331,6 +336,10 @@ fn v_and_v_20_on_the_calculix_bar_takes_u_num_from_its_own_mesh_study() {
     let calibration = dir.path().join("validate");
     let run = common::calibrate_external(&spec, &calibration, &[]);
     assert!(run.status.success(), "{}", stderr(&run));
+    // The spec's refinement budget held: a header and at most two runs.
+    let refinement =
+        std::fs::read_to_string(calibration.join("posterior_refinement.csv")).unwrap_or_default();
+    assert!(refinement.lines().count() <= 3, "{refinement}");
     let report = std::fs::read_to_string(calibration.join("report.md")).unwrap();
     let cells = common::validation_row(&report, "neck", "force_at_end_kn");
     let u_num: f64 = cells[5].parse().unwrap();

@@ -17,7 +17,7 @@ pub enum Discrepancy {
 
 /// Model runs the emulator's refinement may spend beyond the search,
 /// unless a preset whose model is cheap enough allows more.
-pub const MAX_REFINEMENT_RUNS: usize = 20;
+pub const DEFAULT_REFINEMENT_RUNS: usize = 20;
 
 /// The most kept draws per chain a posterior is asked for (a spec's
 /// `[posterior] draws`, a preset's `--posterior-draws`): a million per
@@ -52,7 +52,7 @@ impl Default for PosteriorSettings {
             chains: 4,
             discrepancy: Discrepancy::None,
             predictive_runs: 50,
-            refinement_runs: MAX_REFINEMENT_RUNS,
+            refinement_runs: DEFAULT_REFINEMENT_RUNS,
             seed: 1,
             numerical_uncertainty: Vec::new(),
             numerical_uncertainty_sources: Vec::new(),

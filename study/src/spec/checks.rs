@@ -11,7 +11,8 @@ use super::model::{BuiltinModels, CommandSpec, KeyReader, ModelKind};
 use super::problem::SpecProblem;
 use super::schema::{
     ExecutorKind, ExecutorSpec, MethodName, ModelName, Search, SpecFile, MAX_CHAINS, MAX_DRAWS,
-    MAX_EVALUATIONS, MAX_PARALLEL, MAX_PREDICTIVE_RUNS, MAX_RETRIES, MAX_TIMEOUT_S, START_DESIGNS,
+    MAX_EVALUATIONS, MAX_PARALLEL, MAX_PREDICTIVE_RUNS, MAX_REFINEMENT_RUNS, MAX_RETRIES,
+    MAX_TIMEOUT_S, START_DESIGNS,
 };
 use crate::study::Role;
 use crate::surrogate_moo::Pick;
@@ -293,6 +294,12 @@ pub fn posterior(file: &SpecFile) -> Result<(), SpecProblem> {
         return Err(SpecProblem::file(format!(
             "posterior.predictive_runs = {}: at most {MAX_PREDICTIVE_RUNS}",
             posterior.predictive_runs
+        )));
+    }
+    if posterior.refinement_runs > MAX_REFINEMENT_RUNS {
+        return Err(SpecProblem::file(format!(
+            "posterior.refinement_runs = {}: at most {MAX_REFINEMENT_RUNS} (each is a model run; 0 samples on the search's runs alone)",
+            posterior.refinement_runs
         )));
     }
     let validated: Vec<&String> = file

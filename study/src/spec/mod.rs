@@ -97,6 +97,8 @@
 //!                            # estimated; or "gp": one that varies over the
 //!                            # cases' inputs
 //! predictive_runs = 50       # model runs at posterior draws, per case
+//! refinement_runs = 20       # runs an emulated posterior may add where its
+//!                            # emulator is unsure (0 to 1000)
 //! seed = 1
 //! # optional: a validate value's numerical uncertainty (V&V 20's u_num,
 //! # from your mesh study), in its unit

@@ -218,6 +218,10 @@ pub struct PosteriorSpec {
     /// Model runs at posterior draws, per case.
     #[serde(default = "default_predictive_runs")]
     pub predictive_runs: usize,
+    /// Model runs an emulated posterior may add where its emulator is
+    /// unsure: a budget, for a model whose runs cost minutes.
+    #[serde(default = "default_refinement_runs")]
+    pub refinement_runs: usize,
     #[serde(default = "default_posterior_seed")]
     pub seed: u64,
     /// A validate observation's numerical uncertainty (u_num of ASME V&V
@@ -238,6 +242,9 @@ fn default_chains() -> usize {
 fn default_predictive_runs() -> usize {
     PosteriorSettings::default().predictive_runs
 }
+fn default_refinement_runs() -> usize {
+    PosteriorSettings::default().refinement_runs
+}
 fn default_posterior_seed() -> u64 {
     PosteriorSettings::default().seed
 }
@@ -249,6 +256,7 @@ impl PosteriorSpec {
             chains: self.chains,
             discrepancy: self.discrepancy,
             predictive_runs: self.predictive_runs,
+            refinement_runs: self.refinement_runs,
             seed: self.seed,
             numerical_uncertainty: self
                 .numerical_uncertainty
@@ -260,7 +268,6 @@ impl PosteriorSpec {
                 .keys()
                 .map(|name| (name.clone(), "stated in the spec".to_string()))
                 .collect(),
-            ..PosteriorSettings::default()
         }
     }
 }
@@ -534,5 +541,9 @@ pub const MAX_EVALUATIONS: usize = 100_000;
 pub use crate::posterior::settings::MAX_DRAWS;
 pub const MAX_CHAINS: usize = 64;
 pub const MAX_PREDICTIVE_RUNS: usize = 100_000;
+
+/// The most refinement runs a spec's `[posterior]` may allow: each is a
+/// model run, and past a few hundred the emulator's fits dominate.
+pub const MAX_REFINEMENT_RUNS: usize = 1000;
 /// The built-in start designs of `search.start`.
 pub const START_DESIGNS: [&str; 4] = ["lhs", "sobol", "l12", "factorial"];

@@ -1,6 +1,12 @@
 //! SQL over the lake with Apache DataFusion: the lake's tables registered
 //! by name (`samples`, `holds`, `measured`), their Hive partitions as
 //! columns, and the result streamed out as CSV or Parquet.
+//!
+//! The public functions block on a runtime of their own. DataFusion's
+//! planner and streams are async, and an async body is compiled in the
+//! crate that polls it: polled from the binary, the SQL front end (about
+//! half of the binary's code) was compiled there, last and alone, on the
+//! release build's critical path.
 
 use std::path::Path;
 use std::sync::Arc;
@@ -29,7 +35,7 @@ fn partitions(table: &str) -> &'static [&'static str] {
 
 /// A DataFusion session with the lake's tables registered: those that hold
 /// at least one file.
-pub async fn session(lake: &Path) -> Result<SessionContext> {
+async fn session(lake: &Path) -> Result<SessionContext> {
     let lake = std::fs::canonicalize(lake).map_err(|e| {
         AcqError::Config(format!(
             "{}: no lake here ({e}); make one with acq lake ingest",
@@ -75,7 +81,20 @@ pub enum Sink<'a> {
 
 /// Runs `sql` on the lake and streams its rows into `sink` (CSV with a
 /// header, or Parquet); returns the rows written.
-pub async fn query(lake: &Path, sql: &str, sink: Sink<'_>) -> Result<u64> {
+pub fn query(lake: &Path, sql: &str, sink: Sink<'_>) -> Result<u64> {
+    runtime()?.block_on(query_rows(lake, sql, sink))
+}
+
+/// DataFusion's runtime: two workers, as many as the scans use.
+fn runtime() -> Result<tokio::runtime::Runtime> {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| AcqError::io("starting the async runtime", e))
+}
+
+async fn query_rows(lake: &Path, sql: &str, sink: Sink<'_>) -> Result<u64> {
     let context = session(lake).await?;
     let tables = tables_said(&context).await;
     let sql_error = |e: datafusion::error::DataFusionError| {
@@ -154,7 +173,7 @@ async fn tables_said(context: &SessionContext) -> String {
 /// file led by `session`: what `acq calibrate` reads as it reads one
 /// session's, each window then named `session/window`. In each source's
 /// order, sources by session.
-pub async fn extract(lake: &Path, predicate: Option<&str>, sink: Sink<'_>) -> Result<u64> {
+pub fn extract(lake: &Path, predicate: Option<&str>, sink: Sink<'_>) -> Result<u64> {
     let columns: Vec<String> = std::iter::once("session")
         .chain(MEASURED_HEADER.split(','))
         .map(|column| format!("\"{column}\""))
@@ -164,5 +183,5 @@ pub async fn extract(lake: &Path, predicate: Option<&str>, sink: Sink<'_>) -> Re
         "SELECT {} FROM measured{filter} ORDER BY session, source_file, \"row\"",
         columns.join(", ")
     );
-    query(lake, &sql, sink).await
+    query(lake, &sql, sink)
 }

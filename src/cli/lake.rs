@@ -250,10 +250,9 @@ fn read_list(list: &std::path::Path) -> Result<Vec<PathBuf>> {
 }
 
 fn run_query(args: QueryArgs) -> Result<()> {
-    let runtime = acq_acquire::runtime(2)?;
     let Some(path) = args.output.as_deref().filter(|p| p.as_os_str() != "-") else {
         let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-        runtime.block_on(query::query(&args.lake, &args.sql, Sink::Csv(&mut out)))?;
+        query::query(&args.lake, &args.sql, Sink::Csv(&mut out))?;
         return out
             .flush()
             .map_err(|e| AcqError::io("writing to stdout", e));
@@ -272,7 +271,7 @@ fn run_query(args: QueryArgs) -> Result<()> {
             TableFormat::Parquet => Sink::Parquet(&mut out),
             _ => Sink::Csv(&mut out),
         };
-        let rows = runtime.block_on(query::query(&args.lake, &args.sql, sink))?;
+        let rows = query::query(&args.lake, &args.sql, sink)?;
         out.flush()
             .map_err(|e| AcqError::io(format!("writing {}", path.display()), e))?;
         rows
@@ -290,15 +289,10 @@ fn run_extract(args: ExtractArgs) -> Result<()> {
             path.display()
         )));
     }
-    let runtime = acq_acquire::runtime(2)?;
     let mut file = CompleteOnlyFile::create(path, "the measured values")?;
     let rows = {
         let mut out = std::io::BufWriter::new(file.file());
-        let rows = runtime.block_on(query::extract(
-            &args.lake,
-            args.predicate.as_deref(),
-            Sink::Csv(&mut out),
-        ))?;
+        let rows = query::extract(&args.lake, args.predicate.as_deref(), Sink::Csv(&mut out))?;
         out.flush()
             .map_err(|e| AcqError::io(format!("writing {}", path.display()), e))?;
         rows

@@ -7,6 +7,7 @@ use std::f64::consts::PI;
 
 use acq_analysis::loss::metrics::CurveMetric;
 
+use super::factor_integral::LogUniformFactor;
 use super::scale_grid::ScaleGrid;
 
 /// A measured curve as the likelihood reads it: the signed errors (%) of
@@ -32,7 +33,11 @@ pub struct CurveParts {
     pub(super) scatter_pct: Vec<f64>,
     /// How the curve is scored (and so which residuals its parts are).
     pub metric: CurveMetric,
+    /// The factor's prior as nodes: how a factor is drawn, and integrated
+    /// out beside an emulator's variance.
     pub(super) grid: ScaleGrid,
+    /// The same prior integrated in closed form, for an exact model.
+    factor: LogUniformFactor,
     /// At each correlation node, every term of the density at a factor of
     /// 1 but the quadratic form ([`CurveParts::unit_factor_terms`]): they
     /// depend on the scatters alone, so they are summed once, not at every
@@ -63,6 +68,7 @@ impl CurveParts {
             scatter_pct,
             metric,
             grid: ScaleGrid::new([1.0, 2.0], 1, |_| 1.0),
+            factor: LogUniformFactor::new([1.0, 2.0], 1),
             unit_factor_constants: Vec::new(),
         };
         let no_residuals = vec![0.0; curve.parts.iter().max().map_or(0, |&i| i + 1)];
@@ -76,48 +82,70 @@ impl CurveParts {
         curve
     }
 
+    /// Gives the error factor its log-uniform prior over `range`, as
+    /// `nodes` for draws and beside an emulator's variance.
+    pub(super) fn set_factor_prior(&mut self, range: [f64; 2], nodes: usize) {
+        self.grid = ScaleGrid::new(range, nodes, |x| 1.0 / x);
+        self.factor = LogUniformFactor::new(range, self.parts.len());
+    }
+
     /// The log likelihood at each correlation node, the factor integrated out.
     pub(super) fn by_correlation(&self, residuals: &[f64], emulator: &[f64]) -> Vec<f64> {
         let exact_model = self
             .parts
             .iter()
             .all(|&i| emulator.get(i).is_none_or(|v| *v == 0.0));
+        if exact_model {
+            // Without an emulator's variance the factor only scales the
+            // quadratic form, which three sums over the parts give at
+            // every correlation; the factor's integral is then a closed form.
+            let sums = self.lag_sums(residuals);
+            return (0..CURVE_CORRELATIONS)
+                .map(|k| {
+                    self.factor
+                        .log_integral(sums.quadratic(correlation_node(k)))
+                        - self.unit_factor_constants[k]
+                })
+                .collect();
+        }
         // With an emulator's variance, each factor node's standardised
         // residuals and log standard deviations, once for every
         // correlation node (they do not depend on it).
-        let standardised = if exact_model {
-            Vec::new()
-        } else {
-            self.grid
-                .nodes
-                .iter()
-                .map(|&factor| self.standardised(residuals, emulator, factor))
-                .collect()
-        };
+        let standardised: Vec<(Vec<f64>, f64)> = self
+            .grid
+            .nodes
+            .iter()
+            .map(|&factor| self.standardised(residuals, emulator, factor))
+            .collect();
         (0..CURVE_CORRELATIONS)
             .map(|k| {
                 let correlation = correlation_node(k);
-                if exact_model {
-                    // Without an emulator's variance the factor only scales
-                    // the quadratic form: one pass over the parts, then one
-                    // term per node.
-                    let quadratic = self.unit_factor_quadratic(residuals, correlation);
-                    let log_scatter = self.unit_factor_constants[k];
-                    let parts = self.parts.len() as f64;
-                    self.grid.log_integral_by_node(|node| {
-                        let factor = self.grid.nodes[node];
-                        -0.5 * quadratic / (factor * factor)
-                            - parts * self.grid.log_nodes[node]
-                            - log_scatter
-                    })
-                } else {
-                    self.grid.log_integral_by_node(|node| {
-                        let (z, log_sd) = &standardised[node];
-                        ar1_log_density(z, *log_sd, correlation)
-                    })
-                }
+                self.grid.log_integral_by_node(|node| {
+                    let (z, log_sd) = &standardised[node];
+                    ar1_log_density(z, *log_sd, correlation)
+                })
             })
             .collect()
+    }
+
+    /// The sums over the parts' residuals at a factor of 1 (`z = r /
+    /// scatter`) that give the AR(1) quadratic form at any correlation.
+    fn lag_sums(&self, residuals: &[f64]) -> LagSums {
+        let mut sums = LagSums::default();
+        let mut previous: Option<f64> = None;
+        for (&i, scatter) in self.parts.iter().zip(&self.scatter_pct) {
+            let z = residuals[i] / scatter;
+            match previous {
+                None => sums.first_squared = z * z,
+                Some(before) => {
+                    sums.later_squared += z * z;
+                    sums.lagged_product += z * before;
+                    sums.earlier_squared += before * before;
+                }
+            }
+            previous = Some(z);
+        }
+        sums
     }
 
     /// Each part's residual over its standard deviation at `factor` (the
@@ -172,6 +200,27 @@ impl CurveParts {
             previous = Some(z);
         }
         quadratic
+    }
+}
+
+/// `z_1^2`, and over the later parts `z_j^2`, `z_j z_(j-1)` and
+/// `z_(j-1)^2`: the AR(1) quadratic form at correlation `c` is
+/// `z_1^2 + sum (z_j - c z_(j-1))^2 / (1 - c^2)`.
+#[derive(Clone, Copy, Debug, Default)]
+struct LagSums {
+    first_squared: f64,
+    later_squared: f64,
+    lagged_product: f64,
+    earlier_squared: f64,
+}
+
+impl LagSums {
+    fn quadratic(&self, correlation: f64) -> f64 {
+        let innovation = 1.0 - correlation * correlation;
+        self.first_squared
+            + (self.later_squared - 2.0 * correlation * self.lagged_product
+                + correlation * correlation * self.earlier_squared)
+                / innovation
     }
 }
 

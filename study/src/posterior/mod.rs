@@ -32,6 +32,7 @@ use super::study::{Measured, Model, Role, Study, StudySimulator, CURVE_PARTS};
 pub mod curve_parts;
 pub mod discrepancy;
 pub mod emulator;
+mod factor_integral;
 pub mod likelihood;
 pub mod predictive;
 pub mod report;

@@ -9,9 +9,6 @@ use rand::RngExt;
 #[derive(Clone, Debug)]
 pub struct ScaleGrid {
     pub nodes: Vec<f64>,
-    /// Each node's logarithm: a likelihood's normalising term needs it at
-    /// every node, millions of times in a posterior's chains.
-    pub log_nodes: Vec<f64>,
     log_weights: Vec<f64>,
     cell: f64,
 }
@@ -29,7 +26,6 @@ impl ScaleGrid {
         let total: f64 = mass.iter().sum();
         ScaleGrid {
             log_weights: mass.iter().map(|m| (m / total).ln()).collect(),
-            log_nodes: nodes.iter().map(|x| x.ln()).collect(),
             nodes,
             cell,
         }

@@ -17,7 +17,9 @@
 //!   not-a-knot with 3 points).
 //! - 2 points: the straight line through them.
 //!
-//! Evaluation finds the piece by binary search, O(log n). Outside
+//! Evaluation finds the piece by binary search, O(log n), or, along
+//! increasing x ([`CubicSpline::eval_walking`]), by walking on from the
+//! last piece: a curve compared on a grid finer than its knots. Outside
 //! [`CubicSpline::domain`] the end pieces are extended (as scipy does by
 //! default); callers that must not extrapolate check the domain first. A
 //! non-finite `x` evaluates to NaN. Nothing here panics.
@@ -131,12 +133,41 @@ impl CubicSpline {
         if !x.is_finite() {
             return f64::NAN;
         }
+        self.eval_in(self.piece_of(x), x)
+    }
+
+    /// [`CubicSpline::eval`], its piece found by walking on from `*piece`
+    /// (then left there for the next call): along increasing x, a step or
+    /// none instead of a search. The same value as `eval` for any `x` and
+    /// any `*piece`; `0` starts a walk.
+    pub fn eval_walking(&self, x: f64, piece: &mut usize) -> f64 {
+        if !x.is_finite() {
+            return f64::NAN;
+        }
         let pieces = self.coefficients.len();
-        let i = self
-            .x
+        let mut i = (*piece).min(pieces - 1);
+        if i > 0 && self.x[i] > x {
+            // x went back: searched for.
+            i = self.piece_of(x);
+        } else {
+            while i + 1 < pieces && self.x[i + 1] <= x {
+                i += 1;
+            }
+        }
+        *piece = i;
+        self.eval_in(i, x)
+    }
+
+    /// The piece `x` falls in: the last whose start is at or before `x`,
+    /// the end pieces extended outward.
+    fn piece_of(&self, x: f64) -> usize {
+        self.x
             .partition_point(|&knot| knot <= x)
             .saturating_sub(1)
-            .min(pieces - 1);
+            .min(self.coefficients.len() - 1)
+    }
+
+    fn eval_in(&self, i: usize, x: f64) -> f64 {
         let t = x - self.x[i];
         let [c0, c1, c2, c3] = self.coefficients[i];
         ((c0 * t + c1) * t + c2) * t + c3
@@ -352,14 +383,38 @@ mod tests {
             }
         }
 
+        /// A walk gives the search's value bit for bit, wherever it starts
+        /// and whichever way x goes, in and outside the knots.
+        #[test]
+        fn walking_gives_what_searching_gives(
+            (x, y) in increasing_points(),
+            at in proptest::collection::vec(-5.0..450.0f64, 1..60),
+            start in 0usize..50,
+        ) {
+            let spline = CubicSpline::new(&x, &y).unwrap();
+            let mut piece = start;
+            let mut sorted = at.clone();
+            sorted.sort_by(f64::total_cmp);
+            for &point in at.iter().chain(&sorted).chain(&[f64::NAN, 1.0]) {
+                let walked = spline.eval_walking(point, &mut piece);
+                let searched = spline.eval(point);
+                prop_assert!(
+                    walked.to_bits() == searched.to_bits(),
+                    "at {point}: {walked} against {searched}"
+                );
+            }
+        }
+
         #[test]
         fn never_panics(
             x in proptest::collection::vec(proptest::num::f64::ANY, 0..12),
             y in proptest::collection::vec(proptest::num::f64::ANY, 0..12),
             at in proptest::num::f64::ANY,
+            piece in proptest::num::usize::ANY,
         ) {
             if let Ok(spline) = CubicSpline::new(&x, &y) {
                 let _ = spline.eval(at);
+                let _ = spline.eval_walking(at, &mut piece.clone());
                 let _ = spline.eval_many(&x);
             }
         }

@@ -195,6 +195,12 @@ pub struct TestCurve {
     spline: CubicSpline,
     /// Its largest absolute force, kN.
     max_force: f64,
+    /// Its own grid's step (its closest displacements), mm, and `(x,
+    /// force)` at each of that grid's points to its last displacement: the
+    /// grid of every simulation sampled no finer than the test, so its
+    /// forces are interpolated once, not at every comparison.
+    own_step_mm: f64,
+    own_grid: Vec<(f64, f64)>,
 }
 
 impl TestCurve {
@@ -202,11 +208,30 @@ impl TestCurve {
         let prepared = prepare(points, CurveName::Test)?;
         let spline = prepared.spline(CurveName::Test)?;
         let max_force = prepared.force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
-        Ok(TestCurve {
+        let mut test_curve = TestCurve {
             prepared,
             spline,
             max_force,
-        })
+            own_step_mm: f64::NAN,
+            own_grid: Vec::new(),
+        };
+        // Compared with itself, the test makes its own grid (or none, and
+        // every comparison fails as it would).
+        let own = test_curve.points();
+        let mut own_grid = Vec::new();
+        let options = CurveMapeOptions::default();
+        if let Ok(mape) = compare_on_grid(&test_curve, &own, options, |_, _| {}) {
+            let mut piece = 0;
+            own_grid = (0..mape.grid_points)
+                .map(|i| {
+                    let x = grid_x(mape.grid_start_mm, i, mape.step_mm, mape.grid_end_mm);
+                    (x, test_curve.spline.eval_walking(x, &mut piece))
+                })
+                .collect();
+            test_curve.own_step_mm = mape.step_mm;
+        }
+        test_curve.own_grid = own_grid;
+        Ok(test_curve)
     }
 
     /// [`curve_mape`] of `simulation` against this test.
@@ -238,6 +263,17 @@ impl TestCurve {
             })
             .collect();
         Ok((mape, means))
+    }
+
+    /// Its force at point `i`, `x`, of a grid `step_mm` apart: as kept
+    /// where that is its own grid's point (a point the simulation's end
+    /// cuts short is not), else interpolated, the spline's piece walked
+    /// on from `*piece`.
+    fn force_on_grid(&self, i: usize, x: f64, step_mm: f64, piece: &mut usize) -> f64 {
+        match self.own_grid.get(i) {
+            Some(&(own_x, force)) if step_mm == self.own_step_mm && own_x == x => force,
+            _ => self.spline.eval_walking(x, piece),
+        }
     }
 
     /// How many of `parts` the test's own grid fills: `parts`, or its
@@ -444,6 +480,11 @@ pub fn curve_errors_along(
 
 /// The loop all of the above share: `signed_error` sees each compared
 /// grid point's `x` and `(simulated - test) / test`, in grid order.
+/// The grid's point `i`: `step_mm` apart from `start`, the last at `end`.
+fn grid_x(start: f64, i: usize, step_mm: f64, end: f64) -> f64 {
+    (start + i as f64 * step_mm).min(end)
+}
+
 fn compare_on_grid(
     test_curve: &TestCurve,
     simulation: &[(f64, f64)],
@@ -493,9 +534,9 @@ fn compare_on_grid(
     }
     let grid_points = intervals.floor() as usize + 1;
 
-    let test_spline = &test_curve.spline;
     let simulation_spline = simulation.spline(CurveName::Simulation)?;
     let past_simulation = simulation_end + GRID_TOLERANCE_STEPS * step_mm;
+    let (mut test_piece, mut simulation_piece) = (0, 0);
     let mut sum = 0.0;
     // (sum, points) at or before the split.
     let mut before = (0.0, 0usize);
@@ -503,9 +544,9 @@ fn compare_on_grid(
     let mut padded_points = 0;
     let mut last = start;
     for i in 0..grid_points {
-        let x = (start + i as f64 * step_mm).min(end);
+        let x = grid_x(start, i, step_mm, end);
         last = x;
-        let test_force = test_spline.eval(x);
+        let test_force = test_curve.force_on_grid(i, x, step_mm, &mut test_piece);
         if test_force.is_nan() || test_force.abs() <= tiny {
             excluded_points += 1;
             continue;
@@ -514,7 +555,7 @@ fn compare_on_grid(
             padded_points += 1;
             0.0
         } else {
-            simulation_spline.eval(x.min(simulation_end))
+            simulation_spline.eval_walking(x.min(simulation_end), &mut simulation_piece)
         };
         let signed = (simulated_force - test_force) / test_force;
         signed_error(x, signed);
@@ -623,6 +664,58 @@ fn prepare(points: &[(f64, f64)], curve: CurveName) -> Result<Prepared, CurveLos
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// The test's forces kept on its own grid change no comparison in
+    /// its last bit: simulations sampled as the test is, more coarsely,
+    /// more finely, ending early (the grid's last point cut short), and
+    /// unevenly, each against the same test with nothing kept.
+    #[test]
+    fn a_test_s_forces_kept_on_its_grid_give_every_comparison_bit_for_bit() {
+        let uneven: Vec<(f64, f64)> = test_curve()
+            .into_iter()
+            .map(|(u, f)| (u * (1.0 + 0.03 * (7.0 * u).sin()), f))
+            .collect();
+        for test in [test_curve(), uneven] {
+            let kept = TestCurve::new(&test).unwrap();
+            assert!(kept.own_grid.len() > 10, "{}", kept.own_grid.len());
+            let mut computed = kept.clone();
+            computed.own_grid.clear();
+            let simulation = |step: f64, end: f64| -> Vec<(f64, f64)> {
+                let steps = (end / step).round() as usize;
+                (0..=steps)
+                    .map(|i| {
+                        let u = i as f64 * step;
+                        (u, 5.1 * (1.0 - (-2.9 * u).exp()) + 0.35 * u)
+                    })
+                    .collect()
+            };
+            for (step, end) in [
+                (0.1, 2.0),
+                (0.2, 2.0),
+                (0.05, 2.0),
+                (0.1, 1.37),
+                (0.013, 2.5),
+            ] {
+                for truncate in [false, true] {
+                    let options = CurveMapeOptions {
+                        truncate_at_simulation_end: truncate,
+                        ..CurveMapeOptions::default()
+                    };
+                    let sim = simulation(step, end);
+                    let (a, parts_a) = kept.errors_by_part(&sim, options, 20).unwrap();
+                    let (b, parts_b) = computed.errors_by_part(&sim, options, 20).unwrap();
+                    assert_eq!(a.mape_percent.to_bits(), b.mape_percent.to_bits());
+                    assert_eq!(a.grid_points, b.grid_points);
+                    if step >= 0.1 {
+                        // Sampled no finer than the test: its own grid.
+                        assert_eq!(a.step_mm.to_bits(), kept.own_step_mm.to_bits());
+                    }
+                    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&parts_a), bits(&parts_b), "step {step}, end {end}");
+                }
+            }
+        }
+    }
 
     /// A hardening curve from the origin, points 0.1 mm apart.
     fn test_curve() -> Vec<(f64, f64)> {

@@ -755,7 +755,7 @@ fn output_discrepancies(
                 })
                 .collect();
             if let Some(variances) = stated {
-                gp.fix_variances(variances, &output.loadings);
+                gp.fix_variances(variances, &output.loadings, &output.tau_grid);
             }
             output.form = Form::Gp(Box::new(gp));
         }

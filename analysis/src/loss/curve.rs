@@ -478,13 +478,13 @@ pub fn curve_errors_along(
     Ok((mape, along))
 }
 
-/// The loop all of the above share: `signed_error` sees each compared
-/// grid point's `x` and `(simulated - test) / test`, in grid order.
 /// The grid's point `i`: `step_mm` apart from `start`, the last at `end`.
 fn grid_x(start: f64, i: usize, step_mm: f64, end: f64) -> f64 {
     (start + i as f64 * step_mm).min(end)
 }
 
+/// The loop all of the above share: `signed_error` sees each compared
+/// grid point's `x` and `(simulated - test) / test`, in grid order.
 fn compare_on_grid(
     test_curve: &TestCurve,
     simulation: &[(f64, f64)],

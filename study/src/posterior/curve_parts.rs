@@ -183,23 +183,7 @@ impl CurveParts {
             }
             constant += 0.5 * (2.0 * PI).ln() + scatter.ln();
         }
-        (self.unit_factor_quadratic(residuals, correlation), constant)
-    }
-
-    /// The AR(1) quadratic form of [`CurveParts::unit_factor_terms`] alone.
-    pub(super) fn unit_factor_quadratic(&self, residuals: &[f64], correlation: f64) -> f64 {
-        let innovation = 1.0 - correlation * correlation;
-        let mut quadratic = 0.0;
-        let mut previous: Option<f64> = None;
-        for (&i, scatter) in self.parts.iter().zip(&self.scatter_pct) {
-            let z = residuals[i] / scatter;
-            quadratic += match previous {
-                None => z * z,
-                Some(before) => (z - correlation * before).powi(2) / innovation,
-            };
-            previous = Some(z);
-        }
-        quadratic
+        (self.lag_sums(residuals).quadratic(correlation), constant)
     }
 }
 
@@ -242,7 +226,8 @@ pub(super) fn curve_log_density(
 
 /// The log density of standardised residuals `z` as a stationary AR(1)
 /// sequence of lag-one `correlation`, their standard deviations' logs
-/// summing to `log_sd`.
+/// summing to `log_sd`. Its quadratic form term by term, as written: the
+/// sums of [`LagSums`] are checked against it.
 fn ar1_log_density(z: &[f64], log_sd: f64, correlation: f64) -> f64 {
     let innovation = 1.0 - correlation * correlation;
     let mut quadratic = 0.0;

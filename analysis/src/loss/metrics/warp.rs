@@ -289,27 +289,35 @@ pub(super) fn path(
     Ok((rows.last_cost(), path))
 }
 
-/// 2 bits a cell, each row starting a word of its own: a row's 32 cells
-/// at a time go into one word.
+/// 2 bits a cell, the cells row after row (no room between rows: a
+/// curve of one or two points against a long one takes no more words
+/// than its cells need).
 struct Choices {
     words: Vec<u64>,
-    words_per_row: usize,
+    columns: usize,
 }
 
 impl Choices {
     fn new(rows: usize, columns: usize) -> Choices {
-        let words_per_row = columns.div_ceil(32);
         Choices {
-            words: vec![0; rows * words_per_row],
-            words_per_row,
+            words: vec![0; (rows * columns).div_ceil(32)],
+            columns,
         }
     }
 
-    /// The choices of row `i`'s cells, in order.
+    /// The choices of row `i`'s cells, in order: one at a time up to the
+    /// next whole word, then 32 to a word.
     fn set_row(&mut self, i: usize, row: &[u8]) {
-        let words = &mut self.words[i * self.words_per_row..][..self.words_per_row];
-        for (word, cells) in words.iter_mut().zip(row.chunks(32)) {
-            *word = cells
+        let first = i * self.columns;
+        let unaligned = ((32 - first % 32) % 32).min(row.len());
+        for (k, &choice) in row[..unaligned].iter().enumerate() {
+            let cell = first + k;
+            self.words[cell / 32] |= u64::from(choice) << (2 * (cell % 32));
+        }
+        let aligned = row[unaligned..].chunks(32);
+        let words = &mut self.words[(first + unaligned) / 32..];
+        for (word, cells) in words.iter_mut().zip(aligned) {
+            *word |= cells
                 .iter()
                 .enumerate()
                 .fold(0, |word, (k, &choice)| word | u64::from(choice) << (2 * k));
@@ -317,8 +325,8 @@ impl Choices {
     }
 
     fn get(&self, i: usize, j: usize) -> u8 {
-        let word = self.words[i * self.words_per_row + j / 32];
-        ((word >> (2 * (j % 32))) & 3) as u8
+        let cell = i * self.columns + j;
+        ((self.words[cell / 32] >> (2 * (cell % 32))) & 3) as u8
     }
 }
 
@@ -373,9 +381,9 @@ mod tests {
         (total[n - 1][m - 1], path)
     }
 
-    /// Curves of up to 70 points (rows of three words and a part) on a
-    /// coarse grid, so that equal costs and ties between predecessors are
-    /// common.
+    /// Curves of up to 70 points (rows that start anywhere in a word and
+    /// span up to three) on a coarse grid, so that equal costs and ties
+    /// between predecessors are common.
     fn curve() -> impl Strategy<Value = Vec<[f64; 2]>> {
         proptest::collection::vec((0u8..6, 0u8..6), 1..70).prop_map(|points| {
             points

@@ -22,6 +22,10 @@
 //! the noise (default 1); `ACQ_BENCH_KEEP=DIR` keeps the
 //! synthetic tests' CSVs and run directories.
 //!
+//! `ACQ_BENCH_SEARCH=slopes` runs each test through [`gtn_slopes`]
+//! instead of the calibration: the count the search would reach if each
+//! run gave its curve's slopes (a reference, the slopes' runs not counted).
+//!
 //! Exits 1 when a test needs more than 20 simulations to reach 1 %.
 //!
 //! `cargo bench --bench gtn_generalisation`
@@ -38,6 +42,8 @@ use acq_workflows::calibrate::gtn::{parameters, CalibrateGtnOptions};
 use acq_workflows::tensile_model::{GtnInputs, ModelSettings, TensileModel, PARAMETER_NAMES};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
+
+mod gtn_slopes;
 
 const SHIPPED: [&str; 2] = ["P91_20_2_DF_SS.csv", "P91_500_DF_SS.csv"];
 const TUNE_SEED: u64 = 11;
@@ -198,6 +204,40 @@ struct Row {
     note: String,
 }
 
+/// How each test is searched.
+#[derive(Clone, Copy, PartialEq)]
+enum Search {
+    /// `acq calibrate gtn`, as a user runs it.
+    Calibration,
+    /// The reference with the slopes in hand ([`gtn_slopes`]).
+    WithSlopes,
+}
+
+/// (best MAPE %, simulations to target, simulations, wall s, a note).
+fn search(
+    how: Search,
+    test: &Path,
+    out: &Path,
+    max_evals: u32,
+) -> (f64, Option<usize>, usize, f64, Option<String>) {
+    if how == Search::WithSlopes {
+        let start = Instant::now();
+        let found = gtn_slopes::search_with_slopes(test, TARGET_MAPE_PCT, max_evals as usize);
+        return (
+            found.best_mape_pct,
+            found.to_target,
+            found.counted,
+            start.elapsed().as_secs_f64(),
+            Some(format!(
+                "{} runs for the slopes, not counted",
+                found.slope_runs
+            )),
+        );
+    }
+    let (best, to_target, evaluations, wall_s) = calibrate(test, out, max_evals);
+    (best, to_target, evaluations, wall_s, None)
+}
+
 fn calibrate(test: &Path, out: &Path, max_evals: u32) -> (f64, Option<usize>, usize, f64) {
     let start = Instant::now();
     let found = acq_workflows::calibrate::gtn::run(CalibrateGtnOptions {
@@ -243,6 +283,53 @@ fn report(set: &str, rows: &[Row], max_evals: u32) {
     );
 }
 
+/// One test searched `how`, its row.
+fn search_one(how: Search, test: &Synthetic, dir: &Path, max_evals: u32) -> Row {
+    let (truth_mape_pct, m_in_box) = if test.truth.is_empty() {
+        (None, true)
+    } else {
+        truth_mape(test)
+    };
+    let out = dir.join(format!("run-{}", test.name));
+    if out.exists() {
+        std::fs::remove_dir_all(&out).expect("an earlier run's directory");
+    }
+    let (best_mape_pct, to_target, evaluations, wall_s, search_note) =
+        search(how, &test.path, &out, max_evals);
+    let mut note: Vec<String> = search_note.into_iter().collect();
+    if test.ends_early {
+        note.push("breaks early".to_string());
+    }
+    if !m_in_box {
+        note.push("truth's m past the re-derived bound".to_string());
+    }
+    if !test.truth.is_empty() {
+        note.push(format!(
+            "truth {}",
+            PARAMETER_NAMES
+                .iter()
+                .zip(&test.truth)
+                .map(|(n, v)| format!("{n}={v:.4}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        ));
+    }
+    let row = Row {
+        name: test.name.clone(),
+        truth_mape_pct,
+        best_mape_pct,
+        to_target,
+        evaluations,
+        wall_s,
+        note: note.join("; "),
+    };
+    eprintln!(
+        "{}: best {:.3} % (truth {:?}), to target {:?}",
+        row.name, row.best_mape_pct, row.truth_mape_pct, row.to_target
+    );
+    row
+}
+
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let which = std::env::var("ACQ_BENCH_SET").unwrap_or_else(|_| "all".into());
@@ -250,6 +337,11 @@ fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(30);
+    let how = match std::env::var("ACQ_BENCH_SEARCH").as_deref() {
+        Ok("slopes") => Search::WithSlopes,
+        Ok("calibration") | Err(_) => Search::Calibration,
+        Ok(other) => panic!("ACQ_BENCH_SEARCH={other}: give calibration or slopes"),
+    };
     let noise_scale: f64 = std::env::var("ACQ_BENCH_NOISE_SCALE")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -302,49 +394,7 @@ fn main() {
     for (set, tests) in &sets {
         let mut rows = Vec::new();
         for test in tests {
-            let (truth_mape_pct, m_in_box) = if test.truth.is_empty() {
-                (None, true)
-            } else {
-                truth_mape(test)
-            };
-            let out = dir.join(format!("run-{}", test.name));
-            if out.exists() {
-                std::fs::remove_dir_all(&out).expect("an earlier run's directory");
-            }
-            let (best_mape_pct, to_target, evaluations, wall_s) =
-                calibrate(&test.path, &out, max_evals);
-            let mut note = Vec::new();
-            if test.ends_early {
-                note.push("breaks early".to_string());
-            }
-            if !m_in_box {
-                note.push("truth's m past the re-derived bound".to_string());
-            }
-            if !test.truth.is_empty() {
-                note.push(format!(
-                    "truth {}",
-                    PARAMETER_NAMES
-                        .iter()
-                        .zip(&test.truth)
-                        .map(|(n, v)| format!("{n}={v:.4}"))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                ));
-            }
-            let row = Row {
-                name: test.name.clone(),
-                truth_mape_pct,
-                best_mape_pct,
-                to_target,
-                evaluations,
-                wall_s,
-                note: note.join("; "),
-            };
-            eprintln!(
-                "{}: best {:.3} % (truth {:?}), to target {:?}",
-                row.name, row.best_mape_pct, row.truth_mape_pct, row.to_target
-            );
-            rows.push(row);
+            rows.push(search_one(how, test, &dir, max_evals));
         }
         report(set, &rows, max_evals);
         everything.extend(rows);

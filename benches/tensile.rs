@@ -5,6 +5,10 @@
 //! Then meshes by element size in the neck: 0.33, 0.18 and
 //! 0.09 mm; target for 0.09 mm under 5 s.
 //!
+//! Then what the curve's sensitivities in the eight parameters cost: runs
+//! with and without them alternated on the same model, the ratio of their
+//! medians.
+//!
 //! `cargo bench --bench tensile`
 
 use std::path::Path;
@@ -42,6 +46,16 @@ fn main() {
         axial_elements: axial,
         ..Default::default()
     };
+    let model_on = |mesh: MeshDensity| {
+        TensileModel::new(
+            points.clone(),
+            properties.clone(),
+            ModelSettings {
+                mesh,
+                ..Default::default()
+            },
+        )
+    };
     for (label, inputs, mesh, runs) in [
         ("published", &inputs, by_counts(6, 30), 5),
         ("published", &inputs, by_counts(8, 40), 5),
@@ -50,14 +64,7 @@ fn main() {
         ("published", &inputs, by_size(0.18), 3),
         ("published", &inputs, by_size(0.09), 3),
     ] {
-        let model = TensileModel::new(
-            points.clone(),
-            properties.clone(),
-            ModelSettings {
-                mesh,
-                ..Default::default()
-            },
-        );
+        let model = model_on(mesh);
         let mut times = Vec::new();
         let mut last = None;
         for _ in 0..runs {
@@ -79,6 +86,30 @@ fn main() {
             run.result.steps,
             run.result.newton_iterations,
             run.mape.mape_percent
+        );
+    }
+    println!();
+    println!("sensitivities  mesh         runs  plain s  with s  ratio");
+    for mesh in [by_counts(6, 30), by_size(0.33)] {
+        let model = model_on(mesh);
+        let (mut plain, mut with) = (Vec::new(), Vec::new());
+        for _ in 0..5 {
+            let start = std::time::Instant::now();
+            model.pull(&inputs).expect("run");
+            plain.push(start.elapsed().as_secs_f64());
+            let start = std::time::Instant::now();
+            let (_, sensitivities) = model.pull_with_sensitivities(&inputs).expect("run");
+            sensitivities.expect("sensitivities");
+            with.push(start.elapsed().as_secs_f64());
+        }
+        plain.sort_by(f64::total_cmp);
+        with.sort_by(f64::total_cmp);
+        let (plain, with) = (plain[plain.len() / 2], with[with.len() / 2]);
+        println!(
+            "published      {:<12} {:>4}  {plain:>7.3}  {with:>6.3}  {:>5.2}",
+            format!("{}x{}", mesh.radial_elements, mesh.axial_elements),
+            5,
+            with / plain
         );
     }
     println!(

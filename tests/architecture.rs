@@ -872,6 +872,10 @@ const WRITES_DIRECTLY: &[(&str, &str)] = &[
         "the evaluation log, appended run by run so that a crash loses none",
     ),
     (
+        "study/src/part_slopes.rs",
+        "each run's curve slopes beside the evaluation log, appended run by run for a resumed search",
+    ),
+    (
         "study/src/command_model.rs",
         "a model run's parameter file and copied inputs, in its own directory",
     ),

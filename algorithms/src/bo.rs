@@ -183,18 +183,22 @@ pub struct Observation {
     pub loss: Option<f64>,
     /// The residuals behind the loss, for local steps (empty: none).
     pub residuals: Vec<f64>,
+    /// Their slopes in the unit box, when the run gave them (see
+    /// [`Outcome::slopes`]).
+    pub slopes: Vec<f64>,
 }
 
 impl Observation {
     pub fn new(unit_point: Vec<f64>, outcome: Option<Outcome>) -> Self {
-        let (loss, residuals) = match outcome {
-            Some(outcome) => (Some(outcome.loss), outcome.residuals),
-            None => (None, Vec::new()),
+        let (loss, residuals, slopes) = match outcome {
+            Some(outcome) => (Some(outcome.loss), outcome.residuals, outcome.slopes),
+            None => (None, Vec::new(), Vec::new()),
         };
         Observation {
             unit_point,
             loss,
             residuals,
+            slopes,
         }
     }
 }
@@ -205,6 +209,10 @@ impl Observation {
 pub struct Outcome {
     pub loss: f64,
     pub residuals: Vec<f64>,
+    /// Each residual's derivative in each unit-box coordinate, row by row
+    /// (residuals x dimensions), for a model differentiated along with its
+    /// run; empty otherwise (the local steps then fit them to the runs).
+    pub slopes: Vec<f64>,
 }
 
 impl From<f64> for Outcome {
@@ -212,6 +220,7 @@ impl From<f64> for Outcome {
         Outcome {
             loss,
             residuals: Vec::new(),
+            slopes: Vec::new(),
         }
     }
 }
@@ -244,6 +253,7 @@ impl NextPoints {
                         unit_point: &o.unit_point,
                         loss,
                         residuals: &o.residuals,
+                        slopes: &o.slopes,
                     })
                 })
                 .collect();

@@ -768,6 +768,7 @@ fn level_difference_slopes(
         unit_point: &centre.unit_point,
         loss: 0.0,
         residuals: &at_centre,
+        slopes: &[],
     };
     let others: Vec<Run<'_>> = pairs
         .iter()
@@ -775,6 +776,7 @@ fn level_difference_slopes(
             unit_point: point,
             loss: 0.0,
             residuals,
+            slopes: &[],
         })
         .collect();
     let others: Vec<&Run<'_>> = others.iter().collect();
@@ -845,6 +847,7 @@ impl InnerDescent {
             unit_point: &self.centre,
             loss: centre_measure,
             residuals: &self.centre_residuals,
+            slopes: &[],
         }];
         // Runs outside the box lend their slopes, never the centre: the
         // shift is the levels' difference at the expensive centre, and
@@ -857,6 +860,7 @@ impl InnerDescent {
                 f64::INFINITY
             },
             residuals,
+            slopes: &[],
         }));
         self.trust_region.propose(&model_runs)
     }

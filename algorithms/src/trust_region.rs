@@ -15,7 +15,10 @@
 //!   runs' `(x - c, r(x) - r(c))`, each weighted by `1 / (1 + (|x - c| /
 //!   radius)^2)^4` (near runs say more about the local slope than far
 //!   ones), with a small ridge so that a direction no run spans stays flat
-//!   instead of wild.
+//!   instead of wild. A centre whose run also gave its residuals' slopes
+//!   (a model differentiated along with its run, as the tensile twin is)
+//!   uses those: exact where the regression only averages, and with no
+//!   geometry steps.
 //! - **Step**: minimise `sum w (r(c) + J s)^2` over `s` in the box of
 //!   half-width `radius` around `c`, inside the unit box (bounded L-BFGS on
 //!   the quadratic). With [`TrustRegionSettings::absolute`] the weights
@@ -80,6 +83,21 @@ pub struct Run<'a> {
     pub unit_point: &'a [f64],
     pub loss: f64,
     pub residuals: &'a [f64],
+    /// Each residual's derivative in each unit coordinate, row by row
+    /// (residuals x dimensions), when the run computed them (a model
+    /// differentiated along with its run); empty otherwise.
+    pub slopes: &'a [f64],
+}
+
+impl Run<'_> {
+    /// The run's own slopes as a Jacobian, if it has them all.
+    fn jacobian(&self) -> Option<Vec<Vec<f64>>> {
+        let d = self.unit_point.len();
+        let complete = d > 0
+            && self.slopes.len() == self.residuals.len() * d
+            && self.slopes.iter().all(|v| v.is_finite());
+        complete.then(|| self.slopes.chunks(d).map(<[f64]>::to_vec).collect())
+    }
 }
 
 /// A local step proposed and not yet evaluated.
@@ -143,6 +161,13 @@ impl TrustRegion {
             self.paused_at = None;
             self.radius = self.settings.initial_radius / 2.0;
         }
+        let weights = self.weights(centre.residuals);
+        if let Some(jacobian) = centre.jacobian() {
+            // The centre's own slopes: no other run is needed for the
+            // model, nor a geometry step to see a direction.
+            self.geometry_turn = false;
+            return self.step_from(centre, &jacobian, weights);
+        }
         let dimensions = centre.unit_point.len();
         let neighbours: Vec<&Run<'_>> = runs
             .iter()
@@ -156,7 +181,6 @@ impl TrustRegion {
         if neighbours.len() < 2 {
             return None;
         }
-        let weights = self.weights(centre.residuals);
         if std::mem::take(&mut self.geometry_turn) {
             let point = geometry_point(centre, &neighbours, self.radius);
             self.pending = Some(Pending {
@@ -171,7 +195,18 @@ impl TrustRegion {
             return Some(point);
         }
         let jacobian = fit_jacobian(centre, &neighbours, self.radius);
-        let step = minimise_model(centre, &jacobian, &weights, self.radius);
+        self.step_from(centre, &jacobian, weights)
+    }
+
+    /// The step the linear model `jacobian` of the residuals at `centre`
+    /// proposes in the trust box (see [`TrustRegion::propose`]).
+    fn step_from(
+        &mut self,
+        centre: &Run<'_>,
+        jacobian: &[Vec<f64>],
+        weights: Vec<f64>,
+    ) -> Option<Vec<f64>> {
+        let step = minimise_model(centre, jacobian, &weights, self.radius);
         let longest = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
         if longest < 1e-6 {
             // The model's minimum is the centre itself: nothing to learn

@@ -196,6 +196,12 @@ pub struct CalibrateGtnArgs {
     /// without the local Gauss-Newton steps on the curve's errors.
     #[arg(long)]
     pub global_only: bool,
+    /// Local steps whose slopes are fitted to the runs made, as for a
+    /// solver that gives none [default: each run's own, which the twin
+    /// computes along with the curve: fewer runs, each about four times
+    /// dearer]
+    #[arg(long)]
+    pub fitted_slopes: bool,
     /// With --batch above 1: synchronous batches, so the result depends
     /// only on the test, the options and the seed (slots wait for the
     /// slowest simulation of each batch) [default: each new point as soon
@@ -379,6 +385,7 @@ impl From<CalibrateGtnArgs> for CalibrateGtnOptions {
             mesh: args.mesh.into(),
             seed: args.seed,
             global_only: args.global_only,
+            fitted_slopes: args.fitted_slopes,
             deterministic: args.deterministic,
             resume: args.resume,
             posterior_draws_per_chain: args.posterior.then_some(args.posterior_draws),

@@ -7,7 +7,8 @@
 //! says) and hands them to the one runner, [`study_runner`], with a
 //! [`method`] (Bayesian optimisation through [`search`], [`surrogate_moo`],
 //! or least squares). The runner logs every model run in `evaluations.csv`
-//! ([`run_directory`]; resumable), checks the validation cases, runs the
+//! ([`run_directory`]; resumable; a model's curve slopes beside it,
+//! [`part_slopes`]), checks the validation cases, runs the
 //! [`identifiability`] analysis, samples the [`posterior`] when asked, and
 //! writes `summary.json` ([`summary`]) and the report ([`report`], with the
 //! measured values' budgets from [`measurement_report`]); a
@@ -30,12 +31,15 @@ pub mod measurement_report;
 pub mod mesh_study;
 pub mod method;
 pub mod outcome;
+pub mod part_slopes;
 pub mod posterior;
 pub mod progress;
 pub mod report;
 pub mod run_directory;
 pub mod saved_emulator;
 pub mod search;
+mod shared_runs;
+pub mod simulator;
 pub mod spec;
 pub mod study;
 pub mod study_runner;

@@ -25,7 +25,8 @@ pub use crate::outcome::{CurveConvergence, MeshStudyOutcome, OutputConvergence};
 use crate::progress::Progress;
 use crate::report::write_report;
 use crate::run_directory::{write_text, RunDirectory};
-use crate::study::{Measured, Model, Role, Study, StudyParameter, StudySimulator};
+use crate::simulator::StudySimulator;
+use crate::study::{Measured, Model, Role, Study, StudyParameter};
 
 /// The model input that carries the element size (`{mesh}`).
 pub const MESH_INPUT: &str = "mesh";

@@ -79,8 +79,8 @@ pub fn distinct_best(
     chosen
 }
 
-/// Bayesian optimisation of `score(outputs)` (the loss, and residuals for
-/// local steps) through a logging evaluator: the engine's unit-box points
+/// Bayesian optimisation of `score(parameter values, outputs)` (the loss,
+/// and residuals for local steps) through a logging evaluator: the engine's unit-box points
 /// are scaled to the parameters, run (in parallel, logged) and scored; a
 /// failed run is a missing loss. A log that cannot be
 /// written stops the run with that error.
@@ -95,7 +95,7 @@ pub fn minimise_logged(
     evaluator: &mut Evaluator<'_>,
     parameters: &[Parameter],
     initial: Vec<Vec<f64>>,
-    score: impl Fn(&[f64]) -> Outcome,
+    score: impl Fn(&[f64], &[f64]) -> Outcome,
     settings: &BoSettings,
     as_they_finish: bool,
 ) -> Result<BoResult> {
@@ -121,7 +121,7 @@ pub fn minimise_logged(
         |batch| {
             let values: Vec<Vec<f64>> = batch.iter().map(|u| from_unit(parameters, u)).collect();
             evaluate_kept(evaluator, &values, &mut log_failure, |e| {
-                e.outcome.as_ref().ok().map(|y| score(y))
+                e.outcome.as_ref().ok().map(|y| score(&e.parameters, y))
             })
         },
         settings,
@@ -271,7 +271,9 @@ struct LoggedRuns<'r, 'e, 'a, L> {
     score: &'r L,
 }
 
-impl<L: Fn(&[f64]) -> Outcome> RunsAsTheyFinish<LoggedRunError> for LoggedRuns<'_, '_, '_, L> {
+impl<L: Fn(&[f64], &[f64]) -> Outcome> RunsAsTheyFinish<LoggedRunError>
+    for LoggedRuns<'_, '_, '_, L>
+{
     fn start(&mut self, unit_point: Vec<f64>) -> std::result::Result<(), LoggedRunError> {
         let values = from_unit(self.parameters, &unit_point);
         self.runs
@@ -295,7 +297,11 @@ impl<L: Fn(&[f64]) -> Outcome> RunsAsTheyFinish<LoggedRunError> for LoggedRuns<'
                 ))
             })?;
         let (_, unit_point) = self.started.remove(index);
-        let outcome = evaluation.outcome.as_ref().ok().map(|y| (self.score)(y));
+        let outcome = evaluation
+            .outcome
+            .as_ref()
+            .ok()
+            .map(|y| (self.score)(&evaluation.parameters, y));
         Ok(Some((unit_point, outcome)))
     }
 }

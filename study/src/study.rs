@@ -3,7 +3,7 @@
 //! observations and a role, `fit` or `validate`), and how a model run is
 //! scored against the observations.
 //!
-//! The search sees one simulator: [`StudySimulator`] for the fit cases. Its
+//! The search sees one simulator: `simulator::StudySimulator` for the fit cases. Its
 //! parameters are the search vector (shared parameters, then each case's
 //! own, named `case/parameter`); one evaluation runs the model once per
 //! fit case and returns one value per observation: a scalar's model value,
@@ -21,8 +21,7 @@
 //! calibrated model agrees with the measurement within what the
 //! instruments can tell.
 
-use acq_algorithms::evaluation::{Parameter, Simulator};
-use acq_analysis::loss::curve::{CurveLossError, CurveMapeOptions, TestCurve};
+use acq_algorithms::evaluation::Parameter;
 use acq_analysis::loss::metrics::{matched, points_of, residuals_by_part, CurveMetric};
 pub use acq_metrology::budget::SharedError;
 use serde_json::{json, Map, Value};
@@ -78,6 +77,24 @@ pub trait Model: Sync {
         false
     }
 
+    /// Whether [`Model::run_with_slopes`] gives the curves' slopes in the
+    /// inputs (a model differentiated along with its run).
+    fn gives_slopes(&self) -> bool {
+        false
+    }
+
+    /// [`Model::run`], and each curve's slopes in the inputs, for a model
+    /// that [`Model::gives_slopes`]: none by default.
+    fn run_with_slopes(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Result<(ModelRun, Vec<CurveSlopes>), String> {
+        self.run(inputs, scalars, curves)
+            .map(|run| (run, Vec::new()))
+    }
+
     /// The run at `inputs` again, for the report (the calibrated curves):
     /// a model inside acq runs it; a solver answers from the files of a
     /// run it already made there, or None, since one more run of it can
@@ -96,6 +113,11 @@ pub trait Model: Sync {
 /// posterior see: enough to tell the elastic rise, the hardening, the
 /// necking and the drop apart.
 pub const CURVE_PARTS: usize = 20;
+
+/// A curve's slopes in a model's inputs: for each input (by name) the
+/// derivative of the curve's y at each of its points, per unit of the
+/// input. An input not listed does not move the curve.
+pub type CurveSlopes = Vec<(String, Vec<f64>)>;
 
 /// What one model run gave.
 #[derive(Clone, Debug, Default)]
@@ -473,7 +495,7 @@ impl Study {
     }
 
     /// The residuals of a search's local steps, from fit outputs of a
-    /// simulator [`StudySimulator::with_curve_parts`]`(parts)`: each scalar
+    /// simulator `StudySimulator::with_curve_parts(parts)`: each scalar
     /// as in [`Study::residuals`], each curve as its `parts` signed errors
     /// (%) scaled by `sqrt(weight / parts)`, so that a curve off by e %
     /// everywhere counts as a scalar off by e %. Empty when the outputs
@@ -501,6 +523,34 @@ impl Study {
             }
         }
         residuals
+    }
+
+    /// The slopes of [`Study::local_residuals`] in the unit box, row by row
+    /// (residuals x search parameters), from a run's part slopes
+    /// (`StudySimulator::take_part_slopes`): each scaled as its part's
+    /// residual is. Empty when there are none, all are zero (the model
+    /// could not give them for this run) or any is not finite: the local
+    /// steps then fit their model to the runs.
+    pub fn local_residual_slopes(&self, slopes: &[f64], parts: usize) -> Vec<f64> {
+        let observations = self.observations(Role::Fit);
+        let dimensions = self.parameters.len();
+        let all_curves = observations
+            .iter()
+            .all(|(_, o)| matches!(o.measured, Measured::Curve { .. }));
+        if !all_curves || parts == 0 || slopes.len() != observations.len() * parts * dimensions {
+            return Vec::new();
+        }
+        if !slopes.iter().all(|v| v.is_finite()) || slopes.iter().all(|v| *v == 0.0) {
+            return Vec::new();
+        }
+        observations
+            .iter()
+            .zip(slopes.chunks(parts * dimensions))
+            .flat_map(|((_, observation), rows)| {
+                let scale = (observation.weight / parts as f64).sqrt();
+                rows.iter().map(move |v| v * scale)
+            })
+            .collect()
     }
 
     /// The weights of the fit observations.
@@ -548,312 +598,6 @@ impl Study {
 pub fn chi_square(errors: &[ObservationError]) -> Option<(f64, usize)> {
     let z: Vec<f64> = errors.iter().filter_map(|e| e.normalised).collect();
     (!z.is_empty()).then(|| (z.iter().map(|z| z * z).sum(), z.len()))
-}
-
-/// The model over the cases of one role, as the engine sees it.
-pub struct StudySimulator<'a> {
-    study: &'a Study,
-    model: &'a dyn Model,
-    role: Role,
-    parameters: Vec<Parameter>,
-    outputs: Vec<String>,
-    curve_parts: usize,
-    /// Each measured curve scored by MAPE, by case and observation index,
-    /// checked and interpolated once for every run to compare with
-    /// (`None` for other observations, and for a curve the MAPE refuses:
-    /// each run then says why), with the grid points of its own.
-    measured_curves: Vec<Vec<Option<(TestCurve, usize)>>>,
-}
-
-impl<'a> StudySimulator<'a> {
-    pub fn new(study: &'a Study, model: &'a dyn Model, role: Role) -> Self {
-        let measured_curves = study
-            .cases
-            .iter()
-            .map(|case| {
-                case.observations
-                    .iter()
-                    .map(|observation| match &observation.measured {
-                        Measured::Curve {
-                            points,
-                            metric: CurveMetric::Mape,
-                            ..
-                        } => TestCurve::new(points).ok().map(|test| {
-                            let own_points = test.parts(CurveMapeOptions::default(), usize::MAX);
-                            (test, own_points)
-                        }),
-                        _ => None,
-                    })
-                    .collect()
-            })
-            .collect();
-        StudySimulator {
-            study,
-            model,
-            role,
-            parameters: study.search_parameters(),
-            outputs: study.output_keys(role),
-            curve_parts: 0,
-            measured_curves,
-        }
-    }
-
-    /// Also outputs, after the observations, each curve's signed errors
-    /// in `parts` consecutive runs of its grid (`KEY.partNN`), for a
-    /// search's local steps ([`Study::local_residuals`]).
-    pub fn with_curve_parts(mut self, parts: usize) -> Self {
-        self.curve_parts = parts;
-        if parts > 0 {
-            for (case, observation) in self.study.observations(self.role) {
-                if matches!(observation.measured, Measured::Curve { .. }) {
-                    let key = self.study.key(case, observation);
-                    self.outputs
-                        .extend((1..=parts).map(|part| format!("{key}.part{part:02}")));
-                }
-            }
-        }
-        self
-    }
-}
-
-impl Simulator for StudySimulator<'_> {
-    fn parameters(&self) -> &[Parameter] {
-        &self.parameters
-    }
-    fn outputs(&self) -> &[String] {
-        &self.outputs
-    }
-    fn note_columns(&self) -> &[String] {
-        self.model.note_columns()
-    }
-    fn evaluate(&self, values: &[f64]) -> Result<Vec<f64>, String> {
-        self.evaluate_noted(values).0
-    }
-    /// Each case's run in turn; a note column holds the notes of every
-    /// case's run, space-separated.
-    fn evaluate_noted(&self, values: &[f64]) -> (Result<Vec<f64>, String>, Vec<String>) {
-        let mut notes = vec![String::new(); self.model.note_columns().len()];
-        let outcome = self.evaluate_cases(values, &mut notes);
-        (outcome, notes)
-    }
-}
-
-impl StudySimulator<'_> {
-    fn evaluate_cases(&self, values: &[f64], notes: &mut [String]) -> Result<Vec<f64>, String> {
-        let mut outputs = Vec::with_capacity(self.outputs.len());
-        let mut curve_parts: Vec<f64> = Vec::new();
-        let mut shared = SharedRuns::new(self.study, self.role, values);
-        for (index, case) in self.study.cases_with(self.role) {
-            if case.priors {
-                for observation in &case.observations {
-                    let at = self
-                        .parameters
-                        .iter()
-                        .position(|p| p.name == observation.output)
-                        .ok_or_else(|| {
-                            format!("a prior of no parameter: {}", observation.output)
-                        })?;
-                    outputs.push(values[at]);
-                }
-                continue;
-            }
-            let in_case = |reason: String| {
-                if self.study.named_cases {
-                    format!("case {}: {reason}", case.name)
-                } else {
-                    reason
-                }
-            };
-            let (case_scalars, case_curves) = shared
-                .outputs_of(index, self.model, notes)
-                .map_err(in_case)?;
-            let (mut scalar, mut curve) = (case_scalars.into_iter(), case_curves.into_iter());
-            for (observation_index, observation) in case.observations.iter().enumerate() {
-                outputs.push(match &observation.measured {
-                    Measured::Scalar { .. } => scalar
-                        .next()
-                        .ok_or_else(|| in_case("the model returned too few outputs".into()))?,
-                    Measured::Curve { points, metric, .. } => {
-                        let simulated = curve
-                            .next()
-                            .ok_or_else(|| in_case("the model returned too few curves".into()))?;
-                        let in_curve = |e: CurveLossError| {
-                            let hint = if matches!(e, CurveLossError::Decreasing { .. }) {
-                                " (MAPE compares on an x grid; for a curve whose x goes back, give the curve metric = \"pcm\", \"frechet\", \"dtw\" or \"area\")"
-                            } else {
-                                ""
-                            };
-                            in_case(format!("curve {}: {e}{hint}", observation.name))
-                        };
-                        if *metric != CurveMetric::Mape {
-                            let (value, parts) =
-                                coupled_curve(*metric, points, simulated, self.curve_parts)
-                                    .map_err(|e| {
-                                        in_case(format!("curve {}: {e}", observation.name))
-                                    })?;
-                            curve_parts.extend(parts);
-                            value
-                        } else {
-                            let owned;
-                            let (test, own_points) = match &self.measured_curves[index]
-                                [observation_index]
-                            {
-                                Some((test, own_points)) => (test, *own_points),
-                                None => {
-                                    owned = TestCurve::new(points).map_err(in_curve)?;
-                                    (&owned, usize::MAX)
-                                }
-                            };
-                            let options = CurveMapeOptions::default();
-                            if self.curve_parts == 0 {
-                                test.mape(simulated, options).map_err(in_curve)?.mape_percent
-                            } else {
-                                // No more parts than the measured curve has
-                                // points of its own: a finer simulation's
-                                // extra ones would be parts the likelihood
-                                // reads no scatter for.
-                                let (mape, mut parts) = test
-                                    .errors_by_part(
-                                        simulated,
-                                        options,
-                                        self.curve_parts.min(own_points),
-                                    )
-                                    .map_err(in_curve)?;
-                                // A grid shorter than the parts: the last part
-                                // repeats (the likelihood reads it once).
-                                let last = parts.last().copied().unwrap_or(0.0);
-                                parts.resize(self.curve_parts, last);
-                                curve_parts.extend(parts);
-                                mape.mape_percent
-                            }
-                        }
-                    }
-                });
-            }
-        }
-        outputs.extend(curve_parts);
-        Ok(outputs)
-    }
-}
-
-/// The model runs of one evaluation. Cases whose model inputs are the
-/// same (two cases reading different outputs of one test, as the
-/// CalculiX bar's hardening and neck do) share one run that returns
-/// every output either asks for: a run is a function of its inputs, and
-/// a second one would cost as much as the first (a fine FE mesh's run
-/// twice over) for the same numbers.
-struct SharedRuns<'s> {
-    /// Each distinct input set: its inputs, the scalars and curves its
-    /// cases ask for (each name once), and its run once made.
-    runs: Vec<SharedRun<'s>>,
-    /// By the study's case index: its run and what it asks of it.
-    cases: Vec<Option<CaseAsks<'s>>>,
-}
-
-/// A case's run (an index into [`SharedRuns::runs`]) and its scalar and
-/// curve outputs, in its observations' order.
-#[derive(Clone)]
-struct CaseAsks<'s> {
-    run: usize,
-    scalars: Vec<&'s str>,
-    curves: Vec<&'s str>,
-}
-
-/// A case's scalars and curves, taken from its (shared) run.
-type CaseOutputs<'r> = (Vec<f64>, Vec<&'r [(f64, f64)]>);
-
-struct SharedRun<'s> {
-    inputs: Vec<(String, f64)>,
-    scalars: Vec<&'s str>,
-    curves: Vec<&'s str>,
-    run: Option<Result<ModelRun, String>>,
-}
-
-impl<'s> SharedRuns<'s> {
-    fn new(study: &'s Study, role: Role, values: &[f64]) -> Self {
-        let mut shared = SharedRuns {
-            runs: Vec::new(),
-            cases: vec![None; study.cases.len()],
-        };
-        for (index, case) in study.cases_with(role).filter(|(_, case)| !case.priors) {
-            let named = |curve: bool| -> Vec<&'s str> {
-                case.observations
-                    .iter()
-                    .filter(|o| matches!(o.measured, Measured::Curve { .. }) == curve)
-                    .map(|o| o.output.as_str())
-                    .collect()
-            };
-            let (scalars, curves) = (named(false), named(true));
-            let inputs = study.inputs_of(index, values);
-            let at = match shared.runs.iter().position(|r| r.inputs == inputs) {
-                Some(at) => at,
-                None => {
-                    shared.runs.push(SharedRun {
-                        inputs,
-                        scalars: Vec::new(),
-                        curves: Vec::new(),
-                        run: None,
-                    });
-                    shared.runs.len() - 1
-                }
-            };
-            let run = &mut shared.runs[at];
-            for (union, asked) in [(&mut run.scalars, &scalars), (&mut run.curves, &curves)] {
-                for name in asked {
-                    if !union.contains(name) {
-                        union.push(name);
-                    }
-                }
-            }
-            shared.cases[index] = Some(CaseAsks {
-                run: at,
-                scalars,
-                curves,
-            });
-        }
-        shared
-    }
-
-    /// Case `index`'s scalars and curves, from its run (made now if it is
-    /// the first case of its inputs, its notes appended to `notes`).
-    fn outputs_of(
-        &mut self,
-        index: usize,
-        model: &dyn Model,
-        notes: &mut [String],
-    ) -> Result<CaseOutputs<'_>, String> {
-        let Some(Some(asks)) = self.cases.get(index) else {
-            return Err(format!("case {index} has no run"));
-        };
-        let run = &mut self.runs[asks.run];
-        if run.run.is_none() {
-            let (made, run_notes) = model.run_noted(&run.inputs, &run.scalars, &run.curves);
-            append_notes(notes, run_notes);
-            run.run = Some(made);
-        }
-        let made = match &run.run {
-            Some(Ok(made)) => made,
-            Some(Err(reason)) => return Err(reason.clone()),
-            None => return Err(format!("case {index}'s run was not made")),
-        };
-        // Where each asked name is in the run's outputs; a run that
-        // returned fewer than asked ends the case's list there.
-        let positions = |union: &[&str], asked: &[&str]| -> Vec<usize> {
-            asked
-                .iter()
-                .filter_map(|name| union.iter().position(|n| n == name))
-                .collect()
-        };
-        let case_scalars = positions(&run.scalars, &asks.scalars)
-            .into_iter()
-            .map_while(|i| made.scalars.get(i).copied())
-            .collect();
-        let case_curves = positions(&run.curves, &asks.curves)
-            .into_iter()
-            .map_while(|i| made.curves.get(i).map(Vec::as_slice))
-            .collect();
-        Ok((case_scalars, case_curves))
-    }
 }
 
 /// A curve scored by a coupling metric: its value, and `parts` signed
@@ -975,99 +719,6 @@ fn flatten_json(prefix: &str, value: &Value, into: &mut std::collections::HashMa
 #[cfg(test)]
 mod tests {
     use super::{coupled_curve, matched, points_of, CurveMetric};
-    use super::{
-        Case, LossKind, Measured, Model, ModelRun, Observation, Residuals, Role, Study,
-        StudyParameter, StudySimulator,
-    };
-    use acq_algorithms::evaluation::{Parameter, Simulator};
-    use std::sync::atomic::{AtomicUsize, Ordering};
-
-    /// `a = x + load`, `b = 2 x`, `c = 3 y`, counting its runs.
-    struct Counted {
-        runs: AtomicUsize,
-    }
-
-    impl Model for Counted {
-        fn run(
-            &self,
-            inputs: &[(String, f64)],
-            scalars: &[&str],
-            _curves: &[&str],
-        ) -> Result<ModelRun, String> {
-            self.runs.fetch_add(1, Ordering::SeqCst);
-            let input = |name: &str| {
-                inputs
-                    .iter()
-                    .find(|(n, _)| n == name)
-                    .map_or(0.0, |(_, v)| *v)
-            };
-            let scalars = scalars
-                .iter()
-                .map(|name| match *name {
-                    "a" => Ok(input("x") + input("load")),
-                    "b" => Ok(2.0 * input("x")),
-                    "c" => Ok(3.0 * input("y")),
-                    other => Err(format!("no output {other}")),
-                })
-                .collect::<Result<_, String>>()?;
-            Ok(ModelRun {
-                scalars,
-                curves: Vec::new(),
-            })
-        }
-    }
-
-    fn observed(outputs: &[&str]) -> Vec<Observation> {
-        outputs
-            .iter()
-            .map(|output| Observation {
-                name: output.to_string(),
-                output: output.to_string(),
-                measured: Measured::Scalar {
-                    value: 1.0,
-                    uncertainty: None,
-                },
-                weight: 1.0,
-                source: String::new(),
-                shared: Vec::new(),
-            })
-            .collect()
-    }
-
-    /// Two cases with the same inputs (the CalculiX bar's hardening and
-    /// neck) share one run that answers both; a case with an input of its
-    /// own runs on its own; every case gets what it would have alone.
-    #[test]
-    fn cases_with_the_same_inputs_share_one_run() {
-        let mut loaded = Case::new("loaded", Role::Fit, observed(&["a"]));
-        loaded.inputs = vec![("load".into(), 10.0)];
-        let study = Study {
-            parameters: ["x", "y"]
-                .map(|name| StudyParameter {
-                    search: Parameter::new(name, 0.0, 1.0),
-                    input: name.into(),
-                    case: None,
-                    nominal: 0.5,
-                    prior: None,
-                })
-                .to_vec(),
-            cases: vec![
-                Case::new("hardening", Role::Fit, observed(&["a", "b"])),
-                loaded,
-                Case::new("neck", Role::Fit, observed(&["c", "a"])),
-            ],
-            named_cases: true,
-            residuals: Residuals::Relative,
-            loss: LossKind::Mean,
-        };
-        let model = Counted {
-            runs: AtomicUsize::new(0),
-        };
-        let simulator = StudySimulator::new(&study, &model, Role::Fit);
-        let outputs = simulator.evaluate(&[0.25, 0.5]).unwrap();
-        assert_eq!(outputs, vec![0.25, 0.5, 10.25, 1.5, 0.25]);
-        assert_eq!(model.runs.load(Ordering::SeqCst), 2);
-    }
 
     #[test]
     fn pcm_and_frechet_steer_by_the_dtw_coupling_and_keep_their_own_value() {

@@ -34,6 +34,7 @@ use super::identifiability::{identifiability, identifiability_json, Local};
 use super::mesh_study::with_mesh_parameter;
 use super::method::{Method, RunSettings, CURVE_PARTS};
 use super::outcome::{CalibratedCurve, Found, LeastSquaresFound, MultiFidelityFound, StudyOutcome};
+use super::part_slopes::PartSlopesLog;
 use super::posterior::{run_posterior, SearchResult};
 use super::progress::Progress;
 use super::report::{study_report, write_report};
@@ -41,7 +42,8 @@ use super::run_directory::{evaluation_error, write_text, RunDirectory};
 use super::search::{
     bo_settings, from_unit, minimise_logged, minimise_two_levels_logged, scored, to_unit,
 };
-use super::study::{Measured, Model, Observation, ObservationError, Role, Study, StudySimulator};
+use super::simulator::StudySimulator;
+use super::study::{Measured, Model, Observation, ObservationError, Role, Study};
 use super::summary::summary;
 use super::surrogate_moo::surrogate_moo;
 
@@ -304,6 +306,51 @@ fn calibrated_point(
     })
 }
 
+/// The parts each curve's errors are cut into for the method's local
+/// steps (none without them).
+fn curve_parts_of(method: &Method) -> usize {
+    match method {
+        Method::Bo(bo) if bo.local_steps => CURVE_PARTS,
+        Method::MultiFidelity(mf) if mf.local_steps => CURVE_PARTS,
+        _ => 0,
+    }
+}
+
+/// The most model runs the method makes, for the progress line.
+fn run_budget(method: &Method, parameters: usize) -> usize {
+    match method {
+        Method::Bo(bo) => bo.max_evals,
+        Method::MultiFidelity(mf) => mf.max_evals,
+        Method::SurrogateMoo(moo) => moo.budget(parameters),
+        Method::LeastSquares(ls) => ls.max_evals + parameters,
+    }
+}
+
+/// The fit cases as the search runs them: with their curves' parts for
+/// local steps, and for Bayesian optimisation's local steps each run's own
+/// slopes of them when the model gives them (kept in `part_slopes.csv`).
+fn search_simulator<'a>(
+    study: &'a Study,
+    model: &'a dyn Model,
+    (method, curve_parts): (&Method, usize),
+    directory: &RunDirectory,
+    resume: bool,
+) -> Result<StudySimulator<'a>> {
+    let simulator = StudySimulator::new(study, model, Role::Fit).with_curve_parts(curve_parts);
+    if !(matches!(method, Method::Bo(bo) if bo.local_steps) && simulator.wants_part_slopes()) {
+        return Ok(simulator);
+    }
+    let names: Vec<String> = study
+        .search_parameters()
+        .into_iter()
+        .map(|p| p.name)
+        .collect();
+    let path = directory.file("part_slopes.csv");
+    let log = PartSlopesLog::open(&path, &names, resume)
+        .map_err(|e| AcqError::io(path.display().to_string(), e))?;
+    Ok(simulator.with_part_slopes(log))
+}
+
 /// Runs the search on the fit cases, then the validate cases at the
 /// calibrated point, then the identifiability analysis.
 pub fn calibrate_study(
@@ -315,11 +362,7 @@ pub fn calibrate_study(
     settings: &RunSettings<'_>,
 ) -> Result<StudyOutcome, StudyError> {
     let parameters = study.search_parameters();
-    let curve_parts = match method {
-        Method::Bo(bo) if bo.local_steps => CURVE_PARTS,
-        Method::MultiFidelity(mf) if mf.local_steps => CURVE_PARTS,
-        _ => 0,
-    };
+    let curve_parts = curve_parts_of(method);
     // Two levels: the element size is a parameter of the runs, logged.
     let levels = match method {
         Method::MultiFidelity(mf) => Some([mf.cheap_mesh, mf.expensive_mesh]),
@@ -328,13 +371,14 @@ pub fn calibrate_study(
     let levelled = levels.map(|meshes| with_mesh_parameter(study, &meshes));
     let expensive = levels.map(|[_, expensive]| expensive);
     let run_study = levelled.as_ref().unwrap_or(study);
-    let simulator = StudySimulator::new(run_study, model, Role::Fit).with_curve_parts(curve_parts);
-    let budget = match method {
-        Method::Bo(bo) => bo.max_evals,
-        Method::MultiFidelity(mf) => mf.max_evals,
-        Method::SurrogateMoo(moo) => moo.budget(parameters.len()),
-        Method::LeastSquares(ls) => ls.max_evals + parameters.len(),
-    };
+    let simulator = search_simulator(
+        run_study,
+        model,
+        (method, curve_parts),
+        directory,
+        settings.resume,
+    )?;
+    let budget = run_budget(method, parameters.len());
     let progress = Progress::new(settings.label.clone(), budget)
         .with_status(|| model.status())
         .with_observer(settings.progress);
@@ -361,6 +405,7 @@ pub fn calibrate_study(
             &parameters,
             initial,
             curve_parts,
+            &|values| simulator.take_part_slopes(values),
         )
     });
     progress.finish();
@@ -480,6 +525,7 @@ fn search(
     parameters: &[Parameter],
     initial: Vec<Vec<f64>>,
     curve_parts: usize,
+    part_slopes: &dyn Fn(&[f64]) -> Vec<f64>,
 ) -> Result<Found> {
     match method {
         Method::Bo(bo) => {
@@ -499,9 +545,10 @@ fn search(
                 evaluator,
                 parameters,
                 initial,
-                |y| Outcome {
+                |values, y| Outcome {
                     loss: study.loss(y),
                     residuals: study.local_residuals(y, curve_parts),
+                    slopes: study.local_residual_slopes(&part_slopes(values), curve_parts),
                 },
                 &bo_settings,
                 !bo.deterministic,
@@ -544,6 +591,9 @@ fn search(
                 |y| Outcome {
                     loss: study.loss(y),
                     residuals: study.local_residuals(y, curve_parts),
+                    // The two levels' local steps take the levels' difference
+                    // into their model, not one run's slopes.
+                    slopes: Vec::new(),
                 },
                 &settings,
             )

@@ -52,7 +52,7 @@ impl Model for Saturating {
 pub fn correlated_curve_hits(metric: CurveMetric, points: u32, replicates: u64) -> Vec<[bool; 2]> {
     use acq_algorithms::evaluation::Simulator;
     use acq_study::method::CURVE_PARTS;
-    use acq_study::study::StudySimulator;
+    use acq_study::simulator::StudySimulator;
     // Over 0 to 4 (f64::from(points) / 4.0 is exact: the MAPE test's
     // points are i / 60, bit for bit).
     let xs: Vec<f64> = (1..=points)

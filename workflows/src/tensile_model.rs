@@ -14,8 +14,9 @@ use acq_analysis::loss::curve::{curve_mape, CurveMape, CurveMapeOptions};
 use acq_twins::tensile::flow_curve::FlowCurve;
 use acq_twins::tensile::gtn::{Coalescence, Elasticity, GtnMaterial, GtnParameters};
 use acq_twins::tensile::mesh::{BarGeometry, MeshDensity};
+use acq_twins::tensile::sensitivity::ForceSensitivities;
 use acq_twins::tensile::solver::{LoadingSettings, Outcome, PullResult};
-use acq_twins::tensile::TensileTwin;
+use acq_twins::tensile::{TensileTwin, GTN_PARAMETER_NAMES};
 use serde::Serialize;
 
 /// Poisson's ratio of the steel (reference: nu = 0.3).
@@ -41,8 +42,9 @@ pub struct GtnInputs {
     pub coalescence: Option<(f64, f64)>,
 }
 
-/// The parameter names `--param` takes, in order.
-pub const PARAMETER_NAMES: [&str; 8] = ["q1", "q2", "q3", "epsN", "sN", "fN", "f0", "m"];
+/// The parameter names `--param` takes, in order: the twin's, in which its
+/// sensitivities are computed.
+pub const PARAMETER_NAMES: [&str; 8] = GTN_PARAMETER_NAMES;
 
 impl GtnInputs {
     /// Parses `q1=1.332,q2=0.9952,...`: all eight names once each, plus
@@ -388,9 +390,26 @@ impl TensileModel {
     /// without scoring it.
     pub fn pull(&self, inputs: &GtnInputs) -> Result<PullResult, String> {
         let twin = self.twin(inputs)?;
+        twin.pull(&self.loading())
+    }
+
+    /// [`TensileModel::pull`], and the force's derivative in each of
+    /// [`PARAMETER_NAMES`] at each point of the curve, kN per unit of the
+    /// parameter, computed along with the run (see
+    /// `acq_twins::tensile::sensitivity`). The sensitivities' own error
+    /// comes with the curve.
+    pub fn pull_with_sensitivities(
+        &self,
+        inputs: &GtnInputs,
+    ) -> Result<(PullResult, Result<ForceSensitivities, String>), String> {
+        let twin = self.twin(inputs)?;
+        twin.pull_with_sensitivities(&self.loading())
+    }
+
+    fn loading(&self) -> LoadingSettings {
         let mut loading = LoadingSettings::to(self.end_displacement_mm());
         loading.output_interval_mm = self.settings.output_interval_mm;
-        twin.pull(&loading)
+        loading
     }
 
     /// Simulates and scores one parameter set.

@@ -184,6 +184,7 @@ fn local_steps_run(
     let outcome = |r: Vec<f64>| Outcome {
         loss: r.iter().map(|v| v * v).sum::<f64>(),
         residuals: r,
+        slopes: Vec::new(),
     };
     let settings = MultiFidelitySettings {
         max_evaluations: 200,

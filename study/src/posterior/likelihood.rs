@@ -206,7 +206,7 @@ impl StudyPosterior {
     /// measured curve as its `curve_parts` signed errors (0 when the study
     /// has no curve).
     ///
-    /// [`StudySimulator::with_curve_parts`]: crate::study::StudySimulator::with_curve_parts
+    /// [`StudySimulator::with_curve_parts`]: crate::simulator::StudySimulator::with_curve_parts
     pub fn new(
         study: &Study,
         discrepancy: Discrepancy,

@@ -27,7 +27,8 @@ use acq_error::{AcqError, Result};
 use rand::SeedableRng;
 
 use super::run_directory::{evaluation_error, write_text, RunDirectory};
-use super::study::{Measured, Model, Role, Study, StudySimulator, CURVE_PARTS};
+use super::simulator::StudySimulator;
+use super::study::{Measured, Model, Role, Study, CURVE_PARTS};
 
 pub mod curve_parts;
 pub mod discrepancy;

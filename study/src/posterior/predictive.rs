@@ -17,7 +17,8 @@ use acq_algorithms::mcmc::{quantile, Chains};
 use acq_error::Result;
 
 use super::super::run_directory::{evaluation_error, write_text, RunDirectory};
-use super::super::study::{Case, Measured, Model, Observation, Role, Study, StudySimulator};
+use super::super::simulator::StudySimulator;
+use super::super::study::{Case, Measured, Model, Observation, Role, Study};
 use super::likelihood::{standard_normal, Scales, StudyPosterior};
 use super::settings::PosteriorSettings;
 

@@ -25,7 +25,8 @@ use super::{
     chain_starts, initial_scale, inside, log_density_of, sampler_settings, unconverged,
     PosteriorSettings,
 };
-use crate::study::{Model, Role, Study, StudySimulator};
+use crate::simulator::StudySimulator;
+use crate::study::{Model, Role, Study};
 
 /// Warmup steps per chain of an update after the first.
 pub const WARM_WARMUP: usize = 600;

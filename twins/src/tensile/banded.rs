@@ -227,6 +227,7 @@ pub(crate) struct Factored {
 /// Columns of other unknowns carried through a factorisation (see
 /// `split_band`): dense, for the rows from `first_row` on only, since the
 /// rows before hold zeros there and keep them.
+#[derive(Clone)]
 pub(crate) struct Coupling {
     first_row: usize,
     columns: usize,

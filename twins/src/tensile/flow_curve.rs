@@ -254,6 +254,20 @@ impl FlowCurve {
         self.post_uts_slope_mpa
     }
 
+    /// The same table continued with slope `m` (MPa) instead.
+    ///
+    /// # Errors
+    /// `m` negative or not finite.
+    pub fn with_post_uts_slope_mpa(&self, post_uts_slope_mpa: f64) -> Result<Self, FlowCurveError> {
+        if !post_uts_slope_mpa.is_finite() || post_uts_slope_mpa < 0.0 {
+            return Err(FlowCurveError::InvalidPostUtsSlope(post_uts_slope_mpa));
+        }
+        Ok(Self {
+            post_uts_slope_mpa,
+            ..self.clone()
+        })
+    }
+
     /// Plastic strains of the table (first is 0, strictly increasing).
     pub fn plastic_strain(&self) -> &[f64] {
         &self.plastic_strain

@@ -14,6 +14,8 @@
 //!   `local_lu`: the return mapping's 4 x 4 systems.
 //! - [`solver`]: displacement-controlled Newton with step cutting, the
 //!   force-displacement curve and how the run ended.
+//! - [`sensitivity`]: the curve's derivatives in the material's parameters,
+//!   computed along with the pull (direct differentiation).
 //!
 //! [`TensileTwin`] ties them together: geometry + mesh + material in, a
 //! force (kN) vs end displacement (mm) curve out, the same quantities as the
@@ -26,6 +28,7 @@ pub mod gtn;
 pub mod kinematics;
 mod local_lu;
 pub mod mesh;
+pub mod sensitivity;
 pub mod solver;
 mod split_band;
 
@@ -34,6 +37,7 @@ use serde::Serialize;
 use element::{PointMaterial, PointResponse};
 use gtn::{GtnMaterial, Mandel, MaterialState, Wanted};
 use mesh::{BarGeometry, Mesh, MeshDensity};
+use sensitivity::{ForceSensitivities, ParameterisedMaterial, INTERNAL_VARIABLES};
 use solver::{Bar, LoadingSettings, PullResult};
 
 /// Stiffness a failed point keeps, as a fraction of the elastic one: enough
@@ -78,6 +82,83 @@ impl PointMaterial for GtnMaterial {
     }
 }
 
+/// The GTN parameters a curve is differentiated in, in
+/// [`ParameterisedMaterial`]'s order: the yield surface's q1, q2, q3, the
+/// nucleation's εN, sN, fN, the initial porosity f0, and the flow curve's
+/// slope m (MPa) past its table.
+pub const GTN_PARAMETER_NAMES: [&str; 8] = ["q1", "q2", "q3", "epsN", "sN", "fN", "f0", "m"];
+
+/// The smallest magnitude each parameter's difference step is taken
+/// relative to (a parameter at zero still gets a step of its scale).
+const GTN_PARAMETER_SCALES: [f64; 8] = [1.0, 1.0, 1.0, 0.1, 0.01, 1e-3, 1e-4, 10.0];
+
+/// Relative forward-difference step of the material's derivatives (see
+/// [`sensitivity`]).
+const RELATIVE_DIFFERENCE_STEP: f64 = 1e-6;
+
+impl ParameterisedMaterial for GtnMaterial {
+    fn parameter_names(&self) -> Vec<&'static str> {
+        GTN_PARAMETER_NAMES.to_vec()
+    }
+
+    fn moved(&self, index: usize, step: f64) -> Result<Self, String> {
+        let mut material = self.clone();
+        let parameters = &mut material.parameters;
+        match index {
+            0 => parameters.q1 += step,
+            1 => parameters.q2 += step,
+            2 => parameters.q3 += step,
+            3 => parameters.nucleation_mean_strain += step,
+            4 => parameters.nucleation_std_strain += step,
+            5 => parameters.nucleated_void_fraction += step,
+            6 => parameters.initial_porosity += step,
+            7 => {
+                material.flow = self
+                    .flow
+                    .with_post_uts_slope_mpa(self.flow.post_uts_slope_mpa() + step)
+                    .map_err(|e| e.to_string())?;
+            }
+            _ => return Err(format!("no parameter {index}")),
+        }
+        material.validate().map_err(|e| e.to_string())?;
+        Ok(material)
+    }
+
+    fn difference_step(&self, index: usize) -> f64 {
+        let p = &self.parameters;
+        let value = [
+            p.q1,
+            p.q2,
+            p.q3,
+            p.nucleation_mean_strain,
+            p.nucleation_std_strain,
+            p.nucleated_void_fraction,
+            p.initial_porosity,
+            self.flow.post_uts_slope_mpa(),
+        ]
+        .get(index)
+        .copied()
+        .unwrap_or(1.0);
+        let scale = GTN_PARAMETER_SCALES.get(index).copied().unwrap_or(1.0);
+        RELATIVE_DIFFERENCE_STEP * value.abs().max(scale)
+    }
+
+    fn internal_variables(state: &MaterialState) -> [f64; INTERNAL_VARIABLES] {
+        [state.matrix_plastic_strain, state.porosity]
+    }
+
+    fn with_internal_variables_moved(
+        state: &MaterialState,
+        by: [f64; INTERNAL_VARIABLES],
+    ) -> MaterialState {
+        MaterialState {
+            matrix_plastic_strain: state.matrix_plastic_strain + by[0],
+            porosity: state.porosity + by[1],
+            ..*state
+        }
+    }
+}
+
 /// The bar, its mesh and its material.
 #[derive(Clone, Debug, Serialize)]
 pub struct TensileTwin {
@@ -93,6 +174,23 @@ impl TensileTwin {
     /// Geometry or mesh out of range, or material parameters out of their
     /// physical range: the message says which.
     pub fn pull(&self, settings: &LoadingSettings) -> Result<PullResult, String> {
+        Ok(self.bar(settings)?.pull(settings))
+    }
+
+    /// [`TensileTwin::pull`], and the force's derivative in each of
+    /// [`GTN_PARAMETER_NAMES`] at each point of the curve.
+    ///
+    /// # Errors
+    /// As [`TensileTwin::pull`]; the sensitivities' own error (a parameter
+    /// that cannot be moved, a singular tangent) comes with the curve.
+    pub fn pull_with_sensitivities(
+        &self,
+        settings: &LoadingSettings,
+    ) -> Result<(PullResult, Result<ForceSensitivities, String>), String> {
+        Ok(self.bar(settings)?.pull_with_sensitivities(settings))
+    }
+
+    fn bar(&self, settings: &LoadingSettings) -> Result<Bar<GtnMaterial>, String> {
         self.material.validate().map_err(|e| e.to_string())?;
         if !(settings.end_displacement_mm > 0.0 && settings.end_displacement_mm.is_finite()) {
             return Err(format!(
@@ -101,6 +199,6 @@ impl TensileTwin {
             ));
         }
         let mesh = Mesh::new(&self.geometry, &self.mesh)?;
-        Ok(Bar::new(mesh, self.material.clone()).pull(settings))
+        Ok(Bar::new(mesh, self.material.clone()))
     }
 }

@@ -162,26 +162,26 @@ const MIN_ELEMENTS_PER_THREAD: usize = 32;
 const RUNS_PER_THREAD: usize = 16;
 
 /// Degrees of freedom whose value is prescribed.
-struct Constraints {
-    fixed: Vec<usize>,
-    pulled: Vec<usize>,
-    is_constrained: Vec<bool>,
+pub(super) struct Constraints {
+    pub(super) fixed: Vec<usize>,
+    pub(super) pulled: Vec<usize>,
+    pub(super) is_constrained: Vec<bool>,
 }
 
 /// Displacement, assembly at convergence, Newton iterations.
-type ConvergedStep<S> = (Vec<f64>, Assembly<S>, usize);
+type NewtonResult<S> = (Vec<f64>, Assembly<S>, usize);
 
 /// Storage the assemblies of a pull share: each element's force and
 /// stiffness, written by the threads that evaluate the elements and read by
 /// the serial scatter, and state vectors that earlier assemblies filled and
 /// nothing holds any more.
-struct AssemblyBuffers<S> {
+pub(super) struct AssemblyBuffers<S> {
     forces: Vec<ElementForce>,
     stiffnesses: Vec<ElementStiffness>,
     spare_states: Vec<Vec<[GaussPointState<S>; 4]>>,
     /// The last factorisation's storage: a fresh one of megabytes a solve
     /// was mostly page faults.
-    spare_matrix: Option<SplitBandMatrix>,
+    pub(super) spare_matrix: Option<SplitBandMatrix>,
 }
 
 impl<S: Copy> AssemblyBuffers<S> {
@@ -195,7 +195,7 @@ impl<S: Copy> AssemblyBuffers<S> {
     }
 
     /// A state vector no longer needed; a later assembly writes into it.
-    fn recycle(&mut self, states: Vec<[GaussPointState<S>; 4]>) {
+    pub(super) fn recycle(&mut self, states: Vec<[GaussPointState<S>; 4]>) {
         // Two are in use at most (a step's start and the last iteration's).
         if self.spare_states.len() < 2 {
             self.spare_states.push(states);
@@ -211,12 +211,29 @@ impl<S: Copy> AssemblyBuffers<S> {
     }
 }
 
-struct Assembly<S> {
+pub(super) struct Assembly<S> {
     /// The tangent, when asked for.
-    stiffness: Option<SplitBandMatrix>,
-    force_n: Vec<f64>,
-    states: Vec<[GaussPointState<S>; 4]>,
+    pub(super) stiffness: Option<SplitBandMatrix>,
+    pub(super) force_n: Vec<f64>,
+    pub(super) states: Vec<[GaussPointState<S>; 4]>,
 }
+
+/// A converged step, as [`Bar::pull_observed`] shows it to its observer.
+pub(super) struct ConvergedStep<'a, S> {
+    /// The points' states at the start of the step.
+    pub(super) states_before: &'a [[GaussPointState<S>; 4]],
+    pub(super) displacement: &'a [f64],
+    /// The nodal forces at the converged displacement, N.
+    pub(super) force_n: &'a [f64],
+    pub(super) states_after: &'a [[GaussPointState<S>; 4]],
+    pub(super) constraints: &'a Constraints,
+}
+
+/// What the observer of a pull is called with after each converged step;
+/// the numbers it returns are carried to the output curve and interpolated
+/// as the force is (see [`OutputCurve`]).
+pub(super) type StepObserver<'o, S> =
+    dyn FnMut(&ConvergedStep<'_, S>, &mut AssemblyBuffers<S>) -> Vec<f64> + 'o;
 
 impl<M: PointMaterial + Sync> Bar<M>
 where
@@ -253,7 +270,7 @@ where
         &self.material
     }
 
-    fn constraints(&self) -> Constraints {
+    pub(super) fn constraints(&self) -> Constraints {
         let dofs = 2 * self.mesh.node_count();
         let fixed: Vec<usize> = self
             .mesh
@@ -274,9 +291,11 @@ where
     }
 
     /// `last`: the states the previous assembly gave (see
-    /// [`PointMaterial::update`]).
-    fn assemble(
+    /// [`PointMaterial::update`]). `material` is the bar's, or the bar's
+    /// with a parameter moved (the sensitivities).
+    pub(super) fn assemble(
         &self,
+        material: &M,
         displacement: &[f64],
         states: &[[GaussPointState<M::State>; 4]],
         last: &[[GaussPointState<M::State>; 4]],
@@ -337,7 +356,7 @@ where
                 };
                 element(
                     &self.shapes[index],
-                    &self.material,
+                    material,
                     &states[index],
                     &last[index],
                     &local,
@@ -388,6 +407,21 @@ where
         })
     }
 
+    /// A zero stiffness matrix of the bar's shape: the last one's storage
+    /// when the buffers hold it.
+    pub(super) fn cleared_stiffness(
+        &self,
+        buffers: &mut AssemblyBuffers<M::State>,
+    ) -> SplitBandMatrix {
+        match buffers.spare_matrix.take() {
+            Some(mut matrix) => {
+                matrix.clear();
+                matrix
+            }
+            None => self.zero_stiffness(),
+        }
+    }
+
     /// A zero stiffness matrix of the bar's shape.
     fn zero_stiffness(&self) -> SplitBandMatrix {
         let per_node_row = 2 * (self.mesh.radial_elements + 1);
@@ -427,6 +461,16 @@ where
 
     /// Pulls the bar from rest to `settings.end_displacement_mm`.
     pub fn pull(&self, settings: &LoadingSettings) -> PullResult {
+        self.pull_observed(settings, None).0
+    }
+
+    /// [`Bar::pull`], showing each converged step to `observer`; what it
+    /// returns for each step comes back for each output point.
+    pub(super) fn pull_observed(
+        &self,
+        settings: &LoadingSettings,
+        mut observer: Option<&mut StepObserver<'_, M::State>>,
+    ) -> (PullResult, Vec<Vec<f64>>) {
         let constraints = self.constraints();
         let dofs = 2 * self.mesh.node_count();
         let mut displacement = vec![0.0; dofs];
@@ -473,6 +517,19 @@ where
             let jump = if predicted.is_some() { 0.0 } else { increment };
             match self.converge_step(start, &states, &constraints, jump, settings, &mut buffers) {
                 Ok((new_displacement, assembly, iterations)) => {
+                    let observed = match observer.as_mut() {
+                        Some(observer) => observer(
+                            &ConvergedStep {
+                                states_before: &states,
+                                displacement: &new_displacement,
+                                force_n: &assembly.force_n,
+                                states_after: &assembly.states,
+                                constraints: &constraints,
+                            },
+                            &mut buffers,
+                        ),
+                        None => Vec::new(),
+                    };
                     result.steps += 1;
                     result.newton_iterations += iterations;
                     rate = Some(
@@ -493,7 +550,7 @@ where
                         &constraints,
                         failed,
                     );
-                    let hardening = output.converged(point);
+                    let hardening = output.converged(point, observed);
                     if let Some(fractured_mm) = output.fractured_at {
                         result.outcome = Outcome::Fractured {
                             displacement_mm: fractured_mm,
@@ -525,7 +582,7 @@ where
             }
         }
         result.curve = output.points;
-        result
+        (result, output.observed)
     }
 
     /// Newton iterations for one step; the displacement, assembly at
@@ -539,7 +596,7 @@ where
         increment_mm: f64,
         settings: &LoadingSettings,
         buffers: &mut AssemblyBuffers<M::State>,
-    ) -> Result<ConvergedStep<M::State>, String> {
+    ) -> Result<NewtonResult<M::State>, String> {
         let mut displacement = start.to_vec();
         let mut first_residual = f64::NAN;
         // The states the last iteration reached (at first, the last step's).
@@ -550,7 +607,8 @@ where
                 // The check needs the forces only; most steps converge here
                 // (at 0.09 mm, three in four at the first check), so the
                 // tangent is assembled only when another correction follows.
-                let check = self.assemble(&displacement, states, last, None, buffers)?;
+                let check =
+                    self.assemble(&self.material, &displacement, states, last, None, buffers)?;
                 let (residual, reaction) = norms(&check.force_n, &constraints.is_constrained);
                 if !residual.is_finite() {
                     return Err("the out-of-balance force is not finite".into());
@@ -573,14 +631,15 @@ where
                     ));
                 }
             }
-            let matrix = match buffers.spare_matrix.take() {
-                Some(mut matrix) => {
-                    matrix.clear();
-                    matrix
-                }
-                None => self.zero_stiffness(),
-            };
-            let assembly = self.assemble(&displacement, states, last, Some(matrix), buffers)?;
+            let matrix = self.cleared_stiffness(buffers);
+            let assembly = self.assemble(
+                &self.material,
+                &displacement,
+                states,
+                last,
+                Some(matrix),
+                buffers,
+            )?;
             let Some(mut stiffness) = assembly.stiffness else {
                 return Err("the tangent was not assembled".into());
             };
@@ -620,6 +679,10 @@ struct OutputCurve {
     /// The last three converged steps, oldest first.
     recent: Vec<CurvePoint>,
     points: Vec<CurvePoint>,
+    /// What the pull's observer gave for each of `recent` (empty: zeros)...
+    recent_observed: Vec<Vec<f64>>,
+    /// ... and for each of `points`, interpolated as the force is.
+    observed: Vec<Vec<f64>>,
     peak_force_kn: f64,
     fracture_force_fraction: f64,
     fractured_at: Option<f64>,
@@ -639,6 +702,8 @@ impl OutputCurve {
             next_mm: interval_mm.min(end_mm),
             recent: vec![rest],
             points: vec![rest],
+            recent_observed: vec![Vec::new()],
+            observed: vec![Vec::new()],
             peak_force_kn: 0.0,
             fracture_force_fraction: settings.fracture_force_fraction,
             fractured_at: None,
@@ -649,19 +714,22 @@ impl OutputCurve {
     /// Takes a converged step's point; emits the output points up to it.
     /// Whether the force still rises steeply and smoothly enough for a
     /// longer step (see [`HardeningSteps`]).
-    fn converged(&mut self, point: CurvePoint) -> bool {
+    fn converged(&mut self, point: CurvePoint, observed: Vec<f64>) -> bool {
         let same = 1e-12 * self.end_mm.max(1.0);
         if self.recent.len() == 3 {
             self.recent.remove(0);
+            self.recent_observed.remove(0);
         }
         self.recent.push(point);
+        self.recent_observed.push(observed);
         while self.fractured_at.is_none() && self.next_mm <= point.displacement_mm + same {
-            let output = if (point.displacement_mm - self.next_mm).abs() <= same {
-                point
+            let (output, observed) = if (point.displacement_mm - self.next_mm).abs() <= same {
+                (point, self.recent_observed[self.recent.len() - 1].clone())
             } else {
                 self.interpolated(self.next_mm)
             };
             self.points.push(output);
+            self.observed.push(observed);
             self.peak_force_kn = self.peak_force_kn.max(output.force_kn);
             if output.force_kn < self.fracture_force_fraction * self.peak_force_kn {
                 self.fractured_at = Some(output.displacement_mm);
@@ -689,8 +757,8 @@ impl OutputCurve {
     }
 
     /// The parabola through the recent converged steps at `x_mm` (a line
-    /// with only two).
-    fn interpolated(&self, x_mm: f64) -> CurvePoint {
+    /// with only two), and through what the observer gave for them.
+    fn interpolated(&self, x_mm: f64) -> (CurvePoint, Vec<f64>) {
         let newest = self.recent[self.recent.len() - 1];
         let weights: Vec<f64> = self
             .recent
@@ -714,12 +782,25 @@ impl OutputCurve {
                 .map(|(p, w)| w * value(p))
                 .sum()
         };
-        CurvePoint {
+        let point = CurvePoint {
             displacement_mm: x_mm,
             force_kn: blend(|p| p.force_kn),
             neck_diameter_mm: blend(|p| p.neck_diameter_mm),
             failed_points: newest.failed_points,
-        }
+        };
+        // The weights do not depend on the forces: the blend of the forces'
+        // derivatives is the derivative of the blend.
+        let length = self.recent_observed.iter().map(Vec::len).max().unwrap_or(0);
+        let observed = (0..length)
+            .map(|i| {
+                self.recent_observed
+                    .iter()
+                    .zip(&weights)
+                    .map(|(values, w)| w * values.get(i).copied().unwrap_or(0.0))
+                    .sum()
+            })
+            .collect();
+        (point, observed)
     }
 }
 
@@ -897,17 +978,21 @@ mod tests {
         settings.output_interval_mm = 0.01;
         let mut output = OutputCurve::new(point_at(0.0, 1.0), &settings);
         for u in [0.01, 0.02, 0.06, 0.1, 0.14] {
-            output.converged(point_at(u, parabola(u)));
+            // What an observer gives is interpolated as the force is.
+            output.converged(point_at(u, parabola(u)), vec![u, parabola(u)]);
         }
         assert_eq!(output.points.len(), 15);
-        for point in &output.points[1..] {
+        assert_eq!(output.observed.len(), 15);
+        for (point, observed) in output.points[1..].iter().zip(&output.observed[1..]) {
             let u = point.displacement_mm;
             assert!((point.force_kn - parabola(u)).abs() < 1e-12, "{point:?}");
             assert!((point.neck_diameter_mm - (4.0 - u)).abs() < 1e-12);
+            assert!((observed[0] - u).abs() < 1e-12, "{observed:?}");
+            assert!((observed[1] - parabola(u)).abs() < 1e-12, "{observed:?}");
         }
         // A force that falls to 1 % of the maximum within a step: fracture
         // at the first output point below 2 %, none after it.
-        output.converged(point_at(0.16, 0.01));
+        output.converged(point_at(0.16, 0.01), Vec::new());
         let fractured = output.fractured_at.expect("fracture");
         assert!((fractured - 0.16).abs() < 1e-12, "{fractured}");
         assert_eq!(

@@ -29,6 +29,7 @@ const MIN_NODE_ROWS_TO_CUT: usize = 8;
 
 /// The stiffness matrix in the order above; rows and columns are the
 /// degrees of freedom's global numbers in every method.
+#[derive(Clone)]
 pub struct SplitBandMatrix {
     size: usize,
     /// The cut's degrees of freedom, `cut.start..cut.end`.
@@ -42,6 +43,7 @@ pub struct SplitBandMatrix {
     parallel: bool,
 }
 
+#[derive(Clone)]
 struct Half {
     matrix: BandedMatrix,
     /// The half's rows' entries in the cut's columns (its last rows).

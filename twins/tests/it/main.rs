@@ -6,3 +6,4 @@ mod gtn_material;
 mod inclinations;
 mod pose_fit;
 mod tensile_bar;
+mod tensile_sensitivity;

@@ -45,7 +45,7 @@ fn published_dataset_1(coalescence: Option<acq_twins::tensile::gtn::Coalescence>
     }
 }
 
-fn j2_twin(
+pub(crate) fn j2_twin(
     geometry: BarGeometry,
     mesh: MeshDensity,
     youngs_modulus_mpa: f64,
@@ -74,7 +74,7 @@ fn j2_twin(
 /// `J = exp((1 - 2 nu) tau / E)` (plastic flow is isochoric); the yield
 /// condition holds for the Cauchy stress, `tau / J = sigma_y(eps - tau / E)`,
 /// and the force is `sigma A = tau A0 exp(-eps)`.
-fn uniform_force_kn(
+pub(crate) fn uniform_force_kn(
     axial_log_strain: f64,
     youngs_modulus_mpa: f64,
     poisson_ratio: f64,
@@ -234,7 +234,7 @@ fn the_necking_bar_peaks_at_the_considere_force_and_then_necks() {
 
 /// A P91-like damaged bar: Voce flow curve, the published Dataset-1 GTN
 /// parameters.
-fn p91_like_twin(mesh: MeshDensity) -> TensileTwin {
+pub(crate) fn p91_like_twin(mesh: MeshDensity) -> TensileTwin {
     let strains: Vec<f64> = (0..=100).map(|i| 0.1 * i as f64 / 100.0).collect();
     let stresses = strains
         .iter()

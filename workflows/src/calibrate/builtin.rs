@@ -54,7 +54,8 @@ use crate::excavator_report::{
 };
 use crate::tensile_model::{GtnInputs, TensileModel, PARAMETER_NAMES};
 use acq_study::study::{
-    number_at_key_path, numbers_by_key_path, Measured, Model, ModelRun, Study, StudyParameter,
+    number_at_key_path, numbers_by_key_path, CurveSlopes, Measured, Model, ModelRun, Study,
+    StudyParameter,
 };
 
 /// The operating inputs the twin takes by name.
@@ -585,6 +586,8 @@ pub struct GtnModel {
     model: TensileModel,
     /// The neck zone of a mesh given as the input `mesh` (None: one diameter).
     neck_zone_mm: Option<f64>,
+    /// Runs give the curve's slopes in the parameters ([`Model::gives_slopes`]).
+    own_slopes: bool,
 }
 
 /// The GTN twin's one curve.
@@ -599,7 +602,16 @@ impl GtnModel {
         GtnModel {
             model,
             neck_zone_mm: None,
+            own_slopes: true,
         }
+    }
+
+    /// Whether runs give the curve's slopes in the parameters (default
+    /// yes): without, a search's local steps fit them to the runs, as for
+    /// a user's solver.
+    pub fn with_own_slopes(mut self, own_slopes: bool) -> Self {
+        self.own_slopes = own_slopes;
+        self
     }
 
     /// The twin of the tensile test in `path` (a CSV as `acq twin gtn
@@ -732,19 +744,65 @@ impl Model for GtnModel {
         // The study scores the curve itself: the model's own MAPE is not
         // computed twice.
         let result = self.sized(mesh)?.pull(&gtn)?;
-        let curve: Vec<(f64, f64)> = result
-            .curve
-            .iter()
-            .map(|p| (p.displacement_mm, p.force_kn))
-            .collect();
-        Ok(ModelRun {
-            scalars: scalars
-                .iter()
-                .map(|name| gtn_scalar(&result, name))
-                .collect::<Result<_, _>>()?,
-            curves: curves.iter().map(|_| curve.clone()).collect(),
-        })
+        gtn_model_run(&result, scalars, curves)
     }
+
+    /// The twin differentiates its curve in the eight parameters along
+    /// with the run (`acq_twins::tensile::sensitivity`).
+    fn gives_slopes(&self) -> bool {
+        self.own_slopes
+    }
+
+    /// The curve's slopes in the eight parameters; none (the search then
+    /// fits its own) when the twin could not carry them through the run.
+    fn run_with_slopes(
+        &self,
+        inputs: &[(String, f64)],
+        scalars: &[&str],
+        curves: &[&str],
+    ) -> Result<(ModelRun, Vec<CurveSlopes>), String> {
+        let (gtn, mesh) = gtn_run_inputs(inputs, scalars, curves)?;
+        let (result, sensitivities) = self.sized(mesh)?.pull_with_sensitivities(&gtn)?;
+        let run = gtn_model_run(&result, scalars, curves)?;
+        let slopes: CurveSlopes = match sensitivities {
+            Ok(sensitivities) => sensitivities
+                .parameter_names
+                .iter()
+                .enumerate()
+                .map(|(index, name)| {
+                    let by_point = sensitivities
+                        .kn_per_unit
+                        .iter()
+                        .map(|row| row[index])
+                        .collect();
+                    (name.to_string(), by_point)
+                })
+                .collect(),
+            Err(_) => return Ok((run, Vec::new())),
+        };
+        Ok((run, curves.iter().map(|_| slopes.clone()).collect()))
+    }
+}
+
+/// A pull as the study sees it: the scalars asked for, and the force
+/// against the displacement for each curve asked for.
+fn gtn_model_run(
+    result: &PullResult,
+    scalars: &[&str],
+    curves: &[&str],
+) -> Result<ModelRun, String> {
+    let curve: Vec<(f64, f64)> = result
+        .curve
+        .iter()
+        .map(|p| (p.displacement_mm, p.force_kn))
+        .collect();
+    Ok(ModelRun {
+        scalars: scalars
+            .iter()
+            .map(|name| gtn_scalar(result, name))
+            .collect::<Result<_, _>>()?,
+        curves: curves.iter().map(|_| curve.clone()).collect(),
+    })
 }
 
 /// The GTN twin's numbers: the maximum force, kN (the largest of the

@@ -37,9 +37,9 @@ use acq_study::method::{Method, RunSettings};
 use acq_study::outcome::{Found, StudyOutcome};
 use acq_study::posterior::{Discrepancy, PosteriorSettings};
 use acq_study::run_directory::{default_parallelism, RunDirectory};
+use acq_study::simulator::StudySimulator;
 use acq_study::study::{
     Case, LossKind, Measured, Observation, Residuals, Role, SharedError, Study, StudyParameter,
-    StudySimulator,
 };
 use acq_study::study_runner::run_study;
 use acq_study::surrogate_moo::{Pick, SurrogateMoo, SurrogateMooSettings};

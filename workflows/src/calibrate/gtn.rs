@@ -56,6 +56,9 @@ pub struct CalibrateGtnOptions {
     /// Global Bayesian-optimisation steps only (the published search),
     /// without the local Gauss-Newton steps on the curve's errors.
     pub global_only: bool,
+    /// Local steps whose slopes are fitted to the runs made, not the
+    /// twin's own (computed along with each run: fewer runs, each dearer).
+    pub fitted_slopes: bool,
     /// With `batch` above 1: synchronous batches, so the result depends
     /// only on the test, the options and the seed.
     pub deterministic: bool,
@@ -89,6 +92,7 @@ impl CalibrateGtnOptions {
             mesh: MeshOptions::default(),
             seed: 1,
             global_only: false,
+            fitted_slopes: false,
             deterministic: false,
             resume: false,
             posterior_draws_per_chain: None,
@@ -202,7 +206,9 @@ pub fn run(args: CalibrateGtnOptions) -> Result<GtnCalibration> {
     );
     let parameters = parameters(m_upper.max(1.0));
     let study = test_study(&parameters, &points);
-    let model = GtnModel::new(model).with_neck_zone_mm(args.mesh.neck_zone_mm);
+    let model = GtnModel::new(model)
+        .with_neck_zone_mm(args.mesh.neck_zone_mm)
+        .with_own_slopes(!args.fitted_slopes);
     let method = gtn_method(&args)?;
     let directory = RunDirectory::create(&args.out)?;
     let settings = RunSettings {

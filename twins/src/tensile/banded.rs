@@ -130,25 +130,25 @@ impl BandedMatrix {
     /// Solves `A x = rhs` in place (the matrix is overwritten by its
     /// factors). Partial pivoting within the band.
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SingularMatrix> {
-        let factored = self.factor_forward(rhs, &mut Coupling::none())?;
+        let factored = self.factor(&mut Coupling::none())?;
+        self.forward(&factored, rhs);
         self.back_substitute(&factored, rhs);
         Ok(())
     }
 
-    /// Factors the matrix in place and carries `rhs` and the `coupling`
-    /// columns along (`L^-1 P` applied to them): the forward half of a
-    /// solve. What the back substitution needs is returned.
-    pub(crate) fn factor_forward(
-        &mut self,
-        rhs: &mut [f64],
-        coupling: &mut Coupling,
-    ) -> Result<Factored, SingularMatrix> {
+    /// Factors the matrix in place (`P A = L U`, L's multipliers where the
+    /// eliminated entries were) and carries the `coupling` columns along
+    /// (`L^-1 P` applied to them). What [`BandedMatrix::forward`] and the
+    /// back substitution need is returned: one factorisation serves any
+    /// number of right-hand sides.
+    pub(crate) fn factor(&mut self, coupling: &mut Coupling) -> Result<Factored, SingularMatrix> {
         let n = self.size;
         let scale = largest_magnitude(&self.entries);
         let tiny = scale * f64::EPSILON * 16.0;
         // The last column row k of U holds: `filled_to` when k was the
         // pivot (the back substitution skips the zeros after it).
         let mut last_in_row = vec![0; n];
+        let mut pivot_rows = vec![0; n];
         // The last column any row at or above the pivot may hold: `k +
         // upper` until a swap brings up a row from below (LAPACK gbtf2's
         // `ju`). A stiffness matrix rarely needs one, so the updates stay
@@ -171,13 +171,13 @@ impl BandedMatrix {
             filled_to = filled_to.max(pivot_row + self.upper).min(n - 1);
             let last_column = filled_to;
             last_in_row[k] = last_column;
+            pivot_rows[k] = pivot_row;
             if pivot_row != k {
                 for column in k..=last_column {
                     let a = self.offset(k, column);
                     let b = self.offset(pivot_row, column);
                     self.entries.swap(a, b);
                 }
-                rhs.swap(k, pivot_row);
                 coupling.swap_rows(k, pivot_row);
             }
             let pivot_base = self.offset(k, k);
@@ -189,7 +189,7 @@ impl BandedMatrix {
                 rows: last_row - k,
                 span: last_column - k,
             };
-            eliminate(&mut self.entries, &mut rhs[k..=last_row], &below);
+            eliminate(&mut self.entries, &below);
             if coupling.holds(k) {
                 for row in k + 1..=last_row {
                     let factor = self.entries[self.offset(row, k)];
@@ -197,7 +197,37 @@ impl BandedMatrix {
                 }
             }
         }
-        Ok(Factored { last_in_row })
+        Ok(Factored {
+            last_in_row,
+            pivot_rows,
+        })
+    }
+
+    /// The forward half of a solve: `rhs` becomes `L^-1 P rhs`, with the
+    /// factorisation's row swaps and multipliers in its order (LAPACK
+    /// `gbtrs`).
+    pub(crate) fn forward(&self, factored: &Factored, rhs: &mut [f64]) {
+        let n = self.size;
+        for k in 0..n {
+            let pivot_row = factored.pivot_rows[k];
+            if pivot_row != k {
+                rhs.swap(k, pivot_row);
+            }
+            let pivot_value = rhs[k];
+            if pivot_value == 0.0 {
+                continue;
+            }
+            let last_row = (k + self.lower).min(n - 1);
+            // Column k's multipliers: one row on, one place back each.
+            let multipliers = self
+                .entries
+                .iter()
+                .skip(self.offset(k, k) + self.width() - 1)
+                .step_by((self.width() - 1).max(1));
+            for (value, multiplier) in rhs[k + 1..=last_row].iter_mut().zip(multipliers) {
+                *value -= multiplier * pivot_value;
+            }
+        }
     }
 
     /// U's row k: its entries after the diagonal, and the diagonal.
@@ -222,6 +252,20 @@ impl BandedMatrix {
 pub(crate) struct Factored {
     /// The last column each row of U holds.
     last_in_row: Vec<usize>,
+    /// The row swapped with row k before column k was eliminated.
+    pivot_rows: Vec<usize>,
+}
+
+impl Factored {
+    /// How many rows the pivoting swapped.
+    #[cfg(test)]
+    pub(crate) fn swaps(&self) -> usize {
+        self.pivot_rows
+            .iter()
+            .enumerate()
+            .filter(|(k, row)| k != *row)
+            .count()
+    }
 }
 
 /// Columns of other unknowns carried through a factorisation (see
@@ -349,11 +393,10 @@ struct Elimination {
 }
 
 /// Subtracts the pivot row from each row below it, storing the factor in
-/// the pivot's column; `rhs[0]` is the pivot row's, `rhs[i]` row i below's.
-/// Nearly all of the factorisation's time: the one loop compiled twice
-/// (see [`eliminate`]).
+/// the pivot's column. Nearly all of the factorisation's time: the one loop
+/// compiled twice (see [`eliminate`]).
 #[inline(always)]
-fn eliminate_rows(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
+fn eliminate_rows(entries: &mut [f64], below: &Elimination) {
     let pivot = entries[below.pivot_base];
     let span = below.span;
     for i in 1..=below.rows {
@@ -373,7 +416,6 @@ fn eliminate_rows(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
         for (t, p) in target.iter_mut().zip(pivot_row) {
             *t -= factor * p;
         }
-        rhs[i] -= factor * rhs[0];
     }
 }
 
@@ -383,21 +425,21 @@ fn eliminate_rows(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
 /// (a third of its wall at 0.09 mm elements, BENCHMARKS.md). Every entry
 /// gets the same multiply and subtract in the same order either way (Rust
 /// never fuses them), so both give the same bits.
-fn eliminate(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
+fn eliminate(entries: &mut [f64], below: &Elimination) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the only requirement `target_feature` adds is that the
         // processor has the feature, checked on the line above.
-        unsafe { eliminate_avx2(entries, rhs, below) };
+        unsafe { eliminate_avx2(entries, below) };
         return;
     }
-    eliminate_rows(entries, rhs, below);
+    eliminate_rows(entries, below);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn eliminate_avx2(entries: &mut [f64], rhs: &mut [f64], below: &Elimination) {
-    eliminate_rows(entries, rhs, below);
+fn eliminate_avx2(entries: &mut [f64], below: &Elimination) {
+    eliminate_rows(entries, below);
 }
 
 /// Numbers uniform in [-1, 1) from a seed, the same on every machine: the

@@ -184,119 +184,137 @@ where
     }
 
     /// Carries every parameter's history derivative over one converged
-    /// step; the reaction's derivatives (N per unit).
+    /// step; the reaction's derivatives (N per unit). The tangent is
+    /// factored once for all the parameters' right-hand sides.
     fn differentiate_step(
         &self,
         step: &ConvergedStep<'_, M::State>,
         parameters: &mut [ParameterTrack<M>],
         buffers: &mut AssemblyBuffers<M::State>,
     ) -> Result<Vec<f64>, String> {
-        let constraints = step.constraints;
-        let mut tangent: Option<SplitBandMatrix> = None;
-        let mut reactions = Vec::with_capacity(parameters.len());
-        for track in parameters.iter_mut() {
-            let history_size = largest(track.history.iter().flatten().flat_map(|h| h.iter()));
-            let first_step = shortened(track.step, history_size, LARGEST_HISTORY_CHANGE);
-            let first_material = self.moved_by(track, first_step)?;
-            let moved_states = moved_history::<M>(step.states_before, &track.history, first_step);
-            let pass = self.assemble(
-                &first_material,
-                step.displacement,
-                &moved_states,
-                step.states_after,
-                None,
-                buffers,
-            )?;
-            let mut rhs: Vec<f64> = pass
-                .force_n
-                .iter()
-                .zip(step.force_n)
-                .zip(&constraints.is_constrained)
-                .map(|((moved, base), &constrained)| {
-                    if constrained {
-                        0.0
-                    } else {
-                        -(moved - base) / first_step
-                    }
-                })
-                .collect();
-            buffers.recycle(pass.states);
-            let untouched = rhs.iter().all(|v| *v == 0.0)
-                && track
-                    .history
-                    .iter()
-                    .flatten()
-                    .all(|h| h.iter().all(|v| *v == 0.0));
-            if untouched {
-                // Nothing this parameter touches has yielded yet.
-                reactions.push(0.0);
-                continue;
+        let mut reactions = vec![0.0; parameters.len()];
+        let mut right_hand_sides = Vec::with_capacity(parameters.len());
+        for (at, track) in parameters.iter().enumerate() {
+            if let Some(rhs) = self.force_change(step, track, buffers)? {
+                right_hand_sides.push((at, rhs));
             }
-            if tangent.is_none() {
-                tangent = Some(self.prescribed_tangent(step, buffers)?);
-            }
-            let Some(matrix) = tangent.as_ref() else {
-                return Err("the tangent was not assembled".into());
-            };
-            let mut factored = matrix.clone();
-            factored
-                .solve_in_place(&mut rhs)
-                .map_err(|error| format!("sensitivities: {error}"))?;
-            let second_step = shortened(
-                first_step,
-                largest(rhs.iter()),
-                LARGEST_DISPLACEMENT_CHANGE_MM,
-            );
-            let (second_material, moved_states) = if second_step == first_step {
-                (first_material, moved_states)
-            } else {
-                (
-                    self.moved_by(track, second_step)?,
-                    moved_history::<M>(step.states_before, &track.history, second_step),
-                )
-            };
-            let displacement: Vec<f64> = step
-                .displacement
-                .iter()
-                .zip(&rhs)
-                .map(|(u, du)| u + second_step * du)
-                .collect();
-            let pass = self.assemble(
-                &second_material,
-                &displacement,
-                &moved_states,
-                step.states_after,
-                None,
-                buffers,
-            )?;
-            let reaction: f64 = constraints
-                .pulled
-                .iter()
-                .map(|&dof| (pass.force_n[dof] - step.force_n[dof]) / second_step)
-                .sum();
-            reactions.push(reaction);
-            let material = self.material();
-            for ((history, moved), base) in track
-                .history
-                .iter_mut()
-                .zip(&pass.states)
-                .zip(step.states_after)
-            {
-                for k in 0..4 {
-                    // A failed point carries nothing whatever its history.
-                    history[k] = if material.has_failed(&base[k].material) {
-                        PointHistoryDerivative::zeros()
-                    } else {
-                        history_difference::<M>(&moved[k], &base[k]) / second_step
-                    };
-                }
-            }
-            buffers.recycle(pass.states);
         }
-        if let Some(matrix) = tangent {
-            buffers.spare_matrix = Some(matrix);
+        if right_hand_sides.is_empty() {
+            return Ok(reactions);
         }
+        let mut tangent = self.prescribed_tangent(step, buffers)?;
+        let factors = tangent
+            .factor()
+            .map_err(|error| format!("sensitivities: {error}"))?;
+        for (at, (first_step, mut rhs)) in right_hand_sides {
+            tangent.solve_factored(&factors, &mut rhs);
+            reactions[at] =
+                self.carry_history(step, &mut parameters[at], first_step, &rhs, buffers)?;
+        }
+        buffers.spare_matrix = Some(tangent);
         Ok(reactions)
+    }
+
+    /// `-(∂f/∂h_n dh_n/dp + ∂f/∂p)` on the free degrees of freedom, and the
+    /// difference step it was taken with; `None` when nothing the parameter
+    /// touches has yielded yet (the derivatives stay zero).
+    fn force_change(
+        &self,
+        step: &ConvergedStep<'_, M::State>,
+        track: &ParameterTrack<M>,
+        buffers: &mut AssemblyBuffers<M::State>,
+    ) -> Result<Option<(f64, Vec<f64>)>, String> {
+        let history_size = largest(track.history.iter().flatten().flat_map(|h| h.iter()));
+        let first_step = shortened(track.step, history_size, LARGEST_HISTORY_CHANGE);
+        let material = self.moved_by(track, first_step)?;
+        let moved_states = moved_history::<M>(step.states_before, &track.history, first_step);
+        let pass = self.assemble(
+            &material,
+            step.displacement,
+            &moved_states,
+            step.states_after,
+            None,
+            buffers,
+        )?;
+        let rhs: Vec<f64> = pass
+            .force_n
+            .iter()
+            .zip(step.force_n)
+            .zip(&step.constraints.is_constrained)
+            .map(|((moved, base), &constrained)| {
+                if constrained {
+                    0.0
+                } else {
+                    -(moved - base) / first_step
+                }
+            })
+            .collect();
+        buffers.recycle(pass.states);
+        let untouched = rhs.iter().all(|v| *v == 0.0)
+            && track
+                .history
+                .iter()
+                .flatten()
+                .all(|h| h.iter().all(|v| *v == 0.0));
+        Ok((!untouched).then_some((first_step, rhs)))
+    }
+
+    /// Moves the displacement along `du/dp` (`displacement_slope`) with the
+    /// parameter and the history: the new history's derivative, kept in
+    /// `track`, and the reaction's, returned (N per unit).
+    fn carry_history(
+        &self,
+        step: &ConvergedStep<'_, M::State>,
+        track: &mut ParameterTrack<M>,
+        first_step: f64,
+        displacement_slope: &[f64],
+        buffers: &mut AssemblyBuffers<M::State>,
+    ) -> Result<f64, String> {
+        let second_step = shortened(
+            first_step,
+            largest(displacement_slope.iter()),
+            LARGEST_DISPLACEMENT_CHANGE_MM,
+        );
+        let material = self.moved_by(track, second_step)?;
+        let moved_states = moved_history::<M>(step.states_before, &track.history, second_step);
+        let displacement: Vec<f64> = step
+            .displacement
+            .iter()
+            .zip(displacement_slope)
+            .map(|(u, du)| u + second_step * du)
+            .collect();
+        let pass = self.assemble(
+            &material,
+            &displacement,
+            &moved_states,
+            step.states_after,
+            None,
+            buffers,
+        )?;
+        let reaction: f64 = step
+            .constraints
+            .pulled
+            .iter()
+            .map(|&dof| (pass.force_n[dof] - step.force_n[dof]) / second_step)
+            .sum();
+        let base_material = self.material();
+        for ((history, moved), base) in track
+            .history
+            .iter_mut()
+            .zip(&pass.states)
+            .zip(step.states_after)
+        {
+            for k in 0..4 {
+                // A failed point carries nothing whatever its history.
+                history[k] = if base_material.has_failed(&base[k].material) {
+                    PointHistoryDerivative::zeros()
+                } else {
+                    history_difference::<M>(&moved[k], &base[k]) / second_step
+                };
+            }
+        }
+        buffers.recycle(pass.states);
+        Ok(reaction)
     }
 
     /// The bar's material with `track`'s parameter moved by `step`.

@@ -200,70 +200,115 @@ impl SplitBandMatrix {
 
     /// Solves `A x = rhs` in place (the matrix is overwritten).
     pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), SingularMatrix> {
+        let factors = self.factor()?;
+        self.solve_factored(&factors, rhs);
+        Ok(())
+    }
+
+    /// Factors the matrix in place: what [`SplitBandMatrix::solve_factored`]
+    /// needs to solve for any number of right-hand sides, each at the cost
+    /// of two band substitutions.
+    pub fn factor(&mut self) -> Result<SplitFactors, SingularMatrix> {
         let cut = self.cut.clone();
         let size = self.size;
-        let mut near_rhs = rhs[..cut.start].to_vec();
-        let mut far_rhs: Vec<f64> = rhs[cut.end..].iter().rev().copied().collect();
         let [near, far] = &mut self.halves;
         let (near_done, far_done) = if self.parallel {
-            rayon::join(|| near.factor(&mut near_rhs), || far.factor(&mut far_rhs))
+            rayon::join(|| near.factor(), || far.factor())
         } else {
-            (near.factor(&mut near_rhs), far.factor(&mut far_rhs))
+            (near.factor(), far.factor())
         };
-        let (near_factored, near_cut, near_cut_rhs) = near_done?;
-        let (far_factored, far_cut, far_cut_rhs) = far_done.map_err(|e| SingularMatrix {
+        let (near_factored, near_cut) = near_done?;
+        let (far_factored, far_cut) = far_done.map_err(|e| SingularMatrix {
             column: size - 1 - e.column,
         })?;
 
-        // The cut: its block less both halves' shares, solved densely.
+        // The cut: its block less both halves' shares, factored densely.
         let width = cut.len();
-        let cut_solution = if width > 0 {
-            let schur = DMatrix::from_fn(width, width, |r, c| {
-                self.cut_block[r * width + c] + near_cut[r * width + c] + far_cut[r * width + c]
-            });
-            let cut_rhs = DVector::from_fn(width, |r, _| {
-                rhs[cut.start + r] + near_cut_rhs[r] + far_cut_rhs[r]
-            });
-            schur
-                .lu()
-                .solve(&cut_rhs)
-                .ok_or(SingularMatrix { column: cut.start })?
-        } else {
-            DVector::zeros(0)
+        let schur = (width > 0)
+            .then(|| {
+                let schur = DMatrix::from_fn(width, width, |r, c| {
+                    self.cut_block[r * width + c]
+                        + near_cut.share[r * width + c]
+                        + far_cut.share[r * width + c]
+                });
+                let lu = schur.lu();
+                lu.is_invertible()
+                    .then_some(lu)
+                    .ok_or(SingularMatrix { column: cut.start })
+            })
+            .transpose()?;
+        Ok(SplitFactors {
+            halves: [
+                (near_factored, near_cut.factors),
+                (far_factored, far_cut.factors),
+            ],
+            schur,
+        })
+    }
+
+    /// Solves `A x = rhs` in place with the factors of this matrix.
+    pub fn solve_factored(&self, factors: &SplitFactors, rhs: &mut [f64]) {
+        let cut = self.cut.clone();
+        let mut near_rhs = rhs[..cut.start].to_vec();
+        let mut far_rhs: Vec<f64> = rhs[cut.end..].iter().rev().copied().collect();
+        let [near, far] = &self.halves;
+        let [near_factors, far_factors] = &factors.halves;
+        let near_cut_rhs = near.forward(near_factors, &mut near_rhs);
+        let far_cut_rhs = far.forward(far_factors, &mut far_rhs);
+        let cut_solution = match &factors.schur {
+            Some(lu) => {
+                let mut cut_rhs = DVector::from_fn(cut.len(), |r, _| {
+                    rhs[cut.start + r] + near_cut_rhs[r] + far_cut_rhs[r]
+                });
+                let solved = lu.solve_mut(&mut cut_rhs);
+                debug_assert!(solved, "checked invertible when factored");
+                cut_rhs
+            }
+            None => DVector::zeros(0),
         };
         let cut_solution = cut_solution.as_slice();
-        let [near, far] = &self.halves;
         if self.parallel {
             rayon::join(
-                || near.back_substitute(&near_factored, &mut near_rhs, cut_solution),
-                || far.back_substitute(&far_factored, &mut far_rhs, cut_solution),
+                || near.back_substitute(&near_factors.0, &mut near_rhs, cut_solution),
+                || far.back_substitute(&far_factors.0, &mut far_rhs, cut_solution),
             );
         } else {
-            near.back_substitute(&near_factored, &mut near_rhs, cut_solution);
-            far.back_substitute(&far_factored, &mut far_rhs, cut_solution);
+            near.back_substitute(&near_factors.0, &mut near_rhs, cut_solution);
+            far.back_substitute(&far_factors.0, &mut far_rhs, cut_solution);
         }
         rhs[..cut.start].copy_from_slice(&near_rhs);
         rhs[cut.clone()].copy_from_slice(cut_solution);
         for (global, value) in rhs[cut.end..].iter_mut().rev().zip(&far_rhs) {
             *global = *value;
         }
-        Ok(())
     }
 }
 
-/// A half's factorisation, its share of the cut's block (row-major) and of
-/// the cut's right-hand side.
-type HalfDone = (Factored, Vec<f64>, Vec<f64>);
+/// A [`SplitBandMatrix`]'s factorisation: each half's, with the multipliers
+/// that eliminated the cut rows' entries in it, and the cut's.
+pub struct SplitFactors {
+    halves: [(Factored, Vec<f64>); 2],
+    schur: Option<nalgebra::LU<f64, nalgebra::Dyn, nalgebra::Dyn>>,
+}
+
+/// A half's share of the cut's block (row-major) and the multipliers that
+/// eliminated the cut rows' entries in the half's last columns (row-major,
+/// a cut row's `reach` at a time).
+struct CutShare {
+    share: Vec<f64>,
+    factors: Vec<f64>,
+}
 
 impl Half {
     /// Factors the half, carrying its cut columns; then eliminates the cut
     /// rows' entries in its columns with its pivots: what that subtracts
-    /// from the cut's block and right-hand side.
-    fn factor(&mut self, rhs: &mut [f64]) -> Result<HalfDone, SingularMatrix> {
+    /// from the cut's block, and the multipliers, which do the same to a
+    /// right-hand side.
+    fn factor(&mut self) -> Result<(Factored, CutShare), SingularMatrix> {
         let width = self.from_cut.len() / self.reach.max(1);
         let mut share = vec![0.0; width * width];
-        let mut share_rhs = vec![0.0; width];
-        let factored = self.matrix.factor_forward(rhs, &mut self.to_cut)?;
+        let mut factors = vec![0.0; width * self.reach];
+        let factored = self.matrix.factor(&mut self.to_cut)?;
         let size = self.matrix.size();
         let first = size - self.reach;
         for row in 0..width {
@@ -272,6 +317,7 @@ impl Half {
             for k in first..size {
                 let (upper, diagonal) = self.matrix.upper_row(&factored, k);
                 let factor = cut_row[k - first] / diagonal;
+                factors[row * self.reach + k - first] = factor;
                 if factor == 0.0 {
                     continue;
                 }
@@ -281,10 +327,29 @@ impl Half {
                 for (target, value) in share_row.iter_mut().zip(self.to_cut.row(k)) {
                     *target -= factor * value;
                 }
-                share_rhs[row] -= factor * rhs[k];
             }
         }
-        Ok((factored, share, share_rhs))
+        Ok((factored, CutShare { share, factors }))
+    }
+
+    /// The forward half of a solve: `rhs` becomes `L^-1 P rhs`; what the
+    /// cut rows' elimination subtracts from the cut's right-hand side.
+    fn forward(&self, (factored, factors): &(Factored, Vec<f64>), rhs: &mut [f64]) -> Vec<f64> {
+        self.matrix.forward(factored, rhs);
+        let size = self.matrix.size();
+        let first = size - self.reach;
+        factors
+            .chunks_exact(self.reach.max(1))
+            .map(|row| {
+                let mut share = 0.0;
+                for (k, factor) in (first..size).zip(row) {
+                    if *factor != 0.0 {
+                        share -= factor * rhs[k];
+                    }
+                }
+                share
+            })
+            .collect()
     }
 
     /// `x = U^-1 (y - U_cut x_cut)`.
@@ -367,6 +432,48 @@ mod tests {
                 answers.push(x);
             }
             assert_eq!(answers[0], answers[1], "the thread count changed the bits");
+        }
+    }
+
+    #[test]
+    fn one_factorisation_solves_many_right_hand_sides_with_pivots_in_both_halves() {
+        let (node_rows, per_node_row) = (12, 4);
+        let mut dense = bar_like(node_rows, per_node_row, 5);
+        let size = dense.nrows();
+        // Weak diagonals away from the cut: rows swap in both halves.
+        for dof in [2, 9, 13, size - 3, size - 10] {
+            dense[(dof, dof)] = 0.01;
+        }
+        let mut factored = split_of(&dense, per_node_row, true);
+        let factors = factored.factor().expect("regular");
+        for (half, (factors, _)) in factors.halves.iter().enumerate() {
+            assert!(factors.swaps() > 0, "half {half} swapped no rows");
+        }
+        for seed in 0..4 {
+            let rhs: Vec<f64> = (0..size)
+                .map(|i| (i as f64 * 0.37 + seed as f64).sin())
+                .collect();
+            let expected = dense
+                .clone()
+                .lu()
+                .solve(&DVector::from_vec(rhs.clone()))
+                .expect("regular");
+            let mut x = rhs.clone();
+            factored.solve_factored(&factors, &mut x);
+            for i in 0..size {
+                assert!(
+                    (x[i] - expected[i]).abs() < 1e-9 * (1.0 + expected[i].abs()),
+                    "right-hand side {seed}, unknown {i}: {} against {}",
+                    x[i],
+                    expected[i]
+                );
+            }
+            // The same bits as a factorisation of its own.
+            let mut alone = rhs.clone();
+            split_of(&dense, per_node_row, false)
+                .solve_in_place(&mut alone)
+                .expect("regular");
+            assert_eq!(x, alone, "right-hand side {seed}");
         }
     }
 

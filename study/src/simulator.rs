@@ -443,10 +443,10 @@ mod tests {
         fn run(
             &self,
             inputs: &[(String, f64)],
-            _scalars: &[&str],
+            scalars: &[&str],
             curves: &[&str],
         ) -> Result<ModelRun, String> {
-            Ok(self.run_with_slopes(inputs, _scalars, curves)?.0)
+            Ok(self.run_with_slopes(inputs, scalars, curves)?.0)
         }
 
         fn gives_slopes(&self) -> bool {

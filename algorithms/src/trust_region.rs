@@ -35,7 +35,10 @@
 //!   A step that does not lower the loss halves it, and the next run is a
 //!   *geometry* step: the centre moved by the radius along the coordinate
 //!   the runs near it span least, so the next model sees that direction
-//!   (DFO-LS does the same when its model is poorly poised).
+//!   (DFO-LS does the same when its model is poorly poised). A step the
+//!   model would propose again (its minimum still inside the halved box)
+//!   halves the box once more: a deterministic model's run there would
+//!   only fail again.
 //! - **Global steps** come in when the local search cannot go on: the
 //!   radius fell below [`TrustRegionSettings::min_radius`] (local steps
 //!   resume once a global step beats the centre), or the model sees no
@@ -129,6 +132,10 @@ pub struct TrustRegion {
     /// The centre's loss when the radius collapsed; local steps resume
     /// once a run beats it.
     paused_at: Option<f64>,
+    /// Every local step proposed so far: a model whose minimum stays
+    /// inside a halved box would otherwise propose a failed step again,
+    /// and a run of a deterministic model there would fail again.
+    tried: Vec<Vec<f64>>,
 }
 
 impl TrustRegion {
@@ -139,6 +146,7 @@ impl TrustRegion {
             pending: None,
             geometry_turn: false,
             paused_at: None,
+            tried: Vec::new(),
         }
     }
 
@@ -206,20 +214,31 @@ impl TrustRegion {
         jacobian: &[Vec<f64>],
         weights: Vec<f64>,
     ) -> Option<Vec<f64>> {
-        let step = minimise_model(centre, jacobian, &weights, self.radius);
-        let longest = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-        if longest < 1e-6 {
-            // The model's minimum is the centre itself: nothing to learn
-            // locally at this radius.
+        let (step, longest, point) = loop {
+            let step = minimise_model(centre, jacobian, &weights, self.radius);
+            let longest = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+            if longest < 1e-6 {
+                // The model's minimum is the centre itself: nothing to
+                // learn locally at this radius.
+                self.shrink(centre.loss);
+                return None;
+            }
+            let point: Vec<f64> = centre
+                .unit_point
+                .iter()
+                .zip(&step)
+                .map(|(c, s)| (c + s).clamp(0.0, 1.0))
+                .collect();
+            if !self.tried.contains(&point) {
+                break (step, longest, point);
+            }
+            // A step already tried (and not taken): a smaller box.
             self.shrink(centre.loss);
-            return None;
-        }
-        let point: Vec<f64> = centre
-            .unit_point
-            .iter()
-            .zip(&step)
-            .map(|(c, s)| (c + s).clamp(0.0, 1.0))
-            .collect();
+            if self.paused_at.is_some() {
+                return None;
+            }
+        };
+        self.tried.push(point.clone());
         let predicted: Vec<f64> = jacobian
             .iter()
             .zip(centre.residuals)
@@ -462,7 +481,34 @@ fn minimise_model(
 
 #[cfg(test)]
 mod tests {
-    use super::{Pending, TrustRegion, TrustRegionSettings};
+    use super::{Pending, Run, TrustRegion, TrustRegionSettings};
+
+    /// One residual whose own slope at the centre points right, to a zero
+    /// 0.1 away inside the first box (half-width 0.2), where it has in
+    /// fact risen to 3. The halved box still holds that zero, so the
+    /// model proposes the failed point again; the box is halved once more
+    /// instead, and the step goes to its edge, 0.05 away.
+    #[test]
+    fn a_failed_step_is_not_proposed_again() {
+        let mut region = TrustRegion::new(TrustRegionSettings::default());
+        let centre = Run {
+            unit_point: &[0.5],
+            loss: 1.0,
+            residuals: &[1.0],
+            slopes: &[-10.0],
+        };
+        let first = region.propose(&[centre]).expect("a step from the centre");
+        assert!((first[0] - 0.6).abs() < 1e-6, "{first:?}");
+        region.record(&first, Some(3.0), &[3.0]);
+        let tried = Run {
+            unit_point: &first,
+            loss: 3.0,
+            residuals: &[3.0],
+            slopes: &[25.0],
+        };
+        let second = region.propose(&[centre, tried]).expect("a second step");
+        assert!((second[0] - 0.55).abs() < 1e-6, "{second:?}");
+    }
 
     /// With absolute weights, a step that lowers the residuals' sum of
     /// absolute values as predicted grows the radius, even though it moved

@@ -28,8 +28,9 @@
 //!   DFO-LS's region is a ball too): a direction the residuals barely move
 //!   along is then known to be weak, and a step the whole radius along it
 //!   buys only the model's error. With [`TrustRegionSettings::absolute`]
-//!   the weights `w = 1 / |r(c)|` make that sum the loss's own sum of absolute values
-//!   at the centre (a mean absolute percentage error, not its square).
+//!   the weights `w = 1 / |r(c)|` make that sum the loss's own sum of
+//!   absolute values at the centre (a mean absolute percentage error, not
+//!   its square).
 //! - **Radius**: a step that lowers the loss moves the centre; the ratio of
 //!   the actual to the predicted decrease (of the sum of absolute values
 //!   with `absolute`, the loss the weights stand for; of the squares
@@ -42,9 +43,9 @@
 //!   *geometry* step: the centre moved by the radius along the coordinate
 //!   the runs near it span least, so the next model sees that direction
 //!   (DFO-LS does the same when its model is poorly poised). A step the
-//!   model would propose again (its minimum still inside the halved box)
-//!   halves the box once more: a deterministic model's run there would
-//!   only fail again.
+//!   model would propose again (its minimum still inside the halved
+//!   region) halves the region once more: a deterministic model's run
+//!   there would only fail again.
 //! - **Global steps** come in when the local search cannot go on: the
 //!   radius fell below [`TrustRegionSettings::min_radius`] (local steps
 //!   resume once a global step beats the centre), or the model sees no
@@ -143,7 +144,7 @@ pub struct TrustRegion {
     /// once a run beats it.
     paused_at: Option<f64>,
     /// Every local step proposed so far: a model whose minimum stays
-    /// inside a halved box would otherwise propose a failed step again,
+    /// inside a halved region would otherwise propose a failed step again,
     /// and a run of a deterministic model there would fail again.
     tried: Vec<Vec<f64>>,
 }
@@ -243,7 +244,7 @@ impl TrustRegion {
             if !self.tried.contains(&point) {
                 break (step, longest, point);
             }
-            // A step already tried (and not taken): a smaller box.
+            // A step already tried (and not taken): a smaller region.
             self.shrink(centre.loss);
             if self.paused_at.is_some() {
                 return None;

@@ -15,7 +15,10 @@ use acq_rig::Rig;
 
 use acq_error::{AcqError, Result};
 
-const READ_BUFFER_BYTES: usize = 256 * 1024;
+/// A log's read buffer. A candump log read in pieces of at least this
+/// much is read past it, straight into the pieces
+/// ([`LogInput::read_candump_lines`]).
+pub const READ_BUFFER_BYTES: usize = 128 * 1024;
 
 /// A file this command reads: the name it was given by, and its identity.
 struct InputFile {
@@ -172,19 +175,16 @@ impl LogInput {
 }
 
 impl LogInput {
-    /// Appends the next whole lines of a candump log to `out`: at least
-    /// `at_least` bytes unless the log ends first (see
+    /// Appends the next whole lines of a candump log to `out`: what a
+    /// read of up to `bytes` brings, cut at its last newline (see
     /// [`acq_can::log::candump::CandumpReader::read_lines_into`]); 0 at the
-    /// end. `None` for a log of another format.
-    pub fn read_candump_lines(
-        &mut self,
-        out: &mut Vec<u8>,
-        at_least: usize,
-    ) -> Option<Result<usize>> {
+    /// end. `None` for a log of another format. Reads of at least
+    /// [`READ_BUFFER_BYTES`] go straight into `out`.
+    pub fn read_candump_lines(&mut self, out: &mut Vec<u8>, bytes: usize) -> Option<Result<usize>> {
         match &mut self.reader {
             LogReader::Candump(reader) => Some(
                 reader
-                    .read_lines_into(out, at_least)
+                    .read_lines_into(out, bytes)
                     .map_err(|e| AcqError::io(format!("reading {}", self.name), e)),
             ),
             _ => None,

@@ -9,7 +9,9 @@ use acq_can::dbc::{DbcDatabase, PhysicalValue};
 use acq_can::log::candump::CandumpReader;
 use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place, ReadError};
 use acq_error::{AcqError, Result};
-use acq_io::input::{end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput, REPORTED_BAD_LINES};
+use acq_io::input::{
+    end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput, READ_BUFFER_BYTES, REPORTED_BAD_LINES,
+};
 use acq_io::output::{csv_field, Output};
 
 use super::{
@@ -56,16 +58,17 @@ enum Route {
     OneThread,
     /// Decoded on this thread, the rows made and written on another.
     HandedOver,
-    /// Every log candump, cut into pieces of `piece_bytes` or a little
-    /// more (whole lines), each decoded and made into rows on one of
-    /// `workers` threads.
+    /// Every log candump, cut into pieces of whole lines, each about
+    /// `piece_bytes`, each decoded and made into rows on one of `workers`
+    /// threads.
     InPieces { workers: usize, piece_bytes: usize },
 }
 
 /// A candump log's piece: about as much text as a core's second-level
 /// cache holds with its rows (about 2.6 times the text on the bench's
-/// log); large enough that handing pieces over costs nothing.
-const PIECE_BYTES: usize = 128 * 1024;
+/// log); large enough that handing pieces over costs nothing. The log's
+/// read buffer, no larger, so that the pieces are read past it.
+const PIECE_BYTES: usize = READ_BUFFER_BYTES;
 
 /// [`decode_with_dbc`] after the header, by `route`.
 fn decode_to_csv(

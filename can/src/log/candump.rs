@@ -205,7 +205,7 @@ impl<R: BufRead> CandumpReader<R> {
     /// The bytes go from the input straight into `out` where the input is
     /// a `BufReader` of at most `bytes` (it passes a read that large by its
     /// buffer): read into the buffer and copied out of it, they cost a
-    /// decode a tenth of its time.
+    /// decode about a twentieth of its time (BENCHMARKS.md).
     pub fn read_lines_into(&mut self, out: &mut Vec<u8>, bytes: usize) -> io::Result<usize> {
         self.input.consume(std::mem::take(&mut self.returned_bytes));
         let start = out.len();
@@ -215,12 +215,16 @@ impl<R: BufRead> CandumpReader<R> {
             out.resize(read_from + bytes.max(1), 0);
             let read = loop {
                 match self.input.read(&mut out[read_from..]) {
+                    Ok(read) => break read,
                     Err(error) if error.kind() == io::ErrorKind::Interrupted => continue,
-                    read => break read,
+                    Err(error) => {
+                        out.truncate(read_from);
+                        return Err(error);
+                    }
                 }
             };
-            out.truncate(read_from + *read.as_ref().unwrap_or(&0));
-            if read? == 0 {
+            out.truncate(read_from + read);
+            if read == 0 {
                 return Ok(out.len() - start);
             }
             if let Some(newline) = memchr::memrchr(b'\n', &out[read_from..]) {

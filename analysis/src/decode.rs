@@ -456,7 +456,7 @@ pub(crate) fn decode_record(
 
 /// One frame's values into `sink`, counted in `summary`.
 #[inline]
-fn decode_frame(
+pub(crate) fn decode_frame(
     database: &DbcDatabase,
     summary: &mut DecodeSummary,
     sink: &mut impl DbcRows,

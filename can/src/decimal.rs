@@ -7,7 +7,7 @@ const HIGH_NIBBLES: u64 = 0xF0F0_F0F0_F0F0_F0F0;
 
 /// The value of eight ASCII decimal digits, the first the most
 /// significant; `None` if any byte is not a digit.
-#[inline]
+#[inline(always)]
 pub fn eight_digits(text: [u8; 8]) -> Option<u32> {
     let word = u64::from_le_bytes(text);
     // A digit is 0x30..=0x39: its high nibble is 3, and stays 3 with 6

@@ -30,6 +30,7 @@ pub fn nibble(digit: u8) -> Option<u8> {
 
 /// Parses a run of hex digits (no prefix) into a `u32`; `None` on an empty
 /// run, a non-hex byte or more than 8 digits.
+#[inline(always)]
 pub fn parse_u32(digits: &[u8]) -> Option<u32> {
     if digits.is_empty() || digits.len() > 8 {
         return None;
@@ -43,7 +44,7 @@ pub fn parse_u32(digits: &[u8]) -> Option<u32> {
 /// bytes of `out`; `None` for an odd count, a byte not a hex digit, or
 /// more pairs than `out` holds.
 /// One table look-up a digit, every digit's checked at the end at once.
-#[inline]
+#[inline(always)]
 pub fn read_pairs(digits: &[u8], out: &mut [u8]) -> Option<()> {
     if digits.len() > 2 * out.len() {
         return None;

@@ -6,16 +6,17 @@
 //! are decoded on one thread and their rows made and written on another.
 
 use acq_can::dbc::{DbcDatabase, PhysicalValue};
-use acq_can::log::candump::CandumpReader;
-use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place, ReadError};
+use acq_can::log::candump::read_whole_lines;
+use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place};
 use acq_error::{AcqError, Result};
 use acq_io::input::{
     end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput, READ_BUFFER_BYTES, REPORTED_BAD_LINES,
 };
 use acq_io::output::{csv_field, Output};
+use std::ops::ControlFlow;
 
 use super::{
-    decode_dbc_frames, decode_record, DbcDecodeOptions, DbcRows, DecodeSummary, FrameAt, DBC_HEADER,
+    decode_dbc_frames, decode_frame, DbcDecodeOptions, DbcRows, DecodeSummary, FrameAt, DBC_HEADER,
 };
 
 mod in_order;
@@ -215,29 +216,39 @@ impl InPieces<'_> {
             pieces: self.pieces,
             labels: self.options.labels,
         };
-        let mut reader = CandumpReader::new(piece.text.as_slice());
-        loop {
-            let error = match reader.next_record() {
-                Ok(Some(record)) => {
-                    summary.scan.frames += 1;
-                    // Rows into memory: no error to give.
-                    let _ = decode_record(self.database, summary, &mut sink, &record);
-                    continue;
+        let (bad, bad_lines) = (&mut piece.bad, &mut piece.bad_lines);
+        piece.lines = read_whole_lines(
+            &piece.text,
+            |frame| {
+                summary.scan.frames += 1;
+                let at = FrameAt {
+                    timestamp_ns: frame.fields.timestamp_ns,
+                    timestamp_text: frame.timestamp_text,
+                    iface: frame.iface,
+                    id: frame.fields.id,
+                };
+                // Rows into memory: no error to give.
+                let _ = decode_frame(
+                    self.database,
+                    summary,
+                    &mut sink,
+                    at,
+                    frame.fields.kind,
+                    frame.fields.payload,
+                );
+            },
+            |error| {
+                *bad_lines += 1;
+                if bad.len() < BAD_LINES_KEPT {
+                    bad.push(error);
                 }
-                Ok(None) => break,
-                Err(ReadError::Parse(error)) => error,
-                // A slice is read without input errors.
-                Err(ReadError::Io(_)) => ParseError::new(reader.line(), "readable text"),
-            };
-            piece.bad_lines += 1;
-            if piece.bad.len() < BAD_LINES_KEPT {
-                piece.bad.push(error);
-            }
-            if self.options.bad_lines == BadLines::Stop {
-                break;
-            }
-        }
-        piece.lines = reader.line();
+                if self.options.bad_lines == BadLines::Stop {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            },
+        );
     }
 }
 
@@ -293,7 +304,7 @@ impl CsvRowPieces {
     }
 
     /// One row, without its label column and line end.
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn push(
         &self,

@@ -15,12 +15,13 @@
 //! Reading is streaming: one reused line buffer, constant memory.
 
 use std::io::{self, BufRead, Write};
+use std::ops::ControlFlow;
 
 use super::batch::FrameBatch;
 use super::record::{LogRecord, ParseError, ReadError};
 use crate::frame::{
-    CanId, Direction, Frame, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN, FD_MAX_LEN,
-    MAX_EXTENDED_ID, MAX_STANDARD_ID,
+    CanId, Direction, Frame, FrameFields, FrameKind, IfaceName, CAN_ERR_FLAG, CLASSIC_MAX_LEN,
+    FD_MAX_LEN, MAX_EXTENDED_ID, MAX_STANDARD_ID,
 };
 use crate::{decimal, hex};
 
@@ -244,22 +245,13 @@ fn record<'t>(
     text: &'t [u8],
     last_iface: &mut Option<IfaceName>,
 ) -> Result<Option<LogRecord<'t>>, ReadError> {
-    if let Some(usual) = parse_usual_line(text) {
-        let iface = match *last_iface {
-            Some(last) if last.as_bytes() == usual.iface => Some(last),
-            _ => IfaceName::from_bytes(usual.iface),
-        };
-        *last_iface = iface;
-        let frame = iface.and_then(|iface| {
-            Frame::data(
-                usual.timestamp_ns,
-                iface,
-                usual.id,
-                &usual.data[..usual.len],
-            )
-            .ok()
-        });
-        if let Some(mut frame) = frame {
+    if let Some((usual, iface)) = usual_line_on(text, last_iface) {
+        if let Ok(mut frame) = Frame::data(
+            usual.timestamp_ns,
+            iface,
+            usual.id,
+            &usual.data[..usual.len],
+        ) {
             frame.direction = usual.direction;
             return Ok(Some(LogRecord {
                 line,
@@ -280,6 +272,120 @@ fn record<'t>(
     }
 }
 
+/// A usual line's fields and its interface (`last_iface` the line
+/// before's, then this one's): `None` for a line of another shape, or
+/// with a name no interface has, which [`parse_line`] reads.
+#[inline]
+fn usual_line_on<'t>(
+    text: &'t [u8],
+    last_iface: &mut Option<IfaceName>,
+) -> Option<(UsualLine<'t>, IfaceName)> {
+    let usual = parse_usual_line(text)?;
+    let iface = match *last_iface {
+        Some(last) if last.as_bytes() == usual.iface => Some(last),
+        _ => IfaceName::from_bytes(usual.iface),
+    };
+    *last_iface = iface;
+    Some((usual, iface?))
+}
+
+/// A frame of a candump text held in memory, given where it lies: a usual
+/// line's fields with no [`Frame`] built. Building one (its 64 bytes
+/// zeroed and filled, then moved out through the reader's result) and
+/// reading it back cost a CSV decode more than the line's parse did
+/// (BENCHMARKS.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LineFrame<'t> {
+    /// 1-based line number within the text.
+    pub line: u64,
+    /// The timestamp as the line writes it, as in [`LogRecord`].
+    pub timestamp_text: &'t [u8],
+    pub iface: IfaceName,
+    pub direction: Option<Direction>,
+    pub fields: FrameFields<'t>,
+}
+
+/// Reads `text`, whole candump lines held in memory (a piece that
+/// [`CandumpReader::read_lines_into`] gave), as a [`CandumpReader`] over
+/// it reads them: blank and `#` lines skipped, a last line without its
+/// newline refused as cut short. Each frame goes to `frame`, each
+/// malformed line's error to `malformed`, which says whether to read on.
+/// Gives the lines read: all of `text`'s, or up to the malformed one where
+/// `malformed` stopped.
+pub fn read_whole_lines(
+    text: &[u8],
+    mut frame: impl FnMut(LineFrame<'_>),
+    mut malformed: impl FnMut(ParseError) -> ControlFlow<()>,
+) -> u64 {
+    let mut last_iface = None;
+    let mut line = 0;
+    let mut start = 0;
+    // One searcher for the whole text: a call of `memchr` a line cost
+    // its dispatch each time.
+    let mut newlines = memchr::memchr_iter(b'\n', text);
+    loop {
+        let (whole, ended) = match newlines.next() {
+            Some(newline) => (&text[start..newline], true),
+            None if start < text.len() => (&text[start..], false),
+            None => break,
+        };
+        start += whole.len() + 1;
+        line += 1;
+        let text = trim_line_end(whole);
+        if text.is_empty() || text[0] == b'#' {
+            continue;
+        }
+        let read = if ended {
+            line_frame(line, text, &mut last_iface, &mut frame)
+        } else {
+            Err(ParseError::new(line, E_CUT_LINE))
+        };
+        if let Err(error) = read {
+            if malformed(error).is_break() {
+                break;
+            }
+        }
+    }
+    line
+}
+
+/// Line `line`'s frame (`text` without its end) given to `frame`, read as
+/// [`record`] reads it.
+#[inline]
+fn line_frame(
+    line: u64,
+    text: &[u8],
+    last_iface: &mut Option<IfaceName>,
+    frame: &mut impl FnMut(LineFrame<'_>),
+) -> Result<(), ParseError> {
+    if let Some((usual, iface)) = usual_line_on(text, last_iface) {
+        frame(LineFrame {
+            line,
+            timestamp_text: &text[1..usual.timestamp_end],
+            iface,
+            direction: usual.direction,
+            fields: FrameFields {
+                timestamp_ns: usual.timestamp_ns,
+                id: usual.id,
+                kind: FrameKind::Data { len8_dlc: None },
+                payload: &usual.data[..usual.len],
+            },
+        });
+        return Ok(());
+    }
+    let (timestamp, parsed) =
+        parse_line(text).map_err(|expected| ParseError::new(line, expected))?;
+    frame(LineFrame {
+        line,
+        timestamp_text: &text[timestamp.0..timestamp.1],
+        iface: parsed.iface,
+        direction: parsed.direction,
+        fields: parsed.fields(),
+    });
+    Ok(())
+}
+
+#[inline]
 fn trim_line_end(line: &[u8]) -> &[u8] {
     let mut end = line.len();
     while end > 0 && matches!(line[end - 1], b'\n' | b'\r' | b' ' | b'\t') {
@@ -339,7 +445,7 @@ pub struct UsualLine<'a> {
 /// reads, or says what is wrong with). Where it gives a line, it gives
 /// what [`parse_line`] gives: a property test and the fuzz target hold it
 /// to that.
-#[inline]
+#[inline(always)]
 pub fn parse_usual_line(line: &[u8]) -> Option<UsualLine<'_>> {
     let (&open, rest) = line.split_first()?;
     if open != b'(' {
@@ -394,7 +500,7 @@ pub fn parse_usual_line(line: &[u8]) -> Option<UsualLine<'_>> {
 /// The time of a timestamp as candump writes it, `SSSSSSSSSS.UUUUUU) `
 /// (`rest` after the `(`): in ns, and where its `)` is. Sixteen digits
 /// read eight at a time; `None` for any other shape.
-#[inline]
+#[inline(always)]
 fn candump_timestamp(rest: &[u8]) -> Option<(i64, usize)> {
     let text: &[u8; 19] = rest.get(..19)?.try_into().ok()?;
     if text[10] != b'.' || text[17] != b')' || text[18] != b' ' {
@@ -1056,6 +1162,136 @@ mod tests {
                     "{:?}", String::from_utf8_lossy(piece)
                 );
             }
+        }
+    }
+
+    /// A frame as a reader gives it: its line, timestamp text, interface,
+    /// direction and fields (its payload copied).
+    type FrameRead = (
+        u64,
+        Vec<u8>,
+        IfaceName,
+        Option<Direction>,
+        i64,
+        CanId,
+        FrameKind,
+        Vec<u8>,
+    );
+
+    /// What a reader gives of a text: each frame, or a malformed line's
+    /// error; then the lines read.
+    type LineReads = (Vec<Result<FrameRead, ParseError>>, u64);
+
+    fn read_as_frame(frame: LineFrame<'_>) -> FrameRead {
+        let fields = frame.fields;
+        (
+            frame.line,
+            frame.timestamp_text.to_vec(),
+            frame.iface,
+            frame.direction,
+            fields.timestamp_ns,
+            fields.id,
+            fields.kind,
+            fields.payload.to_vec(),
+        )
+    }
+
+    fn read_by_the_streaming_reader(log: &[u8], stop: bool) -> LineReads {
+        let mut reader = CandumpReader::new(log);
+        let mut reads = Vec::new();
+        loop {
+            match reader.next_record() {
+                Ok(Some(record)) => reads.push(Ok(read_as_frame(LineFrame {
+                    line: record.line,
+                    timestamp_text: record.timestamp_text,
+                    iface: record.frame.iface,
+                    direction: record.frame.direction,
+                    fields: record.frame.fields(),
+                }))),
+                Ok(None) => break,
+                Err(ReadError::Parse(error)) => {
+                    reads.push(Err(error));
+                    if stop {
+                        break;
+                    }
+                }
+                Err(ReadError::Io(error)) => panic!("a slice read: {error}"),
+            }
+        }
+        (reads, reader.line())
+    }
+
+    fn read_in_memory(log: &[u8], stop: bool) -> LineReads {
+        let reads = std::cell::RefCell::new(Vec::new());
+        let lines = read_whole_lines(
+            log,
+            |frame| reads.borrow_mut().push(Ok(read_as_frame(frame))),
+            |error| {
+                reads.borrow_mut().push(Err(error));
+                if stop {
+                    ControlFlow::Break(())
+                } else {
+                    ControlFlow::Continue(())
+                }
+            },
+        );
+        (reads.into_inner(), lines)
+    }
+
+    #[test]
+    fn whole_lines_in_memory_read_as_the_streaming_reader_reads_them() {
+        let log = b"(1.000000) can0 123#01\n\n# comment\n(2.000000) can0 124#02 R\r\nbad line\n(1700000000.123456) can1 18FEF100#0102030405060708_C\n(3.000000) can0 125#03";
+        for stop in [false, true] {
+            let (reads, lines) = read_in_memory(log, stop);
+            assert_eq!(
+                (reads.clone(), lines),
+                read_by_the_streaming_reader(log, stop)
+            );
+            let errors: Vec<u64> = reads
+                .iter()
+                .filter_map(|read| read.as_ref().err())
+                .map(|e| match e.at {
+                    crate::Place::Line(line) => line,
+                    _ => 0,
+                })
+                .collect();
+            if stop {
+                assert_eq!((reads.len(), errors, lines), (3, vec![5], 5));
+            } else {
+                // The last line, without its newline, is cut short.
+                assert_eq!((reads.len(), errors, lines), (5, vec![5, 7], 7));
+                assert_eq!(reads[1].as_ref().unwrap().3, Some(Direction::Received));
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(2_000))]
+        /// Whole lines held in memory, usual, near usual, blank, comments
+        /// and any text, CRLF or not, the last cut or not: read as the
+        /// streaming reader reads them, frame for frame and error for
+        /// error, stopping at the first malformed line or not.
+        #[test]
+        fn any_lines_in_memory_read_as_the_streaming_reader_reads_them(
+            lines in proptest::collection::vec(
+                proptest::prop_oneof![
+                    4 => near_usual_line(),
+                    1 => proptest::strategy::Strategy::prop_map("[ -~]{0,40}", String::into_bytes),
+                    1 => proptest::prelude::Just(b"# a comment".to_vec()),
+                    1 => proptest::prelude::Just(Vec::new()),
+                ],
+                0..30,
+            ),
+            crlf in proptest::bool::ANY,
+            cut_last in proptest::bool::ANY,
+            stop in proptest::bool::ANY,
+        ) {
+            let end: &[u8] = if crlf { b"\r\n" } else { b"\n" };
+            let mut log = lines.join(end);
+            if !cut_last && !lines.is_empty() {
+                log.extend_from_slice(end);
+            }
+            proptest::prop_assert_eq!(read_in_memory(&log, stop), read_by_the_streaming_reader(&log, stop));
         }
     }
 }

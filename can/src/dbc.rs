@@ -375,16 +375,34 @@ impl MessageCodec {
         mut emit: impl FnMut(usize, PhysicalValue),
     ) -> Result<(), FrameDecodeError> {
         self.check_length(payload)?;
+        // Most messages have no multiplexor: their signals decoded where
+        // the caller's loop holds them, not in a function of their own.
+        if self.switches.is_empty() {
+            self.emit_present(payload, &[], &mut emit);
+            return Ok(());
+        }
         self.with_switches(payload, |switches| {
-            for (index, signal) in self.signals.iter().enumerate() {
-                if !signal.presence.holds(switches) {
-                    continue;
-                }
-                if let Some(raw) = signal.field.extract(payload) {
-                    emit(index, signal.scale(raw));
-                }
-            }
+            self.emit_present(payload, switches, &mut emit)
         })
+    }
+
+    /// [`MessageCodec::decode`]'s values of the signals that a frame whose
+    /// multiplexors read `switches` carries.
+    #[inline(always)]
+    fn emit_present(
+        &self,
+        payload: &[u8],
+        switches: &[Option<i128>],
+        emit: &mut impl FnMut(usize, PhysicalValue),
+    ) {
+        for (index, signal) in self.signals.iter().enumerate() {
+            if !signal.presence.holds(switches) {
+                continue;
+            }
+            if let Some(raw) = signal.field.extract(payload) {
+                emit(index, signal.scale(raw));
+            }
+        }
     }
 
     /// Decodes one signal: `Ok(None)` when the multiplexer does not select it.

@@ -358,8 +358,12 @@ fn line_frame(
     last_iface: &mut Option<IfaceName>,
     frame: &mut impl FnMut(LineFrame<'_>),
 ) -> Result<(), ParseError> {
-    if let Some((usual, iface)) = usual_line_on(text, last_iface) {
-        frame(LineFrame {
+    // Each read where it is kept until `frame` has it: one call of `frame`,
+    // which the caller's loop then holds.
+    let (usual, parsed);
+    let read = if let Some((fields, iface)) = usual_line_on(text, last_iface) {
+        usual = fields;
+        LineFrame {
             line,
             timestamp_text: &text[1..usual.timestamp_end],
             iface,
@@ -370,18 +374,20 @@ fn line_frame(
                 kind: FrameKind::Data { len8_dlc: None },
                 payload: &usual.data[..usual.len],
             },
-        });
-        return Ok(());
-    }
-    let (timestamp, parsed) =
-        parse_line(text).map_err(|expected| ParseError::new(line, expected))?;
-    frame(LineFrame {
-        line,
-        timestamp_text: &text[timestamp.0..timestamp.1],
-        iface: parsed.iface,
-        direction: parsed.direction,
-        fields: parsed.fields(),
-    });
+        }
+    } else {
+        let timestamp;
+        (timestamp, parsed) =
+            parse_line(text).map_err(|expected| ParseError::new(line, expected))?;
+        LineFrame {
+            line,
+            timestamp_text: &text[timestamp.0..timestamp.1],
+            iface: parsed.iface,
+            direction: parsed.direction,
+            fields: parsed.fields(),
+        }
+    };
+    frame(read);
     Ok(())
 }
 

@@ -29,7 +29,7 @@ pub fn decode_with_dbc(
     options: DbcDecodeOptions,
     output: &mut Output,
 ) -> Result<DecodeSummary> {
-    let pieces = CsvRowPieces::new(database);
+    let pieces = CsvRowPieces::new(database, options.labels);
     output.buffer.extend_from_slice(DBC_HEADER.as_bytes());
     if options.labels {
         output.buffer.extend_from_slice(b",label");
@@ -85,7 +85,6 @@ fn decode_to_csv(
             let mut sink = CsvDbcRows {
                 output,
                 pieces: &pieces,
-                labels: options.labels,
             };
             return decode_dbc_frames(inputs, database, options, &mut sink);
         }
@@ -214,7 +213,6 @@ impl InPieces<'_> {
         let mut sink = CsvDbcRows {
             output: &mut piece.rows,
             pieces: self.pieces,
-            labels: self.options.labels,
         };
         let (bad, bad_lines) = (&mut piece.bad, &mut piece.bad_lines);
         piece.lines = read_whole_lines(
@@ -262,7 +260,8 @@ struct SignalRow {
     /// Where `,Message,Signal,` starts in `middle`: a J1939 frame matched
     /// by its PGN writes its own id before it.
     after_id: usize,
-    /// `,unit` (the label column and the line end follow)
+    /// `,unit`, and the line's end where rows have no label column (one
+    /// byte fewer to add a row: the rows are most of a decode's work).
     tail: Vec<u8>,
 }
 
@@ -272,10 +271,13 @@ struct CsvRowPieces {
     rows: Vec<Vec<SignalRow>>,
     /// Per message, its id.
     message_ids: Vec<CanId>,
+    /// Whether rows end with a label column.
+    labels: bool,
 }
 
 impl CsvRowPieces {
-    fn new(database: &DbcDatabase) -> Self {
+    fn new(database: &DbcDatabase, labels: bool) -> Self {
+        let line_end = if labels { "" } else { "\n" };
         let rows = database
             .messages()
             .iter()
@@ -292,7 +294,7 @@ impl CsvRowPieces {
                         )
                         .into_bytes(),
                         after_id: 1 + message.id.to_string().len(),
-                        tail: format!(",{}", csv_field(&signal.unit)).into_bytes(),
+                        tail: format!(",{}{line_end}", csv_field(&signal.unit)).into_bytes(),
                     })
                     .collect()
             })
@@ -300,10 +302,12 @@ impl CsvRowPieces {
         CsvRowPieces {
             rows,
             message_ids: database.messages().iter().map(|m| m.id).collect(),
+            labels,
         }
     }
 
-    /// One row, without its label column and line end.
+    /// One row, its line end included (`label` its label column's, if rows
+    /// have one).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn push(
@@ -315,6 +319,7 @@ impl CsvRowPieces {
         message: usize,
         signal: usize,
         value: PhysicalValue,
+        label: Option<&str>,
     ) {
         let row = &self.rows[message][signal];
         buffer.extend_from_slice(timestamp_text);
@@ -329,6 +334,13 @@ impl CsvRowPieces {
         }
         value.push_shortest(buffer);
         buffer.extend_from_slice(&row.tail);
+        if self.labels {
+            buffer.push(b',');
+            if let Some(label) = label {
+                buffer.extend_from_slice(csv_field(label).as_bytes());
+            }
+            buffer.push(b'\n');
+        }
     }
 }
 
@@ -361,7 +373,6 @@ impl RowBuffer for Vec<u8> {
 struct CsvDbcRows<'a, B: RowBuffer> {
     output: &'a mut B,
     pieces: &'a CsvRowPieces,
-    labels: bool,
 }
 
 impl<B: RowBuffer> DbcRows for CsvDbcRows<'_, B> {
@@ -386,14 +397,8 @@ impl<B: RowBuffer> DbcRows for CsvDbcRows<'_, B> {
             message,
             signal,
             value,
+            label,
         );
-        if self.labels {
-            buffer.push(b',');
-            if let Some(label) = label {
-                buffer.extend_from_slice(csv_field(label).as_bytes());
-            }
-        }
-        buffer.push(b'\n');
     }
 
     #[inline]
@@ -402,7 +407,7 @@ impl<B: RowBuffer> DbcRows for CsvDbcRows<'_, B> {
     }
 
     fn wants_labels(&self) -> bool {
-        self.labels
+        self.pieces.labels
     }
 }
 
@@ -511,8 +516,8 @@ fn write_decoded(
                     frame.message,
                     signal as usize,
                     value,
+                    None,
                 );
-                buffer.push(b'\n');
             }
             (timestamp_start, values_start) = (frame.timestamp_end, frame.values_end);
         }
@@ -610,7 +615,7 @@ mod tests {
             labels: false,
         };
         let mut inputs = vec![open_log(path).unwrap()];
-        let pieces = CsvRowPieces::new(&database);
+        let pieces = CsvRowPieces::new(&database, options.labels);
         let result = decode_to_csv(&mut inputs, &database, options, &mut output, pieces, route);
         let _ = output.finish();
         let bytes = kept.bytes.lock().unwrap().clone();

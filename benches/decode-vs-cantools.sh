@@ -21,11 +21,12 @@
 # frame) to /dev/null. Each figure is the best of three runs.
 #
 # The goal's ratio is measured as the baseline's is: ACQ_BENCH_PEER_ROUNDS
-# rounds (default 9) of acq's CSV decode and cantools' default decode one after the other (in
-# turn which first), the median of the rounds' ratios (per frame). Each
-# figure's best of three, taken minutes apart, moved the ratio from 102 to
-# 222 times on the same build in one day: the shared machine's load drifts,
-# and it slows one thread of Python and two of acq unequally.
+# rounds (default 9) of acq's CSV decode and cantools' default decode one
+# after the other (in turn which first), the median of the rounds' ratios
+# (per frame). Each figure's best of three, taken minutes apart, moved the
+# ratio from 144 to 222 times on the same code within an evening: the shared
+# machine's load drifts, and it slows one thread of Python and two of acq
+# unequally.
 #
 # Exits 1 when acq's CSV decode is less than 200 times cantools' default
 # decode (the goal, alternated), with the figures above it.

@@ -5,6 +5,8 @@
 //! written in the log's order ([`in_order`]); the frames of other formats
 //! are decoded on one thread and their rows made and written on another.
 
+use std::ops::ControlFlow;
+
 use acq_can::dbc::{DbcDatabase, PhysicalValue};
 use acq_can::log::candump::read_whole_lines;
 use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place};
@@ -13,7 +15,6 @@ use acq_io::input::{
     end_of_log, on_bad_record, BadLines, EmptyLogs, LogInput, READ_BUFFER_BYTES, REPORTED_BAD_LINES,
 };
 use acq_io::output::{csv_field, Output};
-use std::ops::ControlFlow;
 
 use super::{
     decode_dbc_frames, decode_frame, DbcDecodeOptions, DbcRows, DecodeSummary, FrameAt, DBC_HEADER,
@@ -132,8 +133,8 @@ fn decode_to_csv(
     written.and(decoded)
 }
 
-/// One candump log decoded in pieces: the lines of a piece read by a
-/// reader of its own, their rows made where the piece is worked on, the
+/// One candump log decoded in pieces: the lines of a piece read where
+/// they lie ([`read_whole_lines`]), their rows made where the piece is worked on, the
 /// pieces' rows, counts and malformed lines taken in the log's order.
 struct InPieces<'a> {
     database: &'a DbcDatabase,

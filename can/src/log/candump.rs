@@ -198,8 +198,8 @@ impl<R: BufRead> CandumpReader<R> {
     /// `bytes` brings, up to its last newline (reading on where it holds
     /// none); at the end of the log, a last line without its newline as it
     /// is. The bytes appended; 0 at the end. For readers of a log in
-    /// pieces, each piece read on its own by a reader of its own (a
-    /// `CandumpReader` over the slice): the lines are not parsed here, and
+    /// pieces, each piece's lines then read on their own
+    /// ([`read_whole_lines`]): the lines are not parsed here, and
     /// [`CandumpReader::line`] does not move. A log read in pieces is read
     /// in pieces to its end: the line a piece ended inside waits here.
     ///

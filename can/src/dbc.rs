@@ -67,6 +67,35 @@ impl PhysicalValue {
             PhysicalValue::Float(v) => push_shortest_f64(out, v),
         }
     }
+
+    /// The text [`PhysicalValue::push_shortest`] appends, written in
+    /// `buffer`, where it is written there whole: every integer, and every
+    /// float below 1e15 in magnitude. `None` for the rest (from 1e15 up,
+    /// NaN, infinities), whose text is mended as it is appended.
+    #[inline(always)]
+    pub fn shortest_text(self, buffer: &mut ValueTextBuffer) -> Option<&[u8]> {
+        match self {
+            PhysicalValue::Integer(v) => Some(buffer.integer.format(v).as_bytes()),
+            PhysicalValue::Float(v) if v.abs() < 1e15 => {
+                Some(shortest_f64_text(&mut buffer.float, v))
+            }
+            PhysicalValue::Float(_) => None,
+        }
+    }
+}
+
+/// Room for one value's text ([`PhysicalValue::shortest_text`]).
+#[derive(Default)]
+pub struct ValueTextBuffer {
+    integer: itoa::Buffer,
+    float: zmij::Buffer,
+}
+
+/// zmij's shortest text of a finite `value` without a trailing `.0`.
+#[inline(always)]
+fn shortest_f64_text(buffer: &mut zmij::Buffer, value: f64) -> &[u8] {
+    let text = buffer.format_finite(value).as_bytes();
+    text.strip_suffix(b".0").unwrap_or(text)
 }
 
 /// Appends `value` in shortest round-trip form, without a trailing `.0`,
@@ -75,8 +104,12 @@ impl PhysicalValue {
 #[inline]
 pub fn push_shortest_f64(out: &mut Vec<u8>, value: f64) {
     let mut buffer = zmij::Buffer::new();
-    let text = buffer.format(value).as_bytes();
-    let text = text.strip_suffix(b".0").unwrap_or(text);
+    let text = if value.is_finite() {
+        shortest_f64_text(&mut buffer, value)
+    } else {
+        // `NaN`, `inf`, `-inf`.
+        buffer.format(value).as_bytes()
+    };
     // A sign is only a positive exponent's, which zmij writes from 1e16
     // up: a value below 1e15 is not searched for one (a search was about
     // a tenth of a value's text).

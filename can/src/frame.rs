@@ -158,6 +158,36 @@ impl IfaceName {
         &self.bytes[..usize::from(self.len)]
     }
 
+    /// Whether `name` is this name: compared in two fixed-length pieces
+    /// that overlap, where a compare of the name's own length is a call
+    /// (of `memcmp`, a twentieth of a candump line's parse).
+    #[inline(always)]
+    pub fn is(&self, name: &[u8]) -> bool {
+        fn pieces<const N: usize>(bytes: &[u8]) -> ([u8; N], [u8; N]) {
+            let len = bytes.len();
+            let first = bytes[..N].try_into().unwrap_or([0; N]);
+            let last = bytes[len - N..].try_into().unwrap_or([0; N]);
+            (first, last)
+        }
+        let own = self.as_bytes();
+        if name.len() != own.len() {
+            return false;
+        }
+        match own.len() {
+            8.. => pieces::<8>(own) == pieces::<8>(name),
+            4.. => pieces::<4>(own) == pieces::<4>(name),
+            _ => own == name,
+        }
+    }
+
+    /// The name's bytes, then zeros to [`IfaceName::MAX_LEN`]: copied
+    /// whole, a fixed length, where a copy of the name's own length is a
+    /// call (the name is [`IfaceName::as_bytes`]'s length long).
+    #[inline]
+    pub fn zero_padded(&self) -> &[u8; IfaceName::MAX_LEN] {
+        &self.bytes
+    }
+
     pub fn as_str(&self) -> &str {
         // Only printable ASCII is ever stored (checked in `from_bytes`).
         std::str::from_utf8(&self.bytes[..usize::from(self.len)]).unwrap_or("?")
@@ -406,6 +436,29 @@ mod tests {
 
     fn can0() -> IfaceName {
         IfaceName::new("can0").unwrap()
+    }
+
+    proptest::proptest! {
+        /// A name is `is` exactly the bytes it is, whatever they are
+        /// compared with (other names, longer or shorter, any bytes).
+        #[test]
+        fn a_name_is_its_own_bytes_and_no_others(
+            name in "[!-.0-9;-~]{1,15}",
+            other in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..20),
+            cut in 0usize..16,
+        ) {
+            let iface = IfaceName::new(&name).unwrap();
+            proptest::prop_assert!(iface.is(name.as_bytes()));
+            proptest::prop_assert_eq!(iface.is(&other), other == name.as_bytes());
+            let cut = &name.as_bytes()[..cut.min(name.len())];
+            proptest::prop_assert_eq!(iface.is(cut), cut == name.as_bytes());
+            let mut changed = name.clone().into_bytes();
+            let at = cut.len().min(changed.len() - 1);
+            changed[at] ^= 1;
+            proptest::prop_assert!(!iface.is(&changed));
+            proptest::prop_assert_eq!(&iface.zero_padded()[..name.len()], name.as_bytes());
+            proptest::prop_assert!(iface.zero_padded()[name.len()..].iter().all(|&b| b == 0));
+        }
     }
 
     #[test]

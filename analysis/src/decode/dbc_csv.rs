@@ -7,7 +7,7 @@
 
 use std::ops::ControlFlow;
 
-use acq_can::dbc::{DbcDatabase, PhysicalValue};
+use acq_can::dbc::{DbcDatabase, PhysicalValue, ValueTextBuffer};
 use acq_can::log::candump::read_whole_lines;
 use acq_can::{CanId, IfaceName, LogFormat, ParseError, Place};
 use acq_error::{AcqError, Result};
@@ -86,6 +86,7 @@ fn decode_to_csv(
             let mut sink = CsvDbcRows {
                 output,
                 pieces: &pieces,
+                value_text: ValueTextBuffer::default(),
             };
             return decode_dbc_frames(inputs, database, options, &mut sink);
         }
@@ -214,6 +215,7 @@ impl InPieces<'_> {
         let mut sink = CsvDbcRows {
             output: &mut piece.rows,
             pieces: self.pieces,
+            value_text: ValueTextBuffer::default(),
         };
         let (bad, bad_lines) = (&mut piece.bad, &mut piece.bad_lines);
         piece.lines = read_whole_lines(
@@ -264,6 +266,68 @@ struct SignalRow {
     /// `,unit`, and the line's end where rows have no label column (one
     /// byte fewer to add a row: the rows are most of a decode's work).
     tail: Vec<u8>,
+    /// `middle` and `tail` zero-padded, where they fit: a row is made in
+    /// place from those ([`push_in_place`]).
+    padded: Option<PaddedRow>,
+}
+
+/// A signal's constant row pieces padded with zeros to fixed lengths:
+/// each copied whole, a few moves, where a copy of its own length is a
+/// call of `memcpy` (five such calls a row were a tenth of a decode).
+struct PaddedRow {
+    middle: [u8; PADDED_MIDDLE],
+    middle_len: usize,
+    tail: [u8; PADDED_TAIL],
+    tail_len: usize,
+}
+
+const PADDED_MIDDLE: usize = 48;
+const PADDED_TAIL: usize = 16;
+/// A row's timestamp and value at most, to be made in place.
+const SHORT_PART: usize = 32;
+
+impl PaddedRow {
+    fn new(middle: &[u8], tail: &[u8]) -> Option<Self> {
+        if middle.len() > PADDED_MIDDLE || tail.len() > PADDED_TAIL {
+            return None;
+        }
+        let mut padded = PaddedRow {
+            middle: [0; PADDED_MIDDLE],
+            middle_len: middle.len(),
+            tail: [0; PADDED_TAIL],
+            tail_len: tail.len(),
+        };
+        padded.middle[..middle.len()].copy_from_slice(middle);
+        padded.tail[..tail.len()].copy_from_slice(tail);
+        Some(padded)
+    }
+}
+
+/// Room at a row's end for its parts' fixed-length copies
+/// ([`put_short`], [`PaddedRow`]), each part's end past the last's.
+const ROW_ROOM_BYTES: usize =
+    SHORT_PART + 1 + IfaceName::MAX_LEN + PADDED_MIDDLE + SHORT_PART + PADDED_TAIL;
+
+/// Copies `part`, at most [`SHORT_PART`] bytes, into `row` at `at` in two
+/// copies of a fixed length that overlap (as `memcpy` does inside, without
+/// its call); gives where it ends. Bytes past that end may be written.
+#[inline(always)]
+fn put_short(row: &mut [u8; ROW_ROOM_BYTES], at: usize, part: &[u8]) -> usize {
+    let len = part.len();
+    let to = &mut row[at..at + SHORT_PART];
+    if len >= 16 {
+        to[..16].copy_from_slice(&part[..16]);
+        to[len - 16..len].copy_from_slice(&part[len - 16..]);
+    } else if len >= 8 {
+        to[..8].copy_from_slice(&part[..8]);
+        to[len - 8..len].copy_from_slice(&part[len - 8..]);
+    } else if len >= 4 {
+        to[..4].copy_from_slice(&part[..4]);
+        to[len - 4..len].copy_from_slice(&part[len - 4..]);
+    } else {
+        to[..len].copy_from_slice(part);
+    }
+    at + len
 }
 
 /// The constant pieces of every signal's CSV row, and how a row is made.
@@ -286,16 +350,21 @@ impl CsvRowPieces {
                 message
                     .signals
                     .iter()
-                    .map(|signal| SignalRow {
-                        middle: format!(
+                    .map(|signal| {
+                        let middle = format!(
                             ",{},{},{},",
                             message.id,
                             csv_field(&message.name),
                             csv_field(&signal.name)
                         )
-                        .into_bytes(),
-                        after_id: 1 + message.id.to_string().len(),
-                        tail: format!(",{}{line_end}", csv_field(&signal.unit)).into_bytes(),
+                        .into_bytes();
+                        let tail = format!(",{}{line_end}", csv_field(&signal.unit)).into_bytes();
+                        SignalRow {
+                            padded: PaddedRow::new(&middle, &tail),
+                            middle,
+                            after_id: 1 + message.id.to_string().len(),
+                            tail,
+                        }
                     })
                     .collect()
             })
@@ -313,6 +382,7 @@ impl CsvRowPieces {
     #[allow(clippy::too_many_arguments)]
     fn push(
         &self,
+        value_text: &mut ValueTextBuffer,
         buffer: &mut Vec<u8>,
         timestamp_text: &[u8],
         iface: &IfaceName,
@@ -323,18 +393,26 @@ impl CsvRowPieces {
         label: Option<&str>,
     ) {
         let row = &self.rows[message][signal];
-        buffer.extend_from_slice(timestamp_text);
-        buffer.push(b',');
-        buffer.extend_from_slice(iface.as_bytes());
-        if id == self.message_ids[message] {
-            buffer.extend_from_slice(&row.middle);
-        } else {
+        let in_place = match &row.padded {
+            Some(padded) if id == self.message_ids[message] => {
+                push_in_place(buffer, value_text, timestamp_text, iface, padded, value)
+            }
+            _ => false,
+        };
+        if !in_place {
+            buffer.extend_from_slice(timestamp_text);
             buffer.push(b',');
-            buffer.extend_from_slice(id.to_string().as_bytes());
-            buffer.extend_from_slice(&row.middle[row.after_id..]);
+            buffer.extend_from_slice(iface.as_bytes());
+            if id == self.message_ids[message] {
+                buffer.extend_from_slice(&row.middle);
+            } else {
+                buffer.push(b',');
+                buffer.extend_from_slice(id.to_string().as_bytes());
+                buffer.extend_from_slice(&row.middle[row.after_id..]);
+            }
+            value.push_shortest(buffer);
+            buffer.extend_from_slice(&row.tail);
         }
-        value.push_shortest(buffer);
-        buffer.extend_from_slice(&row.tail);
         if self.labels {
             buffer.push(b',');
             if let Some(label) = label {
@@ -343,6 +421,47 @@ impl CsvRowPieces {
             buffer.push(b'\n');
         }
     }
+}
+
+/// Appends the row up to its tail to `buffer`, made where it ends in
+/// copies of fixed lengths, where its timestamp and value are at most
+/// [`SHORT_PART`] bytes and its value's text needs no mending (the value
+/// written in `value_text`); `false`, nothing appended, otherwise.
+#[inline(always)]
+fn push_in_place(
+    buffer: &mut Vec<u8>,
+    value_text: &mut ValueTextBuffer,
+    timestamp_text: &[u8],
+    iface: &IfaceName,
+    padded: &PaddedRow,
+    value: PhysicalValue,
+) -> bool {
+    let Some(value) = value.shortest_text(value_text) else {
+        return false;
+    };
+    if timestamp_text.len() > SHORT_PART || value.len() > SHORT_PART {
+        return false;
+    }
+    let start = buffer.len();
+    // Room made with stores of a constant length, then cut to the row:
+    // no call of `memcpy` for the row.
+    buffer.extend_from_slice(&[0; ROW_ROOM_BYTES]);
+    let Ok(row) = <&mut [u8; ROW_ROOM_BYTES]>::try_from(&mut buffer[start..]) else {
+        buffer.truncate(start);
+        return false;
+    };
+    let mut at = put_short(row, 0, timestamp_text);
+    row[at] = b',';
+    at += 1;
+    row[at..at + IfaceName::MAX_LEN].copy_from_slice(iface.zero_padded());
+    at += iface.as_bytes().len();
+    row[at..at + PADDED_MIDDLE].copy_from_slice(&padded.middle);
+    at += padded.middle_len;
+    at = put_short(row, at, value);
+    row[at..at + PADDED_TAIL].copy_from_slice(&padded.tail);
+    at += padded.tail_len;
+    buffer.truncate(start + at);
+    true
 }
 
 /// Where rows are made: the output's buffer, written out as it fills, or
@@ -374,6 +493,7 @@ impl RowBuffer for Vec<u8> {
 struct CsvDbcRows<'a, B: RowBuffer> {
     output: &'a mut B,
     pieces: &'a CsvRowPieces,
+    value_text: ValueTextBuffer,
 }
 
 impl<B: RowBuffer> DbcRows for CsvDbcRows<'_, B> {
@@ -391,6 +511,7 @@ impl<B: RowBuffer> DbcRows for CsvDbcRows<'_, B> {
         let buffer = self.output.rows();
         let timestamp = frame.timestamp_text;
         self.pieces.push(
+            &mut self.value_text,
             buffer,
             timestamp,
             &frame.iface,
@@ -502,6 +623,7 @@ fn write_decoded(
     pieces: &CsvRowPieces,
     output: &mut Output,
 ) -> Result<()> {
+    let mut value_text = ValueTextBuffer::default();
     for mut run in runs {
         let (mut timestamp_start, mut values_start) = (0, 0);
         for frame in &run.frames {
@@ -510,6 +632,7 @@ fn write_decoded(
                 let buffer = &mut output.buffer;
                 let (iface, id) = (&frame.iface, frame.id);
                 pieces.push(
+                    &mut value_text,
                     buffer,
                     timestamp,
                     iface,
@@ -557,6 +680,73 @@ mod tests {
         }
         fn flush(&mut self) -> std::io::Result<()> {
             Ok(())
+        }
+    }
+
+    /// Any value: integers of any size, floats of any bits (NaN, the
+    /// infinities, subnormals, from 1e15 up), and floats as a DBC's
+    /// scaling makes them.
+    fn any_value() -> impl proptest::strategy::Strategy<Value = PhysicalValue> {
+        use proptest::prelude::*;
+        prop_oneof![
+            any::<i128>().prop_map(PhysicalValue::Integer),
+            (-100_000i128..100_000).prop_map(PhysicalValue::Integer),
+            any::<u64>().prop_map(|bits| PhysicalValue::Float(f64::from_bits(bits))),
+            any::<f32>().prop_map(|v| PhysicalValue::Float(f64::from(v))),
+            (-1e17..1e17f64).prop_map(PhysicalValue::Float),
+        ]
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::test_runner::Config::with_cases(4000))]
+
+        /// A row made in place is the row made part by part, after what
+        /// the buffer held; it is made in place wherever its parts fit
+        /// their room, and otherwise nothing is appended.
+        #[test]
+        fn a_row_made_in_place_is_the_row_made_part_by_part(
+            before in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..70),
+            timestamp_text in "[0-9.]{0,40}",
+            iface in "[a-z0-9_.-]{1,15}",
+            middle in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..60),
+            tail in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..24),
+            value in any_value(),
+        ) {
+            let iface = IfaceName::new(&iface).unwrap();
+            let padded = PaddedRow::new(&middle, &tail);
+            let mut buffer = before.clone();
+            let in_place = match &padded {
+                Some(padded) => push_in_place(
+                    &mut buffer,
+                    &mut ValueTextBuffer::default(),
+                    timestamp_text.as_bytes(),
+                    &iface,
+                    padded,
+                    value,
+                ),
+                None => false,
+            };
+            let fits = match value {
+                PhysicalValue::Integer(v) => v.to_string().len() <= SHORT_PART,
+                PhysicalValue::Float(v) => v.abs() < 1e15,
+            };
+            proptest::prop_assert_eq!(
+                in_place,
+                middle.len() <= PADDED_MIDDLE
+                    && tail.len() <= PADDED_TAIL
+                    && timestamp_text.len() <= SHORT_PART
+                    && fits
+            );
+            let mut expected = before;
+            if in_place {
+                expected.extend_from_slice(timestamp_text.as_bytes());
+                expected.push(b',');
+                expected.extend_from_slice(iface.as_bytes());
+                expected.extend_from_slice(&middle);
+                value.push_shortest(&mut expected);
+                expected.extend_from_slice(&tail);
+            }
+            proptest::prop_assert_eq!(buffer, expected);
         }
     }
 

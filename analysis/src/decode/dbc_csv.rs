@@ -324,8 +324,12 @@ fn put_short(row: &mut [u8; ROW_ROOM_BYTES], at: usize, part: &[u8]) -> usize {
     } else if len >= 4 {
         to[..4].copy_from_slice(&part[..4]);
         to[len - 4..len].copy_from_slice(&part[len - 4..]);
-    } else {
-        to[..len].copy_from_slice(part);
+    } else if len >= 2 {
+        // Short integers' text (`0`, `42`, `255`) is common.
+        to[..2].copy_from_slice(&part[..2]);
+        to[len - 2..len].copy_from_slice(&part[len - 2..]);
+    } else if let Some(&byte) = part.first() {
+        to[0] = byte;
     }
     at + len
 }
